@@ -1,0 +1,121 @@
+"""State bookkeeping on the device: copying inputs into the state, and base-velocity representations.
+
+The state keeps the base velocity in the Mixed representation, [W_pdot_B; W_omega_WB].
+"""
+
+import functools
+import types
+
+import warp as wp
+
+from .kinematics import kernels as kinematics_kernels
+from .spatial import MIXED, spatial
+
+
+@functools.cache
+def kernels(scalar) -> types.SimpleNamespace:
+    sp = spatial(scalar)
+    base_pose = kinematics_kernels(scalar).base_pose
+    vec4 = wp.types.vector(4, scalar)
+
+    @wp.kernel(module="unique")
+    def broadcast_rows(
+        # inputs
+        src: wp.array2d(dtype=scalar),
+        # outputs
+        dst: wp.array2d(dtype=scalar),
+    ):
+        """dst[env, k] = src[env, k], or src[0, k] for every env when src has one row; launched over dst."""
+        env, k = wp.tid()
+        row = env
+        if src.shape[0] == 1:
+            row = 0
+        dst[env, k] = src[row, k]
+
+    @wp.func
+    def read_vec6(a: wp.array2d(dtype=scalar), env: int, offset: int):
+        return sp.vec6(
+            a[env, offset], a[env, offset + 1], a[env, offset + 2], a[env, offset + 3], a[env, offset + 4], a[env, offset + 5]
+        )
+
+    @wp.kernel(module="unique")
+    def base_velocity_to_repr(
+        # state
+        base_position: wp.array2d(dtype=scalar),
+        base_quaternion: wp.array2d(dtype=scalar),
+        base_velocity: wp.array2d(dtype=scalar),
+        repr: int,
+        # outputs
+        out: wp.array2d(dtype=scalar),
+    ):
+        """out (N, 6): the state's Mixed base velocity in representation `repr`."""
+        env = wp.tid()
+        W_H_B = base_pose(base_position, base_quaternion, env)
+        v = sp.inertial_to_repr(repr, W_H_B, sp.repr_to_inertial(MIXED, W_H_B, read_vec6(base_velocity, env, 0)))
+        for r in range(6):
+            out[env, r] = v[r]
+
+    @wp.kernel(module="unique")
+    def base_velocity_from_repr(
+        # state
+        base_position: wp.array2d(dtype=scalar),
+        base_quaternion: wp.array2d(dtype=scalar),
+        linear: wp.array2d(dtype=scalar),
+        angular: wp.array2d(dtype=scalar),
+        repr: int,
+        # outputs
+        base_velocity: wp.array2d(dtype=scalar),
+    ):
+        """base_velocity (N, 6) in Mixed, from its linear (N, 3) and angular (N, 3) parts in `repr`."""
+        env = wp.tid()
+        W_H_B = base_pose(base_position, base_quaternion, env)
+        given = sp.vec6(
+            linear[env, 0], linear[env, 1], linear[env, 2], angular[env, 0], angular[env, 1], angular[env, 2]
+        )
+        v = sp.inertial_to_repr(MIXED, W_H_B, sp.repr_to_inertial(repr, W_H_B, given))
+        for r in range(6):
+            base_velocity[env, r] = v[r]
+
+    @wp.kernel(module="unique")
+    def generalized_velocity(
+        # state
+        base_position: wp.array2d(dtype=scalar),
+        base_quaternion: wp.array2d(dtype=scalar),
+        base_velocity: wp.array2d(dtype=scalar),
+        joint_velocities: wp.array2d(dtype=scalar),
+        repr: int,
+        # outputs
+        nu: wp.array2d(dtype=scalar),
+    ):
+        """nu (N, 6 + n): the base velocity in `repr`, then the joint velocities."""
+        env = wp.tid()
+        W_H_B = base_pose(base_position, base_quaternion, env)
+        v = sp.inertial_to_repr(repr, W_H_B, sp.repr_to_inertial(MIXED, W_H_B, read_vec6(base_velocity, env, 0)))
+        for r in range(6):
+            nu[env, r] = v[r]
+        for j in range(joint_velocities.shape[1]):
+            nu[env, 6 + j] = joint_velocities[env, j]
+
+    @wp.kernel(module="unique")
+    def normalized_quaternion(
+        # state
+        base_quaternion: wp.array2d(dtype=scalar),
+        # outputs
+        out: wp.array2d(dtype=scalar),
+    ):
+        """out (N, 4): base_quaternion (w, x, y, z) divided by its norm."""
+        env = wp.tid()
+        q = wp.normalize(
+            vec4(base_quaternion[env, 0], base_quaternion[env, 1], base_quaternion[env, 2], base_quaternion[env, 3])
+        )
+        for k in range(4):
+            out[env, k] = q[k]
+
+    return types.SimpleNamespace(
+        normalized_quaternion=normalized_quaternion,
+        broadcast_rows=broadcast_rows,
+        read_vec6=read_vec6,
+        base_velocity_to_repr=base_velocity_to_repr,
+        base_velocity_from_repr=base_velocity_from_repr,
+        generalized_velocity=generalized_velocity,
+    )

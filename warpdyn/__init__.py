@@ -1,0 +1,12 @@
+"""warpdyn: multibody dynamics and massively parallel simulation of articulated robots, as Warp kernels.
+
+The façade mirrors JaxSim's functional API: `wd.model`, `wd.data`, `wd.references`, `wd.link`,
+`wd.frame`, `wd.joint`. Every function takes (model, data, *, ...) and returns Warp arrays on the
+model's device: JaxSim's shapes for single-environment data, a leading environment axis when batched.
+"""
+
+from . import data, frame, joint, link, model
+from .common import VelRepr
+
+__all__ = ["VelRepr", "data", "frame", "joint", "link", "model"]
+__version__ = "0.1.0"

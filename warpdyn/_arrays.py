@@ -1,0 +1,100 @@
+"""Device arrays of the façade: their layout, and the checking of what users pass in.
+
+Every array with an environment axis is handed to kernels and users with its logical shape
+(N, ...), the environment first, as JaxSim's batched arrays. Physically it is stored environment-fastest,
+as the transposed view of a contiguous (..., N) buffer: the threads of a GPU warp own neighbouring
+environments and so read and write neighbouring addresses (coalesced). `ENV_FASTEST = False` stores
+(N, ...) contiguously instead; benchmarks/layout.py measures the difference.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+ENV_FASTEST = True
+"""Physical layout of per-environment arrays (see the module docstring)."""
+
+FILL_OUTPUTS_WITH_NAN = False
+"""Debugging aid: fill every output with NaN before a kernel writes it, so unwritten entries show."""
+
+
+def empty(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = False) -> wp.array:
+    """An uninitialised array of logical shape (num_envs, *shape) in the layout of ENV_FASTEST."""
+    shape = tuple(int(s) for s in shape)
+    if ENV_FASTEST:
+        physical = wp.empty((*shape, num_envs), dtype=dtype, device=device, requires_grad=requires_grad)
+        array = physical.transpose((len(shape), *range(len(shape)))) if shape else physical
+    else:
+        array = wp.empty((num_envs, *shape), dtype=dtype, device=device, requires_grad=requires_grad)
+    return array
+
+
+def output(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = False) -> wp.array:
+    """An array for a kernel's output: like `empty`, filled with NaN when FILL_OUTPUTS_WITH_NAN is set."""
+    array = empty(shape, num_envs, dtype, device, requires_grad)
+    if FILL_OUTPUTS_WITH_NAN and dtype in (wp.float32, wp.float64):
+        array.fill_(float("nan"))
+    return array
+
+
+def squeeze_env(array: wp.array, num_envs: int | None) -> wp.array:
+    """The array itself for batched data, its environment 0 (dropping the axis) for single-environment data."""
+    return array if num_envs is not None else array[0]
+
+
+def host_float(value, name: str, shape: tuple) -> np.ndarray:
+    """A float64 NumPy copy of `value` with `shape`, or a ValueError that names the argument."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TypeError(f"{name} must be an array of numbers: {error}") from None
+    if array.shape != tuple(shape):
+        raise ValueError(f"{name} has shape {array.shape}, expected {tuple(shape)}")
+    return array
+
+
+def check_device_array(value: wp.array, name: str, scalar, device) -> None:
+    """A TypeError or ValueError naming `name` when a Warp array has the wrong dtype or device."""
+    if value.dtype != scalar:
+        raise TypeError(
+            f"{name} has dtype {wp.types.type_repr(value.dtype)}, but the model computes in {wp.types.type_repr(scalar)}"
+        )
+    if str(value.device) != str(device):
+        raise ValueError(f"{name} is on device '{value.device}', but the model is on '{device}'")
+
+
+def state_array(value, name: str, per_env: tuple, num_envs: int | None, scalar, device, default=None) -> wp.array:
+    """The state array (N, *per_env) in the façade's layout from what a user passed.
+
+    `value` may be None (then `default`, broadcast), array-like or a Warp array, with shape `per_env`
+    (shared by all environments) or, for batched data, (N, *per_env). A Warp array is copied on the
+    device by a kernel, so that a `wp.Tape` carries gradients back to it.
+    """
+    N = 1 if num_envs is None else num_envs
+    accepted = [tuple(per_env)] + ([(N, *per_env)] if num_envs is not None else [])
+    out = empty(per_env, N, scalar, device)
+    if value is None:
+        value = np.zeros(per_env) if default is None else default
+    if isinstance(value, wp.array):
+        check_device_array(value, name, scalar, device)
+        if tuple(value.shape) not in accepted:
+            raise ValueError(f"{name} has shape {tuple(value.shape)}, expected one of {accepted}")
+        from .kernels.state import kernels
+
+        if len(per_env) != 1:
+            raise ValueError(f"{name}: pass a NumPy array here; Warp arrays are accepted for one axis per environment")
+        src = value.reshape((1, per_env[0])) if tuple(value.shape) == tuple(per_env) else value
+        wp.launch(kernels(scalar).broadcast_rows, dim=out.shape, inputs=[src], outputs=[out], device=device)
+        return out
+    try:
+        host = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TypeError(f"{name} must be an array of numbers: {error}") from None
+    if host.shape not in accepted:
+        raise ValueError(f"{name} has shape {host.shape}, expected one of {accepted}")
+    if not np.all(np.isfinite(host)):
+        raise ValueError(f"{name} has non-finite values")
+    host = np.broadcast_to(host, (N, *per_env))
+    out.assign(wp.array(np.ascontiguousarray(host), dtype=scalar, device=device))
+    return out

@@ -1,0 +1,21 @@
+"""Names shared by the whole façade."""
+
+from __future__ import annotations
+
+import enum
+
+
+class VelRepr(enum.IntEnum):
+    """Velocity representations, as in JaxSim and Traversaro & Saccon, "Multibody dynamics notation" (2019).
+
+    For a frame F on a rigid body:
+    - Body: F_v_WF, the velocity of F's origin and the angular velocity, both in F's coordinates.
+    - Mixed: (F[W])_v_WF, the velocity of F's origin and the angular velocity, both in world coordinates.
+    - Inertial: W_v_WF, the velocity of the body point passing through the world origin, and the angular
+      velocity, both in world coordinates.
+    Spatial vectors are [linear; angular], spatial forces [force; torque].
+    """
+
+    Body = 1
+    Mixed = 2
+    Inertial = 3

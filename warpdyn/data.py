@@ -1,0 +1,391 @@
+"""The state of one or many environments of a model.
+
+State arrays (Warp, on the model's device, in the model's scalar), each with a leading environment axis
+N (N = 1 for single-environment data), stored environment-fastest (see warpdyn._arrays):
+- base_position_state (N, 3): W_p_B [m].
+- base_quaternion_state (N, 4): W_Q_B as (w, x, y, z).
+- joint_positions_state (N, n): s [rad or m], in the model's joint order.
+- base_velocity_state (N, 6): the base velocity in the Mixed representation, [W_pdot_B; W_omega_WB].
+- joint_velocities_state (N, n): sdot [rad/s or m/s].
+The public properties below give these in JaxSim's shapes (no environment axis for single-environment
+data) and in the data's velocity representation.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+
+import numpy as np
+import warp as wp
+
+from . import _arrays
+from .common import VelRepr
+from .kernels.state import kernels as state_kernels
+
+__all__ = ["Data", "random_model_data"]
+
+_STATE_FIELDS = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities")
+
+
+@dataclasses.dataclass(eq=False)
+class Data:
+    """The state of `num_envs` environments (None: one environment, with JaxSim's unbatched shapes)."""
+
+    base_position_state: wp.array
+    base_quaternion_state: wp.array
+    joint_positions_state: wp.array
+    base_velocity_state: wp.array
+    joint_velocities_state: wp.array
+    velocity_representation: VelRepr = VelRepr.Mixed
+    num_envs: int | None = None
+
+    # Construction ------------------------------------------------------------------------------
+
+    @staticmethod
+    def build(
+        model,
+        *,
+        base_position=None,
+        base_quaternion=None,
+        joint_positions=None,
+        base_linear_velocity=None,
+        base_angular_velocity=None,
+        joint_velocities=None,
+        velocity_representation: VelRepr = VelRepr.Mixed,
+        num_envs: int | None = None,
+        requires_grad: bool = False,
+        validate: bool = True,
+    ) -> Data:
+        """Data of `model` for `num_envs` environments (None: one environment).
+
+        Each argument is shared by all environments (JaxSim's shape) or given per environment (leading
+        axis N); defaults are zero, with the identity quaternion (w, x, y, z) = (1, 0, 0, 0). Base
+        velocities are read in `velocity_representation`. NumPy-like inputs are checked on the host
+        (finite; unit quaternion within 1e-6 when `validate`); Warp arrays are copied on the device,
+        and checked on the host (a synchronisation) only when `validate` is set.
+        """
+        if num_envs is not None and (int(num_envs) != num_envs or num_envs < 1):
+            raise ValueError(f"num_envs must be a positive integer or None, got {num_envs!r}")
+        velocity_representation = VelRepr(velocity_representation)
+        s, d, n = model.scalar, model.device, model.dofs()
+        N = 1 if num_envs is None else int(num_envs)
+
+        def state(value, name, shape, default=None):
+            array = _arrays.state_array(value, name, shape, num_envs, s, d, default)
+            if validate and isinstance(value, wp.array) and not np.all(np.isfinite(array.numpy())):
+                raise ValueError(f"{name} has non-finite values")
+            return array
+
+        quaternion = state(base_quaternion, "base_quaternion", (4,), np.array([1.0, 0.0, 0.0, 0.0]))
+        if validate:
+            norms = np.linalg.norm(quaternion.numpy(), axis=-1)
+            bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-6)
+            if bad.size:
+                raise ValueError(
+                    f"base_quaternion must be a unit quaternion (w, x, y, z): environment(s) {bad[:10].tolist()} "
+                    f"have norm {norms[bad[:10]].tolist()}"
+                )
+        position = state(base_position, "base_position", (3,))
+        linear = state(base_linear_velocity, "base_linear_velocity", (3,))
+        angular = state(base_angular_velocity, "base_angular_velocity", (3,))
+        velocity = _arrays.empty((6,), N, s, d)
+        wp.launch(
+            state_kernels(s).base_velocity_from_repr,
+            dim=N,
+            inputs=[position, quaternion, linear, angular, int(velocity_representation)],
+            outputs=[velocity],
+            device=d,
+        )
+        data = Data(
+            base_position_state=position,
+            base_quaternion_state=quaternion,
+            joint_positions_state=state(joint_positions, "joint_positions", (n,)),
+            base_velocity_state=velocity,
+            joint_velocities_state=state(joint_velocities, "joint_velocities", (n,)),
+            velocity_representation=velocity_representation,
+            num_envs=None if num_envs is None else N,
+        )
+        if not model.floating_base():
+            data._require_static_base(model)
+        if requires_grad:
+            for name in _STATE_FIELDS:
+                getattr(data, f"{name}_state").requires_grad = True
+        return data
+
+    @staticmethod
+    def zero(model, *, velocity_representation: VelRepr = VelRepr.Mixed, num_envs: int | None = None) -> Data:
+        """Data at the zero configuration, at rest (base at the origin, identity orientation)."""
+        return Data.build(model, velocity_representation=velocity_representation, num_envs=num_envs)
+
+    def _require_static_base(self, model) -> None:
+        if np.any(self.base_velocity_state.numpy() != 0.0):
+            raise ValueError(f"model '{model.name()}' has a fixed base: base velocities must be zero")
+
+    # Shape and storage -------------------------------------------------------------------------
+
+    @property
+    def batch_size(self) -> int:
+        """N, the number of environments the arrays hold (1 for single-environment data)."""
+        return self.base_position_state.shape[0]
+
+    @property
+    def scalar(self):
+        return self.base_position_state.dtype
+
+    @property
+    def dtype(self) -> np.dtype:
+        return np.dtype(wp.types.warp_type_to_np_dtype[self.scalar])
+
+    @property
+    def device(self):
+        return self.base_position_state.device
+
+    @property
+    def requires_grad(self) -> bool:
+        return any(getattr(self, f"{name}_state").requires_grad for name in _STATE_FIELDS)
+
+    def _out(self, array: wp.array) -> wp.array:
+        return _arrays.squeeze_env(array, self.num_envs)
+
+    # JaxSim's properties -----------------------------------------------------------------------
+
+    @property
+    def joint_positions(self) -> wp.array:
+        """s: (n,) or (N, n) [rad or m]; a view of the state."""
+        return self._out(self.joint_positions_state)
+
+    @property
+    def joint_velocities(self) -> wp.array:
+        """sdot: (n,) or (N, n) [rad/s or m/s]; a view of the state."""
+        return self._out(self.joint_velocities_state)
+
+    @property
+    def base_position(self) -> wp.array:
+        """W_p_B: (3,) or (N, 3) [m]; a view of the state."""
+        return self._out(self.base_position_state)
+
+    @property
+    def base_quaternion(self) -> wp.array:
+        """W_Q_B as (w, x, y, z): (4,) or (N, 4); a view of the state."""
+        return self._out(self.base_quaternion_state)
+
+    @property
+    def base_orientation(self) -> wp.array:
+        """W_Q_B normalised, (w, x, y, z): (4,) or (N, 4) (as JaxSim: a quaternion, not a matrix)."""
+        out = _arrays.output((4,), self.batch_size, self.scalar, self.device)
+        wp.launch(
+            state_kernels(self.scalar).normalized_quaternion,
+            dim=self.batch_size,
+            inputs=[self.base_quaternion_state],
+            outputs=[out],
+            device=self.device,
+        )
+        return self._out(out)
+
+    @property
+    def base_transform(self) -> wp.array:
+        """W_H_B: (4, 4) or (N, 4, 4)."""
+        from .kernels.kinematics import kernels as kinematics_kernels
+
+        out = _arrays.output((4, 4), self.batch_size, self.scalar, self.device)
+        wp.launch(
+            kinematics_kernels(self.scalar).base_homogeneous_matrix,
+            dim=self.batch_size,
+            inputs=[self.base_position_state, self.base_quaternion_state],
+            outputs=[out],
+            device=self.device,
+        )
+        return self._out(out)
+
+    @property
+    def base_velocity(self) -> wp.array:
+        """The base velocity in the data's representation: (6,) or (N, 6), [linear; angular]."""
+        out = _arrays.output((6,), self.batch_size, self.scalar, self.device)
+        wp.launch(
+            state_kernels(self.scalar).base_velocity_to_repr,
+            dim=self.batch_size,
+            inputs=[
+                self.base_position_state,
+                self.base_quaternion_state,
+                self.base_velocity_state,
+                int(self.velocity_representation),
+            ],
+            outputs=[out],
+            device=self.device,
+        )
+        return self._out(out)
+
+    @property
+    def generalized_position(self) -> tuple[wp.array, wp.array]:
+        """(W_H_B (4, 4), s (n,)), with a leading N axis for batched data."""
+        return self.base_transform, self.joint_positions
+
+    @property
+    def generalized_velocity(self) -> wp.array:
+        """nu = [base velocity in the data's representation; sdot]: (6 + n,) or (N, 6 + n)."""
+        n = self.joint_velocities_state.shape[1]
+        out = _arrays.output((6 + n,), self.batch_size, self.scalar, self.device, self.requires_grad)
+        wp.launch(
+            state_kernels(self.scalar).generalized_velocity,
+            dim=self.batch_size,
+            inputs=[
+                self.base_position_state,
+                self.base_quaternion_state,
+                self.base_velocity_state,
+                self.joint_velocities_state,
+                int(self.velocity_representation),
+            ],
+            outputs=[out],
+            device=self.device,
+        )
+        return self._out(out)
+
+    @contextlib.contextmanager
+    def switch_velocity_representation(self, velocity_representation: VelRepr):
+        """Inside the block, velocities of this data are read and written in `velocity_representation`."""
+        original = self.velocity_representation
+        self.velocity_representation = VelRepr(velocity_representation)
+        try:
+            yield self
+        finally:
+            self.velocity_representation = original
+
+    # Changes -----------------------------------------------------------------------------------
+
+    def replace(
+        self,
+        model,
+        *,
+        joint_positions=None,
+        joint_velocities=None,
+        base_quaternion=None,
+        base_linear_velocity=None,
+        base_angular_velocity=None,
+        base_position=None,
+        envs=None,
+        validate: bool = True,
+    ) -> Data:
+        """A new Data with the given fields replaced (base velocities in the data's representation).
+
+        envs: the environments to change (indices or a boolean mask of length N); the others keep their
+        state. A base velocity given without its other half keeps that half from this data.
+        """
+        current_base = self.base_velocity.numpy().reshape(self.batch_size, 6)
+        if base_linear_velocity is None and base_angular_velocity is not None:
+            base_linear_velocity = current_base[:, :3]
+        if base_angular_velocity is None and base_linear_velocity is not None:
+            base_angular_velocity = current_base[:, 3:]
+        values = {
+            "base_position": base_position,
+            "base_quaternion": base_quaternion,
+            "joint_positions": joint_positions,
+            "joint_velocities": joint_velocities,
+        }
+        current = {name: getattr(self, f"{name}_state").numpy() for name in values}
+        kwargs = {}
+        for name, value in values.items():
+            kwargs[name] = current[name] if value is None else value
+        if base_linear_velocity is None:
+            kwargs["base_linear_velocity"] = current_base[:, :3]
+            kwargs["base_angular_velocity"] = current_base[:, 3:]
+        else:
+            kwargs["base_linear_velocity"] = base_linear_velocity
+            kwargs["base_angular_velocity"] = base_angular_velocity
+        new = Data.build(
+            model,
+            **{k: _per_env(v, self.batch_size) for k, v in kwargs.items()},
+            velocity_representation=self.velocity_representation,
+            num_envs=self.batch_size,
+            validate=validate,
+        )
+        if envs is not None:
+            keep = np.ones(self.batch_size, dtype=bool)
+            keep[np.asarray(envs)] = False
+            for name in _STATE_FIELDS:
+                old, fresh = getattr(self, f"{name}_state").numpy(), getattr(new, f"{name}_state").numpy()
+                fresh[keep] = old[keep]
+                getattr(new, f"{name}_state").assign(wp.array(fresh, dtype=self.scalar, device=self.device))
+        new.num_envs = self.num_envs
+        return new
+
+
+def _per_env(value, N: int) -> np.ndarray:
+    """`value` as a host array with a leading environment axis of N."""
+    host = value.numpy() if isinstance(value, wp.array) else np.asarray(value, dtype=np.float64)
+    return host if host.ndim == 2 and host.shape[0] == N else np.broadcast_to(host, (N, *host.shape[-1:]))
+
+
+def _rotation_xyz(angles: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N, 3, 3) of intrinsic X-Y-Z Euler angles (N, 3), as scipy's 'XYZ'."""
+    out = np.empty((len(angles), 3, 3))
+    for k, (a, b, c) in enumerate(angles):
+        ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
+        Rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
+        Ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
+        Rz = np.array([[cc, -sc, 0], [sc, cc, 0], [0, 0, 1]])
+        out[k] = Rx @ Ry @ Rz
+    return out
+
+
+def _quaternion_wxyz(R: np.ndarray) -> np.ndarray:
+    from .model import _quaternion_xyzw
+
+    x, y, z, w = _quaternion_xyzw(R)
+    return np.array([w, x, y, z])
+
+
+def random_model_data(
+    model,
+    *,
+    seed: int = 0,
+    num_envs: int | None = None,
+    velocity_representation: VelRepr | None = None,
+    base_pos_bounds=((-1.0, -1.0, 0.5), 1.0),
+    base_rpy_bounds=(-np.pi, np.pi),
+    joint_pos_bounds=None,
+    base_vel_lin_bounds=(-1.0, 1.0),
+    base_vel_ang_bounds=(-1.0, 1.0),
+    joint_vel_bounds=(-1.0, 1.0),
+    requires_grad: bool = False,
+) -> Data:
+    """Random data, drawn uniformly within JaxSim's bounds (numpy's generator seeded with `seed`).
+
+    Joint positions are drawn within the joint limits (within [-pi, pi] where a joint has none) unless
+    `joint_pos_bounds` is given. The base pose and velocity are drawn only for floating-base models;
+    base velocities are in `velocity_representation` (default Mixed).
+    """
+    rng = np.random.default_rng(seed)
+    N = 1 if num_envs is None else num_envs
+    n = model.dofs()
+    velocity_representation = VelRepr.Mixed if velocity_representation is None else VelRepr(velocity_representation)
+
+    def uniform(bounds, shape):
+        low, high = (np.broadcast_to(np.asarray(b, dtype=np.float64), shape[-1:]) for b in bounds)
+        return rng.uniform(low, high, size=shape)
+
+    kwargs = {}
+    if model.floating_base():
+        kwargs["base_position"] = uniform(base_pos_bounds, (N, 3))
+        R = _rotation_xyz(uniform(base_rpy_bounds, (N, 3)))
+        kwargs["base_quaternion"] = np.array([_quaternion_wxyz(r) for r in R])
+        kwargs["base_linear_velocity"] = uniform(base_vel_lin_bounds, (N, 3))
+        kwargs["base_angular_velocity"] = uniform(base_vel_ang_bounds, (N, 3))
+    if n > 0:
+        if joint_pos_bounds is None:
+            limits = model.tree.position_limits
+            low = np.where(np.isfinite(limits[:, 0]), limits[:, 0], -np.pi)
+            high = np.where(np.isfinite(limits[:, 1]), limits[:, 1], np.pi)
+            kwargs["joint_positions"] = rng.uniform(low, high, size=(N, n))
+        else:
+            kwargs["joint_positions"] = uniform(joint_pos_bounds, (N, n))
+        kwargs["joint_velocities"] = uniform(joint_vel_bounds, (N, n))
+    if num_envs is None:
+        kwargs = {k: v[0] for k, v in kwargs.items()}
+    return Data.build(
+        model,
+        **kwargs,
+        velocity_representation=velocity_representation,
+        num_envs=num_envs,
+        requires_grad=requires_grad,
+    )

@@ -1,0 +1,71 @@
+"""Functions of one frame, as JaxSim's `jaxsim.api.frame`.
+
+Frames are the links lumped into their parents. Frame indices follow the link indices: the frame k
+of `model.frame_names()` has index number_of_links() + k.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _arrays, _names
+from . import model as _model
+
+__all__ = [
+    "idx_of_parent_link",
+    "name_to_idx",
+    "idx_to_name",
+    "names_to_idxs",
+    "idxs_to_names",
+    "transform",
+    "velocity",
+    "jacobian",
+]
+
+
+def _row(model, frame_index) -> int:
+    return _names.check_idx("frame", model.number_of_frames(), frame_index, model.number_of_links()) - model.number_of_links()
+
+
+def idx_of_parent_link(model, *, frame_index: int) -> int:
+    return int(model.tree.frame_parent[_row(model, frame_index)])
+
+
+def name_to_idx(model, *, frame_name: str) -> int:
+    return _names.name_to_idx("frame", model.frame_names(), frame_name, model.number_of_links())
+
+
+def idx_to_name(model, *, frame_index: int) -> str:
+    return model.frame_names()[_row(model, frame_index)]
+
+
+def names_to_idxs(model, *, frame_names) -> np.ndarray:
+    return np.array([name_to_idx(model, frame_name=name) for name in frame_names], dtype=int)
+
+
+def idxs_to_names(model, *, frame_indices) -> tuple[str, ...]:
+    return tuple(idx_to_name(model, frame_index=int(i)) for i in np.asarray(frame_indices).ravel())
+
+
+def _target(model, frame_index: int):
+    k = _row(model, frame_index)
+    return model.frame_parent[k : k + 1], model.link_H_frame[k : k + 1]
+
+
+def transform(model, data, *, frame_index: int):
+    """W_H_F: (4, 4) or (N, 4, 4)."""
+    target, offset = _target(model, frame_index)
+    _, W_H_L = _model.link_poses(model, data)
+    return _arrays.squeeze_env(_model.homogeneous(model, W_H_L, target, offset, data.requires_grad)[:, 0], data.num_envs)
+
+
+def velocity(model, data, *, frame_index: int, output_vel_repr=None):
+    """The frame's velocity in output_vel_repr (default: the data's): (6,) or (N, 6)."""
+    target, offset = _target(model, frame_index)
+    return _arrays.squeeze_env(_model.velocities(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)
+
+
+def jacobian(model, data, *, frame_index: int, output_vel_repr=None):
+    """The frame's free-floating Jacobian: (6, 6 + n) or (N, 6, 6 + n) (input: the data's representation)."""
+    target, offset = _target(model, frame_index)
+    return _arrays.squeeze_env(_model.jacobians(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)

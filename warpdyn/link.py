@@ -1,0 +1,62 @@
+"""Functions of one link, as JaxSim's `jaxsim.api.link`. Link index 0 is the base.
+
+Results are Warp arrays on the model's device, with a leading N axis for batched data.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _arrays, _names
+from . import model as _model
+
+__all__ = ["name_to_idx", "idx_to_name", "names_to_idxs", "idxs_to_names", "mass", "transform", "velocity", "jacobian"]
+
+
+def name_to_idx(model, *, link_name: str) -> int:
+    return _names.name_to_idx("link", model.link_names(), link_name)
+
+
+def idx_to_name(model, *, link_index: int) -> str:
+    return model.link_names()[_names.check_idx("link", model.number_of_links(), link_index)]
+
+
+def names_to_idxs(model, *, link_names) -> np.ndarray:
+    return np.array([name_to_idx(model, link_name=name) for name in link_names], dtype=int)
+
+
+def idxs_to_names(model, *, link_indices) -> tuple[str, ...]:
+    return tuple(idx_to_name(model, link_index=int(i)) for i in np.asarray(link_indices).ravel())
+
+
+def mass(model, *, link_index: int) -> float:
+    """The mass of the link [kg], lumped links included."""
+    return float(model.tree.link_mass[_names.check_idx("link", model.number_of_links(), link_index)])
+
+
+def _target(model, link_index: int):
+    i = _names.check_idx("link", model.number_of_links(), link_index)
+    return model.all_links[i : i + 1], model.identity_offsets[i : i + 1]
+
+
+def transform(model, data, *, link_index: int):
+    """W_H_L: (4, 4) or (N, 4, 4)."""
+    target, offset = _target(model, link_index)
+    _, W_H_L = _model.link_poses(model, data)
+    return _arrays.squeeze_env(_model.homogeneous(model, W_H_L, target, offset, data.requires_grad)[:, 0], data.num_envs)
+
+
+def velocity(model, data, *, link_index: int, output_vel_repr=None):
+    """The link's velocity in output_vel_repr (default: the data's): (6,) or (N, 6), [linear; angular]."""
+    target, offset = _target(model, link_index)
+    return _arrays.squeeze_env(_model.velocities(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)
+
+
+def jacobian(model, data, *, link_index: int, output_vel_repr=None):
+    """The link's free-floating Jacobian: (6, 6 + n) or (N, 6, 6 + n).
+
+    Input: the generalized velocity in the data's representation; output: the link velocity in
+    output_vel_repr (default: the data's).
+    """
+    target, offset = _target(model, link_index)
+    return _arrays.squeeze_env(_model.jacobians(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)

@@ -1,0 +1,337 @@
+"""The model: the constants of a robot on a Warp device, and the functions of the whole model.
+
+Link order: breadth-first from the base (parent index < child index). Joint i moves link i + 1.
+Frame indices follow the link indices: frame k has index number_of_links() + k (as in JaxSim).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from . import _arrays
+from .common import VelRepr
+from .description import ModelDescription, load
+from .kernels.jacobians import kernels as jacobian_kernels
+from .kernels.kinematics import kernels as kinematics_kernels
+from .kernels.velocities import kernels as velocity_kernels
+from .tree import KinematicTree, build_tree
+
+__all__ = [
+    "Model",
+    "reduce",
+    "total_mass",
+    "forward_kinematics",
+    "joint_transforms",
+    "generalized_free_floating_jacobian",
+]
+
+_SCALARS = {np.dtype(np.float32): wp.float32, np.dtype(np.float64): wp.float64}
+
+
+def _transforms(H: np.ndarray, scalar, device) -> wp.array:
+    """Warp transforms (p, quaternion xyzw) of homogeneous matrices (K, 4, 4)."""
+    H = np.asarray(H, dtype=np.float64).reshape(-1, 4, 4)
+    rows = np.zeros((len(H), 7))
+    for k, M in enumerate(H):
+        rows[k, :3] = M[:3, 3]
+        rows[k, 3:] = _quaternion_xyzw(M[:3, :3])
+    return wp.array(rows, dtype=wp.types.transformation(scalar), device=device)
+
+
+def _quaternion_xyzw(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) of a rotation matrix (Shepperd's method)."""
+    t = np.trace(R)
+    if t > 0.0:
+        s = 2.0 * np.sqrt(1.0 + t)
+        q = [(R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, 0.25 * s]
+    else:
+        i = int(np.argmax(np.diag(R)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * np.sqrt(max(1.0 + R[i, i] - R[j, j] - R[k, k], 1e-300))
+        q = [0.0, 0.0, 0.0, (R[k, j] - R[j, k]) / s]
+        q[i] = 0.25 * s
+        q[j] = (R[j, i] + R[i, j]) / s
+        q[k] = (R[k, i] + R[i, k]) / s
+    q = np.asarray(q)
+    return q / np.linalg.norm(q)
+
+
+class Model:
+    """A robot's constants on a Warp device, in one scalar type (float32 or float64).
+
+    Build it with `Model.build_from_model_description`. The host-side tree (`model.tree`, NumPy float64)
+    holds the same constants; the Warp arrays below are what kernels read:
+    parent (nL,) int, joint_type (nL,) int, X_tree (nL,) transform (joint frame in the parent link),
+    joint_axis, joint_pivot (nL,) vec3 (link frame), support (nL, n) int, link_mass (nL,) [kg],
+    link_com (nL,) vec3 [m, link frame], link_inertia (nL,) mat33 [kg m^2, about the CoM, link axes],
+    frame_parent (nF,) int, link_H_frame (nF,) transform.
+    """
+
+    def __init__(
+        self,
+        description: ModelDescription,
+        tree: KinematicTree,
+        *,
+        model_name: str,
+        gravity: float,
+        time_step: float,
+        dtype,
+        device,
+    ):
+        self.description = description
+        self.tree = tree
+        self.model_name = model_name
+        self.gravity = float(gravity)
+        self.time_step = float(time_step)
+        self.dtype = np.dtype(dtype)
+        self.scalar = _SCALARS[self.dtype]
+        self.device = wp.get_device(device)
+        s, d = self.scalar, self.device
+        sp_vec3 = wp.types.vector(3, s)
+        sp_mat33 = wp.types.matrix((3, 3), s)
+        self.parent = wp.array(tree.parent, dtype=int, device=d)
+        self.joint_type = wp.array(tree.joint_type, dtype=int, device=d)
+        self.X_tree = _transforms(tree.parent_H_joint, s, d)
+        self.joint_axis = wp.array(tree.joint_axis, dtype=sp_vec3, device=d)
+        self.joint_pivot = wp.array(tree.joint_pivot, dtype=sp_vec3, device=d)
+        self.support = wp.array(tree.support().reshape(tree.number_of_links, tree.dofs), dtype=int, device=d)
+        self.link_mass = wp.array(tree.link_mass, dtype=s, device=d)
+        self.link_com = wp.array(tree.link_com, dtype=sp_vec3, device=d)
+        self.link_inertia = wp.array(tree.link_inertia, dtype=sp_mat33, device=d)
+        self.frame_parent = wp.array(tree.frame_parent, dtype=int, device=d)
+        self.link_H_frame = _transforms(tree.link_H_frame, s, d)
+        self.all_links = wp.array(np.arange(tree.number_of_links), dtype=int, device=d)
+        self.identity_offsets = _transforms(np.tile(np.eye(4), (tree.number_of_links, 1, 1)), s, d)
+
+    @classmethod
+    def build_from_model_description(
+        cls,
+        model_description,
+        *,
+        model_name: str | None = None,
+        considered_joints: list[str] | None = None,
+        is_urdf: bool | None = None,
+        gravity: float = 9.81,
+        time_step: float = 0.001,
+        dtype=np.float32,
+        device=None,
+    ) -> Model:
+        """Build a model from a URDF or MJCF (path or XML string).
+
+        Fixed joints are lumped (their child links become frames); only `considered_joints` are kept
+        when given (the others are locked at 0 and lumped). gravity [m/s^2] acts along -z of the world.
+        dtype: np.float32 or np.float64, the scalar of every computation. device: a Warp device.
+        """
+        if np.dtype(dtype) not in _SCALARS:
+            raise TypeError(f"dtype must be np.float32 or np.float64, got {dtype!r}")
+        if not np.isfinite(gravity):
+            raise ValueError(f"gravity must be finite, got {gravity}")
+        if not (np.isfinite(time_step) and time_step > 0.0):
+            raise ValueError(f"time_step must be positive and finite, got {time_step}")
+        description = load(model_description, is_urdf=is_urdf)
+        tree = build_tree(description, considered_joints)
+        return cls(
+            description,
+            tree,
+            model_name=model_name if model_name is not None else description.name,
+            gravity=gravity,
+            time_step=time_step,
+            dtype=dtype,
+            device=device,
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"Model(name={self.model_name!r}, links={self.number_of_links()}, joints={self.number_of_joints()}, "
+            f"floating_base={self.floating_base()}, dtype={self.dtype.name}, device='{self.device}')"
+        )
+
+    # Queries, with JaxSim's names.
+    def name(self) -> str:
+        return self.model_name
+
+    def number_of_links(self) -> int:
+        return self.tree.number_of_links
+
+    def number_of_joints(self) -> int:
+        return self.tree.dofs
+
+    def number_of_frames(self) -> int:
+        return len(self.tree.frame_names)
+
+    def dofs(self) -> int:
+        return self.tree.dofs
+
+    def link_names(self) -> tuple[str, ...]:
+        return tuple(self.tree.link_names)
+
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(self.tree.joint_names)
+
+    def frame_names(self) -> tuple[str, ...]:
+        return tuple(self.tree.frame_names)
+
+    def floating_base(self) -> bool:
+        return not self.description.fixed_base
+
+    def base_link(self) -> str:
+        return self.tree.link_names[0]
+
+
+def reduce(model: Model, considered_joints, locked_joint_positions: dict | None = None) -> Model:
+    """A model keeping only `considered_joints`; the others are fixed at `locked_joint_positions` (default 0).
+
+    Joints already locked in `model` keep their locked positions.
+    """
+    considered_joints = list(considered_joints)
+    unknown = [name for name in considered_joints if name not in model.joint_names()]
+    if unknown:
+        raise ValueError(f"considered_joints names joints that model '{model.name()}' does not have: {unknown}")
+    locked = dict(model.tree.locked_joints)
+    for name, value in (locked_joint_positions or {}).items():
+        if name not in model.joint_names() or name in considered_joints:
+            raise ValueError(f"locked_joint_positions names '{name}', which is not a joint this reduction locks")
+        locked[name] = float(value)
+    tree = build_tree(model.description, considered_joints, locked)
+    return Model(
+        model.description,
+        tree,
+        model_name=model.model_name,
+        gravity=model.gravity,
+        time_step=model.time_step,
+        dtype=model.dtype,
+        device=model.device,
+    )
+
+
+def total_mass(model: Model) -> float:
+    """The total mass of the model [kg]."""
+    return float(np.sum(model.tree.link_mass))
+
+
+def _check_data(model: Model, data) -> None:
+    if data.scalar != model.scalar:
+        raise TypeError(f"data is in {data.dtype.name} but the model computes in {model.dtype.name}")
+    if data.joint_positions_state.shape[1] != model.dofs():
+        raise ValueError(f"data has {data.joint_positions_state.shape[1]} joints but the model has {model.dofs()}")
+    if str(data.device) != str(model.device):
+        raise ValueError(f"data is on device '{data.device}' but the model is on '{model.device}'")
+
+
+def link_poses(model: Model, data) -> tuple[wp.array, wp.array]:
+    """(parent_H_link, W_H_L), each (N, nL) Warp transforms: one launch of forward kinematics."""
+    _check_data(model, data)
+    N, nL = data.batch_size, model.number_of_links()
+    transform = wp.types.transformation(model.scalar)
+    parent_H_link = _arrays.empty((nL,), N, transform, model.device, data.requires_grad)
+    W_H_L = _arrays.empty((nL,), N, transform, model.device, data.requires_grad)
+    wp.launch(
+        kinematics_kernels(model.scalar).forward_kinematics,
+        dim=N,
+        inputs=[
+            model.parent,
+            model.joint_type,
+            model.X_tree,
+            model.joint_axis,
+            model.joint_pivot,
+            data.base_position_state,
+            data.base_quaternion_state,
+            data.joint_positions_state,
+        ],
+        outputs=[parent_H_link, W_H_L],
+        device=model.device,
+    )
+    return parent_H_link, W_H_L
+
+
+def homogeneous(model: Model, poses: wp.array, target_link: wp.array, link_H_target: wp.array, requires_grad=False):
+    """(N, T, 4, 4) homogeneous matrices of poses[:, target_link[t]] * link_H_target[t]."""
+    N, T = poses.shape[0], target_link.shape[0]
+    H = _arrays.output((T, 4, 4), N, model.scalar, model.device, requires_grad)
+    wp.launch(
+        kinematics_kernels(model.scalar).homogeneous_matrices,
+        dim=(N, T),
+        inputs=[poses, target_link, link_H_target],
+        outputs=[H],
+        device=model.device,
+    )
+    return H
+
+
+def forward_kinematics(model: Model, data) -> wp.array:
+    """W_H_L: the pose of every link in the world, (nL, 4, 4), or (N, nL, 4, 4) for batched data."""
+    _, W_H_L = link_poses(model, data)
+    H = homogeneous(model, W_H_L, model.all_links, model.identity_offsets, data.requires_grad)
+    return _arrays.squeeze_env(H, data.num_envs)
+
+
+def joint_transforms(model: Model, data) -> wp.array:
+    """λ(i)_H_i: the pose of each joint's child link in its parent link, (n, 4, 4), or (N, n, 4, 4) batched."""
+    parent_H_link, _ = link_poses(model, data)
+    H = homogeneous(model, parent_H_link, model.all_links[1:], model.identity_offsets[1:], data.requires_grad)
+    return _arrays.squeeze_env(H, data.num_envs)
+
+
+def jacobians(model: Model, data, target_link: wp.array, link_H_target: wp.array, output_vel_repr) -> wp.array:
+    """(N, T, 6, 6 + n) free-floating Jacobians of the targets (frames at link_H_target on target_link)."""
+    output_vel_repr = VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
+    _, W_H_L = link_poses(model, data)
+    N, T = data.batch_size, target_link.shape[0]
+    J = _arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, data.requires_grad)
+    wp.launch(
+        jacobian_kernels(model.scalar).jacobians,
+        dim=(N, T),
+        inputs=[
+            model.joint_type,
+            model.joint_axis,
+            model.joint_pivot,
+            model.support,
+            target_link,
+            link_H_target,
+            W_H_L,
+            int(data.velocity_representation),
+            int(output_vel_repr),
+        ],
+        outputs=[J],
+        device=model.device,
+    )
+    return J
+
+
+def generalized_free_floating_jacobian(model: Model, data, *, output_vel_repr=None) -> wp.array:
+    """The Jacobians of all links, (nL, 6, 6 + n), or (N, nL, 6, 6 + n) batched.
+
+    Columns act on the generalized velocity in the data's representation; rows give each link's
+    velocity in `output_vel_repr` (default: the data's).
+    """
+    J = jacobians(model, data, model.all_links, model.identity_offsets, output_vel_repr)
+    return _arrays.squeeze_env(J, data.num_envs)
+
+
+def velocities(model: Model, data, target_link: wp.array, link_H_target: wp.array, output_vel_repr) -> wp.array:
+    """(N, T, 6) velocities of the targets (frames at link_H_target on target_link) in output_vel_repr."""
+    output_vel_repr = VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
+    _, W_H_L = link_poses(model, data)
+    N, T = data.batch_size, target_link.shape[0]
+    W_v_WL = _arrays.empty((model.number_of_links(),), N, wp.types.vector(6, model.scalar), model.device, data.requires_grad)
+    v = _arrays.output((T, 6), N, model.scalar, model.device, data.requires_grad)
+    wp.launch(
+        velocity_kernels(model.scalar).link_velocities,
+        dim=N,
+        inputs=[
+            model.parent,
+            model.joint_type,
+            model.joint_axis,
+            model.joint_pivot,
+            target_link,
+            link_H_target,
+            W_H_L,
+            data.base_velocity_state,
+            data.joint_velocities_state,
+            int(output_vel_repr),
+        ],
+        outputs=[W_v_WL, v],
+        device=model.device,
+    )
+    return v

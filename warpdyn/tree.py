@@ -1,0 +1,197 @@
+"""The kinematic tree a model computes on: fixed joints lumped, links in breadth-first order.
+
+Orders (documented once, used everywhere):
+- Links: breadth-first from the base over the lumped tree; the children of a link in the order their
+  joints appear in the description. So parent index < child index, and link 0 is the base.
+- Joints: joint i is the joint whose child is link i + 1, so joints follow the link order.
+- Frames: every lumped link, in breadth-first order over the description's tree.
+
+Lumping a fixed joint (or a joint locked by a reduction) moves the child's mass into the parent: its
+centre of mass is moved into the parent frame and its inertia rotated and shifted with the parallel-axis
+theorem. The lumped link becomes a frame (name, parent link, fixed transform); its collision shapes
+move to the parent.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .description import CollisionShape, ModelDescription, joint_motion
+
+JOINT_REVOLUTE = 1
+JOINT_PRISMATIC = 2
+
+
+@dataclass
+class KinematicTree:
+    """Host-side (NumPy, float64) constants of a lumped tree with nL links, n joints and nF frames."""
+
+    link_names: list[str]
+    joint_names: list[str]
+    frame_names: list[str]
+    parent: np.ndarray  # (nL,) int: parent link index, -1 for the base
+    joint_type: np.ndarray  # (nL,) int: JOINT_REVOLUTE / JOINT_PRISMATIC, 0 for the base
+    parent_H_joint: np.ndarray  # (nL, 4, 4): joint frame in the parent link at q = 0
+    joint_axis: np.ndarray  # (nL, 3): joint axis in the link frame
+    joint_pivot: np.ndarray  # (nL, 3): point of a revolute axis in the link frame [m]
+    link_mass: np.ndarray  # (nL,) [kg]
+    link_com: np.ndarray  # (nL, 3): centre of mass in the link frame [m]
+    link_inertia: np.ndarray  # (nL, 3, 3): rotational inertia about the CoM, link axes [kg m^2]
+    frame_parent: np.ndarray  # (nF,) int: parent link index
+    link_H_frame: np.ndarray  # (nF, 4, 4)
+    position_limits: np.ndarray  # (n, 2): lower, upper [rad or m]; +-inf where unlimited
+    effort_limits: np.ndarray  # (n,) [N m or N]
+    velocity_limits: np.ndarray  # (n,) [rad/s or m/s]
+    damping: np.ndarray  # (n,) viscous friction from the description
+    friction: np.ndarray  # (n,) static friction from the description
+    collisions: list[list[CollisionShape]]  # per link, shapes in the link frame
+    locked_joints: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def number_of_links(self) -> int:
+        return len(self.link_names)
+
+    @property
+    def dofs(self) -> int:
+        return len(self.joint_names)
+
+    def support(self) -> np.ndarray:
+        """(nL, n) int32: 1 where joint j lies on the path from the base to link L."""
+        support = np.zeros((self.number_of_links, self.dofs), dtype=np.int32)
+        for link in range(1, self.number_of_links):
+            support[link] = support[self.parent[link]]
+            support[link, link - 1] = 1
+        return support
+
+
+def _spatial_inertia_about(mass, com, inertia, H):
+    """Mass, CoM and inertia about the CoM of a body, expressed in the frame where it sits at H."""
+    return mass, H[:3, :3] @ com + H[:3, 3], H[:3, :3] @ inertia @ H[:3, :3].T
+
+
+def _combine(bodies):
+    """Mass, CoM and inertia about the CoM of rigidly joined bodies given in one frame."""
+    total = sum(m for m, _, _ in bodies)
+    if total <= 0.0:
+        return 0.0, np.zeros(3), np.zeros((3, 3))
+    com = sum(m * c for m, c, _ in bodies) / total
+    inertia = np.zeros((3, 3))
+    for m, c, I in bodies:
+        d = c - com
+        inertia += I + m * (d @ d * np.eye(3) - np.outer(d, d))
+    return total, com, 0.5 * (inertia + inertia.T)
+
+
+def build_tree(
+    description: ModelDescription,
+    considered_joints: list[str] | None = None,
+    locked_joint_positions: dict[str, float] | None = None,
+) -> KinematicTree:
+    """Lump `description` keeping only `considered_joints` (all movable joints when None).
+
+    Joints not considered are fixed at `locked_joint_positions[name]` (default 0) and lumped.
+    """
+    movable = [j.name for j in description.joints if j.type != "fixed"]
+    if considered_joints is None:
+        considered = set(movable)
+    else:
+        considered_joints = list(considered_joints)
+        unknown = [name for name in considered_joints if name not in movable]
+        if unknown:
+            raise ValueError(
+                f"considered_joints names joints that model '{description.name}' does not have as movable joints: {unknown}"
+            )
+        considered = set(considered_joints)
+    locked = {name: 0.0 for name in movable if name not in considered}
+    for name, value in (locked_joint_positions or {}).items():
+        if name not in locked:
+            raise ValueError(f"locked_joint_positions names joint '{name}', which is not a locked joint of the model")
+        locked[name] = float(value)
+
+    children: dict[str, list] = {}
+    for joint in description.joints:
+        children.setdefault(joint.parent, []).append(joint)
+
+    # Walk the description's tree breadth-first; each link finds its kept ancestor.
+    kept_of = {description.base: description.base}
+    kept_H_link = {description.base: np.eye(4)}
+    lumped_order = []
+    kept_children: dict[str, list] = {description.base: []}
+    queue = [description.base]
+    while queue:
+        link = queue.pop(0)
+        for joint in children.get(link, []):
+            child = joint.child
+            if joint.type != "fixed" and joint.name in considered:
+                kept_of[child] = child
+                kept_H_link[child] = np.eye(4)
+                kept_children[child] = []
+                kept_children[kept_of[link]].append((joint, kept_H_link[link] @ joint.origin))
+            else:
+                value = locked.get(joint.name, 0.0)
+                kept_of[child] = kept_of[link]
+                kept_H_link[child] = kept_H_link[link] @ joint.origin @ joint_motion(joint.type, joint.axis, joint.pivot, value)
+                lumped_order.append(child)
+            queue.append(child)
+
+    # Breadth-first order of the lumped tree.
+    link_names, joints, parent_H_joint = [description.base], [None], [np.eye(4)]
+    parents = [-1]
+    head = 0
+    while head < len(link_names):
+        for joint, H in kept_children[link_names[head]]:
+            link_names.append(joint.child)
+            joints.append(joint)
+            parent_H_joint.append(H)
+            parents.append(head)
+        head += 1
+    index = {name: i for i, name in enumerate(link_names)}
+
+    nL = len(link_names)
+    members: dict[str, list] = {name: [] for name in link_names}
+    collisions: list[list[CollisionShape]] = [[] for _ in range(nL)]
+    for link in description.links:
+        if link.name not in kept_of:
+            continue
+        owner = kept_of[link.name]
+        H = kept_H_link[link.name]
+        if link.mass > 0.0:
+            members[owner].append(_spatial_inertia_about(link.mass, link.com, link.inertia, H))
+        for shape in link.collisions:
+            moved = CollisionShape(**{**shape.__dict__, "link_H_shape": H @ shape.link_H_shape})
+            collisions[index[owner]].append(moved)
+    mass, com, inertia = np.zeros(nL), np.zeros((nL, 3)), np.zeros((nL, 3, 3))
+    for i, name in enumerate(link_names):
+        mass[i], com[i], inertia[i] = _combine(members[name])
+
+    movable_joints = joints[1:]
+    joint_type = np.array(
+        [0] + [JOINT_REVOLUTE if j.type == "revolute" else JOINT_PRISMATIC for j in movable_joints], dtype=np.int32
+    )
+    axis = np.array([[0.0, 0.0, 1.0]] + [j.axis for j in movable_joints]).reshape(nL, 3)
+    pivot = np.array([[0.0, 0.0, 0.0]] + [j.pivot for j in movable_joints]).reshape(nL, 3)
+
+    return KinematicTree(
+        link_names=link_names,
+        joint_names=[j.name for j in movable_joints],
+        frame_names=list(lumped_order),
+        parent=np.array(parents, dtype=np.int32),
+        joint_type=joint_type,
+        parent_H_joint=np.array(parent_H_joint).reshape(nL, 4, 4),
+        joint_axis=axis,
+        joint_pivot=pivot,
+        link_mass=mass,
+        link_com=com,
+        link_inertia=inertia,
+        frame_parent=np.array([index[kept_of[f]] for f in lumped_order], dtype=np.int32),
+        link_H_frame=np.array([kept_H_link[f] for f in lumped_order]).reshape(len(lumped_order), 4, 4),
+        position_limits=np.array([[j.lower, j.upper] for j in movable_joints]).reshape(len(movable_joints), 2),
+        effort_limits=np.array([j.effort for j in movable_joints]),
+        velocity_limits=np.array([j.velocity for j in movable_joints]),
+        damping=np.array([j.damping for j in movable_joints]),
+        friction=np.array([j.friction for j in movable_joints]),
+        collisions=collisions,
+        locked_joints=locked,
+    )
