@@ -60,7 +60,8 @@ class Data:
         """Data of `model` for `num_envs` environments (None: one environment).
 
         Each argument is shared by all environments (JaxSim's shape) or given per environment (leading
-        axis N); defaults are zero, with the identity quaternion (w, x, y, z) = (1, 0, 0, 0). Base
+        axis N); defaults are zero, with the identity quaternion (w, x, y, z) = (1, 0, 0, 0), except the
+        base pose of a fixed-base model, which defaults to where its description welds it. Base
         velocities are read in `velocity_representation`. NumPy-like inputs are checked on the host
         (finite; unit quaternion within 1e-6 when `validate`); Warp arrays are copied on the device,
         and checked on the host (a synchronisation) only when `validate` is set.
@@ -77,7 +78,11 @@ class Data:
                 raise ValueError(f"{name} has non-finite values")
             return array
 
-        quaternion = state(base_quaternion, "base_quaternion", (4,), np.array([1.0, 0.0, 0.0, 0.0]))
+        default_position, default_quaternion = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
+        if not model.floating_base():
+            welded = model.description.world_H_base
+            default_position, default_quaternion = welded[:3, 3], _quaternion_wxyz(welded[:3, :3])
+        quaternion = state(base_quaternion, "base_quaternion", (4,), default_quaternion)
         if validate:
             norms = np.linalg.norm(quaternion.numpy(), axis=-1)
             bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-6)
@@ -86,7 +91,7 @@ class Data:
                     f"base_quaternion must be a unit quaternion (w, x, y, z): environment(s) {bad[:10].tolist()} "
                     f"have norm {norms[bad[:10]].tolist()}"
                 )
-        position = state(base_position, "base_position", (3,))
+        position = state(base_position, "base_position", (3,), default_position)
         linear = state(base_linear_velocity, "base_linear_velocity", (3,))
         angular = state(base_angular_velocity, "base_angular_velocity", (3,))
         velocity = _arrays.empty((6,), N, s, d)

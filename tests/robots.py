@@ -1,0 +1,242 @@
+"""Robots the tests run on, and the same robots in MuJoCo (the reference).
+
+- `random_tree_urdf(seed)`: a random kinematic tree (revolute and prismatic joints with random axes,
+  offsets and inertias, some fixed joints to lump, depth up to 30).
+- `pendulum_chain_urdf(n)`: a chain of n revolute links, fixed to the world.
+- `icub_urdf()`: iCubGazeboV2_5 from the icub-models package; `ergocub_urdf()`: the seed's ergoCubSN001.
+- `ERGOCUB_LEG_JOINTS(model)`, `ICUB_LEG_JOINTS(model)`: the joints the seed keeps.
+- `mujoco_model(urdf_text, considered_joints, floating)`: the same robot in MuJoCo, the joints that are not
+  considered made fixed (locked at 0), meshes stripped, with a free joint when floating.
+- `MujocoState`: sets MuJoCo's qpos/qvel from warpdyn's state, mapping joints by name and converting
+  the base velocity (MuJoCo's free joint: world linear velocity of the body origin, body-frame angular).
+"""
+
+from __future__ import annotations
+
+import pathlib
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+ERGOCUB = pathlib.Path(__file__).resolve().parents[2] / "shared" / "models" / "ergoCubSN001.urdf"
+_EXCLUDED = ("camera", "neck", "wrist", "thumb", "index", "middle", "ring", "pinkie", "torso", "elbow", "shoulder")
+
+
+def seed_joints(joint_names) -> list[str]:
+    """The joints the seed notebook keeps: every joint whose name contains none of _EXCLUDED."""
+    return [j for j in joint_names if not any(word in j for word in _EXCLUDED)]
+
+
+def ergocub_urdf() -> str:
+    return ERGOCUB.read_text()
+
+
+def icub_urdf() -> str:
+    import icub_models
+
+    return pathlib.Path(icub_models.get_model_file("iCubGazeboV2_5")).read_text()
+
+
+def icub_leg_joints(joint_names) -> list[str]:
+    return [j for j in joint_names if any(part in j for part in ("hip", "knee", "ankle"))]
+
+
+def _origin(xyz, rpy) -> str:
+    return f'<origin xyz="{xyz[0]:.17g} {xyz[1]:.17g} {xyz[2]:.17g}" rpy="{rpy[0]:.17g} {rpy[1]:.17g} {rpy[2]:.17g}"/>'
+
+
+def _inertial(rng, mass_range=(0.1, 5.0)) -> str:
+    """A physically valid inertia: a random box's, rotated randomly, with a random CoM offset."""
+    mass = rng.uniform(*mass_range)
+    a, b, c = rng.uniform(0.05, 0.5, size=3)
+    I = mass / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    I = Q @ I @ Q.T
+    com = rng.uniform(-0.2, 0.2, size=3)
+    return (
+        f'<inertial>{_origin(com, (0, 0, 0))}<mass value="{mass:.17g}"/>'
+        f'<inertia ixx="{I[0, 0]:.17g}" ixy="{I[0, 1]:.17g}" ixz="{I[0, 2]:.17g}" '
+        f'iyy="{I[1, 1]:.17g}" iyz="{I[1, 2]:.17g}" izz="{I[2, 2]:.17g}"/></inertial>'
+    )
+
+
+def random_tree_urdf(seed: int, num_links: int | None = None, max_depth: int = 30, fixed_base: bool = False) -> str:
+    """A random tree of `num_links` links: revolute (60%), prismatic (25%) and fixed (15%) joints."""
+    rng = np.random.default_rng(seed)
+    num_links = int(rng.integers(2, 25)) if num_links is None else num_links
+    depth = [0]
+    parts = [f'<robot name="random_{seed}">']
+    if fixed_base:
+        parts.append('<link name="world"/>')
+        parts.append(
+            f'<joint name="world_to_link0" type="fixed"><parent link="world"/><child link="link0"/>'
+            f"{_origin(rng.uniform(-1, 1, 3), rng.uniform(-np.pi, np.pi, 3))}</joint>"
+        )
+    parts.append(f'<link name="link0">{_inertial(rng)}</link>')
+    for i in range(1, num_links):
+        candidates = [k for k in range(i) if depth[k] < max_depth]
+        parent = int(rng.choice(candidates)) if rng.uniform() < 0.5 else candidates[-1]
+        depth.append(depth[parent] + 1)
+        kind = rng.choice(["revolute", "prismatic", "fixed", "continuous"], p=[0.5, 0.25, 0.15, 0.1])
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        limit = '<limit lower="-2" upper="2" effort="100" velocity="10"/>' if kind in ("revolute", "prismatic") else ""
+        parts.append(f'<link name="link{i}">{_inertial(rng)}</link>')
+        parts.append(
+            f'<joint name="joint{i}" type="{kind}"><parent link="link{parent}"/><child link="link{i}"/>'
+            f"{_origin(rng.uniform(-0.5, 0.5, 3), rng.uniform(-np.pi, np.pi, 3))}"
+            f'<axis xyz="{axis[0]:.17g} {axis[1]:.17g} {axis[2]:.17g}"/>{limit}</joint>'
+        )
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+def pendulum_chain_urdf(n: int = 5, length: float = 0.5, mass: float = 1.0) -> str:
+    """n identical rods hanging from a world-fixed base, revolute about y, each with its CoM at mid-length."""
+    I_end = mass * length**2 / 12.0
+    parts = ['<robot name="pendulum_chain">', '<link name="world"/>', '<link name="base"/>']
+    parts.append('<joint name="world_to_base" type="fixed"><parent link="world"/><child link="base"/></joint>')
+    parent = "base"
+    for i in range(n):
+        parts.append(
+            f'<link name="rod{i}"><inertial><origin xyz="0 0 {-length / 2}"/><mass value="{mass}"/>'
+            f'<inertia ixx="{I_end}" iyy="{I_end}" izz="1e-6" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        )
+        z = 0.0 if i == 0 else -length
+        parts.append(
+            f'<joint name="hinge{i}" type="continuous"><parent link="{parent}"/><child link="rod{i}"/>'
+            f'<origin xyz="0 0 {z}"/><axis xyz="0 1 0"/></joint>'
+        )
+        parent = f"rod{i}"
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+def _strip_geometry(urdf_text: str, considered_joints) -> str:
+    """The URDF without visual/collision elements, non-considered movable joints made fixed (at 0)."""
+    root = ET.fromstring(urdf_text)
+    for link in root.findall("link"):
+        for tag in ("visual", "collision"):
+            for element in link.findall(tag):
+                link.remove(element)
+    if considered_joints is not None:
+        keep = set(considered_joints)
+        for joint in root.findall("joint"):
+            if joint.get("type") not in ("fixed", "floating") and joint.get("name") not in keep:
+                joint.set("type", "fixed")
+    for element in root.findall("gazebo") + root.findall("transmission"):
+        root.remove(element)
+    return ET.tostring(root, encoding="unicode")
+
+
+def mujoco_model(urdf_text: str, considered_joints=None, floating: bool = True):
+    """MuJoCo's model of the robot (fixed links fused, as warpdyn lumps them)."""
+    import mujoco
+
+    spec = mujoco.MjSpec.from_string(_strip_geometry(urdf_text, considered_joints))
+    spec.compiler.fusestatic = True
+    if floating:
+        spec.worldbody.first_body().add_freejoint()
+    return spec.compile()
+
+
+class MujocoState:
+    """MuJoCo's data for a warpdyn state of one environment (float64 NumPy)."""
+
+    def __init__(self, mj_model, joint_names, floating: bool):
+        import mujoco
+
+        self.mujoco = mujoco
+        self.m = mj_model
+        self.d = mujoco.MjData(mj_model)
+        self.floating = floating
+        self.qpos_adr = np.array([mj_model.joint(name).qposadr[0] for name in joint_names], dtype=int)
+        self.dof_adr = np.array([mj_model.joint(name).dofadr[0] for name in joint_names], dtype=int)
+
+    def set(self, base_position, base_quaternion_wxyz, joint_positions, mixed_base_velocity, joint_velocities):
+        """Set qpos/qvel; the base velocity is warpdyn's Mixed [W_pdot_B; W_omega_WB]."""
+        d = self.d
+        d.qpos[:] = 0.0
+        d.qvel[:] = 0.0
+        if self.floating:
+            q = np.asarray(base_quaternion_wxyz, dtype=np.float64)
+            d.qpos[0:3] = base_position
+            d.qpos[3:7] = q
+            R = rotation_wxyz(q)
+            d.qvel[0:3] = mixed_base_velocity[:3]
+            d.qvel[3:6] = R.T @ np.asarray(mixed_base_velocity[3:])
+        d.qpos[self.qpos_adr] = joint_positions
+        d.qvel[self.dof_adr] = joint_velocities
+        self.mujoco.mj_forward(self.m, d)
+
+    def has_body(self, name) -> bool:
+        """False for a fixed base, which MuJoCo fuses into the world."""
+        try:
+            self.m.body(name)
+        except KeyError:
+            return False
+        return True
+
+    def body_pose(self, name):
+        b = self.m.body(name).id
+        return self.d.xpos[b].copy(), self.d.xmat[b].reshape(3, 3).copy()
+
+    def body_jacobian_mixed(self, name) -> np.ndarray:
+        """(6, 6 + n) Jacobian of the body frame: Mixed output, warpdyn's Mixed generalized velocity as input."""
+        mujoco = self.mujoco
+        b = self.m.body(name).id
+        jacp, jacr = np.zeros((3, self.m.nv)), np.zeros((3, self.m.nv))
+        mujoco.mj_jacBody(self.m, self.d, jacp, jacr, b)
+        J_mj = np.vstack([jacp, jacr])
+        n = len(self.dof_adr)
+        J = np.zeros((6, 6 + n))
+        if self.floating:
+            R = rotation_wxyz(self.d.qpos[3:7])
+            J[:, 0:3] = J_mj[:, 0:3]
+            J[:, 3:6] = J_mj[:, 3:6] @ R.T
+        J[:, 6:] = J_mj[:, self.dof_adr]
+        return J
+
+    def body_velocity_mixed(self, name) -> np.ndarray:
+        """[W_pdot_L; W_omega_WL] of the body frame (mjOBJ_XBODY; mjOBJ_BODY is the inertial frame), reordered
+        from MuJoCo's [angular; linear]."""
+        res = np.zeros(6)
+        self.mujoco.mj_objectVelocity(self.m, self.d, self.mujoco.mjtObj.mjOBJ_XBODY, self.m.body(name).id, res, 0)
+        return np.concatenate([res[3:], res[:3]])
+
+
+def rotation_wxyz(q) -> np.ndarray:
+    w, x, y, z = np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def skew(v) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def motion_transform(R: np.ndarray, p) -> np.ndarray:
+    """A_X_B (6, 6) for A_H_B = (R, p), [linear; angular]."""
+    X = np.zeros((6, 6))
+    X[:3, :3] = R
+    X[:3, 3:] = skew(p) @ R
+    X[3:, 3:] = R
+    return X
+
+
+def to_mixed(repr_name: str, R: np.ndarray, p) -> np.ndarray:
+    """(6, 6) map from a frame's velocity in `repr_name` to its Mixed velocity (frame at (R, p) in W)."""
+    if repr_name == "Mixed":
+        return np.eye(6)
+    if repr_name == "Body":
+        return motion_transform(R, np.zeros(3))
+    return motion_transform(np.eye(3), -np.asarray(p))
+
+
+def from_mixed(repr_name: str, R: np.ndarray, p) -> np.ndarray:
+    return np.linalg.inv(to_mixed(repr_name, R, p))
