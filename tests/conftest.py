@@ -1,0 +1,25 @@
+"""Shared test set-up: Warp on the CPU, quiet; outputs filled with NaN so unwritten entries fail."""
+
+import sys
+import pathlib
+
+import numpy as np
+import pytest
+import warp as wp
+
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+
+wp.config.quiet = True
+wp.init()
+wp.set_device("cpu")
+
+import warpdyn._arrays  # noqa: E402
+
+warpdyn._arrays.FILL_OUTPUTS_WITH_NAN = True
+
+DTYPES = [np.float64, np.float32]
+
+
+@pytest.fixture(params=DTYPES, ids=lambda d: np.dtype(d).name)
+def dtype(request):
+    return request.param
