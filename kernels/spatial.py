@@ -137,6 +137,29 @@ def spatial(scalar) -> types.SimpleNamespace:
             return stack(lin(v) - wp.cross(ang(v), wp.transform_get_translation(W_H_F)), ang(v))
         return v
 
+    @wp.func
+    def mixed_frame(W_H_F: transform):
+        """F[W]: the frame at F's origin with the world's orientation."""
+        return transform(wp.transform_get_translation(W_H_F), quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0)))
+
+    @wp.func
+    def force_repr_to_inertial(repr: int, W_H_F: transform, f: vec6):
+        """W_f: a 6D force applied to the body of frame F, given in representation `repr`."""
+        if repr == BODY:
+            return force_to(W_H_F, f)
+        if repr == MIXED:
+            return force_to(mixed_frame(W_H_F), f)
+        return f
+
+    @wp.func
+    def inertial_to_force_repr(repr: int, W_H_F: transform, W_f: vec6):
+        """The 6D force W_f applied to the body of frame F, in representation `repr`."""
+        if repr == BODY:
+            return force_from(W_H_F, W_f)
+        if repr == MIXED:
+            return force_from(mixed_frame(W_H_F), W_f)
+        return W_f
+
     return types.SimpleNamespace(
         scalar=scalar,
         vec3=vec3,
@@ -160,5 +183,8 @@ def spatial(scalar) -> types.SimpleNamespace:
         joint_motion=joint_motion,
         motion_subspace=motion_subspace,
         inertial_to_repr=inertial_to_repr,
+        mixed_frame=mixed_frame,
+        force_repr_to_inertial=force_repr_to_inertial,
+        inertial_to_force_repr=inertial_to_force_repr,
         repr_to_inertial=repr_to_inertial,
     )

@@ -1,0 +1,211 @@
+"""Inputs of the dynamics: joint force references and external link forces, as JaxSim's references.
+
+Storage (Warp, leading environment axis N, environment-fastest):
+- joint_force_references_state (N, n) [N m or N].
+- link_forces_state (N, nL, 6): external 6D forces on the links in the Inertial representation,
+  W_f_L = [W_f; W_tau about the world origin] [N, N m].
+Getters and setters read and write link forces in the references' velocity representation, with each
+link (or frame, for frame forces) as the body frame: Body L_f_L, Mixed L[W]_f_L, Inertial W_f_L.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+
+import numpy as np
+import warp as wp
+
+from . import _arrays
+from . import model as _model
+from .common import VelRepr
+from .kernels.forces import kernels as force_kernels
+
+__all__ = ["References"]
+
+
+def _batched(value, name: str, per_env: tuple, N: int, scalar, device) -> wp.array:
+    """A (N, *per_env) device array from a shared (per_env) or per-environment (N, *per_env) value."""
+    if isinstance(value, wp.array):
+        _arrays.check_device_array(value, name, scalar, device)
+        if tuple(value.shape) == (N, *per_env):
+            return value
+        value = value.numpy()
+    host = np.asarray(value, dtype=np.float64)
+    if host.shape not in (tuple(per_env), (N, *per_env)):
+        raise ValueError(f"{name} has shape {host.shape}, expected {tuple(per_env)} or {(N, *per_env)}")
+    if not np.all(np.isfinite(host)):
+        raise ValueError(f"{name} has non-finite values")
+    out = _arrays.empty(per_env, N, scalar, device)
+    out.assign(wp.array(np.ascontiguousarray(np.broadcast_to(host, (N, *per_env))), dtype=scalar, device=device))
+    return out
+
+
+@dataclasses.dataclass(eq=False)
+class References:
+    """Joint force references and link forces of `num_envs` environments (None: one environment)."""
+
+    joint_force_references_state: wp.array
+    link_forces_state: wp.array
+    velocity_representation: VelRepr = VelRepr.Inertial
+    num_envs: int | None = None
+
+    @staticmethod
+    def zero(model, data=None, *, velocity_representation=VelRepr.Inertial, num_envs=None) -> References:
+        """References with zero joint forces and zero link forces."""
+        if data is not None:
+            num_envs = data.num_envs
+        N = 1 if num_envs is None else num_envs
+        s, d = model.scalar, model.device
+        tau = _arrays.empty((model.dofs(),), N, s, d)
+        tau.zero_()
+        forces = _arrays.empty((model.number_of_links(), 6), N, s, d)
+        forces.zero_()
+        return References(tau, forces, VelRepr(velocity_representation), num_envs)
+
+    @staticmethod
+    def build(
+        model,
+        data=None,
+        *,
+        joint_force_references=None,
+        link_forces=None,
+        velocity_representation: VelRepr | None = None,
+        num_envs: int | None = None,
+    ) -> References:
+        """References of `model` (as many environments as `data`, or `num_envs`).
+
+        link_forces (nL, 6) or (N, nL, 6) are read in `velocity_representation` (default: the data's,
+        or Inertial without data); data is needed unless that is Inertial.
+        """
+        if velocity_representation is None:
+            velocity_representation = data.velocity_representation if data is not None else VelRepr.Inertial
+        references = References.zero(model, data, velocity_representation=velocity_representation, num_envs=num_envs)
+        if joint_force_references is not None:
+            references = references.set_joint_force_references(joint_force_references, model)
+        if link_forces is not None:
+            references = references.apply_link_forces(link_forces, model, data)
+        return references
+
+    @property
+    def batch_size(self) -> int:
+        return self.joint_force_references_state.shape[0]
+
+    @contextlib.contextmanager
+    def switch_velocity_representation(self, velocity_representation: VelRepr):
+        """Inside the block, link forces are read and written in `velocity_representation`."""
+        original = self.velocity_representation
+        self.velocity_representation = VelRepr(velocity_representation)
+        try:
+            yield self
+        finally:
+            self.velocity_representation = original
+
+    def _needs_data(self, data) -> None:
+        if data is None and self.velocity_representation != VelRepr.Inertial:
+            raise ValueError(f"link forces in the {self.velocity_representation.name} representation need `data`")
+
+    def joint_force_references(self, model=None, joint_names=None) -> wp.array:
+        """The joint force references: (n,) or (N, n); only the named joints' (k,) when given."""
+        tau = self.joint_force_references_state
+        if joint_names is not None:
+            from .joint import names_to_idxs
+
+            idxs = names_to_idxs(model, joint_names=joint_names)
+            tau = wp.array(tau.numpy()[:, idxs], dtype=tau.dtype, device=tau.device)
+        return _arrays.squeeze_env(tau, self.num_envs)
+
+    def set_joint_force_references(self, forces, model=None, joint_names=None) -> References:
+        """New references with these joint forces (all joints, or the named ones), replacing the old."""
+        N, n = self.batch_size, self.joint_force_references_state.shape[1]
+        s, d = self.joint_force_references_state.dtype, self.joint_force_references_state.device
+        if joint_names is None:
+            tau = _arrays.state_array(forces, "joint_force_references", (n,), None if self.num_envs is None else N, s, d)
+        else:
+            from .joint import names_to_idxs
+
+            idxs = names_to_idxs(model, joint_names=joint_names)
+            host = self.joint_force_references_state.numpy().copy()
+            given = forces.numpy() if isinstance(forces, wp.array) else np.asarray(forces, dtype=np.float64)
+            host[:, idxs] = np.broadcast_to(given, (N, len(idxs)))
+            tau = _arrays.state_array(host if self.num_envs is not None else host[0], "joint_force_references", (n,), self.num_envs, s, d)
+        return dataclasses.replace(self, joint_force_references_state=tau)
+
+    def link_forces(self, model=None, data=None, link_names=None) -> wp.array:
+        """Link forces in the references' representation: (nL, 6) or (N, nL, 6); (k, 6) for named links."""
+        forces = self.link_forces_state
+        if self.velocity_representation != VelRepr.Inertial:
+            self._needs_data(data)
+            _, W_H_L = _model.link_poses(model, data)
+            out = _arrays.output(forces.shape[1:], self.batch_size, forces.dtype, forces.device, data.requires_grad)
+            wp.launch(
+                force_kernels(forces.dtype).inertial_to_forces,
+                dim=(self.batch_size, forces.shape[1]),
+                inputs=[W_H_L, forces, int(self.velocity_representation)],
+                outputs=[out],
+                device=forces.device,
+            )
+            forces = out
+        if link_names is not None:
+            from .link import names_to_idxs
+
+            idxs = names_to_idxs(model, link_names=link_names)
+            forces = wp.array(forces.numpy()[:, idxs], dtype=forces.dtype, device=forces.device)
+        return _arrays.squeeze_env(forces, self.num_envs)
+
+    def _apply(self, forces, model, data, target_link, link_H_target, name, additive) -> References:
+        self._needs_data(data)
+        if data is None:
+            from .data import Data
+
+            data = Data.zero(model, num_envs=self.num_envs)
+        N, T = self.batch_size, target_link.shape[0]
+        values = _batched(forces, name, (T, 6), N, model.scalar, model.device)
+        _, W_H_L = _model.link_poses(model, data)
+        out = _arrays.empty(self.link_forces_state.shape[1:], N, model.scalar, model.device)
+        wp.launch(
+            force_kernels(model.scalar).forces_to_inertial,
+            dim=N,
+            inputs=[
+                target_link,
+                link_H_target,
+                W_H_L,
+                values,
+                int(self.velocity_representation),
+                self.link_forces_state,
+                int(bool(additive)),
+            ],
+            outputs=[out],
+            device=model.device,
+        )
+        return dataclasses.replace(self, link_forces_state=out)
+
+    def apply_link_forces(self, forces, model=None, data=None, link_names=None, additive: bool = False) -> References:
+        """New references with 6D forces (k, 6) on the named links (all when None), in the references'
+        representation; they replace those links' forces, or add to them when `additive`."""
+        if isinstance(link_names, str):
+            link_names = (link_names,)
+        if link_names is None:
+            target, offset = model.all_links, model.identity_offsets
+        else:
+            from .link import names_to_idxs
+
+            idxs = names_to_idxs(model, link_names=link_names)
+            target = wp.array(idxs, dtype=int, device=model.device)
+            offset = model.identity_offsets[: len(idxs)]
+        return self._apply(forces, model, data, target, offset, "link_forces", additive)
+
+    def apply_frame_forces(self, forces, model, data, frame_names=None, additive: bool = False) -> References:
+        """New references with 6D forces (k, 6) on the named frames (all when None), in the references'
+        representation with each frame as the body frame; each is moved to the frame's parent link,
+        where it replaces (or adds to, when `additive`) that link's force."""
+        if isinstance(frame_names, str):
+            frame_names = (frame_names,)
+        rows = np.arange(model.number_of_frames())
+        if frame_names is not None:
+            from .frame import names_to_idxs
+
+            rows = names_to_idxs(model, frame_names=frame_names) - model.number_of_links()
+        target = wp.array(model.tree.frame_parent[rows], dtype=int, device=model.device)
+        offset = _model._transforms(model.tree.link_H_frame[rows], model.scalar, model.device)
+        return self._apply(forces, model, data, target, offset, "frame_forces", additive)
