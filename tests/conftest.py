@@ -10,6 +10,7 @@ import warp as wp
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
 
 wp.config.quiet = True
+wp.config.log_level = wp.LOG_WARNING
 wp.init()
 wp.set_device("cpu")
 
