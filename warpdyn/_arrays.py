@@ -1,10 +1,13 @@
 """Device arrays of the façade: their layout, and the checking of what users pass in.
 
 Every array with an environment axis is handed to kernels and users with its logical shape
-(N, ...), the environment first, as JaxSim's batched arrays. Physically it is stored environment-fastest,
-as the transposed view of a contiguous (..., N) buffer: the threads of a GPU warp own neighbouring
-environments and so read and write neighbouring addresses (coalesced). `ENV_FASTEST = False` stores
-(N, ...) contiguously instead; benchmarks/layout.py measures the difference.
+(N, ...), the environment first, as JaxSim's batched arrays. Its physical layout depends on the device:
+- on a GPU, environment-fastest: the transposed view of a contiguous (..., N) buffer, so the threads of
+  a warp, which own neighbouring environments, read and write neighbouring addresses (coalesced);
+- on the CPU, environment-major: (N, ...) contiguous, so the one thread that walks an environment's
+  links reads and writes contiguous memory.
+`ENV_FASTEST` overrides the choice (True or False; None chooses by device). benchmarks/kinematics.py
+measures both layouts on both kinds of device.
 """
 
 from __future__ import annotations
@@ -12,17 +15,22 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-ENV_FASTEST = True
-"""Physical layout of per-environment arrays (see the module docstring)."""
+ENV_FASTEST: bool | None = None
+"""Physical layout of per-environment arrays: None chooses by device (see the module docstring)."""
+
+
+def env_fastest(device) -> bool:
+    """Whether per-environment arrays on `device` are stored environment-fastest."""
+    return wp.get_device(device).is_cuda if ENV_FASTEST is None else ENV_FASTEST
 
 FILL_OUTPUTS_WITH_NAN = False
 """Debugging aid: fill every output with NaN before a kernel writes it, so unwritten entries show."""
 
 
 def empty(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = False) -> wp.array:
-    """An uninitialised array of logical shape (num_envs, *shape) in the layout of ENV_FASTEST."""
+    """An uninitialised array of logical shape (num_envs, *shape) in the device's layout."""
     shape = tuple(int(s) for s in shape)
-    if ENV_FASTEST:
+    if env_fastest(device):
         physical = wp.empty((*shape, num_envs), dtype=dtype, device=device, requires_grad=requires_grad)
         array = physical.transpose((len(shape), *range(len(shape)))) if shape else physical
     else:

@@ -1,0 +1,74 @@
+"""Shared benchmark helpers: the seed's robot, timing with synchronisation, and the report header."""
+
+from __future__ import annotations
+
+import pathlib
+import platform
+import statistics
+import time
+
+import numpy as np
+import warp as wp
+
+import warpdyn as wd
+
+EXCLUDED = ("camera", "neck", "wrist", "thumb", "index", "middle", "ring", "pinkie", "torso", "elbow", "shoulder")
+_HERE = pathlib.Path(__file__).resolve().parent
+ERGOCUB = next(
+    (p for p in (_HERE.parent / "shared/models/ergoCubSN001.urdf", _HERE.parents[1] / "shared/models/ergoCubSN001.urdf") if p.exists()),
+    _HERE.parents[1] / "shared/models/ergoCubSN001.urdf",
+)
+
+
+def init_warp() -> None:
+    """Quiet Warp with an empty kernel cache, so that first calls measure compilation."""
+    import tempfile
+
+    wp.config.kernel_cache_dir = tempfile.mkdtemp(prefix="warpdyn-bench-cache-")
+    wp.config.quiet = True
+    wp.config.log_level = wp.LOG_WARNING
+    wp.init()
+
+
+def seed_model(dtype, device, path=ERGOCUB):
+    """The seed's ergoCub, legs only (12 joints, 13 links)."""
+    full = wd.model.Model.build_from_model_description(path, dtype=dtype, device=device)
+    return wd.model.reduce(full, [j for j in full.joint_names() if not any(w in j for w in EXCLUDED)])
+
+
+def median_time(fn, device, repeats: int, min_seconds: float = 0.2) -> float:
+    """Median wall time [s] of fn(), synchronised, over at least `repeats` calls (more while under min_seconds)."""
+    times = []
+    start = time.perf_counter()
+    while len(times) < repeats or (time.perf_counter() - start < min_seconds and len(times) < 1000):
+        wp.synchronize_device(device)
+        t = time.perf_counter()
+        fn()
+        wp.synchronize_device(device)
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def header(device) -> str:
+    import importlib.metadata as md
+
+    versions = ", ".join(f"{p} {md.version(p)}" for p in ("warp-lang", "numpy", "mujoco") if _installed(p))
+    name = wp.get_device(device).name
+    return f"device: {name} ({wp.get_device(device)}); host: {platform.processor() or platform.machine()}; {versions}"
+
+
+def _installed(package: str) -> bool:
+    import importlib.metadata as md
+
+    try:
+        md.version(package)
+        return True
+    except md.PackageNotFoundError:
+        return False
+
+
+def sizes(max_envs: int) -> list[int]:
+    return [n for n in (1, 16, 256, 4096, 16384, 65536) if n <= max_envs]
+
+
+np_dtype = {"float32": np.float32, "float64": np.float64}
