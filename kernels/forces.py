@@ -69,4 +69,24 @@ def kernels(scalar):
         for r in range(6):
             f_L[env, L, r] = f[r]
 
-    return types.SimpleNamespace(forces_to_inertial=forces_to_inertial, inertial_to_forces=inertial_to_forces)
+    @wp.kernel(module="unique")
+    def link_forces_to_inertial(
+        # state
+        W_H_L: wp.array2d(dtype=sp.transform),
+        f_L: wp.array3d(dtype=scalar),
+        repr: int,
+        # outputs
+        W_f_L: wp.array3d(dtype=scalar),
+    ):
+        """W_f_L (N, nL, 6): link forces f_L (N, nL, 6) given in `repr` (link as the body frame), Inertial."""
+        env, L = wp.tid()
+        f = sp.vec6(f_L[env, L, 0], f_L[env, L, 1], f_L[env, L, 2], f_L[env, L, 3], f_L[env, L, 4], f_L[env, L, 5])
+        W_f = sp.force_repr_to_inertial(repr, W_H_L[env, L], f)
+        for r in range(6):
+            W_f_L[env, L, r] = W_f[r]
+
+    return types.SimpleNamespace(
+        forces_to_inertial=forces_to_inertial,
+        inertial_to_forces=inertial_to_forces,
+        link_forces_to_inertial=link_forces_to_inertial,
+    )

@@ -138,6 +138,95 @@ def spatial(scalar) -> types.SimpleNamespace:
         return v
 
     @wp.func
+    def motion_matrix_from(X: transform):
+        """B_X_A as a (6, 6) matrix, X = A_H_B: [[R^T, -R^T p^], [0, R^T]]."""
+        Rt = wp.transpose(wp.quat_to_matrix(wp.transform_get_rotation(X)))
+        B = -Rt * wp.skew(wp.transform_get_translation(X))
+        zero = scalar(0.0)
+        return mat66(
+            Rt[0, 0], Rt[0, 1], Rt[0, 2], B[0, 0], B[0, 1], B[0, 2],
+            Rt[1, 0], Rt[1, 1], Rt[1, 2], B[1, 0], B[1, 1], B[1, 2],
+            Rt[2, 0], Rt[2, 1], Rt[2, 2], B[2, 0], B[2, 1], B[2, 2],
+            zero, zero, zero, Rt[0, 0], Rt[0, 1], Rt[0, 2],
+            zero, zero, zero, Rt[1, 0], Rt[1, 1], Rt[1, 2],
+            zero, zero, zero, Rt[2, 0], Rt[2, 1], Rt[2, 2],
+        )
+
+    @wp.func
+    def spatial_inertia(mass: scalar, com: vec3, inertia: mat33):
+        """A link's spatial inertia about its origin, link axes: [[m 1, -m c^], [m c^, I_c - m c^ c^]]."""
+        C = wp.skew(com)
+        mC = mass * C
+        Io = inertia - mC * C
+        zero = scalar(0.0)
+        return mat66(
+            mass, zero, zero, -mC[0, 0], -mC[0, 1], -mC[0, 2],
+            zero, mass, zero, -mC[1, 0], -mC[1, 1], -mC[1, 2],
+            zero, zero, mass, -mC[2, 0], -mC[2, 1], -mC[2, 2],
+            mC[0, 0], mC[0, 1], mC[0, 2], Io[0, 0], Io[0, 1], Io[0, 2],
+            mC[1, 0], mC[1, 1], mC[1, 2], Io[1, 0], Io[1, 1], Io[1, 2],
+            mC[2, 0], mC[2, 1], mC[2, 2], Io[2, 0], Io[2, 1], Io[2, 2],
+        )
+
+    @wp.func
+    def orientation_only(W_H_F: transform):
+        """F with its origin moved to the world's origin: (0, W_R_F)."""
+        return transform(vec3(scalar(0.0)), wp.transform_get_rotation(W_H_F))
+
+    @wp.func
+    def base_T(repr: int, W_H_B: transform):
+        """T (6, 6): the body base velocity from the base velocity in `repr`, B_v = T v."""
+        if repr == INERTIAL:
+            return motion_matrix_from(W_H_B)
+        if repr == MIXED:
+            return motion_matrix_from(orientation_only(W_H_B))
+        return wp.identity(n=6, dtype=scalar)
+
+    @wp.func
+    def base_acceleration_to_body(repr: int, W_H_B: transform, B_v: vec6, a: vec6):
+        """d/dt B_v_WB from the derivative `a` of the base velocity in `repr` (B_v: the body velocity).
+
+        Inertial: B_X_W a (the term of dT/dt vanishes, B_v x B_v = 0); Mixed: R^T a - [B_w x B_v_lin; 0].
+        """
+        if repr == INERTIAL:
+            return motion_from(W_H_B, a)
+        if repr == MIXED:
+            body = motion_from(orientation_only(W_H_B), a)
+            return body - stack(wp.cross(ang(B_v), lin(B_v)), vec3(scalar(0.0)))
+        return a
+
+    @wp.func
+    def base_acceleration_from_body(repr: int, W_H_B: transform, B_v: vec6, B_a: vec6):
+        """The derivative of the base velocity in `repr` from B_a = d/dt B_v_WB."""
+        if repr == INERTIAL:
+            return motion_to(W_H_B, B_a)
+        if repr == MIXED:
+            return motion_to(orientation_only(W_H_B), B_a + stack(wp.cross(ang(B_v), lin(B_v)), vec3(scalar(0.0))))
+        return B_a
+
+    @wp.func
+    def base_force_from_body(repr: int, W_H_B: transform, B_f: vec6):
+        """T^T B_f: a base wrench in body coordinates as the generalized force dual to the base velocity in `repr`."""
+        if repr == INERTIAL:
+            return force_to(W_H_B, B_f)
+        if repr == MIXED:
+            return force_to(orientation_only(W_H_B), B_f)
+        return B_f
+
+    @wp.func
+    def solve_spd6(A: mat66, b: vec6):
+        """x with A x = b for a symmetric positive-definite A, by 3x3 blocks and the Schur complement."""
+        A11 = mat33(A[0, 0], A[0, 1], A[0, 2], A[1, 0], A[1, 1], A[1, 2], A[2, 0], A[2, 1], A[2, 2])
+        A12 = mat33(A[0, 3], A[0, 4], A[0, 5], A[1, 3], A[1, 4], A[1, 5], A[2, 3], A[2, 4], A[2, 5])
+        A21 = mat33(A[3, 0], A[3, 1], A[3, 2], A[4, 0], A[4, 1], A[4, 2], A[5, 0], A[5, 1], A[5, 2])
+        A22 = mat33(A[3, 3], A[3, 4], A[3, 5], A[4, 3], A[4, 4], A[4, 5], A[5, 3], A[5, 4], A[5, 5])
+        A11_inv = wp.inverse(A11)
+        schur = A22 - A21 * A11_inv * A12
+        x2 = wp.inverse(schur) * (ang(b) - A21 * (A11_inv * lin(b)))
+        x1 = A11_inv * (lin(b) - A12 * x2)
+        return stack(x1, x2)
+
+    @wp.func
     def mixed_frame(W_H_F: transform):
         """F[W]: the frame at F's origin with the world's orientation."""
         return transform(wp.transform_get_translation(W_H_F), quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0)))
@@ -184,6 +273,14 @@ def spatial(scalar) -> types.SimpleNamespace:
         motion_subspace=motion_subspace,
         inertial_to_repr=inertial_to_repr,
         mixed_frame=mixed_frame,
+        solve_spd6=solve_spd6,
+        motion_matrix_from=motion_matrix_from,
+        spatial_inertia=spatial_inertia,
+        orientation_only=orientation_only,
+        base_T=base_T,
+        base_acceleration_to_body=base_acceleration_to_body,
+        base_acceleration_from_body=base_acceleration_from_body,
+        base_force_from_body=base_force_from_body,
         force_repr_to_inertial=force_repr_to_inertial,
         inertial_to_force_repr=inertial_to_force_repr,
         repr_to_inertial=repr_to_inertial,

@@ -106,3 +106,37 @@ def state_array(value, name: str, per_env: tuple, num_envs: int | None, scalar, 
     host = np.broadcast_to(host, (N, *per_env))
     out.assign(wp.array(np.ascontiguousarray(host), dtype=scalar, device=device))
     return out
+
+
+def batched_input(value, name: str, per_env: tuple, num_envs: int | None, scalar, device) -> wp.array:
+    """A (N, *per_env) device array from a shared (per_env) or per-environment (N, *per_env) value.
+
+    A Warp array of the full shape is used as it is (no copy); NumPy-like values are checked and copied.
+    """
+    N = 1 if num_envs is None else num_envs
+    accepted = [tuple(per_env)] + ([(N, *per_env)] if num_envs is not None else [])
+    if isinstance(value, wp.array):
+        check_device_array(value, name, scalar, device)
+        if tuple(value.shape) not in accepted:
+            raise ValueError(f"{name} has shape {tuple(value.shape)}, expected one of {accepted}")
+        if tuple(value.shape) == (N, *per_env):
+            return value
+        return value.reshape((1, *per_env)) if N == 1 else batched_input(value.numpy(), name, per_env, num_envs, scalar, device)
+    try:
+        host = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TypeError(f"{name} must be an array of numbers: {error}") from None
+    if host.shape not in accepted:
+        raise ValueError(f"{name} has shape {host.shape}, expected one of {accepted}")
+    if not np.all(np.isfinite(host)):
+        raise ValueError(f"{name} has non-finite values")
+    out = empty(per_env, N, scalar, device)
+    out.assign(wp.array(np.ascontiguousarray(np.broadcast_to(host, (N, *per_env))), dtype=scalar, device=device))
+    return out
+
+
+def zeros(shape: tuple, num_envs: int, dtype, device) -> wp.array:
+    """A zero array of logical shape (num_envs, *shape)."""
+    array = empty(shape, num_envs, dtype, device)
+    array.zero_()
+    return array

@@ -24,6 +24,11 @@ __all__ = [
     "forward_kinematics",
     "joint_transforms",
     "generalized_free_floating_jacobian",
+    "forward_dynamics_aba",
+    "free_floating_bias_forces",
+    "free_floating_gravity_forces",
+    "free_floating_mass_matrix",
+    "inverse_dynamics",
 ]
 
 _SCALARS = {np.dtype(np.float32): wp.float32, np.dtype(np.float64): wp.float64}
@@ -57,6 +62,16 @@ def _quaternion_xyzw(R: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
+def _sibling_chains(parent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """first_child (nL,) and next_sibling (nL,), -1 where there is none; siblings in index order."""
+    first_child = np.full(len(parent), -1, dtype=np.int32)
+    next_sibling = np.full(len(parent), -1, dtype=np.int32)
+    for i in range(len(parent) - 1, 0, -1):
+        next_sibling[i] = first_child[parent[i]]
+        first_child[parent[i]] = i
+    return first_child, next_sibling
+
+
 class Model:
     """A robot's constants on a Warp device, in one scalar type (float32 or float64).
 
@@ -65,7 +80,8 @@ class Model:
     parent (nL,) int, joint_type (nL,) int, X_tree (nL,) transform (joint frame in the parent link),
     joint_axis, joint_pivot (nL,) vec3 (link frame), support (nL, n) int, link_mass (nL,) [kg],
     link_com (nL,) vec3 [m, link frame], link_inertia (nL,) mat33 [kg m^2, about the CoM, link axes],
-    frame_parent (nF,) int, link_H_frame (nF,) transform.
+    frame_parent (nF,) int, link_H_frame (nF,) transform, first_child and next_sibling (nL,) int
+    (-1 for none: the sibling chains that backward passes sum over).
     """
 
     def __init__(
@@ -101,6 +117,9 @@ class Model:
         self.link_inertia = wp.array(tree.link_inertia, dtype=sp_mat33, device=d)
         self.frame_parent = wp.array(tree.frame_parent, dtype=int, device=d)
         self.link_H_frame = _transforms(tree.link_H_frame, s, d)
+        first_child, next_sibling = _sibling_chains(tree.parent)
+        self.first_child = wp.array(first_child, dtype=int, device=d)
+        self.next_sibling = wp.array(next_sibling, dtype=int, device=d)
         self.all_links = wp.array(np.arange(tree.number_of_links), dtype=int, device=d)
         self.identity_offsets = _transforms(np.tile(np.eye(4), (tree.number_of_links, 1, 1)), s, d)
 
@@ -177,6 +196,21 @@ class Model:
 
     def base_link(self) -> str:
         return self.tree.link_names[0]
+
+    @property
+    def kin_dyn_parameters(self):
+        """JaxSim's `kin_dyn_parameters` (host-side, NumPy): `.contact_parameters` (body, point, enabled of
+        the collidable points), `.frame_parameters`, `.link_names`, `.parent_array`, `.support_body_array_bool`.
+
+        Built on first use (cached) with the default `warpdyn.contact.CollidablePointsOptions`; see
+        `warpdyn.contact.with_collidable_points` for other options or enabled points.
+        """
+        params = self.__dict__.get("_kin_dyn_parameters")
+        if params is None:
+            from ._collidable import KinDynParameters
+
+            params = self.__dict__["_kin_dyn_parameters"] = KinDynParameters.build(self)
+        return params
 
 
 def reduce(model: Model, considered_joints, locked_joint_positions: dict | None = None) -> Model:
@@ -335,3 +369,12 @@ def velocities(model: Model, data, target_link: wp.array, link_H_target: wp.arra
         device=model.device,
     )
     return v
+
+
+from ._dynamics import (  # noqa: E402  (the dynamics use the kinematics above)
+    forward_dynamics_aba,
+    free_floating_bias_forces,
+    free_floating_gravity_forces,
+    free_floating_mass_matrix,
+    inverse_dynamics,
+)

@@ -24,23 +24,6 @@ from .kernels.forces import kernels as force_kernels
 __all__ = ["References"]
 
 
-def _batched(value, name: str, per_env: tuple, N: int, scalar, device) -> wp.array:
-    """A (N, *per_env) device array from a shared (per_env) or per-environment (N, *per_env) value."""
-    if isinstance(value, wp.array):
-        _arrays.check_device_array(value, name, scalar, device)
-        if tuple(value.shape) == (N, *per_env):
-            return value
-        value = value.numpy()
-    host = np.asarray(value, dtype=np.float64)
-    if host.shape not in (tuple(per_env), (N, *per_env)):
-        raise ValueError(f"{name} has shape {host.shape}, expected {tuple(per_env)} or {(N, *per_env)}")
-    if not np.all(np.isfinite(host)):
-        raise ValueError(f"{name} has non-finite values")
-    out = _arrays.empty(per_env, N, scalar, device)
-    out.assign(wp.array(np.ascontiguousarray(np.broadcast_to(host, (N, *per_env))), dtype=scalar, device=device))
-    return out
-
-
 @dataclasses.dataclass(eq=False)
 class References:
     """Joint force references and link forces of `num_envs` environments (None: one environment)."""
@@ -160,7 +143,7 @@ class References:
 
             data = Data.zero(model, num_envs=self.num_envs)
         N, T = self.batch_size, target_link.shape[0]
-        values = _batched(forces, name, (T, 6), N, model.scalar, model.device)
+        values = _arrays.batched_input(forces, name, (T, 6), self.num_envs, model.scalar, model.device)
         _, W_H_L = _model.link_poses(model, data)
         out = _arrays.empty(self.link_forces_state.shape[1:], N, model.scalar, model.device)
         wp.launch(
