@@ -111,7 +111,23 @@ def kernels(scalar) -> types.SimpleNamespace:
         for k in range(4):
             out[env, k] = q[k]
 
+    @wp.kernel(module="unique")
+    def actuated_minus(
+        # inputs
+        tau: wp.array2d(dtype=scalar),
+        Q: wp.array2d(dtype=scalar),
+        # outputs
+        out: wp.array2d(dtype=scalar),
+    ):
+        """out (N, 6 + n) = [0; tau] - Q: the joint forces (N, n) less the generalized forces Q (N, 6 + n)."""
+        env = wp.tid()
+        for r in range(6):
+            out[env, r] = -Q[env, r]
+        for j in range(tau.shape[1]):
+            out[env, 6 + j] = tau[env, j] - Q[env, 6 + j]
+
     return types.SimpleNamespace(
+        actuated_minus=actuated_minus,
         normalized_quaternion=normalized_quaternion,
         broadcast_rows=broadcast_rows,
         read_vec6=read_vec6,

@@ -14,9 +14,11 @@ import warp as wp
 from . import _arrays
 from .common import VelRepr
 from .kernels.aba import kernels as aba_kernels
+from .kernels.cholesky import kernels as cholesky_kernels
 from .kernels.crba import kernels as crba_kernels
 from .kernels.forces import kernels as force_kernels
 from .kernels.rnea import kernels as rnea_kernels
+from .kernels.state import kernels as state_kernels
 
 
 def _scratch(model, data, dtype, per_env=None):
@@ -229,3 +231,66 @@ def forward_dynamics_aba(model, data, *, joint_forces=None, link_forces=None):
         device=model.device,
     )
     return _arrays.squeeze_env(nu_dot[:, :6], data.num_envs), _arrays.squeeze_env(nu_dot[:, 6:], data.num_envs)
+
+
+def _offset(model) -> int:
+    return 0 if model.floating_base() else 6
+
+
+def forward_dynamics_crb(model, data, *, joint_forces=None, link_forces=None):
+    """(base acceleration (6,), joint accelerations (n,)) = M^-1 (B tau - h + sum_L J_L^T f_L), by CRBA
+    and a Cholesky solve (not differentiated by wp.Tape: use forward_dynamics_aba for gradients)."""
+    n = model.dofs()
+    M = free_floating_mass_matrix(model, data)
+    M = M if data.num_envs is not None else M.reshape((1, 6 + n, 6 + n))
+    zero6 = _arrays.zeros((6,), data.batch_size, model.scalar, model.device)
+    zero_n = _arrays.zeros((n,), data.batch_size, model.scalar, model.device)
+    tau = _input(model, data, joint_forces, "joint_forces", (n,))
+    Q = generalized_forces(model, data, zero6, zero_n, link_forces_inertial(model, data, link_forces))
+    rhs = _arrays.empty((6 + n,), data.batch_size, model.scalar, model.device)
+    wp.launch(
+        state_kernels(model.scalar).actuated_minus, dim=data.batch_size, inputs=[tau, Q], outputs=[rhs], device=model.device
+    )
+    nu_dot = _arrays.output((6 + n,), data.batch_size, model.scalar, model.device)
+    wp.launch(
+        cholesky_kernels(model.scalar).solve,
+        dim=data.batch_size,
+        inputs=[
+            M,
+            rhs,
+            _offset(model),
+            _arrays.empty((6 + n, 6 + n), data.batch_size, model.scalar, model.device),
+            _arrays.empty((6 + n,), data.batch_size, model.scalar, model.device),
+        ],
+        outputs=[nu_dot],
+        device=model.device,
+    )
+    return _arrays.squeeze_env(nu_dot[:, :6], data.num_envs), _arrays.squeeze_env(nu_dot[:, 6:], data.num_envs)
+
+
+def free_floating_mass_matrix_inverse(model, data) -> wp.array:
+    """M(q)^-1: (6 + n, 6 + n) or batched; for a fixed base, the inverse of the joint block (zeros elsewhere).
+    A Cholesky solve, not differentiated by wp.Tape."""
+    n = model.dofs()
+    M = free_floating_mass_matrix(model, data)
+    M = M if data.num_envs is not None else M.reshape((1, 6 + n, 6 + n))
+    Minv = _arrays.output((6 + n, 6 + n), data.batch_size, model.scalar, model.device)
+    wp.launch(
+        cholesky_kernels(model.scalar).inverse,
+        dim=data.batch_size,
+        inputs=[
+            M,
+            _offset(model),
+            _arrays.empty((6 + n, 6 + n), data.batch_size, model.scalar, model.device),
+            _arrays.empty((6 + n, 6 + n), data.batch_size, model.scalar, model.device),
+        ],
+        outputs=[Minv],
+        device=model.device,
+    )
+    return _arrays.squeeze_env(Minv, data.num_envs)
+
+
+def forward_dynamics(model, data, *, joint_forces=None, link_forces=None, prefer_aba: bool = True):
+    """Forward dynamics by ABA (default) or by CRBA and a Cholesky solve."""
+    solver = forward_dynamics_aba if prefer_aba else forward_dynamics_crb
+    return solver(model, data, joint_forces=joint_forces, link_forces=link_forces)
