@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _arrays, _names
+from . import _arrays, _derivatives, _names
 from . import model as _model
 
 __all__ = [
@@ -20,6 +20,7 @@ __all__ = [
     "transform",
     "velocity",
     "jacobian",
+    "jacobian_derivative",
 ]
 
 
@@ -69,3 +70,11 @@ def jacobian(model, data, *, frame_index: int, output_vel_repr=None):
     """The frame's free-floating Jacobian: (6, 6 + n) or (N, 6, 6 + n) (input: the data's representation)."""
     target, offset = _target(model, frame_index)
     return _arrays.squeeze_env(_model.jacobians(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)
+
+
+def jacobian_derivative(model, data, *, frame_index: int, output_vel_repr=None):
+    """The time derivative of the frame's free-floating Jacobian along the state's motion: (6, 6 + n) or
+    (N, 6, 6 + n). Input: ν in the data's representation; output: output_vel_repr (default: the data's)."""
+    target, offset = _target(model, frame_index)
+    Jdot = _derivatives.jacobian_derivatives(model, data, target, offset, output_vel_repr)
+    return _arrays.squeeze_env(Jdot[:, 0], data.num_envs)

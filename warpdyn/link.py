@@ -7,10 +7,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _arrays, _names
+from . import _arrays, _derivatives, _names
 from . import model as _model
 
-__all__ = ["name_to_idx", "idx_to_name", "names_to_idxs", "idxs_to_names", "mass", "transform", "velocity", "jacobian"]
+__all__ = [
+    "name_to_idx",
+    "idx_to_name",
+    "names_to_idxs",
+    "idxs_to_names",
+    "mass",
+    "transform",
+    "velocity",
+    "jacobian",
+    "jacobian_derivative",
+    "bias_acceleration",
+]
 
 
 def name_to_idx(model, *, link_name: str) -> int:
@@ -60,3 +71,17 @@ def jacobian(model, data, *, link_index: int, output_vel_repr=None):
     """
     target, offset = _target(model, link_index)
     return _arrays.squeeze_env(_model.jacobians(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)
+
+
+def jacobian_derivative(model, data, *, link_index: int, output_vel_repr=None):
+    """The time derivative of the link's free-floating Jacobian along the state's motion: (6, 6 + n) or
+    (N, 6, 6 + n). Input: ν in the data's representation; output: output_vel_repr (default: the data's)."""
+    target, offset = _target(model, link_index)
+    Jdot = _derivatives.jacobian_derivatives(model, data, target, offset, output_vel_repr)
+    return _arrays.squeeze_env(Jdot[:, 0], data.num_envs)
+
+
+def bias_acceleration(model, data, *, link_index: int):
+    """J̇ν of the link in the data's representation: (6,) or (N, 6), [linear; angular] [m/s^2, rad/s^2]."""
+    target, offset = _target(model, link_index)
+    return _arrays.squeeze_env(_derivatives.bias_accelerations(model, data, target, offset, None)[:, 0], data.num_envs)
