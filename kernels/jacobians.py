@@ -48,11 +48,11 @@ def kernels(scalar) -> types.SimpleNamespace:
             for r in range(6):
                 J[env, t, r, c] = col[r]
         for j in range(support.shape[1]):
-            col = sp.vec6(scalar(0.0))
+            col_j = sp.vec6(scalar(0.0))
             if support[L, j] != 0:
                 S = sp.motion_subspace(joint_type[j + 1], joint_axis[j + 1], joint_pivot[j + 1])
-                col = sp.inertial_to_repr(output_repr, W_H_F, sp.motion_to(W_H_L[env, j + 1], S))
+                col_j = sp.inertial_to_repr(output_repr, W_H_F, sp.motion_to(W_H_L[env, j + 1], S))
             for r in range(6):
-                J[env, t, r, 6 + j] = col[r]
+                J[env, t, r, 6 + j] = col_j[r]
 
     return types.SimpleNamespace(jacobians=jacobians)

@@ -66,8 +66,10 @@ class Data:
         (finite; unit quaternion within 1e-6 when `validate`); Warp arrays are copied on the device,
         and checked on the host (a synchronisation) only when `validate` is set.
         """
-        if num_envs is not None and (int(num_envs) != num_envs or num_envs < 1):
-            raise ValueError(f"num_envs must be a positive integer or None, got {num_envs!r}")
+        if num_envs is not None:
+            if isinstance(num_envs, (bool, np.bool_)) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+                raise ValueError(f"num_envs must be a positive integer or None, got {num_envs!r}")
+            num_envs = int(num_envs)
         velocity_representation = VelRepr(velocity_representation)
         s, d, n = model.scalar, model.device, model.dofs()
         N = 1 if num_envs is None else int(num_envs)
@@ -94,6 +96,8 @@ class Data:
         position = state(base_position, "base_position", (3,), default_position)
         linear = state(base_linear_velocity, "base_linear_velocity", (3,))
         angular = state(base_angular_velocity, "base_angular_velocity", (3,))
+        if requires_grad:
+            linear.requires_grad = angular.requires_grad = True
         velocity = _arrays.empty((6,), N, s, d)
         wp.launch(
             state_kernels(s).base_velocity_from_repr,
@@ -140,7 +144,7 @@ class Data:
 
     @property
     def dtype(self) -> np.dtype:
-        return np.dtype(wp.types.warp_type_to_np_dtype[self.scalar])
+        return np.dtype(wp.dtype_to_numpy(self.scalar))
 
     @property
     def device(self):
@@ -178,7 +182,7 @@ class Data:
     @property
     def base_orientation(self) -> wp.array:
         """W_Q_B normalised, (w, x, y, z): (4,) or (N, 4) (as JaxSim: a quaternion, not a matrix)."""
-        out = _arrays.output((4,), self.batch_size, self.scalar, self.device)
+        out = _arrays.output((4,), self.batch_size, self.scalar, self.device, self.requires_grad)
         wp.launch(
             state_kernels(self.scalar).normalized_quaternion,
             dim=self.batch_size,
@@ -193,7 +197,7 @@ class Data:
         """W_H_B: (4, 4) or (N, 4, 4)."""
         from .kernels.kinematics import kernels as kinematics_kernels
 
-        out = _arrays.output((4, 4), self.batch_size, self.scalar, self.device)
+        out = _arrays.output((4, 4), self.batch_size, self.scalar, self.device, self.requires_grad)
         wp.launch(
             kinematics_kernels(self.scalar).base_homogeneous_matrix,
             dim=self.batch_size,
@@ -206,7 +210,7 @@ class Data:
     @property
     def base_velocity(self) -> wp.array:
         """The base velocity in the data's representation: (6,) or (N, 6), [linear; angular]."""
-        out = _arrays.output((6,), self.batch_size, self.scalar, self.device)
+        out = _arrays.output((6,), self.batch_size, self.scalar, self.device, self.requires_grad)
         wp.launch(
             state_kernels(self.scalar).base_velocity_to_repr,
             dim=self.batch_size,

@@ -24,7 +24,12 @@ __all__ = [
     "forward_kinematics",
     "joint_transforms",
     "generalized_free_floating_jacobian",
+    "generalized_free_floating_jacobian_derivative",
+    "link_bias_accelerations",
+    "forward_dynamics",
     "forward_dynamics_aba",
+    "forward_dynamics_crb",
+    "free_floating_mass_matrix_inverse",
     "free_floating_bias_forces",
     "free_floating_gravity_forces",
     "free_floating_mass_matrix",
@@ -302,6 +307,9 @@ def forward_kinematics(model: Model, data) -> wp.array:
 
 def joint_transforms(model: Model, data) -> wp.array:
     """λ(i)_H_i: the pose of each joint's child link in its parent link, (n, 4, 4), or (N, n, 4, 4) batched."""
+    if model.dofs() == 0:
+        shape = (0, 4, 4) if data.num_envs is None else (data.batch_size, 0, 4, 4)
+        return wp.empty(shape, dtype=model.scalar, device=model.device)
     parent_H_link, _ = link_poses(model, data)
     H = homogeneous(model, parent_H_link, model.all_links[1:], model.identity_offsets[1:], data.requires_grad)
     return _arrays.squeeze_env(H, data.num_envs)
@@ -371,8 +379,12 @@ def velocities(model: Model, data, target_link: wp.array, link_H_target: wp.arra
     return v
 
 
+from ._derivatives import generalized_free_floating_jacobian_derivative, link_bias_accelerations  # noqa: E402
 from ._dynamics import (  # noqa: E402  (the dynamics use the kinematics above)
+    forward_dynamics,
     forward_dynamics_aba,
+    forward_dynamics_crb,
+    free_floating_mass_matrix_inverse,
     free_floating_bias_forces,
     free_floating_gravity_forces,
     free_floating_mass_matrix,
