@@ -5,8 +5,8 @@ The façade mirrors JaxSim's functional API: `wd.model`, `wd.data`, `wd.referenc
 model's device: JaxSim's shapes for single-environment data, a leading environment axis when batched.
 """
 
-from . import data, frame, joint, link, model, references
+from . import com, data, frame, joint, link, model, references
 from .common import VelRepr
 
-__all__ = ["VelRepr", "data", "frame", "joint", "link", "model", "references"]
+__all__ = ["VelRepr", "com", "data", "frame", "joint", "link", "model", "references"]
 __version__ = "0.1.0"

@@ -21,6 +21,8 @@ __all__ = [
     "jacobian",
     "jacobian_derivative",
     "bias_acceleration",
+    "spatial_inertia",
+    "com_position",
 ]
 
 
@@ -85,3 +87,31 @@ def bias_acceleration(model, data, *, link_index: int):
     """J̇ν of the link in the data's representation: (6,) or (N, 6), [linear; angular] [m/s^2, rad/s^2]."""
     target, offset = _target(model, link_index)
     return _arrays.squeeze_env(_derivatives.bias_accelerations(model, data, target, offset, None)[:, 0], data.num_envs)
+
+
+def spatial_inertia(model, *, link_index: int):
+    """L_M_L: the link's spatial inertia about its origin in link axes, (6, 6), [linear; angular]:
+    [[m 1, -m c^], [m c^, I_c - m c^ c^]] (lumped links included)."""
+    from . import _centroidal
+
+    i = _names.check_idx("link", model.number_of_links(), link_index)
+    return _centroidal.link_spatial_inertia_matrices(model)[i]
+
+
+def com_position(model, data, *, link_index: int, in_link_frame: bool = True):
+    """The link's CoM: L_p_CoM (in_link_frame, the default) or W_p_CoM: (3,) or (N, 3) [m]."""
+    import warp as wp
+
+    from .kernels.centroidal import kernels as centroidal_kernels
+
+    i = _names.check_idx("link", model.number_of_links(), link_index)
+    _, W_H_L = _model.link_poses(model, data)
+    out = _arrays.output((3,), data.batch_size, model.scalar, model.device, data.requires_grad)
+    wp.launch(
+        centroidal_kernels(model.scalar).link_com_positions,
+        dim=data.batch_size,
+        inputs=[model.link_com, i, int(bool(in_link_frame)), W_H_L],
+        outputs=[out],
+        device=model.device,
+    )
+    return _arrays.squeeze_env(out, data.num_envs)
