@@ -1,12 +1,15 @@
 """warpdyn: multibody dynamics and massively parallel simulation of articulated robots, as Warp kernels.
 
 The façade mirrors JaxSim's functional API: `wd.model`, `wd.data`, `wd.references`, `wd.link`,
-`wd.frame`, `wd.joint`. Every function takes (model, data, *, ...) and returns Warp arrays on the
-model's device: JaxSim's shapes for single-environment data, a leading environment axis when batched.
+`wd.frame`, `wd.joint`, `wd.contact`. Every function takes (model, data, *, ...) and returns Warp arrays
+on the model's device: JaxSim's shapes for single-environment data, a leading environment axis when
+batched. `wd.math` holds JaxSim's math helpers, host-side (NumPy) and as `@wp.func`s for kernels.
 """
 
-from . import com, data, frame, joint, link, model, references
+# model first: it re-exports functions of modules (_centroidal, _dynamics, ...) that import it back.
+from . import model  # isort: skip
+from . import com, contact, data, frame, joint, link, math, references
 from .common import VelRepr
 
-__all__ = ["VelRepr", "com", "data", "frame", "joint", "link", "model", "references"]
+__all__ = ["VelRepr", "com", "contact", "data", "frame", "joint", "link", "math", "model", "references"]
 __version__ = "0.1.0"

@@ -48,7 +48,11 @@ def output(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = Fal
 
 def squeeze_env(array: wp.array, num_envs: int | None) -> wp.array:
     """The array itself for batched data, its environment 0 (dropping the axis) for single-environment data."""
-    return array if num_envs is not None else array[0]
+    if num_envs is not None:
+        return array
+    if 0 in tuple(array.shape[1:]):
+        return wp.empty(tuple(array.shape[1:]), dtype=array.dtype, device=array.device)
+    return array[0]
 
 
 def host_float(value, name: str, shape: tuple) -> np.ndarray:

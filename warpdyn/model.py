@@ -24,6 +24,15 @@ __all__ = [
     "forward_kinematics",
     "joint_transforms",
     "generalized_free_floating_jacobian",
+    "average_velocity",
+    "average_velocity_jacobian",
+    "kinetic_energy",
+    "link_spatial_inertia_matrices",
+    "locked_spatial_inertia",
+    "mechanical_energy",
+    "potential_energy",
+    "total_momentum",
+    "total_momentum_jacobian",
     "generalized_free_floating_jacobian_derivative",
     "link_bias_accelerations",
     "forward_dynamics",
@@ -379,6 +388,17 @@ def velocities(model: Model, data, target_link: wp.array, link_H_target: wp.arra
     return v
 
 
+from ._centroidal import (  # noqa: E402
+    average_velocity,
+    average_velocity_jacobian,
+    kinetic_energy,
+    link_spatial_inertia_matrices,
+    locked_spatial_inertia,
+    mechanical_energy,
+    potential_energy,
+    total_momentum,
+    total_momentum_jacobian,
+)
 from ._derivatives import generalized_free_floating_jacobian_derivative, link_bias_accelerations  # noqa: E402
 from ._dynamics import (  # noqa: E402  (the dynamics use the kinematics above)
     forward_dynamics,
