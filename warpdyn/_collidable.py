@@ -1,0 +1,432 @@
+"""Collidable points: host-side (NumPy, float64) generation from the collision shapes of a lumped tree.
+
+Contact in warpdyn, as in JaxSim, acts on points rigidly attached to links. This module turns the
+collision shapes of `KinematicTree.collisions` (already moved to the kept link by lumping, with their
+pose `link_H_shape`) into points `L_p_C` in the link frame:
+
+- box: its 8 corners, in JaxSim's order (x, y, z the full extents, corners of [0, x] x [0, y] x [0, z]
+  taken as (0,0,0), (x,0,0), (x,y,0), (0,y,0), (0,0,z), (x,0,z), (x,y,z), (0,y,z), then centred).
+- sphere: `sphere_points` points of a Fibonacci lattice on the surface (JaxSim's construction).
+- cylinder (axis z, length L): two rims of `circle_points` points at z = +-L/2, `side_rings` more rings
+  evenly spaced between them, and the centre of each cap.
+- capsule (axis z, cylindrical part of length L): for each hemispherical cap, `capsule_cap_rings`
+  rings of `circle_points` points at elevations 0, 90/k, ..., 90 (k - 1)/k degrees (elevation 0 is the
+  rim where the cap meets the cylinder) and the pole; `side_rings` more rings on the cylindrical part.
+- mesh: its vertices (duplicates removed), scaled; with `mesh_max_points` set, a deterministic
+  farthest-point subsample of that many vertices. MJCF meshes come with their vertices (MuJoCo loaded
+  them); URDF meshes are loaded with trimesh when the file resolves (see `resolve_mesh_uri`). A mesh that
+  cannot be found or read gives no points, and one `UnresolvedMeshWarning` per model lists all of them.
+
+Points are ordered by link (the model's link order), then by shape (the description's order, lumped
+links' shapes after the kept link's own, breadth-first), then within the shape as above.
+
+JaxSim's defaults differ on two counts, both settable here: JaxSim uses meshes only when the environment
+variable JAXSIM_COLLISION_MESH_ENABLED is set (here: whenever a mesh resolves; leave "mesh" out of
+`shapes` for JaxSim's behaviour), and it has no points for cylinders and capsules.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import pathlib
+import urllib.parse
+import warnings
+
+import numpy as np
+import warp as wp
+
+__all__ = [
+    "CollidablePointsOptions",
+    "ContactParameters",
+    "FrameParameters",
+    "KinDynParameters",
+    "UnresolvedMeshWarning",
+    "box_points",
+    "sphere_points",
+    "cylinder_points",
+    "capsule_points",
+    "farthest_point_subsample",
+    "resolve_mesh_uri",
+    "collidable_points",
+]
+
+SHAPE_KINDS = ("box", "sphere", "cylinder", "capsule", "mesh")
+
+
+class UnresolvedMeshWarning(UserWarning):
+    """A collision mesh could not be found or read: it gives no collidable points."""
+
+
+@dataclasses.dataclass(frozen=True)
+class CollidablePointsOptions:
+    """How collision shapes become collidable points (see the module docstring for each shape).
+
+    shapes: the kinds of shape that give points, among "box", "sphere", "cylinder", "capsule", "mesh".
+    sphere_points: points on each sphere (Fibonacci lattice), >= 2. JaxSim's documented default is 50.
+    circle_points: points on each ring of a cylinder or capsule, >= 3.
+    side_rings: extra rings on the lateral surface of cylinders and capsules, between the end rims, >= 0.
+    capsule_cap_rings: rings on each hemispherical cap of a capsule, the rim included, >= 1 (plus the pole).
+    mesh_max_points: at most this many points per mesh (farthest-point subsample); None keeps all vertices.
+    package_dirs: directories where `package://NAME/...` URIs are looked up, before the environment
+        (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH/share, GZ_SIM_RESOURCE_PATH, IGN_GAZEBO_RESOURCE_PATH,
+        SDF_PATH); each may be the package directory itself or a directory that contains it.
+    mesh_dirs: directories where relative mesh paths are looked up (after the description's own
+        directory when it is known, before the working directory).
+    """
+
+    shapes: tuple[str, ...] = SHAPE_KINDS
+    sphere_points: int = 50
+    circle_points: int = 16
+    side_rings: int = 0
+    capsule_cap_rings: int = 2
+    mesh_max_points: int | None = None
+    package_dirs: tuple[str, ...] = ()
+    mesh_dirs: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "shapes", tuple(self.shapes))
+        object.__setattr__(self, "package_dirs", tuple(str(d) for d in self.package_dirs))
+        object.__setattr__(self, "mesh_dirs", tuple(str(d) for d in self.mesh_dirs))
+        unknown = [s for s in self.shapes if s not in SHAPE_KINDS]
+        if unknown:
+            raise ValueError(f"CollidablePointsOptions.shapes has unknown kinds {unknown}; known: {list(SHAPE_KINDS)}")
+        for name, minimum in (("sphere_points", 2), ("circle_points", 3), ("side_rings", 0), ("capsule_cap_rings", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+                raise ValueError(f"CollidablePointsOptions.{name} must be an integer >= {minimum}, got {value!r}")
+        m = self.mesh_max_points
+        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1):
+            raise ValueError(f"CollidablePointsOptions.mesh_max_points must be None or an integer >= 1, got {m!r}")
+
+
+# ------------------------------------------------------------------------------------ points of shapes
+
+
+def box_points(size) -> np.ndarray:
+    """(8, 3) corners of a box of full extents `size` (3,) centred at the origin, in JaxSim's order."""
+    x, y, z = np.asarray(size, dtype=np.float64)
+    corners = np.array(
+        [[0, 0, 0], [x, 0, 0], [x, y, 0], [0, y, 0], [0, 0, z], [x, 0, z], [x, y, z], [0, y, z]], dtype=np.float64
+    )
+    return corners - 0.5 * np.array([x, y, z])
+
+
+def sphere_points(radius: float, count: int) -> np.ndarray:
+    """(count, 3) points of a Fibonacci lattice on a sphere of `radius` centred at the origin.
+
+    Point i has y = 1 - 2 i / (count - 1) (from the top to the bottom pole) and longitude i times the
+    golden angle, as JaxSim's `create_sphere_collision`.
+    """
+    i = np.arange(count, dtype=np.float64)
+    y = 1.0 - 2.0 * i / (count - 1)
+    rho = np.sqrt(np.clip(1.0 - y * y, 0.0, None))
+    theta = np.pi * (3.0 - np.sqrt(5.0)) * i
+    return radius * np.stack([np.cos(theta) * rho, y, np.sin(theta) * rho], axis=1)
+
+
+def _ring(radius: float, z: float, count: int) -> np.ndarray:
+    angle = 2.0 * np.pi * np.arange(count) / count
+    return np.stack([radius * np.cos(angle), radius * np.sin(angle), np.full(count, z)], axis=1)
+
+
+def _side_heights(length: float, rims: bool, side_rings: int) -> np.ndarray:
+    """Heights of the rings on a lateral surface from z = -length/2 to +length/2."""
+    z = np.linspace(-0.5 * length, 0.5 * length, side_rings + 2)
+    return z if rims else z[1:-1]
+
+
+def cylinder_points(radius: float, length: float, circle_points: int, side_rings: int = 0) -> np.ndarray:
+    """Points of a cylinder along z centred at the origin: rims and side rings (bottom to top), then the
+    centres of the bottom and top caps."""
+    rings = [_ring(radius, z, circle_points) for z in _side_heights(length, True, side_rings)]
+    caps = np.array([[0.0, 0.0, -0.5 * length], [0.0, 0.0, 0.5 * length]])
+    return np.concatenate([*rings, caps])
+
+
+def capsule_points(radius: float, length: float, circle_points: int, cap_rings: int, side_rings: int = 0) -> np.ndarray:
+    """Points of a capsule along z centred at the origin (cylindrical part of `length`): for the bottom
+    cap, then the top cap, its rings from the rim (elevation 0) towards the pole, then the pole; then the
+    side rings."""
+    points = []
+    for sign in (-1.0, 1.0):
+        centre = sign * 0.5 * length
+        for j in range(cap_rings):
+            elevation = 0.5 * np.pi * j / cap_rings
+            points.append(_ring(radius * np.cos(elevation), centre + sign * radius * np.sin(elevation), circle_points))
+        points.append(np.array([[0.0, 0.0, centre + sign * radius]]))
+    points += [_ring(radius, z, circle_points) for z in _side_heights(length, False, side_rings)]
+    return np.concatenate(points)
+
+
+def farthest_point_subsample(points: np.ndarray, count: int) -> np.ndarray:
+    """`count` of `points` (K, 3) chosen greedily, each the farthest from those chosen before, starting
+    from the lowest point along z (ties: the first). Deterministic; the chosen points keep their order."""
+    points = np.asarray(points, dtype=np.float64)
+    if len(points) <= count:
+        return points
+    chosen = [int(np.argmin(points[:, 2]))]
+    distance = np.linalg.norm(points - points[chosen[0]], axis=1)
+    for _ in range(count - 1):
+        k = int(np.argmax(distance))
+        chosen.append(k)
+        distance = np.minimum(distance, np.linalg.norm(points - points[k], axis=1))
+    return points[np.sort(chosen)]
+
+
+# ------------------------------------------------------------------------------------- mesh files
+
+
+def _env_dirs(name: str, suffix: str = "") -> list[pathlib.Path]:
+    return [pathlib.Path(d) / suffix if suffix else pathlib.Path(d) for d in os.environ.get(name, "").split(os.pathsep) if d]
+
+
+def resolve_mesh_uri(uri: str, *, base_dir=None, package_dirs=(), mesh_dirs=()) -> pathlib.Path | None:
+    """The local file of a mesh URI, or None when it cannot be found.
+
+    - `file://PATH` and absolute paths: the path itself.
+    - `package://NAME/REST` and `model://NAME/REST`: REST under the package NAME, looked up in
+      `package_dirs`, then the environment (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH/share,
+      GZ_SIM_RESOURCE_PATH, IGN_GAZEBO_RESOURCE_PATH, SDF_PATH), then the ancestors of `base_dir`;
+      a directory matches when it is named NAME or contains NAME.
+    - relative paths: under `base_dir` (the description's directory), then `mesh_dirs`, then the
+      working directory.
+    """
+    parsed = urllib.parse.urlparse(uri)
+    if parsed.scheme == "file":
+        path = pathlib.Path(urllib.parse.unquote(parsed.netloc + parsed.path))
+        return path if path.is_file() else None
+    base = pathlib.Path(base_dir) if base_dir is not None else None
+    if parsed.scheme in ("package", "model"):
+        name, rest = parsed.netloc, parsed.path.lstrip("/")
+        roots = [pathlib.Path(d) for d in package_dirs]
+        roots += _env_dirs("ROS_PACKAGE_PATH") + _env_dirs("AMENT_PREFIX_PATH", "share")
+        roots += _env_dirs("GZ_SIM_RESOURCE_PATH") + _env_dirs("IGN_GAZEBO_RESOURCE_PATH") + _env_dirs("SDF_PATH")
+        if base is not None:
+            roots += [base, *base.parents]
+        for root in roots:
+            for package in (root, root / name) if root.name == name else (root / name,):
+                candidate = package / rest
+                if candidate.is_file():
+                    return candidate
+        return None
+    if len(parsed.scheme) > 1:  # another URL scheme (http, ...): not fetched (one letter: a Windows drive)
+        return None
+    path = pathlib.Path(uri).expanduser()
+    if path.is_absolute():
+        return path if path.is_file() else None
+    for root in ([base] if base is not None else []) + [pathlib.Path(d) for d in mesh_dirs] + [pathlib.Path.cwd()]:
+        if (root / path).is_file():
+            return root / path
+    return None
+
+
+def _mesh_vertices(shape, options: CollidablePointsOptions, base_dir) -> tuple[np.ndarray | None, str | None]:
+    """(vertices in the shape frame, None) or (None, why they are missing)."""
+    scale = np.ones(3) if shape.scale is None else np.asarray(shape.scale, dtype=np.float64)
+    if shape.vertices is not None:
+        vertices = np.asarray(shape.vertices, dtype=np.float64)
+    else:
+        path = resolve_mesh_uri(
+            shape.filename or "", base_dir=base_dir, package_dirs=options.package_dirs, mesh_dirs=options.mesh_dirs
+        )
+        if path is None:
+            return None, "not found"
+        try:
+            import trimesh
+
+            mesh = trimesh.load(str(path), force="mesh", process=False)
+            vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        except Exception as error:  # trimesh raises many kinds of errors for unreadable files
+            return None, f"unreadable ({type(error).__name__}: {error})"
+    vertices = vertices.reshape(-1, 3)
+    if len(vertices) == 0:
+        return None, "empty"
+    vertices = np.unique(vertices, axis=0) * scale
+    if options.mesh_max_points is not None:
+        vertices = farthest_point_subsample(vertices, options.mesh_max_points)
+    return vertices, None
+
+
+def _shape_points(shape, options: CollidablePointsOptions, base_dir) -> tuple[np.ndarray | None, str | None]:
+    if shape.kind == "box":
+        return box_points(shape.size), None
+    if shape.kind == "sphere":
+        return sphere_points(shape.radius, options.sphere_points), None
+    if shape.kind == "cylinder":
+        return cylinder_points(shape.radius, shape.length, options.circle_points, options.side_rings), None
+    if shape.kind == "capsule":
+        return (
+            capsule_points(shape.radius, shape.length, options.circle_points, options.capsule_cap_rings, options.side_rings),
+            None,
+        )
+    if shape.kind == "mesh":
+        return _mesh_vertices(shape, options, base_dir)
+    return None, None
+
+
+def collidable_points(tree, options: CollidablePointsOptions | None = None, base_dir=None, *, warn: bool = True):
+    """(body (nc,) int, L_p_C (nc, 3) float64) of a `KinematicTree`'s collision shapes.
+
+    With `warn`, one `UnresolvedMeshWarning` lists the meshes that gave no points.
+    """
+    options = CollidablePointsOptions() if options is None else options
+    body, points, missing = [], [], []
+    for link, shapes in enumerate(tree.collisions):
+        for shape in shapes:
+            if shape.kind not in options.shapes:
+                continue
+            local, why = _shape_points(shape, options, base_dir)
+            if local is None:
+                if why is not None:
+                    missing.append((why, tree.link_names[link], str(shape.filename)))
+                continue
+            H = np.asarray(shape.link_H_shape, dtype=np.float64)
+            points.append(local @ H[:3, :3].T + H[:3, 3])
+            body += [link] * len(local)
+    if missing and warn:
+        groups: dict[str, dict[str, list[str]]] = {}
+        for why, link_name, uri in missing:
+            groups.setdefault(why, {}).setdefault(link_name, []).append(uri)
+        listing = "; ".join(
+            f"{why}: " + ", ".join(f"on link '{name}': {uris}" for name, uris in links.items())
+            for why, links in groups.items()
+        )
+        warnings.warn(
+            f"{len(missing)} collision mesh(es) give no collidable points ({listing}). "
+            "Set CollidablePointsOptions(package_dirs=..., mesh_dirs=...) or ROS_PACKAGE_PATH to find them, or "
+            "leave 'mesh' out of CollidablePointsOptions.shapes (JaxSim's default) to use the other shapes only "
+            "(warpdyn.contact.with_collidable_points).",
+            UnresolvedMeshWarning,
+            stacklevel=4,
+        )
+    L_p_C = np.concatenate(points) if points else np.zeros((0, 3))
+    return np.asarray(body, dtype=np.int64), L_p_C
+
+
+# ------------------------------------------------------------------------------------ parameters
+
+
+@dataclasses.dataclass(frozen=True)
+class ContactParameters:
+    """The collidable points of a model, as JaxSim's `ContactParameters` (host-side, NumPy).
+
+    body: for EVERY collidable point, the index of the link it is attached to (len(body) = all points).
+    point: (len(body), 3) float64, L_p_C: the point in its link's frame [m].
+    enabled: for every point, whether contact functions use it. Functions of `warpdyn.contact` return
+    the enabled points only, in this order ("nc" in their docstrings).
+    """
+
+    body: tuple[int, ...]
+    point: np.ndarray
+    enabled: tuple[bool, ...]
+
+    @property
+    def indices_of_enabled_collidable_points(self) -> np.ndarray:
+        """(nc,) int: the indices, among all points, of the enabled ones."""
+        return np.flatnonzero(np.asarray(self.enabled, dtype=bool))
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameParameters:
+    """The frames (lumped links) of a model, as JaxSim's: name, body (parent link index) and
+    transform (nF, 4, 4) L_H_F, float64."""
+
+    name: tuple[str, ...]
+    body: tuple[int, ...]
+    transform: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class KinDynParameters:
+    """Part of JaxSim's `KinDynParameters`, host-side (NumPy): what scripts ported from JaxSim read.
+
+    contact_parameters: the collidable points (`ContactParameters`).
+    frame_parameters: the frames (`FrameParameters`).
+    link_names: (nL,) names; parent_array: (nL,) int, -1 for the base.
+    support_body_array_bool: (nL, nL) bool, [L, j] true when link j is on the path from the base to L
+    (L and the base included).
+    options: the `CollidablePointsOptions` the points were made with.
+    The enabled points' link indices and offsets also live on the model's device (`enabled_link`,
+    `enabled_link_H_point`: (nc,) int and (nc,) transform), for the contact kernels.
+    """
+
+    contact_parameters: ContactParameters
+    frame_parameters: FrameParameters
+    link_names: tuple[str, ...]
+    parent_array: np.ndarray
+    support_body_array_bool: np.ndarray
+    options: CollidablePointsOptions
+    enabled_link: wp.array = dataclasses.field(repr=False)
+    enabled_link_H_point: wp.array = dataclasses.field(repr=False)
+    enabled_point: wp.array = dataclasses.field(repr=False)
+
+    @staticmethod
+    def build(model, options: CollidablePointsOptions | None = None, enabled=None, *, warn: bool = True):
+        """The parameters of `model`: points made with `options` (default `CollidablePointsOptions()`),
+        `enabled` a mask over all points (default: all enabled)."""
+        tree = model.tree
+        options = CollidablePointsOptions() if options is None else options
+        path = getattr(model.description, "path", None)
+        base_dir = pathlib.Path(path).parent if path else None
+        body, point = collidable_points(tree, options, base_dir, warn=warn)
+        contact = _contact_parameters(body, point, enabled)
+        nL = tree.number_of_links
+        support = np.zeros((nL, nL), dtype=bool)
+        support[:, 0] = True
+        support[:, 1:] = tree.support().astype(bool)
+        frames = FrameParameters(
+            name=tuple(tree.frame_names),
+            body=tuple(int(b) for b in tree.frame_parent),
+            transform=np.asarray(tree.link_H_frame, dtype=np.float64).reshape(-1, 4, 4),
+        )
+        link, link_H_point, L_p_C = _device_targets(contact, model.scalar, model.device)
+        return KinDynParameters(
+            contact_parameters=contact,
+            frame_parameters=frames,
+            link_names=tuple(tree.link_names),
+            parent_array=np.asarray(tree.parent, dtype=np.int64),
+            support_body_array_bool=support,
+            options=options,
+            enabled_link=link,
+            enabled_link_H_point=link_H_point,
+            enabled_point=L_p_C,
+        )
+
+    def with_enabled(self, model, enabled) -> KinDynParameters:
+        """The same parameters with another enabled mask (over all points)."""
+        contact = _contact_parameters(np.asarray(self.contact_parameters.body, dtype=np.int64), self.contact_parameters.point, enabled)
+        link, link_H_point, L_p_C = _device_targets(contact, model.scalar, model.device)
+        return dataclasses.replace(
+            self, contact_parameters=contact, enabled_link=link, enabled_link_H_point=link_H_point, enabled_point=L_p_C
+        )
+
+
+def _contact_parameters(body: np.ndarray, point: np.ndarray, enabled) -> ContactParameters:
+    count = len(body)
+    if enabled is None:
+        mask = np.ones(count, dtype=bool)
+    else:
+        mask = np.asarray(enabled)
+        if mask.dtype != bool:
+            raise TypeError(f"enabled must be a boolean mask over all {count} collidable points, got dtype {mask.dtype}")
+        if mask.shape != (count,):
+            raise ValueError(f"enabled has shape {mask.shape}, expected ({count},): one flag per collidable point")
+    point = np.array(point, dtype=np.float64).reshape(count, 3)
+    point.setflags(write=False)
+    return ContactParameters(
+        body=tuple(int(b) for b in body), point=point, enabled=tuple(bool(e) for e in mask)
+    )
+
+
+def _device_targets(contact: ContactParameters, scalar, device):
+    """(link (nc,) int, link_H_point (nc,) transform, L_p_C (nc,) vec3) of the enabled points on `device`."""
+    idx = contact.indices_of_enabled_collidable_points
+    L_p_C = contact.point[idx]
+    rows = np.zeros((len(idx), 7))
+    rows[:, :3] = L_p_C
+    rows[:, 6] = 1.0  # identity rotation, (x, y, z, w)
+    link = wp.array(np.asarray(contact.body, dtype=np.int32)[idx], dtype=int, device=device)
+    link_H_point = wp.array(rows, dtype=wp.types.transformation(scalar), device=device)
+    points = wp.array(L_p_C, dtype=wp.types.vector(3, scalar), device=device)
+    return link, link_H_point, points
