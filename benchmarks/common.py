@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import pathlib
 import platform
 import statistics
@@ -14,10 +15,8 @@ import warpdyn as wd
 
 EXCLUDED = ("camera", "neck", "wrist", "thumb", "index", "middle", "ring", "pinkie", "torso", "elbow", "shoulder")
 _HERE = pathlib.Path(__file__).resolve().parent
-ERGOCUB = next(
-    (p for p in (_HERE.parent / "shared/models/ergoCubSN001.urdf", _HERE.parents[1] / "shared/models/ergoCubSN001.urdf") if p.exists()),
-    _HERE.parents[1] / "shared/models/ergoCubSN001.urdf",
-)
+ERGOCUB = pathlib.Path(os.environ.get("WARPDYN_ERGOCUB", _HERE.parents[1] / "shared/models/ergoCubSN001.urdf"))
+"""The seed's URDF: ../shared/models beside the checkout, or the path in $WARPDYN_ERGOCUB."""
 
 
 def init_warp() -> None:
