@@ -98,6 +98,7 @@ class ModelDescription:
 
     base: name of the base link. fixed_base: whether the base is welded to the world, at world_H_base.
     links and joints keep the order of the description; joints form a tree rooted at `base`.
+    path: the file it was read from (None for an XML string); relative mesh paths resolve against it.
     """
 
     name: str
@@ -107,6 +108,7 @@ class ModelDescription:
     fixed_base: bool
     world_H_base: np.ndarray
     source: str
+    path: str | None = None
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:
@@ -169,9 +171,9 @@ def load(model_description, *, is_urdf: bool | None = None) -> ModelDescription:
             is_urdf = False
         else:
             raise ValueError(f"{where} has root element <{root.tag}>: expected <robot> (URDF) or <mujoco> (MJCF)")
-    if is_urdf:
-        return _load_urdf(text, where)
-    return _load_mjcf(text, path, where, root)
+    description = _load_urdf(text, where) if is_urdf else _load_mjcf(text, path, where, root)
+    description.path = path
+    return description
 
 
 # ----------------------------------------------------------------------------------------------- URDF
