@@ -1,14 +1,18 @@
-"""GPU correctness: every kernel on the GPU gives the CPU's results for the same states (float64 and float32).
+"""GPU correctness: every kernel on the GPU gives the CPU's results for the same states (float64, float32).
 
-    python benchmarks/gpu_consistency.py
+    python benchmarks/gpu_consistency.py --write-reference ref.npz     # here, on the CPU
+    python benchmarks/gpu_consistency.py --reference ref.npz           # on the GPU machine
 
-CI has no GPU, so this is how the env-fastest layout and the CUDA code paths are checked: the CPU run
-(env-major layout, checked against MuJoCo by the tests) is the reference. Prints the largest absolute
-difference per quantity and exits non-zero when one exceeds its tolerance (1e-9 in float64, 1e-3 in float32).
+CI has no GPU, so this is how the environment-fastest layout and the CUDA code paths are checked: the CPU
+results (environment-major layout, checked against MuJoCo by the tests) are the reference. The reference
+file holds the states and the results; Warp on the GPU machine need not compile for its CPU. Prints the
+largest relative difference per quantity and exits non-zero when one exceeds its tolerance (1e-9 in
+float64, 1e-3 in float32).
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 import numpy as np
@@ -16,48 +20,90 @@ import warp as wp
 
 import warpdyn as wd
 from common import init_warp, np_dtype, seed_model
+from warpdyn import VelRepr
+
+N = 257
+TOLERANCE = {"float64": 1e-9, "float32": 1e-3}
 
 
-def quantities(model, data, tau, forces):
+def states(model, seed: int = 3) -> dict[str, np.ndarray]:
+    data = wd.data.random_model_data(model, num_envs=N, seed=seed)
+    rng = np.random.default_rng(seed + 1)
+    return {
+        "base_position": data.base_position.numpy(),
+        "base_quaternion": data.base_quaternion.numpy(),
+        "joint_positions": data.joint_positions.numpy(),
+        "base_velocity": data.base_velocity.numpy(),
+        "joint_velocities": data.joint_velocities.numpy(),
+        "tau": rng.uniform(-5, 5, (N, model.dofs())),
+        "forces": rng.uniform(-5, 5, (N, model.number_of_links(), 6)),
+    }
+
+
+def quantities(model, s: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    data = wd.data.Data.build(
+        model,
+        base_position=s["base_position"],
+        base_quaternion=s["base_quaternion"],
+        joint_positions=s["joint_positions"],
+        base_linear_velocity=s["base_velocity"][:, :3],
+        base_angular_velocity=s["base_velocity"][:, 3:],
+        joint_velocities=s["joint_velocities"],
+        num_envs=N,
+    )
+    tau, forces = s["tau"], s["forces"]
     out = {
         "forward_kinematics": wd.model.forward_kinematics(model, data),
-        "jacobians": wd.model.generalized_free_floating_jacobian(model, data),
-        "mass_matrix": wd.model.free_floating_mass_matrix(model, data),
-        "bias_forces": wd.model.free_floating_bias_forces(model, data),
+        "link_velocities": wd.model.generalized_free_floating_jacobian(model, data),
         "mass_matrix_inverse": wd.model.free_floating_mass_matrix_inverse(model, data),
+        "jacobian_derivatives": wd.model.generalized_free_floating_jacobian_derivative(model, data),
+        "kinetic_energy": wd.model.kinetic_energy(model, data),
+        "centroidal_momentum_jacobian": wd.com.centroidal_momentum_jacobian(model, data),
     }
-    out["aba_base"], out["aba_joints"] = wd.model.forward_dynamics_aba(model, data, joint_forces=tau, link_forces=forces)
     out["crb_base"], out["crb_joints"] = wd.model.forward_dynamics_crb(model, data, joint_forces=tau, link_forces=forces)
-    out["rnea_base"], out["rnea_joints"] = wd.model.inverse_dynamics(model, data, joint_accelerations=tau, link_forces=forces)
-    for repr in (wd.VelRepr.Body, wd.VelRepr.Inertial):
+    for repr in VelRepr:
         with data.switch_velocity_representation(repr):
             out[f"jacobians_{repr.name}"] = wd.model.generalized_free_floating_jacobian(model, data)
             out[f"mass_matrix_{repr.name}"] = wd.model.free_floating_mass_matrix(model, data)
+            out[f"bias_forces_{repr.name}"] = wd.model.free_floating_bias_forces(model, data)
+            base, joints = wd.model.forward_dynamics_aba(model, data, joint_forces=tau, link_forces=forces)
+            out[f"aba_base_{repr.name}"], out[f"aba_joints_{repr.name}"] = base, joints
+            f_B, tau_id = wd.model.inverse_dynamics(model, data, joint_accelerations=tau, link_forces=forces)
+            out[f"rnea_base_{repr.name}"], out[f"rnea_joints_{repr.name}"] = f_B, tau_id
     return {k: v.numpy() for k, v in out.items()}
 
 
 def main() -> int:
+    parser = argparse.ArgumentParser()
+    group = parser.add_mutually_exclusive_group(required=True)
+    group.add_argument("--write-reference")
+    group.add_argument("--reference")
+    args = parser.parse_args()
     init_warp()
-    if not wp.is_cuda_available():
-        print("no CUDA device: nothing to compare")
+    if args.write_reference:
+        saved = {}
+        for dtype_name in TOLERANCE:
+            model = seed_model(np_dtype[dtype_name], "cpu")
+            s = states(model)
+            saved.update({f"{dtype_name}/state/{k}": v for k, v in s.items()})
+            saved.update({f"{dtype_name}/result/{k}": v for k, v in quantities(model, s).items()})
+        np.savez_compressed(args.write_reference, **saved)
+        print(f"wrote {len(saved)} arrays to {args.write_reference}")
         return 0
-    N = 257
+    reference = np.load(args.reference)
     failures = 0
-    for dtype_name, tol in (("float64", 1e-9), ("float32", 1e-3)):
-        results = {}
-        for device in ("cpu", "cuda:0"):
-            model = seed_model(np_dtype[dtype_name], device)
-            data = wd.data.random_model_data(model, num_envs=N, seed=3)
-            rng = np.random.default_rng(4)
-            tau = rng.uniform(-5, 5, (N, model.dofs()))
-            forces = rng.uniform(-5, 5, (N, model.number_of_links(), 6))
-            results[device] = quantities(model, data, tau, forces)
-        for name, cpu in results["cpu"].items():
-            error = float(np.max(np.abs(results["cuda:0"][name] - cpu) / (1.0 + np.abs(cpu))))
+    for dtype_name, tol in TOLERANCE.items():
+        model = seed_model(np_dtype[dtype_name], "cuda:0")
+        prefix = f"{dtype_name}/state/"
+        s = {k[len(prefix) :]: reference[k] for k in reference.files if k.startswith(prefix)}
+        got = quantities(model, s)
+        for name, value in got.items():
+            cpu = reference[f"{dtype_name}/result/{name}"]
+            error = float(np.max(np.abs(value - cpu) / (1.0 + np.abs(cpu))))
             ok = error <= tol
             failures += not ok
-            print(f"{dtype_name} {name:28s} max rel diff {error:.2e} {'ok' if ok else 'FAIL'}")
-    print(f"{failures} failed")
+            print(f"{dtype_name} {name:30s} max rel diff {error:.2e} {'ok' if ok else 'FAIL'}")
+    print(f"{wp.get_device('cuda:0').name}: {failures} failed")
     return 1 if failures else 0
 
 
