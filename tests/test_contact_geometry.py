@@ -215,17 +215,24 @@ def _check_points_against_mujoco(model, mj, d, W_p_C, options, tol):
 
 def test_seed_ergocub_has_the_seeds_32_points_on_the_ankles(dtype):
     """The seed's reduced ergoCub: 4 foot boxes (2 per foot, on l/r_foot_front/rear, lumped into
-    l/r_ankle_2) give 32 points, all enabled; its unresolved package:// meshes give one warning that
-    names them. Reference: the seed notebook's n_cp = 32 (JaxSim) and the URDF text."""
+    l/r_ankle_2) give 32 points, all enabled, and no warning (meshes are off by default, as in JaxSim);
+    with meshes requested, its unresolved package:// meshes give one warning that names them and the
+    same 32 points. Reference: the seed notebook's n_cp = 32 (JaxSim) and the URDF text."""
     model = _ergocub_seed(dtype)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         params = wd.model.reduce(model, model.joint_names()).kin_dyn_parameters  # a fresh model: built here
+    assert not [w for w in caught if issubclass(w.category, wd.contact.UnresolvedMeshWarning)]
+    with_meshes = wd.contact.CollidablePointsOptions(shapes=("box", "sphere", "mesh"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        meshed = wd.contact.with_collidable_points(model, options=with_meshes).kin_dyn_parameters
     mesh_warnings = [w for w in caught if issubclass(w.category, wd.contact.UnresolvedMeshWarning)]
     assert len(mesh_warnings) == 1
     message = str(mesh_warnings[0].message)
     assert message.startswith("62 collision mesh(es)")
     assert "on link 'l_ankle_2': ['package://ergoCub/meshes/simmechanics/sim_ecub_1-1_l_ankle_2.stl']" in message
+    assert len(meshed.contact_parameters.body) == 32
     cp = params.contact_parameters
     assert len(cp.body) == 32 and cp.point.shape == (32, 3) and all(cp.enabled)
     names = [model.link_names()[b] for b in cp.body]
@@ -462,7 +469,7 @@ def test_meshes_resolve_or_warn_once(tmp_path, dtype):
         "nowhere/nothing.obj",
     ]
     model = wd.model.Model.build_from_model_description(_mesh_urdf(uris), dtype=dtype)
-    options = wd.contact.CollidablePointsOptions(package_dirs=(str(tmp_path / "share"),), mesh_dirs=(str(tmp_path / "share" / "mypkg"),))
+    options = wd.contact.CollidablePointsOptions(shapes=("box", "sphere", "mesh"), package_dirs=(str(tmp_path / "share"),), mesh_dirs=(str(tmp_path / "share" / "mypkg"),))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         model = wd.contact.with_collidable_points(model, options=options)

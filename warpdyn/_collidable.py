@@ -20,9 +20,9 @@ pose `link_H_shape`) into points `L_p_C` in the link frame:
 Points are ordered by link (the model's link order), then by shape (the description's order, lumped
 links' shapes after the kept link's own, breadth-first), then within the shape as above.
 
-JaxSim's defaults differ on two counts, both settable here: JaxSim uses meshes only when the environment
-variable JAXSIM_COLLISION_MESH_ENABLED is set (here: whenever a mesh resolves; leave "mesh" out of
-`shapes` for JaxSim's behaviour), and it has no points for cylinders and capsules.
+Defaults: every primitive shape gives points and meshes do not (add "mesh" to `shapes`): as in JaxSim,
+which uses meshes only when JAXSIM_COLLISION_MESH_ENABLED is set, since a mesh's vertices are many (the
+iCub's meshes have 124,761). JaxSim has no points for cylinders and capsules; the seed's robots have none.
 """
 
 from __future__ import annotations
@@ -62,7 +62,8 @@ class UnresolvedMeshWarning(UserWarning):
 class CollidablePointsOptions:
     """How collision shapes become collidable points (see the module docstring for each shape).
 
-    shapes: the kinds of shape that give points, among "box", "sphere", "cylinder", "capsule", "mesh".
+    shapes: the kinds of shape that give points, among "box", "sphere", "cylinder", "capsule", "mesh"
+        (default: all but "mesh").
     sphere_points: points on each sphere (Fibonacci lattice), >= 2. JaxSim's documented default is 50.
     circle_points: points on each ring of a cylinder or capsule, >= 3.
     side_rings: extra rings on the lateral surface of cylinders and capsules, between the end rims, >= 0.
@@ -75,7 +76,7 @@ class CollidablePointsOptions:
         directory when it is known, before the working directory).
     """
 
-    shapes: tuple[str, ...] = SHAPE_KINDS
+    shapes: tuple[str, ...] = ("box", "sphere", "cylinder", "capsule")
     sphere_points: int = 50
     circle_points: int = 16
     side_rings: int = 0
