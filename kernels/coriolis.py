@@ -1,0 +1,240 @@
+"""The free-floating Coriolis matrix C(q, nu): O(n) composite terms, then O(n^2) dot products.
+
+C is JaxSim's (jaxsim.api.model.free_floating_coriolis_matrix, ~0.9): in the Body representation
+    C_B = sum_L L_J_L^T ((L_v_L x* M_L + M_L L_v_L x) L_J_L + M_L L_Jdot_L),
+with the doubly-left (body input, body output) link Jacobians, and in representation r
+    C = T^T (M_B Tdot + C_B T),   T = blockdiag(T_b, 1_n),   nu_B = T nu,
+T_b = B_X_W (Inertial), B_X_B[W] (Mixed), 1 (Body). That C satisfies C nu = h - g and, being of the
+form sum_L J^T ((X - X^T) J + M Jdot) with X = v x* M, makes Mdot - 2C skew-symmetric.
+
+Instead of materialising the Jacobians, this follows the recursive structure of Echeandia and Wensing
+(2021), "Numerical methods to compute the Coriolis matrix and Christoffel symbols for rigid-body systems",
+ASME JCND 16(9): composite per-subtree terms, then one dot product per entry. (Their per-body matrix
+B_i = 1/2 ((v x*) I + (I v) x̄* - I (v x)) gives the Christoffel-consistent C; the per-link term below is
+JaxSim's instead, so that the result is JaxSim's C, another valid factorisation.) Everything is in base
+coordinates (as in crba.py: composite quantities add without transforms, and float32 does not lose digits
+to the base's distance from the world origin):
+- the columns of the Body-input Jacobian are u_c = e_c for the base (c < 6) and the joint axes
+  S_j = B_X_{L_j} S_j (L_j = link j + 1), and each link's velocity of the world is v_L = B_v_WB +
+  sum over its supporting joints of S_j sdot_j, all in B coordinates;
+- JaxSim's per-link term, moved to B coordinates, is u_a^T ((v_L x*) I_L u_b + I_L udot_b), where udot is
+  the world-frame time derivative of a column expressed in B coordinates: udot_c = v_B x e_c (base),
+  Sdot_j = v_{L_j} x S_j (joints), and I_L is the link's inertia in B coordinates. (The body-frame
+  derivative is L_Jdot = L_X_W (udot - v_L x u); its -v_L x u part cancels JaxSim's M_L (v_L x) term.)
+- column a acts on the links of its subtree (the base columns on all), so entry (a, b) sums over the
+  subtree of the deeper of a and b (zero unless one supports the other), with the composites
+      Ic_i = sum_{L in subtree(i)} I_L,    Bc_i = sum_{L in subtree(i)} (v_L x*) I_L;
+  C_ab = u_a . (Bc_d u_b + Ic_d udot_b), d the deeper column. Hence, per joint column i,
+      F_i = Ic_i S_i,   f_i = Bc_i S_i + Ic_i Sdot_i,   g_i = Bc_i^T S_i,
+  and, j, k joints:  C_kj = S_k . f_j  (k supports j: j is the deeper),
+                     C_kj = g_k . S_j + F_k . Sdot_j  (j strictly supports k),
+  C_B base block = Bc_0 + Ic_0 (v_B x), base row of joint k = g_k - v_B x* F_k, base column = f_j.
+- The representation change touches only the base rows and columns: Tdot_b = -(w x) T_b with
+  w = B_v_WB (Inertial), [0; B_omega] (Mixed), 0 (Body), and the base columns of M_B are [Ic_0; F_k^T],
+  so with v_rel = B_v_WB - w ([0] Inertial, [B_v_lin; 0] Mixed, B_v_WB Body):
+      C_bb = T_b^T (Bc_0 + Ic_0 (v_rel x)) T_b,   C_{b, 6+j} = T_b^T f_j,   C_{6+k, b} = T_b^T (g_k - v_rel x* F_k),
+  and the joint block is the same in every representation.
+Fixed bases are treated as floating bases at rest (the base velocity is zero), consistently with
+warpdyn's M, h and g, which keep the base rows (see warpdyn._coriolis for how this differs from JaxSim).
+
+Two launches: `coriolis_links` (one thread per environment: the recursions over links, the base rows
+and columns) and `coriolis_joints` (one thread per (environment, joint row): the joint block).
+Tape discipline (kernels/__init__.py): every scratch and output element is written once; the sums over
+children are sibling chains as in crba.py; every local assigned in a dynamic loop has a name of its own.
+"""
+
+import functools
+import types
+
+import warp as wp
+
+from .kinematics import kernels as kinematics_kernels
+from .spatial import INERTIAL, MIXED, spatial
+
+
+@functools.cache
+def kernels(scalar) -> types.SimpleNamespace:
+    sp = spatial(scalar)
+    base_pose = kinematics_kernels(scalar).base_pose
+
+    @wp.func
+    def blocks(A: sp.mat33, B: sp.mat33, C: sp.mat33, D: sp.mat33):
+        """The (6, 6) matrix [[A, B], [C, D]]."""
+        return sp.mat66(
+            A[0, 0], A[0, 1], A[0, 2], B[0, 0], B[0, 1], B[0, 2],
+            A[1, 0], A[1, 1], A[1, 2], B[1, 0], B[1, 1], B[1, 2],
+            A[2, 0], A[2, 1], A[2, 2], B[2, 0], B[2, 1], B[2, 2],
+            C[0, 0], C[0, 1], C[0, 2], D[0, 0], D[0, 1], D[0, 2],
+            C[1, 0], C[1, 1], C[1, 2], D[1, 0], D[1, 1], D[1, 2],
+            C[2, 0], C[2, 1], C[2, 2], D[2, 0], D[2, 1], D[2, 2],
+        )  # fmt: skip
+
+    @wp.func
+    def motion_cross_matrix(v: sp.vec6):
+        """(v x) as a matrix: [[w^, u^], [0, w^]] for v = [u; w]."""
+        W = wp.skew(sp.ang(v))
+        return blocks(W, wp.skew(sp.lin(v)), sp.mat33(scalar(0.0)), W)
+
+    @wp.func
+    def force_cross_matrix(v: sp.vec6):
+        """(v x*) as a matrix: [[w^, 0], [u^, w^]] = -(v x)^T for v = [u; w]."""
+        W = wp.skew(sp.ang(v))
+        return blocks(W, sp.mat33(scalar(0.0)), wp.skew(sp.lin(v)), W)
+
+    @wp.func
+    def base_inertia(B_H_L: sp.transform, mass: scalar, com: sp.vec3, inertia: sp.mat33):
+        """A link's spatial inertia in base coordinates: L_X_B^T L_M_L L_X_B."""
+        L_X_B = sp.motion_matrix_from(B_H_L)
+        return wp.transpose(L_X_B) * sp.spatial_inertia(mass, com, inertia) * L_X_B
+
+    @wp.func
+    def relative_base_velocity(repr: int, B_v: sp.vec6):
+        """v_rel = B_v_WB - w, where Tdot_b = -(w x) T_b (see the module docstring)."""
+        if repr == MIXED:
+            return sp.stack(sp.lin(B_v), sp.vec3(scalar(0.0)))
+        if repr == INERTIAL:
+            return sp.vec6(scalar(0.0))
+        return B_v
+
+    @wp.kernel(module="unique")
+    def coriolis_links(
+        # model
+        parent: wp.array(dtype=int),
+        joint_type: wp.array(dtype=int),
+        X_tree: wp.array(dtype=sp.transform),
+        joint_axis: wp.array(dtype=sp.vec3),
+        joint_pivot: wp.array(dtype=sp.vec3),
+        link_mass: wp.array(dtype=scalar),
+        link_com: wp.array(dtype=sp.vec3),
+        link_inertia: wp.array(dtype=sp.mat33),
+        first_child: wp.array(dtype=int),
+        next_sibling: wp.array(dtype=int),
+        # state
+        base_position: wp.array2d(dtype=scalar),
+        base_quaternion: wp.array2d(dtype=scalar),
+        joint_positions: wp.array2d(dtype=scalar),
+        base_velocity: wp.array2d(dtype=scalar),
+        joint_velocities: wp.array2d(dtype=scalar),
+        repr: int,
+        # scratch
+        B_H_L: wp.array2d(dtype=sp.transform),
+        B_v_L: wp.array2d(dtype=sp.vec6),
+        acc_I: wp.array2d(dtype=sp.mat66),
+        acc_B: wp.array2d(dtype=sp.mat66),
+        # outputs (per link, read by coriolis_joints)
+        B_S: wp.array2d(dtype=sp.vec6),
+        B_Sdot: wp.array2d(dtype=sp.vec6),
+        F: wp.array2d(dtype=sp.vec6),
+        f: wp.array2d(dtype=sp.vec6),
+        g: wp.array2d(dtype=sp.vec6),
+        # outputs
+        C: wp.array3d(dtype=scalar),
+    ):
+        """C (N, 6 + n, 6 + n): the base rows and columns, in `repr`; per link i (N, nL), entries 0 unused:
+        B_S_i, B_Sdot_i = v_i x S_i, F_i = Ic_i S_i, f_i = Bc_i S_i + Ic_i Sdot_i, g_i = Bc_i^T S_i.
+        base_velocity (N, 6) is the state's, Mixed [W_pdot_B; W_omega_WB]."""
+        env = wp.tid()
+        nL = parent.shape[0]
+        W_H_B = base_pose(base_position, base_quaternion, env)
+        mixed = sp.vec6(
+            base_velocity[env, 0],
+            base_velocity[env, 1],
+            base_velocity[env, 2],
+            base_velocity[env, 3],
+            base_velocity[env, 4],
+            base_velocity[env, 5],
+        )
+        B_v_B = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, mixed))
+        v_rel = relative_base_velocity(repr, B_v_B)
+        zero6 = sp.vec6(scalar(0.0))
+        B_H_L[env, 0] = sp.transform(sp.vec3(scalar(0.0)), sp.quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0)))
+        B_v_L[env, 0] = B_v_B
+        B_S[env, 0] = zero6
+        B_Sdot[env, 0] = zero6
+        F[env, 0] = zero6
+        f[env, 0] = zero6
+        g[env, 0] = zero6
+        # Forward pass: poses, joint axes and world-relative velocities in base coordinates.
+        for i in range(1, nL):
+            X_i = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
+            B_H_i = B_H_L[env, parent[i]] * X_i
+            S_i = sp.motion_to(B_H_i, sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i]))
+            v_i = B_v_L[env, parent[i]] + S_i * joint_velocities[env, i - 1]
+            B_H_L[env, i] = B_H_i
+            B_S[env, i] = S_i
+            B_v_L[env, i] = v_i
+            B_Sdot[env, i] = sp.cross_motion(v_i, S_i)
+        # Backward pass: composites Ic, Bc by sibling chains; per joint F, f, g and the base row and column.
+        for k in range(nL - 1):
+            l = nL - 1 - k
+            I_l = base_inertia(B_H_L[env, l], link_mass[l], link_com[l], link_inertia[l])
+            Ic_l = I_l
+            Bc_l = force_cross_matrix(B_v_L[env, l]) * I_l
+            if first_child[l] >= 0:
+                Ic_l = Ic_l + acc_I[env, first_child[l]]
+                Bc_l = Bc_l + acc_B[env, first_child[l]]
+            S_l = B_S[env, l]
+            F_l = Ic_l * S_l
+            f_l = Bc_l * S_l + Ic_l * B_Sdot[env, l]
+            g_l = wp.transpose(Bc_l) * S_l
+            F[env, l] = F_l
+            f[env, l] = f_l
+            g[env, l] = g_l
+            chain_I = Ic_l
+            chain_B = Bc_l
+            if next_sibling[l] >= 0:
+                chain_I = chain_I + acc_I[env, next_sibling[l]]
+                chain_B = chain_B + acc_B[env, next_sibling[l]]
+            acc_I[env, l] = chain_I
+            acc_B[env, l] = chain_B
+            column = sp.base_force_from_body(repr, W_H_B, f_l)
+            row = sp.base_force_from_body(repr, W_H_B, g_l - sp.cross_force(v_rel, F_l))
+            for r in range(6):
+                C[env, r, 5 + l] = column[r]
+                C[env, 5 + l, r] = row[r]
+        # The base block.
+        I_0 = sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0])
+        Ic_0 = I_0
+        Bc_0 = force_cross_matrix(B_v_B) * I_0
+        if first_child[0] >= 0:
+            Ic_0 = Ic_0 + acc_I[env, first_child[0]]
+            Bc_0 = Bc_0 + acc_B[env, first_child[0]]
+        T = sp.base_T(repr, W_H_B)
+        C_bb = wp.transpose(T) * (Bc_0 + Ic_0 * motion_cross_matrix(v_rel)) * T
+        for a in range(6):
+            for b in range(6):
+                C[env, a, b] = C_bb[a, b]
+
+    @wp.kernel(module="unique")
+    def coriolis_joints(
+        # model
+        support: wp.array2d(dtype=int),
+        # per link, from coriolis_links
+        B_S: wp.array2d(dtype=sp.vec6),
+        B_Sdot: wp.array2d(dtype=sp.vec6),
+        F: wp.array2d(dtype=sp.vec6),
+        f: wp.array2d(dtype=sp.vec6),
+        g: wp.array2d(dtype=sp.vec6),
+        # outputs
+        C: wp.array3d(dtype=scalar),
+    ):
+        """C[:, 6 + k, 6:] (the joint block, row k), launched over (N, n); support[L, j] != 0 when joint j
+        moves link L (joint j is link j + 1's)."""
+        env, k = wp.tid()
+        S_k = B_S[env, k + 1]
+        F_k = F[env, k + 1]
+        g_k = g[env, k + 1]
+        for j in range(support.shape[1]):
+            value = scalar(0.0)
+            if support[j + 1, k] != 0:
+                value = wp.dot(S_k, f[env, j + 1])
+            elif support[k + 1, j] != 0:
+                value = wp.dot(g_k, B_S[env, j + 1]) + wp.dot(F_k, B_Sdot[env, j + 1])
+            C[env, 6 + k, 6 + j] = value
+
+    return types.SimpleNamespace(
+        coriolis_links=coriolis_links,
+        coriolis_joints=coriolis_joints,
+        motion_cross_matrix=motion_cross_matrix,
+        force_cross_matrix=force_cross_matrix,
+    )

@@ -1,0 +1,78 @@
+"""The free-floating Coriolis matrix: JaxSim's `jaxsim.api.model.free_floating_coriolis_matrix`.
+
+    M(q) nu_dot + C(q, nu) nu + g(q) = B tau + sum_L J_L^T f_L,
+
+with nu in the data's velocity representation. C is JaxSim's choice among the matrices with C nu = h - g
+(the one built from the body-frame link terms, see warpdyn.kernels.coriolis), for which Mdot - 2C is
+skew-symmetric, Mdot being the time derivative of M along the motion. It is computed without Jacobians,
+by composite inertias and O(n^2) dot products (Echeandia and Wensing, 2021), in two kernel launches,
+and is differentiable by wp.Tape (every element is written once).
+
+Fixed-base models: warpdyn's free_floating_mass_matrix, free_floating_bias_forces and
+free_floating_gravity_forces keep the base rows (the base treated as a floating base at rest; h's base
+rows are the wrench the world exerts on the base). C follows them: it is the floating-base matrix at
+zero base velocity, so that C nu = h - g and the skew-symmetry of Mdot - 2C hold in every row. Its joint
+block equals JaxSim's. JaxSim instead drops the base link's term and zeroes the base-joint blocks, to
+match its RNEA, which returns a zero base force for fixed bases; the base rows and columns of JaxSim's
+C differ from these, and multiply a base velocity that is zero.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from . import _arrays
+from .kernels.coriolis import kernels as coriolis_kernels
+
+__all__ = ["free_floating_coriolis_matrix"]
+
+
+def free_floating_coriolis_matrix(model, data) -> wp.array:
+    """C(q, nu): (6 + n, 6 + n), or (N, 6 + n, 6 + n) for batched data, in the data's representation.
+
+    Rows are generalized forces dual to nu (base rows: the base wrench in the representation's frame,
+    [N; N m]), columns act on nu (base: the base velocity in the data's representation); C nu = h - g.
+    Units: those of M (kg, kg m, kg m^2) per second.
+    """
+    from .model import _check_data
+
+    _check_data(model, data)
+    s, d, rg = model.scalar, model.device, data.requires_grad
+    N, nL, n = data.batch_size, model.number_of_links(), model.dofs()
+    transform = wp.types.transformation(s)
+    vec6 = wp.types.vector(6, s)
+    mat66 = wp.types.matrix((6, 6), s)
+    per_link = [_arrays.empty((nL,), N, vec6, d, rg) for _ in range(5)]  # S, Sdot, F, f, g
+    C = _arrays.output((6 + n, 6 + n), N, s, d, rg)
+    k = coriolis_kernels(s)
+    wp.launch(
+        k.coriolis_links,
+        dim=N,
+        inputs=[
+            model.parent,
+            model.joint_type,
+            model.X_tree,
+            model.joint_axis,
+            model.joint_pivot,
+            model.link_mass,
+            model.link_com,
+            model.link_inertia,
+            model.first_child,
+            model.next_sibling,
+            data.base_position_state,
+            data.base_quaternion_state,
+            data.joint_positions_state,
+            data.base_velocity_state,
+            data.joint_velocities_state,
+            int(data.velocity_representation),
+            _arrays.empty((nL,), N, transform, d, rg),
+            _arrays.empty((nL,), N, vec6, d, rg),
+            _arrays.empty((nL,), N, mat66, d, rg),
+            _arrays.empty((nL,), N, mat66, d, rg),
+        ],
+        outputs=[*per_link, C],
+        device=d,
+    )
+    if n > 0:
+        wp.launch(k.coriolis_joints, dim=(N, n), inputs=[model.support, *per_link], outputs=[C], device=d)
+    return _arrays.squeeze_env(C, data.num_envs)
