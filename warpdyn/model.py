@@ -33,6 +33,7 @@ __all__ = [
     "potential_energy",
     "total_momentum",
     "total_momentum_jacobian",
+    "free_floating_coriolis_matrix",
     "generalized_free_floating_jacobian_derivative",
     "link_bias_accelerations",
     "forward_dynamics",
@@ -399,6 +400,7 @@ from ._centroidal import (  # noqa: E402
     total_momentum,
     total_momentum_jacobian,
 )
+from ._coriolis import free_floating_coriolis_matrix  # noqa: E402
 from ._derivatives import generalized_free_floating_jacobian_derivative, link_bias_accelerations  # noqa: E402
 from ._dynamics import (  # noqa: E402  (the dynamics use the kinematics above)
     forward_dynamics,
