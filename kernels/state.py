@@ -126,7 +126,77 @@ def kernels(scalar) -> types.SimpleNamespace:
         for j in range(tau.shape[1]):
             out[env, 6 + j] = tau[env, j] - Q[env, 6 + j]
 
+    @wp.kernel(module="unique")
+    def join_columns(
+        # inputs
+        a: wp.array2d(dtype=scalar),
+        b: wp.array2d(dtype=scalar),
+        # outputs
+        out: wp.array2d(dtype=scalar),
+    ):
+        """out (N, ka + kb) = [a (N, ka), b (N, kb)]."""
+        env = wp.tid()
+        ka = a.shape[1]
+        for k in range(ka):
+            out[env, k] = a[env, k]
+        for k in range(b.shape[1]):
+            out[env, ka + k] = b[env, k]
+
+    @wp.kernel(module="unique")
+    def select_rows(
+        # inputs
+        selected: wp.array(dtype=wp.int32),
+        chosen: wp.array2d(dtype=scalar),
+        other: wp.array2d(dtype=scalar),
+        # outputs
+        out: wp.array2d(dtype=scalar),
+    ):
+        """out[env] = chosen[env] where selected[env] != 0, else other[env]."""
+        env = wp.tid()
+        for k in range(out.shape[1]):
+            if selected[env] != 0:
+                out[env, k] = chosen[env, k]
+            else:
+                out[env, k] = other[env, k]
+
+    @wp.kernel(module="unique")
+    def select_rows_3d(
+        # inputs
+        selected: wp.array(dtype=wp.int32),
+        chosen: wp.array3d(dtype=scalar),
+        other: wp.array3d(dtype=scalar),
+        # outputs
+        out: wp.array3d(dtype=scalar),
+    ):
+        """out[env] = chosen[env] where selected[env] != 0, else other[env]."""
+        env = wp.tid()
+        for k in range(out.shape[1]):
+            for a in range(out.shape[2]):
+                if selected[env] != 0:
+                    out[env, k, a] = chosen[env, k, a]
+                else:
+                    out[env, k, a] = other[env, k, a]
+
+    @wp.kernel(module="unique")
+    def select_valid(
+        # inputs
+        selected: wp.array(dtype=wp.int32),
+        valid: wp.array(dtype=wp.int32),
+        # outputs
+        out: wp.array(dtype=wp.int32),
+    ):
+        """out[env] = 1 where selected (reset), else valid[env]."""
+        env = wp.tid()
+        if selected[env] != 0:
+            out[env] = 1
+        else:
+            out[env] = valid[env]
+
     return types.SimpleNamespace(
+        select_rows=select_rows,
+        select_rows_3d=select_rows_3d,
+        select_valid=select_valid,
+        join_columns=join_columns,
         actuated_minus=actuated_minus,
         normalized_quaternion=normalized_quaternion,
         broadcast_rows=broadcast_rows,

@@ -7,6 +7,8 @@ N (N = 1 for single-environment data), stored environment-fastest (see warpdyn._
 - joint_positions_state (N, n): s [rad or m], in the model's joint order.
 - base_velocity_state (N, 6): the base velocity in the Mixed representation, [W_pdot_B; W_omega_WB].
 - joint_velocities_state (N, n): sdot [rad/s or m/s].
+- tangential_deformation_state (N, nc, 3): the soft-contact state m of every collidable point [m].
+- valid_state (N,) int32: 1 while an environment's simulation is healthy, 0 once `step` flagged it.
 The public properties below give these in JaxSim's shapes (no environment axis for single-environment
 data) and in the data's velocity representation.
 """
@@ -39,6 +41,8 @@ class Data:
     joint_velocities_state: wp.array
     velocity_representation: VelRepr = VelRepr.Mixed
     num_envs: int | None = None
+    tangential_deformation_state: wp.array | None = None
+    valid_state: wp.array | None = None
 
     # Construction ------------------------------------------------------------------------------
 
@@ -114,11 +118,15 @@ class Data:
             joint_velocities_state=state(joint_velocities, "joint_velocities", (n,)),
             velocity_representation=velocity_representation,
             num_envs=None if num_envs is None else N,
+            tangential_deformation_state=_arrays.zeros(
+                (len(model.kin_dyn_parameters.contact_parameters.body), 3), N, s, d
+            ),
+            valid_state=wp.ones(N, dtype=wp.int32, device=d),
         )
         if not model.floating_base():
             data._require_static_base(model)
         if requires_grad:
-            for name in _STATE_FIELDS:
+            for name in (*_STATE_FIELDS, "tangential_deformation"):
                 getattr(data, f"{name}_state").requires_grad = True
         return data
 
@@ -250,6 +258,39 @@ class Data:
         )
         return self._out(out)
 
+    @property
+    def contact_state(self) -> dict[str, wp.array]:
+        """JaxSim's contact state: {"tangential_deformation": (nc, 3) or (N, nc, 3) [m]} for all points."""
+        return {"tangential_deformation": self._out(self.tangential_deformation_state)}
+
+    @property
+    def valid(self) -> wp.array:
+        """(N,) int32 ((1,) for single-environment data): 1 where the simulation is healthy, 0 where a step
+        found a non-finite state or a quaternion step too large, and stopped changing the environment."""
+        return self.valid_state
+
+    def reset(self, model, envs, source: Data | None = None) -> Data:
+        """New data in which the environments `envs` (indices or a boolean mask of length N) take their
+        state from `source` (default: Data.zero) and are valid again; the others are unchanged."""
+        source = Data.zero(model, velocity_representation=self.velocity_representation, num_envs=self.batch_size) if source is None else source
+        if source.batch_size != self.batch_size:
+            raise ValueError(f"source has {source.batch_size} environments, this data {self.batch_size}")
+        mask = np.zeros(self.batch_size, dtype=np.int32)
+        mask[np.asarray(envs)] = 1
+        selected = wp.array(mask, dtype=wp.int32, device=self.device)
+        fields = {}
+        for name in (*_STATE_FIELDS, "tangential_deformation"):
+            mine, theirs = getattr(self, f"{name}_state"), getattr(source, f"{name}_state")
+            out = _arrays.empty(mine.shape[1:], self.batch_size, self.scalar, self.device)
+            kernel = state_kernels(self.scalar).select_rows_3d if mine.ndim == 3 else state_kernels(self.scalar).select_rows
+            wp.launch(kernel, dim=self.batch_size, inputs=[selected, theirs, mine], outputs=[out], device=self.device)
+            fields[f"{name}_state"] = out
+        valid = wp.empty(self.batch_size, dtype=wp.int32, device=self.device)
+        wp.launch(
+            state_kernels(self.scalar).select_valid, dim=self.batch_size, inputs=[selected, self.valid_state], outputs=[valid], device=self.device
+        )
+        return dataclasses.replace(self, **fields, valid_state=valid)
+
     @contextlib.contextmanager
     def switch_velocity_representation(self, velocity_representation: VelRepr):
         """Inside the block, velocities of this data are read and written in `velocity_representation`."""
@@ -316,6 +357,8 @@ class Data:
                 fresh[keep] = old[keep]
                 getattr(new, f"{name}_state").assign(wp.array(fresh, dtype=self.scalar, device=self.device))
         new.num_envs = self.num_envs
+        new.tangential_deformation_state = self.tangential_deformation_state
+        new.valid_state = self.valid_state
         return new
 
 

@@ -33,6 +33,10 @@ __all__ = [
     "potential_energy",
     "total_momentum",
     "total_momentum_jacobian",
+    "ActuationParams",
+    "IntegratorType",
+    "SoftContactsParams",
+    "step",
     "free_floating_coriolis_matrix",
     "generalized_free_floating_jacobian_derivative",
     "link_bias_accelerations",
@@ -136,7 +140,59 @@ class Model:
         self.first_child = wp.array(first_child, dtype=int, device=d)
         self.next_sibling = wp.array(next_sibling, dtype=int, device=d)
         self.all_links = wp.array(np.arange(tree.number_of_links), dtype=int, device=d)
+        self._init_simulation()
         self.identity_offsets = _transforms(np.tile(np.eye(4), (tree.number_of_links, 1, 1)), s, d)
+
+    def _init_simulation(self) -> None:
+        """JaxSim's defaults for `step`: flat terrain at z = 0, soft contacts (K = 1e6, D = 2000, mu = 0.5,
+        p = q = 0.5), semi-implicit Euler, joint friction from the description (static: <friction>,
+        viscous: <damping>), joint-limit springs off (stiffness 0), JaxSim's torque-speed curve."""
+        from ._simulation import ActuationParams, IntegratorType, SoftContactsParams
+        from .terrain import FlatTerrain
+
+        self.terrain = FlatTerrain()
+        self.contact_params = SoftContactsParams()
+        self.integrator = IntegratorType.SemiImplicitEuler
+        self.actuation_params = ActuationParams()
+        self.quaternion_tolerance = 0.1
+        n = self.tree.dofs
+        self.set_joint_parameters(
+            position_limits=self.tree.position_limits.reshape(n, 2),
+            limit_spring=np.zeros(n),
+            limit_damper=np.zeros(n),
+            friction_static=self.tree.friction,
+            friction_viscous=self.tree.damping,
+        )
+
+    def set_joint_parameters(
+        self, *, position_limits=None, limit_spring=None, limit_damper=None, friction_static=None, friction_viscous=None
+    ) -> None:
+        """Set joint parameters of `step`, each (n,) ((n, 2) for position_limits [rad or m]); None keeps one.
+
+        limit_spring [N m/rad or N/m] and limit_damper [s/rad or s/m]: the limit spring-damper of JaxSim
+        (off where the spring is 0); friction_static [N m or N] and friction_viscous [N m s/rad or N s/m].
+        """
+        n = self.tree.dofs
+        values = {
+            "position_limits": (position_limits, (n, 2)),
+            "joint_limit_spring": (limit_spring, (n,)),
+            "joint_limit_damper": (limit_damper, (n,)),
+            "friction_static": (friction_static, (n,)),
+            "friction_viscous": (friction_viscous, (n,)),
+        }
+        for name, (value, shape) in values.items():
+            if value is None:
+                continue
+            host = np.asarray(value, dtype=np.float64)
+            if host.shape != shape:
+                raise ValueError(f"{name} has shape {host.shape}, expected {shape}")
+            if name == "position_limits":
+                if np.any(np.isnan(host)) or np.any(host[:, 0] > host[:, 1]):
+                    raise ValueError("position_limits must be (lower, upper) pairs with lower <= upper")
+            elif not np.all(np.isfinite(host)) or np.any(host < 0.0):
+                raise ValueError(f"{name} must be finite and non-negative")
+            setattr(self, f"{name}_host", host.copy())
+            setattr(self, name, wp.array(host, dtype=self.scalar, device=self.device))
 
     @classmethod
     def build_from_model_description(
@@ -411,4 +467,10 @@ from ._dynamics import (  # noqa: E402  (the dynamics use the kinematics above)
     free_floating_gravity_forces,
     free_floating_mass_matrix,
     inverse_dynamics,
+)
+from ._simulation import (  # noqa: E402
+    ActuationParams,
+    IntegratorType,
+    SoftContactsParams,
+    step,
 )

@@ -1,0 +1,178 @@
+"""Soft contacts of collidable points with the terrain: JaxSim's SoftContacts (Hunt/Crossley), per point.
+
+For a point at p with velocity v and tangential deformation m (the contact state), on terrain of
+height h(x, y) and unit normal n (see warpdyn.terrain), with eps = 2.22e-16 (float64's, as JaxSim):
+    delta = max(0, (h - p_z) n_z),  delta_dot = -v.n if delta > 0 else 0,
+    fn = max(0, K (delta + eps)^p delta + D (delta + eps)^q delta_dot),
+    v_t = v - (v.n) n,  m_n = (m.n) n,  m_t = m - m_n,
+    f_t = -(K (delta + eps)^p m_t + D (delta + eps)^q v_t)             (sticking trial force),
+    sticking when delta <= 0 or |f_t| <= mu fn; otherwise f_t = min(mu fn, |f_t|) f_t / |f_t|;
+    f_t = 0 when delta <= 0,
+    m_dot = -(K/D) m (no contact), v_t - (K/D) m_n (sticking), -(f_t + K (delta + eps)^p m_t) / (D (delta + eps)^q) (slipping).
+The force f = fn n + f_t acts at p; its wrench on the point's link, Inertial, is [f; p x f].
+"""
+
+import functools
+import types
+
+import warp as wp
+
+from .spatial import spatial
+
+EPSILON = 2.220446049250313e-16
+FLAT, PLANE, HEIGHTFIELD = 0, 1, 2
+
+
+@functools.cache
+def kernels(scalar):
+    sp = spatial(scalar)
+    vec4 = wp.types.vector(4, scalar)
+
+    @wp.func
+    def terrain_height(kind: int, n: sp.vec3, h0: scalar, hf: wp.array2d(dtype=scalar), grid: vec4, x: scalar, y: scalar):
+        """h(x, y). Flat: h0. Plane: through (0, 0, h0) with unit normal n. Heightfield: hf bilinear on the
+        grid (origin_x, origin_y, dx, dy), clamped to its edges."""
+        if kind == HEIGHTFIELD:
+            u = wp.clamp((x - grid[0]) / grid[2], scalar(0.0), scalar(float(hf.shape[0] - 1)))
+            v = wp.clamp((y - grid[1]) / grid[3], scalar(0.0), scalar(float(hf.shape[1] - 1)))
+            i = wp.min(int(u), hf.shape[0] - 2)
+            j = wp.min(int(v), hf.shape[1] - 2)
+            a = u - scalar(float(i))
+            b = v - scalar(float(j))
+            one = scalar(1.0)
+            return (
+                (one - a) * (one - b) * hf[i, j]
+                + a * (one - b) * hf[i + 1, j]
+                + (one - a) * b * hf[i, j + 1]
+                + a * b * hf[i + 1, j + 1]
+            )
+        if kind == PLANE:
+            return h0 - (n[0] * x + n[1] * y) / n[2]
+        return h0
+
+    @wp.func
+    def terrain_normal(kind: int, n: sp.vec3, h0: scalar, hf: wp.array2d(dtype=scalar), grid: vec4, x: scalar, y: scalar):
+        """The unit normal at (x, y): constant for flat and plane terrains, from the bilinear gradient otherwise."""
+        if kind == HEIGHTFIELD:
+            u = wp.clamp((x - grid[0]) / grid[2], scalar(0.0), scalar(float(hf.shape[0] - 1)))
+            v = wp.clamp((y - grid[1]) / grid[3], scalar(0.0), scalar(float(hf.shape[1] - 1)))
+            i = wp.min(int(u), hf.shape[0] - 2)
+            j = wp.min(int(v), hf.shape[1] - 2)
+            a = u - scalar(float(i))
+            b = v - scalar(float(j))
+            one = scalar(1.0)
+            dhdx = ((one - b) * (hf[i + 1, j] - hf[i, j]) + b * (hf[i + 1, j + 1] - hf[i, j + 1])) / grid[2]
+            dhdy = ((one - a) * (hf[i, j + 1] - hf[i, j]) + a * (hf[i + 1, j + 1] - hf[i + 1, j])) / grid[3]
+            return wp.normalize(sp.vec3(-dhdx, -dhdy, one))
+        if kind == PLANE:
+            return n
+        return sp.vec3(scalar(0.0), scalar(0.0), scalar(1.0))
+
+    @wp.func
+    def hunt_crossley(
+        p: sp.vec3, v: sp.vec3, m: sp.vec3, h: scalar, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar
+    ):
+        """(f (3,), m_dot (3,), delta): the contact force [N, world axes] and the deformation rate [m/s]."""
+        zero = scalar(0.0)
+        eps = scalar(EPSILON)
+        delta = wp.max(zero, (h - p[2]) * n[2])
+        delta_dot = zero
+        if delta > zero:
+            delta_dot = -wp.dot(v, n)
+        delta_p = wp.pow(delta + eps, pe)
+        delta_q = wp.pow(delta + eps, qe)
+        fn = wp.max(zero, K * delta_p * delta + D * delta_q * delta_dot)
+        v_t = v - wp.dot(v, n) * n
+        m_n = wp.dot(m, n) * n
+        m_t = m - m_n
+        f_t = -(K * delta_p * m_t + D * delta_q * v_t)
+        norm = wp.length(f_t)
+        limit = mu * fn
+        m_dot = v_t - (K / D) * m_n
+        if delta <= zero:
+            f_t = sp.vec3(zero)
+            m_dot = -(K / D) * m
+        elif norm > limit:
+            direction = sp.vec3(zero)
+            if norm > eps:
+                direction = f_t / norm
+            f_t = wp.min(limit, norm) * direction
+            m_dot = -(f_t + K * delta_p * m_t) / (D * delta_q)
+        return fn * n + f_t, m_dot, delta
+
+    @wp.kernel(module="unique")
+    def contact_forces(
+        # model: enabled points, ordered by link
+        point_link: wp.array(dtype=int),
+        L_p_C: wp.array(dtype=sp.vec3),
+        point_row: wp.array(dtype=int),
+        row_enabled: wp.array(dtype=int),
+        link_first_point: wp.array(dtype=int),
+        # terrain and contact parameters
+        terrain_kind: int,
+        terrain_n: sp.vec3,
+        terrain_h0: scalar,
+        terrain_hf: wp.array2d(dtype=scalar),
+        terrain_grid: vec4,
+        K: wp.array(dtype=scalar),
+        D: wp.array(dtype=scalar),
+        mu: wp.array(dtype=scalar),
+        pe: scalar,
+        qe: scalar,
+        # state
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
+        m: wp.array3d(dtype=scalar),
+        W_f_ext: wp.array3d(dtype=scalar),
+        # scratch
+        chain: wp.array2d(dtype=sp.vec6),
+        # outputs
+        W_f_C: wp.array3d(dtype=scalar),
+        m_dot: wp.array3d(dtype=scalar),
+        W_f_L: wp.array3d(dtype=scalar),
+    ):
+        """Per environment: W_f_C (N, P, 6) the Inertial wrench of each enabled point's contact force;
+        m_dot (N, nc, 3) for all points (0 for disabled ones); W_f_L (N, nL, 6) = W_f_ext + contact wrenches
+        summed per link. K, D, mu: (N,) or (1,) (per environment or shared)."""
+        env = wp.tid()
+        P = point_link.shape[0]
+        k_env = wp.min(env, K.shape[0] - 1)
+        d_env = wp.min(env, D.shape[0] - 1)
+        mu_env = wp.min(env, mu.shape[0] - 1)
+        for r in range(P):
+            c = P - 1 - r
+            L = point_link[c]
+            X = W_H_L[env, L]
+            p = wp.transform_point(X, L_p_C[c])
+            W_v = W_v_WL[env, L]
+            v = sp.lin(W_v) + wp.cross(sp.ang(W_v), p)
+            row = point_row[c]
+            m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+            h = terrain_height(terrain_kind, terrain_n, terrain_h0, terrain_hf, terrain_grid, p[0], p[1])
+            n = terrain_normal(terrain_kind, terrain_n, terrain_h0, terrain_hf, terrain_grid, p[0], p[1])
+            f, md, delta = hunt_crossley(p, v, m_c, h, n, K[k_env], D[d_env], mu[mu_env], pe, qe)
+            w = sp.stack(f, wp.cross(p, f))
+            for a in range(6):
+                W_f_C[env, c, a] = w[a]
+            for a in range(3):
+                m_dot[env, row, a] = md[a]
+            link_sum = w
+            if c + 1 < P:
+                if point_link[c + 1] == L:
+                    link_sum = w + chain[env, c + 1]
+            chain[env, c] = link_sum
+        for row in range(m.shape[1]):
+            if row_enabled[row] == 0:
+                for a in range(3):
+                    m_dot[env, row, a] = scalar(0.0)
+        for L in range(W_H_L.shape[1]):
+            total = sp.vec6(scalar(0.0))
+            if link_first_point[L] >= 0:
+                total = chain[env, link_first_point[L]]
+            for a in range(6):
+                W_f_L[env, L, a] = W_f_ext[env, L, a] + total[a]
+
+    return types.SimpleNamespace(
+        vec4=vec4,
+        terrain_height=terrain_height, terrain_normal=terrain_normal, hunt_crossley=hunt_crossley, contact_forces=contact_forces
+    )
