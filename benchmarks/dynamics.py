@@ -1,11 +1,17 @@
 """ABA, RNEA and CRBA of the seed's ergoCub (legs) for N environments, with MuJoCo as a yardstick.
 
-    python benchmarks/dynamics.py [--device cuda:0] [--max-envs 65536] [--dtypes float32,float64]
+    python benchmarks/dynamics.py [--device cuda:0] [--max-envs 65536 | --sizes 1,4096,65536]
+                                  [--dtypes float32,float64] [--algorithms ABA,RNEA,CRBA]
+                                  [--single] [--sweep 64:0,128:0,256:0,128:128] [--forward-only]
 
-Times the façade calls `forward_dynamics_aba`, `inverse_dynamics` and `free_floating_mass_matrix`
-(one launch each, plus the allocation of their outputs) after a warm-up, as medians. On the CPU the same
-run times MuJoCo's `mj_forward` and `mj_inverse` on the same robot (one call, one environment, all
-constraints off) when mujoco is installed. Prints a Markdown table.
+Times the façade calls `forward_dynamics_aba` (with joint forces), `inverse_dynamics` (with joint
+accelerations) and `free_floating_mass_matrix` on batched data (each call allocates its outputs) after a
+warm-up, as medians, synchronising around every call. --single adds single-environment calls (data with
+num_envs=None, NumPy inputs: the latency of a plain Python call). --sweep times each algorithm at the
+largest N for CUDA settings `block_dim:max_registers` (0: Warp's default / the compiler's choice; see
+warpdyn._dynamics.CUDA_LAUNCH). On the CPU the run also times MuJoCo's `mj_forward` and `mj_inverse` on
+the same robot (one call, one environment, constraints off) and prints batched ABA per environment
+against mj_forward. Prints Markdown tables.
 """
 
 from __future__ import annotations
@@ -55,46 +61,107 @@ def mujoco_yardstick(repeats: int = 2000) -> list[tuple[str, float]]:
     return results
 
 
+CALLS = {
+    "ABA": lambda m, d, u: wd.model.forward_dynamics_aba(m, d, joint_forces=u),
+    "RNEA": lambda m, d, u: wd.model.inverse_dynamics(m, d, joint_accelerations=u),
+    "CRBA": lambda m, d, u: wd.model.free_floating_mass_matrix(m, d),
+}
+KERNEL_NAME = {"ABA": "aba", "RNEA": "rnea", "CRBA": "crba"}
+
+
+def row(name, dtype_name, N, compile_s, seconds, note="") -> str:
+    return (
+        f"| {name}{note} | {dtype_name} | {N} | {compile_s:.2f} | {seconds * 1e3:.4f} | "
+        f"{seconds / N * 1e6:.4f} | {N / seconds:.3g} |"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--device", default=None)
     parser.add_argument("--max-envs", type=int, default=65536)
+    parser.add_argument("--sizes", default=None, help="comma-separated N (default: 1, 16, 256, ... up to --max-envs)")
     parser.add_argument("--dtypes", default="float32,float64")
+    parser.add_argument("--algorithms", default="ABA,RNEA,CRBA")
     parser.add_argument("--repeats", type=int, default=20)
+    parser.add_argument("--single", action="store_true", help="also time single-environment calls")
+    parser.add_argument("--sweep", default="", help="block_dim:max_registers settings to time at the largest N (CUDA)")
+    parser.add_argument("--forward-only", action="store_true", help="compile no adjoints (faster sweeps)")
     args = parser.parse_args()
     init_warp()
+    if args.forward_only:
+        wp.config.enable_backward = False
     device = wp.get_device(args.device)
+    Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else sizes(args.max_envs)
+    algorithms = args.algorithms.split(",")
     print(header(device))
     print()
     print("| algorithm | dtype | N | compile [s] | median per call [ms] | per env [µs] | per second |")
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: |")
+    largest_aba = {}
     for dtype_name in args.dtypes.split(","):
         model = seed_model(np_dtype[dtype_name], device)
-        calls = {
-            "ABA": lambda m, d, tau: wd.model.forward_dynamics_aba(m, d, joint_forces=tau),
-            "RNEA": lambda m, d, tau: wd.model.inverse_dynamics(m, d, joint_accelerations=tau),
-            "CRBA": lambda m, d, tau: wd.model.free_floating_mass_matrix(m, d),
-        }
-        for name, call in calls.items():
-            compile_s = float("nan")
-            for N in sizes(args.max_envs):
-                data = wd.data.random_model_data(model, num_envs=N)
-                tau = wp.array(np.random.default_rng(1).uniform(-1, 1, (N, model.dofs())), dtype=model.scalar, device=device)
+        n = model.dofs()
+        for name in algorithms:
+            call = CALLS[name]
+            first = True
+
+            def first_call(data, u):
+                """Seconds of the first call (compilation included for the algorithm's first call), else nan."""
+                nonlocal first
                 t = time.perf_counter()
-                call(model, data, tau)
+                call(model, data, u)
                 wp.synchronize_device(device)
-                if N == 1:
+                seconds, first = (time.perf_counter() - t if first else float("nan")), False
+                return seconds
+
+            if args.single:
+                data = wd.data.random_model_data(model)
+                u = np.random.default_rng(1).uniform(-1, 1, n)
+                compile_s = first_call(data, u)
+                seconds = median_time(lambda: call(model, data, u), device, max(args.repeats, 200))
+                print(row(name, dtype_name, 1, compile_s, seconds, " (single env, NumPy input)"), flush=True)
+            for N in Ns:
+                data = wd.data.random_model_data(model, num_envs=N)
+                u = wp.array(np.random.default_rng(1).uniform(-1, 1, (N, n)), dtype=model.scalar, device=device)
+                compile_s = first_call(data, u)
+                seconds = median_time(lambda: call(model, data, u), device, args.repeats)
+                print(row(name, dtype_name, N, compile_s, seconds), flush=True)
+                if name == "ABA":
+                    largest_aba[dtype_name] = (N, seconds)
+    if args.sweep and device.is_cuda:
+        from warpdyn import _dynamics
+
+        N = max(Ns)
+        print()
+        print(f"CUDA settings at N = {N} (block_dim:max_registers, 0 = default)")
+        print()
+        print("| algorithm | dtype | setting | compile [s] | median per call [ms] | per second |")
+        print("| --- | --- | --- | ---: | ---: | ---: |")
+        for dtype_name in args.dtypes.split(","):
+            model = seed_model(np_dtype[dtype_name], device)
+            data = wd.data.random_model_data(model, num_envs=N)
+            u = wp.array(np.random.default_rng(1).uniform(-1, 1, (N, model.dofs())), dtype=model.scalar, device=device)
+            for name in algorithms:
+                for setting in args.sweep.split(","):
+                    block_dim, registers = (int(x) or None for x in setting.split(":"))
+                    _dynamics.CUDA_LAUNCH[KERNEL_NAME[name]] = (block_dim, registers)
+                    t = time.perf_counter()
+                    CALLS[name](model, data, u)
+                    wp.synchronize_device(device)
                     compile_s = time.perf_counter() - t
-                seconds = median_time(lambda: call(model, data, tau), device, args.repeats)
-                print(
-                    f"| {name} | {dtype_name} | {N} | {compile_s:.2f} | {seconds * 1e3:.3f} | "
-                    f"{seconds / N * 1e6:.3f} | {N / seconds:.3g} |",
-                    flush=True,
-                )
-                compile_s = float("nan")
+                    seconds = median_time(lambda: CALLS[name](model, data, u), device, args.repeats)
+                    print(f"| {name} | {dtype_name} | {setting} | {compile_s:.2f} | {seconds * 1e3:.4f} | {N / seconds:.3g} |", flush=True)
+                _dynamics.CUDA_LAUNCH.pop(KERNEL_NAME[name], None)
     if not device.is_cuda:
-        for name, seconds in mujoco_yardstick():
-            print(f"| {name} (MuJoCo, C) | float64 | 1 | - | {seconds * 1e3:.4f} | {seconds * 1e6:.3f} | {1 / seconds:.3g} |")
+        yardstick = mujoco_yardstick()
+        for name, seconds in yardstick:
+            print(f"| {name} (MuJoCo, C) | float64 | 1 | - | {seconds * 1e3:.4f} | {seconds * 1e6:.4f} | {1 / seconds:.3g} |")
+        forward = dict(yardstick).get("mj_forward")
+        if forward:
+            print()
+            for dtype_name, (N, seconds) in largest_aba.items():
+                print(f"batched ABA per environment ({dtype_name}, N = {N}) / mj_forward per call: {seconds / N / forward:.2f}")
 
 
 if __name__ == "__main__":

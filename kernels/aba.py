@@ -9,6 +9,9 @@ Featherstone's ABA in link coordinates, gravity entering as a fictitious base ac
 3. a'_0 = -IA_0^-1 pA_0 (floating base) or -a_g (fixed base); from the base:
    a'_i = iX_lambda a'_lambda + c_i,  qdd_i = (u_i - U_i^T a'_i) / d_i,  a'_i += S_i qdd_i.
 The base acceleration d/dt B_v_WB = a'_0 + a_g is written in the requested representation.
+
+What one pass hands to the next is one scalar record per link (kernels/scratch.py: coalesced on GPUs);
+what is cheap to recompute from the joint position (iX_lambda, S_i, c_i) is recomputed instead of stored.
 """
 
 import functools
@@ -17,18 +20,77 @@ import types
 import warp as wp
 
 from .kinematics import kernels as kinematics_kernels
-from .rnea import kernels as rnea_kernels
+from .scratch import SYM66, TRANSFORM, scratch
 from .spatial import MIXED, spatial
+
+# Columns of the ABA's per-link scratch record (N, nL, ABA_RECORD[+ TRANSFORM with link forces]).
+_V = 0  # v_i (6): link velocity, link coordinates
+_UD = 6  # U_i / d_i (6), then u_i / d_i (1)
+_IA = 13  # sum over the sibling chain starting at i of iX*_lambda Ia_i lambdaX_i (21: symmetric)
+_PA = _IA + SYM66  # the same chain's sum of iX*_lambda pa_i (6)
+_A = _PA + 6  # a'_i (6)
+_WHL = _A + 6  # W_H_L (7), only with link forces
+ABA_RECORD = _WHL
+"""Scratch numbers per link without link forces (with them: ABA_RECORD + 7)."""
 
 
 @functools.cache
-def kernels(scalar):
+def inertia_funcs(scalar) -> types.SimpleNamespace:
+    """Spatial-inertia helpers in `scalar`, shared by ABA and CRBA."""
     sp = spatial(scalar)
-    base_pose = kinematics_kernels(scalar).base_pose
-    row6 = rnea_kernels(scalar).row6
-    link_force = rnea_kernels(scalar).link_force
+    sc = scratch(scalar)
 
-    @wp.kernel(module="unique")
+    @wp.func
+    def inertia_to(X: sp.transform, I: sp.mat66):
+        """A_X*_B I B_X_A: a symmetric spatial inertia from B to A coordinates, X = A_H_B = (p, R), by 3x3 blocks.
+
+        I = [[K, H], [H^T, L]] goes to [[K', H' - K' p^], [., L' + p^ H' - H'^T p^ - p^ K' p^]] with
+        K' = R K R^T, H' = R H R^T, L' = R L R^T (about 250 operations instead of two 6x6 products).
+        """
+        R = wp.quat_to_matrix(wp.transform_get_rotation(X))
+        P = wp.skew(wp.transform_get_translation(X))
+        K = sp.mat33(I[0, 0], I[0, 1], I[0, 2], I[1, 0], I[1, 1], I[1, 2], I[2, 0], I[2, 1], I[2, 2])
+        H = sp.mat33(I[0, 3], I[0, 4], I[0, 5], I[1, 3], I[1, 4], I[1, 5], I[2, 3], I[2, 4], I[2, 5])
+        L = sp.mat33(I[3, 3], I[3, 4], I[3, 5], I[4, 3], I[4, 4], I[4, 5], I[5, 3], I[5, 4], I[5, 5])
+        Rt = wp.transpose(R)
+        K1 = R * K * Rt
+        H1 = R * H * Rt
+        KP = K1 * P
+        PH = P * H1
+        H2 = H1 - KP
+        L2 = R * L * Rt + PH + wp.transpose(PH) - P * KP
+        return sp.mat66(
+            K1[0, 0], K1[0, 1], K1[0, 2], H2[0, 0], H2[0, 1], H2[0, 2],
+            K1[1, 0], K1[1, 1], K1[1, 2], H2[1, 0], H2[1, 1], H2[1, 2],
+            K1[2, 0], K1[2, 1], K1[2, 2], H2[2, 0], H2[2, 1], H2[2, 2],
+            H2[0, 0], H2[1, 0], H2[2, 0], L2[0, 0], L2[0, 1], L2[0, 2],
+            H2[0, 1], H2[1, 1], H2[2, 1], L2[1, 0], L2[1, 1], L2[1, 2],
+            H2[0, 2], H2[1, 2], H2[2, 2], L2[2, 0], L2[2, 1], L2[2, 2],
+        )  # fmt: skip
+
+    @wp.func
+    def external_force(
+        W_f_L: wp.array3d(dtype=scalar), repr: int, W_H_L: wp.array3d(dtype=scalar), col: int, env: int, i: int
+    ):
+        """The external force on link i in its own coordinates, from W_f_L (N, nL, 6) in representation `repr`
+        and the link pose stored at W_H_L[env, i, col:col + 7]."""
+        X = sc.get_transform(W_H_L, env, i, col)
+        f = sc.get6(W_f_L, env, i, 0)
+        return sp.force_from(X, sp.force_repr_to_inertial(repr, X, f))
+
+    return types.SimpleNamespace(inertia_to=inertia_to, external_force=external_force)
+
+
+@functools.cache
+def kernels(scalar, max_registers: int | None = None):
+    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's choice)."""
+    sp = spatial(scalar)
+    sc = scratch(scalar)
+    base_pose = kinematics_kernels(scalar).base_pose
+    inertia_to = inertia_funcs(scalar).inertia_to
+    external_force = inertia_funcs(scalar).external_force
+
+    @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def aba(
         # model
         parent: wp.array(dtype=int),
@@ -49,89 +111,94 @@ def kernels(scalar):
         joint_positions: wp.array2d(dtype=scalar),
         base_velocity: wp.array2d(dtype=scalar),
         joint_velocities: wp.array2d(dtype=scalar),
-        # inputs
+        # inputs (a null array means zero)
         joint_forces: wp.array2d(dtype=scalar),
-        W_f_L: wp.array3d(dtype=scalar),
+        f_L: wp.array3d(dtype=scalar),
         repr: int,
         # scratch
-        X_up: wp.array2d(dtype=sp.transform),
-        W_H_L: wp.array2d(dtype=sp.transform),
-        v: wp.array2d(dtype=sp.vec6),
-        c: wp.array2d(dtype=sp.vec6),
-        U: wp.array2d(dtype=sp.vec6),
-        d: wp.array2d(dtype=scalar),
-        u: wp.array2d(dtype=scalar),
-        acc_I: wp.array2d(dtype=sp.mat66),
-        acc_p: wp.array2d(dtype=sp.vec6),
-        a: wp.array2d(dtype=sp.vec6),
+        s: wp.array3d(dtype=scalar),
         # outputs
-        nu_dot: wp.array2d(dtype=scalar),
+        base_acceleration: wp.array2d(dtype=scalar),
+        joint_accelerations: wp.array2d(dtype=scalar),
     ):
-        """nu_dot (N, 6 + n): the base acceleration in `repr` (zero for a fixed base), then qdd.
+        """base_acceleration (N, 6): d/dt of the base velocity in `repr` (zero for a fixed base); joint_accelerations (N, n).
 
-        joint_forces (N, n); W_f_L (N, nL, 6): external link forces, Inertial.
+        joint_forces (N, n); f_L (N, nL, 6): external link forces in `repr` (null: none).
+        s (N, nL, ABA_RECORD, + 7 with link forces): scratch, columns named at the top of this file.
         """
         env = wp.tid()
         nL = parent.shape[0]
+        forces = f_L.shape[0] > 0
         W_H_B = base_pose(base_position, base_quaternion, env)
-        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, row6(base_velocity, env, 0)))
+        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, sc.row6(base_velocity, env, 0)))
         B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
-        X_up[env, 0] = W_H_B
-        W_H_L[env, 0] = W_H_B
-        v[env, 0] = B_v
+        sc.put6(s, env, 0, _V, B_v)
+        if forces:
+            sc.put_transform(s, env, 0, _WHL, W_H_B)
+        # 1. velocities, from the base
         for i in range(1, nL):
             X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
             vJ = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i]) * joint_velocities[env, i - 1]
-            v_i = sp.motion_from(X, v[env, parent[i]]) + vJ
-            X_up[env, i] = X
-            W_H_L[env, i] = W_H_L[env, parent[i]] * X
-            v[env, i] = v_i
-            c[env, i] = sp.cross_motion(v_i, vJ)
+            sc.put6(s, env, i, _V, sp.motion_from(X, sc.get6(s, env, parent[i], _V)) + vJ)
+            if forces:
+                sc.put_transform(s, env, i, _WHL, sc.get_transform(s, env, parent[i], _WHL) * X)
+        # 2. articulated inertias and bias forces, from the leaves
         for k in range(nL - 1):
             i = nL - 1 - k
+            X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
+            S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
+            v_i = sc.get6(s, env, i, _V)
+            c_i = sp.cross_motion(v_i, S * joint_velocities[env, i - 1])
             I = sp.spatial_inertia(link_mass[i], link_com[i], link_inertia[i])
             IA = I
-            pA = sp.cross_force(v[env, i], I * v[env, i]) - sp.force_from(W_H_L[env, i], link_force(W_f_L, env, i))
+            pA = sp.cross_force(v_i, I * v_i)
+            if forces:
+                pA = pA - external_force(f_L, repr, s, _WHL, env, i)
             if first_child[i] >= 0:
-                IA = IA + acc_I[env, first_child[i]]
-                pA = pA + acc_p[env, first_child[i]]
-            S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
+                IA = IA + sc.get_sym66(s, env, first_child[i], _IA)
+                pA = pA + sc.get6(s, env, first_child[i], _PA)
             U_i = IA * S
-            d_i = wp.dot(S, U_i)
-            u_i = joint_forces[env, i - 1] - wp.dot(S, pA)
-            U[env, i] = U_i
-            d[env, i] = d_i
-            u[env, i] = u_i
-            Ia = IA - wp.outer(U_i, U_i) / d_i
-            pa = pA + Ia * c[env, i] + U_i * (u_i / d_i)
-            Xm = sp.motion_matrix_from(X_up[env, i])
-            chain_I = wp.transpose(Xm) * Ia * Xm
-            chain_p = wp.transpose(Xm) * pa
+            d_inv = scalar(1.0) / wp.dot(S, U_i)
+            u_i = -wp.dot(S, pA)
+            if joint_forces.shape[0] > 0:
+                u_i = u_i + joint_forces[env, i - 1]
+            sc.put6(s, env, i, _UD, U_i * d_inv)
+            s[env, i, _UD + 6] = u_i * d_inv
+            Ia = IA - wp.outer(U_i, U_i) * d_inv
+            pa = pA + Ia * c_i + U_i * (u_i * d_inv)
+            chain_I = inertia_to(X, Ia)
+            chain_p = sp.force_to(X, pa)
             if next_sibling[i] >= 0:
-                chain_I = chain_I + acc_I[env, next_sibling[i]]
-                chain_p = chain_p + acc_p[env, next_sibling[i]]
-            acc_I[env, i] = chain_I
-            acc_p[env, i] = chain_p
+                chain_I = chain_I + sc.get_sym66(s, env, next_sibling[i], _IA)
+                chain_p = chain_p + sc.get6(s, env, next_sibling[i], _PA)
+            sc.put_sym66(s, env, i, _IA, chain_I)
+            sc.put6(s, env, i, _PA, chain_p)
+        # 3. accelerations, from the base
         a0 = -B_a_g
         if floating_base != 0:
             I0 = sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0])
             IA0 = I0
-            pA0 = sp.cross_force(B_v, I0 * B_v) - sp.force_from(W_H_B, link_force(W_f_L, env, 0))
+            pA0 = sp.cross_force(B_v, I0 * B_v)
+            if forces:
+                pA0 = pA0 - external_force(f_L, repr, s, _WHL, env, 0)
             if first_child[0] >= 0:
-                IA0 = IA0 + acc_I[env, first_child[0]]
-                pA0 = pA0 + acc_p[env, first_child[0]]
+                IA0 = IA0 + sc.get_sym66(s, env, first_child[0], _IA)
+                pA0 = pA0 + sc.get6(s, env, first_child[0], _PA)
             a0 = -sp.solve_spd6(IA0, pA0)
-        a[env, 0] = a0
+        sc.put6(s, env, 0, _A, a0)
         for i in range(1, nL):
+            X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
             S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
-            a_i = sp.motion_from(X_up[env, i], a[env, parent[i]]) + c[env, i]
-            qdd = (u[env, i] - wp.dot(U[env, i], a_i)) / d[env, i]
-            a[env, i] = a_i + S * qdd
-            nu_dot[env, 5 + i] = qdd
+            c_i = sp.cross_motion(sc.get6(s, env, i, _V), S * joint_velocities[env, i - 1])
+            a_i = sp.motion_from(X, sc.get6(s, env, parent[i], _A)) + c_i
+            qdd = s[env, i, _UD + 6] - wp.dot(sc.get6(s, env, i, _UD), a_i)
+            if first_child[i] >= 0:
+                sc.put6(s, env, i, _A, a_i + S * qdd)
+            joint_accelerations[env, i - 1] = qdd
         base = sp.vec6(scalar(0.0))
         if floating_base != 0:
             base = sp.base_acceleration_from_body(repr, W_H_B, B_v, a0 + B_a_g)
         for r in range(6):
-            nu_dot[env, r] = base[r]
+            base_acceleration[env, r] = base[r]
 
     return types.SimpleNamespace(aba=aba)

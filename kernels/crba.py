@@ -5,8 +5,11 @@ every entry is one dot product (no quantity carried along a loop: tape-safe):
     B_Ic_i = B_I_i + sum_children B_Ic_c   (a sibling chain, each element written once),
     F_i = B_Ic_i B_S_i,   M_ij = B_S_j . F_i for j an ancestor of i (or i itself),
     M_bb = B_Ic_0,   M_bi = F_i.
+A sum of rigid-body inertias in one frame is a rigid-body inertia: B_Ic is kept as its mass m, first
+moment h = m c and rotational inertia about the base origin I_O (10 numbers, not a 6x6 matrix).
 The body-base matrix M_B is then written in the requested representation, M = T^T M_B T, with
 T = blockdiag(T_base, 1) the map from the generalized velocity in that representation to the body one.
+Scratch is one scalar record per link (kernels/scratch.py).
 """
 
 import functools
@@ -14,16 +17,41 @@ import types
 
 import warp as wp
 
+from .aba import inertia_funcs
 from .kinematics import kernels as kinematics_kernels
-from .spatial import spatial
+from .scratch import scratch
+from .spatial import BODY, INERTIAL, spatial
+
+# Columns of the CRBA's per-link scratch record (N, nL, CRBA_RECORD).
+_BH = 0  # B_H_L (7): link pose in the base
+_BS = 7  # B_S_i (6): the joint's motion subspace, base coordinates
+_F = 13  # F_i (6)
+_IC = 19  # the sibling chain's composite inertia: m (1), h (3), I_O (6: xx, xy, xz, yy, yz, zz)
+CRBA_RECORD = _IC + 10
+"""Scratch numbers per link."""
 
 
 @functools.cache
-def kernels(scalar):
+def kernels(scalar, max_registers: int | None = None):
+    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's choice)."""
     sp = spatial(scalar)
+    sc = scratch(scalar)
     base_pose = kinematics_kernels(scalar).base_pose
+    inertia_to = inertia_funcs(scalar).inertia_to
 
-    @wp.kernel(module="unique")
+    @wp.func
+    def get_I_O(s: wp.array3d(dtype=scalar), env: int, i: int):
+        """The symmetric I_O of link i's record."""
+        xy = s[env, i, _IC + 5]
+        xz = s[env, i, _IC + 6]
+        yz = s[env, i, _IC + 8]
+        return sp.mat33(s[env, i, _IC + 4], xy, xz, xy, s[env, i, _IC + 7], yz, xz, yz, s[env, i, _IC + 9])
+
+    @wp.func
+    def get_h(s: wp.array3d(dtype=scalar), env: int, i: int):
+        return sp.vec3(s[env, i, _IC + 1], s[env, i, _IC + 2], s[env, i, _IC + 3])
+
+    @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def crba(
         # model
         parent: wp.array(dtype=int),
@@ -43,56 +71,95 @@ def kernels(scalar):
         joint_positions: wp.array2d(dtype=scalar),
         repr: int,
         # scratch
-        B_H_L: wp.array2d(dtype=sp.transform),
-        B_S: wp.array2d(dtype=sp.vec6),
-        acc: wp.array2d(dtype=sp.mat66),
-        F: wp.array2d(dtype=sp.vec6),
+        s: wp.array3d(dtype=scalar),
         # outputs
         M: wp.array3d(dtype=scalar),
     ):
-        """M (N, 6 + n, 6 + n): the mass matrix for the generalized velocity in `repr`."""
+        """M (N, 6 + n, 6 + n): the mass matrix for the generalized velocity in `repr`.
+
+        s (N, nL, CRBA_RECORD): scratch, columns named at the top of this file.
+        """
         env = wp.tid()
         nL = parent.shape[0]
         n = nL - 1
-        B_H_L[env, 0] = sp.transform(sp.vec3(scalar(0.0)), sp.quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0)))
-        B_S[env, 0] = sp.vec6(scalar(0.0))
+        sc.put_transform(s, env, 0, _BH, sp.transform(sp.vec3(scalar(0.0)), sp.quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0))))
+        # link poses and motion subspaces in the base, from the base
         for i in range(1, nL):
             X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
-            B_H_i = B_H_L[env, parent[i]] * X
-            B_H_L[env, i] = B_H_i
-            B_S[env, i] = sp.motion_to(B_H_i, sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i]))
+            B_H_i = sc.get_transform(s, env, parent[i], _BH) * X
+            sc.put_transform(s, env, i, _BH, B_H_i)
+            sc.put6(s, env, i, _BS, sp.motion_to(B_H_i, sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])))
+        # composite inertias and F_i, from the leaves
         for k in range(n):
             i = nL - 1 - k
-            iX_B = sp.motion_matrix_from(B_H_L[env, i])
-            Ic = wp.transpose(iX_B) * sp.spatial_inertia(link_mass[i], link_com[i], link_inertia[i]) * iX_B
+            B_H_i = sc.get_transform(s, env, i, _BH)
+            R = wp.quat_to_matrix(wp.transform_get_rotation(B_H_i))
+            m = link_mass[i]
+            com = wp.transform_point(B_H_i, link_com[i])
+            h = m * com
+            I_O = R * link_inertia[i] * wp.transpose(R) + m * (wp.dot(com, com) * wp.identity(n=3, dtype=scalar) - wp.outer(com, com))
             if first_child[i] >= 0:
-                Ic = Ic + acc[env, first_child[i]]
-            F[env, i] = Ic * B_S[env, i]
-            chain = Ic
+                m = m + s[env, first_child[i], _IC]
+                h = h + get_h(s, env, first_child[i])
+                I_O = I_O + get_I_O(s, env, first_child[i])
+            S = sc.get6(s, env, i, _BS)
+            sc.put6(s, env, i, _F, sp.stack(m * sp.lin(S) - wp.cross(h, sp.ang(S)), wp.cross(h, sp.lin(S)) + I_O * sp.ang(S)))
             if next_sibling[i] >= 0:
-                chain = chain + acc[env, next_sibling[i]]
-            acc[env, i] = chain
+                m = m + s[env, next_sibling[i], _IC]
+                h = h + get_h(s, env, next_sibling[i])
+                I_O = I_O + get_I_O(s, env, next_sibling[i])
+            s[env, i, _IC] = m
+            s[env, i, _IC + 1] = h[0]
+            s[env, i, _IC + 2] = h[1]
+            s[env, i, _IC + 3] = h[2]
+            s[env, i, _IC + 4] = I_O[0, 0]
+            s[env, i, _IC + 5] = I_O[0, 1]
+            s[env, i, _IC + 6] = I_O[0, 2]
+            s[env, i, _IC + 7] = I_O[1, 1]
+            s[env, i, _IC + 8] = I_O[1, 2]
+            s[env, i, _IC + 9] = I_O[2, 2]
+        # base block and base-joint columns
         Ic0 = sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0])
         if first_child[0] >= 0:
-            Ic0 = Ic0 + acc[env, first_child[0]]
-        T = sp.base_T(repr, base_pose(base_position, base_quaternion, env))
-        Tt = wp.transpose(T)
-        Mbb = Tt * Ic0 * T
+            fc = first_child[0]
+            hc = wp.skew(get_h(s, env, fc))
+            I_Oc = get_I_O(s, env, fc)
+            mc = s[env, fc, _IC]
+            zero = scalar(0.0)
+            Ic0 = Ic0 + sp.mat66(
+                mc, zero, zero, -hc[0, 0], -hc[0, 1], -hc[0, 2],
+                zero, mc, zero, -hc[1, 0], -hc[1, 1], -hc[1, 2],
+                zero, zero, mc, -hc[2, 0], -hc[2, 1], -hc[2, 2],
+                hc[0, 0], hc[0, 1], hc[0, 2], I_Oc[0, 0], I_Oc[0, 1], I_Oc[0, 2],
+                hc[1, 0], hc[1, 1], hc[1, 2], I_Oc[1, 0], I_Oc[1, 1], I_Oc[1, 2],
+                hc[2, 0], hc[2, 1], hc[2, 2], I_Oc[2, 0], I_Oc[2, 1], I_Oc[2, 2],
+            )  # fmt: skip
+        W_H_B = base_pose(base_position, base_quaternion, env)
+        Mbb = Ic0
+        if repr != BODY:
+            # T^T Ic0 T with T = B_X_W (Inertial) or B_X_B[W] (Mixed): Ic0 from base to world(-aligned) coordinates
+            frame = W_H_B
+            if repr != INERTIAL:
+                frame = sp.orientation_only(W_H_B)
+            Mbb = inertia_to(frame, Ic0)
         for r in range(6):
             for c in range(6):
                 M[env, r, c] = Mbb[r, c]
         for k in range(n):
-            col = Tt * F[env, k + 1]
+            col = sp.base_force_from_body(repr, W_H_B, sc.get6(s, env, k + 1, _F))
             for r in range(6):
                 M[env, r, 6 + k] = col[r]
                 M[env, 6 + k, r] = col[r]
+        # joint block: M_kj = B_S_j . F_k for j an ancestor of k (or k), mirrored; zero between branches
         for k in range(n):
+            F_k = sc.get6(s, env, k + 1, _F)
             for j in range(n):
-                value = scalar(0.0)
                 if support[k + 1, j] != 0:
-                    value = wp.dot(B_S[env, j + 1], F[env, k + 1])
-                elif support[j + 1, k] != 0:
-                    value = wp.dot(B_S[env, k + 1], F[env, j + 1])
-                M[env, 6 + k, 6 + j] = value
+                    value = wp.dot(sc.get6(s, env, j + 1, _BS), F_k)
+                    M[env, 6 + k, 6 + j] = value
+                    if j != k:
+                        M[env, 6 + j, 6 + k] = value
+                elif support[j + 1, k] == 0:
+                    M[env, 6 + k, 6 + j] = scalar(0.0)
 
     return types.SimpleNamespace(crba=crba)

@@ -6,6 +6,7 @@ Featherstone's RNEA in link coordinates, gravity entering as a fictitious base a
 The sum over children is a sibling chain, so that every element is written once (tape-safe):
     acc_c = lambdaX*_c f_c + acc_{next sibling of c},   and a link adds acc_{first child}.
 The base acceleration and the base wrench are converted from and to the requested representation.
+Scratch is one scalar record per link (kernels/scratch.py); iX_lambda is recomputed, not stored.
 """
 
 import functools
@@ -13,24 +14,34 @@ import types
 
 import warp as wp
 
+from .aba import inertia_funcs
 from .kinematics import kernels as kinematics_kernels
+from .scratch import TRANSFORM, scratch
 from .spatial import MIXED, spatial
+
+# Columns of the RNEA's per-link scratch record (N, nL, RNEA_RECORD[+ TRANSFORM with link forces]).
+_V = 0  # v_i (6)
+_A = 6  # a_i (6)
+_ACC = 12  # the sibling chain's sum of lambdaX*_c f_c (6)
+_WHL = 18  # W_H_L (7), only with link forces
+RNEA_RECORD = _WHL
+"""Scratch numbers per link without link forces (with them: RNEA_RECORD + 7)."""
 
 
 @functools.cache
-def kernels(scalar):
+def kernels(scalar, max_registers: int | None = None):
+    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's choice)."""
     sp = spatial(scalar)
+    sc = scratch(scalar)
     base_pose = kinematics_kernels(scalar).base_pose
-
-    @wp.func
-    def row6(a: wp.array2d(dtype=scalar), env: int, offset: int):
-        return sp.vec6(a[env, offset], a[env, offset + 1], a[env, offset + 2], a[env, offset + 3], a[env, offset + 4], a[env, offset + 5])
+    external_force = inertia_funcs(scalar).external_force
 
     @wp.func
     def link_force(W_f_L: wp.array3d(dtype=scalar), env: int, i: int):
-        return sp.vec6(W_f_L[env, i, 0], W_f_L[env, i, 1], W_f_L[env, i, 2], W_f_L[env, i, 3], W_f_L[env, i, 4], W_f_L[env, i, 5])
+        """The vec6 W_f_L[env, i, :]."""
+        return sc.get6(W_f_L, env, i, 0)
 
-    @wp.kernel(module="unique")
+    @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def rnea(
         # model
         parent: wp.array(dtype=int),
@@ -50,63 +61,77 @@ def kernels(scalar):
         joint_positions: wp.array2d(dtype=scalar),
         base_velocity: wp.array2d(dtype=scalar),
         joint_velocities: wp.array2d(dtype=scalar),
-        # inputs
+        # inputs (a null array means zero)
         base_acceleration: wp.array2d(dtype=scalar),
         joint_accelerations: wp.array2d(dtype=scalar),
-        W_f_L: wp.array3d(dtype=scalar),
+        f_L: wp.array3d(dtype=scalar),
         repr: int,
         with_velocity: scalar,
         # scratch
-        X_up: wp.array2d(dtype=sp.transform),
-        W_H_L: wp.array2d(dtype=sp.transform),
-        v: wp.array2d(dtype=sp.vec6),
-        a: wp.array2d(dtype=sp.vec6),
-        f: wp.array2d(dtype=sp.vec6),
-        acc: wp.array2d(dtype=sp.vec6),
+        s: wp.array3d(dtype=scalar),
         # outputs
-        Q: wp.array2d(dtype=scalar),
+        f_B: wp.array2d(dtype=scalar),
+        tau: wp.array2d(dtype=scalar),
     ):
-        """Q (N, 6 + n) = [f_B; tau]: the generalized forces that produce the given accelerations.
+        """f_B (N, 6), tau (N, n): the generalized forces that produce the given accelerations.
 
         base_acceleration (N, 6): the derivative of the base velocity in `repr`; joint_accelerations (N, n);
-        W_f_L (N, nL, 6): external link forces, Inertial. with_velocity scales the velocities (0 or 1).
+        f_L (N, nL, 6): external link forces in `repr`. with_velocity scales the velocities (0 or 1).
         f_B is the base wrench as the generalized force dual to the base velocity in `repr`.
+        s (N, nL, RNEA_RECORD, + 7 with link forces): scratch, columns named at the top of this file.
         """
         env = wp.tid()
-        W_H_B = base_pose(base_position, base_quaternion, env)
-        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, row6(base_velocity, env, 0) * with_velocity))
-        B_a = sp.base_acceleration_to_body(repr, W_H_B, B_v, row6(base_acceleration, env, 0))
-        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
-        X_up[env, 0] = W_H_B
-        W_H_L[env, 0] = W_H_B
-        v[env, 0] = B_v
-        a[env, 0] = B_a - B_a_g
         nL = parent.shape[0]
+        forces = f_L.shape[0] > 0
+        W_H_B = base_pose(base_position, base_quaternion, env)
+        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, sc.row6(base_velocity, env, 0) * with_velocity))
+        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
+        a_in = sp.vec6(scalar(0.0))
+        if base_acceleration.shape[0] > 0:
+            a_in = sc.row6(base_acceleration, env, 0)
+        B_a = sp.base_acceleration_to_body(repr, W_H_B, B_v, a_in) - B_a_g
+        sc.put6(s, env, 0, _V, B_v)
+        sc.put6(s, env, 0, _A, B_a)
+        if forces:
+            sc.put_transform(s, env, 0, _WHL, W_H_B)
+        # velocities and accelerations, from the base
         for i in range(1, nL):
             X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
             S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
             vJ = S * (joint_velocities[env, i - 1] * with_velocity)
-            v_i = sp.motion_from(X, v[env, parent[i]]) + vJ
-            X_up[env, i] = X
-            W_H_L[env, i] = W_H_L[env, parent[i]] * X
-            v[env, i] = v_i
-            a[env, i] = sp.motion_from(X, a[env, parent[i]]) + S * joint_accelerations[env, i - 1] + sp.cross_motion(v_i, vJ)
-        for k in range(nL):
+            v_i = sp.motion_from(X, sc.get6(s, env, parent[i], _V)) + vJ
+            a_i = sp.motion_from(X, sc.get6(s, env, parent[i], _A)) + sp.cross_motion(v_i, vJ)
+            if joint_accelerations.shape[0] > 0:
+                a_i = a_i + S * joint_accelerations[env, i - 1]
+            sc.put6(s, env, i, _V, v_i)
+            sc.put6(s, env, i, _A, a_i)
+            if forces:
+                sc.put_transform(s, env, i, _WHL, sc.get_transform(s, env, parent[i], _WHL) * X)
+        # forces, from the leaves
+        for k in range(nL - 1):
             i = nL - 1 - k
+            X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
+            S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
             I = sp.spatial_inertia(link_mass[i], link_com[i], link_inertia[i])
-            f_i = I * a[env, i] + sp.cross_force(v[env, i], I * v[env, i]) - sp.force_from(W_H_L[env, i], link_force(W_f_L, env, i))
+            v_i = sc.get6(s, env, i, _V)
+            f_i = I * sc.get6(s, env, i, _A) + sp.cross_force(v_i, I * v_i)
+            if forces:
+                f_i = f_i - external_force(f_L, repr, s, _WHL, env, i)
             if first_child[i] >= 0:
-                f_i = f_i + acc[env, first_child[i]]
-            f[env, i] = f_i
-            if i > 0:
-                S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
-                Q[env, 5 + i] = wp.dot(S, f_i)
-                up = sp.force_to(X_up[env, i], f_i)
-                if next_sibling[i] >= 0:
-                    up = up + acc[env, next_sibling[i]]
-                acc[env, i] = up
-        f_B = sp.base_force_from_body(repr, W_H_B, f[env, 0])
+                f_i = f_i + sc.get6(s, env, first_child[i], _ACC)
+            tau[env, i - 1] = wp.dot(S, f_i)
+            up = sp.force_to(X, f_i)
+            if next_sibling[i] >= 0:
+                up = up + sc.get6(s, env, next_sibling[i], _ACC)
+            sc.put6(s, env, i, _ACC, up)
+        I0 = sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0])
+        f_0 = I0 * B_a + sp.cross_force(B_v, I0 * B_v)
+        if forces:
+            f_0 = f_0 - external_force(f_L, repr, s, _WHL, env, 0)
+        if first_child[0] >= 0:
+            f_0 = f_0 + sc.get6(s, env, first_child[0], _ACC)
+        base = sp.base_force_from_body(repr, W_H_B, f_0)
         for r in range(6):
-            Q[env, r] = f_B[r]
+            f_B[env, r] = base[r]
 
-    return types.SimpleNamespace(rnea=rnea, row6=row6, link_force=link_force)
+    return types.SimpleNamespace(rnea=rnea, row6=sc.row6, link_force=link_force)

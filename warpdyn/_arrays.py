@@ -15,6 +15,11 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+try:  # Warp's array descriptor: what a launch receives for an array argument
+    from warp._src.types import array_t as _array_t
+except ImportError:  # pragma: no cover - other Warp versions: launch_view builds array objects instead
+    _array_t = None
+
 ENV_FASTEST: bool | None = None
 """Physical layout of per-environment arrays: None chooses by device (see the module docstring)."""
 
@@ -144,3 +149,42 @@ def zeros(shape: tuple, num_envs: int, dtype, device) -> wp.array:
     array = empty(shape, num_envs, dtype, device)
     array.zero_()
     return array
+
+
+def launch_view(array: wp.array, shape: tuple, strides: tuple, offset: int = 0):
+    """A launch argument that shows `array`'s memory from `offset` bytes with `shape` and byte `strides`.
+
+    Cheaper than a view object (a Warp array descriptor, ~1 µs against ~8 µs for `array[...]` on a slow
+    CPU), for the launches of `warpdyn._dynamics` that no wp.Tape records: the descriptor carries no
+    gradient and does not keep `array` alive, so the caller keeps it.
+    """
+    ptr = (array.ptr or 0) + offset
+    if _array_t is None:
+        return wp.array(ptr=ptr, shape=shape, strides=strides, dtype=array.dtype, device=array.device)
+    return _array_t(ptr, 0, len(shape), shape, strides)
+
+
+def with_env_axis(array: wp.array):
+    """A launch argument showing a single environment's contiguous `array` (shape S) as (1, *S) (see launch_view)."""
+    return launch_view(array, (1, *array.shape), (array.capacity or 0, *array.strides))
+
+
+def host_input(value, name: str, per_env: tuple, num_envs: int | None, np_dtype) -> np.ndarray:
+    """A user's NumPy-like input as a (N, *per_env) NumPy array of `np_dtype`, checked, for a CPU launch.
+
+    Warp's CPU launches read NumPy arrays in place, so this skips the device array and its copy; a value
+    shared by all environments is broadcast with a zero stride. Raises as `batched_input` does.
+    """
+    N = 1 if num_envs is None else num_envs
+    try:
+        host = np.asarray(value, dtype=np_dtype)
+    except (TypeError, ValueError) as error:
+        raise TypeError(f"{name} must be an array of numbers: {error}") from None
+    if host.shape != per_env and (num_envs is None or host.shape != (N, *per_env)):
+        accepted = [tuple(per_env)] + ([(N, *per_env)] if num_envs is not None else [])
+        raise ValueError(f"{name} has shape {host.shape}, expected one of {accepted}")
+    if not np.isfinite(host).all():
+        raise ValueError(f"{name} has non-finite values")
+    if host.shape == per_env:
+        host = host.reshape((1, *per_env)) if N == 1 else np.broadcast_to(host, (N, *per_env))
+    return host

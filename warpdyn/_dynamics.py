@@ -3,106 +3,211 @@
     M(q) nu_dot + h(q, nu) = B tau + sum_L J_L^T f_L,      h = C(q, nu) nu + g(q),
 
 with nu, nu_dot, the base part of every generalized force, and the link forces f_L all in the data's
-velocity representation (JaxSim's convention). Each function is one kernel launch (plus the conversion
-of link forces from the data's representation when they are given), re-exported by `warpdyn.model`.
+velocity representation (JaxSim's convention). Each function is one kernel launch (the kernels convert
+link forces from the data's representation themselves), re-exported by `warpdyn.model`.
+
+Cost of a call. Outside a `wp.Tape`, each kernel keeps per model a scratch array and a recorded launch
+(`wp.launch(record_cmd=True)`) for the last batch size it ran: a call then packs only the arguments that
+changed since the last one (the outputs, the inputs), allocates only its outputs, and on the CPU passes
+NumPy inputs to the kernel in place. Calls are ordered on the device's stream, so consecutive calls may
+share scratch; each CUDA stream gets its own. Under a tape every call gets fresh scratch (with gradients
+when the data or an input requires them), since the adjoint reads it later. Outputs are always fresh
+arrays that the caller owns. Absent inputs (no joint forces, no link forces, zero accelerations) reach
+the kernels as null arrays, which skip that work.
 """
 
 from __future__ import annotations
 
+import weakref
+
+import numpy as np
 import warp as wp
 
 from . import _arrays
-from .common import VelRepr
+from .common import VelRepr  # noqa: F401  (re-exported names keep their docs)
+from .kernels.aba import ABA_RECORD
 from .kernels.aba import kernels as aba_kernels
 from .kernels.cholesky import kernels as cholesky_kernels
+from .kernels.crba import CRBA_RECORD
 from .kernels.crba import kernels as crba_kernels
-from .kernels.forces import kernels as force_kernels
+from .kernels.rnea import RNEA_RECORD
 from .kernels.rnea import kernels as rnea_kernels
+from .kernels.scratch import TRANSFORM
 from .kernels.state import kernels as state_kernels
 
+try:  # where wp.Tape registers itself while it records
+    from warp._src import context as _wp_context
+except ImportError:  # pragma: no cover - other Warp versions: always take the recorded-safe path
+    _wp_context = None
 
-def _scratch(model, data, dtype, per_env=None):
-    shape = (model.number_of_links(),) if per_env is None else per_env
-    return _arrays.empty(shape, data.batch_size, dtype, model.device, data.requires_grad)
+CUDA_LAUNCH: dict[str, tuple[int | None, int | None]] = {}
+"""CUDA settings by kernel name ("aba", "rnea", "crba"): (threads per block, register cap per thread);
+missing or None: Warp's default (256) and the compiler's choice. benchmarks/dynamics.py --sweep measures them."""
+
+_KERNELS = {
+    "aba": lambda scalar, registers: aba_kernels(scalar, registers).aba,
+    "rnea": lambda scalar, registers: rnea_kernels(scalar, registers).rnea,
+    "crba": lambda scalar, registers: crba_kernels(scalar, registers).crba,
+}
+
+_SCRATCH = object()
+"""The scratch argument's place in a kernel's argument list."""
+
+_recorded: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""model -> {(kernel name, scratch width, stream): _Recorded}."""
 
 
-def _types(model):
-    s = model.scalar
-    return wp.types.transformation(s), wp.types.vector(6, s), wp.types.matrix((6, 6), s)
+class _Recorded:
+    """A kernel's recorded launch for one batch size, the scratch it owns and the arguments it holds."""
+
+    __slots__ = ("N", "block_dim", "launch", "bound")
+
+    def __init__(self, N, block_dim, launch, bound):
+        self.N, self.block_dim, self.launch, self.bound = N, block_dim, launch, bound
 
 
-def link_forces_inertial(model, data, link_forces) -> wp.array:
-    """W_f_L (N, nL, 6): `link_forces` ((nL, 6) or (N, nL, 6), in the data's representation) made Inertial."""
+def _taping() -> bool:
+    """Whether a wp.Tape is recording (True when this Warp version does not say)."""
+    return _wp_context is None or getattr(_wp_context.runtime, "tape", True) is not None
+
+
+def _launch(model, name: str, N: int, width: int, args: list, grad: bool) -> None:
+    """Launch the kernel `name` over N environments with `args`, the scratch (N, nL, width) at _SCRATCH's place.
+
+    Under a tape: fresh scratch (with gradients when `grad`) and a plain launch. Otherwise the model's
+    recorded launch for this kernel, re-packing only the arguments that are not the ones it holds.
+    """
+    device = model.device
+    block_dim, registers = CUDA_LAUNCH.get(name, (None, None)) if device.is_cuda else (None, None)
+    kernel = _KERNELS[name](model.scalar, registers)
     nL = model.number_of_links()
-    if link_forces is None:
-        return _arrays.zeros((nL, 6), data.batch_size, model.scalar, model.device)
-    forces = _arrays.batched_input(link_forces, "link_forces", (nL, 6), data.num_envs, model.scalar, model.device)
-    if data.velocity_representation == VelRepr.Inertial:
-        return forces
-    from .model import link_poses
+    if _taping():
+        scratch = _arrays.empty((nL, width), N, model.scalar, device, grad)
+        inputs = [scratch if a is _SCRATCH else a for a in args]
+        wp.launch(kernel, dim=N, inputs=inputs, device=device, block_dim=block_dim)
+        return
+    cache = _recorded.get(model)
+    if cache is None:
+        cache = _recorded[model] = {}
+    key = (name, width, device.stream if device.is_cuda else None)
+    entry = cache.get(key)
+    if entry is None or entry.N != N or entry.launch.kernel is not kernel or entry.block_dim != block_dim:
+        scratch = _arrays.empty((nL, width), N, model.scalar, device)
+        bound = [scratch if a is _SCRATCH else a for a in args]
+        launch = wp.launch(kernel, dim=N, inputs=bound, device=device, block_dim=block_dim, record_cmd=True)
+        entry = cache[key] = _Recorded(N, block_dim, launch, bound)
+    else:
+        bound, launch = entry.bound, entry.launch
+        for i, a in enumerate(args):
+            b = bound[i]
+            if a is b or a is _SCRATCH or (type(a) in (int, float) and type(b) is type(a) and a == b):
+                continue
+            launch.set_param_at_index(i, a)
+            bound[i] = a
+    entry.launch.launch()
 
-    _, W_H_L = link_poses(model, data)
-    out = _arrays.output((nL, 6), data.batch_size, model.scalar, model.device, data.requires_grad)
-    wp.launch(
-        force_kernels(model.scalar).link_forces_to_inertial,
-        dim=(data.batch_size, nL),
-        inputs=[W_H_L, forces, int(data.velocity_representation)],
-        outputs=[out],
-        device=model.device,
-    )
-    return out
+
+def _model_args(model) -> list:
+    return [
+        model.parent,
+        model.joint_type,
+        model.X_tree,
+        model.joint_axis,
+        model.joint_pivot,
+        model.link_mass,
+        model.link_com,
+        model.link_inertia,
+        model.first_child,
+        model.next_sibling,
+    ]
 
 
-def _input(model, data, value, name, per_env):
+def _input(model, data, value, name: str, per_env: tuple, taping: bool):
+    """None (the kernel's null array) for an absent input, else its (N, *per_env) kernel argument."""
     if value is None:
-        return _arrays.zeros(per_env, data.batch_size, model.scalar, model.device)
+        return None
+    if not taping and not model.device.is_cuda and not isinstance(value, wp.array):
+        return _arrays.host_input(value, name, per_env, data.num_envs, model.dtype)
     return _arrays.batched_input(value, name, per_env, data.num_envs, model.scalar, model.device)
 
 
-def generalized_forces(model, data, base_acceleration, joint_accelerations, W_f_L, with_velocity=True) -> wp.array:
-    """Q (N, 6 + n) = [f_B; tau] from RNEA (see kernels/rnea.py); accelerations in the data's representation."""
+class _Outputs:
+    """Fresh output arrays for a kernel: what the caller gets (`user`) and what the kernel writes (`args`).
+
+    Batched data: (N, *shape) arrays in the device's layout, given to both. Single-environment data gets
+    arrays of JaxSim's shapes; the kernel sees them with a leading axis of 1, through launch views outside
+    a tape (no view objects) and as views of (1, *shape) arrays under one (gradients flow through views).
+    """
+
+    def __init__(self, model, data, shapes, grad: bool, taping: bool):
+        s, d, N = model.scalar, model.device, data.batch_size
+        if data.num_envs is not None:
+            self.user = [_arrays.output(shape, N, s, d, grad) for shape in shapes]
+            self.args = self.user
+        elif taping:
+            self.args = [_arrays.output(shape, 1, s, d, grad) for shape in shapes]
+            self.user = [_arrays.squeeze_env(a, None) for a in self.args]
+        else:
+            self.user = [wp.empty(shape, dtype=s, device=d, requires_grad=grad) for shape in shapes]
+            if _arrays.FILL_OUTPUTS_WITH_NAN:
+                for a in self.user:
+                    a.fill_(float("nan"))
+            self.args = [_arrays.with_env_axis(a) for a in self.user]
+
+
+def _grad(data, *inputs) -> bool:
+    return data.requires_grad or any(isinstance(x, wp.array) and x.requires_grad for x in inputs)
+
+
+def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool):
+    """RNEA (kernels/rnea.py) on user inputs (None: zero): (f_B, tau) when `split`, else Q = [f_B; tau]."""
     from .model import _check_data
 
     _check_data(model, data)
-    transform, vec6, _ = _types(model)
-    n = model.dofs()
-    Q = _arrays.output((6 + n,), data.batch_size, model.scalar, model.device, data.requires_grad)
-    wp.launch(
-        rnea_kernels(model.scalar).rnea,
-        dim=data.batch_size,
-        inputs=[
-            model.parent,
-            model.joint_type,
-            model.X_tree,
-            model.joint_axis,
-            model.joint_pivot,
-            model.link_mass,
-            model.link_com,
-            model.link_inertia,
-            model.first_child,
-            model.next_sibling,
-            model.gravity,
-            data.base_position_state,
-            data.base_quaternion_state,
-            data.joint_positions_state,
-            data.base_velocity_state,
-            data.joint_velocities_state,
-            base_acceleration,
-            joint_accelerations,
-            W_f_L,
-            int(data.velocity_representation),
-            1.0 if with_velocity else 0.0,
-            _scratch(model, data, transform),
-            _scratch(model, data, transform),
-            _scratch(model, data, vec6),
-            _scratch(model, data, vec6),
-            _scratch(model, data, vec6),
-            _scratch(model, data, vec6),
-        ],
-        outputs=[Q],
-        device=model.device,
-    )
-    return Q
+    taping = _taping()
+    n, nL, N = model.dofs(), model.number_of_links(), data.batch_size
+    a_B = _input(model, data, base_acceleration, "base_acceleration", (6,), taping)
+    s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,), taping)
+    f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping)
+    grad = _grad(data, a_B, s_dd, f_L)
+    if split:
+        out = _Outputs(model, data, [(6,), (n,)], grad, taping)
+        f_B, tau = out.args
+    else:
+        out = _Outputs(model, data, [(6 + n,)], grad, taping)
+        Q = out.args[0]
+        if taping or data.num_envs is not None:
+            f_B, tau = Q[:, :6], (Q[:, 6:] if n > 0 else None)
+        else:
+            size = wp.types.type_size_in_bytes(model.scalar)
+            f_B = _arrays.launch_view(out.user[0], (1, 6), (0, size))
+            tau = _arrays.launch_view(out.user[0], (1, n), (0, size), 6 * size)
+    args = [
+        *_model_args(model),
+        model.gravity,
+        data.base_position_state,
+        data.base_quaternion_state,
+        data.joint_positions_state,
+        data.base_velocity_state,
+        data.joint_velocities_state,
+        a_B,
+        s_dd,
+        f_L,
+        int(data.velocity_representation),
+        1.0 if with_velocity else 0.0,
+        _SCRATCH,
+        f_B,
+        tau,
+    ]
+    width = RNEA_RECORD + (TRANSFORM if f_L is not None else 0)
+    _launch(model, "rnea", N, width, args, grad)
+    return out.user if split else out.user[0]
+
+
+def generalized_forces(model, data, base_acceleration=None, joint_accelerations=None, link_forces=None, with_velocity=True):
+    """Q (N, 6 + n) = [f_B; tau] from RNEA (see kernels/rnea.py) for batched data, (6 + n,) for single-environment
+    data; accelerations and link forces (None: zero) in the data's representation."""
+    return _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity, split=False)
 
 
 def inverse_dynamics(model, data, *, joint_accelerations=None, base_acceleration=None, link_forces=None):
@@ -113,31 +218,18 @@ def inverse_dynamics(model, data, *, joint_accelerations=None, base_acceleration
     generalized force of the base, dual to its velocity in the data's representation: zero when the
     accelerations came from forward dynamics with the same forces. Leading N axis for batched data.
     """
-    n = model.dofs()
-    Q = generalized_forces(
-        model,
-        data,
-        _input(model, data, base_acceleration, "base_acceleration", (6,)),
-        _input(model, data, joint_accelerations, "joint_accelerations", (n,)),
-        link_forces_inertial(model, data, link_forces),
-    )
-    return _arrays.squeeze_env(Q[:, :6], data.num_envs), _arrays.squeeze_env(Q[:, 6:], data.num_envs)
+    f_B, tau = _rnea(model, data, base_acceleration, joint_accelerations, link_forces, True, split=True)
+    return f_B, tau
 
 
 def free_floating_bias_forces(model, data) -> wp.array:
     """h = C(q, nu) nu + g(q): (6 + n,) or (N, 6 + n), in the data's representation."""
-    zero6 = _arrays.zeros((6,), data.batch_size, model.scalar, model.device)
-    zero_n = _arrays.zeros((model.dofs(),), data.batch_size, model.scalar, model.device)
-    Q = generalized_forces(model, data, zero6, zero_n, link_forces_inertial(model, data, None))
-    return _arrays.squeeze_env(Q, data.num_envs)
+    return generalized_forces(model, data)
 
 
 def free_floating_gravity_forces(model, data) -> wp.array:
     """g(q): (6 + n,) or (N, 6 + n), in the data's representation."""
-    zero6 = _arrays.zeros((6,), data.batch_size, model.scalar, model.device)
-    zero_n = _arrays.zeros((model.dofs(),), data.batch_size, model.scalar, model.device)
-    Q = generalized_forces(model, data, zero6, zero_n, link_forces_inertial(model, data, None), with_velocity=False)
-    return _arrays.squeeze_env(Q, data.num_envs)
+    return generalized_forces(model, data, with_velocity=False)
 
 
 def free_floating_mass_matrix(model, data) -> wp.array:
@@ -145,37 +237,22 @@ def free_floating_mass_matrix(model, data) -> wp.array:
     from .model import _check_data
 
     _check_data(model, data)
-    transform, vec6, mat66 = _types(model)
+    taping = _taping()
     n = model.dofs()
-    M = _arrays.output((6 + n, 6 + n), data.batch_size, model.scalar, model.device, data.requires_grad)
-    wp.launch(
-        crba_kernels(model.scalar).crba,
-        dim=data.batch_size,
-        inputs=[
-            model.parent,
-            model.joint_type,
-            model.X_tree,
-            model.joint_axis,
-            model.joint_pivot,
-            model.link_mass,
-            model.link_com,
-            model.link_inertia,
-            model.first_child,
-            model.next_sibling,
-            model.support,
-            data.base_position_state,
-            data.base_quaternion_state,
-            data.joint_positions_state,
-            int(data.velocity_representation),
-            _scratch(model, data, transform),
-            _scratch(model, data, vec6),
-            _scratch(model, data, mat66),
-            _scratch(model, data, vec6),
-        ],
-        outputs=[M],
-        device=model.device,
-    )
-    return _arrays.squeeze_env(M, data.num_envs)
+    grad = data.requires_grad
+    out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping)
+    args = [
+        *_model_args(model),
+        model.support,
+        data.base_position_state,
+        data.base_quaternion_state,
+        data.joint_positions_state,
+        int(data.velocity_representation),
+        _SCRATCH,
+        out.args[0],
+    ]
+    _launch(model, "crba", data.batch_size, CRBA_RECORD, args, grad)
+    return out.user[0]
 
 
 def forward_dynamics_aba(model, data, *, joint_forces=None, link_forces=None):
@@ -187,66 +264,50 @@ def forward_dynamics_aba(model, data, *, joint_forces=None, link_forces=None):
     from .model import _check_data
 
     _check_data(model, data)
-    transform, vec6, mat66 = _types(model)
-    n = model.dofs()
-    tau = _input(model, data, joint_forces, "joint_forces", (n,))
-    W_f_L = link_forces_inertial(model, data, link_forces)
-    nu_dot = _arrays.output((6 + n,), data.batch_size, model.scalar, model.device, data.requires_grad)
-    wp.launch(
-        aba_kernels(model.scalar).aba,
-        dim=data.batch_size,
-        inputs=[
-            model.parent,
-            model.joint_type,
-            model.X_tree,
-            model.joint_axis,
-            model.joint_pivot,
-            model.link_mass,
-            model.link_com,
-            model.link_inertia,
-            model.first_child,
-            model.next_sibling,
-            model.gravity,
-            int(model.floating_base()),
-            data.base_position_state,
-            data.base_quaternion_state,
-            data.joint_positions_state,
-            data.base_velocity_state,
-            data.joint_velocities_state,
-            tau,
-            W_f_L,
-            int(data.velocity_representation),
-            _scratch(model, data, transform),
-            _scratch(model, data, transform),
-            _scratch(model, data, vec6),
-            _scratch(model, data, vec6),
-            _scratch(model, data, vec6),
-            _scratch(model, data, model.scalar),
-            _scratch(model, data, model.scalar),
-            _scratch(model, data, mat66),
-            _scratch(model, data, vec6),
-            _scratch(model, data, vec6),
-        ],
-        outputs=[nu_dot],
-        device=model.device,
-    )
-    return _arrays.squeeze_env(nu_dot[:, :6], data.num_envs), _arrays.squeeze_env(nu_dot[:, 6:], data.num_envs)
+    taping = _taping()
+    n, nL = model.dofs(), model.number_of_links()
+    tau = _input(model, data, joint_forces, "joint_forces", (n,), taping)
+    f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping)
+    grad = _grad(data, tau, f_L)
+    out = _Outputs(model, data, [(6,), (n,)], grad, taping)
+    args = [
+        *_model_args(model),
+        model.gravity,
+        int(model.floating_base()),
+        data.base_position_state,
+        data.base_quaternion_state,
+        data.joint_positions_state,
+        data.base_velocity_state,
+        data.joint_velocities_state,
+        tau,
+        f_L,
+        int(data.velocity_representation),
+        _SCRATCH,
+        *out.args,
+    ]
+    width = ABA_RECORD + (TRANSFORM if f_L is not None else 0)
+    _launch(model, "aba", data.batch_size, width, args, grad)
+    base, joints = out.user
+    return base, joints
 
 
 def _offset(model) -> int:
     return 0 if model.floating_base() else 6
 
 
+def _batched(model, data, array):
+    return array if data.num_envs is not None else array.reshape((1, *array.shape))
+
+
 def forward_dynamics_crb(model, data, *, joint_forces=None, link_forces=None):
     """(base acceleration (6,), joint accelerations (n,)) = M^-1 (B tau - h + sum_L J_L^T f_L), by CRBA
     and a Cholesky solve (not differentiated by wp.Tape: use forward_dynamics_aba for gradients)."""
     n = model.dofs()
-    M = free_floating_mass_matrix(model, data)
-    M = M if data.num_envs is not None else M.reshape((1, 6 + n, 6 + n))
-    zero6 = _arrays.zeros((6,), data.batch_size, model.scalar, model.device)
-    zero_n = _arrays.zeros((n,), data.batch_size, model.scalar, model.device)
-    tau = _input(model, data, joint_forces, "joint_forces", (n,))
-    Q = generalized_forces(model, data, zero6, zero_n, link_forces_inertial(model, data, link_forces))
+    M = _batched(model, data, free_floating_mass_matrix(model, data))
+    Q = _batched(model, data, generalized_forces(model, data, link_forces=link_forces))
+    tau = _arrays.zeros((n,), data.batch_size, model.scalar, model.device)
+    if joint_forces is not None:
+        tau = _arrays.batched_input(joint_forces, "joint_forces", (n,), data.num_envs, model.scalar, model.device)
     rhs = _arrays.empty((6 + n,), data.batch_size, model.scalar, model.device)
     wp.launch(
         state_kernels(model.scalar).actuated_minus, dim=data.batch_size, inputs=[tau, Q], outputs=[rhs], device=model.device
@@ -272,8 +333,7 @@ def free_floating_mass_matrix_inverse(model, data) -> wp.array:
     """M(q)^-1: (6 + n, 6 + n) or batched; for a fixed base, the inverse of the joint block (zeros elsewhere).
     A Cholesky solve, not differentiated by wp.Tape."""
     n = model.dofs()
-    M = free_floating_mass_matrix(model, data)
-    M = M if data.num_envs is not None else M.reshape((1, 6 + n, 6 + n))
+    M = _batched(model, data, free_floating_mass_matrix(model, data))
     Minv = _arrays.output((6 + n, 6 + n), data.batch_size, model.scalar, model.device)
     wp.launch(
         cholesky_kernels(model.scalar).inverse,
