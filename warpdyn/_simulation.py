@@ -10,8 +10,17 @@ A step, as JaxSim's `js.model.step` with SoftContacts:
 4. the integrator (kernels/integrators.py); environments whose new state is not finite are flagged
    (`data.valid`) and keep their state.
 `step` returns new Data (fresh arrays): nothing an adjoint needs is overwritten, so a wp.Tape through
-many steps gives gradients. Parts a model does not need are not launched (no enabled collidable points:
-no contact kernel) or not compiled (no limit springs, no friction: a kernel without that code).
+many steps gives gradients.
+
+Structure. What a model's steps launch is chosen once per model (`_Plan`, cached on the model and rebuilt
+only when a parameter it reads is replaced: `set_joint_parameters`, `contact_params`, `terrain`,
+`actuation_params`, `integrator`, `time_step`, other collidable points). Parts a model does not need are
+not launched (no enabled collidable points: no FK, link-velocity or contact kernel; no link forces: no
+conversion, and ABA skips the force terms) or not compiled (no limit springs, no friction: an actuation
+kernel without that code). A step is then a fixed list of launches on given arrays (`_step_launches`):
+nothing allocated, nothing read back, so `warpdyn.simulation` captures many of them in a graph.
+Launches per semi-implicit Euler step: actuation (if joints), [FK, link velocities, contacts] (if enabled
+points), [FK if no contacts, force conversion] (if link forces not Inertial), ABA, integrator.
 """
 
 from __future__ import annotations
@@ -24,15 +33,27 @@ import warp as wp
 
 from . import _arrays
 from .common import VelRepr
+from .kernels.aba import kernels as aba_kernels
 from .kernels.actuation import kernel as actuation_kernel
 from .kernels.forces import kernels as force_kernels
 from .kernels.integrators import kernels as integrator_kernels
+from .kernels.kinematics import kernels as kinematics_kernels
 from .kernels.soft_contacts import kernels as contact_kernels
-from .kernels.state import kernels as state_kernels
 from .kernels.velocities import kernels as velocity_kernels
 from .terrain import HeightfieldTerrain
 
-__all__ = ["IntegratorType", "SoftContactsParams", "ActuationParams", "step"]
+try:  # ABA with one scalar scratch record per link (kernels/scratch.py)
+    from .kernels.aba import ABA_RECORD
+    from .kernels.scratch import TRANSFORM
+except ImportError:  # ABA with one scratch array per quantity
+    ABA_RECORD = None
+
+try:  # where wp.Tape registers itself while it records
+    from warp._src import context as _wp_context
+except ImportError:  # pragma: no cover - other Warp versions: always take the tape-safe path
+    _wp_context = None
+
+__all__ = ["IntegratorType", "SoftContactsParams", "ActuationParams", "step", "estimate_good_contact_parameters"]
 
 
 class IntegratorType(enum.IntEnum):
@@ -83,57 +104,13 @@ class ActuationParams:
             raise ValueError(f"ActuationParams needs torque_max >= 0 and 0 < omega_th < omega_max, got {self}")
 
 
-def _per_env(value, name, num_envs, scalar, device) -> wp.array:
-    host = np.atleast_1d(np.asarray(value, dtype=np.float64))
-    if host.shape not in ((1,), (num_envs,)):
-        raise ValueError(f"SoftContactsParams.{name} has shape {host.shape}: give a number or one value per environment ({num_envs},)")
-    return wp.array(host, dtype=scalar, device=device)
+def _taping() -> bool:
+    """Whether a wp.Tape is recording (True when this Warp version does not say)."""
+    return _wp_context is None or getattr(_wp_context.runtime, "tape", True) is not None
 
 
-@dataclasses.dataclass
-class _ContactPlan:
-    """The enabled collidable points ordered by link, on the device, for the contact kernel."""
-
-    point_link: wp.array
-    L_p_C: wp.array
-    point_row: wp.array
-    row_enabled: wp.array
-    link_first_point: wp.array
-    count: int
-    total: int
-
-
-def _contact_plan(model) -> _ContactPlan:
-    params = model.kin_dyn_parameters
-    cp = params.contact_parameters
-    key = (id(params), model.device)
-    cached = getattr(model, "_contact_plan_cache", None)
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    rows = cp.indices_of_enabled_collidable_points
-    links = np.asarray(cp.body, dtype=np.int64)[rows]
-    order = np.argsort(links, kind="stable")
-    rows, links = rows[order], links[order]
-    first = np.full(model.number_of_links(), -1, dtype=np.int32)
-    for k in range(len(links) - 1, -1, -1):
-        first[links[k]] = k
-    enabled = np.zeros(len(cp.body), dtype=np.int32)
-    enabled[rows] = 1
-    s, d = model.scalar, model.device
-    plan = _ContactPlan(
-        point_link=wp.array(links.astype(np.int32), dtype=int, device=d),
-        L_p_C=wp.array(np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3), dtype=wp.types.vector(3, s), device=d),
-        point_row=wp.array(rows.astype(np.int32), dtype=int, device=d),
-        row_enabled=wp.array(enabled, dtype=int, device=d),
-        link_first_point=wp.array(first, dtype=int, device=d),
-        count=len(rows),
-        total=len(cp.body),
-    )
-    model._contact_plan_cache = (key, plan)
-    return plan
-
-
-def _terrain_args(model):
+def _terrain_args(model) -> list:
+    """The terrain as the contact kernels take it: kind, plane normal, height at the origin, heights, grid."""
     terrain = model.terrain
     s, d = model.scalar, model.device
     vec3 = wp.types.vector(3, s)
@@ -147,98 +124,362 @@ def _terrain_args(model):
     return [terrain.kind, vec3(*normal), s(h0), empty, vec4(0.0, 0.0, 1.0, 1.0)]
 
 
-def contact_forces(model, data, W_f_ext: wp.array):
-    """(W_f_C (N, nc, 6), m_dot (N, nc_all, 3), W_f_L (N, nL, 6)): the Inertial contact wrench of each
-    enabled point, the deformation rate of every point, and W_f_ext plus the contact wrenches per link."""
-    from .model import link_poses
+def _per_env(value, name, scalar, device) -> wp.array:
+    host = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    if host.ndim != 1:
+        raise ValueError(f"SoftContactsParams.{name} has shape {host.shape}: give a number or one value per environment (N,)")
+    return wp.array(host, dtype=scalar, device=device)
 
-    plan = _contact_plan(model)
-    N, nL = data.batch_size, model.number_of_links()
-    s, d, g = model.scalar, model.device, data.requires_grad
-    m = tangential_deformation(model, data)
-    m_dot = _arrays.output((plan.total, 3), N, s, d, g)
-    W_f_C = _arrays.output((plan.count, 6), N, s, d, g)
-    if plan.count == 0:
-        m_dot.zero_()
-        return W_f_C, m_dot, W_f_ext
-    W_f_L = _arrays.output((nL, 6), N, s, d, g)
-    _, W_H_L = link_poses(model, data)
-    W_v_WL = _link_velocities(model, data, W_H_L)
-    cp = model.contact_params
-    wp.launch(
-        contact_kernels(s).contact_forces,
-        dim=N,
-        inputs=[
-            plan.point_link,
-            plan.L_p_C,
-            plan.point_row,
-            plan.row_enabled,
-            plan.link_first_point,
-            *_terrain_args(model),
-            _per_env(cp.K, "K", N, s, d),
-            _per_env(cp.D, "D", N, s, d),
-            _per_env(cp.mu, "mu", N, s, d),
-            s(cp.p),
-            s(cp.q),
-            W_H_L,
-            W_v_WL,
-            m,
-            W_f_ext,
-            _arrays.empty((plan.count,), N, wp.types.vector(6, s), d, g),
-        ],
-        outputs=[W_f_C, m_dot, W_f_L],
-        device=d,
+
+def _plan_key(model) -> tuple:
+    """What a plan depends on: compared by identity, so replacing any of them (set_joint_parameters makes new
+    arrays; contact_params, actuation_params, terrain and with_collidable_points make new objects) rebuilds it."""
+    return (
+        model.kin_dyn_parameters,
+        model.terrain,
+        model.contact_params,
+        model.actuation_params,
+        model.integrator,
+        model.time_step,
+        model.quaternion_tolerance,
+        model.gravity,
+        model.position_limits,
+        model.joint_limit_spring,
+        model.joint_limit_damper,
+        model.friction_static,
+        model.friction_viscous,
     )
-    return W_f_C, m_dot, W_f_L
 
 
-def _link_velocities(model, data, W_H_L) -> wp.array:
-    """W_v_WL (N, nL) vec6: the Inertial velocities of the links."""
-    N, nL = data.batch_size, model.number_of_links()
-    vec6 = wp.types.vector(6, model.scalar)
-    W_v_WL = _arrays.empty((nL,), N, vec6, model.device, data.requires_grad)
-    unused = _arrays.empty((0, 6), N, model.scalar, model.device)
-    wp.launch(
-        velocity_kernels(model.scalar).link_velocities,
-        dim=N,
-        inputs=[
+class _Plan:
+    """What a step of one model launches, chosen once per model (see `_plan`).
+
+    - actuation: a kernel compiled with only the terms the joint parameters need (no limit springs: no
+      limit code; no friction, or friction disabled: no friction code); none without joints;
+    - contacts: the enabled points ordered by link and the contact parameters on the device; without enabled
+      points no FK, link-velocity or contact kernel is launched and the deformation rate is a zero array;
+    - the terrain's arrays (a heightfield's heights are uploaded once, not per step).
+    Host work per step is then a few identity comparisons (`_plan`), no NumPy reductions, no uploads.
+    """
+
+    def __init__(self, model):
+        s, d = model.scalar, model.device
+        self.key = _plan_key(model)
+        self.scalar, self.device = s, d
+        self.n, self.nL = model.dofs(), model.number_of_links()
+        self.floating_base = bool(model.floating_base())
+        self.integrator = IntegratorType(model.integrator)
+        self.dt = s(model.time_step)
+        self.quaternion_tolerance = s(model.quaternion_tolerance)
+        # actuation
+        a = model.actuation_params
+        self.with_limits = bool(np.any(model.joint_limit_spring_host != 0.0))
+        self.with_friction = bool(a.enable_friction) and bool(
+            np.any(model.friction_static_host != 0.0) or np.any(model.friction_viscous_host != 0.0)
+        )
+        self.actuation = actuation_kernel(s, self.with_limits, self.with_friction) if self.n > 0 else None
+        self.actuation_args = [
+            model.position_limits,
+            model.joint_limit_spring,
+            model.joint_limit_damper,
+            model.friction_static,
+            model.friction_viscous,
+            s(a.torque_max),
+            s(a.omega_th),
+            s(a.omega_max),
+        ]
+        # collidable points: the enabled ones ordered by link (the contact kernel sums them per link)
+        cp = model.kin_dyn_parameters.contact_parameters
+        rows = cp.indices_of_enabled_collidable_points
+        links = np.asarray(cp.body, dtype=np.int64)[rows]
+        order = np.argsort(links, kind="stable")
+        rows, links = rows[order], links[order]
+        first = np.full(self.nL, -1, dtype=np.int32)
+        for k in range(len(links) - 1, -1, -1):
+            first[links[k]] = k
+        enabled = np.zeros(len(cp.body), dtype=np.int32)
+        enabled[rows] = 1
+        self.total = len(cp.body)
+        self.count = len(rows)
+        self.contacts = self.count > 0
+        self.point_link = wp.array(links.astype(np.int32), dtype=int, device=d)
+        self.L_p_C = wp.array(np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3), dtype=wp.types.vector(3, s), device=d)
+        self.point_row = wp.array(rows.astype(np.int32), dtype=int, device=d)
+        self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
+        self.link_first_point = wp.array(first, dtype=int, device=d)
+        self.terrain_args = _terrain_args(model)
+        c = model.contact_params
+        self.K, self.D, self.mu = (_per_env(getattr(c, k), k, s, d) for k in ("K", "D", "mu"))
+        self.contact_args = [
+            self.point_link,
+            self.L_p_C,
+            self.point_row,
+            wp.array(enabled, dtype=int, device=d),
+            self.link_first_point,
+            *self.terrain_args,
+            self.K,
+            self.D,
+            self.mu,
+            s(c.p),
+            s(c.q),
+        ]
+        # kernels and the model constants they read
+        self.fk = kinematics_kernels(s).forward_kinematics
+        self.fk_args = [model.parent, model.joint_type, model.X_tree, model.joint_axis, model.joint_pivot]
+        self.link_velocities = velocity_kernels(s).link_velocities
+        self.velocity_args = [
             model.parent,
             model.joint_type,
             model.joint_axis,
             model.joint_pivot,
             model.all_links[:0],
             model.identity_offsets[:0],
-            W_H_L,
-            data.base_velocity_state,
-            data.joint_velocities_state,
-            int(VelRepr.Inertial),
-        ],
-        outputs=[W_v_WL, unused],
-        device=model.device,
-    )
-    return W_v_WL
+        ]
+        self.aba = aba_kernels(s).aba
+        self.aba_args = [
+            model.parent,
+            model.joint_type,
+            model.X_tree,
+            model.joint_axis,
+            model.joint_pivot,
+            model.link_mass,
+            model.link_com,
+            model.link_inertia,
+            model.first_child,
+            model.next_sibling,
+            model.gravity,
+            int(self.floating_base),
+        ]
+        self.integrators = integrator_kernels(s)
+        self._zeros: dict = {}
+        self._workspaces: dict = {}
+
+    def check_envs(self, N: int) -> None:
+        for name, value in (("K", self.K), ("D", self.D), ("mu", self.mu)):
+            if value.shape[0] not in (1, N):
+                raise ValueError(
+                    f"SoftContactsParams.{name} has shape {value.shape}: give a number or one value per environment ({N},)"
+                )
+
+    def zeros(self, shape: tuple, N: int) -> wp.array:
+        """A zero array of logical shape (N, *shape) that no kernel writes: one row, broadcast (env stride 0)."""
+        key = tuple(shape)
+        row = self._zeros.get(key)
+        if row is None:
+            row = self._zeros[key] = wp.zeros((1, *shape), dtype=self.scalar, device=self.device)
+        return broadcast_envs(row, N)
+
+    def shared_workspace(self, N: int, forces: bool) -> _Workspace:
+        """The workspace `step` reuses outside a tape (no adjoint reads it later); one per CUDA stream."""
+        key = (N, forces, self.device.stream if self.device.is_cuda else None)
+        ws = self._workspaces.get(key)
+        if ws is None:
+            ws = self._workspaces[key] = _Workspace(self, N, False, forces)
+        return ws
 
 
-def _link_forces_inertial(model, data, link_forces) -> wp.array:
-    """W_f_L (N, nL, 6): `link_forces` ((nL, 6) or (N, nL, 6), in the data's representation) made Inertial."""
-    from .model import link_poses
+def broadcast_envs(row: wp.array, N: int) -> wp.array:
+    """The (N, *S) view of a (1, *S) array with a zero stride on the environment axis (its gradient likewise):
+    what kernels read as one value per environment, without N copies. The view does not own the memory:
+    keep `row` alive."""
+    if row.shape[0] != 1:
+        raise ValueError(f"broadcast_envs needs a leading axis of 1, got shape {row.shape}")
+    if N == 1:
+        return row
+    view = wp.array(ptr=row.ptr, dtype=row.dtype, shape=(N, *row.shape[1:]), strides=(0, *row.strides[1:]), device=row.device)
+    if row.grad is not None:
+        view.grad = wp.array(
+            ptr=row.grad.ptr, dtype=row.dtype, shape=(N, *row.shape[1:]), strides=(0, *row.grad.strides[1:]), device=row.device
+        )
+    return view
 
-    N, nL, s, d = data.batch_size, model.number_of_links(), model.scalar, model.device
-    if link_forces is None:
-        return _arrays.zeros((nL, 6), N, s, d)
-    forces = _arrays.batched_input(link_forces, "link_forces", (nL, 6), data.num_envs, s, d)
-    if data.velocity_representation == VelRepr.Inertial:
-        return forces
-    _, W_H_L = link_poses(model, data)
-    out = _arrays.output((nL, 6), N, s, d, data.requires_grad or forces.requires_grad)
-    wp.launch(
-        force_kernels(s).link_forces_to_inertial,
-        dim=(N, nL),
-        inputs=[W_H_L, forces, int(data.velocity_representation)],
-        outputs=[out],
-        device=d,
-    )
-    return out
+
+def _plan(model) -> _Plan:
+    """The model's plan, rebuilt when a parameter it depends on was replaced since (see `_plan_key`)."""
+    cached = model.__dict__.get("_simulation_plan")
+    if cached is not None:
+        key = _plan_key(model)
+        if all(a is b for a, b in zip(key, cached.key)):
+            return cached
+    plan = model.__dict__["_simulation_plan"] = _Plan(model)
+    return plan
+
+
+class _Eval:
+    """Buffers of one evaluation of the state derivative (one per stage of RK4)."""
+
+    def __init__(self, plan: _Plan, N: int, grad: bool, forces: bool, nu_dot: wp.array | None, aba: bool = True):
+        s, d = plan.scalar, plan.device
+        nL, n = plan.nL, plan.n
+
+        def out(shape, dtype=s):
+            return _arrays.output(shape, N, dtype, d, grad)
+
+        transform = wp.types.transformation(s)
+        vec6 = wp.types.vector(6, s)
+        if plan.contacts:
+            self.parent_H_link = out((nL,), transform)
+            self.W_H_L = out((nL,), transform)
+            self.W_v_WL = out((nL,), vec6)
+            self.target_velocities = _arrays.empty((0, 6), N, s, d)
+            self.W_f_C = out((plan.count, 6))
+            self.m_dot = out((plan.total, 3))
+            self.W_f_L = out((nL, 6))
+            self.chain = _arrays.empty((plan.count,), N, vec6, d, grad)
+        else:
+            self.m_dot = plan.zeros((plan.total, 3), N)
+        if not aba:  # contact results only (warpdyn.contact)
+            return
+        self.aba_scratch = _aba_scratch(plan, N, grad, plan.contacts or forces)
+        # nu_dot (N, 6 + n) = [W_vdot_WB (Inertial); sddot]: the semi-implicit Euler's (given), or this stage's
+        self.nu_dot = out((6 + n,)) if nu_dot is None else nu_dot
+        self.base_acceleration = self.nu_dot[:, :6]
+        self.joint_accelerations = self.nu_dot[:, 6:] if n > 0 else out((0,))
+
+
+class _Workspace:
+    """Buffers of one step's intermediate results for N environments (`_step_launches` writes them).
+
+    `step` reuses one per model outside a tape and makes fresh ones under a tape (the adjoint reads them
+    later); a rollout keeps one for all steps, or one per step when it must be differentiable.
+    forces: whether the steps get external link forces (room for their Inertial conversion and for ABA's).
+    """
+
+    def __init__(self, plan: _Plan, N: int, grad: bool, forces: bool):
+        s, d = plan.scalar, plan.device
+        n, nL = plan.n, plan.nL
+        self.N, self.grad, self.forces = N, grad, forces
+        self.tau = _arrays.output((n,), N, s, d, grad)
+        transform = wp.types.transformation(s)
+        if forces:
+            self.W_f_ext = _arrays.output((nL, 6), N, s, d, grad)
+            if not plan.contacts:  # otherwise the first evaluation's link poses serve
+                self.parent_H_link = _arrays.output((nL,), N, transform, d, grad)
+                self.W_H_L = _arrays.output((nL,), N, transform, d, grad)
+        if plan.integrator == IntegratorType.SemiImplicitEuler:
+            self.nu_dot = _arrays.output((6 + n,), N, s, d, grad)
+            self.evals = [_Eval(plan, N, grad, forces, self.nu_dot)]
+        else:
+            self.evals = [_Eval(plan, N, grad, forces, None) for _ in range(4)]
+            size = plan.integrators.state_size(n, plan.total)
+            self.slopes = [_arrays.output((size,), N, s, d, grad) for _ in range(4)]
+            self.stages = [_state_buffers(plan, N, grad)[:6] for _ in range(3)]
+
+
+def _state_buffers(plan: _Plan, N: int, grad: bool) -> list:
+    """Uninitialised state arrays (p, Q, s, v, sdot, m, valid) for N environments, in the device's layout."""
+    s, d, n = plan.scalar, plan.device, plan.n
+    return [
+        _arrays.output((3,), N, s, d, grad),
+        _arrays.output((4,), N, s, d, grad),
+        _arrays.output((n,), N, s, d, grad),
+        _arrays.output((6,), N, s, d, grad),
+        _arrays.output((n,), N, s, d, grad),
+        _arrays.output((plan.total, 3), N, s, d, grad),
+        wp.empty(N, dtype=wp.int32, device=d),
+    ]
+
+
+def _evaluate(plan: _Plan, ev: _Eval, x: list, tau, f_ext, poses_done: bool, aba: bool = True) -> list:
+    """The launches of one derivative evaluation at the state x: contacts (if any), then ABA (Inertial).
+
+    f_ext (N, nL, 6) Inertial or None. poses_done: ev's link poses already hold FK at x.
+    """
+    N = x[0].shape[0]
+    launches = []
+    f_aba = f_ext
+    if plan.contacts:
+        if not poses_done:
+            launches.append((plan.fk, N, [*plan.fk_args, x[0], x[1], x[2]], [ev.parent_H_link, ev.W_H_L]))
+        launches.append(
+            (
+                plan.link_velocities,
+                N,
+                [*plan.velocity_args, ev.W_H_L, x[3], x[4], int(VelRepr.Inertial)],
+                [ev.W_v_WL, ev.target_velocities],
+            )
+        )
+        launches.append(
+            (
+                contact_kernels(plan.scalar).contact_forces,
+                N,
+                [*plan.contact_args, ev.W_H_L, ev.W_v_WL, x[5], f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N), ev.chain],
+                [ev.W_f_C, ev.m_dot, ev.W_f_L],
+            )
+        )
+        f_aba = ev.W_f_L
+    if aba:
+        launches.append(_aba_launch(plan, ev, x, tau, f_aba))
+    return launches
+
+
+def _aba_scratch(plan: _Plan, N: int, grad: bool, forces: bool) -> list:
+    """ABA's scratch arrays for N environments (forces: with link forces)."""
+    s, d, nL = plan.scalar, plan.device, plan.nL
+    if ABA_RECORD is not None:
+        return [_arrays.empty((nL, ABA_RECORD + (TRANSFORM if forces else 0)), N, s, d, grad)]
+    transform, vec6, mat66 = wp.types.transformation(s), wp.types.vector(6, s), wp.types.matrix((6, 6), s)
+    return [_arrays.empty((nL,), N, t, d, grad) for t in (transform, transform, vec6, vec6, vec6, s, s, mat66, vec6, vec6)]
+
+
+def _aba_launch(plan: _Plan, ev: _Eval, x: list, tau, f_L):
+    """ABA at the state x, Inertial: joint forces tau (N, n), link forces f_L (N, nL, 6) Inertial or None,
+    into ev.nu_dot (whichever of the two ABA kernel signatures kernels/aba.py has)."""
+    N = x[0].shape[0]
+    state = [x[0], x[1], x[2], x[3], x[4]]
+    if ABA_RECORD is not None:
+        inputs = [*plan.aba_args, *state, tau if plan.n > 0 else None, f_L, int(VelRepr.Inertial), *ev.aba_scratch]
+        return (plan.aba, N, inputs, [ev.base_acceleration, ev.joint_accelerations])
+    tau = tau if plan.n > 0 else plan.zeros((0,), N)
+    f_L = f_L if f_L is not None else plan.zeros((plan.nL, 6), N)
+    return (plan.aba, N, [*plan.aba_args, *state, tau, f_L, int(VelRepr.Inertial), *ev.aba_scratch], [ev.nu_dot])
+
+
+def _step_launches(plan: _Plan, ws: _Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None) -> list:
+    """The launches of one step from the state x to the state y (lists of 7 arrays, see `_state_arrays`), as
+    (kernel, dim, inputs, outputs), all arrays given: nothing is allocated, nothing read back.
+
+    tau_ref (N, n): the joint force references; f_user (N, nL, 6) in representation `repr`, or None;
+    tau_out (N, n): where the applied joint torques go (default ws.tau).
+    """
+    N = x[0].shape[0]
+    tau = ws.tau if tau_out is None else tau_out
+    launches = []
+    if plan.n > 0:
+        launches.append((plan.actuation, (N, plan.n), [*plan.actuation_args, x[2], x[4], tau_ref], [tau]))
+    f_ext = None
+    poses_done = False
+    if f_user is not None:
+        if repr == int(VelRepr.Inertial):
+            f_ext = f_user
+        else:
+            holder = ws.evals[0] if plan.contacts else ws
+            launches.append((plan.fk, N, [*plan.fk_args, x[0], x[1], x[2]], [holder.parent_H_link, holder.W_H_L]))
+            poses_done = plan.contacts
+            launches.append((force_kernels(plan.scalar).link_forces_to_inertial, (N, plan.nL), [holder.W_H_L, f_user, repr], [ws.W_f_ext]))
+            f_ext = ws.W_f_ext
+    K = plan.integrators
+    ev = ws.evals[0]
+    launches += _evaluate(plan, ev, x, tau, f_ext, poses_done)
+    if plan.integrator == IntegratorType.SemiImplicitEuler:
+        launches.append((K.semi_implicit_euler, N, [plan.dt, plan.quaternion_tolerance, *x, ws.nu_dot, ev.m_dot], list(y)))
+        return launches
+    stage = x
+    for i, c in enumerate((0.5, 0.5, 1.0, None)):
+        ev = ws.evals[i]
+        if i > 0:
+            launches += _evaluate(plan, ev, stage, tau, f_ext, False)
+        launches.append((K.slope, N, [*stage[:6], ev.base_acceleration, ev.joint_accelerations, ev.m_dot], [ws.slopes[i]]))
+        if c is not None:
+            stage = [*ws.stages[i], x[6]]
+            launches.append((K.rk4_stage, N, [plan.scalar(c * float(plan.dt)), *x[:6], ws.slopes[i]], stage[:6]))
+    launches.append((K.rk4_combine, N, [plan.dt, plan.quaternion_tolerance, *x, *ws.slopes], list(y)))
+    return launches
+
+
+def _run(launches, device) -> None:
+    for kernel, dim, inputs, outputs in launches:
+        wp.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device)
 
 
 def tangential_deformation(model, data) -> wp.array:
@@ -254,53 +495,72 @@ def tangential_deformation(model, data) -> wp.array:
     return m
 
 
+def _inputs_require_grad(*values) -> bool:
+    return any(isinstance(v, wp.array) and v.requires_grad for v in values)
+
+
+def _joint_force_references(plan: _Plan, data, value) -> wp.array:
+    if value is None:
+        return plan.zeros((plan.n,), data.batch_size)
+    return _arrays.batched_input(value, "joint_force_references", (plan.n,), data.num_envs, plan.scalar, plan.device)
+
+
+def _link_forces(plan: _Plan, data, value):
+    if value is None:
+        return None
+    return _arrays.batched_input(value, "link_forces", (plan.nL, 6), data.num_envs, plan.scalar, plan.device)
+
+
+def _prepare(model, data):
+    """(plan, N) after checking the data against the model."""
+    from .model import _check_data
+
+    _check_data(model, data)
+    tangential_deformation(model, data)
+    plan = _plan(model)
+    plan.check_envs(data.batch_size)
+    return plan, data.batch_size
+
+
 def resultant_torques(model, data, joint_force_references) -> wp.array:
     """tau (N, n): the joint torques a step applies, from the references (see kernels/actuation.py)."""
-    n = model.dofs()
-    s, d = model.scalar, model.device
-    tau_ref = (
-        _arrays.zeros((n,), data.batch_size, s, d)
-        if joint_force_references is None
-        else _arrays.batched_input(joint_force_references, "joint_force_references", (n,), data.num_envs, s, d)
-    )
-    if n == 0:
-        return tau_ref
-    with_limits = bool(np.any(model.joint_limit_spring_host != 0.0))
-    with_friction = bool(model.actuation_params.enable_friction) and bool(
-        np.any(model.friction_static_host != 0.0) or np.any(model.friction_viscous_host != 0.0)
-    )
-    a = model.actuation_params
-    tau = _arrays.output((n,), data.batch_size, s, d, data.requires_grad)
-    wp.launch(
-        actuation_kernel(s, with_limits, with_friction),
-        dim=(data.batch_size, n),
-        inputs=[
-            model.position_limits,
-            model.joint_limit_spring,
-            model.joint_limit_damper,
-            model.friction_static,
-            model.friction_viscous,
-            s(a.torque_max),
-            s(a.omega_th),
-            s(a.omega_max),
-            data.joint_positions_state,
-            data.joint_velocities_state,
-            tau_ref,
-        ],
-        outputs=[tau],
-        device=d,
-    )
+    plan, N = _prepare(model, data)
+    tau_ref = _joint_force_references(plan, data, joint_force_references)
+    if plan.n == 0:
+        return _arrays.empty((0,), N, plan.scalar, plan.device)
+    tau = _arrays.output((plan.n,), N, plan.scalar, plan.device, data.requires_grad or _inputs_require_grad(tau_ref))
+    _run([(plan.actuation, (N, plan.n), [*plan.actuation_args, data.joint_positions_state, data.joint_velocities_state, tau_ref], [tau])], plan.device)
     return tau
 
 
-def _derivatives(model, data, tau, W_f_ext):
-    """(nu_dot (N, 6 + n) Inertial, m_dot (N, nc_all, 3)) of the state in `data`."""
-    from ._dynamics import forward_dynamics_aba
+def _contact_evaluation(model, data, W_f_ext=None) -> tuple[_Plan, _Eval | None]:
+    """(plan, ev): ev holds FK, link velocities and the contact kernel's results at the data's state (fresh
+    arrays), None without enabled points. W_f_ext (N, nL, 6) Inertial or None (zero)."""
+    plan, N = _prepare(model, data)
+    if not plan.contacts:
+        return plan, None
+    grad = data.requires_grad or _inputs_require_grad(W_f_ext)
+    ev = _Eval(plan, N, grad, W_f_ext is not None, None, aba=False)
+    x = _state_arrays(data)
+    launches = _evaluate(plan, ev, x, None, W_f_ext, False, aba=False)
+    _run(launches, plan.device)
+    return plan, ev
 
-    _, m_dot, W_f_L = contact_forces(model, data, W_f_ext)
-    inertial = dataclasses.replace(data, velocity_representation=VelRepr.Inertial, num_envs=data.batch_size)
-    base, joints = forward_dynamics_aba(model, inertial, joint_forces=tau, link_forces=W_f_L)
-    return base, joints, m_dot
+
+def contact_forces(model, data, W_f_ext: wp.array | None = None):
+    """(W_f_C (N, nc, 6), m_dot (N, nc_all, 3), W_f_L (N, nL, 6)): the Inertial contact wrench of each
+    enabled point (ordered by link), the deformation rate of every point, and W_f_ext (Inertial; None: zero)
+    plus the contact wrenches per link."""
+    plan, ev = _contact_evaluation(model, data, W_f_ext)
+    N, s, d = data.batch_size, plan.scalar, plan.device
+    if ev is None:
+        m_dot = _arrays.output((plan.total, 3), N, s, d)
+        m_dot.zero_()
+        W_f_L = W_f_ext
+        if W_f_L is None:
+            W_f_L = _arrays.zeros((plan.nL, 6), N, s, d)
+        return _arrays.output((0, 6), N, s, d), m_dot, W_f_L
+    return ev.W_f_C, ev.m_dot, ev.W_f_L
 
 
 def step(model, data, *, link_forces=None, joint_force_references=None):
@@ -308,48 +568,22 @@ def step(model, data, *, link_forces=None, joint_force_references=None):
 
     link_forces (nL, 6) or (N, nL, 6): external forces in the data's representation, held for the step.
     joint_force_references (n,) or (N, n): joint forces before friction, limits and the torque-speed curve.
-    Returns new Data (fresh arrays, same representation); `data` is unchanged.
+    Returns new Data (fresh arrays, same representation); `data` is unchanged. Outside a wp.Tape the step's
+    intermediate arrays are kept per model and reused; under one they are fresh (the adjoint reads them).
     """
-    from . import model as model_module
-
-    model_module._check_data(model, data)
-    N = data.batch_size
-    s, d, g = model.scalar, model.device, data.requires_grad
-    W_f_ext = _link_forces_inertial(model, data, link_forces)
-    tau = resultant_torques(model, data, joint_force_references)
-    integrator = IntegratorType(model.integrator)
-    K = integrator_kernels(s)
-    n = model.dofs()
-    if integrator == IntegratorType.SemiImplicitEuler:
-        base, joints, m_dot = _derivatives(model, data, tau, W_f_ext)
-        nu_dot = _join(base, joints, N, n, s, d, g)
-        return _integrate(model, data, K.semi_implicit_euler, [nu_dot, m_dot])
-    return _rk4(model, data, tau, W_f_ext)
+    plan, N = _prepare(model, data)
+    tau_ref = _joint_force_references(plan, data, joint_force_references)
+    f_user = _link_forces(plan, data, link_forces)
+    grad = data.requires_grad or _inputs_require_grad(tau_ref, f_user)
+    forces = f_user is not None
+    ws = _Workspace(plan, N, grad, forces) if _taping() else plan.shared_workspace(N, forces)
+    y = _state_buffers(plan, N, grad)
+    _run(_step_launches(plan, ws, _state_arrays(data), y, tau_ref, f_user, int(data.velocity_representation)), plan.device)
+    return _from_arrays(data, y)
 
 
-def _join(base, joints, N, n, s, d, g) -> wp.array:
-    """nu_dot (N, 6 + n) from the (N, 6) and (N, n) views ABA returns (they share one array)."""
-    out = _arrays.empty((6 + n,), N, s, d, g)
-    wp.launch(state_kernels(s).join_columns, dim=N, inputs=[base, joints], outputs=[out], device=d)
-    return out
-
-
-def _new_state(model, data):
-    N, n = data.batch_size, model.dofs()
-    s, d, g = model.scalar, model.device, data.requires_grad
-    total = data.tangential_deformation_state.shape[1]
-    return [
-        _arrays.empty((3,), N, s, d, g),
-        _arrays.empty((4,), N, s, d, g),
-        _arrays.empty((n,), N, s, d, g),
-        _arrays.empty((6,), N, s, d, g),
-        _arrays.empty((n,), N, s, d, g),
-        _arrays.empty((total, 3), N, s, d, g),
-        wp.empty(N, dtype=wp.int32, device=d),
-    ]
-
-
-def _state_arrays(data):
+def _state_arrays(data) -> list:
+    """The state of `data` as the kernels take it: (p, Q, s, v (Mixed), sdot, m, valid)."""
     return [
         data.base_position_state,
         data.base_quaternion_state,
@@ -372,52 +606,6 @@ def _from_arrays(data, arrays):
         tangential_deformation_state=arrays[5],
         valid_state=arrays[6],
     )
-
-
-def _integrate(model, data, kernel, derivatives):
-    out = _new_state(model, data)
-    wp.launch(
-        kernel,
-        dim=data.batch_size,
-        inputs=[model.scalar(model.time_step), model.scalar(model.quaternion_tolerance), *_state_arrays(data), *derivatives],
-        outputs=out,
-        device=model.device,
-    )
-    return _from_arrays(data, out)
-
-
-def _rk4(model, data, tau, W_f_ext):
-    """The classic RK4 on x = (p, Q, s, v (Inertial), sdot, m); contacts at each stage."""
-    K = integrator_kernels(model.scalar)
-    N, n, s, d, g = data.batch_size, model.dofs(), model.scalar, model.device, data.requires_grad
-    dt = model.time_step
-    slopes = []
-    stage = data
-    for c in (0.5, 0.5, 1.0, None):
-        base, joints, m_dot = _derivatives(model, stage, tau, W_f_ext)
-        slope = _arrays.empty((K.state_size(n, m_dot.shape[1]),), N, s, d, g)
-        wp.launch(
-            K.slope,
-            dim=N,
-            inputs=[*_state_arrays(stage)[:6], base, joints, m_dot],
-            outputs=[slope],
-            device=d,
-        )
-        slopes.append(slope)
-        if c is not None:
-            out = _new_state(model, data)
-            wp.launch(K.rk4_stage, dim=N, inputs=[s(c * dt), *_state_arrays(data)[:6], slope], outputs=out[:6], device=d)
-            out[6] = data.valid_state
-            stage = _from_arrays(data, out)
-    out = _new_state(model, data)
-    wp.launch(
-        K.rk4_combine,
-        dim=N,
-        inputs=[s(dt), s(model.quaternion_tolerance), *_state_arrays(data), *slopes],
-        outputs=out,
-        device=d,
-    )
-    return _from_arrays(data, out)
 
 
 def estimate_good_contact_parameters(

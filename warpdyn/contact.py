@@ -1,4 +1,4 @@
-"""Collidable points and their kinematics, as JaxSim's `jaxsim.api.contact` (contact forces come later).
+"""Collidable points, their kinematics and their soft-contact forces, as JaxSim's `jaxsim.api.contact`.
 
 The points come from the description's collision shapes (`warpdyn._collidable` says how each shape
 becomes points, and in which order); a lumped link's points belong to the link it is lumped into.
@@ -27,8 +27,10 @@ from ._collidable import (
     KinDynParameters,
     UnresolvedMeshWarning,
 )
+from ._simulation import estimate_good_contact_parameters
 from .common import VelRepr
 from .kernels.contact_points import kernels as contact_kernels
+from .kernels.contact_wrenches import kernels as wrench_kernels
 
 __all__ = [
     "CollidablePointsOptions",
@@ -41,6 +43,9 @@ __all__ = [
     "collidable_point_positions",
     "collidable_point_velocities",
     "in_contact",
+    "link_contact_forces",
+    "collidable_point_forces",
+    "estimate_good_contact_parameters",
     "transforms",
     "jacobian",
     "jacobian_derivative",
@@ -125,12 +130,16 @@ def collidable_point_kinematics(model, data) -> tuple[wp.array, wp.array]:
 
 
 def in_contact(model, data, *, link_names=None) -> wp.array:
-    """Whether each link touches the ground: any of its enabled points at or below the terrain.
+    """Whether each link touches the terrain (`model.terrain`): any of its enabled points at or below it.
 
-    The terrain is the flat ground z = 0 for now. link_names: the links asked about (default: all, in
-    the model's order); a link without enabled points is never in contact. (nL,) or (N, nL) bool, or
-    (k,) / (N, k) for k given names.
+    JaxSim's test: a point C is below when W_p_C.z <= h(W_p_C.x, W_p_C.y), the terrain's height above the
+    point's (x, y) (equality counts). The contact force uses the depth delta = (h - z) n_z instead and acts
+    only for delta > 0 strictly, so a point exactly on the terrain is "in contact" with zero force.
+    link_names: the links asked about (default: all, in the model's order); a link without enabled points
+    is never in contact. (nL,) or (N, nL) bool, or (k,) / (N, k) for k given names.
     """
+    from ._simulation import _plan
+
     if link_names is None:
         links = model.all_links
     else:
@@ -143,12 +152,83 @@ def in_contact(model, data, *, link_names=None) -> wp.array:
     N, K = data.batch_size, links.shape[0]
     out = _arrays.output((K,), N, wp.bool, model.device)
     wp.launch(
-        contact_kernels(model.scalar).links_below_height,
+        wrench_kernels(model.scalar).links_below_terrain,
         dim=(N, K),
-        inputs=[point_link, W_p_C, links, model.scalar(0.0)],
+        inputs=[point_link, W_p_C, links, *_plan(model).terrain_args],
         outputs=[out],
         device=model.device,
     )
+    return _arrays.squeeze_env(out, data.num_envs)
+
+
+def _check_ignored_inputs(model, data, link_forces, joint_force_references) -> None:
+    """Soft contacts do not depend on these (JaxSim passes them to contact models that do): shapes checked."""
+    if link_forces is not None:
+        _arrays.batched_input(link_forces, "link_forces", (model.number_of_links(), 6), data.num_envs, model.scalar, model.device)
+    if joint_force_references is not None:
+        _arrays.batched_input(joint_force_references, "joint_force_references", (model.dofs(),), data.num_envs, model.scalar, model.device)
+
+
+def link_contact_forces(
+    model, data, *, link_forces=None, joint_force_references=None, joint_torques=None, output_vel_repr=None
+) -> wp.array:
+    """The contact wrench on each link: (nL, 6) or (N, nL, 6), [force; torque], in `output_vel_repr`
+    (default: the data's representation), for the link frame L:
+    - Inertial: W_f_L = sum over L's enabled points C of [f_C; W_p_C x f_C] (torque about the world origin),
+      what JaxSim 0.9's `link_contact_forces` returns and what `step` adds to the link's external force;
+    - Mixed: the same force with its torque about the link origin, world axes: [f; tau_W - W_p_L x f];
+    - Body: L_X*_W W_f_L, force and torque at the link origin in link axes.
+    The point forces are the soft-contact forces (`model.contact_params`, `model.terrain`) at the data's
+    state, the ones a step starting there applies. Links without enabled points get zeros.
+    link_forces, joint_force_references (alias joint_torques, JaxSim's name): accepted as JaxSim does;
+    soft contacts do not depend on them.
+    """
+    from ._simulation import _contact_evaluation
+
+    if joint_torques is not None:
+        if joint_force_references is not None:
+            raise ValueError("give joint_force_references or joint_torques (the same argument), not both")
+        joint_force_references = joint_torques
+    _check_ignored_inputs(model, data, link_forces, joint_force_references)
+    repr = VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
+    plan, ev = _contact_evaluation(model, data)
+    N, nL = data.batch_size, model.number_of_links()
+    out = _arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
+    if ev is None:
+        out.zero_()
+    else:
+        wp.launch(
+            wrench_kernels(model.scalar).link_wrenches,
+            dim=(N, nL),
+            inputs=[plan.link_first_point, ev.W_H_L, ev.chain, int(repr)],
+            outputs=[out],
+            device=model.device,
+        )
+    return _arrays.squeeze_env(out, data.num_envs)
+
+
+def collidable_point_forces(model, data, *, link_forces=None, joint_force_references=None, output_vel_repr=None) -> wp.array:
+    """The soft-contact wrench on each enabled point: (nc, 6) or (N, nc, 6), as old JaxSim's
+    `collidable_point_forces`, for the contact frame C = (W_p_C, [L]) in `output_vel_repr` (default: the
+    data's): Inertial [f; W_p_C x f]; Mixed [f; 0] (f the force in world axes [N], what the contact model
+    computes); Body [L_R_W f; 0]. Summed over a link's points (Inertial), they give `link_contact_forces`.
+    link_forces, joint_force_references: accepted as JaxSim does; soft contacts do not depend on them.
+    """
+    from ._simulation import _contact_evaluation
+
+    _check_ignored_inputs(model, data, link_forces, joint_force_references)
+    repr = VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
+    plan, ev = _contact_evaluation(model, data)
+    N = data.batch_size
+    out = _arrays.output((plan.count, 6), N, model.scalar, model.device, data.requires_grad)
+    if ev is not None:
+        wp.launch(
+            wrench_kernels(model.scalar).point_wrenches,
+            dim=(N, plan.count),
+            inputs=[plan.point_link, plan.L_p_C, plan.point_out, ev.W_H_L, ev.W_f_C, int(repr)],
+            outputs=[out],
+            device=model.device,
+        )
     return _arrays.squeeze_env(out, data.num_envs)
 
 

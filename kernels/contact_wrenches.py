@@ -1,0 +1,97 @@
+"""Soft-contact results in the façade's representations, and contact with the terrain.
+
+- `link_wrenches`: the contact wrench on each link, read from the per-point chain sums that the contact
+  kernel (soft_contacts.contact_forces) leaves in its scratch: chain[env, c] is the Inertial wrench of point
+  c plus chain[env, c + 1] when point c + 1 is on the same link, so chain[env, first point of L] is L's total,
+  the very number the step adds to the link's external force. Then written in `repr` (link frame L as the
+  body frame): Inertial [f; W_p x f summed], Body L_X*_W W_f, Mixed the force at the link origin, world axes.
+- `point_wrenches`: each enabled point's wrench in `repr` for the contact frame C = (W_p_C, [L]); in Body
+  and Mixed the torque about C is zero: Mixed is [W_f; 0], Body [L_R_W W_f; 0].
+- `links_below_terrain`: JaxSim's `in_contact`: a link touches the terrain when one of its enabled points
+  has W_p_C.z <= h(W_p_C.x, W_p_C.y) (at or below the terrain height above its (x, y), JaxSim's test).
+"""
+
+import functools
+import types
+
+import warp as wp
+
+from .soft_contacts import kernels as soft_contact_kernels
+from .spatial import spatial
+
+
+@functools.cache
+def kernels(scalar) -> types.SimpleNamespace:
+    sp = spatial(scalar)
+    terrain_height = soft_contact_kernels(scalar).terrain_height
+    vec4 = soft_contact_kernels(scalar).vec4
+
+    @wp.kernel(module="unique")
+    def link_wrenches(
+        # model: first enabled point of each link, -1 for none
+        link_first_point: wp.array(dtype=int),
+        # state
+        W_H_L: wp.array2d(dtype=sp.transform),
+        chain: wp.array2d(dtype=sp.vec6),
+        repr: int,
+        # outputs
+        f_L: wp.array3d(dtype=scalar),
+    ):
+        """f_L (N, nL, 6): the contact wrench of each link in `repr`, launched over (N, nL)."""
+        env, L = wp.tid()
+        total = sp.vec6(scalar(0.0))
+        if link_first_point[L] >= 0:
+            total = chain[env, link_first_point[L]]
+        f = sp.inertial_to_force_repr(repr, W_H_L[env, L], total)
+        for a in range(6):
+            f_L[env, L, a] = f[a]
+
+    @wp.kernel(module="unique")
+    def point_wrenches(
+        # model: the enabled points in the contact kernel's order, and where each goes in the output
+        point_link: wp.array(dtype=int),
+        L_p_C: wp.array(dtype=sp.vec3),
+        point_out: wp.array(dtype=int),
+        # state
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_f_C: wp.array3d(dtype=scalar),
+        repr: int,
+        # outputs
+        f_C: wp.array3d(dtype=scalar),
+    ):
+        """f_C (N, nc, 6): each point's contact wrench in `repr` for C = (W_p_C, [L]), launched over (N, nc)."""
+        env, c = wp.tid()
+        X = W_H_L[env, point_link[c]] * sp.transform(L_p_C[c], wp.quat_identity(dtype=scalar))
+        W_f = sp.vec6(W_f_C[env, c, 0], W_f_C[env, c, 1], W_f_C[env, c, 2], W_f_C[env, c, 3], W_f_C[env, c, 4], W_f_C[env, c, 5])
+        f = sp.inertial_to_force_repr(repr, X, W_f)
+        k = point_out[c]
+        for a in range(6):
+            f_C[env, k, a] = f[a]
+
+    @wp.kernel(module="unique")
+    def links_below_terrain(
+        # points
+        point_link: wp.array(dtype=int),
+        W_p_C: wp.array3d(dtype=scalar),
+        # query
+        links: wp.array(dtype=int),
+        # terrain (see soft_contacts.terrain_height)
+        terrain_kind: int,
+        terrain_n: sp.vec3,
+        terrain_h0: scalar,
+        terrain_hf: wp.array2d(dtype=scalar),
+        terrain_grid: vec4,
+        # outputs
+        out: wp.array2d(dtype=wp.bool),
+    ):
+        """out (N, K): whether a point of links[k] has z <= h(x, y), launched over (N, K)."""
+        env, k = wp.tid()
+        below = int(0)
+        for c in range(point_link.shape[0]):
+            if point_link[c] == links[k]:
+                h = terrain_height(terrain_kind, terrain_n, terrain_h0, terrain_hf, terrain_grid, W_p_C[env, c, 0], W_p_C[env, c, 1])
+                if W_p_C[env, c, 2] <= h:
+                    below = 1
+        out[env, k] = below != 0
+
+    return types.SimpleNamespace(link_wrenches=link_wrenches, point_wrenches=point_wrenches, links_below_terrain=links_below_terrain)
