@@ -9,7 +9,8 @@ accelerations) and `free_floating_mass_matrix` on batched data (each call alloca
 warm-up, as medians, synchronising around every call. --single adds single-environment calls (data with
 num_envs=None, NumPy inputs: the latency of a plain Python call). --sweep times each algorithm at the
 largest N for CUDA settings `block_dim:max_registers` (0: Warp's default / the compiler's choice; see
-warpdyn._dynamics.CUDA_LAUNCH). On the CPU the run also times MuJoCo's `mj_forward` and `mj_inverse` on
+warpdyn._dynamics.CUDA_LAUNCH). "kernel only" replays the call's recorded launch back to back: the device
+time without the façade's host work (outputs, argument packing, synchronisation). On the CPU the run also times MuJoCo's `mj_forward` and `mj_inverse` on
 the same robot (one call, one environment, constraints off) and prints batched ABA per environment
 against mj_forward. Prints Markdown tables.
 """
@@ -69,11 +70,32 @@ CALLS = {
 KERNEL_NAME = {"ABA": "aba", "RNEA": "rnea", "CRBA": "crba"}
 
 
-def row(name, dtype_name, N, compile_s, seconds, note="") -> str:
+def row(name, dtype_name, N, compile_s, seconds, kernel_s=float("nan"), note="") -> str:
     return (
         f"| {name}{note} | {dtype_name} | {N} | {compile_s:.2f} | {seconds * 1e3:.4f} | "
-        f"{seconds / N * 1e6:.4f} | {N / seconds:.3g} |"
+        f"{seconds / N * 1e6:.4f} | {N / seconds:.3g} | {kernel_s * 1e3:.4f} |"
     )
+
+
+def kernel_seconds(model, name: str, device, replays: int = 50) -> float:
+    """Seconds per launch of the kernel's recorded launch (the last call's arguments), `replays` back to back:
+    the device time without the façade's host work. NaN where warpdyn keeps no recorded launch."""
+    try:
+        from warpdyn import _dynamics
+
+        entries = [e for key, e in _dynamics._recorded[model].items() if key[0] == KERNEL_NAME[name]]
+    except (ImportError, AttributeError, KeyError):
+        return float("nan")
+    if not entries:
+        return float("nan")
+    launch = entries[-1].launch
+    launch.launch()
+    wp.synchronize_device(device)
+    t = time.perf_counter()
+    for _ in range(replays):
+        launch.launch()
+    wp.synchronize_device(device)
+    return (time.perf_counter() - t) / replays
 
 
 def main() -> None:
@@ -96,8 +118,8 @@ def main() -> None:
     algorithms = args.algorithms.split(",")
     print(header(device))
     print()
-    print("| algorithm | dtype | N | compile [s] | median per call [ms] | per env [µs] | per second |")
-    print("| --- | --- | ---: | ---: | ---: | ---: | ---: |")
+    print("| algorithm | dtype | N | compile [s] | median per call [ms] | per env [µs] | per second | kernel only [ms] |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
     largest_aba = {}
     for dtype_name in args.dtypes.split(","):
         model = seed_model(np_dtype[dtype_name], device)
@@ -120,13 +142,14 @@ def main() -> None:
                 u = np.random.default_rng(1).uniform(-1, 1, n)
                 compile_s = first_call(data, u)
                 seconds = median_time(lambda: call(model, data, u), device, max(args.repeats, 200))
-                print(row(name, dtype_name, 1, compile_s, seconds, " (single env, NumPy input)"), flush=True)
+                print(row(name, dtype_name, 1, compile_s, seconds, note=" (single env, NumPy input)"), flush=True)
             for N in Ns:
                 data = wd.data.random_model_data(model, num_envs=N)
                 u = wp.array(np.random.default_rng(1).uniform(-1, 1, (N, n)), dtype=model.scalar, device=device)
                 compile_s = first_call(data, u)
                 seconds = median_time(lambda: call(model, data, u), device, args.repeats)
-                print(row(name, dtype_name, N, compile_s, seconds), flush=True)
+                kept = call(model, data, u)  # noqa: F841  (the recorded launch writes into these outputs)
+                print(row(name, dtype_name, N, compile_s, seconds, kernel_seconds(model, name, device)), flush=True)
                 if name == "ABA":
                     largest_aba[dtype_name] = (N, seconds)
     if args.sweep and device.is_cuda:
@@ -136,8 +159,8 @@ def main() -> None:
         print()
         print(f"CUDA settings at N = {N} (block_dim:max_registers, 0 = default)")
         print()
-        print("| algorithm | dtype | setting | compile [s] | median per call [ms] | per second |")
-        print("| --- | --- | --- | ---: | ---: | ---: |")
+        print("| algorithm | dtype | setting | compile [s] | median per call [ms] | per second | kernel only [ms] |")
+        print("| --- | --- | --- | ---: | ---: | ---: | ---: |")
         for dtype_name in args.dtypes.split(","):
             model = seed_model(np_dtype[dtype_name], device)
             data = wd.data.random_model_data(model, num_envs=N)
@@ -151,12 +174,18 @@ def main() -> None:
                     wp.synchronize_device(device)
                     compile_s = time.perf_counter() - t
                     seconds = median_time(lambda: CALLS[name](model, data, u), device, args.repeats)
-                    print(f"| {name} | {dtype_name} | {setting} | {compile_s:.2f} | {seconds * 1e3:.4f} | {N / seconds:.3g} |", flush=True)
+                    kept = CALLS[name](model, data, u)  # noqa: F841
+                    kernel_s = kernel_seconds(model, name, device)
+                    print(
+                        f"| {name} | {dtype_name} | {setting} | {compile_s:.2f} | {seconds * 1e3:.4f} | {N / seconds:.3g} | "
+                        f"{kernel_s * 1e3:.4f} |",
+                        flush=True,
+                    )
                 _dynamics.CUDA_LAUNCH.pop(KERNEL_NAME[name], None)
     if not device.is_cuda:
         yardstick = mujoco_yardstick()
         for name, seconds in yardstick:
-            print(f"| {name} (MuJoCo, C) | float64 | 1 | - | {seconds * 1e3:.4f} | {seconds * 1e6:.4f} | {1 / seconds:.3g} |")
+            print(f"| {name} (MuJoCo, C) | float64 | 1 | - | {seconds * 1e3:.4f} | {seconds * 1e6:.4f} | {1 / seconds:.3g} | - |")
         forward = dict(yardstick).get("mj_forward")
         if forward:
             print()

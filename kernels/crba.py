@@ -3,7 +3,7 @@
 Everything is expressed in base coordinates, so that composite inertias add without transforms and
 every entry is one dot product (no quantity carried along a loop: tape-safe):
     B_Ic_i = B_I_i + sum_children B_Ic_c   (a sibling chain, each element written once),
-    F_i = B_Ic_i B_S_i,   M_ij = B_S_j . F_i for j an ancestor of i (or i itself),
+    F_i = B_Ic_i B_S_i,   M_ij = B_S_j . F_i for j an ancestor of i (or i itself), listed per model,
     M_bb = B_Ic_0,   M_bi = F_i.
 A sum of rigid-body inertias in one frame is a rigid-body inertia: B_Ic is kept as its mass m, first
 moment h = m c and rotational inertia about the base origin I_O (10 numbers, not a 6x6 matrix).
@@ -64,7 +64,10 @@ def kernels(scalar, max_registers: int | None = None):
         link_inertia: wp.array(dtype=sp.mat33),
         first_child: wp.array(dtype=int),
         next_sibling: wp.array(dtype=int),
-        support: wp.array2d(dtype=int),
+        pair_k: wp.array(dtype=int),
+        pair_j: wp.array(dtype=int),
+        zero_k: wp.array(dtype=int),
+        zero_j: wp.array(dtype=int),
         # state
         base_position: wp.array2d(dtype=scalar),
         base_quaternion: wp.array2d(dtype=scalar),
@@ -76,6 +79,9 @@ def kernels(scalar, max_registers: int | None = None):
         M: wp.array3d(dtype=scalar),
     ):
         """M (N, 6 + n, 6 + n): the mass matrix for the generalized velocity in `repr`.
+
+        (pair_k, pair_j) (P,): the joint pairs with joint j supporting link k + 1 (j == k included);
+        (zero_k, zero_j) (Z,): the pairs where neither joint supports the other's link.
 
         s (N, nL, CRBA_RECORD): scratch, columns named at the top of this file.
         """
@@ -150,16 +156,15 @@ def kernels(scalar, max_registers: int | None = None):
             for r in range(6):
                 M[env, r, 6 + k] = col[r]
                 M[env, 6 + k, r] = col[r]
-        # joint block: M_kj = B_S_j . F_k for j an ancestor of k (or k), mirrored; zero between branches
-        for k in range(n):
-            F_k = sc.get6(s, env, k + 1, _F)
-            for j in range(n):
-                if support[k + 1, j] != 0:
-                    value = wp.dot(sc.get6(s, env, j + 1, _BS), F_k)
-                    M[env, 6 + k, 6 + j] = value
-                    if j != k:
-                        M[env, 6 + j, 6 + k] = value
-                elif support[j + 1, k] == 0:
-                    M[env, 6 + k, 6 + j] = scalar(0.0)
+        # joint block: M_kj = M_jk = B_S_j . F_k for each supporting pair, zero between branches
+        for p in range(pair_k.shape[0]):
+            k = pair_k[p]
+            j = pair_j[p]
+            value = wp.dot(sc.get6(s, env, j + 1, _BS), sc.get6(s, env, k + 1, _F))
+            M[env, 6 + k, 6 + j] = value
+            if j != k:
+                M[env, 6 + j, 6 + k] = value
+        for z in range(zero_k.shape[0]):
+            M[env, 6 + zero_k[z], 6 + zero_j[z]] = scalar(0.0)
 
     return types.SimpleNamespace(crba=crba)

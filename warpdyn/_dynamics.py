@@ -107,6 +107,23 @@ def _launch(model, name: str, N: int, width: int, args: list, grad: bool) -> Non
     entry.launch.launch()
 
 
+_pairs: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""model -> CRBA's joint pairs (pair_k, pair_j, zero_k, zero_j), device int arrays."""
+
+
+def _joint_pairs(model) -> list:
+    """CRBA's joint pairs: (k, j) with joint j supporting link k + 1 (M_kj = B_S_j . F_k, mirrored), and
+    (k, j) with neither joint supporting the other's link (M_kj = 0)."""
+    pairs = _pairs.get(model)
+    if pairs is None:
+        n = model.dofs()
+        support = np.asarray(model.support.numpy()).reshape(model.number_of_links(), n)[1:] != 0
+        k, j = np.nonzero(support)
+        zk, zj = np.nonzero(~(support | support.T))
+        pairs = _pairs[model] = [wp.array(a.astype(np.int32), dtype=int, device=model.device) for a in (k, j, zk, zj)]
+    return pairs
+
+
 def _model_args(model) -> list:
     return [
         model.parent,
@@ -243,7 +260,7 @@ def free_floating_mass_matrix(model, data) -> wp.array:
     out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping)
     args = [
         *_model_args(model),
-        model.support,
+        *_joint_pairs(model),
         data.base_position_state,
         data.base_quaternion_state,
         data.joint_positions_state,
