@@ -33,20 +33,16 @@ import warp as wp
 
 from . import _arrays
 from .common import VelRepr
+from .kernels.aba import ABA_RECORD
 from .kernels.aba import kernels as aba_kernels
 from .kernels.actuation import kernel as actuation_kernel
 from .kernels.forces import kernels as force_kernels
 from .kernels.integrators import kernels as integrator_kernels
 from .kernels.kinematics import kernels as kinematics_kernels
+from .kernels.scratch import TRANSFORM
 from .kernels.soft_contacts import kernels as contact_kernels
 from .kernels.velocities import kernels as velocity_kernels
 from .terrain import HeightfieldTerrain
-
-try:  # ABA with one scalar scratch record per link (kernels/scratch.py)
-    from .kernels.aba import ABA_RECORD
-    from .kernels.scratch import TRANSFORM
-except ImportError:  # ABA with one scratch array per quantity
-    ABA_RECORD = None
 
 try:  # where wp.Tape registers itself while it records
     from warp._src import context as _wp_context
@@ -349,6 +345,7 @@ class _Workspace:
         s, d = plan.scalar, plan.device
         n, nL = plan.n, plan.nL
         self.N, self.grad, self.forces = N, grad, forces
+        self.recorded = None  # see _run_recorded
         self.tau = _arrays.output((n,), N, s, d, grad)
         transform = wp.types.transformation(s)
         if forces:
@@ -413,26 +410,17 @@ def _evaluate(plan: _Plan, ev: _Eval, x: list, tau, f_ext, poses_done: bool, aba
     return launches
 
 
-def _aba_scratch(plan: _Plan, N: int, grad: bool, forces: bool) -> list:
-    """ABA's scratch arrays for N environments (forces: with link forces)."""
-    s, d, nL = plan.scalar, plan.device, plan.nL
-    if ABA_RECORD is not None:
-        return [_arrays.empty((nL, ABA_RECORD + (TRANSFORM if forces else 0)), N, s, d, grad)]
-    transform, vec6, mat66 = wp.types.transformation(s), wp.types.vector(6, s), wp.types.matrix((6, 6), s)
-    return [_arrays.empty((nL,), N, t, d, grad) for t in (transform, transform, vec6, vec6, vec6, s, s, mat66, vec6, vec6)]
+def _aba_scratch(plan: _Plan, N: int, grad: bool, forces: bool) -> wp.array:
+    """ABA's scratch record (N, nL, ABA_RECORD [+ TRANSFORM with link forces]), see kernels/aba.py."""
+    return _arrays.empty((plan.nL, ABA_RECORD + (TRANSFORM if forces else 0)), N, plan.scalar, plan.device, grad)
 
 
 def _aba_launch(plan: _Plan, ev: _Eval, x: list, tau, f_L):
-    """ABA at the state x, Inertial: joint forces tau (N, n), link forces f_L (N, nL, 6) Inertial or None,
-    into ev.nu_dot (whichever of the two ABA kernel signatures kernels/aba.py has)."""
+    """ABA at the state x in the Inertial representation: joint forces tau (N, n), link forces f_L (N, nL, 6)
+    Inertial or None (ABA skips them), into ev.nu_dot."""
     N = x[0].shape[0]
-    state = [x[0], x[1], x[2], x[3], x[4]]
-    if ABA_RECORD is not None:
-        inputs = [*plan.aba_args, *state, tau if plan.n > 0 else None, f_L, int(VelRepr.Inertial), *ev.aba_scratch]
-        return (plan.aba, N, inputs, [ev.base_acceleration, ev.joint_accelerations])
-    tau = tau if plan.n > 0 else plan.zeros((0,), N)
-    f_L = f_L if f_L is not None else plan.zeros((plan.nL, 6), N)
-    return (plan.aba, N, [*plan.aba_args, *state, tau, f_L, int(VelRepr.Inertial), *ev.aba_scratch], [ev.nu_dot])
+    inputs = [*plan.aba_args, *x[:5], tau if plan.n > 0 else None, f_L, int(VelRepr.Inertial), ev.aba_scratch]
+    return (plan.aba, N, inputs, [ev.base_acceleration, ev.joint_accelerations])
 
 
 def _step_launches(plan: _Plan, ws: _Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None) -> list:
@@ -480,6 +468,28 @@ def _step_launches(plan: _Plan, ws: _Workspace, x: list, y: list, tau_ref, f_use
 def _run(launches, device) -> None:
     for kernel, dim, inputs, outputs in launches:
         wp.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device)
+
+
+def _run_recorded(ws: _Workspace, launches, device) -> None:
+    """`_run` through launches recorded in `ws` (wp.launch(record_cmd=True)): a later call with the same
+    kernels re-packs only the arguments that are not the ones bound last time (the new state arrays), not
+    the ~100 arguments of a step. Outside a tape only (a tape records wp.launch calls)."""
+    recorded = ws.recorded
+    if recorded is None or len(recorded) != len(launches) or any(r[0].kernel is not l[0] for r, l in zip(recorded, launches)):
+        recorded = ws.recorded = []
+        for kernel, dim, inputs, outputs in launches:
+            args = [*inputs, *outputs]
+            recorded.append((wp.launch(kernel, dim=dim, inputs=args, device=device, record_cmd=True), args))
+    else:
+        for (command, bound), (kernel, dim, inputs, outputs) in zip(recorded, launches):
+            for i, a in enumerate((*inputs, *outputs)):
+                b = bound[i]
+                if a is b or (type(a) in (int, float) and type(b) is type(a) and a == b):
+                    continue
+                command.set_param_at_index(i, a)
+                bound[i] = a
+    for command, _ in recorded:
+        command.launch()
 
 
 def tangential_deformation(model, data) -> wp.array:
@@ -569,16 +579,22 @@ def step(model, data, *, link_forces=None, joint_force_references=None):
     link_forces (nL, 6) or (N, nL, 6): external forces in the data's representation, held for the step.
     joint_force_references (n,) or (N, n): joint forces before friction, limits and the torque-speed curve.
     Returns new Data (fresh arrays, same representation); `data` is unchanged. Outside a wp.Tape the step's
-    intermediate arrays are kept per model and reused; under one they are fresh (the adjoint reads them).
+    intermediate arrays and its recorded launches are kept per model and reused (a call packs only its new
+    arguments); under one they are fresh (the adjoint reads them later).
     """
     plan, N = _prepare(model, data)
     tau_ref = _joint_force_references(plan, data, joint_force_references)
     f_user = _link_forces(plan, data, link_forces)
     grad = data.requires_grad or _inputs_require_grad(tau_ref, f_user)
     forces = f_user is not None
-    ws = _Workspace(plan, N, grad, forces) if _taping() else plan.shared_workspace(N, forces)
     y = _state_buffers(plan, N, grad)
-    _run(_step_launches(plan, ws, _state_arrays(data), y, tau_ref, f_user, int(data.velocity_representation)), plan.device)
+    repr = int(data.velocity_representation)
+    if _taping():
+        ws = _Workspace(plan, N, grad, forces)
+        _run(_step_launches(plan, ws, _state_arrays(data), y, tau_ref, f_user, repr), plan.device)
+    else:
+        ws = plan.shared_workspace(N, forces)
+        _run_recorded(ws, _step_launches(plan, ws, _state_arrays(data), y, tau_ref, f_user, repr), plan.device)
     return _from_arrays(data, y)
 
 

@@ -75,6 +75,8 @@ def with_collidable_points(model, *, options: CollidablePointsOptions | None = N
             enabled_links = (enabled_links,)
         links = {_names.name_to_idx("link", model.link_names(), name) for name in enabled_links}
         enabled = np.array([b in links for b in params.contact_parameters.body], dtype=bool)
+    if enabled is None and not all(params.contact_parameters.enabled):  # neither given: every point enabled
+        enabled = np.ones(len(params.contact_parameters.body), dtype=bool)
     if enabled is not None:
         params = params.with_enabled(model, enabled)
     new = copy.copy(model)

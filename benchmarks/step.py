@@ -1,0 +1,184 @@
+"""Simulation steps and rollouts for N environments: what a model pays for contacts, and for Python.
+
+    python benchmarks/step.py [--device cuda:0] [--max-envs 65536 | --sizes 1,256,4096]
+                              [--dtypes float32,float64] [--robots legs,legs-no-contacts,arm]
+                              [--repeats 10] [--fresh-cache]
+
+Robots:
+- legs: the seed's ergoCub legs (12 joints, 13 links) with its 32 collidable points (the ankle boxes),
+  standing on flat ground (feet a few mm in the ground, so the contact kernel runs its contact branches);
+- legs-no-contacts: the same model with every point disabled: no FK, link-velocity or contact kernel;
+- arm: a fixed-base arm without collidable points: the iCub (icub-models) welded to the world at its root,
+  torso and left arm (10 joints); a 7-joint chain when icub-models is not installed.
+Each row times, after a warm-up (compilation, graph capture) and synchronising around the timed region:
+- step: one `wd.model.step(model, data, joint_force_references=tau)` call (tau a device array (N, n)),
+  the median over repeats: the latency of a Python loop of steps;
+- rollout: `wd.simulation.Rollout.run` of T steps with per-step torques (T, N, n) recording the joint
+  positions, replaying its captured graph (CUDA graph on GPUs, Warp's CPU graph on the CPU); the median
+  run divided by T (the run's initial copies included);
+- eager: the same rollout with use_graph=False (one Python launch per kernel).
+env-steps/s = N / (seconds per step). Prints the header (device, versions) and a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import re
+
+import numpy as np
+import warp as wp
+
+import warpdyn as wd
+from common import header, median_time, np_dtype, seed_model, sizes
+
+ARM_JOINTS = ("torso_pitch", "torso_roll", "torso_yaw", "l_shoulder_pitch", "l_shoulder_roll", "l_shoulder_yaw", "l_elbow", "l_wrist_prosup", "l_wrist_pitch", "l_wrist_yaw")
+
+
+def _chain_urdf(n: int = 7) -> str:
+    """A fixed-base chain of n revolute links (alternating axes), 0.3 m each."""
+    parts = ['<robot name="chain">', '<link name="world"/>', '<link name="base"><inertial><mass value="2"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>']
+    parts.append('<joint name="weld" type="fixed"><parent link="world"/><child link="base"/></joint>')
+    parent = "base"
+    for i in range(n):
+        axis = ("0 0 1", "0 1 0", "1 0 0")[i % 3]
+        parts.append(
+            f'<link name="l{i}"><inertial><origin xyz="0 0 0.15"/><mass value="1"/>'
+            '<inertia ixx="0.008" iyy="0.008" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        )
+        parts.append(
+            f'<joint name="j{i}" type="revolute"><parent link="{parent}"/><child link="l{i}"/>'
+            f'<origin xyz="0 0 {0.3 if i else 0.1}"/><axis xyz="{axis}"/><limit lower="-2" upper="2" effort="50" velocity="10"/></joint>'
+        )
+        parent = f"l{i}"
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+def arm_model(dtype, device):
+    """(label, model): the iCub's torso and left arm welded to the world, or a 7-joint chain."""
+    try:
+        import pathlib
+
+        import icub_models
+
+        text = pathlib.Path(icub_models.get_model_file("iCubGazeboV2_5")).read_text()
+    except ImportError:
+        model = wd.model.Model.build_from_model_description(_chain_urdf(), dtype=dtype, device=device)
+        return "arm (7-joint chain, fixed base)", model
+    root = re.search(r'<link name="([^"]+)"', text).group(1)
+    weld = f'<link name="world"/><joint name="world_weld" type="fixed"><parent link="world"/><child link="{root}"/><origin xyz="0 0 1"/></joint>'
+    text = text.replace("</robot>", weld + "</robot>", 1)
+    full = wd.model.Model.build_from_model_description(text, dtype=dtype, device=device)
+    model = wd.model.reduce(full, [j for j in ARM_JOINTS if j in full.joint_names()])
+    cp = model.kin_dyn_parameters.contact_parameters
+    model = wd.contact.with_collidable_points(model, enabled=np.zeros(len(cp.body), dtype=bool))
+    return f"arm (iCub torso + left arm, {model.dofs()} joints, fixed base)", model
+
+
+def robots(names, dtype, device):
+    """[(label, model, standing)]: standing says whether to place the base so the feet touch the ground."""
+    out = []
+    if "legs" in names or "legs-no-contacts" in names:
+        legs = seed_model(dtype, device)
+        count = len(legs.kin_dyn_parameters.contact_parameters.body)
+        if "legs" in names:
+            out.append((f"ergoCub legs, {count} points", legs, True))
+        if "legs-no-contacts" in names:
+            none = wd.contact.with_collidable_points(copy.copy(legs), enabled=np.zeros(count, dtype=bool))
+            out.append(("ergoCub legs, no points", none, True))
+    if "arm" in names:
+        label, model = arm_model(dtype, device)
+        out.append((label, model, False))
+    return out
+
+
+def initial_data(model, N: int, standing: bool, seed: int = 0):
+    """States near a stance: joints within 0.05 rad of zero, small velocities; for the legs, the base at
+    the height where the lowest point is 3 mm deep (+- 2 mm)."""
+    rng = np.random.default_rng(seed)
+    n = model.dofs()
+    kwargs = dict(joint_positions=rng.uniform(-0.05, 0.05, (N, n)), joint_velocities=rng.uniform(-0.1, 0.1, (N, n)))
+    if standing:
+        zero = wd.data.Data.build(model)
+        cp = wd.contact.with_collidable_points(model)  # all points, to place the feet even without contacts
+        lowest = float(wd.contact.collidable_point_positions(cp, zero).numpy()[:, 2].min())
+        z = -lowest - 0.003 + rng.uniform(-0.002, 0.002, N)
+        kwargs["base_position"] = np.stack([np.zeros(N), np.zeros(N), z], axis=1)
+    return wd.data.Data.build(model, num_envs=N, **kwargs)
+
+
+def rollout_steps(N: int, device) -> int:
+    """T for the rollout rows: long enough to amortise the run's copies, short enough on a CPU."""
+    budget = 2**20 if wp.get_device(device).is_cuda else 2**15
+    return int(max(8, min(200, budget // N)))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--device", default=None)
+    parser.add_argument("--max-envs", type=int, default=None, help="default: 65536 on GPUs, 4096 on the CPU")
+    parser.add_argument("--sizes", default=None, help="comma-separated N (default: 1, 16, 256, ... up to --max-envs)")
+    parser.add_argument("--dtypes", default="float32,float64")
+    parser.add_argument("--robots", default="legs,legs-no-contacts,arm")
+    parser.add_argument("--repeats", type=int, default=10)
+    parser.add_argument("--no-eager", action="store_true", help="skip the eager rollout column")
+    parser.add_argument("--fresh-cache", action="store_true", help="compile into an empty kernel cache")
+    args = parser.parse_args()
+    if args.fresh_cache:
+        from common import init_warp
+
+        init_warp()
+    else:
+        wp.config.quiet = True
+        wp.config.log_level = wp.LOG_WARNING
+        wp.init()
+    device = wp.get_device(args.device)
+    max_envs = args.max_envs or (65536 if device.is_cuda else 4096)
+    Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else sizes(max_envs)
+    names = args.robots.split(",")
+    print(header(device))
+    print()
+    print("| robot | dtype | N | step [ms] | step env-steps/s | rollout T | rollout per step [ms] | rollout env-steps/s | eager per step [ms] |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    summary = {}
+    for dtype_name in args.dtypes.split(","):
+        dtype = np_dtype[dtype_name]
+        for label, model, standing in robots(names, dtype, device):
+            n = model.dofs()
+            for N in Ns:
+                data = initial_data(model, N, standing)
+                rng = np.random.default_rng(1)
+                tau = wp.array(rng.normal(0.0, 1.0, (N, n)), dtype=model.scalar, device=device)
+                wd.model.step(model, data, joint_force_references=tau)  # compile
+                step_s = median_time(lambda: wd.model.step(model, data, joint_force_references=tau), device, args.repeats)
+                T = rollout_steps(N, device)
+                taus = wp.array(rng.normal(0.0, 1.0, (T, N, n)), dtype=model.scalar, device=device)
+                roll = wd.simulation.Rollout(model, steps=T, record=("joint_positions",))
+                roll.run(data, joint_force_references=taus)  # compile, capture
+                roll_s = median_time(lambda: roll.run(data, joint_force_references=taus), device, max(3, args.repeats // 2)) / T
+                eager = "-"
+                if not args.no_eager:
+                    eager_roll = wd.simulation.Rollout(model, steps=T, record=("joint_positions",), use_graph=False)
+                    eager_roll.run(data, joint_force_references=taus)
+                    eager_s = median_time(lambda: eager_roll.run(data, joint_force_references=taus), device, 3) / T
+                    eager = f"{eager_s * 1e3:.4g}"
+                summary[(label, dtype_name, N)] = (step_s, roll_s)
+                print(
+                    f"| {label} | {dtype_name} | {N} | {step_s * 1e3:.4g} | {N / step_s:.3g} | {T} | {roll_s * 1e3:.4g} | "
+                    f"{N / roll_s:.3g} | {eager} |",
+                    flush=True,
+                )
+    with_c = [k for k in summary if k[0].startswith("ergoCub legs,") and "no points" not in k[0]]
+    if with_c:
+        print()
+        print("Contacts' share (ergoCub legs, rollout per step, with / without points):")
+        for label, dtype_name, N in with_c:
+            other = [k for k in summary if "no points" in k[0] and k[1:] == (dtype_name, N)]
+            if other:
+                a, b = summary[(label, dtype_name, N)][1], summary[other[0]][1]
+                print(f"- {dtype_name}, N = {N}: {a * 1e3:.4g} / {b * 1e3:.4g} ms = {a / b:.2f}")
+
+
+if __name__ == "__main__":
+    main()
