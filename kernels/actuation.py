@@ -1,7 +1,7 @@
 """Joint torques actually applied in a step, as JaxSim's `compute_resultant_torques`.
 
     tau = clip(tau_ref + tau_friction + tau_limits, -tau_lim(|sdot|), tau_lim(|sdot|)),
-    tau_friction = -(kc sign(sdot) + kv sdot),
+    tau_friction = -(kc sign(sdot) + kv sdot), sign(0) = 0 (as jnp.sign; wp.sign(0) is 1),
     tau_limits = -k (min(s - s_min, 0) + max(s - s_max, 0)), then tau_limits *= (1 - d sdot)
         (JaxSim multiplies the damping by the spring torque: zero inside the limits),
     tau_lim = tau_max for |sdot| <= omega_th, falling linearly to 0 at omega_max, 0 beyond.
@@ -43,7 +43,12 @@ def kernel(scalar, with_limits: bool, with_friction: bool):
         sd = joint_velocities[env, j]
         total = tau_ref[env, j]
         if FRICTION:
-            total = total - (friction_static[j] * wp.sign(sd) + friction_viscous[j] * sd)
+            sign = scalar(0.0)
+            if sd > scalar(0.0):
+                sign = scalar(1.0)
+            elif sd < scalar(0.0):
+                sign = scalar(-1.0)
+            total = total - (friction_static[j] * sign + friction_viscous[j] * sd)
         if LIMITS:
             below = wp.min(s - position_limits[j, 0], scalar(0.0))
             above = wp.max(s - position_limits[j, 1], scalar(0.0))

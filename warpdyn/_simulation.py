@@ -198,6 +198,8 @@ class _Plan:
         self.total = len(cp.body)
         self.count = len(rows)
         self.contacts = self.count > 0
+        if self.contacts:
+            _check_deformation_stability(model)
         self.point_link = wp.array(links.astype(np.int32), dtype=int, device=d)
         self.L_p_C = wp.array(np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3), dtype=wp.types.vector(3, s), device=d)
         self.point_row = wp.array(rows.astype(np.int32), dtype=int, device=d)
@@ -288,6 +290,25 @@ def broadcast_envs(row: wp.array, N: int) -> wp.array:
             ptr=row.grad.ptr, dtype=row.dtype, shape=(N, *row.shape[1:]), strides=(0, *row.grad.strides[1:]), device=row.device
         )
     return view
+
+
+DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.RungeKutta4: 2.785}
+"""Stability limits of dt K / D: the tangential deformation relaxes as m_dot = -(K / D) m (out of contact,
+and for p = q in contact), which explicit Euler integrates stably for dt K / D < 2 and RK4 for
+dt K / D < 2.785 (its stability region on the negative real axis). Beyond, m grows geometrically while
+staying finite for many steps, so no health check would catch it: `step` refuses such settings."""
+
+
+def _check_deformation_stability(model) -> None:
+    c = model.contact_params
+    rate = float(np.max(np.asarray(c.K, dtype=np.float64) / np.asarray(c.D, dtype=np.float64)))
+    limit = DEFORMATION_STABILITY[IntegratorType(model.integrator)]
+    if model.time_step * rate >= limit:
+        raise ValueError(
+            f"time_step {model.time_step} s with contact K/D = {rate:.4g} 1/s gives dt K/D = {model.time_step * rate:.3g}, "
+            f"beyond the stability limit {limit} of {IntegratorType(model.integrator).name} for the tangential "
+            f"deformation: take time_step < {limit / rate:.3g} s, or raise D (or lower K)"
+        )
 
 
 def _plan(model) -> _Plan:
