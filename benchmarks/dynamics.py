@@ -8,8 +8,11 @@ Times the façade calls `forward_dynamics_aba` (with joint forces), `inverse_dyn
 accelerations) and `free_floating_mass_matrix` on batched data (each call allocates its outputs) after a
 warm-up, as medians, synchronising around every call. --single adds single-environment calls (data with
 num_envs=None, NumPy inputs: the latency of a plain Python call). --sweep times each algorithm at the
-largest N for CUDA settings `block_dim:max_registers` (0: Warp's default / the compiler's choice; see
-warpdyn._dynamics.CUDA_LAUNCH). "kernel only" replays the call's recorded launch back to back: the device
+largest N for CUDA settings `block_dim:max_registers` (0: Warp's default block / no register cap; rows
+without --sweep use the kernels' tuned MAX_REGISTERS, see warpdyn._dynamics.CUDA_LAUNCH).
+--release-threshold sets the CUDA memory pool's release threshold first (bytes, or a fraction of the
+device's memory): with Warp's default, memory freed by a call goes back to the driver at the next
+synchronisation and large outputs (CRBA's M) are mapped again by the next call. "kernel only" replays the call's recorded launch back to back: the device
 time without the façade's host work (outputs, argument packing, synchronisation). On the CPU the run also times MuJoCo's `mj_forward` and `mj_inverse` on
 the same robot (one call, one environment, constraints off) and prints batched ABA per environment
 against mj_forward. Prints Markdown tables.
@@ -109,14 +112,19 @@ def main() -> None:
     parser.add_argument("--single", action="store_true", help="also time single-environment calls")
     parser.add_argument("--sweep", default="", help="block_dim:max_registers settings to time at the largest N (CUDA)")
     parser.add_argument("--forward-only", action="store_true", help="compile no adjoints (faster sweeps)")
+    parser.add_argument("--release-threshold", type=float, default=None, help="CUDA mempool release threshold")
     args = parser.parse_args()
     init_warp()
     if args.forward_only:
         wp.config.enable_backward = False
     device = wp.get_device(args.device)
+    if args.release_threshold is not None and device.is_cuda:
+        wp.set_mempool_release_threshold(device, args.release_threshold)
     Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else sizes(args.max_envs)
     algorithms = args.algorithms.split(",")
     print(header(device))
+    if device.is_cuda:
+        print(f"CUDA mempool release threshold: {wp.get_mempool_release_threshold(device)} bytes")
     print()
     print("| algorithm | dtype | N | compile [s] | median per call [ms] | per env [µs] | per second | kernel only [ms] |")
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
@@ -157,7 +165,7 @@ def main() -> None:
 
         N = max(Ns)
         print()
-        print(f"CUDA settings at N = {N} (block_dim:max_registers, 0 = default)")
+        print(f"CUDA settings at N = {N} (block_dim:max_registers; 0: Warp's default block, no register cap)")
         print()
         print("| algorithm | dtype | setting | compile [s] | median per call [ms] | per second | kernel only [ms] |")
         print("| --- | --- | --- | ---: | ---: | ---: | ---: |")

@@ -59,14 +59,14 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         PH = P * H1
         H2 = H1 - KP
         L2 = R * L * Rt + PH + wp.transpose(PH) - P * KP
-        return sp.mat66(
+        return sc.sym_upper(sp.mat66(
             K1[0, 0], K1[0, 1], K1[0, 2], H2[0, 0], H2[0, 1], H2[0, 2],
             K1[1, 0], K1[1, 1], K1[1, 2], H2[1, 0], H2[1, 1], H2[1, 2],
             K1[2, 0], K1[2, 1], K1[2, 2], H2[2, 0], H2[2, 1], H2[2, 2],
             H2[0, 0], H2[1, 0], H2[2, 0], L2[0, 0], L2[0, 1], L2[0, 2],
             H2[0, 1], H2[1, 1], H2[2, 1], L2[1, 0], L2[1, 1], L2[1, 2],
             H2[0, 2], H2[1, 2], H2[2, 2], L2[2, 0], L2[2, 1], L2[2, 2],
-        )  # fmt: skip
+        ))  # fmt: skip
 
     @wp.func
     def external_force(
@@ -81,9 +81,21 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
     return types.SimpleNamespace(inertia_to=inertia_to, external_force=external_force)
 
 
+MAX_REGISTERS = {wp.float32: 128, wp.float64: None}
+"""Register cap per thread on CUDA by scalar, measured on an H200 at N = 65536 (benchmarks/results/dynamics_h200_run2.md):
+in float32 the compiler's 168 registers allow 8 or 12 warps per multiprocessor, two waves for 65536 threads;
+128 registers (light spills) allow 16 warps, one wave: kernel 0.147 -> 0.113 ms. In float64 a cap spills
+heavily (0.21 -> 0.31 ms at 128)."""
+
+
+def kernels(scalar, max_registers: int | None | str = "tuned"):
+    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's
+    choice; "tuned": MAX_REGISTERS[scalar])."""
+    return _kernels(scalar, MAX_REGISTERS[scalar] if max_registers == "tuned" else max_registers)
+
+
 @functools.cache
-def kernels(scalar, max_registers: int | None = None):
-    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's choice)."""
+def _kernels(scalar, max_registers):
     sp = spatial(scalar)
     sc = scratch(scalar)
     base_pose = kinematics_kernels(scalar).base_pose
@@ -149,34 +161,35 @@ def kernels(scalar, max_registers: int | None = None):
             S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
             v_i = sc.get6(s, env, i, _V)
             c_i = sp.cross_motion(v_i, S * joint_velocities[env, i - 1])
-            I = sp.spatial_inertia(link_mass[i], link_com[i], link_inertia[i])
+            I = sc.sym_upper(sp.spatial_inertia(link_mass[i], link_com[i], link_inertia[i]))
             IA = I
             pA = sp.cross_force(v_i, I * v_i)
             if forces:
                 pA = pA - external_force(f_L, repr, s, _WHL, env, i)
             if first_child[i] >= 0:
-                IA = IA + sc.get_sym66(s, env, first_child[i], _IA)
+                IA = sc.sym_upper(IA + sc.get_sym66(s, env, first_child[i], _IA))
                 pA = pA + sc.get6(s, env, first_child[i], _PA)
             U_i = IA * S
             d_inv = scalar(1.0) / wp.dot(S, U_i)
             u_i = -wp.dot(S, pA)
             if joint_forces.shape[0] > 0:
                 u_i = u_i + joint_forces[env, i - 1]
-            sc.put6(s, env, i, _UD, U_i * d_inv)
+            Ud = U_i * d_inv
+            sc.put6(s, env, i, _UD, Ud)
             s[env, i, _UD + 6] = u_i * d_inv
-            Ia = IA - wp.outer(U_i, U_i) * d_inv
+            Ia = sc.sym_upper(IA - wp.outer(Ud, U_i))
             pa = pA + Ia * c_i + U_i * (u_i * d_inv)
             chain_I = inertia_to(X, Ia)
             chain_p = sp.force_to(X, pa)
             if next_sibling[i] >= 0:
-                chain_I = chain_I + sc.get_sym66(s, env, next_sibling[i], _IA)
+                chain_I = sc.sym_upper(chain_I + sc.get_sym66(s, env, next_sibling[i], _IA))
                 chain_p = chain_p + sc.get6(s, env, next_sibling[i], _PA)
             sc.put_sym66(s, env, i, _IA, chain_I)
             sc.put6(s, env, i, _PA, chain_p)
         # 3. accelerations, from the base
         a0 = -B_a_g
         if floating_base != 0:
-            I0 = sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0])
+            I0 = sc.sym_upper(sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0]))
             IA0 = I0
             pA0 = sp.cross_force(B_v, I0 * B_v)
             if forces:

@@ -31,9 +31,19 @@ CRBA_RECORD = _IC + 10
 """Scratch numbers per link."""
 
 
+MAX_REGISTERS = {wp.float32: None, wp.float64: None}
+"""Register cap per thread on CUDA by scalar (None: the compiler's choice); caps measured on an H200 changed
+CRBA by under 5% (benchmarks/results/dynamics_h200_run2.md)."""
+
+
+def kernels(scalar, max_registers: int | None | str = "tuned"):
+    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's
+    choice; "tuned": MAX_REGISTERS[scalar])."""
+    return _kernels(scalar, MAX_REGISTERS[scalar] if max_registers == "tuned" else max_registers)
+
+
 @functools.cache
-def kernels(scalar, max_registers: int | None = None):
-    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's choice)."""
+def _kernels(scalar, max_registers):
     sp = spatial(scalar)
     sc = scratch(scalar)
     base_pose = kinematics_kernels(scalar).base_pose

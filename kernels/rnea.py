@@ -28,9 +28,19 @@ RNEA_RECORD = _WHL
 """Scratch numbers per link without link forces (with them: RNEA_RECORD + 7)."""
 
 
+MAX_REGISTERS = {wp.float32: None, wp.float64: 128}
+"""Register cap per thread on CUDA by scalar, measured on an H200 at N = 65536 (benchmarks/results/dynamics_h200_run2.md):
+float64 218 -> 128 registers: kernel 0.111 -> 0.092 ms; float32 already uses 127."""
+
+
+def kernels(scalar, max_registers: int | None | str = "tuned"):
+    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's
+    choice; "tuned": MAX_REGISTERS[scalar])."""
+    return _kernels(scalar, MAX_REGISTERS[scalar] if max_registers == "tuned" else max_registers)
+
+
 @functools.cache
-def kernels(scalar, max_registers: int | None = None):
-    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's choice)."""
+def _kernels(scalar, max_registers):
     sp = spatial(scalar)
     sc = scratch(scalar)
     base_pose = kinematics_kernels(scalar).base_pose

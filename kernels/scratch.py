@@ -120,7 +120,20 @@ def scratch(scalar) -> types.SimpleNamespace:
         a[env, i, col + 19] = M[4, 5]
         a[env, i, col + 20] = M[5, 5]
 
+    @wp.func
+    def sym_upper(M: sp.mat66):
+        """The symmetric mat66 with M's upper triangle: only those 21 entries of M's expression are computed."""
+        return sp.mat66(
+            M[0, 0], M[0, 1], M[0, 2], M[0, 3], M[0, 4], M[0, 5],
+            M[0, 1], M[1, 1], M[1, 2], M[1, 3], M[1, 4], M[1, 5],
+            M[0, 2], M[1, 2], M[2, 2], M[2, 3], M[2, 4], M[2, 5],
+            M[0, 3], M[1, 3], M[2, 3], M[3, 3], M[3, 4], M[3, 5],
+            M[0, 4], M[1, 4], M[2, 4], M[3, 4], M[4, 4], M[4, 5],
+            M[0, 5], M[1, 5], M[2, 5], M[3, 5], M[4, 5], M[5, 5],
+        )  # fmt: skip
+
     return types.SimpleNamespace(
+        sym_upper=sym_upper,
         get6=get6,
         put6=put6,
         row6=row6,

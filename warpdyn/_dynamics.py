@@ -40,9 +40,10 @@ try:  # where wp.Tape registers itself while it records
 except ImportError:  # pragma: no cover - other Warp versions: always take the recorded-safe path
     _wp_context = None
 
-CUDA_LAUNCH: dict[str, tuple[int | None, int | None]] = {}
-"""CUDA settings by kernel name ("aba", "rnea", "crba"): (threads per block, register cap per thread);
-missing or None: Warp's default (256) and the compiler's choice. benchmarks/dynamics.py --sweep measures them."""
+CUDA_LAUNCH: dict[str, tuple[int | None, int | None | str]] = {}
+"""CUDA settings by kernel name ("aba", "rnea", "crba"): (threads per block, register cap per thread).
+Missing: Warp's default block (256) and each kernel module's MAX_REGISTERS; a cap of None: the compiler's
+choice. benchmarks/dynamics.py --sweep measures them."""
 
 _KERNELS = {
     "aba": lambda scalar, registers: aba_kernels(scalar, registers).aba,
@@ -78,7 +79,7 @@ def _launch(model, name: str, N: int, width: int, args: list, grad: bool) -> Non
     recorded launch for this kernel, re-packing only the arguments that are not the ones it holds.
     """
     device = model.device
-    block_dim, registers = CUDA_LAUNCH.get(name, (None, None)) if device.is_cuda else (None, None)
+    block_dim, registers = CUDA_LAUNCH.get(name, (None, "tuned")) if device.is_cuda else (None, "tuned")
     kernel = _KERNELS[name](model.scalar, registers)
     nL = model.number_of_links()
     if _taping():
@@ -173,14 +174,30 @@ class _Outputs:
 
 
 def _grad(data, *inputs) -> bool:
-    return data.requires_grad or any(isinstance(x, wp.array) and x.requires_grad for x in inputs)
+    """Whether the data's state or an input requires gradients (Data.requires_grad, without its name lookups)."""
+    return (
+        data.base_position_state.requires_grad
+        or data.base_quaternion_state.requires_grad
+        or data.joint_positions_state.requires_grad
+        or data.base_velocity_state.requires_grad
+        or data.joint_velocities_state.requires_grad
+        or any(isinstance(x, wp.array) and x.requires_grad for x in inputs)
+    )
+
+
+def _check(model, data) -> None:
+    """warpdyn.model._check_data, its common case first: same scalar, joint count and device object."""
+    state = data.joint_positions_state
+    if state.dtype is model.scalar and state.shape[1] == model.dofs() and state.device is model.device:
+        return
+    from .model import _check_data
+
+    _check_data(model, data)
 
 
 def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool):
     """RNEA (kernels/rnea.py) on user inputs (None: zero): (f_B, tau) when `split`, else Q = [f_B; tau]."""
-    from .model import _check_data
-
-    _check_data(model, data)
+    _check(model, data)
     taping = _taping()
     n, nL, N = model.dofs(), model.number_of_links(), data.batch_size
     a_B = _input(model, data, base_acceleration, "base_acceleration", (6,), taping)
@@ -251,12 +268,10 @@ def free_floating_gravity_forces(model, data) -> wp.array:
 
 def free_floating_mass_matrix(model, data) -> wp.array:
     """M(q): (6 + n, 6 + n) or (N, 6 + n, 6 + n), for the generalized velocity in the data's representation."""
-    from .model import _check_data
-
-    _check_data(model, data)
+    _check(model, data)
     taping = _taping()
     n = model.dofs()
-    grad = data.requires_grad
+    grad = _grad(data)
     out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping)
     args = [
         *_model_args(model),
@@ -278,9 +293,7 @@ def forward_dynamics_aba(model, data, *, joint_forces=None, link_forces=None):
     joint_forces (n,); link_forces (nL, 6) in the data's representation. The base acceleration is the
     derivative of the base velocity in the data's representation (zero for a fixed base).
     """
-    from .model import _check_data
-
-    _check_data(model, data)
+    _check(model, data)
     taping = _taping()
     n, nL = model.dofs(), model.number_of_links()
     tau = _input(model, data, joint_forces, "joint_forces", (n,), taping)
