@@ -8,8 +8,21 @@ batched. `wd.math` holds JaxSim's math helpers, host-side (NumPy) and as `@wp.fu
 
 # model first: it re-exports functions of modules (_centroidal, _dynamics, ...) that import it back.
 from . import model  # isort: skip
-from . import com, contact, data, frame, joint, link, math, references, simulation, terrain
+from . import com, contact, data, frame, joint, link, math, references, simulation, terrain, visualization
 from .common import VelRepr
 
-__all__ = ["VelRepr", "com", "contact", "data", "frame", "joint", "link", "math", "model", "references", "simulation", "terrain"]
+__all__ = [
+    "VelRepr",
+    "com",
+    "contact",
+    "data",
+    "frame",
+    "joint",
+    "link",
+    "math",
+    "model",
+    "references",
+    "terrain",
+    "visualization",
+]
 __version__ = "0.1.0"
