@@ -22,6 +22,7 @@ __all__ = [
     "math",
     "model",
     "references",
+    "simulation",
     "terrain",
     "visualization",
 ]
