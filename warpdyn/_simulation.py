@@ -307,7 +307,8 @@ def _check_deformation_stability(model) -> None:
         raise ValueError(
             f"time_step {model.time_step} s with contact K/D = {rate:.4g} 1/s gives dt K/D = {model.time_step * rate:.3g}, "
             f"beyond the stability limit {limit} of {IntegratorType(model.integrator).name} for the tangential "
-            f"deformation: take time_step < {limit / rate:.3g} s, or raise D (or lower K)"
+            f"deformation: take time_step < {limit / rate:.3g} s, or a smaller K (a larger D also lowers K/D but makes "
+            "the explicit contact damping less stable: README, 'Speed and accuracy')"
         )
 
 
