@@ -7,7 +7,7 @@ CI has no GPU, so this is how the environment-fastest layout and the CUDA code p
 results (environment-major layout, checked against MuJoCo by the tests) are the reference. The reference
 file holds the states and the results; Warp on the GPU machine need not compile for its CPU. Prints the
 largest relative difference per quantity and exits non-zero when one exceeds its tolerance (1e-9 in
-float64, 1e-3 in float32).
+float64, 1e-3 in float32, 1e-2 for float32's dense solves).
 """
 
 from __future__ import annotations
@@ -24,6 +24,9 @@ from warpdyn import VelRepr
 
 N = 257
 TOLERANCE = {"float64": 1e-9, "float32": 1e-3}
+CONDITIONED = {"mass_matrix_inverse": 1e-2, "crb_base": 1e-2, "crb_joints": 1e-2}
+"""float32 tolerances of the dense solves: M agrees to ~1e-5, but M^-1 amplifies that by cond(M) (on the
+CPU alone, float32 M^-1 is 8.6e-4 from float64's)."""
 
 
 def states(model, seed: int = 3) -> dict[str, np.ndarray]:
@@ -100,7 +103,7 @@ def main() -> int:
         for name, value in got.items():
             cpu = reference[f"{dtype_name}/result/{name}"]
             error = float(np.max(np.abs(value - cpu) / (1.0 + np.abs(cpu))))
-            ok = error <= tol
+            ok = error <= (CONDITIONED.get(name, tol) if dtype_name == "float32" else tol)
             failures += not ok
             print(f"{dtype_name} {name:30s} max rel diff {error:.2e} {'ok' if ok else 'FAIL'}")
     print(f"{wp.get_device('cuda:0').name}: {failures} failed")
