@@ -20,7 +20,7 @@ import types
 import warp as wp
 
 from .kinematics import kernels as kinematics_kernels
-from .scratch import SYM66, TRANSFORM, scratch
+from .scratch import SYM66, scratch
 from .spatial import MIXED, spatial
 
 # Columns of the ABA's per-link scratch record (N, nL, ABA_RECORD[+ TRANSFORM with link forces]).

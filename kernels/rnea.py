@@ -16,7 +16,7 @@ import warp as wp
 
 from .aba import inertia_funcs
 from .kinematics import kernels as kinematics_kernels
-from .scratch import TRANSFORM, scratch
+from .scratch import scratch
 from .spatial import MIXED, spatial
 
 # Columns of the RNEA's per-link scratch record (N, nL, RNEA_RECORD[+ TRANSFORM with link forces]).

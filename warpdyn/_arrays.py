@@ -60,17 +60,6 @@ def squeeze_env(array: wp.array, num_envs: int | None) -> wp.array:
     return array[0]
 
 
-def host_float(value, name: str, shape: tuple) -> np.ndarray:
-    """A float64 NumPy copy of `value` with `shape`, or a ValueError that names the argument."""
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise TypeError(f"{name} must be an array of numbers: {error}") from None
-    if array.shape != tuple(shape):
-        raise ValueError(f"{name} has shape {array.shape}, expected {tuple(shape)}")
-    return array
-
-
 def check_device_array(value: wp.array, name: str, scalar, device) -> None:
     """A TypeError or ValueError naming `name` when a Warp array has the wrong dtype or device."""
     if value.dtype != scalar:

@@ -24,7 +24,6 @@ import numpy as np
 import warp as wp
 
 from . import _arrays
-from .common import VelRepr  # noqa: F401  (re-exported names keep their docs)
 from .kernels.aba import ABA_RECORD
 from .kernels.aba import kernels as aba_kernels
 from .kernels.cholesky import kernels as cholesky_kernels
