@@ -407,11 +407,11 @@ def main() -> None:
     started = time.perf_counter()
     print(header(device), flush=True)
 
-    base64_cpu = seed_model(np.float64, "cpu")
-    init = initial_state(base64_cpu)
-    inertia, sie_limit, rk4_limit = pd_limits(base64_cpu, init)
+    base64 = seed_model(np.float64, device)  # the run's device: a GPU machine's Warp may not compile for its CPU
+    init = initial_state(base64)
+    inertia, sie_limit, rk4_limit = pd_limits(base64, init)
     t0 = time.perf_counter()
-    refs, ref_note, computed = reference(base64_cpu, init, ks, args.recompute_reference, "cpu")
+    refs, ref_note, computed = reference(base64, init, ks, args.recompute_reference, str(device))
     ref_wall = time.perf_counter() - t0
     print(f"reference ready in {ref_wall:.1f} s", flush=True)
 
