@@ -22,6 +22,7 @@ from __future__ import annotations
 import warp as wp
 
 from . import _arrays
+from ._dynamics import model_args
 from .kernels.coriolis import kernels as coriolis_kernels
 
 __all__ = ["free_floating_coriolis_matrix"]
@@ -49,16 +50,7 @@ def free_floating_coriolis_matrix(model, data) -> wp.array:
         k.coriolis_links,
         dim=N,
         inputs=[
-            model.parent,
-            model.joint_type,
-            model.X_tree,
-            model.joint_axis,
-            model.joint_pivot,
-            model.link_mass,
-            model.link_com,
-            model.link_inertia,
-            model.first_child,
-            model.next_sibling,
+            *model_args(model),
             data.base_position_state,
             data.base_quaternion_state,
             data.joint_positions_state,

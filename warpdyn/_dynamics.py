@@ -124,7 +124,8 @@ def _joint_pairs(model) -> list:
     return pairs
 
 
-def _model_args(model) -> list:
+def model_args(model) -> list:
+    """The model constants that lead the RNEA, CRBA, ABA and Coriolis kernels' parameters, in their order."""
     return [
         model.parent,
         model.joint_type,
@@ -216,7 +217,7 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
             f_B = _arrays.launch_view(out.user[0], (1, 6), (0, size))
             tau = _arrays.launch_view(out.user[0], (1, n), (0, size), 6 * size)
     args = [
-        *_model_args(model),
+        *model_args(model),
         model.gravity,
         data.base_position_state,
         data.base_quaternion_state,
@@ -273,7 +274,7 @@ def free_floating_mass_matrix(model, data) -> wp.array:
     grad = _grad(data)
     out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping)
     args = [
-        *_model_args(model),
+        *model_args(model),
         *_joint_pairs(model),
         data.base_position_state,
         data.base_quaternion_state,
@@ -300,7 +301,7 @@ def forward_dynamics_aba(model, data, *, joint_forces=None, link_forces=None):
     grad = _grad(data, tau, f_L)
     out = _Outputs(model, data, [(6,), (n,)], grad, taping)
     args = [
-        *_model_args(model),
+        *model_args(model),
         model.gravity,
         int(model.floating_base()),
         data.base_position_state,

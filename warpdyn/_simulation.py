@@ -32,6 +32,7 @@ import numpy as np
 import warp as wp
 
 from . import _arrays
+from ._dynamics import model_args
 from .common import VelRepr
 from .kernels.aba import ABA_RECORD
 from .kernels.aba import kernels as aba_kernels
@@ -235,16 +236,7 @@ class _Plan:
         ]
         self.aba = aba_kernels(s).aba
         self.aba_args = [
-            model.parent,
-            model.joint_type,
-            model.X_tree,
-            model.joint_axis,
-            model.joint_pivot,
-            model.link_mass,
-            model.link_com,
-            model.link_inertia,
-            model.first_child,
-            model.next_sibling,
+            *model_args(model),
             model.gravity,
             int(self.floating_base),
         ]
