@@ -28,6 +28,7 @@ def env_fastest(device) -> bool:
     """Whether per-environment arrays on `device` are stored environment-fastest."""
     return wp.get_device(device).is_cuda if ENV_FASTEST is None else ENV_FASTEST
 
+
 FILL_OUTPUTS_WITH_NAN = False
 """Debugging aid: fill every output with NaN before a kernel writes it, so unwritten entries show."""
 
