@@ -28,7 +28,7 @@ import warp as wp
 
 from . import _arrays
 from . import model as _model
-from .common import VelRepr
+from .common import VelRepr, output_repr
 from .kernels.centroidal import FRAME_GB, FRAME_GW
 from .kernels.centroidal import kernels as centroidal_kernels
 
@@ -214,10 +214,6 @@ def energy(model, data, S, kinetic: bool, potential: bool) -> wp.array:
     return out
 
 
-def _output_repr(data, output_vel_repr) -> VelRepr:
-    return VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
-
-
 # JaxSim's functions ----------------------------------------------------------------------------
 
 
@@ -253,7 +249,7 @@ def total_momentum_jacobian(model, data, *, output_vel_repr=None) -> wp.array:
     the frame of output_vel_repr (default: the data's): W, B or B[W]. With the data's representation as
     output it is the first six rows of the mass matrix, as in JaxSim."""
     S = sums(model, data)
-    J = jacobian_in(model, data, S, _frame_of(_output_repr(data, output_vel_repr)), average=False)
+    J = jacobian_in(model, data, S, _frame_of(output_repr(data, output_vel_repr)), average=False)
     return _arrays.squeeze_env(J, data.num_envs)
 
 
@@ -281,7 +277,7 @@ def average_velocity_jacobian(model, data, *, output_vel_repr=None) -> wp.array:
     result is not the average velocity of any frame. This function applies the proper transform always.
     """
     S = sums(model, data)
-    J = jacobian_in(model, data, S, _frame_of(_output_repr(data, output_vel_repr)), average=True)
+    J = jacobian_in(model, data, S, _frame_of(output_repr(data, output_vel_repr)), average=True)
     return _arrays.squeeze_env(J, data.num_envs)
 
 

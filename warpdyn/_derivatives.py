@@ -16,7 +16,7 @@ from __future__ import annotations
 import warp as wp
 
 from . import _arrays
-from .common import VelRepr
+from .common import output_repr
 from .kernels.jacobian_derivatives import kernels as derivative_kernels
 
 __all__ = [
@@ -58,10 +58,6 @@ def _kinematics(model, data) -> tuple[wp.array, wp.array, wp.array]:
     return W_H_L, W_v_WL, W_a_L
 
 
-def _output_repr(data, output_vel_repr) -> VelRepr:
-    return VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
-
-
 def jacobian_derivatives(model, data, target_link: wp.array, link_H_target: wp.array, output_vel_repr=None) -> wp.array:
     """(N, T, 6, 6 + n): J̇ of the targets (frames at link_H_target on target_link), the time derivative
     of `warpdyn.model.jacobians(model, data, target_link, link_H_target, output_vel_repr)`.
@@ -69,7 +65,7 @@ def jacobian_derivatives(model, data, target_link: wp.array, link_H_target: wp.a
     Columns act on ν in the data's representation; rows give the target's velocity in output_vel_repr
     (default: the data's). Units: those of J (1, or m for the linear rows of angular columns) per second.
     """
-    output_vel_repr = _output_repr(data, output_vel_repr)
+    output_vel_repr = output_repr(data, output_vel_repr)
     W_H_L, W_v_WL, _ = _kinematics(model, data)
     N, T = data.batch_size, target_link.shape[0]
     Jdot = _arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, data.requires_grad)
@@ -101,7 +97,7 @@ def bias_accelerations(model, data, target_link: wp.array, link_H_target: wp.arr
     This is the target's acceleration at zero generalized acceleration (ν̇ = 0 in the data's
     representation), in the output representation's sense: d/dt (J ν) = J ν̇ + J̇ ν.
     """
-    output_vel_repr = _output_repr(data, output_vel_repr)
+    output_vel_repr = output_repr(data, output_vel_repr)
     W_H_L, W_v_WL, W_a_L = _kinematics(model, data)
     N, T = data.batch_size, target_link.shape[0]
     a = _arrays.output((T, 6), N, model.scalar, model.device, data.requires_grad)

@@ -19,3 +19,8 @@ class VelRepr(enum.IntEnum):
     Body = 1
     Mixed = 2
     Inertial = 3
+
+
+def output_repr(data, output_vel_repr) -> VelRepr:
+    """`output_vel_repr` as a VelRepr, or the data's representation when it is None (JaxSim's default)."""
+    return VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)

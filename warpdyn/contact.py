@@ -28,7 +28,7 @@ from ._collidable import (
     UnresolvedMeshWarning,
 )
 from ._simulation import estimate_good_contact_parameters
-from .common import VelRepr
+from .common import VelRepr, output_repr
 from .kernels.contact_points import kernels as contact_kernels
 from .kernels.contact_wrenches import kernels as wrench_kernels
 
@@ -192,7 +192,7 @@ def link_contact_forces(
             raise ValueError("give joint_force_references or joint_torques (the same argument), not both")
         joint_force_references = joint_torques
     _check_ignored_inputs(model, data, link_forces, joint_force_references)
-    repr = VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
+    repr = output_repr(data, output_vel_repr)
     plan, ev = _contact_evaluation(model, data)
     N, nL = data.batch_size, model.number_of_links()
     out = _arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
@@ -219,7 +219,7 @@ def collidable_point_forces(model, data, *, link_forces=None, joint_force_refere
     from ._simulation import _contact_evaluation
 
     _check_ignored_inputs(model, data, link_forces, joint_force_references)
-    repr = VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
+    repr = output_repr(data, output_vel_repr)
     plan, ev = _contact_evaluation(model, data)
     N = data.batch_size
     out = _arrays.output((plan.count, 6), N, model.scalar, model.device, data.requires_grad)

@@ -10,7 +10,7 @@ import numpy as np
 import warp as wp
 
 from . import _arrays
-from .common import VelRepr
+from .common import VelRepr, output_repr  # noqa: F401  (VelRepr stays importable as wd.model.VelRepr)
 from .description import ModelDescription, load
 from .kernels.jacobians import kernels as jacobian_kernels
 from .kernels.kinematics import kernels as kinematics_kernels
@@ -383,7 +383,7 @@ def joint_transforms(model: Model, data) -> wp.array:
 
 def jacobians(model: Model, data, target_link: wp.array, link_H_target: wp.array, output_vel_repr) -> wp.array:
     """(N, T, 6, 6 + n) free-floating Jacobians of the targets (frames at link_H_target on target_link)."""
-    output_vel_repr = VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
+    output_vel_repr = output_repr(data, output_vel_repr)
     _, W_H_L = link_poses(model, data)
     N, T = data.batch_size, target_link.shape[0]
     J = _arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, data.requires_grad)
@@ -419,7 +419,7 @@ def generalized_free_floating_jacobian(model: Model, data, *, output_vel_repr=No
 
 def velocities(model: Model, data, target_link: wp.array, link_H_target: wp.array, output_vel_repr) -> wp.array:
     """(N, T, 6) velocities of the targets (frames at link_H_target on target_link) in output_vel_repr."""
-    output_vel_repr = VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
+    output_vel_repr = output_repr(data, output_vel_repr)
     _, W_H_L = link_poses(model, data)
     N, T = data.batch_size, target_link.shape[0]
     W_v_WL = _arrays.empty((model.number_of_links(),), N, wp.types.vector(6, model.scalar), model.device, data.requires_grad)
