@@ -348,8 +348,9 @@ class KinDynParameters:
     support_body_array_bool: (nL, nL) bool, [L, j] true when link j is on the path from the base to L
     (L and the base included).
     options: the `CollidablePointsOptions` the points were made with.
-    The enabled points' link indices and offsets also live on the model's device (`enabled_link`,
-    `enabled_link_H_point`: (nc,) int and (nc,) transform), for the contact kernels.
+    The enabled points' link indices, offsets and positions also live on the model's device (`enabled_link`,
+    `enabled_link_H_point`, `enabled_point`: (nc,) int, (nc,) transform and (nc,) vec3 L_p_C [m]), for
+    the contact kernels.
     """
 
     contact_parameters: ContactParameters

@@ -192,7 +192,7 @@ def link_contact_forces(
             raise ValueError("give joint_force_references or joint_torques (the same argument), not both")
         joint_force_references = joint_torques
     _check_ignored_inputs(model, data, link_forces, joint_force_references)
-    repr = output_repr(data, output_vel_repr)
+    out_repr = output_repr(data, output_vel_repr)
     plan, ev = _contact_evaluation(model, data)
     N, nL = data.batch_size, model.number_of_links()
     out = _arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
@@ -202,7 +202,7 @@ def link_contact_forces(
         wp.launch(
             wrench_kernels(model.scalar).link_wrenches,
             dim=(N, nL),
-            inputs=[plan.link_first_point, ev.W_H_L, ev.chain, int(repr)],
+            inputs=[plan.link_first_point, ev.W_H_L, ev.chain, int(out_repr)],
             outputs=[out],
             device=model.device,
         )
@@ -219,7 +219,7 @@ def collidable_point_forces(model, data, *, link_forces=None, joint_force_refere
     from ._simulation import _contact_evaluation
 
     _check_ignored_inputs(model, data, link_forces, joint_force_references)
-    repr = output_repr(data, output_vel_repr)
+    out_repr = output_repr(data, output_vel_repr)
     plan, ev = _contact_evaluation(model, data)
     N = data.batch_size
     out = _arrays.output((plan.count, 6), N, model.scalar, model.device, data.requires_grad)
@@ -227,7 +227,7 @@ def collidable_point_forces(model, data, *, link_forces=None, joint_force_refere
         wp.launch(
             wrench_kernels(model.scalar).point_wrenches,
             dim=(N, plan.count),
-            inputs=[plan.point_link, plan.L_p_C, plan.point_out, ev.W_H_L, ev.W_f_C, int(repr)],
+            inputs=[plan.point_link, plan.L_p_C, plan.point_out, ev.W_H_L, ev.W_f_C, int(out_repr)],
             outputs=[out],
             device=model.device,
         )
