@@ -37,6 +37,38 @@ def kernels(scalar):
     def finite3(v: sp.vec3):
         return wp.isfinite(v[0]) and wp.isfinite(v[1]) and wp.isfinite(v[2])
 
+    @wp.func
+    def keep_state(
+        env: int,
+        base_position: wp.array2d(dtype=scalar),
+        base_quaternion: wp.array2d(dtype=scalar),
+        joint_positions: wp.array2d(dtype=scalar),
+        base_velocity: wp.array2d(dtype=scalar),
+        joint_velocities: wp.array2d(dtype=scalar),
+        m: wp.array3d(dtype=scalar),
+        base_position_next: wp.array2d(dtype=scalar),
+        base_quaternion_next: wp.array2d(dtype=scalar),
+        joint_positions_next: wp.array2d(dtype=scalar),
+        base_velocity_next: wp.array2d(dtype=scalar),
+        joint_velocities_next: wp.array2d(dtype=scalar),
+        m_next: wp.array3d(dtype=scalar),
+        valid_next: wp.array(dtype=wp.int32),
+    ):
+        """A flagged environment: its next state is its state, and valid_next = 0."""
+        for a in range(3):
+            base_position_next[env, a] = base_position[env, a]
+            base_velocity_next[env, a] = base_velocity[env, a]
+            base_velocity_next[env, 3 + a] = base_velocity[env, 3 + a]
+        for a in range(4):
+            base_quaternion_next[env, a] = base_quaternion[env, a]
+        for j in range(joint_positions.shape[1]):
+            joint_positions_next[env, j] = joint_positions[env, j]
+            joint_velocities_next[env, j] = joint_velocities[env, j]
+        for c in range(m.shape[1]):
+            for a in range(3):
+                m_next[env, c, a] = m[env, c, a]
+        valid_next[env] = 0
+
     @wp.kernel(module="unique")
     def semi_implicit_euler(
         dt: scalar,
@@ -101,19 +133,22 @@ def kernels(scalar):
                     m_next[env, c, a] = m[env, c, a] + dt * m_dot[env, c, a]
             valid_next[env] = 1
         else:
-            for a in range(3):
-                base_position_next[env, a] = base_position[env, a]
-                base_velocity_next[env, a] = base_velocity[env, a]
-                base_velocity_next[env, 3 + a] = base_velocity[env, 3 + a]
-            for a in range(4):
-                base_quaternion_next[env, a] = base_quaternion[env, a]
-            for j in range(n):
-                joint_velocities_next[env, j] = joint_velocities[env, j]
-                joint_positions_next[env, j] = joint_positions[env, j]
-            for c in range(m.shape[1]):
-                for a in range(3):
-                    m_next[env, c, a] = m[env, c, a]
-            valid_next[env] = 0
+            keep_state(
+                env,
+                base_position,
+                base_quaternion,
+                joint_positions,
+                base_velocity,
+                joint_velocities,
+                m,
+                base_position_next,
+                base_quaternion_next,
+                joint_positions_next,
+                base_velocity_next,
+                joint_velocities_next,
+                m_next,
+                valid_next,
+            )
 
     @wp.func
     def read3(a: wp.array2d(dtype=scalar), env: int, offset: int):
@@ -275,19 +310,22 @@ def kernels(scalar):
                     m_next[env, c, a] = m[env, c, a] + w * (k1[env, i3] + scalar(2.0) * (k2[env, i3] + k3[env, i3]) + k4[env, i3])
             valid_next[env] = 1
         else:
-            for a in range(3):
-                base_position_next[env, a] = base_position[env, a]
-                base_velocity_next[env, a] = base_velocity[env, a]
-                base_velocity_next[env, 3 + a] = base_velocity[env, 3 + a]
-            for a in range(4):
-                base_quaternion_next[env, a] = base_quaternion[env, a]
-            for j in range(n):
-                joint_positions_next[env, j] = joint_positions[env, j]
-                joint_velocities_next[env, j] = joint_velocities[env, j]
-            for c in range(m.shape[1]):
-                for a in range(3):
-                    m_next[env, c, a] = m[env, c, a]
-            valid_next[env] = 0
+            keep_state(
+                env,
+                base_position,
+                base_quaternion,
+                joint_positions,
+                base_velocity,
+                joint_velocities,
+                m,
+                base_position_next,
+                base_quaternion_next,
+                joint_positions_next,
+                base_velocity_next,
+                joint_velocities_next,
+                m_next,
+                valid_next,
+            )
 
     def state_size(n: int, nc: int) -> int:
         """The length of x = (p, Q, s, v, sdot, m): 3 + 4 + n + 6 + n + 3 nc."""
