@@ -29,16 +29,21 @@ def kernels(scalar):
     vec4 = wp.types.vector(4, scalar)
 
     @wp.func
+    def heightfield_cell(hf: wp.array2d(dtype=scalar), grid: vec4, x: scalar, y: scalar):
+        """The heightfield cell under (x, y), clamped to the grid's edges: its lower corner (i, j) and the
+        fractions (a, b) of (x, y) across it, in [0, 1]."""
+        u = wp.clamp((x - grid[0]) / grid[2], scalar(0.0), scalar(float(hf.shape[0] - 1)))
+        v = wp.clamp((y - grid[1]) / grid[3], scalar(0.0), scalar(float(hf.shape[1] - 1)))
+        i = wp.min(int(u), hf.shape[0] - 2)
+        j = wp.min(int(v), hf.shape[1] - 2)
+        return i, j, u - scalar(float(i)), v - scalar(float(j))
+
+    @wp.func
     def terrain_height(kind: int, n: sp.vec3, h0: scalar, hf: wp.array2d(dtype=scalar), grid: vec4, x: scalar, y: scalar):
         """h(x, y). Flat: h0. Plane: through (0, 0, h0) with unit normal n. Heightfield: hf bilinear on the
         grid (origin_x, origin_y, dx, dy), clamped to its edges."""
         if kind == HEIGHTFIELD:
-            u = wp.clamp((x - grid[0]) / grid[2], scalar(0.0), scalar(float(hf.shape[0] - 1)))
-            v = wp.clamp((y - grid[1]) / grid[3], scalar(0.0), scalar(float(hf.shape[1] - 1)))
-            i = wp.min(int(u), hf.shape[0] - 2)
-            j = wp.min(int(v), hf.shape[1] - 2)
-            a = u - scalar(float(i))
-            b = v - scalar(float(j))
+            i, j, a, b = heightfield_cell(hf, grid, x, y)
             one = scalar(1.0)
             return (
                 (one - a) * (one - b) * hf[i, j]
@@ -54,12 +59,7 @@ def kernels(scalar):
     def terrain_normal(kind: int, n: sp.vec3, h0: scalar, hf: wp.array2d(dtype=scalar), grid: vec4, x: scalar, y: scalar):
         """The unit normal at (x, y): constant for flat and plane terrains, from the bilinear gradient otherwise."""
         if kind == HEIGHTFIELD:
-            u = wp.clamp((x - grid[0]) / grid[2], scalar(0.0), scalar(float(hf.shape[0] - 1)))
-            v = wp.clamp((y - grid[1]) / grid[3], scalar(0.0), scalar(float(hf.shape[1] - 1)))
-            i = wp.min(int(u), hf.shape[0] - 2)
-            j = wp.min(int(v), hf.shape[1] - 2)
-            a = u - scalar(float(i))
-            b = v - scalar(float(j))
+            i, j, a, b = heightfield_cell(hf, grid, x, y)
             one = scalar(1.0)
             dhdx = ((one - b) * (hf[i + 1, j] - hf[i, j]) + b * (hf[i + 1, j + 1] - hf[i, j + 1])) / grid[2]
             dhdy = ((one - a) * (hf[i, j + 1] - hf[i, j]) + a * (hf[i + 1, j + 1] - hf[i + 1, j])) / grid[3]
