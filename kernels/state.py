@@ -9,6 +9,7 @@ import types
 import warp as wp
 
 from .kinematics import kernels as kinematics_kernels
+from .scratch import scratch
 from .spatial import MIXED, spatial
 
 
@@ -16,6 +17,7 @@ from .spatial import MIXED, spatial
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     base_pose = kinematics_kernels(scalar).base_pose
+    row6 = scratch(scalar).row6
     vec4 = wp.types.vector(4, scalar)
 
     @wp.kernel(module="unique")
@@ -32,12 +34,6 @@ def kernels(scalar) -> types.SimpleNamespace:
             row = 0
         dst[env, k] = src[row, k]
 
-    @wp.func
-    def read_vec6(a: wp.array2d(dtype=scalar), env: int, offset: int):
-        return sp.vec6(
-            a[env, offset], a[env, offset + 1], a[env, offset + 2], a[env, offset + 3], a[env, offset + 4], a[env, offset + 5]
-        )
-
     @wp.kernel(module="unique")
     def base_velocity_to_repr(
         # state
@@ -51,7 +47,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         """out (N, 6): the state's Mixed base velocity in representation `repr`."""
         env = wp.tid()
         W_H_B = base_pose(base_position, base_quaternion, env)
-        v = sp.inertial_to_repr(repr, W_H_B, sp.repr_to_inertial(MIXED, W_H_B, read_vec6(base_velocity, env, 0)))
+        v = sp.inertial_to_repr(repr, W_H_B, sp.repr_to_inertial(MIXED, W_H_B, row6(base_velocity, env, 0)))
         for r in range(6):
             out[env, r] = v[r]
 
@@ -90,7 +86,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         """nu (N, 6 + n): the base velocity in `repr`, then the joint velocities."""
         env = wp.tid()
         W_H_B = base_pose(base_position, base_quaternion, env)
-        v = sp.inertial_to_repr(repr, W_H_B, sp.repr_to_inertial(MIXED, W_H_B, read_vec6(base_velocity, env, 0)))
+        v = sp.inertial_to_repr(repr, W_H_B, sp.repr_to_inertial(MIXED, W_H_B, row6(base_velocity, env, 0)))
         for r in range(6):
             nu[env, r] = v[r]
         for j in range(joint_velocities.shape[1]):
@@ -200,7 +196,6 @@ def kernels(scalar) -> types.SimpleNamespace:
         actuated_minus=actuated_minus,
         normalized_quaternion=normalized_quaternion,
         broadcast_rows=broadcast_rows,
-        read_vec6=read_vec6,
         base_velocity_to_repr=base_velocity_to_repr,
         base_velocity_from_repr=base_velocity_from_repr,
         generalized_velocity=generalized_velocity,
