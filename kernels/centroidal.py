@@ -12,7 +12,8 @@ float32 accurate however far the robot is from the world origin:
 - the centroidal momentum G[W]_h = sum_L [m_L W_pdot_CL; d_L x m_L W_pdot_CL + W_I_L W_omega_L];
 - the kinetic energy K = sum_L 1/2 (m_L |W_pdot_CL|^2 + W_omega_L . W_I_L W_omega_L).
 
-Output frames F (the codes below; 1-3 equal the velocity representations' frames of the base):
+Output frames F (codes: spatial's BODY, MIXED, INERTIAL for the base's velocity-representation frames, and
+FRAME_GW, FRAME_GB below):
 B (Body), B[W] (Mixed), W (Inertial), G[W], G[B] = (W_p_G, [B]). A 6D force (momentum) is written in F
 as F_f = F_X*_G G[W]_f; a 6D velocity (average velocity) as F_v = F_X_G G[W]_v, where the average
 velocity is G[W]_v = G[W]_M^-1 G[W]_h with the locked inertia G[W]_M = blockdiag(m 1, I_G) (h = 0 about G).
@@ -30,9 +31,6 @@ import warp as wp
 from .kinematics import kernels as kinematics_kernels
 from .spatial import BODY, INERTIAL, MIXED, spatial
 
-FRAME_B = BODY
-FRAME_BW = MIXED
-FRAME_W = INERTIAL
 FRAME_GW = 4
 FRAME_GB = 5
 
@@ -71,7 +69,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.func
     def frame_from_G(frame: int, W_H_B: sp.transform, W_p_G: sp.vec3):
-        """G[W]_H_F: the output frame F (a FRAME_* code) seen from G[W]."""
+        """G[W]_H_F: the output frame F (BODY, MIXED, INERTIAL, FRAME_GW or FRAME_GB) seen from G[W]."""
         p_B = wp.transform_get_translation(W_H_B)
         q_B = wp.transform_get_rotation(W_H_B)
         if frame == BODY:
