@@ -200,19 +200,21 @@ def test_shared_and_per_environment_arguments(dtype, layout):
     lin_shared, ang_rows = rng.uniform(-1, 1, 3), rng.uniform(-1, 1, (N, 3))
     sdot_rows = rng.uniform(-1, 1, (N, n))
     scalar = model.scalar
-    cases = {
-        "numpy": dict(joint_positions=s_shared, joint_velocities=sdot_rows, base_position=p_rows,
-                      base_quaternion=q_shared, base_linear_velocity=lin_shared, base_angular_velocity=ang_rows),
-        "warp": dict(joint_positions=wp.array(s_shared, dtype=scalar), joint_velocities=wp.array(sdot_rows, dtype=scalar),
-                     base_position=wp.array(p_rows, dtype=scalar), base_quaternion=wp.array(q_shared, dtype=scalar),
-                     base_linear_velocity=wp.array(lin_shared, dtype=scalar),
-                     base_angular_velocity=wp.array(ang_rows, dtype=scalar)),
-    }
+    cases = {}
+    for s_kind, s in (("shared", s_shared), ("per-environment", s_rows)):
+        cases[f"numpy, {s_kind} joint positions"] = (s, dict(
+            joint_positions=s, joint_velocities=sdot_rows, base_position=p_rows, base_quaternion=q_shared,
+            base_linear_velocity=lin_shared, base_angular_velocity=ang_rows))
+        cases[f"warp, {s_kind} joint positions"] = (s, dict(
+            joint_positions=wp.array(s, dtype=scalar), joint_velocities=wp.array(sdot_rows, dtype=scalar),
+            base_position=wp.array(p_rows, dtype=scalar), base_quaternion=wp.array(q_shared, dtype=scalar),
+            base_linear_velocity=wp.array(lin_shared, dtype=scalar),
+            base_angular_velocity=wp.array(ang_rows, dtype=scalar)))
     cast = lambda x: np.asarray(x, dtype=dtype)  # noqa: E731
     tol = 1e-14 if np.dtype(dtype) == np.float64 else 1e-6
-    for kind, kwargs in cases.items():
+    for kind, (s, kwargs) in cases.items():
         data = wd.data.Data.build(model, **kwargs, velocity_representation=VelRepr.Body, num_envs=N)
-        np.testing.assert_array_equal(data.joint_positions.numpy(), np.tile(cast(s_shared), (N, 1)), err_msg=kind)
+        np.testing.assert_array_equal(data.joint_positions.numpy(), np.broadcast_to(cast(s), (N, n)), err_msg=kind)
         np.testing.assert_array_equal(data.joint_velocities.numpy(), cast(sdot_rows), err_msg=kind)
         np.testing.assert_array_equal(data.base_position.numpy(), cast(p_rows), err_msg=kind)
         np.testing.assert_array_equal(data.base_quaternion.numpy(), np.tile(cast(q_shared), (N, 1)), err_msg=kind)
