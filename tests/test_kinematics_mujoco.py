@@ -335,7 +335,7 @@ def test_link_velocities(case_name, X, dtype):
     generalized velocity in X vs NumPy; and J_XY @ nu_X equals the velocity in Y (J·nu identity).
     Tolerance: module docstring."""
     case, model, data, state, ref = setup(case_name, dtype, "velocities", repr=X)
-    tol, n = TOL[np.dtype(dtype)], model.dofs()
+    tol = TOL[np.dtype(dtype)]
     nu_expected = np.concatenate([from_mixed(X.name, state.R, state.p) @ state.v_mixed, state.sd])
     nu = data.generalized_velocity.numpy()
     assert_close(nu, nu_expected, tol, f"generalized velocity in {X.name}")

@@ -392,7 +392,6 @@ def test_lumping_conserves_inertia(case, which):
     lumped = np.zeros((6, 6))
     tree = model.tree
     for i in range(model.number_of_links()):
-        H = H_links[i]
         lumped += placed_inertia(tree.link_mass[i], tree.link_com[i], tree.link_inertia[i], H_links[i])
         assert wd.link.mass(model, link_index=i) == tree.link_mass[i]
     total = sum(m for m, _, _ in urdf.links.values())
