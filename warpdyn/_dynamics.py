@@ -14,6 +14,11 @@ share scratch; each CUDA stream gets its own. Under a tape every call gets fresh
 when the data or an input requires them), since the adjoint reads it later. Outputs are always fresh
 arrays that the caller owns. Absent inputs (no joint forces, no link forces, zero accelerations) reach
 the kernels as null arrays, which skip that work.
+
+Gradients with respect to the model's mass parameters (link_mass, link_com, link_inertia: arrays the
+kernels read in place, see `model_args`) accumulate into those arrays' .grad under a tape once they
+require gradients (`warpdyn.model.parameters_requiring_grad`); the recorded launches are never used under
+a tape, so they cannot bypass them. When none does, a taped call costs what it did.
 """
 
 from __future__ import annotations
@@ -173,10 +178,15 @@ class _Outputs:
             self.args = [_arrays.with_env_axis(a) for a in self.user]
 
 
-def _grad(data, *inputs) -> bool:
-    """Whether the data's state or an input requires gradients (Data.requires_grad, without its name lookups)."""
+def _grad(model, data, *inputs) -> bool:
+    """Whether the data's state, an input or a mass parameter of the model (link_mass, link_com, link_inertia)
+    requires gradients (Data.requires_grad, without its name lookups): then outputs and scratch get gradient
+    arrays, so that the adjoint reaches the parameters' .grad."""
     return (
-        data.base_position_state.requires_grad
+        model.link_mass.requires_grad
+        or model.link_com.requires_grad
+        or model.link_inertia.requires_grad
+        or data.base_position_state.requires_grad
         or data.base_quaternion_state.requires_grad
         or data.joint_positions_state.requires_grad
         or data.base_velocity_state.requires_grad
@@ -203,7 +213,7 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
     a_B = _input(model, data, base_acceleration, "base_acceleration", (6,), taping)
     s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,), taping)
     f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping)
-    grad = _grad(data, a_B, s_dd, f_L)
+    grad = _grad(model, data, a_B, s_dd, f_L)
     if split:
         out = _Outputs(model, data, [(6,), (n,)], grad, taping)
         f_B, tau = out.args
@@ -271,7 +281,7 @@ def free_floating_mass_matrix(model, data) -> wp.array:
     _check(model, data)
     taping = _taping()
     n = model.dofs()
-    grad = _grad(data)
+    grad = _grad(model, data)
     out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping)
     args = [
         *model_args(model),
@@ -298,7 +308,7 @@ def forward_dynamics_aba(model, data, *, joint_forces=None, link_forces=None):
     n, nL = model.dofs(), model.number_of_links()
     tau = _input(model, data, joint_forces, "joint_forces", (n,), taping)
     f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping)
-    grad = _grad(data, tau, f_L)
+    grad = _grad(model, data, tau, f_L)
     out = _Outputs(model, data, [(6,), (n,)], grad, taping)
     args = [
         *model_args(model),

@@ -21,6 +21,16 @@ kernel without that code). A step is then a fixed list of launches on given arra
 nothing allocated, nothing read back, so `warpdyn.simulation` captures many of them in a graph.
 Launches per semi-implicit Euler step: actuation (if joints), [FK, link velocities, contacts] (if enabled
 points), [FK if no contacts, force conversion] (if link forces not Inertial), ABA, integrator.
+
+Gradients with respect to model parameters (`PARAMETERS`, marked by `warpdyn.model.parameters_requiring_grad`).
+Every parameter a step reads is an array the user holds: the plan's launch arguments are the model's own
+arrays (`model_args`, the actuation's joint parameters) and the contact K, D, mu are read in place when
+`contact_params` holds Warp arrays (`_per_env` copies only numbers and NumPy arrays). Under a tape the
+adjoints accumulate into those arrays' .grad: `step` allocates fresh buffers with gradients when the data,
+an input or a parameter requires them (`parameters_require_grad`), and a rollout under a tape always does;
+the shared workspace and recorded launches serve only calls outside a tape. Marking a friction or limit gain
+keeps its term in the compiled actuation kernel even where it is zero (part of `_plan_key`, so marking one
+rebuilds the plan once). With nothing marked, nothing changes: a few attribute reads per step.
 """
 
 from __future__ import annotations
@@ -60,13 +70,53 @@ class IntegratorType(enum.IntEnum):
     RungeKutta4 = 2
 
 
+def _host(value) -> np.ndarray:
+    """A contact parameter's values on the host (float64), from a number, a NumPy array or a Warp array."""
+    if isinstance(value, wp.array):
+        value = value.numpy()
+    return np.asarray(value, dtype=np.float64)
+
+
+PARAMETERS = (
+    "link_mass",
+    "link_com",
+    "link_inertia",
+    "friction_static",
+    "friction_viscous",
+    "joint_limit_spring",
+    "joint_limit_damper",
+    "K",
+    "D",
+    "mu",
+)
+"""The model parameters that tape gradients reach (warpdyn.model.parameters_requiring_grad)."""
+
+
+def parameters_require_grad(model) -> bool:
+    """Whether any parameter in PARAMETERS requires gradients (a few attribute reads)."""
+    c = model.contact_params
+    return (
+        model.link_mass.requires_grad
+        or model.link_com.requires_grad
+        or model.link_inertia.requires_grad
+        or model.friction_static.requires_grad
+        or model.friction_viscous.requires_grad
+        or model.joint_limit_spring.requires_grad
+        or model.joint_limit_damper.requires_grad
+        or any(isinstance(v, wp.array) and v.requires_grad for v in (c.K, c.D, c.mu))
+    )
+
+
 @dataclasses.dataclass(frozen=True)
 class SoftContactsParams:
     """JaxSim's soft-contact parameters and defaults.
 
     K: stiffness [N/m^(1+p)]; D: damping [N s/m^(1+q)]; mu: Coulomb friction coefficient (stick and slip);
     p: exponent of the spring term, q: of the damper term. K, D and mu may be arrays (N,), one value per
-    environment (domain randomisation).
+    environment (domain randomisation). They may also be Warp arrays ((1,) or (N,), the model's dtype and
+    device): `step` then reads them in place, so that with requires_grad their .grad receives the gradient
+    (see `warpdyn.model.parameters_requiring_grad`); their values are read once, when the step's plan is
+    built, for the checks.
     """
 
     K: float | np.ndarray = 1e6
@@ -77,10 +127,10 @@ class SoftContactsParams:
 
     def __post_init__(self):
         for name in ("K", "D", "mu", "p", "q"):
-            value = np.asarray(getattr(self, name), dtype=np.float64)
+            value = _host(getattr(self, name))
             if value.ndim > 1 or not np.all(np.isfinite(value)) or np.any(value < 0.0):
                 raise ValueError(f"SoftContactsParams.{name} must be finite and non-negative (a number or (N,)), got {value}")
-        if np.any(np.asarray(self.D) <= 0.0):
+        if np.any(_host(self.D) <= 0.0):
             raise ValueError("SoftContactsParams.D must be positive (the deformation relaxes with rate K/D)")
 
 
@@ -122,6 +172,13 @@ def _terrain_args(model) -> list:
 
 
 def _per_env(value, name, scalar, device) -> wp.array:
+    if isinstance(value, wp.array):  # the user's array, read in place (its .grad gets the gradient)
+        if value.ndim != 1 or value.dtype != scalar or value.device != device:
+            raise ValueError(
+                f"SoftContactsParams.{name} as a Warp array must be 1-D with the model's dtype {scalar.__name__} on "
+                f"{device}, got shape {value.shape}, dtype {getattr(value.dtype, '__name__', value.dtype)} on {value.device}"
+            )
+        return value
     host = np.atleast_1d(np.asarray(value, dtype=np.float64))
     if host.ndim != 1:
         raise ValueError(f"SoftContactsParams.{name} has shape {host.shape}: give a number or one value per environment (N,)")
@@ -145,6 +202,10 @@ def _plan_key(model) -> tuple:
         model.joint_limit_damper,
         model.friction_static,
         model.friction_viscous,
+        # the kernels compiled for the actuation depend on these (a parameter that requires gradients keeps
+        # its term even where it is zero)
+        model.friction_static.requires_grad or model.friction_viscous.requires_grad,
+        model.joint_limit_spring.requires_grad or model.joint_limit_damper.requires_grad,
     )
 
 
@@ -170,9 +231,9 @@ class _Plan:
         self.quaternion_tolerance = s(model.quaternion_tolerance)
         # actuation
         a = model.actuation_params
-        self.with_limits = bool(np.any(model.joint_limit_spring_host != 0.0))
-        self.with_friction = bool(a.enable_friction) and bool(
-            np.any(model.friction_static_host != 0.0) or np.any(model.friction_viscous_host != 0.0)
+        self.with_limits = bool(np.any(model.joint_limit_spring_host != 0.0)) or bool(self.key[-1])
+        self.with_friction = bool(a.enable_friction) and (
+            bool(np.any(model.friction_static_host != 0.0) or np.any(model.friction_viscous_host != 0.0)) or bool(self.key[-2])
         )
         self.actuation = actuation_kernel(s, self.with_limits, self.with_friction) if self.n > 0 else None
         self.actuation_args = [
@@ -293,7 +354,7 @@ staying finite for many steps, so no health check would catch it: `step` refuses
 
 def _check_deformation_stability(model) -> None:
     c = model.contact_params
-    rate = float(np.max(np.asarray(c.K, dtype=np.float64) / np.asarray(c.D, dtype=np.float64)))
+    rate = float(np.max(_host(c.K) / _host(c.D)))
     limit = DEFORMATION_STABILITY[IntegratorType(model.integrator)]
     if model.time_step * rate >= limit:
         raise ValueError(
@@ -552,7 +613,8 @@ def resultant_torques(model, data, joint_force_references) -> wp.array:
     tau_ref = _joint_force_references(plan, data, joint_force_references)
     if plan.n == 0:
         return _arrays.empty((0,), N, plan.scalar, plan.device)
-    tau = _arrays.output((plan.n,), N, plan.scalar, plan.device, data.requires_grad or _inputs_require_grad(tau_ref))
+    grad = data.requires_grad or _inputs_require_grad(tau_ref) or parameters_require_grad(model)
+    tau = _arrays.output((plan.n,), N, plan.scalar, plan.device, grad)
     _run([(plan.actuation, (N, plan.n), [*plan.actuation_args, data.joint_positions_state, data.joint_velocities_state, tau_ref], [tau])], plan.device)
     return tau
 
@@ -563,7 +625,7 @@ def _contact_evaluation(model, data, W_f_ext=None) -> tuple[_Plan, _Eval | None]
     plan, N = _prepare(model, data)
     if not plan.contacts:
         return plan, None
-    grad = data.requires_grad or _inputs_require_grad(W_f_ext)
+    grad = data.requires_grad or _inputs_require_grad(W_f_ext) or parameters_require_grad(model)
     ev = _Eval(plan, N, grad, W_f_ext is not None, None, aba=False)
     x = _state_arrays(data)
     launches = _evaluate(plan, ev, x, None, W_f_ext, False, aba=False)
@@ -599,7 +661,7 @@ def step(model, data, *, link_forces=None, joint_force_references=None):
     plan, N = _prepare(model, data)
     tau_ref = _joint_force_references(plan, data, joint_force_references)
     f_user = _link_forces(plan, data, link_forces)
-    grad = data.requires_grad or _inputs_require_grad(tau_ref, f_user)
+    grad = data.requires_grad or _inputs_require_grad(tau_ref, f_user) or parameters_require_grad(model)
     forces = f_user is not None
     y = _state_buffers(plan, N, grad)
     repr = int(data.velocity_representation)

@@ -21,6 +21,7 @@ __all__ = [
     "Model",
     "reduce",
     "total_mass",
+    "parameters_requiring_grad",
     "forward_kinematics",
     "joint_transforms",
     "generalized_free_floating_jacobian",
@@ -313,6 +314,55 @@ def reduce(model: Model, considered_joints, locked_joint_positions: dict | None 
 def total_mass(model: Model) -> float:
     """The total mass of the model [kg]."""
     return float(np.sum(model.tree.link_mass))
+
+
+def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "link_inertia")) -> dict:
+    """Mark model parameters whose gradients a wp.Tape should compute; returns {name: Warp array}.
+
+    names, any of: "link_mass" (nL,) [kg], "link_com" (nL,) vec3 [m, link frame], "link_inertia" (nL,)
+    mat33 [kg m^2, about the CoM], "friction_static", "friction_viscous", "joint_limit_spring",
+    "joint_limit_damper" (n,) (see Model.set_joint_parameters), and the contact parameters "K", "D", "mu".
+    The model's own arrays get requires_grad (their .grad allocated, zero); the contact parameters, numbers
+    or (N,) NumPy arrays in `model.contact_params`, become Warp arrays (1,) or (N,) with requires_grad, which
+    replace them there (the step's plan is rebuilt once). After `tape.backward(loss)` the gradient of the loss
+    is in `arrays[name].grad`, the same shape as the parameter: shared parameters get the sum over the
+    environments, per-environment K, D, mu (N,) one value per environment. Zero the grads
+    (`tape.zero()`) between backward passes. Each call returns the model's current arrays: replacing a
+    parameter later (set_joint_parameters, a new contact_params) makes new arrays without gradients.
+
+    What reaches them: ABA, RNEA, CRBA (and what calls them: forward/inverse dynamics, bias forces, mass
+    matrix), `step` and `warpdyn.simulation.Rollout` under a tape. With none marked a tape records the
+    same launches as before and nothing extra is allocated. A limit gain or friction that requires gradients
+    keeps its term in the step's compiled actuation kernel even where it is zero (a joint with a zero limit
+    spring has its limit off: its gradient is 0 there).
+    """
+    from ._simulation import PARAMETERS
+
+    if isinstance(names, str):
+        names = (names,)
+    unknown = [n for n in names if n not in PARAMETERS]
+    if unknown:
+        raise ValueError(f"parameters_requiring_grad: unknown names {unknown}; known: {list(PARAMETERS)}")
+    out = {}
+    contact = {}
+    for name in names:
+        if name in ("K", "D", "mu"):
+            value = getattr(model.contact_params, name)
+            if not isinstance(value, wp.array):
+                host = np.atleast_1d(np.asarray(value, dtype=np.float64))
+                value = wp.array(host, dtype=model.scalar, device=model.device)
+                contact[name] = value
+            value.requires_grad = True
+            out[name] = value
+        else:
+            array = getattr(model, name)
+            array.requires_grad = True
+            out[name] = array
+    if contact:
+        import dataclasses
+
+        model.contact_params = dataclasses.replace(model.contact_params, **contact)
+    return out
 
 
 def _check_data(model: Model, data) -> None:

@@ -1,0 +1,309 @@
+"""wp.Tape gradients with respect to model parameters shared by all environments (issue 5), float64.
+
+The reference everywhere is central finite differences of the same loss computed without a tape, one
+parameter entry at a time, with step h = 1e-6 relative to the entry's magnitude (h = 1e-6 |x|, or 1e-6
+where x = 0: an absolute step of 1e-6 on K = 1e6 would be lost in rounding). Truncation error is
+O(h^2) ~ 1e-12 relative and rounding ~ 1e-16 / 1e-6 = 1e-10 relative to the loss, so the bound is
+rtol 1e-6 (atol 1e-9 for entries whose gradient is ~0), on gradients times the entry's size (d loss /
+d log x for K and D), so that one atol fits parameters of every magnitude. Parameters are marked with
+`wd.model.parameters_requiring_grad`, and their gradients are read from the returned arrays' .grad.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import warp as wp
+
+import robots
+import warpdyn as wd
+
+RTOL, ATOL, STEP = 1e-6, 1e-9, 1e-6
+
+
+@functools.cache
+def _loss_kernels():
+    """out += sum w * x over (N, k) and (N, k, l) arrays (any strides)."""
+
+    @wp.kernel
+    def loss2(x: wp.array2d(dtype=wp.float64), w: wp.array2d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+        i, j = wp.tid()
+        wp.atomic_add(out, 0, w[i, j] * x[i, j])
+
+    @wp.kernel
+    def loss3(x: wp.array3d(dtype=wp.float64), w: wp.array3d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+        i, j, k = wp.tid()
+        wp.atomic_add(out, 0, w[i, j, k] * x[i, j, k])
+
+    return loss2, loss3
+
+
+def _weighted_sum(arrays, weights, out) -> None:
+    loss2, loss3 = _loss_kernels()
+    for x, w in zip(arrays, weights):
+        wp.launch(loss2 if x.ndim == 2 else loss3, dim=x.shape, inputs=[x, w], outputs=[out])
+
+
+def _scale(name: str, x: np.ndarray) -> np.ndarray:
+    """The size of a parameter's entries: |x| for K and D (large), else max(|x|, 1). Steps are STEP times it,
+    and gradients are compared times it (d loss / d log x for K and D), so that atol means the same for all."""
+    return np.abs(x) if name in ("K", "D") else np.maximum(np.abs(x), 1.0)
+
+
+def _finite_differences(arrays: dict, f) -> dict:
+    """{name: d f / d array} by central differences, perturbing each entry of each Warp array in place."""
+    result = {}
+    for name, array in arrays.items():
+        x0 = array.numpy().copy()
+        fd = np.zeros_like(x0)
+        scale = _scale(name, x0)
+        for i in np.ndindex(x0.shape):
+            h = STEP * float(scale[i])
+            x = x0.copy()
+            x[i] += h
+            array.assign(x)
+            up = f()
+            x[i] -= 2 * h
+            array.assign(x)
+            down = f()
+            fd[i] = (up - down) / (2 * h)
+        array.assign(x0)
+        result[name] = fd
+    return result
+
+
+def _assert_gradients(arrays: dict, fd: dict) -> None:
+    for name, array in arrays.items():
+        assert array.grad is not None, name
+        grad = array.grad.numpy()
+        assert grad.shape == fd[name].shape, name
+        scale = _scale(name, array.numpy())
+        np.testing.assert_allclose(grad * scale, fd[name] * scale, rtol=RTOL, atol=ATOL, err_msg=name)
+    assert max(np.abs(g * _scale(k, arrays[k].numpy())).max() for k, g in fd.items()) > 1e-3, "the parameters do not matter"
+
+
+# ------------------------------------------------------------------------------ dynamics
+
+
+def _random_tree():
+    return wd.model.Model.build_from_model_description(robots.random_tree_urdf(3, num_links=5), dtype=np.float64)
+
+
+def _dynamics_outputs(model, data, tau, a):
+    """The outputs of ABA, RNEA and CRBA at one state, as a list of (N, ...) arrays."""
+    base, joints = wd.model.forward_dynamics_aba(model, data, joint_forces=tau)
+    f_B, tau_id = wd.model.inverse_dynamics(model, data, joint_accelerations=a[:, 6:], base_acceleration=a[:, :6])
+    M = wd.model.free_floating_mass_matrix(model, data)
+    return [base, joints, f_B, tau_id, M]
+
+
+def test_dynamics_gradients_with_respect_to_link_masses_coms_and_inertias():
+    """d loss / d (link_mass, link_com, link_inertia) of loss = sum of random weights times the outputs of ABA
+    (base and joint accelerations), RNEA (base wrench and joint torques) and CRBA (mass matrix), for 2
+    environments of a random 5-link floating tree in the Mixed representation: tape vs central differences
+    (see the module docstring; h = 1e-6, rtol 1e-6). Every one of the 9 entries of each inertia is perturbed
+    on its own (both the tape and the differences see the kernels' function of all 9)."""
+    model = _random_tree()
+    n, N = model.dofs(), 2
+    rng = np.random.default_rng(1)
+    data = wd.data.random_model_data(model, seed=2, num_envs=N)
+    tau = wp.array(rng.normal(size=(N, n)), dtype=wp.float64)
+    a = wp.array(rng.normal(size=(N, 6 + n)), dtype=wp.float64)
+    shapes = [(N, 6), (N, n), (N, 6), (N, n), (N, 6 + n, 6 + n)]
+    weights = [wp.array(rng.normal(size=s), dtype=wp.float64) for s in shapes]
+    params = wd.model.parameters_requiring_grad(model, names=("link_mass", "link_com", "link_inertia"))
+    assert params["link_mass"] is model.link_mass
+
+    tape = wp.Tape()
+    with tape:
+        loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+        _weighted_sum(_dynamics_outputs(model, data, tau, a), weights, loss)
+    tape.backward(loss)
+
+    def f():
+        return sum(float(np.sum(w.numpy() * x.numpy())) for x, w in zip(_dynamics_outputs(model, data, tau, a), weights))
+
+    _assert_gradients(params, _finite_differences(params, f))
+
+
+def test_single_environment_data_and_unmarked_parameters():
+    """Single-environment data gives the same parameter gradient as batched data of one environment
+    (reference: the batched call; exact up to the summation order, rtol 1e-12); without marked parameters
+    a taped call leaves the model's arrays without gradients."""
+    model = _random_tree()
+    data = wd.data.random_model_data(model, seed=4)
+    tape = wp.Tape()
+    with tape:
+        M = wd.model.free_floating_mass_matrix(model, data)
+    assert model.link_mass.grad is None and not M.requires_grad
+    params = wd.model.parameters_requiring_grad(model, names="link_mass")
+    grads = []
+    for d in (data, wd.data.random_model_data(model, seed=4, num_envs=1)):
+        tape = wp.Tape()
+        with tape:
+            M = wd.model.free_floating_mass_matrix(model, d)
+            loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+            _weighted_sum([M.reshape((1, *M.shape[-2:]))], [wp.ones(M.shape[-2:], dtype=wp.float64).reshape((1, *M.shape[-2:]))], loss)
+        tape.backward(loss)
+        grads.append(params["link_mass"].grad.numpy().copy())
+        tape.zero()
+    np.testing.assert_allclose(grads[0], grads[1], rtol=1e-12)
+    assert np.abs(grads[0]).max() > 0.0
+
+
+# ------------------------------------------------------------------------------ rollouts
+
+
+@functools.cache
+def _rollout_loss_kernel():
+    @wp.kernel
+    def loss(s: wp.array3d(dtype=wp.float64), sd: wp.array3d(dtype=wp.float64), w: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+        """out += sum over environments and joints of w_j (s_T + 0.3 sdot_T + s_{T/2}^2)."""
+        env, j = wp.tid()
+        T = s.shape[0] - 1
+        wp.atomic_add(out, 0, w[j] * (s[T, env, j] + wp.float64(0.3) * sd[T, env, j] + s[T // 2, env, j] * s[T // 2, env, j]))
+
+    return loss
+
+
+def test_rollout_gradients_with_respect_to_masses_friction_and_limit_gains():
+    """d loss / d (link_mass, friction_static, friction_viscous, joint_limit_spring, joint_limit_damper)
+    through 15 semi-implicit Euler steps (dt 1 ms) of a 4-link pendulum chain, 2 environments, all joints
+    beyond their limits and every joint speed above 1e-2 rad/s at every step (so the limit clamps and the
+    Coulomb friction's sign stay away from their switches, where a perturbation of 1e-6 would cross them):
+    tape vs central differences (module docstring; rtol 1e-6)."""
+    n, N, T = 4, 2, 15
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(n), dtype=np.float64)
+    model.time_step = 1e-3
+    rng = np.random.default_rng(5)
+    model.set_joint_parameters(
+        position_limits=np.tile([-0.1, 0.1], (n, 1)),
+        limit_spring=rng.uniform(5.0, 15.0, n),
+        limit_damper=rng.uniform(0.05, 0.2, n),
+        friction_static=rng.uniform(0.1, 0.5, n),
+        friction_viscous=rng.uniform(0.1, 0.5, n),
+    )
+    s0 = rng.choice([-1.0, 1.0], size=(N, n)) * rng.uniform(0.3, 0.6, size=(N, n))
+    v0 = rng.choice([-1.0, 1.0], size=(N, n)) * rng.uniform(3.0, 5.0, size=(N, n))
+    tau = wp.array(0.5 * rng.normal(size=(T, N, n)), dtype=wp.float64)
+    w = wp.array(rng.normal(size=n), dtype=wp.float64)
+    names = ("link_mass", "friction_static", "friction_viscous", "joint_limit_spring", "joint_limit_damper")
+    params = wd.model.parameters_requiring_grad(model, names=names)
+
+    def loss():
+        data = wd.data.Data.build(model, joint_positions=s0, joint_velocities=v0, num_envs=N)
+        _, rec = wd.simulation.rollout(model, data, steps=T, joint_force_references=tau, record=("joint_positions", "joint_velocities"))
+        out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+        wp.launch(_rollout_loss_kernel(), dim=(N, n), inputs=[rec["joint_positions"], rec["joint_velocities"], w], outputs=[out])
+        return out, rec
+
+    tape = wp.Tape()
+    with tape:
+        out, rec = loss()
+    tape.backward(out)
+    s, sd = rec["joint_positions"].numpy(), rec["joint_velocities"].numpy()
+    assert np.abs(s).min() > 0.1 and np.abs(sd).min() > 1e-2, "a limit clamp or the friction's sign is at its switch"
+    fd = _finite_differences(params, lambda: float(loss()[0].numpy()[0]))
+    _assert_gradients(params, fd)
+    assert all(np.abs(fd[k]).max() > 1e-4 for k in names)
+
+
+def test_step_gradient_reaches_friction_that_is_zero():
+    """A zero friction marked for gradients keeps its term in the compiled actuation kernel: d (sum of the
+    joint velocities after one step) / d friction_viscous equals -dt sum_k (M^-1)_{kj} sdot_j, the
+    analytic value at zero friction (reference: M from CRBA; rtol 1e-9, rounding of the two paths)."""
+    n = 3
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(n), dtype=np.float64)
+    model.set_joint_parameters(friction_static=np.zeros(n), friction_viscous=np.zeros(n))
+    params = wd.model.parameters_requiring_grad(model, names=("friction_viscous",))
+    v0 = np.array([0.5, -1.0, 2.0])
+    data = wd.data.Data.build(model, joint_positions=[0.1, 0.2, 0.3], joint_velocities=v0)
+    tape = wp.Tape()
+    with tape:
+        new = wd.model.step(model, data)
+        loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+        v = new.joint_velocities_state
+        _weighted_sum([v], [wp.ones(v.shape, dtype=wp.float64)], loss)
+    tape.backward(loss)
+    M = wd.model.free_floating_mass_matrix(model, data).numpy()[6:, 6:]
+    expected = -model.time_step * np.linalg.inv(M).sum(axis=0) * v0
+    np.testing.assert_allclose(params["friction_viscous"].grad.numpy(), expected, rtol=1e-9)
+
+
+# ------------------------------------------------------------------------------ contacts
+
+
+@functools.cache
+def _contact_loss_kernel():
+    @wp.kernel
+    def loss(p: wp.array3d(dtype=wp.float64), v: wp.array3d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+        """out += sum over environments of z_B(T) + 0.1 x_B(T) + 0.01 vx_B(T) + 0.02 vz_B(T)."""
+        env = wp.tid()
+        T = p.shape[0] - 1
+        term = p[T, env, 2] + wp.float64(0.1) * p[T, env, 0] + wp.float64(0.01) * v[T, env, 0] + wp.float64(0.02) * v[T, env, 2]
+        wp.atomic_add(out, 0, term)
+
+    return loss
+
+
+BOX_URDF = """<robot name="box"><link name="box"><inertial><mass value="2"/>
+<inertia ixx="0.013333333333333334" iyy="0.013333333333333334" izz="0.013333333333333334" ixy="0" ixz="0" iyz="0"/>
+</inertial><collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link></robot>"""
+
+
+def _contact_rollout_gradients(model, data, T, names):
+    params = wd.model.parameters_requiring_grad(model, names=names)
+    N = data.batch_size
+
+    def loss():
+        _, rec = wd.simulation.rollout(model, data, steps=T, record=("base_position", "base_velocity", "tangential_deformation"))
+        out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+        p, v = rec["base_position"], rec["base_velocity"]
+        if p.ndim == 2:
+            p, v = p.reshape((p.shape[0], 1, 3)), v.reshape((v.shape[0], 1, 6))
+        wp.launch(_contact_loss_kernel(), dim=N, inputs=[p, v], outputs=[out])
+        return out, rec
+
+    tape = wp.Tape()
+    with tape:
+        out, rec = loss()
+    tape.backward(out)
+    return params, rec, _finite_differences(params, lambda: float(loss()[0].numpy()[0]))
+
+
+def test_box_sliding_in_contact_gradients_with_respect_to_K_D_mu():
+    """d loss / d (K, D, mu) through 20 steps (dt 1 ms) of a 2 kg box sliding at 1 m/s on flat ground with
+    its 4 bottom corners 1 mm deep the whole time (sliding throughout: the friction cone is saturated, so
+    mu matters), 2 environments with shared K, D (numbers, (1,) gradients) and mu per environment ((2,)
+    gradients): tape vs central differences (module docstring; rtol 1e-6)."""
+    model = wd.model.Model.build_from_model_description(BOX_URDF, dtype=np.float64)
+    model.time_step = 1e-3
+    model.contact_params = wd.model.SoftContactsParams(K=1e5, D=1e3, mu=np.array([0.3, 0.5]))
+    N = 2
+    data = wd.data.Data.build(
+        model, base_position=[0.0, 0.0, 0.099], base_linear_velocity=[1.0, 0.2, 0.0], num_envs=N
+    )
+    params, rec, fd = _contact_rollout_gradients(model, data, 20, ("K", "D", "mu"))
+    assert model.contact_params.K is params["K"] and params["K"].shape == (1,) and params["mu"].shape == (2,)
+    z = rec["base_position"].numpy()[..., 2]
+    assert np.all(z < 0.1), "a corner left the ground"
+    assert np.all(rec["base_velocity"].numpy()[..., 0] > 0.5), "the box stopped sliding"
+    _assert_gradients(params, fd)
+    assert all(np.abs(fd[k] * _scale(k, params[k].numpy())).max() > 1e-6 for k in ("K", "D", "mu"))
+
+
+def test_legs_standing_gradients_with_respect_to_K_D_mu():
+    """d loss / d (K, D, mu) through 8 steps of the seed's ergoCub legs standing on flat ground (feet 4 mm
+    deep, joints moving; contact forces and tangential deformation in every step, sticking, so d/d mu is
+    ~0 on both sides), single environment: tape vs central differences (module docstring; rtol 1e-6)."""
+    full = wd.model.Model.build_from_model_description(robots.ergocub_urdf(), dtype=np.float64)
+    model = wd.model.reduce(full, robots.seed_joints(full.joint_names()))
+    n = model.dofs()
+    rng = np.random.default_rng(0)
+    s0, v0 = rng.uniform(-0.1, 0.1, n), rng.uniform(-0.2, 0.2, n)
+    low = wd.contact.collidable_point_positions(model, wd.data.Data.build(model)).numpy()[:, 2].min()
+    data = wd.data.Data.build(model, base_position=[0.0, 0.0, -low - 0.004], joint_positions=s0, joint_velocities=v0)
+    params, rec, fd = _contact_rollout_gradients(model, data, 8, ("K", "D", "mu"))
+    assert np.abs(rec["tangential_deformation"].numpy()).max() > 1e-4
+    _assert_gradients(params, fd)
