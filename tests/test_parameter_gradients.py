@@ -127,6 +127,45 @@ def test_dynamics_gradients_with_respect_to_link_masses_coms_and_inertias():
     _assert_gradients(params, _finite_differences(params, f))
 
 
+def _centroidal_outputs(model, data):
+    """Centroidal, energy and Coriolis outputs that read the mass parameters, as a list of 2-D or 3-D arrays."""
+    N = data.batch_size
+    return [
+        wd.com.com_position(model, data),
+        wd.com.centroidal_momentum(model, data),
+        wd.com.bias_acceleration(model, data),
+        wd.model.total_momentum(model, data),
+        wd.model.mechanical_energy(model, data).reshape((N, 1)),
+        wd.model.locked_spatial_inertia(model, data),
+        wd.model.total_momentum_jacobian(model, data),
+        wd.model.free_floating_coriolis_matrix(model, data),
+        wd.model.link_spatial_inertia_matrices(model),
+    ]
+
+
+def test_centroidal_energy_and_coriolis_gradients_with_respect_to_mass_parameters():
+    """d loss / d (link_mass, link_com, link_inertia) of random weights times the CoM position, centroidal
+    momentum, CoM bias acceleration, total momentum, mechanical energy, locked inertia, momentum Jacobian,
+    Coriolis matrix and link spatial inertias, for 2 environments of the random 5-link floating tree (Body
+    representation): tape vs central differences (module docstring; rtol 1e-6)."""
+    model = _random_tree()
+    N = 2
+    rng = np.random.default_rng(3)
+    data = wd.data.random_model_data(model, seed=5, num_envs=N, velocity_representation=wd.VelRepr.Body)
+    weights = [wp.array(rng.normal(size=x.shape), dtype=wp.float64) for x in _centroidal_outputs(model, data)]
+    params = wd.model.parameters_requiring_grad(model, names=("link_mass", "link_com", "link_inertia"))
+    tape = wp.Tape()
+    with tape:
+        loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+        _weighted_sum(_centroidal_outputs(model, data), weights, loss)
+    tape.backward(loss)
+
+    def f():
+        return sum(float(np.sum(w.numpy() * x.numpy())) for x, w in zip(_centroidal_outputs(model, data), weights))
+
+    _assert_gradients(params, _finite_differences(params, f))
+
+
 def test_single_environment_data_and_unmarked_parameters():
     """Single-environment data gives the same parameter gradient as batched data of one environment
     (reference: the batched call; exact up to the summation order, rtol 1e-12); without marked parameters

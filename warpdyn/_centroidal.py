@@ -28,6 +28,7 @@ import warp as wp
 
 from . import _arrays
 from . import model as _model
+from ._dynamics import mass_parameters_require_grad, requires_grad
 from .common import VelRepr, output_repr
 from .kernels.centroidal import FRAME_GB, FRAME_GW
 from .kernels.centroidal import kernels as centroidal_kernels
@@ -87,7 +88,7 @@ def sums(model, data) -> types.SimpleNamespace:
     W_p_G, G_I (about the CoM, world axes), G_h (centroidal momentum in G[W]) and K."""
     _model._check_data(model, data)
     _, W_H_L = _model.link_poses(model, data)
-    N, nL, s, d, g = data.batch_size, model.number_of_links(), model.scalar, model.device, data.requires_grad
+    N, nL, s, d, g = data.batch_size, model.number_of_links(), model.scalar, model.device, requires_grad(model, data)
     sp = types.SimpleNamespace(
         vec3=wp.types.vector(3, s), vec6=wp.types.vector(6, s), mat33=wp.types.matrix((3, 3), s)
     )
@@ -131,7 +132,7 @@ def sums(model, data) -> types.SimpleNamespace:
 
 def force_in(model, data, S, frame: int) -> wp.array:
     """(N, 6): the momentum in the frame `frame`."""
-    out = _arrays.output((6,), data.batch_size, model.scalar, model.device, data.requires_grad)
+    out = _arrays.output((6,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     wp.launch(
         centroidal_kernels(model.scalar).force_output,
         dim=data.batch_size,
@@ -144,7 +145,7 @@ def force_in(model, data, S, frame: int) -> wp.array:
 
 def velocity_in(model, data, S, frame: int, rows: int = 6) -> wp.array:
     """(N, rows): the first `rows` entries of the average velocity in the frame `frame`."""
-    out = _arrays.output((rows,), data.batch_size, model.scalar, model.device, data.requires_grad)
+    out = _arrays.output((rows,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     wp.launch(
         centroidal_kernels(model.scalar).velocity_output,
         dim=data.batch_size,
@@ -157,7 +158,7 @@ def velocity_in(model, data, S, frame: int, rows: int = 6) -> wp.array:
 
 def inertia_in(model, data, S, frame: int) -> wp.array:
     """(N, 6, 6): the locked spatial inertia in the frame `frame`."""
-    out = _arrays.output((6, 6), data.batch_size, model.scalar, model.device, data.requires_grad)
+    out = _arrays.output((6, 6), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     wp.launch(
         centroidal_kernels(model.scalar).inertia_output,
         dim=data.batch_size,
@@ -171,7 +172,7 @@ def inertia_in(model, data, S, frame: int) -> wp.array:
 def jacobian_in(model, data, S, frame: int, average: bool) -> wp.array:
     """(N, 6, 6 + n): the momentum Jacobian (or, average, the average-velocity Jacobian) in `frame`;
     columns act on ν in the data's representation."""
-    N, nL, s, d, g = data.batch_size, model.number_of_links(), model.scalar, model.device, data.requires_grad
+    N, nL, s, d, g = data.batch_size, model.number_of_links(), model.scalar, model.device, requires_grad(model, data)
     vec3, mat33 = wp.types.vector(3, s), wp.types.matrix((3, 3), s)
     scratch = [_arrays.empty((nL,), N, t, d, g) for t in (s, vec3, mat33, s, vec3, mat33)]
     J = _arrays.output((6, 6 + model.dofs()), N, s, d, g)
@@ -203,7 +204,7 @@ def jacobian_in(model, data, S, frame: int, average: bool) -> wp.array:
 
 
 def energy(model, data, S, kinetic: bool, potential: bool) -> wp.array:
-    out = _arrays.output((), data.batch_size, model.scalar, model.device, data.requires_grad)
+    out = _arrays.output((), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     wp.launch(
         centroidal_kernels(model.scalar).energy_output,
         dim=data.batch_size,
@@ -221,7 +222,7 @@ def link_spatial_inertia_matrices(model) -> wp.array:
     """L_M_L: the spatial inertia of every link about its origin in link axes, (nL, 6, 6), [linear; angular]:
     [[m 1, -m c^], [m c^, I_c - m c^ c^]] (m [kg], c the CoM in the link frame [m], I_c about the CoM [kg m^2])."""
     nL = model.number_of_links()
-    out = wp.empty((nL, 6, 6), dtype=model.scalar, device=model.device, requires_grad=model.link_mass.requires_grad)
+    out = wp.empty((nL, 6, 6), dtype=model.scalar, device=model.device, requires_grad=mass_parameters_require_grad(model))
     if _arrays.FILL_OUTPUTS_WITH_NAN:
         out.fill_(float("nan"))
     wp.launch(

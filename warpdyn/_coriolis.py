@@ -22,7 +22,7 @@ from __future__ import annotations
 import warp as wp
 
 from . import _arrays
-from ._dynamics import model_args
+from ._dynamics import model_args, requires_grad
 from .kernels.coriolis import kernels as coriolis_kernels
 
 __all__ = ["free_floating_coriolis_matrix"]
@@ -38,7 +38,7 @@ def free_floating_coriolis_matrix(model, data) -> wp.array:
     from .model import _check_data
 
     _check_data(model, data)
-    s, d, rg = model.scalar, model.device, data.requires_grad
+    s, d, rg = model.scalar, model.device, requires_grad(model, data)
     N, nL, n = data.batch_size, model.number_of_links(), model.dofs()
     transform = wp.types.transformation(s)
     vec6 = wp.types.vector(6, s)

@@ -178,6 +178,16 @@ class _Outputs:
             self.args = [_arrays.with_env_axis(a) for a in self.user]
 
 
+def mass_parameters_require_grad(model) -> bool:
+    """Whether link_mass, link_com or link_inertia requires gradients (warpdyn.model.parameters_requiring_grad)."""
+    return model.link_mass.requires_grad or model.link_com.requires_grad or model.link_inertia.requires_grad
+
+
+def requires_grad(model, data) -> bool:
+    """Whether outputs of a function of the state and the mass parameters need gradient arrays."""
+    return data.requires_grad or mass_parameters_require_grad(model)
+
+
 def _grad(model, data, *inputs) -> bool:
     """Whether the data's state, an input or a mass parameter of the model (link_mass, link_com, link_inertia)
     requires gradients (Data.requires_grad, without its name lookups): then outputs and scratch get gradient

@@ -14,6 +14,7 @@ from __future__ import annotations
 import warp as wp
 
 from . import _arrays, _centroidal
+from ._dynamics import requires_grad
 from .common import VelRepr
 from .kernels.centroidal import kernels as centroidal_kernels
 
@@ -36,7 +37,7 @@ def _sums(model, data):
 def com_position(model, data):
     """W_p_CoM: (3,) or (N, 3) [m]."""
     S = _sums(model, data)
-    out = _arrays.output((3,), data.batch_size, model.scalar, model.device, data.requires_grad)
+    out = _arrays.output((3,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     wp.launch(
         centroidal_kernels(model.scalar).com_output,
         dim=data.batch_size,
@@ -105,8 +106,8 @@ def bias_acceleration(model, data):
     S = _sums(model, data)
     a_body = _derivatives.bias_accelerations(model, data, model.all_links, model.identity_offsets, VelRepr.Body)
     N, nL = data.batch_size, model.number_of_links()
-    scratch = _arrays.empty((nL,), N, wp.types.vector(3, model.scalar), model.device, data.requires_grad)
-    out = _arrays.output((3,), N, model.scalar, model.device, data.requires_grad)
+    scratch = _arrays.empty((nL,), N, wp.types.vector(3, model.scalar), model.device, requires_grad(model, data))
+    out = _arrays.output((3,), N, model.scalar, model.device, requires_grad(model, data))
     wp.launch(
         centroidal_kernels(model.scalar).com_bias_acceleration,
         dim=N,

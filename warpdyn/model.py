@@ -331,7 +331,8 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
     parameter later (set_joint_parameters, a new contact_params) makes new arrays without gradients.
 
     What reaches them: ABA, RNEA, CRBA (and what calls them: forward/inverse dynamics, bias forces, mass
-    matrix), `step` and `warpdyn.simulation.Rollout` under a tape. With none marked a tape records the
+    matrix), the Coriolis matrix, the centroidal, momentum and energy functions (`warpdyn.com`, this
+    module), `step`, `warpdyn.contact`'s forces and `warpdyn.simulation.Rollout` under a tape. With none marked a tape records the
     same launches as before and nothing extra is allocated. A limit gain or friction that requires gradients
     keeps its term in the step's compiled actuation kernel even where it is zero (a joint with a zero limit
     spring has its limit off: its gradient is 0 there).
