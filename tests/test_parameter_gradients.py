@@ -14,6 +14,7 @@ from __future__ import annotations
 import functools
 
 import numpy as np
+import pytest
 import warp as wp
 
 import robots
@@ -206,15 +207,17 @@ def _rollout_loss_kernel():
     return loss
 
 
-def test_rollout_gradients_with_respect_to_masses_friction_and_limit_gains():
+@pytest.mark.parametrize("integrator", list(wd.model.IntegratorType), ids=lambda i: i.name)
+def test_rollout_gradients_with_respect_to_masses_friction_and_limit_gains(integrator):
     """d loss / d (link_mass, friction_static, friction_viscous, joint_limit_spring, joint_limit_damper)
-    through 15 semi-implicit Euler steps (dt 1 ms) of a 4-link pendulum chain, 2 environments, all joints
+    through 15 steps (dt 1 ms, both integrators) of a 4-link pendulum chain, 2 environments, all joints
     beyond their limits and every joint speed above 1e-2 rad/s at every step (so the limit clamps and the
     Coulomb friction's sign stay away from their switches, where a perturbation of 1e-6 would cross them):
     tape vs central differences (module docstring; rtol 1e-6)."""
     n, N, T = 4, 2, 15
     model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(n), dtype=np.float64)
     model.time_step = 1e-3
+    model.integrator = integrator
     rng = np.random.default_rng(5)
     model.set_joint_parameters(
         position_limits=np.tile([-0.1, 0.1], (n, 1)),
@@ -246,6 +249,45 @@ def test_rollout_gradients_with_respect_to_masses_friction_and_limit_gains():
     fd = _finite_differences(params, lambda: float(loss()[0].numpy()[0]))
     _assert_gradients(params, fd)
     assert all(np.abs(fd[k]).max() > 1e-4 for k in names)
+
+
+def test_reused_rollout_and_step_caches_do_not_bypass_marked_parameters():
+    """A Rollout object and `step` first run outside a tape (recorded launches, shared workspace, CUDA graph
+    where available), then parameters are marked and both run under a tape: the gradients equal those of a
+    fresh model marked from the start (reference: that model; exact, the same launches, rtol 1e-12)."""
+    n, T = 3, 5
+
+    def build():
+        model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(n), dtype=np.float64)
+        model.set_joint_parameters(friction_viscous=np.full(n, 0.2))
+        return model
+
+    v0 = np.array([0.5, -1.0, 2.0])
+    names = ("link_mass", "friction_viscous")
+
+    def gradients(model, rollout):
+        data = wd.data.Data.build(model, joint_positions=[0.1, 0.2, 0.3], joint_velocities=v0)
+        params = wd.model.parameters_requiring_grad(model, names=names)
+        tape = wp.Tape()
+        with tape:
+            final, _ = rollout.run(data)
+            final = wd.model.step(model, final)
+            loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+            v = final.joint_velocities_state
+            _weighted_sum([v], [wp.array(np.array([[1.0, -2.0, 0.5]]), dtype=wp.float64)], loss)
+        tape.backward(loss)
+        return {k: a.grad.numpy().copy() for k, a in params.items()}
+
+    fresh = build()
+    expected = gradients(fresh, wd.simulation.Rollout(fresh, steps=T))
+    model = build()
+    rollout = wd.simulation.Rollout(model, steps=T)
+    data = wd.data.Data.build(model, joint_positions=[0.1, 0.2, 0.3], joint_velocities=v0)
+    wd.model.step(model, rollout.run(data)[0])
+    got = gradients(model, rollout)
+    for k in names:
+        np.testing.assert_allclose(got[k], expected[k], rtol=1e-12, err_msg=k)
+        assert np.abs(got[k]).max() > 1e-6, k
 
 
 def test_step_gradient_reaches_friction_that_is_zero():
