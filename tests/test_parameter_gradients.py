@@ -388,3 +388,16 @@ def test_legs_standing_gradients_with_respect_to_K_D_mu():
     params, rec, fd = _contact_rollout_gradients(model, data, 8, ("K", "D", "mu"))
     assert np.abs(rec["tangential_deformation"].numpy()).max() > 1e-4
     _assert_gradients(params, fd)
+
+
+def test_bad_parameter_names_and_contact_arrays_are_refused():
+    """Unknown names, and contact parameters as Warp arrays of another dtype or rank, raise ValueError."""
+    model = wd.model.Model.build_from_model_description(BOX_URDF, dtype=np.float64)
+    with pytest.raises(ValueError, match="unknown names"):
+        wd.model.parameters_requiring_grad(model, names=("link_masses",))
+    data = wd.data.Data.build(model, base_position=[0.0, 0.0, 0.099])
+    with pytest.raises(ValueError, match=r"a number or \(N,\)"):
+        wd.model.SoftContactsParams(K=wp.array([[1e5]], dtype=wp.float64), D=1e3)
+    model.contact_params = wd.model.SoftContactsParams(K=wp.array([1e5], dtype=wp.float32), D=1e3)
+    with pytest.raises(ValueError, match="Warp array"):
+        wd.model.step(model, data)

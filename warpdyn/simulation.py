@@ -44,7 +44,8 @@ Storage: how the states between steps are kept.
 - "trajectory": all T + 1 states, step t reads slice t and writes slice t + 1, and, under a tape, every
   step keeps its own intermediates (link poses and velocities, point and link wrenches, ABA's scratch,
   RK4's stages). Nothing an adjoint needs is overwritten, so `wp.Tape` differentiates the rollout with
-  respect to the initial data and the controls (Warp arrays with requires_grad); the state records are views of
+  respect to the initial data, the controls (Warp arrays with requires_grad) and the model parameters marked
+  by `warpdyn.model.parameters_requiring_grad` (their .grad); the state records are views of
   the trajectory (no copies). The default under a tape. Memory per environment and step: the state,
   S = 13 + 2 n + 3 nc_all numbers, and under a tape the step's intermediates, about
   2 n + 6 + 79 nL + 12 nc + 3 nc_all numbers for the semi-implicit Euler with contacts (ABA keeps 46-53
