@@ -137,9 +137,9 @@ def model_args(model) -> list:
         model.X_tree,
         model.joint_axis,
         model.joint_pivot,
-        model.link_mass,
-        model.link_com,
-        model.link_inertia,
+        model.kernel_parameter("link_mass"),
+        model.kernel_parameter("link_com"),
+        model.kernel_parameter("link_inertia"),
         model.first_child,
         model.next_sibling,
     ]
