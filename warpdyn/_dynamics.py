@@ -206,9 +206,10 @@ def _grad(model, data, *inputs) -> bool:
 
 
 def _check(model, data) -> None:
-    """warpdyn.model._check_data, its common case first: same scalar, joint count and device object."""
+    """warpdyn.model._check_data, its common case first: same scalar, joint count and device object, and no
+    parameter given per environment."""
     state = data.joint_positions_state
-    if state.dtype is model.scalar and state.shape[1] == model.dofs() and state.device is model.device:
+    if state.dtype is model.scalar and state.shape[1] == model.dofs() and state.device is model.device and not model._per_env_parameters:
         return
     from .model import _check_data
 
