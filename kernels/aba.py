@@ -110,9 +110,9 @@ def _kernels(scalar, max_registers):
         X_tree: wp.array(dtype=sp.transform),
         joint_axis: wp.array(dtype=sp.vec3),
         joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array(dtype=scalar),
-        link_com: wp.array(dtype=sp.vec3),
-        link_inertia: wp.array(dtype=sp.mat33),
+        link_mass: wp.array2d(dtype=scalar),
+        link_com: wp.array2d(dtype=sp.vec3),
+        link_inertia: wp.array2d(dtype=sp.mat33),
         first_child: wp.array(dtype=int),
         next_sibling: wp.array(dtype=int),
         gravity: scalar,
@@ -161,7 +161,7 @@ def _kernels(scalar, max_registers):
             S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
             v_i = sc.get6(s, env, i, _V)
             c_i = sp.cross_motion(v_i, S * joint_velocities[env, i - 1])
-            I = sc.sym_upper(sp.spatial_inertia(link_mass[i], link_com[i], link_inertia[i]))
+            I = sc.sym_upper(sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, i))
             IA = I
             pA = sp.cross_force(v_i, I * v_i)
             if forces:
@@ -189,7 +189,7 @@ def _kernels(scalar, max_registers):
         # 3. accelerations, from the base
         a0 = -B_a_g
         if floating_base != 0:
-            I0 = sc.sym_upper(sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0]))
+            I0 = sc.sym_upper(sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, 0))
             IA0 = I0
             pA0 = sp.cross_force(B_v, I0 * B_v)
             if forces:

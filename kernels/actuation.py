@@ -13,9 +13,12 @@ import functools
 
 import warp as wp
 
+from .spatial import spatial
+
 
 @functools.cache
 def kernel(scalar, with_limits: bool, with_friction: bool):
+    sp = spatial(scalar)
     LIMITS = wp.constant(with_limits)
     FRICTION = wp.constant(with_friction)
 
@@ -23,10 +26,10 @@ def kernel(scalar, with_limits: bool, with_friction: bool):
     def resultant_torques(
         # model
         position_limits: wp.array2d(dtype=scalar),
-        limit_spring: wp.array(dtype=scalar),
-        limit_damper: wp.array(dtype=scalar),
-        friction_static: wp.array(dtype=scalar),
-        friction_viscous: wp.array(dtype=scalar),
+        limit_spring: wp.array2d(dtype=scalar),
+        limit_damper: wp.array2d(dtype=scalar),
+        friction_static: wp.array2d(dtype=scalar),
+        friction_viscous: wp.array2d(dtype=scalar),
         torque_max: scalar,
         omega_th: scalar,
         omega_max: scalar,
@@ -37,7 +40,8 @@ def kernel(scalar, with_limits: bool, with_friction: bool):
         # outputs
         tau: wp.array2d(dtype=scalar),
     ):
-        """tau (N, n) from the references tau_ref (N, n); launched over (N, n)."""
+        """tau (N, n) from the references tau_ref (N, n); launched over (N, n). The gains and frictions are
+        (P, n): P = 1 shared by the environments, or N (see spatial.mass_of); position_limits (n, 2)."""
         env, j = wp.tid()
         s = joint_positions[env, j]
         sd = joint_velocities[env, j]
@@ -48,12 +52,12 @@ def kernel(scalar, with_limits: bool, with_friction: bool):
                 sign = scalar(1.0)
             elif sd < scalar(0.0):
                 sign = scalar(-1.0)
-            total = total - (friction_static[j] * sign + friction_viscous[j] * sd)
+            total = total - (sp.joint_parameter(friction_static, env, j) * sign + sp.joint_parameter(friction_viscous, env, j) * sd)
         if LIMITS:
             below = wp.min(s - position_limits[j, 0], scalar(0.0))
             above = wp.max(s - position_limits[j, 1], scalar(0.0))
-            spring = -limit_spring[j] * (below + above)
-            total = total + spring * (scalar(1.0) - limit_damper[j] * sd)
+            spring = -sp.joint_parameter(limit_spring, env, j) * (below + above)
+            total = total + spring * (scalar(1.0) - sp.joint_parameter(limit_damper, env, j) * sd)
         speed = wp.abs(sd)
         limit = torque_max
         if speed > omega_max:

@@ -96,9 +96,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         joint_type: wp.array(dtype=int),
         joint_axis: wp.array(dtype=sp.vec3),
         joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array(dtype=scalar),
-        link_com: wp.array(dtype=sp.vec3),
-        link_inertia: wp.array(dtype=sp.mat33),
+        link_mass: wp.array2d(dtype=scalar),
+        link_com: wp.array2d(dtype=sp.vec3),
+        link_inertia: wp.array2d(dtype=sp.mat33),
         # state
         W_H_L: wp.array2d(dtype=sp.transform),
         base_velocity: wp.array2d(dtype=scalar),
@@ -136,17 +136,17 @@ def kernels(scalar) -> types.SimpleNamespace:
             base_velocity[env, 5],
         )
         W_v_WL[env, 0] = sp.repr_to_inertial(MIXED, W_H_B, mixed)
-        c0 = wp.transform_point(W_H_B, link_com[0])
+        c0 = wp.transform_point(W_H_B, sp.com_of(link_com, env, 0))
         W_p_CL[env, 0] = c0
-        sum_m[env, 0] = link_mass[0]
-        sum_mp[env, 0] = link_mass[0] * c0
+        sum_m[env, 0] = sp.mass_of(link_mass, env, 0)
+        sum_mp[env, 0] = sp.mass_of(link_mass, env, 0) * c0
         for i in range(1, nL):
             S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
             W_v_WL[env, i] = W_v_WL[env, parent[i]] + sp.motion_to(W_H_L[env, i], S) * joint_velocities[env, i - 1]
-            c = wp.transform_point(W_H_L[env, i], link_com[i])
+            c = wp.transform_point(W_H_L[env, i], sp.com_of(link_com, env, i))
             W_p_CL[env, i] = c
-            sum_m[env, i] = sum_m[env, i - 1] + link_mass[i]
-            sum_mp[env, i] = sum_mp[env, i - 1] + link_mass[i] * c
+            sum_m[env, i] = sum_m[env, i - 1] + sp.mass_of(link_mass, env, i)
+            sum_mp[env, i] = sum_mp[env, i - 1] + sp.mass_of(link_mass, env, i) * c
         m = sum_m[env, nL - 1]
         p_G = sum_mp[env, nL - 1] / m
         mass[env] = m
@@ -159,10 +159,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                 prev_I = sum_I[env, i - 1]
                 prev_h = sum_h[env, i - 1]
                 prev_K = sum_K[env, i - 1]
-            m_i = link_mass[i]
+            m_i = sp.mass_of(link_mass, env, i)
             c = W_p_CL[env, i]
             d = c - p_G
-            I_W = world_inertia(wp.transform_get_rotation(W_H_L[env, i]), link_inertia[i])
+            I_W = world_inertia(wp.transform_get_rotation(W_H_L[env, i]), sp.inertia_of(link_inertia, env, i))
             v = W_v_WL[env, i]
             w = sp.ang(v)
             v_c = sp.lin(v) + wp.cross(w, c)
@@ -282,9 +282,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         joint_type: wp.array(dtype=int),
         joint_axis: wp.array(dtype=sp.vec3),
         joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array(dtype=scalar),
-        link_com: wp.array(dtype=sp.vec3),
-        link_inertia: wp.array(dtype=sp.mat33),
+        link_mass: wp.array2d(dtype=scalar),
+        link_com: wp.array2d(dtype=sp.vec3),
+        link_inertia: wp.array2d(dtype=sp.mat33),
         first_child: wp.array(dtype=int),
         next_sibling: wp.array(dtype=int),
         # state
@@ -322,11 +322,11 @@ def kernels(scalar) -> types.SimpleNamespace:
         for k in range(nL):
             i = nL - 1 - k
             W_H_i = W_H_L[env, i]
-            m_i = link_mass[i]
-            d = wp.transform_point(W_H_i, link_com[i]) - p_G
+            m_i = sp.mass_of(link_mass, env, i)
+            d = wp.transform_point(W_H_i, sp.com_of(link_com, env, i)) - p_G
             cm = m_i
             ch = m_i * d
-            cI = world_inertia(wp.transform_get_rotation(W_H_i), link_inertia[i]) + parallel_axis(m_i, d)
+            cI = world_inertia(wp.transform_get_rotation(W_H_i), sp.inertia_of(link_inertia, env, i)) + parallel_axis(m_i, d)
             fc = first_child[i]
             if fc >= 0:
                 cm = cm + T_m[env, fc]
@@ -373,8 +373,8 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.kernel(module="unique")
     def com_bias_acceleration(
         # model
-        link_mass: wp.array(dtype=scalar),
-        link_com: wp.array(dtype=sp.vec3),
+        link_mass: wp.array2d(dtype=scalar),
+        link_com: wp.array2d(dtype=sp.vec3),
         # state
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
@@ -394,7 +394,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         CoM's acceleration in link axes is a_lin + a_ang x c + w x (v + w x c).
         """
         env = wp.tid()
-        nL = link_mass.shape[0]
+        nL = link_mass.shape[1]
         for i in range(nL):
             prev = sp.vec3(scalar(0.0))
             if i > 0:
@@ -404,9 +404,9 @@ def kernels(scalar) -> types.SimpleNamespace:
             w = sp.ang(v)
             a_lin = sp.vec3(L_a_WL[env, i, 0], L_a_WL[env, i, 1], L_a_WL[env, i, 2])
             a_ang = sp.vec3(L_a_WL[env, i, 3], L_a_WL[env, i, 4], L_a_WL[env, i, 5])
-            c = link_com[i]
+            c = sp.com_of(link_com, env, i)
             a_c = a_lin + wp.cross(a_ang, c) + wp.cross(w, sp.lin(v) + wp.cross(w, c))
-            sum_f[env, i] = prev + link_mass[i] * wp.transform_vector(W_H_i, a_c)
+            sum_f[env, i] = prev + sp.mass_of(link_mass, env, i) * wp.transform_vector(W_H_i, a_c)
         a = sum_f[env, nL - 1] / mass[env]
         if frame == FRAME_GB:
             a = wp.quat_rotate_inv(wp.transform_get_rotation(W_H_L[env, 0]), a)
@@ -416,28 +416,29 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.kernel(module="unique")
     def link_spatial_inertias(
         # model
-        link_mass: wp.array(dtype=scalar),
-        link_com: wp.array(dtype=sp.vec3),
-        link_inertia: wp.array(dtype=sp.mat33),
+        link_mass: wp.array2d(dtype=scalar),
+        link_com: wp.array2d(dtype=sp.vec3),
+        link_inertia: wp.array2d(dtype=sp.mat33),
         # outputs
-        out: wp.array3d(dtype=scalar),
+        out: wp.array4d(dtype=scalar),
     ):
-        """out (nL, 6, 6): L_M_L = [[m 1, -m c^], [m c^, I_c - m c^ c^]] about each link's origin, link axes."""
-        i = wp.tid()
-        m = link_mass[i]
-        c = link_com[i]
-        I = link_inertia[i] + parallel_axis(m, c)
+        """out (P, nL, 6, 6), launched over (P, nL): L_M_L = [[m 1, -m c^], [m c^, I_c - m c^ c^]] about each
+        link's origin, link axes, for P = 1 (shared parameters) or per environment."""
+        env, i = wp.tid()
+        m = sp.mass_of(link_mass, env, i)
+        c = sp.com_of(link_com, env, i)
+        I = sp.inertia_of(link_inertia, env, i) + parallel_axis(m, c)
         for col in range(6):
             e = sp.vec6(scalar(0.0))
             e[col] = scalar(1.0)
             f = inertia_apply(m, m * c, I, e)
             for r in range(6):
-                out[i, r, col] = f[r]
+                out[env, i, r, col] = f[r]
 
     @wp.kernel(module="unique")
     def link_com_positions(
         # model
-        link_com: wp.array(dtype=sp.vec3),
+        link_com: wp.array2d(dtype=sp.vec3),
         link: int,
         in_link_frame: int,
         # state
@@ -447,7 +448,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """out (N, 3): the link's CoM, L_p_CoM (in_link_frame) or W_p_CoM [m]."""
         env = wp.tid()
-        p = link_com[link]
+        p = sp.com_of(link_com, env, link)
         if in_link_frame == 0:
             p = wp.transform_point(W_H_L[env, link], p)
         for r in range(3):

@@ -78,18 +78,20 @@ def kernels(scalar) -> types.SimpleNamespace:
         # terrain (see soft_contacts.terrain_height)
         terrain_kind: int,
         terrain_n: sp.vec3,
-        terrain_h0: scalar,
+        terrain_h0: wp.array(dtype=scalar),
         terrain_hf: wp.array2d(dtype=scalar),
         terrain_grid: vec4,
         # outputs
         out: wp.array2d(dtype=wp.bool),
     ):
-        """out (N, K): whether a point of links[k] has z <= h(x, y), launched over (N, K)."""
+        """out (N, K): whether a point of links[k] has z <= h(x, y), launched over (N, K). terrain_h0 (1,) or
+        (N,): shared or per environment."""
         env, k = wp.tid()
+        h0 = terrain_h0[wp.min(env, terrain_h0.shape[0] - 1)]
         below = int(0)
         for c in range(point_link.shape[0]):
             if point_link[c] == links[k]:
-                h = terrain_height(terrain_kind, terrain_n, terrain_h0, terrain_hf, terrain_grid, W_p_C[env, c, 0], W_p_C[env, c, 1])
+                h = terrain_height(terrain_kind, terrain_n, h0, terrain_hf, terrain_grid, W_p_C[env, c, 0], W_p_C[env, c, 1])
                 if W_p_C[env, c, 2] <= h:
                     below = 1
         out[env, k] = below != 0

@@ -104,9 +104,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         X_tree: wp.array(dtype=sp.transform),
         joint_axis: wp.array(dtype=sp.vec3),
         joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array(dtype=scalar),
-        link_com: wp.array(dtype=sp.vec3),
-        link_inertia: wp.array(dtype=sp.mat33),
+        link_mass: wp.array2d(dtype=scalar),
+        link_com: wp.array2d(dtype=sp.vec3),
+        link_inertia: wp.array2d(dtype=sp.mat33),
         first_child: wp.array(dtype=int),
         next_sibling: wp.array(dtype=int),
         # state
@@ -167,7 +167,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         # Backward pass: composites Ic, Bc by sibling chains; per joint F, f, g and the base row and column.
         for k in range(nL - 1):
             l = nL - 1 - k
-            I_l = base_inertia(B_H_L[env, l], link_mass[l], link_com[l], link_inertia[l])
+            I_l = base_inertia(B_H_L[env, l], sp.mass_of(link_mass, env, l), sp.com_of(link_com, env, l), sp.inertia_of(link_inertia, env, l))
             Ic_l = I_l
             Bc_l = force_cross_matrix(B_v_L[env, l]) * I_l
             if first_child[l] >= 0:
@@ -193,7 +193,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 C[env, r, 5 + l] = column[r]
                 C[env, 5 + l, r] = row[r]
         # The base block.
-        I_0 = sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0])
+        I_0 = sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, 0)
         Ic_0 = I_0
         Bc_0 = force_cross_matrix(B_v_B) * I_0
         if first_child[0] >= 0:

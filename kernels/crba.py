@@ -69,9 +69,9 @@ def _kernels(scalar, max_registers):
         X_tree: wp.array(dtype=sp.transform),
         joint_axis: wp.array(dtype=sp.vec3),
         joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array(dtype=scalar),
-        link_com: wp.array(dtype=sp.vec3),
-        link_inertia: wp.array(dtype=sp.mat33),
+        link_mass: wp.array2d(dtype=scalar),
+        link_com: wp.array2d(dtype=sp.vec3),
+        link_inertia: wp.array2d(dtype=sp.mat33),
         first_child: wp.array(dtype=int),
         next_sibling: wp.array(dtype=int),
         pair_k: wp.array(dtype=int),
@@ -110,10 +110,10 @@ def _kernels(scalar, max_registers):
             i = nL - 1 - k
             B_H_i = sc.get_transform(s, env, i, _BH)
             R = wp.quat_to_matrix(wp.transform_get_rotation(B_H_i))
-            m = link_mass[i]
-            com = wp.transform_point(B_H_i, link_com[i])
+            m = sp.mass_of(link_mass, env, i)
+            com = wp.transform_point(B_H_i, sp.com_of(link_com, env, i))
             h = m * com
-            I_O = R * link_inertia[i] * wp.transpose(R) + m * (wp.dot(com, com) * wp.identity(n=3, dtype=scalar) - wp.outer(com, com))
+            I_O = R * sp.inertia_of(link_inertia, env, i) * wp.transpose(R) + m * (wp.dot(com, com) * wp.identity(n=3, dtype=scalar) - wp.outer(com, com))
             if first_child[i] >= 0:
                 m = m + s[env, first_child[i], _IC]
                 h = h + get_h(s, env, first_child[i])
@@ -135,7 +135,7 @@ def _kernels(scalar, max_registers):
             s[env, i, _IC + 8] = I_O[1, 2]
             s[env, i, _IC + 9] = I_O[2, 2]
         # base block and base-joint columns
-        Ic0 = sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0])
+        Ic0 = sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, 0)
         if first_child[0] >= 0:
             fc = first_child[0]
             hc = wp.skew(get_h(s, env, fc))

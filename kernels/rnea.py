@@ -59,9 +59,9 @@ def _kernels(scalar, max_registers):
         X_tree: wp.array(dtype=sp.transform),
         joint_axis: wp.array(dtype=sp.vec3),
         joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array(dtype=scalar),
-        link_com: wp.array(dtype=sp.vec3),
-        link_inertia: wp.array(dtype=sp.mat33),
+        link_mass: wp.array2d(dtype=scalar),
+        link_com: wp.array2d(dtype=sp.vec3),
+        link_inertia: wp.array2d(dtype=sp.mat33),
         first_child: wp.array(dtype=int),
         next_sibling: wp.array(dtype=int),
         gravity: scalar,
@@ -122,7 +122,7 @@ def _kernels(scalar, max_registers):
             i = nL - 1 - k
             X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
             S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
-            I = sp.spatial_inertia(link_mass[i], link_com[i], link_inertia[i])
+            I = sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, i)
             v_i = sc.get6(s, env, i, _V)
             f_i = I * sc.get6(s, env, i, _A) + sp.cross_force(v_i, I * v_i)
             if forces:
@@ -134,7 +134,7 @@ def _kernels(scalar, max_registers):
             if next_sibling[i] >= 0:
                 up = up + sc.get6(s, env, next_sibling[i], _ACC)
             sc.put6(s, env, i, _ACC, up)
-        I0 = sp.spatial_inertia(link_mass[0], link_com[0], link_inertia[0])
+        I0 = sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, 0)
         f_0 = I0 * B_a + sp.cross_force(B_v, I0 * B_v)
         if forces:
             f_0 = f_0 - external_force(f_L, repr, s, _WHL, env, 0)

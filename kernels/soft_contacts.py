@@ -111,7 +111,7 @@ def kernels(scalar):
         # terrain and contact parameters
         terrain_kind: int,
         terrain_n: sp.vec3,
-        terrain_h0: scalar,
+        terrain_h0: wp.array(dtype=scalar),
         terrain_hf: wp.array2d(dtype=scalar),
         terrain_grid: vec4,
         K: wp.array(dtype=scalar),
@@ -133,8 +133,10 @@ def kernels(scalar):
     ):
         """Per environment: W_f_C (N, P, 6) the Inertial wrench of each enabled point's contact force;
         m_dot (N, nc, 3) for all points (0 for disabled ones); W_f_L (N, nL, 6) = W_f_ext + contact wrenches
-        summed per link. K, D, mu: (N,) or (1,) (per environment or shared)."""
+        summed per link. K, D, mu and the terrain's height at the origin terrain_h0: (N,) or (1,) (per
+        environment or shared)."""
         env = wp.tid()
+        h0 = terrain_h0[wp.min(env, terrain_h0.shape[0] - 1)]
         P = point_link.shape[0]
         k_env = wp.min(env, K.shape[0] - 1)
         d_env = wp.min(env, D.shape[0] - 1)
@@ -148,8 +150,8 @@ def kernels(scalar):
             v = sp.lin(W_v) + wp.cross(sp.ang(W_v), p)
             row = point_row[c]
             m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-            h = terrain_height(terrain_kind, terrain_n, terrain_h0, terrain_hf, terrain_grid, p[0], p[1])
-            n = terrain_normal(terrain_kind, terrain_n, terrain_h0, terrain_hf, terrain_grid, p[0], p[1])
+            h = terrain_height(terrain_kind, terrain_n, h0, terrain_hf, terrain_grid, p[0], p[1])
+            n = terrain_normal(terrain_kind, terrain_n, h0, terrain_hf, terrain_grid, p[0], p[1])
             f, md, delta = hunt_crossley(p, v, m_c, h, n, K[k_env], D[d_env], mu[mu_env], pe, qe)
             w = sp.stack(f, wp.cross(p, f))
             for a in range(6):

@@ -169,6 +169,34 @@ def spatial(scalar) -> types.SimpleNamespace:
         )
 
     @wp.func
+    def mass_of(link_mass: wp.array2d(dtype=scalar), env: int, i: int):
+        """Link i's mass [kg] in environment env. Model parameters are (P, nL) arrays with P = 1 (shared by
+        all environments) or N (one row per environment): row min(env, P - 1)."""
+        return link_mass[wp.min(env, link_mass.shape[0] - 1), i]
+
+    @wp.func
+    def com_of(link_com: wp.array2d(dtype=vec3), env: int, i: int):
+        """Link i's centre of mass [m, link frame] in environment env (see mass_of)."""
+        return link_com[wp.min(env, link_com.shape[0] - 1), i]
+
+    @wp.func
+    def inertia_of(link_inertia: wp.array2d(dtype=mat33), env: int, i: int):
+        """Link i's rotational inertia about its CoM [kg m^2, link axes] in environment env (see mass_of)."""
+        return link_inertia[wp.min(env, link_inertia.shape[0] - 1), i]
+
+    @wp.func
+    def link_spatial_inertia(
+        link_mass: wp.array2d(dtype=scalar), link_com: wp.array2d(dtype=vec3), link_inertia: wp.array2d(dtype=mat33), env: int, i: int
+    ):
+        """Link i's spatial inertia about its origin, link axes, in environment env (see mass_of)."""
+        return spatial_inertia(mass_of(link_mass, env, i), com_of(link_com, env, i), inertia_of(link_inertia, env, i))
+
+    @wp.func
+    def joint_parameter(values: wp.array2d(dtype=scalar), env: int, j: int):
+        """Joint j's value of a (P, n) joint parameter in environment env (see mass_of)."""
+        return values[wp.min(env, values.shape[0] - 1), j]
+
+    @wp.func
     def orientation_only(W_H_F: transform):
         """F with its origin moved to the world's origin: (0, W_R_F)."""
         return transform(vec3(scalar(0.0)), wp.transform_get_rotation(W_H_F))
@@ -276,6 +304,11 @@ def spatial(scalar) -> types.SimpleNamespace:
         solve_spd6=solve_spd6,
         motion_matrix_from=motion_matrix_from,
         spatial_inertia=spatial_inertia,
+        mass_of=mass_of,
+        com_of=com_of,
+        inertia_of=inertia_of,
+        link_spatial_inertia=link_spatial_inertia,
+        joint_parameter=joint_parameter,
         orientation_only=orientation_only,
         base_T=base_T,
         base_acceleration_to_body=base_acceleration_to_body,

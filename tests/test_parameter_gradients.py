@@ -401,3 +401,36 @@ def test_bad_parameter_names_and_contact_arrays_are_refused():
     model.contact_params = wd.model.SoftContactsParams(K=wp.array([1e5], dtype=wp.float32), D=1e3)
     with pytest.raises(ValueError, match="Warp array"):
         wd.model.step(model, data)
+
+
+def test_gradient_at_a_contact_onset_is_the_one_sided_derivative_from_outside():
+    """What the tape returns where the derivative is undefined (README, 'Differentiable simulation'): a
+    box whose 4 bottom corners lie exactly on the ground (penetration 0, moving down at 0.1 m/s). The
+    gradient of the total normal force with respect to the base height is the derivative of the no-contact
+    branch plus the spring's K eps^p per point (eps = 2.2e-16, p = 0.5: 4 x 1.5e-2 N/m at K = 1e6), i.e.
+    practically 0 and finite; 1 um lower (inside) it is the soft model's derivative, large (the damper's
+    D q delta^(q - 1) delta_dot) and equal to central differences with steps that stay inside (h = 1e-9 m;
+    rtol 1e-5: rounding of forces ~1e1 N over 2 h)."""
+    model = wd.model.Model.build_from_model_description(BOX_URDF, dtype=np.float64)
+    K, eps, p = model.contact_params.K, 2.220446049250313e-16, model.contact_params.p
+
+    def normal_force(z: float, grad: bool):
+        data = wd.data.Data.build(model, base_position=[0.0, 0.0, z], base_linear_velocity=[0.0, 0.0, -0.1], requires_grad=grad)
+        tape = wp.Tape()
+        with tape:
+            f = wd.contact.link_contact_forces(model, data)
+            out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+            _weighted_sum([f], [wp.array(np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]), dtype=wp.float64)], out)
+        if grad:
+            tape.backward(out)
+            return float(out.numpy()[0]), float(data.base_position_state.grad.numpy()[0, 2])
+        return float(out.numpy()[0]), None
+
+    force, dfdz = normal_force(0.1, True)
+    assert force == 0.0 and np.isfinite(dfdz)
+    assert abs(dfdz) <= 4 * K * eps**p * 1.01
+    z, h = 0.1 - 1e-6, 1e-9
+    force, dfdz = normal_force(z, True)
+    fd = (normal_force(z + h, False)[0] - normal_force(z - h, False)[0]) / (2 * h)
+    assert force > 0.0 and abs(dfdz) > 1e4
+    np.testing.assert_allclose(dfdz, fd, rtol=1e-5)

@@ -117,9 +117,9 @@ def sums(model, data) -> types.SimpleNamespace:
             model.joint_type,
             model.joint_axis,
             model.joint_pivot,
-            model.link_mass,
-            model.link_com,
-            model.link_inertia,
+            model.kernel_parameter("link_mass"),
+            model.kernel_parameter("link_com"),
+            model.kernel_parameter("link_inertia"),
             W_H_L,
             data.base_velocity_state,
             data.joint_velocities_state,
@@ -184,9 +184,9 @@ def jacobian_in(model, data, S, frame: int, average: bool) -> wp.array:
             model.joint_type,
             model.joint_axis,
             model.joint_pivot,
-            model.link_mass,
-            model.link_com,
-            model.link_inertia,
+            model.kernel_parameter("link_mass"),
+            model.kernel_parameter("link_com"),
+            model.kernel_parameter("link_inertia"),
             first_child,
             next_sibling,
             S.W_H_L,
@@ -219,20 +219,17 @@ def energy(model, data, S, kinetic: bool, potential: bool) -> wp.array:
 
 
 def link_spatial_inertia_matrices(model) -> wp.array:
-    """L_M_L: the spatial inertia of every link about its origin in link axes, (nL, 6, 6), [linear; angular]:
-    [[m 1, -m c^], [m c^, I_c - m c^ c^]] (m [kg], c the CoM in the link frame [m], I_c about the CoM [kg m^2])."""
+    """L_M_L: the spatial inertia of every link about its origin in link axes, (nL, 6, 6), or (N, nL, 6, 6)
+    when the inertial parameters are given per environment, [linear; angular]: [[m 1, -m c^],
+    [m c^, I_c - m c^ c^]] (m [kg], c the CoM in the link frame [m], I_c about the CoM [kg m^2])."""
     nL = model.number_of_links()
-    out = wp.empty((nL, 6, 6), dtype=model.scalar, device=model.device, requires_grad=mass_parameters_require_grad(model))
+    args = [model.kernel_parameter(name) for name in ("link_mass", "link_com", "link_inertia")]
+    P = max(a.shape[0] for a in args)
+    out = wp.empty((P, nL, 6, 6), dtype=model.scalar, device=model.device, requires_grad=mass_parameters_require_grad(model))
     if _arrays.FILL_OUTPUTS_WITH_NAN:
         out.fill_(float("nan"))
-    wp.launch(
-        centroidal_kernels(model.scalar).link_spatial_inertias,
-        dim=nL,
-        inputs=[model.link_mass, model.link_com, model.link_inertia],
-        outputs=[out],
-        device=model.device,
-    )
-    return out
+    wp.launch(centroidal_kernels(model.scalar).link_spatial_inertias, dim=(P, nL), inputs=args, outputs=[out], device=model.device)
+    return out if model.per_environment_parameters().keys() & {"link_mass", "link_com", "link_inertia"} else out[0]
 
 
 def total_momentum(model, data) -> wp.array:

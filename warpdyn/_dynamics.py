@@ -137,9 +137,9 @@ def model_args(model) -> list:
         model.X_tree,
         model.joint_axis,
         model.joint_pivot,
-        model.link_mass,
-        model.link_com,
-        model.link_inertia,
+        model.kernel_parameter("link_mass"),
+        model.kernel_parameter("link_com"),
+        model.kernel_parameter("link_inertia"),
         model.first_child,
         model.next_sibling,
     ]
@@ -206,9 +206,10 @@ def _grad(model, data, *inputs) -> bool:
 
 
 def _check(model, data) -> None:
-    """warpdyn.model._check_data, its common case first: same scalar, joint count and device object."""
+    """warpdyn.model._check_data, its common case first: same scalar, joint count and device object, and no
+    parameter given per environment."""
     state = data.joint_positions_state
-    if state.dtype is model.scalar and state.shape[1] == model.dofs() and state.device is model.device:
+    if state.dtype is model.scalar and state.shape[1] == model.dofs() and state.device is model.device and not model._per_env_parameters:
         return
     from .model import _check_data
 

@@ -53,7 +53,7 @@ from .kernels.kinematics import kernels as kinematics_kernels
 from .kernels.scratch import TRANSFORM
 from .kernels.soft_contacts import kernels as contact_kernels
 from .kernels.velocities import kernels as velocity_kernels
-from .terrain import HeightfieldTerrain
+from .terrain import FlatTerrain, HeightfieldTerrain
 
 try:  # where wp.Tape registers itself while it records
     from warp._src import context as _wp_context
@@ -88,8 +88,12 @@ PARAMETERS = (
     "K",
     "D",
     "mu",
+    "terrain_height",
 )
 """The model parameters that tape gradients reach (warpdyn.model.parameters_requiring_grad)."""
+
+MODEL_ARRAYS = PARAMETERS[:7]
+"""The parameters held as the model's own arrays (link and joint parameters, shared or per environment)."""
 
 
 def parameters_require_grad(model) -> bool:
@@ -103,7 +107,7 @@ def parameters_require_grad(model) -> bool:
         or model.friction_viscous.requires_grad
         or model.joint_limit_spring.requires_grad
         or model.joint_limit_damper.requires_grad
-        or any(isinstance(v, wp.array) and v.requires_grad for v in (c.K, c.D, c.mu))
+        or any(isinstance(v, wp.array) and v.requires_grad for v in (c.K, c.D, c.mu, *_terrain_parameters(model.terrain)))
     )
 
 
@@ -156,32 +160,52 @@ def _taping() -> bool:
     return _wp_context is None or getattr(_wp_context.runtime, "tape", True) is not None
 
 
+def _terrain_parameters(terrain) -> tuple:
+    """The terrain's Warp arrays that kernels read in place (and may require gradients)."""
+    if isinstance(terrain, FlatTerrain) and isinstance(terrain.height, wp.array):
+        return (terrain.height,)
+    if isinstance(terrain, HeightfieldTerrain) and isinstance(terrain.heights, wp.array):
+        return (terrain.heights,)
+    return ()
+
+
 def _terrain_args(model) -> list:
-    """The terrain as the contact kernels take it: kind, plane normal, height at the origin, heights, grid."""
+    """The terrain as the contact kernels take it: kind, plane normal, heights at the origin (1,) or (N,),
+    the heightfield (nx, ny), its grid. Warp arrays in the terrain are read in place (their .grad gets
+    the gradient)."""
     terrain = model.terrain
     s, d = model.scalar, model.device
     vec3 = wp.types.vector(3, s)
     vec4 = wp.types.vector(4, s)
     if isinstance(terrain, HeightfieldTerrain):
-        heights = wp.array(terrain.heights, dtype=s, device=d)
+        heights = terrain.heights
+        if isinstance(heights, wp.array):
+            _arrays.check_device_array(heights, "HeightfieldTerrain.heights", s, d)
+        else:
+            heights = wp.array(heights, dtype=s, device=d)
         grid = vec4(*terrain.origin, *terrain.spacing)
-        return [terrain.kind, vec3(0.0, 0.0, 1.0), s(0.0), heights, grid]
-    normal, h0 = terrain.plane()
+        return [terrain.kind, vec3(0.0, 0.0, 1.0), wp.zeros(1, dtype=s, device=d), heights, grid]
     empty = wp.zeros((2, 2), dtype=s, device=d)
-    return [terrain.kind, vec3(*normal), s(h0), empty, vec4(0.0, 0.0, 1.0, 1.0)]
+    if isinstance(terrain, FlatTerrain):
+        h0 = _per_env(terrain.height, "height", s, d, owner="FlatTerrain")
+        return [terrain.kind, vec3(0.0, 0.0, 1.0), h0, empty, vec4(0.0, 0.0, 1.0, 1.0)]
+    normal, h0 = terrain.plane()
+    return [terrain.kind, vec3(*normal), wp.array([h0], dtype=s, device=d), empty, vec4(0.0, 0.0, 1.0, 1.0)]
 
 
-def _per_env(value, name, scalar, device) -> wp.array:
-    if isinstance(value, wp.array):  # the user's array, read in place (its .grad gets the gradient)
+def _per_env(value, name, scalar, device, owner="SoftContactsParams") -> wp.array:
+    """A parameter shared (1,) or per environment (N,) as the kernels read it: a Warp array is the user's,
+    read in place (its .grad gets the gradient); numbers and NumPy arrays are copied."""
+    if isinstance(value, wp.array):
         if value.ndim != 1 or value.dtype != scalar or value.device != device:
             raise ValueError(
-                f"SoftContactsParams.{name} as a Warp array must be 1-D with the model's dtype {scalar.__name__} on "
+                f"{owner}.{name} as a Warp array must be 1-D with the model's dtype {scalar.__name__} on "
                 f"{device}, got shape {value.shape}, dtype {getattr(value.dtype, '__name__', value.dtype)} on {value.device}"
             )
         return value
     host = np.atleast_1d(np.asarray(value, dtype=np.float64))
     if host.ndim != 1:
-        raise ValueError(f"SoftContactsParams.{name} has shape {host.shape}: give a number or one value per environment (N,)")
+        raise ValueError(f"{owner}.{name} has shape {host.shape}: give a number or one value per environment (N,)")
     return wp.array(host, dtype=scalar, device=device)
 
 
@@ -198,10 +222,9 @@ def _plan_key(model) -> tuple:
         model.quaternion_tolerance,
         model.gravity,
         model.position_limits,
-        model.joint_limit_spring,
-        model.joint_limit_damper,
-        model.friction_static,
-        model.friction_viscous,
+        # the parameter arrays and their gradients (the plan holds views of them, see Model.kernel_parameter)
+        *(getattr(model, name) for name in MODEL_ARRAYS),
+        *(getattr(model, name).grad for name in MODEL_ARRAYS),
         # the kernels compiled for the actuation depend on these (a parameter that requires gradients keeps
         # its term even where it is zero)
         model.friction_static.requires_grad or model.friction_viscous.requires_grad,
@@ -238,10 +261,10 @@ class _Plan:
         self.actuation = actuation_kernel(s, self.with_limits, self.with_friction) if self.n > 0 else None
         self.actuation_args = [
             model.position_limits,
-            model.joint_limit_spring,
-            model.joint_limit_damper,
-            model.friction_static,
-            model.friction_viscous,
+            model.kernel_parameter("joint_limit_spring"),
+            model.kernel_parameter("joint_limit_damper"),
+            model.kernel_parameter("friction_static"),
+            model.kernel_parameter("friction_viscous"),
             s(a.torque_max),
             s(a.omega_th),
             s(a.omega_max),
@@ -306,11 +329,10 @@ class _Plan:
         self._workspaces: dict = {}
 
     def check_envs(self, N: int) -> None:
-        for name, value in (("K", self.K), ("D", self.D), ("mu", self.mu)):
+        per_env = (("SoftContactsParams.K", self.K), ("SoftContactsParams.D", self.D), ("SoftContactsParams.mu", self.mu))
+        for name, value in (*per_env, ("the terrain's height", self.terrain_args[2])):
             if value.shape[0] not in (1, N):
-                raise ValueError(
-                    f"SoftContactsParams.{name} has shape {value.shape}: give a number or one value per environment ({N},)"
-                )
+                raise ValueError(f"{name} has shape {value.shape}: give a number or one value per environment ({N},)")
 
     def zeros(self, shape: tuple, N: int) -> wp.array:
         """A zero array of logical shape (N, *shape) that no kernel writes: one row, broadcast (env stride 0)."""

@@ -111,7 +111,7 @@ def bias_acceleration(model, data):
     wp.launch(
         centroidal_kernels(model.scalar).com_bias_acceleration,
         dim=N,
-        inputs=[model.link_mass, model.link_com, S.W_H_L, S.W_v_WL, a_body, S.mass, _centroidal.centroidal_frame(data)],
+        inputs=[model.kernel_parameter("link_mass"), model.kernel_parameter("link_com"), S.W_H_L, S.W_v_WL, a_body, S.mass, _centroidal.centroidal_frame(data)],
         outputs=[scratch, out],
         device=model.device,
     )

@@ -152,11 +152,13 @@ def in_contact(model, data, *, link_names=None) -> wp.array:
     point_link, _, _ = _enabled(model)
     W_p_C = _positions(model, data)
     N, K = data.batch_size, links.shape[0]
+    plan = _plan(model)
+    plan.check_envs(N)
     out = _arrays.output((K,), N, wp.bool, model.device)
     wp.launch(
         wrench_kernels(model.scalar).links_below_terrain,
         dim=(N, K),
-        inputs=[point_link, W_p_C, links, *_plan(model).terrain_args],
+        inputs=[point_link, W_p_C, links, *plan.terrain_args],
         outputs=[out],
         device=model.device,
     )

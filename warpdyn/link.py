@@ -42,9 +42,10 @@ def idxs_to_names(model, *, link_indices) -> tuple[str, ...]:
     return tuple(idx_to_name(model, link_index=int(i)) for i in np.asarray(link_indices).ravel())
 
 
-def mass(model, *, link_index: int) -> float:
-    """The mass of the link [kg], lumped links included."""
-    return float(model.tree.link_mass[_names.check_idx("link", model.number_of_links(), link_index)])
+def mass(model, *, link_index: int):
+    """The mass of the link [kg], lumped links included: a float, or (N,) when given per environment."""
+    m = model.link_mass_host[..., _names.check_idx("link", model.number_of_links(), link_index)]
+    return float(m) if m.ndim == 0 else m.copy()
 
 
 def _target(model, link_index: int):
@@ -90,12 +91,14 @@ def bias_acceleration(model, data, *, link_index: int):
 
 
 def spatial_inertia(model, *, link_index: int):
-    """L_M_L: the link's spatial inertia about its origin in link axes, (6, 6), [linear; angular]:
-    [[m 1, -m c^], [m c^, I_c - m c^ c^]] (lumped links included)."""
+    """L_M_L: the link's spatial inertia about its origin in link axes, (6, 6), or (N, 6, 6) with
+    per-environment parameters, [linear; angular]: [[m 1, -m c^], [m c^, I_c - m c^ c^]] (lumped links
+    included)."""
     from . import _centroidal
 
     i = _names.check_idx("link", model.number_of_links(), link_index)
-    return _centroidal.link_spatial_inertia_matrices(model)[i]
+    M = _centroidal.link_spatial_inertia_matrices(model)
+    return M[:, i] if M.ndim == 4 else M[i]
 
 
 def com_position(model, data, *, link_index: int, in_link_frame: bool = True):
@@ -110,7 +113,7 @@ def com_position(model, data, *, link_index: int, in_link_frame: bool = True):
     wp.launch(
         centroidal_kernels(model.scalar).link_com_positions,
         dim=data.batch_size,
-        inputs=[model.link_com, i, int(bool(in_link_frame)), W_H_L],
+        inputs=[model.kernel_parameter("link_com"), i, int(bool(in_link_frame)), W_H_L],
         outputs=[out],
         device=model.device,
     )

@@ -82,6 +82,27 @@ def _quaternion_xyzw(R: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
+def _check_finite(name: str, host: np.ndarray) -> None:
+    if not np.all(np.isfinite(host)):
+        raise ValueError(f"{name} has non-finite values")
+
+
+def _check_non_negative(name: str, host: np.ndarray) -> None:
+    _check_finite(name, host)
+    if np.any(host < 0.0):
+        raise ValueError(f"{name} must be non-negative, got entries {host[host < 0.0][:5].tolist()}")
+
+
+def _check_inertia(name: str, host: np.ndarray) -> None:
+    """Symmetric positive semi-definite (3, 3) matrices, to a relative tolerance of 1e-9."""
+    _check_finite(name, host)
+    scale = max(float(np.abs(host).max(initial=0.0)), 1e-300)
+    if np.abs(host - np.swapaxes(host, -1, -2)).max(initial=0.0) > 1e-9 * scale:
+        raise ValueError(f"{name} must hold symmetric matrices")
+    if np.linalg.eigvalsh(host).min(initial=0.0) < -1e-9 * scale:
+        raise ValueError(f"{name} must hold positive semi-definite matrices")
+
+
 def _sibling_chains(parent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """first_child (nL,) and next_sibling (nL,), -1 where there is none; siblings in index order."""
     first_child = np.full(len(parent), -1, dtype=np.int32)
@@ -96,12 +117,17 @@ class Model:
     """A robot's constants on a Warp device, in one scalar type (float32 or float64).
 
     Build it with `Model.build_from_model_description`. The host-side tree (`model.tree`, NumPy float64)
-    holds the same constants; the Warp arrays below are what kernels read:
+    holds the description's constants; the Warp arrays below are what kernels read:
     parent (nL,) int, joint_type (nL,) int, X_tree (nL,) transform (joint frame in the parent link),
     joint_axis, joint_pivot (nL,) vec3 (link frame), support (nL, n) int, link_mass (nL,) [kg],
     link_com (nL,) vec3 [m, link frame], link_inertia (nL,) mat33 [kg m^2, about the CoM, link axes],
     frame_parent (nF,) int, link_H_frame (nF,) transform, first_child and next_sibling (nL,) int
     (-1 for none: the sibling chains that backward passes sum over).
+
+    The inertial parameters (`set_link_parameters`) and the joints' friction and limit gains
+    (`set_joint_parameters`) are shared by all environments or given per environment (domain
+    randomisation): then link_mass is (N, nL), link_com and link_inertia (N, nL), friction_static etc.
+    (N, n), and the model serves data of N environments only.
     """
 
     def __init__(
@@ -125,16 +151,15 @@ class Model:
         self.device = wp.get_device(device)
         s, d = self.scalar, self.device
         sp_vec3 = wp.types.vector(3, s)
-        sp_mat33 = wp.types.matrix((3, 3), s)
         self.parent = wp.array(tree.parent, dtype=int, device=d)
         self.joint_type = wp.array(tree.joint_type, dtype=int, device=d)
         self.X_tree = _transforms(tree.parent_H_joint, s, d)
         self.joint_axis = wp.array(tree.joint_axis, dtype=sp_vec3, device=d)
         self.joint_pivot = wp.array(tree.joint_pivot, dtype=sp_vec3, device=d)
         self.support = wp.array(tree.support().reshape(tree.number_of_links, tree.dofs), dtype=int, device=d)
-        self.link_mass = wp.array(tree.link_mass, dtype=s, device=d)
-        self.link_com = wp.array(tree.link_com, dtype=sp_vec3, device=d)
-        self.link_inertia = wp.array(tree.link_inertia, dtype=sp_mat33, device=d)
+        self._per_env_parameters: dict[str, int] = {}
+        self._kernel_views: dict[str, tuple] = {}
+        self._set_link_parameters(tree.link_mass, tree.link_com, tree.link_inertia, checked=False)
         self.frame_parent = wp.array(tree.frame_parent, dtype=int, device=d)
         self.link_H_frame = _transforms(tree.link_H_frame, s, d)
         first_child, next_sibling = _sibling_chains(tree.parent)
@@ -168,32 +193,100 @@ class Model:
     def set_joint_parameters(
         self, *, position_limits=None, limit_spring=None, limit_damper=None, friction_static=None, friction_viscous=None
     ) -> None:
-        """Set joint parameters of `step`, each (n,) ((n, 2) for position_limits [rad or m]); None keeps one.
+        """Set joint parameters of `step`; None keeps one.
 
-        limit_spring [N m/rad or N/m] and limit_damper [s/rad or s/m]: the limit spring-damper of JaxSim
-        (off where the spring is 0); friction_static [N m or N] and friction_viscous [N m s/rad or N s/m].
+        position_limits (n, 2) [rad or m], shared. limit_spring [N m/rad or N/m] and limit_damper [s/rad or
+        s/m]: the limit spring-damper of JaxSim (off where the spring is 0); friction_static [N m or N] and
+        friction_viscous [N m s/rad or N s/m]: each (n,), shared by all environments, or (N, n), one row per
+        environment (see `set_link_parameters` on per-environment parameters). Each value given makes a new
+        Warp array (`model.joint_limit_spring`, ...; `model.<name>_host` holds its NumPy copy).
         """
         n = self.tree.dofs
+        if position_limits is not None:
+            host = np.asarray(position_limits, dtype=np.float64)
+            if host.shape != (n, 2):
+                raise ValueError(f"position_limits has shape {host.shape}, expected {(n, 2)}")
+            if np.any(np.isnan(host)) or np.any(host[:, 0] > host[:, 1]):
+                raise ValueError("position_limits must be (lower, upper) pairs with lower <= upper")
+            self.position_limits_host = host.copy()
+            self.position_limits = wp.array(host, dtype=self.scalar, device=self.device)
         values = {
-            "position_limits": (position_limits, (n, 2)),
-            "joint_limit_spring": (limit_spring, (n,)),
-            "joint_limit_damper": (limit_damper, (n,)),
-            "friction_static": (friction_static, (n,)),
-            "friction_viscous": (friction_viscous, (n,)),
+            "joint_limit_spring": limit_spring,
+            "joint_limit_damper": limit_damper,
+            "friction_static": friction_static,
+            "friction_viscous": friction_viscous,
         }
-        for name, (value, shape) in values.items():
-            if value is None:
-                continue
-            host = np.asarray(value, dtype=np.float64)
-            if host.shape != shape:
-                raise ValueError(f"{name} has shape {host.shape}, expected {shape}")
-            if name == "position_limits":
-                if np.any(np.isnan(host)) or np.any(host[:, 0] > host[:, 1]):
-                    raise ValueError("position_limits must be (lower, upper) pairs with lower <= upper")
-            elif not np.all(np.isfinite(host)) or np.any(host < 0.0):
-                raise ValueError(f"{name} must be finite and non-negative")
-            setattr(self, f"{name}_host", host.copy())
-            setattr(self, name, wp.array(host, dtype=self.scalar, device=self.device))
+        for name, value in values.items():
+            if value is not None:
+                self._set_parameter(name, value, n, (), self.scalar, _check_non_negative)
+
+    def set_link_parameters(self, *, mass=None, com=None, inertia=None) -> None:
+        """Set the links' inertial parameters; None keeps one.
+
+        mass (nL,) [kg], com (nL, 3) [m, link frame], inertia (nL, 3, 3) [kg m^2, about the CoM, link axes],
+        in the order of `link_names()` (lumped links included), shared by all environments; or with a
+        leading axis of N environments, (N, nL), (N, nL, 3), (N, nL, 3, 3): domain randomisation, one
+        row per environment, read by every dynamics function, `step` and rollouts. A model with
+        per-environment parameters serves data of those N environments only (a ValueError otherwise), and
+        its gradients (`parameters_requiring_grad`) come back per environment. Masses must be non-negative,
+        inertias symmetric positive semi-definite. Each value given makes a new Warp array
+        (`model.link_mass`, ...; `model.<name>_host` holds its NumPy copy).
+        """
+        self._set_link_parameters(mass, com, inertia, checked=True)
+
+    def _set_link_parameters(self, mass, com, inertia, checked: bool) -> None:
+        """checked=False for the description's values (loading a model does not judge its inertias)."""
+        nL = self.tree.number_of_links
+        s = self.scalar
+        values = {
+            "link_mass": (mass, (), s, _check_non_negative),
+            "link_com": (com, (3,), wp.types.vector(3, s), _check_finite),
+            "link_inertia": (inertia, (3, 3), wp.types.matrix((3, 3), s), _check_inertia),
+        }
+        for name, (value, item, dtype, check) in values.items():
+            if value is not None:
+                self._set_parameter(name, value, nL, item, dtype, check if checked else None)
+
+    def _set_parameter(self, name: str, value, count: int, item: tuple, dtype, check) -> None:
+        """Store a parameter given shared (count, *item) or per environment (N, count, *item)."""
+        try:
+            host = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError) as error:
+            raise TypeError(f"{name} must be an array of numbers: {error}") from None
+        shared = (count, *item)
+        if check is not None and host.shape[-len(shared) :] == shared:
+            check(name, host)
+        if host.shape == shared:
+            array = wp.array(host, dtype=dtype, device=self.device)
+            self._per_env_parameters.pop(name, None)
+        elif host.ndim == len(shared) + 1 and host.shape[1:] == shared and host.shape[0] >= 1:
+            N = host.shape[0]
+            others = {k: v for k, v in self._per_env_parameters.items() if k != name and v != N}
+            if others:
+                raise ValueError(f"{name} is given for {N} environments but {others} for other numbers: one N per model")
+            array = _arrays.empty((count,), N, dtype, self.device)
+            array.assign(wp.array(host, dtype=dtype, device=self.device))
+            self._per_env_parameters[name] = N
+        else:
+            raise ValueError(f"{name} has shape {host.shape}, expected {shared} (shared) or (N, *{shared}) (per environment)")
+        setattr(self, f"{name}_host", host)
+        setattr(self, name, array)
+
+    def per_environment_parameters(self) -> dict[str, int]:
+        """{name: N} of the link and joint parameters given per environment (empty when all are shared)."""
+        return dict(self._per_env_parameters)
+
+    def kernel_parameter(self, name: str) -> wp.array:
+        """The (P, count) view of a link or joint parameter that kernels read (P = 1 shared, N per
+        environment, see kernels/spatial.mass_of), with its gradient; cached until the array or its gradient
+        is replaced."""
+        array = getattr(self, name)
+        cached = self._kernel_views.get(name)
+        if cached is not None and cached[0] is array and cached[1] is array.grad:
+            return cached[2]
+        view = array if name in self._per_env_parameters else array.reshape((1, *array.shape))
+        self._kernel_views[name] = (array, array.grad, view)
+        return view
 
     @classmethod
     def build_from_model_description(
@@ -311,33 +404,40 @@ def reduce(model: Model, considered_joints, locked_joint_positions: dict | None 
     )
 
 
-def total_mass(model: Model) -> float:
-    """The total mass of the model [kg]."""
-    return float(np.sum(model.tree.link_mass))
+def total_mass(model: Model):
+    """The total mass of the model [kg]: a float, or (N,) when the masses are given per environment."""
+    total = np.sum(model.link_mass_host, axis=-1)
+    return float(total) if total.ndim == 0 else total
 
 
 def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "link_inertia")) -> dict:
     """Mark model parameters whose gradients a wp.Tape should compute; returns {name: Warp array}.
 
     names, any of: "link_mass" (nL,) [kg], "link_com" (nL,) vec3 [m, link frame], "link_inertia" (nL,)
-    mat33 [kg m^2, about the CoM], "friction_static", "friction_viscous", "joint_limit_spring",
-    "joint_limit_damper" (n,) (see Model.set_joint_parameters), and the contact parameters "K", "D", "mu".
-    The model's own arrays get requires_grad (their .grad allocated, zero); the contact parameters, numbers
-    or (N,) NumPy arrays in `model.contact_params`, become Warp arrays (1,) or (N,) with requires_grad, which
-    replace them there (the step's plan is rebuilt once). After `tape.backward(loss)` the gradient of the loss
-    is in `arrays[name].grad`, the same shape as the parameter: shared parameters get the sum over the
-    environments, per-environment K, D, mu (N,) one value per environment. Zero the grads
-    (`tape.zero()`) between backward passes. Each call returns the model's current arrays: replacing a
-    parameter later (set_joint_parameters, a new contact_params) makes new arrays without gradients.
+    mat33 [kg m^2, about the CoM] (see Model.set_link_parameters), "friction_static", "friction_viscous",
+    "joint_limit_spring", "joint_limit_damper" (n,) (see Model.set_joint_parameters), each with a leading
+    (N,) when given per environment; the contact parameters "K", "D", "mu" ((1,) or (N,)); "terrain_height":
+    a FlatTerrain's height ((1,) or (N,)) or a HeightfieldTerrain's heights (nx, ny) (a PlaneTerrain has
+    none: ValueError). The model's own arrays get requires_grad (their .grad allocated, zero); the contact
+    parameters and the terrain's heights, when numbers or NumPy arrays, become Warp arrays with requires_grad
+    that replace them in `model.contact_params` / `model.terrain` (the step's plan is rebuilt once). After
+    `tape.backward(loss)` the gradient of the loss is in `arrays[name].grad`, the same shape as the
+    parameter: a parameter shared by the environments gets the sum over them, a per-environment one a row
+    per environment. Zero the grads (`tape.zero()`) between backward passes. Each call returns the model's
+    current arrays: replacing a parameter later (set_link_parameters, set_joint_parameters, a new
+    contact_params or terrain) makes new arrays without gradients.
 
     What reaches them: ABA, RNEA, CRBA (and what calls them: forward/inverse dynamics, bias forces, mass
     matrix), the Coriolis matrix, the centroidal, momentum and energy functions (`warpdyn.com`, this
-    module), `step`, `warpdyn.contact`'s forces and `warpdyn.simulation.Rollout` under a tape. With none marked a tape records the
-    same launches as before and nothing extra is allocated. A limit gain or friction that requires gradients
-    keeps its term in the step's compiled actuation kernel even where it is zero (a joint with a zero limit
-    spring has its limit off: its gradient is 0 there).
+    module), `step`, `warpdyn.contact`'s forces and `warpdyn.simulation.Rollout` under a tape. With none marked
+    a tape records the same launches as before and nothing extra is allocated. A limit gain or friction that
+    requires gradients keeps its term in the step's compiled actuation kernel even where it is zero (a joint
+    with a zero limit spring has its limit off: its gradient is 0 there).
     """
+    import dataclasses
+
     from ._simulation import PARAMETERS
+    from .terrain import FlatTerrain, HeightfieldTerrain
 
     if isinstance(names, str):
         names = (names,)
@@ -350,9 +450,21 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
         if name in ("K", "D", "mu"):
             value = getattr(model.contact_params, name)
             if not isinstance(value, wp.array):
-                host = np.atleast_1d(np.asarray(value, dtype=np.float64))
-                value = wp.array(host, dtype=model.scalar, device=model.device)
-                contact[name] = value
+                value = contact[name] = _parameter_array(value, model)
+            value.requires_grad = True
+            out[name] = value
+        elif name == "terrain_height":
+            terrain = model.terrain
+            if isinstance(terrain, FlatTerrain):
+                field = "height"
+            elif isinstance(terrain, HeightfieldTerrain):
+                field = "heights"
+            else:
+                raise ValueError(f"terrain_height: a {type(terrain).__name__} has no height parameter (FlatTerrain and HeightfieldTerrain have)")
+            value = getattr(terrain, field)
+            if not isinstance(value, wp.array):
+                value = _parameter_array(value, model)
+                model.terrain = dataclasses.replace(terrain, **{field: value})
             value.requires_grad = True
             out[name] = value
         else:
@@ -360,13 +472,22 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
             array.requires_grad = True
             out[name] = array
     if contact:
-        import dataclasses
-
         model.contact_params = dataclasses.replace(model.contact_params, **contact)
     return out
 
 
+def _parameter_array(value, model: Model) -> wp.array:
+    """A number or NumPy array as a Warp array in the model's dtype and device ((1,) for a number)."""
+    host = np.asarray(value, dtype=np.float64)
+    return wp.array(host.reshape(-1) if host.ndim == 0 else host, dtype=model.scalar, device=model.device)
+
+
 def _check_data(model: Model, data) -> None:
+    if model._per_env_parameters and any(N != data.batch_size for N in model._per_env_parameters.values()):
+        raise ValueError(
+            f"the model's parameters {model.per_environment_parameters()} are given per environment, "
+            f"but the data has {data.batch_size} environments"
+        )
     if data.scalar != model.scalar:
         raise TypeError(f"data is in {data.dtype.name} but the model computes in {model.dtype.name}")
     if data.joint_positions_state.shape[1] != model.dofs():

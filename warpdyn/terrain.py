@@ -4,11 +4,17 @@ Conventions (as JaxSim's terrain): the terrain is the graph z = h(x, y) of the w
 normal n(x, y) points out of the ground. A point p penetrates by delta = max(0, (h(p_x, p_y) - p_z) n_z),
 the distance to the plane tangent at (p_x, p_y) (exact for flat and plane terrains).
 
-- `FlatTerrain(height)`: h = height, n = (0, 0, 1).
+- `FlatTerrain(height)`: h = height, n = (0, 0, 1); one height for all environments, or one per
+  environment (N,).
 - `PlaneTerrain(normal, point)`: the plane through `point` with `normal` (n_z > 0, normalised here).
 - `HeightfieldTerrain(heights, origin, spacing)`: heights[i, j] at (origin_x + i dx, origin_y + j dy),
   bilinear in between, n from the gradient of that bilinear height; outside the grid, the nearest edge
   value (clamped).
+
+Differentiable terrain: FlatTerrain.height and HeightfieldTerrain.heights may be Warp arrays in the model's
+dtype and device ((1,) or (N,), and (nx, ny)), which the contact kernels read in place, so that with
+requires_grad their .grad receives tape gradients (`warpdyn.model.parameters_requiring_grad(model,
+("terrain_height",))` makes them). Host-side methods (`height_at`, `normal_at`) copy them to the host.
 """
 
 from __future__ import annotations
@@ -16,30 +22,50 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import warp as wp
 
 __all__ = ["FlatTerrain", "PlaneTerrain", "HeightfieldTerrain"]
 
 FLAT, PLANE, HEIGHTFIELD = 0, 1, 2
 
 
-@dataclasses.dataclass(frozen=True)
-class FlatTerrain:
-    """The plane z = height [m]."""
+def _values(value) -> np.ndarray:
+    """A terrain parameter's values on the host (float64), from a number, NumPy or Warp array."""
+    if isinstance(value, wp.array):
+        value = value.numpy()
+    return np.asarray(value, dtype=np.float64)
 
-    height: float = 0.0
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class FlatTerrain:
+    """The plane z = height [m]: a number, or one height per environment (N,) (NumPy or Warp array)."""
+
+    height: float | np.ndarray | wp.array = 0.0
 
     kind = FLAT
 
-    def height_at(self, x, y) -> np.ndarray:
-        return np.full(np.broadcast(np.asarray(x), np.asarray(y)).shape, float(self.height))
+    def __post_init__(self):
+        h = _values(self.height)
+        if h.ndim > 1 or h.size == 0 or not np.all(np.isfinite(h)):
+            raise ValueError(f"FlatTerrain.height must be a finite number or (N,) array, got {self.height!r}")
+
+    def height_of(self, env: int = 0) -> float:
+        """The height [m] in environment env (the only one when it is shared)."""
+        h = np.atleast_1d(_values(self.height))
+        if not 0 <= env < h.size and h.size > 1:
+            raise IndexError(f"FlatTerrain has {h.size} heights, no environment {env}")
+        return float(h[env if h.size > 1 else 0])
+
+    def height_at(self, x, y, env: int = 0) -> np.ndarray:
+        return np.full(np.broadcast(np.asarray(x), np.asarray(y)).shape, self.height_of(env))
 
     def normal_at(self, x, y) -> np.ndarray:
         shape = np.broadcast(np.asarray(x), np.asarray(y)).shape
         return np.broadcast_to(np.array([0.0, 0.0, 1.0]), (*shape, 3)).copy()
 
     def plane(self) -> tuple[np.ndarray, float]:
-        """(unit normal, height at the origin)."""
-        return np.array([0.0, 0.0, 1.0]), float(self.height)
+        """(unit normal, height at the origin) of environment 0."""
+        return np.array([0.0, 0.0, 1.0]), self.height_of(0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,20 +106,21 @@ class PlaneTerrain:
 class HeightfieldTerrain:
     """A grid of heights (nx, ny) [m], heights[i, j] at origin + (i dx, j dy), bilinear in between."""
 
-    heights: np.ndarray
+    heights: np.ndarray | wp.array
     origin: tuple = (0.0, 0.0)
     spacing: tuple = (0.1, 0.1)
 
     kind = HEIGHTFIELD
 
     def __post_init__(self):
-        h = np.asarray(self.heights, dtype=np.float64)
+        h = _values(self.heights)
         if h.ndim != 2 or h.shape[0] < 2 or h.shape[1] < 2 or not np.all(np.isfinite(h)):
             raise ValueError(f"HeightfieldTerrain.heights must be a finite (nx >= 2, ny >= 2) grid, got shape {h.shape}")
         spacing = tuple(float(s) for s in self.spacing)
         if len(spacing) != 2 or min(spacing) <= 0.0:
             raise ValueError(f"HeightfieldTerrain.spacing must be two positive numbers, got {self.spacing!r}")
-        object.__setattr__(self, "heights", h)
+        if not isinstance(self.heights, wp.array):
+            object.__setattr__(self, "heights", h)
         object.__setattr__(self, "origin", tuple(float(o) for o in self.origin))
         object.__setattr__(self, "spacing", spacing)
 
@@ -107,12 +134,12 @@ class HeightfieldTerrain:
 
     def height_at(self, x, y) -> np.ndarray:
         i, j, a, b = self._cell(x, y)
-        h = self.heights
+        h = _values(self.heights)
         return (1 - a) * (1 - b) * h[i, j] + a * (1 - b) * h[i + 1, j] + (1 - a) * b * h[i, j + 1] + a * b * h[i + 1, j + 1]
 
     def normal_at(self, x, y) -> np.ndarray:
         i, j, a, b = self._cell(x, y)
-        h = self.heights
+        h = _values(self.heights)
         dhdx = ((1 - b) * (h[i + 1, j] - h[i, j]) + b * (h[i + 1, j + 1] - h[i, j + 1])) / self.spacing[0]
         dhdy = ((1 - a) * (h[i, j + 1] - h[i, j]) + a * (h[i + 1, j + 1] - h[i + 1, j])) / self.spacing[1]
         n = np.stack([-dhdx, -dhdy, np.ones_like(dhdx)], axis=-1)

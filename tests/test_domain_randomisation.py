@@ -1,0 +1,227 @@
+"""Model parameters given per environment (domain randomisation) and the terrain's height as a parameter.
+
+References: a model whose parameters are shared and equal to one environment's row computes, for that
+environment, exactly what the per-environment model computes (the kernels read row min(env, P - 1) of the
+same values: bitwise the same arithmetic, so rtol 1e-13); gradients are checked against central finite
+differences as in tests/test_parameter_gradients.py (float64, relative steps 1e-6, rtol 1e-6).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import warp as wp
+
+import robots
+import warpdyn as wd
+from test_parameter_gradients import BOX_URDF, _assert_gradients, _contact_rollout_gradients, _finite_differences, _weighted_sum
+
+N = 3
+
+
+def _random_rows(model, rng, N: int) -> dict:
+    """Per-environment masses (x 0.5 .. 1.5), CoMs (+- 5 cm) and inertias (rotated, rescaled) around the
+    description's values: {set_link_parameters argument: (N, nL, ...) array}."""
+    tree = model.tree
+    nL = tree.number_of_links
+    mass = tree.link_mass[None] * rng.uniform(0.5, 1.5, (N, nL))
+    com = tree.link_com[None] + rng.uniform(-0.05, 0.05, (N, nL, 3))
+    inertia = np.empty((N, nL, 3, 3))
+    for k in range(N):
+        for i in range(nL):
+            Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+            inertia[k, i] = rng.uniform(0.5, 1.5) * Q @ tree.link_inertia[i] @ Q.T
+    return {"mass": mass, "com": com, "inertia": inertia}
+
+
+def _joint_rows(model, rng, N: int) -> dict:
+    n = model.dofs()
+    return {
+        "limit_spring": rng.uniform(5.0, 15.0, (N, n)),
+        "limit_damper": rng.uniform(0.05, 0.2, (N, n)),
+        "friction_static": rng.uniform(0.1, 0.5, (N, n)),
+        "friction_viscous": rng.uniform(0.1, 0.5, (N, n)),
+    }
+
+
+def _outputs(model, data) -> dict:
+    """Every function that reads the mass parameters, and a step that reads the joint parameters."""
+    base, joints = wd.model.forward_dynamics_aba(model, data, joint_forces=np.linspace(-1.0, 1.0, model.dofs()))
+    f_B, tau = wd.model.inverse_dynamics(model, data, joint_accelerations=np.ones(model.dofs()))
+    nxt = wd.model.step(model, data, joint_force_references=np.linspace(-2.0, 2.0, model.dofs()))
+    return {
+        "aba base": base,
+        "aba joints": joints,
+        "crb joints": wd.model.forward_dynamics_crb(model, data)[1],
+        "rnea base": f_B,
+        "rnea joints": tau,
+        "M": wd.model.free_floating_mass_matrix(model, data),
+        "h": wd.model.free_floating_bias_forces(model, data),
+        "C": wd.model.free_floating_coriolis_matrix(model, data),
+        "com": wd.com.com_position(model, data),
+        "com bias": wd.com.bias_acceleration(model, data),
+        "h_G": wd.com.centroidal_momentum(model, data),
+        "J_G": wd.com.centroidal_momentum_jacobian(model, data),
+        "locked": wd.model.locked_spatial_inertia(model, data),
+        "energy": wd.model.mechanical_energy(model, data),
+        "link com": wd.link.com_position(model, data, link_index=model.number_of_links() - 1, in_link_frame=False),
+        "step s": nxt.joint_positions_state,
+        "step v": nxt.joint_velocities_state,
+        "step base": nxt.base_velocity_state,
+    }
+
+
+def test_per_environment_parameters_equal_shared_models_row_by_row():
+    """N = 3 environments of a random 6-link floating tree, each with its own masses, CoMs, inertias, joint
+    friction and limit gains: every dynamics, centroidal and energy function and a step give, in
+    environment k, what a model sharing row k gives (reference: that model, same data; rtol 1e-13). Also
+    link_spatial_inertia_matrices (N, nL, 6, 6), wd.link.spatial_inertia (N, 6, 6), total_mass and
+    wd.link.mass (N,)."""
+    rng = np.random.default_rng(0)
+    urdf = robots.random_tree_urdf(4, num_links=6)
+    model = wd.model.Model.build_from_model_description(urdf, dtype=np.float64)
+    model.set_joint_parameters(position_limits=np.tile([-0.2, 0.2], (model.dofs(), 1)))
+    links, joints = _random_rows(model, rng, N), _joint_rows(model, rng, N)
+    model.set_link_parameters(**links)
+    model.set_joint_parameters(**joints)
+    assert model.link_mass.shape == (N, model.number_of_links()) and model.friction_static.shape == (N, model.dofs())
+    assert model.per_environment_parameters() == dict.fromkeys(
+        ("link_mass", "link_com", "link_inertia", "joint_limit_spring", "joint_limit_damper", "friction_static", "friction_viscous"), N
+    )
+    data = wd.data.random_model_data(model, seed=1, num_envs=N)
+    got = {k: v.numpy() for k, v in _outputs(model, data).items()}
+    M_links = wd.model.link_spatial_inertia_matrices(model).numpy()
+    assert M_links.shape == (N, model.number_of_links(), 6, 6)
+    assert wd.link.spatial_inertia(model, link_index=2).shape == (N, 6, 6)
+    np.testing.assert_allclose(wd.model.total_mass(model), links["mass"].sum(axis=1), rtol=1e-15)
+    np.testing.assert_allclose(wd.link.mass(model, link_index=1), links["mass"][:, 1], rtol=1e-15)
+    for k in range(N):
+        shared = wd.model.Model.build_from_model_description(urdf, dtype=np.float64)
+        shared.set_joint_parameters(position_limits=np.tile([-0.2, 0.2], (model.dofs(), 1)))
+        shared.set_link_parameters(**{name: value[k] for name, value in links.items()})
+        shared.set_joint_parameters(**{name: value[k] for name, value in joints.items()})
+        expected = _outputs(shared, data)
+        for name, value in expected.items():
+            np.testing.assert_allclose(got[name][k], value.numpy()[k], rtol=1e-13, atol=1e-13, err_msg=f"{name}, env {k}")
+        np.testing.assert_allclose(M_links[k], wd.model.link_spatial_inertia_matrices(shared).numpy(), rtol=1e-15)
+    assert not np.allclose(got["M"][0], got["M"][1]), "the rows do not differ"
+
+
+def test_per_environment_gradients_through_a_rollout():
+    """d loss / d (link_mass, link_com, link_inertia, friction_viscous, joint_limit_spring), each given per
+    environment (N = 2), through 10 steps of a 3-link pendulum chain beyond its limits: the gradients come
+    back per environment, (N, nL), (N, nL) vec3, (N, nL) mat33, (N, n), and match central differences
+    (module docstring; rtol 1e-6). The loss weighs environment 0 and 1 differently, so a gradient summed
+    over environments (the shared case) would fail."""
+    n, T, envs = 3, 10, 2
+    rng = np.random.default_rng(2)
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(n), dtype=np.float64)
+    model.set_joint_parameters(position_limits=np.tile([-0.1, 0.1], (n, 1)))
+    model.set_link_parameters(**_random_rows(model, rng, envs))
+    joints = _joint_rows(model, rng, envs)
+    model.set_joint_parameters(friction_viscous=joints["friction_viscous"], limit_spring=joints["limit_spring"])
+    names = ("link_mass", "link_com", "link_inertia", "friction_viscous", "joint_limit_spring")
+    params = wd.model.parameters_requiring_grad(model, names=names)
+    s0 = rng.choice([-1.0, 1.0], size=(envs, n)) * rng.uniform(0.3, 0.6, size=(envs, n))
+    v0 = rng.uniform(-2.0, 2.0, size=(envs, n))
+    tau = rng.normal(size=(T, envs, n))
+    w = wp.array(rng.normal(size=(envs, n)), dtype=wp.float64)
+
+    def loss():
+        data = wd.data.Data.build(model, joint_positions=s0, joint_velocities=v0, num_envs=envs)
+        final, _ = wd.simulation.rollout(model, data, steps=T, joint_force_references=tau, record=())
+        out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+        _weighted_sum([final.joint_positions_state, final.joint_velocities_state], [w, w], out)
+        return out
+
+    tape = wp.Tape()
+    with tape:
+        out = loss()
+    tape.backward(out)
+    assert params["link_com"].grad.shape == (envs, model.number_of_links())
+    _assert_gradients(params, _finite_differences(params, lambda: float(loss().numpy()[0])))
+
+
+def test_per_environment_terrain_heights():
+    """FlatTerrain with one height per environment: a box resting 1 mm deep on ground at 0 and at 5 cm steps
+    as a shared-height model does in each environment (reference: that model; rtol 1e-13), and the gradient
+    of a loss over 15 steps of the box sliding with respect to the heights ((N,) per environment, and (1,)
+    shared) matches central differences (module docstring; rtol 1e-6)."""
+    heights = np.array([0.0, 0.05])
+    model = wd.model.Model.build_from_model_description(BOX_URDF, dtype=np.float64)
+    model.contact_params = wd.model.SoftContactsParams(K=1e5, D=1e3, mu=0.4)
+    model.terrain = wd.terrain.FlatTerrain(height=heights)
+    z = 0.099 + heights
+    data = wd.data.Data.build(
+        model, base_position=np.stack([np.zeros(2), np.zeros(2), z], axis=1), base_linear_velocity=[1.0, 0.2, 0.0], num_envs=2
+    )
+    got = wd.model.step(model, data).base_velocity_state.numpy()
+    for k, h in enumerate(heights):
+        shared = wd.model.Model.build_from_model_description(BOX_URDF, dtype=np.float64)
+        shared.contact_params = model.contact_params
+        shared.terrain = wd.terrain.FlatTerrain(height=h)
+        np.testing.assert_allclose(got[k], wd.model.step(shared, data).base_velocity_state.numpy()[k], rtol=1e-13, atol=1e-15)
+    assert np.all(got[:, 2] > -0.9 * 9.81 * model.time_step), "the ground does not push (free fall after one step)"
+    params, rec, fd = _contact_rollout_gradients(model, data, 15, ("terrain_height",))
+    assert params["terrain_height"].shape == (2,) and model.terrain.height is params["terrain_height"]
+    assert np.all(rec["base_position"].numpy()[..., 2] < z + 0.001), "a corner left the ground"
+    _assert_gradients(params, fd)
+
+    model.terrain = wd.terrain.FlatTerrain(height=0.0)
+    data = wd.data.Data.build(model, base_position=[0.0, 0.0, 0.099], base_linear_velocity=[1.0, 0.2, 0.0], num_envs=2)
+    params, _, fd = _contact_rollout_gradients(model, data, 15, ("terrain_height",))
+    assert params["terrain_height"].shape == (1,)
+    _assert_gradients(params, fd)
+
+
+def test_heightfield_heights_gradient():
+    """d loss / d heights (3 x 3 grid, 0.5 m cells, a gentle slope) of a box sliding 15 steps across it:
+    tape vs central differences (module docstring; rtol 1e-6); the cells under the box get non-zero
+    gradients, the far ones exactly 0."""
+    rng = np.random.default_rng(3)
+    grid = 0.02 * rng.uniform(-1.0, 1.0, (4, 4))
+    model = wd.model.Model.build_from_model_description(BOX_URDF, dtype=np.float64)
+    model.contact_params = wd.model.SoftContactsParams(K=1e5, D=1e3, mu=0.4)
+    model.terrain = wd.terrain.HeightfieldTerrain(grid, origin=(-0.6, -0.6), spacing=(0.5, 0.5))
+    points = wd.contact.collidable_point_positions(model, wd.data.Data.build(model)).numpy()
+    lift = np.max(model.terrain.height_at(points[:, 0], points[:, 1]) - points[:, 2])
+    data = wd.data.Data.build(model, base_position=[0.0, 0.0, lift - 0.001], base_linear_velocity=[0.5, 0.1, 0.0])
+    params, _, fd = _contact_rollout_gradients(model, data, 15, ("terrain_height",))
+    assert params["terrain_height"].shape == (4, 4)
+    _assert_gradients(params, fd)
+    assert np.all(params["terrain_height"].grad.numpy()[3, :] == 0.0), "a cell the box never reaches has a gradient"
+
+
+def test_bad_per_environment_parameters_are_refused():
+    """Each bad value raises and names what is wrong: wrong shapes, negative masses, non-symmetric or
+    indefinite inertias, two numbers of environments, data of another batch size, a plane's height."""
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(3), dtype=np.float64)
+    nL, n = model.number_of_links(), model.dofs()
+    with pytest.raises(ValueError, match=r"link_mass has shape \(2, 5\)"):
+        model.set_link_parameters(mass=np.ones((2, nL + 1)))
+    with pytest.raises(ValueError, match="link_mass must be non-negative"):
+        model.set_link_parameters(mass=-np.ones(nL))
+    bad = np.tile(np.eye(3), (nL, 1, 1))
+    bad[1, 0, 1] = 0.5
+    with pytest.raises(ValueError, match="link_inertia must hold symmetric"):
+        model.set_link_parameters(inertia=bad)
+    with pytest.raises(ValueError, match="positive semi-definite"):
+        model.set_link_parameters(inertia=np.tile(np.diag([1.0, 1.0, -1.0]), (nL, 1, 1)))
+    with pytest.raises(ValueError, match="friction_viscous must be non-negative"):
+        model.set_joint_parameters(friction_viscous=-np.ones((2, n)))
+    model.set_link_parameters(mass=np.ones((2, nL)))
+    with pytest.raises(ValueError, match="one N per model"):
+        model.set_joint_parameters(friction_static=np.ones((3, n)))
+    with pytest.raises(ValueError, match=r"per environment, but the data has 3 environments"):
+        wd.model.free_floating_mass_matrix(model, wd.data.Data.build(model, num_envs=3))
+    assert wd.model.free_floating_mass_matrix(model, wd.data.Data.build(model, num_envs=2)).shape == (2, 6 + n, 6 + n)
+    model.set_link_parameters(mass=np.ones(nL))
+    assert model.per_environment_parameters() == {}
+    model.terrain = wd.terrain.PlaneTerrain(normal=(0.1, 0.0, 1.0))
+    with pytest.raises(ValueError, match="PlaneTerrain has no height parameter"):
+        wd.model.parameters_requiring_grad(model, names=("terrain_height",))
+    with pytest.raises(ValueError, match="FlatTerrain.height"):
+        wd.terrain.FlatTerrain(height=np.ones((2, 2)))
+    model.terrain = wd.terrain.FlatTerrain(height=np.zeros(4))
+    with pytest.raises(ValueError, match=r"terrain's height has shape \(4,\)"):
+        wd.model.step(model, wd.data.Data.build(model, num_envs=2))
