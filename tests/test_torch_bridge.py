@@ -55,6 +55,7 @@ def _legs_model():
     model = copy.copy(_legs())
     model.__dict__.pop("_simulation_plan", None)
     model.link_mass = wp.clone(_legs().link_mass)  # marked for gradients below: not the cached model's array
+    model._per_env_parameters, model._kernel_views = {}, {}  # the copy's own (set_link_parameters changes them)
     return model
 
 
@@ -136,7 +137,8 @@ RECORDS = (
 )
 
 
-def test_floating_base_with_contacts_equals_the_plain_tape():
+@pytest.mark.parametrize("per_env", [False, True], ids=["shared", "per-environment"])
+def test_floating_base_with_contacts_equals_the_plain_tape(per_env):
     """The ergoCub legs standing on flat ground (feet 4 mm deep, joints moving, contact forces and tangential
     deformation in every step), 2 environments, 5 steps, Inertial representation (the base velocity's
     conversion to Mixed is on the tape): the records equal wd.simulation.rollout's bitwise, and the
@@ -144,14 +146,22 @@ def test_floating_base_with_contacts_equals_the_plain_tape():
     deformation, the per-step torques and the parameters K and link_mass equal those of the plain wp.Tape
     through wd.simulation.rollout (module docstring: rtol 1e-12). The bridge leaves the .grad the model's
     parameter arrays hold (the plain tape's), also of D, marked but not given to it, and their values as
-    they were."""
+    they were. per_env: link masses given per environment ((2, nL) tensors and gradients) and the ground at
+    a height per environment (terrain_height (2,))."""
     model = _legs_model()
     n, N, T = model.dofs(), 2, 5
     nc = len(model.kin_dyn_parameters.contact_parameters.body)
     rng = np.random.default_rng(1)
     low = wd.contact.collidable_point_positions(model, wd.data.Data.build(model)).numpy()[:, 2].min()
+    heights = np.zeros(N)
+    names = ("K", "link_mass", "D")  # D: not given to the bridge
+    if per_env:
+        model.set_link_parameters(mass=model.link_mass_host * rng.uniform(0.9, 1.1, (N, model.number_of_links())))
+        heights = np.array([0.0, 0.002])
+        model.terrain = wd.terrain.FlatTerrain(height=heights)
+        names += ("terrain_height",)
     state = {
-        "base_position": np.array([[0.0, 0.0, -low - 0.004], [0.01, -0.02, -low - 0.003]]),
+        "base_position": np.array([[0.0, 0.0, -low - 0.004], [0.01, -0.02, -low - 0.003]]) + np.outer(heights, [0, 0, 1]),
         "base_quaternion": np.array([[1.0, 0.0, 0.0, 0.0], [np.cos(0.05), 0.0, 0.0, np.sin(0.05)]]),
         "joint_positions": rng.uniform(-0.1, 0.1, (N, n)),
         "base_velocity": rng.uniform(-0.05, 0.05, (N, 6)),
@@ -161,7 +171,7 @@ def test_floating_base_with_contacts_equals_the_plain_tape():
     tau = rng.normal(size=(T, N, n))
 
     # the plain tape
-    params = wd.model.parameters_requiring_grad(model, names=("K", "link_mass", "D"))  # D: not given to the bridge
+    params = wd.model.parameters_requiring_grad(model, names=names)
     wp_state = {k: wp.array(v, dtype=wp.float64, requires_grad=True) for k, v in state.items()}
     wp_tau = wp.array(tau, dtype=wp.float64, requires_grad=True)
     tape = wp.Tape()
@@ -198,7 +208,7 @@ def test_floating_base_with_contacts_equals_the_plain_tape():
     # the bridge
     inputs = {k: _t(v, True) for k, v in state.items()}
     tau_t = _t(tau, True)
-    torch_params = {"K": _t(values["K"], True), "link_mass": _t(values["link_mass"], True)}
+    torch_params = {k: _t(values[k], True) for k in names if k != "D"}
     out = wdt.rollout(
         model,
         steps=T,

@@ -169,6 +169,17 @@ def _terrain_parameters(terrain) -> tuple:
     return ()
 
 
+def parameter_value(model, name: str):
+    """The model's current value of the parameter `name` (in PARAMETERS): a Warp array, or for the contact
+    parameters and the terrain's height possibly a number or NumPy array (None for a PlaneTerrain's)."""
+    if name in ("K", "D", "mu"):
+        return getattr(model.contact_params, name)
+    if name == "terrain_height":
+        terrain = model.terrain
+        return terrain.height if isinstance(terrain, FlatTerrain) else terrain.heights if isinstance(terrain, HeightfieldTerrain) else None
+    return getattr(model, name)
+
+
 def _terrain_args(model) -> list:
     """The terrain as the contact kernels take it: kind, plane normal, heights at the origin (1,) or (N,),
     the heightfield (nx, ny), its grid. Warp arrays in the terrain are read in place (their .grad gets

@@ -20,8 +20,8 @@ gradients reach them), and the returned records are the rollout's own buffers (f
 with its saved tensors: after a backward pass without retain_graph, or when the graph is dropped. With
 retain_graph the tape stays and is zeroed before each further backward pass (gradcheck does that). When
 no tensor requires a gradient, or under `torch.no_grad()`, no tape is recorded and the rollout may keep
-two states only (storage "auto"). Input gradients are copies (small: the state and the controls);
-parameter gradients are fresh arrays.
+two states only (storage "auto"). Input and parameter gradients are copies (small: the state, the
+controls, the parameters).
 
 Devices and dtypes. Every tensor must be on the model's device (CPU, or the CUDA device of the model) and in
 the model's dtype (float32 or float64); nothing is converted silently. On CUDA, Warp's launches go on torch's
@@ -31,10 +31,11 @@ around a call.
 
 Model parameters (`parameters=`, names in `warpdyn._simulation.PARAMETERS`) are functional: the tensors'
 values are used for this call only. They are written into the model's arrays (marked for gradients with
-`warpdyn.model.parameters_requiring_grad`, which also makes K, D, mu Warp arrays of the model's
-`contact_params`) for the forward pass and again for the backward pass, and the model's own values are put
-back after each; their gradients go to fresh arrays, so a `.grad` the model's arrays hold for a user's own
-`wp.Tape` is left as it was.
+`warpdyn.model.parameters_requiring_grad`, which also makes K, D, mu and the terrain's height Warp arrays of
+the model's `contact_params` and `terrain`) for the forward pass and again for the backward pass, and the
+model's own values are put back after each; the backward pass sets the model's .grad arrays aside and puts
+their values back after it, so a `.grad` they hold for a user's own `wp.Tape` is left as it was. Parameters
+given per environment (`Model.set_link_parameters`, ...) take tensors with the leading N.
 
 Importing `warpdyn` does not import torch; `import warpdyn.torch` does.
 """
@@ -262,21 +263,19 @@ class _Rollout(torch.autograd.Function):
         spec, tape, records, arrays, needs = taped.spec, taped.tape, taped.records, taped.arrays, taped.needs
         k = len(spec.inputs)
         with _stream(spec.model.device):
-            tape.zero()  # a backward pass before this one (retain_graph) left adjoints on the tape's arrays
-            for name, g in zip(spec.record, grad_outputs):
-                if g is None or name == "valid" or records[name].size == 0:
-                    continue
-                wp.to_torch(records[name].grad, requires_grad=False).copy_(g)
-            # every parameter array gets a fresh gradient for the pass: those of `parameters` are returned, the
-            # others (marked by the user for their own tapes) are thrown away, their own .grad left as it was
+            # the parameter arrays' gradients are the user's (their own tapes) outside this pass: kept aside
+            # and put back after it; in it they start at zero and those of `parameters` are returned
             wanted = needs[k:] + (False,) * len(spec.others)
-            with _parameter_values(spec.marked, params), _fresh_grads(spec.marked + spec.others, wanted) as param_grads:
+            with _parameter_values(spec.marked, params), _preserved_grads(spec.marked + spec.others):
+                tape.zero()  # a backward pass before this one (retain_graph) left adjoints on the tape's arrays
+                for name, g in zip(spec.record, grad_outputs):
+                    if g is None or name == "valid" or records[name].size == 0:
+                        continue
+                    wp.to_torch(records[name].grad, requires_grad=False).copy_(g)
                 tape.backward()
-                for a in spec.marked + spec.others:  # so that a later tape.zero() leaves these alone
-                    tape.gradients.pop(a, None)
-            # copies: a later backward pass through the same graph zeroes these arrays first
-            grads = [wp.to_torch(arrays[name].grad, requires_grad=False).clone() if need else None for name, need in zip(spec.inputs, needs[:k])]
-            grads += [_param_grad(g, p) if g is not None else None for g, p in zip(param_grads, params)]
+                # copies: a later backward pass through the same graph zeroes these arrays first
+                grads = [wp.to_torch(arrays[name].grad, requires_grad=False).clone() if need else None for name, need in zip(spec.inputs, needs[:k])]
+                grads += [_param_grad(a.grad, p) if need else None for a, p, need in zip(spec.marked, params, wanted)]
         return (None, *grads)
 
 
@@ -442,34 +441,32 @@ def _parameter_values(marked: tuple, values: tuple):
 
 
 @contextlib.contextmanager
-def _fresh_grads(marked: tuple, needs: tuple):
-    """Inside the block the parameter arrays have fresh zero .grad arrays (yielded where a gradient is needed,
-    None for the others), so that the backward pass neither reads nor changes the .grad arrays they hold
-    outside it, which are put back after it."""
-    saved = [a.grad for a in marked]
-    fresh = []
-    for a, need in zip(marked, needs):
-        a.grad = wp.zeros(shape=a.shape, dtype=a.dtype, strides=a.strides, device=a.device)
-        fresh.append(a.grad if need else None)
+def _preserved_grads(arrays: tuple):
+    """Inside the block the arrays' .grad hold zeros (so that a backward pass accumulates only its own
+    adjoints); after it, the values they held before. The arrays keep their .grad objects: kernels recorded
+    on a tape may hold views of them (Model.kernel_parameter)."""
+    grads = [wp.to_torch(a.grad, requires_grad=False) for a in arrays]
+    saved = [g.clone() for g in grads]
     try:
-        yield fresh
+        for g in grads:
+            g.zero_()
+        yield
     finally:
-        for a, old in zip(marked, saved):
-            if old is None:
-                a.requires_grad = False
-            else:
-                a.grad = old
+        for g, old in zip(grads, saved):
+            g.copy_(old)
 
 
 def _parameter_arrays(model) -> list:
-    """The model's current arrays of the parameters in PARAMETERS (K, D, mu only where they are Warp arrays)."""
+    """The model's current arrays of the parameters in PARAMETERS (K, D, mu and the terrain's height only
+    where they are Warp arrays)."""
     out = []
     for name in _sim.PARAMETERS:
-        value = getattr(model.contact_params, name) if name in ("K", "D", "mu") else getattr(model, name)
+        value = _sim.parameter_value(model, name)
         if isinstance(value, wp.array):
             out.append(value)
     return out
 
 
 def _param_grad(grad: wp.array, like: torch.Tensor) -> torch.Tensor:
-    return wp.to_torch(grad, requires_grad=False).reshape(like.shape)
+    """A copy of a parameter's gradient, shaped as its tensor."""
+    return wp.to_torch(grad, requires_grad=False).reshape(like.shape).clone()
