@@ -7,6 +7,12 @@
     for episode in ...:                        # buffers, kernels and graphs are reused: nothing allocated,
         final, rec = roll.run(data, joint_force_references=tau)          # no host work per step
 
+    with wp.Tape() as tape:                    # long differentiable horizons: keep checkpoints, recompute
+        final, rec = wd.simulation.rollout(model, data, steps=1000, joint_force_references=tau_wp,
+                                           storage="checkpointed")            # segments in tape.backward
+        loss = ...
+    tape.backward(loss)                        # tau_wp.grad, data's .grad, marked parameters' .grad
+
 A rollout is `steps` applications of `wd.model.step` (same launches, same numbers: bitwise equal to calling
 `step` in a loop), with these differences:
 - every array it uses is allocated before the first step, so the whole loop can be captured as a graph:
@@ -52,7 +58,34 @@ Storage: how the states between steps are kept.
   per link), about four times that for RK4; gradients double both. The ergoCub legs (n = 12, nL = 13,
   nc = 32): ~3,300 numbers per environment and step, 27 kB in float64, so 1024 environments x 100 steps
   take ~2.7 GB. Without a tape, "trajectory" keeps only the states (one step's intermediates, reused).
-"auto" picks by whether a tape is recording when `run` is called.
+- "checkpointed" (`checkpoint_every=c`): differentiable like "trajectory", in far less memory. Under a
+  tape the steps run unrecorded (as a graph with use_graph "auto") and keep only the states at
+  t = 0, c, 2c, ..., T (the checkpoints), plus the c - 1 states and c steps' intermediates of one segment,
+  reused by every segment. `run` registers one function on the tape (`Tape.record_func`); `tape.backward`
+  runs it: it recomputes the segments from last to first, each from its checkpoint under a tape of its
+  own (the same launches on the same numbers), and runs that tape's backward. Gradients reach the initial
+  data, the controls and the marked model parameters as with "trajectory" and equal its gradients (bit for
+  bit on the CPU, where the adjoints add in the same order: tests/test_rollout_checkpoint.py), and
+  `tape.zero()` zeroes them. State records are copies (T + 1 entries, with gradients), except with c = 1:
+  all states kept, the records are views as with "trajectory". Memory per environment: ceil(T / c) + c
+  states and c steps' intermediates, all with gradients, + the records and the rollout's copy of the
+  controls; per environment and step about S / c + c (S + W) / T for states of S numbers and intermediates
+  of W, least for c ~ sqrt(T S / (S + W)). `checkpoint_every=None` (the default) takes the c that keeps the
+  fewest bytes (`Rollout.memory_bytes`). The ergoCub legs in float32 with the joint positions recorded,
+  T = 1000: semi-implicit Euler c = 9, 432 bytes per environment and step instead of "trajectory"'s 13,461
+  (4096 environments: 1.65 GiB instead of 51 GiB); RK4 c = 4, 689 bytes instead of 57,509 (2.6 GiB instead
+  of 219 GiB); float64 doubles them (benchmarks/rollout_memory.py). Cost: every step runs twice, in the
+  forward pass and again in the backward pass, there eagerly (launch by launch, as a tape records them); the
+  forward pass records nothing. The backward recomputes from the rollout's buffers with the model's
+  parameters as they are then: call it before the next `run` of the same Rollout (which overwrites the
+  checkpoints, as it overwrites "trajectory"'s states) and before changing the parameters. Callbacks are
+  refused under a tape (what they launch would be recorded out of order with the recomputation). Without a
+  tape it is a forward rollout in the same buffers (no gradients; callbacks allowed).
+"auto" picks "trajectory" under a tape, "ping-pong" otherwise, when `run` is called.
+
+Memory: `Rollout.memory_bytes(num_envs, ...)` computes, without allocating, the bytes `run` keeps (states,
+step intermediates, the rollout's copy of the controls, records, and their gradients), to size a run;
+`Rollout.nbytes` is what the last run allocated.
 
 Callbacks: `callback(t, data)` after the steps t = k * callback_every (k = 1, 2, ...), with the state at t
 as Data (views of the rollout's buffers, valid during the call). Between callbacks the steps run as one
@@ -60,7 +93,8 @@ graph, so callbacks cost nothing per step that they do not run at; `callback_eve
 step. A callback may return Data (same environments, dtype and representation) to replace the state
 (resets in RL: `data.reset(model, done)`); the records at t then hold the replacement. Not under a tape.
 
-Graphs (`use_graph`): "auto" captures unless a tape records (a tape must see each launch); a graph is
+Graphs (`use_graph`): "auto" captures unless a tape records the steps (a tape must see each launch; under a
+tape, "checkpointed" storage captures its forward pass, which the tape does not record); a graph is
 captured per stretch between callbacks on the first run and replayed on later runs with the same
 configuration (batch size, representation, control shapes, storage); the model's parameters (contact,
 joint, terrain, integrator, time step) are read when captured: changing them makes the next run capture
@@ -69,7 +103,9 @@ again.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import functools
 
 import numpy as np
 import warp as wp
@@ -123,11 +159,13 @@ def rollout(
     callback=None,
     callback_every: int = 1,
     storage: str = "auto",
+    checkpoint_every: int | None = None,
     use_graph="auto",
 ):
     """(final Data, {name: record}): `steps` steps of `wd.model.step` from `data` (see the module docstring
-    for the controls' shapes, the records, storage, callbacks and graphs). `data` is unchanged."""
-    roll = Rollout(model, steps=steps, record=record, storage=storage, use_graph=use_graph)
+    for the controls' shapes, the records, storage and checkpoint_every, callbacks and graphs). `data` is
+    unchanged."""
+    roll = Rollout(model, steps=steps, record=record, storage=storage, checkpoint_every=checkpoint_every, use_graph=use_graph)
     return roll.run(
         data,
         joint_force_references=joint_force_references,
@@ -168,6 +206,17 @@ def _copy_launch(scalar, src: wp.array, dst: wp.array):
     return (rollout_kernels(scalar).copy[dst.ndim], dst.shape, [src], [dst])
 
 
+@contextlib.contextmanager
+def _tape_suspended():
+    """Warp records no launch inside (the recording tape, if any, is set aside and restored after); yields it."""
+    runtime = _sim._wp_context.runtime
+    tape, runtime.tape = runtime.tape, None
+    try:
+        yield tape
+    finally:
+        runtime.tape = tape
+
+
 @dataclasses.dataclass(frozen=True)
 class _Layout:
     """How a control is given: kind None (absent), "const" or "step"; shared: one value for all environments."""
@@ -176,13 +225,10 @@ class _Layout:
     shared: bool = False
 
 
-def _control(value, name: str, per_env: tuple, T: int, N: int, batched: bool, scalar, device):
-    """(layout, source): the control as a Warp array of logical shape (1 or N, *per_env) ("const") or
-    (T, 1 or N, *per_env) ("step"), or (_Layout(None), None)."""
-    if value is None:
-        return _Layout(None), None
-    per_env = tuple(per_env)
-    shape = tuple(value.shape) if isinstance(value, wp.array) else np.shape(value)
+def _control_layout(shape: tuple, name: str, per_env: tuple, T: int, N: int, batched: bool) -> tuple:
+    """(target, layout): a control of `shape` as a Warp array of logical shape `target`, (1 or N, *per_env)
+    ("const") or (T, 1 or N, *per_env) ("step"). Raises ValueError for shapes not accepted."""
+    per_env, shape = tuple(per_env), tuple(int(x) for x in shape)
     accepted = {per_env: (per_env, "const", True), (T, 1, *per_env): ((T, 1, *per_env), "step", True)}
     if batched:
         accepted[(N, *per_env)] = ((N, *per_env), "const", False)
@@ -195,6 +241,16 @@ def _control(value, name: str, per_env: tuple, T: int, N: int, batched: bool, sc
     target, kind, shared = accepted[shape]
     if kind == "const" and shared:
         target = (1, *per_env)
+    return target, _Layout(kind, shared)
+
+
+def _control(value, name: str, per_env: tuple, T: int, N: int, batched: bool, scalar, device):
+    """(layout, source): the control as a Warp array of logical shape (1 or N, *per_env) ("const") or
+    (T, 1 or N, *per_env) ("step"), or (_Layout(None), None)."""
+    if value is None:
+        return _Layout(None), None
+    shape = tuple(value.shape) if isinstance(value, wp.array) else np.shape(value)
+    target, layout = _control_layout(shape, name, per_env, T, N, batched)
     if isinstance(value, wp.array):
         _arrays.check_device_array(value, name, scalar, device)
         source = value if tuple(value.shape) == target else value.reshape(target)
@@ -206,37 +262,114 @@ def _control(value, name: str, per_env: tuple, T: int, N: int, batched: bool, sc
         if not np.all(np.isfinite(host)):
             raise ValueError(f"{name} has non-finite values")
         source = wp.array(np.ascontiguousarray(host.reshape(target)), dtype=scalar, device=device)
-    return _Layout(kind, shared), source
+    return layout, source
+
+
+# ------------------------------------------------------------------------------------------ memory
+
+
+def _counts(storage: str, T: int, every: int, grad: bool) -> tuple[int, int, int]:
+    """(kept, between, workspaces): how many states a configuration keeps for the whole rollout (ping-pong's
+    two slots, the trajectory's T + 1, the checkpoints' ceil(T / every) + 1), how many it keeps for one
+    segment (every - 1) and how many workspaces of step intermediates it has."""
+    if storage == "ping-pong":
+        return 2, 0, 1
+    if storage == "trajectory":
+        return T + 1, 0, T if grad else 1
+    return -(-T // every) + 1, every - 1, every if grad else 1
+
+
+def _record_is_view(name: str, storage: str, every: int, repr: int) -> bool:
+    """Whether a state record is a view of the kept states (all T + 1 of them kept, in the same form)."""
+    all_kept = storage == "trajectory" or (storage == "checkpointed" and every == 1)
+    return all_kept and (name != "base_velocity" or repr == int(VelRepr.Mixed))
+
+
+def _state_shapes(plan) -> list:
+    """The per-environment shapes of the float state arrays (p, Q, s, v, sdot, m); `valid` is an int32 more."""
+    return [(3,), (4,), (plan.n,), (6,), (plan.n,), (plan.total, 3)]
+
+
+def _roots(obj, found: dict, skip: set) -> dict:
+    """{id: array}: the allocations (arrays owning their memory) that the Warp arrays in `obj` (an array, a
+    list or tuple of them, a step workspace) are views of, except those in `skip` (ids)."""
+    if isinstance(obj, wp.array):
+        root = obj
+        while getattr(root, "_ref", None) is not None:
+            root = root._ref
+        if root.deleter is not None and id(root) not in skip:  # not a view of memory owned elsewhere
+            found[id(root)] = root
+    elif isinstance(obj, (list, tuple)):
+        for item in obj:
+            _roots(item, found, skip)
+    elif isinstance(obj, (_sim._Workspace, _sim._Eval)):
+        for item in vars(obj).values():
+            _roots(item, found, skip)
+    return found
+
+
+def _nbytes(roots) -> int:
+    """Bytes of these allocations and of their gradients."""
+    total = 0
+    for array in roots:
+        for a in (array, array.grad):
+            if a is not None:
+                total += a.size * wp.types.type_size_in_bytes(a.dtype)
+    return total
+
+
+def _plan_rows(plan) -> set:
+    """Ids of the plan's shared zero rows (a workspace may hold them; they are the plan's, not the rollout's)."""
+    return {id(row) for row in plan._zeros.values()}
+
+
+def _workspace_bytes_per_env(plan, grad: bool, forces: bool) -> int:
+    """Bytes (gradients included) of one step workspace per environment: one built for 1 environment (every
+    workspace array is (N, ...), so the bytes are N times these)."""
+    ws = _sim._Workspace(plan, 1, grad, forces)
+    return _nbytes(_roots(ws, {}, _plan_rows(plan)).values())
+
+
+# ------------------------------------------------------------------------------------------ configuration
 
 
 class _Config:
-    """A rollout's buffers, launches and graphs for one configuration (see `Rollout`)."""
+    """A rollout's buffers, launches and graphs for one configuration (see `Rollout`).
 
-    def __init__(self, roll: Rollout, plan, N: int, num_envs, repr: int, trajectory: bool, grad: bool, tau: _Layout, forces: _Layout):
+    storage: "ping-pong", "trajectory" or "checkpointed"; every: the checkpoint interval S (1 otherwise).
+    States: ping-pong's two slots (`slots`), or the kept states `traj` (all T + 1, or the checkpoints
+    t = 0, S, 2S, ..., T) and, for checkpointed storage with S > 1, `seg`: the S - 1 states inside one
+    segment, reused by every segment.
+    """
+
+    def __init__(self, roll: Rollout, plan, N: int, num_envs, repr: int, storage: str, every: int, grad: bool, tau: _Layout, forces: _Layout):
         self.plan, self.N, self.num_envs, self.repr = plan, N, num_envs, repr
-        self.trajectory, self.grad, self.tau_layout, self.force_layout = trajectory, grad, tau, forces
+        self.storage, self.every, self.grad, self.tau_layout, self.force_layout = storage, every, grad, tau, forces
         T, s, d = roll.steps, plan.scalar, plan.device
         self.T, self.scalar, self.device = T, s, d
-        per_env = [(3,), (4,), (plan.n,), (6,), (plan.n,), (plan.total, 3)]
-        if trajectory:
-            self.traj = [_env_array((T + 1,), N, shape, s, d, grad) for shape in per_env]
-            self.traj.append(_env_array((T + 1,), N, (), wp.int32, d))
-            self.slots = None
-        else:
+        kept, between, count = _counts(storage, T, every, grad)
+        per_env = _state_shapes(plan)
+        self.slots = self.traj = self.seg = None
+        if storage == "ping-pong":
             self.slots = [_sim._state_buffers(plan, N, False) for _ in range(2)]
+        else:
+            self.traj = [_env_array((kept,), N, shape, s, d, grad) for shape in per_env]
+            self.traj.append(_env_array((kept,), N, (), wp.int32, d))
+            if between:
+                self.seg = [_env_array((between,), N, shape, s, d, grad) for shape in per_env]
+                self.seg.append(_env_array((between,), N, (), wp.int32, d))
         with_forces = forces.kind is not None
-        count = T if (trajectory and grad) else 1
         self.workspaces = [_sim._Workspace(plan, N, grad, with_forces) for _ in range(count)]
         # controls
         self.tau_buffer = self._control_buffer(tau, (plan.n,))
         self.force_buffer = self._control_buffer(forces, (plan.nL, 6))
         # records
         self.records: dict[str, wp.array] = {}
-        self.state_records: dict[str, wp.array] = {}  # the ones written by launches (not trajectory views)
+        self.state_records: dict[str, wp.array] = {}  # the ones written by launches (not views of the states)
         for name in roll.record:
             if name in _STATE_INDEX:
                 i = _STATE_INDEX[name]
-                if trajectory and (name != "base_velocity" or repr == int(VelRepr.Mixed)):
+                if _record_is_view(name, storage, every, repr):
                     self.records[name] = self.traj[i]
                     continue
                 if name == "valid":
@@ -252,7 +385,13 @@ class _Config:
                     array.zero_()
             elif name == "collidable_point_forces":
                 self.records[name] = _env_array((T,), N, (plan.count, 6), s, d, grad)
+        # the state records that are plain copies of a state array (the checkpointed backward adds their
+        # gradients to the states' instead of recomputing the copies); the others are launches of the steps
+        converted = ("valid",) if repr == int(VelRepr.Mixed) else ("valid", "base_velocity")
+        self.copied = [name for name in self.state_records if name not in converted]
+        self.launched = [name for name in self.state_records if name in converted]
         self.graphs: dict[tuple[int, int], object] = {}
+        self._scratch_grads = None
 
     def _control_buffer(self, layout: _Layout, per_env: tuple):
         if layout.kind is None:
@@ -261,12 +400,21 @@ class _Config:
         lead = (self.T,) if layout.kind == "step" else ()
         return _env_array(lead, rows, per_env, self.scalar, self.device, self.grad)
 
+    def nbytes(self) -> int:
+        """Bytes of the buffers this configuration allocated (states, workspaces, controls, records), with
+        their gradients; the model's and plan's constants are not counted."""
+        owned = [self.slots, self.traj, self.seg, self.workspaces, self.tau_buffer, self.force_buffer, list(self.records.values())]
+        return _nbytes(_roots([x for x in owned if x is not None], {}, _plan_rows(self.plan)).values())
+
     # ----------------------------------------------------------------------------------- views per step
 
     def state(self, t: int) -> list:
-        if self.trajectory:
-            return [_at(a, t) for a in self.traj]
-        return self.slots[t % 2]
+        if self.slots is not None:
+            return self.slots[t % 2]
+        S = self.every
+        if t % S == 0 or t == self.T:
+            return [_at(a, -(-t // S)) for a in self.traj]  # checkpoint ceil(t / S): t / S, or the last one at T
+        return [_at(a, t % S - 1) for a in self.seg]
 
     def _input(self, layout: _Layout, buffer, t: int, absent):
         if layout.kind is None:
@@ -274,21 +422,22 @@ class _Config:
         view = _at(buffer, t) if layout.kind == "step" else buffer
         return _sim.broadcast_envs(view, self.N) if layout.shared else view
 
-    def record_state(self, t: int, x: list) -> list:
-        """The launches writing the state records at t from the state arrays x."""
+    def record_state(self, t: int, x: list, names=None) -> list:
+        """The launches writing the state records at t (those in `names`, default all) from the state arrays x."""
         launches = []
-        for name, array in self.state_records.items():
-            out = _at(array, t)
+        for name in self.state_records if names is None else names:
+            out = _at(self.state_records[name], t)
             if name == "base_velocity" and self.repr != int(VelRepr.Mixed):
                 launches.append((state_kernels(self.scalar).base_velocity_to_repr, self.N, [x[0], x[1], x[3], self.repr], [out]))
             else:
                 launches.append(_copy_launch(self.scalar, x[_STATE_INDEX[name]], out))
         return [k for k in launches if k is not None]
 
-    def step(self, t: int) -> list:
-        """The launches of step t: the state t to t + 1, its records, and the state records at t + 1."""
+    def step(self, t: int, copies: bool = True) -> list:
+        """The launches of step t: the state t to t + 1, its records, and the state records at t + 1 (without
+        the plain copies unless `copies`)."""
         plan = self.plan
-        ws = self.workspaces[t if len(self.workspaces) > 1 else 0]
+        ws = self.workspaces[t % len(self.workspaces)]
         x, y = self.state(t), self.state(t + 1)
         tau_ref = self._input(self.tau_layout, self.tau_buffer, t, plan.zeros((plan.n,), self.N))
         f_user = self._input(self.force_layout, self.force_buffer, t, None)
@@ -304,7 +453,7 @@ class _Config:
             out = self.records["collidable_point_forces"][t]
             args = [plan.point_link, plan.L_p_C, plan.point_out, ev.W_H_L, ev.W_f_C, self.repr]
             launches.append((K.point_wrenches, (self.N, plan.count), args, [out]))
-        return launches + self.record_state(t + 1, y)
+        return launches + self.record_state(t + 1, y, None if copies else self.launched)
 
     def data_at(self, t: int) -> Data:
         x = self.state(t)
@@ -349,16 +498,95 @@ class _Config:
             captured = self.graphs[key] = capture.graph
         wp.capture_launch(captured)
 
+    # ----------------------------------------------------------------------------------- checkpointed
+
+    def tape_arrays(self) -> list:
+        """The rollout's arrays whose gradients the checkpointed backward reads or adds into, for the user's
+        tape to zero in `Tape.zero()` (it sees none of the steps' launches): the kept states, the records and
+        the control buffers."""
+        candidates = [*self.traj, *self.records.values(), self.tau_buffer, self.force_buffer]
+        return [a for a in candidates if a is not None and a.grad is not None and a.size > 0]
+
+    def parameters(self) -> list:
+        """The model parameters the steps read that require gradients (the plan's launch arguments)."""
+        plan = self.plan
+        arguments = [*plan.actuation_args, *plan.contact_args, *plan.fk_args, *plan.velocity_args, *plan.aba_args]
+        return [a for a in arguments if isinstance(a, wp.array) and a.grad is not None and a.size > 0]
+
+    def _add_record_grads(self, start: int, stop: int) -> None:
+        """state.grad[t] += record.grad[t] for t in [start, stop) (stop - 1 at most one segment after start), for
+        the records that are plain copies of a state: the adjoints of the copies, which the recomputation leaves
+        out. Run just before the steps' adjoints that add into those states, as the tape of "trajectory" storage
+        adds the loss's first: the same sums in the same order."""
+        K = rollout_kernels(self.scalar).copy
+        for name in self.copied:
+            i, record = _STATE_INDEX[name], self.state_records[name]
+            if record.size == 0:
+                continue
+            pairs = [(self.state(start)[i], record[start])]
+            if stop - start > 1:
+                pairs.append((self.seg[i][: stop - start - 1], record[start + 1 : stop]))
+            for state, rec in pairs:
+                wp.launch(
+                    K[rec.ndim], dim=rec.shape, inputs=[state], outputs=[rec], adj_inputs=[state.grad], adj_outputs=[rec.grad],
+                    adjoint=True, device=self.device,
+                )
+
+    def backward(self, tape: wp.Tape) -> None:
+        """The adjoint of the T steps, run by the user's `tape` (`Tape.record_func`), segments last to first.
+
+        Each segment [start, stop) is recomputed from its checkpoint under an inner tape (the launches of the
+        forward pass on the same arrays, so the same numbers, less the records' plain copies: the records
+        hold their values already) and that tape's backward is run: it reads the gradients already in the
+        state at `stop` (from the later segments and the records) and in the segment's step records, and
+        adds into the state at `start`, the control buffers and the model parameters; before, the gradients
+        of the copied state records are added to the segment's states.
+
+        The segment's scratch (its states between checkpoints and the workspaces), reused by every segment,
+        has its gradients zeroed once, before the last segment: Warp zeroes an array element's gradient when
+        the adjoint of the launch that wrote it reads it (arrays without retain_grad), and every scratch
+        element whose gradient a segment's adjoints add to is written in that segment, so each segment
+        leaves them zero for the next (tests/test_rollout_checkpoint.py checks it); zeroing per segment
+        would cost a launch per array and step.
+
+        The model parameters' gradients are entered in the user's tape's `gradients` here, when their adjoints
+        run, as its own launches' adjoints enter theirs, so that `tape.zero()` zeroes the gradient arrays the
+        parameters hold at the backward pass."""
+        if self._scratch_grads is None:
+            roots = _roots([self.seg, self.workspaces] if self.seg is not None else self.workspaces, {}, _plan_rows(self.plan))
+            self._scratch_grads = [r.grad for r in roots.values() if r.grad is not None and r.size > 0]
+        S, T = self.every, self.T
+        for a in self.parameters():
+            tape.gradients[a] = a.grad
+        with _tape_suspended():
+            for g in self._scratch_grads:
+                g.zero_()
+            self._add_record_grads(T, T + 1)
+            for start in reversed(range(0, T, S)):
+                stop = min(start + S, T)
+                self._add_record_grads(start, stop)
+                inner = wp.Tape()
+                with inner:
+                    for t in range(start, stop):
+                        _sim._run(self.step(t, copies=False), self.device)
+                inner.backward()
+
 
 class Rollout:
     """Reusable rollouts of `steps` steps of a model (see the module docstring).
 
-    record: names among STATE_RECORDS and STEP_RECORDS. storage: "auto", "ping-pong" or "trajectory".
-    use_graph: "auto", True or False. Buffers are allocated by the first `run` and kept for the last
-    configuration (batch size, representation, control shapes, storage, the model's parameters).
+    record: names among STATE_RECORDS and STEP_RECORDS. storage: "auto", "ping-pong", "trajectory" or
+    "checkpointed". checkpoint_every: for "checkpointed" only, the interval c in steps between kept states
+    (1 <= c <= steps; c = 1 keeps all T + 1 states and recomputes only the steps' intermediates), or None:
+    the c that minimises the bytes the rollout keeps (`memory_bytes`), about sqrt(T S / (S + W)) for states
+    of S numbers and step intermediates of W (module docstring). use_graph: "auto", True or False (True is
+    refused under a tape except with "checkpointed" storage). Buffers are allocated by the first `run` and
+    kept for the last configuration (batch size, representation, control shapes, storage, whether a tape
+    records, the model's parameters); `nbytes` says how many bytes they take, `memory_bytes` how many a
+    configuration would take.
     """
 
-    def __init__(self, model, *, steps: int, record=DEFAULT_RECORD, storage: str = "auto", use_graph="auto"):
+    def __init__(self, model, *, steps: int, record=DEFAULT_RECORD, storage: str = "auto", checkpoint_every: int | None = None, use_graph="auto"):
         if isinstance(steps, (bool, np.bool_)) or not isinstance(steps, (int, np.integer)) or steps < 1:
             raise ValueError(f"steps must be a positive integer, got {steps!r}")
         if isinstance(record, str):
@@ -367,45 +595,156 @@ class Rollout:
         unknown = [r for r in record if r not in STATE_RECORDS + STEP_RECORDS]
         if unknown:
             raise ValueError(f"record names unknown quantities {unknown}; known: {list(STATE_RECORDS + STEP_RECORDS)}")
-        if storage not in ("auto", "ping-pong", "trajectory"):
-            raise ValueError(f"storage must be 'auto', 'ping-pong' or 'trajectory', got {storage!r}")
+        if storage not in ("auto", "ping-pong", "trajectory", "checkpointed"):
+            raise ValueError(f"storage must be 'auto', 'ping-pong', 'trajectory' or 'checkpointed', got {storage!r}")
+        if checkpoint_every is not None:
+            if storage != "checkpointed":
+                raise ValueError(f"checkpoint_every applies to storage='checkpointed', not {storage!r}")
+            bad = isinstance(checkpoint_every, (bool, np.bool_)) or not isinstance(checkpoint_every, (int, np.integer))
+            if bad or not 1 <= checkpoint_every <= steps:
+                raise ValueError(f"checkpoint_every must be an integer from 1 to steps = {steps}, got {checkpoint_every!r}")
+            checkpoint_every = int(checkpoint_every)
         if use_graph not in ("auto", True, False):
             raise ValueError(f"use_graph must be 'auto', True or False, got {use_graph!r}")
         self.model = model
         self.steps = int(steps)
         self.record = record
         self.storage = storage
+        self.checkpoint_every = checkpoint_every
         self.use_graph = use_graph
         self._config: _Config | None = None
         self._key = None
+
+    def _storage(self, taping: bool) -> str:
+        if self.storage == "auto":
+            return "trajectory" if taping else "ping-pong"
+        return self.storage
+
+    def _plan_memory(self, plan, N: int, repr: int, storage: str, grad: bool, tau: _Layout, forces: _Layout) -> dict:
+        """{part: bytes} of the configuration, and the checkpoint interval it uses (see `memory_bytes`)."""
+        T, s = self.steps, plan.scalar
+        size = wp.types.type_size_in_bytes(s)
+        g = 2 if grad else 1
+        shapes = _state_shapes(plan)
+        state = sum(int(np.prod(shape)) for shape in shapes) * size * g + 4  # + the int32 health flag
+        workspace = _workspace_bytes_per_env(plan, grad, forces.kind is not None)
+
+        def controls():
+            total = 0
+            for layout, per_env in ((tau, (plan.n,)), (forces, (plan.nL, 6))):
+                if layout.kind is not None:
+                    rows = 1 if layout.shared else N
+                    total += rows * (T if layout.kind == "step" else 1) * int(np.prod(per_env)) * size * g
+            return total
+
+        def parts(every: int) -> dict:
+            kept, between, count = _counts(storage, T, every, grad)
+            records = 0
+            for name in self.record:
+                if name in _STATE_INDEX:
+                    if _record_is_view(name, storage, every, repr):
+                        continue
+                    i = _STATE_INDEX[name]
+                    records += (T + 1) * (4 if name == "valid" else int(np.prod(shapes[i])) * size * g)
+                else:
+                    per_env = {"joint_torques": (plan.n,), "link_contact_forces": (plan.nL, 6), "collidable_point_forces": (plan.count, 6)}[name]
+                    records += T * int(np.prod(per_env)) * size * g
+            out = {"states": (kept + between) * state * N, "intermediates": count * workspace * N, "controls": controls(), "records": records * N}
+            out["total"] = sum(out.values())
+            return out
+
+        every = 1
+        if storage == "checkpointed":
+            every = self.checkpoint_every
+            if every is None:  # the interval that keeps the fewest bytes (ties: the shorter one)
+                every = min(range(1, T + 1), key=lambda S: parts(S)["total"])
+        result = parts(every)
+        result["checkpoint_every"] = every if storage == "checkpointed" else None
+        return result
+
+    def memory_bytes(
+        self, num_envs, *, grad: bool = True, velocity_representation=VelRepr.Mixed, joint_force_references=None, link_forces=None
+    ) -> dict:
+        """The bytes `run` would keep allocated for `num_envs` environments (None: single-environment data),
+        with gradients when `grad` (under a wp.Tape), without allocating them: {"states", "intermediates"
+        (the step workspaces), "controls" (the rollout's copies), "records", "total"} in bytes, and
+        "checkpoint_every" (the interval used, None unless storage is "checkpointed").
+
+        The controls are given as to `run`, or anything with their `.shape` (only the shape is read:
+        `np.broadcast_to(0.0, (T, N, n))` costs nothing). Counted: the buffers the rollout owns and their
+        gradients (exactly what `nbytes` reports after a run); not counted: the model, the user's data and
+        controls, the tape, a loss. "auto" storage is taken as under a tape when `grad`, else ping-pong.
+        Memory per environment and step: total / (num_envs * steps).
+        """
+        plan = _sim._plan(self.model)
+        batched = num_envs is not None
+        if batched and (isinstance(num_envs, (bool, np.bool_)) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1):
+            raise ValueError(f"num_envs must be a positive integer or None (single-environment data), got {num_envs!r}")
+        N = int(num_envs) if batched else 1
+        plan.check_envs(N)
+        layouts = []
+        for value, name, per_env in ((joint_force_references, "joint_force_references", (plan.n,)), (link_forces, "link_forces", (plan.nL, 6))):
+            shape = None if value is None else (tuple(value.shape) if hasattr(value, "shape") else np.shape(value))
+            layouts.append(_Layout(None) if shape is None else _control_layout(shape, name, per_env, self.steps, N, batched)[1])
+        storage = self._storage(grad)
+        grad = grad and storage != "ping-pong"
+        return self._plan_memory(plan, N, int(velocity_representation), storage, grad, *layouts)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the buffers the last `run` allocated, gradients included (0 before the first run)."""
+        return 0 if self._config is None else self._config.nbytes()
 
     def run(self, data, *, joint_force_references=None, link_forces=None, callback=None, callback_every: int = 1):
         """(final Data, {name: record}) after `steps` steps from `data` (unchanged)."""
         model, T = self.model, self.steps
         plan, N = _sim._prepare(model, data)
         taping = _sim._taping()
-        if self.storage == "ping-pong" and taping:
-            raise ValueError("storage='ping-pong' overwrites states, which a wp.Tape needs: use 'trajectory' (or 'auto')")
-        if self.use_graph is True and taping:
+        storage = self._storage(taping)
+        checkpointed = storage == "checkpointed"
+        if storage == "ping-pong" and taping:
+            raise ValueError("storage='ping-pong' overwrites states, which a wp.Tape needs: use 'trajectory', 'checkpointed' (or 'auto')")
+        if self.use_graph is True and taping and not checkpointed:
             raise ValueError("use_graph=True under a wp.Tape: the tape must record each launch; use 'auto' or False")
         if callback is not None:
             if isinstance(callback_every, (bool, np.bool_)) or not isinstance(callback_every, (int, np.integer)) or callback_every < 1:
                 raise ValueError(f"callback_every must be a positive integer, got {callback_every!r}")
-        trajectory = self.storage == "trajectory" or (self.storage == "auto" and taping)
+            if checkpointed and taping:
+                raise ValueError(
+                    "callbacks are not supported with storage='checkpointed' under a wp.Tape: the steps run unrecorded and "
+                    "are recomputed in the backward pass, so what a callback launched would not be differentiated in order; "
+                    "use storage='trajectory'"
+                )
+        if checkpointed and taping and (_sim._wp_context is None or getattr(_sim._wp_context.runtime, "tape", None) is None):
+            raise RuntimeError("storage='checkpointed' needs Warp's runtime.tape (Warp 1.19's warp._src.context)")
         s, d, batched = plan.scalar, plan.device, data.num_envs is not None
         tau_layout, tau_source = _control(joint_force_references, "joint_force_references", (plan.n,), T, N, batched, s, d)
         force_layout, force_source = _control(link_forces, "link_forces", (plan.nL, 6), T, N, batched, s, d)
-        grad = taping and trajectory
+        grad = taping and storage != "ping-pong"
         repr = int(data.velocity_representation)
-        key = (plan, N, data.num_envs, repr, trajectory, grad, tau_layout, force_layout)
+        key = (plan, N, data.num_envs, repr, storage, self.checkpoint_every, grad, tau_layout, force_layout)
         if self._key is None or len(key) != len(self._key) or not all(a is b or a == b for a, b in zip(key, self._key)):
             self._config = None  # release the old buffers first
-            self._config = _Config(self, plan, N, data.num_envs, repr, trajectory, grad, tau_layout, force_layout)
+            every = 1
+            if checkpointed:
+                every = self.checkpoint_every
+                if every is None:
+                    every = self._plan_memory(plan, N, repr, storage, grad, tau_layout, force_layout)["checkpoint_every"]
+            self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, tau_layout, force_layout)
             self._key = key
         cfg = self._config
-        graph = (not taping) if self.use_graph == "auto" else bool(self.use_graph)
+        graph = (not taping or checkpointed) if self.use_graph == "auto" else bool(self.use_graph)
         cfg.load_controls(tau_source, force_source)
         cfg.load_state(0, data)
+        if checkpointed and taping:
+            # the steps and the records' plain copies run unrecorded (the backward recomputes the steps and adds
+            # the copies' gradients); the converting records at 0 are recorded, as with "trajectory"
+            with _tape_suspended() as tape:
+                _sim._run(cfg.record_state(0, cfg.state(0), cfg.copied), d)
+                cfg.run_steps(0, T, graph)
+            _sim._run(cfg.record_state(0, cfg.state(0), cfg.launched), d)
+            tape.record_func(backward=functools.partial(cfg.backward, tape), arrays=cfg.tape_arrays())
+            return cfg.data_at(T), {name: _squeeze(a, data.num_envs) for name, a in cfg.records.items()}
         _sim._run(cfg.record_state(0, cfg.state(0)), d)
         stops = list(range(callback_every, T, callback_every)) + [T] if callback is not None else [T]
         start = 0
