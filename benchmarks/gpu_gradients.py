@@ -69,16 +69,21 @@ def configure(model, c: dict) -> dict:
 
 
 @functools.cache
-def _loss_kernel(scalar):
-    """out += sum of w * x over (L, N, k) arrays (no `from __future__ import annotations` here: Warp reads
-    the annotation's scalar)."""
+def _loss_kernels(scalar):
+    """{ndim: kernel} adding sum of w * x over 3-D and 4-D arrays of any strides to out (no `from __future__
+    import annotations` in this file: Warp reads the annotations' scalar)."""
 
     @wp.kernel
-    def weighted(x: wp.array(dtype=scalar, ndim=3), w: wp.array(dtype=scalar, ndim=3), out: wp.array(dtype=scalar)):
+    def weighted3(x: wp.array(dtype=scalar, ndim=3), w: wp.array(dtype=scalar, ndim=3), out: wp.array(dtype=scalar)):
         i, j, k = wp.tid()
         wp.atomic_add(out, 0, w[i, j, k] * x[i, j, k])
 
-    return weighted
+    @wp.kernel
+    def weighted4(x: wp.array(dtype=scalar, ndim=4), w: wp.array(dtype=scalar, ndim=4), out: wp.array(dtype=scalar)):
+        i, j, k, l = wp.tid()
+        wp.atomic_add(out, 0, w[i, j, k, l] * x[i, j, k, l])
+
+    return {3: weighted3, 4: weighted4}
 
 
 def tape_gradients(model, c: dict, storage: str = "trajectory", **kwargs) -> dict[str, np.ndarray]:
@@ -87,7 +92,7 @@ def tape_gradients(model, c: dict, storage: str = "trajectory", **kwargs) -> dic
     params = configure(model, c)
     state = {k: wp.array(c[k], dtype=s, device=d, requires_grad=True) for k in INPUTS}
     tau = wp.array(c["tau"], dtype=s, device=d, requires_grad=True)
-    kernel = _loss_kernel(s)
+    kernels = _loss_kernels(s)
     tape = wp.Tape()
     with tape:
         data = wd.data.Data.build(model, num_envs=N, requires_grad=True, **state)
@@ -95,9 +100,8 @@ def tape_gradients(model, c: dict, storage: str = "trajectory", **kwargs) -> dic
         loss = wp.zeros(1, dtype=s, device=d, requires_grad=True)
         for name in RECORDS:
             x = rec[name]
-            x = x.reshape((x.shape[0], x.shape[1], -1))
-            w = wp.array(c[f"w/{name}"].reshape(x.shape), dtype=s, device=d)
-            wp.launch(kernel, dim=x.shape, inputs=[x, w], outputs=[loss], device=d)
+            w = wp.array(c[f"w/{name}"], dtype=s, device=d)
+            wp.launch(kernels[x.ndim], dim=x.shape, inputs=[x, w], outputs=[loss], device=d)
     tape.backward(loss)
     out = {k: a.grad.numpy() for k, a in state.items()}
     out["tau"] = tau.grad.numpy()
