@@ -44,7 +44,7 @@ def idxs_to_names(model, *, link_indices) -> tuple[str, ...]:
 
 def mass(model, *, link_index: int):
     """The mass of the link [kg], lumped links included: a float, or (N,) when given per environment."""
-    m = model.link_mass_host[..., _names.check_idx("link", model.number_of_links(), link_index)]
+    m = model.link_mass.numpy()[..., _names.check_idx("link", model.number_of_links(), link_index)]
     return float(m) if m.ndim == 0 else m.copy()
 
 

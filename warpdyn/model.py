@@ -406,7 +406,7 @@ def reduce(model: Model, considered_joints, locked_joint_positions: dict | None 
 
 def total_mass(model: Model):
     """The total mass of the model [kg]: a float, or (N,) when the masses are given per environment."""
-    total = np.sum(model.link_mass_host, axis=-1)
+    total = np.sum(model.link_mass.numpy(), axis=-1)  # the array (edited in place or not), not a host copy
     return float(total) if total.ndim == 0 else total
 
 

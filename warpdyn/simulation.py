@@ -96,9 +96,11 @@ step. A callback may return Data (same environments, dtype and representation) t
 Graphs (`use_graph`): "auto" captures unless a tape records the steps (a tape must see each launch; under a
 tape, "checkpointed" storage captures its forward pass, which the tape does not record); a graph is
 captured per stretch between callbacks on the first run and replayed on later runs with the same
-configuration (batch size, representation, control shapes, storage); the model's parameters (contact,
-joint, terrain, integrator, time step) are read when captured: changing them makes the next run capture
-again.
+configuration (batch size, representation, control shapes, storage). Replacing a model parameter (contact,
+joint or link parameters, terrain, integrator, time step) makes the next run capture again; a parameter's
+Warp array edited in place (`model.link_mass.assign(...)`, a Warp K in `contact_params`) is read by the
+replayed graph as it is then (a graph holds arrays, not values), while numbers and NumPy arrays in
+`contact_params` and the terrain are uploaded when the step's plan is built.
 """
 
 from __future__ import annotations
