@@ -69,6 +69,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
+from common import Adam, default_device, fixed_base_icub_urdf
 
 LEG_PARTS = ("hip", "knee", "ankle")
 # Excitation [N m], by the end of the joint's name: amplitude of the sum of sines, and a constant.
@@ -77,21 +78,6 @@ OFFSET = {"hip_roll": 2.0, "knee": -1.5}
 FREQUENCIES = (0.6, 1.1, 1.7, 2.9, 4.3)  # [Hz]
 SIGMA_S, SIGMA_V = 1e-3, 1e-2  # [rad], [rad/s]: the residuals' units in the loss, and the noise of --noise 1
 NOT_IDENTIFIABLE = 0.1  # Cramer-Rao bound on the relative error above which a parameter is not fitted
-
-
-def fixed_base_icub_urdf(height: float = 1.0) -> str:
-    """iCubGazeboV2_5's URDF with its root link welded to the world `height` metres above the ground."""
-    try:
-        import icub_models
-    except ImportError:
-        raise SystemExit("this example needs the iCub's URDF: pip install icub-models") from None
-    text = pathlib.Path(icub_models.get_model_file("iCubGazeboV2_5")).read_text()
-    start = text.index(">", text.index("<robot")) + 1
-    weld = (
-        '\n  <link name="world"/>\n  <joint name="world_to_root_link" type="fixed"><parent link="world"/>'
-        f'<child link="root_link"/><origin xyz="0 0 {height}" rpy="0 0 0"/></joint>'
-    )
-    return text[:start] + weld + text[start:]
 
 
 def build_model(dtype: str, device, time_step: float):
@@ -138,26 +124,6 @@ def loss_kernel(scalar):
         wp.atomic_add(out, 0, (e_s * e_s + e_v * e_v) * inv_count)
 
     return shooting_loss
-
-
-class Adam:
-    """Adam (Kingma and Ba, 2015) on a NumPy array, with a learning rate given per step."""
-
-    def __init__(self, shape, beta1=0.9, beta2=0.999, eps=1e-12):
-        self.m, self.v, self.k = np.zeros(shape), np.zeros(shape), 0
-        self.beta1, self.beta2, self.eps = beta1, beta2, eps
-
-    def step(self, x: np.ndarray, g: np.ndarray, lr: float) -> np.ndarray:
-        self.k += 1
-        self.m = self.beta1 * self.m + (1.0 - self.beta1) * g
-        self.v = self.beta2 * self.v + (1.0 - self.beta2) * g * g
-        m_hat = self.m / (1.0 - self.beta1**self.k)
-        v_hat = self.v / (1.0 - self.beta2**self.k)
-        return x - lr * m_hat / (np.sqrt(v_hat) + self.eps)
-
-
-def default_device() -> str:
-    return "cuda" if wp.get_cuda_device_count() > 0 else "cpu"
 
 
 def parse_args(argv=None):
@@ -317,7 +283,7 @@ def main(argv=None) -> dict:
     if fit_states:
         lr_scale = np.concatenate([lr_scale, np.full(2 * K * n, args.lr_states / args.lr)])
         z = np.concatenate([s_meas[starts].ravel() / SIGMA_S, sd_meas[starts].ravel() / SIGMA_V])
-    adam = Adam(len(lr_scale))
+    adam = Adam(len(lr_scale), eps=1e-12)
     history = {"loss": [], "error": []}
     print(f"{'iter':>5} {'loss':>11} {'mass: max|rel err|':>19} {'rms':>9} {'friction: max|rel err|':>23} {'rms':>9}")
     for k in range(args.iterations + 1):

@@ -47,25 +47,11 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
+from common import Adam, default_device, fixed_base_icub_urdf
 
 LEG_JOINTS = ("l_hip_pitch", "l_hip_roll", "l_hip_yaw", "l_knee", "l_ankle_pitch", "l_ankle_roll")
 TARGET = (0.7, 0.25, 0.2, -1.0, -0.3, 0.1)  # [rad], in the order of LEG_JOINTS; inside the joint limits
 SOLE = "l_sole"
-
-
-def fixed_base_icub_urdf(height: float = 1.0) -> str:
-    """iCubGazeboV2_5's URDF with its root link welded to the world `height` metres above the ground."""
-    try:
-        import icub_models
-    except ImportError:
-        raise SystemExit("this example needs the iCub's URDF: pip install icub-models") from None
-    text = pathlib.Path(icub_models.get_model_file("iCubGazeboV2_5")).read_text()
-    start = text.index(">", text.index("<robot")) + 1
-    weld = (
-        '\n  <link name="world"/>\n  <joint name="world_to_root_link" type="fixed"><parent link="world"/>'
-        f'<child link="root_link"/><origin xyz="0 0 {height}" rpy="0 0 0"/></joint>'
-    )
-    return text[:start] + weld + text[start:]
 
 
 def build_model(dtype: str, device, time_step: float):
@@ -102,26 +88,6 @@ def loss_kernels(scalar):
         wp.atomic_add(out, 0, w * tau[t, j] * tau[t, j])
 
     return hold_cost, effort_cost
-
-
-class Adam:
-    """Adam (Kingma and Ba, 2015) on a NumPy array, with a learning rate given per step."""
-
-    def __init__(self, shape, beta1=0.9, beta2=0.999, eps=1e-8):
-        self.m, self.v, self.k = np.zeros(shape), np.zeros(shape), 0
-        self.beta1, self.beta2, self.eps = beta1, beta2, eps
-
-    def step(self, x: np.ndarray, g: np.ndarray, lr: float) -> np.ndarray:
-        self.k += 1
-        self.m = self.beta1 * self.m + (1.0 - self.beta1) * g
-        self.v = self.beta2 * self.v + (1.0 - self.beta2) * g * g
-        m_hat = self.m / (1.0 - self.beta1**self.k)
-        v_hat = self.v / (1.0 - self.beta2**self.k)
-        return x - lr * m_hat / (np.sqrt(v_hat) + self.eps)
-
-
-def default_device() -> str:
-    return "cuda" if wp.get_cuda_device_count() > 0 else "cpu"
 
 
 def parse_args(argv=None):

@@ -15,6 +15,7 @@ About 12 s warm for the three runs (plus Warp's compilation the first time).
 
 import importlib.util
 import pathlib
+import sys
 
 import numpy as np
 import pytest
@@ -22,6 +23,7 @@ import pytest
 pytest.importorskip("icub_models")
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+sys.path.insert(0, str(EXAMPLES))  # the examples import examples/common.py, as when they run as scripts
 
 
 def _example(name: str):
