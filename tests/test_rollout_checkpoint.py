@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 import warp as wp
 
+import gradcheck
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
@@ -75,40 +76,12 @@ def _standing(model, N, seed=0, repr_=VelRepr.Mixed):
     )
 
 
-@functools.cache
-def _weighted_sum_kernels():
-    """out += sum of w * x over arrays of 2 to 4 dimensions (any strides)."""
-
-    @wp.kernel
-    def sum2(x: wp.array2d(dtype=wp.float64), w: wp.array2d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
-        i, j = wp.tid()
-        wp.atomic_add(out, 0, w[i, j] * x[i, j])
-
-    @wp.kernel
-    def sum3(x: wp.array3d(dtype=wp.float64), w: wp.array3d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
-        i, j, k = wp.tid()
-        wp.atomic_add(out, 0, w[i, j, k] * x[i, j, k])
-
-    @wp.kernel
-    def sum4(x: wp.array4d(dtype=wp.float64), w: wp.array4d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
-        i, j, k, l = wp.tid()
-        wp.atomic_add(out, 0, w[i, j, k, l] * x[i, j, k, l])
-
-    return {2: sum2, 3: sum3, 4: sum4}
-
-
 def _loss(arrays: list, seed: int = 3) -> wp.array:
     """sum over the arrays of random weights (drawn from `seed`, one per element) times the array, plus the
     squares' sum of the first array's weights times the array (so the loss is not linear in the records)."""
     rng = np.random.default_rng(seed)
-    out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-    kernels = _weighted_sum_kernels()
-    for x in arrays:
-        if x.size == 0:
-            continue
-        w = wp.array(rng.normal(size=x.shape), dtype=wp.float64)
-        wp.launch(kernels[x.ndim], dim=x.shape, inputs=[x, w], outputs=[out])
-    return out
+    arrays = [x for x in arrays if x.size]
+    return gradcheck.weighted_sum(arrays, [wp.array(rng.normal(size=x.shape), dtype=wp.float64) for x in arrays])
 
 
 def _gradients(model, params, data, controls: dict, record, storage, every=None, use_graph="auto", steps=6):

@@ -27,6 +27,7 @@ import warp as wp
 
 torch = pytest.importorskip("torch")
 
+import gradcheck  # noqa: E402
 import robots  # noqa: E402
 import warpdyn as wd  # noqa: E402
 import warpdyn.torch as wdt  # noqa: E402
@@ -108,23 +109,6 @@ def test_gradcheck_pendulum_state_torques_and_parameters(batched):
 # ------------------------------------------------------------------------------ against the plain tape
 
 
-@functools.cache
-def _weighted_sum_kernels():
-    """out += sum of w * x over 3-D and 4-D float64 arrays (any strides)."""
-
-    @wp.kernel
-    def sum3(x: wp.array3d(dtype=wp.float64), w: wp.array3d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
-        i, j, k = wp.tid()
-        wp.atomic_add(out, 0, w[i, j, k] * x[i, j, k])
-
-    @wp.kernel
-    def sum4(x: wp.array4d(dtype=wp.float64), w: wp.array4d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
-        i, j, k, l = wp.tid()
-        wp.atomic_add(out, 0, w[i, j, k, l] * x[i, j, k, l])
-
-    return {3: sum3, 4: sum4}
-
-
 RECORDS = (
     "base_position",
     "base_quaternion",
@@ -192,11 +176,7 @@ def test_floating_base_with_contacts_equals_the_plain_tape(per_env):
         data.tangential_deformation_state = wp_state["tangential_deformation"]
         _, rec = wd.simulation.rollout(model, data, steps=T, joint_force_references=wp_tau, record=RECORDS)
         weights = {k: rng.normal(size=rec[k].shape) for k in RECORDS}
-        loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-        for k in RECORDS:
-            x = rec[k] if rec[k].ndim > 2 else rec[k].reshape((*rec[k].shape, 1))
-            w = wp.array(weights[k].reshape(x.shape), dtype=wp.float64)
-            wp.launch(_weighted_sum_kernels()[x.ndim], dim=x.shape, inputs=[x, w], outputs=[loss])
+        loss = gradcheck.weighted_sum([rec[k] for k in RECORDS], [wp.array(weights[k], dtype=wp.float64) for k in RECORDS])
     tape.backward(loss)
     expected = {k: a.grad.numpy().copy() for k, a in wp_state.items()}
     expected["tau"] = wp_tau.grad.numpy().copy()
@@ -321,7 +301,7 @@ def test_parameters_are_functional_and_no_grad_skips_the_tape():
     with those masses through wd.simulation.rollout, bitwise) and leaves the model's masses as they were;
     under torch.no_grad the records are the same and nothing requires a gradient."""
     model, heavier = _pendulum(), _pendulum()
-    n, T = model.dofs(), 6
+    T = 6
     masses = model.link_mass.numpy() * np.array([1.0, 1.5, 0.7, 2.0])
     heavier.link_mass = wp.array(masses, dtype=wp.float64)
     s0 = [0.3, -0.4, 0.2]
