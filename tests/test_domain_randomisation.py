@@ -288,3 +288,42 @@ def test_a_diverging_environment_leaves_the_others_gradients_intact():
     _, dv_shared, dm_shared = gradients(1e200, per_env=False)
     np.testing.assert_allclose(dv_shared[0], dv_ref[0], rtol=1e-12)
     assert np.isnan(dm_shared[1:]).all()
+
+
+def test_functions_that_do_not_read_the_parameters_take_any_batch_size():
+    """With masses given for 3 environments, kinematics, collidable points and contact forces (which read no
+    link or joint parameter) accept other batch sizes (the visualiser runs F frames as F environments);
+    link.com_position gives gradients of link_com (tape vs the analytic sum of W_R_L over environments); the contact estimate gives
+    one K and D per environment, each what a shared model with that row gives (reference: those models;
+    rtol 1e-12); FlatTerrain.for_env picks one environment's height."""
+    full = wd.model.Model.build_from_model_description(robots.ergocub_urdf(), dtype=np.float64)
+    model = wd.model.reduce(full, robots.seed_joints(full.joint_names()))
+    masses = model.tree.link_mass[None] * np.array([[1.0], [1.2], [0.8]])
+    model.set_link_parameters(mass=masses)
+    single = wd.data.Data.build(model)
+    assert wd.model.forward_kinematics(model, single).shape == (model.number_of_links(), 4, 4)
+    assert wd.contact.collidable_point_positions(model, wd.data.Data.build(model, num_envs=5)).shape[0] == 5
+    assert wd.contact.collidable_point_forces(model, single).shape[-1] == 6
+    with pytest.raises(ValueError, match="per environment"):
+        wd.model.free_floating_mass_matrix(model, single)
+    estimate = wd.contact.estimate_good_contact_parameters(model)
+    assert np.shape(estimate.K) == (3,) and np.shape(estimate.D) == (3,)
+    for k in range(3):
+        shared = wd.model.reduce(full, robots.seed_joints(full.joint_names()))
+        shared.set_link_parameters(mass=masses[k])
+        e = wd.contact.estimate_good_contact_parameters(shared)
+        np.testing.assert_allclose([estimate.K[k], estimate.D[k]], [e.K, e.D], rtol=1e-12)
+    params = wd.model.parameters_requiring_grad(model, names=("link_com",))
+    data = wd.data.random_model_data(model, seed=3, num_envs=3)
+    tape = wp.Tape()
+    with tape:
+        p = wd.link.com_position(model, data, link_index=4, in_link_frame=False)
+        out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+        _weighted_sum([p], [wp.array(np.ones((3, 3)), dtype=wp.float64)], out)
+    tape.backward(out)
+    R = wd.link.transform(model, data, link_index=4).numpy()[:, :3, :3]
+    grad = params["link_com"].grad.numpy()
+    np.testing.assert_allclose(grad[4], R.sum(axis=(0, 1)), rtol=1e-12)  # link_com is shared: summed over envs
+    assert np.all(np.delete(grad, 4, axis=0) == 0.0)
+    terrain = wd.terrain.FlatTerrain(height=np.array([0.0, 0.1, 0.2]))
+    assert terrain.for_env(2).height == 0.2 and terrain.for_env(2).height_at(1.0, 2.0) == 0.2

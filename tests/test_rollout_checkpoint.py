@@ -390,3 +390,33 @@ def test_bad_arguments_and_refusals():
             wd.simulation.rollout(model, data, steps=2, storage="trajectory", use_graph=True)
     with pytest.raises(ValueError, match="joint_force_references has shape"):
         wd.simulation.Rollout(model, steps=5).memory_bytes(2, joint_force_references=np.zeros((5, model.dofs())))
+
+
+def test_backward_after_a_later_run_of_the_same_rollout_is_refused():
+    """A checkpointed backward recomputes from the Rollout's buffers: after a second run of the same Rollout
+    (other initial data) the first tape's backward raises instead of returning the second run's gradients;
+    the second tape's backward (after tape.zero(): the refused pass had added its loss's adjoint into the
+    records, the Rollout's buffers) equals a fresh Rollout's (reference: that run; bitwise)."""
+    model, _ = _legs(EULER, marked=())
+    roll = wd.simulation.Rollout(model, steps=4, storage="checkpointed", checkpoint_every=2, record=("joint_positions",))
+
+    def taped(seed):
+        data = _standing(model, 2, seed=seed)
+        tape = wp.Tape()
+        with tape:
+            _, rec = roll.run(data)
+            loss = _loss([rec["joint_positions"]])
+        return tape, loss, data
+
+    first = taped(0)
+    second = taped(1)
+    with pytest.raises(RuntimeError, match="overwrote"):
+        first[0].backward(first[1])
+    second[0].zero()  # the refused pass had run the loss's adjoint into the records both tapes share
+    second[0].backward(second[1])
+    got = second[2].joint_positions_state.grad.numpy()
+    roll = wd.simulation.Rollout(model, steps=4, storage="checkpointed", checkpoint_every=2, record=("joint_positions",))
+    fresh = taped(1)
+    fresh[0].backward(fresh[1])
+    np.testing.assert_array_equal(got, fresh[2].joint_positions_state.grad.numpy())
+    assert np.abs(got).max() > 0.0

@@ -86,7 +86,7 @@ def centroidal_frame(data) -> int:
 def sums(model, data) -> types.SimpleNamespace:
     """One launch of the centroidal sums: W_H_L, W_v_WL (N, nL) and, per environment (N,), mass,
     W_p_G, G_I (about the CoM, world axes), G_h (centroidal momentum in G[W]) and K."""
-    _model._check_data(model, data)
+    _model._check_data(model, data, parameters=True)
     _, W_H_L = _model.link_poses(model, data)
     N, nL, s, d, g = data.batch_size, model.number_of_links(), model.scalar, model.device, requires_grad(model, data)
     sp = types.SimpleNamespace(

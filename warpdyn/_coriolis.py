@@ -37,7 +37,7 @@ def free_floating_coriolis_matrix(model, data) -> wp.array:
     """
     from .model import _check_data
 
-    _check_data(model, data)
+    _check_data(model, data, parameters=True)
     s, d, rg = model.scalar, model.device, requires_grad(model, data)
     N, nL, n = data.batch_size, model.number_of_links(), model.dofs()
     transform = wp.types.transformation(s)

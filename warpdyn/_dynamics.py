@@ -213,7 +213,7 @@ def _check(model, data) -> None:
         return
     from .model import _check_data
 
-    _check_data(model, data)
+    _check_data(model, data, parameters=True)
 
 
 def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool):

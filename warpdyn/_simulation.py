@@ -629,11 +629,12 @@ def _link_forces(plan: _Plan, data, value):
     return _arrays.batched_input(value, "link_forces", (plan.nL, 6), data.num_envs, plan.scalar, plan.device)
 
 
-def _prepare(model, data):
-    """(plan, N) after checking the data against the model."""
+def _prepare(model, data, parameters: bool = True):
+    """(plan, N) after checking the data against the model (parameters: the caller reads the link or joint
+    parameters, see model._check_data; the contact parameters and the terrain are checked in any case)."""
     from .model import _check_data
 
-    _check_data(model, data)
+    _check_data(model, data, parameters)
     tangential_deformation(model, data)
     plan = _plan(model)
     plan.check_envs(data.batch_size)
@@ -655,7 +656,7 @@ def resultant_torques(model, data, joint_force_references) -> wp.array:
 def _contact_evaluation(model, data, W_f_ext=None) -> tuple[_Plan, _Eval | None]:
     """(plan, ev): ev holds FK, link velocities and the contact kernel's results at the data's state (fresh
     arrays), None without enabled points. W_f_ext (N, nL, 6) Inertial or None (zero)."""
-    plan, N = _prepare(model, data)
+    plan, N = _prepare(model, data, parameters=False)
     if not plan.contacts:
         return plan, None
     grad = data.requires_grad or _inputs_require_grad(W_f_ext) or parameters_require_grad(model)
@@ -744,26 +745,32 @@ def estimate_good_contact_parameters(
 ) -> SoftContactsParams:
     """JaxSim's estimate: K so that the robot's weight shared by the active points penetrates
     max_penetration (default: 1% of the CoM height above the lowest collidable point at the zero state),
-    K = m g / n / delta_max^(1 + p) clipped to 1e6, and D = damping_ratio 2 sqrt(K m) clipped to 1e4."""
+    K = m g / n / delta_max^(1 + p) clipped to 1e6, and D = damping_ratio 2 sqrt(K m) clipped to 1e4.
+    m is the model's current total mass (`model.link_mass`); with masses given per environment, K and D are
+    one value per environment (N,)."""
     from . import contact, com
     from .data import Data
 
-    m = float(np.sum(model.tree.link_mass))
+    masses = np.asarray(model.link_mass.numpy(), dtype=np.float64)
+    m = masses.sum(axis=-1)
+    num_envs = masses.shape[0] if masses.ndim == 2 else None
     nc = int(number_of_active_collidable_points_steady_state)
     if nc < 1:
         raise ValueError(f"number_of_active_collidable_points_steady_state must be >= 1, got {nc}")
     if max_penetration is None:
-        zero = Data.build(model)
-        height = float(com.com_position(model, zero).numpy()[2])
+        zero = Data.build(model, num_envs=num_envs)
+        height = com.com_position(model, zero).numpy()[..., 2]
         if model.floating_base():
             points = contact.collidable_point_positions(model, zero).numpy()
-            if len(points):
-                height -= float(points[:, 2].min())
+            if points.shape[-2]:
+                height = height - points[..., 2].min(axis=-1)
         max_penetration = 0.01 * height
-    if not max_penetration > 0.0:
+    max_penetration = np.asarray(max_penetration, dtype=np.float64)
+    if not np.all(max_penetration > 0.0):
         raise ValueError(f"max_penetration must be positive, got {max_penetration}")
     p = 0.5
-    K = float(np.clip(m * standard_gravity / nc / max_penetration ** (1.0 + p), 0.0, 1e6))
-    D = float(np.clip(damping_ratio * 2.0 * np.sqrt(K * m), 0.0, 1e4))
+    K = np.clip(m * standard_gravity / nc / max_penetration ** (1.0 + p), 0.0, 1e6)
+    D = np.clip(damping_ratio * 2.0 * np.sqrt(K * m), 0.0, 1e4)
+    if num_envs is None:
+        K, D = float(K), float(D)
     return SoftContactsParams(K=K, D=D, mu=static_friction_coefficient, p=p, q=0.5)
-

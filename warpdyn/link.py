@@ -108,8 +108,10 @@ def com_position(model, data, *, link_index: int, in_link_frame: bool = True):
     from .kernels.centroidal import kernels as centroidal_kernels
 
     i = _names.check_idx("link", model.number_of_links(), link_index)
+    from ._dynamics import requires_grad
+
     _, W_H_L = _model.link_poses(model, data)
-    out = _arrays.output((3,), data.batch_size, model.scalar, model.device, data.requires_grad)
+    out = _arrays.output((3,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     wp.launch(
         centroidal_kernels(model.scalar).link_com_positions,
         dim=data.batch_size,

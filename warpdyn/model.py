@@ -482,8 +482,10 @@ def _parameter_array(value, model: Model) -> wp.array:
     return wp.array(host.reshape(-1) if host.ndim == 0 else host, dtype=model.scalar, device=model.device)
 
 
-def _check_data(model: Model, data) -> None:
-    if model._per_env_parameters and any(N != data.batch_size for N in model._per_env_parameters.values()):
+def _check_data(model: Model, data, parameters: bool = False) -> None:
+    """Errors naming what does not match between the data and the model; parameters: the caller reads the
+    link or joint parameters, which, given per environment, need data of those N environments."""
+    if parameters and model._per_env_parameters and any(N != data.batch_size for N in model._per_env_parameters.values()):
         raise ValueError(
             f"the model's parameters {model.per_environment_parameters()} are given per environment, "
             f"but the data has {data.batch_size} environments"

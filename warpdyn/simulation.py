@@ -78,12 +78,14 @@ Storage: how the states between steps are kept.
   forward pass and again in the backward pass, there eagerly (launch by launch, as a tape records them); the
   forward pass records nothing. The backward recomputes from the rollout's buffers with the model's
   parameters as they are then: call it before the next `run` of the same Rollout (which overwrites the
-  checkpoints, as it overwrites "trajectory"'s states) and before changing the parameters. Callbacks are
+  checkpoints, as it overwrites "trajectory"'s states: the backward of an earlier run is then refused with
+  a RuntimeError) and before changing the parameters. Callbacks are
   refused under a tape (what they launch would be recorded out of order with the recomputation). Without a
   tape it is a forward rollout in the same buffers (no gradients; callbacks allowed).
 "auto" picks "trajectory" under a tape, "ping-pong" otherwise, when `run` is called.
 
-Memory: `Rollout.memory_bytes(num_envs, ...)` computes, without allocating, the bytes `run` keeps (states,
+Memory: `Rollout.memory_bytes(num_envs, ...)` computes, without allocating the rollout's buffers (it builds
+one step's workspace to count its arrays), the bytes `run` keeps (states,
 step intermediates, the rollout's copy of the controls, records, and their gradients), to size a run;
 `Rollout.nbytes` is what the last run allocated.
 
@@ -394,6 +396,7 @@ class _Config:
         self.launched = [name for name in self.state_records if name in converted]
         self.graphs: dict[tuple[int, int], object] = {}
         self._scratch_grads = None
+        self.runs = 0  # runs of this configuration (a checkpointed backward checks that it is the latest)
 
     def _control_buffer(self, layout: _Layout, per_env: tuple):
         if layout.kind is None:
@@ -534,8 +537,10 @@ class _Config:
                     adjoint=True, device=self.device,
                 )
 
-    def backward(self, tape: wp.Tape) -> None:
+    def backward(self, tape: wp.Tape, run: int) -> None:
         """The adjoint of the T steps, run by the user's `tape` (`Tape.record_func`), segments last to first.
+        run: the number of the run that recorded it; a later run of this configuration overwrote the buffers
+        the recomputation starts from, so its backward is refused (RuntimeError) rather than wrong.
 
         Each segment [start, stop) is recomputed from its checkpoint under an inner tape (the launches of the
         forward pass on the same arrays, so the same numbers, less the records' plain copies: the records
@@ -554,6 +559,11 @@ class _Config:
         The model parameters' gradients are entered in the user's tape's `gradients` here, when their adjoints
         run, as its own launches' adjoints enter theirs, so that `tape.zero()` zeroes the gradient arrays the
         parameters hold at the backward pass."""
+        if run != self.runs:
+            raise RuntimeError(
+                "a checkpointed rollout's backward pass recomputes from the Rollout's buffers, which a later run "
+                "of the same Rollout overwrote: call tape.backward before running it again (or use another Rollout)"
+            )
         if self._scratch_grads is None:
             roots = _roots([self.seg, self.workspaces] if self.seg is not None else self.workspaces, {}, _plan_rows(self.plan))
             self._scratch_grads = [r.grad for r in roots.values() if r.grad is not None and r.size > 0]
@@ -735,6 +745,7 @@ class Rollout:
             self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, tau_layout, force_layout)
             self._key = key
         cfg = self._config
+        cfg.runs += 1
         graph = (not taping or checkpointed) if self.use_graph == "auto" else bool(self.use_graph)
         cfg.load_controls(tau_source, force_source)
         cfg.load_state(0, data)
@@ -745,7 +756,7 @@ class Rollout:
                 _sim._run(cfg.record_state(0, cfg.state(0), cfg.copied), d)
                 cfg.run_steps(0, T, graph)
             _sim._run(cfg.record_state(0, cfg.state(0), cfg.launched), d)
-            tape.record_func(backward=functools.partial(cfg.backward, tape), arrays=cfg.tape_arrays())
+            tape.record_func(backward=functools.partial(cfg.backward, tape, cfg.runs), arrays=cfg.tape_arrays())
             return cfg.data_at(T), {name: _squeeze(a, data.num_envs) for name, a in cfg.records.items()}
         _sim._run(cfg.record_state(0, cfg.state(0)), d)
         stops = list(range(callback_every, T, callback_every)) + [T] if callback is not None else [T]

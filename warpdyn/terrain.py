@@ -59,6 +59,10 @@ class FlatTerrain:
     def height_at(self, x, y, env: int = 0) -> np.ndarray:
         return np.full(np.broadcast(np.asarray(x), np.asarray(y)).shape, self.height_of(env))
 
+    def for_env(self, env: int) -> FlatTerrain:
+        """The terrain of environment env alone (its height a number)."""
+        return self if np.ndim(self.height) == 0 else FlatTerrain(height=self.height_of(env))
+
     def normal_at(self, x, y) -> np.ndarray:
         shape = np.broadcast(np.asarray(x), np.asarray(y)).shape
         return np.broadcast_to(np.array([0.0, 0.0, 1.0]), (*shape, 3)).copy()
@@ -100,6 +104,10 @@ class PlaneTerrain:
     def normal_at(self, x, y) -> np.ndarray:
         shape = np.broadcast(np.asarray(x), np.asarray(y)).shape
         return np.broadcast_to(np.asarray(self.normal), (*shape, 3)).copy()
+
+    def for_env(self, env: int) -> PlaneTerrain:
+        """The terrain of environment env: this one (a plane is shared by all)."""
+        return self
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -144,3 +152,7 @@ class HeightfieldTerrain:
         dhdy = ((1 - a) * (h[i, j + 1] - h[i, j]) + a * (h[i + 1, j + 1] - h[i + 1, j])) / self.spacing[1]
         n = np.stack([-dhdx, -dhdy, np.ones_like(dhdx)], axis=-1)
         return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+    def for_env(self, env: int) -> HeightfieldTerrain:
+        """The terrain of environment env: this one (the grid is shared by all)."""
+        return self

@@ -428,9 +428,9 @@ class RerunRecorder:
         self._static_logged = True
 
     def log_terrain(self, *, center=(0.0, 0.0), half_extent: float | None = None) -> None:
-        """Log `model.terrain` (static) as a mesh and grid lines around `center` (x, y)."""
+        """Log `model.terrain` (static, the recorded environment's) as a mesh and grid lines around `center` (x, y)."""
         rr = self.rr
-        terrain = self.model.terrain
+        terrain = self.model.terrain.for_env(self.env)
         half = self.terrain_half_extent if half_extent is None else float(half_extent)
         vertices, triangles, normals = terrain_mesh(terrain, center=center, half_extent=half)
         # The mesh sits 0.5 mm under the terrain so that points and grid lines on it stay visible.
@@ -463,7 +463,7 @@ class RerunRecorder:
             self._log(f"{self.root}/robot/skeleton", rr.LineStrips3D(segments.astype(np.float32), colors=[SKELETON_COLOR], radii=[4e-3]))
         self._scalar(f"{self.root}/plots/base_height", W_H_L[0, 2, 3])
         if len(W_p_C):
-            delta = point_penetration(self.model.terrain, W_p_C)
+            delta = point_penetration(self.model.terrain.for_env(self.env), W_p_C)
             self._log(
                 f"{self.root}/contact/points",
                 rr.Points3D(W_p_C.astype(np.float32), colors=point_colors(delta, self.depth_scale), radii=[self.point_radius]),
