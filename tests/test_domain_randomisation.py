@@ -107,12 +107,15 @@ def test_per_environment_parameters_equal_shared_models_row_by_row():
     assert not np.allclose(got["M"][0], got["M"][1]), "the rows do not differ"
 
 
-def test_per_environment_gradients_through_a_rollout():
+@pytest.mark.parametrize("env_fastest", [False, True], ids=["env-major", "env-fastest"])
+def test_per_environment_gradients_through_a_rollout(env_fastest, monkeypatch):
     """d loss / d (link_mass, link_com, link_inertia, friction_viscous, joint_limit_spring), each given per
     environment (N = 2), through 10 steps of a 3-link pendulum chain beyond its limits: the gradients come
     back per environment, (N, nL), (N, nL) vec3, (N, nL) mat33, (N, n), and match central differences
     (module docstring; rtol 1e-6). The loss weighs environment 0 and 1 differently, so a gradient summed
-    over environments (the shared case) would fail."""
+    over environments (the shared case) would fail. Both layouts: the CPU's and the GPUs' (environment
+    fastest: the per-environment parameter arrays are then transposed views)."""
+    monkeypatch.setattr(wd._arrays, "ENV_FASTEST", env_fastest)
     n, T, envs = 3, 10, 2
     rng = np.random.default_rng(2)
     model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(n), dtype=np.float64)
@@ -139,6 +142,7 @@ def test_per_environment_gradients_through_a_rollout():
         out = loss()
     tape.backward(out)
     assert params["link_com"].grad.shape == (envs, model.number_of_links())
+    assert params["link_mass"].is_contiguous != env_fastest
     _assert_gradients(params, _finite_differences(params, lambda: float(loss().numpy()[0])))
 
 
@@ -175,7 +179,7 @@ def test_per_environment_terrain_heights():
 
 
 def test_heightfield_heights_gradient():
-    """d loss / d heights (3 x 3 grid, 0.5 m cells, a gentle slope) of a box sliding 15 steps across it:
+    """d loss / d heights (4 x 4 grid, 0.5 m cells, a gentle slope) of a box sliding 15 steps across it:
     tape vs central differences (module docstring; rtol 1e-6); the cells under the box get non-zero
     gradients, the far ones exactly 0."""
     rng = np.random.default_rng(3)

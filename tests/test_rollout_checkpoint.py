@@ -77,8 +77,8 @@ def _standing(model, N, seed=0, repr_=VelRepr.Mixed):
 
 
 def _loss(arrays: list, seed: int = 3) -> wp.array:
-    """sum over the arrays of random weights (drawn from `seed`, one per element) times the array, plus the
-    squares' sum of the first array's weights times the array (so the loss is not linear in the records)."""
+    """sum over the arrays of random weights (drawn from `seed`, one per element) times the array (linear in
+    the records; the rollout makes it nonlinear in the inputs)."""
     rng = np.random.default_rng(seed)
     arrays = [x for x in arrays if x.size]
     return gradcheck.weighted_sum(arrays, [wp.array(rng.normal(size=x.shape), dtype=wp.float64) for x in arrays])

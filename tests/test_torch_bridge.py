@@ -122,7 +122,7 @@ RECORDS = (
 
 
 @pytest.mark.parametrize("per_env", [False, True], ids=["shared", "per-environment"])
-def test_floating_base_with_contacts_equals_the_plain_tape(per_env):
+def test_floating_base_with_contacts_equals_the_plain_tape(per_env, monkeypatch):
     """The ergoCub legs standing on flat ground (feet 4 mm deep, joints moving, contact forces and tangential
     deformation in every step), 2 environments, 5 steps, Inertial representation (the base velocity's
     conversion to Mixed is on the tape): the records equal wd.simulation.rollout's bitwise, and the
@@ -131,7 +131,9 @@ def test_floating_base_with_contacts_equals_the_plain_tape(per_env):
     through wd.simulation.rollout (module docstring: rtol 1e-12). The bridge leaves the .grad the model's
     parameter arrays hold (the plain tape's), also of D, marked but not given to it, and their values as
     they were. per_env: link masses given per environment ((2, nL) tensors and gradients) and the ground at
-    a height per environment (terrain_height (2,))."""
+    a height per environment (terrain_height (2,)), in the GPUs' environment-fastest layout (per-environment
+    arrays are transposed views there)."""
+    monkeypatch.setattr(wd._arrays, "ENV_FASTEST", per_env)
     model = _legs_model()
     n, N, T = model.dofs(), 2, 5
     nc = len(model.kin_dyn_parameters.contact_parameters.body)

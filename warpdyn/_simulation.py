@@ -92,7 +92,7 @@ PARAMETERS = (
 )
 """The model parameters that tape gradients reach (warpdyn.model.parameters_requiring_grad)."""
 
-MODEL_ARRAYS = PARAMETERS[:7]
+MODEL_ARRAYS = ("link_mass", "link_com", "link_inertia", "friction_static", "friction_viscous", "joint_limit_spring", "joint_limit_damper")
 """The parameters held as the model's own arrays (link and joint parameters, shared or per environment)."""
 
 

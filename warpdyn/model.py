@@ -268,7 +268,8 @@ class Model:
             array.assign(wp.array(host, dtype=dtype, device=self.device))
             self._per_env_parameters[name] = N
         else:
-            raise ValueError(f"{name} has shape {host.shape}, expected {shared} (shared) or (N, *{shared}) (per environment)")
+            per_env = "(N, " + ", ".join(str(k) for k in shared) + ")"
+            raise ValueError(f"{name} has shape {host.shape}, expected {shared} (shared) or {per_env} (per environment)")
         setattr(self, f"{name}_host", host)
         setattr(self, name, array)
 

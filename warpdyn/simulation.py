@@ -102,7 +102,11 @@ configuration (batch size, representation, control shapes, storage). Replacing a
 joint or link parameters, terrain, integrator, time step) makes the next run capture again; a parameter's
 Warp array edited in place (`model.link_mass.assign(...)`, a Warp K in `contact_params`) is read by the
 replayed graph as it is then (a graph holds arrays, not values), while numbers and NumPy arrays in
-`contact_params` and the terrain are uploaded when the step's plan is built.
+`contact_params` and the terrain are uploaded when the step's plan is built. Two things are decided when
+the plan is built, from the values then: whether the step compiles joint friction and limit-spring terms
+(none when all are zero: editing a zero friction in place then changes nothing; set it with
+`set_joint_parameters`, which makes a new array, or mark it with `parameters_requiring_grad`, which keeps
+the term), and the stability check of the contact K and D.
 """
 
 from __future__ import annotations

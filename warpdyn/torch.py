@@ -35,7 +35,9 @@ values are used for this call only. They are written into the model's arrays (ma
 the model's `contact_params` and `terrain`) for the forward pass and again for the backward pass, and the
 model's own values are put back after each; the backward pass sets the model's .grad arrays aside and puts
 their values back after it, so a `.grad` they hold for a user's own `wp.Tape` is left as it was. Parameters
-given per environment (`Model.set_link_parameters`, ...) take tensors with the leading N.
+given per environment (`Model.set_link_parameters`, ...) take tensors with the leading N. The model's
+arrays of the parameters named stay marked for gradients after the call (`parameters_requiring_grad`):
+later calls of warpdyn's functions on that model then give their outputs gradient arrays.
 
 Importing `warpdyn` does not import torch; `import warpdyn.torch` does.
 """
@@ -265,7 +267,7 @@ class _Rollout(torch.autograd.Function):
         with _stream(spec.model.device):
             # the parameter arrays' gradients are the user's (their own tapes) outside this pass: kept aside
             # and put back after it; in it they start at zero and those of `parameters` are returned
-            wanted = needs[k:] + (False,) * len(spec.others)
+            wanted = needs[k:]
             with _parameter_values(spec.marked, params), _preserved_grads(spec.marked + spec.others):
                 tape.zero()  # a backward pass before this one (retain_graph) left adjoints on the tape's arrays
                 for name, g in zip(spec.record, grad_outputs):
@@ -339,6 +341,10 @@ def _model_parameters(model, parameters: dict, N: int) -> dict:
             hint = ""
             if name in ("K", "D", "mu"):
                 hint = f" (the model holds {expected[0]} value(s); for one per environment set model.contact_params with ({N},) first)"
+            elif name == "terrain_height":
+                hint = f" (for one per environment set model.terrain = FlatTerrain(height=...) with ({N},) first)"
+            elif len(tensor.shape) == len(expected) + 1:
+                hint = " (for one row per environment give the model's values per environment first: Model.set_link_parameters or set_joint_parameters)"
             raise ValueError(f"parameters['{name}'] has shape {tuple(tensor.shape)}, the model's {name} {expected}{hint}")
     return arrays
 
