@@ -382,7 +382,9 @@ class Model:
 def reduce(model: Model, considered_joints, locked_joint_positions: dict | None = None) -> Model:
     """A model keeping only `considered_joints`; the others are fixed at `locked_joint_positions` (default 0).
 
-    Joints already locked in `model` keep their locked positions.
+    Joints already locked in `model` keep their locked positions. The new model is built from the
+    description (lumping changes the links): parameters set on `model` (set_link_parameters,
+    set_joint_parameters, contact_params, terrain, integrator) are not carried over; set them on the result.
     """
     considered_joints = list(considered_joints)
     unknown = [name for name in considered_joints if name not in model.joint_names()]
