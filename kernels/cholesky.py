@@ -2,8 +2,11 @@
 
 Used for the mass matrix (forward dynamics by CRBA, and its inverse). Works on the trailing block
 A[offset:, offset:] so that a fixed-base model solves only its joint block. The inner sums are
-loop-carried, so these kernels are not differentiated by wp.Tape: gradients of forward dynamics go
-through the articulated-body algorithm (kernels/aba.py).
+loop-carried, so wp.Tape must not differentiate these kernels line by line: the façade launches them
+outside the tape and registers their adjoints, written from the implicit-function theorem
+(`solve_adjoint`, `inverse_adjoint`): for x = A^-1 b, y = A^-1 adj_x gives adj_b = y and
+adj_A = -y x^T; for X = A^-1, adj_A = -X adj_X X (A symmetric). The factorisation reads only A's lower
+triangle, so those adjoints are folded onto it: adj_A[i, j] gets the (i, j) and (j, i) terms (i > j).
 """
 
 import functools
@@ -96,4 +99,67 @@ def kernels(scalar):
                 if i < offset or j < offset:
                     X[env, i, j] = scalar(0.0)
 
-    return types.SimpleNamespace(solve=solve, inverse=inverse)
+    @wp.kernel(module="unique")
+    def solve_adjoint(
+        # inputs
+        x: wp.array2d(dtype=scalar),
+        y: wp.array2d(dtype=scalar),
+        offset: int,
+        with_A: int,
+        with_b: int,
+        # outputs, accumulated
+        adj_A: wp.array3d(dtype=scalar),
+        adj_b: wp.array2d(dtype=scalar),
+    ):
+        """The adjoint of `solve`, launched over (N, k) rows of the block: x (N, K) its solution, y (N, K) =
+        A^-1 adj_x (by `solve`); adj_b += y and adj_A[i, j] -= y_i x_j + y_j x_i (i > j), y_i x_i (i = j),
+        in the lower triangle of the block (with_A, with_b: whether to accumulate each)."""
+        env, r = wp.tid()
+        i = offset + r
+        if with_b != 0:
+            adj_b[env, i] = adj_b[env, i] + y[env, i]
+        if with_A != 0:
+            for c in range(r):
+                j = offset + c
+                adj_A[env, i, j] = adj_A[env, i, j] - (y[env, i] * x[env, j] + y[env, j] * x[env, i])
+            adj_A[env, i, i] = adj_A[env, i, i] - y[env, i] * x[env, i]
+
+    @wp.kernel(module="unique")
+    def block_product(
+        # inputs
+        A: wp.array3d(dtype=scalar),
+        B: wp.array3d(dtype=scalar),
+        offset: int,
+        # outputs
+        C: wp.array3d(dtype=scalar),
+    ):
+        """C = A B on the trailing blocks [offset:, offset:] (N, K, K), launched over (N, k) rows."""
+        env, r = wp.tid()
+        i = offset + r
+        K = A.shape[1]
+        for j in range(offset, K):
+            s = scalar(0.0)
+            for p in range(offset, K):
+                s = s + A[env, i, p] * B[env, p, j]
+            C[env, i, j] = s
+
+    @wp.kernel(module="unique")
+    def inverse_adjoint(
+        # inputs
+        P: wp.array3d(dtype=scalar),
+        offset: int,
+        # outputs, accumulated
+        adj_A: wp.array3d(dtype=scalar),
+    ):
+        """The adjoint of `inverse` from P = X adj_X X (N, K, K) (X = A^-1 symmetric): adj_A[i, j] -= P_ij +
+        P_ji (i > j), P_ii (i = j), in the lower triangle of the block; launched over (N, k) rows."""
+        env, r = wp.tid()
+        i = offset + r
+        for c in range(r):
+            j = offset + c
+            adj_A[env, i, j] = adj_A[env, i, j] - (P[env, i, j] + P[env, j, i])
+        adj_A[env, i, i] = adj_A[env, i, i] - P[env, i, i]
+
+    return types.SimpleNamespace(
+        solve=solve, inverse=inverse, solve_adjoint=solve_adjoint, block_product=block_product, inverse_adjoint=inverse_adjoint
+    )

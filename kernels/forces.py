@@ -17,7 +17,23 @@ def kernels(scalar):
     sp = spatial(scalar)
 
     @wp.kernel(module="unique")
-    def forces_to_inertial(
+    def kept_forces(
+        # inputs
+        previous: wp.array3d(dtype=scalar),
+        replaced: wp.array(dtype=int),
+        # outputs
+        W_f_L: wp.array3d(dtype=scalar),
+    ):
+        """W_f_L (N, nL, 6) = previous, or 0 for the links whose forces are replaced (replaced[L] != 0);
+        launched over (N, nL, 6). `add_target_forces` then adds the targets' forces."""
+        env, L, r = wp.tid()
+        keep = previous[env, L, r]
+        if replaced[L] != 0:
+            keep = scalar(0.0)
+        W_f_L[env, L, r] = keep
+
+    @wp.kernel(module="unique")
+    def add_target_forces(
         # targets
         target_link: wp.array(dtype=int),
         link_H_target: wp.array(dtype=sp.transform),
@@ -25,33 +41,21 @@ def kernels(scalar):
         W_H_L: wp.array2d(dtype=sp.transform),
         forces: wp.array3d(dtype=scalar),
         repr: int,
-        previous: wp.array3d(dtype=scalar),
-        additive: int,
-        # outputs
+        # outputs, accumulated
         W_f_L: wp.array3d(dtype=scalar),
     ):
-        """W_f_L (N, nL, 6): forces (N, T, 6) on the targets, in `repr`, moved to their links.
-
-        A link that a target names gets the sum of its targets' forces, plus previous[env, L] when
-        additive; every other link keeps previous[env, L].
-        """
-        env = wp.tid()
-        for L in range(W_H_L.shape[1]):
-            total = sp.vec6(scalar(0.0))
-            named = int(0)
-            for t in range(target_link.shape[0]):
-                if target_link[t] == L:
-                    named = 1
-                    f = sp.vec6(
-                        forces[env, t, 0], forces[env, t, 1], forces[env, t, 2],
-                        forces[env, t, 3], forces[env, t, 4], forces[env, t, 5],
-                    )
-                    total = total + sp.force_repr_to_inertial(repr, W_H_L[env, L] * link_H_target[t], f)
-            for r in range(6):
-                keep = previous[env, L, r]
-                if named == 1 and additive == 0:
-                    keep = scalar(0.0)
-                W_f_L[env, L, r] = keep + total[r]
+        """W_f_L[env, target_link[t]] += the force forces[env, t] (6,) on target t, given in `repr` with the
+        target as the body frame, made Inertial; launched over (N, T). Atomic adds: several targets may
+        share a link, and their adjoints read W_f_L's gradient only (tape-safe)."""
+        env, t = wp.tid()
+        L = target_link[t]
+        f = sp.vec6(
+            forces[env, t, 0], forces[env, t, 1], forces[env, t, 2],
+            forces[env, t, 3], forces[env, t, 4], forces[env, t, 5],
+        )
+        w = sp.force_repr_to_inertial(repr, W_H_L[env, L] * link_H_target[t], f)
+        for r in range(6):
+            wp.atomic_add(W_f_L, env, L, r, w[r])
 
     @wp.kernel(module="unique")
     def inertial_to_forces(
@@ -86,7 +90,8 @@ def kernels(scalar):
             W_f_L[env, L, r] = W_f[r]
 
     return types.SimpleNamespace(
-        forces_to_inertial=forces_to_inertial,
+        kept_forces=kept_forces,
+        add_target_forces=add_target_forces,
         inertial_to_forces=inertial_to_forces,
         link_forces_to_inertial=link_forces_to_inertial,
     )

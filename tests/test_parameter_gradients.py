@@ -167,6 +167,81 @@ def test_centroidal_energy_and_coriolis_gradients_with_respect_to_mass_parameter
     _assert_gradients(params, _finite_differences(params, f))
 
 
+@pytest.mark.parametrize("fixed", [False, True], ids=["floating", "fixed-base"])
+def test_crb_forward_dynamics_and_mass_matrix_inverse_gradients(fixed):
+    """forward_dynamics_crb and free_floating_mass_matrix_inverse solve with a Cholesky factor whose adjoint
+    is registered on the tape (the implicit one, kernels/cholesky.py). References: (1) forward_dynamics_aba
+    computes the same accelerations, so the tape gradients of sum(w * accelerations) w.r.t. the joint
+    positions, velocities, joint forces and the mass parameters must equal ABA's (rtol 1e-9: two algorithms,
+    float64 rounding amplified by cond(M)); (2) d sum(W * M^-1) = -tr(W^T M^-1 dM M^-1), so the gradient of
+    sum(W * M^-1) w.r.t. the link masses and joint positions equals the tape gradient of sum(-(M^-1 W M^-1)
+    * M) through CRBA (rtol 1e-9; central differences of M^-1 lose ~1e-7 to rounding, cond(M) ~ 1e4 here).
+    A fixed base solves the joint block only (offset 6)."""
+    urdf = robots.pendulum_chain_urdf(4) if fixed else robots.random_tree_urdf(3, num_links=5)
+    model = wd.model.Model.build_from_model_description(urdf, dtype=np.float64)
+    n, N = model.dofs(), 2
+    rng = np.random.default_rng(7)
+    state = wd.data.random_model_data(model, seed=8, num_envs=N)
+    s0, v0 = state.joint_positions_state.numpy(), state.joint_velocities_state.numpy()
+    params = wd.model.parameters_requiring_grad(model, names=("link_mass", "link_com", "link_inertia"))
+    w = [wp.array(rng.normal(size=(N, 6)), dtype=wp.float64), wp.array(rng.normal(size=(N, n)), dtype=wp.float64)]
+    tau0 = rng.normal(size=(N, n))
+
+    def gradients(solver):
+        s = wp.array(s0, dtype=wp.float64, requires_grad=True)
+        v = wp.array(v0, dtype=wp.float64, requires_grad=True)
+        tau = wp.array(tau0, dtype=wp.float64, requires_grad=True)
+        tape = wp.Tape()
+        with tape:
+            data = wd.data.Data.build(model, base_position=state.base_position_state.numpy(), base_quaternion=state.base_quaternion_state.numpy(), joint_positions=s, joint_velocities=v, num_envs=N, requires_grad=True)
+            base, joints = solver(model, data, joint_forces=tau)
+            loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+            _weighted_sum([base, joints] if not fixed else [joints], w if not fixed else w[1:], loss)
+        tape.backward(loss)
+        out = {"s": s.grad.numpy().copy(), "v": v.grad.numpy().copy(), "tau": tau.grad.numpy().copy()}
+        out.update({k: a.grad.numpy().copy() for k, a in params.items()})
+        tape.zero()
+        return out
+
+    aba, crb = gradients(wd.model.forward_dynamics_aba), gradients(wd.model.forward_dynamics_crb)
+    for grads in (aba, crb):  # ABA reads an inertia's upper triangle, CRBA all of it: compare symmetric directions
+        grads["link_inertia"] = grads["link_inertia"] + np.swapaxes(grads["link_inertia"], -1, -2)
+    for k, g in aba.items():
+        np.testing.assert_allclose(crb[k], g, rtol=1e-9, atol=1e-9 * np.abs(g).max(), err_msg=k)
+        assert np.abs(g).max() > 1e-6, k
+
+    W = rng.normal(size=(N, 6 + n, 6 + n))
+
+    def inverse_gradients(weights, of_inverse: bool):
+        s = wp.array(s0, dtype=wp.float64, requires_grad=True)
+        tape = wp.Tape()
+        with tape:
+            data = wd.data.Data.build(
+                model,
+                base_position=state.base_position_state.numpy(),
+                base_quaternion=state.base_quaternion_state.numpy(),
+                joint_positions=s,
+                num_envs=N,
+                requires_grad=True,
+            )
+            f = wd.model.free_floating_mass_matrix_inverse if of_inverse else wd.model.free_floating_mass_matrix
+            out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+            _weighted_sum([f(model, data)], [wp.array(weights, dtype=wp.float64)], out)
+        tape.backward(out)
+        grads = {"s": s.grad.numpy().copy(), "link_mass": params["link_mass"].grad.numpy().copy()}
+        tape.zero()
+        return grads
+
+    X = wd.model.free_floating_mass_matrix_inverse(model, wd.data.Data.build(
+        model, base_position=state.base_position_state.numpy(), base_quaternion=state.base_quaternion_state.numpy(), joint_positions=s0, num_envs=N
+    )).numpy()
+    got = inverse_gradients(W, True)
+    expected = inverse_gradients(-np.einsum("eij,ejk,ekl->eil", X, W, X), False)  # dL = -tr(W^T X dM X)
+    for k, g in expected.items():
+        np.testing.assert_allclose(got[k], g, rtol=1e-9, atol=1e-9 * np.abs(g).max(), err_msg=k)
+        assert np.abs(g).max() > 1e-6, k
+
+
 def test_single_environment_data_and_unmarked_parameters():
     """Single-environment data gives the same parameter gradient as batched data of one environment
     (reference: the batched call; exact up to the summation order, rtol 1e-12); without marked parameters

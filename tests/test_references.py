@@ -108,3 +108,49 @@ def test_contact_state_shapes_and_reset(ergocub):
     reset = after.reset(model, envs=[1])
     m = reset.contact_state["tangential_deformation"].numpy()
     assert not m[1].any() and np.array_equal(m[0], after.contact_state["tangential_deformation"].numpy()[0])
+
+
+@pytest.mark.parametrize("additive", [False, True], ids=["replace", "additive"])
+def test_frame_and_link_force_gradients(additive):
+    """Frame forces moved to their links are differentiable: the gradient of sum(w * accelerations) of ABA
+    under references built by apply_link_forces then apply_frame_forces (Body representation, two frames
+    of the same link and one of another), w.r.t. the frame forces and the joint positions (through the
+    frames' poses), equals central differences (h = 1e-6, rtol 1e-6: float64, truncation ~1e-12)."""
+    import warp as wp
+
+    from gradcheck import weighted_sum
+
+    full = wd.model.Model.build_from_model_description(robots.ergocub_urdf(), dtype=np.float64)
+    model = wd.model.reduce(full, robots.seed_joints(full.joint_names()))
+    frames = [name for name in model.frame_names() if "sole" in name or "foot" in name][:2] + [model.frame_names()[0]]
+    rng = np.random.default_rng(4)
+    f0 = rng.normal(size=(len(frames), 6))
+    s0 = rng.uniform(-0.3, 0.3, model.dofs())
+    link_f = rng.normal(size=(model.number_of_links(), 6))
+    w = [wp.array(rng.normal(size=(1, 6)), dtype=wp.float64), wp.array(rng.normal(size=(1, model.dofs())), dtype=wp.float64)]
+
+    def loss(f, s):
+        data = wd.data.Data.build(model, joint_positions=s, velocity_representation=VelRepr.Body, requires_grad=True)
+        refs = wd.references.References.build(model, data=data, velocity_representation=VelRepr.Body)
+        refs = refs.apply_link_forces(link_f, model, data)
+        refs = refs.apply_frame_forces(f, model, data, frame_names=frames, additive=additive)
+        base, joints = wd.model.forward_dynamics_aba(model, data, link_forces=refs.link_forces(model, data))
+        return weighted_sum([base.reshape((1, 6)), joints.reshape((1, -1))], w)
+
+    f = wp.array(f0, dtype=wp.float64, requires_grad=True)
+    s = wp.array(s0, dtype=wp.float64, requires_grad=True)
+    tape = wp.Tape()
+    with tape:
+        out = loss(f, s)
+    tape.backward(out)
+    for array, x0 in ((f, f0), (s, s0)):
+        fd = np.zeros_like(x0)
+        for i in np.ndindex(x0.shape):
+            x = x0.copy()
+            x[i] += 1e-6
+            up = float(loss(wp.array(x, dtype=wp.float64) if array is f else f0, x if array is s else s0).numpy()[0])
+            x[i] -= 2e-6
+            down = float(loss(wp.array(x, dtype=wp.float64) if array is f else f0, x if array is s else s0).numpy()[0])
+            fd[i] = (up - down) / 2e-6
+        np.testing.assert_allclose(array.grad.numpy(), fd, rtol=1e-6, atol=1e-8 * np.abs(fd).max())
+        assert np.abs(fd).max() > 1e-3

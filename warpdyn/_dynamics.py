@@ -28,7 +28,7 @@ import weakref
 import numpy as np
 import warp as wp
 
-from . import _arrays
+from . import _arrays, _tape
 from .kernels.aba import ABA_RECORD
 from .kernels.aba import kernels as aba_kernels
 from .kernels.cholesky import kernels as cholesky_kernels
@@ -352,53 +352,77 @@ def _batched(model, data, array):
 
 def forward_dynamics_crb(model, data, *, joint_forces=None, link_forces=None):
     """(base acceleration (6,), joint accelerations (n,)) = M^-1 (B tau - h + sum_L J_L^T f_L), by CRBA
-    and a Cholesky solve (not differentiated by wp.Tape: use forward_dynamics_aba for gradients)."""
-    n = model.dofs()
+    and a Cholesky solve. Under a wp.Tape the solve's adjoint is the implicit one (kernels/cholesky.py):
+    gradients reach the state, the forces and the mass parameters as through forward_dynamics_aba."""
+    n, N, s, d = model.dofs(), data.batch_size, model.scalar, model.device
     M = _batched(model, data, free_floating_mass_matrix(model, data))
     Q = _batched(model, data, generalized_forces(model, data, link_forces=link_forces))
-    tau = _arrays.zeros((n,), data.batch_size, model.scalar, model.device)
+    tau = _arrays.zeros((n,), N, s, d)
     if joint_forces is not None:
-        tau = _arrays.batched_input(joint_forces, "joint_forces", (n,), data.num_envs, model.scalar, model.device)
-    rhs = _arrays.empty((6 + n,), data.batch_size, model.scalar, model.device)
-    wp.launch(
-        state_kernels(model.scalar).actuated_minus, dim=data.batch_size, inputs=[tau, Q], outputs=[rhs], device=model.device
-    )
-    nu_dot = _arrays.output((6 + n,), data.batch_size, model.scalar, model.device)
-    wp.launch(
-        cholesky_kernels(model.scalar).solve,
-        dim=data.batch_size,
-        inputs=[
-            M,
-            rhs,
-            _offset(model),
-            _arrays.empty((6 + n, 6 + n), data.batch_size, model.scalar, model.device),
-            _arrays.empty((6 + n,), data.batch_size, model.scalar, model.device),
-        ],
-        outputs=[nu_dot],
-        device=model.device,
-    )
+        tau = _arrays.batched_input(joint_forces, "joint_forces", (n,), data.num_envs, s, d)
+    grad = M.requires_grad or Q.requires_grad or tau.requires_grad
+    rhs = _arrays.empty((6 + n,), N, s, d, grad)
+    wp.launch(state_kernels(s).actuated_minus, dim=N, inputs=[tau, Q], outputs=[rhs], device=d)
+    nu_dot = _arrays.output((6 + n,), N, s, d, grad)
+    K = cholesky_kernels(s)
+    offset = _offset(model)
+    with _tape.suspended() as tape:
+        _solve(K, M, rhs, offset, nu_dot)
+    if tape is not None and grad:
+        tape.record_func(backward=lambda: _solve_adjoint(K, M, rhs, offset, nu_dot), arrays=[M, rhs, nu_dot])
     return _arrays.squeeze_env(nu_dot[:, :6], data.num_envs), _arrays.squeeze_env(nu_dot[:, 6:], data.num_envs)
+
+
+def _solve(K, A, b, offset: int, x) -> None:
+    """x = A[offset:, offset:]^-1 b[offset:] (zeros before offset), A (N, k, k), b and x (N, k)."""
+    N, k = x.shape
+    s, d = A.dtype, A.device
+    scratch = (_arrays.empty((k, k), N, s, d), _arrays.empty((k,), N, s, d))
+    wp.launch(K.solve, dim=N, inputs=[A, b, offset, *scratch], outputs=[x], device=d)
+
+
+def _solve_adjoint(K, A, b, offset: int, x) -> None:
+    """Adds the adjoint of x = A^-1 b (see `_solve`) into A.grad and b.grad from x.grad."""
+    N, k = x.shape
+    y = _arrays.empty((k,), N, x.dtype, x.device)
+    _solve(K, A, x.grad, offset, y)
+    adj_A = A.grad if A.grad is not None else A
+    adj_b = b.grad if b.grad is not None else b
+    wp.launch(
+        K.solve_adjoint,
+        dim=(N, k - offset),
+        inputs=[x, y, offset, int(A.grad is not None), int(b.grad is not None)],
+        outputs=[adj_A, adj_b],
+        device=x.device,
+    )
 
 
 def free_floating_mass_matrix_inverse(model, data) -> wp.array:
     """M(q)^-1: (6 + n, 6 + n) or batched; for a fixed base, the inverse of the joint block (zeros elsewhere).
-    A Cholesky solve, not differentiated by wp.Tape."""
-    n = model.dofs()
+    A Cholesky solve, whose adjoint under a wp.Tape is the implicit one, -M^-1 adj M^-1 (kernels/cholesky.py)."""
+    n, N, s, d = model.dofs(), data.batch_size, model.scalar, model.device
     M = _batched(model, data, free_floating_mass_matrix(model, data))
-    Minv = _arrays.output((6 + n, 6 + n), data.batch_size, model.scalar, model.device)
-    wp.launch(
-        cholesky_kernels(model.scalar).inverse,
-        dim=data.batch_size,
-        inputs=[
-            M,
-            _offset(model),
-            _arrays.empty((6 + n, 6 + n), data.batch_size, model.scalar, model.device),
-            _arrays.empty((6 + n, 6 + n), data.batch_size, model.scalar, model.device),
-        ],
-        outputs=[Minv],
-        device=model.device,
-    )
+    Minv = _arrays.output((6 + n, 6 + n), N, s, d, M.requires_grad)
+    K = cholesky_kernels(s)
+    offset = _offset(model)
+    scratch = (_arrays.empty((6 + n, 6 + n), N, s, d), _arrays.empty((6 + n, 6 + n), N, s, d))
+    with _tape.suspended() as tape:
+        wp.launch(K.inverse, dim=N, inputs=[M, offset, *scratch], outputs=[Minv], device=d)
+    if tape is not None and M.requires_grad:
+        tape.record_func(backward=lambda: _inverse_adjoint(K, M, offset, Minv), arrays=[M, Minv])
     return _arrays.squeeze_env(Minv, data.num_envs)
+
+
+def _inverse_adjoint(K, A, offset: int, X) -> None:
+    """Adds the adjoint of X = A^-1 (trailing block) into A.grad from X.grad: -X X.grad X, folded onto A's
+    lower triangle."""
+    N, k = X.shape[0], X.shape[1]
+    s, d = X.dtype, X.device
+    W = _arrays.empty((k, k), N, s, d)
+    P = _arrays.empty((k, k), N, s, d)
+    wp.launch(K.block_product, dim=(N, k - offset), inputs=[X.grad, X, offset], outputs=[W], device=d)
+    wp.launch(K.block_product, dim=(N, k - offset), inputs=[X, W, offset], outputs=[P], device=d)
+    wp.launch(K.inverse_adjoint, dim=(N, k - offset), inputs=[P, offset], outputs=[A.grad], device=d)
 
 
 def forward_dynamics(model, data, *, joint_forces=None, link_forces=None, prefer_aba: bool = True):

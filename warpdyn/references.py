@@ -145,19 +145,23 @@ class References:
         N, T = self.batch_size, target_link.shape[0]
         values = _arrays.batched_input(forces, name, (T, 6), self.num_envs, model.scalar, model.device)
         _, W_H_L = _model.link_poses(model, data)
-        out = _arrays.empty(self.link_forces_state.shape[1:], N, model.scalar, model.device)
+        grad = data.requires_grad or values.requires_grad or self.link_forces_state.requires_grad
+        out = _arrays.empty(self.link_forces_state.shape[1:], N, model.scalar, model.device, grad)
+        replaced = np.zeros(model.number_of_links(), dtype=np.int32)
+        if not additive:
+            replaced[target_link.numpy()] = 1
+        K = force_kernels(model.scalar)
         wp.launch(
-            force_kernels(model.scalar).forces_to_inertial,
-            dim=N,
-            inputs=[
-                target_link,
-                link_H_target,
-                W_H_L,
-                values,
-                int(self.velocity_representation),
-                self.link_forces_state,
-                int(bool(additive)),
-            ],
+            K.kept_forces,
+            dim=out.shape,
+            inputs=[self.link_forces_state, wp.array(replaced, dtype=int, device=model.device)],
+            outputs=[out],
+            device=model.device,
+        )
+        wp.launch(
+            K.add_target_forces,
+            dim=(N, T),
+            inputs=[target_link, link_H_target, W_H_L, values, int(self.velocity_representation)],
             outputs=[out],
             device=model.device,
         )

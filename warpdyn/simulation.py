@@ -111,7 +111,6 @@ the term), and the stability check of the contact K and D.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
 
@@ -120,6 +119,7 @@ import warp as wp
 
 from . import _arrays
 from . import _simulation as _sim
+from ._tape import suspended as _tape_suspended
 from .common import VelRepr
 from .data import Data
 from .kernels.contact_wrenches import kernels as wrench_kernels
@@ -212,17 +212,6 @@ def _copy_launch(scalar, src: wp.array, dst: wp.array):
     if dst.dtype == wp.int32:
         return (rollout_int_kernels().copy_flags, dst.shape, [src], [dst])
     return (rollout_kernels(scalar).copy[dst.ndim], dst.shape, [src], [dst])
-
-
-@contextlib.contextmanager
-def _tape_suspended():
-    """Warp records no launch inside (the recording tape, if any, is set aside and restored after); yields it."""
-    runtime = _sim._wp_context.runtime
-    tape, runtime.tape = runtime.tape, None
-    try:
-        yield tape
-    finally:
-        runtime.tape = tape
 
 
 @dataclasses.dataclass(frozen=True)
