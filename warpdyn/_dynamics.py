@@ -39,10 +39,6 @@ from .kernels.rnea import kernels as rnea_kernels
 from .kernels.scratch import TRANSFORM
 from .kernels.state import kernels as state_kernels
 
-try:  # where wp.Tape registers itself while it records
-    from warp._src import context as _wp_context
-except ImportError:  # pragma: no cover - other Warp versions: always take the recorded-safe path
-    _wp_context = None
 
 CUDA_LAUNCH: dict[str, tuple[int | None, int | None | str]] = {}
 """CUDA settings by kernel name ("aba", "rnea", "crba"): (threads per block, register cap per thread).
@@ -73,7 +69,7 @@ class _Recorded:
 
 def _taping() -> bool:
     """Whether a wp.Tape is recording (True when this Warp version does not say)."""
-    return _wp_context is None or getattr(_wp_context.runtime, "tape", True) is not None
+    return _tape.taping()
 
 
 def _launch(model, name: str, N: int, width: int, args: list, grad: bool) -> None:

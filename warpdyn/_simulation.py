@@ -41,7 +41,7 @@ import enum
 import numpy as np
 import warp as wp
 
-from . import _arrays
+from . import _arrays, _tape
 from ._dynamics import model_args
 from .common import VelRepr
 from .kernels.aba import ABA_RECORD
@@ -55,10 +55,6 @@ from .kernels.soft_contacts import kernels as contact_kernels
 from .kernels.velocities import kernels as velocity_kernels
 from .terrain import FlatTerrain, HeightfieldTerrain
 
-try:  # where wp.Tape registers itself while it records
-    from warp._src import context as _wp_context
-except ImportError:  # pragma: no cover - other Warp versions: always take the tape-safe path
-    _wp_context = None
 
 __all__ = ["IntegratorType", "SoftContactsParams", "ActuationParams", "step", "estimate_good_contact_parameters"]
 
@@ -157,7 +153,7 @@ class ActuationParams:
 
 def _taping() -> bool:
     """Whether a wp.Tape is recording (True when this Warp version does not say)."""
-    return _wp_context is None or getattr(_wp_context.runtime, "tape", True) is not None
+    return _tape.taping()
 
 
 def _terrain_parameters(terrain) -> tuple:

@@ -119,6 +119,7 @@ import warp as wp
 
 from . import _arrays
 from . import _simulation as _sim
+from . import _tape
 from ._tape import suspended as _tape_suspended
 from .common import VelRepr
 from .data import Data
@@ -720,7 +721,7 @@ class Rollout:
                     "are recomputed in the backward pass, so what a callback launched would not be differentiated in order; "
                     "use storage='trajectory'"
                 )
-        if checkpointed and taping and (_sim._wp_context is None or getattr(_sim._wp_context.runtime, "tape", None) is None):
+        if checkpointed and taping and not _tape.known():
             raise RuntimeError("storage='checkpointed' needs Warp's runtime.tape (Warp 1.19's warp._src.context)")
         s, d, batched = plan.scalar, plan.device, data.num_envs is not None
         tau_layout, tau_source = _control(joint_force_references, "joint_force_references", (plan.n,), T, N, batched, s, d)
