@@ -70,8 +70,13 @@ def configure(model, c: dict) -> dict:
 
 @functools.cache
 def _loss_kernels(scalar):
-    """{ndim: kernel} adding sum of w * x over 3-D and 4-D arrays of any strides to out (no `from __future__
+    """{ndim: kernel} adding sum of w * x over 2-D to 4-D arrays of any strides to out (no `from __future__
     import annotations` in this file: Warp reads the annotations' scalar)."""
+
+    @wp.kernel
+    def weighted2(x: wp.array(dtype=scalar, ndim=2), w: wp.array(dtype=scalar, ndim=2), out: wp.array(dtype=scalar)):
+        i, j = wp.tid()
+        wp.atomic_add(out, 0, w[i, j] * x[i, j])
 
     @wp.kernel
     def weighted3(x: wp.array(dtype=scalar, ndim=3), w: wp.array(dtype=scalar, ndim=3), out: wp.array(dtype=scalar)):
@@ -83,7 +88,7 @@ def _loss_kernels(scalar):
         i, j, k, l = wp.tid()
         wp.atomic_add(out, 0, w[i, j, k, l] * x[i, j, k, l])
 
-    return {3: weighted3, 4: weighted4}
+    return {2: weighted2, 3: weighted3, 4: weighted4}
 
 
 def tape_gradients(model, c: dict, storage: str = "trajectory", **kwargs) -> dict[str, np.ndarray]:
@@ -135,6 +140,30 @@ def bridge_gradients(model, c: dict) -> dict[str, np.ndarray]:
     return out
 
 
+def solver_gradients(model, c: dict, solver) -> dict[str, np.ndarray]:
+    """Gradients of sum(w * accelerations) of one forward-dynamics solver at the case's initial state
+    (per-environment masses) w.r.t. the joint positions, velocities, torques and link masses: ABA against
+    CRBA + Cholesky, whose solve has a hand-registered implicit adjoint."""
+    s, d = model.scalar, model.device
+    model.set_link_parameters(mass=c["link_mass"])
+    params = wd.model.parameters_requiring_grad(model, names=("link_mass",))
+    state = {k: wp.array(c[k], dtype=s, device=d, requires_grad=True) for k in ("joint_positions", "joint_velocities")}
+    tau = wp.array(c["tau"][0], dtype=s, device=d, requires_grad=True)
+    kernels = _loss_kernels(s)
+    tape = wp.Tape()
+    with tape:
+        data = wd.data.Data.build(model, base_position=c["base_position"], num_envs=N, requires_grad=True, **state)
+        base, joints = solver(model, data, joint_forces=tau)
+        loss = wp.zeros(1, dtype=s, device=d, requires_grad=True)
+        for x, w in ((base, np.tile(c["w/base_position"][0], (1, 2))), (joints, c["w/joint_positions"][0])):
+            wp.launch(kernels[2], dim=x.shape, inputs=[x, wp.array(w, dtype=s, device=d)], outputs=[loss], device=d)
+    tape.backward(loss)
+    out = {k: a.grad.numpy() for k, a in state.items()}
+    out["tau"] = tau.grad.numpy()
+    out["link_mass"] = params["link_mass"].grad.numpy()
+    return out
+
+
 def compare(name: str, got: dict, reference: dict, tol: float) -> int:
     failures = 0
     for key, ref in reference.items():
@@ -175,6 +204,9 @@ def main() -> int:
         got = tape_gradients(seed_model(np_dtype[dtype_name], args.device), c)
         failures += compare(f"{dtype_name} tape vs CPU", got, ref, tol)
         if dtype_name == "float64":
+            aba = solver_gradients(seed_model(np.float64, args.device), c, wd.model.forward_dynamics_aba)
+            crb = solver_gradients(seed_model(np.float64, args.device), c, wd.model.forward_dynamics_crb)
+            failures += compare("float64 CRB (implicit adjoint) vs ABA", crb, aba, 1e-9)
             checkpointed = tape_gradients(seed_model(np.float64, args.device), c, storage="checkpointed", checkpoint_every=6)
             failures += compare("float64 checkpointed vs tape", checkpointed, got, SAME_DEVICE)
             try:
