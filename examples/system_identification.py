@@ -53,7 +53,9 @@ the free simulation of the whole 2 s with the fitted parameters follows the meas
 (0.13 rad with the initial ones). With `--noise 1 --iterations 600` the loss falls to the noise floor (~1.9)
 and the estimates land within about one to two Cramer-Rao bounds of the truth. Runtime on a 2-core CPU:
 15-20 s warm (0.05 s per iteration, ~4 s for the models, the measurements and the identifiability
-analysis), 35-45 s the first time, when Warp compiles the kernels; float32 takes as long and ends the same. The plot shows the loss, the relative mass and friction errors per iteration,
+analysis), 35-45 s the first time, when Warp compiles the kernels; float32 takes as long and ends the same.
+On an NVIDIA H100 (the default device where there is one) the 200 iterations take 9.5 s, with the same
+figures. The plot shows the loss, the relative mass and friction errors per iteration,
 and the free simulation before and after the fit against the measurements.
 
 `main(argv)` runs it and returns the history (tests/test_examples.py runs it on a short trajectory).
