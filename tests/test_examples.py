@@ -18,9 +18,6 @@ import pathlib
 import sys
 
 import numpy as np
-import pytest
-
-pytest.importorskip("icub_models")
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 sys.path.insert(0, str(EXAMPLES))  # the examples import examples/common.py, as when they run as scripts
@@ -34,19 +31,15 @@ def _example(name: str):
     return module
 
 
-def _plot_argument(tmp_path, name: str) -> tuple[list[str], pathlib.Path | None]:
-    try:
-        import matplotlib  # noqa: F401
-    except ImportError:
-        return ["--plot", ""], None
+def _plot_argument(tmp_path, name: str) -> tuple[list[str], pathlib.Path]:
+    """The example's --plot argument (matplotlib and icub-models are in the test extra: no test skips)."""
     path = tmp_path / "plots" / f"{name}.png"
     return ["--plot", str(path)], path
 
 
 def _check_plot(path) -> None:
-    if path is not None:
-        assert path.is_file() and path.stat().st_size > 10_000, path
-        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert path.is_file() and path.stat().st_size > 10_000, path
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_trajectory_optimisation_reaches_the_target(tmp_path):

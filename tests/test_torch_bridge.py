@@ -25,13 +25,13 @@ import numpy as np
 import pytest
 import warp as wp
 
-torch = pytest.importorskip("torch")
+import torch  # the test extra installs it
 
-import gradcheck  # noqa: E402
-import robots  # noqa: E402
-import warpdyn as wd  # noqa: E402
-import warpdyn.torch as wdt  # noqa: E402
-from warpdyn import VelRepr  # noqa: E402
+import gradcheck
+import robots
+import warpdyn as wd
+import warpdyn.torch as wdt
+from warpdyn import VelRepr
 
 F64 = torch.float64
 
