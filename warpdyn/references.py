@@ -136,20 +136,23 @@ class References:
             forces = wp.array(forces.numpy()[:, idxs], dtype=forces.dtype, device=forces.device)
         return _arrays.squeeze_env(forces, self.num_envs)
 
-    def _apply(self, forces, model, data, target_link, link_H_target, name, additive) -> References:
+    def _apply(self, forces, model, data, links: np.ndarray, link_H_target, name, additive) -> References:
+        """References with forces (T, 6) on T targets, target t on link links[t] (host indices) at
+        link_H_target[t] (T,) transforms."""
         self._needs_data(data)
         if data is None:
             from .data import Data
 
             data = Data.zero(model, num_envs=self.num_envs)
-        N, T = self.batch_size, target_link.shape[0]
+        N, T = self.batch_size, len(links)
+        target_link = wp.array(np.asarray(links, dtype=np.int32), dtype=int, device=model.device)
         values = _arrays.batched_input(forces, name, (T, 6), self.num_envs, model.scalar, model.device)
         _, W_H_L = _model.link_poses(model, data)
         grad = data.requires_grad or values.requires_grad or self.link_forces_state.requires_grad
         out = _arrays.empty(self.link_forces_state.shape[1:], N, model.scalar, model.device, grad)
         replaced = np.zeros(model.number_of_links(), dtype=np.int32)
         if not additive:
-            replaced[target_link.numpy()] = 1
+            replaced[links] = 1
         K = force_kernels(model.scalar)
         wp.launch(
             K.kept_forces,
@@ -173,14 +176,12 @@ class References:
         if isinstance(link_names, str):
             link_names = (link_names,)
         if link_names is None:
-            target, offset = model.all_links, model.identity_offsets
+            links = np.arange(model.number_of_links())
         else:
             from .link import names_to_idxs
 
-            idxs = names_to_idxs(model, link_names=link_names)
-            target = wp.array(idxs, dtype=int, device=model.device)
-            offset = model.identity_offsets[: len(idxs)]
-        return self._apply(forces, model, data, target, offset, "link_forces", additive)
+            links = np.asarray(names_to_idxs(model, link_names=link_names))
+        return self._apply(forces, model, data, links, model.identity_offsets[: len(links)], "link_forces", additive)
 
     def apply_frame_forces(self, forces, model, data, frame_names=None, additive: bool = False) -> References:
         """New references with 6D forces (k, 6) on the named frames (all when None), in the references'
@@ -193,6 +194,5 @@ class References:
             from .frame import names_to_idxs
 
             rows = names_to_idxs(model, frame_names=frame_names) - model.number_of_links()
-        target = wp.array(model.tree.frame_parent[rows], dtype=int, device=model.device)
         offset = _model._transforms(model.tree.link_H_frame[rows], model.scalar, model.device)
-        return self._apply(forces, model, data, target, offset, "frame_forces", additive)
+        return self._apply(forces, model, data, np.asarray(model.tree.frame_parent)[rows], offset, "frame_forces", additive)
