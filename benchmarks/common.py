@@ -14,9 +14,8 @@ import warp as wp
 import warpdyn as wd
 
 EXCLUDED = ("camera", "neck", "wrist", "thumb", "index", "middle", "ring", "pinkie", "torso", "elbow", "shoulder")
-_HERE = pathlib.Path(__file__).resolve().parent
-ERGOCUB = pathlib.Path(os.environ.get("WARPDYN_ERGOCUB", _HERE.parents[1] / "shared/models/ergoCubSN001.urdf"))
-"""The seed's URDF: ../shared/models beside the checkout, or the path in $WARPDYN_ERGOCUB."""
+ERGOCUB = pathlib.Path(os.environ.get("WARPDYN_ERGOCUB", wd.assets.ergocub_urdf()))
+"""The seed's URDF: the one warpdyn ships (warpdyn.assets), or the path in $WARPDYN_ERGOCUB."""
 
 
 def init_warp() -> None:

@@ -6,7 +6,7 @@
                                         [--output benchmarks/results/rollout_memory_<device>.md]
 
 Robot: the seed's ergoCub legs (12 joints, 13 links, 32 collidable points; $WARPDYN_ERGOCUB or
-../shared/models/ergoCubSN001.urdf), N environments standing on flat ground (feet ~3 mm deep), per-step
+the one warpdyn ships: warpdyn.assets), N environments standing on flat ground (feet ~3 mm deep), per-step
 joint torques (T, N, n) as a Warp array requiring gradients, the joint positions recorded, the initial
 data requiring gradients, loss = sum over steps, environments and joints of s^2. A case is one rollout of
 T steps under a wp.Tape, the loss, and tape.backward.

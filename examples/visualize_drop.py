@@ -38,7 +38,7 @@ import warp as wp
 import warpdyn as wd
 import warpdyn.visualization  # noqa: F401  (wd.visualization; rerun itself is imported when recording)
 
-ERGOCUB = pathlib.Path(__file__).resolve().parents[2] / "shared" / "models" / "ergoCubSN001.urdf"
+ERGOCUB = wd.assets.ergocub_urdf()
 LEG_PARTS = ("hip", "knee", "ankle")
 
 
@@ -50,8 +50,6 @@ def description_path(robot: str) -> pathlib.Path:
             raise SystemExit("--robot icub needs icub-models: pip install icub-models") from None
         return pathlib.Path(icub_models.get_model_file("iCubGazeboV2_5"))
     if robot == "ergocub":
-        if not ERGOCUB.is_file():
-            raise SystemExit(f"the seed's ergoCub is not at {ERGOCUB}: pass a URDF path or --robot icub")
         return ERGOCUB
     return pathlib.Path(robot)
 

@@ -18,7 +18,9 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-ERGOCUB = pathlib.Path(__file__).resolve().parents[2] / "shared" / "models" / "ergoCubSN001.urdf"
+from warpdyn.assets import ergocub_urdf as _ergocub_path
+
+ERGOCUB = _ergocub_path()
 _EXCLUDED = ("camera", "neck", "wrist", "thumb", "index", "middle", "ring", "pinkie", "torso", "elbow", "shoulder")
 
 

@@ -8,11 +8,12 @@ batched. `wd.math` holds JaxSim's math helpers, host-side (NumPy) and as `@wp.fu
 
 # model first: it re-exports functions of modules (_centroidal, _dynamics, ...) that import it back.
 from . import model  # isort: skip
-from . import com, contact, data, frame, joint, link, math, references, simulation, terrain, visualization
+from . import assets, com, contact, data, frame, joint, link, math, references, simulation, terrain, visualization
 from .common import VelRepr
 
 __all__ = [
     "VelRepr",
+    "assets",
     "com",
     "contact",
     "data",
