@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import re
 
 import numpy as np
 import warp as wp
@@ -58,18 +57,15 @@ def _chain_urdf(n: int = 7) -> str:
 def arm_model(dtype, device):
     """(label, model): the iCub's torso and left arm welded to the world, or a 7-joint chain."""
     try:
-        import pathlib
-
         import icub_models
-
-        text = pathlib.Path(icub_models.get_model_file("iCubGazeboV2_5")).read_text()
     except ImportError:
         model = wd.model.Model.build_from_model_description(_chain_urdf(), dtype=dtype, device=device)
         return "arm (7-joint chain, fixed base)", model
-    root = re.search(r'<link name="([^"]+)"', text).group(1)
-    weld = f'<link name="world"/><joint name="world_weld" type="fixed"><parent link="world"/><child link="{root}"/><origin xyz="0 0 1"/></joint>'
-    text = text.replace("</robot>", weld + "</robot>", 1)
-    full = wd.model.Model.build_from_model_description(text, dtype=dtype, device=device)
+    W_H_B = np.eye(4)
+    W_H_B[2, 3] = 1.0
+    full = wd.model.Model.build_from_model_description(
+        icub_models.get_model_file("iCubGazeboV2_5"), fixed_base=True, base_pose=W_H_B, dtype=dtype, device=device
+    )
     model = wd.model.reduce(full, [j for j in ARM_JOINTS if j in full.joint_names()])
     cp = model.kin_dyn_parameters.contact_parameters
     model = wd.contact.with_collidable_points(model, enabled=np.zeros(len(cp.body), dtype=bool))

@@ -4,25 +4,23 @@ Not an example: `trajectory_optimisation.py` and `system_identification.py` impo
 sys.path when one of them runs as a script).
 """
 
-import pathlib
-
 import numpy as np
 import warp as wp
 
+import warpdyn as wd
 
-def fixed_base_icub_urdf(height: float = 1.0) -> str:
-    """iCubGazeboV2_5's URDF with its root link welded to the world `height` metres above the ground."""
+
+def fixed_base_icub(height: float = 1.0, **build) -> wd.model.Model:
+    """iCubGazeboV2_5 with its root link welded to the world `height` metres above the ground (keyword
+    arguments go to Model.build_from_model_description: dtype, device, time_step)."""
     try:
         import icub_models
     except ImportError:
         raise SystemExit("this example needs the iCub's URDF: pip install icub-models") from None
-    text = pathlib.Path(icub_models.get_model_file("iCubGazeboV2_5")).read_text()
-    start = text.index(">", text.index("<robot")) + 1
-    weld = (
-        '\n  <link name="world"/>\n  <joint name="world_to_root_link" type="fixed"><parent link="world"/>'
-        f'<child link="root_link"/><origin xyz="0 0 {height}" rpy="0 0 0"/></joint>'
-    )
-    return text[:start] + weld + text[start:]
+    W_H_B = np.eye(4)
+    W_H_B[2, 3] = height
+    path = icub_models.get_model_file("iCubGazeboV2_5")
+    return wd.model.Model.build_from_model_description(path, fixed_base=True, base_pose=W_H_B, **build)
 
 
 class Adam:

@@ -71,7 +71,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import Adam, default_device, fixed_base_icub_urdf
+from common import Adam, default_device, fixed_base_icub
 
 LEG_PARTS = ("hip", "knee", "ankle")
 # Excitation [N m], by the end of the joint's name: amplitude of the sum of sines, and a constant.
@@ -84,9 +84,7 @@ NOT_IDENTIFIABLE = 0.1  # Cramer-Rao bound on the relative error above which a p
 
 def build_model(dtype: str, device, time_step: float):
     """The fixed-base legs (12 joints), without collidable points."""
-    full = wd.model.Model.build_from_model_description(
-        fixed_base_icub_urdf(), dtype=np.dtype(dtype), device=device, time_step=time_step
-    )
+    full = fixed_base_icub(dtype=np.dtype(dtype), device=device, time_step=time_step)
     legs = [j for j in full.joint_names() if any(part in j for part in LEG_PARTS)]
     model = wd.model.reduce(full, considered_joints=legs)
     assert not model.floating_base()

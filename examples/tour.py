@@ -2,12 +2,13 @@
 ported cell by cell (cells 5 to 18: model, data, references, links, frames, equations of motion, forward
 and inverse dynamics, centroidal dynamics, contact frames).
 
-    python examples/tour.py                   # the iCub (icub-models), legs only
-    python examples/tour.py path/to.urdf      # any URDF or MJCF, e.g. ../shared/models/ergoCubSN001.urdf (the seed's)
+    python examples/tour.py                   # the seed's ergoCub (shipped: warpdyn.assets), legs only
+    python examples/tour.py path/to.urdf      # any URDF or MJCF (the joints kept: those the seed keeps)
     python examples/tour.py --num-envs 4      # the same quantities for a batch of random states
     python examples/tour.py --dtype float32   # in single precision (looser tolerances on the checks)
 
-Runs on the GPU when Warp finds one, otherwise on the CPU. Every warpdyn function returns Warp arrays
+Runs on the GPU when Warp finds one, otherwise on the CPU. The first run on a machine compiles warpdyn's
+kernels (Warp caches them); the tour ends by timing itself a second time, with the kernels loaded. Every warpdyn function returns Warp arrays
 on the model's device; `.numpy()` brings them to the host, where NumPy does what the notebook does with
 jax.numpy. With --num-envs every cell runs batched: every quantity gains a leading environment axis and
 every check holds for each environment.
@@ -38,11 +39,26 @@ TOLERANCE = {"float64": 1e-9, "float32": 1e-3}
 
 
 def default_description() -> pathlib.Path:
-    try:
-        import icub_models
-    except ImportError:
-        raise SystemExit("the default robot is the iCub: `pip install icub-models`, or pass a URDF path") from None
-    return pathlib.Path(icub_models.get_model_file("iCubGazeboV2_5"))
+    """The seed's robot, the ergoCub that warpdyn ships."""
+    return wd.assets.ergocub_urdf()
+
+
+def names(items, shown: int = 6) -> str:
+    """A long list of names, its first and last few: 'a, b, c, ..., y, z (26)'."""
+    items = list(items)
+    if len(items) <= shown:
+        return ", ".join(items) + f" ({len(items)})"
+    half = shown // 2
+    return ", ".join(items[:half]) + ", ..., " + ", ".join(items[-half:]) + f" ({len(items)})"
+
+
+def section(say, title: str) -> None:
+    say(f"\n== {title}")
+
+
+def shape(say, symbol: str, array, meaning: str) -> None:
+    """One line: the symbol, its shape and what it is."""
+    say(f"{symbol + ':':<9} shape={str(tuple(np.shape(array))):<14} {meaning}")
 
 
 def mv(A, x):
@@ -81,11 +97,10 @@ def run_tour(
     out: dict = {}
 
     # --- cell 1: setup (warp is initialised by the caller or on first use).
-    say(f"Running on {wp.get_device(device)}")
+    section(say, f"Model (cells 3-5): the robot, its fixed joints lumped, on device '{wp.get_device(device)}' in {dtype}")
 
     # --- cell 3: create the model from the model description.
     # warpdyn, as JaxSim, removes all fixed joints by lumping together their parent and child links.
-    t0 = time.perf_counter()
     full_model = wd.model.Model.build_from_model_description(description, dtype=np.dtype(dtype), device=device)
 
     # --- cell 4: joint selection.
@@ -99,28 +114,25 @@ def run_tour(
     out.update(full_model=full_model, model=model)
 
     # --- cell 5: print model quantities.
-    say(f"Model name: {model.name()}")
+    say(f"Model name: {model.name()}  (reduced to the joints the seed keeps: {full_model.dofs()} -> {model.dofs()})")
     say(f"Number of links: {model.number_of_links()}")
     say(f"Number of joints: {model.number_of_joints()}")
-    say()
-    say(f"Links:\n{model.link_names()}")
-    say()
-    say(f"Joints:\n{model.joint_names()}")
-    say()
-    say(f"Frames:\n{model.frame_names()}")
-    say(f"(built in {time.perf_counter() - t0:.2f} s)\n")
+    say(f"Links (breadth-first from the base; joint i moves link i + 1): {names(model.link_names())}")
+    say(f"Joints: {names(model.joint_names())}")
+    say(f"Frames (the links lumped into their parents): {names(model.frame_names())}")
 
     # --- cell 6: create a random data object from the reduced model (Mixed representation by default).
+    section(say, "State (cell 6): a random state, in JaxSim's Mixed representation")
     data = wd.data.random_model_data(model, seed=seed, num_envs=num_envs)
-    # Print the default state.
     W_H_B, s = (x.numpy() for x in data.generalized_position)
     ν = data.generalized_velocity.numpy()
-    say(f"W_H_B: shape={W_H_B.shape}\n{W_H_B}\n")
-    say(f"s: shape={s.shape}\n{s}\n")
-    say(f"ν: shape={ν.shape}\n{ν}\n")
+    shape(say, "W_H_B", W_H_B, "the base's pose in the world (homogeneous transform)")
+    shape(say, "s", s, "the joint positions [rad]")
+    shape(say, "ν", ν, "the generalized velocity: the base's (6, Mixed) then the joints'")
     out.update(data=data, W_H_B=W_H_B, s=s, ν=ν)
 
     # --- cell 7: random link forces and joint force references (NumPy's generator for JAX's PRNGKey(0)).
+    section(say, "References (cell 7): random external link forces and joint force references")
     rng = np.random.default_rng(seed)
     batch = () if num_envs is None else (num_envs,)
     link_forces = rng.uniform(-10.0, 10.0, size=(*batch, model.number_of_links(), 6))
@@ -131,25 +143,26 @@ def run_tour(
     references = wd.references.References.build(
         model, data, link_forces=link_forces, joint_force_references=joint_force_references
     )
-    say(f"link_forces: shape={references.link_forces(model, data).shape}")
-    say(f"joint_force_references: shape={references.joint_force_references(model).shape}\n")
+    shape(say, "f_L", references.link_forces(model, data), "a 6D force [force; torque] on each link, Mixed")
+    shape(say, "τ", references.joint_force_references(model), "a force (torque) on each joint [N m]")
     out.update(references=references, link_forces=link_forces, joint_force_references=joint_force_references)
 
     # --- cell 8: find the index of a link (the seed's; the last link on robots without it).
     link_name = "l_ankle_2" if "l_ankle_2" in model.link_names() else model.link_names()[-1]
     link_index = wd.link.name_to_idx(model, link_name=link_name)
+    section(say, f"Link '{link_name}' (cells 8-10): its pose and its velocity in the three representations")
 
     # --- cell 9: link pose, by forward kinematics.
     W_H_L = wd.link.transform(model, data, link_index=link_index).numpy()
-    say(f"Transform of '{link_name}': shape={W_H_L.shape}\n{W_H_L}")
+    shape(say, "W_H_L", W_H_L, "the link's pose in the world")
 
     # --- cell 10: link 6D velocity, in the three representations.
     L_v_WL = wd.link.velocity(model, data, link_index=link_index, output_vel_repr=VelRepr.Body).numpy()
     LW_v_WL = wd.link.velocity(model, data, link_index=link_index, output_vel_repr=VelRepr.Mixed).numpy()
     W_v_WL = wd.link.velocity(model, data, link_index=link_index, output_vel_repr=VelRepr.Inertial).numpy()
-    say(f"Body-fixed velocity      L_v_WL={L_v_WL}")
-    say(f"Mixed velocity:         LW_v_WL={LW_v_WL}")
-    say(f"Inertial-fixed velocity: W_v_WL={W_v_WL}")
+    shape(say, "L_v_WL", L_v_WL, "Body: in the link's frame")
+    shape(say, "LW_v_WL", LW_v_WL, "Mixed: the link origin's velocity, world axes")
+    shape(say, "W_v_WL", W_v_WL, "Inertial: in the world frame")
     # The same through the link's free-floating Jacobian, whose input representation is the data's
     # (here Body, switched in place) and whose output representation is chosen.
     with data.switch_velocity_representation(VelRepr.Body):
@@ -158,9 +171,9 @@ def run_tour(
         # Free-floating Jacobian accepting a body-fixed generalized velocity and returning an
         # inertial-fixed link velocity.
         W_J_WL_B = wd.link.jacobian(model, data, link_index=link_index, output_vel_repr=VelRepr.Inertial).numpy()
+    shape(say, "W_J_WL_B", W_J_WL_B, "the link's Jacobian: Body generalized velocity in, Inertial out")
     # Now the following relation should hold.
     check("W_v_WL == W_J_WL_B @ B_ν", W_v_WL, mv(W_J_WL_B, B_ν), dtype, say)
-    say()
     out.update(link_name=link_name, link_index=link_index, W_H_L=W_H_L, L_v_WL=L_v_WL, LW_v_WL=LW_v_WL)
     out.update(W_v_WL=W_v_WL, B_ν=B_ν, W_J_WL_B=W_J_WL_B)
 
@@ -168,62 +181,62 @@ def run_tour(
     frame_names = model.frame_names()
     frame_name = next((f for f in ("l_foot_front", "l_sole") if f in frame_names), frame_names[-1] if frame_names else None)
     if frame_name is None:
-        say("The model has no frames: cells 11-13 are skipped.\n")
+        say("The model has no frames: cells 11-13 are skipped.")
     else:
         frame_index = wd.frame.name_to_idx(model, frame_name=frame_name)
+        section(say, f"Frame '{frame_name}' (cells 11-13): a frame fixed to a link, as the link above")
 
         # --- cell 12: frame pose.
         W_H_F = wd.frame.transform(model, data, frame_index=frame_index).numpy()
-        say(f"Transform of '{frame_name}': shape={W_H_F.shape}\n{W_H_F}")
+        shape(say, "W_H_F", W_H_F, "the frame's pose in the world")
 
         # --- cell 13: frame 6D velocity, in the three representations, and through the Jacobian.
         F_v_WF = wd.frame.velocity(model, data, frame_index=frame_index, output_vel_repr=VelRepr.Body).numpy()
         FW_v_WF = wd.frame.velocity(model, data, frame_index=frame_index, output_vel_repr=VelRepr.Mixed).numpy()
         W_v_WF = wd.frame.velocity(model, data, frame_index=frame_index, output_vel_repr=VelRepr.Inertial).numpy()
-        say(f"Body-fixed velocity      F_v_WF={F_v_WF}")
-        say(f"Mixed velocity:         FW_v_WF={FW_v_WF}")
-        say(f"Inertial-fixed velocity: W_v_WF={W_v_WF}")
+        shape(say, "F_v_WF", F_v_WF, "Body")
+        shape(say, "FW_v_WF", FW_v_WF, "Mixed")
+        shape(say, "W_v_WF", W_v_WF, "Inertial")
         with data.switch_velocity_representation(VelRepr.Body):
             B_ν = data.generalized_velocity.numpy()
             W_J_WF_B = wd.frame.jacobian(model, data, frame_index=frame_index, output_vel_repr=VelRepr.Inertial).numpy()
         # Now the following relation should hold.
         check("W_v_WF == W_J_WF_B @ B_ν", W_v_WF, mv(W_J_WF_B, B_ν), dtype, say)
-        say()
         out.update(frame_name=frame_name, frame_index=frame_index, W_H_F=W_H_F, F_v_WF=F_v_WF, FW_v_WF=FW_v_WF)
         out.update(W_v_WF=W_v_WF, W_J_WF_B=W_J_WF_B)
 
     # --- cell 14: EoM quantities (data is in its default representation, i.e. Mixed).
-    say(f"Velocity representation of data: VelRepr.{data.velocity_representation.name}\n")
+    section(say, f"Equations of motion (cell 14): M ν̇ + h = B τ + Σ J_L^T f_L, in VelRepr.{data.velocity_representation.name}")
     # Compute the mass matrix.
     M = wd.model.free_floating_mass_matrix(model, data).numpy()
-    say(f"M:   shape={M.shape}")
+    shape(say, "M", M, "the mass matrix (CRBA)")
     # Compute the vector of bias forces.
     h = wd.model.free_floating_bias_forces(model, data).numpy()
-    say(f"h:   shape={h.shape}")
+    shape(say, "h", h, "the bias forces C ν + g (RNEA)")
     # Compute the vector of gravity forces.
     g = wd.model.free_floating_gravity_forces(model, data).numpy()
-    say(f"g:   shape={g.shape}")
+    shape(say, "g", g, "the gravity forces")
     # Compute the Coriolis matrix.
     C = wd.model.free_floating_coriolis_matrix(model, data).numpy()
-    say(f"C:   shape={C.shape}")
+    shape(say, "C", C, "the Coriolis matrix")
     # Create the joint selector matrix.
     B = np.block([np.zeros((model.dofs(), 6)), np.eye(model.dofs())]).T
-    say(f"B:   shape={B.shape}")
+    shape(say, "B", B, "the joint selector: joint forces into generalized forces")
     # Compute the stacked tensor of link Jacobians.
     J = wd.model.generalized_free_floating_jacobian(model, data).numpy()
-    say(f"J:   shape={J.shape}")
+    shape(say, "J", J, "the Jacobians of all links")
     # Extract the joint forces from the references object.
     τ = references.joint_force_references(model).numpy()
-    say(f"τ:   shape={τ.shape}")
+    shape(say, "τ", τ, "the joint forces of the references")
     # Extract the link forces from the references object.
     f_L = references.link_forces(model, data).numpy()
-    say(f"f_L: shape={f_L.shape}")
+    shape(say, "f_L", f_L, "the link forces of the references")
     # The following relation should hold.
     check("h == C @ ν + g", h, mv(C, ν) + g, dtype, say)
-    say()
     out.update(M=M, h=h, g=g, C=C, B=B, J=J, τ=τ, f_L=f_L)
 
     # --- cell 15: forward dynamics, from the EoM with the pseudo-inverse of M and by ABA.
+    section(say, "Forward dynamics (cell 15): ν̇ from the equations of motion and by the articulated-body algorithm")
     # The notebook's einsum "l6g,l6->g" is Σ_L J_L^T f_L (NumPy takes no digits as subscripts).
     Q = mv(B, τ) - h + np.einsum("...lig,...li->...g", J, f_L)
     # (A fixed base does not accelerate, and ABA returns zeros there: solve for the joints only.)
@@ -234,13 +247,13 @@ def run_tour(
         x.numpy() for x in wd.model.forward_dynamics_aba(model, data, link_forces=f_L, joint_forces=joint_force_references)
     )
     ν̇_aba = np.concatenate([v̇_WB, s̈], axis=-1)
-    say(f"ν̇: shape={ν̇_aba.shape}")
+    shape(say, "ν̇", ν̇_aba, "the generalized acceleration: the base's then the joints'")
     # The following relation should hold.
     check("ν̇_eom == ν̇_aba", ν̇_eom, ν̇_aba, dtype, say)
-    say()
     out.update(ν̇_eom=ν̇_eom, v̇_WB=v̇_WB, s̈=s̈, ν̇_aba=ν̇_aba)
 
     # --- cell 16: inverse dynamics.
+    section(say, "Inverse dynamics (cell 16): the forces that produce ν̇ (RNEA)")
     # To check that f_B works, remove the force applied to the base link from the link forces.
     f_L_without_base = f_L.copy()
     f_L_without_base[..., 0, :] = 0.0
@@ -250,8 +263,8 @@ def run_tour(
             model, data, base_acceleration=v̇_WB, joint_accelerations=s̈, link_forces=f_L_without_base
         )
     )
-    say(f"f_B:    shape={f_B.shape}")
-    say(f"τ_rnea: shape={τ_rnea.shape}")
+    shape(say, "f_B", f_B, "the wrench the base needs (here: the force removed from the base)")
+    shape(say, "τ_rnea", τ_rnea, "the joint forces")
     # The following relations should hold.
     check("τ_rnea == τ", τ_rnea, τ, dtype, say)
     if model.floating_base():
@@ -259,19 +272,19 @@ def run_tour(
         check("f_B == link_forces[0]", f_B, link_forces[..., 0, :], dtype, say)
     else:
         say("(fixed base: f_B is the wrench that holds the base, not link_forces[0])")
-    say()
     out.update(f_B=f_B, τ_rnea=τ_rnea)
 
     # --- cell 17: centroidal dynamics.
+    section(say, "Centroidal dynamics (cell 17): momentum about the centre of mass G, and the contact forces' effect on it")
     # Number of contact points. The notebook counts all of them (len(contact_parameters.body)) but the
     # contact functions return the enabled ones only: count those (the same here, all are enabled).
     n_cp = int(np.count_nonzero(model.kin_dyn_parameters.contact_parameters.enabled))
-    say("Number of contact points:", n_cp, "\n")
+    say(f"Number of contact points: {n_cp}  (points of the collision boxes and spheres)")
     # Compute the centroidal momentum.
     J_CMM = wd.com.centroidal_momentum_jacobian(model, data).numpy()
     G_h = mv(J_CMM, ν)
-    say(f"G_h:    shape={G_h.shape}")
-    say(f"J_CMM:  shape={J_CMM.shape}")
+    shape(say, "G_h", G_h, "the centroidal momentum [linear; angular] in G")
+    shape(say, "J_CMM", J_CMM, "the centroidal momentum matrix: G_h = J_CMM ν")
     # The following relation should hold.
     check("G_h == centroidal_momentum", G_h, wd.com.centroidal_momentum(model, data).numpy(), dtype, say)
     # If we consider all contact points of the model as active (discouraged since they might be too
@@ -287,7 +300,7 @@ def run_tour(
     # G_Xf_C = C_X_G^T. wd.math works on any leading axes: no vmap needed.
     G_H_C = G_H_W[..., None, :, :] @ W_H_C
     G_Xf_C = np.swapaxes(wd.math.Adjoint.from_transform(transform=G_H_C, inverse=True), -1, -2)
-    say(f"G_Xf_C: shape={G_Xf_C.shape}")
+    shape(say, "G_Xf_C", G_Xf_C, "per point: the transform of a 6D force from the point's frame C to G")
     # Random 3D linear forces applied to the contact points (in C, i.e. in the link's axes).
     C_fl = rng.uniform(-10.0, 10.0, size=(*batch, n_cp, 3))
     # The total mass of the robot and the gravity: JaxSim's model.gravity is -9.81 (the z component),
@@ -299,11 +312,11 @@ def run_tour(
     G_ḣ = np.zeros((*batch, 6))
     G_ḣ += m * np.array([0.0, 0.0, -model.gravity, 0.0, 0.0, 0.0])
     G_ḣ += np.einsum("...cij,...cj->...i", G_Xf_C, np.concatenate([C_fl, np.zeros_like(C_fl)], axis=-1))
-    say(f"G_ḣ:    shape={G_ḣ.shape}")
-    say()
+    shape(say, "G_ḣ", G_ḣ, "the rate of the centroidal momentum: gravity plus random point forces")
     out.update(n_cp=n_cp, J_CMM=J_CMM, G_h=G_h, W_p_CoM=W_p_CoM, G_H_W=G_H_W, G_Xf_C=G_Xf_C, C_fl=C_fl, m=m, G_ḣ=G_ḣ)
 
     # --- cell 18: contact frames.
+    section(say, "Contact frames (cell 18): the collidable points' Jacobians, velocities and accelerations")
     with (
         data.switch_velocity_representation(VelRepr.Mixed),
         references.switch_velocity_representation(VelRepr.Mixed),
@@ -333,38 +346,46 @@ def run_tour(
     k = 0 if model.floating_base() else 6
     Jl = Jl_WC.reshape(*batch, -1, Jl_WC.shape[-1])[..., k:]  # jnp.vstack(Jl_WC): (3 nc, 6 + n)
     Ψ = Jl @ np.linalg.solve(BW_M[..., k:, k:], np.swapaxes(Jl, -1, -2))
-    say(f"Ψ:     shape={Ψ.shape}")
+    shape(say, "Ψ", Ψ, "the Delassus matrix J M^-1 J^T: how point forces accelerate the points")
     # Compute the transforms of the mixed frames implicitly associated to each collidable point.
     W_H_C = wd.contact.transforms(model, data).numpy()
-    say(f"W_H_C: shape={W_H_C.shape}")
+    shape(say, "W_H_C", W_H_C, "the points' frames (world axes) in the world")
     # Compute the linear velocity of the collidable points (the notebook names it W_ṗ_B; the velocities
     # are already 3D, so its [:, 0:3] changes nothing).
     with data.switch_velocity_representation(VelRepr.Mixed):
         W_ṗ_B = wd.contact.collidable_point_velocities(model, data).numpy()[..., 0:3]
-        say(f"W_ṗ_B: shape={W_ṗ_B.shape}")
+        shape(say, "W_ṗ_C", W_ṗ_B, "the points' velocities [m/s]")
     # Compute the linear acceleration of the collidable points (the notebook's "c3g,g->c3").
     W_p̈_C = 0
     W_p̈_C += np.einsum("...cig,...g->...ci", J̇l_WC, BW_ν)
     W_p̈_C += np.einsum("...cig,...g->...ci", Jl_WC, BW_ν̇)
-    say(f"W_p̈_C: shape={W_p̈_C.shape}")
+    shape(say, "W_p̈_C", W_p̈_C, "the points' accelerations: J̇ ν + J ν̇ [m/s²]")
     out.update(BW_ν=BW_ν, BW_ν̇=BW_ν̇, BW_M=BW_M, Jl_WC=Jl_WC, J̇l_WC=J̇l_WC, Ψ=Ψ, W_H_C=W_H_C, W_ṗ_B=W_ṗ_B, W_p̈_C=W_p̈_C)
     return out
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("description", nargs="?", help="URDF or MJCF path (default: the iCub)")
+    parser.add_argument("description", nargs="?", help="URDF or MJCF path (default: the ergoCub warpdyn ships)")
     parser.add_argument("--dtype", choices=["float32", "float64"], default="float64")
     parser.add_argument("--num-envs", type=int, default=None, help="batch size (default: one environment)")
     parser.add_argument("--device", default=None, help="a Warp device, e.g. cpu or cuda:0 (default: Warp's)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the random state and forces")
     args = parser.parse_args()
-    wp.config.quiet = True
-    wp.config.log_level = wp.LOG_WARNING
-    wp.init()
     path = pathlib.Path(args.description) if args.description else default_description()
     print(f"Robot: {path}")
-    run_tour(path, dtype=args.dtype, num_envs=args.num_envs, device=args.device, seed=args.seed)
+    kwargs = dict(dtype=args.dtype, num_envs=args.num_envs, device=args.device, seed=args.seed)
+    start = time.perf_counter()
+    run_tour(path, **kwargs)
+    first = time.perf_counter() - start
+    start = time.perf_counter()
+    run_tour(path, **kwargs, verbose=False)
+    second = time.perf_counter() - start
+    print(
+        f"\nThe tour took {first:.2f} s, and {second:.2f} s when run again in this process. The difference is Warp "
+        f"compiling warpdyn's kernels, or loading them from its cache ({wp.config.kernel_cache_dir}): the first "
+        "run on a machine compiles them, later runs load them."
+    )
 
 
 if __name__ == "__main__":

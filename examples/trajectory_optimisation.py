@@ -49,7 +49,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import Adam, fixed_base_icub_urdf
+from common import Adam, fixed_base_icub
 
 LEG_JOINTS = ("l_hip_pitch", "l_hip_roll", "l_hip_yaw", "l_knee", "l_ankle_pitch", "l_ankle_roll")
 TARGET = (0.7, 0.25, 0.2, -1.0, -0.3, 0.1)  # [rad], in the order of LEG_JOINTS; inside the joint limits
@@ -58,9 +58,7 @@ SOLE = "l_sole"
 
 def build_model(dtype: str, device, time_step: float):
     """The fixed-base left leg, without collidable points."""
-    full = wd.model.Model.build_from_model_description(
-        fixed_base_icub_urdf(), dtype=np.dtype(dtype), device=device, time_step=time_step
-    )
+    full = fixed_base_icub(dtype=np.dtype(dtype), device=device, time_step=time_step)
     model = wd.model.reduce(full, considered_joints=list(LEG_JOINTS))
     assert not model.floating_base() and model.joint_names() == LEG_JOINTS
     return wd.contact.with_collidable_points(model, enabled_links=())

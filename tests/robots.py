@@ -33,10 +33,14 @@ def ergocub_urdf() -> str:
     return ERGOCUB.read_text()
 
 
-def icub_urdf() -> str:
+def icub_path() -> str:
     import icub_models
 
-    return pathlib.Path(icub_models.get_model_file("iCubGazeboV2_5")).read_text()
+    return str(icub_models.get_model_file("iCubGazeboV2_5"))
+
+
+def icub_urdf() -> str:
+    return pathlib.Path(icub_path()).read_text()
 
 
 def icub_leg_joints(joint_names) -> list[str]:

@@ -87,12 +87,13 @@ def state_array(value, name: str, per_env: tuple, num_envs: int | None, scalar, 
         check_device_array(value, name, scalar, device)
         if tuple(value.shape) not in accepted:
             raise ValueError(f"{name} has shape {tuple(value.shape)}, expected one of {accepted}")
+        from .engine import launch as launching
         from .kernels.state import kernels
 
         if len(per_env) != 1:
             raise ValueError(f"{name}: pass a NumPy array here; Warp arrays are accepted for one axis per environment")
         src = value.reshape((1, per_env[0])) if tuple(value.shape) == tuple(per_env) else value
-        wp.launch(kernels(scalar).broadcast_rows, dim=out.shape, inputs=[src], outputs=[out], device=device)
+        launching.launch(kernels(scalar).broadcast_rows, dim=out.shape, inputs=[src], outputs=[out], device=device)
         return out
     try:
         host = np.asarray(value, dtype=np.float64)

@@ -26,6 +26,7 @@ import weakref
 import numpy as np
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays
 from . import model as _model
 from ._dynamics import mass_parameters_require_grad, requires_grad
@@ -109,7 +110,7 @@ def sums(model, data) -> types.SimpleNamespace:
         _arrays.empty((nL,), N, sp.vec6, d, g),
         _arrays.empty((nL,), N, s, d, g),
     ]
-    wp.launch(
+    launching.launch(
         centroidal_kernels(s).centroidal_sums,
         dim=N,
         inputs=[
@@ -133,7 +134,7 @@ def sums(model, data) -> types.SimpleNamespace:
 def force_in(model, data, S, frame: int) -> wp.array:
     """(N, 6): the momentum in the frame `frame`."""
     out = _arrays.output((6,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
-    wp.launch(
+    launching.launch(
         centroidal_kernels(model.scalar).force_output,
         dim=data.batch_size,
         inputs=[data.base_position_state, data.base_quaternion_state, S.W_p_G, S.G_h, int(frame)],
@@ -146,7 +147,7 @@ def force_in(model, data, S, frame: int) -> wp.array:
 def velocity_in(model, data, S, frame: int, rows: int = 6) -> wp.array:
     """(N, rows): the first `rows` entries of the average velocity in the frame `frame`."""
     out = _arrays.output((rows,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
-    wp.launch(
+    launching.launch(
         centroidal_kernels(model.scalar).velocity_output,
         dim=data.batch_size,
         inputs=[data.base_position_state, data.base_quaternion_state, S.mass, S.W_p_G, S.G_I, S.G_h, int(frame)],
@@ -159,7 +160,7 @@ def velocity_in(model, data, S, frame: int, rows: int = 6) -> wp.array:
 def inertia_in(model, data, S, frame: int) -> wp.array:
     """(N, 6, 6): the locked spatial inertia in the frame `frame`."""
     out = _arrays.output((6, 6), data.batch_size, model.scalar, model.device, requires_grad(model, data))
-    wp.launch(
+    launching.launch(
         centroidal_kernels(model.scalar).inertia_output,
         dim=data.batch_size,
         inputs=[data.base_position_state, data.base_quaternion_state, S.mass, S.W_p_G, S.G_I, int(frame)],
@@ -177,7 +178,7 @@ def jacobian_in(model, data, S, frame: int, average: bool) -> wp.array:
     scratch = [_arrays.empty((nL,), N, t, d, g) for t in (s, vec3, mat33, s, vec3, mat33)]
     J = _arrays.output((6, 6 + model.dofs()), N, s, d, g)
     first_child, next_sibling = _topology(model)
-    wp.launch(
+    launching.launch(
         centroidal_kernels(s).momentum_jacobian,
         dim=N,
         inputs=[
@@ -205,7 +206,7 @@ def jacobian_in(model, data, S, frame: int, average: bool) -> wp.array:
 
 def energy(model, data, S, kinetic: bool, potential: bool) -> wp.array:
     out = _arrays.output((), data.batch_size, model.scalar, model.device, requires_grad(model, data))
-    wp.launch(
+    launching.launch(
         centroidal_kernels(model.scalar).energy_output,
         dim=data.batch_size,
         inputs=[model.scalar(model.gravity), S.mass, S.W_p_G, S.K, int(kinetic), int(potential)],
@@ -228,7 +229,7 @@ def link_spatial_inertia_matrices(model) -> wp.array:
     out = wp.empty((P, nL, 6, 6), dtype=model.scalar, device=model.device, requires_grad=mass_parameters_require_grad(model))
     if _arrays.FILL_OUTPUTS_WITH_NAN:
         out.fill_(float("nan"))
-    wp.launch(centroidal_kernels(model.scalar).link_spatial_inertias, dim=(P, nL), inputs=args, outputs=[out], device=model.device)
+    launching.launch(centroidal_kernels(model.scalar).link_spatial_inertias, dim=(P, nL), inputs=args, outputs=[out], device=model.device)
     return out if model.per_environment_parameters().keys() & {"link_mass", "link_com", "link_inertia"} else out[0]
 
 

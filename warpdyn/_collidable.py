@@ -42,6 +42,7 @@ __all__ = [
     "FrameParameters",
     "KinDynParameters",
     "UnresolvedMeshWarning",
+    "NoCollidablePointsWarning",
     "box_points",
     "sphere_points",
     "cylinder_points",
@@ -56,6 +57,38 @@ SHAPE_KINDS = ("box", "sphere", "cylinder", "capsule", "mesh")
 
 class UnresolvedMeshWarning(UserWarning):
     """A collision mesh could not be found or read: it gives no collidable points."""
+
+
+class NoCollidablePointsWarning(UserWarning):
+    """A floating-base model has no collidable points: it does not touch the terrain."""
+
+
+MESH_POINTS_SUGGESTED = 16
+"""The points per mesh that the warning for a model without collidable points suggests (mesh_max_points)."""
+
+
+def warn_without_points(model_name: str, tree, stacklevel: int) -> None:
+    """One NoCollidablePointsWarning when no collision shape of `tree` gives points by default (a floating
+    base then falls through the terrain), saying how to sample its collision meshes."""
+    kinds = [shape.kind for shapes in tree.collisions for shape in shapes]
+    if any(kind in CollidablePointsOptions().shapes for kind in kinds):
+        return
+    meshes = kinds.count("mesh")
+    if meshes:
+        how = (
+            f"its {meshes} collision meshes give points with wd.contact.with_collidable_points(model, "
+            "options=wd.contact.CollidablePointsOptions(shapes=('box', 'sphere', 'cylinder', 'capsule', 'mesh'), "
+            f"mesh_max_points={MESH_POINTS_SUGGESTED})) ({MESH_POINTS_SUGGESTED} points per mesh, farthest-point "
+            "sampled; package_dirs= where package:// URIs do not resolve; enabled_links= to keep the feet)"
+        )
+    else:
+        how = "its description has no collision shapes: add boxes, spheres, cylinders or capsules to the links that touch the ground"
+    warnings.warn(
+        f"model '{model_name}' has a floating base but no collidable points: it will not touch the terrain and "
+        f"falls through it; {how}",
+        NoCollidablePointsWarning,
+        stacklevel=stacklevel + 1,
+    )
 
 
 @dataclasses.dataclass(frozen=True)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays
 from ._dynamics import model_args, requires_grad
 from .kernels.coriolis import kernels as coriolis_kernels
@@ -46,7 +47,7 @@ def free_floating_coriolis_matrix(model, data) -> wp.array:
     per_link = [_arrays.empty((nL,), N, vec6, d, rg) for _ in range(5)]  # S, Sdot, F, f, g
     C = _arrays.output((6 + n, 6 + n), N, s, d, rg)
     k = coriolis_kernels(s)
-    wp.launch(
+    launching.launch(
         k.coriolis_links,
         dim=N,
         inputs=[
@@ -66,5 +67,5 @@ def free_floating_coriolis_matrix(model, data) -> wp.array:
         device=d,
     )
     if n > 0:
-        wp.launch(k.coriolis_joints, dim=(N, n), inputs=[model.support, *per_link], outputs=[C], device=d)
+        launching.launch(k.coriolis_joints, dim=(N, n), inputs=[model.support, *per_link], outputs=[C], device=d)
     return _arrays.squeeze_env(C, data.num_envs)

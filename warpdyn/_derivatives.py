@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays
 from .common import output_repr
 from .kernels.jacobian_derivatives import kernels as derivative_kernels
@@ -40,7 +41,7 @@ def _kinematics(model, data) -> tuple[wp.array, wp.array, wp.array]:
     vec6 = wp.types.vector(6, model.scalar)
     W_v_WL = _arrays.empty((nL,), N, vec6, model.device, data.requires_grad)
     W_a_L = _arrays.empty((nL,), N, vec6, model.device, data.requires_grad)
-    wp.launch(
+    launching.launch(
         derivative_kernels(model.scalar).link_bias_recursion,
         dim=N,
         inputs=[
@@ -69,7 +70,7 @@ def jacobian_derivatives(model, data, target_link: wp.array, link_H_target: wp.a
     W_H_L, W_v_WL, _ = _kinematics(model, data)
     N, T = data.batch_size, target_link.shape[0]
     Jdot = _arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, data.requires_grad)
-    wp.launch(
+    launching.launch(
         derivative_kernels(model.scalar).jacobian_derivatives,
         dim=(N, T),
         inputs=[
@@ -101,7 +102,7 @@ def bias_accelerations(model, data, target_link: wp.array, link_H_target: wp.arr
     W_H_L, W_v_WL, W_a_L = _kinematics(model, data)
     N, T = data.batch_size, target_link.shape[0]
     a = _arrays.output((T, 6), N, model.scalar, model.device, data.requires_grad)
-    wp.launch(
+    launching.launch(
         derivative_kernels(model.scalar).bias_accelerations,
         dim=(N, T),
         inputs=[

@@ -28,6 +28,7 @@ import weakref
 import numpy as np
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays, _tape
 from .kernels.aba import ABA_RECORD
 from .kernels.aba import kernels as aba_kernels
@@ -85,7 +86,7 @@ def _launch(model, name: str, N: int, width: int, args: list, grad: bool) -> Non
     if _taping():
         scratch = _arrays.empty((nL, width), N, model.scalar, device, grad)
         inputs = [scratch if a is _SCRATCH else a for a in args]
-        wp.launch(kernel, dim=N, inputs=inputs, device=device, block_dim=block_dim)
+        launching.launch(kernel, dim=N, inputs=inputs, device=device, block_dim=block_dim)
         return
     cache = _recorded.get(model)
     if cache is None:
@@ -95,7 +96,7 @@ def _launch(model, name: str, N: int, width: int, args: list, grad: bool) -> Non
     if entry is None or entry.N != N or entry.launch.kernel is not kernel or entry.block_dim != block_dim:
         scratch = _arrays.empty((nL, width), N, model.scalar, device)
         bound = [scratch if a is _SCRATCH else a for a in args]
-        launch = wp.launch(kernel, dim=N, inputs=bound, device=device, block_dim=block_dim, record_cmd=True)
+        launch = launching.launch(kernel, dim=N, inputs=bound, device=device, block_dim=block_dim, record_cmd=True)
         entry = cache[key] = _Recorded(N, block_dim, launch, bound)
     else:
         bound, launch = entry.bound, entry.launch
@@ -358,7 +359,7 @@ def forward_dynamics_crb(model, data, *, joint_forces=None, link_forces=None):
         tau = _arrays.batched_input(joint_forces, "joint_forces", (n,), data.num_envs, s, d)
     grad = M.requires_grad or Q.requires_grad or tau.requires_grad
     rhs = _arrays.empty((6 + n,), N, s, d, grad)
-    wp.launch(state_kernels(s).actuated_minus, dim=N, inputs=[tau, Q], outputs=[rhs], device=d)
+    launching.launch(state_kernels(s).actuated_minus, dim=N, inputs=[tau, Q], outputs=[rhs], device=d)
     nu_dot = _arrays.output((6 + n,), N, s, d, grad)
     K = cholesky_kernels(s)
     offset = _offset(model)
@@ -374,7 +375,7 @@ def _solve(K, A, b, offset: int, x) -> None:
     N, k = x.shape
     s, d = A.dtype, A.device
     scratch = (_arrays.empty((k, k), N, s, d), _arrays.empty((k,), N, s, d))
-    wp.launch(K.solve, dim=N, inputs=[A, b, offset, *scratch], outputs=[x], device=d)
+    launching.launch(K.solve, dim=N, inputs=[A, b, offset, *scratch], outputs=[x], device=d)
 
 
 def _solve_adjoint(K, A, b, offset: int, x) -> None:
@@ -384,7 +385,7 @@ def _solve_adjoint(K, A, b, offset: int, x) -> None:
     _solve(K, A, x.grad, offset, y)
     adj_A = A.grad if A.grad is not None else A
     adj_b = b.grad if b.grad is not None else b
-    wp.launch(
+    launching.launch(
         K.solve_adjoint,
         dim=(N, k - offset),
         inputs=[x, y, offset, int(A.grad is not None), int(b.grad is not None)],
@@ -403,7 +404,7 @@ def free_floating_mass_matrix_inverse(model, data) -> wp.array:
     offset = _offset(model)
     scratch = (_arrays.empty((6 + n, 6 + n), N, s, d), _arrays.empty((6 + n, 6 + n), N, s, d))
     with _tape.suspended() as tape:
-        wp.launch(K.inverse, dim=N, inputs=[M, offset, *scratch], outputs=[Minv], device=d)
+        launching.launch(K.inverse, dim=N, inputs=[M, offset, *scratch], outputs=[Minv], device=d)
     if tape is not None and M.requires_grad:
         tape.record_func(backward=lambda: _inverse_adjoint(K, M, offset, Minv), arrays=[M, Minv])
     return _arrays.squeeze_env(Minv, data.num_envs)
@@ -416,9 +417,9 @@ def _inverse_adjoint(K, A, offset: int, X) -> None:
     s, d = X.dtype, X.device
     W = _arrays.empty((k, k), N, s, d)
     P = _arrays.empty((k, k), N, s, d)
-    wp.launch(K.block_product, dim=(N, k - offset), inputs=[X.grad, X, offset], outputs=[W], device=d)
-    wp.launch(K.block_product, dim=(N, k - offset), inputs=[X, W, offset], outputs=[P], device=d)
-    wp.launch(K.inverse_adjoint, dim=(N, k - offset), inputs=[P, offset], outputs=[A.grad], device=d)
+    launching.launch(K.block_product, dim=(N, k - offset), inputs=[X.grad, X, offset], outputs=[W], device=d)
+    launching.launch(K.block_product, dim=(N, k - offset), inputs=[X, W, offset], outputs=[P], device=d)
+    launching.launch(K.inverse_adjoint, dim=(N, k - offset), inputs=[P, offset], outputs=[A.grad], device=d)
 
 
 def forward_dynamics(model, data, *, joint_forces=None, link_forces=None, prefer_aba: bool = True):

@@ -41,6 +41,7 @@ import enum
 import numpy as np
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays, _tape
 from ._dynamics import model_args
 from .common import VelRepr
@@ -571,11 +572,11 @@ def _step_launches(plan: _Plan, ws: _Workspace, x: list, y: list, tau_ref, f_use
 
 def _run(launches, device) -> None:
     for kernel, dim, inputs, outputs in launches:
-        wp.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device)
+        launching.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device)
 
 
 def _run_recorded(ws: _Workspace, launches, device) -> None:
-    """`_run` through launches recorded in `ws` (wp.launch(record_cmd=True)): a later call with the same
+    """`_run` through launches recorded in `ws` (launching.launch(record_cmd=True)): a later call with the same
     kernels re-packs only the arguments that are not the ones bound last time (the new state arrays), not
     the ~100 arguments of a step. Outside a tape only (a tape records wp.launch calls)."""
     recorded = ws.recorded
@@ -583,7 +584,7 @@ def _run_recorded(ws: _Workspace, launches, device) -> None:
         recorded = ws.recorded = []
         for kernel, dim, inputs, outputs in launches:
             args = [*inputs, *outputs]
-            recorded.append((wp.launch(kernel, dim=dim, inputs=args, device=device, record_cmd=True), args))
+            recorded.append((launching.launch(kernel, dim=dim, inputs=args, device=device, record_cmd=True), args))
     else:
         for (command, bound), (kernel, dim, inputs, outputs) in zip(recorded, launches):
             for i, a in enumerate((*inputs, *outputs)):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays, _centroidal
 from ._dynamics import requires_grad
 from .common import VelRepr
@@ -38,7 +39,7 @@ def com_position(model, data):
     """W_p_CoM: (3,) or (N, 3) [m]."""
     S = _sums(model, data)
     out = _arrays.output((3,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
-    wp.launch(
+    launching.launch(
         centroidal_kernels(model.scalar).com_output,
         dim=data.batch_size,
         inputs=[S.W_p_G],
@@ -108,7 +109,7 @@ def bias_acceleration(model, data):
     N, nL = data.batch_size, model.number_of_links()
     scratch = _arrays.empty((nL,), N, wp.types.vector(3, model.scalar), model.device, requires_grad(model, data))
     out = _arrays.output((3,), N, model.scalar, model.device, requires_grad(model, data))
-    wp.launch(
+    launching.launch(
         centroidal_kernels(model.scalar).com_bias_acceleration,
         dim=N,
         inputs=[model.kernel_parameter("link_mass"), model.kernel_parameter("link_com"), S.W_H_L, S.W_v_WL, a_body, S.mass, _centroidal.centroidal_frame(data)],

@@ -18,6 +18,7 @@ import copy
 import numpy as np
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays, _names
 from . import model as _model
 from ._collidable import (
@@ -25,6 +26,7 @@ from ._collidable import (
     ContactParameters,
     FrameParameters,
     KinDynParameters,
+    NoCollidablePointsWarning,
     UnresolvedMeshWarning,
 )
 from ._simulation import estimate_good_contact_parameters
@@ -37,6 +39,7 @@ __all__ = [
     "ContactParameters",
     "FrameParameters",
     "KinDynParameters",
+    "NoCollidablePointsWarning",
     "UnresolvedMeshWarning",
     "with_collidable_points",
     "collidable_point_kinematics",
@@ -95,7 +98,7 @@ def _positions(model, data) -> wp.array:
     _, W_H_L = _model.link_poses(model, data)
     N, nc = data.batch_size, link.shape[0]
     W_p_C = _arrays.output((nc, 3), N, model.scalar, model.device, data.requires_grad)
-    wp.launch(
+    launching.launch(
         contact_kernels(model.scalar).point_positions,
         dim=(N, nc),
         inputs=[link, L_p_C, W_H_L],
@@ -120,7 +123,7 @@ def collidable_point_velocities(model, data) -> wp.array:
     v = _model.velocities(model, data, link, link_H_point, VelRepr.Mixed)
     N, nc = data.batch_size, link.shape[0]
     W_pdot_C = _arrays.output((nc, 3), N, model.scalar, model.device, data.requires_grad)
-    wp.launch(
+    launching.launch(
         contact_kernels(model.scalar).linear_part, dim=(N, nc), inputs=[v], outputs=[W_pdot_C], device=model.device
     )
     return _arrays.squeeze_env(W_pdot_C, data.num_envs)
@@ -155,7 +158,7 @@ def in_contact(model, data, *, link_names=None) -> wp.array:
     plan = _plan(model)
     plan.check_envs(N)
     out = _arrays.output((K,), N, wp.bool, model.device)
-    wp.launch(
+    launching.launch(
         wrench_kernels(model.scalar).links_below_terrain,
         dim=(N, K),
         inputs=[point_link, W_p_C, links, *plan.terrain_args],
@@ -201,7 +204,7 @@ def link_contact_forces(
     if ev is None:
         out.zero_()
     else:
-        wp.launch(
+        launching.launch(
             wrench_kernels(model.scalar).link_wrenches,
             dim=(N, nL),
             inputs=[plan.link_first_point, ev.W_H_L, ev.chain, int(out_repr)],
@@ -226,7 +229,7 @@ def collidable_point_forces(model, data, *, link_forces=None, joint_force_refere
     N = data.batch_size
     out = _arrays.output((plan.count, 6), N, model.scalar, model.device, data.requires_grad)
     if ev is not None:
-        wp.launch(
+        launching.launch(
             wrench_kernels(model.scalar).point_wrenches,
             dim=(N, plan.count),
             inputs=[plan.point_link, plan.L_p_C, plan.point_out, ev.W_H_L, ev.W_f_C, int(out_repr)],

@@ -21,6 +21,7 @@ import dataclasses
 import numpy as np
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays
 from .common import VelRepr
 from .kernels.state import kernels as state_kernels
@@ -103,7 +104,7 @@ class Data:
         if requires_grad:
             linear.requires_grad = angular.requires_grad = True
         velocity = _arrays.empty((6,), N, s, d)
-        wp.launch(
+        launching.launch(
             state_kernels(s).base_velocity_from_repr,
             dim=N,
             inputs=[position, quaternion, linear, angular, int(velocity_representation)],
@@ -191,7 +192,7 @@ class Data:
     def base_orientation(self) -> wp.array:
         """W_Q_B normalised, (w, x, y, z): (4,) or (N, 4) (as JaxSim: a quaternion, not a matrix)."""
         out = _arrays.output((4,), self.batch_size, self.scalar, self.device, self.requires_grad)
-        wp.launch(
+        launching.launch(
             state_kernels(self.scalar).normalized_quaternion,
             dim=self.batch_size,
             inputs=[self.base_quaternion_state],
@@ -206,7 +207,7 @@ class Data:
         from .kernels.kinematics import kernels as kinematics_kernels
 
         out = _arrays.output((4, 4), self.batch_size, self.scalar, self.device, self.requires_grad)
-        wp.launch(
+        launching.launch(
             kinematics_kernels(self.scalar).base_homogeneous_matrix,
             dim=self.batch_size,
             inputs=[self.base_position_state, self.base_quaternion_state],
@@ -219,7 +220,7 @@ class Data:
     def base_velocity(self) -> wp.array:
         """The base velocity in the data's representation: (6,) or (N, 6), [linear; angular]."""
         out = _arrays.output((6,), self.batch_size, self.scalar, self.device, self.requires_grad)
-        wp.launch(
+        launching.launch(
             state_kernels(self.scalar).base_velocity_to_repr,
             dim=self.batch_size,
             inputs=[
@@ -243,7 +244,7 @@ class Data:
         """nu = [base velocity in the data's representation; sdot]: (6 + n,) or (N, 6 + n)."""
         n = self.joint_velocities_state.shape[1]
         out = _arrays.output((6 + n,), self.batch_size, self.scalar, self.device, self.requires_grad)
-        wp.launch(
+        launching.launch(
             state_kernels(self.scalar).generalized_velocity,
             dim=self.batch_size,
             inputs=[
@@ -283,10 +284,10 @@ class Data:
             mine, theirs = getattr(self, f"{name}_state"), getattr(source, f"{name}_state")
             out = _arrays.empty(mine.shape[1:], self.batch_size, self.scalar, self.device)
             kernel = state_kernels(self.scalar).select_rows_3d if mine.ndim == 3 else state_kernels(self.scalar).select_rows
-            wp.launch(kernel, dim=self.batch_size, inputs=[selected, theirs, mine], outputs=[out], device=self.device)
+            launching.launch(kernel, dim=self.batch_size, inputs=[selected, theirs, mine], outputs=[out], device=self.device)
             fields[f"{name}_state"] = out
         valid = wp.empty(self.batch_size, dtype=wp.int32, device=self.device)
-        wp.launch(
+        launching.launch(
             state_kernels(self.scalar).select_valid, dim=self.batch_size, inputs=[selected, self.valid_state], outputs=[valid], device=self.device
         )
         return dataclasses.replace(self, **fields, valid_state=valid)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .engine import launch as launching
 from . import _arrays, _derivatives, _names
 from . import model as _model
 
@@ -103,7 +104,6 @@ def spatial_inertia(model, *, link_index: int):
 
 def com_position(model, data, *, link_index: int, in_link_frame: bool = True):
     """The link's CoM: L_p_CoM (in_link_frame, the default) or W_p_CoM: (3,) or (N, 3) [m]."""
-    import warp as wp
 
     from .kernels.centroidal import kernels as centroidal_kernels
 
@@ -112,7 +112,7 @@ def com_position(model, data, *, link_index: int, in_link_frame: bool = True):
 
     _, W_H_L = _model.link_poses(model, data)
     out = _arrays.output((3,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
-    wp.launch(
+    launching.launch(
         centroidal_kernels(model.scalar).link_com_positions,
         dim=data.batch_size,
         inputs=[model.kernel_parameter("link_com"), i, int(bool(in_link_frame)), W_H_L],

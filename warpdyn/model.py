@@ -9,8 +9,10 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays
 from .common import VelRepr, output_repr  # noqa: F401  (VelRepr stays importable as wd.model.VelRepr)
+from ._collidable import warn_without_points
 from .description import ModelDescription, load
 from .kernels.jacobians import kernels as jacobian_kernels
 from .kernels.kinematics import kernels as kinematics_kernels
@@ -297,16 +299,23 @@ class Model:
         model_name: str | None = None,
         considered_joints: list[str] | None = None,
         is_urdf: bool | None = None,
+        fixed_base: bool | None = None,
+        base_pose=None,
         gravity: float = 9.81,
         time_step: float = 0.001,
         dtype=np.float32,
         device=None,
     ) -> Model:
-        """Build a model from a URDF or MJCF (path or XML string).
+        """Build a model from a URDF or MJCF: a path, an XML string or XML bytes (any encoding its XML
+        declaration names).
 
         Fixed joints are lumped (their child links become frames); only `considered_joints` are kept
-        when given (the others are locked at 0 and lumped). gravity [m/s^2] acts along -z of the world.
-        dtype: np.float32 or np.float64, the scalar of every computation. device: a Warp device.
+        when given (the others are locked at 0 and lumped). fixed_base: None keeps the description's base
+        (welded to a `world` link, or floating); True welds the base to the world at `base_pose`, a (4, 4)
+        homogeneous transform W_H_B [m] (default: the description's weld, else the identity; an MJCF free
+        joint becomes a weld); False frees a base the description welds. gravity [m/s^2] acts along -z of
+        the world. dtype: np.float32 (the default) or np.float64, the scalar of every computation.
+        device: a Warp device (default: Warp's default device, a GPU when there is one).
         """
         if np.dtype(dtype) not in _SCALARS:
             raise TypeError(f"dtype must be np.float32 or np.float64, got {dtype!r}")
@@ -314,9 +323,9 @@ class Model:
             raise ValueError(f"gravity must be finite, got {gravity}")
         if not (np.isfinite(time_step) and time_step > 0.0):
             raise ValueError(f"time_step must be positive and finite, got {time_step}")
-        description = load(model_description, is_urdf=is_urdf)
+        description = load(model_description, is_urdf=is_urdf, fixed_base=fixed_base, base_pose=base_pose)
         tree = build_tree(description, considered_joints)
-        return cls(
+        model = cls(
             description,
             tree,
             model_name=model_name if model_name is not None else description.name,
@@ -325,6 +334,9 @@ class Model:
             dtype=dtype,
             device=device,
         )
+        if model.floating_base():
+            warn_without_points(model.model_name, tree, stacklevel=2)
+        return model
 
     def __repr__(self) -> str:
         return (
@@ -510,7 +522,7 @@ def link_poses(model: Model, data) -> tuple[wp.array, wp.array]:
     transform = wp.types.transformation(model.scalar)
     parent_H_link = _arrays.empty((nL,), N, transform, model.device, data.requires_grad)
     W_H_L = _arrays.empty((nL,), N, transform, model.device, data.requires_grad)
-    wp.launch(
+    launching.launch(
         kinematics_kernels(model.scalar).forward_kinematics,
         dim=N,
         inputs=[
@@ -533,7 +545,7 @@ def homogeneous(model: Model, poses: wp.array, target_link: wp.array, link_H_tar
     """(N, T, 4, 4) homogeneous matrices of poses[:, target_link[t]] * link_H_target[t]."""
     N, T = poses.shape[0], target_link.shape[0]
     H = _arrays.output((T, 4, 4), N, model.scalar, model.device, requires_grad)
-    wp.launch(
+    launching.launch(
         kinematics_kernels(model.scalar).homogeneous_matrices,
         dim=(N, T),
         inputs=[poses, target_link, link_H_target],
@@ -566,7 +578,7 @@ def jacobians(model: Model, data, target_link: wp.array, link_H_target: wp.array
     _, W_H_L = link_poses(model, data)
     N, T = data.batch_size, target_link.shape[0]
     J = _arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, data.requires_grad)
-    wp.launch(
+    launching.launch(
         jacobian_kernels(model.scalar).jacobians,
         dim=(N, T),
         inputs=[
@@ -603,7 +615,7 @@ def velocities(model: Model, data, target_link: wp.array, link_H_target: wp.arra
     N, T = data.batch_size, target_link.shape[0]
     W_v_WL = _arrays.empty((model.number_of_links(),), N, wp.types.vector(6, model.scalar), model.device, data.requires_grad)
     v = _arrays.output((T, 6), N, model.scalar, model.device, data.requires_grad)
-    wp.launch(
+    launching.launch(
         velocity_kernels(model.scalar).link_velocities,
         dim=N,
         inputs=[

@@ -16,6 +16,7 @@ import dataclasses
 import numpy as np
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays
 from . import model as _model
 from .common import VelRepr
@@ -121,7 +122,7 @@ class References:
             self._needs_data(data)
             _, W_H_L = _model.link_poses(model, data)
             out = _arrays.output(forces.shape[1:], self.batch_size, forces.dtype, forces.device, data.requires_grad)
-            wp.launch(
+            launching.launch(
                 force_kernels(forces.dtype).inertial_to_forces,
                 dim=(self.batch_size, forces.shape[1]),
                 inputs=[W_H_L, forces, int(self.velocity_representation)],
@@ -154,14 +155,14 @@ class References:
         if not additive:
             replaced[links] = 1
         K = force_kernels(model.scalar)
-        wp.launch(
+        launching.launch(
             K.kept_forces,
             dim=out.shape,
             inputs=[self.link_forces_state, wp.array(replaced, dtype=int, device=model.device)],
             outputs=[out],
             device=model.device,
         )
-        wp.launch(
+        launching.launch(
             K.add_target_forces,
             dim=(N, T),
             inputs=[target_link, link_H_target, W_H_L, values, int(self.velocity_representation)],

@@ -117,6 +117,7 @@ import functools
 import numpy as np
 import warp as wp
 
+from .engine import launch as launching
 from . import _arrays
 from . import _simulation as _sim
 from . import _tape
@@ -526,7 +527,7 @@ class _Config:
             if stop - start > 1:
                 pairs.append((self.seg[i][: stop - start - 1], record[start + 1 : stop]))
             for state, rec in pairs:
-                wp.launch(
+                launching.launch(
                     K[rec.ndim], dim=rec.shape, inputs=[state], outputs=[rec], adj_inputs=[state.grad], adj_outputs=[rec.grad],
                     adjoint=True, device=self.device,
                 )
