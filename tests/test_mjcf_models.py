@@ -188,8 +188,6 @@ def test_fixture_compiles_with_expected_sizes_and_no_contacts(name):
     sizes counted by hand, has a positive-definite M at random states, and never makes a contact with
     constraints left on (its geoms have contype = conaffinity = 0). Exact integer checks."""
     assert set(SIZES) == set(mm.FIXTURES)
-    if name == "ACTUATOR_ARMATURE_DAMPING" and not hasattr(mujoco.MjModel, "actuator_armature"):
-        pytest.skip("actuator armature/damping need MuJoCo >= 3.7")
     m = mm.load(mm.FIXTURES[name])
     assert (m.nq, m.nv, m.nu, m.na, m.nbody) == SIZES[name]
     rng = np.random.default_rng(0)
@@ -588,8 +586,6 @@ def test_actuator_armature_and_damping_reflect_through_gear_squared():
     """MuJoCo >= 3.7: ACTUATOR_ARMATURE_DAMPING's motor (gear 30, armature 0.001, damping 0.002) adds
     30^2 * 0.001 = 0.9 to M's diagonal and 30^2 * 0.002 = 1.8 to the joint's damping (qfrc_damper), on top
     of the joint's own 0.01 and 0.1; dof_armature/dof_damping keep the joint's own values. 1e-10."""
-    if not hasattr(mujoco.MjModel, "actuator_armature"):
-        pytest.skip("needs MuJoCo >= 3.7")
     m = mm.load(mm.ACTUATOR_ARMATURE_DAMPING)
     assert m.dof_armature[0] == 0.01 and m.dof_damping[0] == 0.1
     q, v = np.array([0.4]), np.array([-1.3])
