@@ -48,8 +48,9 @@ project's root:
   compare_<device>.md (compare_<device>_float64.md with --dtype float64) into --output-dir (default
   benchmarks/results; $OUT brings it back from the GPU machine), rewriting it after each library, so
   a run stopped at the device's 600 s limit keeps what it finished. Compilation dominates the first run:
-  MuJoCo Warp's kernels (~2 min on an empty cache), JAX's JIT once per N; the Warp kernel cache stays on
-  a warm machine, so a second call compiles less. If one call cannot hold all three, split it by
+  MuJoCo Warp's kernels (~2 min on an empty cache), JAX's JIT once per N; Warp's kernel cache and JAX's
+  compilation cache (~/.cache/warpdyn-compare-jax) stay on a warm machine, so a second call compiles
+  less (the first-run column then shows cached times). If one call cannot hold all three, split it by
   --libraries (e.g. warpdyn,mjwarp then warpdyn,jaxsim): the figures then come from two processes.
 """
 
@@ -102,10 +103,6 @@ class Result:
     note: str = ""
 
 
-class Skip(Exception):
-    """A size not run, with the reason."""
-
-
 @dataclasses.dataclass
 class Scene:
     urdf: str  # the stripped URDF text: boxes as the only collision shapes
@@ -114,6 +111,7 @@ class Scene:
     z0: float  # base height at t = 0
     dtype: str
     device: str  # Warp's device name ("cpu", "cuda:0")
+    jax_cache: str  # JAX's persistent compilation cache (a second call on a warm machine skips the JIT)
 
 
 def timed_runs(run, sync, repeats: int, min_seconds: float = 0.5):
@@ -228,8 +226,8 @@ class MujocoWarp:
             graph = {}
 
             def run():
-                if not graph:  # first run: compile (eagerly), then capture
-                    steps()
+                if not graph:  # first run: compile (one eager step), then capture
+                    mjw.step(m, d)
                     with wp.ScopedCapture(device=device) as capture:
                         steps()
                     graph["g"] = capture.graph
@@ -240,7 +238,10 @@ class MujocoWarp:
             nacon, nefc, niter = int(d.nacon.numpy()[0]), d.nefc.numpy(), d.solver_niter.numpy()
             overflow = int(np.bitwise_or.reduce(d.overflow.numpy()))
         flags = [f.name for f in mjw.OverflowType if f.value and not f.value & (f.value - 1) and overflow & f.value]
-        note = f"contacts per world {nacon / N:.1f}, max rows {int(nefc.max())}, solver iterations (last step) mean {niter.mean():.1f} max {int(niter.max())}" + (f", overflow flags: {', '.join(flags)}" if flags else "")
+        note = f"contacts per world {nacon / N:.1f}, max rows {int(nefc.max())}"
+        note += f", solver iterations (last step) mean {niter.mean():.1f} max {int(niter.max())}"
+        if flags:
+            note += f", overflow flags: {', '.join(flags)}"
         finite = np.isfinite(qpos).all(axis=1)
         return Result(run_s=run_s, first_s=first, z0=float(mjd.qpos[2]), z=qpos[:, 2].astype(np.float64), finite=int(finite.sum()), note=note)
 
@@ -257,6 +258,7 @@ class Jaxsim:
         import jaxsim.api as js
 
         jax.config.update("jax_enable_x64", scene.dtype == "float64")
+        jax.config.update("jax_compilation_cache_dir", scene.jax_cache)
         self.jax, self.js, self.scene = jax, js, scene
         self.device = jax_device(scene.device)
         with warnings.catch_warnings(), jax.default_device(self.device):
@@ -430,6 +432,7 @@ def report(args, scene: Scene, sizes, results: dict, described: dict, started: f
         f"median of >= {args.repeats} timed runs (more while they add up to < 0.5 s) after a first run and a "
         "warm-up run; Warp kernel cache: "
         f"{'empty at start (--fresh-cache)' if args.fresh_cache else 'as found (compile times are lower when warm)'}; "
+        f"JAX compilation cache: {scene.jax_cache} ({'empty at start' if args.fresh_cache else 'as found'}); "
         f"whole script {time.perf_counter() - started:.0f} s",
         "",
         "Scene: the ergoCub's 12 leg joints (other joints locked at 0, their links lumped), floating base, the URDF's 4 "
@@ -509,7 +512,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per size (at least 5)")
     parser.add_argument("--libraries", default=",".join(LIBRARIES), help="comma-separated subset of " + ",".join(LIBRARIES))
     parser.add_argument("--max-run-seconds", type=float, default=60.0, help="skip larger N once a run of 100 steps takes (or would take) longer")
-    parser.add_argument("--fresh-cache", action="store_true", help="compile Warp kernels into an empty cache (honest first-run times)")
+    parser.add_argument("--fresh-cache", action="store_true", help="Warp kernels and JAX programs compile into empty caches (honest first-run times)")
     parser.add_argument("--output-dir", default=None, help="folder of compare_<device>[_float64].md (default: benchmarks/results; on the GPU machine: $OUT)")
     args = parser.parse_args()
     args.repeats = max(5, args.repeats)
@@ -520,10 +523,12 @@ def main() -> None:
     started = time.perf_counter()
     wp.config.quiet = True
     wp.config.log_level = wp.LOG_WARNING
+    jax_cache = os.path.join(os.path.expanduser("~"), ".cache", "warpdyn-compare-jax")
     if args.fresh_cache:
         import tempfile
 
         wp.config.kernel_cache_dir = tempfile.mkdtemp(prefix="warpdyn-compare-cache-")
+        jax_cache = tempfile.mkdtemp(prefix="warpdyn-compare-jax-")
     wp.init()
     device = wp.get_device(args.device)
     sizes = [int(n) for n in args.sizes.split(",")] if args.sizes else ([1, 4096, 32768, 131072] if device.is_cuda else [1, 16])
@@ -535,7 +540,7 @@ def main() -> None:
     # base height from the box corners at the zero configuration, computed from the URDF with NumPy (so
     # that no library compiles anything before its first timed run); each library's own value is printed
     lowest = lowest_box_corner(urdf)
-    scene = Scene(urdf, strip_urdf(urdf, keep_joints=legs), legs, z0=-lowest - DEPTH, dtype=args.dtype, device=str(device))
+    scene = Scene(urdf, strip_urdf(urdf, keep_joints=legs), legs, -lowest - DEPTH, args.dtype, str(device), jax_cache)
     print(f"device {device.name} ({device}); N = {sizes}; dtype {args.dtype}; {versions()}", flush=True)
     print(f"scene: {count_boxes(urdf)} foot boxes, lowest corner {lowest:+.5f} m, base z0 = {scene.z0:.5f} m, dt {DT} s, {STEPS} steps per run", flush=True)
 
