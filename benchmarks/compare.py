@@ -35,15 +35,8 @@ run exceeds --max-run-seconds (or would, extrapolated linearly in N), skips the 
 Sanity (printed, not asserted): base height after 100 steps over the environments, and how many stayed finite.
 
 Locally (CPU, 2 cores): python benchmarks/compare.py --device cpu        (sizes 1,16 by default)
-On the GPU machine (the lead's job; it has CUDA, JAX and NumPy, the rest travels as wheels), from the
-project's root:
-    bash ../shared/device/pack.sh mujoco-warp==4.0.0 mujoco==4.0.0 mujoco-core==4.0.0 mujoco-studio==4.0.0 \\
-      glfw pyopengl absl-py etils fsspec importlib-resources zipp jaxsim==0.9.0 jaxlie jax-dataclasses pptree \\
-      rod coloredlogs humanfriendly qpax resolve-robotics-uri-py mashumaro xmltodict tyro docstring-parser \\
-      typeguard optax chex toolz trimesh yourdfpy
-  (yourdfpy: warpdyn's URDF parser, in case the machine lacks it), then the three device calls of
-  ../shared/device/README.md, the last one
-    source .device/c/setup.sh && python3 benchmarks/compare.py --device cuda:0 --output-dir $OUT
+On a GPU machine, with the peers installed (pip install mujoco-warp==4.0.0 jaxsim==0.9.0 "jax[cuda13]"):
+    python benchmarks/compare.py --device cuda:0 [--output-dir DIR]
   (sizes 1,4096,32768,131072 by default on CUDA). It prints the report and writes it as
   compare_<device>.md (compare_<device>_float64.md with --dtype float64) into --output-dir (default
   benchmarks/results; $OUT brings it back from the GPU machine), rewriting it after each library, so

@@ -9,7 +9,7 @@ accelerations) and `free_floating_mass_matrix` on batched data (each call alloca
 warm-up, as medians, synchronising around every call. --single adds single-environment calls (data with
 num_envs=None, NumPy inputs: the latency of a plain Python call). --sweep times each algorithm at the
 largest N for CUDA settings `block_dim:max_registers` (0: Warp's default block / no register cap; rows
-without --sweep use the kernels' tuned MAX_REGISTERS, see warpdyn._dynamics.CUDA_LAUNCH).
+without --sweep use the kernels' tuned MAX_REGISTERS, see warpdyn.wd.config.cuda_launch).
 --release-threshold sets the CUDA memory pool's release threshold first (bytes, or a fraction of the
 device's memory): with Warp's default, memory freed by a call goes back to the driver at the next
 synchronisation and large outputs (CRBA's M) are mapped again by the next call. "kernel only" replays the call's recorded launch back to back: the device
@@ -176,7 +176,7 @@ def main() -> None:
             for name in algorithms:
                 for setting in args.sweep.split(","):
                     block_dim, registers = (int(x) or None for x in setting.split(":"))
-                    _dynamics.CUDA_LAUNCH[KERNEL_NAME[name]] = (block_dim, registers)
+                    wd.config.cuda_launch[KERNEL_NAME[name]] = (block_dim, registers)
                     t = time.perf_counter()
                     CALLS[name](model, data, u)
                     wp.synchronize_device(device)
@@ -189,7 +189,7 @@ def main() -> None:
                         f"{kernel_s * 1e3:.4f} |",
                         flush=True,
                     )
-                _dynamics.CUDA_LAUNCH.pop(KERNEL_NAME[name], None)
+                wd.config.cuda_launch.pop(KERNEL_NAME[name], None)
     if not device.is_cuda:
         yardstick = mujoco_yardstick()
         for name, seconds in yardstick:

@@ -4,7 +4,7 @@
 
 Times `wd.model.generalized_free_floating_jacobian(model, data)` (one FK launch and one Jacobian launch,
 output (N, 13, 6, 18)) after a warm-up; compile time (first call, empty kernel cache) is reported apart.
-The layout column compares the two physical layouts of per-environment arrays (warpdyn._arrays):
+The layout column compares the two physical layouts of per-environment arrays (warpdyn.arrays):
 environment-fastest (the default on GPUs: threads of a warp touch neighbouring addresses) and
 environment-major (the default on the CPU: one thread walks contiguous memory).
 Prints a Markdown table: median time per call, per environment, and Jacobians per second.
@@ -18,7 +18,6 @@ import time
 import warp as wp
 
 import warpdyn as wd
-import warpdyn._arrays as arrays
 from common import header, init_warp, median_time, np_dtype, seed_model, sizes
 
 
@@ -43,7 +42,7 @@ def main() -> None:
         wp.synchronize_device(device)
         compile_s = time.perf_counter() - t
         for layout in args.layouts.split(","):
-            arrays.ENV_FASTEST = layout == "env-fastest"
+            wd.config.env_fastest = layout == "env-fastest"
             for N in sizes(args.max_envs):
                 data = wd.data.random_model_data(model, num_envs=N)
                 wd.model.generalized_free_floating_jacobian(model, data)
@@ -54,7 +53,7 @@ def main() -> None:
                     flush=True,
                 )
                 compile_s = float("nan")
-    arrays.ENV_FASTEST = None
+    wd.config.env_fastest = None
 
 
 if __name__ == "__main__":

@@ -14,9 +14,9 @@ wp.config.log_level = wp.LOG_WARNING
 wp.init()
 wp.set_device("cpu")
 
-import warpdyn._arrays  # noqa: E402
+import warpdyn  # noqa: E402
 
-warpdyn._arrays.FILL_OUTPUTS_WITH_NAN = True
+warpdyn.config.fill_outputs_with_nan = True
 
 DTYPES = [np.float64, np.float32]
 

@@ -18,7 +18,7 @@ import warp as wp
 
 import robots
 import warpdyn as wd
-from warpdyn import _arrays
+from warpdyn import arrays as _arrays
 
 Model = wd.model.Model
 

@@ -52,9 +52,9 @@ CASES = MUJOCO_CASES + ["randomfixed-100"]
 
 @pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
 def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn._arrays): the device's default (env-major
+    """Both physical layouts of per-environment arrays (warpdyn.arrays): the device's default (env-major
     on the CPU) and env-fastest (the GPU's), so that a CPU run covers both."""
-    monkeypatch.setattr(wd._arrays, "ENV_FASTEST", request.param)
+    monkeypatch.setattr(wd.config, "env_fastest", request.param)
     return request.param
 
 
@@ -542,7 +542,7 @@ def _data_from_states(data, states) -> wd.data.Data:
     """Data holding the given state arrays (host, in the Data layout) with data's representation."""
     arrays = []
     for a in states:
-        out = wd._arrays.empty(a.shape[1:], a.shape[0], data.scalar, data.device)
+        out = wd.arrays.empty(a.shape[1:], a.shape[0], data.scalar, data.device)
         out.assign(wp.array(np.ascontiguousarray(a), dtype=data.scalar, device=data.device))
         arrays.append(out)
     return wd.data.Data(*arrays, velocity_representation=data.velocity_representation, num_envs=data.num_envs)

@@ -30,7 +30,7 @@ import warp as wp
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
-from warpdyn._collidable import capsule_points, cylinder_points, farthest_point_subsample, sphere_points
+from warpdyn.description.collidable import capsule_points, cylinder_points, farthest_point_subsample, sphere_points
 
 REPRS = (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)
 TOL = {np.dtype(np.float64): 1e-10, np.dtype(np.float32): 1e-5}

@@ -87,9 +87,9 @@ def _scale(*arrays) -> float:
 
 @pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
 def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn._arrays): env-major (the CPU's) and
+    """Both physical layouts of per-environment arrays (warpdyn.arrays): env-major (the CPU's) and
     env-fastest (the GPU's), so that a CPU run covers both."""
-    monkeypatch.setattr(wd._arrays, "ENV_FASTEST", request.param)
+    monkeypatch.setattr(wd.config, "env_fastest", request.param)
     return request.param
 
 

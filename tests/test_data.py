@@ -5,7 +5,7 @@ References: the documented contract of warpdyn.data (defaults, shapes, bounds), 
 host-side NumPy formulas for quaternion -> rotation. Tolerances are exact for copies and a few ulps
 (float64 1e-14, float32 1e-6) for a normalisation or a quaternion-to-matrix conversion, as each test says.
 
-Layouts: tests that move per-environment arrays run in both physical layouts of warpdyn._arrays (the
+Layouts: tests that move per-environment arrays run in both physical layouts of warpdyn.arrays (the
 device's default, env-major on the CPU, and env-fastest, the GPU's), so a CPU run covers both.
 """
 
@@ -20,7 +20,6 @@ import warp as wp
 
 import robots
 import warpdyn as wd
-import warpdyn._arrays
 from warpdyn import VelRepr
 
 REPRS = (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)
@@ -28,7 +27,7 @@ REPRS = (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)
 
 @pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
 def layout(request, monkeypatch):
-    monkeypatch.setattr(warpdyn._arrays, "ENV_FASTEST", request.param)
+    monkeypatch.setattr(wd.config, "env_fastest", request.param)
     return request.param
 
 

@@ -115,7 +115,7 @@ def test_per_environment_gradients_through_a_rollout(env_fastest, monkeypatch):
     (module docstring; rtol 1e-6). The loss weighs environment 0 and 1 differently, so a gradient summed
     over environments (the shared case) would fail. Both layouts: the CPU's and the GPUs' (environment
     fastest: the per-environment parameter arrays are then transposed views)."""
-    monkeypatch.setattr(wd._arrays, "ENV_FASTEST", env_fastest)
+    monkeypatch.setattr(wd.config, "env_fastest", env_fastest)
     n, T, envs = 3, 10, 2
     rng = np.random.default_rng(2)
     model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(n), dtype=np.float64)

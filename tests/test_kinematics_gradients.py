@@ -22,7 +22,6 @@ import warp as wp
 
 import robots
 import warpdyn as wd
-import warpdyn._arrays
 from warpdyn import VelRepr
 
 STEP = 1e-6
@@ -32,9 +31,9 @@ FIELDS = ("base_position", "base_quaternion", "joint_positions", "base_velocity"
 
 @pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
 def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn._arrays): the device's default (env-major
+    """Both physical layouts of per-environment arrays (warpdyn.arrays): the device's default (env-major
     on the CPU) and env-fastest (the GPU's), so that a CPU run covers both."""
-    monkeypatch.setattr(warpdyn._arrays, "ENV_FASTEST", request.param)
+    monkeypatch.setattr(wd.config, "env_fastest", request.param)
     return request.param
 
 

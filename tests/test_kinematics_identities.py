@@ -21,7 +21,6 @@ import pytest
 
 import robots
 import warpdyn as wd
-import warpdyn._arrays
 from warpdyn import VelRepr
 
 REPRS = (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)
@@ -30,9 +29,9 @@ MODELS = ("tree0", "tree3", "tree7", "fixed2", "fixed9", "icub_legs", "ergocub_s
 
 @pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
 def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn._arrays): the device's default (env-major
+    """Both physical layouts of per-environment arrays (warpdyn.arrays): the device's default (env-major
     on the CPU) and env-fastest (the GPU's), so that a CPU run covers both."""
-    monkeypatch.setattr(warpdyn._arrays, "ENV_FASTEST", request.param)
+    monkeypatch.setattr(wd.config, "env_fastest", request.param)
     return request.param
 
 

@@ -28,7 +28,7 @@ import gradcheck
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
-from warpdyn import _arrays
+from warpdyn import arrays as _arrays
 from warpdyn import _simulation as sim
 
 EULER, RK4 = wd.model.IntegratorType.SemiImplicitEuler, wd.model.IntegratorType.RungeKutta4
@@ -234,7 +234,7 @@ def test_gpu_layout_on_the_cpu(monkeypatch):
     """The environment-fastest layout of GPUs (transposed views; the backward slices the segment's states
     and records) forced on the CPU: pendulum, RK4, checkpoint_every 3 of T = 7, gradients equal
     "trajectory"'s in the same layout bit for bit (module docstring)."""
-    monkeypatch.setattr(_arrays, "ENV_FASTEST", True)
+    monkeypatch.setattr(wd.config, "env_fastest", True)
     model, params = _pendulum(RK4)
     n, N, T = model.dofs(), 3, 7
     rng = np.random.default_rng(6)

@@ -58,7 +58,6 @@ import warp as wp
 import gradcheck as gc
 import robots
 import warpdyn as wd
-import warpdyn._arrays
 from warpdyn import VelRepr
 
 SIE, RK4 = wd.model.IntegratorType.SemiImplicitEuler, wd.model.IntegratorType.RungeKutta4
@@ -504,7 +503,7 @@ def test_gradients_of_one_environment_do_not_leak(integrator, layout, monkeypatc
     environment 1 alone (same kernels on the same numbers: measured bitwise equal; asserted to rtol 1e-12,
     in case a sum over environments is reordered).
     Both physical layouts of per-environment arrays (env-major, the CPU's; env-fastest, the GPU's)."""
-    monkeypatch.setattr(warpdyn._arrays, "ENV_FASTEST", layout)
+    monkeypatch.setattr(wd.config, "env_fastest", layout)
     N, T, env = 3, 10, 1
     K, D, mu = np.array([1.2e6, 1e6, 8e5]), np.array([1800.0, 2000.0, 2500.0]), np.array([0.5, 0.1, 0.05])
     model, data, hold = _standing_ergocub(integrator, 0.5, N, base_linear_velocity=np.array([[0.0, 0.0, 0.0], [0.5, 0.1, 0.0], [-0.3, 0.0, 0.0]]))

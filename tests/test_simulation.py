@@ -41,7 +41,6 @@ import pytest
 
 import robots
 import warpdyn as wd
-import warpdyn._arrays
 import warpdyn._simulation as simulation
 
 SIE = wd.model.IntegratorType.SemiImplicitEuler
@@ -979,9 +978,9 @@ def test_invalid_simulation_parameters_raise_at_build_time():
 
 @pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
 def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn._arrays): the CPU's env-major one and the
+    """Both physical layouts of per-environment arrays (warpdyn.arrays): the CPU's env-major one and the
     GPU's env-fastest one, so that a CPU run covers the batched indexing of both."""
-    monkeypatch.setattr(warpdyn._arrays, "ENV_FASTEST", request.param)
+    monkeypatch.setattr(wd.config, "env_fastest", request.param)
     return request.param
 
 

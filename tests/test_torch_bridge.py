@@ -133,7 +133,7 @@ def test_floating_base_with_contacts_equals_the_plain_tape(per_env, monkeypatch)
     they were. per_env: link masses given per environment ((2, nL) tensors and gradients) and the ground at
     a height per environment (terrain_height (2,)), in the GPUs' environment-fastest layout (per-environment
     arrays are transposed views there)."""
-    monkeypatch.setattr(wd._arrays, "ENV_FASTEST", per_env)
+    monkeypatch.setattr(wd.config, "env_fastest", per_env)
     model = _legs_model()
     n, N, T = model.dofs(), 2, 5
     nc = len(model.kin_dyn_parameters.contact_parameters.body)

@@ -24,7 +24,7 @@ if _os.environ.get("WARPDYN_VERBOSE", "") in ("", "0") and _wp.config.log_level 
 # model first: it re-exports functions of modules (_centroidal, _dynamics, ...) that import it back.
 from . import model  # isort: skip
 from . import assets, com, contact, data, frame, joint, link, math, references, simulation, terrain, visualization
-from .common import VelRepr
+from .types.enums import VelRepr
 
 __all__ = [
     "VelRepr",

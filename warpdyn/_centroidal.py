@@ -27,10 +27,11 @@ import numpy as np
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays
+from . import arrays as _arrays
+from . import config
 from . import model as _model
 from ._dynamics import mass_parameters_require_grad, requires_grad
-from .common import VelRepr, output_repr
+from .types.enums import VelRepr, output_repr
 from .kernels.centroidal import FRAME_GB, FRAME_GW
 from .kernels.centroidal import kernels as centroidal_kernels
 
@@ -227,7 +228,7 @@ def link_spatial_inertia_matrices(model) -> wp.array:
     args = [model.kernel_parameter(name) for name in ("link_mass", "link_com", "link_inertia")]
     P = max(a.shape[0] for a in args)
     out = wp.empty((P, nL, 6, 6), dtype=model.scalar, device=model.device, requires_grad=mass_parameters_require_grad(model))
-    if _arrays.FILL_OUTPUTS_WITH_NAN:
+    if config.fill_outputs_with_nan:
         out.fill_(float("nan"))
     launching.launch(centroidal_kernels(model.scalar).link_spatial_inertias, dim=(P, nL), inputs=args, outputs=[out], device=model.device)
     return out if model.per_environment_parameters().keys() & {"link_mass", "link_com", "link_inertia"} else out[0]

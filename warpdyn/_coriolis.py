@@ -22,7 +22,7 @@ from __future__ import annotations
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays
+from . import arrays as _arrays
 from ._dynamics import model_args, requires_grad
 from .kernels.coriolis import kernels as coriolis_kernels
 

@@ -16,8 +16,8 @@ from __future__ import annotations
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays
-from .common import output_repr
+from . import arrays as _arrays
+from .types.enums import output_repr
 from .kernels.jacobian_derivatives import kernels as derivative_kernels
 
 __all__ = [

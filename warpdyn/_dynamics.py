@@ -29,7 +29,9 @@ import numpy as np
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays, _tape
+from . import arrays as _arrays
+from . import config
+from .engine import tape as _tape
 from .kernels.aba import ABA_RECORD
 from .kernels.aba import kernels as aba_kernels
 from .kernels.cholesky import kernels as cholesky_kernels
@@ -40,11 +42,6 @@ from .kernels.rnea import kernels as rnea_kernels
 from .kernels.scratch import TRANSFORM
 from .kernels.state import kernels as state_kernels
 
-
-CUDA_LAUNCH: dict[str, tuple[int | None, int | None | str]] = {}
-"""CUDA settings by kernel name ("aba", "rnea", "crba"): (threads per block, register cap per thread).
-Missing: Warp's default block (256) and each kernel module's MAX_REGISTERS; a cap of None: the compiler's
-choice. benchmarks/dynamics.py --sweep measures them."""
 
 _KERNELS = {
     "aba": lambda scalar, registers: aba_kernels(scalar, registers).aba,
@@ -80,7 +77,7 @@ def _launch(model, name: str, N: int, width: int, args: list, grad: bool) -> Non
     recorded launch for this kernel, re-packing only the arguments that are not the ones it holds.
     """
     device = model.device
-    block_dim, registers = CUDA_LAUNCH.get(name, (None, "tuned")) if device.is_cuda else (None, "tuned")
+    block_dim, registers = config.cuda_launch.get(name, (None, "tuned")) if device.is_cuda else (None, "tuned")
     kernel = _KERNELS[name](model.scalar, registers)
     nL = model.number_of_links()
     if _taping():
@@ -169,7 +166,7 @@ class _Outputs:
             self.user = [_arrays.squeeze_env(a, None) for a in self.args]
         else:
             self.user = [wp.empty(shape, dtype=s, device=d, requires_grad=grad) for shape in shapes]
-            if _arrays.FILL_OUTPUTS_WITH_NAN:
+            if config.fill_outputs_with_nan:
                 for a in self.user:
                     a.fill_(float("nan"))
             self.args = [_arrays.with_env_axis(a) for a in self.user]

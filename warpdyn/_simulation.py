@@ -36,15 +36,17 @@ rebuilds the plan once). With nothing marked, nothing changes: a few attribute r
 from __future__ import annotations
 
 import dataclasses
-import enum
 
 import numpy as np
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays, _tape
+from . import arrays as _arrays
+from .engine import tape as _tape
 from ._dynamics import model_args
-from .common import VelRepr
+from .types.enums import IntegratorType, VelRepr
+from .types.settings import ActuationParams, SoftContactsParams
+from .types.settings import host_values as _host
 from .kernels.aba import ABA_RECORD
 from .kernels.aba import kernels as aba_kernels
 from .kernels.actuation import kernel as actuation_kernel
@@ -54,24 +56,10 @@ from .kernels.kinematics import kernels as kinematics_kernels
 from .kernels.scratch import TRANSFORM
 from .kernels.soft_contacts import kernels as contact_kernels
 from .kernels.velocities import kernels as velocity_kernels
-from .terrain import FlatTerrain, HeightfieldTerrain
+from .types.terrain import FlatTerrain, HeightfieldTerrain
 
 
 __all__ = ["IntegratorType", "SoftContactsParams", "ActuationParams", "step", "estimate_good_contact_parameters"]
-
-
-class IntegratorType(enum.IntEnum):
-    """The integrators of `step` (JaxSim's names)."""
-
-    SemiImplicitEuler = 1
-    RungeKutta4 = 2
-
-
-def _host(value) -> np.ndarray:
-    """A contact parameter's values on the host (float64), from a number, a NumPy array or a Warp array."""
-    if isinstance(value, wp.array):
-        value = value.numpy()
-    return np.asarray(value, dtype=np.float64)
 
 
 PARAMETERS = (
@@ -106,50 +94,6 @@ def parameters_require_grad(model) -> bool:
         or model.joint_limit_damper.requires_grad
         or any(isinstance(v, wp.array) and v.requires_grad for v in (c.K, c.D, c.mu, *_terrain_parameters(model.terrain)))
     )
-
-
-@dataclasses.dataclass(frozen=True)
-class SoftContactsParams:
-    """JaxSim's soft-contact parameters and defaults.
-
-    K: stiffness [N/m^(1+p)]; D: damping [N s/m^(1+q)]; mu: Coulomb friction coefficient (stick and slip);
-    p: exponent of the spring term, q: of the damper term. K, D and mu may be arrays (N,), one value per
-    environment (domain randomisation). They may also be Warp arrays ((1,) or (N,), the model's dtype and
-    device): `step` then reads them in place, so that with requires_grad their .grad receives the gradient
-    (see `warpdyn.model.parameters_requiring_grad`); their values are read once, when the step's plan is
-    built, for the checks.
-    """
-
-    K: float | np.ndarray = 1e6
-    D: float | np.ndarray = 2000.0
-    mu: float | np.ndarray = 0.5
-    p: float = 0.5
-    q: float = 0.5
-
-    def __post_init__(self):
-        for name in ("K", "D", "mu", "p", "q"):
-            value = _host(getattr(self, name))
-            if value.ndim > 1 or not np.all(np.isfinite(value)) or np.any(value < 0.0):
-                raise ValueError(f"SoftContactsParams.{name} must be finite and non-negative (a number or (N,)), got {value}")
-        if np.any(_host(self.D) <= 0.0):
-            raise ValueError("SoftContactsParams.D must be positive (the deformation relaxes with rate K/D)")
-
-
-@dataclasses.dataclass(frozen=True)
-class ActuationParams:
-    """JaxSim's torque-speed curve and whether joint friction applies.
-
-    torque_max [N m]: the bound up to omega_th [rad/s], falling linearly to 0 at omega_max.
-    """
-
-    torque_max: float = 3000.0
-    omega_th: float = 30.0
-    omega_max: float = 100.0
-    enable_friction: bool = True
-
-    def __post_init__(self):
-        if not (0.0 < self.omega_th < self.omega_max) or self.torque_max < 0.0:
-            raise ValueError(f"ActuationParams needs torque_max >= 0 and 0 < omega_th < omega_max, got {self}")
 
 
 def _taping() -> bool:

@@ -14,9 +14,10 @@ from __future__ import annotations
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays, _centroidal
+from . import _centroidal
+from . import arrays as _arrays
 from ._dynamics import requires_grad
-from .common import VelRepr
+from .types.enums import VelRepr
 from .kernels.centroidal import kernels as centroidal_kernels
 
 __all__ = [

@@ -19,18 +19,13 @@ import numpy as np
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays, _names
+from . import arrays as _arrays
+from .types import names as _names
 from . import model as _model
-from ._collidable import (
-    CollidablePointsOptions,
-    ContactParameters,
-    FrameParameters,
-    KinDynParameters,
-    NoCollidablePointsWarning,
-    UnresolvedMeshWarning,
-)
+from .description.collidable import CollidablePointsOptions, NoCollidablePointsWarning, UnresolvedMeshWarning
+from .types.kin_dyn import ContactParameters, FrameParameters, KinDynParameters
 from ._simulation import estimate_good_contact_parameters
-from .common import VelRepr, output_repr
+from .types.enums import VelRepr, output_repr
 from .kernels.contact_points import kernels as contact_kernels
 from .kernels.contact_wrenches import kernels as wrench_kernels
 

@@ -22,8 +22,8 @@ import numpy as np
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays
-from .common import VelRepr
+from . import arrays as _arrays
+from .types.enums import VelRepr
 from .kernels.state import kernels as state_kernels
 
 __all__ = ["Data", "random_model_data"]

@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _arrays, _derivatives, _names
+from . import _derivatives
+from . import arrays as _arrays
+from .types import names as _names
 from . import model as _model
 
 __all__ = [

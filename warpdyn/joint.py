@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _names
+from .types import names as _names
 
 __all__ = ["name_to_idx", "idx_to_name", "names_to_idxs", "idxs_to_names", "position_limit", "position_limits"]
 

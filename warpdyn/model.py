@@ -10,14 +10,14 @@ import numpy as np
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays
-from .common import VelRepr, output_repr  # noqa: F401  (VelRepr stays importable as wd.model.VelRepr)
-from ._collidable import warn_without_points
+from . import arrays as _arrays
+from .types.enums import VelRepr, output_repr  # noqa: F401  (VelRepr stays importable as wd.model.VelRepr)
+from .description.collidable import warn_without_points
 from .description import ModelDescription, load
 from .kernels.jacobians import kernels as jacobian_kernels
 from .kernels.kinematics import kernels as kinematics_kernels
 from .kernels.velocities import kernels as velocity_kernels
-from .tree import KinematicTree, build_tree
+from .description.tree import KinematicTree, build_tree
 
 __all__ = [
     "Model",
@@ -175,8 +175,9 @@ class Model:
         """JaxSim's defaults for `step`: flat terrain at z = 0, soft contacts (K = 1e6, D = 2000, mu = 0.5,
         p = q = 0.5), semi-implicit Euler, joint friction from the description (static: <friction>,
         viscous: <damping>), joint-limit springs off (stiffness 0), JaxSim's torque-speed curve."""
-        from ._simulation import ActuationParams, IntegratorType, SoftContactsParams
-        from .terrain import FlatTerrain
+        from .types.enums import IntegratorType
+        from .types.settings import ActuationParams, SoftContactsParams
+        from .types.terrain import FlatTerrain
 
         self.terrain = FlatTerrain()
         self.contact_params = SoftContactsParams()
@@ -385,7 +386,7 @@ class Model:
         """
         params = self.__dict__.get("_kin_dyn_parameters")
         if params is None:
-            from ._collidable import KinDynParameters
+            from .types.kin_dyn import KinDynParameters
 
             params = self.__dict__["_kin_dyn_parameters"] = KinDynParameters.build(self)
         return params
@@ -454,7 +455,7 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
     import dataclasses
 
     from ._simulation import PARAMETERS
-    from .terrain import FlatTerrain, HeightfieldTerrain
+    from .types.terrain import FlatTerrain, HeightfieldTerrain
 
     if isinstance(names, str):
         names = (names,)

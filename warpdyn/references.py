@@ -17,9 +17,9 @@ import numpy as np
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays
+from . import arrays as _arrays
 from . import model as _model
-from .common import VelRepr
+from .types.enums import VelRepr
 from .kernels.forces import kernels as force_kernels
 
 __all__ = ["References"]

@@ -118,11 +118,12 @@ import numpy as np
 import warp as wp
 
 from .engine import launch as launching
-from . import _arrays
+from . import arrays as _arrays
+from . import config
 from . import _simulation as _sim
-from . import _tape
-from ._tape import suspended as _tape_suspended
-from .common import VelRepr
+from .engine import tape as _tape
+from .engine.tape import suspended as _tape_suspended
+from .types.enums import VelRepr
 from .data import Data
 from .kernels.contact_wrenches import kernels as wrench_kernels
 from .kernels.rollout import int_kernels as rollout_int_kernels
@@ -195,7 +196,7 @@ def _env_array(lead: tuple, N: int, per_env: tuple, dtype, device, grad: bool = 
         array = physical.transpose((*range(L), L + P, *range(L, L + P)))
     else:
         array = wp.empty((*lead, N, *per_env), dtype=dtype, device=device, requires_grad=grad)
-    if _arrays.FILL_OUTPUTS_WITH_NAN and dtype in (wp.float32, wp.float64):
+    if config.fill_outputs_with_nan and dtype in (wp.float32, wp.float64):
         array.fill_(float("nan"))
     return array
 

@@ -53,7 +53,7 @@ import warp as wp
 
 from warpdyn import _simulation as _sim
 from warpdyn import simulation as _simulation
-from warpdyn.common import VelRepr
+from warpdyn.types.enums import VelRepr
 from warpdyn.data import Data
 
 __all__ = ["rollout", "STATE_INPUTS"]

@@ -47,7 +47,7 @@ import re
 
 import numpy as np
 
-from .common import VelRepr
+from .types.enums import VelRepr
 
 __all__ = [
     "RerunRecorder",
@@ -341,7 +341,7 @@ class RerunRecorder:
                 )
             except Exception:  # no trimesh/scipy, or a degenerate hull: the vertices as points
                 return rr.Points3D(vertices.astype(np.float32), radii=self.point_radius / 2, colors=[MESH_COLOR])
-        from ._collidable import resolve_mesh_uri
+        from .description.collidable import resolve_mesh_uri
 
         options = self.model.kin_dyn_parameters.options
         source = getattr(self.model.description, "path", None)
@@ -413,7 +413,7 @@ class RerunRecorder:
         if self.unresolved_meshes:
             import warnings
 
-            from ._collidable import UnresolvedMeshWarning
+            from .description.collidable import UnresolvedMeshWarning
 
             shown = ", ".join(self.unresolved_meshes[:3]) + (", ..." if len(self.unresolved_meshes) > 3 else "")
             warnings.warn(

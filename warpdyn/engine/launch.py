@@ -1,4 +1,5 @@
-"""Kernel launches: every warpdyn launch goes through `launch` (a recorded launch is made by it).
+"""Kernel launches: every warpdyn launch goes through `launch` (a recorded launch is made by it), singly, as
+a list of `Launch`es (`run`), or replayed from a recording (`Recorded`).
 
 The first launch of a kernel module on a device compiles it, or loads it from Warp's kernel cache
 (`wp.config.kernel_cache_dir`). That first load runs under one process-wide lock, since Warp's module
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import sys
 import threading
+from typing import NamedTuple
 
 import warp as wp
 
@@ -58,3 +60,59 @@ def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | Non
     device = wp.get_device(device)
     ensure_loaded(kernel, device, block_dim if device.is_cuda else None)
     return wp.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device, block_dim=block_dim, **options)
+
+
+class Launch(NamedTuple):
+    """One kernel launch: `kernel` over `dim` with `inputs` then `outputs` (and CUDA's `block_dim`)."""
+
+    kernel: object
+    dim: object
+    inputs: list
+    outputs: list
+    block_dim: int | None = None
+
+
+def run(launches, device) -> None:
+    """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them)."""
+    for item in launches:
+        launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
+
+
+class Recorded:
+    """A list of launches recorded once (wp.launch(record_cmd=True)) and replayed: a later `run` with the same
+    kernels re-packs only the arguments that are not the ones bound last time (new state arrays, new
+    outputs), not the tens of arguments of a step. Outside a tape only: a tape records wp.launch calls.
+
+    Not thread-safe: one per thread (see `per_thread`).
+    """
+
+    def __init__(self):
+        self._commands: list | None = None
+
+    def run(self, launches, device) -> None:
+        commands = self._commands
+        if commands is None or len(commands) != len(launches) or any(c[0].kernel is not l.kernel for c, l in zip(commands, launches)):
+            commands = self._commands = []
+            for item in launches:
+                args = [*item.inputs, *item.outputs]
+                command = launch(item.kernel, item.dim, args, device=device, block_dim=item.block_dim, record_cmd=True)
+                commands.append((command, args, item.dim))
+        else:
+            for (command, bound, dim), item in zip(commands, launches):
+                if dim != item.dim:
+                    command.set_dim(item.dim)
+                for i, a in enumerate((*item.inputs, *item.outputs)):
+                    b = bound[i]
+                    if a is b or (type(a) in (int, float) and type(b) is type(a) and a == b):
+                        continue
+                    command.set_param_at_index(i, a)
+                    bound[i] = a
+        for command, _, _ in commands:
+            command.launch()
+
+
+def per_thread(model, key, build):
+    """`model.cached` for what one thread may use at a time (workspaces, recorded launches): one value per
+    (key, calling thread, CUDA stream), so that calls from several threads never share them."""
+    stream = model.device.stream if model.device.is_cuda else None
+    return model.cached((key, threading.get_ident(), stream), build)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .description import CollisionShape, ModelDescription, joint_motion
+from .model import CollisionShape, ModelDescription, joint_motion
 
 JOINT_REVOLUTE = 1
 JOINT_PRISMATIC = 2

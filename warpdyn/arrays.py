@@ -6,8 +6,8 @@ Every array with an environment axis is handed to kernels and users with its log
   a warp, which own neighbouring environments, read and write neighbouring addresses (coalesced);
 - on the CPU, environment-major: (N, ...) contiguous, so the one thread that walks an environment's
   links reads and writes contiguous memory.
-`ENV_FASTEST` overrides the choice (True or False; None chooses by device). benchmarks/kinematics.py
-measures both layouts on both kinds of device.
+`warpdyn.config.env_fastest` overrides the choice (True or False; None chooses by device).
+benchmarks/kinematics.py measures both layouts on both kinds of device.
 """
 
 from __future__ import annotations
@@ -15,22 +15,16 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from . import config
+
 try:  # Warp's array descriptor: what a launch receives for an array argument
     from warp._src.types import array_t as _array_t
 except ImportError:  # pragma: no cover - other Warp versions: launch_view builds array objects instead
     _array_t = None
 
-ENV_FASTEST: bool | None = None
-"""Physical layout of per-environment arrays: None chooses by device (see the module docstring)."""
-
-
 def env_fastest(device) -> bool:
-    """Whether per-environment arrays on `device` are stored environment-fastest."""
-    return wp.get_device(device).is_cuda if ENV_FASTEST is None else ENV_FASTEST
-
-
-FILL_OUTPUTS_WITH_NAN = False
-"""Debugging aid: fill every output with NaN before a kernel writes it, so unwritten entries show."""
+    """Whether per-environment arrays on `device` are stored environment-fastest (warpdyn.config.env_fastest)."""
+    return wp.get_device(device).is_cuda if config.env_fastest is None else bool(config.env_fastest)
 
 
 def empty(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = False) -> wp.array:
@@ -45,9 +39,9 @@ def empty(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = Fals
 
 
 def output(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = False) -> wp.array:
-    """An array for a kernel's output: like `empty`, filled with NaN when FILL_OUTPUTS_WITH_NAN is set."""
+    """An array for a kernel's output: like `empty`, filled with NaN when warpdyn.config.fill_outputs_with_nan is set."""
     array = empty(shape, num_envs, dtype, device, requires_grad)
-    if FILL_OUTPUTS_WITH_NAN and dtype in (wp.float32, wp.float64):
+    if config.fill_outputs_with_nan and dtype in (wp.float32, wp.float64):
         array.fill_(float("nan"))
     return array
 

@@ -1,4 +1,5 @@
-"""Names shared by the whole façade."""
+"""The enumerations every layer shares: velocity representations (their codes are what kernels read, see
+kernels/spatial.py) and integrators."""
 
 from __future__ import annotations
 
@@ -24,3 +25,10 @@ class VelRepr(enum.IntEnum):
 def output_repr(data, output_vel_repr) -> VelRepr:
     """`output_vel_repr` as a VelRepr, or the data's representation when it is None (JaxSim's default)."""
     return VelRepr(output_vel_repr if output_vel_repr is not None else data.velocity_representation)
+
+
+class IntegratorType(enum.IntEnum):
+    """The integrators of `step` (JaxSim's names)."""
+
+    SemiImplicitEuler = 1
+    RungeKutta4 = 2

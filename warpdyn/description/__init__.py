@@ -1,0 +1,127 @@
+"""Robot descriptions (URDF, MJCF) read into one plain, host-side form: `load` and the `ModelDescription`
+it returns (warpdyn.description.model), the lumped tree (`tree`) and the collidable points of its shapes
+(`collidable`). Host code only (NumPy, float64, SI units): nothing here touches a device.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import re
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from .mjcf import load_mjcf
+from .model import (
+    CollisionShape,
+    JointDescription,
+    LinkDescription,
+    ModelDescription,
+    axis_angle_to_matrix,
+    joint_motion,
+    quaternion_wxyz_to_matrix,
+)
+from .urdf import load_urdf
+
+__all__ = [
+    "LinkDescription",
+    "JointDescription",
+    "CollisionShape",
+    "ModelDescription",
+    "load",
+    "joint_motion",
+    "axis_angle_to_matrix",
+    "quaternion_wxyz_to_matrix",
+]
+
+
+_XML_DECLARATION = re.compile(r"^\s*<\?xml[^>]*\?>")
+
+
+def _looks_like_xml(text: str) -> bool:
+    return text.lstrip("\ufeff \t\r\n").startswith("<")
+
+
+def _read_document(model_description) -> tuple[bytes, str | None]:
+    """(the document's bytes, its path or None) of a path, an XML string or XML bytes.
+
+    Files and bytes are handed to the XML parsers as bytes, which honour a byte-order mark and the encoding
+    an XML declaration names. A string is already decoded: its BOM and XML declaration (whose encoding no
+    longer applies) are dropped and the text is encoded as UTF-8.
+    """
+    if isinstance(model_description, (bytes, bytearray, memoryview)):
+        return bytes(model_description), None
+    if isinstance(model_description, os.PathLike) or (
+        isinstance(model_description, str) and not _looks_like_xml(model_description)
+    ):
+        path = pathlib.Path(model_description).expanduser()
+        if not path.is_file():
+            raise FileNotFoundError(f"robot description '{model_description}' does not exist or is not a file")
+        return path.read_bytes(), str(path)
+    if isinstance(model_description, str):
+        text = _XML_DECLARATION.sub("", model_description.lstrip("\ufeff"), count=1)
+        return text.encode("utf-8"), None
+    raise TypeError(
+        "model_description must be a path, an XML string or XML bytes, got an object of type "
+        f"{type(model_description).__name__}"
+    )
+
+
+def load(
+    model_description, *, is_urdf: bool | None = None, fixed_base: bool | None = None, base_pose=None
+) -> ModelDescription:
+    """Read a URDF or MJCF description (a path, an XML string or XML bytes) into a `ModelDescription`.
+
+    fixed_base: None keeps what the description says (a root welded to a `world` link, or an MJCF body
+    without a free joint, is a fixed base); True welds the base to the world (an MJCF free joint becomes a
+    weld) at `base_pose`; False frees a base the description welds to the world. base_pose (4, 4): the
+    homogeneous transform W_H_B of the welded base (default: the description's weld, or the identity).
+    """
+    document, path = _read_document(model_description)
+    where = f"'{path}'" if path else "the given XML document"
+    try:
+        root = ET.fromstring(document)
+    except ET.ParseError as error:
+        raise ValueError(f"{where} is not well-formed XML: {error}") from None
+    if is_urdf is None:
+        if root.tag == "robot":
+            is_urdf = True
+        elif root.tag == "mujoco":
+            is_urdf = False
+        else:
+            raise ValueError(f"{where} has root element <{root.tag}>: expected <robot> (URDF) or <mujoco> (MJCF)")
+    description = load_urdf(document, where) if is_urdf else load_mjcf(root, path, where)
+    description.path = path
+    return _with_base(description, fixed_base, base_pose, where)
+
+
+def _with_base(description: ModelDescription, fixed_base: bool | None, base_pose, where: str) -> ModelDescription:
+    """The description with its base welded or freed as `load` documents."""
+    if base_pose is not None:
+        H = np.asarray(base_pose, dtype=np.float64)
+        if H.shape != (4, 4) or not np.all(np.isfinite(H)):
+            raise ValueError(f"base_pose must be a finite (4, 4) homogeneous transform, got shape {H.shape}")
+        R = H[:3, :3]
+        if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0.0 or np.abs(H[3] - [0, 0, 0, 1]).max() > 1e-12:
+            raise ValueError("base_pose must be a homogeneous transform: a rotation block (det +1) and last row (0, 0, 0, 1)")
+        if fixed_base is False or (fixed_base is None and not description.fixed_base):
+            raise ValueError("base_pose places a welded base: pass fixed_base=True (a floating base's pose is in the data)")
+    if fixed_base is None or bool(fixed_base) == description.fixed_base:
+        if base_pose is not None:
+            description.world_H_base = H
+        return description
+    if fixed_base:
+        description.fixed_base = True
+        description.world_H_base = np.eye(4) if base_pose is None else H
+        return description
+    if description.base == "world":
+        raise ValueError(
+            f"{where}: fixed_base=False, but the world has several bodies welded or jointed to it: there is no one "
+            "base to free"
+        )
+    description.fixed_base = False
+    description.world_H_base = np.eye(4)
+    return description
+
+
