@@ -9,11 +9,11 @@ accelerations) and `free_floating_mass_matrix` on batched data (each call alloca
 warm-up, as medians, synchronising around every call. --single adds single-environment calls (data with
 num_envs=None, NumPy inputs: the latency of a plain Python call). --sweep times each algorithm at the
 largest N for CUDA settings `block_dim:max_registers` (0: Warp's default block / no register cap; rows
-without --sweep use the kernels' tuned MAX_REGISTERS, see warpdyn.wd.config.cuda_launch).
+without --sweep use the kernels' tuned MAX_REGISTERS, see warpdyn.config.cuda_launch).
 --release-threshold sets the CUDA memory pool's release threshold first (bytes, or a fraction of the
 device's memory): with Warp's default, memory freed by a call goes back to the driver at the next
-synchronisation and large outputs (CRBA's M) are mapped again by the next call. "kernel only" replays the call's recorded launch back to back: the device
-time without the façade's host work (outputs, argument packing, synchronisation). On the CPU the run also times MuJoCo's `mj_forward` and `mj_inverse` on
+synchronisation and large outputs (CRBA's M) are mapped again by the next call. "kernel only" is the kernel's median device time from Warp's CUDA
+activity timing (wp.timing_begin): without the façade's host work (outputs, argument packing, synchronisation). On the CPU the run also times MuJoCo's `mj_forward` and `mj_inverse` on
 the same robot (one call, one environment, constraints off) and prints batched ABA per environment
 against mj_forward. Prints Markdown tables.
 """
@@ -21,6 +21,7 @@ against mj_forward. Prints Markdown tables.
 from __future__ import annotations
 
 import argparse
+import statistics
 import time
 
 import numpy as np
@@ -80,25 +81,18 @@ def row(name, dtype_name, N, compile_s, seconds, kernel_s=float("nan"), note="")
     )
 
 
-def kernel_seconds(model, name: str, device, replays: int = 50) -> float:
-    """Seconds per launch of the kernel's recorded launch (the last call's arguments), `replays` back to back:
-    the device time without the façade's host work. NaN where warpdyn keeps no recorded launch."""
-    try:
-        from warpdyn import _dynamics
-
-        entries = [e for key, e in _dynamics._recorded[model].items() if key[0] == KERNEL_NAME[name]]
-    except (ImportError, AttributeError, KeyError):
+def kernel_seconds(model, name: str, device, call, data, u, replays: int = 20) -> float:
+    """Median device seconds of the kernel's launches over `replays` calls, from Warp's CUDA activity timing
+    (wp.timing_begin(cuda_filter=wp.TIMING_KERNEL)): the kernel without the façade's host work. NaN on the CPU."""
+    if not device.is_cuda:
         return float("nan")
-    if not entries:
-        return float("nan")
-    launch = entries[-1].launch
-    launch.launch()
-    wp.synchronize_device(device)
-    t = time.perf_counter()
+    call(model, data, u)
+    wp.timing_begin(cuda_filter=wp.TIMING_KERNEL)
     for _ in range(replays):
-        launch.launch()
-    wp.synchronize_device(device)
-    return (time.perf_counter() - t) / replays
+        call(model, data, u)
+    results = wp.timing_end()
+    times = [r.elapsed for r in results if KERNEL_NAME[name] in r.name]  # milliseconds
+    return statistics.median(times) / 1e3 if times else float("nan")
 
 
 def main() -> None:
@@ -156,13 +150,10 @@ def main() -> None:
                 u = wp.array(np.random.default_rng(1).uniform(-1, 1, (N, n)), dtype=model.scalar, device=device)
                 compile_s = first_call(data, u)
                 seconds = median_time(lambda: call(model, data, u), device, args.repeats)
-                kept = call(model, data, u)  # noqa: F841  (the recorded launch writes into these outputs)
-                print(row(name, dtype_name, N, compile_s, seconds, kernel_seconds(model, name, device)), flush=True)
+                print(row(name, dtype_name, N, compile_s, seconds, kernel_seconds(model, name, device, call, data, u)), flush=True)
                 if name == "ABA":
                     largest_aba[dtype_name] = (N, seconds)
     if args.sweep and device.is_cuda:
-        from warpdyn import _dynamics
-
         N = max(Ns)
         print()
         print(f"CUDA settings at N = {N} (block_dim:max_registers; 0: Warp's default block, no register cap)")
@@ -182,8 +173,7 @@ def main() -> None:
                     wp.synchronize_device(device)
                     compile_s = time.perf_counter() - t
                     seconds = median_time(lambda: CALLS[name](model, data, u), device, args.repeats)
-                    kept = CALLS[name](model, data, u)  # noqa: F841
-                    kernel_s = kernel_seconds(model, name, device)
+                    kernel_s = kernel_seconds(model, name, device, CALLS[name], data, u)
                     print(
                         f"| {name} | {dtype_name} | {setting} | {compile_s:.2f} | {seconds * 1e3:.4f} | {N / seconds:.3g} | "
                         f"{kernel_s * 1e3:.4f} |",

@@ -19,7 +19,7 @@ import types
 
 import warp as wp
 
-from .kinematics import kernels as kinematics_kernels
+from .bundles import bundles
 from .scratch import SYM66, scratch
 from .spatial import MIXED, spatial
 
@@ -39,6 +39,7 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
     """Spatial-inertia helpers in `scalar`, shared by ABA and CRBA."""
     sp = spatial(scalar)
     sc = scratch(scalar)
+    B = bundles(scalar)
 
     @wp.func
     def inertia_to(X: sp.transform, I: sp.mat66):
@@ -69,14 +70,11 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         ))  # fmt: skip
 
     @wp.func
-    def external_force(
-        W_f_L: wp.array3d(dtype=scalar), repr: int, W_H_L: wp.array3d(dtype=scalar), col: int, env: int, i: int
-    ):
-        """The external force on link i in its own coordinates, from W_f_L (N, nL, 6) in representation `repr`
-        and the link pose stored at W_H_L[env, i, col:col + 7]."""
+    def external_force(controls: B.Controls, repr: int, W_H_L: wp.array3d(dtype=scalar), col: int, env: int, i: int):
+        """The external force on link i in its own coordinates, from the controls' link forces in `repr` and
+        the link pose stored at W_H_L[env, i, col:col + 7]."""
         X = sc.get_transform(W_H_L, env, i, col)
-        f = sc.get6(W_f_L, env, i, 0)
-        return sp.force_from(X, sp.force_repr_to_inertial(repr, X, f))
+        return sp.force_from(X, sp.force_repr_to_inertial(repr, X, B.link_force(controls, env, i)))
 
     return types.SimpleNamespace(inertia_to=inertia_to, external_force=external_force)
 
@@ -98,34 +96,15 @@ def kernels(scalar, max_registers: int | None | str = "tuned"):
 def _kernels(scalar, max_registers):
     sp = spatial(scalar)
     sc = scratch(scalar)
-    base_pose = kinematics_kernels(scalar).base_pose
+    B = bundles(scalar)
     inertia_to = inertia_funcs(scalar).inertia_to
     external_force = inertia_funcs(scalar).external_force
 
     @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def aba(
-        # model
-        parent: wp.array(dtype=int),
-        joint_type: wp.array(dtype=int),
-        X_tree: wp.array(dtype=sp.transform),
-        joint_axis: wp.array(dtype=sp.vec3),
-        joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array2d(dtype=scalar),
-        link_com: wp.array2d(dtype=sp.vec3),
-        link_inertia: wp.array2d(dtype=sp.mat33),
-        first_child: wp.array(dtype=int),
-        next_sibling: wp.array(dtype=int),
-        gravity: scalar,
-        floating_base: int,
-        # state
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
-        joint_positions: wp.array2d(dtype=scalar),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
-        # inputs (a null array means zero)
-        joint_forces: wp.array2d(dtype=scalar),
-        f_L: wp.array3d(dtype=scalar),
+        model: B.Model,
+        state: B.State,
+        controls: B.Controls,
         repr: int,
         # scratch
         s: wp.array3d(dtype=scalar),
@@ -133,47 +112,48 @@ def _kernels(scalar, max_registers):
         base_acceleration: wp.array2d(dtype=scalar),
         joint_accelerations: wp.array2d(dtype=scalar),
     ):
-        """base_acceleration (N, 6): d/dt of the base velocity in `repr` (zero for a fixed base); joint_accelerations (N, n).
+        """base_acceleration (N, 6): d/dt of the base velocity in `repr` (zero for a fixed base);
+        joint_accelerations (N, n).
 
-        joint_forces (N, n); f_L (N, nL, 6): external link forces in `repr` (null: none).
+        controls: joint forces (N, n) and external link forces (N, nL, 6) in `repr` (either may be absent).
         s (N, nL, ABA_RECORD, + 7 with link forces): scratch, columns named at the top of this file.
         """
         env = wp.tid()
-        nL = parent.shape[0]
-        forces = f_L.shape[0] > 0
-        W_H_B = base_pose(base_position, base_quaternion, env)
-        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, sc.row6(base_velocity, env, 0)))
-        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
+        nL = model.parent.shape[0]
+        forces = controls.link_forces.shape[0] > 0
+        W_H_B = B.base_pose(state, env)
+        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env)))
+        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
         sc.put6(s, env, 0, _V, B_v)
         if forces:
             sc.put_transform(s, env, 0, _WHL, W_H_B)
         # 1. velocities, from the base
         for i in range(1, nL):
-            X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
-            vJ = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i]) * joint_velocities[env, i - 1]
-            sc.put6(s, env, i, _V, sp.motion_from(X, sc.get6(s, env, parent[i], _V)) + vJ)
+            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            vJ = B.motion_subspace_of(model, i) * state.joint_velocities[env, i - 1]
+            sc.put6(s, env, i, _V, sp.motion_from(X, sc.get6(s, env, model.parent[i], _V)) + vJ)
             if forces:
-                sc.put_transform(s, env, i, _WHL, sc.get_transform(s, env, parent[i], _WHL) * X)
+                sc.put_transform(s, env, i, _WHL, sc.get_transform(s, env, model.parent[i], _WHL) * X)
         # 2. articulated inertias and bias forces, from the leaves
         for k in range(nL - 1):
             i = nL - 1 - k
-            X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
-            S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
+            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            S = B.motion_subspace_of(model, i)
             v_i = sc.get6(s, env, i, _V)
-            c_i = sp.cross_motion(v_i, S * joint_velocities[env, i - 1])
-            I = sc.sym_upper(sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, i))
+            c_i = sp.cross_motion(v_i, S * state.joint_velocities[env, i - 1])
+            I = sc.sym_upper(B.spatial_inertia_of(model, env, i))
             IA = I
             pA = sp.cross_force(v_i, I * v_i)
             if forces:
-                pA = pA - external_force(f_L, repr, s, _WHL, env, i)
-            if first_child[i] >= 0:
-                IA = sc.sym_upper(IA + sc.get_sym66(s, env, first_child[i], _IA))
-                pA = pA + sc.get6(s, env, first_child[i], _PA)
+                pA = pA - external_force(controls, repr, s, _WHL, env, i)
+            if model.first_child[i] >= 0:
+                IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
+                pA = pA + sc.get6(s, env, model.first_child[i], _PA)
             U_i = IA * S
             d_inv = scalar(1.0) / wp.dot(S, U_i)
             u_i = -wp.dot(S, pA)
-            if joint_forces.shape[0] > 0:
-                u_i = u_i + joint_forces[env, i - 1]
+            if controls.joint_forces.shape[0] > 0:
+                u_i = u_i + controls.joint_forces[env, i - 1]
             Ud = U_i * d_inv
             sc.put6(s, env, i, _UD, Ud)
             s[env, i, _UD + 6] = u_i * d_inv
@@ -181,35 +161,35 @@ def _kernels(scalar, max_registers):
             pa = pA + Ia * c_i + U_i * (u_i * d_inv)
             chain_I = inertia_to(X, Ia)
             chain_p = sp.force_to(X, pa)
-            if next_sibling[i] >= 0:
-                chain_I = sc.sym_upper(chain_I + sc.get_sym66(s, env, next_sibling[i], _IA))
-                chain_p = chain_p + sc.get6(s, env, next_sibling[i], _PA)
+            if model.next_sibling[i] >= 0:
+                chain_I = sc.sym_upper(chain_I + sc.get_sym66(s, env, model.next_sibling[i], _IA))
+                chain_p = chain_p + sc.get6(s, env, model.next_sibling[i], _PA)
             sc.put_sym66(s, env, i, _IA, chain_I)
             sc.put6(s, env, i, _PA, chain_p)
         # 3. accelerations, from the base
         a0 = -B_a_g
-        if floating_base != 0:
-            I0 = sc.sym_upper(sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, 0))
+        if model.floating_base != 0:
+            I0 = sc.sym_upper(B.spatial_inertia_of(model, env, 0))
             IA0 = I0
             pA0 = sp.cross_force(B_v, I0 * B_v)
             if forces:
-                pA0 = pA0 - external_force(f_L, repr, s, _WHL, env, 0)
-            if first_child[0] >= 0:
-                IA0 = IA0 + sc.get_sym66(s, env, first_child[0], _IA)
-                pA0 = pA0 + sc.get6(s, env, first_child[0], _PA)
+                pA0 = pA0 - external_force(controls, repr, s, _WHL, env, 0)
+            if model.first_child[0] >= 0:
+                IA0 = IA0 + sc.get_sym66(s, env, model.first_child[0], _IA)
+                pA0 = pA0 + sc.get6(s, env, model.first_child[0], _PA)
             a0 = -sp.solve_spd6(IA0, pA0)
         sc.put6(s, env, 0, _A, a0)
         for i in range(1, nL):
-            X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
-            S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
-            c_i = sp.cross_motion(sc.get6(s, env, i, _V), S * joint_velocities[env, i - 1])
-            a_i = sp.motion_from(X, sc.get6(s, env, parent[i], _A)) + c_i
+            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            S = B.motion_subspace_of(model, i)
+            c_i = sp.cross_motion(sc.get6(s, env, i, _V), S * state.joint_velocities[env, i - 1])
+            a_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + c_i
             qdd = s[env, i, _UD + 6] - wp.dot(sc.get6(s, env, i, _UD), a_i)
-            if first_child[i] >= 0:
+            if model.first_child[i] >= 0:
                 sc.put6(s, env, i, _A, a_i + S * qdd)
             joint_accelerations[env, i - 1] = qdd
         base = sp.vec6(scalar(0.0))
-        if floating_base != 0:
+        if model.floating_base != 0:
             base = sp.base_acceleration_from_body(repr, W_H_B, B_v, a0 + B_a_g)
         for r in range(6):
             base_acceleration[env, r] = base[r]

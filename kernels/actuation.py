@@ -13,38 +13,31 @@ import functools
 
 import warp as wp
 
-from .spatial import spatial
+from .bundles import bundles
 
 
 @functools.cache
 def kernel(scalar, with_limits: bool, with_friction: bool):
-    sp = spatial(scalar)
+    B = bundles(scalar)
     LIMITS = wp.constant(with_limits)
     FRICTION = wp.constant(with_friction)
 
     @wp.kernel(module="unique")
     def resultant_torques(
-        # model
-        position_limits: wp.array2d(dtype=scalar),
-        limit_spring: wp.array2d(dtype=scalar),
-        limit_damper: wp.array2d(dtype=scalar),
-        friction_static: wp.array2d(dtype=scalar),
-        friction_viscous: wp.array2d(dtype=scalar),
+        model: B.Model,
         torque_max: scalar,
         omega_th: scalar,
         omega_max: scalar,
-        # state
-        joint_positions: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
+        state: B.State,
         tau_ref: wp.array2d(dtype=scalar),
         # outputs
         tau: wp.array2d(dtype=scalar),
     ):
-        """tau (N, n) from the references tau_ref (N, n); launched over (N, n). The gains and frictions are
-        (P, n): P = 1 shared by the environments, or N (see spatial.mass_of); position_limits (n, 2)."""
+        """tau (N, n) from the references tau_ref (N, n); launched over (N, n). The model's joint gains,
+        frictions and limits are shared or per environment (kernels/bundles.py)."""
         env, j = wp.tid()
-        s = joint_positions[env, j]
-        sd = joint_velocities[env, j]
+        s = state.joint_positions[env, j]
+        sd = state.joint_velocities[env, j]
         total = tau_ref[env, j]
         if FRICTION:
             sign = scalar(0.0)
@@ -52,12 +45,13 @@ def kernel(scalar, with_limits: bool, with_friction: bool):
                 sign = scalar(1.0)
             elif sd < scalar(0.0):
                 sign = scalar(-1.0)
-            total = total - (sp.joint_parameter(friction_static, env, j) * sign + sp.joint_parameter(friction_viscous, env, j) * sd)
+            total = total - (B.joint_parameter(model.friction_static, env, j) * sign + B.joint_parameter(model.friction_viscous, env, j) * sd)
         if LIMITS:
-            below = wp.min(s - position_limits[j, 0], scalar(0.0))
-            above = wp.max(s - position_limits[j, 1], scalar(0.0))
-            spring = -sp.joint_parameter(limit_spring, env, j) * (below + above)
-            total = total + spring * (scalar(1.0) - sp.joint_parameter(limit_damper, env, j) * sd)
+            limits = B.position_limits_of(model, env, j)
+            below = wp.min(s - limits[0], scalar(0.0))
+            above = wp.max(s - limits[1], scalar(0.0))
+            spring = -B.joint_parameter(model.joint_limit_spring, env, j) * (below + above)
+            total = total + spring * (scalar(1.0) - B.joint_parameter(model.joint_limit_damper, env, j) * sd)
         speed = wp.abs(sd)
         limit = torque_max
         if speed > omega_max:

@@ -28,7 +28,7 @@ import types
 
 import warp as wp
 
-from .kinematics import kernels as kinematics_kernels
+from .bundles import bundles
 from .spatial import BODY, INERTIAL, MIXED, spatial
 
 FRAME_GW = 4
@@ -38,7 +38,7 @@ FRAME_GB = 5
 @functools.cache
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
-    base_pose = kinematics_kernels(scalar).base_pose
+    B = bundles(scalar)
 
     @wp.func
     def unit_quat():
@@ -91,18 +91,9 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def centroidal_sums(
-        # model
-        parent: wp.array(dtype=int),
-        joint_type: wp.array(dtype=int),
-        joint_axis: wp.array(dtype=sp.vec3),
-        joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array2d(dtype=scalar),
-        link_com: wp.array2d(dtype=sp.vec3),
-        link_inertia: wp.array2d(dtype=sp.mat33),
-        # state
+        model: B.Model,
         W_H_L: wp.array2d(dtype=sp.transform),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
+        state: B.State,
         # scratch (N, nL): per link, or prefix sums over links 0..i
         W_v_WL: wp.array2d(dtype=sp.vec6),
         W_p_CL: wp.array2d(dtype=sp.vec3),
@@ -121,32 +112,24 @@ def kernels(scalar) -> types.SimpleNamespace:
         """Per environment: the total mass [kg], W_p_G [m], the rotational inertia about G in world axes
         [kg m^2], the centroidal momentum G[W]_h [kg m/s; kg m^2/s] and the kinetic energy [J].
 
-        W_v_WL (N, nL) are the Inertial link velocities (base_velocity (N, 6) is the state's, Mixed);
-        W_p_CL (N, nL) the world positions of the links' CoMs.
+        W_H_L (N, nL): the link poses at the state; W_v_WL (N, nL) are the Inertial link velocities; W_p_CL
+        (N, nL) the world positions of the links' CoMs.
         """
         env = wp.tid()
-        nL = parent.shape[0]
+        nL = model.parent.shape[0]
         W_H_B = W_H_L[env, 0]
-        mixed = sp.vec6(
-            base_velocity[env, 0],
-            base_velocity[env, 1],
-            base_velocity[env, 2],
-            base_velocity[env, 3],
-            base_velocity[env, 4],
-            base_velocity[env, 5],
-        )
-        W_v_WL[env, 0] = sp.repr_to_inertial(MIXED, W_H_B, mixed)
-        c0 = wp.transform_point(W_H_B, sp.com_of(link_com, env, 0))
+        W_v_WL[env, 0] = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env))
+        c0 = wp.transform_point(W_H_B, B.com_of(model, env, 0))
         W_p_CL[env, 0] = c0
-        sum_m[env, 0] = sp.mass_of(link_mass, env, 0)
-        sum_mp[env, 0] = sp.mass_of(link_mass, env, 0) * c0
+        sum_m[env, 0] = B.mass_of(model, env, 0)
+        sum_mp[env, 0] = B.mass_of(model, env, 0) * c0
         for i in range(1, nL):
-            S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
-            W_v_WL[env, i] = W_v_WL[env, parent[i]] + sp.motion_to(W_H_L[env, i], S) * joint_velocities[env, i - 1]
-            c = wp.transform_point(W_H_L[env, i], sp.com_of(link_com, env, i))
+            S = B.motion_subspace_of(model, i)
+            W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + sp.motion_to(W_H_L[env, i], S) * state.joint_velocities[env, i - 1]
+            c = wp.transform_point(W_H_L[env, i], B.com_of(model, env, i))
             W_p_CL[env, i] = c
-            sum_m[env, i] = sum_m[env, i - 1] + sp.mass_of(link_mass, env, i)
-            sum_mp[env, i] = sum_mp[env, i - 1] + sp.mass_of(link_mass, env, i) * c
+            sum_m[env, i] = sum_m[env, i - 1] + B.mass_of(model, env, i)
+            sum_mp[env, i] = sum_mp[env, i - 1] + B.mass_of(model, env, i) * c
         m = sum_m[env, nL - 1]
         p_G = sum_mp[env, nL - 1] / m
         mass[env] = m
@@ -159,10 +142,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                 prev_I = sum_I[env, i - 1]
                 prev_h = sum_h[env, i - 1]
                 prev_K = sum_K[env, i - 1]
-            m_i = sp.mass_of(link_mass, env, i)
+            m_i = B.mass_of(model, env, i)
             c = W_p_CL[env, i]
             d = c - p_G
-            I_W = world_inertia(wp.transform_get_rotation(W_H_L[env, i]), sp.inertia_of(link_inertia, env, i))
+            I_W = world_inertia(wp.transform_get_rotation(W_H_L[env, i]), B.inertia_of(model, env, i))
             v = W_v_WL[env, i]
             w = sp.ang(v)
             v_c = sp.lin(v) + wp.cross(w, c)
@@ -177,9 +160,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def force_output(
-        # state
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
+        state: B.State,
         # centroidal sums
         W_p_G: wp.array(dtype=sp.vec3),
         G_h: wp.array(dtype=sp.vec6),
@@ -189,16 +170,14 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """out (N, 6): the momentum in frame `frame`, F_h = F_X*_G G[W]_h."""
         env = wp.tid()
-        G_H_F = frame_from_G(frame, base_pose(base_position, base_quaternion, env), W_p_G[env])
+        G_H_F = frame_from_G(frame, B.base_pose(state, env), W_p_G[env])
         f = sp.force_from(G_H_F, G_h[env])
         for r in range(6):
             out[env, r] = f[r]
 
     @wp.kernel(module="unique")
     def velocity_output(
-        # state
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
+        state: B.State,
         # centroidal sums
         mass: wp.array(dtype=scalar),
         W_p_G: wp.array(dtype=sp.vec3),
@@ -210,16 +189,14 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """out (N, R): the first R = 3 or 6 entries of the average velocity in frame `frame`."""
         env = wp.tid()
-        G_H_F = frame_from_G(frame, base_pose(base_position, base_quaternion, env), W_p_G[env])
+        G_H_F = frame_from_G(frame, B.base_pose(state, env), W_p_G[env])
         v = sp.motion_from(G_H_F, average_velocity(mass[env], G_I[env], G_h[env]))
         for r in range(out.shape[1]):
             out[env, r] = v[r]
 
     @wp.kernel(module="unique")
     def inertia_output(
-        # state
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
+        state: B.State,
         # centroidal sums
         mass: wp.array(dtype=scalar),
         W_p_G: wp.array(dtype=sp.vec3),
@@ -230,7 +207,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """out (N, 6, 6): the locked spatial inertia in frame `frame`, F_X*_G blockdiag(m 1, I_G) G_X_F."""
         env = wp.tid()
-        G_H_F = frame_from_G(frame, base_pose(base_position, base_quaternion, env), W_p_G[env])
+        G_H_F = frame_from_G(frame, B.base_pose(state, env), W_p_G[env])
         m = mass[env]
         I = G_I[env]
         for c in range(6):
@@ -243,8 +220,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def energy_output(
-        # model
-        gravity: scalar,
+        model: B.Model,
         # centroidal sums
         mass: wp.array(dtype=scalar),
         W_p_G: wp.array(dtype=sp.vec3),
@@ -260,7 +236,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         if kinetic != 0:
             e = K[env]
         if potential != 0:
-            e = e + mass[env] * gravity * W_p_G[env][2]
+            e = e + mass[env] * model.gravity * W_p_G[env][2]
         out[env] = e
 
     @wp.kernel(module="unique")
@@ -278,16 +254,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def momentum_jacobian(
-        # model
-        joint_type: wp.array(dtype=int),
-        joint_axis: wp.array(dtype=sp.vec3),
-        joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array2d(dtype=scalar),
-        link_com: wp.array2d(dtype=sp.vec3),
-        link_inertia: wp.array2d(dtype=sp.mat33),
-        first_child: wp.array(dtype=int),
-        next_sibling: wp.array(dtype=int),
-        # state
+        model: B.Model,
         W_H_L: wp.array2d(dtype=sp.transform),
         input_repr: int,
         # centroidal sums
@@ -317,17 +284,17 @@ def kernels(scalar) -> types.SimpleNamespace:
         column c is C_0 G[W]_X_W W_v(e_c), e_c the unit base velocity in input_repr.
         """
         env = wp.tid()
-        nL = first_child.shape[0]
+        nL = model.first_child.shape[0]
         p_G = W_p_G[env]
         for k in range(nL):
             i = nL - 1 - k
             W_H_i = W_H_L[env, i]
-            m_i = sp.mass_of(link_mass, env, i)
-            d = wp.transform_point(W_H_i, sp.com_of(link_com, env, i)) - p_G
+            m_i = B.mass_of(model, env, i)
+            d = wp.transform_point(W_H_i, B.com_of(model, env, i)) - p_G
             cm = m_i
             ch = m_i * d
-            cI = world_inertia(wp.transform_get_rotation(W_H_i), sp.inertia_of(link_inertia, env, i)) + parallel_axis(m_i, d)
-            fc = first_child[i]
+            cI = world_inertia(wp.transform_get_rotation(W_H_i), B.inertia_of(model, env, i)) + parallel_axis(m_i, d)
+            fc = model.first_child[i]
             if fc >= 0:
                 cm = cm + T_m[env, fc]
                 ch = ch + T_h[env, fc]
@@ -338,7 +305,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             tm = cm
             th = ch
             tI = cI
-            ns = next_sibling[i]
+            ns = model.next_sibling[i]
             if ns >= 0:
                 tm = tm + T_m[env, ns]
                 th = th + T_h[env, ns]
@@ -365,17 +332,15 @@ def kernels(scalar) -> types.SimpleNamespace:
             L = j + 1
             W_H_j = W_H_L[env, L]
             G_H_j = sp.transform(wp.transform_get_translation(W_H_j) - p_G, wp.transform_get_rotation(W_H_j))
-            G_S = sp.motion_to(G_H_j, sp.motion_subspace(joint_type[L], joint_axis[L], joint_pivot[L]))
+            G_S = sp.motion_to(G_H_j, B.motion_subspace_of(model, L))
             col = output_column(average, G_H_F, m, I_G, inertia_apply(C_m[env, L], C_h[env, L], C_I[env, L], G_S))
             for r in range(6):
                 J[env, r, 6 + j] = col[r]
 
     @wp.kernel(module="unique")
     def com_bias_acceleration(
-        # model
-        link_mass: wp.array2d(dtype=scalar),
-        link_com: wp.array2d(dtype=sp.vec3),
-        # state
+        model: B.Model,
+        # the links' poses, Inertial velocities and body-fixed bias accelerations
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
         L_a_WL: wp.array3d(dtype=scalar),
@@ -394,7 +359,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         CoM's acceleration in link axes is a_lin + a_ang x c + w x (v + w x c).
         """
         env = wp.tid()
-        nL = link_mass.shape[1]
+        nL = model.parent.shape[0]
         for i in range(nL):
             prev = sp.vec3(scalar(0.0))
             if i > 0:
@@ -404,9 +369,9 @@ def kernels(scalar) -> types.SimpleNamespace:
             w = sp.ang(v)
             a_lin = sp.vec3(L_a_WL[env, i, 0], L_a_WL[env, i, 1], L_a_WL[env, i, 2])
             a_ang = sp.vec3(L_a_WL[env, i, 3], L_a_WL[env, i, 4], L_a_WL[env, i, 5])
-            c = sp.com_of(link_com, env, i)
+            c = B.com_of(model, env, i)
             a_c = a_lin + wp.cross(a_ang, c) + wp.cross(w, sp.lin(v) + wp.cross(w, c))
-            sum_f[env, i] = prev + sp.mass_of(link_mass, env, i) * wp.transform_vector(W_H_i, a_c)
+            sum_f[env, i] = prev + B.mass_of(model, env, i) * wp.transform_vector(W_H_i, a_c)
         a = sum_f[env, nL - 1] / mass[env]
         if frame == FRAME_GB:
             a = wp.quat_rotate_inv(wp.transform_get_rotation(W_H_L[env, 0]), a)
@@ -415,19 +380,16 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def link_spatial_inertias(
-        # model
-        link_mass: wp.array2d(dtype=scalar),
-        link_com: wp.array2d(dtype=sp.vec3),
-        link_inertia: wp.array2d(dtype=sp.mat33),
+        model: B.Model,
         # outputs
         out: wp.array4d(dtype=scalar),
     ):
         """out (P, nL, 6, 6), launched over (P, nL): L_M_L = [[m 1, -m c^], [m c^, I_c - m c^ c^]] about each
         link's origin, link axes, for P = 1 (shared parameters) or per environment."""
         env, i = wp.tid()
-        m = sp.mass_of(link_mass, env, i)
-        c = sp.com_of(link_com, env, i)
-        I = sp.inertia_of(link_inertia, env, i) + parallel_axis(m, c)
+        m = B.mass_of(model, env, i)
+        c = B.com_of(model, env, i)
+        I = B.inertia_of(model, env, i) + parallel_axis(m, c)
         for col in range(6):
             e = sp.vec6(scalar(0.0))
             e[col] = scalar(1.0)
@@ -437,8 +399,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def link_com_positions(
-        # model
-        link_com: wp.array2d(dtype=sp.vec3),
+        model: B.Model,
         link: int,
         in_link_frame: int,
         # state
@@ -448,7 +409,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """out (N, 3): the link's CoM, L_p_CoM (in_link_frame) or W_p_CoM [m]."""
         env = wp.tid()
-        p = sp.com_of(link_com, env, link)
+        p = B.com_of(model, env, link)
         if in_link_frame == 0:
             p = wp.transform_point(W_H_L[env, link], p)
         for r in range(3):

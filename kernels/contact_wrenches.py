@@ -16,6 +16,7 @@ import types
 
 import warp as wp
 
+from .bundles import bundles
 from .soft_contacts import kernels as soft_contact_kernels
 from .spatial import spatial
 
@@ -23,14 +24,13 @@ from .spatial import spatial
 @functools.cache
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
+    B = bundles(scalar)
     terrain_height = soft_contact_kernels(scalar).terrain_height
-    vec4 = soft_contact_kernels(scalar).vec4
 
     @wp.kernel(module="unique")
     def link_wrenches(
-        # model: first enabled point of each link, -1 for none
-        link_first_point: wp.array(dtype=int),
-        # state
+        contacts: B.Contacts,
+        # the links' poses and the contact kernel's chain sums
         W_H_L: wp.array2d(dtype=sp.transform),
         chain: wp.array2d(dtype=sp.vec6),
         repr: int,
@@ -40,28 +40,27 @@ def kernels(scalar) -> types.SimpleNamespace:
         """f_L (N, nL, 6): the contact wrench of each link in `repr`, launched over (N, nL)."""
         env, L = wp.tid()
         total = sp.vec6(scalar(0.0))
-        if link_first_point[L] >= 0:
-            total = chain[env, link_first_point[L]]
+        if contacts.link_first_point[L] >= 0:
+            total = chain[env, contacts.link_first_point[L]]
         f = sp.inertial_to_force_repr(repr, W_H_L[env, L], total)
         for a in range(6):
             f_L[env, L, a] = f[a]
 
     @wp.kernel(module="unique")
     def point_wrenches(
-        # model: the enabled points in the contact kernel's order, and where each goes in the output
-        point_link: wp.array(dtype=int),
-        L_p_C: wp.array(dtype=sp.vec3),
+        contacts: B.Contacts,
         point_out: wp.array(dtype=int),
-        # state
+        # the links' poses and the contact kernel's point wrenches
         W_H_L: wp.array2d(dtype=sp.transform),
         W_f_C: wp.array3d(dtype=scalar),
         repr: int,
         # outputs
         f_C: wp.array3d(dtype=scalar),
     ):
-        """f_C (N, nc, 6): each point's contact wrench in `repr` for C = (W_p_C, [L]), launched over (N, nc)."""
+        """f_C (N, nc, 6): each point's contact wrench in `repr` for C = (W_p_C, [L]), launched over (N, nc);
+        point_out[c] is where the contact kernel's point c goes in the output (the points' own order)."""
         env, c = wp.tid()
-        X = W_H_L[env, point_link[c]] * sp.transform(L_p_C[c], wp.quat_identity(dtype=scalar))
+        X = W_H_L[env, contacts.point_link[c]] * sp.transform(contacts.L_p_C[c], wp.quat_identity(dtype=scalar))
         W_f = sp.vec6(W_f_C[env, c, 0], W_f_C[env, c, 1], W_f_C[env, c, 2], W_f_C[env, c, 3], W_f_C[env, c, 4], W_f_C[env, c, 5])
         f = sp.inertial_to_force_repr(repr, X, W_f)
         k = point_out[c]
@@ -75,23 +74,16 @@ def kernels(scalar) -> types.SimpleNamespace:
         W_p_C: wp.array3d(dtype=scalar),
         # query
         links: wp.array(dtype=int),
-        # terrain (see soft_contacts.terrain_height)
-        terrain_kind: int,
-        terrain_n: sp.vec3,
-        terrain_h0: wp.array(dtype=scalar),
-        terrain_hf: wp.array2d(dtype=scalar),
-        terrain_grid: vec4,
+        terrain: B.Terrain,
         # outputs
         out: wp.array2d(dtype=wp.bool),
     ):
-        """out (N, K): whether a point of links[k] has z <= h(x, y), launched over (N, K). terrain_h0 (1,) or
-        (N,): shared or per environment."""
+        """out (N, K): whether a point of links[k] has z <= h(x, y), launched over (N, K)."""
         env, k = wp.tid()
-        h0 = terrain_h0[wp.min(env, terrain_h0.shape[0] - 1)]
         below = int(0)
         for c in range(point_link.shape[0]):
             if point_link[c] == links[k]:
-                h = terrain_height(terrain_kind, terrain_n, h0, terrain_hf, terrain_grid, W_p_C[env, c, 0], W_p_C[env, c, 1])
+                h = terrain_height(terrain, env, W_p_C[env, c, 0], W_p_C[env, c, 1])
                 if W_p_C[env, c, 2] <= h:
                     below = 1
         out[env, k] = below != 0

@@ -48,38 +48,14 @@ import types
 
 import warp as wp
 
-from .kinematics import kernels as kinematics_kernels
+from .bundles import bundles
 from .spatial import INERTIAL, MIXED, spatial
 
 
 @functools.cache
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
-    base_pose = kinematics_kernels(scalar).base_pose
-
-    @wp.func
-    def blocks(A: sp.mat33, B: sp.mat33, C: sp.mat33, D: sp.mat33):
-        """The (6, 6) matrix [[A, B], [C, D]]."""
-        return sp.mat66(
-            A[0, 0], A[0, 1], A[0, 2], B[0, 0], B[0, 1], B[0, 2],
-            A[1, 0], A[1, 1], A[1, 2], B[1, 0], B[1, 1], B[1, 2],
-            A[2, 0], A[2, 1], A[2, 2], B[2, 0], B[2, 1], B[2, 2],
-            C[0, 0], C[0, 1], C[0, 2], D[0, 0], D[0, 1], D[0, 2],
-            C[1, 0], C[1, 1], C[1, 2], D[1, 0], D[1, 1], D[1, 2],
-            C[2, 0], C[2, 1], C[2, 2], D[2, 0], D[2, 1], D[2, 2],
-        )  # fmt: skip
-
-    @wp.func
-    def motion_cross_matrix(v: sp.vec6):
-        """(v x) as a matrix: [[w^, u^], [0, w^]] for v = [u; w]."""
-        W = wp.skew(sp.ang(v))
-        return blocks(W, wp.skew(sp.lin(v)), sp.mat33(scalar(0.0)), W)
-
-    @wp.func
-    def force_cross_matrix(v: sp.vec6):
-        """(v x*) as a matrix: [[w^, 0], [u^, w^]] = -(v x)^T for v = [u; w]."""
-        W = wp.skew(sp.ang(v))
-        return blocks(W, sp.mat33(scalar(0.0)), wp.skew(sp.lin(v)), W)
+    B = bundles(scalar)
 
     @wp.func
     def base_inertia(B_H_L: sp.transform, mass: scalar, com: sp.vec3, inertia: sp.mat33):
@@ -98,23 +74,8 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def coriolis_links(
-        # model
-        parent: wp.array(dtype=int),
-        joint_type: wp.array(dtype=int),
-        X_tree: wp.array(dtype=sp.transform),
-        joint_axis: wp.array(dtype=sp.vec3),
-        joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array2d(dtype=scalar),
-        link_com: wp.array2d(dtype=sp.vec3),
-        link_inertia: wp.array2d(dtype=sp.mat33),
-        first_child: wp.array(dtype=int),
-        next_sibling: wp.array(dtype=int),
-        # state
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
-        joint_positions: wp.array2d(dtype=scalar),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
+        model: B.Model,
+        state: B.State,
         repr: int,
         # scratch
         B_H_L: wp.array2d(dtype=sp.transform),
@@ -131,20 +92,11 @@ def kernels(scalar) -> types.SimpleNamespace:
         C: wp.array3d(dtype=scalar),
     ):
         """C (N, 6 + n, 6 + n): the base rows and columns, in `repr`; per link i (N, nL), entries 0 unused:
-        B_S_i, B_Sdot_i = v_i x S_i, F_i = Ic_i S_i, f_i = Bc_i S_i + Ic_i Sdot_i, g_i = Bc_i^T S_i.
-        base_velocity (N, 6) is the state's, Mixed [W_pdot_B; W_omega_WB]."""
+        B_S_i, B_Sdot_i = v_i x S_i, F_i = Ic_i S_i, f_i = Bc_i S_i + Ic_i Sdot_i, g_i = Bc_i^T S_i."""
         env = wp.tid()
-        nL = parent.shape[0]
-        W_H_B = base_pose(base_position, base_quaternion, env)
-        mixed = sp.vec6(
-            base_velocity[env, 0],
-            base_velocity[env, 1],
-            base_velocity[env, 2],
-            base_velocity[env, 3],
-            base_velocity[env, 4],
-            base_velocity[env, 5],
-        )
-        B_v_B = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, mixed))
+        nL = model.parent.shape[0]
+        W_H_B = B.base_pose(state, env)
+        B_v_B = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env)))
         v_rel = relative_base_velocity(repr, B_v_B)
         zero6 = sp.vec6(scalar(0.0))
         B_H_L[env, 0] = sp.transform(sp.vec3(scalar(0.0)), sp.quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0)))
@@ -156,10 +108,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         g[env, 0] = zero6
         # Forward pass: poses, joint axes and world-relative velocities in base coordinates.
         for i in range(1, nL):
-            X_i = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
-            B_H_i = B_H_L[env, parent[i]] * X_i
-            S_i = sp.motion_to(B_H_i, sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i]))
-            v_i = B_v_L[env, parent[i]] + S_i * joint_velocities[env, i - 1]
+            X_i = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            B_H_i = B_H_L[env, model.parent[i]] * X_i
+            S_i = sp.motion_to(B_H_i, B.motion_subspace_of(model, i))
+            v_i = B_v_L[env, model.parent[i]] + S_i * state.joint_velocities[env, i - 1]
             B_H_L[env, i] = B_H_i
             B_S[env, i] = S_i
             B_v_L[env, i] = v_i
@@ -167,12 +119,12 @@ def kernels(scalar) -> types.SimpleNamespace:
         # Backward pass: composites Ic, Bc by sibling chains; per joint F, f, g and the base row and column.
         for k in range(nL - 1):
             l = nL - 1 - k
-            I_l = base_inertia(B_H_L[env, l], sp.mass_of(link_mass, env, l), sp.com_of(link_com, env, l), sp.inertia_of(link_inertia, env, l))
+            I_l = base_inertia(B_H_L[env, l], B.mass_of(model, env, l), B.com_of(model, env, l), B.inertia_of(model, env, l))
             Ic_l = I_l
-            Bc_l = force_cross_matrix(B_v_L[env, l]) * I_l
-            if first_child[l] >= 0:
-                Ic_l = Ic_l + acc_I[env, first_child[l]]
-                Bc_l = Bc_l + acc_B[env, first_child[l]]
+            Bc_l = sp.force_cross_matrix(B_v_L[env, l]) * I_l
+            if model.first_child[l] >= 0:
+                Ic_l = Ic_l + acc_I[env, model.first_child[l]]
+                Bc_l = Bc_l + acc_B[env, model.first_child[l]]
             S_l = B_S[env, l]
             F_l = Ic_l * S_l
             f_l = Bc_l * S_l + Ic_l * B_Sdot[env, l]
@@ -182,9 +134,9 @@ def kernels(scalar) -> types.SimpleNamespace:
             g[env, l] = g_l
             chain_I = Ic_l
             chain_B = Bc_l
-            if next_sibling[l] >= 0:
-                chain_I = chain_I + acc_I[env, next_sibling[l]]
-                chain_B = chain_B + acc_B[env, next_sibling[l]]
+            if model.next_sibling[l] >= 0:
+                chain_I = chain_I + acc_I[env, model.next_sibling[l]]
+                chain_B = chain_B + acc_B[env, model.next_sibling[l]]
             acc_I[env, l] = chain_I
             acc_B[env, l] = chain_B
             column = sp.base_force_from_body(repr, W_H_B, f_l)
@@ -193,22 +145,21 @@ def kernels(scalar) -> types.SimpleNamespace:
                 C[env, r, 5 + l] = column[r]
                 C[env, 5 + l, r] = row[r]
         # The base block.
-        I_0 = sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, 0)
+        I_0 = B.spatial_inertia_of(model, env, 0)
         Ic_0 = I_0
-        Bc_0 = force_cross_matrix(B_v_B) * I_0
-        if first_child[0] >= 0:
-            Ic_0 = Ic_0 + acc_I[env, first_child[0]]
-            Bc_0 = Bc_0 + acc_B[env, first_child[0]]
+        Bc_0 = sp.force_cross_matrix(B_v_B) * I_0
+        if model.first_child[0] >= 0:
+            Ic_0 = Ic_0 + acc_I[env, model.first_child[0]]
+            Bc_0 = Bc_0 + acc_B[env, model.first_child[0]]
         T = sp.base_T(repr, W_H_B)
-        C_bb = wp.transpose(T) * (Bc_0 + Ic_0 * motion_cross_matrix(v_rel)) * T
+        C_bb = wp.transpose(T) * (Bc_0 + Ic_0 * sp.motion_cross_matrix(v_rel)) * T
         for a in range(6):
             for b in range(6):
                 C[env, a, b] = C_bb[a, b]
 
     @wp.kernel(module="unique")
     def coriolis_joints(
-        # model
-        support: wp.array2d(dtype=int),
+        model: B.Model,
         # per link, from coriolis_links
         B_S: wp.array2d(dtype=sp.vec6),
         B_Sdot: wp.array2d(dtype=sp.vec6),
@@ -218,23 +169,21 @@ def kernels(scalar) -> types.SimpleNamespace:
         # outputs
         C: wp.array3d(dtype=scalar),
     ):
-        """C[:, 6 + k, 6:] (the joint block, row k), launched over (N, n); support[L, j] != 0 when joint j
+        """C[:, 6 + k, 6:] (the joint block, row k), launched over (N, n); model.support[L, j] != 0 when joint j
         moves link L (joint j is link j + 1's)."""
         env, k = wp.tid()
         S_k = B_S[env, k + 1]
         F_k = F[env, k + 1]
         g_k = g[env, k + 1]
-        for j in range(support.shape[1]):
+        for j in range(model.support.shape[1]):
             value = scalar(0.0)
-            if support[j + 1, k] != 0:
+            if model.support[j + 1, k] != 0:
                 value = wp.dot(S_k, f[env, j + 1])
-            elif support[k + 1, j] != 0:
+            elif model.support[k + 1, j] != 0:
                 value = wp.dot(g_k, B_S[env, j + 1]) + wp.dot(F_k, B_Sdot[env, j + 1])
             C[env, 6 + k, 6 + j] = value
 
     return types.SimpleNamespace(
         coriolis_links=coriolis_links,
         coriolis_joints=coriolis_joints,
-        motion_cross_matrix=motion_cross_matrix,
-        force_cross_matrix=force_cross_matrix,
     )

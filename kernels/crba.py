@@ -18,7 +18,7 @@ import types
 import warp as wp
 
 from .aba import inertia_funcs
-from .kinematics import kernels as kinematics_kernels
+from .bundles import bundles
 from .scratch import scratch
 from .spatial import BODY, INERTIAL, spatial
 
@@ -46,7 +46,7 @@ def kernels(scalar, max_registers: int | None | str = "tuned"):
 def _kernels(scalar, max_registers):
     sp = spatial(scalar)
     sc = scratch(scalar)
-    base_pose = kinematics_kernels(scalar).base_pose
+    B = bundles(scalar)
     inertia_to = inertia_funcs(scalar).inertia_to
 
     @wp.func
@@ -63,25 +63,8 @@ def _kernels(scalar, max_registers):
 
     @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def crba(
-        # model
-        parent: wp.array(dtype=int),
-        joint_type: wp.array(dtype=int),
-        X_tree: wp.array(dtype=sp.transform),
-        joint_axis: wp.array(dtype=sp.vec3),
-        joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array2d(dtype=scalar),
-        link_com: wp.array2d(dtype=sp.vec3),
-        link_inertia: wp.array2d(dtype=sp.mat33),
-        first_child: wp.array(dtype=int),
-        next_sibling: wp.array(dtype=int),
-        pair_k: wp.array(dtype=int),
-        pair_j: wp.array(dtype=int),
-        zero_k: wp.array(dtype=int),
-        zero_j: wp.array(dtype=int),
-        # state
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
-        joint_positions: wp.array2d(dtype=scalar),
+        model: B.Model,
+        state: B.State,
         repr: int,
         # scratch
         s: wp.array3d(dtype=scalar),
@@ -90,40 +73,39 @@ def _kernels(scalar, max_registers):
     ):
         """M (N, 6 + n, 6 + n): the mass matrix for the generalized velocity in `repr`.
 
-        (pair_k, pair_j) (P,): the joint pairs with joint j supporting link k + 1 (j == k included);
-        (zero_k, zero_j) (Z,): the pairs where neither joint supports the other's link.
-
+        The joint block is filled by the model's joint pairs: M_kj = B_S_j . F_k for (model.pair_k,
+        model.pair_j), zero for (model.zero_k, model.zero_j).
         s (N, nL, CRBA_RECORD): scratch, columns named at the top of this file.
         """
         env = wp.tid()
-        nL = parent.shape[0]
+        nL = model.parent.shape[0]
         n = nL - 1
         sc.put_transform(s, env, 0, _BH, sp.transform(sp.vec3(scalar(0.0)), sp.quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0))))
         # link poses and motion subspaces in the base, from the base
         for i in range(1, nL):
-            X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
-            B_H_i = sc.get_transform(s, env, parent[i], _BH) * X
+            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            B_H_i = sc.get_transform(s, env, model.parent[i], _BH) * X
             sc.put_transform(s, env, i, _BH, B_H_i)
-            sc.put6(s, env, i, _BS, sp.motion_to(B_H_i, sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])))
+            sc.put6(s, env, i, _BS, sp.motion_to(B_H_i, B.motion_subspace_of(model, i)))
         # composite inertias and F_i, from the leaves
         for k in range(n):
             i = nL - 1 - k
             B_H_i = sc.get_transform(s, env, i, _BH)
             R = wp.quat_to_matrix(wp.transform_get_rotation(B_H_i))
-            m = sp.mass_of(link_mass, env, i)
-            com = wp.transform_point(B_H_i, sp.com_of(link_com, env, i))
+            m = B.mass_of(model, env, i)
+            com = wp.transform_point(B_H_i, B.com_of(model, env, i))
             h = m * com
-            I_O = R * sp.inertia_of(link_inertia, env, i) * wp.transpose(R) + m * (wp.dot(com, com) * wp.identity(n=3, dtype=scalar) - wp.outer(com, com))
-            if first_child[i] >= 0:
-                m = m + s[env, first_child[i], _IC]
-                h = h + get_h(s, env, first_child[i])
-                I_O = I_O + get_I_O(s, env, first_child[i])
+            I_O = R * B.inertia_of(model, env, i) * wp.transpose(R) + m * (wp.dot(com, com) * wp.identity(n=3, dtype=scalar) - wp.outer(com, com))
+            if model.first_child[i] >= 0:
+                m = m + s[env, model.first_child[i], _IC]
+                h = h + get_h(s, env, model.first_child[i])
+                I_O = I_O + get_I_O(s, env, model.first_child[i])
             S = sc.get6(s, env, i, _BS)
             sc.put6(s, env, i, _F, sp.stack(m * sp.lin(S) - wp.cross(h, sp.ang(S)), wp.cross(h, sp.lin(S)) + I_O * sp.ang(S)))
-            if next_sibling[i] >= 0:
-                m = m + s[env, next_sibling[i], _IC]
-                h = h + get_h(s, env, next_sibling[i])
-                I_O = I_O + get_I_O(s, env, next_sibling[i])
+            if model.next_sibling[i] >= 0:
+                m = m + s[env, model.next_sibling[i], _IC]
+                h = h + get_h(s, env, model.next_sibling[i])
+                I_O = I_O + get_I_O(s, env, model.next_sibling[i])
             s[env, i, _IC] = m
             s[env, i, _IC + 1] = h[0]
             s[env, i, _IC + 2] = h[1]
@@ -135,9 +117,9 @@ def _kernels(scalar, max_registers):
             s[env, i, _IC + 8] = I_O[1, 2]
             s[env, i, _IC + 9] = I_O[2, 2]
         # base block and base-joint columns
-        Ic0 = sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, 0)
-        if first_child[0] >= 0:
-            fc = first_child[0]
+        Ic0 = B.spatial_inertia_of(model, env, 0)
+        if model.first_child[0] >= 0:
+            fc = model.first_child[0]
             hc = wp.skew(get_h(s, env, fc))
             I_Oc = get_I_O(s, env, fc)
             mc = s[env, fc, _IC]
@@ -150,7 +132,7 @@ def _kernels(scalar, max_registers):
                 hc[1, 0], hc[1, 1], hc[1, 2], I_Oc[1, 0], I_Oc[1, 1], I_Oc[1, 2],
                 hc[2, 0], hc[2, 1], hc[2, 2], I_Oc[2, 0], I_Oc[2, 1], I_Oc[2, 2],
             )  # fmt: skip
-        W_H_B = base_pose(base_position, base_quaternion, env)
+        W_H_B = B.base_pose(state, env)
         Mbb = Ic0
         if repr != BODY:
             # T^T Ic0 T with T = B_X_W (Inertial) or B_X_B[W] (Mixed): Ic0 from base to world(-aligned) coordinates
@@ -167,14 +149,14 @@ def _kernels(scalar, max_registers):
                 M[env, r, 6 + k] = col[r]
                 M[env, 6 + k, r] = col[r]
         # joint block: M_kj = M_jk = B_S_j . F_k for each supporting pair, zero between branches
-        for p in range(pair_k.shape[0]):
-            k = pair_k[p]
-            j = pair_j[p]
+        for p in range(model.pair_k.shape[0]):
+            k = model.pair_k[p]
+            j = model.pair_j[p]
             value = wp.dot(sc.get6(s, env, j + 1, _BS), sc.get6(s, env, k + 1, _F))
             M[env, 6 + k, 6 + j] = value
             if j != k:
                 M[env, 6 + j, 6 + k] = value
-        for z in range(zero_k.shape[0]):
-            M[env, 6 + zero_k[z], 6 + zero_j[z]] = scalar(0.0)
+        for z in range(model.zero_k.shape[0]):
+            M[env, 6 + model.zero_k[z], 6 + model.zero_j[z]] = scalar(0.0)
 
     return types.SimpleNamespace(crba=crba)

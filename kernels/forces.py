@@ -9,12 +9,14 @@ import types
 
 import warp as wp
 
+from .bundles import bundles
 from .spatial import spatial
 
 
 @functools.cache
 def kernels(scalar):
     sp = spatial(scalar)
+    B = bundles(scalar)
 
     @wp.kernel(module="unique")
     def kept_forces(
@@ -34,26 +36,24 @@ def kernels(scalar):
 
     @wp.kernel(module="unique")
     def add_target_forces(
-        # targets
-        target_link: wp.array(dtype=int),
-        link_H_target: wp.array(dtype=sp.transform),
-        # state
+        targets: B.Targets,
+        # the links' poses, and the forces on the targets
         W_H_L: wp.array2d(dtype=sp.transform),
         forces: wp.array3d(dtype=scalar),
         repr: int,
         # outputs, accumulated
         W_f_L: wp.array3d(dtype=scalar),
     ):
-        """W_f_L[env, target_link[t]] += the force forces[env, t] (6,) on target t, given in `repr` with the
+        """W_f_L[env, targets.link[t]] += the force forces[env, t] (6,) on target t, given in `repr` with the
         target as the body frame, made Inertial; launched over (N, T). Atomic adds: several targets may
         share a link, and their adjoints read W_f_L's gradient only (tape-safe)."""
         env, t = wp.tid()
-        L = target_link[t]
+        L = targets.link[t]
         f = sp.vec6(
             forces[env, t, 0], forces[env, t, 1], forces[env, t, 2],
             forces[env, t, 3], forces[env, t, 4], forces[env, t, 5],
         )
-        w = sp.force_repr_to_inertial(repr, W_H_L[env, L] * link_H_target[t], f)
+        w = sp.force_repr_to_inertial(repr, W_H_L[env, L] * targets.link_H_target[t], f)
         for r in range(6):
             wp.atomic_add(W_f_L, env, L, r, w[r])
 

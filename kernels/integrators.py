@@ -18,12 +18,14 @@ import types
 
 import warp as wp
 
+from .bundles import bundles
 from .spatial import spatial
 
 
 @functools.cache
 def kernels(scalar):
     sp = spatial(scalar)
+    B = bundles(scalar)
     quat4 = wp.types.vector(4, scalar)
 
     @wp.func
@@ -38,131 +40,88 @@ def kernels(scalar):
         return wp.isfinite(v[0]) and wp.isfinite(v[1]) and wp.isfinite(v[2])
 
     @wp.func
-    def keep_state(
-        env: int,
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
-        joint_positions: wp.array2d(dtype=scalar),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
-        m: wp.array3d(dtype=scalar),
-        base_position_next: wp.array2d(dtype=scalar),
-        base_quaternion_next: wp.array2d(dtype=scalar),
-        joint_positions_next: wp.array2d(dtype=scalar),
-        base_velocity_next: wp.array2d(dtype=scalar),
-        joint_velocities_next: wp.array2d(dtype=scalar),
-        m_next: wp.array3d(dtype=scalar),
-        valid_next: wp.array(dtype=wp.int32),
-    ):
-        """A flagged environment: its next state is its state, and valid_next = 0."""
+    def keep_state(env: int, x: B.State, y: B.State):
+        """A flagged environment: its next state y is its state x, and y.valid = 0."""
         for a in range(3):
-            base_position_next[env, a] = base_position[env, a]
-            base_velocity_next[env, a] = base_velocity[env, a]
-            base_velocity_next[env, 3 + a] = base_velocity[env, 3 + a]
+            y.base_position[env, a] = x.base_position[env, a]
+            y.base_velocity[env, a] = x.base_velocity[env, a]
+            y.base_velocity[env, 3 + a] = x.base_velocity[env, 3 + a]
         for a in range(4):
-            base_quaternion_next[env, a] = base_quaternion[env, a]
-        for j in range(joint_positions.shape[1]):
-            joint_positions_next[env, j] = joint_positions[env, j]
-            joint_velocities_next[env, j] = joint_velocities[env, j]
-        for c in range(m.shape[1]):
+            y.base_quaternion[env, a] = x.base_quaternion[env, a]
+        for j in range(x.joint_positions.shape[1]):
+            y.joint_positions[env, j] = x.joint_positions[env, j]
+            y.joint_velocities[env, j] = x.joint_velocities[env, j]
+        for c in range(x.tangential_deformation.shape[1]):
             for a in range(3):
-                m_next[env, c, a] = m[env, c, a]
-        valid_next[env] = 0
+                y.tangential_deformation[env, c, a] = x.tangential_deformation[env, c, a]
+        y.valid[env] = 0
 
-    @wp.kernel(module="unique")
-    def semi_implicit_euler(
-        dt: scalar,
-        quaternion_tolerance: scalar,
-        # state at t
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
-        joint_positions: wp.array2d(dtype=scalar),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
-        m: wp.array3d(dtype=scalar),
-        valid: wp.array(dtype=wp.int32),
-        # derivatives at t
-        nu_dot: wp.array2d(dtype=scalar),
-        m_dot: wp.array3d(dtype=scalar),
-        # outputs: state at t + dt
-        base_position_next: wp.array2d(dtype=scalar),
-        base_quaternion_next: wp.array2d(dtype=scalar),
-        joint_positions_next: wp.array2d(dtype=scalar),
-        base_velocity_next: wp.array2d(dtype=scalar),
-        joint_velocities_next: wp.array2d(dtype=scalar),
-        m_next: wp.array3d(dtype=scalar),
-        valid_next: wp.array(dtype=wp.int32),
-    ):
-        """One semi-implicit Euler step; nu_dot (N, 6 + n) is [W_vdot_WB (Inertial); sddot]."""
-        env = wp.tid()
-        p = sp.vec3(base_position[env, 0], base_position[env, 1], base_position[env, 2])
-        Q = quat4(base_quaternion[env, 0], base_quaternion[env, 1], base_quaternion[env, 2], base_quaternion[env, 3])
-        Q = Q / wp.length(Q)
-        pdot = sp.vec3(base_velocity[env, 0], base_velocity[env, 1], base_velocity[env, 2])
-        omega = sp.vec3(base_velocity[env, 3], base_velocity[env, 4], base_velocity[env, 5])
-        v_inertial = pdot - wp.cross(omega, p)
-        v_next = v_inertial + dt * sp.vec3(nu_dot[env, 0], nu_dot[env, 1], nu_dot[env, 2])
-        omega_next = omega + dt * sp.vec3(nu_dot[env, 3], nu_dot[env, 4], nu_dot[env, 5])
-        p_next = p + dt * (v_next + wp.cross(omega_next, p))
-        Q_step = Q + dt * quaternion_rate(Q, omega_next)
-        Q_norm = wp.length(Q_step)
-        Q_next = Q_step / Q_norm
-        pdot_next = v_next + wp.cross(omega_next, p_next)
-        ok = valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
-        ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm)
-        n = joint_positions.shape[1]
-        for j in range(n):
-            sd_next = joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
-            ok = ok and wp.isfinite(sd_next) and wp.isfinite(joint_positions[env, j] + dt * sd_next)
-        for c in range(m.shape[1]):
-            for a in range(3):
-                ok = ok and wp.isfinite(m[env, c, a] + dt * m_dot[env, c, a])
-        if ok:
-            for a in range(3):
-                base_position_next[env, a] = p_next[a]
-                base_velocity_next[env, a] = pdot_next[a]
-                base_velocity_next[env, 3 + a] = omega_next[a]
-            for a in range(4):
-                base_quaternion_next[env, a] = Q_next[a]
-            for j in range(n):
-                sd_next = joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
-                joint_velocities_next[env, j] = sd_next
-                joint_positions_next[env, j] = joint_positions[env, j] + dt * sd_next
-            for c in range(m.shape[1]):
-                for a in range(3):
-                    m_next[env, c, a] = m[env, c, a] + dt * m_dot[env, c, a]
-            valid_next[env] = 1
-        else:
-            keep_state(
-                env,
-                base_position,
-                base_quaternion,
-                joint_positions,
-                base_velocity,
-                joint_velocities,
-                m,
-                base_position_next,
-                base_quaternion_next,
-                joint_positions_next,
-                base_velocity_next,
-                joint_velocities_next,
-                m_next,
-                valid_next,
-            )
+    @wp.func
+    def quaternion_of(x: B.State, env: int):
+        Q = x.base_quaternion
+        return quat4(Q[env, 0], Q[env, 1], Q[env, 2], Q[env, 3])
 
     @wp.func
     def read3(a: wp.array2d(dtype=scalar), env: int, offset: int):
         return sp.vec3(a[env, offset], a[env, offset + 1], a[env, offset + 2])
 
     @wp.kernel(module="unique")
+    def semi_implicit_euler(
+        dt: scalar,
+        quaternion_tolerance: scalar,
+        x: B.State,
+        # derivatives at t
+        nu_dot: wp.array2d(dtype=scalar),
+        m_dot: wp.array3d(dtype=scalar),
+        # outputs: the state at t + dt
+        y: B.State,
+    ):
+        """One semi-implicit Euler step from x to y; nu_dot (N, 6 + n) is [W_vdot_WB (Inertial); sddot]."""
+        env = wp.tid()
+        p = read3(x.base_position, env, 0)
+        Q = quaternion_of(x, env)
+        Q = Q / wp.length(Q)
+        pdot = read3(x.base_velocity, env, 0)
+        omega = read3(x.base_velocity, env, 3)
+        v_inertial = pdot - wp.cross(omega, p)
+        v_next = v_inertial + dt * read3(nu_dot, env, 0)
+        omega_next = omega + dt * read3(nu_dot, env, 3)
+        p_next = p + dt * (v_next + wp.cross(omega_next, p))
+        Q_step = Q + dt * quaternion_rate(Q, omega_next)
+        Q_norm = wp.length(Q_step)
+        Q_next = Q_step / Q_norm
+        pdot_next = v_next + wp.cross(omega_next, p_next)
+        ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
+        ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm)
+        n = x.joint_positions.shape[1]
+        m = x.tangential_deformation
+        for j in range(n):
+            sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
+            ok = ok and wp.isfinite(sd_next) and wp.isfinite(x.joint_positions[env, j] + dt * sd_next)
+        for c in range(m.shape[1]):
+            for a in range(3):
+                ok = ok and wp.isfinite(m[env, c, a] + dt * m_dot[env, c, a])
+        if ok:
+            for a in range(3):
+                y.base_position[env, a] = p_next[a]
+                y.base_velocity[env, a] = pdot_next[a]
+                y.base_velocity[env, 3 + a] = omega_next[a]
+            for a in range(4):
+                y.base_quaternion[env, a] = Q_next[a]
+            for j in range(n):
+                sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
+                y.joint_velocities[env, j] = sd_next
+                y.joint_positions[env, j] = x.joint_positions[env, j] + dt * sd_next
+            for c in range(m.shape[1]):
+                for a in range(3):
+                    y.tangential_deformation[env, c, a] = m[env, c, a] + dt * m_dot[env, c, a]
+            y.valid[env] = 1
+        else:
+            keep_state(env, x, y)
+
+    @wp.kernel(module="unique")
     def slope(
-        # state of a stage
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
-        joint_positions: wp.array2d(dtype=scalar),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
-        m: wp.array3d(dtype=scalar),
+        x: B.State,
         # its accelerations
         base_acceleration: wp.array2d(dtype=scalar),
         joint_accelerations: wp.array2d(dtype=scalar),
@@ -170,108 +129,85 @@ def kernels(scalar):
         # outputs
         k: wp.array2d(dtype=scalar),
     ):
-        """k (N, 13 + 2n + 3 nc) = d/dt (p, Q, s, v (Inertial), sdot, m), in that order."""
+        """k (N, 13 + 2n + 3 nc) = d/dt (p, Q, s, v (Inertial), sdot, m) at the stage x, in that order."""
         env = wp.tid()
-        n = joint_positions.shape[1]
-        Q = quat4(base_quaternion[env, 0], base_quaternion[env, 1], base_quaternion[env, 2], base_quaternion[env, 3])
-        Qdot = quaternion_rate(Q / wp.length(Q), read3(base_velocity, env, 3))
+        n = x.joint_positions.shape[1]
+        Q = quaternion_of(x, env)
+        Qdot = quaternion_rate(Q / wp.length(Q), read3(x.base_velocity, env, 3))
         for a in range(3):
-            k[env, a] = base_velocity[env, a]
+            k[env, a] = x.base_velocity[env, a]
             k[env, 7 + n + a] = base_acceleration[env, a]
             k[env, 10 + n + a] = base_acceleration[env, 3 + a]
         for a in range(4):
             k[env, 3 + a] = Qdot[a]
         for j in range(n):
-            k[env, 7 + j] = joint_velocities[env, j]
+            k[env, 7 + j] = x.joint_velocities[env, j]
             k[env, 13 + n + j] = joint_accelerations[env, j]
-        for c in range(m.shape[1]):
+        for c in range(x.tangential_deformation.shape[1]):
             for a in range(3):
                 k[env, 13 + 2 * n + 3 * c + a] = m_dot[env, c, a]
 
     @wp.kernel(module="unique")
     def rk4_stage(
         h: scalar,
-        # state at t
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
-        joint_positions: wp.array2d(dtype=scalar),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
-        m: wp.array3d(dtype=scalar),
+        x: B.State,
         k: wp.array2d(dtype=scalar),
-        # outputs: the stage x(t) + h k, quaternion normalised, base velocity Mixed
-        stage_position: wp.array2d(dtype=scalar),
-        stage_quaternion: wp.array2d(dtype=scalar),
-        stage_joint_positions: wp.array2d(dtype=scalar),
-        stage_velocity: wp.array2d(dtype=scalar),
-        stage_joint_velocities: wp.array2d(dtype=scalar),
-        stage_m: wp.array3d(dtype=scalar),
+        # outputs: the stage x + h k, quaternion normalised, base velocity Mixed (its valid is not written)
+        stage: B.State,
     ):
         env = wp.tid()
-        n = joint_positions.shape[1]
-        p = read3(base_position, env, 0)
-        omega = read3(base_velocity, env, 3)
-        v = read3(base_velocity, env, 0) - wp.cross(omega, p)
+        n = x.joint_positions.shape[1]
+        p = read3(x.base_position, env, 0)
+        omega = read3(x.base_velocity, env, 3)
+        v = read3(x.base_velocity, env, 0) - wp.cross(omega, p)
         p_h = p + h * read3(k, env, 0)
         v_h = v + h * read3(k, env, 7 + n)
         omega_h = omega + h * read3(k, env, 10 + n)
-        Q = quat4(base_quaternion[env, 0], base_quaternion[env, 1], base_quaternion[env, 2], base_quaternion[env, 3])
+        Q = quaternion_of(x, env)
         Q_h = Q / wp.length(Q) + h * quat4(k[env, 3], k[env, 4], k[env, 5], k[env, 6])
         Q_h = Q_h / wp.length(Q_h)
         pdot_h = v_h + wp.cross(omega_h, p_h)
         for a in range(3):
-            stage_position[env, a] = p_h[a]
-            stage_velocity[env, a] = pdot_h[a]
-            stage_velocity[env, 3 + a] = omega_h[a]
+            stage.base_position[env, a] = p_h[a]
+            stage.base_velocity[env, a] = pdot_h[a]
+            stage.base_velocity[env, 3 + a] = omega_h[a]
         for a in range(4):
-            stage_quaternion[env, a] = Q_h[a]
+            stage.base_quaternion[env, a] = Q_h[a]
         for j in range(n):
-            stage_joint_positions[env, j] = joint_positions[env, j] + h * k[env, 7 + j]
-            stage_joint_velocities[env, j] = joint_velocities[env, j] + h * k[env, 13 + n + j]
+            stage.joint_positions[env, j] = x.joint_positions[env, j] + h * k[env, 7 + j]
+            stage.joint_velocities[env, j] = x.joint_velocities[env, j] + h * k[env, 13 + n + j]
+        m = x.tangential_deformation
         for c in range(m.shape[1]):
             for a in range(3):
-                stage_m[env, c, a] = m[env, c, a] + h * k[env, 13 + 2 * n + 3 * c + a]
+                stage.tangential_deformation[env, c, a] = m[env, c, a] + h * k[env, 13 + 2 * n + 3 * c + a]
 
     @wp.kernel(module="unique")
     def rk4_combine(
         dt: scalar,
         quaternion_tolerance: scalar,
-        # state at t
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
-        joint_positions: wp.array2d(dtype=scalar),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
-        m: wp.array3d(dtype=scalar),
-        valid: wp.array(dtype=wp.int32),
+        x: B.State,
         # slopes of the four stages
         k1: wp.array2d(dtype=scalar),
         k2: wp.array2d(dtype=scalar),
         k3: wp.array2d(dtype=scalar),
         k4: wp.array2d(dtype=scalar),
-        # outputs: state at t + dt
-        base_position_next: wp.array2d(dtype=scalar),
-        base_quaternion_next: wp.array2d(dtype=scalar),
-        joint_positions_next: wp.array2d(dtype=scalar),
-        base_velocity_next: wp.array2d(dtype=scalar),
-        joint_velocities_next: wp.array2d(dtype=scalar),
-        m_next: wp.array3d(dtype=scalar),
-        valid_next: wp.array(dtype=wp.int32),
+        # outputs: the state at t + dt
+        y: B.State,
     ):
-        """x(t + dt) = x(t) + dt (k1 + 2 k2 + 2 k3 + k4) / 6, quaternion normalised; health as in
-        semi_implicit_euler."""
+        """y = x + dt (k1 + 2 k2 + 2 k3 + k4) / 6, quaternion normalised; health as in semi_implicit_euler."""
         env = wp.tid()
-        n = joint_positions.shape[1]
+        n = x.joint_positions.shape[1]
+        m = x.tangential_deformation
         w = dt / scalar(6.0)
-        p = read3(base_position, env, 0)
-        omega = read3(base_velocity, env, 3)
-        v = read3(base_velocity, env, 0) - wp.cross(omega, p)
+        p = read3(x.base_position, env, 0)
+        omega = read3(x.base_velocity, env, 3)
+        v = read3(x.base_velocity, env, 0) - wp.cross(omega, p)
         p_next = p + w * (read3(k1, env, 0) + scalar(2.0) * (read3(k2, env, 0) + read3(k3, env, 0)) + read3(k4, env, 0))
         v_next = v + w * (read3(k1, env, 7 + n) + scalar(2.0) * (read3(k2, env, 7 + n) + read3(k3, env, 7 + n)) + read3(k4, env, 7 + n))
         omega_next = omega + w * (
             read3(k1, env, 10 + n) + scalar(2.0) * (read3(k2, env, 10 + n) + read3(k3, env, 10 + n)) + read3(k4, env, 10 + n)
         )
-        Q = quat4(base_quaternion[env, 0], base_quaternion[env, 1], base_quaternion[env, 2], base_quaternion[env, 3])
+        Q = quaternion_of(x, env)
         dQ = quat4(
             k1[env, 3] + scalar(2.0) * (k2[env, 3] + k3[env, 3]) + k4[env, 3],
             k1[env, 4] + scalar(2.0) * (k2[env, 4] + k3[env, 4]) + k4[env, 4],
@@ -282,7 +218,7 @@ def kernels(scalar):
         Q_norm = wp.length(Q_step)
         Q_next = Q_step / Q_norm
         pdot_next = v_next + wp.cross(omega_next, p_next)
-        ok = valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
+        ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
         ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm)
         for j in range(n):
             ok = ok and wp.isfinite(k1[env, 7 + j] + k2[env, 7 + j] + k3[env, 7 + j] + k4[env, 7 + j])
@@ -292,40 +228,25 @@ def kernels(scalar):
             ok = ok and wp.isfinite(k1[env, i] + k2[env, i] + k3[env, i] + k4[env, i])
         if ok:
             for a in range(3):
-                base_position_next[env, a] = p_next[a]
-                base_velocity_next[env, a] = pdot_next[a]
-                base_velocity_next[env, 3 + a] = omega_next[a]
+                y.base_position[env, a] = p_next[a]
+                y.base_velocity[env, a] = pdot_next[a]
+                y.base_velocity[env, 3 + a] = omega_next[a]
             for a in range(4):
-                base_quaternion_next[env, a] = Q_next[a]
+                y.base_quaternion[env, a] = Q_next[a]
             for j in range(n):
                 i = 7 + j
-                joint_positions_next[env, j] = joint_positions[env, j] + w * (k1[env, i] + scalar(2.0) * (k2[env, i] + k3[env, i]) + k4[env, i])
+                y.joint_positions[env, j] = x.joint_positions[env, j] + w * (k1[env, i] + scalar(2.0) * (k2[env, i] + k3[env, i]) + k4[env, i])
                 i2 = 13 + n + j
-                joint_velocities_next[env, j] = joint_velocities[env, j] + w * (
+                y.joint_velocities[env, j] = x.joint_velocities[env, j] + w * (
                     k1[env, i2] + scalar(2.0) * (k2[env, i2] + k3[env, i2]) + k4[env, i2]
                 )
             for c in range(m.shape[1]):
                 for a in range(3):
                     i3 = 13 + 2 * n + 3 * c + a
-                    m_next[env, c, a] = m[env, c, a] + w * (k1[env, i3] + scalar(2.0) * (k2[env, i3] + k3[env, i3]) + k4[env, i3])
-            valid_next[env] = 1
+                    y.tangential_deformation[env, c, a] = m[env, c, a] + w * (k1[env, i3] + scalar(2.0) * (k2[env, i3] + k3[env, i3]) + k4[env, i3])
+            y.valid[env] = 1
         else:
-            keep_state(
-                env,
-                base_position,
-                base_quaternion,
-                joint_positions,
-                base_velocity,
-                joint_velocities,
-                m,
-                base_position_next,
-                base_quaternion_next,
-                joint_positions_next,
-                base_velocity_next,
-                joint_velocities_next,
-                m_next,
-                valid_next,
-            )
+            keep_state(env, x, y)
 
     def state_size(n: int, nc: int) -> int:
         """The length of x = (p, Q, s, v, sdot, m): 3 + 4 + n + 6 + n + 3 nc."""

@@ -31,12 +31,14 @@ import types
 
 import warp as wp
 
+from .bundles import bundles
 from .spatial import BODY, MIXED, spatial
 
 
 @functools.cache
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
+    B = bundles(scalar)
 
     @wp.func
     def repr_frame_velocity(repr: int, W_H_F: sp.transform, W_v_WF: sp.vec6):
@@ -53,49 +55,29 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def link_bias_recursion(
-        # model
-        parent: wp.array(dtype=int),
-        joint_type: wp.array(dtype=int),
-        joint_axis: wp.array(dtype=sp.vec3),
-        joint_pivot: wp.array(dtype=sp.vec3),
-        # state
+        model: B.Model,
         W_H_L: wp.array2d(dtype=sp.transform),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
+        state: B.State,
         # outputs
         W_v_WL: wp.array2d(dtype=sp.vec6),
         W_a_L: wp.array2d(dtype=sp.vec6),
     ):
         """W_v_WL (N, nL): Inertial link velocities; W_a_L (N, nL): Σ_j W_v_{W L_j} × W_X_{L_j} S_j ṡ_j over
-        the joints supporting each link. base_velocity (N, 6) is the state's, Mixed [W_pdot_B; W_omega_WB]."""
+        the joints supporting each link. W_H_L (N, nL): the link poses at the state."""
         env = wp.tid()
-        mixed = sp.vec6(
-            base_velocity[env, 0],
-            base_velocity[env, 1],
-            base_velocity[env, 2],
-            base_velocity[env, 3],
-            base_velocity[env, 4],
-            base_velocity[env, 5],
-        )
-        W_v_WL[env, 0] = sp.repr_to_inertial(MIXED, W_H_L[env, 0], mixed)
+        W_v_WL[env, 0] = sp.repr_to_inertial(MIXED, W_H_L[env, 0], B.base_velocity_mixed(state, env))
         W_a_L[env, 0] = sp.vec6(scalar(0.0))
-        for i in range(1, parent.shape[0]):
-            S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
-            u = sp.motion_to(W_H_L[env, i], S) * joint_velocities[env, i - 1]
-            W_v_WL[env, i] = W_v_WL[env, parent[i]] + u
-            W_a_L[env, i] = W_a_L[env, parent[i]] + sp.cross_motion(W_v_WL[env, parent[i]], u)
+        for i in range(1, model.parent.shape[0]):
+            S = B.motion_subspace_of(model, i)
+            u = sp.motion_to(W_H_L[env, i], S) * state.joint_velocities[env, i - 1]
+            W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + u
+            W_a_L[env, i] = W_a_L[env, model.parent[i]] + sp.cross_motion(W_v_WL[env, model.parent[i]], u)
 
     @wp.kernel(module="unique")
     def jacobian_derivatives(
-        # model
-        joint_type: wp.array(dtype=int),
-        joint_axis: wp.array(dtype=sp.vec3),
-        joint_pivot: wp.array(dtype=sp.vec3),
-        support: wp.array2d(dtype=int),
-        # targets
-        target_link: wp.array(dtype=int),
-        link_H_target: wp.array(dtype=sp.transform),
-        # state
+        model: B.Model,
+        targets: B.Targets,
+        # the links' poses and Inertial velocities (N, nL)
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
         input_repr: int,
@@ -105,8 +87,8 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """Jdot (N, T, 6, 6 + n): d/dt of the Jacobian of target t (kernels/jacobians.py), launched over (N, T)."""
         env, t = wp.tid()
-        L = target_link[t]
-        W_H_F = W_H_L[env, L] * link_H_target[t]
+        L = targets.link[t]
+        W_H_F = W_H_L[env, L] * targets.link_H_target[t]
         W_H_B = W_H_L[env, 0]
         v_O = repr_frame_velocity(output_repr, W_H_F, W_v_WL[env, L])
         v_A = repr_frame_velocity(input_repr, W_H_B, W_v_WL[env, 0])
@@ -119,10 +101,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                 Jdot[env, t, r, c] = col[r]
         # Fresh names in the dynamic loop: a name assigned there that also exists outside it (as `u` and `col`
         # of the unrolled loop above) becomes loop-carried in Warp's codegen, and its adjoint goes wrong.
-        for j in range(support.shape[1]):
+        for j in range(model.support.shape[1]):
             col_j = sp.vec6(scalar(0.0))
-            if support[L, j] != 0:
-                S_j = sp.motion_subspace(joint_type[j + 1], joint_axis[j + 1], joint_pivot[j + 1])
+            if model.support[L, j] != 0:
+                S_j = B.motion_subspace_of(model, j + 1)
                 u_j = sp.motion_to(W_H_L[env, j + 1], S_j)
                 col_j = sp.inertial_to_repr(output_repr, W_H_F, sp.cross_motion(W_v_WL[env, j + 1] - v_O, u_j))
             for r in range(6):
@@ -130,10 +112,8 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def bias_accelerations(
-        # targets
-        target_link: wp.array(dtype=int),
-        link_H_target: wp.array(dtype=sp.transform),
-        # state
+        targets: B.Targets,
+        # the links' poses, Inertial velocities and W_a_L (link_bias_recursion) (N, nL)
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
         W_a_L: wp.array2d(dtype=sp.vec6),
@@ -144,8 +124,8 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """a (N, T, 6): J̇ν of target t in output_repr, ν in input_repr; launched over (N, T)."""
         env, t = wp.tid()
-        L = target_link[t]
-        W_H_F = W_H_L[env, L] * link_H_target[t]
+        L = targets.link[t]
+        W_H_F = W_H_L[env, L] * targets.link_H_target[t]
         W_v_WB = W_v_WL[env, 0]
         v_L = W_v_WL[env, L]
         v_O = repr_frame_velocity(output_repr, W_H_F, v_L)

@@ -12,34 +12,29 @@ import types
 
 import warp as wp
 
+from .bundles import bundles
 from .spatial import spatial
 
 
 @functools.cache
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
+    B = bundles(scalar)
 
     @wp.kernel(module="unique")
     def jacobians(
-        # model
-        joint_type: wp.array(dtype=int),
-        joint_axis: wp.array(dtype=sp.vec3),
-        joint_pivot: wp.array(dtype=sp.vec3),
-        support: wp.array2d(dtype=int),
-        # targets
-        target_link: wp.array(dtype=int),
-        link_H_target: wp.array(dtype=sp.transform),
-        # state
+        model: B.Model,
+        targets: B.Targets,
         W_H_L: wp.array2d(dtype=sp.transform),
         input_repr: int,
         output_repr: int,
         # outputs
         J: wp.array4d(dtype=scalar),
     ):
-        """J (N, T, 6, 6 + n): the Jacobian of target t, launched over (N, T)."""
+        """J (N, T, 6, 6 + n): the Jacobian of target t, launched over (N, T); W_H_L (N, nL) the link poses."""
         env, t = wp.tid()
-        L = target_link[t]
-        W_H_F = W_H_L[env, L] * link_H_target[t]
+        L = targets.link[t]
+        W_H_F = W_H_L[env, L] * targets.link_H_target[t]
         W_H_B = W_H_L[env, 0]
         for c in range(6):
             e = sp.vec6(scalar(0.0))
@@ -47,10 +42,10 @@ def kernels(scalar) -> types.SimpleNamespace:
             col = sp.inertial_to_repr(output_repr, W_H_F, sp.repr_to_inertial(input_repr, W_H_B, e))
             for r in range(6):
                 J[env, t, r, c] = col[r]
-        for j in range(support.shape[1]):
+        for j in range(model.support.shape[1]):
             col_j = sp.vec6(scalar(0.0))
-            if support[L, j] != 0:
-                S = sp.motion_subspace(joint_type[j + 1], joint_axis[j + 1], joint_pivot[j + 1])
+            if model.support[L, j] != 0:
+                S = B.motion_subspace_of(model, j + 1)
                 col_j = sp.inertial_to_repr(output_repr, W_H_F, sp.motion_to(W_H_L[env, j + 1], S))
             for r in range(6):
                 J[env, t, r, 6 + j] = col_j[r]

@@ -16,23 +16,19 @@ import types
 
 import warp as wp
 
+from .spatial import spatial
+
 
 @functools.cache
 def functions(scalar) -> types.SimpleNamespace:
-    vec3 = wp.types.vector(3, scalar)
+    sp = spatial(scalar)
+    vec3, vec6, mat33, mat44, mat66, quat = sp.vec3, sp.vec6, sp.mat33, sp.mat44, sp.mat66, sp.quat
     vec4 = wp.types.vector(4, scalar)
-    vec6 = wp.types.vector(6, scalar)
-    mat33 = wp.types.matrix((3, 3), scalar)
-    mat44 = wp.types.matrix((4, 4), scalar)
-    mat66 = wp.types.matrix((6, 6), scalar)
-    quat = wp.types.quaternion(scalar)
 
     @wp.func
     def skew_wedge(vector: vec3):
         """v^ (3, 3), with v^ w = v x w."""
-        zero = scalar(0.0)
-        v = vector
-        return mat33(zero, -v[2], v[1], v[2], zero, -v[0], -v[1], v[0], zero)
+        return wp.skew(vector)
 
     @wp.func
     def skew_vee(matrix: mat33):
@@ -42,30 +38,14 @@ def functions(scalar) -> types.SimpleNamespace:
         return vec3(half * (m[2, 1] - m[1, 2]), half * (m[0, 2] - m[2, 0]), half * (m[1, 0] - m[0, 1]))
 
     @wp.func
-    def blocks(A: mat33, B: mat33, C: mat33, D: mat33):
-        """The (6, 6) matrix [[A, B], [C, D]]."""
-        X = mat66()
-        for i in range(3):
-            for j in range(3):
-                X[i, j] = A[i, j]
-                X[i, j + 3] = B[i, j]
-                X[i + 3, j] = C[i, j]
-                X[i + 3, j + 3] = D[i, j]
-        return X
-
-    @wp.func
     def cross_vx(velocity_sixd: vec6):
         """v x (6, 6) of a 6D velocity [v; w]: [[w^, v^], [0, w^]]."""
-        v = velocity_sixd
-        w = skew_wedge(vec3(v[3], v[4], v[5]))
-        return blocks(w, skew_wedge(vec3(v[0], v[1], v[2])), mat33(), w)
+        return sp.motion_cross_matrix(velocity_sixd)
 
     @wp.func
     def cross_vx_star(velocity_sixd: vec6):
         """v x* = -(v x)^T: [[w^, 0], [v^, w^]]."""
-        v = velocity_sixd
-        w = skew_wedge(vec3(v[3], v[4], v[5]))
-        return blocks(w, mat33(), skew_wedge(vec3(v[0], v[1], v[2])), w)
+        return sp.force_cross_matrix(velocity_sixd)
 
     @wp.func
     def quaternion_to_xyzw(wxyz: vec4):
@@ -102,15 +82,7 @@ def functions(scalar) -> types.SimpleNamespace:
     @wp.func
     def transform_from_rotation_and_translation(rotation: mat33, translation: vec3):
         """A_H_B (4, 4) of A_R_B and A_p_B."""
-        R = rotation
-        p = translation
-        zero = scalar(0.0)
-        return mat44(
-            R[0, 0], R[0, 1], R[0, 2], p[0],
-            R[1, 0], R[1, 1], R[1, 2], p[1],
-            R[2, 0], R[2, 1], R[2, 2], p[2],
-            zero, zero, zero, scalar(1.0),
-        )  # fmt: skip
+        return sp.homogeneous(sp.transform(translation, wp.quat_from_matrix(rotation)))
 
     @wp.func
     def transform_from_quaternion_and_translation(quaternion: vec4, translation: vec3):
@@ -138,8 +110,8 @@ def functions(scalar) -> types.SimpleNamespace:
         P = skew_wedge(translation)
         if inverse:
             Rt = wp.transpose(R)
-            return blocks(Rt, -(Rt @ P), mat33(), Rt)
-        return blocks(R, P @ R, mat33(), R)
+            return sp.blocks(Rt, -(Rt @ P), mat33(), Rt)
+        return sp.blocks(R, P @ R, mat33(), R)
 
     @wp.func
     def adjoint_from_transform(transform: mat44, inverse: wp.bool):
@@ -171,8 +143,7 @@ def functions(scalar) -> types.SimpleNamespace:
     @wp.func
     def inertia_to_sixd(mass: scalar, com: vec3, I: mat33):
         """The 6D inertia [[m 1, m c^T], [m c^, I + m c^ c^T]] (I about the CoM, c the CoM)."""
-        c = skew_wedge(com)
-        return blocks(mass * wp.identity(n=3, dtype=scalar), mass * wp.transpose(c), mass * c, I + mass * (c @ wp.transpose(c)))
+        return sp.spatial_inertia(mass, com, I)
 
     return types.SimpleNamespace(
         scalar=scalar,
@@ -182,7 +153,7 @@ def functions(scalar) -> types.SimpleNamespace:
         mat33=mat33,
         mat44=mat44,
         mat66=mat66,
-        blocks=blocks,
+        blocks=sp.blocks,
         Skew=types.SimpleNamespace(wedge=skew_wedge, vee=skew_vee),
         Cross=types.SimpleNamespace(vx=cross_vx, vx_star=cross_vx_star),
         Quaternion=types.SimpleNamespace(

@@ -15,7 +15,7 @@ import types
 import warp as wp
 
 from .aba import inertia_funcs
-from .kinematics import kernels as kinematics_kernels
+from .bundles import bundles
 from .scratch import scratch
 from .spatial import MIXED, spatial
 
@@ -43,38 +43,17 @@ def kernels(scalar, max_registers: int | None | str = "tuned"):
 def _kernels(scalar, max_registers):
     sp = spatial(scalar)
     sc = scratch(scalar)
-    base_pose = kinematics_kernels(scalar).base_pose
+    B = bundles(scalar)
     external_force = inertia_funcs(scalar).external_force
-
-    @wp.func
-    def link_force(W_f_L: wp.array3d(dtype=scalar), env: int, i: int):
-        """The vec6 W_f_L[env, i, :]."""
-        return sc.get6(W_f_L, env, i, 0)
 
     @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def rnea(
-        # model
-        parent: wp.array(dtype=int),
-        joint_type: wp.array(dtype=int),
-        X_tree: wp.array(dtype=sp.transform),
-        joint_axis: wp.array(dtype=sp.vec3),
-        joint_pivot: wp.array(dtype=sp.vec3),
-        link_mass: wp.array2d(dtype=scalar),
-        link_com: wp.array2d(dtype=sp.vec3),
-        link_inertia: wp.array2d(dtype=sp.mat33),
-        first_child: wp.array(dtype=int),
-        next_sibling: wp.array(dtype=int),
-        gravity: scalar,
-        # state
-        base_position: wp.array2d(dtype=scalar),
-        base_quaternion: wp.array2d(dtype=scalar),
-        joint_positions: wp.array2d(dtype=scalar),
-        base_velocity: wp.array2d(dtype=scalar),
-        joint_velocities: wp.array2d(dtype=scalar),
-        # inputs (a null array means zero)
+        model: B.Model,
+        state: B.State,
+        # inputs (an array with a zero leading axis means zero)
         base_acceleration: wp.array2d(dtype=scalar),
         joint_accelerations: wp.array2d(dtype=scalar),
-        f_L: wp.array3d(dtype=scalar),
+        controls: B.Controls,
         repr: int,
         with_velocity: scalar,
         # scratch
@@ -86,16 +65,17 @@ def _kernels(scalar, max_registers):
         """f_B (N, 6), tau (N, n): the generalized forces that produce the given accelerations.
 
         base_acceleration (N, 6): the derivative of the base velocity in `repr`; joint_accelerations (N, n);
-        f_L (N, nL, 6): external link forces in `repr`. with_velocity scales the velocities (0 or 1).
-        f_B is the base wrench as the generalized force dual to the base velocity in `repr`.
-        s (N, nL, RNEA_RECORD, + 7 with link forces): scratch, columns named at the top of this file.
+        controls.link_forces (N, nL, 6): external link forces in `repr` (its joint forces are not read).
+        with_velocity scales the velocities (0 or 1). f_B is the base wrench as the generalized force dual
+        to the base velocity in `repr`. s (N, nL, RNEA_RECORD, + 7 with link forces): scratch, columns named
+        at the top of this file.
         """
         env = wp.tid()
-        nL = parent.shape[0]
-        forces = f_L.shape[0] > 0
-        W_H_B = base_pose(base_position, base_quaternion, env)
-        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, sc.row6(base_velocity, env, 0) * with_velocity))
-        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
+        nL = model.parent.shape[0]
+        forces = controls.link_forces.shape[0] > 0
+        W_H_B = B.base_pose(state, env)
+        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env) * with_velocity))
+        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
         a_in = sp.vec6(scalar(0.0))
         if base_acceleration.shape[0] > 0:
             a_in = sc.row6(base_acceleration, env, 0)
@@ -106,42 +86,42 @@ def _kernels(scalar, max_registers):
             sc.put_transform(s, env, 0, _WHL, W_H_B)
         # velocities and accelerations, from the base
         for i in range(1, nL):
-            X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
-            S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
-            vJ = S * (joint_velocities[env, i - 1] * with_velocity)
-            v_i = sp.motion_from(X, sc.get6(s, env, parent[i], _V)) + vJ
-            a_i = sp.motion_from(X, sc.get6(s, env, parent[i], _A)) + sp.cross_motion(v_i, vJ)
+            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            S = B.motion_subspace_of(model, i)
+            vJ = S * (state.joint_velocities[env, i - 1] * with_velocity)
+            v_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _V)) + vJ
+            a_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + sp.cross_motion(v_i, vJ)
             if joint_accelerations.shape[0] > 0:
                 a_i = a_i + S * joint_accelerations[env, i - 1]
             sc.put6(s, env, i, _V, v_i)
             sc.put6(s, env, i, _A, a_i)
             if forces:
-                sc.put_transform(s, env, i, _WHL, sc.get_transform(s, env, parent[i], _WHL) * X)
+                sc.put_transform(s, env, i, _WHL, sc.get_transform(s, env, model.parent[i], _WHL) * X)
         # forces, from the leaves
         for k in range(nL - 1):
             i = nL - 1 - k
-            X = X_tree[i] * sp.joint_motion(joint_type[i], joint_axis[i], joint_pivot[i], joint_positions[env, i - 1])
-            S = sp.motion_subspace(joint_type[i], joint_axis[i], joint_pivot[i])
-            I = sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, i)
+            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            S = B.motion_subspace_of(model, i)
+            I = B.spatial_inertia_of(model, env, i)
             v_i = sc.get6(s, env, i, _V)
             f_i = I * sc.get6(s, env, i, _A) + sp.cross_force(v_i, I * v_i)
             if forces:
-                f_i = f_i - external_force(f_L, repr, s, _WHL, env, i)
-            if first_child[i] >= 0:
-                f_i = f_i + sc.get6(s, env, first_child[i], _ACC)
+                f_i = f_i - external_force(controls, repr, s, _WHL, env, i)
+            if model.first_child[i] >= 0:
+                f_i = f_i + sc.get6(s, env, model.first_child[i], _ACC)
             tau[env, i - 1] = wp.dot(S, f_i)
             up = sp.force_to(X, f_i)
-            if next_sibling[i] >= 0:
-                up = up + sc.get6(s, env, next_sibling[i], _ACC)
+            if model.next_sibling[i] >= 0:
+                up = up + sc.get6(s, env, model.next_sibling[i], _ACC)
             sc.put6(s, env, i, _ACC, up)
-        I0 = sp.link_spatial_inertia(link_mass, link_com, link_inertia, env, 0)
+        I0 = B.spatial_inertia_of(model, env, 0)
         f_0 = I0 * B_a + sp.cross_force(B_v, I0 * B_v)
         if forces:
-            f_0 = f_0 - external_force(f_L, repr, s, _WHL, env, 0)
-        if first_child[0] >= 0:
-            f_0 = f_0 + sc.get6(s, env, first_child[0], _ACC)
+            f_0 = f_0 - external_force(controls, repr, s, _WHL, env, 0)
+        if model.first_child[0] >= 0:
+            f_0 = f_0 + sc.get6(s, env, model.first_child[0], _ACC)
         base = sp.base_force_from_body(repr, W_H_B, f_0)
         for r in range(6):
             f_B[env, r] = base[r]
 
-    return types.SimpleNamespace(rnea=rnea, row6=sc.row6, link_force=link_force)
+    return types.SimpleNamespace(rnea=rnea)

@@ -17,6 +17,7 @@ import types
 
 import warp as wp
 
+from .bundles import bundles
 from .spatial import spatial
 
 EPSILON = 2.220446049250313e-16
@@ -26,7 +27,8 @@ FLAT, PLANE, HEIGHTFIELD = 0, 1, 2
 @functools.cache
 def kernels(scalar):
     sp = spatial(scalar)
-    vec4 = wp.types.vector(4, scalar)
+    B = bundles(scalar)
+    vec4 = B.vec4
 
     @wp.func
     def heightfield_cell(hf: wp.array2d(dtype=scalar), grid: vec4, x: scalar, y: scalar):
@@ -39,11 +41,14 @@ def kernels(scalar):
         return i, j, u - scalar(float(i)), v - scalar(float(j))
 
     @wp.func
-    def terrain_height(kind: int, n: sp.vec3, h0: scalar, hf: wp.array2d(dtype=scalar), grid: vec4, x: scalar, y: scalar):
-        """h(x, y). Flat: h0. Plane: through (0, 0, h0) with unit normal n. Heightfield: hf bilinear on the
-        grid (origin_x, origin_y, dx, dy), clamped to its edges."""
-        if kind == HEIGHTFIELD:
-            i, j, a, b = heightfield_cell(hf, grid, x, y)
+    def terrain_height(terrain: B.Terrain, env: int, x: scalar, y: scalar):
+        """h(x, y) in environment env. Flat: its height. Plane: through (0, 0, height) with the unit normal.
+        Heightfield: the grid's heights, bilinear, clamped to its edges."""
+        h0 = terrain.height[wp.min(env, terrain.height.shape[0] - 1)]
+        hf = terrain.heights
+        n = terrain.normal
+        if terrain.kind == HEIGHTFIELD:
+            i, j, a, b = heightfield_cell(hf, terrain.grid, x, y)
             one = scalar(1.0)
             return (
                 (one - a) * (one - b) * hf[i, j]
@@ -51,21 +56,23 @@ def kernels(scalar):
                 + (one - a) * b * hf[i, j + 1]
                 + a * b * hf[i + 1, j + 1]
             )
-        if kind == PLANE:
+        if terrain.kind == PLANE:
             return h0 - (n[0] * x + n[1] * y) / n[2]
         return h0
 
     @wp.func
-    def terrain_normal(kind: int, n: sp.vec3, h0: scalar, hf: wp.array2d(dtype=scalar), grid: vec4, x: scalar, y: scalar):
+    def terrain_normal(terrain: B.Terrain, x: scalar, y: scalar):
         """The unit normal at (x, y): constant for flat and plane terrains, from the bilinear gradient otherwise."""
-        if kind == HEIGHTFIELD:
+        hf = terrain.heights
+        grid = terrain.grid
+        if terrain.kind == HEIGHTFIELD:
             i, j, a, b = heightfield_cell(hf, grid, x, y)
             one = scalar(1.0)
             dhdx = ((one - b) * (hf[i + 1, j] - hf[i, j]) + b * (hf[i + 1, j + 1] - hf[i, j + 1])) / grid[2]
             dhdy = ((one - a) * (hf[i, j + 1] - hf[i, j]) + a * (hf[i + 1, j + 1] - hf[i + 1, j])) / grid[3]
             return wp.normalize(sp.vec3(-dhdx, -dhdy, one))
-        if kind == PLANE:
-            return n
+        if terrain.kind == PLANE:
+            return terrain.normal
         return sp.vec3(scalar(0.0), scalar(0.0), scalar(1.0))
 
     @wp.func
@@ -102,24 +109,9 @@ def kernels(scalar):
 
     @wp.kernel(module="unique")
     def contact_forces(
-        # model: enabled points, ordered by link
-        point_link: wp.array(dtype=int),
-        L_p_C: wp.array(dtype=sp.vec3),
-        point_row: wp.array(dtype=int),
-        row_enabled: wp.array(dtype=int),
-        link_first_point: wp.array(dtype=int),
-        # terrain and contact parameters
-        terrain_kind: int,
-        terrain_n: sp.vec3,
-        terrain_h0: wp.array(dtype=scalar),
-        terrain_hf: wp.array2d(dtype=scalar),
-        terrain_grid: vec4,
-        K: wp.array(dtype=scalar),
-        D: wp.array(dtype=scalar),
-        mu: wp.array(dtype=scalar),
-        pe: scalar,
-        qe: scalar,
-        # state
+        contacts: B.Contacts,
+        terrain: B.Terrain,
+        # the links' poses and Inertial velocities (N, nL), the contact state (N, nc_all, 3), link forces
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
         m: wp.array3d(dtype=scalar),
@@ -133,26 +125,25 @@ def kernels(scalar):
     ):
         """Per environment: W_f_C (N, P, 6) the Inertial wrench of each enabled point's contact force;
         m_dot (N, nc, 3) for all points (0 for disabled ones); W_f_L (N, nL, 6) = W_f_ext + contact wrenches
-        summed per link. K, D, mu and the terrain's height at the origin terrain_h0: (N,) or (1,) (per
-        environment or shared)."""
+        summed per link (W_f_ext: in the Inertial representation). K, D, mu and the terrain's height: (1,) or
+        (N,) (shared or per environment)."""
         env = wp.tid()
-        h0 = terrain_h0[wp.min(env, terrain_h0.shape[0] - 1)]
-        P = point_link.shape[0]
-        k_env = wp.min(env, K.shape[0] - 1)
-        d_env = wp.min(env, D.shape[0] - 1)
-        mu_env = wp.min(env, mu.shape[0] - 1)
+        P = contacts.point_link.shape[0]
+        K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
+        D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
+        mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
         for r in range(P):
             c = P - 1 - r
-            L = point_link[c]
+            L = contacts.point_link[c]
             X = W_H_L[env, L]
-            p = wp.transform_point(X, L_p_C[c])
+            p = wp.transform_point(X, contacts.L_p_C[c])
             W_v = W_v_WL[env, L]
             v = sp.lin(W_v) + wp.cross(sp.ang(W_v), p)
-            row = point_row[c]
+            row = contacts.point_row[c]
             m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-            h = terrain_height(terrain_kind, terrain_n, h0, terrain_hf, terrain_grid, p[0], p[1])
-            n = terrain_normal(terrain_kind, terrain_n, h0, terrain_hf, terrain_grid, p[0], p[1])
-            f, md, delta = hunt_crossley(p, v, m_c, h, n, K[k_env], D[d_env], mu[mu_env], pe, qe)
+            h = terrain_height(terrain, env, p[0], p[1])
+            n = terrain_normal(terrain, p[0], p[1])
+            f, md, delta = hunt_crossley(p, v, m_c, h, n, K, D, mu, contacts.p, contacts.q)
             w = sp.stack(f, wp.cross(p, f))
             for a in range(6):
                 W_f_C[env, c, a] = w[a]
@@ -160,17 +151,17 @@ def kernels(scalar):
                 m_dot[env, row, a] = md[a]
             link_sum = w
             if c + 1 < P:
-                if point_link[c + 1] == L:
+                if contacts.point_link[c + 1] == L:
                     link_sum = w + chain[env, c + 1]
             chain[env, c] = link_sum
         for row in range(m.shape[1]):
-            if row_enabled[row] == 0:
+            if contacts.row_enabled[row] == 0:
                 for a in range(3):
                     m_dot[env, row, a] = scalar(0.0)
         for L in range(W_H_L.shape[1]):
             total = sp.vec6(scalar(0.0))
-            if link_first_point[L] >= 0:
-                total = chain[env, link_first_point[L]]
+            if contacts.link_first_point[L] >= 0:
+                total = chain[env, contacts.link_first_point[L]]
             for a in range(6):
                 W_f_L[env, L, a] = W_f_ext[env, L, a] + total[a]
 

@@ -138,6 +138,30 @@ def spatial(scalar) -> types.SimpleNamespace:
         return v
 
     @wp.func
+    def blocks(A: mat33, B: mat33, C: mat33, D: mat33):
+        """The (6, 6) matrix [[A, B], [C, D]]."""
+        return mat66(
+            A[0, 0], A[0, 1], A[0, 2], B[0, 0], B[0, 1], B[0, 2],
+            A[1, 0], A[1, 1], A[1, 2], B[1, 0], B[1, 1], B[1, 2],
+            A[2, 0], A[2, 1], A[2, 2], B[2, 0], B[2, 1], B[2, 2],
+            C[0, 0], C[0, 1], C[0, 2], D[0, 0], D[0, 1], D[0, 2],
+            C[1, 0], C[1, 1], C[1, 2], D[1, 0], D[1, 1], D[1, 2],
+            C[2, 0], C[2, 1], C[2, 2], D[2, 0], D[2, 1], D[2, 2],
+        )  # fmt: skip
+
+    @wp.func
+    def motion_cross_matrix(v: vec6):
+        """(v x) as a matrix: [[w^, u^], [0, w^]] for v = [u; w]."""
+        W = wp.skew(ang(v))
+        return blocks(W, wp.skew(lin(v)), mat33(scalar(0.0)), W)
+
+    @wp.func
+    def force_cross_matrix(v: vec6):
+        """(v x*) as a matrix: [[w^, 0], [u^, w^]] = -(v x)^T for v = [u; w]."""
+        W = wp.skew(ang(v))
+        return blocks(W, mat33(scalar(0.0)), wp.skew(lin(v)), W)
+
+    @wp.func
     def motion_matrix_from(X: transform):
         """B_X_A as a (6, 6) matrix, X = A_H_B: [[R^T, -R^T p^], [0, R^T]]."""
         Rt = wp.transpose(wp.quat_to_matrix(wp.transform_get_rotation(X)))
@@ -167,34 +191,6 @@ def spatial(scalar) -> types.SimpleNamespace:
             mC[1, 0], mC[1, 1], mC[1, 2], Io[1, 0], Io[1, 1], Io[1, 2],
             mC[2, 0], mC[2, 1], mC[2, 2], Io[2, 0], Io[2, 1], Io[2, 2],
         )
-
-    @wp.func
-    def mass_of(link_mass: wp.array2d(dtype=scalar), env: int, i: int):
-        """Link i's mass [kg] in environment env. Model parameters are (P, nL) arrays with P = 1 (shared by
-        all environments) or N (one row per environment): row min(env, P - 1)."""
-        return link_mass[wp.min(env, link_mass.shape[0] - 1), i]
-
-    @wp.func
-    def com_of(link_com: wp.array2d(dtype=vec3), env: int, i: int):
-        """Link i's centre of mass [m, link frame] in environment env (see mass_of)."""
-        return link_com[wp.min(env, link_com.shape[0] - 1), i]
-
-    @wp.func
-    def inertia_of(link_inertia: wp.array2d(dtype=mat33), env: int, i: int):
-        """Link i's rotational inertia about its CoM [kg m^2, link axes] in environment env (see mass_of)."""
-        return link_inertia[wp.min(env, link_inertia.shape[0] - 1), i]
-
-    @wp.func
-    def link_spatial_inertia(
-        link_mass: wp.array2d(dtype=scalar), link_com: wp.array2d(dtype=vec3), link_inertia: wp.array2d(dtype=mat33), env: int, i: int
-    ):
-        """Link i's spatial inertia about its origin, link axes, in environment env (see mass_of)."""
-        return spatial_inertia(mass_of(link_mass, env, i), com_of(link_com, env, i), inertia_of(link_inertia, env, i))
-
-    @wp.func
-    def joint_parameter(values: wp.array2d(dtype=scalar), env: int, j: int):
-        """Joint j's value of a (P, n) joint parameter in environment env (see mass_of)."""
-        return values[wp.min(env, values.shape[0] - 1), j]
 
     @wp.func
     def orientation_only(W_H_F: transform):
@@ -303,12 +299,10 @@ def spatial(scalar) -> types.SimpleNamespace:
         mixed_frame=mixed_frame,
         solve_spd6=solve_spd6,
         motion_matrix_from=motion_matrix_from,
+        blocks=blocks,
+        motion_cross_matrix=motion_cross_matrix,
+        force_cross_matrix=force_cross_matrix,
         spatial_inertia=spatial_inertia,
-        mass_of=mass_of,
-        com_of=com_of,
-        inertia_of=inertia_of,
-        link_spatial_inertia=link_spatial_inertia,
-        joint_parameter=joint_parameter,
         orientation_only=orientation_only,
         base_T=base_T,
         base_acceleration_to_body=base_acceleration_to_body,

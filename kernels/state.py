@@ -8,7 +8,7 @@ import types
 
 import warp as wp
 
-from .kinematics import kernels as kinematics_kernels
+from .bundles import bundles
 from .scratch import scratch
 from .spatial import MIXED, spatial
 
@@ -16,7 +16,7 @@ from .spatial import MIXED, spatial
 @functools.cache
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
-    base_pose = kinematics_kernels(scalar).base_pose
+    base_pose = bundles(scalar).base_pose_of
     row6 = scratch(scalar).row6
     vec4 = wp.types.vector(4, scalar)
 

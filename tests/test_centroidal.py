@@ -39,7 +39,7 @@ from scipy.spatial.transform import Rotation
 import robots
 import warpdyn as wd
 from robots import motion_transform, rotation_wxyz, skew
-from warpdyn import _centroidal as cm
+from warpdyn import model as cm
 
 REPRS = (wd.VelRepr.Body, wd.VelRepr.Mixed, wd.VelRepr.Inertial)
 TOL = {np.dtype(np.float64): 1e-10, np.dtype(np.float32): 1e-4}

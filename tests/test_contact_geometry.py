@@ -658,7 +658,7 @@ def test_point_velocities_equal_finite_differences_of_positions():
 
 @pytest.mark.parametrize("in_repr", REPRS)
 def test_jacobian_derivative_equals_finite_differences(in_repr, dtype):
-    """jacobian_derivative (from warpdyn._derivatives) equals central differences (step 1e-6, float64)
+    """jacobian_derivative (warpdyn.engine.derivatives) equals central differences (step 1e-6, float64)
     of the contact Jacobians along the motion, for 3 output representations. Tolerance: float64 1e-7
     relative (FD truncation and rounding as above, on entries up to ~2); float32 1e-4 relative."""
     model = _seed_model(dtype)

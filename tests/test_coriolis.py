@@ -1,4 +1,4 @@
-"""The free-floating Coriolis matrix (warpdyn._coriolis.free_floating_coriolis_matrix), in every representation.
+"""The free-floating Coriolis matrix (warpdyn.model.free_floating_coriolis_matrix, warpdyn.engine.coriolis), in every representation.
 
 References (no library computes JaxSim's C for us, so it is checked by what defines it):
 - C nu = h - g, with h and g from warpdyn's RNEA (tested against MuJoCo's qfrc_bias in test_dynamics).
@@ -9,7 +9,7 @@ References (no library computes JaxSim's C for us, so it is checked by what defi
 - JaxSim's formula evaluated in NumPy from warpdyn's Body Jacobians and Jacobian derivatives (tested against
   MuJoCo and finite differences in test_kinematics_mujoco and test_jacobian_derivatives):
   C_B = sum_L J^T ((v x* M + M v x) J + M Jdot), C = T^T (M_B Tdot + C_B T). For fixed bases JaxSim drops the
-  base link and zeroes the base-joint blocks; warpdyn keeps them (see warpdyn._coriolis), so there only the
+  base link and zeroes the base-joint blocks; warpdyn keeps them (see warpdyn.engine.coriolis), so there only the
   joint block is compared with JaxSim's rule, and the whole matrix with the rule without those changes.
 - Batched equals single-environment, in both memory layouts; tape gradients equal central finite differences.
 
@@ -33,7 +33,7 @@ from scipy.spatial.transform import Rotation
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
-from warpdyn._coriolis import free_floating_coriolis_matrix
+from warpdyn.model import free_floating_coriolis_matrix
 
 REPRS = list(VelRepr)
 TOL = {np.dtype(np.float64): 1e-10, np.dtype(np.float32): 5e-5}

@@ -26,7 +26,11 @@ import warp as wp
 import robots
 import warpdyn as wd
 from robots import from_mixed, rotation_wxyz, skew, to_mixed
-from warpdyn import VelRepr, _derivatives
+from warpdyn import VelRepr
+from warpdyn.engine import derivatives as engine_derivatives
+from warpdyn.engine import kinematics as engine_kinematics
+from warpdyn.engine.kinematics import targets
+from warpdyn.types.model import transforms
 
 REPRS = (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)
 MODELS = ("tree0", "tree3", "tree7", "tree11", "fixed2", "fixed9", "icub_legs", "ergocub_seed")
@@ -111,7 +115,7 @@ def _targets(model, frame_rows) -> tuple[wp.array, wp.array, np.ndarray, np.ndar
     rows = np.asarray(frame_rows, dtype=int)
     links = np.concatenate([np.arange(nL), tree.frame_parent[rows]]).astype(int)
     offsets = np.concatenate([np.tile(np.eye(4), (nL, 1, 1)), tree.link_H_frame[rows].reshape(-1, 4, 4)])
-    link_H_target = wd.model._transforms(offsets, model.scalar, model.device)
+    link_H_target = transforms(offsets, model.scalar, model.device)
     return wp.array(links, dtype=int, device=model.device), link_H_target, links, offsets
 
 
@@ -245,7 +249,7 @@ def test_jacobian_derivatives_match_mujoco(name, dtype):
     for X in REPRS:
         with data.switch_velocity_representation(X):
             for Y in REPRS:
-                Jd = _derivatives.jacobian_derivatives(model, data, target_link, link_H_target, Y).numpy()[0]
+                Jd = engine_derivatives.jacobian_derivatives(model, data, targets(model, target_link, link_H_target), Y).numpy()[0]
                 assert Jd.shape == (len(links), 6, 6 + n)
                 expected = np.array([ref.converted(J, Jdot, R_F, p_F, X, Y) for R_F, p_F, J, Jdot in mixed])
                 scale = max(1.0, np.abs(expected).max(), np.abs(Jd).max())
@@ -263,8 +267,8 @@ def test_jacobian_derivatives_match_mujoco(name, dtype):
                 if rows:
                     got = wd.frame.jacobian_derivative(model, data, frame_index=nL + rows[0], output_vel_repr=Y)
                     np.testing.assert_array_equal(got.numpy()[0], Jd[nL])
-            default = _derivatives.generalized_free_floating_jacobian_derivative(model, data).numpy()
-            explicit = _derivatives.generalized_free_floating_jacobian_derivative(model, data, output_vel_repr=X)
+            default = wd.model.generalized_free_floating_jacobian_derivative(model, data).numpy()
+            explicit = wd.model.generalized_free_floating_jacobian_derivative(model, data, output_vel_repr=X)
             explicit = explicit.numpy()
             np.testing.assert_array_equal(default, explicit)
 
@@ -320,9 +324,9 @@ def test_jacobian_derivatives_equal_finite_differences_along_the_motion(name, dt
     for X in REPRS:
         with data.switch_velocity_representation(X), moved.switch_velocity_representation(X):
             for Y in REPRS:
-                J = wd.model.jacobians(model64, moved, target_link64, link_H_target64, Y).numpy()
+                J = engine_kinematics.jacobians(model64, moved, targets(model64, target_link64, link_H_target64), Y).numpy()
                 fd = (J[:N] - J[N:]) / (2 * h)
-                Jd = _derivatives.jacobian_derivatives(model, data, target_link, link_H_target, Y).numpy()
+                Jd = engine_derivatives.jacobian_derivatives(model, data, targets(model, target_link, link_H_target), Y).numpy()
                 tol = _tol(dtype, fd, 1e-8, 3e-5)
                 np.testing.assert_allclose(Jd, fd, rtol=0, atol=tol, err_msg=f"input {X.name}, output {Y.name}")
 
@@ -347,8 +351,8 @@ def test_bias_accelerations_equal_jacobian_derivative_times_velocity(name, dtype
         with data.switch_velocity_representation(X):
             nu = data.generalized_velocity.numpy()
             for Y in REPRS:
-                Jd = _derivatives.jacobian_derivatives(model, data, target_link, link_H_target, Y).numpy()
-                a = _derivatives.bias_accelerations(model, data, target_link, link_H_target, Y).numpy()
+                Jd = engine_derivatives.jacobian_derivatives(model, data, targets(model, target_link, link_H_target), Y).numpy()
+                a = engine_derivatives.bias_accelerations(model, data, targets(model, target_link, link_H_target), Y).numpy()
                 expected = np.einsum("etrc,ec->etr", Jd, nu)
                 assert a.shape == (N, nL + len(rows), 6)
                 np.testing.assert_allclose(
@@ -356,7 +360,7 @@ def test_bias_accelerations_equal_jacobian_derivative_times_velocity(name, dtype
                     err_msg=f"input {X.name}, output {Y.name}",
                 )
                 if Y == X:
-                    links = _derivatives.link_bias_accelerations(model, data).numpy()
+                    links = wd.model.link_bias_accelerations(model, data).numpy()
                     np.testing.assert_array_equal(links, a[:, :nL])
                     one = wd.link.bias_acceleration(model, data, link_index=nL - 1).numpy()
                     np.testing.assert_array_equal(one, a[:, nL - 1])
@@ -377,8 +381,8 @@ def test_shapes_single_and_batched():
 
     def outputs(data):
         return {
-            "J̇": _derivatives.generalized_free_floating_jacobian_derivative(model, data, output_vel_repr=VelRepr.Body),
-            "J̇ν": _derivatives.link_bias_accelerations(model, data),
+            "J̇": wd.model.generalized_free_floating_jacobian_derivative(model, data, output_vel_repr=VelRepr.Body),
+            "J̇ν": wd.model.link_bias_accelerations(model, data),
             "link J̇": wd.link.jacobian_derivative(model, data, link_index=nL - 1),
             "link J̇ν": wd.link.bias_acceleration(model, data, link_index=nL - 1),
             "frame J̇": wd.frame.jacobian_derivative(model, data, frame_index=frame, output_vel_repr=VelRepr.Inertial),
@@ -448,13 +452,13 @@ def test_tape_gradients_equal_finite_differences(name):
                 getattr(data, f"{key}_state").grad.zero_()
             tape = wp.Tape()
             with tape:
-                Jd = _derivatives.jacobian_derivatives(model, data, target_link, link_H_target, Y)
-                a = _derivatives.bias_accelerations(model, data, target_link, link_H_target, Y)
+                Jd = engine_derivatives.jacobian_derivatives(model, data, targets(model, target_link, link_H_target), Y)
+                a = engine_derivatives.bias_accelerations(model, data, targets(model, target_link, link_H_target), Y)
             tape.backward(grads={Jd: wp.array(W[None], dtype=wp.float64), a: wp.array(V[None], dtype=wp.float64)})
             gradient = np.concatenate([getattr(data, f"{key}_state").grad.numpy()[0] for key in _STATE_ARRAYS])
             tape.zero()
-            Jd_fd = _derivatives.jacobian_derivatives(model, fd_data, target_link, link_H_target, Y).numpy()
-            a_fd = _derivatives.bias_accelerations(model, fd_data, target_link, link_H_target, Y).numpy()
+            Jd_fd = engine_derivatives.jacobian_derivatives(model, fd_data, targets(model, target_link, link_H_target), Y).numpy()
+            a_fd = engine_derivatives.bias_accelerations(model, fd_data, targets(model, target_link, link_H_target), Y).numpy()
             f = np.einsum("etrc,trc->e", Jd_fd, W) + np.einsum("etr,tr->e", a_fd, V)
             fd = (f[0::2] - f[1::2]) / (2 * h)
             np.testing.assert_allclose(

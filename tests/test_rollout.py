@@ -26,7 +26,8 @@ import warp as wp
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
-from warpdyn import _simulation as sim
+from warpdyn.engine import kinematics as engine_kinematics
+from warpdyn.engine import step as sim
 from warpdyn.simulation import STATE_RECORDS, STEP_RECORDS
 
 ALL_RECORDS = STATE_RECORDS + STEP_RECORDS
@@ -42,10 +43,7 @@ def _legs(dtype):
 
 def _legs_model(dtype, integrator=wd.model.IntegratorType.SemiImplicitEuler):
     """A shallow copy of the cached legs (its own integrator and parameters, the cached device constants)."""
-    import copy
-
-    model = copy.copy(_legs(dtype))
-    model.__dict__.pop("_simulation_plan", None)
+    model = _legs(dtype).copy()
     model.integrator = integrator
     return model
 
@@ -69,7 +67,7 @@ def _standing_data(model, N, seed=0, z=(0.56, 0.62)):
 
 
 def _state_numpy(data) -> list:
-    return [a.numpy() for a in sim._state_arrays(data)]
+    return [a.numpy() for a in engine_kinematics.state_arrays(data)]
 
 
 def _stepped(model, data, T, tau=None, forces=None):
@@ -512,7 +510,6 @@ def test_contact_api_without_enabled_points_and_ignored_inputs():
     np.testing.assert_array_equal(a, b)
     with pytest.raises(ValueError, match="link_forces has shape"):
         wd.contact.link_contact_forces(legs, data, link_forces=np.ones((12, 6)))
-    assert wd.contact.estimate_good_contact_parameters is sim.estimate_good_contact_parameters
 
 
 @pytest.mark.parametrize(
@@ -552,27 +549,27 @@ def test_in_contact_uses_the_terrain_height(terrain, dtype):
 
 
 def _kernel_names(model, data, forces=False):
-    plan, N = sim._prepare(model, data)
-    ws = sim._Workspace(plan, N, False, forces)
+    plan, N = sim.prepare(model, data)
+    ws = sim.Workspace(plan, N, False, forces)
     f = np.zeros((N, plan.nL, 6)) if forces else None
     f = None if f is None else wp.array(f, dtype=plan.scalar)
-    launches = sim._step_launches(plan, ws, sim._state_arrays(data), sim._state_buffers(plan, N, False), plan.zeros((plan.n,), N), f, int(data.velocity_representation))
-    return [k[0].key.rsplit("__", 1)[-1] for k in launches]
+    launches = sim.step_launches(plan, ws, engine_kinematics.state_arrays(data), sim.state_buffers(plan, N, False), plan.zeros((plan.n,), N), f, int(data.velocity_representation))
+    return [k.kernel.key.rsplit("__", 1)[-1] for k in launches]
 
 
 def test_plan_is_cached_and_rebuilt_when_parameters_change():
     """The kernels a step uses are chosen once per model; replacing a parameter rebuilds the choice."""
     model = _pendulum(np.float64)
-    plan = sim._plan(model)
-    assert sim._plan(model) is plan and plan.with_friction and not plan.with_limits and not plan.contacts
+    plan = sim.plan(model)
+    assert sim.plan(model) is plan and plan.with_friction and not plan.with_limits and not plan.contacts
     model.set_joint_parameters(limit_spring=np.full(model.dofs(), 10.0))
-    assert sim._plan(model) is not plan and sim._plan(model).with_limits
+    assert sim.plan(model) is not plan and sim.plan(model).with_limits
     model.actuation_params = wd.model.ActuationParams(enable_friction=False)
-    assert not sim._plan(model).with_friction
+    assert not sim.plan(model).with_friction
     legs = _legs_model(np.float64)
-    p1 = sim._plan(legs)
+    p1 = sim.plan(legs)
     legs.contact_params = wd.model.SoftContactsParams(K=5e5)
-    assert sim._plan(legs) is not p1 and sim._plan(legs).K.numpy()[0] == 5e5
+    assert sim.plan(legs) is not p1 and sim.plan(legs).contact_bundle.K.numpy()[0] == 5e5
 
 
 def test_models_launch_only_what_they_need():

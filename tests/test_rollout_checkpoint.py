@@ -17,7 +17,6 @@ References and tolerances:
 
 from __future__ import annotations
 
-import copy
 import functools
 
 import numpy as np
@@ -28,8 +27,7 @@ import gradcheck
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
-from warpdyn import arrays as _arrays
-from warpdyn import _simulation as sim
+from warpdyn.engine.kinematics import state_arrays
 
 EULER, RK4 = wd.model.IntegratorType.SemiImplicitEuler, wd.model.IntegratorType.RungeKutta4
 INTEGRATORS = pytest.mark.parametrize("integrator", [EULER, RK4], ids=["euler", "rk4"])
@@ -47,8 +45,7 @@ def _legs_base():
 def _legs(integrator, marked=LEG_PARAMETERS):
     """A copy of the legs with its own integrator and plan; `marked` parameters require gradients (the
     mass and friction arrays are shared by the copies: their gradients are zeroed by `_gradients`)."""
-    model = copy.copy(_legs_base())
-    model.__dict__.pop("_simulation_plan", None)
+    model = _legs_base().copy()
     model.integrator = integrator
     params = wd.model.parameters_requiring_grad(model, names=marked) if marked else {}
     return model, params
@@ -91,7 +88,7 @@ def _gradients(model, params, data, controls: dict, record, storage, every=None,
     interrupted backward could leave them), whose gradients must be the first's."""
     for p in params.values():
         p.grad.zero_()
-    state = dict(zip(("p", "Q", "s", "v", "sdot", "m"), sim._state_arrays(data)[:6]))
+    state = dict(zip(("p", "Q", "s", "v", "sdot", "m"), state_arrays(data)[:6]))
     watched = {**{f"data.{k}": a for k, a in state.items() if a.requires_grad}, **controls, **params}
     tape = wp.Tape()
     with tape:
@@ -111,7 +108,7 @@ def _gradients(model, params, data, controls: dict, record, storage, every=None,
         np.testing.assert_array_equal(a.grad.numpy(), first[k], err_msg=f"{storage}: second backward, {k}")
     tape.zero()
     values = {name: a.numpy().copy() for name, a in rec.items()}
-    return first, values, [a.numpy().copy() for a in sim._state_arrays(final)], roll
+    return first, values, [a.numpy().copy() for a in state_arrays(final)], roll
 
 
 def _assert_same(got: dict, ref: dict, label: str) -> None:

@@ -41,7 +41,7 @@ import pytest
 
 import robots
 import warpdyn as wd
-import warpdyn._simulation as simulation
+import warpdyn.engine.step as simulation
 
 SIE = wd.model.IntegratorType.SemiImplicitEuler
 RK4 = wd.model.IntegratorType.RungeKutta4
@@ -516,7 +516,7 @@ def test_ergocub_with_jaxsims_estimated_contact_parameters_needs_a_smaller_time_
     (measured over 0.1 s: joint speeds up to 0.096 rad/s, bound 0.5; base height within 1.5 mm, bound
     3 mm). Reference: the outcome itself, documented. Float64 only (float32 measured the same).
     """
-    params = simulation.estimate_good_contact_parameters(_ergocub(np.float64))
+    params = wd.contact.estimate_good_contact_parameters(_ergocub(np.float64))
     assert params.K == pytest.approx(913369.47, rel=1e-6) and params.D == 1e4
     model, data, _ = _standing_ergocub(np.float64, 1e-3, params)
     data, track = _pd_rollout(model, data, 40)
@@ -1056,7 +1056,7 @@ def test_actuation_matches_jaxsims_formulas(dtype):
     (inside/below/above the limits; speeds from 1e-3 rad/s, below omega_th, exactly omega_th = 30,
     between, exactly omega_max = 100, beyond). Zero speed: test_coulomb_friction_vanishes_at_rest.
 
-    Reference: _jaxsim_resultant_torques. Two checks: the torque kernel (warpdyn._simulation.
+    Reference: _jaxsim_resultant_torques. Two checks: the torque kernel (warpdyn.engine.step.
     resultant_torques; float64 measured 0 (same operations), bound 1e-12 relative; float32 bound 1e-5
     relative to max(1, |tau|) since the terms reach 1e4 N m), and one step of the wheels (M = diag(I),
     no bias forces: sdot+ = sdot + dt tau / I), tau recovered from the step: float64 bound 1e-9 relative

@@ -50,13 +50,12 @@ def _legs():
 
 
 def _legs_model():
-    """A shallow copy of the cached legs: its own parameters and plan, the cached device constants."""
-    import copy
-
-    model = copy.copy(_legs())
-    model.__dict__.pop("_simulation_plan", None)
-    model.link_mass = wp.clone(_legs().link_mass)  # marked for gradients below: not the cached model's array
-    model._per_env_parameters, model._kernel_views = {}, {}  # the copy's own (set_link_parameters changes them)
+    """A copy of the cached legs (wd.contact.with_collidable_points: the same points, the cached device
+    constants) with its own parameters, settings and plan, and its own link-mass array (the tests mark it for
+    gradients: not the cached model's)."""
+    legs = _legs()
+    model = wd.contact.with_collidable_points(legs)
+    model.set_link_parameters(mass=legs.link_mass.numpy())
     return model
 
 
@@ -142,7 +141,7 @@ def test_floating_base_with_contacts_equals_the_plain_tape(per_env, monkeypatch)
     heights = np.zeros(N)
     names = ("K", "link_mass", "D")  # D: not given to the bridge
     if per_env:
-        model.set_link_parameters(mass=model.link_mass_host * rng.uniform(0.9, 1.1, (N, model.number_of_links())))
+        model.set_link_parameters(mass=model.link_mass.numpy() * rng.uniform(0.9, 1.1, (N, model.number_of_links())))
         heights = np.array([0.0, 0.002])
         model.terrain = wd.terrain.FlatTerrain(height=heights)
         names += ("terrain_height",)

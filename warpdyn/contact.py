@@ -1,6 +1,6 @@
 """Collidable points, their kinematics and their soft-contact forces, as JaxSim's `jaxsim.api.contact`.
 
-The points come from the description's collision shapes (`warpdyn._collidable` says how each shape
+The points come from the description's collision shapes (`warpdyn.description.collidable` says how each
 becomes points, and in which order); a lumped link's points belong to the link it is lumped into.
 `model.kin_dyn_parameters.contact_parameters` lists ALL points (`body`, `point`, `enabled`), as JaxSim;
 the functions below return the ENABLED points only, in that order: "nc" is their number. Change the
@@ -13,21 +13,17 @@ a leading environment axis N for batched data.
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import warp as wp
 
-from .engine import launch as launching
-from . import arrays as _arrays
-from .types import names as _names
-from . import model as _model
-from .description.collidable import CollidablePointsOptions, NoCollidablePointsWarning, UnresolvedMeshWarning
+from . import arrays, com
+from .data import Data
+from .description.collidable import CollidablePointsOptions, NoCollidablePointsWarning, UnresolvedMeshWarning, resolve_mesh_uri
+from .engine import contact, derivatives, kinematics
+from .types import names
+from .types.enums import output_repr
 from .types.kin_dyn import ContactParameters, FrameParameters, KinDynParameters
-from ._simulation import estimate_good_contact_parameters
-from .types.enums import VelRepr, output_repr
-from .kernels.contact_points import kernels as contact_kernels
-from .kernels.contact_wrenches import kernels as wrench_kernels
+from .types.settings import SoftContactsParams
 
 __all__ = [
     "CollidablePointsOptions",
@@ -36,6 +32,7 @@ __all__ = [
     "KinDynParameters",
     "NoCollidablePointsWarning",
     "UnresolvedMeshWarning",
+    "resolve_mesh_uri",
     "with_collidable_points",
     "collidable_point_kinematics",
     "collidable_point_positions",
@@ -71,41 +68,18 @@ def with_collidable_points(model, *, options: CollidablePointsOptions | None = N
     if enabled_links is not None:
         if isinstance(enabled_links, str):
             enabled_links = (enabled_links,)
-        links = {_names.name_to_idx("link", model.link_names(), name) for name in enabled_links}
+        links = {names.name_to_idx("link", model.link_names(), name) for name in enabled_links}
         enabled = np.array([b in links for b in params.contact_parameters.body], dtype=bool)
     if enabled is None and not all(params.contact_parameters.enabled):  # neither given: every point enabled
         enabled = np.ones(len(params.contact_parameters.body), dtype=bool)
     if enabled is not None:
         params = params.with_enabled(model, enabled)
-    new = copy.copy(model)
-    new.__dict__["_kin_dyn_parameters"] = params
-    return new
-
-
-def _enabled(model):
-    params = model.kin_dyn_parameters
-    return params.enabled_link, params.enabled_link_H_point, params.enabled_point
-
-
-def _positions(model, data) -> wp.array:
-    """W_p_C (N, nc, 3)."""
-    link, _, L_p_C = _enabled(model)
-    _, W_H_L = _model.link_poses(model, data)
-    N, nc = data.batch_size, link.shape[0]
-    W_p_C = _arrays.output((nc, 3), N, model.scalar, model.device, data.requires_grad)
-    launching.launch(
-        contact_kernels(model.scalar).point_positions,
-        dim=(N, nc),
-        inputs=[link, L_p_C, W_H_L],
-        outputs=[W_p_C],
-        device=model.device,
-    )
-    return W_p_C
+    return model.with_kin_dyn_parameters(params)
 
 
 def collidable_point_positions(model, data) -> wp.array:
     """W_p_C: the world positions of the enabled collidable points [m], (nc, 3) or (N, nc, 3)."""
-    return _arrays.squeeze_env(_positions(model, data), data.num_envs)
+    return arrays.squeeze_env(contact.positions(model, data), data.num_envs)
 
 
 def collidable_point_velocities(model, data) -> wp.array:
@@ -114,14 +88,7 @@ def collidable_point_velocities(model, data) -> wp.array:
     The plain time derivative of W_p_C in world coordinates (the linear part of the contact frame's
     Mixed velocity), whatever the data's velocity representation.
     """
-    link, link_H_point, _ = _enabled(model)
-    v = _model.velocities(model, data, link, link_H_point, VelRepr.Mixed)
-    N, nc = data.batch_size, link.shape[0]
-    W_pdot_C = _arrays.output((nc, 3), N, model.scalar, model.device, data.requires_grad)
-    launching.launch(
-        contact_kernels(model.scalar).linear_part, dim=(N, nc), inputs=[v], outputs=[W_pdot_C], device=model.device
-    )
-    return _arrays.squeeze_env(W_pdot_C, data.num_envs)
+    return arrays.squeeze_env(contact.point_velocities(model, data), data.num_envs)
 
 
 def collidable_point_kinematics(model, data) -> tuple[wp.array, wp.array]:
@@ -138,37 +105,20 @@ def in_contact(model, data, *, link_names=None) -> wp.array:
     link_names: the links asked about (default: all, in the model's order); a link without enabled points
     is never in contact. (nL,) or (N, nL) bool, or (k,) / (N, k) for k given names.
     """
-    from ._simulation import _plan
-
-    if link_names is None:
-        links = model.all_links
-    else:
+    indices = None
+    if link_names is not None:
         if isinstance(link_names, str):
             link_names = (link_names,)
-        idx = [_names.name_to_idx("link", model.link_names(), name) for name in link_names]
-        links = wp.array(np.asarray(idx, dtype=np.int32), dtype=int, device=model.device)
-    point_link, _, _ = _enabled(model)
-    W_p_C = _positions(model, data)
-    N, K = data.batch_size, links.shape[0]
-    plan = _plan(model)
-    plan.check_envs(N)
-    out = _arrays.output((K,), N, wp.bool, model.device)
-    launching.launch(
-        wrench_kernels(model.scalar).links_below_terrain,
-        dim=(N, K),
-        inputs=[point_link, W_p_C, links, *plan.terrain_args],
-        outputs=[out],
-        device=model.device,
-    )
-    return _arrays.squeeze_env(out, data.num_envs)
+        indices = [names.name_to_idx("link", model.link_names(), name) for name in link_names]
+    return arrays.squeeze_env(contact.links_in_contact(model, data, indices), data.num_envs)
 
 
 def _check_ignored_inputs(model, data, link_forces, joint_force_references) -> None:
     """Soft contacts do not depend on these (JaxSim passes them to contact models that do): shapes checked."""
     if link_forces is not None:
-        _arrays.batched_input(link_forces, "link_forces", (model.number_of_links(), 6), data.num_envs, model.scalar, model.device)
+        arrays.batched_input(link_forces, "link_forces", (model.number_of_links(), 6), data.num_envs, model.scalar, model.device)
     if joint_force_references is not None:
-        _arrays.batched_input(joint_force_references, "joint_force_references", (model.dofs(),), data.num_envs, model.scalar, model.device)
+        arrays.batched_input(joint_force_references, "joint_force_references", (model.dofs(),), data.num_envs, model.scalar, model.device)
 
 
 def link_contact_forces(
@@ -185,28 +135,13 @@ def link_contact_forces(
     link_forces, joint_force_references (alias joint_torques, JaxSim's name): accepted as JaxSim does;
     soft contacts do not depend on them.
     """
-    from ._simulation import _contact_evaluation
-
     if joint_torques is not None:
         if joint_force_references is not None:
             raise ValueError("give joint_force_references or joint_torques (the same argument), not both")
         joint_force_references = joint_torques
     _check_ignored_inputs(model, data, link_forces, joint_force_references)
-    out_repr = output_repr(data, output_vel_repr)
-    plan, ev = _contact_evaluation(model, data)
-    N, nL = data.batch_size, model.number_of_links()
-    out = _arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
-    if ev is None:
-        out.zero_()
-    else:
-        launching.launch(
-            wrench_kernels(model.scalar).link_wrenches,
-            dim=(N, nL),
-            inputs=[plan.link_first_point, ev.W_H_L, ev.chain, int(out_repr)],
-            outputs=[out],
-            device=model.device,
-        )
-    return _arrays.squeeze_env(out, data.num_envs)
+    out = contact.link_wrenches(model, data, int(output_repr(data, output_vel_repr)))
+    return arrays.squeeze_env(out, data.num_envs)
 
 
 def collidable_point_forces(model, data, *, link_forces=None, joint_force_references=None, output_vel_repr=None) -> wp.array:
@@ -216,31 +151,17 @@ def collidable_point_forces(model, data, *, link_forces=None, joint_force_refere
     computes); Body [L_R_W f; 0]. Summed over a link's points (Inertial), they give `link_contact_forces`.
     link_forces, joint_force_references: accepted as JaxSim does; soft contacts do not depend on them.
     """
-    from ._simulation import _contact_evaluation
-
     _check_ignored_inputs(model, data, link_forces, joint_force_references)
-    out_repr = output_repr(data, output_vel_repr)
-    plan, ev = _contact_evaluation(model, data)
-    N = data.batch_size
-    out = _arrays.output((plan.count, 6), N, model.scalar, model.device, data.requires_grad)
-    if ev is not None:
-        launching.launch(
-            wrench_kernels(model.scalar).point_wrenches,
-            dim=(N, plan.count),
-            inputs=[plan.point_link, plan.L_p_C, plan.point_out, ev.W_H_L, ev.W_f_C, int(out_repr)],
-            outputs=[out],
-            device=model.device,
-        )
-    return _arrays.squeeze_env(out, data.num_envs)
+    out = contact.point_wrenches(model, data, int(output_repr(data, output_vel_repr)))
+    return arrays.squeeze_env(out, data.num_envs)
 
 
 def transforms(model, data) -> wp.array:
     """W_H_C: the contact frames of the enabled points, C = (W_p_C, [L]) with L the point's link,
     (nc, 4, 4) or (N, nc, 4, 4)."""
-    link, link_H_point, _ = _enabled(model)
-    _, W_H_L = _model.link_poses(model, data)
-    H = _model.homogeneous(model, W_H_L, link, link_H_point, data.requires_grad)
-    return _arrays.squeeze_env(H, data.num_envs)
+    _, W_H_L = kinematics.link_poses(model, data)
+    H = kinematics.homogeneous(model, W_H_L, contact.point_targets(model), data.requires_grad)
+    return arrays.squeeze_env(H, data.num_envs)
 
 
 def jacobian(model, data, *, output_vel_repr=None) -> wp.array:
@@ -250,15 +171,50 @@ def jacobian(model, data, *, output_vel_repr=None) -> wp.array:
     frame's velocity in `output_vel_repr` (default: the data's): Inertial W_v_WC (= the link's), Body
     C_v_WC, Mixed C[W]_v_WC = [W_pdot_C; W_omega_WL].
     """
-    link, link_H_point, _ = _enabled(model)
-    J = _model.jacobians(model, data, link, link_H_point, output_vel_repr)
-    return _arrays.squeeze_env(J, data.num_envs)
+    J = kinematics.jacobians(model, data, contact.point_targets(model), output_vel_repr)
+    return arrays.squeeze_env(J, data.num_envs)
 
 
 def jacobian_derivative(model, data, *, output_vel_repr=None) -> wp.array:
     """The time derivatives of `jacobian(...)`: (nc, 6, 6 + n) or (N, nc, 6, 6 + n), same representations."""
-    from ._derivatives import jacobian_derivatives
+    Jdot = derivatives.jacobian_derivatives(model, data, contact.point_targets(model), output_vel_repr)
+    return arrays.squeeze_env(Jdot, data.num_envs)
 
-    link, link_H_point, _ = _enabled(model)
-    Jdot = jacobian_derivatives(model, data, link, link_H_point, output_vel_repr)
-    return _arrays.squeeze_env(Jdot, data.num_envs)
+
+def estimate_good_contact_parameters(
+    model,
+    *,
+    standard_gravity: float = 9.81,
+    static_friction_coefficient: float = 0.5,
+    number_of_active_collidable_points_steady_state: int = 1,
+    damping_ratio: float = 1.0,
+    max_penetration: float | None = None,
+) -> SoftContactsParams:
+    """JaxSim's estimate: K so that the robot's weight shared by the active points penetrates
+    max_penetration (default: 1% of the CoM height above the lowest collidable point at the zero state),
+    K = m g / n / delta_max^(1 + p) clipped to 1e6, and D = damping_ratio 2 sqrt(K m) clipped to 1e4.
+    m is the model's current total mass (`model.link_mass`); with masses given per environment, K and D are
+    one value per environment (N,)."""
+    masses = np.asarray(model.link_mass.numpy(), dtype=np.float64)
+    m = masses.sum(axis=-1)
+    num_envs = masses.shape[0] if masses.ndim == 2 else None
+    nc = int(number_of_active_collidable_points_steady_state)
+    if nc < 1:
+        raise ValueError(f"number_of_active_collidable_points_steady_state must be >= 1, got {nc}")
+    if max_penetration is None:
+        zero = Data.build(model, num_envs=num_envs)
+        height = com.com_position(model, zero).numpy()[..., 2]
+        if model.floating_base():
+            points = collidable_point_positions(model, zero).numpy()
+            if points.shape[-2]:
+                height = height - points[..., 2].min(axis=-1)
+        max_penetration = 0.01 * height
+    max_penetration = np.asarray(max_penetration, dtype=np.float64)
+    if not np.all(max_penetration > 0.0):
+        raise ValueError(f"max_penetration must be positive, got {max_penetration}")
+    p = 0.5
+    K = np.clip(m * standard_gravity / nc / max_penetration ** (1.0 + p), 0.0, 1e6)
+    D = np.clip(damping_ratio * 2.0 * np.sqrt(K * m), 0.0, 1e4)
+    if num_envs is None:
+        K, D = float(K), float(D)
+    return SoftContactsParams(K=K, D=D, mu=static_friction_coefficient, p=p, q=0.5)

@@ -1,7 +1,7 @@
 """The state of one or many environments of a model.
 
 State arrays (Warp, on the model's device, in the model's scalar), each with a leading environment axis
-N (N = 1 for single-environment data), stored environment-fastest (see warpdyn._arrays):
+N (N = 1 for single-environment data), stored environment-fastest (see warpdyn.arrays):
 - base_position_state (N, 3): W_p_B [m].
 - base_quaternion_state (N, 4): W_Q_B as (w, x, y, z).
 - joint_positions_state (N, n): s [rad or m], in the model's joint order.
@@ -21,10 +21,10 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from .engine import launch as launching
-from . import arrays as _arrays
+from . import arrays
+from .engine import state as states
 from .types.enums import VelRepr
-from .kernels.state import kernels as state_kernels
+from .types.model import quaternion_xyzw
 
 __all__ = ["Data", "random_model_data"]
 
@@ -80,7 +80,7 @@ class Data:
         N = 1 if num_envs is None else int(num_envs)
 
         def state(value, name, shape, default=None):
-            array = _arrays.state_array(value, name, shape, num_envs, s, d, default)
+            array = states.state_array(value, name, shape, num_envs, s, d, default)
             if validate and isinstance(value, wp.array) and not np.all(np.isfinite(array.numpy())):
                 raise ValueError(f"{name} has non-finite values")
             return array
@@ -103,14 +103,7 @@ class Data:
         angular = state(base_angular_velocity, "base_angular_velocity", (3,))
         if requires_grad:
             linear.requires_grad = angular.requires_grad = True
-        velocity = _arrays.empty((6,), N, s, d)
-        launching.launch(
-            state_kernels(s).base_velocity_from_repr,
-            dim=N,
-            inputs=[position, quaternion, linear, angular, int(velocity_representation)],
-            outputs=[velocity],
-            device=d,
-        )
+        velocity = states.base_velocity_from(position, quaternion, linear, angular, int(velocity_representation))
         data = Data(
             base_position_state=position,
             base_quaternion_state=quaternion,
@@ -119,7 +112,7 @@ class Data:
             joint_velocities_state=state(joint_velocities, "joint_velocities", (n,)),
             velocity_representation=velocity_representation,
             num_envs=None if num_envs is None else N,
-            tangential_deformation_state=_arrays.zeros(
+            tangential_deformation_state=arrays.zeros(
                 (len(model.kin_dyn_parameters.contact_parameters.body), 3), N, s, d
             ),
             valid_state=wp.ones(N, dtype=wp.int32, device=d),
@@ -164,7 +157,7 @@ class Data:
         return any(getattr(self, f"{name}_state").requires_grad for name in _STATE_FIELDS)
 
     def _out(self, array: wp.array) -> wp.array:
-        return _arrays.squeeze_env(array, self.num_envs)
+        return arrays.squeeze_env(array, self.num_envs)
 
     # JaxSim's properties -----------------------------------------------------------------------
 
@@ -191,48 +184,17 @@ class Data:
     @property
     def base_orientation(self) -> wp.array:
         """W_Q_B normalised, (w, x, y, z): (4,) or (N, 4) (as JaxSim: a quaternion, not a matrix)."""
-        out = _arrays.output((4,), self.batch_size, self.scalar, self.device, self.requires_grad)
-        launching.launch(
-            state_kernels(self.scalar).normalized_quaternion,
-            dim=self.batch_size,
-            inputs=[self.base_quaternion_state],
-            outputs=[out],
-            device=self.device,
-        )
-        return self._out(out)
+        return self._out(states.normalized_quaternion(self, self.requires_grad))
 
     @property
     def base_transform(self) -> wp.array:
         """W_H_B: (4, 4) or (N, 4, 4)."""
-        from .kernels.kinematics import kernels as kinematics_kernels
-
-        out = _arrays.output((4, 4), self.batch_size, self.scalar, self.device, self.requires_grad)
-        launching.launch(
-            kinematics_kernels(self.scalar).base_homogeneous_matrix,
-            dim=self.batch_size,
-            inputs=[self.base_position_state, self.base_quaternion_state],
-            outputs=[out],
-            device=self.device,
-        )
-        return self._out(out)
+        return self._out(states.base_transform(self, self.requires_grad))
 
     @property
     def base_velocity(self) -> wp.array:
         """The base velocity in the data's representation: (6,) or (N, 6), [linear; angular]."""
-        out = _arrays.output((6,), self.batch_size, self.scalar, self.device, self.requires_grad)
-        launching.launch(
-            state_kernels(self.scalar).base_velocity_to_repr,
-            dim=self.batch_size,
-            inputs=[
-                self.base_position_state,
-                self.base_quaternion_state,
-                self.base_velocity_state,
-                int(self.velocity_representation),
-            ],
-            outputs=[out],
-            device=self.device,
-        )
-        return self._out(out)
+        return self._out(states.base_velocity_in(self, int(self.velocity_representation), self.requires_grad))
 
     @property
     def generalized_position(self) -> tuple[wp.array, wp.array]:
@@ -242,22 +204,7 @@ class Data:
     @property
     def generalized_velocity(self) -> wp.array:
         """nu = [base velocity in the data's representation; sdot]: (6 + n,) or (N, 6 + n)."""
-        n = self.joint_velocities_state.shape[1]
-        out = _arrays.output((6 + n,), self.batch_size, self.scalar, self.device, self.requires_grad)
-        launching.launch(
-            state_kernels(self.scalar).generalized_velocity,
-            dim=self.batch_size,
-            inputs=[
-                self.base_position_state,
-                self.base_quaternion_state,
-                self.base_velocity_state,
-                self.joint_velocities_state,
-                int(self.velocity_representation),
-            ],
-            outputs=[out],
-            device=self.device,
-        )
-        return self._out(out)
+        return self._out(states.generalized_velocity(self, int(self.velocity_representation), self.requires_grad))
 
     @property
     def contact_state(self) -> dict[str, wp.array]:
@@ -282,14 +229,8 @@ class Data:
         fields = {}
         for name in (*_STATE_FIELDS, "tangential_deformation"):
             mine, theirs = getattr(self, f"{name}_state"), getattr(source, f"{name}_state")
-            out = _arrays.empty(mine.shape[1:], self.batch_size, self.scalar, self.device)
-            kernel = state_kernels(self.scalar).select_rows_3d if mine.ndim == 3 else state_kernels(self.scalar).select_rows
-            launching.launch(kernel, dim=self.batch_size, inputs=[selected, theirs, mine], outputs=[out], device=self.device)
-            fields[f"{name}_state"] = out
-        valid = wp.empty(self.batch_size, dtype=wp.int32, device=self.device)
-        launching.launch(
-            state_kernels(self.scalar).select_valid, dim=self.batch_size, inputs=[selected, self.valid_state], outputs=[valid], device=self.device
-        )
+            fields[f"{name}_state"] = states.select_rows(selected, theirs, mine)
+        valid = states.select_valid(selected, self.valid_state, self.scalar)
         return dataclasses.replace(self, **fields, valid_state=valid)
 
     @contextlib.contextmanager
@@ -382,9 +323,7 @@ def _rotation_xyz(angles: np.ndarray) -> np.ndarray:
 
 
 def _quaternion_wxyz(R: np.ndarray) -> np.ndarray:
-    from .model import _quaternion_xyzw
-
-    x, y, z, w = _quaternion_xyzw(R)
+    x, y, z, w = quaternion_xyzw(R)
     return np.array([w, x, y, z])
 
 

@@ -8,10 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _derivatives
-from . import arrays as _arrays
+from . import arrays
+from .engine import derivatives, kinematics
 from .types import names as _names
-from . import model as _model
 
 __all__ = [
     "idx_of_parent_link",
@@ -51,32 +50,33 @@ def idxs_to_names(model, *, frame_indices) -> tuple[str, ...]:
 
 
 def _target(model, frame_index: int):
+    """The frame as the kernels' Targets (cached per frame on the model)."""
     k = _row(model, frame_index)
-    return model.frame_parent[k : k + 1], model.link_H_frame[k : k + 1]
+    return model.cached(("frame target", k), lambda: kinematics.targets(model, model.frame_parent[k : k + 1], model.link_H_frame[k : k + 1]))
 
 
 def transform(model, data, *, frame_index: int):
     """W_H_F: (4, 4) or (N, 4, 4)."""
-    target, offset = _target(model, frame_index)
-    _, W_H_L = _model.link_poses(model, data)
-    return _arrays.squeeze_env(_model.homogeneous(model, W_H_L, target, offset, data.requires_grad)[:, 0], data.num_envs)
+    target = _target(model, frame_index)
+    _, W_H_L = kinematics.link_poses(model, data)
+    return arrays.squeeze_env(kinematics.homogeneous(model, W_H_L, target, data.requires_grad)[:, 0], data.num_envs)
 
 
 def velocity(model, data, *, frame_index: int, output_vel_repr=None):
     """The frame's velocity in output_vel_repr (default: the data's): (6,) or (N, 6)."""
-    target, offset = _target(model, frame_index)
-    return _arrays.squeeze_env(_model.velocities(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)
+    target = _target(model, frame_index)
+    return arrays.squeeze_env(kinematics.velocities(model, data, target, output_vel_repr)[:, 0], data.num_envs)
 
 
 def jacobian(model, data, *, frame_index: int, output_vel_repr=None):
     """The frame's free-floating Jacobian: (6, 6 + n) or (N, 6, 6 + n) (input: the data's representation)."""
-    target, offset = _target(model, frame_index)
-    return _arrays.squeeze_env(_model.jacobians(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)
+    target = _target(model, frame_index)
+    return arrays.squeeze_env(kinematics.jacobians(model, data, target, output_vel_repr)[:, 0], data.num_envs)
 
 
 def jacobian_derivative(model, data, *, frame_index: int, output_vel_repr=None):
     """The time derivative of the frame's free-floating Jacobian along the state's motion: (6, 6 + n) or
     (N, 6, 6 + n). Input: ν in the data's representation; output: output_vel_repr (default: the data's)."""
-    target, offset = _target(model, frame_index)
-    Jdot = _derivatives.jacobian_derivatives(model, data, target, offset, output_vel_repr)
-    return _arrays.squeeze_env(Jdot[:, 0], data.num_envs)
+    target = _target(model, frame_index)
+    Jdot = derivatives.jacobian_derivatives(model, data, target, output_vel_repr)
+    return arrays.squeeze_env(Jdot[:, 0], data.num_envs)

@@ -7,11 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .engine import launch as launching
-from . import _derivatives
-from . import arrays as _arrays
+from . import arrays
+from .engine import centroidal, derivatives, kinematics
 from .types import names as _names
-from . import model as _model
 
 __all__ = [
     "name_to_idx",
@@ -52,21 +50,22 @@ def mass(model, *, link_index: int):
 
 
 def _target(model, link_index: int):
+    """The link as the kernels' Targets (cached per link on the model)."""
     i = _names.check_idx("link", model.number_of_links(), link_index)
-    return model.all_links[i : i + 1], model.identity_offsets[i : i + 1]
+    return model.cached(("link target", i), lambda: kinematics.targets(model, model.all_links[i : i + 1], model.identity_offsets[i : i + 1]))
 
 
 def transform(model, data, *, link_index: int):
     """W_H_L: (4, 4) or (N, 4, 4)."""
-    target, offset = _target(model, link_index)
-    _, W_H_L = _model.link_poses(model, data)
-    return _arrays.squeeze_env(_model.homogeneous(model, W_H_L, target, offset, data.requires_grad)[:, 0], data.num_envs)
+    target = _target(model, link_index)
+    _, W_H_L = kinematics.link_poses(model, data)
+    return arrays.squeeze_env(kinematics.homogeneous(model, W_H_L, target, data.requires_grad)[:, 0], data.num_envs)
 
 
 def velocity(model, data, *, link_index: int, output_vel_repr=None):
     """The link's velocity in output_vel_repr (default: the data's): (6,) or (N, 6), [linear; angular]."""
-    target, offset = _target(model, link_index)
-    return _arrays.squeeze_env(_model.velocities(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)
+    target = _target(model, link_index)
+    return arrays.squeeze_env(kinematics.velocities(model, data, target, output_vel_repr)[:, 0], data.num_envs)
 
 
 def jacobian(model, data, *, link_index: int, output_vel_repr=None):
@@ -75,50 +74,34 @@ def jacobian(model, data, *, link_index: int, output_vel_repr=None):
     Input: the generalized velocity in the data's representation; output: the link velocity in
     output_vel_repr (default: the data's).
     """
-    target, offset = _target(model, link_index)
-    return _arrays.squeeze_env(_model.jacobians(model, data, target, offset, output_vel_repr)[:, 0], data.num_envs)
+    target = _target(model, link_index)
+    return arrays.squeeze_env(kinematics.jacobians(model, data, target, output_vel_repr)[:, 0], data.num_envs)
 
 
 def jacobian_derivative(model, data, *, link_index: int, output_vel_repr=None):
     """The time derivative of the link's free-floating Jacobian along the state's motion: (6, 6 + n) or
     (N, 6, 6 + n). Input: ν in the data's representation; output: output_vel_repr (default: the data's)."""
-    target, offset = _target(model, link_index)
-    Jdot = _derivatives.jacobian_derivatives(model, data, target, offset, output_vel_repr)
-    return _arrays.squeeze_env(Jdot[:, 0], data.num_envs)
+    target = _target(model, link_index)
+    Jdot = derivatives.jacobian_derivatives(model, data, target, output_vel_repr)
+    return arrays.squeeze_env(Jdot[:, 0], data.num_envs)
 
 
 def bias_acceleration(model, data, *, link_index: int):
     """J̇ν of the link in the data's representation: (6,) or (N, 6), [linear; angular] [m/s^2, rad/s^2]."""
-    target, offset = _target(model, link_index)
-    return _arrays.squeeze_env(_derivatives.bias_accelerations(model, data, target, offset, None)[:, 0], data.num_envs)
+    target = _target(model, link_index)
+    return arrays.squeeze_env(derivatives.bias_accelerations(model, data, target, None)[:, 0], data.num_envs)
 
 
 def spatial_inertia(model, *, link_index: int):
     """L_M_L: the link's spatial inertia about its origin in link axes, (6, 6), or (N, 6, 6) with
     per-environment parameters, [linear; angular]: [[m 1, -m c^], [m c^, I_c - m c^ c^]] (lumped links
     included)."""
-    from . import _centroidal
-
     i = _names.check_idx("link", model.number_of_links(), link_index)
-    M = _centroidal.link_spatial_inertia_matrices(model)
+    M = centroidal.link_spatial_inertia_matrices(model)
     return M[:, i] if M.ndim == 4 else M[i]
 
 
 def com_position(model, data, *, link_index: int, in_link_frame: bool = True):
     """The link's CoM: L_p_CoM (in_link_frame, the default) or W_p_CoM: (3,) or (N, 3) [m]."""
-
-    from .kernels.centroidal import kernels as centroidal_kernels
-
     i = _names.check_idx("link", model.number_of_links(), link_index)
-    from ._dynamics import requires_grad
-
-    _, W_H_L = _model.link_poses(model, data)
-    out = _arrays.output((3,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
-    launching.launch(
-        centroidal_kernels(model.scalar).link_com_positions,
-        dim=data.batch_size,
-        inputs=[model.kernel_parameter("link_com"), i, int(bool(in_link_frame)), W_H_L],
-        outputs=[out],
-        device=model.device,
-    )
-    return _arrays.squeeze_env(out, data.num_envs)
+    return arrays.squeeze_env(centroidal.link_com_position(model, data, i, bool(in_link_frame)), data.num_envs)

@@ -16,11 +16,13 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from .engine import launch as launching
 from . import arrays as _arrays
-from . import model as _model
+from . import frame, joint, link
+from .data import Data
+from .engine import forces as link_forces_engine
+from .engine import state as states
 from .types.enums import VelRepr
-from .kernels.forces import kernels as force_kernels
+from .types.model import transforms
 
 __all__ = ["References"]
 
@@ -93,9 +95,7 @@ class References:
         """The joint force references: (n,) or (N, n); only the named joints' (k,) when given."""
         tau = self.joint_force_references_state
         if joint_names is not None:
-            from .joint import names_to_idxs
-
-            idxs = names_to_idxs(model, joint_names=joint_names)
+            idxs = joint.names_to_idxs(model, joint_names=joint_names)
             tau = wp.array(tau.numpy()[:, idxs], dtype=tau.dtype, device=tau.device)
         return _arrays.squeeze_env(tau, self.num_envs)
 
@@ -104,15 +104,13 @@ class References:
         N, n = self.batch_size, self.joint_force_references_state.shape[1]
         s, d = self.joint_force_references_state.dtype, self.joint_force_references_state.device
         if joint_names is None:
-            tau = _arrays.state_array(forces, "joint_force_references", (n,), None if self.num_envs is None else N, s, d)
+            tau = states.state_array(forces, "joint_force_references", (n,), None if self.num_envs is None else N, s, d)
         else:
-            from .joint import names_to_idxs
-
-            idxs = names_to_idxs(model, joint_names=joint_names)
+            idxs = joint.names_to_idxs(model, joint_names=joint_names)
             host = self.joint_force_references_state.numpy().copy()
             given = forces.numpy() if isinstance(forces, wp.array) else np.asarray(forces, dtype=np.float64)
             host[:, idxs] = np.broadcast_to(given, (N, len(idxs)))
-            tau = _arrays.state_array(host if self.num_envs is not None else host[0], "joint_force_references", (n,), self.num_envs, s, d)
+            tau = states.state_array(host if self.num_envs is not None else host[0], "joint_force_references", (n,), self.num_envs, s, d)
         return dataclasses.replace(self, joint_force_references_state=tau)
 
     def link_forces(self, model=None, data=None, link_names=None) -> wp.array:
@@ -120,20 +118,9 @@ class References:
         forces = self.link_forces_state
         if self.velocity_representation != VelRepr.Inertial:
             self._needs_data(data)
-            _, W_H_L = _model.link_poses(model, data)
-            out = _arrays.output(forces.shape[1:], self.batch_size, forces.dtype, forces.device, data.requires_grad)
-            launching.launch(
-                force_kernels(forces.dtype).inertial_to_forces,
-                dim=(self.batch_size, forces.shape[1]),
-                inputs=[W_H_L, forces, int(self.velocity_representation)],
-                outputs=[out],
-                device=forces.device,
-            )
-            forces = out
+            forces = link_forces_engine.forces_in(model, data, forces, int(self.velocity_representation))
         if link_names is not None:
-            from .link import names_to_idxs
-
-            idxs = names_to_idxs(model, link_names=link_names)
+            idxs = link.names_to_idxs(model, link_names=link_names)
             forces = wp.array(forces.numpy()[:, idxs], dtype=forces.dtype, device=forces.device)
         return _arrays.squeeze_env(forces, self.num_envs)
 
@@ -142,33 +129,10 @@ class References:
         link_H_target[t] (T,) transforms."""
         self._needs_data(data)
         if data is None:
-            from .data import Data
-
             data = Data.zero(model, num_envs=self.num_envs)
-        N, T = self.batch_size, len(links)
-        target_link = wp.array(np.asarray(links, dtype=np.int32), dtype=int, device=model.device)
-        values = _arrays.batched_input(forces, name, (T, 6), self.num_envs, model.scalar, model.device)
-        _, W_H_L = _model.link_poses(model, data)
-        grad = data.requires_grad or values.requires_grad or self.link_forces_state.requires_grad
-        out = _arrays.empty(self.link_forces_state.shape[1:], N, model.scalar, model.device, grad)
-        replaced = np.zeros(model.number_of_links(), dtype=np.int32)
-        if not additive:
-            replaced[links] = 1
-        K = force_kernels(model.scalar)
-        launching.launch(
-            K.kept_forces,
-            dim=out.shape,
-            inputs=[self.link_forces_state, wp.array(replaced, dtype=int, device=model.device)],
-            outputs=[out],
-            device=model.device,
-        )
-        launching.launch(
-            K.add_target_forces,
-            dim=(N, T),
-            inputs=[target_link, link_H_target, W_H_L, values, int(self.velocity_representation)],
-            outputs=[out],
-            device=model.device,
-        )
+        values = _arrays.batched_input(forces, name, (len(links), 6), self.num_envs, model.scalar, model.device)
+        repr = int(self.velocity_representation)
+        out = link_forces_engine.with_target_forces(model, data, self.link_forces_state, links, link_H_target, values, repr, additive)
         return dataclasses.replace(self, link_forces_state=out)
 
     def apply_link_forces(self, forces, model=None, data=None, link_names=None, additive: bool = False) -> References:
@@ -179,9 +143,7 @@ class References:
         if link_names is None:
             links = np.arange(model.number_of_links())
         else:
-            from .link import names_to_idxs
-
-            links = np.asarray(names_to_idxs(model, link_names=link_names))
+            links = np.asarray(link.names_to_idxs(model, link_names=link_names))
         return self._apply(forces, model, data, links, model.identity_offsets[: len(links)], "link_forces", additive)
 
     def apply_frame_forces(self, forces, model, data, frame_names=None, additive: bool = False) -> References:
@@ -192,8 +154,6 @@ class References:
             frame_names = (frame_names,)
         rows = np.arange(model.number_of_frames())
         if frame_names is not None:
-            from .frame import names_to_idxs
-
-            rows = names_to_idxs(model, frame_names=frame_names) - model.number_of_links()
-        offset = _model._transforms(model.tree.link_H_frame[rows], model.scalar, model.device)
+            rows = frame.names_to_idxs(model, frame_names=frame_names) - model.number_of_links()
+        offset = transforms(model.tree.link_H_frame[rows], model.scalar, model.device)
         return self._apply(forces, model, data, np.asarray(model.tree.frame_parent)[rows], offset, "frame_forces", additive)

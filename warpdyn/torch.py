@@ -29,7 +29,7 @@ current stream when that is a non-default stream (`wp.stream_from_torch`), and o
 (torch's legacy default stream orders itself with Warp's blocking streams), so no synchronisation is needed
 around a call.
 
-Model parameters (`parameters=`, names in `warpdyn._simulation.PARAMETERS`) are functional: the tensors'
+Model parameters (`parameters=`, names in `warpdyn.model.PARAMETERS`) are functional: the tensors'
 values are used for this call only. They are written into the model's arrays (marked for gradients with
 `warpdyn.model.parameters_requiring_grad`, which also makes K, D, mu and the terrain's height Warp arrays of
 the model's `contact_params` and `terrain`) for the forward pass and again for the backward pass, and the
@@ -51,10 +51,10 @@ import numpy as np
 import torch
 import warp as wp
 
-from warpdyn import _simulation as _sim
+from warpdyn import model as _model
 from warpdyn import simulation as _simulation
-from warpdyn.types.enums import VelRepr
 from warpdyn.data import Data
+from warpdyn.types.enums import VelRepr
 
 __all__ = ["rollout", "STATE_INPUTS"]
 
@@ -128,7 +128,7 @@ def rollout(
     defaults pick a differentiable storage and no graph when gradients are wanted, and two states and a graph
     otherwise). A callback there sees Warp Data and may not replace the state when gradients are wanted.
     """
-    if _sim._taping():
+    if _simulation.taping():
         raise RuntimeError("warpdyn.torch.rollout records its own wp.Tape: call it outside a wp.Tape")
     if isinstance(record, str):
         record = (record,)
@@ -149,9 +149,9 @@ def rollout(
         "link_forces": link_forces,
     }
     parameters = {} if parameters is None else dict(parameters)
-    unknown = [name for name in parameters if name not in _sim.PARAMETERS]
+    unknown = [name for name in parameters if name not in _model.PARAMETERS]
     if unknown:
-        raise ValueError(f"parameters names unknown model parameters {unknown}; known: {list(_sim.PARAMETERS)}")
+        raise ValueError(f"parameters names unknown model parameters {unknown}; known: {list(_model.PARAMETERS)}")
     for name, value in {**given, **{f"parameters['{k}']": v for k, v in parameters.items()}}.items():
         if value is not None:
             _check_tensor(value, name, torch_dtype, device)
@@ -229,7 +229,10 @@ class _Rollout(torch.autograd.Function):
         inputs, params = tensors[:k], tensors[k:]
         needs = tuple(ctx.needs_input_grad[1:]) if spec.taping else (False,) * len(tensors)
         with _stream(model.device):
-            # the inputs, shared with torch; each input needing a gradient gets its own (Warp) gradient array
+            # the inputs, shared with torch; each input needing a gradient gets its own (Warp) gradient array (a
+            # contact state shared by N environments is expanded to N rows, its gradient summed over them)
+            shapes = tuple(tuple(t.shape) for t in inputs)
+            inputs = [_expanded(name, t, spec.num_envs) for name, t in zip(spec.inputs, inputs)]
             arrays = {name: _wrap(t, model.scalar, grad) for name, t, grad in zip(spec.inputs, inputs, needs[:k])}
             with _parameter_values(spec.marked, params):
                 tape = wp.Tape() if spec.taping else None
@@ -251,7 +254,7 @@ class _Rollout(torch.autograd.Function):
             # The tape and its arrays hang on a saved tensor, not on ctx: torch frees saved tensors after a
             # backward pass without retain_graph (and with the graph), which frees the tape's memory then.
             holder = torch.empty(0)
-            holder._warpdyn_rollout = _Taped(spec, tape, rec, arrays, needs)
+            holder._warpdyn_rollout = _Taped(spec, tape, rec, arrays, needs, shapes)
             # the parameters' values go into the model again for the backward; the records are saved so that
             # torch refuses a backward after they were changed in place (the tape reads the states they show)
             ctx.save_for_backward(holder, *params, *outputs)
@@ -263,6 +266,7 @@ class _Rollout(torch.autograd.Function):
         taped: _Taped = holder._warpdyn_rollout
         params = saved[: len(taped.spec.parameters)]
         spec, tape, records, arrays, needs = taped.spec, taped.tape, taped.records, taped.arrays, taped.needs
+        shapes = taped.input_shapes
         k = len(spec.inputs)
         with _stream(spec.model.device):
             # the parameter arrays' gradients are the user's (their own tapes) outside this pass: kept aside
@@ -276,7 +280,7 @@ class _Rollout(torch.autograd.Function):
                     wp.to_torch(records[name].grad, requires_grad=False).copy_(g)
                 tape.backward()
                 # copies: a later backward pass through the same graph zeroes these arrays first
-                grads = [wp.to_torch(arrays[name].grad, requires_grad=False).clone() if need else None for name, need in zip(spec.inputs, needs[:k])]
+                grads = [_input_grad(arrays[name], shape) if need else None for name, shape, need in zip(spec.inputs, shapes, needs[:k])]
                 grads += [_param_grad(a.grad, p) if need else None for a, p, need in zip(spec.marked, params, wanted)]
         return (None, *grads)
 
@@ -291,6 +295,7 @@ class _Taped:
     records: dict
     arrays: dict
     needs: tuple
+    input_shapes: tuple  # the input tensors' shapes as given (before `_expanded`)
 
 
 # ----------------------------------------------------------------------------------------------- helpers
@@ -332,9 +337,7 @@ def _model_parameters(model, parameters: dict, N: int) -> dict:
     """The model's Warp arrays of the named parameters (marked for gradients), each checked against its tensor."""
     if not parameters:
         return {}
-    from warpdyn.model import parameters_requiring_grad
-
-    arrays = parameters_requiring_grad(model, names=tuple(parameters))
+    arrays = _model.parameters_requiring_grad(model, names=tuple(parameters))
     for name, tensor in parameters.items():
         expected = tuple(arrays[name].shape) + tuple(getattr(arrays[name].dtype, "_shape_", ()))
         if tuple(tensor.shape) != expected:
@@ -361,15 +364,9 @@ def _validate(model, given: dict, parameters: dict) -> None:
             raise ValueError(f"parameters['{name}'] must be non-negative")
     if ("K" in parameters or "D" in parameters) and len(model.kin_dyn_parameters.contact_parameters.indices_of_enabled_collidable_points):
         c = model.contact_params
-        K = parameters["K"].detach().cpu().numpy() if "K" in parameters else _sim._host(c.K)
-        D = parameters["D"].detach().cpu().numpy() if "D" in parameters else _sim._host(c.D)
-        rate = float(np.max(np.asarray(K, dtype=np.float64) / np.asarray(D, dtype=np.float64)))
-        limit = _sim.DEFORMATION_STABILITY[_sim.IntegratorType(model.integrator)]
-        if model.time_step * rate >= limit:
-            raise ValueError(
-                f"parameters K, D give dt K/D = {model.time_step * rate:.3g} with time_step {model.time_step} s, beyond the "
-                f"stability limit {limit} of {_sim.IntegratorType(model.integrator).name} (see SoftContactsParams)"
-            )
+        K = parameters["K"].detach().cpu().numpy() if "K" in parameters else c.K
+        D = parameters["D"].detach().cpu().numpy() if "D" in parameters else c.D
+        _simulation.check_contact_stability(model, K=K, D=D)
 
 
 @contextlib.contextmanager
@@ -419,8 +416,8 @@ def _data(spec: _Spec, arrays: dict, grad: bool) -> Data:
     )
     deformation = arrays.get("tangential_deformation")
     if deformation is not None and deformation.size > 0:
-        if deformation.ndim == 2:  # shared by the environments: one row, broadcast with a zero stride
-            deformation = _sim.broadcast_envs(deformation.reshape((1, *deformation.shape)), data.batch_size)
+        if deformation.ndim == 2:  # one environment (forward expanded a shared one to N rows)
+            deformation = deformation.reshape((1, *deformation.shape))
         data.tangential_deformation_state = deformation  # the rollout copies it into its state (on the tape)
     return data
 
@@ -466,11 +463,24 @@ def _parameter_arrays(model) -> list:
     """The model's current arrays of the parameters in PARAMETERS (K, D, mu and the terrain's height only
     where they are Warp arrays)."""
     out = []
-    for name in _sim.PARAMETERS:
-        value = _sim.parameter_value(model, name)
+    for name in _model.PARAMETERS:
+        value = model.parameter(name)
         if isinstance(value, wp.array):
             out.append(value)
     return out
+
+
+def _expanded(name: str, t: torch.Tensor, num_envs) -> torch.Tensor:
+    """The tensor, or a contact state (nc, 3) shared by the environments as N rows (a view)."""
+    if name == "tangential_deformation" and num_envs is not None and t.ndim == 2:
+        return t.unsqueeze(0).expand(num_envs, *t.shape)
+    return t
+
+
+def _input_grad(array: wp.array, shape: tuple) -> torch.Tensor:
+    """A copy of an input's gradient in the input's shape (summed over the environments it was expanded to)."""
+    grad = wp.to_torch(array.grad, requires_grad=False).clone()
+    return grad if tuple(grad.shape) == shape else grad.sum(0)
 
 
 def _param_grad(grad: wp.array, like: torch.Tensor) -> torch.Tensor:

@@ -47,7 +47,11 @@ import re
 
 import numpy as np
 
-from .types.enums import VelRepr
+from . import contact as _contact
+from . import data as _data
+from . import model as _model
+from . import simulation as _simulation
+from .model import VelRepr
 
 __all__ = [
     "RerunRecorder",
@@ -341,12 +345,10 @@ class RerunRecorder:
                 )
             except Exception:  # no trimesh/scipy, or a degenerate hull: the vertices as points
                 return rr.Points3D(vertices.astype(np.float32), radii=self.point_radius / 2, colors=[MESH_COLOR])
-        from .description.collidable import resolve_mesh_uri
-
         options = self.model.kin_dyn_parameters.options
         source = getattr(self.model.description, "path", None)
         base_dir = pathlib.Path(source).parent if source else None
-        path = resolve_mesh_uri(shape.filename or "", base_dir=base_dir, package_dirs=options.package_dirs, mesh_dirs=options.mesh_dirs)
+        path = _contact.resolve_mesh_uri(shape.filename or "", base_dir=base_dir, package_dirs=options.package_dirs, mesh_dirs=options.mesh_dirs)
         if path is None:
             self.unresolved_meshes.append(f"{shape.filename} (not found)")
             return None
@@ -413,14 +415,12 @@ class RerunRecorder:
         if self.unresolved_meshes:
             import warnings
 
-            from .description.collidable import UnresolvedMeshWarning
-
             shown = ", ".join(self.unresolved_meshes[:3]) + (", ..." if len(self.unresolved_meshes) > 3 else "")
             warnings.warn(
                 f"{len(self.unresolved_meshes)} collision mesh(es) not drawn: {shown}. Set "
                 "CollidablePointsOptions(package_dirs=..., mesh_dirs=...) (wd.contact.with_collidable_points) or "
                 "ROS_PACKAGE_PATH to find them, or meshes=False to skip them.",
-                UnresolvedMeshWarning,
+                _contact.UnresolvedMeshWarning,
                 stacklevel=2,
             )
         center = terrain_center if terrain_center is not None else self.terrain_center
@@ -499,8 +499,6 @@ class RerunRecorder:
         """Log one frame from Data (environment `env` of batched data) at `time` [s] (default: the frame
         number times the model's time step). contact_forces: the soft-contact forces at this state
         (`wd.contact.collidable_point_forces`), as arrows."""
-        from . import contact as _contact
-        from . import model as _model
 
         self._check_open()
         batched = data.num_envs is not None
@@ -519,9 +517,6 @@ class RerunRecorder:
         points' forces [N] in world axes, or with force_axes="link" in the axes of each point's link: the
         linear part of `collidable_point_forces` in the Body representation) or None. FK and point
         positions for all frames run as one batch of F environments."""
-        from . import contact as _contact
-        from . import data as _data
-        from . import model as _model
 
         self._check_open()
         times = np.asarray(times, dtype=np.float64).reshape(-1)
@@ -597,8 +592,6 @@ def record_rollout(
     t * model.time_step [s]. The sink: `path` (.rrd), `spawn` or `connect` (see `RerunRecorder`), or an
     open `recorder` (then left open). recorder_options go to `RerunRecorder`. The records are the
     rollout's ("base_position", "base_quaternion", "joint_positions", "collidable_point_forces")."""
-    from . import contact as _contact
-    from . import simulation as _simulation
 
     if isinstance(every, (bool, np.bool_)) or not isinstance(every, (int, np.integer)) or every < 1:
         raise ValueError(f"every must be a positive integer, got {every!r}")

@@ -23,6 +23,9 @@ _loaded: set = set()
 _lock = threading.RLock()
 _noticed = threading.Event()
 
+capture_lock = threading.Lock()
+"""Held while a graph is captured: Warp captures one graph per device at a time."""
+
 
 def _notice(device) -> None:
     if _noticed.is_set():

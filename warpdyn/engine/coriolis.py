@@ -1,4 +1,4 @@
-"""The free-floating Coriolis matrix: JaxSim's `jaxsim.api.model.free_floating_coriolis_matrix`.
+"""The free-floating Coriolis matrix behind JaxSim's `free_floating_coriolis_matrix` (warpdyn.model).
 
     M(q) nu_dot + C(q, nu) nu + g(q) = B tau + sum_L J_L^T f_L,
 
@@ -21,51 +21,47 @@ from __future__ import annotations
 
 import warp as wp
 
-from .engine import launch as launching
-from . import arrays as _arrays
-from ._dynamics import model_args, requires_grad
-from .kernels.coriolis import kernels as coriolis_kernels
+from .. import arrays
+from ..kernels.coriolis import kernels as coriolis_kernels
+from ..types.model import check_data
+from .bundles import model_bundle
+from .dynamics import requires_grad
+from .kinematics import state_of
+from .launch import launch
 
-__all__ = ["free_floating_coriolis_matrix"]
+__all__ = ["coriolis_matrix"]
 
 
-def free_floating_coriolis_matrix(model, data) -> wp.array:
-    """C(q, nu): (6 + n, 6 + n), or (N, 6 + n, 6 + n) for batched data, in the data's representation.
+def coriolis_matrix(model, data) -> wp.array:
+    """C(q, nu): (N, 6 + n, 6 + n), in the data's representation.
 
     Rows are generalized forces dual to nu (base rows: the base wrench in the representation's frame,
     [N; N m]), columns act on nu (base: the base velocity in the data's representation); C nu = h - g.
     Units: those of M (kg, kg m, kg m^2) per second.
     """
-    from .model import _check_data
-
-    _check_data(model, data, parameters=True)
+    check_data(model, data, parameters=True)
     s, d, rg = model.scalar, model.device, requires_grad(model, data)
     N, nL, n = data.batch_size, model.number_of_links(), model.dofs()
     transform = wp.types.transformation(s)
     vec6 = wp.types.vector(6, s)
     mat66 = wp.types.matrix((6, 6), s)
-    per_link = [_arrays.empty((nL,), N, vec6, d, rg) for _ in range(5)]  # S, Sdot, F, f, g
-    C = _arrays.output((6 + n, 6 + n), N, s, d, rg)
+    per_link = [arrays.empty((nL,), N, vec6, d, rg) for _ in range(5)]  # S, Sdot, F, f, g
+    C = arrays.output((6 + n, 6 + n), N, s, d, rg)
     k = coriolis_kernels(s)
-    launching.launch(
+    bundle = model_bundle(model)
+    scratch = [
+        arrays.empty((nL,), N, transform, d, rg),
+        arrays.empty((nL,), N, vec6, d, rg),
+        arrays.empty((nL,), N, mat66, d, rg),
+        arrays.empty((nL,), N, mat66, d, rg),
+    ]
+    launch(
         k.coriolis_links,
         dim=N,
-        inputs=[
-            *model_args(model),
-            data.base_position_state,
-            data.base_quaternion_state,
-            data.joint_positions_state,
-            data.base_velocity_state,
-            data.joint_velocities_state,
-            int(data.velocity_representation),
-            _arrays.empty((nL,), N, transform, d, rg),
-            _arrays.empty((nL,), N, vec6, d, rg),
-            _arrays.empty((nL,), N, mat66, d, rg),
-            _arrays.empty((nL,), N, mat66, d, rg),
-        ],
+        inputs=[bundle, state_of(model, data), int(data.velocity_representation), *scratch],
         outputs=[*per_link, C],
         device=d,
     )
     if n > 0:
-        launching.launch(k.coriolis_joints, dim=(N, n), inputs=[model.support, *per_link], outputs=[C], device=d)
-    return _arrays.squeeze_env(C, data.num_envs)
+        launch(k.coriolis_joints, dim=(N, n), inputs=[bundle, *per_link], outputs=[C], device=d)
+    return C

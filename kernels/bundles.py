@@ -1,0 +1,202 @@
+"""Typed kernel arguments: the model, the state and the controls as `@wp.struct` bundles, one set per scalar.
+
+A kernel takes `model: B.Model`, `state: B.State`, `controls: B.Controls` (B = bundles(scalar)) instead of
+positional arrays, so that each array is named once, here, and a kernel reads `model.link_mass`,
+`state.joint_positions`. The engine fills them (warpdyn.engine.bundles). Adding a per-joint parameter is a
+field of `Model` (and its entry in warpdyn.types.parameters), read by the kernels that need it.
+
+Shapes: N environments, nL links (link 0 the base; joint i moves link i + 1), n = nL - 1 joints, nc_all
+collidable points. Model parameters are (P, nL) or (P, n) with P = 1 (shared by the environments) or N
+(one row per environment): kernels read row min(env, P - 1) (`link_parameter`, `joint_parameter`).
+Absent inputs are arrays with a zero leading axis, which kernels test with `.shape[0] > 0` (Warp's tape
+cannot take a struct holding a null array). The representation codes are spatial.BODY, MIXED, INERTIAL.
+"""
+
+import functools
+import types
+
+import warp as wp
+
+from .spatial import spatial
+
+
+@functools.cache
+def bundles(scalar) -> types.SimpleNamespace:
+    """The bundles in `scalar` (wp.float32 or wp.float64) and the `@wp.func`s that read them."""
+    sp = spatial(scalar)
+    vec2 = wp.types.vector(2, scalar)
+    vec4 = wp.types.vector(4, scalar)
+
+    @wp.struct
+    class Model:
+        """The constants and parameters of a model that kernels read."""
+
+        # the tree
+        parent: wp.array(dtype=int)  # (nL,) parent link index, -1 for the base
+        joint_type: wp.array(dtype=int)  # (nL,) spatial.REVOLUTE or PRISMATIC (0 for the base)
+        X_tree: wp.array(dtype=sp.transform)  # (nL,) joint frame in the parent link at q = 0
+        joint_axis: wp.array(dtype=sp.vec3)  # (nL,) joint axis, link frame
+        joint_pivot: wp.array(dtype=sp.vec3)  # (nL,) a point of a revolute axis, link frame [m]
+        first_child: wp.array(dtype=int)  # (nL,) smallest-index child, -1 for none
+        next_sibling: wp.array(dtype=int)  # (nL,) next larger-index child of the parent, -1 for none
+        support: wp.array2d(dtype=int)  # (nL, n) 1 where joint j moves link L
+        pair_k: wp.array(dtype=int)  # (P,) with pair_j: the joint pairs (k, j), joint j supporting link k + 1
+        pair_j: wp.array(dtype=int)  # (P,) (j == k included)
+        zero_k: wp.array(dtype=int)  # (Z,) with zero_j: the joint pairs where neither joint moves the
+        zero_j: wp.array(dtype=int)  # (Z,) other's link (a zero in the mass matrix)
+        gravity: scalar  # [m/s^2], along -z of the world
+        floating_base: int  # 1 floating, 0 welded
+        # link parameters (P, nL)
+        link_mass: wp.array2d(dtype=scalar)  # [kg]
+        link_com: wp.array2d(dtype=sp.vec3)  # [m, link frame]
+        link_inertia: wp.array2d(dtype=sp.mat33)  # [kg m^2, about the CoM, link axes]
+        # joint parameters (P, n)
+        position_limits: wp.array2d(dtype=vec2)  # (lower, upper) [rad or m]
+        joint_limit_spring: wp.array2d(dtype=scalar)  # [N m/rad or N/m]
+        joint_limit_damper: wp.array2d(dtype=scalar)  # [s/rad or s/m]
+        friction_static: wp.array2d(dtype=scalar)  # [N m or N]
+        friction_viscous: wp.array2d(dtype=scalar)  # [N m s/rad or N s/m]
+
+    @wp.struct
+    class State:
+        """The state of N environments (warpdyn.data.Data's arrays)."""
+
+        base_position: wp.array2d(dtype=scalar)  # (N, 3) W_p_B [m]
+        base_quaternion: wp.array2d(dtype=scalar)  # (N, 4) W_Q_B (w, x, y, z)
+        joint_positions: wp.array2d(dtype=scalar)  # (N, n) [rad or m]
+        base_velocity: wp.array2d(dtype=scalar)  # (N, 6) Mixed: [W_pdot_B; W_omega_WB]
+        joint_velocities: wp.array2d(dtype=scalar)  # (N, n)
+        tangential_deformation: wp.array3d(dtype=scalar)  # (N, nc_all, 3) [m]
+        valid: wp.array(dtype=wp.int32)  # (N,) 1 healthy, 0 flagged
+
+    @wp.struct
+    class Controls:
+        """The forces a dynamics kernel applies (the link forces in the representation the kernel is given)."""
+
+        joint_forces: wp.array2d(dtype=scalar)  # (N, n) [N m or N], or (0, 0): none
+        link_forces: wp.array3d(dtype=scalar)  # (N, nL, 6) [force; torque], or (0, 0, 0): none
+
+    @wp.struct
+    class Targets:
+        """Frames rigidly attached to links (links themselves, frames, contact points): target t is the frame
+        at link_H_target[t] on link link[t]."""
+
+        link: wp.array(dtype=int)  # (T,) link index
+        link_H_target: wp.array(dtype=sp.transform)  # (T,) the frame's pose in its link
+
+    @wp.struct
+    class Terrain:
+        """The terrain z = h(x, y) (warpdyn.terrain): kind 0 flat, 1 plane, 2 heightfield."""
+
+        kind: int
+        normal: sp.vec3  # a plane's unit normal (pointing up)
+        height: wp.array(dtype=scalar)  # (1,) or (N,) [m]: the height at the world's origin (flat, plane)
+        heights: wp.array2d(dtype=scalar)  # (nx, ny) [m]: a heightfield's grid ((2, 2) unused otherwise)
+        grid: vec4  # (origin_x, origin_y, dx, dy) [m] of the heightfield
+
+    @wp.struct
+    class Contacts:
+        """The enabled collidable points, ordered by link, and the soft-contact parameters (JaxSim's)."""
+
+        point_link: wp.array(dtype=int)  # (nc,) the link of each enabled point
+        L_p_C: wp.array(dtype=sp.vec3)  # (nc,) the point in its link's frame [m]
+        point_row: wp.array(dtype=int)  # (nc,) its index among all points (the contact state's row)
+        row_enabled: wp.array(dtype=int)  # (nc_all,) 1 for the enabled points
+        link_first_point: wp.array(dtype=int)  # (nL,) a link's first enabled point, -1 for none
+        K: wp.array(dtype=scalar)  # (1,) or (N,) stiffness [N/m^(1+p)]
+        D: wp.array(dtype=scalar)  # (1,) or (N,) damping [N s/m^(1+q)]
+        mu: wp.array(dtype=scalar)  # (1,) or (N,) friction coefficient
+        p: scalar  # exponent of the spring term
+        q: scalar  # exponent of the damper term
+
+    @wp.func
+    def link_parameter(values: wp.array2d(dtype=scalar), env: int, i: int):
+        """Link i's value of a (P, nL) scalar parameter in environment env (row min(env, P - 1))."""
+        return values[wp.min(env, values.shape[0] - 1), i]
+
+    @wp.func
+    def joint_parameter(values: wp.array2d(dtype=scalar), env: int, j: int):
+        """Joint j's value of a (P, n) scalar parameter in environment env (row min(env, P - 1))."""
+        return values[wp.min(env, values.shape[0] - 1), j]
+
+    @wp.func
+    def position_limits_of(model: Model, env: int, j: int):
+        """Joint j's (lower, upper) position limits in environment env."""
+        return model.position_limits[wp.min(env, model.position_limits.shape[0] - 1), j]
+
+    @wp.func
+    def mass_of(model: Model, env: int, i: int):
+        """Link i's mass [kg] in environment env."""
+        return model.link_mass[wp.min(env, model.link_mass.shape[0] - 1), i]
+
+    @wp.func
+    def com_of(model: Model, env: int, i: int):
+        """Link i's centre of mass [m, link frame] in environment env."""
+        return model.link_com[wp.min(env, model.link_com.shape[0] - 1), i]
+
+    @wp.func
+    def inertia_of(model: Model, env: int, i: int):
+        """Link i's rotational inertia about its CoM [kg m^2, link axes] in environment env."""
+        return model.link_inertia[wp.min(env, model.link_inertia.shape[0] - 1), i]
+
+    @wp.func
+    def spatial_inertia_of(model: Model, env: int, i: int):
+        """Link i's spatial inertia about its origin, link axes, in environment env."""
+        return sp.spatial_inertia(mass_of(model, env, i), com_of(model, env, i), inertia_of(model, env, i))
+
+    @wp.func
+    def joint_transform(model: Model, i: int, q: scalar):
+        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q (i >= 1)."""
+        return model.X_tree[i] * sp.joint_motion(model.joint_type[i], model.joint_axis[i], model.joint_pivot[i], q)
+
+    @wp.func
+    def motion_subspace_of(model: Model, i: int):
+        """S_i: the motion subspace of link i's joint, link frame (i >= 1)."""
+        return sp.motion_subspace(model.joint_type[i], model.joint_axis[i], model.joint_pivot[i])
+
+    @wp.func
+    def base_pose_of(base_position: wp.array2d(dtype=scalar), base_quaternion: wp.array2d(dtype=scalar), env: int):
+        """W_H_B from a base position (N, 3) and quaternion (N, 4) (w, x, y, z)."""
+        p = sp.vec3(base_position[env, 0], base_position[env, 1], base_position[env, 2])
+        Q = base_quaternion
+        return sp.transform(p, sp.quat_from_wxyz(Q[env, 0], Q[env, 1], Q[env, 2], Q[env, 3]))
+
+    @wp.func
+    def base_pose(state: State, env: int):
+        """W_H_B of environment env."""
+        return base_pose_of(state.base_position, state.base_quaternion, env)
+
+    @wp.func
+    def base_velocity_mixed(state: State, env: int):
+        """The base velocity of environment env, Mixed: [W_pdot_B; W_omega_WB]."""
+        v = state.base_velocity
+        return sp.vec6(v[env, 0], v[env, 1], v[env, 2], v[env, 3], v[env, 4], v[env, 5])
+
+    @wp.func
+    def link_force(controls: Controls, env: int, i: int):
+        """The external force on link i, as given."""
+        f = controls.link_forces
+        return sp.vec6(f[env, i, 0], f[env, i, 1], f[env, i, 2], f[env, i, 3], f[env, i, 4], f[env, i, 5])
+
+    return types.SimpleNamespace(
+        Model=Model,
+        State=State,
+        Controls=Controls,
+        Targets=Targets,
+        Terrain=Terrain,
+        Contacts=Contacts,
+        vec4=vec4,
+        link_parameter=link_parameter,
+        joint_parameter=joint_parameter,
+        position_limits_of=position_limits_of,
+        mass_of=mass_of,
+        com_of=com_of,
+        inertia_of=inertia_of,
+        spatial_inertia_of=spatial_inertia_of,
+        joint_transform=joint_transform,
+        motion_subspace_of=motion_subspace_of,
+        base_pose_of=base_pose_of,
+        base_pose=base_pose,
+        base_velocity_mixed=base_velocity_mixed,
+        link_force=link_force,
+    )

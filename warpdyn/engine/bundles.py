@@ -1,0 +1,83 @@
+"""The kernels' typed arguments (kernels/bundles.py) filled from a model, a state and the controls.
+
+`model_bundle` is built once per model version (warpdyn.types.model: a setter announces a change) and per
+set of gradient arrays of its parameters (marking one for gradients gives it a .grad, which the bundle's
+descriptors carry). Parameters are handed to kernels as (P, count) arrays: P = 1 for a parameter shared by
+the environments (a view of the (count,) array), N for one given per environment.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from ..kernels.bundles import bundles
+from ..types.parameters import JOINT_PARAMETERS, LINK_PARAMETERS
+
+__all__ = ["model_bundle", "state_bundle", "controls_bundle", "empty_like_input"]
+
+_PARAMETERS = tuple(p.name for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS))
+
+
+def _rows(model, name: str, per_env: dict) -> wp.array:
+    """The (P, count) array of a link or joint parameter."""
+    array = getattr(model, name)
+    return array if name in per_env else array.reshape((1, *array.shape))
+
+
+def _build_model_bundle(model):
+    bundle = bundles(model.scalar).Model()
+    bundle.parent = model.parent
+    bundle.joint_type = model.joint_type
+    bundle.X_tree = model.X_tree
+    bundle.joint_axis = model.joint_axis
+    bundle.joint_pivot = model.joint_pivot
+    bundle.first_child = model.first_child
+    bundle.next_sibling = model.next_sibling
+    bundle.support = model.support
+    support = model.tree.support()[1:] != 0  # (n, n): [k, j] joint j moves link k + 1
+    k, j = np.nonzero(support)
+    zero_k, zero_j = np.nonzero(~(support | support.T))
+    for name, values in (("pair_k", k), ("pair_j", j), ("zero_k", zero_k), ("zero_j", zero_j)):
+        setattr(bundle, name, wp.array(values.astype(np.int32), dtype=int, device=model.device))
+    bundle.gravity = model.scalar(model.gravity)
+    bundle.floating_base = int(model.floating_base())
+    per_env = model.per_environment_parameters()
+    for name in _PARAMETERS:
+        setattr(bundle, name, _rows(model, name, per_env))
+    return bundle
+
+
+def model_bundle(model):
+    """The model's `bundles(scalar).Model`, cached per model version and per gradient arrays of its parameters."""
+    grads = tuple(id(getattr(model, name).grad) for name in _PARAMETERS)
+    return model.cached(("model bundle", grads), lambda: _build_model_bundle(model))
+
+
+def state_bundle(scalar, state: list):
+    """A `bundles(scalar).State` of the state arrays (p, Q, s, v, sdot, m, valid) (see warpdyn.data); an
+    absent contact state or health flag becomes an empty array."""
+    bundle = bundles(scalar).State()
+    bundle.base_position = state[0]
+    bundle.base_quaternion = state[1]
+    bundle.joint_positions = state[2]
+    bundle.base_velocity = state[3]
+    bundle.joint_velocities = state[4]
+    device = state[0].device
+    bundle.tangential_deformation = state[5] if state[5] is not None else empty_like_input(scalar, device, 3)
+    bundle.valid = state[6] if state[6] is not None else wp.empty(0, dtype=wp.int32, device=device)
+    return bundle
+
+
+def empty_like_input(scalar, device, ndim: int) -> wp.array:
+    """The absent input of `ndim` axes: an array whose axes are all 0 (kernels test `.shape[0] > 0`)."""
+    return wp.empty((0,) * ndim, dtype=scalar, device=device)
+
+
+def controls_bundle(scalar, device, joint_forces=None, link_forces=None):
+    """A `bundles(scalar).Controls`: joint forces (N, n) and link forces (N, nL, 6), None for absent."""
+    bundle = bundles(scalar).Controls()
+    bundle.joint_forces = joint_forces if joint_forces is not None else empty_like_input(scalar, device, 2)
+    bundle.link_forces = link_forces if link_forces is not None else empty_like_input(scalar, device, 3)
+    return bundle
+

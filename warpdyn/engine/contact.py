@@ -1,0 +1,105 @@
+"""Collidable points: their kinematics, and the soft-contact wrenches of a step's first evaluation, in the
+façade's representations (kernels/contact_points.py, kernels/contact_wrenches.py).
+
+The enabled points are targets (frames on links, kernels/bundles.py: Targets) at (L_p_C, identity
+rotation): the contact frame C = (W_p_C, [L]). Results have a leading N axis.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .. import arrays
+from ..kernels.contact_points import kernels as point_kernels
+from ..kernels.contact_wrenches import kernels as wrench_kernels
+from ..types.enums import VelRepr
+from .kinematics import link_poses, targets, velocities
+from .launch import launch
+from .step import contact_evaluation, plan
+
+__all__ = ["point_targets", "positions", "point_velocities", "link_wrenches", "point_wrenches", "links_in_contact"]
+
+
+def point_targets(model):
+    """The enabled collidable points as the kernels' Targets (their link, and (L_p_C, identity) in it)."""
+    params = model.kin_dyn_parameters
+    return model.cached("point targets", lambda: targets(model, params.enabled_link, params.enabled_link_H_point))
+
+
+def positions(model, data) -> wp.array:
+    """W_p_C (N, nc, 3) [m]: the world positions of the enabled points."""
+    target = point_targets(model)
+    _, W_H_L = link_poses(model, data)
+    N, nc = data.batch_size, target.link.shape[0]
+    W_p_C = arrays.output((nc, 3), N, model.scalar, model.device, data.requires_grad)
+    launch(point_kernels(model.scalar).point_positions, dim=(N, nc), inputs=[target, W_H_L], outputs=[W_p_C], device=model.device)
+    return W_p_C
+
+
+def point_velocities(model, data) -> wp.array:
+    """W_pdot_C (N, nc, 3) [m/s]: the plain time derivative of W_p_C (the linear part of the contact frame's
+    Mixed velocity), whatever the data's representation."""
+    v = velocities(model, data, point_targets(model), VelRepr.Mixed)
+    N, nc = v.shape[0], v.shape[1]
+    W_pdot_C = arrays.output((nc, 3), N, model.scalar, model.device, data.requires_grad)
+    launch(point_kernels(model.scalar).linear_part, dim=(N, nc), inputs=[v], outputs=[W_pdot_C], device=model.device)
+    return W_pdot_C
+
+
+def link_wrenches(model, data, out_repr: int) -> wp.array:
+    """(N, nL, 6): the contact wrench on each link in representation `out_repr` (see
+    warpdyn.contact.link_contact_forces), zero for links without enabled points."""
+    current, ev = contact_evaluation(model, data)
+    N, nL = data.batch_size, model.number_of_links()
+    out = arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
+    if ev is None:
+        out.zero_()
+    else:
+        launch(
+            wrench_kernels(model.scalar).link_wrenches,
+            dim=(N, nL),
+            inputs=[current.contact_bundle, ev.W_H_L, ev.chain, int(out_repr)],
+            outputs=[out],
+            device=model.device,
+        )
+    return out
+
+
+def point_wrenches(model, data, out_repr: int) -> wp.array:
+    """(N, nc, 6): each enabled point's contact wrench for C = (W_p_C, [L]) in representation `out_repr`
+    (see warpdyn.contact.collidable_point_forces)."""
+    current, ev = contact_evaluation(model, data)
+    N = data.batch_size
+    out = arrays.output((current.count, 6), N, model.scalar, model.device, data.requires_grad)
+    if ev is not None:
+        launch(
+            wrench_kernels(model.scalar).point_wrenches,
+            dim=(N, current.count),
+            inputs=[current.contact_bundle, current.point_out, ev.W_H_L, ev.W_f_C, int(out_repr)],
+            outputs=[out],
+            device=model.device,
+        )
+    return out
+
+
+def links_in_contact(model, data, link_indices) -> wp.array:
+    """(N, K) bool: whether each of the links `link_indices` (None: all) has an enabled point at or below the
+    terrain (see warpdyn.contact.in_contact)."""
+    if link_indices is None:
+        links = model.all_links
+    else:
+        links = wp.array(np.asarray(link_indices, dtype=np.int32), dtype=int, device=model.device)
+    W_p_C = positions(model, data)
+    current = plan(model)
+    N, K = data.batch_size, links.shape[0]
+    current.check_envs(N)
+    out = arrays.output((K,), N, wp.bool, model.device)
+    launch(
+        wrench_kernels(model.scalar).links_below_terrain,
+        dim=(N, K),
+        inputs=[point_targets(model).link, W_p_C, links, current.terrain],
+        outputs=[out],
+        device=model.device,
+    )
+    return out

@@ -1,0 +1,294 @@
+"""Equations of motion: RNEA, CRBA and ABA launches, and the Cholesky solves of CRB forward dynamics.
+
+    M(q) nu_dot + h(q, nu) = B tau + sum_L J_L^T f_L,      h = C(q, nu) nu + g(q),
+
+with nu, nu_dot, the base part of every generalized force, and the link forces f_L all in the data's
+velocity representation (JaxSim's convention). Each function is one kernel launch (the kernels convert
+link forces from the data's representation themselves).
+
+Cost of a call. Outside a `wp.Tape`, each kernel keeps per model and thread a scratch array and a recorded
+launch (warpdyn.engine.launch.Recorded) for the last batch size it ran: a call then packs only the
+arguments that changed since the last one and allocates only its outputs. Under a tape every call gets
+fresh scratch (with gradients when the data, an input or a mass parameter requires them), since the
+adjoint reads it later. Outputs are always fresh arrays that the caller owns. Absent inputs (no joint
+forces, no link forces, zero accelerations) reach the kernels as empty arrays, which skip that work.
+Gradients reach the model's link parameters (their .grad) under a tape once they require gradients
+(`warpdyn.model.parameters_requiring_grad`).
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from .. import arrays, config
+from ..kernels.aba import ABA_RECORD
+from ..kernels.aba import kernels as aba_kernels
+from ..kernels.cholesky import kernels as cholesky_kernels
+from ..kernels.crba import CRBA_RECORD
+from ..kernels.crba import kernels as crba_kernels
+from ..kernels.rnea import RNEA_RECORD
+from ..kernels.rnea import kernels as rnea_kernels
+from ..kernels.scratch import TRANSFORM
+from ..kernels.state import kernels as state_kernels
+from ..types.model import check_data
+from . import tape, warp_private
+from .bundles import controls_bundle, model_bundle
+from .kinematics import state_of
+from .launch import Launch, Recorded, launch, per_thread
+
+__all__ = [
+    "requires_grad",
+    "generalized_forces",
+    "inverse_dynamics",
+    "mass_matrix",
+    "forward_dynamics_aba",
+    "forward_dynamics_crb",
+    "mass_matrix_inverse",
+]
+
+_KERNELS = {
+    "aba": lambda scalar, registers: aba_kernels(scalar, registers).aba,
+    "rnea": lambda scalar, registers: rnea_kernels(scalar, registers).rnea,
+    "crba": lambda scalar, registers: crba_kernels(scalar, registers).crba,
+}
+
+
+class _Cached:
+    """A kernel's scratch and recorded launch for one batch size (one per model, kernel and thread)."""
+
+    def __init__(self, N: int, scratch: wp.array):
+        self.N, self.scratch, self.recorded = N, scratch, Recorded()
+
+
+def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, grad: bool) -> None:
+    """Launch the kernel `name` over N environments: inputs, then the scratch (N, nL, width), then outputs.
+
+    Under a tape: fresh scratch (with gradients when `grad`) and a plain launch. Otherwise the thread's
+    recorded launch for this kernel, re-packing only the arguments that are not the ones it holds.
+    """
+    device = model.device
+    block_dim, registers = config.cuda_launch.get(name, (None, "tuned")) if device.is_cuda else (None, "tuned")
+    kernel = _KERNELS[name](model.scalar, registers)
+    nL = model.number_of_links()
+    if tape.taping():
+        scratch = arrays.empty((nL, width), N, model.scalar, device, grad)
+        launch(kernel, N, [*inputs, scratch], outputs, device=device, block_dim=block_dim)
+        return
+    holder = per_thread(model, (name, width), dict)
+    cached = holder.get("entry")
+    if cached is None or cached.N != N:
+        cached = holder["entry"] = _Cached(N, arrays.empty((nL, width), N, model.scalar, device))
+    cached.recorded.run([Launch(kernel, N, [*inputs, cached.scratch], outputs, block_dim)], device)
+
+
+def _input(model, data, value, name: str, per_env: tuple):
+    """None for an absent input, else its (N, *per_env) device array (checked: shape, dtype, device, finite)."""
+    if value is None:
+        return None
+    return arrays.batched_input(value, name, per_env, data.num_envs, model.scalar, model.device)
+
+
+class _Outputs:
+    """Fresh output arrays for a kernel: what the caller gets (`user`) and what the kernel writes (`args`).
+
+    Batched data: (N, *shape) arrays in the device's layout, given to both. Single-environment data gets
+    arrays of JaxSim's shapes; the kernel sees them with a leading axis of 1, through launch descriptors
+    outside a tape (no view objects) and as views of (1, *shape) arrays under one (gradients flow through
+    views).
+    """
+
+    def __init__(self, model, data, shapes, grad: bool, taping: bool):
+        s, d, N = model.scalar, model.device, data.batch_size
+        if data.num_envs is not None:
+            self.user = [arrays.output(shape, N, s, d, grad) for shape in shapes]
+            self.args = self.user
+        elif taping:
+            self.args = [arrays.output(shape, 1, s, d, grad) for shape in shapes]
+            self.user = [arrays.squeeze_env(a, None) for a in self.args]
+        else:
+            self.user = [wp.empty(shape, dtype=s, device=d, requires_grad=grad) for shape in shapes]
+            if config.fill_outputs_with_nan:
+                for a in self.user:
+                    a.fill_(float("nan"))
+            self.args = [with_env_axis(a) for a in self.user]
+
+
+def with_env_axis(array: wp.array):
+    """A launch argument showing a single environment's contiguous `array` (shape S) as (1, *S)."""
+    return warp_private.array_descriptor(array, (1, *array.shape), (array.capacity or 0, *array.strides))
+
+
+def requires_grad(model, data, *inputs) -> bool:
+    """Whether the data's state, an input or a link parameter of the model requires gradients: then outputs
+    and scratch get gradient arrays, so that the adjoint reaches them."""
+    return (
+        data.requires_grad
+        or model.parameters_require_grad(("link",))
+        or any(isinstance(x, wp.array) and x.requires_grad for x in inputs)
+    )
+
+
+def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool):
+    """RNEA (kernels/rnea.py) on user inputs (None: zero): (f_B, tau) when `split`, else Q = [f_B; tau]."""
+    check_data(model, data, parameters=True)
+    taping = tape.taping()
+    n, nL, N = model.dofs(), model.number_of_links(), data.batch_size
+    s, d = model.scalar, model.device
+    a_B = _input(model, data, base_acceleration, "base_acceleration", (6,))
+    s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,))
+    f_L = _input(model, data, link_forces, "link_forces", (nL, 6))
+    grad = requires_grad(model, data, a_B, s_dd, f_L)
+    if split:
+        out = _Outputs(model, data, [(6,), (n,)], grad, taping)
+        f_B, tau = out.args
+    else:
+        out = _Outputs(model, data, [(6 + n,)], grad, taping)
+        Q = out.args[0]
+        if taping or data.num_envs is not None:
+            f_B, tau = Q[:, :6], (Q[:, 6:] if n > 0 else arrays.empty((0,), N, s, d))
+        else:
+            size = wp.types.type_size_in_bytes(s)
+            f_B = warp_private.array_descriptor(out.user[0], (1, 6), (0, size))
+            tau = warp_private.array_descriptor(out.user[0], (1, n), (0, size), 6 * size)
+    empty2 = wp.empty((0, 0), dtype=s, device=d)
+    inputs = [
+        model_bundle(model),
+        state_of(model, data),
+        a_B if a_B is not None else empty2,
+        s_dd if s_dd is not None else empty2,
+        controls_bundle(s, d, link_forces=f_L),
+        int(data.velocity_representation),
+        s(1.0 if with_velocity else 0.0),
+    ]
+    width = RNEA_RECORD + (TRANSFORM if f_L is not None else 0)
+    _launch(model, "rnea", N, width, inputs, [f_B, tau], grad)
+    return out.user if split else out.user[0]
+
+
+def generalized_forces(model, data, base_acceleration=None, joint_accelerations=None, link_forces=None, with_velocity=True):
+    """Q (N, 6 + n) = [f_B; tau] from RNEA (see kernels/rnea.py) for batched data, (6 + n,) for single-environment
+    data; accelerations and link forces (None: zero) in the data's representation."""
+    return _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity, split=False)
+
+
+def inverse_dynamics(model, data, joint_accelerations=None, base_acceleration=None, link_forces=None):
+    """(f_B, tau) by RNEA (see warpdyn.model.inverse_dynamics)."""
+    return _rnea(model, data, base_acceleration, joint_accelerations, link_forces, True, split=True)
+
+
+def mass_matrix(model, data) -> wp.array:
+    """M(q): (6 + n, 6 + n) or (N, 6 + n, 6 + n), for the generalized velocity in the data's representation."""
+    check_data(model, data, parameters=True)
+    taping = tape.taping()
+    n = model.dofs()
+    grad = requires_grad(model, data)
+    out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping)
+    inputs = [model_bundle(model), state_of(model, data), int(data.velocity_representation)]
+    _launch(model, "crba", data.batch_size, CRBA_RECORD, inputs, out.args, grad)
+    return out.user[0]
+
+
+def forward_dynamics_aba(model, data, joint_forces=None, link_forces=None):
+    """(base acceleration, joint accelerations) by ABA (see warpdyn.model.forward_dynamics_aba)."""
+    check_data(model, data, parameters=True)
+    taping = tape.taping()
+    n, nL = model.dofs(), model.number_of_links()
+    tau = _input(model, data, joint_forces, "joint_forces", (n,))
+    f_L = _input(model, data, link_forces, "link_forces", (nL, 6))
+    grad = requires_grad(model, data, tau, f_L)
+    out = _Outputs(model, data, [(6,), (n,)], grad, taping)
+    inputs = [
+        model_bundle(model),
+        state_of(model, data),
+        controls_bundle(model.scalar, model.device, tau, f_L),
+        int(data.velocity_representation),
+    ]
+    width = ABA_RECORD + (TRANSFORM if f_L is not None else 0)
+    _launch(model, "aba", data.batch_size, width, inputs, out.args, grad)
+    base, joints = out.user
+    return base, joints
+
+
+def _offset(model) -> int:
+    return 0 if model.floating_base() else 6
+
+
+def _batched(data, array):
+    return array if data.num_envs is not None else array.reshape((1, *array.shape))
+
+
+def forward_dynamics_crb(model, data, joint_forces=None, link_forces=None):
+    """(base acceleration, joint accelerations) = M^-1 (B tau - h + sum_L J_L^T f_L), by CRBA and a Cholesky
+    solve. Under a wp.Tape the solve's adjoint is the implicit one (kernels/cholesky.py): gradients reach the
+    state, the forces and the link parameters as through forward_dynamics_aba."""
+    n, N, s, d = model.dofs(), data.batch_size, model.scalar, model.device
+    M = _batched(data, mass_matrix(model, data))
+    Q = _batched(data, generalized_forces(model, data, link_forces=link_forces))
+    tau = arrays.zeros((n,), N, s, d)
+    if joint_forces is not None:
+        tau = arrays.batched_input(joint_forces, "joint_forces", (n,), data.num_envs, s, d)
+    grad = M.requires_grad or Q.requires_grad or tau.requires_grad
+    rhs = arrays.empty((6 + n,), N, s, d, grad)
+    launch(state_kernels(s).actuated_minus, dim=N, inputs=[tau, Q], outputs=[rhs], device=d)
+    nu_dot = arrays.output((6 + n,), N, s, d, grad)
+    K = cholesky_kernels(s)
+    offset = _offset(model)
+    with tape.suspended() as recording:
+        _solve(K, M, rhs, offset, nu_dot)
+    if recording is not None and grad:
+        recording.record_func(backward=lambda: _solve_adjoint(K, M, rhs, offset, nu_dot), arrays=[M, rhs, nu_dot])
+    base = nu_dot[:, :6]
+    joints = nu_dot[:, 6:] if n > 0 else arrays.empty((0,), N, s, d)
+    return arrays.squeeze_env(base, data.num_envs), arrays.squeeze_env(joints, data.num_envs)
+
+
+def _solve(K, A, b, offset: int, x) -> None:
+    """x = A[offset:, offset:]^-1 b[offset:] (zeros before offset), A (N, k, k), b and x (N, k)."""
+    N, k = x.shape
+    s, d = A.dtype, A.device
+    scratch = (arrays.empty((k, k), N, s, d), arrays.empty((k,), N, s, d))
+    launch(K.solve, dim=N, inputs=[A, b, offset, *scratch], outputs=[x], device=d)
+
+
+def _solve_adjoint(K, A, b, offset: int, x) -> None:
+    """Adds the adjoint of x = A^-1 b (see `_solve`) into A.grad and b.grad from x.grad."""
+    N, k = x.shape
+    y = arrays.empty((k,), N, x.dtype, x.device)
+    _solve(K, A, x.grad, offset, y)
+    adj_A = A.grad if A.grad is not None else A
+    adj_b = b.grad if b.grad is not None else b
+    launch(
+        K.solve_adjoint,
+        dim=(N, k - offset),
+        inputs=[x, y, offset, int(A.grad is not None), int(b.grad is not None)],
+        outputs=[adj_A, adj_b],
+        device=x.device,
+    )
+
+
+def mass_matrix_inverse(model, data) -> wp.array:
+    """M(q)^-1: (6 + n, 6 + n) or batched; for a fixed base, the inverse of the joint block (zeros elsewhere).
+    A Cholesky solve, whose adjoint under a wp.Tape is the implicit one, -M^-1 adj M^-1 (kernels/cholesky.py)."""
+    n, N, s, d = model.dofs(), data.batch_size, model.scalar, model.device
+    M = _batched(data, mass_matrix(model, data))
+    Minv = arrays.output((6 + n, 6 + n), N, s, d, M.requires_grad)
+    K = cholesky_kernels(s)
+    offset = _offset(model)
+    scratch = (arrays.empty((6 + n, 6 + n), N, s, d), arrays.empty((6 + n, 6 + n), N, s, d))
+    with tape.suspended() as recording:
+        launch(K.inverse, dim=N, inputs=[M, offset, *scratch], outputs=[Minv], device=d)
+    if recording is not None and M.requires_grad:
+        recording.record_func(backward=lambda: _inverse_adjoint(K, M, offset, Minv), arrays=[M, Minv])
+    return arrays.squeeze_env(Minv, data.num_envs)
+
+
+def _inverse_adjoint(K, A, offset: int, X) -> None:
+    """Adds the adjoint of X = A^-1 (trailing block) into A.grad from X.grad: -X X.grad X, folded onto A's
+    lower triangle."""
+    N, k = X.shape[0], X.shape[1]
+    s, d = X.dtype, X.device
+    W = arrays.empty((k, k), N, s, d)
+    P = arrays.empty((k, k), N, s, d)
+    launch(K.block_product, dim=(N, k - offset), inputs=[X.grad, X, offset], outputs=[W], device=d)
+    launch(K.block_product, dim=(N, k - offset), inputs=[X, W, offset], outputs=[P], device=d)
+    launch(K.inverse_adjoint, dim=(N, k - offset), inputs=[P, offset], outputs=[A.grad], device=d)

@@ -1,0 +1,541 @@
+"""Simulation steps: soft contacts with the terrain, actuation, and the integrators of `warpdyn.model.step`.
+
+A step, as JaxSim's `js.model.step` with SoftContacts:
+1. the user's link forces (the data's representation) made Inertial; the joint torques from the joint
+   force references through friction, limit springs and the torque-speed curve (kernels/actuation.py),
+   once per step at its start;
+2. the contact forces of the enabled collidable points (kernels/soft_contacts.py) added to the link forces,
+   and the rate of the tangential deformation;
+3. forward dynamics by ABA in the Inertial representation;
+4. the integrator (kernels/integrators.py); environments whose new state is not finite are flagged
+   (`data.valid`) and keep their state.
+`step` returns new Data (fresh arrays): nothing an adjoint needs is overwritten, so a wp.Tape through
+many steps gives gradients.
+
+Structure. What a model's steps launch is chosen once per model version (`Plan`, cached on the model:
+warpdyn.types.model). Parts a model does not need are not launched (no enabled collidable points: no FK,
+link-velocity or contact kernel; no link forces: no conversion, and ABA skips the force terms) or not
+compiled (no limit springs, no friction: an actuation kernel without that code). A step is then a fixed
+list of launches on given arrays (`step_launches`): nothing allocated, nothing read back, so
+warpdyn.engine.rollout captures many of them in a graph. Launches per semi-implicit Euler step:
+actuation (if joints), [FK, link velocities, contacts] (if enabled points), [FK if no contacts, force
+conversion] (if link forces not Inertial), ABA, integrator.
+
+Gradients with respect to model parameters (warpdyn.types.parameters). Every parameter a step reads is an
+array the user holds: the model bundle holds the model's own arrays, and the contact K, D, mu and the
+terrain's heights are read in place when they are Warp arrays (numbers and NumPy arrays are copied when
+the plan is built). Under a tape the adjoints accumulate into those arrays' .grad: `step` allocates fresh
+buffers with gradients when the data, an input or a parameter requires them, and a rollout under a tape
+always does; the per-thread workspace and recorded launches serve only calls outside a tape. Marking a
+friction or limit gain keeps its term in the compiled actuation kernel even where it is zero.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import warp as wp
+
+from .. import arrays
+from ..kernels.aba import ABA_RECORD
+from ..kernels.aba import kernels as aba_kernels
+from ..kernels.actuation import kernel as actuation_kernel
+from ..kernels.bundles import bundles
+from ..kernels.forces import kernels as force_kernels
+from ..kernels.integrators import kernels as integrator_kernels
+from ..kernels.kinematics import kernels as kinematics_kernels
+from ..kernels.scratch import TRANSFORM
+from ..kernels.soft_contacts import kernels as contact_kernels
+from ..kernels.velocities import kernels as velocity_kernels
+from ..types.enums import IntegratorType, VelRepr
+from ..types.model import check_data
+from ..types.settings import host_values
+from ..types.terrain import FlatTerrain, HeightfieldTerrain
+from . import tape
+from .bundles import controls_bundle, model_bundle, state_bundle
+from .kinematics import state_arrays, targets
+from .launch import Launch, Recorded, per_thread, run
+
+__all__ = [
+    "DEFORMATION_STABILITY",
+    "Plan",
+    "Workspace",
+    "Evaluation",
+    "plan",
+    "prepare",
+    "step",
+    "step_launches",
+    "state_buffers",
+    "resultant_torques",
+    "contact_evaluation",
+    "contact_forces",
+    "broadcast_envs",
+    "terrain_bundle",
+    "check_deformation_stability",
+]
+
+DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.RungeKutta4: 2.785}
+"""Stability limits of dt K / D: the tangential deformation relaxes as m_dot = -(K / D) m (out of contact,
+and for p = q in contact), which explicit Euler integrates stably for dt K / D < 2 and RK4 for
+dt K / D < 2.785 (its stability region on the negative real axis). Beyond, m grows geometrically while
+staying finite for many steps, so no health check would catch it: `step` refuses such settings."""
+
+
+def check_deformation_stability(time_step: float, K, D, integrator) -> None:
+    """A ValueError when dt K / D reaches the integrator's stability limit (DEFORMATION_STABILITY)."""
+    rate = float(np.max(host_values(K) / host_values(D)))
+    integrator = IntegratorType(integrator)
+    limit = DEFORMATION_STABILITY[integrator]
+    if time_step * rate >= limit:
+        raise ValueError(
+            f"time_step {time_step} s with contact K/D = {rate:.4g} 1/s gives dt K/D = {time_step * rate:.3g}, "
+            f"beyond the stability limit {limit} of {integrator.name} for the tangential "
+            f"deformation: take time_step < {limit / rate:.3g} s, or a smaller K (a larger D also lowers K/D but makes "
+            "the explicit contact damping less stable: README, 'Speed and accuracy')"
+        )
+
+
+def per_env(value, name, scalar, device, owner="SoftContactsParams") -> wp.array:
+    """A parameter shared (1,) or per environment (N,) as the kernels read it: a Warp array is the user's,
+    read in place (its .grad gets the gradient); numbers and NumPy arrays are copied."""
+    if isinstance(value, wp.array):
+        if value.ndim != 1 or value.dtype != scalar or value.device != device:
+            raise ValueError(
+                f"{owner}.{name} as a Warp array must be 1-D with the model's dtype {scalar.__name__} on "
+                f"{device}, got shape {value.shape}, dtype {getattr(value.dtype, '__name__', value.dtype)} on {value.device}"
+            )
+        return value
+    host = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    if host.ndim != 1:
+        raise ValueError(f"{owner}.{name} has shape {host.shape}: give a number or one value per environment (N,)")
+    return wp.array(host, dtype=scalar, device=device)
+
+
+def terrain_bundle(model):
+    """The kernels' Terrain bundle of `model.terrain`; its Warp arrays are read in place (their .grad gets
+    the gradient)."""
+    terrain = model.terrain
+    s, d = model.scalar, model.device
+    B = bundles(s)
+    bundle = B.Terrain()
+    bundle.kind = terrain.kind
+    bundle.normal = wp.types.vector(3, s)(0.0, 0.0, 1.0)
+    bundle.heights = wp.zeros((2, 2), dtype=s, device=d)
+    bundle.grid = B.vec4(0.0, 0.0, 1.0, 1.0)
+    if isinstance(terrain, HeightfieldTerrain):
+        heights = terrain.heights
+        if isinstance(heights, wp.array):
+            arrays.check_device_array(heights, "HeightfieldTerrain.heights", s, d)
+        else:
+            heights = wp.array(heights, dtype=s, device=d)
+        bundle.height = wp.zeros(1, dtype=s, device=d)
+        bundle.heights = heights
+        bundle.grid = B.vec4(*terrain.origin, *terrain.spacing)
+    elif isinstance(terrain, FlatTerrain):
+        bundle.height = per_env(terrain.height, "height", s, d, owner="FlatTerrain")
+    else:
+        normal, h0 = terrain.plane()
+        bundle.normal = wp.types.vector(3, s)(*normal)
+        bundle.height = wp.array([h0], dtype=s, device=d)
+    return bundle
+
+
+class Plan:
+    """What a step of one model launches, chosen once per model version (see `plan`).
+
+    - actuation: a kernel compiled with only the terms the joint parameters need (no limit springs: no
+      limit code; no friction, or friction disabled: no friction code); none without joints;
+    - contacts: the enabled points ordered by link and the contact parameters (the kernels' Contacts
+      bundle); without enabled points no FK, link-velocity or contact kernel is launched and the
+      deformation rate is a zero array;
+    - the terrain (a heightfield's heights uploaded once, not per step).
+    Host work per step is then a cache look-up (`plan`), no NumPy reductions, no uploads.
+    """
+
+    def __init__(self, model, gradient_terms: tuple):
+        s, d = model.scalar, model.device
+        B = bundles(s)
+        self.scalar, self.device = s, d
+        self.n, self.nL = model.dofs(), model.number_of_links()
+        self.integrator = IntegratorType(model.integrator)
+        self.dt = s(model.time_step)
+        self.quaternion_tolerance = s(model.quaternion_tolerance)
+        self.model = model_bundle(model)
+        # actuation
+        a = model.actuation_params
+        friction_grad, limits_grad = gradient_terms
+        self.with_limits = bool(np.any(model.parameter_host("joint_limit_spring") != 0.0)) or limits_grad
+        friction = np.any(model.parameter_host("friction_static") != 0.0) or np.any(model.parameter_host("friction_viscous") != 0.0)
+        self.with_friction = bool(a.enable_friction) and (bool(friction) or friction_grad)
+        self.actuation = actuation_kernel(s, self.with_limits, self.with_friction) if self.n > 0 else None
+        self.torque_curve = [s(a.torque_max), s(a.omega_th), s(a.omega_max)]
+        # collidable points: the enabled ones ordered by link (the contact kernel sums them per link)
+        cp = model.kin_dyn_parameters.contact_parameters
+        rows = cp.indices_of_enabled_collidable_points
+        links = np.asarray(cp.body, dtype=np.int64)[rows]
+        order = np.argsort(links, kind="stable")
+        rows, links = rows[order], links[order]
+        first = np.full(self.nL, -1, dtype=np.int32)
+        for k in range(len(links) - 1, -1, -1):
+            first[links[k]] = k
+        enabled = np.zeros(len(cp.body), dtype=np.int32)
+        enabled[rows] = 1
+        self.total = len(cp.body)
+        self.count = len(rows)
+        self.contacts = self.count > 0
+        c = model.contact_params
+        if self.contacts:
+            check_deformation_stability(model.time_step, c.K, c.D, model.integrator)
+        L_p_C = np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3)
+        contacts = self.contact_bundle = B.Contacts()
+        contacts.point_link = wp.array(links.astype(np.int32), dtype=int, device=d)
+        contacts.L_p_C = wp.array(L_p_C, dtype=wp.types.vector(3, s), device=d)
+        contacts.point_row = wp.array(rows.astype(np.int32), dtype=int, device=d)
+        contacts.row_enabled = wp.array(enabled, dtype=int, device=d)
+        contacts.link_first_point = wp.array(first, dtype=int, device=d)
+        contacts.K, contacts.D, contacts.mu = (per_env(getattr(c, k), k, s, d) for k in ("K", "D", "mu"))
+        contacts.p, contacts.q = s(c.p), s(c.q)
+        self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
+        self.terrain = terrain_bundle(model)
+        self.no_targets = targets(model, model.all_links[:0], model.identity_offsets[:0])
+        self.integrators = integrator_kernels(s)
+        self._zeros: dict = {}
+
+    def check_envs(self, N: int) -> None:
+        c = self.contact_bundle
+        per_env = (("SoftContactsParams.K", c.K), ("SoftContactsParams.D", c.D), ("SoftContactsParams.mu", c.mu))
+        for name, value in (*per_env, ("the terrain's height", self.terrain.height)):
+            if value.shape[0] not in (1, N):
+                raise ValueError(f"{name} has shape {value.shape}: give a number or one value per environment ({N},)")
+
+    def zeros(self, shape: tuple, N: int) -> wp.array:
+        """A zero array of logical shape (N, *shape) that no kernel writes: one row, broadcast (env stride 0)."""
+        key = tuple(shape)
+        row = self._zeros.get(key)
+        if row is None:
+            row = self._zeros[key] = wp.zeros((1, *shape), dtype=self.scalar, device=self.device)
+        return broadcast_envs(row, N)
+
+    def zero_rows(self) -> list:
+        """The zero rows `zeros` made (they are the plan's, not a workspace's or a rollout's)."""
+        return list(self._zeros.values())
+
+    def parameter_arrays(self) -> list:
+        """The model parameters' Warp arrays that the steps read (the bundles' fields)."""
+        model, contacts, terrain = self.model, self.contact_bundle, self.terrain
+        names = ("link_mass", "link_com", "link_inertia", "position_limits", "joint_limit_spring", "joint_limit_damper",
+                 "friction_static", "friction_viscous")  # fmt: skip
+        return [getattr(model, name) for name in names] + [contacts.K, contacts.D, contacts.mu, terrain.height, terrain.heights]
+
+
+def broadcast_envs(row: wp.array, N: int) -> wp.array:
+    """The (N, *S) view of a (1, *S) array with a zero stride on the environment axis (its gradient likewise):
+    what kernels read as one value per environment, without N copies. The view does not own the memory:
+    keep `row` alive."""
+    if row.shape[0] != 1:
+        raise ValueError(f"broadcast_envs needs a leading axis of 1, got shape {row.shape}")
+    if N == 1:
+        return row
+    view = wp.array(ptr=row.ptr, dtype=row.dtype, shape=(N, *row.shape[1:]), strides=(0, *row.strides[1:]), device=row.device)
+    if row.grad is not None:
+        view.grad = wp.array(
+            ptr=row.grad.ptr, dtype=row.dtype, shape=(N, *row.shape[1:]), strides=(0, *row.grad.strides[1:]), device=row.device
+        )
+    return view
+
+
+def plan(model) -> Plan:
+    """The model's plan at its current version (and marking of its friction and limit gains)."""
+    terms = (
+        model.friction_static.requires_grad or model.friction_viscous.requires_grad,
+        model.joint_limit_spring.requires_grad or model.joint_limit_damper.requires_grad,
+    )
+    return model.cached(("step plan", terms), lambda: Plan(model, terms))
+
+
+class Evaluation:
+    """Buffers of one evaluation of the state derivative (one per stage of RK4)."""
+
+    def __init__(self, plan: Plan, N: int, grad: bool, forces: bool, nu_dot: wp.array | None, aba: bool = True):
+        s, d = plan.scalar, plan.device
+        nL, n = plan.nL, plan.n
+
+        def out(shape, dtype=s):
+            return arrays.output(shape, N, dtype, d, grad)
+
+        transform = wp.types.transformation(s)
+        vec6 = wp.types.vector(6, s)
+        if plan.contacts:
+            self.parent_H_link = out((nL,), transform)
+            self.W_H_L = out((nL,), transform)
+            self.W_v_WL = out((nL,), vec6)
+            self.target_velocities = arrays.empty((0, 6), N, s, d)
+            self.W_f_C = out((plan.count, 6))
+            self.m_dot = out((plan.total, 3))
+            self.W_f_L = out((nL, 6))
+            self.chain = arrays.empty((plan.count,), N, vec6, d, grad)
+        else:
+            self.m_dot = plan.zeros((plan.total, 3), N)
+        if not aba:  # contact results only (warpdyn.engine.contact)
+            return
+        self.aba_scratch = arrays.empty((nL, ABA_RECORD + (TRANSFORM if plan.contacts or forces else 0)), N, s, d, grad)
+        # nu_dot (N, 6 + n) = [W_vdot_WB (Inertial); sddot]: the semi-implicit Euler's (given), or this stage's
+        self.nu_dot = out((6 + n,)) if nu_dot is None else nu_dot
+        self.base_acceleration = self.nu_dot[:, :6]
+        self.joint_accelerations = self.nu_dot[:, 6:] if n > 0 else out((0,))
+
+
+class Workspace:
+    """Buffers of one step's intermediate results for N environments (`step_launches` writes them).
+
+    `step` reuses one per model and thread outside a tape and makes fresh ones under a tape (the adjoint
+    reads them later); a rollout keeps one for all steps, or one per step when it must be differentiable.
+    forces: whether the steps get external link forces (room for their Inertial conversion and for ABA's).
+    """
+
+    def __init__(self, plan: Plan, N: int, grad: bool, forces: bool):
+        s, d = plan.scalar, plan.device
+        n, nL = plan.n, plan.nL
+        self.N, self.grad, self.forces = N, grad, forces
+        self.tau = arrays.output((n,), N, s, d, grad)
+        transform = wp.types.transformation(s)
+        if forces:
+            self.W_f_ext = arrays.output((nL, 6), N, s, d, grad)
+            if not plan.contacts:  # otherwise the first evaluation's link poses serve
+                self.parent_H_link = arrays.output((nL,), N, transform, d, grad)
+                self.W_H_L = arrays.output((nL,), N, transform, d, grad)
+        if plan.integrator == IntegratorType.SemiImplicitEuler:
+            self.nu_dot = arrays.output((6 + n,), N, s, d, grad)
+            self.evals = [Evaluation(plan, N, grad, forces, self.nu_dot)]
+        else:
+            self.evals = [Evaluation(plan, N, grad, forces, None) for _ in range(4)]
+            size = plan.integrators.state_size(n, plan.total)
+            self.slopes = [arrays.output((size,), N, s, d, grad) for _ in range(4)]
+            self.stages = [state_buffers(plan, N, grad)[:6] for _ in range(3)]
+
+
+def state_buffers(plan: Plan, N: int, grad: bool) -> list:
+    """Uninitialised state arrays (p, Q, s, v, sdot, m, valid) for N environments, in the device's layout."""
+    s, d, n = plan.scalar, plan.device, plan.n
+    return [
+        arrays.output((3,), N, s, d, grad),
+        arrays.output((4,), N, s, d, grad),
+        arrays.output((n,), N, s, d, grad),
+        arrays.output((6,), N, s, d, grad),
+        arrays.output((n,), N, s, d, grad),
+        arrays.output((plan.total, 3), N, s, d, grad),
+        wp.empty(N, dtype=wp.int32, device=d),
+    ]
+
+
+def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: bool = True) -> list:
+    """The launches of one derivative evaluation at the state x (a State bundle): contacts (if any), then
+    ABA (Inertial). f_ext (N, nL, 6) Inertial or None. poses_done: ev's link poses already hold FK at x."""
+    N = x.base_position.shape[0]
+    launches = []
+    f_aba = f_ext
+    if plan.contacts:
+        if not poses_done:
+            launches.append(Launch(kinematics_kernels(plan.scalar).forward_kinematics, N, [plan.model, x], [ev.parent_H_link, ev.W_H_L]))
+        launches.append(
+            Launch(
+                velocity_kernels(plan.scalar).link_velocities,
+                N,
+                [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)],
+                [ev.W_v_WL, ev.target_velocities],
+            )
+        )
+        launches.append(
+            Launch(
+                contact_kernels(plan.scalar).contact_forces,
+                N,
+                [
+                    plan.contact_bundle,
+                    plan.terrain,
+                    ev.W_H_L,
+                    ev.W_v_WL,
+                    x.tangential_deformation,
+                    f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N),
+                    ev.chain,
+                ],
+                [ev.W_f_C, ev.m_dot, ev.W_f_L],
+            )
+        )
+        f_aba = ev.W_f_L
+    if aba:
+        controls = controls_bundle(plan.scalar, plan.device, tau if plan.n > 0 else None, f_aba)
+        launches.append(
+            Launch(
+                aba_kernels(plan.scalar).aba,
+                N,
+                [plan.model, x, controls, int(VelRepr.Inertial), ev.aba_scratch],
+                [ev.base_acceleration, ev.joint_accelerations],
+            )
+        )
+    return launches
+
+
+def step_launches(plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None) -> list:
+    """The launches of one step from the state x to the state y (lists of 7 arrays, see
+    warpdyn.engine.kinematics.state_arrays), all arrays given: nothing is allocated, nothing read back.
+
+    tau_ref (N, n): the joint force references; f_user (N, nL, 6) in representation `repr`, or None;
+    tau_out (N, n): where the applied joint torques go (default ws.tau).
+    """
+    N = x[0].shape[0]
+    s = plan.scalar
+    X, Y = state_bundle(s, x), state_bundle(s, y)
+    tau = ws.tau if tau_out is None else tau_out
+    launches = []
+    if plan.n > 0:
+        launches.append(Launch(plan.actuation, (N, plan.n), [plan.model, *plan.torque_curve, X, tau_ref], [tau]))
+    f_ext = None
+    poses_done = False
+    if f_user is not None:
+        if repr == int(VelRepr.Inertial):
+            f_ext = f_user
+        else:
+            holder = ws.evals[0] if plan.contacts else ws
+            launches.append(Launch(kinematics_kernels(s).forward_kinematics, N, [plan.model, X], [holder.parent_H_link, holder.W_H_L]))
+            poses_done = plan.contacts
+            launches.append(Launch(force_kernels(s).link_forces_to_inertial, (N, plan.nL), [holder.W_H_L, f_user, repr], [ws.W_f_ext]))
+            f_ext = ws.W_f_ext
+    K = plan.integrators
+    ev = ws.evals[0]
+    launches += _evaluate(plan, ev, X, tau, f_ext, poses_done)
+    if plan.integrator == IntegratorType.SemiImplicitEuler:
+        launches.append(Launch(K.semi_implicit_euler, N, [plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
+        return launches
+    stage = X
+    for i, c in enumerate((0.5, 0.5, 1.0, None)):
+        ev = ws.evals[i]
+        if i > 0:
+            launches += _evaluate(plan, ev, stage, tau, f_ext, False)
+        launches.append(Launch(K.slope, N, [stage, ev.base_acceleration, ev.joint_accelerations, ev.m_dot], [ws.slopes[i]]))
+        if c is not None:
+            stage = state_bundle(s, [*ws.stages[i], x[6]])
+            launches.append(Launch(K.rk4_stage, N, [s(c * float(plan.dt)), X, ws.slopes[i]], [stage]))
+    launches.append(Launch(K.rk4_combine, N, [plan.dt, plan.quaternion_tolerance, X, *ws.slopes], [Y]))
+    return launches
+
+
+def check_contact_state(model, data) -> None:
+    """A ValueError when the data's contact state does not hold one row per collidable point of the model."""
+    total = len(model.kin_dyn_parameters.contact_parameters.body)
+    m = data.tangential_deformation_state
+    if m is None or m.shape[1] != total:
+        got = None if m is None else m.shape[1]
+        raise ValueError(
+            f"data holds the tangential deformation of {got} collidable points but the model has {total}: "
+            "build the data from this model (wd.data.Data.build) after changing its collidable points"
+        )
+
+
+def inputs_require_grad(*values) -> bool:
+    return any(isinstance(v, wp.array) and v.requires_grad for v in values)
+
+
+def _joint_force_references(plan: Plan, data, value) -> wp.array:
+    if value is None:
+        return plan.zeros((plan.n,), data.batch_size)
+    return arrays.batched_input(value, "joint_force_references", (plan.n,), data.num_envs, plan.scalar, plan.device)
+
+
+def _link_forces(plan: Plan, data, value):
+    if value is None:
+        return None
+    return arrays.batched_input(value, "link_forces", (plan.nL, 6), data.num_envs, plan.scalar, plan.device)
+
+
+def prepare(model, data, parameters: bool = True) -> tuple[Plan, int]:
+    """(plan, N) after checking the data against the model (parameters: the caller reads the link or joint
+    parameters, see warpdyn.types.model.check_data; the contact parameters and the terrain are checked in
+    any case)."""
+    check_data(model, data, parameters)
+    check_contact_state(model, data)
+    current = plan(model)
+    current.check_envs(data.batch_size)
+    return current, data.batch_size
+
+
+def resultant_torques(model, data, joint_force_references) -> wp.array:
+    """tau (N, n): the joint torques a step applies, from the references (see kernels/actuation.py)."""
+    current, N = prepare(model, data)
+    tau_ref = _joint_force_references(current, data, joint_force_references)
+    if current.n == 0:
+        return arrays.empty((0,), N, current.scalar, current.device)
+    grad = data.requires_grad or inputs_require_grad(tau_ref) or model.parameters_require_grad()
+    tau = arrays.output((current.n,), N, current.scalar, current.device, grad)
+    X = state_bundle(current.scalar, state_arrays(data))
+    run([Launch(current.actuation, (N, current.n), [current.model, *current.torque_curve, X, tau_ref], [tau])], current.device)
+    return tau
+
+
+def contact_evaluation(model, data, W_f_ext=None) -> tuple[Plan, Evaluation | None]:
+    """(plan, ev): ev holds FK, link velocities and the contact kernel's results at the data's state (fresh
+    arrays), None without enabled points. W_f_ext (N, nL, 6) Inertial or None (zero)."""
+    current, N = prepare(model, data, parameters=False)
+    if not current.contacts:
+        return current, None
+    grad = data.requires_grad or inputs_require_grad(W_f_ext) or model.parameters_require_grad()
+    ev = Evaluation(current, N, grad, W_f_ext is not None, None, aba=False)
+    X = state_bundle(current.scalar, state_arrays(data))
+    run(_evaluate(current, ev, X, None, W_f_ext, False, aba=False), current.device)
+    return current, ev
+
+
+def contact_forces(model, data, W_f_ext: wp.array | None = None):
+    """(W_f_C (N, nc, 6), m_dot (N, nc_all, 3), W_f_L (N, nL, 6)): the Inertial contact wrench of each
+    enabled point (ordered by link), the deformation rate of every point, and W_f_ext (Inertial; None: zero)
+    plus the contact wrenches per link."""
+    current, ev = contact_evaluation(model, data, W_f_ext)
+    N, s, d = data.batch_size, current.scalar, current.device
+    if ev is None:
+        m_dot = arrays.output((current.total, 3), N, s, d)
+        m_dot.zero_()
+        W_f_L = W_f_ext
+        if W_f_L is None:
+            W_f_L = arrays.zeros((current.nL, 6), N, s, d)
+        return arrays.output((0, 6), N, s, d), m_dot, W_f_L
+    return ev.W_f_C, ev.m_dot, ev.W_f_L
+
+
+class _Shared:
+    """A thread's workspace and recorded launches of `step` for one batch size and link-force presence."""
+
+    def __init__(self, current: Plan, N: int, forces: bool):
+        self.workspace = Workspace(current, N, False, forces)
+        self.recorded = Recorded()
+
+
+def step(model, data, *, link_forces=None, joint_force_references=None):
+    """The data after one step (see warpdyn.model.step): new Data, fresh arrays, same representation."""
+    current, N = prepare(model, data)
+    tau_ref = _joint_force_references(current, data, joint_force_references)
+    f_user = _link_forces(current, data, link_forces)
+    grad = data.requires_grad or inputs_require_grad(tau_ref, f_user) or model.parameters_require_grad()
+    forces = f_user is not None
+    y = state_buffers(current, N, grad)
+    repr = int(data.velocity_representation)
+    if tape.taping():
+        ws = Workspace(current, N, grad, forces)
+        run(step_launches(current, ws, state_arrays(data), y, tau_ref, f_user, repr), current.device)
+    else:
+        shared = per_thread(model, ("step", N, forces), lambda: _Shared(current, N, forces))
+        shared.recorded.run(step_launches(current, shared.workspace, state_arrays(data), y, tau_ref, f_user, repr), current.device)
+    return with_state(data, y)
+
+
+def with_state(data, state: list):
+    """`data` with its state arrays replaced by `state` (p, Q, s, v, sdot, m, valid)."""
+    return dataclasses.replace(
+        data,
+        base_position_state=state[0],
+        base_quaternion_state=state[1],
+        joint_positions_state=state[2],
+        base_velocity_state=state[3],
+        joint_velocities_state=state[4],
+        tangential_deformation_state=state[5],
+        valid_state=state[6],
+    )

@@ -1,0 +1,539 @@
+"""The model: a robot's constants and parameters on a Warp device, in one scalar type.
+
+Link order: breadth-first from the base (parent index < child index). Joint i moves link i + 1.
+Frame indices follow the link indices: frame k has index number_of_links() + k (as in JaxSim).
+
+Changes and caches. Everything the engine derives from a model (kernel bundles, a step's plan, recorded
+launches, workspaces) is cached on the model with `Model.cached` and rebuilt after the model changes. A
+change is announced: every setter here (parameters, settings such as `terrain`, `contact_params`,
+`time_step`, marking parameters for gradients) calls `notify_model_changed`, which bumps `version`. A
+parameter's Warp array edited in place (`model.link_mass.assign(...)`) is read by kernels as it is then,
+without a rebuild; call `notify_model_changed()` after such an edit when it switches a term on or off
+(a friction or limit gain that was zero everywhere: the step compiles only the terms it needs).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+
+import numpy as np
+import warp as wp
+
+from .. import arrays
+from ..description import ModelDescription, load
+from ..description.collidable import warn_without_points
+from ..description.tree import KinematicTree, build_tree
+from .enums import IntegratorType
+from .kin_dyn import KinDynParameters
+from .parameters import JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter
+from .settings import ActuationParams, SoftContactsParams
+from .terrain import FlatTerrain, HeightfieldTerrain, PlaneTerrain
+
+__all__ = ["Model", "SCALARS", "check_data", "transforms", "quaternion_xyzw"]
+
+SCALARS = {np.dtype(np.float32): wp.float32, np.dtype(np.float64): wp.float64}
+"""The NumPy dtypes a model computes in, and their Warp scalars."""
+
+
+def transforms(H: np.ndarray, scalar, device) -> wp.array:
+    """Warp transforms (p, quaternion xyzw) of homogeneous matrices (K, 4, 4)."""
+    H = np.asarray(H, dtype=np.float64).reshape(-1, 4, 4)
+    rows = np.zeros((len(H), 7))
+    for k, M in enumerate(H):
+        rows[k, :3] = M[:3, 3]
+        rows[k, 3:] = quaternion_xyzw(M[:3, :3])
+    return wp.array(rows, dtype=wp.types.transformation(scalar), device=device)
+
+
+def quaternion_xyzw(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) of a rotation matrix (Shepperd's method)."""
+    t = np.trace(R)
+    if t > 0.0:
+        s = 2.0 * np.sqrt(1.0 + t)
+        q = [(R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, 0.25 * s]
+    else:
+        i = int(np.argmax(np.diag(R)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * np.sqrt(max(1.0 + R[i, i] - R[j, j] - R[k, k], 1e-300))
+        q = [0.0, 0.0, 0.0, (R[k, j] - R[j, k]) / s]
+        q[i] = 0.25 * s
+        q[j] = (R[j, i] + R[i, j]) / s
+        q[k] = (R[k, i] + R[i, k]) / s
+    q = np.asarray(q)
+    return q / np.linalg.norm(q)
+
+
+def _sibling_chains(parent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """first_child (nL,) and next_sibling (nL,), -1 where there is none; siblings in index order."""
+    first_child = np.full(len(parent), -1, dtype=np.int32)
+    next_sibling = np.full(len(parent), -1, dtype=np.int32)
+    for i in range(len(parent) - 1, 0, -1):
+        next_sibling[i] = first_child[parent[i]]
+        first_child[parent[i]] = i
+    return first_child, next_sibling
+
+
+def _setting(name: str, check, doc: str) -> property:
+    """A model setting: assigning it checks the value (`check` returns it, or raises naming it) and
+    announces the change (Model.notify_model_changed)."""
+    attribute = f"_{name}"
+
+    def get(model):
+        return getattr(model, attribute)
+
+    def put(model, value):
+        setattr(model, attribute, check(value))
+        model.notify_model_changed()
+
+    return property(get, put, doc=doc)
+
+
+def _number(name: str, value, positive: bool) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a number, got {value!r}") from None
+    if not np.isfinite(value) or (positive and value <= 0.0):
+        raise ValueError(f"{name} must be {'positive and ' if positive else ''}finite, got {value}")
+    return value
+
+
+def _instance(name: str, *kinds):
+    def check(value):
+        if not isinstance(value, kinds):
+            raise TypeError(f"{name} must be a {' or '.join(k.__name__ for k in kinds)}, got {type(value).__name__}")
+        return value
+
+    return check
+
+
+class _ParameterAttribute:
+    """`model.<name>`: the Warp array of a link or joint parameter (read-only; set it with the group's setter)."""
+
+    def __init__(self, parameter: Parameter):
+        self.name = parameter.name
+        self.__doc__ = f"{parameter.description} [{parameter.unit}]: ({'nL' if parameter.group == 'link' else 'n'}{''.join(f', {k}' for k in parameter.item)}), or with a leading N when given per environment."
+
+    def __get__(self, model, owner=None):
+        if model is None:
+            return self
+        return model._values[self.name]
+
+
+class Model:
+    """A robot's constants on a Warp device, in one scalar type (float32 or float64).
+
+    Build it with `warpdyn.model.Model.build_from_model_description`. The host-side tree (`model.tree`,
+    NumPy float64) holds the description's constants; the Warp arrays below are what kernels read:
+    parent (nL,) int, joint_type (nL,) int, X_tree (nL,) transform (joint frame in the parent link),
+    joint_axis, joint_pivot (nL,) vec3 (link frame), support (nL, n) int, frame_parent (nF,) int,
+    link_H_frame (nF,) transform, first_child and next_sibling (nL,) int (-1 for none: the sibling chains
+    that backward passes sum over).
+
+    Parameters (warpdyn.types.parameters): the links' `link_mass`, `link_com`, `link_inertia`
+    (`set_link_parameters`) and the joints' `position_limits`, `joint_limit_spring`, `joint_limit_damper`,
+    `friction_static`, `friction_viscous` (`set_joint_parameters`), each shared by all environments or
+    given per environment (domain randomisation; then the model serves data of those N environments only).
+    Settings of `step`: `terrain`, `contact_params`, `actuation_params`, `integrator`, `time_step` [s],
+    `gravity` [m/s^2, along -z], `quaternion_tolerance`; each checked when assigned.
+    """
+
+    def __init__(
+        self,
+        description: ModelDescription,
+        tree: KinematicTree,
+        *,
+        model_name: str,
+        gravity: float,
+        time_step: float,
+        dtype,
+        device,
+    ):
+        if np.dtype(dtype) not in SCALARS:
+            raise TypeError(f"dtype must be np.float32 or np.float64, got {dtype!r}")
+        self.description = description
+        self.tree = tree
+        self.model_name = model_name
+        self.dtype = np.dtype(dtype)
+        self.scalar = SCALARS[self.dtype]
+        self.device = wp.get_device(device)
+        self._lock = threading.RLock()
+        self._version = 0
+        self._cache: dict = {}
+        self._values: dict[str, wp.array] = {}
+        self._hosts: dict[str, np.ndarray] = {}
+        self._per_env: dict[str, int] = {}
+        self._kin_dyn: KinDynParameters | None = None
+        s, d = self.scalar, self.device
+        vec3 = wp.types.vector(3, s)
+        self.parent = wp.array(tree.parent, dtype=int, device=d)
+        self.joint_type = wp.array(tree.joint_type, dtype=int, device=d)
+        self.X_tree = transforms(tree.parent_H_joint, s, d)
+        self.joint_axis = wp.array(tree.joint_axis, dtype=vec3, device=d)
+        self.joint_pivot = wp.array(tree.joint_pivot, dtype=vec3, device=d)
+        self.support = wp.array(tree.support().reshape(tree.number_of_links, tree.dofs), dtype=int, device=d)
+        self.frame_parent = wp.array(tree.frame_parent, dtype=int, device=d)
+        self.link_H_frame = transforms(tree.link_H_frame, s, d)
+        first_child, next_sibling = _sibling_chains(tree.parent)
+        self.first_child = wp.array(first_child, dtype=int, device=d)
+        self.next_sibling = wp.array(next_sibling, dtype=int, device=d)
+        self.all_links = wp.array(np.arange(tree.number_of_links), dtype=int, device=d)
+        self.identity_offsets = transforms(np.tile(np.eye(4), (tree.number_of_links, 1, 1)), s, d)
+        for parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS):
+            # the description's inertial values are taken as they are; what a user sets is checked
+            self._store(parameter, parameter.default(tree), checked=parameter.group == "joint")
+        self.gravity = gravity
+        self.time_step = time_step
+        self.terrain = FlatTerrain()
+        self.contact_params = SoftContactsParams()
+        self.integrator = IntegratorType.SemiImplicitEuler
+        self.actuation_params = ActuationParams()
+        self.quaternion_tolerance = 0.1
+
+    @classmethod
+    def build_from_model_description(
+        cls,
+        model_description,
+        *,
+        model_name: str | None = None,
+        considered_joints: list[str] | None = None,
+        is_urdf: bool | None = None,
+        fixed_base: bool | None = None,
+        base_pose=None,
+        gravity: float = 9.81,
+        time_step: float = 0.001,
+        dtype=np.float32,
+        device=None,
+    ) -> Model:
+        """Build a model from a URDF or MJCF: a path, an XML string or XML bytes (any encoding its XML
+        declaration names).
+
+        Fixed joints are lumped (their child links become frames); only `considered_joints` are kept
+        when given (the others are locked at 0 and lumped). fixed_base: None keeps the description's base
+        (welded to a `world` link, or floating); True welds the base to the world at `base_pose`, a (4, 4)
+        homogeneous transform W_H_B [m] (default: the description's weld, else the identity; an MJCF free
+        joint becomes a weld); False frees a base the description welds. gravity [m/s^2] acts along -z of
+        the world. dtype: np.float32 (the default) or np.float64, the scalar of every computation.
+        device: a Warp device (default: Warp's default device, a GPU when there is one).
+        """
+        if np.dtype(dtype) not in SCALARS:
+            raise TypeError(f"dtype must be np.float32 or np.float64, got {dtype!r}")
+        description = load(model_description, is_urdf=is_urdf, fixed_base=fixed_base, base_pose=base_pose)
+        tree = build_tree(description, considered_joints)
+        model = cls(
+            description,
+            tree,
+            model_name=model_name if model_name is not None else description.name,
+            gravity=gravity,
+            time_step=time_step,
+            dtype=dtype,
+            device=device,
+        )
+        if model.floating_base():
+            warn_without_points(model.model_name, tree, stacklevel=2)
+        return model
+
+    # Changes and caches --------------------------------------------------------------------------
+
+    @property
+    def version(self) -> int:
+        """A counter of announced changes (`notify_model_changed`): what the engine's caches are keyed by."""
+        return self._version
+
+    def notify_model_changed(self) -> None:
+        """Say that the model changed: what the engine derived from it (plans, bundles, recorded launches,
+        workspaces) is rebuilt on next use. The setters call it; call it after editing a parameter's array
+        in place when the edit switches a term on or off (see the module docstring)."""
+        with self._lock:
+            self._version += 1
+
+    def cached(self, key, build):
+        """The value built by `build()` for `key` at the model's current version (built once per version)."""
+        entry = self._cache.get(key)
+        if entry is not None and entry[0] == self._version:
+            return entry[1]
+        with self._lock:
+            entry = self._cache.get(key)
+            if entry is None or entry[0] != self._version:
+                entry = self._cache[key] = (self._version, build())
+            return entry[1]
+
+    def copy(self) -> Model:
+        """A model sharing this one's device constants and parameter arrays, with its own parameter table,
+        settings and caches: setting a parameter or a setting on either leaves the other as it is (a
+        parameter array edited in place is seen by both). Also what `copy.copy(model)` makes."""
+        new = object.__new__(Model)
+        new.__dict__.update(self.__dict__)
+        new._lock = threading.RLock()
+        new._version = 0
+        new._cache = {}
+        new._values, new._hosts, new._per_env = dict(self._values), dict(self._hosts), dict(self._per_env)
+        return new
+
+    __copy__ = copy
+
+    # Settings (each checked when assigned) --------------------------------------------------------
+
+    gravity = _setting(
+        "gravity", lambda v: _number("gravity", v, positive=False), "The magnitude of gravity [m/s^2], acting along -z of the world."
+    )
+    time_step = _setting("time_step", lambda v: _number("time_step", v, positive=True), "The step's time step [s].")
+    quaternion_tolerance = _setting(
+        "quaternion_tolerance",
+        lambda v: _number("quaternion_tolerance", v, positive=True),
+        "A step whose base quaternion changes by more than this (a norm) flags the environment invalid.",
+    )
+    integrator = _setting("integrator", IntegratorType, "The step's integrator (IntegratorType).")
+    terrain = _setting("terrain", _instance("terrain", FlatTerrain, PlaneTerrain, HeightfieldTerrain), "The terrain (warpdyn.terrain).")
+    contact_params = _setting("contact_params", _instance("contact_params", SoftContactsParams), "The soft contacts' parameters.")
+    actuation_params = _setting("actuation_params", _instance("actuation_params", ActuationParams), "The torque-speed curve.")
+
+    # Parameters ----------------------------------------------------------------------------------
+
+    def set_link_parameters(self, **values) -> None:
+        """Set the links' inertial parameters (keywords below; one not given keeps its value).
+
+        mass (nL,) [kg], com (nL, 3) [m, link frame], inertia (nL, 3, 3) [kg m^2, about the CoM, link axes],
+        in the order of `link_names()` (lumped links included), shared by all environments; or with a
+        leading axis of N environments, (N, nL), (N, nL, 3), (N, nL, 3, 3): domain randomisation, one
+        row per environment, read by every dynamics function, `step` and rollouts. A model with
+        per-environment parameters serves data of those N environments only (a ValueError otherwise), and
+        its gradients (`parameters_requiring_grad`) come back per environment. Masses must be non-negative,
+        inertias symmetric positive semi-definite. Each value given makes a new Warp array (`model.link_mass`, ...).
+        """
+        self._set_group(LINK_PARAMETERS, values, "set_link_parameters")
+
+    def set_joint_parameters(self, **values) -> None:
+        """Set joint parameters of `step` (keywords below; one not given keeps its value).
+
+        position_limits (n, 2) [rad or m]: (lower, upper), inf where a joint is unlimited. limit_spring
+        [N m/rad or N/m] and limit_damper [s/rad or s/m]: the limit spring-damper of JaxSim (off where the
+        spring is 0); friction_static [N m or N] and friction_viscous [N m s/rad or N s/m]: each (n,) (or
+        (n, 2)), shared by all environments, or with a leading axis of N environments, one row per
+        environment (see `set_link_parameters`). Each value given makes a new Warp array
+        (`model.joint_limit_spring`, ...).
+        """
+        self._set_group(JOINT_PARAMETERS, values, "set_joint_parameters")
+
+    def _set_group(self, group: tuple, values: dict, setter: str) -> None:
+        by_keyword = {p.keyword: p for p in group}
+        unknown = [k for k in values if k not in by_keyword]
+        if unknown:
+            raise TypeError(f"{setter}() got unknown keywords {unknown}; known: {list(by_keyword)}")
+        for keyword, value in values.items():
+            if value is not None:
+                self._store(by_keyword[keyword], value, checked=True)
+        self.notify_model_changed()
+
+    def _store(self, parameter: Parameter, value, checked: bool) -> None:
+        """Store a link or joint parameter given shared (count, *item) or per environment (N, count, *item)."""
+        name = parameter.name
+        count = self.tree.number_of_links if parameter.group == "link" else self.tree.dofs
+        try:
+            host = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError) as error:
+            raise TypeError(f"{name} must be an array of numbers: {error}") from None
+        shared = (count, *parameter.item)
+        if checked and parameter.check is not None and host.shape[-len(shared) :] == shared:
+            parameter.check(name, host)
+        dtype = self._element_dtype(parameter)
+        if host.shape == shared:
+            array = wp.array(host, dtype=dtype, device=self.device)
+            self._per_env.pop(name, None)
+        elif host.ndim == len(shared) + 1 and host.shape[1:] == shared and host.shape[0] >= 1:
+            N = host.shape[0]
+            others = {k: v for k, v in self._per_env.items() if k != name and v != N}
+            if others:
+                raise ValueError(f"{name} is given for {N} environments but {others} for other numbers: one N per model")
+            array = arrays.empty((count,), N, dtype, self.device)
+            array.assign(wp.array(host, dtype=dtype, device=self.device))
+            self._per_env[name] = N
+        else:
+            per_env = "(N, " + ", ".join(str(k) for k in shared) + ")"
+            raise ValueError(f"{name} has shape {host.shape}, expected {shared} (shared) or {per_env} (per environment)")
+        self._hosts[name] = host
+        self._values[name] = array
+
+    def _element_dtype(self, parameter: Parameter):
+        """The Warp dtype of one link's or joint's value: the scalar, vec2, vec3 or mat33."""
+        item, s = parameter.item, self.scalar
+        if item == ():
+            return s
+        if len(item) == 1:
+            return wp.types.vector(item[0], s)
+        return wp.types.matrix(item, s)
+
+    def parameter_host(self, name: str) -> np.ndarray:
+        """The host (float64) copy of a link or joint parameter as it was last set."""
+        return self._hosts[name]
+
+    def per_environment_parameters(self) -> dict[str, int]:
+        """{name: N} of the link and joint parameters given per environment (empty when all are shared)."""
+        return dict(self._per_env)
+
+    def parameter(self, name: str):
+        """The current value of the parameter `name` (warpdyn.types.parameters.REGISTRY): a Warp array, or for
+        the contact parameters and the terrain's height possibly a number or NumPy array (None for a
+        PlaneTerrain's)."""
+        group = REGISTRY[name].group
+        if group == "contact":
+            return getattr(self.contact_params, name)
+        if group == "terrain":
+            terrain = self.terrain
+            return terrain.height if isinstance(terrain, FlatTerrain) else terrain.heights if isinstance(terrain, HeightfieldTerrain) else None
+        return self._values[name]
+
+    def parameters_require_grad(self, groups=("link", "joint", "contact", "terrain")) -> bool:
+        """Whether a parameter of these groups is a Warp array that requires gradients (attribute reads only)."""
+        for name, parameter in REGISTRY.items():
+            if parameter.group in groups:
+                value = self.parameter(name)
+                if isinstance(value, wp.array) and value.requires_grad:
+                    return True
+        return False
+
+    def mark_for_gradients(self, names) -> dict:
+        """See warpdyn.model.parameters_requiring_grad: {name: Warp array requiring gradients}."""
+        if isinstance(names, str):
+            names = (names,)
+        unknown = [n for n in names if n not in REGISTRY]
+        if unknown:
+            raise ValueError(f"parameters_requiring_grad: unknown names {unknown}; known: {list(REGISTRY)}")
+        out, contact = {}, {}
+        for name in names:
+            group = REGISTRY[name].group
+            if group == "contact":
+                value = getattr(self.contact_params, name)
+                if not isinstance(value, wp.array):
+                    value = contact[name] = self._parameter_array(value)
+            elif group == "terrain":
+                terrain = self.terrain
+                if isinstance(terrain, FlatTerrain):
+                    field = "height"
+                elif isinstance(terrain, HeightfieldTerrain):
+                    field = "heights"
+                else:
+                    raise ValueError(
+                        f"terrain_height: a {type(terrain).__name__} has no height parameter (FlatTerrain and HeightfieldTerrain have)"
+                    )
+                value = getattr(terrain, field)
+                if not isinstance(value, wp.array):
+                    value = self._parameter_array(value)
+                    self.terrain = dataclasses.replace(terrain, **{field: value})
+            else:
+                value = self._values[name]
+            value.requires_grad = True
+            out[name] = value
+        if contact:
+            self.contact_params = dataclasses.replace(self.contact_params, **contact)
+        self.notify_model_changed()
+        return out
+
+    def _parameter_array(self, value) -> wp.array:
+        """A number or NumPy array as a Warp array in the model's dtype and device ((1,) for a number)."""
+        host = np.asarray(value, dtype=np.float64)
+        return wp.array(host.reshape(-1) if host.ndim == 0 else host, dtype=self.scalar, device=self.device)
+
+    # Collidable points ---------------------------------------------------------------------------
+
+    @property
+    def kin_dyn_parameters(self) -> KinDynParameters:
+        """JaxSim's `kin_dyn_parameters` (host-side, NumPy): `.contact_parameters` (body, point, enabled of
+        the collidable points), `.frame_parameters`, `.link_names`, `.parent_array`, `.support_body_array_bool`.
+
+        Built on first use with the default `warpdyn.contact.CollidablePointsOptions`; see
+        `warpdyn.contact.with_collidable_points` for other options or enabled points.
+        """
+        if self._kin_dyn is None:
+            with self._lock:
+                if self._kin_dyn is None:
+                    self._kin_dyn = KinDynParameters.build(self)
+        return self._kin_dyn
+
+    def with_kin_dyn_parameters(self, params: KinDynParameters) -> Model:
+        """A model like this one (sharing its device constants and parameters) with other collidable points."""
+        new = self.copy()
+        new._kin_dyn = params
+        return new
+
+    def reduced(self, considered_joints, locked_joint_positions: dict | None = None) -> Model:
+        """See warpdyn.model.reduce."""
+        considered_joints = list(considered_joints)
+        unknown = [name for name in considered_joints if name not in self.joint_names()]
+        if unknown:
+            raise ValueError(f"considered_joints names joints that model '{self.name()}' does not have: {unknown}")
+        locked = dict(self.tree.locked_joints)
+        for name, value in (locked_joint_positions or {}).items():
+            if name not in self.joint_names() or name in considered_joints:
+                raise ValueError(f"locked_joint_positions names '{name}', which is not a joint this reduction locks")
+            locked[name] = float(value)
+        tree = build_tree(self.description, considered_joints, locked)
+        return Model(
+            self.description,
+            tree,
+            model_name=self.model_name,
+            gravity=self.gravity,
+            time_step=self.time_step,
+            dtype=self.dtype,
+            device=self.device,
+        )
+
+    # Queries, with JaxSim's names ----------------------------------------------------------------
+
+    def __repr__(self) -> str:
+        return (
+            f"Model(name={self.model_name!r}, links={self.number_of_links()}, joints={self.number_of_joints()}, "
+            f"floating_base={self.floating_base()}, dtype={self.dtype.name}, device='{self.device}')"
+        )
+
+    def name(self) -> str:
+        return self.model_name
+
+    def number_of_links(self) -> int:
+        return self.tree.number_of_links
+
+    def number_of_joints(self) -> int:
+        return self.tree.dofs
+
+    def number_of_frames(self) -> int:
+        return len(self.tree.frame_names)
+
+    def dofs(self) -> int:
+        return self.tree.dofs
+
+    def link_names(self) -> tuple[str, ...]:
+        return tuple(self.tree.link_names)
+
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(self.tree.joint_names)
+
+    def frame_names(self) -> tuple[str, ...]:
+        return tuple(self.tree.frame_names)
+
+    def floating_base(self) -> bool:
+        return not self.description.fixed_base
+
+    def base_link(self) -> str:
+        return self.tree.link_names[0]
+
+
+for _parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS):
+    setattr(Model, _parameter.name, _ParameterAttribute(_parameter))
+del _parameter
+
+
+def check_data(model: Model, data, parameters: bool = False) -> None:
+    """Errors naming what does not match between the data and the model; parameters: the caller reads the
+    link or joint parameters, which, given per environment, need data of those N environments."""
+    if parameters and model._per_env and any(N != data.batch_size for N in model._per_env.values()):
+        raise ValueError(
+            f"the model's parameters {model.per_environment_parameters()} are given per environment, "
+            f"but the data has {data.batch_size} environments"
+        )
+    if data.scalar != model.scalar:
+        raise TypeError(f"data is in {data.dtype.name} but the model computes in {model.dtype.name}")
+    if data.joint_positions_state.shape[1] != model.dofs():
+        raise ValueError(f"data has {data.joint_positions_state.shape[1]} joints but the model has {model.dofs()}")
+    if str(data.device) != str(model.device):
+        raise ValueError(f"data is on device '{data.device}' but the model is on '{model.device}'")

@@ -1,0 +1,133 @@
+"""The one registry of model parameters: what each is, where it lives, its shape, its checks.
+
+Every parameter a kernel reads and a user may set, randomise per environment or differentiate is a
+`Parameter` here. The registry drives the model's setters (`Model.set_link_parameters`,
+`Model.set_joint_parameters`), their validation, `warpdyn.model.parameters_requiring_grad` and the torch
+bridge's `parameters=`. Adding a per-joint parameter is one entry in JOINT_PARAMETERS, a field in the
+kernels' model bundle (kernels/bundles.py, filled by warpdyn.engine.bundles) and the kernels that read it.
+
+Groups and where the values live:
+- "link": one value per link (nL), on the model (`model.link_mass`, ...), a Warp array (nL, *item) shared
+  by all environments or (N, nL, *item), one row per environment;
+- "joint": one value per joint (n), on the model likewise;
+- "contact": the soft-contact K, D, mu in `model.contact_params` (a number, NumPy (N,) or a Warp array);
+- "terrain": a FlatTerrain's height ((1,) or (N,)) or a HeightfieldTerrain's heights (nx, ny).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+
+import numpy as np
+
+__all__ = [
+    "Parameter",
+    "LINK_PARAMETERS",
+    "JOINT_PARAMETERS",
+    "CONTACT_PARAMETERS",
+    "TERRAIN_PARAMETERS",
+    "REGISTRY",
+    "MODEL_ARRAYS",
+    "check_finite",
+    "check_non_negative",
+    "check_inertia",
+    "check_limits",
+]
+
+
+def check_finite(name: str, host: np.ndarray) -> None:
+    """A ValueError naming `name` and the first offending entry if any value is NaN or infinite."""
+    bad = np.argwhere(~np.isfinite(host))
+    if bad.size:
+        raise ValueError(f"{name} has non-finite values, first at index {tuple(bad[0].tolist())}: {host[tuple(bad[0])]}")
+
+
+def check_non_negative(name: str, host: np.ndarray) -> None:
+    check_finite(name, host)
+    if np.any(host < 0.0):
+        raise ValueError(f"{name} must be non-negative, got entries {host[host < 0.0][:5].tolist()}")
+
+
+def check_inertia(name: str, host: np.ndarray) -> None:
+    """Symmetric positive semi-definite (3, 3) matrices, to a relative tolerance of 1e-9."""
+    check_finite(name, host)
+    scale = max(float(np.abs(host).max(initial=0.0)), 1e-300)
+    if np.abs(host - np.swapaxes(host, -1, -2)).max(initial=0.0) > 1e-9 * scale:
+        raise ValueError(f"{name} must hold symmetric matrices")
+    if np.linalg.eigvalsh(host).min(initial=0.0) < -1e-9 * scale:
+        raise ValueError(f"{name} must hold positive semi-definite matrices")
+
+
+def check_limits(name: str, host: np.ndarray) -> None:
+    """(lower, upper) pairs, lower <= upper, +-inf allowed where a joint is unlimited."""
+    if np.any(np.isnan(host)) or np.any(host[..., 0] > host[..., 1]):
+        raise ValueError(f"{name} must be (lower, upper) pairs with lower <= upper (inf where unlimited), no NaN")
+
+
+@dataclasses.dataclass(frozen=True)
+class Parameter:
+    """A model parameter.
+
+    name: its name (the model attribute, the key of `parameters_requiring_grad`); group: "link", "joint",
+    "contact" or "terrain" (module docstring); item: the shape of one link's or joint's value; keyword:
+    its argument name in the group's setter; unit and description: for docs and errors; check: raises a
+    ValueError naming the parameter for values that are not physical; default: the value a model starts
+    with, from its description (a function of the lumped tree), for link and joint parameters.
+    """
+
+    name: str
+    group: str
+    item: tuple = ()
+    keyword: str = ""
+    unit: str = ""
+    description: str = ""
+    check: Callable[[str, np.ndarray], None] | None = check_finite
+    default: Callable | None = None
+
+
+LINK_PARAMETERS = (
+    Parameter("link_mass", "link", (), "mass", "kg", "mass", check_non_negative, lambda tree: tree.link_mass),
+    Parameter("link_com", "link", (3,), "com", "m, link frame", "centre of mass", check_finite, lambda tree: tree.link_com),
+    Parameter(
+        "link_inertia", "link", (3, 3), "inertia", "kg m^2, about the CoM, link axes", "rotational inertia", check_inertia,
+        lambda tree: tree.link_inertia,
+    ),
+)
+
+JOINT_PARAMETERS = (
+    Parameter(
+        "position_limits", "joint", (2,), "position_limits", "rad or m", "(lower, upper) joint position limits", check_limits,
+        lambda tree: tree.position_limits.reshape(-1, 2),
+    ),
+    Parameter(
+        "joint_limit_spring", "joint", (), "limit_spring", "N m/rad or N/m", "stiffness of the joint-limit spring (0: off)",
+        check_non_negative, lambda tree: np.zeros(tree.dofs),
+    ),
+    Parameter(
+        "joint_limit_damper", "joint", (), "limit_damper", "s/rad or s/m", "damping of the joint-limit spring",
+        check_non_negative, lambda tree: np.zeros(tree.dofs),
+    ),
+    Parameter(
+        "friction_static", "joint", (), "friction_static", "N m or N", "static (Coulomb) joint friction",
+        check_non_negative, lambda tree: tree.friction,
+    ),
+    Parameter(
+        "friction_viscous", "joint", (), "friction_viscous", "N m s/rad or N s/m", "viscous joint friction",
+        check_non_negative, lambda tree: tree.damping,
+    ),
+)
+
+CONTACT_PARAMETERS = (
+    Parameter("K", "contact", (), "K", "N/m^(1+p)", "soft-contact stiffness", check_non_negative),
+    Parameter("D", "contact", (), "D", "N s/m^(1+q)", "soft-contact damping", check_non_negative),
+    Parameter("mu", "contact", (), "mu", "", "Coulomb friction coefficient", check_non_negative),
+)
+
+TERRAIN_PARAMETERS = (Parameter("terrain_height", "terrain", (), "height", "m", "terrain height", check_finite),)
+
+REGISTRY: dict[str, Parameter] = {p.name: p for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *CONTACT_PARAMETERS, *TERRAIN_PARAMETERS)}
+"""Every model parameter by name."""
+
+MODEL_ARRAYS = tuple(p.name for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS))
+"""The parameters held as the model's own arrays (link and joint parameters, shared or per environment)."""
