@@ -122,11 +122,13 @@ def test_mjcf_free_joint_inside_the_tree_names_body():
         Model.build_from_model_description(_mjcf('<freejoint name="inner_free"/>'))
 
 
-def test_mjcf_body_with_two_joints_names_body_and_joints():
-    """Two joints on one body: ValueError naming the body and both joints."""
+def test_mjcf_body_with_two_joints_becomes_a_chain():
+    """Two joints on one body are no longer refused: the body becomes a chain through a massless link named
+    '{body}/{first joint}' (warpdyn.description.mjcf; kinematics checked in tests/test_mjcf_description.py)."""
     joints = '<joint name="j_a" type="hinge" axis="1 0 0"/><joint name="j_b" type="hinge" axis="0 1 0"/>'
-    with pytest.raises(ValueError, match=r"body 'arm' has 2 joints \['j_a', 'j_b'\]"):
-        Model.build_from_model_description(_mjcf(joints))
+    model = Model.build_from_model_description(_mjcf(joints))
+    assert model.joint_names() == ("j_a", "j_b")
+    assert model.link_names() == ("torso", "arm/j_a", "arm")
 
 
 def test_joint_naming_an_undefined_link():

@@ -14,13 +14,16 @@ import numpy as np
 
 from .mjcf import load_mjcf
 from .model import (
+    ActuatorDescription,
     CollisionShape,
+    NotModelledWarning,
     JointDescription,
     LinkDescription,
     ModelDescription,
     axis_angle_to_matrix,
     joint_motion,
     quaternion_wxyz_to_matrix,
+    warn_not_modelled,
 )
 from .urdf import load_urdf
 
@@ -28,7 +31,9 @@ __all__ = [
     "LinkDescription",
     "JointDescription",
     "CollisionShape",
+    "ActuatorDescription",
     "ModelDescription",
+    "NotModelledWarning",
     "load",
     "joint_motion",
     "axis_angle_to_matrix",
@@ -77,6 +82,10 @@ def load(
     without a free joint, is a fixed base); True welds the base to the world (an MJCF free joint becomes a
     weld) at `base_pose`; False frees a base the description welds to the world. base_pose (4, 4): the
     homogeneous transform W_H_B of the welded base (default: the description's weld, or the identity).
+
+    Elements of the description that warpdyn does not model (`ModelDescription.not_modelled`: MJCF
+    constraints, tendons, unsupported actuators..., URDF mimic joints) are listed in one
+    `NotModelledWarning`, pointing at the first caller outside warpdyn.
     """
     document, path = _read_document(model_description)
     where = f"'{path}'" if path else "the given XML document"
@@ -93,7 +102,9 @@ def load(
             raise ValueError(f"{where} has root element <{root.tag}>: expected <robot> (URDF) or <mujoco> (MJCF)")
     description = load_urdf(document, where) if is_urdf else load_mjcf(root, path, where)
     description.path = path
-    return _with_base(description, fixed_base, base_pose, where)
+    description = _with_base(description, fixed_base, base_pose, where)
+    warn_not_modelled(where, description.not_modelled)
+    return description
 
 
 def _with_base(description: ModelDescription, fixed_base: bool | None, base_pose, where: str) -> ModelDescription:

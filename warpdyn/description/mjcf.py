@@ -1,5 +1,23 @@
 """MJCF, compiled by MuJoCo and read from its MjModel into a `ModelDescription` (see
-warpdyn.description.model for the conventions)."""
+warpdyn.description.model for the conventions; docs/mujoco_semantics.md for MuJoCo's).
+
+What is read, and how MuJoCo's structure maps onto warpdyn's one-joint-per-link tree:
+
+- Every body is a link (mass, CoM, inertia, colliding geoms, `gravcomp`); a body without joints is welded
+  to its parent by a fixed joint named "{parent}_to_{body}" (lumped by `build_tree`).
+- A body with several hinge/slide joints j1..jk becomes a chain: massless links named "{body}/{j1}", ...,
+  "{body}/{j(k-1)}" followed by the body itself. j1 carries the body's pos/quat as its origin; j2..jk have
+  an identity origin and their own anchor (pivot) and axis, written in the body frame as moved by the
+  joints before them, which is how MuJoCo applies a body's joints (mj_kinematics1).
+- Hinge/slide: q = MuJoCo's qpos (`ref` is folded into the origin). Ball joints are refused.
+- The world body: one free-jointed child is a floating base; one welded child is a fixed base welded at its
+  pose; otherwise the base is the fixed link "world", into which the bodies welded to the world are lumped.
+  Several free bodies, or a free body beside jointed world children, are refused (one robot). Bodies
+  welded to the world beside a free body are static scenery: dropped (and listed in the warning).
+- Actuators with a joint transmission on a hinge/slide joint and no activation dynamics become
+  `ActuatorDescription`s; the others are dropped and listed in the warning.
+- `<option>`: gravity (along -z only), timestep, integrator, disable flags.
+"""
 
 from __future__ import annotations
 
@@ -9,6 +27,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from .model import (
+    ActuatorDescription,
     CollisionShape,
     JointDescription,
     LinkDescription,
@@ -20,6 +39,40 @@ from .model import (
 )
 
 __all__ = ["load_mjcf"]
+
+_INTEGRATORS = {
+    "mjINT_EULER": "Euler",
+    "mjINT_RK4": "RK4",
+    "mjINT_IMPLICIT": "implicit",
+    "mjINT_IMPLICITFAST": "implicitfast",
+    "mjINT_DISCRETE": "discrete",
+}
+
+# The kinds of the NotModelledWarning, in the order the message lists them.
+FLUID = "fluid forces (opt density/viscosity > 0, or geoms with fluidshape)"
+JOINT_LIMITS = "joint limits (MuJoCo: limit constraints; warpdyn has only its limit springs, off by default)"
+FRICTIONLOSS = "frictionloss (MuJoCo: a friction constraint; warpdyn applies it as JaxSim's static friction)"
+POLYNOMIAL = "polynomial joint stiffness/damping (only the linear coefficient is kept)"
+SPRING_YIELD = "joint spring yield (plasticity)"
+FREE_JOINT_PARAMETERS = "free-joint armature/damping/stiffness/frictionloss (the floating base has none)"
+EQUALITY = "equality constraints"
+TENDONS = "tendons (their springs, dampers, armature, limits and actuators)"
+MUSCLES = "muscles (dropped)"
+ACTIVATION = "actuators with activation dynamics (integrator, filter, position timeconst...; dropped)"
+TRANSMISSION = "actuators with a non-joint transmission or on the free joint (dropped)"
+GAIN_BIAS = "actuators with gain/bias types other than fixed/affine/none (dropped)"
+DELAY = "actuators with a delay (dropped)"
+PLUGIN = "plugins (dropped)"
+DISABLED_GROUP = "actuators in groups disabled by actuatorgroupdisable (dropped)"
+ACTUATOR_POLYNOMIAL = "polynomial actuator damping (only the linear coefficient is kept)"
+CONTACT_PAIRS = "contact pairs"
+CONTACT_EXCLUDES = "contact excludes"
+GEOMS = "collision geoms of unsupported types (ellipsoid, plane/hfield on bodies, sdf)"
+WORLD_GEOMS = "colliding geoms on the world body other than planes (static obstacles; warpdyn has its terrain)"
+STATIC_BODIES = "bodies welded to the world beside the free body (static scenery, dropped)"
+MOCAP = "mocap bodies (kept welded at their initial pose)"
+FLEX = "flexes"
+SKINS = "skins"
 
 
 def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescription:
@@ -33,70 +86,348 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
     except Exception as error:
         raise ValueError(f"{where} is not a valid MJCF: {error}") from None
 
+    notes: dict[str, list[str]] = {}
+
+    def note(kind: str, name: str) -> None:
+        names = notes.setdefault(kind, [])
+        if name not in names:
+            names.append(name)
+
+    def name_of(obj, i, prefix):
+        return mujoco.mj_id2name(m, obj, i) or f"{prefix}{i}"
+
     def body_name(i):
         return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) or f"body{i}"
 
+    def joint_name(j):
+        return name_of(mujoco.mjtObj.mjOBJ_JOINT, j, "joint")
+
+    gravity, time_step, integrator, disabled = _options(m, where, mujoco)
+    if m.opt.density > 0.0 or m.opt.viscosity > 0.0:
+        note(FLUID, f"<option density={float(m.opt.density):g} viscosity={float(m.opt.viscosity):g}>")
+
     links, joints = [], []
-    free_bodies = []
     for b in range(1, m.nbody):
         name = body_name(b)
         link = LinkDescription(name=name, mass=float(m.body_mass[b]), com=np.array(m.body_ipos[b], dtype=np.float64))
         R_i = quaternion_wxyz_to_matrix(m.body_iquat[b])
         link.inertia = R_i @ np.diag(m.body_inertia[b]) @ R_i.T
-        _mjcf_collisions(m, b, link, mujoco)
-        links.append(link)
+        link.gravcomp = float(m.body_gravcomp[b])
+        _mjcf_collisions(m, b, link, mujoco, note, name_of)
+        if int(m.body_mocapid[b]) >= 0:
+            note(MOCAP, name)
 
         parent = "world" if m.body_parentid[b] == 0 else body_name(m.body_parentid[b])
         origin = homogeneous(quaternion_wxyz_to_matrix(m.body_quat[b]), m.body_pos[b])
         njnt, adr = int(m.body_jntnum[b]), int(m.body_jntadr[b])
         if njnt == 0:
+            links.append(link)
             joints.append(JointDescription(name=f"{parent}_to_{name}", type="fixed", parent=parent, child=name, origin=origin))
             continue
-        if njnt > 1:
-            names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, adr + k) for k in range(njnt)]
-            raise ValueError(
-                f"{where}: body '{name}' has {njnt} joints {names}; warpdyn supports one joint per body "
-                "(split the body into a chain of bodies with one joint each)"
-            )
-        jname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, adr) or f"joint{adr}"
-        jtype = int(m.jnt_type[adr])
-        if jtype == mujoco.mjtJoint.mjJNT_FREE:
+        jtypes = [int(m.jnt_type[adr + k]) for k in range(njnt)]
+        if jtypes[0] == mujoco.mjtJoint.mjJNT_FREE:  # the compiler makes it the body's only joint, on a world child
+            jname = joint_name(adr)
             if parent != "world":
                 raise ValueError(f"{where}: joint '{jname}' has type 'free' inside the tree (body '{name}')")
-            free_bodies.append(name)
+            _free_joint_parameters(m, adr, jname, note)
+            links.append(link)
             joints.append(JointDescription(name=jname, type="floating", parent="world", child=name, origin=origin))
             continue
-        if jtype == mujoco.mjtJoint.mjJNT_BALL:
-            raise ValueError(
-                f"{where}: joint '{jname}' has type 'ball' (spherical), which warpdyn does not support inside the tree"
-            )
-        kind = "revolute" if jtype == mujoco.mjtJoint.mjJNT_HINGE else "prismatic"
-        axis = np.array(m.jnt_axis[adr], dtype=np.float64)
-        pivot = np.array(m.jnt_pos[adr], dtype=np.float64)
-        qpos0 = float(m.qpos0[m.jnt_qposadr[adr]])
-        if qpos0 != 0.0:
-            origin = origin @ joint_motion(kind, axis, pivot, -qpos0)
-        joint = JointDescription(name=jname, type=kind, parent=parent, child=name, origin=origin, axis=axis, pivot=pivot)
-        if m.jnt_limited[adr]:
-            joint.lower, joint.upper = (float(v) for v in m.jnt_range[adr])
-        dof = int(m.jnt_dofadr[adr])
-        joint.damping = float(m.dof_damping[dof])
-        joint.friction = float(m.dof_frictionloss[dof])
-        joints.append(joint)
+        for k, jtype in enumerate(jtypes):
+            if jtype == mujoco.mjtJoint.mjJNT_BALL:
+                raise ValueError(
+                    f"{where}: joint '{joint_name(adr + k)}' has type 'ball' (spherical), which warpdyn does not support "
+                    "inside the tree"
+                )
+        chain_parent, chain_origin = parent, origin
+        for k in range(njnt):
+            jname = joint_name(adr + k)
+            child = name if k == njnt - 1 else f"{name}/{jname}"
+            if k < njnt - 1:
+                links.append(LinkDescription(name=child))  # massless: the body as moved by joints j1..jk
+            joints.append(_hinge_or_slide(m, adr + k, jname, chain_parent, child, chain_origin, note, mujoco))
+            chain_parent, chain_origin = child, np.eye(4)
+        links.append(link)
 
-    world_children = [j for j in joints if j.parent == "world"]
-    if len(world_children) != 1:
+    names = [link.name for link in links]
+    if len(set(names)) != len(names):
+        duplicated = sorted({n for n in names if names.count(n) > 1})
         raise ValueError(
-            f"{where}: warpdyn models one robot: the world body has {len(world_children)} child bodies "
-            f"{[j.child for j in world_children]}"
+            f"{where}: link names {duplicated} are used twice (the links of a multi-joint body are named "
+            "'{body}/{joint}': rename the body or joint that clashes)"
         )
+
+    links, joints = _one_robot(links, joints, where, note)
+    for g in range(m.ngeom):  # the world body's own geoms
+        if int(m.geom_bodyid[g]) == 0 and not (m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0):
+            kind = int(m.geom_type[g])
+            if kind != mujoco.mjtGeom.mjGEOM_PLANE:
+                note(WORLD_GEOMS, f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, g, 'geom')} ({_geom_type_name(kind, mujoco)})")
+
+    actuators = _actuators(m, joint_name, note, mujoco)
+    _constraints_and_others(m, note, name_of, mujoco)
+
     world_link = LinkDescription(name="world")
-    name = root.get("model") or (pathlib.Path(path).stem if path else "model")
-    return finish_tree(name, [world_link, *links], joints, "mjcf", where)
+    model_name = root.get("model") or (pathlib.Path(path).stem if path else "model")
+    description = finish_tree(model_name, [world_link, *links], joints, "mjcf", where)
+    description.actuators = actuators
+    description.gravity = gravity
+    description.time_step = time_step
+    description.integrator = integrator
+    description.disabled = disabled
+    description.not_modelled = {kind: notes[kind] for kind in _KIND_ORDER if kind in notes}
+    return description
 
 
-def _mjcf_collisions(m, b: int, link: LinkDescription, mujoco) -> None:
+_KIND_ORDER = (
+    FLUID,
+    JOINT_LIMITS,
+    FRICTIONLOSS,
+    POLYNOMIAL,
+    SPRING_YIELD,
+    FREE_JOINT_PARAMETERS,
+    EQUALITY,
+    TENDONS,
+    MUSCLES,
+    ACTIVATION,
+    TRANSMISSION,
+    GAIN_BIAS,
+    DELAY,
+    PLUGIN,
+    DISABLED_GROUP,
+    ACTUATOR_POLYNOMIAL,
+    CONTACT_PAIRS,
+    CONTACT_EXCLUDES,
+    GEOMS,
+    WORLD_GEOMS,
+    STATIC_BODIES,
+    MOCAP,
+    FLEX,
+    SKINS,
+)
+
+
+def _options(m, where, mujoco):
+    """(gravity magnitude along -z, timestep, integrator name, disabled flag names) of <option>."""
+    g = np.array(m.opt.gravity, dtype=np.float64)
+    if g[0] != 0.0 or g[1] != 0.0 or g[2] > 0.0:
+        raise ValueError(
+            f"{where}: <option gravity='{g[0]:g} {g[1]:g} {g[2]:g}'> does not point along -z: warpdyn's gravity "
+            "acts along -z of the world (rotate the model instead)"
+        )
+    integrator = None
+    for enum_name, value in mujoco.mjtIntegrator.__members__.items():
+        if int(value) == int(m.opt.integrator):
+            integrator = _INTEGRATORS.get(enum_name, enum_name.removeprefix("mjINT_").lower())
+    flags = int(m.opt.disableflags)
+    disabled = frozenset(
+        enum_name.removeprefix("mjDSBL_").lower()
+        for enum_name, value in mujoco.mjtDisableBit.__members__.items()
+        if enum_name != "mjNDISABLE" and flags & int(value)
+    )
+    return float(-g[2]) + 0.0, float(m.opt.timestep), integrator, disabled
+
+
+def _actuator_share(m, field: str, j: int, mujoco) -> float:
+    """gear^2 * value summed over the actuators with a joint transmission on joint j, as MuJoCo's
+    mj_actuatorArmature / mj_actuatorDamping compute it (MuJoCo >= 3.7; 0 before)."""
+    if not hasattr(m, field):
+        return 0.0
+    values = getattr(m, field)
+    outadr = getattr(m, "actuator_outadr", None)
+
+    def gear2(k):
+        g = float(m.actuator_gear[int(outadr[k]) if outadr is not None else k][0])
+        return g * g
+
+    actuator = int(m.jnt_actuatorid[j]) if hasattr(m, "jnt_actuatorid") else -2
+    if actuator == -1:
+        return 0.0
+    if actuator >= 0:
+        return float(values[actuator]) * gear2(actuator)
+    total = 0.0
+    for k in range(m.nu):
+        if int(m.actuator_trnid[k][0]) == j and int(m.actuator_trntype[k]) in (
+            mujoco.mjtTrn.mjTRN_JOINT,
+            mujoco.mjtTrn.mjTRN_JOINTINPARENT,
+        ):
+            total += float(values[k]) * gear2(k)
+    return total
+
+
+def _hinge_or_slide(m, j, jname, parent, child, origin, note, mujoco) -> JointDescription:
+    kind = "revolute" if int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_HINGE else "prismatic"
+    axis = np.array(m.jnt_axis[j], dtype=np.float64)
+    pivot = np.array(m.jnt_pos[j], dtype=np.float64)
+    qposadr, dof = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])
+    qpos0 = float(m.qpos0[qposadr])
+    if qpos0 != 0.0:  # MuJoCo moves the joint by qpos - qpos0: fold -qpos0 into the origin, so that q = qpos
+        origin = origin @ joint_motion(kind, axis, pivot, -qpos0)
+    joint = JointDescription(name=jname, type=kind, parent=parent, child=child, origin=origin, axis=axis, pivot=pivot)
+    if m.jnt_limited[j]:
+        joint.lower, joint.upper = (float(v) for v in m.jnt_range[j])
+        note(JOINT_LIMITS, jname)
+    joint.damping = 0.0  # JaxSim's viscous friction: MuJoCo's damping is passive_damping
+    joint.friction = float(m.dof_frictionloss[dof])
+    if joint.friction != 0.0:
+        note(FRICTIONLOSS, jname)
+    joint.armature = float(m.dof_armature[dof]) + _actuator_share(m, "actuator_armature", j, mujoco)
+    joint.passive_damping = float(m.dof_damping[dof]) + _actuator_share(m, "actuator_damping", j, mujoco)
+    joint.stiffness = float(m.jnt_stiffness[j])
+    joint.springref = float(m.qpos_spring[qposadr])
+    if hasattr(m, "jnt_actfrclimited") and m.jnt_actfrclimited[j]:
+        joint.actuator_force_range = np.array(m.jnt_actfrcrange[j], dtype=np.float64)
+    if hasattr(m, "jnt_actgravcomp"):
+        joint.actuator_gravcomp = bool(m.jnt_actgravcomp[j])
+    if (hasattr(m, "jnt_stiffnesspoly") and np.any(m.jnt_stiffnesspoly[j] != 0.0)) or (
+        hasattr(m, "dof_dampingpoly") and np.any(m.dof_dampingpoly[dof] != 0.0)
+    ):
+        note(POLYNOMIAL, jname)
+    if hasattr(m, "jnt_springyield") and np.any(np.asarray(m.jnt_springyield[j]) != 0.0):
+        note(SPRING_YIELD, jname)
+    return joint
+
+
+def _free_joint_parameters(m, j, jname, note) -> None:
+    dof = int(m.jnt_dofadr[j])
+    dofs = slice(dof, dof + 6)
+    if (
+        np.any(m.dof_armature[dofs] != 0.0)
+        or np.any(m.dof_damping[dofs] != 0.0)
+        or np.any(m.dof_frictionloss[dofs] != 0.0)
+        or m.jnt_stiffness[j] != 0.0
+    ):
+        note(FREE_JOINT_PARAMETERS, jname)
+
+
+def _one_robot(links, joints, where, note):
+    """The world's children as one robot (see the module docstring): refuses several free bodies, or a free
+    body beside jointed world children; drops bodies welded to the world beside a free body."""
+    world_joints = [j for j in joints if j.parent == "world"]
+    if not world_joints:
+        raise ValueError(f"{where}: the world body has no child body: there is no robot")
+    free = [j for j in world_joints if j.type == "floating"]
+    if len(free) > 1:
+        raise ValueError(
+            f"{where}: warpdyn simulates one robot, but the world has {len(free)} free bodies {[j.child for j in free]}"
+        )
+    if not free or len(world_joints) == 1:
+        return links, joints
+    children: dict[str, list] = {}
+    for joint in joints:
+        children.setdefault(joint.parent, []).append(joint)
+
+    def subtree(link):
+        out = [link]
+        for joint in children.get(link, []):
+            out += subtree(joint.child)
+        return out
+
+    others = [j for j in world_joints if j is not free[0]]
+    jointed = [
+        j.child for j in others if j.type != "fixed" or any(k.type != "fixed" for l in subtree(j.child) for k in children.get(l, []))
+    ]
+    if jointed:
+        raise ValueError(
+            f"{where}: warpdyn simulates one robot, but the world has the free body '{free[0].child}' and also the "
+            f"jointed bodies {jointed}"
+        )
+    others = [j.child for j in others]
+    dropped = [l for c in others for l in subtree(c)]
+    for name in dropped:
+        note(STATIC_BODIES, name)
+    dropped = set(dropped)
+    return [l for l in links if l.name not in dropped], [j for j in joints if j.child not in dropped]
+
+
+def _actuators(m, joint_name, note, mujoco) -> list[ActuatorDescription]:
+    Trn, Dyn, Gain, Bias = mujoco.mjtTrn, mujoco.mjtDyn, mujoco.mjtGain, mujoco.mjtBias
+    outadr = getattr(m, "actuator_outadr", None)
+    actuators = []
+    for k in range(m.nu):
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, k) or f"actuator{k}"
+        trn, dyn = int(m.actuator_trntype[k]), int(m.actuator_dyntype[k])
+        gain, bias = int(m.actuator_gaintype[k]), int(m.actuator_biastype[k])
+        j = int(m.actuator_trnid[k][0])
+        joint_transmission = trn in (Trn.mjTRN_JOINT, Trn.mjTRN_JOINTINPARENT)
+        if hasattr(m, "actuator_dampingpoly") and np.any(m.actuator_dampingpoly[k] != 0.0):
+            note(ACTUATOR_POLYNOMIAL, name)
+        if dyn == Dyn.mjDYN_MUSCLE or gain == Gain.mjGAIN_MUSCLE or bias == Bias.mjBIAS_MUSCLE:
+            reason = MUSCLES
+        elif not joint_transmission or int(m.jnt_type[j]) not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+            reason = TRANSMISSION
+        elif dyn != Dyn.mjDYN_NONE:
+            reason = ACTIVATION
+        elif gain not in (Gain.mjGAIN_FIXED, Gain.mjGAIN_AFFINE) or bias not in (Bias.mjBIAS_NONE, Bias.mjBIAS_AFFINE):
+            reason = GAIN_BIAS
+        elif hasattr(m, "actuator_delay") and float(m.actuator_delay[k]) != 0.0:
+            reason = DELAY
+        elif int(m.actuator_plugin[k]) >= 0:
+            reason = PLUGIN
+        elif (
+            (hasattr(m, "actuator_outnum") and int(m.actuator_outnum[k]) != 1)
+            or (hasattr(m, "actuator_ctrlnum") and int(m.actuator_ctrlnum[k]) != 1)
+        ):
+            reason = TRANSMISSION
+        elif 0 <= int(m.actuator_group[k]) < 31 and int(m.opt.disableactuator) & (1 << int(m.actuator_group[k])):
+            reason = DISABLED_GROUP
+        else:
+            reason = None
+        if reason is not None:
+            note(reason, name)
+            continue
+        actuators.append(
+            ActuatorDescription(
+                name=name,
+                joint=joint_name(j),
+                gear=float(m.actuator_gear[int(outadr[k]) if outadr is not None else k][0]),
+                ctrl_range=np.array(m.actuator_ctrlrange[k], dtype=np.float64),
+                ctrl_limited=bool(m.actuator_ctrllimited[k]),
+                force_range=np.array(m.actuator_forcerange[k], dtype=np.float64),
+                force_limited=bool(m.actuator_forcelimited[k]),
+                gain=np.array(m.actuator_gainprm[k][:3], dtype=np.float64),
+                gain_type="fixed" if gain == Gain.mjGAIN_FIXED else "affine",
+                bias=np.array(m.actuator_biasprm[k][:3], dtype=np.float64),
+                bias_type="none" if bias == Bias.mjBIAS_NONE else "affine",
+            )
+        )
+    return actuators
+
+
+def _constraints_and_others(m, note, name_of, mujoco) -> None:
+    Obj = mujoco.mjtObj
+    for i in range(m.neq):
+        note(EQUALITY, name_of(Obj.mjOBJ_EQUALITY, i, "equality"))
+    for i in range(m.ntendon):
+        note(TENDONS, name_of(Obj.mjOBJ_TENDON, i, "tendon"))
+    for i in range(m.npair):
+        note(CONTACT_PAIRS, name_of(Obj.mjOBJ_PAIR, i, "pair"))
+    for i in range(m.nexclude):
+        name = mujoco.mj_id2name(m, Obj.mjOBJ_EXCLUDE, i)
+        if not name:
+            signature = int(m.exclude_signature[i])
+            b1, b2 = signature >> 16, signature & 0xFFFF
+            name = f"{name_of(Obj.mjOBJ_BODY, b1, 'body')}/{name_of(Obj.mjOBJ_BODY, b2, 'body')}"
+        note(CONTACT_EXCLUDES, name)
+    for i in range(m.nflex):
+        note(FLEX, name_of(Obj.mjOBJ_FLEX, i, "flex"))
+    for i in range(m.nskin):
+        note(SKINS, name_of(Obj.mjOBJ_SKIN, i, "skin"))
+    for i in range(m.nplugin):
+        note(PLUGIN, name_of(Obj.mjOBJ_PLUGIN, i, "plugin"))
+
+
+def _geom_type_name(kind: int, mujoco) -> str:
+    for enum_name, value in mujoco.mjtGeom.__members__.items():
+        if int(value) == kind:
+            return enum_name.removeprefix("mjGEOM_").lower()
+    return str(kind)
+
+
+def _mjcf_collisions(m, b: int, link: LinkDescription, mujoco, note, name_of) -> None:
     for g in range(int(m.body_geomadr[b]), int(m.body_geomadr[b]) + int(m.body_geomnum[b])):
+        if m.geom_fluid[g][0] > 0.0:
+            note(FLUID, f"{link.name} (fluidshape)")
         if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
             continue
         H = homogeneous(quaternion_wxyz_to_matrix(m.geom_quat[g]), m.geom_pos[g])
@@ -115,5 +446,6 @@ def _mjcf_collisions(m, b: int, link: LinkDescription, mujoco) -> None:
             start, count = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
             vertices = np.array(m.mesh_vert[start : start + count], dtype=np.float64)
             link.collisions.append(CollisionShape("mesh", H, vertices=vertices, scale=np.ones(3)))
-
-
+        else:
+            geom = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g} of '{link.name}'"
+            note(GEOMS, f"{geom} ({_geom_type_name(kind, mujoco)})")

@@ -10,16 +10,27 @@ Joint convention (both formats): the pose of the child link in the parent link a
 
 where `origin` is the joint frame in the parent link at q = 0 and M(q) is, in the child frame, a rotation
 by q about `axis` through the point `pivot` (revolute) or a translation by q along `axis` (prismatic).
-URDF joints have pivot 0; MJCF joints have their `pos` as pivot.
+URDF joints have pivot 0; MJCF joints have their `pos` as pivot. For MJCF hinge and slide joints q is
+MuJoCo's qpos: the loader folds MuJoCo's `ref` (qpos0) into `origin`, so that q = qpos everywhere (springs,
+actuator lengths and limits included, which MuJoCo also writes in qpos units).
+
+Elements a description holds that warpdyn does not model are collected, by kind, in
+`ModelDescription.not_modelled` and reported by `load` in one `NotModelledWarning`.
 """
 
 from __future__ import annotations
 
+import os
+import sys
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 __all__ = [
+    "ActuatorDescription",
+    "NotModelledWarning",
+    "warn_not_modelled",
     "CollisionShape",
     "LinkDescription",
     "JointDescription",
@@ -33,6 +44,37 @@ __all__ = [
 ]
 
 MOVABLE_JOINT_TYPES = ("revolute", "continuous", "prismatic")
+
+
+class NotModelledWarning(UserWarning):
+    """A robot description holds elements that warpdyn does not model (listed by kind and name): they are
+    read and ignored, or approximated as the message says. Raised once per load."""
+
+
+_PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def caller_stacklevel() -> int:
+    """The `stacklevel` for warnings.warn, called from the function that calls this, that points at the
+    first frame outside the warpdyn package (the user's call), however deep inside warpdyn it is raised."""
+    level, frame = 1, sys._getframe(1)  # the caller of this function is level 1 for warnings.warn
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE_DIR + os.sep):
+        frame = frame.f_back
+        level += 1
+    return level
+
+
+def warn_not_modelled(where: str, not_modelled: dict[str, list[str]]) -> None:
+    """One NotModelledWarning listing `not_modelled` (kind -> names), nothing when it is empty."""
+    items = {kind: names for kind, names in not_modelled.items() if names}
+    if not items:
+        return
+    lines = "; ".join(f"{kind}: {names}" for kind, names in items.items())
+    warnings.warn(
+        f"{where} holds elements that warpdyn does not model: {lines}",
+        NotModelledWarning,
+        stacklevel=caller_stacklevel(),
+    )
 
 
 @dataclass
@@ -57,22 +99,50 @@ class CollisionShape:
 @dataclass
 class LinkDescription:
     """A rigid link: mass [kg], centre of mass `com` (3,) [m] and rotational inertia `inertia` (3, 3)
-    [kg m^2] about the centre of mass, both in the link frame."""
+    [kg m^2] about the centre of mass, both in the link frame.
+
+    gravcomp: MuJoCo's `body_gravcomp` (MJCF `<body gravcomp>`; URDF 0): a force gravcomp * mass * |g|
+    along +z of the world applied at the centre of mass, that cancels (1), halves (0.5) or exceeds (> 1,
+    buoyancy) the link's weight. Massless links (MJCF multi-joint intermediates) have mass 0.
+    """
 
     name: str
     mass: float = 0.0
     com: np.ndarray = field(default_factory=lambda: np.zeros(3))
     inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     collisions: list[CollisionShape] = field(default_factory=list)
+    gravcomp: float = 0.0
 
 
 @dataclass
 class JointDescription:
     """A joint between two links (see the module docstring for the convention).
 
-    type: "revolute", "prismatic" or "fixed" ("continuous" is read as a revolute without limits).
+    type: "revolute", "prismatic" or "fixed" ("continuous" is read as a revolute without limits); the
+    MJCF root's free joint is "floating" (only between `world` and the base, removed by `finish_tree`).
     origin: (4, 4) joint frame in the parent link at q = 0. axis: (3,) unit vector in the child frame.
     pivot: (3,) point of the rotation axis in the child frame [m].
+    lower, upper: position limits [rad or m] (+-inf: none). MuJoCo treats them as constraints; warpdyn
+    has only its limit springs (see NotModelledWarning). effort, velocity: URDF `<limit>` [N m or N, rad/s
+    or m/s] (MJCF: inf).
+
+    Dynamics parameters ([.] for a revolute / prismatic joint). Two different dampings:
+    - damping: JaxSim's viscous friction, tau = -damping * qdot [N m s/rad or N s/m]: URDF `<dynamics
+      damping>`; 0 for MJCF (MuJoCo's damping is `passive_damping`).
+    - passive_damping: MuJoCo's damper, qfrc_damper = -passive_damping * qdot, integrated implicitly by
+      MuJoCo's Euler (see docs/mujoco_semantics.md): MJCF `dof_damping` plus gear^2 * `damping` of the
+      actuators with a joint transmission on this joint (MuJoCo >= 3.7, mj_actuatorDamping); URDF 0.
+    friction: static friction [N m or N] as JaxSim applies it: URDF `<dynamics friction>`, MJCF
+      `frictionloss` (a friction constraint in MuJoCo: see NotModelledWarning).
+    armature: added to the diagonal of the mass matrix [kg m^2 or kg]: MJCF `dof_armature` (defaults
+      included) plus gear^2 * `armature` of the actuators on this joint (mj_actuatorArmature); URDF 0.
+    stiffness, springref: MuJoCo's joint spring tau = -stiffness * (q - springref) [N m/rad or N/m; rad or
+      m], springref in q units (= qpos: MJCF `qpos_spring`, degrees already converted); URDF 0.
+    actuator_force_range: (2,) clamp of the total actuator force on this joint (MuJoCo's qfrc_actuator,
+      gravcomp of `actuator_gravcomp` joints included) [N m or N]: MJCF `actuatorfrcrange` when
+      `actuatorfrclimited`, else (-inf, inf).
+    actuator_gravcomp: MJCF `actuatorgravcomp`: the gravity compensation on this joint is part of the
+      actuator force (clamped by actuator_force_range) instead of a passive force.
     """
 
     name: str
@@ -88,6 +158,45 @@ class JointDescription:
     velocity: float = np.inf
     damping: float = 0.0
     friction: float = 0.0
+    passive_damping: float = 0.0
+    armature: float = 0.0
+    stiffness: float = 0.0
+    springref: float = 0.0
+    actuator_force_range: np.ndarray = field(default_factory=lambda: np.array([-np.inf, np.inf]))
+    actuator_gravcomp: bool = False
+
+
+@dataclass
+class ActuatorDescription:
+    """A MuJoCo actuator with a joint transmission on a hinge or slide joint and no activation dynamics
+    (what warpdyn models; the loader drops the others and lists them in its NotModelledWarning).
+
+    With q, qdot the joint's position and velocity (q = MuJoCo's qpos) and ctrl the control:
+        u      = clip(ctrl, ctrl_range)               if ctrl_limited (and MuJoCo's clampctrl is not disabled)
+        length = gear * q,  velocity = gear * qdot
+        gain   = gain[0]                                              gain_type "fixed"
+               = gain[0] + gain[1] * length + gain[2] * velocity      gain_type "affine"
+        bias   = 0                                                    bias_type "none"
+               = bias[0] + bias[1] * length + bias[2] * velocity      bias_type "affine"
+        force  = gain * u + bias,  clipped to force_range if force_limited
+        tau    = gear * force  on the joint (summed over actuators, then clipped to the joint's
+                 actuator_force_range)
+    name: the actuator's name. joint: the joint's name. gear: MuJoCo's gear[0] [-]. ctrl_range,
+    force_range: (2,) [ctrl units; N m or N of the actuator force, before gear]. gain, bias: (3,)
+    MuJoCo's gainprm[0:3], biasprm[0:3] (a position servo is gain (kp, 0, 0), bias (0, -kp, -kv)).
+    """
+
+    name: str
+    joint: str
+    gear: float = 1.0
+    ctrl_range: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    ctrl_limited: bool = False
+    force_range: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    force_limited: bool = False
+    gain: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+    gain_type: str = "fixed"
+    bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    bias_type: str = "none"
 
 
 @dataclass
@@ -95,8 +204,22 @@ class ModelDescription:
     """A robot as read from its description, before lumping.
 
     base: name of the base link. fixed_base: whether the base is welded to the world, at world_H_base.
-    links and joints keep the order of the description; joints form a tree rooted at `base`.
+    links and joints keep the order of the description; joints form a tree rooted at `base`. A fixed
+    base named "world" is the MJCF world body when it has several children (bodies welded to the world
+    are lumped into it by `build_tree`, each jointed child starts a subtree).
     path: the file it was read from (None for an XML string); relative mesh paths resolve against it.
+
+    MJCF only (URDF: empty, or None):
+    actuators: the modelled actuators (see ActuatorDescription) in MuJoCo's order.
+    gravity: |g| [m/s^2] along -z of the world (MuJoCo's opt.gravity, which must point along -z).
+    time_step: opt.timestep [s]. integrator: MuJoCo's name, "Euler", "RK4", "implicit",
+    "implicitfast" (or "discrete" for MuJoCo >= 4).
+    disabled: MuJoCo's disable flags that are set, by their XML names (`<option><flag NAME="disable">`),
+    e.g. "gravity" (no gravity, no gravity compensation), "spring", "damper" (both: no passive force at
+    all, gravity compensation included), "actuation", "clampctrl", "eulerdamp", "constraint",
+    "frictionloss", "limit".
+    not_modelled: kind -> names of the elements warpdyn does not model (reported by `load` in one
+    NotModelledWarning).
     """
 
     name: str
@@ -107,6 +230,12 @@ class ModelDescription:
     world_H_base: np.ndarray
     source: str
     path: str | None = None
+    actuators: list[ActuatorDescription] = field(default_factory=list)
+    gravity: float | None = None
+    time_step: float | None = None
+    integrator: str | None = None
+    disabled: frozenset = frozenset()
+    not_modelled: dict[str, list[str]] = field(default_factory=dict)
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:

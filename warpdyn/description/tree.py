@@ -9,24 +9,70 @@ Orders (documented once, used everywhere):
 Lumping a fixed joint (or a joint locked by a reduction) moves the child's mass into the parent: its
 centre of mass is moved into the parent frame and its inertia rotated and shifted with the parallel-axis
 theorem. The lumped link becomes a frame (name, parent link, fixed transform); its collision shapes
-move to the parent.
+move to the parent. Gravity compensation is lumped the same way (see `KinematicTree`); actuators on a
+joint that a reduction locks are dropped with a NotModelledWarning.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .model import CollisionShape, ModelDescription, joint_motion
+from .model import CollisionShape, ModelDescription, NotModelledWarning, caller_stacklevel, joint_motion
 
 JOINT_REVOLUTE = 1
 JOINT_PRISMATIC = 2
 
 
 @dataclass
+class TreeActuator:
+    """An `ActuatorDescription` (see there for the force law) on kept joint `joint` (index into the tree's
+    joints, 0..n-1; the joint of link joint + 1), named `joint_name`."""
+
+    name: str
+    joint: int
+    joint_name: str
+    gear: float
+    ctrl_range: np.ndarray  # (2,) [ctrl units]
+    ctrl_limited: bool
+    force_range: np.ndarray  # (2,) actuator force before gear [N m or N per unit gear]
+    force_limited: bool
+    gain: np.ndarray  # (3,) gainprm[0:3]
+    gain_type: str  # "fixed" | "affine"
+    bias: np.ndarray  # (3,) biasprm[0:3]
+    bias_type: str  # "none" | "affine"
+
+
+@dataclass
 class KinematicTree:
-    """Host-side (NumPy, float64) constants of a lumped tree with nL links, n joints and nF frames."""
+    """Host-side (NumPy, float64) constants of a lumped tree with nL links, n joints and nF frames.
+
+    Joint arrays (n,) follow the tree's joint order; [a or b] reads "a for a revolute, b for a prismatic
+    joint"; q is warpdyn's joint position (= MuJoCo's qpos for MJCF). URDF gives 0 (False, +-inf) for every
+    MuJoCo-only quantity.
+    - damping: JaxSim's viscous friction, -damping * qdot [N m s/rad or N s/m] (URDF `<dynamics damping>`;
+      0 for MJCF). friction: static friction [N m or N] (URDF `<dynamics friction>`, MJCF frictionloss).
+    - passive_damping: MuJoCo's damper, -passive_damping * qdot [N m s/rad or N s/m], dof_damping plus
+      gear^2 * actuator damping (MuJoCo's Euler integrates it implicitly unless "eulerdamp" or "damper" is
+      in ModelDescription.disabled).
+    - armature: added to the diagonal entry of the joint in the mass matrix [kg m^2 or kg] (dof_armature
+      plus gear^2 * actuator armature).
+    - stiffness, springref: spring -stiffness * (q - springref) [N m/rad or N/m; rad or m]; springref is
+      in q units (MuJoCo's qpos_spring; independent of MuJoCo's `ref`, which the origin absorbs).
+    - actuator_force_range (n, 2): clamp of the summed actuator torque on the joint (gear * force summed
+      over its actuators, plus its gravity compensation when actuator_gravcomp) [N m or N]; +-inf: none.
+    - actuator_gravcomp (n,) bool: the joint's share of gravity compensation goes into the actuator torque
+      (before the clamp) instead of the passive torque.
+    Link arrays (nL,), link order:
+    - gravcomp_mass [kg]: sum of gravcomp_b * mass_b over the bodies lumped into the link (gravcomp 0:
+      none). The gravity compensation is the force gravcomp_mass * |g| along +z of the WORLD, applied at
+      gravcomp_com [m, link frame] (sum(gravcomp_b mass_b c_b) / gravcomp_mass, c_b the member's CoM in the
+      link frame; 0 where gravcomp_mass is 0). Exact: parallel forces sum to one force at that point.
+      It vanishes when "gravity" is disabled, or both "spring" and "damper" are.
+    actuators: the description's actuators on kept joints (`TreeActuator`), in the description's order.
+    """
 
     link_names: list[str]
     joint_names: list[str]
@@ -44,10 +90,35 @@ class KinematicTree:
     position_limits: np.ndarray  # (n, 2): lower, upper [rad or m]; +-inf where unlimited
     effort_limits: np.ndarray  # (n,) [N m or N]
     velocity_limits: np.ndarray  # (n,) [rad/s or m/s]
-    damping: np.ndarray  # (n,) viscous friction from the description
+    damping: np.ndarray  # (n,) viscous friction from the description (URDF; 0 for MJCF)
     friction: np.ndarray  # (n,) static friction from the description
     collisions: list[list[CollisionShape]]  # per link, shapes in the link frame
     locked_joints: dict[str, float] = field(default_factory=dict)
+    armature: np.ndarray = None  # (n,) [kg m^2 or kg]
+    passive_damping: np.ndarray = None  # (n,) MuJoCo's damper [N m s/rad or N s/m]
+    stiffness: np.ndarray = None  # (n,) [N m/rad or N/m]
+    springref: np.ndarray = None  # (n,) [rad or m], in q units
+    actuator_force_range: np.ndarray = None  # (n, 2) [N m or N]
+    actuator_gravcomp: np.ndarray = None  # (n,) bool
+    gravcomp_mass: np.ndarray = None  # (nL,) [kg]
+    gravcomp_com: np.ndarray = None  # (nL, 3) [m], link frame
+    actuators: list[TreeActuator] = field(default_factory=list)
+
+    def __post_init__(self):
+        n, nL = len(self.joint_names), len(self.link_names)
+        defaults = {
+            "armature": np.zeros(n),
+            "passive_damping": np.zeros(n),
+            "stiffness": np.zeros(n),
+            "springref": np.zeros(n),
+            "actuator_force_range": np.tile([-np.inf, np.inf], (n, 1)).reshape(n, 2),
+            "actuator_gravcomp": np.zeros(n, dtype=bool),
+            "gravcomp_mass": np.zeros(nL),
+            "gravcomp_com": np.zeros((nL, 3)),
+        }
+        for name, value in defaults.items():
+            if getattr(self, name) is None:
+                setattr(self, name, value)
 
     @property
     def number_of_links(self) -> int:
@@ -151,6 +222,7 @@ def build_tree(
 
     nL = len(link_names)
     members: dict[str, list] = {name: [] for name in link_names}
+    compensated: dict[str, list] = {name: [] for name in link_names}
     collisions: list[list[CollisionShape]] = [[] for _ in range(nL)]
     for link in description.links:
         if link.name not in kept_of:
@@ -159,14 +231,49 @@ def build_tree(
         H = kept_H_link[link.name]
         if link.mass > 0.0:
             members[owner].append(_spatial_inertia_about(link.mass, link.com, link.inertia, H))
+        if link.gravcomp != 0.0 and link.mass != 0.0:
+            compensated[owner].append((link.name, link.gravcomp * link.mass, H[:3, :3] @ link.com + H[:3, 3]))
         for shape in link.collisions:
             moved = CollisionShape(**{**shape.__dict__, "link_H_shape": H @ shape.link_H_shape})
             collisions[index[owner]].append(moved)
     mass, com, inertia = np.zeros(nL), np.zeros((nL, 3)), np.zeros((nL, 3, 3))
     for i, name in enumerate(link_names):
         mass[i], com[i], inertia[i] = _combine(members[name])
+    gravcomp_mass, gravcomp_com = np.zeros(nL), np.zeros((nL, 3))
+    for i, name in enumerate(link_names):
+        forces = compensated[name]
+        if not forces:
+            continue
+        if len(forces) == 1:  # an unlumped body: its own CoM, exactly
+            gravcomp_mass[i], gravcomp_com[i] = forces[0][1], forces[0][2]
+            continue
+        total = sum(w for _, w, _ in forces)
+        moment = sum(w * c for _, w, c in forces)
+        if total == 0.0:
+            if np.any(moment != 0.0):
+                raise ValueError(
+                    f"model '{description.name}': the gravity compensations of bodies {[b for b, _, _ in forces]}, "
+                    f"lumped into link '{name}', cancel into a pure couple, which one force cannot represent"
+                )
+            continue
+        gravcomp_mass[i], gravcomp_com[i] = total, moment / total
 
     movable_joints = joints[1:]
+    n = len(movable_joints)
+    joint_index = {j.name: i for i, j in enumerate(movable_joints)}
+    actuators, dropped = [], []
+    for actuator in description.actuators:
+        if actuator.joint in joint_index:
+            fields = {k: v for k, v in actuator.__dict__.items() if k != "joint"}
+            actuators.append(TreeActuator(joint=joint_index[actuator.joint], joint_name=actuator.joint, **fields))
+        else:
+            dropped.append(f"{actuator.name} (on {actuator.joint})")
+    if dropped:
+        warnings.warn(
+            f"model '{description.name}': actuators on joints that the reduction locks are dropped: {dropped}",
+            NotModelledWarning,
+            stacklevel=caller_stacklevel(),
+        )
     joint_type = np.array(
         [0] + [JOINT_REVOLUTE if j.type == "revolute" else JOINT_PRISMATIC for j in movable_joints], dtype=np.int32
     )
@@ -194,4 +301,13 @@ def build_tree(
         friction=np.array([j.friction for j in movable_joints]),
         collisions=collisions,
         locked_joints=locked,
+        armature=np.array([j.armature for j in movable_joints], dtype=np.float64).reshape(n),
+        passive_damping=np.array([j.passive_damping for j in movable_joints], dtype=np.float64).reshape(n),
+        stiffness=np.array([j.stiffness for j in movable_joints], dtype=np.float64).reshape(n),
+        springref=np.array([j.springref for j in movable_joints], dtype=np.float64).reshape(n),
+        actuator_force_range=np.array([j.actuator_force_range for j in movable_joints], dtype=np.float64).reshape(n, 2),
+        actuator_gravcomp=np.array([j.actuator_gravcomp for j in movable_joints], dtype=bool).reshape(n),
+        gravcomp_mass=gravcomp_mass,
+        gravcomp_com=gravcomp_com,
+        actuators=actuators,
     )

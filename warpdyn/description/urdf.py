@@ -1,15 +1,21 @@
-"""URDF, read with yourdfpy into a `ModelDescription` (see warpdyn.description.model for the conventions)."""
+"""URDF, read with yourdfpy into a `ModelDescription` (see warpdyn.description.model for the conventions).
+
+URDF carries no armature, MuJoCo damper, spring, gravity compensation, actuators or options: those fields
+keep their defaults (0, (-inf, inf), False; no actuators; gravity, time_step and integrator None).
+`<dynamics damping>` is the viscous friction `damping`, `<dynamics friction>` the static `friction`.
+"""
 
 from __future__ import annotations
 
 import io
-import warnings
 
 import numpy as np
 
 from .model import MOVABLE_JOINT_TYPES, CollisionShape, JointDescription, LinkDescription, ModelDescription, finish_tree
 
 __all__ = ["load_urdf"]
+
+MIMIC = "mimic joints (kept as independent joints: their <mimic> coupling is ignored)"
 
 
 def _ignore_mesh_uri(fname, dir=None):
@@ -82,12 +88,10 @@ def load_urdf(document: bytes, where: str) -> ModelDescription:
                 description.damping = float(joint.dynamics.damping or 0.0)
                 description.friction = float(joint.dynamics.friction or 0.0)
         joints.append(description)
+    description = finish_tree(robot.name, links, joints, "urdf", where)
     if mimic:
-        warnings.warn(
-            f"{where}: mimic joints {mimic} are kept as independent joints (their <mimic> coupling is ignored)",
-            stacklevel=3,
-        )
-    return finish_tree(robot.name, links, joints, "urdf", where)
+        description.not_modelled[MIMIC] = mimic
+    return description
 
 
 def _urdf_collision_shape(collision) -> CollisionShape | None:
