@@ -70,3 +70,16 @@ def sizes(max_envs: int) -> list[int]:
 
 
 np_dtype = {"float32": np.float32, "float64": np.float64}
+
+
+def write_reference(path: str, tolerances: dict, inputs, outputs, labels=("state", "result")) -> None:
+    """Save, per dtype in `tolerances`, the CPU's inputs(model) and outputs(model, inputs) for a later GPU
+    run to compare against (the GPU-consistency scripts' --write-reference)."""
+    saved = {}
+    for dtype_name in tolerances:
+        model = seed_model(np_dtype[dtype_name], "cpu")
+        given = inputs(model)
+        saved.update({f"{dtype_name}/{labels[0]}/{k}": v for k, v in given.items()})
+        saved.update({f"{dtype_name}/{labels[1]}/{k}": v for k, v in outputs(model, given).items()})
+    np.savez_compressed(path, **saved)
+    print(f"wrote {len(saved)} arrays to {path}")

@@ -19,7 +19,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import init_warp, np_dtype, seed_model
+from common import init_warp, np_dtype, seed_model, write_reference
 from warpdyn import VelRepr
 
 N = 257
@@ -84,14 +84,7 @@ def main() -> int:
     args = parser.parse_args()
     init_warp()
     if args.write_reference:
-        saved = {}
-        for dtype_name in TOLERANCE:
-            model = seed_model(np_dtype[dtype_name], "cpu")
-            s = states(model)
-            saved.update({f"{dtype_name}/state/{k}": v for k, v in s.items()})
-            saved.update({f"{dtype_name}/result/{k}": v for k, v in quantities(model, s).items()})
-        np.savez_compressed(args.write_reference, **saved)
-        print(f"wrote {len(saved)} arrays to {args.write_reference}")
+        write_reference(args.write_reference, TOLERANCE, states, quantities)
         return 0
     reference = np.load(args.reference)
     failures = 0

@@ -25,7 +25,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import header, init_warp, np_dtype, seed_model
+from common import header, init_warp, np_dtype, seed_model, write_reference
 
 N, T = 33, 20
 TOLERANCE = {"float64": 1e-9, "float32": 1e-2}
@@ -186,14 +186,7 @@ def main() -> int:
     args = parser.parse_args()
     init_warp()
     if args.write_reference:
-        saved = {}
-        for dtype_name in TOLERANCE:
-            model = seed_model(np_dtype[dtype_name], "cpu")
-            c = case(model)
-            saved.update({f"{dtype_name}/case/{k}": v for k, v in c.items()})
-            saved.update({f"{dtype_name}/grad/{k}": v for k, v in tape_gradients(model, c).items()})
-        np.savez_compressed(args.write_reference, **saved)
-        print(f"wrote {len(saved)} arrays to {args.write_reference}")
+        write_reference(args.write_reference, TOLERANCE, case, tape_gradients, labels=("case", "grad"))
         return 0
     reference = np.load(args.reference)
     print(header(args.device))

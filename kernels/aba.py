@@ -20,6 +20,7 @@ import types
 import warp as wp
 
 from .bundles import bundles
+from .registers import tuned
 from .scratch import SYM66, scratch
 from .spatial import MIXED, spatial
 
@@ -37,9 +38,7 @@ ABA_RECORD = _WHL
 @functools.cache
 def inertia_funcs(scalar) -> types.SimpleNamespace:
     """Spatial-inertia helpers in `scalar`, shared by ABA and CRBA."""
-    sp = spatial(scalar)
-    sc = scratch(scalar)
-    B = bundles(scalar)
+    sp, sc, B = spatial(scalar), scratch(scalar), bundles(scalar)
 
     @wp.func
     def inertia_to(X: sp.transform, I: sp.mat66):
@@ -86,14 +85,9 @@ in float32 the compiler's 168 registers allow 8 or 12 warps per multiprocessor, 
 heavily (0.21 -> 0.31 ms at 128)."""
 
 
-def kernels(scalar, max_registers: int | None | str = "tuned"):
-    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's
-    choice; "tuned": MAX_REGISTERS[scalar])."""
-    return _kernels(scalar, MAX_REGISTERS[scalar] if max_registers == "tuned" else max_registers)
-
-
-@functools.cache
-def _kernels(scalar, max_registers):
+@tuned(MAX_REGISTERS)
+def kernels(scalar, max_registers):
+    """ABA (forward dynamics) in `scalar`, its registers per thread capped on CUDA by `max_registers` (kernels/registers.py)."""
     sp = spatial(scalar)
     sc = scratch(scalar)
     B = bundles(scalar)

@@ -12,13 +12,13 @@ T = blockdiag(T_base, 1) the map from the generalized velocity in that represent
 Scratch is one scalar record per link (kernels/scratch.py).
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .aba import inertia_funcs
 from .bundles import bundles
+from .registers import tuned
 from .scratch import scratch
 from .spatial import BODY, INERTIAL, spatial
 
@@ -36,17 +36,10 @@ MAX_REGISTERS = {wp.float32: None, wp.float64: None}
 CRBA by under 5% (benchmarks/results/dynamics_h200_run2.md)."""
 
 
-def kernels(scalar, max_registers: int | None | str = "tuned"):
-    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's
-    choice; "tuned": MAX_REGISTERS[scalar])."""
-    return _kernels(scalar, MAX_REGISTERS[scalar] if max_registers == "tuned" else max_registers)
-
-
-@functools.cache
-def _kernels(scalar, max_registers):
-    sp = spatial(scalar)
-    sc = scratch(scalar)
-    B = bundles(scalar)
+@tuned(MAX_REGISTERS)
+def kernels(scalar, max_registers):
+    """CRBA (the mass matrix) in `scalar`, its registers per thread capped on CUDA by `max_registers` (kernels/registers.py)."""
+    sp, sc, B = spatial(scalar), scratch(scalar), bundles(scalar)
     inertia_to = inertia_funcs(scalar).inertia_to
 
     @wp.func

@@ -9,13 +9,13 @@ The base acceleration and the base wrench are converted from and to the requeste
 Scratch is one scalar record per link (kernels/scratch.py); iX_lambda is recomputed, not stored.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .aba import inertia_funcs
 from .bundles import bundles
+from .registers import tuned
 from .scratch import scratch
 from .spatial import MIXED, spatial
 
@@ -33,17 +33,10 @@ MAX_REGISTERS = {wp.float32: None, wp.float64: 128}
 float64 218 -> 128 registers: kernel 0.111 -> 0.092 ms; float32 already uses 127."""
 
 
-def kernels(scalar, max_registers: int | None | str = "tuned"):
-    """The kernel in `scalar`; max_registers caps its registers per thread on CUDA (None: the compiler's
-    choice; "tuned": MAX_REGISTERS[scalar])."""
-    return _kernels(scalar, MAX_REGISTERS[scalar] if max_registers == "tuned" else max_registers)
-
-
-@functools.cache
-def _kernels(scalar, max_registers):
-    sp = spatial(scalar)
-    sc = scratch(scalar)
-    B = bundles(scalar)
+@tuned(MAX_REGISTERS)
+def kernels(scalar, max_registers):
+    """RNEA (inverse dynamics, bias and gravity forces) in `scalar`, its registers per thread capped on CUDA by `max_registers` (kernels/registers.py)."""
+    sp, sc, B = spatial(scalar), scratch(scalar), bundles(scalar)
     external_force = inertia_funcs(scalar).external_force
 
     @wp.kernel(module="unique", cuda_max_registers=max_registers)

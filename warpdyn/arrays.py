@@ -60,6 +60,21 @@ def check_device_array(value: wp.array, name: str, scalar, device) -> None:
         raise ValueError(f"{name} is on device '{value.device}', but the model is on '{device}'")
 
 
+def checked_host(value, name: str, accepted: list) -> np.ndarray:
+    """A user's NumPy-like value as float64, with a TypeError (not numbers) or ValueError (a shape not in
+    `accepted`, non-finite values) naming it."""
+    try:
+        host = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TypeError(f"{name} must be an array of numbers: {error}") from None
+    if host.shape not in accepted:
+        raise ValueError(f"{name} has shape {host.shape}, expected one of {accepted}")
+    bad = np.argwhere(~np.isfinite(host))
+    if bad.size:
+        raise ValueError(f"{name} has non-finite values, first at index {tuple(bad[0].tolist())}: {host[tuple(bad[0])]}")
+    return host
+
+
 def batched_input(value, name: str, per_env: tuple, num_envs: int | None, scalar, device) -> wp.array:
     """A (N, *per_env) device array from a shared (per_env) or per-environment (N, *per_env) value.
 
@@ -74,14 +89,7 @@ def batched_input(value, name: str, per_env: tuple, num_envs: int | None, scalar
         if tuple(value.shape) == (N, *per_env):
             return value
         return value.reshape((1, *per_env)) if N == 1 else batched_input(value.numpy(), name, per_env, num_envs, scalar, device)
-    try:
-        host = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise TypeError(f"{name} must be an array of numbers: {error}") from None
-    if host.shape not in accepted:
-        raise ValueError(f"{name} has shape {host.shape}, expected one of {accepted}")
-    if not np.all(np.isfinite(host)):
-        raise ValueError(f"{name} has non-finite values")
+    host = checked_host(value, name, accepted)
     out = empty(per_env, N, scalar, device)
     out.assign(wp.array(np.ascontiguousarray(np.broadcast_to(host, (N, *per_env))), dtype=scalar, device=device))
     return out

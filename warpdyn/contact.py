@@ -159,9 +159,7 @@ def collidable_point_forces(model, data, *, link_forces=None, joint_force_refere
 def transforms(model, data) -> wp.array:
     """W_H_C: the contact frames of the enabled points, C = (W_p_C, [L]) with L the point's link,
     (nc, 4, 4) or (N, nc, 4, 4)."""
-    _, W_H_L = kinematics.link_poses(model, data)
-    H = kinematics.homogeneous(model, W_H_L, contact.point_targets(model), data.requires_grad)
-    return arrays.squeeze_env(H, data.num_envs)
+    return arrays.squeeze_env(kinematics.poses(model, data, contact.point_targets(model)), data.num_envs)
 
 
 def jacobian(model, data, *, output_vel_repr=None) -> wp.array:

@@ -15,7 +15,6 @@ data) and in the data's velocity representation.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 
 import numpy as np
@@ -23,7 +22,7 @@ import warp as wp
 
 from . import arrays
 from .engine import state as states
-from .types.enums import VelRepr
+from .types.enums import VelRepr, switched_representation
 from .types.model import quaternion_xyzw
 
 __all__ = ["Data", "random_model_data"]
@@ -233,15 +232,9 @@ class Data:
         valid = states.select_valid(selected, self.valid_state, self.scalar)
         return dataclasses.replace(self, **fields, valid_state=valid)
 
-    @contextlib.contextmanager
     def switch_velocity_representation(self, velocity_representation: VelRepr):
-        """Inside the block, velocities of this data are read and written in `velocity_representation`."""
-        original = self.velocity_representation
-        self.velocity_representation = VelRepr(velocity_representation)
-        try:
-            yield self
-        finally:
-            self.velocity_representation = original
+        """A context manager: inside its block, velocities of this data are read and written in `velocity_representation`."""
+        return switched_representation(self, velocity_representation)
 
     # Changes -----------------------------------------------------------------------------------
 

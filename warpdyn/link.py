@@ -58,8 +58,7 @@ def _target(model, link_index: int):
 def transform(model, data, *, link_index: int):
     """W_H_L: (4, 4) or (N, 4, 4)."""
     target = _target(model, link_index)
-    _, W_H_L = kinematics.link_poses(model, data)
-    return arrays.squeeze_env(kinematics.homogeneous(model, W_H_L, target, data.requires_grad)[:, 0], data.num_envs)
+    return arrays.squeeze_env(kinematics.poses(model, data, target)[:, 0], data.num_envs)
 
 
 def velocity(model, data, *, link_index: int, output_vel_repr=None):

@@ -118,9 +118,7 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
 
 def forward_kinematics(model: Model, data) -> wp.array:
     """W_H_L: the pose of every link in the world, (nL, 4, 4), or (N, nL, 4, 4) for batched data."""
-    _, W_H_L = kinematics.link_poses(model, data)
-    H = kinematics.homogeneous(model, W_H_L, link_targets(model), data.requires_grad)
-    return arrays.squeeze_env(H, data.num_envs)
+    return arrays.squeeze_env(kinematics.poses(model, data, link_targets(model)), data.num_envs)
 
 
 def joint_transforms(model: Model, data) -> wp.array:

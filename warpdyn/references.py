@@ -10,7 +10,6 @@ link (or frame, for frame forces) as the body frame: Body L_f_L, Mixed L[W]_f_L,
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 
 import numpy as np
@@ -21,7 +20,7 @@ from . import frame, joint, link
 from .data import Data
 from .engine import forces as link_forces_engine
 from .engine import state as states
-from .types.enums import VelRepr
+from .types.enums import VelRepr, switched_representation
 from .types.model import transforms
 
 __all__ = ["References"]
@@ -77,15 +76,9 @@ class References:
     def batch_size(self) -> int:
         return self.joint_force_references_state.shape[0]
 
-    @contextlib.contextmanager
     def switch_velocity_representation(self, velocity_representation: VelRepr):
-        """Inside the block, link forces are read and written in `velocity_representation`."""
-        original = self.velocity_representation
-        self.velocity_representation = VelRepr(velocity_representation)
-        try:
-            yield self
-        finally:
-            self.velocity_representation = original
+        """A context manager: inside its block, link forces are read and written in `velocity_representation`."""
+        return switched_representation(self, velocity_representation)
 
     def _needs_data(self, data) -> None:
         if data is None and self.velocity_representation != VelRepr.Inertial:

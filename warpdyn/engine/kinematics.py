@@ -20,7 +20,7 @@ from ..types.model import check_data
 from .bundles import model_bundle, state_bundle
 from .launch import launch
 
-__all__ = ["state_arrays", "state_of", "targets", "link_targets", "link_poses", "homogeneous", "jacobians", "velocities"]
+__all__ = ["state_arrays", "state_of", "targets", "link_targets", "link_poses", "homogeneous", "poses", "jacobians", "velocities"]
 
 
 def state_arrays(data) -> list:
@@ -77,6 +77,12 @@ def homogeneous(model, poses: wp.array, target, requires_grad=False) -> wp.array
     H = arrays.output((T, 4, 4), N, model.scalar, model.device, requires_grad)
     launch(kinematics_kernels(model.scalar).homogeneous_matrices, dim=(N, T), inputs=[poses, target], outputs=[H], device=model.device)
     return H
+
+
+def poses(model, data, target) -> wp.array:
+    """(N, T, 4, 4): the targets' poses in the world, W_H_T, by forward kinematics."""
+    _, W_H_L = link_poses(model, data)
+    return homogeneous(model, W_H_L, target, data.requires_grad)
 
 
 def jacobians(model, data, target, output_vel_repr) -> wp.array:

@@ -48,15 +48,7 @@ def state_array(value, name: str, per_env: tuple, num_envs: int | None, scalar, 
         src = value.reshape((1, per_env[0])) if tuple(value.shape) == tuple(per_env) else value
         launch(state_kernels(scalar).broadcast_rows, dim=out.shape, inputs=[src], outputs=[out], device=device)
         return out
-    try:
-        host = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise TypeError(f"{name} must be an array of numbers: {error}") from None
-    if host.shape not in accepted:
-        raise ValueError(f"{name} has shape {host.shape}, expected one of {accepted}")
-    if not np.all(np.isfinite(host)):
-        raise ValueError(f"{name} has non-finite values")
-    host = np.broadcast_to(host, (N, *per_env))
+    host = np.broadcast_to(arrays.checked_host(value, name, accepted), (N, *per_env))
     out.assign(wp.array(np.ascontiguousarray(host), dtype=scalar, device=device))
     return out
 

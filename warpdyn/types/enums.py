@@ -3,6 +3,7 @@ kernels/spatial.py) and integrators."""
 
 from __future__ import annotations
 
+import contextlib
 import enum
 
 
@@ -32,3 +33,14 @@ class IntegratorType(enum.IntEnum):
 
     SemiImplicitEuler = 1
     RungeKutta4 = 2
+
+
+@contextlib.contextmanager
+def switched_representation(holder, velocity_representation):
+    """Inside the block, `holder` (Data or References) reads and writes in `velocity_representation`."""
+    original = holder.velocity_representation
+    holder.velocity_representation = VelRepr(velocity_representation)
+    try:
+        yield holder
+    finally:
+        holder.velocity_representation = original

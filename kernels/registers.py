@@ -1,0 +1,18 @@
+"""CUDA register caps of the dynamics kernels: each module keeps a measured MAX_REGISTERS table per scalar, and
+`tuned(MAX_REGISTERS)` turns its builder build(scalar, max_registers) into `kernels(scalar, max_registers="tuned")`
+(cached): "tuned" takes the table's entry, None the compiler's choice, a number that cap."""
+
+import functools
+
+
+def tuned(table: dict):
+    def decorate(build):
+        cached = functools.cache(build)
+
+        @functools.wraps(build)
+        def kernels(scalar, max_registers="tuned"):
+            return cached(scalar, table[scalar] if max_registers == "tuned" else max_registers)
+
+        return kernels
+
+    return decorate
