@@ -1,8 +1,9 @@
 """warpdyn's Warp kernels and `@wp.func` helpers, one algorithm per module, each built per scalar type.
 
 Every module exposes `kernels(scalar)` (cached) returning a namespace of kernels for wp.float32 or
-wp.float64. Conventions are in `spatial`. Arrays with a leading environment axis are indexed
-[env, ...]; their physical layout is chosen by the façade (see warpdyn._arrays).
+wp.float64. Conventions are in `spatial`; kernels take the typed bundles of `bundles` (the model, the
+state, the controls, targets, terrain, contacts). Arrays with a leading environment axis are indexed
+[env, ...]; their physical layout is chosen by warpdyn.arrays. Nothing here imports warpdyn.
 
 Tape discipline (what keeps wp.Tape gradients right in Warp 1.19):
 - every output and scratch element is written once per launch; later iterations may read it;

@@ -54,7 +54,7 @@ import warp as wp
 from warpdyn import model as _model
 from warpdyn import simulation as _simulation
 from warpdyn.data import Data
-from warpdyn.types.enums import VelRepr
+from warpdyn.model import VelRepr
 
 __all__ = ["rollout", "STATE_INPUTS"]
 

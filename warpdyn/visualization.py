@@ -44,6 +44,7 @@ import dataclasses
 import inspect
 import pathlib
 import re
+import warnings
 
 import numpy as np
 
@@ -413,8 +414,6 @@ class RerunRecorder:
                 shape_path = f"{path}/collision/{k}_{primitive.kind}"
                 self._log(shape_path, self._transform(primitive.link_H_shape), archetype, static=True)
         if self.unresolved_meshes:
-            import warnings
-
             shown = ", ".join(self.unresolved_meshes[:3]) + (", ..." if len(self.unresolved_meshes) > 3 else "")
             warnings.warn(
                 f"{len(self.unresolved_meshes)} collision mesh(es) not drawn: {shown}. Set "
