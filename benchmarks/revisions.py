@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import pathlib
 import shutil
 import subprocess
@@ -96,18 +97,12 @@ def measure(checkout: pathlib.Path, args) -> dict:
         root = package(checkout, pathlib.Path(tmp) / "pkg")
         cache = pathlib.Path(tmp) / "kernels-cache"
         command = [sys.executable, "-c", WORKER, str(root), str(cache), args.device, args.sizes, args.dtypes, str(args.repeats)]
-        env = {"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"}
-        proc = subprocess.run(command, capture_output=True, text=True, env={**_environ(), **env}, cwd=tmp, timeout=3600)
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]))  # this version first
+        proc = subprocess.run(command, capture_output=True, text=True, env=env, cwd=tmp, timeout=3600)
     line = next((x for x in proc.stdout.splitlines() if x.startswith("RESULT ")), None)
     if proc.returncode != 0 or line is None:
         raise RuntimeError(f"{checkout} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}")
     return json.loads(line[len("RESULT "):])
-
-
-def _environ() -> dict:
-    import os
-
-    return {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
 
 
 def main() -> None:
