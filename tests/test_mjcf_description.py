@@ -4,7 +4,7 @@ References: MuJoCo's compiled MjModel fields (dof_armature, dof_damping, jnt_sti
 jnt_actfrcrange, body_gravcomp, actuator_*, opt) for the parameters, which are copied, so they must be
 equal with 0 tolerance; MuJoCo's mj_kinematics (xpos, xquat, xanchor, xaxis) and mj_passive
 (qfrc_gravcomp) for the kinematics and the lumped gravity compensation, recomputed on the host from the
-tree in float64 (1e-12: a few roundings of products of O(1) numbers). Fixtures: tests/mjcf_models.py
+tree in float64 (1e-12: a few roundings of products of O(1) numbers). Fixtures: tests/mjcf_fixtures.py
 (semantics in docs/mujoco_semantics.md) and the small ones below. Host only: no device is touched.
 """
 
@@ -90,7 +90,7 @@ FLAGS = """
 </mujoco>
 """
 
-#: Fixtures of tests/mjcf_models.py that warpdyn loads (GRAVCOMP without its free balloon: a second robot).
+#: Fixtures of tests/mjcf_fixtures.py that warpdyn loads (GRAVCOMP without its free balloon: a second robot).
 GRAVCOMP_ARM = mm.GRAVCOMP[: mm.GRAVCOMP.index('    <body name="balloon"')] + mm.GRAVCOMP[mm.GRAVCOMP.index("  </worldbody>") :]
 LOADED = {
     **{
