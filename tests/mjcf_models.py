@@ -1,5 +1,6 @@
 """MuJoCo reference helpers for the hand-written MJCF fixtures of tests/mjcf_fixtures.py, which this module
-re-exports: every fixture constant, `FIXTURES` and `UNSUPPORTED_FEATURES` are importable from here too.
+re-exports: every fixture constant, `FIXTURES` and `UNSUPPORTED_FEATURES` are importable from here too;
+and the checks that tests/test_mjcf_models.py, test_mjcf_actuators.py and test_mjcf_kinematics.py share.
 
 The helpers take an MjModel compiled from any of them, a state (qpos, qvel) and controls and return
 MuJoCo's quantities. They never change the model they are given: they work on a copy with the disable
@@ -242,3 +243,21 @@ def random_ctrl(m: mujoco.MjModel, rng: np.random.Generator, overshoot: float = 
 def _random_quat(rng: np.random.Generator) -> np.ndarray:
     q = rng.normal(size=4)
     return q / np.linalg.norm(q)
+
+
+# ------------------------------------- checks shared by tests/test_mjcf_models.py, _actuators.py, _kinematics.py
+
+TOL = 1e-10
+SEEDS = range(5)
+
+
+def close(actual, expected, tol=TOL):
+    actual, expected = np.asarray(actual, float), np.asarray(expected, float)
+    scale = max(1.0, float(np.abs(expected).max(initial=0.0)))
+    np.testing.assert_allclose(actual, expected, rtol=0, atol=tol * scale)
+
+
+def by_name(m, objtype, name):
+    i = mujoco.mj_name2id(m, objtype, name)
+    assert i >= 0, name
+    return i
