@@ -2,9 +2,9 @@
 poses of multi-joint bodies and of several world children, `ref`, the free and ball joints' velocity
 conventions, `<option>`, one Euler or implicitfast step, Newton-Euler for a free body.
 
-Expected values and tolerances follow tests/test_mjcf_models.py: the XML's numbers and the independent
-NumPy formulas below (quaternions, transforms, integration), 1e-10 relative to the size of the reference
-(at least 1), exceptions stated in the test.
+Expected values and tolerances follow tests/test_mjcf_models.py: the XML's numbers and independent NumPy
+formulas (quaternions, transforms and integration below, robots.qmul), 1e-10 relative to the size of the
+reference (at least 1), exceptions stated in the test.
 """
 
 from __future__ import annotations
@@ -14,20 +14,10 @@ import mujoco
 import numpy as np
 import pytest
 from mjcf_models import SEEDS, TOL, by_name, close
+from robots import qmul
 
 
 # ------------------------------------------------------------------------------- independent math
-
-
-def quat_mul(a, b):
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array([
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    ])
 
 
 def quat_axis_angle(axis, angle):
@@ -78,10 +68,10 @@ def integrate_by_hand(m, qpos, qvel, h):
         if t == mujoco.mjtJoint.mjJNT_FREE:
             q[a : a + 3] += h * qvel[v : v + 3]
             quat = q[a + 3 : a + 7] / np.linalg.norm(q[a + 3 : a + 7])
-            q[a + 3 : a + 7] = quat_mul(quat, quat_exp(qvel[v + 3 : v + 6], h))
+            q[a + 3 : a + 7] = qmul(quat, quat_exp(qvel[v + 3 : v + 6], h))
         elif t == mujoco.mjtJoint.mjJNT_BALL:
             quat = q[a : a + 4] / np.linalg.norm(q[a : a + 4])
-            q[a : a + 4] = quat_mul(quat, quat_exp(qvel[v : v + 3], h))
+            q[a : a + 4] = qmul(quat, quat_exp(qvel[v : v + 3], h))
         else:
             q[a] += h * qvel[v]
     return q
