@@ -14,10 +14,14 @@
   `wheels_urdf`; `build`, `contact_free`, `rollout`, `host`; quaternions (`qmul`, `quat_distance`);
   MuJoCo's RK4 on the same robot (`mujoco_rk4`, `mujoco_state`); JaxSim's actuation in NumPy
   (`jaxsim_resultant_torques`).
+- The seed's ergoCub with collidable points (tests/test_contact_geometry.py, test_contact_derivatives.py):
+  `ergocub_full_model`, `ergocub_seed_model`, `ergocub_seed_with_points` (`NO_MESH`), and random states
+  for them (`random_state_kwargs`).
 """
 
 from __future__ import annotations
 
+import functools
 import pathlib
 import xml.etree.ElementTree as ET
 
@@ -375,3 +379,50 @@ def jaxsim_resultant_torques(tau_ref, s, sdot, limits, k, d, kc, kv, a, friction
     limit = np.where(speed <= a.omega_th, a.torque_max,
                      np.where(speed <= a.omega_max, a.torque_max * (1 - (speed - a.omega_th) / (a.omega_max - a.omega_th)), 0.0))
     return np.clip(total, -limit, limit)
+
+
+# ------------------------------------------------------------------------------------------------
+# The seed's ergoCub with collidable points (tests/test_contact_geometry.py, test_contact_derivatives.py)
+
+NO_MESH = wd.contact.CollidablePointsOptions(shapes=("box", "sphere", "cylinder", "capsule"))
+
+
+@functools.cache
+def ergocub_full_model(dtype):
+    return wd.model.Model.build_from_model_description(ergocub_urdf(), dtype=dtype)
+
+
+@functools.cache
+def ergocub_seed_model(dtype):
+    full = ergocub_full_model(dtype)
+    return wd.model.reduce(full, seed_joints(full.joint_names()))
+
+
+def ergocub_seed_with_points(dtype, options=NO_MESH):
+    """The seed's reduced ergoCub with points made with `options` (no mesh by default: no warning)."""
+    return wd.contact.with_collidable_points(ergocub_seed_model(dtype), options=options)
+
+
+def random_state_kwargs(model, rng, num_envs=None, z_range=(-1.0, 1.0)):
+    """Data.build's keyword arguments for a random state: a floating base anywhere in [-1, 1]^3 (z in
+    z_range) with a random orientation and velocity (Mixed, in [-1, 1]), a fixed base where the model
+    welds it, at rest; joints uniform within their limits (+-pi where unlimited), speeds in [-1, 1].
+    (N, ...) arrays when num_envs is given."""
+    N = 1 if num_envs is None else num_envs
+    n = model.dofs()
+    if model.floating_base():
+        p = rng.uniform(-1.0, 1.0, size=(N, 3))
+        p[:, 2] = rng.uniform(*z_range, size=N)
+        q = rng.normal(size=(N, 4))
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        lin, ang = rng.uniform(-1.0, 1.0, size=(N, 3)), rng.uniform(-1.0, 1.0, size=(N, 3))
+    else:
+        H = model.description.world_H_base
+        p, q = np.tile(H[:3, 3], (N, 1)), np.tile(wd.data._quaternion_wxyz(H[:3, :3]), (N, 1))
+        lin, ang = np.zeros((N, 3)), np.zeros((N, 3))
+    low, high = model.tree.position_limits.T
+    s = rng.uniform(np.where(np.isfinite(low), low, -np.pi), np.where(np.isfinite(high), high, np.pi), size=(N, n))
+    state = dict(base_position=p, base_quaternion=q, joint_positions=s, base_linear_velocity=lin,
+                 base_angular_velocity=ang, joint_velocities=rng.uniform(-1.0, 1.0, size=(N, n)))
+    return state if num_envs is not None else {k: v[0] for k, v in state.items()}
+
