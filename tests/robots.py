@@ -17,6 +17,8 @@
 - The seed's ergoCub with collidable points (tests/test_contact_geometry.py, test_contact_derivatives.py):
   `ergocub_full_model`, `ergocub_seed_model`, `ergocub_seed_with_points` (`NO_MESH`), and random states
   for them (`random_state_kwargs`).
+- The model tests' robots by case name (tests/test_model.py, test_model_mjcf.py): `text_of`, `full_model`,
+  `considered_of`, `built`; their random states (`rng_for`, `random_data`); `H_of`, `assert_close`.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from __future__ import annotations
 import functools
 import pathlib
 import xml.etree.ElementTree as ET
+import zlib
 
 import numpy as np
 
@@ -426,3 +429,77 @@ def random_state_kwargs(model, rng, num_envs=None, z_range=(-1.0, 1.0)):
                  base_angular_velocity=ang, joint_velocities=rng.uniform(-1.0, 1.0, size=(N, n)))
     return state if num_envs is not None else {k: v[0] for k, v in state.items()}
 
+
+# ------------------------------------------------------------------------------------------------
+# Robots by case name (tests/test_model.py, test_model_mjcf.py)
+
+
+@functools.cache
+def text_of(case: str) -> str:
+    """A description by case name: 'random-<seed>', 'randomfixed-<seed>' (random_tree_urdf, fixed
+    base), 'pendulum-<n>', 'icub', 'ergocub'."""
+    kind, _, arg = case.partition("-")
+    return {
+        "random": lambda: random_tree_urdf(int(arg)),
+        "randomfixed": lambda: random_tree_urdf(int(arg), fixed_base=True),
+        "pendulum": lambda: pendulum_chain_urdf(int(arg)),
+        "icub": icub_urdf,
+        "ergocub": ergocub_urdf,
+    }[kind]()
+
+
+@functools.cache
+def full_model(case: str, dtype=np.float64) -> wd.model.Model:
+    return wd.model.Model.build_from_model_description(text_of(case), dtype=dtype)
+
+
+def considered_of(case: str, which: str | None):
+    names = full_model(case).joint_names()
+    return {None: None, "legs": icub_leg_joints(names), "seed": seed_joints(names)}[which]
+
+
+def built(case, which, dtype=np.float64) -> wd.model.Model:
+    considered = considered_of(case, which)
+    full = full_model(case, dtype)
+    return full if considered is None else wd.model.reduce(full, considered)
+
+def rng_for(*key) -> np.random.Generator:
+    return np.random.default_rng(zlib.crc32(repr(key).encode()))
+
+
+def random_data(model, rng):
+    """Data with a random state, and the stored state (float64) to hand to MuJoCo."""
+    n = model.dofs()
+    kwargs = dict(joint_positions=rng.uniform(-2.0, 2.0, n), joint_velocities=rng.uniform(-1.0, 1.0, n))
+    if model.floating_base():
+        q = rng.normal(size=4)
+        kwargs.update(
+            base_position=rng.uniform(-1.0, 1.0, 3),
+            base_quaternion=q / np.linalg.norm(q),
+            base_linear_velocity=rng.uniform(-1.0, 1.0, 3),
+            base_angular_velocity=rng.uniform(-1.0, 1.0, 3),
+        )
+    data = wd.data.Data.build(model, **kwargs)
+    f64 = lambda a: np.asarray(a.numpy(), dtype=np.float64)  # noqa: E731
+    state = (
+        f64(data.base_position),
+        f64(data.base_quaternion),
+        f64(data.joint_positions),
+        f64(data.base_velocity_state)[0],  # Mixed
+        f64(data.joint_velocities),
+    )
+    return data, state
+
+
+def H_of(R, p) -> np.ndarray:
+    H = np.eye(4)
+    H[:3, :3], H[:3, 3] = R, p
+    return H
+
+
+def assert_close(actual, expected, tol, what):
+    actual, expected = np.asarray(actual, dtype=np.float64), np.asarray(expected, dtype=np.float64)
+    assert actual.shape == expected.shape, f"{what}: shape {actual.shape} != {expected.shape}"
+    scale = max(1.0, np.abs(expected).max(initial=0.0))
+    err = np.abs(actual - expected).max(initial=0.0)
+    assert np.isfinite(err) and err <= tol * scale, f"{what}: max error {err:.3e} > {tol:.0e} * {scale:.3g}"
