@@ -9,15 +9,28 @@
   considered made fixed (locked at 0), meshes stripped, with a free joint when floating.
 - `MujocoState`: sets MuJoCo's qpos/qvel from warpdyn's state, mapping joints by name and converting
   the base velocity (MuJoCo's free joint: world linear velocity of the body origin, body-frame angular).
+- The simulation tests' set-up (tests/test_simulation*.py, tests/test_actuation.py): the integrators `SIE`,
+  `RK4`, gravity `G`; a free body (`BODY_URDF`, `BODY_INERTIA`), a box (`BOX_URDF`, `BOX_MASS`, `BOX_HALF`),
+  `wheels_urdf`; `build`, `contact_free`, `rollout`, `host`; quaternions (`qmul`, `quat_distance`);
+  MuJoCo's RK4 on the same robot (`mujoco_rk4`, `mujoco_state`); JaxSim's actuation in NumPy
+  (`jaxsim_resultant_torques`).
+- The seed's ergoCub with collidable points (tests/test_contact_geometry.py, test_contact_derivatives.py):
+  `ergocub_full_model`, `ergocub_seed_model`, `ergocub_seed_with_points` (`NO_MESH`), and random states
+  for them (`random_state_kwargs`).
+- The model tests' robots by case name (tests/test_model.py, test_model_mjcf.py): `text_of`, `full_model`,
+  `considered_of`, `built`; their random states (`rng_for`, `random_data`); `H_of`, `assert_close`.
 """
 
 from __future__ import annotations
 
+import functools
 import pathlib
 import xml.etree.ElementTree as ET
+import zlib
 
 import numpy as np
 
+import warpdyn as wd
 from warpdyn.assets import ergocub_urdf as _ergocub_path
 
 ERGOCUB = _ergocub_path()
@@ -246,3 +259,247 @@ def to_mixed(repr_name: str, R: np.ndarray, p) -> np.ndarray:
 
 def from_mixed(repr_name: str, R: np.ndarray, p) -> np.ndarray:
     return np.linalg.inv(to_mixed(repr_name, R, p))
+
+
+# ------------------------------------------------------------------------------------------------
+# Simulation (tests/test_simulation.py, test_simulation_energy.py, test_simulation_extremes.py,
+# test_actuation.py)
+
+SIE = wd.model.IntegratorType.SemiImplicitEuler
+RK4 = wd.model.IntegratorType.RungeKutta4
+G = 9.81
+
+# A free body: principal axes along the link's axes, CoM at the link origin, no collision shape.
+BODY_INERTIA = np.diag([0.02, 0.05, 0.08])
+BODY_URDF = """<robot name="body"><link name="body"><inertial><mass value="2"/>
+<inertia ixx="0.02" iyy="0.05" izz="0.08" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>"""
+
+# A 2 kg cube of side 0.2 m: 8 collidable points at its corners (JaxSim's box points).
+BOX_MASS, BOX_HALF = 2.0, 0.1
+BOX_URDF = """<robot name="box"><link name="box"><inertial><mass value="2"/>
+<inertia ixx="0.013333333333333334" iyy="0.013333333333333334" izz="0.013333333333333334" ixy="0" ixz="0" iyz="0"/>
+</inertial><collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link></robot>"""
+
+
+def wheels_urdf(inertias, limits=None) -> str:
+    """Wheels on a world-fixed base, each a joint about the world z axis through its CoM: gravity and
+    Coriolis forces vanish and the mass matrix is diag(inertias), so sddot_i = tau_i / inertias[i]."""
+    parts = ['<robot name="wheels">', '<link name="world"/>', '<link name="base"/>',
+             '<joint name="world_to_base" type="fixed"><parent link="world"/><child link="base"/></joint>']
+    for i, I in enumerate(inertias):
+        kind, limit = "continuous", ""
+        if limits is not None:
+            kind, limit = "revolute", f'<limit lower="{limits[i][0]:.17g}" upper="{limits[i][1]:.17g}" effort="1" velocity="1"/>'
+        parts.append(
+            f'<link name="wheel{i}"><inertial><mass value="1"/>'
+            f'<inertia ixx="0.1" iyy="0.1" izz="{I:.17g}" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        )
+        parts.append(
+            f'<joint name="axle{i}" type="{kind}"><parent link="base"/><child link="wheel{i}"/>'
+            f'<origin xyz="{0.5 * i} 0 0"/><axis xyz="0 0 1"/>{limit}</joint>'
+        )
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+def build(text, dtype, *, integrator=SIE, time_step=1e-3, **kwargs) -> wd.model.Model:
+    """The model of `text` (a description, as Model.build_from_model_description takes it) with the given
+    integrator and time step."""
+    model = wd.model.Model.build_from_model_description(text, dtype=dtype, **kwargs)
+    model.integrator = integrator
+    model.time_step = time_step
+    return model
+
+
+def contact_free(model) -> wd.model.Model:
+    """The model with joint friction off and every collidable point disabled (limit springs are off by
+    default): a passive, conservative system."""
+    n = model.dofs()
+    model.set_joint_parameters(friction_static=np.zeros(n), friction_viscous=np.zeros(n))
+    nc = len(model.kin_dyn_parameters.contact_parameters.body)
+    return wd.contact.with_collidable_points(model, enabled=[False] * nc) if nc else model
+
+
+def rollout(model, data, steps, record=None, **step_kwargs):
+    """`steps` steps; returns (data, [record(data) after each step])."""
+    out = []
+    for _ in range(steps):
+        data = wd.model.step(model, data, **step_kwargs)
+        if record is not None:
+            out.append(record(data))
+    return data, out
+
+
+def qmul(a, b) -> np.ndarray:
+    """Hamilton product of (w, x, y, z) quaternions."""
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+    ])
+
+
+def quat_distance(a, b) -> float:
+    """max |a - b| up to the sign of the quaternion."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return min(np.abs(a - b).max(), np.abs(a + b).max())
+
+
+def host(array) -> np.ndarray:
+    """A Warp array as float64 NumPy."""
+    return np.asarray(array.numpy(), dtype=np.float64)
+
+
+def mujoco_rk4(text, floating, dt, considered_joints=None):
+    """MuJoCo's model of `text` with RK4 at dt, constraints, damping and springs off."""
+    import mujoco
+
+    mj = mujoco_model(text, considered_joints, floating=floating)
+    off = mujoco.mjtDisableBit
+    mj.opt.disableflags |= off.mjDSBL_CONSTRAINT | off.mjDSBL_DAMPER | off.mjDSBL_SPRING
+    mj.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    mj.opt.timestep = dt
+    return mj
+
+
+def mujoco_state(model, mj, data) -> MujocoState:
+    state = MujocoState(mj, model.joint_names(), model.floating_base())
+    state.set(host(data.base_position), host(data.base_quaternion), host(data.joint_positions),
+              host(data.base_velocity), host(data.joint_velocities))
+    return state
+
+
+def jaxsim_resultant_torques(tau_ref, s, sdot, limits, k, d, kc, kv, a, friction=True):
+    """JaxSim's compute_resultant_torques (/tmp/jaxsim_sim.md 3.2) in NumPy, elementwise."""
+    tau_pl = -k * (np.minimum(s - limits[:, 0], 0.0) + np.maximum(s - limits[:, 1], 0.0))
+    tau_pl = tau_pl - tau_pl * d * sdot  # jnp.positive is the identity: damping times the spring torque
+    tau_fr = -(kc * np.sign(sdot) + kv * sdot) if friction else 0.0
+    total = tau_ref + tau_fr + tau_pl
+    speed = np.abs(sdot)
+    limit = np.where(speed <= a.omega_th, a.torque_max,
+                     np.where(speed <= a.omega_max, a.torque_max * (1 - (speed - a.omega_th) / (a.omega_max - a.omega_th)), 0.0))
+    return np.clip(total, -limit, limit)
+
+
+# ------------------------------------------------------------------------------------------------
+# The seed's ergoCub with collidable points (tests/test_contact_geometry.py, test_contact_derivatives.py)
+
+NO_MESH = wd.contact.CollidablePointsOptions(shapes=("box", "sphere", "cylinder", "capsule"))
+
+
+@functools.cache
+def ergocub_full_model(dtype):
+    return wd.model.Model.build_from_model_description(ergocub_urdf(), dtype=dtype)
+
+
+@functools.cache
+def ergocub_seed_model(dtype):
+    full = ergocub_full_model(dtype)
+    return wd.model.reduce(full, seed_joints(full.joint_names()))
+
+
+def ergocub_seed_with_points(dtype, options=NO_MESH):
+    """The seed's reduced ergoCub with points made with `options` (no mesh by default: no warning)."""
+    return wd.contact.with_collidable_points(ergocub_seed_model(dtype), options=options)
+
+
+def random_state_kwargs(model, rng, num_envs=None, z_range=(-1.0, 1.0)):
+    """Data.build's keyword arguments for a random state: a floating base anywhere in [-1, 1]^3 (z in
+    z_range) with a random orientation and velocity (Mixed, in [-1, 1]), a fixed base where the model
+    welds it, at rest; joints uniform within their limits (+-pi where unlimited), speeds in [-1, 1].
+    (N, ...) arrays when num_envs is given."""
+    N = 1 if num_envs is None else num_envs
+    n = model.dofs()
+    if model.floating_base():
+        p = rng.uniform(-1.0, 1.0, size=(N, 3))
+        p[:, 2] = rng.uniform(*z_range, size=N)
+        q = rng.normal(size=(N, 4))
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        lin, ang = rng.uniform(-1.0, 1.0, size=(N, 3)), rng.uniform(-1.0, 1.0, size=(N, 3))
+    else:
+        H = model.description.world_H_base
+        p, q = np.tile(H[:3, 3], (N, 1)), np.tile(wd.data._quaternion_wxyz(H[:3, :3]), (N, 1))
+        lin, ang = np.zeros((N, 3)), np.zeros((N, 3))
+    low, high = model.tree.position_limits.T
+    s = rng.uniform(np.where(np.isfinite(low), low, -np.pi), np.where(np.isfinite(high), high, np.pi), size=(N, n))
+    state = dict(base_position=p, base_quaternion=q, joint_positions=s, base_linear_velocity=lin,
+                 base_angular_velocity=ang, joint_velocities=rng.uniform(-1.0, 1.0, size=(N, n)))
+    return state if num_envs is not None else {k: v[0] for k, v in state.items()}
+
+
+# ------------------------------------------------------------------------------------------------
+# Robots by case name (tests/test_model.py, test_model_mjcf.py)
+
+
+@functools.cache
+def text_of(case: str) -> str:
+    """A description by case name: 'random-<seed>', 'randomfixed-<seed>' (random_tree_urdf, fixed
+    base), 'pendulum-<n>', 'icub', 'ergocub'."""
+    kind, _, arg = case.partition("-")
+    return {
+        "random": lambda: random_tree_urdf(int(arg)),
+        "randomfixed": lambda: random_tree_urdf(int(arg), fixed_base=True),
+        "pendulum": lambda: pendulum_chain_urdf(int(arg)),
+        "icub": icub_urdf,
+        "ergocub": ergocub_urdf,
+    }[kind]()
+
+
+@functools.cache
+def full_model(case: str, dtype=np.float64) -> wd.model.Model:
+    return wd.model.Model.build_from_model_description(text_of(case), dtype=dtype)
+
+
+def considered_of(case: str, which: str | None):
+    names = full_model(case).joint_names()
+    return {None: None, "legs": icub_leg_joints(names), "seed": seed_joints(names)}[which]
+
+
+def built(case, which, dtype=np.float64) -> wd.model.Model:
+    considered = considered_of(case, which)
+    full = full_model(case, dtype)
+    return full if considered is None else wd.model.reduce(full, considered)
+
+def rng_for(*key) -> np.random.Generator:
+    return np.random.default_rng(zlib.crc32(repr(key).encode()))
+
+
+def random_data(model, rng):
+    """Data with a random state, and the stored state (float64) to hand to MuJoCo."""
+    n = model.dofs()
+    kwargs = dict(joint_positions=rng.uniform(-2.0, 2.0, n), joint_velocities=rng.uniform(-1.0, 1.0, n))
+    if model.floating_base():
+        q = rng.normal(size=4)
+        kwargs.update(
+            base_position=rng.uniform(-1.0, 1.0, 3),
+            base_quaternion=q / np.linalg.norm(q),
+            base_linear_velocity=rng.uniform(-1.0, 1.0, 3),
+            base_angular_velocity=rng.uniform(-1.0, 1.0, 3),
+        )
+    data = wd.data.Data.build(model, **kwargs)
+    f64 = lambda a: np.asarray(a.numpy(), dtype=np.float64)  # noqa: E731
+    state = (
+        f64(data.base_position),
+        f64(data.base_quaternion),
+        f64(data.joint_positions),
+        f64(data.base_velocity_state)[0],  # Mixed
+        f64(data.joint_velocities),
+    )
+    return data, state
+
+
+def H_of(R, p) -> np.ndarray:
+    H = np.eye(4)
+    H[:3, :3], H[:3, 3] = R, p
+    return H
+
+
+def assert_close(actual, expected, tol, what):
+    actual, expected = np.asarray(actual, dtype=np.float64), np.asarray(expected, dtype=np.float64)
+    assert actual.shape == expected.shape, f"{what}: shape {actual.shape} != {expected.shape}"
+    scale = max(1.0, np.abs(expected).max(initial=0.0))
+    err = np.abs(actual - expected).max(initial=0.0)
+    assert np.isfinite(err) and err <= tol * scale, f"{what}: max error {err:.3e} > {tol:.0e} * {scale:.3g}"

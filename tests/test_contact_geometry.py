@@ -1,4 +1,7 @@
-"""Collidable points (wd.contact): geometry from the collision shapes, and their kinematics.
+"""Collidable points (wd.contact): geometry from the collision shapes, and their kinematics (the enabled
+mask, in_contact, velocities and Jacobians). Their derivatives against finite differences are in
+tests/test_contact_derivatives.py; the seed's ergoCub with its points and random states for it, which
+both files use, in tests/robots.py.
 
 References:
 - C MuJoCo (float64) on the same description, compiled with `fusestatic` off so that every URDF link
@@ -6,8 +9,7 @@ References:
   the shapes' surfaces and corners are computed from those poses and MuJoCo's geom sizes, never from
   warpdyn's shapes. Joints are mapped by name (robots.MujocoState).
 - The URDF text itself (the box sizes and origins of ergoCub's feet, read with ElementTree).
-- Identities: J·ν equals the point velocities; velocities equal central finite differences of positions;
-  tape gradients equal finite differences / Jᵀ.
+- Identities: J·ν equals the point velocities.
 Tolerances are absolute, scaled by the size of what is compared (at least 1 m): float64 1e-10 (a few
 composed transforms, rounding ~1e-15 observed), float32 1e-5 (float32 epsilon 1.2e-7 accumulated over up
 to ~10 composed transforms and lever arms of a few metres: observed ≤ 4e-7 against float64 and MuJoCo).
@@ -16,7 +18,6 @@ to ~10 composed transforms and lever arms of a few metres: observed ≤ 4e-7 aga
 from __future__ import annotations
 
 import dataclasses
-import functools
 import itertools
 import pathlib
 import warnings
@@ -25,16 +26,15 @@ import xml.etree.ElementTree as ET
 import mujoco
 import numpy as np
 import pytest
-import warp as wp
 
 import robots
 import warpdyn as wd
+from robots import NO_MESH, ergocub_full_model, ergocub_seed_model, ergocub_seed_with_points, random_state_kwargs
 from warpdyn import VelRepr
 from warpdyn.description.collidable import capsule_points, cylinder_points, farthest_point_subsample, sphere_points
 
 REPRS = (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)
 TOL = {np.dtype(np.float64): 1e-10, np.dtype(np.float32): 1e-5}
-NO_MESH = wd.contact.CollidablePointsOptions(shapes=("box", "sphere", "cylinder", "capsule"))
 
 
 def _tol(dtype, *refs) -> float:
@@ -43,22 +43,6 @@ def _tol(dtype, *refs) -> float:
 
 
 # ------------------------------------------------------------------------------------------ robots
-
-
-@functools.cache
-def _ergocub_full(dtype):
-    return wd.model.Model.build_from_model_description(robots.ergocub_urdf(), dtype=dtype)
-
-
-@functools.cache
-def _ergocub_seed(dtype):
-    full = _ergocub_full(dtype)
-    return wd.model.reduce(full, robots.seed_joints(full.joint_names()))
-
-
-def _seed_model(dtype, options=NO_MESH):
-    """The seed's reduced ergoCub with points made with `options` (no mesh by default: no warning)."""
-    return wd.contact.with_collidable_points(_ergocub_seed(dtype), options=options)
 
 
 def _shapes_urdf(seed: int, fixed_base: bool = False) -> str:
@@ -105,26 +89,6 @@ def _mujoco_keep_primitives(urdf_text: str, considered, floating: bool):
     if floating:
         spec.worldbody.first_body().add_freejoint()
     return spec.compile()
-
-
-def _random_state(model, rng, num_envs=None, z_range=(-1.0, 1.0)):
-    N = 1 if num_envs is None else num_envs
-    n = model.dofs()
-    if model.floating_base():
-        p = rng.uniform(-1.0, 1.0, size=(N, 3))
-        p[:, 2] = rng.uniform(*z_range, size=N)
-        q = rng.normal(size=(N, 4))
-        q /= np.linalg.norm(q, axis=1, keepdims=True)
-        lin, ang = rng.uniform(-1.0, 1.0, size=(N, 3)), rng.uniform(-1.0, 1.0, size=(N, 3))
-    else:
-        H = model.description.world_H_base
-        p, q = np.tile(H[:3, 3], (N, 1)), np.tile(wd.data._quaternion_wxyz(H[:3, :3]), (N, 1))
-        lin, ang = np.zeros((N, 3)), np.zeros((N, 3))
-    low, high = model.tree.position_limits.T
-    s = rng.uniform(np.where(np.isfinite(low), low, -np.pi), np.where(np.isfinite(high), high, np.pi), size=(N, n))
-    state = dict(base_position=p, base_quaternion=q, joint_positions=s, base_linear_velocity=lin,
-                 base_angular_velocity=ang, joint_velocities=rng.uniform(-1.0, 1.0, size=(N, n)))
-    return state if num_envs is not None else {k: v[0] for k, v in state.items()}
 
 
 def _mujoco_at(mj, model, state):
@@ -218,7 +182,7 @@ def test_seed_ergocub_has_the_seeds_32_points_on_the_ankles(dtype):
     l/r_ankle_2) give 32 points, all enabled, and no warning (meshes are off by default, as in JaxSim);
     with meshes requested, its unresolved package:// meshes give one warning that names them and the
     same 32 points. Reference: the seed notebook's n_cp = 32 (JaxSim) and the URDF text."""
-    model = _ergocub_seed(dtype)
+    model = ergocub_seed_model(dtype)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         params = wd.model.reduce(model, model.joint_names()).kin_dyn_parameters  # a fresh model: built here
@@ -241,7 +205,7 @@ def test_seed_ergocub_has_the_seeds_32_points_on_the_ankles(dtype):
     # Without meshes (JaxSim's default), the same points and no warning.
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        no_mesh = _seed_model(dtype).kin_dyn_parameters.contact_parameters
+        no_mesh = ergocub_seed_with_points(dtype).kin_dyn_parameters.contact_parameters
     np.testing.assert_array_equal(no_mesh.point, cp.point)
     assert no_mesh.body == cp.body
 
@@ -251,10 +215,10 @@ def test_seed_points_are_the_foot_box_corners_moved_to_the_ankle(dtype):
     in l/r_ankle_2. References: (1) the URDF's box sizes and origins (ElementTree) composed with the
     lumped frames' poses wd.frame.transform; (2) MuJoCo's world poses of the same boxes (fusestatic off).
     Corners are compared as sets (sorted lexicographically), so the test does not depend on the order."""
-    model = _seed_model(dtype)
+    model = ergocub_seed_with_points(dtype)
     root = ET.fromstring(robots.ergocub_urdf())
     rng = np.random.default_rng(7)
-    state = _random_state(model, rng)
+    state = random_state_kwargs(model, rng)
     data = wd.data.Data.build(model, **state)
     W_p_C = wd.contact.collidable_point_positions(model, data).numpy()
     assert W_p_C.shape == (32, 3)
@@ -269,7 +233,7 @@ def test_seed_points_are_the_foot_box_corners_moved_to_the_ankle(dtype):
             expected.append(W_H_F[:3, :3] @ (xyz + np.array(signs) * size) + W_H_F[:3, 3])
     expected = np.array(expected)
     _assert_same_points(W_p_C.astype(np.float64), expected, _tol(dtype, expected), "foot boxes")
-    mj = _mujoco_keep_primitives(robots.ergocub_urdf(), robots.seed_joints(_ergocub_full(np.float64).joint_names()), True)
+    mj = _mujoco_keep_primitives(robots.ergocub_urdf(), robots.seed_joints(ergocub_full_model(np.float64).joint_names()), True)
     mjs = _mujoco_at(mj, model, state)
     _check_points_against_mujoco(model, mj, mjs.d, W_p_C.astype(np.float64), NO_MESH, _tol(dtype, W_p_C))
 
@@ -277,15 +241,15 @@ def test_seed_points_are_the_foot_box_corners_moved_to_the_ankle(dtype):
 def test_seed_contact_transforms_are_point_position_and_link_orientation(dtype):
     """W_H_C = (link orientation, point position). References: MuJoCo's body orientation of the point's
     link (xmat), and the points' positions (checked against MuJoCo above); batched equals single."""
-    model = _seed_model(dtype)
+    model = ergocub_seed_with_points(dtype)
     rng = np.random.default_rng(8)
-    state = _random_state(model, rng, num_envs=3)
+    state = random_state_kwargs(model, rng, num_envs=3)
     data = wd.data.Data.build(model, **state, num_envs=3)
     W_H_C = wd.contact.transforms(model, data).numpy()
     W_p_C = wd.contact.collidable_point_positions(model, data).numpy()
     assert W_H_C.shape == (3, 32, 4, 4) and W_p_C.shape == (3, 32, 3)
     body = model.kin_dyn_parameters.contact_parameters.body
-    mj = _mujoco_keep_primitives(robots.ergocub_urdf(), robots.seed_joints(_ergocub_full(np.float64).joint_names()), True)
+    mj = _mujoco_keep_primitives(robots.ergocub_urdf(), robots.seed_joints(ergocub_full_model(np.float64).joint_names()), True)
     for e in range(3):
         single = {k: v[e] for k, v in state.items()}
         mjs = _mujoco_at(mj, model, single)
@@ -303,7 +267,7 @@ def test_seed_centroidal_cell_17(dtype):
     is (32, 6, 6), batched without vmap. Reference: the blocks [[R^T, -R^T (p - c)^], [0, R^T]] written out
     with NumPy from W_H_C and the CoM c (computed here with NumPy from the link poses and the lumped
     masses; wd.com is another module)."""
-    model = _seed_model(dtype)
+    model = ergocub_seed_with_points(dtype)
     data = wd.data.random_model_data(model, seed=3)
     n_cp = len(model.kin_dyn_parameters.contact_parameters.body)
     assert n_cp == 32
@@ -346,7 +310,7 @@ def test_random_tree_points_lie_on_mujoco_geoms(seed, fixed_base, dtype):
     options = model.kin_dyn_parameters.options
     mj = _mujoco_keep_primitives(text, None, model.floating_base())
     rng = np.random.default_rng(seed)
-    state = _random_state(model, rng)
+    state = random_state_kwargs(model, rng)
     data = wd.data.Data.build(model, **state)
     W_p_C = wd.contact.collidable_point_positions(model, data).numpy().astype(np.float64)
     mjs = _mujoco_at(mj, model, state)
@@ -395,7 +359,7 @@ def test_mjcf_shapes_lie_on_mujoco_geoms(dtype):
     assert model.frame_names() == ("hand",)
     mj = mujoco.MjModel.from_xml_string(MJCF)
     rng = np.random.default_rng(5)
-    state = _random_state(model, rng)
+    state = random_state_kwargs(model, rng)
     data = wd.data.Data.build(model, **state)
     W_p_C = wd.contact.collidable_point_positions(model, data).numpy().astype(np.float64)
     mjs = _mujoco_at(mj, model, state)
@@ -511,7 +475,7 @@ def test_enabled_mask_selects_points_and_leaves_the_model_unchanged(dtype):
     """enabled_links / enabled masks: len(body) counts all points, the functions return the enabled
     ones (as JaxSim); the original model keeps all points. Reference: the all-points results indexed
     with the mask."""
-    model = _seed_model(dtype)
+    model = ergocub_seed_with_points(dtype)
     data = wd.data.random_model_data(model, seed=4)
     left = wd.contact.with_collidable_points(model, enabled_links=("l_ankle_2",))
     cp = left.kin_dyn_parameters.contact_parameters
@@ -554,10 +518,10 @@ def test_in_contact_against_flat_ground(dtype):
     """in_contact: a link is in contact when any of its enabled points has z <= 0. Reference: NumPy on
     the point positions (checked against MuJoCo above), for batched random states placed near the
     ground, all links and a subset by name; a link without points is never in contact."""
-    model = _seed_model(dtype)
+    model = ergocub_seed_with_points(dtype)
     rng = np.random.default_rng(9)
     N = 16
-    data = wd.data.Data.build(model, **_random_state(model, rng, N, z_range=(-0.2, 1.2)), num_envs=N)
+    data = wd.data.Data.build(model, **random_state_kwargs(model, rng, N, z_range=(-0.2, 1.2)), num_envs=N)
     W_p_C = wd.contact.collidable_point_positions(model, data).numpy()
     body = np.asarray(model.kin_dyn_parameters.contact_parameters.body)
     contact = wd.contact.in_contact(model, data).numpy()
@@ -587,9 +551,9 @@ def test_point_velocities_equal_jacobian_times_nu(in_repr, dtype):
     Mixed one mapped by the contact frame's transforms (NumPy, from wd.contact.transforms); the linear
     Mixed rows equal MuJoCo's point Jacobian (mj_jac, converted to warpdyn's Mixed input).
     Tolerance: as the module's (two code paths summing the same ~18 terms)."""
-    model = _seed_model(dtype)
+    model = ergocub_seed_with_points(dtype)
     rng = np.random.default_rng(10 + int(in_repr))
-    state = _random_state(model, rng)
+    state = random_state_kwargs(model, rng)
     data = wd.data.Data.build(model, **state, velocity_representation=in_repr)
     nu = data.generalized_velocity.numpy()
     v = wd.contact.collidable_point_velocities(model, data).numpy()
@@ -607,7 +571,7 @@ def test_point_velocities_equal_jacobian_times_nu(in_repr, dtype):
     T = np.eye(6 + model.dofs())
     W_H_B = data.base_transform.numpy().astype(np.float64)
     T[:6, :6] = robots.from_mixed(in_repr.name, W_H_B[:3, :3], W_H_B[:3, 3])
-    mj = _mujoco_keep_primitives(robots.ergocub_urdf(), robots.seed_joints(_ergocub_full(np.float64).joint_names()), True)
+    mj = _mujoco_keep_primitives(robots.ergocub_urdf(), robots.seed_joints(ergocub_full_model(np.float64).joint_names()), True)
     mjs = _mujoco_at(mj, model, state)
     for c in (0, 9, 17, 31):
         jacp, jacr = np.zeros((3, mj.nv)), np.zeros((3, mj.nv))
@@ -619,104 +583,3 @@ def test_point_velocities_equal_jacobian_times_nu(in_repr, dtype):
         ref[:, 6:] = jacp[:, mjs.dof_adr]
         np.testing.assert_allclose(J[VelRepr.Mixed][c, :3] @ T, ref, rtol=0, atol=tol, err_msg=f"point {c}")
 
-
-def _advance(state, t):
-    """The state moved along its velocity for time t (Mixed base velocity: W_pdot_B, W_omega_WB)."""
-    w = state["base_angular_velocity"]
-    angle = np.linalg.norm(w) * t
-    axis = w / np.linalg.norm(w)
-    dq = np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * axis])
-    q = state["base_quaternion"]
-    w1, x1, y1, z1 = dq
-    w2, x2, y2, z2 = q
-    q_new = np.array([
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    ])
-    return dict(state, base_position=state["base_position"] + t * state["base_linear_velocity"], base_quaternion=q_new,
-                joint_positions=state["joint_positions"] + t * state["joint_velocities"])
-
-
-def test_point_velocities_equal_finite_differences_of_positions():
-    """W_pdot_C equals central differences (step 1e-6) of W_p_C along the motion (base integrated exactly
-    on SO(3)), in float64. Tolerance 1e-8 m/s: truncation ~h^2 |d3p/dt3| ~1e-12, rounding ~1e-16/h ~1e-10."""
-    model = _seed_model(np.float64)
-    rng = np.random.default_rng(12)
-    state = _random_state(model, rng)
-    h = 1e-6
-    data = wd.data.Data.build(model, **state)
-    v = wd.contact.collidable_point_velocities(model, data).numpy()
-    plus = wd.contact.collidable_point_positions(model, wd.data.Data.build(model, **_advance(state, h))).numpy()
-    minus = wd.contact.collidable_point_positions(model, wd.data.Data.build(model, **_advance(state, -h))).numpy()
-    np.testing.assert_allclose((plus - minus) / (2 * h), v, rtol=0, atol=1e-8)
-    p, pv = wd.contact.collidable_point_kinematics(model, data)
-    np.testing.assert_array_equal(pv.numpy(), v)
-    np.testing.assert_array_equal(p.numpy(), wd.contact.collidable_point_positions(model, data).numpy())
-
-
-@pytest.mark.parametrize("in_repr", REPRS)
-def test_jacobian_derivative_equals_finite_differences(in_repr, dtype):
-    """jacobian_derivative (warpdyn.engine.derivatives) equals central differences (step 1e-6, float64)
-    of the contact Jacobians along the motion, for 3 output representations. Tolerance: float64 1e-7
-    relative (FD truncation and rounding as above, on entries up to ~2); float32 1e-4 relative."""
-    model = _seed_model(dtype)
-    model64 = _seed_model(np.float64)
-    rng = np.random.default_rng(20 + int(in_repr))
-    state = _random_state(model, rng)
-    data = wd.data.Data.build(model, **state)  # the motion: Mixed base velocity, as _advance reads it
-    h = 1e-6
-    for out_repr in REPRS:
-        with data.switch_velocity_representation(in_repr):
-            Jdot = wd.contact.jacobian_derivative(model, data, output_vel_repr=out_repr).numpy()
-        assert Jdot.shape == (32, 6, 6 + model.dofs())
-
-        def J_at(t):
-            d = wd.data.Data.build(model64, **_advance(state, t))
-            with d.switch_velocity_representation(in_repr):
-                return wd.contact.jacobian(model64, d, output_vel_repr=out_repr).numpy()
-
-        ref = (J_at(h) - J_at(-h)) / (2 * h)
-        scale = max(1.0, float(np.abs(ref).max()))
-        tol = (1e-7 if np.dtype(dtype) == np.float64 else 1e-4) * scale
-        np.testing.assert_allclose(Jdot, ref, rtol=0, atol=tol, err_msg=f"in={in_repr.name} out={out_repr.name}")
-
-
-def test_tape_gradients_equal_finite_differences_and_jacobian_transpose():
-    """wp.Tape gradients through the contact kernels (float64): d(w·W_p_C)/ds equals central finite
-    differences (step 1e-6; tolerance 1e-7) and d(w·W_pdot_C)/dsdot equals J[:, :3, 6:]^T w (exact up to
-    rounding, 1e-10)."""
-    model = _seed_model(np.float64)
-    rng = np.random.default_rng(13)
-    state = {k: v[None] for k, v in _random_state(model, rng).items()}
-    weights = rng.normal(size=(1, 32, 3))
-
-    def build(**changes):
-        return wd.data.Data.build(model, **{**state, **changes}, num_envs=1, requires_grad=True)
-
-    data = build()
-    tape = wp.Tape()
-    with tape:
-        W_p_C = wd.contact.collidable_point_positions(model, data)
-    tape.backward(grads={W_p_C: wp.array(weights, dtype=wp.float64)})
-    grad = data.joint_positions_state.grad.numpy()[0]
-    h = 1e-6
-    fd = np.zeros(model.dofs())
-    for j in range(model.dofs()):
-        s = state["joint_positions"].copy()
-        s[0, j] += h
-        plus = wd.contact.collidable_point_positions(model, build(joint_positions=s)).numpy()
-        s[0, j] -= 2 * h
-        minus = wd.contact.collidable_point_positions(model, build(joint_positions=s)).numpy()
-        fd[j] = np.sum(weights * (plus - minus)) / (2 * h)
-    np.testing.assert_allclose(grad, fd, rtol=0, atol=1e-7)
-
-    data = build()
-    tape = wp.Tape()
-    with tape:
-        v = wd.contact.collidable_point_velocities(model, data)
-    tape.backward(grads={v: wp.array(weights, dtype=wp.float64)})
-    J = wd.contact.jacobian(model, data, output_vel_repr=VelRepr.Mixed).numpy()[0]
-    ref = np.einsum("crj,cr->j", J[:, :3, 6:], weights[0])
-    np.testing.assert_allclose(data.joint_velocities_state.grad.numpy()[0], ref, rtol=0, atol=1e-10)

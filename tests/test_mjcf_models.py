@@ -1,4 +1,7 @@
-"""The MJCF fixtures and reference helpers of tests/mjcf_models.py, checked against MuJoCo identities.
+"""The MJCF fixtures (tests/mjcf_fixtures.py) and reference helpers of tests/mjcf_models.py, checked against
+MuJoCo identities: the fixtures themselves, armature and the mass matrix, springs and dampers, gravity
+compensation. Actuators: tests/test_mjcf_actuators.py; kinematics, options and dynamics:
+tests/test_mjcf_kinematics.py (both follow the rules below).
 
 Every expected value here is computed by hand: from the numbers written in the XML (copied below, not
 read back from the compiled model) and independent NumPy formulas (quaternions, geometric Jacobians,
@@ -17,50 +20,10 @@ import mjcf_models as mm
 import mujoco
 import numpy as np
 import pytest
-
-TOL = 1e-10
-SEEDS = range(5)
-
-
-def close(actual, expected, tol=TOL):
-    actual, expected = np.asarray(actual, float), np.asarray(expected, float)
-    scale = max(1.0, float(np.abs(expected).max(initial=0.0)))
-    np.testing.assert_allclose(actual, expected, rtol=0, atol=tol * scale)
+from mjcf_models import SEEDS, by_name, close
 
 
 # ------------------------------------------------------------------------------- independent math
-
-
-def quat_mul(a, b):
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array([
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    ])
-
-
-def quat_axis_angle(axis, angle):
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * axis])
-
-
-def quat_exp(w, h):
-    """Quaternion of the rotation by the vector w*h (axis w/|w|, angle |w|h)."""
-    n = np.linalg.norm(w)
-    return np.array([1.0, 0, 0, 0]) if n == 0 else quat_axis_angle(w, n * h)
-
-
-def quat_to_mat(q):
-    q = np.asarray(q, float) / np.linalg.norm(q)
-    w, x, y, z = q
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 def quat_to_rotvec(q):
@@ -70,24 +33,6 @@ def quat_to_rotvec(q):
         q = -q
     s = np.linalg.norm(q[1:])
     return np.zeros(3) if s == 0 else q[1:] / s * 2 * np.arctan2(s, q[0])
-
-
-def transform(pos=(0, 0, 0), rot=None):
-    T = np.eye(4)
-    T[:3, :3] = np.eye(3) if rot is None else rot
-    T[:3, 3] = pos
-    return T
-
-
-def hinge(axis, pos, angle):
-    """Rotation by `angle` about `axis` through the point `pos` (frame coordinates): Tr(p) R Tr(-p)."""
-    R = quat_to_mat(quat_axis_angle(axis, angle))
-    return transform(pos) @ transform(rot=R) @ transform(-np.asarray(pos, float))
-
-
-def slide(axis, dist):
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    return transform(axis * dist)
 
 
 def dof_columns(m, d, body, point):
@@ -125,36 +70,6 @@ def mass_matrix_by_hand(m, d):
         R = d.ximat[b].reshape(3, 3)
         M += m.body_mass[b] * Jv.T @ Jv + Jw.T @ (R @ np.diag(m.body_inertia[b]) @ R.T) @ Jw
     return M
-
-
-def integrate_by_hand(m, qpos, qvel, h):
-    """qpos advanced by h with velocity qvel, joint by joint (hinge/slide: q + h v; ball: q * exp(h w/2)
-    with w in the body frame; free: position + h v (world), quaternion as ball)."""
-    q = np.array(qpos, float)
-    for j in range(m.njnt):
-        a, v, t = m.jnt_qposadr[j], m.jnt_dofadr[j], m.jnt_type[j]
-        if t == mujoco.mjtJoint.mjJNT_FREE:
-            q[a : a + 3] += h * qvel[v : v + 3]
-            quat = q[a + 3 : a + 7] / np.linalg.norm(q[a + 3 : a + 7])
-            q[a + 3 : a + 7] = quat_mul(quat, quat_exp(qvel[v + 3 : v + 6], h))
-        elif t == mujoco.mjtJoint.mjJNT_BALL:
-            quat = q[a : a + 4] / np.linalg.norm(q[a : a + 4])
-            q[a : a + 4] = quat_mul(quat, quat_exp(qvel[v : v + 3], h))
-        else:
-            q[a] += h * qvel[v]
-    return q
-
-
-def same_rotation(qa, qb, tol=TOL):
-    """Quaternions equal up to sign."""
-    qa, qb = np.asarray(qa, float), np.asarray(qb, float)
-    close(qa * np.sign(np.dot(qa, qb)), qb, tol)
-
-
-def by_name(m, objtype, name):
-    i = mujoco.mj_name2id(m, objtype, name)
-    assert i >= 0, name
-    return i
 
 
 # --------------------------------------------------------------------------------------- fixtures
@@ -234,6 +149,24 @@ def test_full_mass_matrix_matches_mj_forward():
         except TypeError:
             mujoco.mj_fullM(m, dense, d.qM)
         np.testing.assert_allclose(mm.full_mass_matrix(m, d), dense, rtol=0, atol=1e-12)
+
+
+def test_unsupported_fixture_contents():
+    """UNSUPPORTED really carries what UNSUPPORTED_FEATURES lists: density/viscosity > 0 (and fluid forces
+    in qfrc_passive when moving), an equality, a fixed tendon with stiffness, a muscle, an activation state,
+    a tendon transmission, joint limits, frictionloss. Exact."""
+    m = mm.load(mm.UNSUPPORTED)
+    assert m.opt.density == 1.2 and m.opt.viscosity == 1.8e-5
+    assert m.neq == 1 and m.ntendon == 1 and m.tendon_stiffness[0] == 3
+    assert mujoco.mjtDyn.mjDYN_MUSCLE in m.actuator_dyntype and mujoco.mjtGain.mjGAIN_MUSCLE in m.actuator_gaintype
+    assert m.na == 2
+    assert mujoco.mjtTrn.mjTRN_TENDON in m.actuator_trntype
+    assert m.jnt_limited[:2].all() and m.dof_frictionloss[0] == 0.1
+    q, v = np.zeros(3), np.array([3.0, -2.0, 1.0])
+    _, d = mm._forward(m, q, v)
+    assert np.abs(d.qfrc_fluid).max() > 0
+    assert set(mm.UNSUPPORTED_FEATURES) == {"fluid", "joint_limits", "frictionloss", "equality", "tendon", "muscle",
+                                            "activation", "tendon_transmission"}
 
 
 # --------------------------------------------------------------------------------------- armature
@@ -380,241 +313,6 @@ def test_spring_and_damper_flags():
     assert not both.qfrc_passive.any() and not both.qfrc_gravcomp.any()
 
 
-# -------------------------------------------------------------------------------------- actuators
-
-
-def test_actuator_shortcut_parameters():
-    """The parser's shortcut expansion (mjs_setToMotor/Position/Velocity): motor gain [1,0,0] bias none;
-    position gain [kp,0,0] bias [0,-kp,-kv] (kv default 0); velocity gain [kv,0,0] bias [0,0,-kv];
-    general keeps gainprm/biasprm as written (missing entries 0). Dyntype none (0) everywhere. Exact."""
-    FIXED, AFFINE = mujoco.mjtGain.mjGAIN_FIXED, mujoco.mjtGain.mjGAIN_AFFINE
-    NONE_B, AFFINE_B = mujoco.mjtBias.mjBIAS_NONE, mujoco.mjtBias.mjBIAS_AFFINE
-    cases = {
-        "MOTOR": ([[1, 0, 0]] * 4, [[0, 0, 0]] * 4, [FIXED] * 4, [NONE_B] * 4),
-        "POSITION": ([[100, 0, 0], [500, 0, 0], [30, 0, 0]], [[0, -100, -5], [0, -500, 0], [0, -30, -2]],
-                     [FIXED] * 3, [AFFINE_B] * 3),
-        "VELOCITY": ([[20, 0, 0], [4, 0, 0]], [[0, 0, -20], [0, 0, -4]], [FIXED] * 2, [AFFINE_B] * 2),
-        "GENERAL": ([[2, 0.5, -0.1], [3, 0, 0]], [[0.3, -4, -0.7], [0, 0, 0]], [AFFINE, FIXED], [AFFINE_B, NONE_B]),
-    }
-    for name, (gain, bias, gtype, btype) in cases.items():
-        m = mm.load(mm.FIXTURES[name])
-        np.testing.assert_array_equal(m.actuator_gainprm[:, :3], gain)
-        np.testing.assert_array_equal(m.actuator_biasprm[:, :3], bias)
-        assert not m.actuator_gainprm[:, 3:].any() and not m.actuator_biasprm[:, 3:].any()
-        np.testing.assert_array_equal(m.actuator_gaintype, gtype)
-        np.testing.assert_array_equal(m.actuator_biastype, btype)
-        assert not m.actuator_dyntype.any()
-
-
-def test_actuator_limits_resolution():
-    """ctrllimited/forcelimited as resolved by the compiler: explicit true/false win; "auto" (the default,
-    with compiler autolimits="true", the default) means limited iff the range is given. Exact."""
-    expected = {
-        "MOTOR": ([1, 1, 0, 0], [0, 0, 0, 0]),
-        "POSITION": ([1, 1, 0], [1, 0, 1]),
-        "VELOCITY": ([1, 0], [0, 1]),
-        "GENERAL": ([1, 0], [1, 0]),
-    }
-    for name, (ctrl, force) in expected.items():
-        m = mm.load(mm.FIXTURES[name])
-        np.testing.assert_array_equal(m.actuator_ctrllimited, ctrl, err_msg=name)
-        np.testing.assert_array_equal(m.actuator_forcelimited, force, err_msg=name)
-
-
-def _actuation_cases(name):
-    """States and controls from small (every force inside its forcerange, controls inside ctrlrange) to
-    large (controls far outside ctrlrange, forces clamped); the test checks that both sides of every clamp
-    were exercised."""
-    m = mm.load(mm.FIXTURES[name])
-    rng = np.random.default_rng(sum(map(ord, name)))
-    for scale in (0.01, 0.03, 0.1, 0.3, 1.0, 3.0) * 2:
-        q, v = mm.random_state(m, rng)
-        q, v = scale * q, scale * v
-        u = mm.random_ctrl(m, rng, overshoot=1.5 * max(1.0, scale)) * (min(1, scale))
-        yield m, q, v, u, mm.actuator_forces(m, q, v, u)
-
-
-def _both_sides(values, lo, hi):
-    """True when `values` has entries strictly inside (lo, hi) and entries outside."""
-    values = np.asarray(values)
-    inside = (values > lo) & (values < hi)
-    return inside.any() and not inside.all()
-
-
-def test_motor_by_hand():
-    """MOTOR: force = ctrl clamped to ctrlrange when ctrllimited (mot1 [-1,1] explicit, mot2 [-3,2] via
-    autolimits; mot3 ctrllimited=false and mot1b unranged: not clamped); length = gear q, velocity = gear
-    qdot; qfrc_actuator = sum over actuators of gear * force (mot1 and mot1b add on m1). 1e-10."""
-    us = []
-    for m, q, v, u, a in _actuation_cases("MOTOR"):
-        force = np.array([np.clip(u[0], -1, 1), np.clip(u[1], -3, 2), u[2], u[3]])
-        gear = np.array([50, -2.5, 10, 5])
-        close(a.actuator_force, force)
-        close(a.actuator_length, gear * q[[0, 1, 2, 0]])
-        close(a.actuator_velocity, gear * v[[0, 1, 2, 0]])
-        close(a.qfrc_actuator, [50 * force[0] + 5 * force[3], -2.5 * force[1], 10 * force[2]])
-        close(a.actuator_moment, [[50, 0, 0], [0, -2.5, 0], [0, 0, 10], [5, 0, 0]])
-        us.append(u)
-    us = np.array(us)
-    assert _both_sides(us[:, 0], -1, 1) and _both_sides(us[:, 1], -3, 2) and _both_sides(us[:, 2], -1, 1)
-
-
-def test_position_by_hand():
-    """POSITION: force = kp u - kp L - kv V with u the clamped ctrl, L = gear q, V = gear qdot, then
-    clamped to forcerange when forcelimited; qfrc = gear * force. pos1: kp 100, kv 5, gear 2, u in [-1,1],
-    force in [-20,20]; pos2: kp 500, kv 0, u in [-0.2,0.2]; pos3: kp 30, kv 2, u free, force in [-4,4]. 1e-10."""
-    rows = []
-    for m, q, v, u, a in _actuation_cases("POSITION"):
-        u1 = np.clip(u[0], -1, 1)
-        raw1 = 100 * u1 - 100 * 2 * q[0] - 5 * 2 * v[0]
-        raw3 = 30 * u[2] - 30 * q[2] - 2 * v[2]
-        f1, f3 = np.clip(raw1, -20, 20), np.clip(raw3, -4, 4)
-        f2 = 500 * np.clip(u[1], -0.2, 0.2) - 500 * q[1]
-        close(a.actuator_force, [f1, f2, f3])
-        close(a.qfrc_actuator, [2 * f1, f2, f3])
-        rows.append([u[0], u[1], raw1, raw3])
-    rows = np.array(rows)
-    assert _both_sides(rows[:, 0], -1, 1) and _both_sides(rows[:, 1], -0.2, 0.2)
-    assert _both_sides(rows[:, 2], -20, 20) and _both_sides(rows[:, 3], -4, 4)
-
-
-def test_velocity_by_hand():
-    """VELOCITY: force = kv u - kv V, V = gear qdot. vel1: kv 20, gear 3, u in [-2,2]; vel2: kv 4, force in
-    [-1,1]. qfrc = gear * force. 1e-10."""
-    rows = []
-    for m, q, v, u, a in _actuation_cases("VELOCITY"):
-        f1 = 20 * np.clip(u[0], -2, 2) - 20 * 3 * v[0]
-        raw2 = 4 * u[1] - 4 * v[1]
-        f2 = np.clip(raw2, -1, 1)
-        close(a.actuator_force, [f1, f2])
-        close(a.qfrc_actuator, [3 * f1, f2])
-        rows.append([u[0], raw2])
-    rows = np.array(rows)
-    assert _both_sides(rows[:, 0], -2, 2) and _both_sides(rows[:, 1], -1, 1)
-
-
-def test_general_by_hand():
-    """GENERAL: gen_affine: gain = 2 + 0.5 L - 0.1 V, bias = 0.3 - 4 L - 0.7 V, L = 1.5 q, V = 1.5 qdot,
-    force = clip(gain * clip(u, -1, 1) + bias, -6, 6), qfrc = 1.5 force; gen_fixed: force = 3 u (gear 1,
-    no bias, no limits). 1e-10."""
-    rows = []
-    for m, q, v, u, a in _actuation_cases("GENERAL"):
-        L, V = 1.5 * q[0], 1.5 * v[0]
-        raw1 = (2 + 0.5 * L - 0.1 * V) * np.clip(u[0], -1, 1) + 0.3 - 4 * L - 0.7 * V
-        f1 = np.clip(raw1, -6, 6)
-        f2 = 3 * u[1]
-        close(a.actuator_force, [f1, f2])
-        close(a.qfrc_actuator, [1.5 * f1, f2])
-        rows.append([u[0], raw1])
-    rows = np.array(rows)
-    assert _both_sides(rows[:, 0], -1, 1) and _both_sides(rows[:, 1], -6, 6)
-
-
-def test_humanoid_actuator_defaults_and_forces():
-    """FLOATING_HUMANOID: actuator defaults resolve as written (the main-class <motor ctrlrange> applies to
-    every actuator of that class, class "leg" <position> gives kp 200 kv 10 ctrlrange [-1.5,1.5]
-    forcerange [-150,150], attributes on the element override), and qfrc_actuator is the sum of
-    gear * force in each actuated dof, zero on the free joint. 1e-10."""
-    m = mm.load(mm.FLOATING_HUMANOID)
-    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, i) for i in range(m.nu)]
-    kp = {"hip_x": 200, "hip_z": 100, "hip_y": 200, "knee": 200}
-    kv = {"hip_x": 10, "hip_z": 5, "hip_y": 10, "knee": 10}
-    for i, n in enumerate(names):
-        key = n[:-2]
-        if key in kp:
-            np.testing.assert_array_equal(m.actuator_biasprm[i, :3], [0, -kp[key], -kv[key]])
-            np.testing.assert_array_equal(m.actuator_forcerange[i], [-150, 150])
-            assert m.actuator_forcelimited[i]
-            np.testing.assert_array_equal(m.actuator_ctrlrange[i], [-0.1, 2.5] if key == "knee" else [-1.5, 1.5])
-        elif key == "ankle":
-            np.testing.assert_array_equal(m.actuator_biasprm[i, :3], [0, 0, -8])
-            np.testing.assert_array_equal(m.actuator_ctrlrange[i], [-3, 3])
-        else:
-            np.testing.assert_array_equal(m.actuator_ctrlrange[i], [-0.5, 0.5] if key == "elbow" else [-1, 1])
-            assert not m.actuator_forcelimited[i]
-    rng = np.random.default_rng(10)
-    for _ in SEEDS:
-        q, v = mm.random_state(m, rng)
-        u = mm.random_ctrl(m, rng)
-        a = mm.actuator_forces(m, q, v, u)
-        expected = np.zeros(m.nv)
-        for i in range(m.nu):
-            j = m.actuator_trnid[i, 0]
-            qa, da, g = m.jnt_qposadr[j], m.jnt_dofadr[j], m.actuator_gear[i, 0]
-            lo, hi = m.actuator_ctrlrange[i]
-            uc = np.clip(u[i], lo, hi)
-            bias = m.actuator_biasprm[i]
-            f = m.actuator_gainprm[i, 0] * uc + bias[1] * g * q[qa] + bias[2] * g * v[da]
-            if m.actuator_forcelimited[i]:
-                f = np.clip(f, *m.actuator_forcerange[i])
-            expected[da] += g * f
-        close(a.qfrc_actuator, expected)
-        assert not a.qfrc_actuator[:6].any()
-
-
-def test_clampctrl_and_actuation_flags():
-    """mjDSBL_CLAMPCTRL: ctrl is used unclamped (mot1 with ctrl 3 gives 3, not 1) while forcerange
-    clamping stays (POSITION pos1 still within +-20); mjDSBL_ACTUATION: qfrc_actuator and actuator_force 0.
-    Exact/1e-10."""
-    D = mujoco.mjtDisableBit
-    m = mm.load(mm.MOTOR)
-    q, v, u = np.zeros(3), np.zeros(3), np.array([3.0, 5.0, 0, 0])
-    unclamped = mm.reference_model(m, extra_disable=D.mjDSBL_CLAMPCTRL)
-    close(mm.actuator_forces(unclamped, q, v, u).actuator_force, [3, 5, 0, 0])
-    close(mm.actuator_forces(m, q, v, u).actuator_force, [1, 2, 0, 0])
-    a = mm.actuator_forces(mm.reference_model(m, extra_disable=D.mjDSBL_ACTUATION), q, v, u)
-    assert not a.qfrc_actuator.any() and not a.actuator_force.any()
-    p = mm.load(mm.POSITION)
-    p = mm.reference_model(p, extra_disable=D.mjDSBL_CLAMPCTRL)
-    f = mm.actuator_forces(p, np.zeros(3), np.zeros(3), [5.0, 0, 0])
-    close(f.actuator_force[0], 20)
-
-
-def test_joint_actuatorfrcrange_clamps_the_joint_total():
-    """JOINT_ACTUATORFRCRANGE: actuator_force is per actuator (2 u1 and u2 are not clamped by the joint),
-    but qfrc_actuator on a1 = clip(2 * u1 + 1 * u2, -3, 3) (jnt_actfrcrange, applied last in
-    mj_fwdActuation). 1e-10."""
-    m = mm.load(mm.JOINT_ACTUATORFRCRANGE)
-    assert m.jnt_actfrclimited[0]
-    for u in ([1, 1], [1, -0.5], [-1, -1], [0.3, 0.2]):
-        a = mm.actuator_forces(m, [0.2], [0.1], u)
-        close(a.actuator_force, u)
-        close(a.qfrc_actuator, [np.clip(2 * u[0] + u[1], -3, 3)])
-
-
-def test_actuator_armature_and_damping_reflect_through_gear_squared():
-    """MuJoCo >= 3.7: ACTUATOR_ARMATURE_DAMPING's motor (gear 30, armature 0.001, damping 0.002) adds
-    30^2 * 0.001 = 0.9 to M's diagonal and 30^2 * 0.002 = 1.8 to the joint's damping (qfrc_damper), on top
-    of the joint's own 0.01 and 0.1; dof_armature/dof_damping keep the joint's own values. 1e-10."""
-    m = mm.load(mm.ACTUATOR_ARMATURE_DAMPING)
-    assert m.dof_armature[0] == 0.01 and m.dof_damping[0] == 0.1
-    q, v = np.array([0.4]), np.array([-1.3])
-    spec = mujoco.MjSpec.from_string(mm.ACTUATOR_ARMATURE_DAMPING)
-    for act in spec.actuators:
-        act.armature = 0
-    m0 = spec.compile()
-    close(mm.full_mass_matrix(m, q), mm.full_mass_matrix(m0, q) + 0.9)
-    close(mm.passive_forces(m, q, v).qfrc_damper, [-(0.1 + 1.8) * v[0]])
-
-
-def test_filtered_position_uses_activation():
-    """UNSUPPORTED's <position kp=20 timeconst=0.05>: dyntype filterexact, dynprm[0] = 0.05, one act
-    state; force = kp * act - kp * q (act, not ctrl), and one Euler step gives act' = act + (ctrl - act)
-    (1 - exp(-h/0.05)) (mj_nextActivation). 1e-10."""
-    m = mm.load(mm.UNSUPPORTED)
-    i = by_name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, "filtered")
-    assert m.actuator_dyntype[i] == mujoco.mjtDyn.mjDYN_FILTEREXACT and m.actuator_dynprm[i, 0] == 0.05
-    adr = m.actuator_actadr[i]
-    q, v = np.array([0.1, -0.2, 0.3]), np.zeros(3)
-    ctrl, act = np.zeros(m.nu), np.zeros(m.na)
-    ctrl[i], act[adr] = 0.8, 0.25
-    a = mm.actuator_forces(m, q, v, ctrl, act)
-    close(a.actuator_force[i], 20 * 0.25 - 20 * 0.3)
-    h = m.opt.timestep
-    step = mm.euler_step(m, q, v, ctrl, act)
-    close(step.act[adr], 0.25 + (0.8 - 0.25) * (1 - np.exp(-h / 0.05)))
-
-
 # --------------------------------------------------------------------------------------- gravcomp
 
 
@@ -677,248 +375,3 @@ def test_actuatorgravcomp_without_actuators_is_lost():
     assert not mm.actuator_forces(m, q, v, np.zeros(0)).qfrc_actuator.any()
 
 
-# -------------------------------------------------------------------------------------- kinematics
-
-
-def _multi_joint_by_hand(q):
-    """Body frames of MULTI_JOINT composed by hand from the XML numbers: parent * Tr(pos) Rot(quat) * each
-    joint in document order (slide: Tr(axis (q - ref)), hinge: rotation by q - ref about its axis through
-    its pos, both in the frame left by the previous joints)."""
-    quat = lambda *w: quat_to_mat(np.array(w))
-    base = transform([0.1, -0.2, 0.3], quat(0.9238795, 0, 0, 0.3826834))
-    base = base @ slide([1, 0, 0], q[0]) @ slide([0, 1, 0], q[1] - 0.05) @ hinge([0, 0, 1], [0.05, 0, 0], q[2])
-    upper = base @ transform([0, 0.15, 0.1], quat(0.9659258, 0.2588190, 0, 0))
-    for axis, angle in (([1, 0, 0], q[3]), ([0, 1, 0], q[4]), ([0, 0, 1], q[5] - 0.2)):
-        upper = upper @ hinge(axis, [0, 0, 0.02], angle)
-    fore = upper @ transform([0, 0, -0.3])
-    fore = fore @ hinge([0, 1, 0], [0, 0, 0], q[6]) @ hinge([1, 1, 0], [0.03, 0, -0.05], q[7])
-    return {"base": base, "upper_arm": upper, "forearm": fore}
-
-
-def test_multi_joint_kinematics_by_hand():
-    """MULTI_JOINT: xpos/xmat of every body equal the hand composition (see _multi_joint_by_hand): joints
-    of one body compose in order, each about its own pos/axis in the body frame as moved by the joints
-    before it; the body's pos/quat come first; ref (base_y 0.05, sh_z 0.2) is subtracted. The XML quats
-    have 7 digits (the compiler normalises them): 1e-9. Also: at qpos0 the pose is the XML pose."""
-    m = mm.load(mm.MULTI_JOINT)
-    np.testing.assert_array_equal(m.qpos0, [0, 0.05, 0, 0, 0, 0.2, 0, 0])
-    rng = np.random.default_rng(14)
-    for q in [m.qpos0] + [mm.random_state(m, rng)[0] for _ in SEEDS]:
-        xpos, xquat = mm.body_poses(m, q)
-        for name, T in _multi_joint_by_hand(q).items():
-            b = by_name(m, mujoco.mjtObj.mjOBJ_BODY, name)
-            close(xpos[b], T[:3, 3], 1e-9)
-            close(quat_to_mat(xquat[b]), T[:3, :3], 1e-9)
-    xpos, _ = mm.body_poses(m, m.qpos0)
-    close(xpos[by_name(m, mujoco.mjtObj.mjOBJ_BODY, "base")], [0.1, -0.2, 0.3])
-
-
-def test_world_children_kinematics_by_hand():
-    """WORLD_CHILDREN: the table and pedestal stay at their XML poses; left_base = table * Tr(0,0.3,0)
-    Rz(90 deg) * Rz(l1); left_link = left_base * Tr(0.3,0,0) Ry(l2); the welded left_tool = left_link *
-    Tr(0.25,0,0), the massless left_tcp 0.05 further; right_base = Tr(0,-0.3,0.7) Rz(-45 deg) Rz(r1). The
-    fixed rotations use the XML's 7-digit quaternions (normalised by the compiler, as by quat_to_mat): 1e-9."""
-    m = mm.load(mm.WORLD_CHILDREN)
-    rng = np.random.default_rng(15)
-    Rz = lambda a: quat_to_mat(quat_axis_angle([0, 0, 1], a))
-    Ry = lambda a: quat_to_mat(quat_axis_angle([0, 1, 0], a))
-    for _ in SEEDS:
-        q, _ = mm.random_state(m, rng)
-        xpos, xquat = mm.body_poses(m, q)
-        table = transform([0, 0, 0.7])
-        left_base = table @ transform([0, 0.3, 0], quat_to_mat([0.7071068, 0, 0, 0.7071068]) @ Rz(q[0]))
-        left_link = left_base @ transform([0.3, 0, 0], Ry(q[1]))
-        tool = left_link @ transform([0.25, 0, 0])
-        tcp = tool @ transform([0.05, 0, 0])
-        right_base = transform([0, -0.3, 0.7], quat_to_mat([0.9238795, 0, 0, -0.3826834]) @ Rz(q[2]))
-        right_link = right_base @ transform([0.3, 0, 0], Ry(q[3]))
-        expected = {"table": table, "left_base": left_base, "left_link": left_link, "left_tool": tool,
-                    "left_tcp": tcp, "right_base": right_base, "right_link": right_link,
-                    "pedestal": transform([1, 0, 0.2])}
-        for name, T in expected.items():
-            b = by_name(m, mujoco.mjtObj.mjOBJ_BODY, name)
-            close(xpos[b], T[:3, 3], 1e-9)
-            close(quat_to_mat(xquat[b]), T[:3, :3], 1e-9)
-
-
-def test_world_children_mass_matrix_is_block_diagonal():
-    """WORLD_CHILDREN: the two arms are separate trees, so M has no coupling between (l1, l2) and (r1, r2)
-    (exactly 0: MuJoCo's sparsity), and the welded tool's mass (0.3 at 0.27 m from l2) is in the left
-    arm's M (M[l2,l2] >= 0.3 * 0.27^2 + the link's own). Exact / inequality."""
-    m = mm.load(mm.WORLD_CHILDREN)
-    M = mm.full_mass_matrix(m, mm.random_state(m, np.random.default_rng(16))[0])
-    assert not M[:2, 2:].any() and not M[2:, :2].any()
-    assert M[1, 1] >= 0.3 * 0.27**2 + 0.8 * 0.125**2 + 0.0045
-
-
-def test_ref_moves_the_zero_of_the_joint():
-    """SPRINGS: qpos0 = ref (0.1, 0.02, 0) is the XML pose (s2 at (0.4, 0, 1)); at q = 0 the hinge has
-    turned by -0.1 rad about y and s2's slide by -0.02 m along its x, so s2 is at Ry(-0.1)(0.4 - 0.02, 0, 0)
-    + (0, 0, 1). 1e-12."""
-    m = mm.load(mm.SPRINGS)
-    s2 = by_name(m, mujoco.mjtObj.mjOBJ_BODY, "s2")
-    close(mm.body_poses(m, m.qpos0)[0][s2], [0.4, 0, 1], 1e-12)
-    R = quat_to_mat(quat_axis_angle([0, 1, 0], -0.1))
-    close(mm.body_poses(m, np.zeros(3))[0][s2], R @ [0.4 - 0.02, 0, 0] + np.array([0, 0, 1]), 1e-12)
-
-
-def test_free_and_ball_velocity_conventions():
-    """DRONE's free joint: qvel[0:3] is the world linear velocity of the body origin, qvel[3:6] the
-    angular velocity in the body frame (world = xmat @ qvel[3:6]); BALL's qvel[0:3] is the angular
-    velocity in the child frame (world = xmat @ qvel[0:3]). Checked with mj_objectVelocity (mjOBJ_XBODY,
-    world orientation: [angular, linear at xpos]). 1e-10."""
-    m = mm.load(mm.DRONE)
-    rng = np.random.default_rng(17)
-    for _ in SEEDS:
-        q, v = mm.random_state(m, rng)
-        d = mm.make_data(m, q, v)
-        mujoco.mj_forward(m, d)
-        vel = np.zeros(6)
-        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, 1, vel, 0)
-        R = d.xmat[1].reshape(3, 3)
-        close(vel[:3], R @ v[3:6])
-        close(vel[3:], v[:3])
-        close(d.xpos[1], q[:3])
-        same_rotation(d.xquat[1], q[3:7] / np.linalg.norm(q[3:7]))
-    m = mm.load(mm.BALL)
-    for _ in SEEDS:
-        q, v = mm.random_state(m, rng)
-        d = mm.make_data(m, q, v)
-        mujoco.mj_forward(m, d)
-        vel = np.zeros(6)
-        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, 1, vel, 0)
-        close(vel[:3], d.xmat[1].reshape(3, 3) @ v[:3])
-        # the ball rotates after the body's own quat, about its anchor
-        body = quat_to_mat([0.9659258, 0, 0.2588190, 0])
-        close(d.xmat[1].reshape(3, 3), body @ quat_to_mat(q[:4]), 1e-9)
-
-
-# ------------------------------------------------------------------------------ options, dynamics
-
-
-def test_options_and_defaults():
-    """OPTIONS: gravity (0, 0, -3), timestep 0.004, integrator Euler as written; a model without <option>
-    gets MuJoCo's defaults (gravity (0, 0, -9.81), timestep 0.002, Euler, no disable/enable flags). Exact.
-    The pendulum's qacc = (torque of gravity about y - 0.1 qdot) / (Iyy + m r^2), by hand. 1e-10."""
-    m = mm.load(mm.OPTIONS)
-    np.testing.assert_array_equal(m.opt.gravity, [0, 0, -3])
-    assert m.opt.timestep == 0.004 and m.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
-    dflt = mm.load(mm.ARMATURE)
-    np.testing.assert_array_equal(dflt.opt.gravity, [0, 0, -9.81])
-    assert dflt.opt.timestep == 0.002 and dflt.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
-    assert dflt.opt.disableflags == 0 and dflt.opt.enableflags == 0
-    for q, v in ((0.3, 0.0), (-1.2, 2.0)):
-        r = quat_to_mat(quat_axis_angle([0, 1, 0], q)) @ [0.3, 0, 0]
-        torque = np.cross(r, [0, 0, -3.0])[1]
-        expected = (torque - 0.1 * v) / (0.001 + 0.09)
-        close(mm.forward_acceleration(m, [q], [v]), [expected])
-
-
-def _smooth_force(m, q, v, u):
-    """qfrc_smooth = qfrc_passive - qfrc_bias + qfrc_actuator, from the (separately tested) helpers."""
-    passive = mm.passive_forces(m, q, v).qfrc_passive
-    return passive - mm.bias_forces(m, q, v) + mm.actuator_forces(m, q, v, u).qfrc_actuator
-
-
-@pytest.mark.parametrize("name", ["DAMPING", "OPTIONS", "FLOATING_HUMANOID", "BALL", "SPRINGS", "DRONE"])
-def test_euler_step_by_hand(name):
-    """One Euler step: qvel' = qvel + h (M + h diag(dof_damping))^-1 qfrc_smooth (implicit joint damping,
-    mj_EulerSkip; only dof damping: actuator kv stays in qfrc_smooth, explicit) and, with eulerdamp
-    disabled, qvel' = qvel + h M^-1 qfrc_smooth; qpos' = qpos integrated with qvel' (semi-implicit;
-    quaternions q * exp(h w'/2), body frame). Dense numpy solve vs MuJoCo's sparse LDL: 1e-10 relative
-    on qvel (velocities of O(10))."""
-    m = mm.load(mm.FIXTURES[name])
-    h = m.opt.timestep
-    rng = np.random.default_rng(18)
-    for _ in range(3):
-        q, v = mm.random_state(m, rng)
-        u = mm.random_ctrl(m, rng)
-        M = mm.full_mass_matrix(m, q)
-        f = _smooth_force(m, q, v, u)
-        for eulerdamp, A in ((True, M + h * np.diag(m.dof_damping)), (False, M)):
-            step = mm.euler_step(m, q, v, u, eulerdamp=eulerdamp)
-            v_next = v + h * np.linalg.solve(A, f)
-            close(step.qvel, v_next)
-            close(step.qpos, integrate_by_hand(m, q, v_next, h))
-        if m.dof_damping.any():  # the implicit treatment is observable
-            assert np.abs(mm.euler_step(m, q, v, u).qvel - mm.euler_step(m, q, v, u, eulerdamp=False).qvel).max() > 1e-9
-
-
-def test_euler_damper_flag_also_disables_implicit_damping():
-    """mjDSBL_DAMPER: no damping force and no implicit damping in Euler either (mj_EulerSkip checks both
-    flags): qvel' = qvel + h M^-1 (qfrc_smooth without damper). 1e-10."""
-    m = mm.reference_model(mm.load(mm.DAMPING), extra_disable=mujoco.mjtDisableBit.mjDSBL_DAMPER)
-    q, v = np.array([0.1, 0.5, -0.4]), np.array([1.0, -2.0, 3.0])
-    f = _smooth_force(m, q, v, np.zeros(0))
-    close(mm.euler_step(m, q, v).qvel, v + m.opt.timestep * np.linalg.solve(mm.full_mass_matrix(m, q), f))
-
-
-def test_implicitfast_treats_actuator_kv_implicitly():
-    """implicitfast (documented contrast with Euler): qvel' = qvel + h (M - h D)^-1 qfrc_smooth with D =
-    -diag(dof_damping) + sum_i gear_i^2 dforce_i/dV (= biasprm[2] for position/velocity servos) for every
-    actuator whose force is not at its forcerange limit (mjd_actuator_vel), RNE derivatives dropped.
-    POSITION has no joint damping, so D comes from kv alone. 1e-10."""
-    m = mm.load(mm.POSITION)
-    mi = mm.reference_model(m, integrator=mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
-    h = m.opt.timestep
-    rng = np.random.default_rng(19)
-    gear, kv = np.array([2.0, 1.0, 1.0]), np.array([5.0, 0.0, 2.0])
-    lo, hi = np.array([-20, -np.inf, -4]), np.array([20, np.inf, 4])
-    seen = set()
-    for scale in (0.02, 0.05, 0.2, 1.0):  # small states keep the servos inside forcerange, large ones saturate
-        q, v = mm.random_state(m, rng)
-        q, v = scale * q, scale * v
-        u = mm.random_ctrl(m, rng) * scale
-        force = mm.actuator_forces(m, q, v, u).actuator_force
-        free = (force > lo) & (force < hi)
-        seen.update(zip(range(3), free))
-        D = np.diag(np.where(free, -(gear**2) * kv, 0.0))
-        f = _smooth_force(m, q, v, u)
-        d = mm.make_data(mi, q, v, u)
-        mujoco.mj_step(mi, d)
-        close(d.qvel, v + h * np.linalg.solve(mm.full_mass_matrix(m, q) - h * D, f))
-    assert {(0, True), (0, False), (2, True), (2, False)} <= seen  # both branches of pos1 and pos3 exercised
-
-
-def test_drone_newton_euler_by_hand():
-    """DRONE (free body, CoM c = (0.005, -0.003, 0.01) in the body frame, principal axes rotated by
-    iquat): with a world force F and torque T applied at the CoM (xfrc_applied), a_com = g + F/m and
-    body-frame wdot = I^-1 (R'T - w x I w) (I = Ri diag(0.004, 0.005, 0.008) Ri'); qacc[3:6] = wdot and
-    qacc[0:3] = acceleration of the body origin = a_com - wdot_w x r - w_w x (w_w x r), r = R c. Gravity
-    -9.81 on mass 0.8. 1e-10 on O(10) accelerations."""
-    m = mm.load(mm.DRONE)
-    Ri = quat_to_mat([0.9914449, 0, 0, 0.1305262])
-    I = Ri @ np.diag([0.004, 0.005, 0.008]) @ Ri.T
-    c, mass = np.array([0.005, -0.003, 0.01]), 0.8
-    rng = np.random.default_rng(20)
-    for _ in SEEDS:
-        q, v = mm.random_state(m, rng)
-        F, T = rng.normal(size=3) * 5, rng.normal(size=3) * 0.1
-        xfrc = np.zeros((m.nbody, 6))
-        xfrc[1] = np.concatenate([F, T])
-        qacc = mm.forward_acceleration(m, q, v, xfrc_applied=xfrc)
-        R = quat_to_mat(q[3:7])
-        w = v[3:6]
-        wdot = np.linalg.solve(I, R.T @ T - np.cross(w, I @ w))
-        r, w_w, wdot_w = R @ c, R @ w, R @ wdot
-        a_origin = np.array([0, 0, -9.81]) + F / mass - np.cross(wdot_w, r) - np.cross(w_w, np.cross(w_w, r))
-        close(qacc[3:], wdot, 1e-10 * 10)
-        close(qacc[:3], a_origin, 1e-10 * 10)
-
-
-def test_unsupported_fixture_contents():
-    """UNSUPPORTED really carries what UNSUPPORTED_FEATURES lists: density/viscosity > 0 (and fluid forces
-    in qfrc_passive when moving), an equality, a fixed tendon with stiffness, a muscle, an activation state,
-    a tendon transmission, joint limits, frictionloss. Exact."""
-    m = mm.load(mm.UNSUPPORTED)
-    assert m.opt.density == 1.2 and m.opt.viscosity == 1.8e-5
-    assert m.neq == 1 and m.ntendon == 1 and m.tendon_stiffness[0] == 3
-    assert mujoco.mjtDyn.mjDYN_MUSCLE in m.actuator_dyntype and mujoco.mjtGain.mjGAIN_MUSCLE in m.actuator_gaintype
-    assert m.na == 2
-    assert mujoco.mjtTrn.mjTRN_TENDON in m.actuator_trntype
-    assert m.jnt_limited[:2].all() and m.dof_frictionloss[0] == 0.1
-    q, v = np.zeros(3), np.array([3.0, -2.0, 1.0])
-    _, d = mm._forward(m, q, v)
-    assert np.abs(d.qfrc_fluid).max() > 0
-    assert set(mm.UNSUPPORTED_FEATURES) == {"fluid", "joint_limits", "frictionloss", "equality", "tendon", "muscle",
-                                            "activation", "tendon_transmission"}
