@@ -8,7 +8,8 @@ test parses every module's imports (ast, no import is executed) and asserts:
 - no import inside a function, except of optional dependencies (torch, rerun, mujoco, yourdfpy, trimesh,
   icub_models, matplotlib), which a user may not have installed;
 - warpdyn reads Warp's private internals (warp._src) in warpdyn/engine/warp_private.py alone, and finds
-  them in the Warp version it runs with (otherwise its fallbacks would be taken silently).
+  them in the Warp version it runs with (otherwise its fallbacks would be taken silently);
+- no Python file of the project (tests, examples and benchmarks included) is over 700 lines.
 A module missing from LAYERS fails the test: a new module is placed in a layer on purpose.
 """
 
@@ -219,7 +220,11 @@ def test_warp_internals_are_read_in_one_module_and_found():
     assert warp_private.tape_known() and warp_private.descriptor_known()
 
 
-@pytest.mark.parametrize("module", sorted(MODULES))
-def test_no_module_is_over_700_lines(module):
-    lines = MODULES[module].read_text(encoding="utf-8").count("\n")
-    assert lines <= 700, f"{MODULES[module].relative_to(ROOT)} has {lines} lines"
+PYTHON_FILES = sorted(p.relative_to(ROOT).as_posix() for folder in ("warpdyn", "kernels", "tests", "examples", "benchmarks") for p in (ROOT / folder).rglob("*.py"))
+
+
+@pytest.mark.parametrize("path", PYTHON_FILES)
+def test_no_python_file_is_over_700_lines(path):
+    """Every Python file of the project (package, kernels, tests, examples, benchmarks) reads in one sitting."""
+    lines = (ROOT / path).read_text(encoding="utf-8").count("\n")
+    assert lines <= 700, f"{path} has {lines} lines"
