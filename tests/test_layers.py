@@ -9,7 +9,8 @@ test parses every module's imports (ast, no import is executed) and asserts:
   icub_models, matplotlib), which a user may not have installed;
 - warpdyn reads Warp's private internals (warp._src) in warpdyn/engine/warp_private.py alone, and finds
   them in the Warp version it runs with (otherwise its fallbacks would be taken silently);
-- no Python file of the project (tests, examples and benchmarks included) is over 700 lines.
+- no Python file of the project (tests, examples and benchmarks included) is over 700 lines;
+- pyproject.toml installs every package (a non-editable install would otherwise lack one).
 A module missing from LAYERS fails the test: a new module is placed in a layer on purpose.
 """
 
@@ -228,3 +229,15 @@ def test_no_python_file_is_over_700_lines(path):
     """Every Python file of the project (package, kernels, tests, examples, benchmarks) reads in one sitting."""
     lines = (ROOT / path).read_text(encoding="utf-8").count("\n")
     assert lines <= 700, f"{path} has {lines} lines"
+
+
+def test_pyproject_installs_every_package():
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        from pip._vendor import tomli as tomllib
+    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]
+    found = {".".join(p.parent.relative_to(ROOT / "warpdyn").parts) for p in (ROOT / "warpdyn").rglob("__init__.py")}
+    found = {"warpdyn" + (f".{name}" if name else "") for name in found} | {"warpdyn.kernels"}
+    assert set(setuptools["packages"]) == found
+    assert setuptools["package-dir"]["warpdyn.kernels"] == "kernels"
