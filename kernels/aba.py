@@ -3,7 +3,7 @@
 Featherstone's ABA in link coordinates, gravity entering as a fictitious base acceleration -a_g:
 1. v_i = iX_lambda v_lambda + S_i qd_i,  c_i = v_i x S_i qd_i.
 2. From the leaves: IA_i = I_i + sum_c cX_i^T Ia_c cX_i,  pA_i = v_i x* I_i v_i - f_ext_i + sum_c cX_i^T pa_c,
-   U_i = IA_i S_i, d_i = S_i^T U_i, u_i = tau_i - S_i^T pA_i,
+   U_i = IA_i S_i, d_i = S_i^T U_i + armature_i, u_i = tau_i - S_i^T pA_i,
    Ia_i = IA_i - U_i U_i^T / d_i,  pa_i = pA_i + Ia_i c_i + U_i u_i / d_i.
    The sums over children are sibling chains (each element written once: tape-safe).
 3. a'_0 = -IA_0^-1 pA_0 (floating base) or -a_g (fixed base); from the base:
@@ -100,6 +100,7 @@ def kernels(scalar, max_registers):
         state: B.State,
         controls: B.Controls,
         repr: int,
+        implicit_dt: scalar,
         # scratch
         s: wp.array3d(dtype=scalar),
         # outputs
@@ -110,6 +111,8 @@ def kernels(scalar, max_registers):
         joint_accelerations (N, n).
 
         controls: joint forces (N, n) and external link forces (N, nL, 6) in `repr` (either may be absent).
+        The joint-space inertia of joint i is S_i^T IA_i S_i + armature_i + implicit_dt damping_i: with
+        implicit_dt = dt this solves (M + dt diag(damping)) nu_dot = f, MuJoCo's implicit damping (0: none).
         s (N, nL, ABA_RECORD, + 7 with link forces): scratch, columns named at the top of this file.
         """
         env = wp.tid()
@@ -144,7 +147,8 @@ def kernels(scalar, max_registers):
                 IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
                 pA = pA + sc.get6(s, env, model.first_child[i], _PA)
             U_i = IA * S
-            d_inv = scalar(1.0) / wp.dot(S, U_i)
+            rotor = B.armature_of(model, env, i - 1) + implicit_dt * B.joint_parameter(model.damping, env, i - 1)
+            d_inv = scalar(1.0) / (wp.dot(S, U_i) + rotor)
             u_i = -wp.dot(S, pA)
             if controls.joint_forces.shape[0] > 0:
                 u_i = u_i + controls.joint_forces[env, i - 1]

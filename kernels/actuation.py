@@ -1,12 +1,22 @@
-"""Joint torques actually applied in a step, as JaxSim's `compute_resultant_torques`.
+"""Joint forces a step applies at its start: JaxSim's resultant torques, MuJoCo's passive joint forces and
+the MJCF actuators.
 
-    tau = clip(tau_ref + tau_friction + tau_limits, -tau_lim(|sdot|), tau_lim(|sdot|)),
+    tau = clip(tau_ref + tau_friction + tau_limits, -tau_lim(|sdot|), tau_lim(|sdot|))      (JaxSim's)
+        + tau_passive + tau_actuators,
     tau_friction = -(kc sign(sdot) + kv sdot), sign(0) = 0 (as jnp.sign; wp.sign(0) is 1),
     tau_limits = -k (min(s - s_min, 0) + max(s - s_max, 0)), then tau_limits *= (1 - d sdot)
         (JaxSim multiplies the damping by the spring torque: zero inside the limits),
-    tau_lim = tau_max for |sdot| <= omega_th, falling linearly to 0 at omega_max, 0 beyond.
-Which terms exist is decided when the kernel is built (`with_limits`, `with_friction`), so a model
-without limits or friction compiles none of that code.
+    tau_lim = tau_max for |sdot| <= omega_th, falling linearly to 0 at omega_max, 0 beyond;
+    tau_passive = -stiffness (s - springref) - damping sdot                                     (MuJoCo's)
+    tau_actuators = clip(sum over the joint's actuators a of gear_a force_a, joint_actuator_force_range),
+    force_a = clip((g0 + g1 L + g2 V) clip(ctrl_a, ctrl_range) + b0 + b1 L + b2 V, force_range),
+        L = gear_a s, V = gear_a sdot                                                           (MuJoCo's)
+A clip passes NaN through (a NaN control or reference makes the state non-finite, which the integrator
+flags), where wp.clamp(NaN, a, b) would give a. Which terms exist is decided when the kernel is built
+(`with_limits`, `with_friction`, `with_passive`, and the most actuators on one joint, whose loop is
+unrolled): a model without them compiles none of that code. JaxSim's part is evaluated once per step, at
+its start (as JaxSim); MuJoCo's part, which RK4 must see change within the step as MuJoCo's RK4 does, is
+also a kernel of its own (`mujoco_kernel`), launched at each stage.
 """
 
 import functools
@@ -17,10 +27,75 @@ from .bundles import bundles
 
 
 @functools.cache
-def kernel(scalar, with_limits: bool, with_friction: bool):
+def functions(scalar, per_joint: int):
+    """clip, and actuator_force for models with at most `per_joint` actuators on a joint (its loop unrolled,
+    so that its sum is differentiated by the tape)."""
     B = bundles(scalar)
+    PER_JOINT = wp.constant(per_joint)
+
+    @wp.func
+    def clip(x: scalar, lower: scalar, upper: scalar):
+        """x clamped to [lower, upper]; NaN stays NaN."""
+        if x != x:  # noqa: PLR0124 (NaN test)
+            return x
+        return wp.min(wp.max(x, lower), upper)
+
+    @wp.func
+    def actuator_force(model: B.Model, env: int, j: int, s: scalar, sd: scalar, ctrl: wp.array2d(dtype=scalar)):
+        """The summed force of joint j's actuators on the joint [N m or N], clamped to its actuator range."""
+        total = scalar(0.0)
+        first = model.joint_actuator_start[j]
+        count = model.joint_actuator_start[j + 1] - first
+        for k in range(PER_JOINT):
+            if k < count:
+                a = model.joint_actuator[first + k]
+                gear = B.joint_parameter(model.actuator_gear, env, a)
+                length = gear * s
+                velocity = gear * sd
+                g = B.vec3_parameter(model.actuator_gain, env, a)
+                b = B.vec3_parameter(model.actuator_bias, env, a)
+                ctrl_range = B.pair_parameter(model.actuator_ctrl_range, env, a)
+                force_range = B.pair_parameter(model.actuator_force_range, env, a)
+                u = clip(ctrl[env, a], ctrl_range[0], ctrl_range[1])
+                force = (g[0] + g[1] * length + g[2] * velocity) * u + b[0] + b[1] * length + b[2] * velocity
+                total = total + gear * clip(force, force_range[0], force_range[1])
+        limits = B.pair_parameter(model.joint_actuator_force_range, env, j)
+        return clip(total, limits[0], limits[1])
+
+    return clip, actuator_force
+
+
+@functools.cache
+def mujoco_terms(scalar, with_passive: bool, per_joint: int):
+    """The wp.func giving MuJoCo's joint forces on joint j at (s, sdot): the passive spring and damper (when
+    with_passive) plus the actuators' forces (when per_joint > 0); the code of an absent term is not compiled."""
+    B = bundles(scalar)
+    _, actuator_force = functions(scalar, max(per_joint, 1))
+    PASSIVE = wp.constant(with_passive)
+    ACTUATORS = wp.constant(per_joint > 0)
+
+    @wp.func
+    def mujoco_joint_force(model: B.Model, env: int, j: int, s: scalar, sd: scalar, ctrl: wp.array2d(dtype=scalar)):
+        out = scalar(0.0)
+        if PASSIVE:
+            spring = B.joint_parameter(model.stiffness, env, j) * (s - B.joint_parameter(model.springref, env, j))
+            out = out - spring - B.joint_parameter(model.damping, env, j) * sd
+        if ACTUATORS:
+            out = out + actuator_force(model, env, j, s, sd, ctrl)
+        return out
+
+    return mujoco_joint_force
+
+
+@functools.cache
+def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
+    """The step's joint forces; per_joint: the most actuators on one joint (0: no actuator code)."""
+    B = bundles(scalar)
+    clip, _ = functions(scalar, max(per_joint, 1))
+    mujoco_joint_force = mujoco_terms(scalar, with_passive, per_joint)
     LIMITS = wp.constant(with_limits)
     FRICTION = wp.constant(with_friction)
+    MUJOCO = wp.constant(with_passive or per_joint > 0)
 
     @wp.kernel(module="unique")
     def resultant_torques(
@@ -30,11 +105,12 @@ def kernel(scalar, with_limits: bool, with_friction: bool):
         omega_max: scalar,
         state: B.State,
         tau_ref: wp.array2d(dtype=scalar),
+        ctrl: wp.array2d(dtype=scalar),
         # outputs
         tau: wp.array2d(dtype=scalar),
     ):
-        """tau (N, n) from the references tau_ref (N, n); launched over (N, n). The model's joint gains,
-        frictions and limits are shared or per environment (kernels/bundles.py)."""
+        """tau (N, n) from the references tau_ref (N, n) and the actuators' controls ctrl (N, na); launched over
+        (N, n). The model's parameters are shared or per environment (kernels/bundles.py)."""
         env, j = wp.tid()
         s = state.joint_positions[env, j]
         sd = state.joint_velocities[env, j]
@@ -58,6 +134,36 @@ def kernel(scalar, with_limits: bool, with_friction: bool):
             limit = scalar(0.0)
         elif speed > omega_th:
             limit = torque_max * (scalar(1.0) - (speed - omega_th) / (omega_max - omega_th))
-        tau[env, j] = wp.clamp(total, -limit, limit)
+        out = clip(total, -limit, limit)
+        if MUJOCO:
+            out = out + mujoco_joint_force(model, env, j, s, sd, ctrl)
+        tau[env, j] = out
 
     return resultant_torques
+
+
+@functools.cache
+def mujoco_kernel(scalar, with_passive: bool, per_joint: int):
+    """tau = tau_in + MuJoCo's joint forces at the state (see `mujoco_terms`): what RK4 evaluates at each stage
+    on the JaxSim part held from the step's start, and, with tau_in absent, MuJoCo's qfrc_actuator
+    (with_passive False) or the joints' part of qfrc_passive (per_joint 0)."""
+    B = bundles(scalar)
+    mujoco_joint_force = mujoco_terms(scalar, with_passive, per_joint)
+
+    @wp.kernel(module="unique")
+    def mujoco_joint_forces(
+        model: B.Model,
+        state: B.State,
+        tau_in: wp.array2d(dtype=scalar),
+        ctrl: wp.array2d(dtype=scalar),
+        # outputs
+        tau: wp.array2d(dtype=scalar),
+    ):
+        """tau (N, n) = tau_in (N, n; absent, a zero leading axis: 0) + MuJoCo's joint forces; launched over (N, n)."""
+        env, j = wp.tid()
+        out = mujoco_joint_force(model, env, j, state.joint_positions[env, j], state.joint_velocities[env, j], ctrl)
+        if tau_in.shape[0] > 0:
+            out = out + tau_in[env, j]
+        tau[env, j] = out
+
+    return mujoco_joint_forces

@@ -46,16 +46,34 @@ def bundles(scalar) -> types.SimpleNamespace:
         zero_j: wp.array(dtype=int)  # (Z,) other's link (a zero in the mass matrix)
         gravity: scalar  # [m/s^2], along -z of the world
         floating_base: int  # 1 floating, 0 welded
+        # actuators (na): joint_actuator[k] for k in joint_actuator_start[j] .. joint_actuator_start[j + 1] - 1
+        # are joint j's
+        actuator_joint: wp.array(dtype=int)  # (na,) the joint of each actuator
+        joint_actuator: wp.array(dtype=int)  # (na,) the actuators sorted by joint
+        joint_actuator_start: wp.array(dtype=int)  # (n + 1,)
         # link parameters (P, nL)
         link_mass: wp.array2d(dtype=scalar)  # [kg]
         link_com: wp.array2d(dtype=sp.vec3)  # [m, link frame]
         link_inertia: wp.array2d(dtype=sp.mat33)  # [kg m^2, about the CoM, link axes]
+        gravcomp_mass: wp.array2d(dtype=scalar)  # [kg] gravity compensation: a force along +z of the world
+        gravcomp_com: wp.array2d(dtype=sp.vec3)  # [m, link frame] where it acts
         # joint parameters (P, n)
         position_limits: wp.array2d(dtype=vec2)  # (lower, upper) [rad or m]
         joint_limit_spring: wp.array2d(dtype=scalar)  # [N m/rad or N/m]
         joint_limit_damper: wp.array2d(dtype=scalar)  # [s/rad or s/m]
         friction_static: wp.array2d(dtype=scalar)  # [N m or N]
         friction_viscous: wp.array2d(dtype=scalar)  # [N m s/rad or N s/m]
+        armature: wp.array2d(dtype=scalar)  # [kg m^2 or kg], on the mass matrix's diagonal
+        damping: wp.array2d(dtype=scalar)  # [N m s/rad or N s/m], MuJoCo's damper
+        stiffness: wp.array2d(dtype=scalar)  # [N m/rad or N/m]
+        springref: wp.array2d(dtype=scalar)  # [rad or m]
+        joint_actuator_force_range: wp.array2d(dtype=vec2)  # [N m or N] clamp of the summed actuator force
+        # actuator parameters (P, na)
+        actuator_gear: wp.array2d(dtype=scalar)
+        actuator_gain: wp.array2d(dtype=sp.vec3)  # (g0, g1, g2): gain = g0 + g1 length + g2 velocity
+        actuator_bias: wp.array2d(dtype=sp.vec3)  # (b0, b1, b2): bias = b0 + b1 length + b2 velocity
+        actuator_ctrl_range: wp.array2d(dtype=vec2)
+        actuator_force_range: wp.array2d(dtype=vec2)
 
     @wp.struct
     class State:
@@ -120,9 +138,24 @@ def bundles(scalar) -> types.SimpleNamespace:
         return values[wp.min(env, values.shape[0] - 1), j]
 
     @wp.func
+    def pair_parameter(values: wp.array2d(dtype=vec2), env: int, j: int):
+        """Element j's value of a (P, count) pair parameter (limits, ranges) in environment env."""
+        return values[wp.min(env, values.shape[0] - 1), j]
+
+    @wp.func
+    def vec3_parameter(values: wp.array2d(dtype=sp.vec3), env: int, j: int):
+        """Element j's value of a (P, count) vec3 parameter in environment env."""
+        return values[wp.min(env, values.shape[0] - 1), j]
+
+    @wp.func
     def position_limits_of(model: Model, env: int, j: int):
         """Joint j's (lower, upper) position limits in environment env."""
-        return model.position_limits[wp.min(env, model.position_limits.shape[0] - 1), j]
+        return pair_parameter(model.position_limits, env, j)
+
+    @wp.func
+    def armature_of(model: Model, env: int, j: int):
+        """Joint j's armature in environment env [kg m^2 or kg]."""
+        return joint_parameter(model.armature, env, j)
 
     @wp.func
     def mass_of(model: Model, env: int, i: int):
@@ -188,7 +221,10 @@ def bundles(scalar) -> types.SimpleNamespace:
         vec4=vec4,
         link_parameter=link_parameter,
         joint_parameter=joint_parameter,
+        pair_parameter=pair_parameter,
+        vec3_parameter=vec3_parameter,
         position_limits_of=position_limits_of,
+        armature_of=armature_of,
         mass_of=mass_of,
         com_of=com_of,
         inertia_of=inertia_of,

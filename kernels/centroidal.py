@@ -10,7 +10,8 @@ float32 accurate however far the robot is from the world origin:
   body to its momentum  M v = [m u - h x w; h x u + I w]  (for one link: h = m d,
   I = W_I_L + m (|d|^2 1 - d d^T));
 - the centroidal momentum G[W]_h = sum_L [m_L W_pdot_CL; d_L x m_L W_pdot_CL + W_I_L W_omega_L];
-- the kinetic energy K = sum_L 1/2 (m_L |W_pdot_CL|^2 + W_omega_L . W_I_L W_omega_L).
+- the kinetic energy K = sum_L 1/2 (m_L |W_pdot_CL|^2 + W_omega_L . W_I_L W_omega_L) + sum_j 1/2 armature_j
+  sdot_j^2 (the rotors', so that K = 1/2 nu^T M nu).
 
 Output frames F (codes: spatial's BODY, MIXED, INERTIAL for the base's velocity-representation frames, and
 FRAME_GW, FRAME_GB below):
@@ -153,7 +154,11 @@ def kernels(scalar) -> types.SimpleNamespace:
             I_w = I_W * w
             sum_I[env, i] = prev_I + I_W + parallel_axis(m_i, d)
             sum_h[env, i] = prev_h + sp.stack(p_i, wp.cross(d, p_i) + I_w)
-            sum_K[env, i] = prev_K + scalar(0.5) * (wp.dot(v_c, p_i) + wp.dot(w, I_w))
+            rotor = scalar(0.0)
+            if i > 0:
+                sd = state.joint_velocities[env, i - 1]
+                rotor = B.armature_of(model, env, i - 1) * sd * sd
+            sum_K[env, i] = prev_K + scalar(0.5) * (wp.dot(v_c, p_i) + wp.dot(w, I_w) + rotor)
         G_I[env] = sum_I[env, nL - 1]
         G_h[env] = sum_h[env, nL - 1]
         K[env] = sum_K[env, nL - 1]

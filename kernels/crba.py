@@ -67,7 +67,7 @@ def kernels(scalar, max_registers):
         """M (N, 6 + n, 6 + n): the mass matrix for the generalized velocity in `repr`.
 
         The joint block is filled by the model's joint pairs: M_kj = B_S_j . F_k for (model.pair_k,
-        model.pair_j), zero for (model.zero_k, model.zero_j).
+        model.pair_j), plus the joint's armature on the diagonal, zero for (model.zero_k, model.zero_j).
         s (N, nL, CRBA_RECORD): scratch, columns named at the top of this file.
         """
         env = wp.tid()
@@ -146,6 +146,8 @@ def kernels(scalar, max_registers):
             k = model.pair_k[p]
             j = model.pair_j[p]
             value = wp.dot(sc.get6(s, env, j + 1, _BS), sc.get6(s, env, k + 1, _F))
+            if j == k:
+                value = value + B.armature_of(model, env, k)
             M[env, 6 + k, 6 + j] = value
             if j != k:
                 M[env, 6 + j, 6 + k] = value

@@ -89,7 +89,31 @@ def kernels(scalar):
         for r in range(6):
             W_f_L[env, L, r] = W_f[r]
 
+    @wp.kernel(module="unique")
+    def gravity_compensation(
+        model: B.Model,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        f_in: wp.array3d(dtype=scalar),
+        repr: int,
+        # outputs
+        f_out: wp.array3d(dtype=scalar),
+    ):
+        """f_out (N, nL, 6) = f_in + each link's gravity compensation, both in representation `repr` (f_in
+        absent, a zero leading axis: 0), launched over (N, nL). The compensation of link L is the force
+        gravcomp_mass g along +z of the world at gravcomp_com (link frame), MJCF's gravcomp."""
+        env, L = wp.tid()
+        X = W_H_L[env, L]
+        p = wp.transform_point(X, B.vec3_parameter(model.gravcomp_com, env, L))
+        F = sp.vec3(scalar(0.0), scalar(0.0), B.link_parameter(model.gravcomp_mass, env, L) * model.gravity)
+        f = sp.inertial_to_force_repr(repr, X, sp.stack(F, wp.cross(p, F)))
+        for r in range(6):
+            before = scalar(0.0)
+            if f_in.shape[0] > 0:
+                before = f_in[env, L, r]
+            f_out[env, L, r] = before + f[r]
+
     return types.SimpleNamespace(
+        gravity_compensation=gravity_compensation,
         kept_forces=kept_forces,
         add_target_forces=add_target_forces,
         inertial_to_forces=inertial_to_forces,

@@ -2,7 +2,7 @@
 
 Featherstone's RNEA in link coordinates, gravity entering as a fictitious base acceleration -a_g:
     v_i = iX_lambda v_lambda + S_i qd_i,   a_i = iX_lambda a_lambda + S_i qdd_i + v_i x S_i qd_i,
-    f_i = I_i a_i + v_i x* I_i v_i - f_ext_i + sum_children lambdaX*_c f_c,   tau_i = S_i^T f_i.
+    f_i = I_i a_i + v_i x* I_i v_i - f_ext_i + sum_children lambdaX*_c f_c,   tau_i = S_i^T f_i + armature_i qdd_i.
 The sum over children is a sibling chain, so that every element is written once (tape-safe):
     acc_c = lambdaX*_c f_c + acc_{next sibling of c},   and a link adds acc_{first child}.
 The base acceleration and the base wrench are converted from and to the requested representation.
@@ -49,6 +49,7 @@ def kernels(scalar, max_registers):
         controls: B.Controls,
         repr: int,
         with_velocity: scalar,
+        with_gravity: scalar,
         # scratch
         s: wp.array3d(dtype=scalar),
         # outputs
@@ -59,8 +60,8 @@ def kernels(scalar, max_registers):
 
         base_acceleration (N, 6): the derivative of the base velocity in `repr`; joint_accelerations (N, n);
         controls.link_forces (N, nL, 6): external link forces in `repr` (its joint forces are not read).
-        with_velocity scales the velocities (0 or 1). f_B is the base wrench as the generalized force dual
-        to the base velocity in `repr`. s (N, nL, RNEA_RECORD, + 7 with link forces): scratch, columns named
+        with_velocity and with_gravity scale the velocities and gravity (0 or 1). f_B is the base wrench as
+        the generalized force dual to the base velocity in `repr`. s (N, nL, RNEA_RECORD, + 7 with link forces): scratch, columns named
         at the top of this file.
         """
         env = wp.tid()
@@ -68,7 +69,7 @@ def kernels(scalar, max_registers):
         forces = controls.link_forces.shape[0] > 0
         W_H_B = B.base_pose(state, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env) * with_velocity))
-        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
+        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity * with_gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
         a_in = sp.vec6(scalar(0.0))
         if base_acceleration.shape[0] > 0:
             a_in = sc.row6(base_acceleration, env, 0)
@@ -102,7 +103,10 @@ def kernels(scalar, max_registers):
                 f_i = f_i - external_force(controls, repr, s, _WHL, env, i)
             if model.first_child[i] >= 0:
                 f_i = f_i + sc.get6(s, env, model.first_child[i], _ACC)
-            tau[env, i - 1] = wp.dot(S, f_i)
+            rotor = scalar(0.0)
+            if joint_accelerations.shape[0] > 0:
+                rotor = B.armature_of(model, env, i - 1) * joint_accelerations[env, i - 1]
+            tau[env, i - 1] = wp.dot(S, f_i) + rotor
             up = sp.force_to(X, f_i)
             if model.next_sibling[i] >= 0:
                 up = up + sc.get6(s, env, model.next_sibling[i], _ACC)

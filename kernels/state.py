@@ -123,6 +123,22 @@ def kernels(scalar) -> types.SimpleNamespace:
             out[env, 6 + j] = tau[env, j] - Q[env, 6 + j]
 
     @wp.kernel(module="unique")
+    def passive_from_parts(
+        # inputs: RNEA's forces against the compensation, and the joints' springs and dampers
+        f_B: wp.array2d(dtype=scalar),
+        tau: wp.array2d(dtype=scalar),
+        joints: wp.array2d(dtype=scalar),
+        # outputs
+        out: wp.array2d(dtype=scalar),
+    ):
+        """out (N, 6 + n) = [-f_B; joints - tau]: the passive generalized forces (see engine.dynamics)."""
+        env = wp.tid()
+        for r in range(6):
+            out[env, r] = -f_B[env, r]
+        for j in range(tau.shape[1]):
+            out[env, 6 + j] = joints[env, j] - tau[env, j]
+
+    @wp.kernel(module="unique")
     def join_columns(
         # inputs
         a: wp.array2d(dtype=scalar),
@@ -192,6 +208,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         select_rows=select_rows,
         select_rows_3d=select_rows_3d,
         select_valid=select_valid,
+        passive_from_parts=passive_from_parts,
         join_columns=join_columns,
         actuated_minus=actuated_minus,
         normalized_quaternion=normalized_quaternion,

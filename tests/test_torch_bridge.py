@@ -105,6 +105,51 @@ def test_gradcheck_pendulum_state_torques_and_parameters(batched):
     assert float(grads[3][1:].abs().max()) > 1e-3  # the rods' masses (the base's is 0 and does not matter)
 
 
+ARM_MJCF = """
+<mujoco model="servo_arm">
+  <worldbody>
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0" armature="0.02" damping="0.3" stiffness="2" springref="0.2"/>
+      <inertial pos="0.15 0 0" mass="1.0" diaginertia="0.001 0.008 0.008"/>
+      <body name="lower" pos="0.3 0 0">
+        <joint name="elbow" axis="0 1 0" armature="0.01" damping="0.1"/>
+        <inertial pos="0.12 0 0" mass="0.6" diaginertia="0.0005 0.004 0.004"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position name="shoulder_servo" joint="shoulder" kp="20" kv="1" ctrlrange="-2 2" gear="2"/>
+    <motor name="elbow_motor" joint="elbow" forcerange="-3 3"/>
+  </actuator>
+</mujoco>"""
+
+
+def test_gradcheck_controls_and_actuator_parameters():
+    """gradcheck through 4 steps of a two-joint MJCF arm (armature, damping, a spring; a position servo with
+    gear and a motor), w.r.t. the per-step controls (T, na) and the armature and the actuators' gains (module
+    docstring: eps 1e-6, atol 1e-7, rtol 1e-6); controls inside their ranges (a clip's kink is not
+    differentiable at the bound)."""
+    model = wd.model.Model.build_from_model_description(ARM_MJCF, dtype=np.float64)
+    assert model.actuator_names() == ("shoulder_servo", "elbow_motor")
+    T = 4
+    rng = np.random.default_rng(1)
+    ctrl = _t(rng.uniform(-1, 1, (T, 2)), True)
+    armature = _t(model.armature.numpy(), True)
+    gain = _t(model.actuator_gain.numpy(), True)
+
+    def f(ctrl, armature, gain):
+        rec = wdt.rollout(
+            model, steps=T, joint_velocities=_t([0.5, -0.3]), ctrl=ctrl, parameters={"armature": armature, "actuator_gain": gain},
+            record=("joint_positions", "joint_velocities"), validate=False,
+        )  # fmt: skip
+        return rec["joint_positions"], rec["joint_velocities"]
+
+    inputs = (ctrl, armature, gain)
+    assert torch.autograd.gradcheck(f, inputs, eps=1e-6, atol=1e-7, rtol=1e-6)
+    grads = torch.autograd.grad(f(*inputs)[1][-1].sum(), inputs)
+    assert all(float(g.abs().max()) > 1e-3 for g in grads)
+
+
 # ------------------------------------------------------------------------------ against the plain tape
 
 

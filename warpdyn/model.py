@@ -61,6 +61,8 @@ __all__ = [
     "kinetic_energy",
     "potential_energy",
     "mechanical_energy",
+    "actuator_forces",
+    "free_floating_passive_forces",
     "step",
     "ActuationParams",
     "IntegratorType",
@@ -305,13 +307,33 @@ def mechanical_energy(model: Model, data) -> wp.array:
 # Simulation ------------------------------------------------------------------------------------
 
 
-def step(model: Model, data, *, link_forces=None, joint_force_references=None):
+def actuator_forces(model: Model, data, *, ctrl=None) -> wp.array:
+    """The force of the model's actuators (MJCF <actuator>) on each joint: (n,) or (N, n) [N m or N],
+    MuJoCo's qfrc_actuator. ctrl (na,) or (N, na): the controls, in the order of `model.actuator_names()`
+    (None: zero). Each actuator a on joint j gives gear_a clip(gain ctrl_a + bias, force_range) with gain
+    and bias affine in its length gear_a s_j and velocity gear_a sdot_j, ctrl clipped to its ctrl_range;
+    the sum on a joint is clipped to the joint's actuator_force_range (kernels/actuation.py)."""
+    return arrays.squeeze_env(dynamics.actuator_forces(model, data, ctrl), data.num_envs)
+
+
+def free_floating_passive_forces(model: Model, data) -> wp.array:
+    """MuJoCo's qfrc_passive: (6 + n,) or (N, 6 + n) in the data's representation: the joints' springs and
+    dampers, -stiffness (s - springref) - damping sdot, and the links' gravity compensation (MJCF gravcomp)
+    as generalized forces (its base part: the base wrench dual to the base velocity). JaxSim's friction
+    and limit springs are not in it (see `step`)."""
+    return arrays.squeeze_env(dynamics.passive_forces(model, data), data.num_envs)
+
+
+def step(model: Model, data, *, link_forces=None, joint_force_references=None, ctrl=None):
     """The data after one step of `model.time_step` [s] with `model.integrator`, as JaxSim's step.
 
     link_forces (nL, 6) or (N, nL, 6): external forces in the data's representation, held for the step.
     joint_force_references (n,) or (N, n): joint forces before friction, limits and the torque-speed curve.
+    ctrl (na,) or (N, na): the controls of the model's actuators (see `actuator_forces`), held for the step.
+    The step also applies the passive forces (`free_floating_passive_forces`; the gravity compensation at
+    each RK4 stage) and, when model.implicit_damping, integrates the joints' damping implicitly.
     Returns new Data (fresh arrays, same representation); `data` is unchanged. Outside a wp.Tape the step's
     intermediate arrays and its recorded launches are kept per model and reused (a call packs only its new
     arguments); under one they are fresh (the adjoint reads them later).
     """
-    return stepping.step(model, data, link_forces=link_forces, joint_force_references=joint_force_references)
+    return stepping.step(model, data, link_forces=link_forces, joint_force_references=joint_force_references, ctrl=ctrl)

@@ -26,6 +26,8 @@ Controls (NumPy-like or Warp arrays in the model's dtype; Warp arrays may requir
     torque-speed curve).
     link_forces, with per-environment shape (nL, 6) instead of (n,), in the data's representation, held
     during each step.
+    ctrl, with per-environment shape (na,): the controls of the model's actuators (MJCF <actuator>, in the
+    order of `model.actuator_names()`), held during each step (see `wd.model.actuator_forces`).
 For batched data a 2-D control is (N, n) (constant per environment), never (T, n): give (T, 1, n).
 
 Records (`record=`, names below). Shapes for batched data; single-environment data drops the N axis.
@@ -35,7 +37,8 @@ being what step t (from the state t to t + 1) computed at its start:
     joint_positions (T+1, N, n)          joint_velocities (T+1, N, n)
     base_velocity (T+1, N, 6) in the data's representation
     tangential_deformation (T+1, N, nc_all, 3) [m]         valid (T+1, N) int32 (see Data.valid)
-    joint_torques (T, N, n): the torques step t applied (references through friction, limits, clip)
+    joint_torques (T, N, n): the joint forces step t applied (references through friction, limits, clip;
+        the joints' springs and dampers; the actuators)
     link_contact_forces (T, N, nL, 6): the contact wrench on each link in the data's representation, as
         `wd.contact.link_contact_forces` at the state t (for RK4: at the first stage)
     collidable_point_forces (T, N, nc, 6): each enabled point's wrench, as `wd.contact.collidable_point_forces`
@@ -125,6 +128,7 @@ def rollout(
     steps: int,
     joint_force_references=None,
     link_forces=None,
+    ctrl=None,
     record=DEFAULT_RECORD,
     callback=None,
     callback_every: int = 1,
@@ -140,6 +144,7 @@ def rollout(
         data,
         joint_force_references=joint_force_references,
         link_forces=link_forces,
+        ctrl=ctrl,
         callback=callback,
         callback_every=callback_every,
     )

@@ -69,7 +69,10 @@ STATE_INPUTS = (
 """The initial-state tensors `rollout` takes, in this order (see its docstring for shapes)."""
 
 _POSITIVE = ("D",)
-_NON_NEGATIVE = ("link_mass", "friction_static", "friction_viscous", "joint_limit_spring", "joint_limit_damper", "K", "mu")
+_NON_NEGATIVE = (
+    "link_mass", "gravcomp_mass", "friction_static", "friction_viscous", "joint_limit_spring", "joint_limit_damper", "armature",
+    "damping", "stiffness", "K", "mu",
+)  # fmt: skip
 
 
 def rollout(
@@ -84,6 +87,7 @@ def rollout(
     tangential_deformation: torch.Tensor | None = None,
     joint_force_references: torch.Tensor | None = None,
     link_forces: torch.Tensor | None = None,
+    ctrl: torch.Tensor | None = None,
     parameters: dict[str, torch.Tensor] | None = None,
     record=_simulation.DEFAULT_RECORD,
     velocity_representation: VelRepr = VelRepr.Mixed,
@@ -109,13 +113,16 @@ def rollout(
     Controls (as in `warpdyn.simulation`): joint_force_references [N m or N] per environment per step
     (T, N, n), shared per step (T, 1, n), or (T, n) for one environment; constant (N, n) or (n,).
     link_forces [N, N m], the same with (nL, 6) per environment instead of (n,), in `velocity_representation`.
+    ctrl, the same with (na,): the controls of the model's actuators (`model.actuator_names()`).
 
     parameters: {name: tensor} of model parameters that replace the model's values for this call (see the
     module docstring), each with the shape of `wp.to_torch` of the model's array: "link_mass" (nL,) [kg],
     "link_com" (nL, 3) [m, link frame], "link_inertia" (nL, 3, 3) [kg m^2, about the CoM, link frame],
-    "friction_static", "friction_viscous", "joint_limit_spring", "joint_limit_damper" (n,)
-    (Model.set_joint_parameters' units), "K", "D", "mu" (1,) or (N,) as `model.contact_params` holds them
-    (give the model per-environment values first to get per-environment tensors).
+    "friction_static", "friction_viscous", "joint_limit_spring", "joint_limit_damper", "armature", "damping",
+    "stiffness", "springref" (n,) (Model.set_joint_parameters' units), "actuator_gear" (na,), "actuator_gain",
+    "actuator_bias" (na, 3) (Model.set_actuator_parameters'), "K", "D", "mu" (1,) or (N,) as
+    `model.contact_params` holds them (give the model per-environment values first to get per-environment
+    tensors); every name in `wd.model.PARAMETERS`.
 
     Records (`record=`, names in `warpdyn.simulation.STATE_RECORDS` and `STEP_RECORDS`), shapes for batched
     data (single-environment data drops the N axis): state records (T + 1, N, ...) from t = 0 (the given
@@ -147,6 +154,7 @@ def rollout(
         "tangential_deformation": tangential_deformation,
         "joint_force_references": joint_force_references,
         "link_forces": link_forces,
+        "ctrl": ctrl,
     }
     parameters = {} if parameters is None else dict(parameters)
     unknown = [name for name in parameters if name not in _model.PARAMETERS]
@@ -244,6 +252,7 @@ class _Rollout(torch.autograd.Function):
                         steps=spec.steps,
                         joint_force_references=arrays.get("joint_force_references"),
                         link_forces=arrays.get("link_forces"),
+                        ctrl=arrays.get("ctrl"),
                         record=spec.record,
                         **spec.rollout_kwargs,
                     )

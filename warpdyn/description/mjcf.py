@@ -65,6 +65,10 @@ DELAY = "actuators with a delay (dropped)"
 PLUGIN = "plugins (dropped)"
 DISABLED_GROUP = "actuators in groups disabled by actuatorgroupdisable (dropped)"
 ACTUATOR_POLYNOMIAL = "polynomial actuator damping (only the linear coefficient is kept)"
+ACTUATOR_GRAVCOMP = (
+    "actuatorgravcomp (warpdyn applies the joint's gravity compensation as a passive force: its actuatorfrcrange "
+    "does not clamp it, and it is kept in a model without actuators)"
+)
 CONTACT_PAIRS = "contact pairs"
 CONTACT_EXCLUDES = "contact excludes"
 GEOMS = "collision geoms of unsupported types (ellipsoid, plane/hfield on bodies, sdf)"
@@ -196,6 +200,7 @@ _KIND_ORDER = (
     PLUGIN,
     DISABLED_GROUP,
     ACTUATOR_POLYNOMIAL,
+    ACTUATOR_GRAVCOMP,
     CONTACT_PAIRS,
     CONTACT_EXCLUDES,
     GEOMS,
@@ -279,6 +284,8 @@ def _hinge_or_slide(m, j, jname, parent, child, origin, note, mujoco) -> JointDe
         joint.actuator_force_range = np.array(m.jnt_actfrcrange[j], dtype=np.float64)
     if hasattr(m, "jnt_actgravcomp"):
         joint.actuator_gravcomp = bool(m.jnt_actgravcomp[j])
+        if joint.actuator_gravcomp and np.any(m.body_gravcomp != 0.0):
+            note(ACTUATOR_GRAVCOMP, jname)
     if (hasattr(m, "jnt_stiffnesspoly") and np.any(m.jnt_stiffnesspoly[j] != 0.0)) or (
         hasattr(m, "dof_dampingpoly") and np.any(m.dof_dampingpoly[dof] != 0.0)
     ):

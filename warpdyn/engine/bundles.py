@@ -12,11 +12,11 @@ import numpy as np
 import warp as wp
 
 from ..kernels.bundles import bundles
-from ..types.parameters import JOINT_PARAMETERS, LINK_PARAMETERS
+from ..types.parameters import MODEL_ARRAYS
 
 __all__ = ["model_bundle", "state_bundle", "controls_bundle", "empty_like_input"]
 
-_PARAMETERS = tuple(p.name for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS))
+_PARAMETERS = MODEL_ARRAYS
 
 
 def _rows(model, name: str, per_env: dict) -> wp.array:
@@ -40,6 +40,9 @@ def _build_model_bundle(model):
     zero_k, zero_j = np.nonzero(~(support | support.T))
     for name, values in (("pair_k", k), ("pair_j", j), ("zero_k", zero_k), ("zero_j", zero_j)):
         setattr(bundle, name, wp.array(values.astype(np.int32), dtype=int, device=model.device))
+    bundle.actuator_joint = model.actuator_joint
+    bundle.joint_actuator = model.joint_actuator
+    bundle.joint_actuator_start = model.joint_actuator_start
     bundle.gravity = model.scalar(model.gravity)
     bundle.floating_base = int(model.floating_base())
     per_env = model.per_environment_parameters()

@@ -18,22 +18,27 @@ Gradients reach the model's link parameters (their .grad) under a tape once they
 
 from __future__ import annotations
 
+import dataclasses
+
+import numpy as np
 import warp as wp
 
 from .. import arrays, config
 from ..kernels.aba import ABA_RECORD
 from ..kernels.aba import kernels as aba_kernels
+from ..kernels.actuation import mujoco_kernel
 from ..kernels.cholesky import kernels as cholesky_kernels
 from ..kernels.crba import CRBA_RECORD
 from ..kernels.crba import kernels as crba_kernels
+from ..kernels.forces import kernels as force_kernels
 from ..kernels.rnea import RNEA_RECORD
 from ..kernels.rnea import kernels as rnea_kernels
 from ..kernels.scratch import TRANSFORM
 from ..kernels.state import kernels as state_kernels
 from ..types.model import check_data
 from . import tape, warp_private
-from .bundles import controls_bundle, model_bundle
-from .kinematics import state_of
+from .bundles import controls_bundle, empty_like_input, model_bundle
+from .kinematics import link_poses, state_of
 from .launch import Launch, Recorded, launch, per_thread
 
 __all__ = [
@@ -44,6 +49,8 @@ __all__ = [
     "forward_dynamics_aba",
     "forward_dynamics_crb",
     "mass_matrix_inverse",
+    "actuator_forces",
+    "passive_forces",
 ]
 
 _KERNELS = {
@@ -119,16 +126,17 @@ def with_env_axis(array: wp.array):
 
 
 def requires_grad(model, data, *inputs) -> bool:
-    """Whether the data's state, an input or a link parameter of the model requires gradients: then outputs
-    and scratch get gradient arrays, so that the adjoint reaches them."""
+    """Whether the data's state, an input or a link or joint parameter of the model (armature and damping enter
+    the dynamics) requires gradients: then outputs and scratch get gradient arrays, so that the adjoint
+    reaches them."""
     return (
         data.requires_grad
-        or model.parameters_require_grad(("link",))
+        or model.parameters_require_grad(("link", "joint"))
         or any(isinstance(x, wp.array) and x.requires_grad for x in inputs)
     )
 
 
-def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool):
+def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool, with_gravity: bool = True):
     """RNEA (kernels/rnea.py) on user inputs (None: zero): (f_B, tau) when `split`, else Q = [f_B; tau]."""
     check_data(model, data, parameters=True)
     taping = tape.taping()
@@ -159,6 +167,7 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
         controls_bundle(s, d, link_forces=f_L),
         int(data.velocity_representation),
         s(1.0 if with_velocity else 0.0),
+        s(1.0 if with_gravity else 0.0),
     ]
     width = RNEA_RECORD + (TRANSFORM if f_L is not None else 0)
     _launch(model, "rnea", N, width, inputs, [f_B, tau], grad)
@@ -202,6 +211,7 @@ def forward_dynamics_aba(model, data, joint_forces=None, link_forces=None):
         state_of(model, data),
         controls_bundle(model.scalar, model.device, tau, f_L),
         int(data.velocity_representation),
+        model.scalar(0.0),  # no implicit damping: the equations of motion as they are
     ]
     width = ABA_RECORD + (TRANSFORM if f_L is not None else 0)
     _launch(model, "aba", data.batch_size, width, inputs, out.args, grad)
@@ -292,3 +302,41 @@ def _inverse_adjoint(K, A, offset: int, X) -> None:
     launch(K.block_product, dim=(N, k - offset), inputs=[X.grad, X, offset], outputs=[W], device=d)
     launch(K.block_product, dim=(N, k - offset), inputs=[X, W, offset], outputs=[P], device=d)
     launch(K.inverse_adjoint, dim=(N, k - offset), inputs=[P, offset], outputs=[A.grad], device=d)
+
+
+def actuator_forces(model, data, ctrl) -> wp.array:
+    """(N, n): the force of the MJCF actuators on each joint for the controls `ctrl` ((na,) or (N, na); None:
+    zero), MuJoCo's qfrc_actuator (kernels/actuation.py)."""
+    check_data(model, data, parameters=True)
+    n, na, N = model.dofs(), model.number_of_actuators(), data.batch_size
+    u = _input(model, data, ctrl if ctrl is not None else np.zeros(na), "ctrl", (na,))
+    grad = requires_grad(model, data, u) or model.parameters_require_grad(("actuator",))
+    out = arrays.output((n,), N, model.scalar, model.device, grad)
+    if n > 0:
+        kernel = mujoco_kernel(model.scalar, False, model.actuators_per_joint)
+        inputs = [model_bundle(model), state_of(model, data), empty_like_input(model.scalar, model.device, 2), u]
+        launch(kernel, dim=(N, n), inputs=inputs, outputs=[out], device=model.device)
+    return out
+
+
+def passive_forces(model, data) -> wp.array:
+    """(N, 6 + n): MuJoCo's qfrc_passive in the data's representation: the joints' springs and dampers,
+    -stiffness (s - springref) - damping sdot, and the gravity compensation of the links, J^T f_gc (its base
+    part: the base wrench dual to the base velocity). The compensation comes from RNEA at rest without
+    gravity, with the compensating link forces: -[f_B; tau] = J^T f_gc."""
+    check_data(model, data, parameters=True)
+    n, nL, N, s, d = model.dofs(), model.number_of_links(), data.batch_size, model.scalar, model.device
+    grad = requires_grad(model, data)
+    bundle, state = model_bundle(model), state_of(model, data)
+    _, W_H_L = link_poses(model, data)
+    f_gc = arrays.empty((nL, 6), N, s, d, grad)
+    launch(force_kernels(s).gravity_compensation, dim=(N, nL), inputs=[bundle, W_H_L, empty_like_input(s, d, 3), int(data.velocity_representation)], outputs=[f_gc], device=d)
+    batched = dataclasses.replace(data, num_envs=N)  # RNEA's (N, ...) outputs, whatever the data's shape
+    f_B, tau = _rnea(model, batched, None, None, f_gc, with_velocity=False, split=True, with_gravity=False)
+    joints = arrays.empty((n,), N, s, d, grad)
+    if n > 0:
+        empty2 = empty_like_input(s, d, 2)
+        launch(mujoco_kernel(s, True, 0), dim=(N, n), inputs=[bundle, state, empty2, empty2], outputs=[joints], device=d)
+    out = arrays.output((6 + n,), N, s, d, grad)
+    launch(state_kernels(s).passive_from_parts, dim=N, inputs=[f_B, tau, joints], outputs=[out], device=d)
+    return out

@@ -25,7 +25,7 @@ from .launch import run as run_launches
 from .step import Evaluation, Workspace, broadcast_envs, prepare, state_buffers, step_launches, with_state
 from .step import plan as step_plan
 
-__all__ = ["Rollout", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD"]
+__all__ = ["Rollout", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "CONTROLS"]
 
 STATE_RECORDS = (
     "base_position",
@@ -42,6 +42,14 @@ STEP_RECORDS = ("joint_torques", "link_contact_forces", "collidable_point_forces
 """Quantities of a step, recorded for t = 0 ... T - 1."""
 
 DEFAULT_RECORD = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities")
+
+CONTROLS = ("joint_force_references", "link_forces", "ctrl")
+"""The controls of a rollout's steps (warpdyn.model.step's arguments)."""
+
+
+def _control_shapes(plan) -> dict:
+    """{control: its shape per environment}."""
+    return {"joint_force_references": (plan.n,), "link_forces": (plan.nL, 6), "ctrl": (plan.na,)}
 
 _STATE_INDEX = {
     "base_position": 0,
@@ -210,9 +218,9 @@ class _Config:
     segment, reused by every segment.
     """
 
-    def __init__(self, roll: Rollout, plan, N: int, num_envs, repr: int, storage: str, every: int, grad: bool, tau: _Layout, forces: _Layout):
+    def __init__(self, roll: Rollout, plan, N: int, num_envs, repr: int, storage: str, every: int, grad: bool, layouts: dict):
         self.plan, self.N, self.num_envs, self.repr = plan, N, num_envs, repr
-        self.storage, self.every, self.grad, self.tau_layout, self.force_layout = storage, every, grad, tau, forces
+        self.storage, self.every, self.grad, self.layouts = storage, every, grad, layouts
         T, s, d = roll.steps, plan.scalar, plan.device
         self.T, self.scalar, self.device = T, s, d
         kept, between, count = _counts(storage, T, every, grad)
@@ -226,11 +234,11 @@ class _Config:
             if between:
                 self.seg = [_env_array((between,), N, shape, s, d, grad) for shape in per_env]
                 self.seg.append(_env_array((between,), N, (), wp.int32, d))
-        with_forces = forces.kind is not None
+        with_forces = layouts["link_forces"].kind is not None
         self.workspaces = [Workspace(plan, N, grad, with_forces) for _ in range(count)]
-        # controls
-        self.tau_buffer = self._control_buffer(tau, (plan.n,))
-        self.force_buffer = self._control_buffer(forces, (plan.nL, 6))
+        # controls: {name: the rollout's copy, None when absent}
+        shapes = _control_shapes(plan)
+        self.buffers = {name: self._control_buffer(layout, shapes[name]) for name, layout in layouts.items()}
         # records
         self.records: dict[str, wp.array] = {}
         self.state_records: dict[str, wp.array] = {}  # the ones written by launches (not views of the states)
@@ -273,7 +281,7 @@ class _Config:
     def nbytes(self) -> int:
         """Bytes of the buffers this configuration allocated (states, workspaces, controls, records), with
         their gradients; the model's and plan's constants are not counted."""
-        owned = [self.slots, self.traj, self.seg, self.workspaces, self.tau_buffer, self.force_buffer, list(self.records.values())]
+        owned = [self.slots, self.traj, self.seg, self.workspaces, list(self.buffers.values()), list(self.records.values())]
         return _nbytes(_roots([x for x in owned if x is not None], {}, _plan_rows(self.plan)).values())
 
     # ----------------------------------------------------------------------------------- views per step
@@ -286,7 +294,9 @@ class _Config:
             return [_at(a, -(-t // S)) for a in self.traj]  # checkpoint ceil(t / S): t / S, or the last one at T
         return [_at(a, t % S - 1) for a in self.seg]
 
-    def _input(self, layout: _Layout, buffer, t: int, absent):
+    def _input(self, name: str, t: int, absent):
+        """Control `name` at step t as an (N, *shape) array (`absent` when not given)."""
+        layout, buffer = self.layouts[name], self.buffers[name]
         if layout.kind is None:
             return absent
         view = _at(buffer, t) if layout.kind == "step" else buffer
@@ -309,11 +319,12 @@ class _Config:
         plan = self.plan
         ws = self.workspaces[t % len(self.workspaces)]
         x, y = self.state(t), self.state(t + 1)
-        tau_ref = self._input(self.tau_layout, self.tau_buffer, t, plan.zeros((plan.n,), self.N))
-        f_user = self._input(self.force_layout, self.force_buffer, t, None)
+        tau_ref = self._input("joint_force_references", t, plan.zeros((plan.n,), self.N))
+        f_user = self._input("link_forces", t, None)
+        ctrl = self._input("ctrl", t, None)
         torques = self.records.get("joint_torques")
         tau_out = _at(torques, t) if torques is not None else None
-        launches = step_launches(plan, ws, x, y, tau_ref, f_user, self.repr, tau_out)
+        launches = step_launches(plan, ws, x, y, tau_ref, f_user, self.repr, tau_out, ctrl)
         ev = ws.evals[0]
         K = wrench_kernels(self.scalar)
         if "link_contact_forces" in self.records and plan.contacts:
@@ -335,11 +346,12 @@ class _Config:
         src = state_arrays(data)
         run_launches([k for k in (_copy_launch(self.scalar, a, b) for a, b in zip(src, x)) if k is not None], self.device)
 
-    def load_controls(self, tau_source, force_source) -> None:
+    def load_controls(self, sources: dict) -> None:
+        """Copy the given controls ({name: source}) into the rollout's buffers (recorded by a tape)."""
         launches = []
-        for source, buffer in ((tau_source, self.tau_buffer), (force_source, self.force_buffer)):
+        for name, source in sources.items():
             if source is not None:
-                launches.append(_copy_launch(self.scalar, source, buffer))
+                launches.append(_copy_launch(self.scalar, source, self.buffers[name]))
         run_launches([k for k in launches if k is not None], self.device)
 
     def run_steps(self, start: int, stop: int, graph: bool) -> None:
@@ -364,7 +376,7 @@ class _Config:
         """The rollout's arrays whose gradients the checkpointed backward reads or adds into, for the user's
         tape to zero in `Tape.zero()` (it sees none of the steps' launches): the kept states, the records and
         the control buffers."""
-        candidates = [*self.traj, *self.records.values(), self.tau_buffer, self.force_buffer]
+        candidates = [*self.traj, *self.records.values(), *self.buffers.values()]
         return [a for a in candidates if a is not None and a.grad is not None and a.size > 0]
 
     def parameters(self) -> list:
@@ -485,18 +497,20 @@ class Rollout:
             return "trajectory" if taping else "ping-pong"
         return self.storage
 
-    def _plan_memory(self, plan, N: int, repr: int, storage: str, grad: bool, tau: _Layout, forces: _Layout) -> dict:
+    def _plan_memory(self, plan, N: int, repr: int, storage: str, grad: bool, layouts: dict) -> dict:
         """{part: bytes} of the configuration, and the checkpoint interval it uses (see `memory_bytes`)."""
         T, s = self.steps, plan.scalar
         size = wp.types.type_size_in_bytes(s)
         g = 2 if grad else 1
         shapes = _state_shapes(plan)
         state = sum(int(np.prod(shape)) for shape in shapes) * size * g + 4  # + the int32 health flag
-        workspace = _workspace_bytes_per_env(plan, grad, forces.kind is not None)
+        workspace = _workspace_bytes_per_env(plan, grad, layouts["link_forces"].kind is not None)
+        control_shapes = _control_shapes(plan)
 
         def controls():
             total = 0
-            for layout, per_env in ((tau, (plan.n,)), (forces, (plan.nL, 6))):
+            for name, layout in layouts.items():
+                per_env = control_shapes[name]
                 if layout.kind is not None:
                     rows = 1 if layout.shared else N
                     total += rows * (T if layout.kind == "step" else 1) * int(np.prod(per_env)) * size * g
@@ -528,7 +542,7 @@ class Rollout:
         return result
 
     def memory_bytes(
-        self, num_envs, *, grad: bool = True, velocity_representation=VelRepr.Mixed, joint_force_references=None, link_forces=None
+        self, num_envs, *, grad: bool = True, velocity_representation=VelRepr.Mixed, joint_force_references=None, link_forces=None, ctrl=None
     ) -> dict:
         """The bytes `run` would keep allocated for `num_envs` environments (None: single-environment data),
         with gradients when `grad` (under a wp.Tape), without allocating them: {"states", "intermediates"
@@ -547,20 +561,21 @@ class Rollout:
             raise ValueError(f"num_envs must be a positive integer or None (single-environment data), got {num_envs!r}")
         N = int(num_envs) if batched else 1
         plan.check_envs(N)
-        layouts = []
-        for value, name, per_env in ((joint_force_references, "joint_force_references", (plan.n,)), (link_forces, "link_forces", (plan.nL, 6))):
+        given = {"joint_force_references": joint_force_references, "link_forces": link_forces, "ctrl": ctrl}
+        layouts = {}
+        for (name, value), per_env in zip(given.items(), _control_shapes(plan).values()):
             shape = None if value is None else (tuple(value.shape) if hasattr(value, "shape") else np.shape(value))
-            layouts.append(_Layout(None) if shape is None else _control_layout(shape, name, per_env, self.steps, N, batched)[1])
+            layouts[name] = _Layout(None) if shape is None else _control_layout(shape, name, per_env, self.steps, N, batched)[1]
         storage = self._storage(grad)
         grad = grad and storage != "ping-pong"
-        return self._plan_memory(plan, N, int(velocity_representation), storage, grad, *layouts)
+        return self._plan_memory(plan, N, int(velocity_representation), storage, grad, layouts)
 
     @property
     def nbytes(self) -> int:
         """Bytes of the buffers the last `run` allocated, gradients included (0 before the first run)."""
         return 0 if self._config is None else self._config.nbytes()
 
-    def run(self, data, *, joint_force_references=None, link_forces=None, callback=None, callback_every: int = 1):
+    def run(self, data, *, joint_force_references=None, link_forces=None, ctrl=None, callback=None, callback_every: int = 1):
         """(final Data, {name: record}) after `steps` steps from `data` (unchanged)."""
         model, T = self.model, self.steps
         plan, N = prepare(model, data)
@@ -583,25 +598,27 @@ class Rollout:
         if checkpointed and taping and not tape_known():
             raise RuntimeError("storage='checkpointed' needs Warp's runtime.tape (Warp 1.19's warp._src.context)")
         s, d, batched = plan.scalar, plan.device, data.num_envs is not None
-        tau_layout, tau_source = _control(joint_force_references, "joint_force_references", (plan.n,), T, N, batched, s, d)
-        force_layout, force_source = _control(link_forces, "link_forces", (plan.nL, 6), T, N, batched, s, d)
+        given = {"joint_force_references": joint_force_references, "link_forces": link_forces, "ctrl": ctrl}
+        layouts, sources = {}, {}
+        for (name, value), per_env in zip(given.items(), _control_shapes(plan).values()):
+            layouts[name], sources[name] = _control(value, name, per_env, T, N, batched, s, d)
         grad = taping and storage != "ping-pong"
         repr = int(data.velocity_representation)
-        key = (plan, N, data.num_envs, repr, storage, self.checkpoint_every, grad, tau_layout, force_layout)
+        key = (plan, N, data.num_envs, repr, storage, self.checkpoint_every, grad, *layouts.values())
         if self._key is None or len(key) != len(self._key) or not all(a is b or a == b for a, b in zip(key, self._key)):
             self._config = None  # release the old buffers first
             every = 1
             if checkpointed:
                 every = self.checkpoint_every
                 if every is None:
-                    every = self._plan_memory(plan, N, repr, storage, grad, tau_layout, force_layout)["checkpoint_every"]
-            self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, tau_layout, force_layout)
+                    every = self._plan_memory(plan, N, repr, storage, grad, layouts)["checkpoint_every"]
+            self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, layouts)
             self._key = key
         cfg = self._config
         cfg.template = data  # the Data the records and callbacks' states are made like
         cfg.runs += 1
         graph = (not taping or checkpointed) if self.use_graph == "auto" else bool(self.use_graph)
-        cfg.load_controls(tau_source, force_source)
+        cfg.load_controls(sources)
         cfg.load_state(0, data)
         if checkpointed and taping:
             # the steps and the records' plain copies run unrecorded (the backward recomputes the steps and adds

@@ -41,6 +41,7 @@ from .. import arrays
 from ..kernels.aba import ABA_RECORD
 from ..kernels.aba import kernels as aba_kernels
 from ..kernels.actuation import kernel as actuation_kernel
+from ..kernels.actuation import mujoco_kernel
 from ..kernels.bundles import bundles
 from ..kernels.forces import kernels as force_kernels
 from ..kernels.integrators import kernels as integrator_kernels
@@ -50,10 +51,11 @@ from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import IntegratorType, VelRepr
 from ..types.model import check_data
+from ..types.parameters import MODEL_ARRAYS
 from ..types.settings import host_values
 from ..types.terrain import FlatTerrain, HeightfieldTerrain
 from . import tape
-from .bundles import controls_bundle, model_bundle, state_bundle
+from .bundles import controls_bundle, empty_like_input, model_bundle, state_bundle
 from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
 
@@ -75,7 +77,7 @@ __all__ = [
     "check_deformation_stability",
 ]
 
-DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.RungeKutta4: 2.785}
+DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.SemiImplicitEulerSO3: 2.0, IntegratorType.RungeKutta4: 2.785}
 """Stability limits of dt K / D: the tangential deformation relaxes as m_dot = -(K / D) m (out of contact,
 and for p = q in contact), which explicit Euler integrates stably for dt K / D < 2 and RK4 for
 dt K / D < 2.785 (its stability region on the negative real axis). Beyond, m grows geometrically while
@@ -162,14 +164,32 @@ class Plan:
         self.dt = s(model.time_step)
         self.quaternion_tolerance = s(model.quaternion_tolerance)
         self.model = model_bundle(model)
-        # actuation
+        # actuation: the terms whose parameters are nonzero or marked for gradients
         a = model.actuation_params
-        friction_grad, limits_grad = gradient_terms
-        self.with_limits = bool(np.any(model.parameter_host("joint_limit_spring") != 0.0)) or limits_grad
-        friction = np.any(model.parameter_host("friction_static") != 0.0) or np.any(model.parameter_host("friction_viscous") != 0.0)
-        self.with_friction = bool(a.enable_friction) and (bool(friction) or friction_grad)
-        self.actuation = actuation_kernel(s, self.with_limits, self.with_friction) if self.n > 0 else None
+        friction_grad, limits_grad, passive_grad, gravcomp_grad = gradient_terms
+
+        def nonzero(*names):
+            return any(bool(np.any(model.parameter_host(name) != 0.0)) for name in names)
+
+        self.na = model.number_of_actuators()
+        self.with_limits = nonzero("joint_limit_spring") or limits_grad
+        self.with_friction = bool(a.enable_friction) and (nonzero("friction_static", "friction_viscous") or friction_grad)
+        self.with_passive = nonzero("stiffness", "damping") or passive_grad
+        per_joint = model.actuators_per_joint
+        self.euler = self.integrator != IntegratorType.RungeKutta4
+        # RK4 evaluates MuJoCo's state-dependent joint forces at each stage, on JaxSim's part held from the start
+        self.stage_forces = not self.euler and self.n > 0 and (self.with_passive or per_joint > 0)
+        if self.stage_forces:
+            self.actuation = actuation_kernel(s, self.with_limits, self.with_friction)
+            self.stage_actuation = mujoco_kernel(s, self.with_passive, per_joint)
+        else:
+            self.actuation = actuation_kernel(s, self.with_limits, self.with_friction, self.with_passive, per_joint) if self.n > 0 else None
         self.torque_curve = [s(a.torque_max), s(a.omega_th), s(a.omega_max)]
+        # MuJoCo's implicit joint damping in the Euler integrators (ABA's d_i + dt damping_i)
+        implicit = self.euler and model.implicit_damping
+        self.implicit_dt = s(model.time_step if implicit else 0.0)
+        # gravity compensation: link forces from the links' poses at each evaluation
+        self.gravcomp = nonzero("gravcomp_mass") or gravcomp_grad
         # collidable points: the enabled ones ordered by link (the contact kernel sums them per link)
         cp = model.kin_dyn_parameters.contact_parameters
         rows = cp.indices_of_enabled_collidable_points
@@ -184,6 +204,7 @@ class Plan:
         self.total = len(cp.body)
         self.count = len(rows)
         self.contacts = self.count > 0
+        self.poses = self.contacts or self.gravcomp  # an evaluation runs FK
         c = model.contact_params
         if self.contacts:
             check_deformation_stability(model.time_step, c.K, c.D, model.integrator)
@@ -212,6 +233,8 @@ class Plan:
     def zeros(self, shape: tuple, N: int) -> wp.array:
         """A zero array of logical shape (N, *shape) that no kernel writes: one row, broadcast (env stride 0)."""
         key = tuple(shape)
+        if 0 in key:  # nothing to read: no memory to broadcast
+            return wp.empty((N, *key), dtype=self.scalar, device=self.device)
         row = self._zeros.get(key)
         if row is None:
             row = self._zeros[key] = wp.zeros((1, *shape), dtype=self.scalar, device=self.device)
@@ -224,9 +247,7 @@ class Plan:
     def parameter_arrays(self) -> list:
         """The model parameters' Warp arrays that the steps read (the bundles' fields)."""
         model, contacts, terrain = self.model, self.contact_bundle, self.terrain
-        names = ("link_mass", "link_com", "link_inertia", "position_limits", "joint_limit_spring", "joint_limit_damper",
-                 "friction_static", "friction_viscous")  # fmt: skip
-        return [getattr(model, name) for name in names] + [contacts.K, contacts.D, contacts.mu, terrain.height, terrain.heights]
+        return [getattr(model, name) for name in MODEL_ARRAYS] + [contacts.K, contacts.D, contacts.mu, terrain.height, terrain.heights]
 
 
 def broadcast_envs(row: wp.array, N: int) -> wp.array:
@@ -246,10 +267,16 @@ def broadcast_envs(row: wp.array, N: int) -> wp.array:
 
 
 def plan(model) -> Plan:
-    """The model's plan at its current version (and marking of its friction and limit gains)."""
+    """The model's plan at its current version (and marking of the parameters of its optional terms)."""
+
+    def marked(*names):
+        return any(getattr(model, name).requires_grad for name in names)
+
     terms = (
-        model.friction_static.requires_grad or model.friction_viscous.requires_grad,
-        model.joint_limit_spring.requires_grad or model.joint_limit_damper.requires_grad,
+        marked("friction_static", "friction_viscous"),
+        marked("joint_limit_spring", "joint_limit_damper"),
+        marked("stiffness", "damping", "springref"),
+        marked("gravcomp_mass", "gravcomp_com"),
     )
     return model.cached(("step plan", terms), lambda: Plan(model, terms))
 
@@ -266,9 +293,12 @@ class Evaluation:
 
         transform = wp.types.transformation(s)
         vec6 = wp.types.vector(6, s)
-        if plan.contacts:
+        if plan.poses:
             self.parent_H_link = out((nL,), transform)
             self.W_H_L = out((nL,), transform)
+        if plan.gravcomp and aba:
+            self.W_f_gc = out((nL, 6))
+        if plan.contacts:
             self.W_v_WL = out((nL,), vec6)
             self.target_velocities = arrays.empty((0, 6), N, s, d)
             self.W_f_C = out((plan.count, 6))
@@ -279,7 +309,10 @@ class Evaluation:
             self.m_dot = plan.zeros((plan.total, 3), N)
         if not aba:  # contact results only (warpdyn.engine.contact)
             return
-        self.aba_scratch = arrays.empty((nL, ABA_RECORD + (TRANSFORM if plan.contacts or forces else 0)), N, s, d, grad)
+        link_forces = plan.contacts or plan.gravcomp or forces
+        self.aba_scratch = arrays.empty((nL, ABA_RECORD + (TRANSFORM if link_forces else 0)), N, s, d, grad)
+        if plan.stage_forces:
+            self.tau = out((n,))  # this stage's joint forces
         # nu_dot (N, 6 + n) = [W_vdot_WB (Inertial); sddot]: the semi-implicit Euler's (given), or this stage's
         self.nu_dot = out((6 + n,)) if nu_dot is None else nu_dot
         self.base_acceleration = self.nu_dot[:, :6]
@@ -299,13 +332,15 @@ class Workspace:
         n, nL = plan.n, plan.nL
         self.N, self.grad, self.forces = N, grad, forces
         self.tau = arrays.output((n,), N, s, d, grad)
+        if plan.stage_forces:
+            self.tau_held = arrays.output((n,), N, s, d, grad)  # JaxSim's part, held over the RK4 stages
         transform = wp.types.transformation(s)
         if forces:
             self.W_f_ext = arrays.output((nL, 6), N, s, d, grad)
-            if not plan.contacts:  # otherwise the first evaluation's link poses serve
+            if not plan.poses:  # otherwise the first evaluation's link poses serve
                 self.parent_H_link = arrays.output((nL,), N, transform, d, grad)
                 self.W_H_L = arrays.output((nL,), N, transform, d, grad)
-        if plan.integrator == IntegratorType.SemiImplicitEuler:
+        if plan.euler:
             self.nu_dot = arrays.output((6 + n,), N, s, d, grad)
             self.evals = [Evaluation(plan, N, grad, forces, self.nu_dot)]
         else:
@@ -330,88 +365,87 @@ def state_buffers(plan: Plan, N: int, grad: bool) -> list:
 
 
 def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: bool = True) -> list:
-    """The launches of one derivative evaluation at the state x (a State bundle): contacts (if any), then
-    ABA (Inertial). f_ext (N, nL, 6) Inertial or None. poses_done: ev's link poses already hold FK at x."""
+    """The launches of one derivative evaluation at the state x (a State bundle): FK (if contacts or gravity
+    compensation), the gravity compensation and contacts (if any), then ABA (Inertial). f_ext (N, nL, 6)
+    Inertial or None. poses_done: ev's link poses already hold FK at x. aba=False: contact results only."""
     N = x.base_position.shape[0]
+    s = plan.scalar
     launches = []
-    f_aba = f_ext
+    if plan.poses and not poses_done:
+        launches.append(Launch(kinematics_kernels(s).forward_kinematics, N, [plan.model, x], [ev.parent_H_link, ev.W_H_L]))
+    if plan.gravcomp and aba:
+        f_in = f_ext if f_ext is not None else empty_like_input(s, plan.device, 3)
+        launches.append(Launch(force_kernels(s).gravity_compensation, (N, plan.nL), [plan.model, ev.W_H_L, f_in, int(VelRepr.Inertial)], [ev.W_f_gc]))
+        f_ext = ev.W_f_gc
     if plan.contacts:
-        if not poses_done:
-            launches.append(Launch(kinematics_kernels(plan.scalar).forward_kinematics, N, [plan.model, x], [ev.parent_H_link, ev.W_H_L]))
-        launches.append(
-            Launch(
-                velocity_kernels(plan.scalar).link_velocities,
-                N,
-                [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)],
-                [ev.W_v_WL, ev.target_velocities],
-            )
-        )
-        launches.append(
-            Launch(
-                contact_kernels(plan.scalar).contact_forces,
-                N,
-                [
-                    plan.contact_bundle,
-                    plan.terrain,
-                    ev.W_H_L,
-                    ev.W_v_WL,
-                    x.tangential_deformation,
-                    f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N),
-                    ev.chain,
-                ],
-                [ev.W_f_C, ev.m_dot, ev.W_f_L],
-            )
-        )
-        f_aba = ev.W_f_L
+        args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
+        launches.append(Launch(velocity_kernels(s).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities]))
+        f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
+        args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, f_in, ev.chain]
+        launches.append(Launch(contact_kernels(s).contact_forces, N, args, [ev.W_f_C, ev.m_dot, ev.W_f_L]))
+        f_ext = ev.W_f_L
     if aba:
-        controls = controls_bundle(plan.scalar, plan.device, tau if plan.n > 0 else None, f_aba)
-        launches.append(
-            Launch(
-                aba_kernels(plan.scalar).aba,
-                N,
-                [plan.model, x, controls, int(VelRepr.Inertial), ev.aba_scratch],
-                [ev.base_acceleration, ev.joint_accelerations],
-            )
-        )
+        controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
+        args = [plan.model, x, controls, int(VelRepr.Inertial), plan.implicit_dt, ev.aba_scratch]
+        launches.append(Launch(aba_kernels(s).aba, N, args, [ev.base_acceleration, ev.joint_accelerations]))
     return launches
 
 
-def step_launches(plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None) -> list:
+def _joint_forces(plan: Plan, X, tau_ref, u, tau, held) -> list:
+    """The launches of the joint forces at the state X into tau: one kernel, or, for RK4 with MuJoCo's
+    joint forces, JaxSim's part into `held` and then MuJoCo's part added (the first stage's forces)."""
+    N = X.joint_positions.shape[0]
+    if held is None:
+        return [Launch(plan.actuation, (N, plan.n), [plan.model, *plan.torque_curve, X, tau_ref, u], [tau])]
+    return [
+        Launch(plan.actuation, (N, plan.n), [plan.model, *plan.torque_curve, X, tau_ref, u], [held]),
+        Launch(plan.stage_actuation, (N, plan.n), [plan.model, X, held, u], [tau]),
+    ]
+
+
+def step_launches(plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None, ctrl=None) -> list:
     """The launches of one step from the state x to the state y (lists of 7 arrays, see
     warpdyn.engine.kinematics.state_arrays), all arrays given: nothing is allocated, nothing read back.
 
     tau_ref (N, n): the joint force references; f_user (N, nL, 6) in representation `repr`, or None;
-    tau_out (N, n): where the applied joint torques go (default ws.tau).
+    tau_out (N, n): where the applied joint torques go (default ws.tau); ctrl (N, na): the actuators'
+    controls (None: zero).
     """
     N = x[0].shape[0]
     s = plan.scalar
     X, Y = state_bundle(s, x), state_bundle(s, y)
     tau = ws.tau if tau_out is None else tau_out
     launches = []
+    u = ctrl if ctrl is not None else plan.zeros((plan.na,), N)
     if plan.n > 0:
-        launches.append(Launch(plan.actuation, (N, plan.n), [plan.model, *plan.torque_curve, X, tau_ref], [tau]))
+        launches += _joint_forces(plan, X, tau_ref, u, tau, ws.tau_held if plan.stage_forces else None)
     f_ext = None
     poses_done = False
     if f_user is not None:
         if repr == int(VelRepr.Inertial):
             f_ext = f_user
         else:
-            holder = ws.evals[0] if plan.contacts else ws
+            holder = ws.evals[0] if plan.poses else ws
             launches.append(Launch(kinematics_kernels(s).forward_kinematics, N, [plan.model, X], [holder.parent_H_link, holder.W_H_L]))
-            poses_done = plan.contacts
+            poses_done = plan.poses
             launches.append(Launch(force_kernels(s).link_forces_to_inertial, (N, plan.nL), [holder.W_H_L, f_user, repr], [ws.W_f_ext]))
             f_ext = ws.W_f_ext
     K = plan.integrators
     ev = ws.evals[0]
     launches += _evaluate(plan, ev, X, tau, f_ext, poses_done)
-    if plan.integrator == IntegratorType.SemiImplicitEuler:
-        launches.append(Launch(K.semi_implicit_euler, N, [plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
+    if plan.euler:
+        euler = K.semi_implicit_euler_so3 if plan.integrator == IntegratorType.SemiImplicitEulerSO3 else K.semi_implicit_euler
+        launches.append(Launch(euler, N, [plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
         return launches
     stage = X
     for i, c in enumerate((0.5, 0.5, 1.0, None)):
         ev = ws.evals[i]
         if i > 0:
-            launches += _evaluate(plan, ev, stage, tau, f_ext, False)
+            tau_stage = tau
+            if plan.stage_forces:
+                tau_stage = ev.tau
+                launches.append(Launch(plan.stage_actuation, (N, plan.n), [plan.model, stage, ws.tau_held, u], [tau_stage]))
+            launches += _evaluate(plan, ev, stage, tau_stage, f_ext, False)
         launches.append(Launch(K.slope, N, [stage, ev.base_acceleration, ev.joint_accelerations, ev.m_dot], [ws.slopes[i]]))
         if c is not None:
             stage = state_bundle(s, [*ws.stages[i], x[6]])
@@ -448,6 +482,12 @@ def _link_forces(plan: Plan, data, value):
     return arrays.batched_input(value, "link_forces", (plan.nL, 6), data.num_envs, plan.scalar, plan.device)
 
 
+def _ctrl(plan: Plan, data, value):
+    if value is None:
+        return plan.zeros((plan.na,), data.batch_size)
+    return arrays.batched_input(value, "ctrl", (plan.na,), data.num_envs, plan.scalar, plan.device)
+
+
 def prepare(model, data, parameters: bool = True) -> tuple[Plan, int]:
     """(plan, N) after checking the data against the model (parameters: the caller reads the link or joint
     parameters, see warpdyn.types.model.check_data; the contact parameters and the terrain are checked in
@@ -459,16 +499,19 @@ def prepare(model, data, parameters: bool = True) -> tuple[Plan, int]:
     return current, data.batch_size
 
 
-def resultant_torques(model, data, joint_force_references) -> wp.array:
-    """tau (N, n): the joint torques a step applies, from the references (see kernels/actuation.py)."""
+def resultant_torques(model, data, joint_force_references, ctrl=None) -> wp.array:
+    """tau (N, n): the joint forces a step applies, from the references and the actuators' controls (see
+    kernels/actuation.py)."""
     current, N = prepare(model, data)
     tau_ref = _joint_force_references(current, data, joint_force_references)
+    u = _ctrl(current, data, ctrl)
     if current.n == 0:
         return arrays.empty((0,), N, current.scalar, current.device)
-    grad = data.requires_grad or inputs_require_grad(tau_ref) or model.parameters_require_grad()
+    grad = data.requires_grad or inputs_require_grad(tau_ref, u) or model.parameters_require_grad()
     tau = arrays.output((current.n,), N, current.scalar, current.device, grad)
+    held = arrays.output((current.n,), N, current.scalar, current.device, grad) if current.stage_forces else None
     X = state_bundle(current.scalar, state_arrays(data))
-    run([Launch(current.actuation, (N, current.n), [current.model, *current.torque_curve, X, tau_ref], [tau])], current.device)
+    run(_joint_forces(current, X, tau_ref, u, tau, held), current.device)
     return tau
 
 
@@ -509,21 +552,23 @@ class _Shared:
         self.recorded = Recorded()
 
 
-def step(model, data, *, link_forces=None, joint_force_references=None):
+def step(model, data, *, link_forces=None, joint_force_references=None, ctrl=None):
     """The data after one step (see warpdyn.model.step): new Data, fresh arrays, same representation."""
     current, N = prepare(model, data)
     tau_ref = _joint_force_references(current, data, joint_force_references)
     f_user = _link_forces(current, data, link_forces)
-    grad = data.requires_grad or inputs_require_grad(tau_ref, f_user) or model.parameters_require_grad()
+    u = _ctrl(current, data, ctrl)
+    grad = data.requires_grad or inputs_require_grad(tau_ref, f_user, u) or model.parameters_require_grad()
     forces = f_user is not None
     y = state_buffers(current, N, grad)
     repr = int(data.velocity_representation)
+    x = state_arrays(data)
     if tape.taping():
         ws = Workspace(current, N, grad, forces)
-        run(step_launches(current, ws, state_arrays(data), y, tau_ref, f_user, repr), current.device)
+        run(step_launches(current, ws, x, y, tau_ref, f_user, repr, ctrl=u), current.device)
     else:
         shared = per_thread(model, ("step", N, forces), lambda: _Shared(current, N, forces))
-        shared.recorded.run(step_launches(current, shared.workspace, state_arrays(data), y, tau_ref, f_user, repr), current.device)
+        shared.recorded.run(step_launches(current, shared.workspace, x, y, tau_ref, f_user, repr, ctrl=u), current.device)
     return with_state(data, y)
 
 

@@ -26,7 +26,7 @@ from ..description.collidable import warn_without_points
 from ..description.tree import KinematicTree, build_tree
 from .enums import IntegratorType
 from .kin_dyn import KinDynParameters
-from .parameters import JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter
+from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter
 from .settings import ActuationParams, SoftContactsParams
 from .terrain import FlatTerrain, HeightfieldTerrain, PlaneTerrain
 
@@ -113,7 +113,8 @@ class _ParameterAttribute:
 
     def __init__(self, parameter: Parameter):
         self.name = parameter.name
-        self.__doc__ = f"{parameter.description} [{parameter.unit}]: ({'nL' if parameter.group == 'link' else 'n'}{''.join(f', {k}' for k in parameter.item)}), or with a leading N when given per environment."
+        count = {"link": "nL", "joint": "n", "actuator": "na"}[parameter.group]
+        self.__doc__ = f"{parameter.description} [{parameter.unit}]: ({count}{''.join(f', {k}' for k in parameter.item)}), or with a leading N when given per environment."
 
     def __get__(self, model, owner=None):
         if model is None:
@@ -180,9 +181,18 @@ class Model:
         self.next_sibling = wp.array(next_sibling, dtype=int, device=d)
         self.all_links = wp.array(np.arange(tree.number_of_links), dtype=int, device=d)
         self.identity_offsets = transforms(np.tile(np.eye(4), (tree.number_of_links, 1, 1)), s, d)
-        for parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS):
+        # actuators: the joint of each, and each joint's actuators (sorted by joint: joint_actuator[k] for
+        # k in joint_actuator_start[j] .. joint_actuator_start[j + 1] - 1)
+        joint_of = np.array([a.joint for a in tree.actuators], dtype=np.int32)
+        order = np.argsort(joint_of, kind="stable").astype(np.int32)
+        start = np.searchsorted(joint_of[order], np.arange(tree.dofs + 1)).astype(np.int32)
+        self.actuator_joint = wp.array(joint_of, dtype=int, device=d)
+        self.joint_actuator = wp.array(order, dtype=int, device=d)
+        self.joint_actuator_start = wp.array(start, dtype=int, device=d)
+        self.actuators_per_joint = int(np.diff(start).max(initial=0))  # the most actuators on one joint
+        for parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS):
             # the description's inertial values are taken as they are; what a user sets is checked
-            self._store(parameter, parameter.default(tree), checked=parameter.group == "joint")
+            self._store(parameter, parameter.default(tree), checked=parameter.group != "link")
         self.gravity = gravity
         self.time_step = time_step
         self.terrain = FlatTerrain()
@@ -190,6 +200,7 @@ class Model:
         self.integrator = IntegratorType.SemiImplicitEuler
         self.actuation_params = ActuationParams()
         self.quaternion_tolerance = 0.1
+        self.implicit_damping = False
 
     @classmethod
     def build_from_model_description(
@@ -201,8 +212,8 @@ class Model:
         is_urdf: bool | None = None,
         fixed_base: bool | None = None,
         base_pose=None,
-        gravity: float = 9.81,
-        time_step: float = 0.001,
+        gravity: float | None = None,
+        time_step: float | None = None,
         dtype=np.float32,
         device=None,
     ) -> Model:
@@ -214,13 +225,26 @@ class Model:
         (welded to a `world` link, or floating); True welds the base to the world at `base_pose`, a (4, 4)
         homogeneous transform W_H_B [m] (default: the description's weld, else the identity; an MJCF free
         joint becomes a weld); False frees a base the description welds. gravity [m/s^2] acts along -z of
-        the world. dtype: np.float32 (the default) or np.float64, the scalar of every computation.
-        device: a Warp device (default: Warp's default device, a GPU when there is one).
+        the world; gravity and time_step [s] default to an MJCF's `<option>` (9.81 and 0.001 for a URDF).
+        dtype: np.float32 (the default) or np.float64, the scalar of every computation. device: a Warp
+        device (default: Warp's default device, a GPU when there is one).
+
+        From an MJCF, the model also takes MuJoCo's integrator (RK4 as RungeKutta4; Euler, implicit and
+        implicitfast as SemiImplicitEulerSO3, MuJoCo's Euler, with the joints' damping implicit unless
+        eulerdamp is disabled: MuJoCo's implicit integrators also treat velocity-dependent actuator forces
+        implicitly, which warpdyn does not) and honours its disable flags: gravity (g = 0), spring and damper (their
+        coefficients 0; both: no gravity compensation), actuation (actuator gains and biases 0), clampctrl
+        (no control ranges), eulerdamp (explicit damping).
         """
         if np.dtype(dtype) not in SCALARS:
             raise TypeError(f"dtype must be np.float32 or np.float64, got {dtype!r}")
         description = load(model_description, is_urdf=is_urdf, fixed_base=fixed_base, base_pose=base_pose)
         tree = build_tree(description, considered_joints)
+        disabled = description.disabled
+        if gravity is None:
+            gravity = 0.0 if "gravity" in disabled else description.gravity if description.gravity is not None else 9.81
+        if time_step is None:
+            time_step = description.time_step if description.time_step is not None else 0.001
         model = cls(
             description,
             tree,
@@ -230,9 +254,27 @@ class Model:
             dtype=dtype,
             device=device,
         )
+        if description.integrator is not None:
+            model._follow_mujoco(description.integrator, disabled)
         if model.floating_base():
             warn_without_points(model.model_name, tree, stacklevel=2)
         return model
+
+    def _follow_mujoco(self, integrator: str, disabled: frozenset) -> None:
+        """MuJoCo's integrator and disable flags (see build_from_model_description)."""
+        self.integrator = IntegratorType.RungeKutta4 if integrator == "RK4" else IntegratorType.SemiImplicitEulerSO3
+        self.implicit_damping = integrator != "RK4" and not {"eulerdamp", "damper"} & disabled
+        n, nL, na = self.dofs(), self.number_of_links(), self.number_of_actuators()
+        if "spring" in disabled:
+            self.set_joint_parameters(stiffness=np.zeros(n))
+        if "damper" in disabled:
+            self.set_joint_parameters(damping=np.zeros(n))
+        if "gravity" in disabled or {"spring", "damper"} <= disabled:
+            self.set_link_parameters(gravcomp_mass=np.zeros(nL))
+        if "actuation" in disabled:
+            self.set_actuator_parameters(gain=np.zeros((na, 3)), bias=np.zeros((na, 3)))
+        if "clampctrl" in disabled:
+            self.set_actuator_parameters(ctrl_range=np.tile([-np.inf, np.inf], (na, 1)))
 
     # Changes and caches --------------------------------------------------------------------------
 
@@ -288,6 +330,13 @@ class Model:
     terrain = _setting("terrain", _instance("terrain", FlatTerrain, PlaneTerrain, HeightfieldTerrain), "The terrain (warpdyn.terrain).")
     contact_params = _setting("contact_params", _instance("contact_params", SoftContactsParams), "The soft contacts' parameters.")
     actuation_params = _setting("actuation_params", _instance("actuation_params", ActuationParams), "The torque-speed curve.")
+    implicit_damping = _setting(
+        "implicit_damping",
+        _instance("implicit_damping", bool),
+        "Whether the Euler integrators (SemiImplicitEuler, SemiImplicitEulerSO3) integrate the joints' `damping` "
+        "implicitly, as MuJoCo's Euler, (M + dt diag(damping)) ν̇ = f; RK4 integrates it explicitly, as MuJoCo's. MJCF models start with "
+        "MuJoCo's choice (its eulerdamp flag), URDF models with False.",
+    )
 
     # Parameters ----------------------------------------------------------------------------------
 
@@ -295,6 +344,8 @@ class Model:
         """Set the links' inertial parameters (keywords below; one not given keeps its value).
 
         mass (nL,) [kg], com (nL, 3) [m, link frame], inertia (nL, 3, 3) [kg m^2, about the CoM, link axes],
+        gravcomp_mass (nL,) [kg] and gravcomp_com (nL, 3) [m, link frame] (gravity compensation: a force
+        gravcomp_mass g along +z of the world at gravcomp_com, MJCF's gravcomp),
         in the order of `link_names()` (lumped links included), shared by all environments; or with a
         leading axis of N environments, (N, nL), (N, nL, 3), (N, nL, 3, 3): domain randomisation, one
         row per environment, read by every dynamics function, `step` and rollouts. A model with
@@ -309,12 +360,23 @@ class Model:
 
         position_limits (n, 2) [rad or m]: (lower, upper), inf where a joint is unlimited. limit_spring
         [N m/rad or N/m] and limit_damper [s/rad or s/m]: the limit spring-damper of JaxSim (off where the
-        spring is 0); friction_static [N m or N] and friction_viscous [N m s/rad or N s/m]: each (n,) (or
-        (n, 2)), shared by all environments, or with a leading axis of N environments, one row per
-        environment (see `set_link_parameters`). Each value given makes a new Warp array
-        (`model.joint_limit_spring`, ...).
+        spring is 0); friction_static [N m or N] and friction_viscous [N m s/rad or N s/m]: JaxSim's joint
+        friction; armature [kg m^2 or kg]: added to the joint's diagonal entry of the mass matrix; damping
+        [N m s/rad or N s/m], stiffness [N m/rad or N/m] and springref [rad or m]: MuJoCo's passive joint
+        force -damping sdot - stiffness (s - springref); actuator_force_range (n, 2) [N m or N]: the clamp of
+        the summed actuator force on the joint. Each (n,) (or (n, 2)), shared by all environments, or with a
+        leading axis of N environments, one row per environment (see `set_link_parameters`). Each value
+        given makes a new Warp array (`model.joint_limit_spring`, ...; their names in
+        warpdyn.types.parameters).
         """
         self._set_group(JOINT_PARAMETERS, values, "set_joint_parameters")
+
+    def set_actuator_parameters(self, **values) -> None:
+        """Set the actuators' parameters (keywords below; one not given keeps its value): gear (na,),
+        gain (na, 3) and bias (na, 3) of the force (g0 + g1 L + g2 V) ctrl + b0 + b1 L + b2 V with L = gear s
+        and V = gear sdot, ctrl_range (na, 2) and force_range (na, 2) (inf where unlimited); shared by all
+        environments or with a leading axis of N environments (see `set_link_parameters`)."""
+        self._set_group(ACTUATOR_PARAMETERS, values, "set_actuator_parameters")
 
     def _set_group(self, group: tuple, values: dict, setter: str) -> None:
         by_keyword = {p.keyword: p for p in group}
@@ -329,7 +391,7 @@ class Model:
     def _store(self, parameter: Parameter, value, checked: bool) -> None:
         """Store a link or joint parameter given shared (count, *item) or per environment (N, count, *item)."""
         name = parameter.name
-        count = self.tree.number_of_links if parameter.group == "link" else self.tree.dofs
+        count = {"link": self.tree.number_of_links, "joint": self.tree.dofs, "actuator": len(self.tree.actuators)}[parameter.group]
         try:
             host = np.array(value, dtype=np.float64)
         except (TypeError, ValueError) as error:
@@ -384,7 +446,7 @@ class Model:
             return terrain.height if isinstance(terrain, FlatTerrain) else terrain.heights if isinstance(terrain, HeightfieldTerrain) else None
         return self._values[name]
 
-    def parameters_require_grad(self, groups=("link", "joint", "contact", "terrain")) -> bool:
+    def parameters_require_grad(self, groups=("link", "joint", "actuator", "contact", "terrain")) -> bool:
         """Whether a parameter of these groups is a Warp array that requires gradients (attribute reads only)."""
         for name, parameter in REGISTRY.items():
             if parameter.group in groups:
@@ -511,6 +573,13 @@ class Model:
     def frame_names(self) -> tuple[str, ...]:
         return tuple(self.tree.frame_names)
 
+    def number_of_actuators(self) -> int:
+        return len(self.tree.actuators)
+
+    def actuator_names(self) -> tuple[str, ...]:
+        """The MJCF actuators on kept joints, in the description's order (their ctrl order)."""
+        return tuple(a.name for a in self.tree.actuators)
+
     def floating_base(self) -> bool:
         return not self.description.fixed_base
 
@@ -518,7 +587,7 @@ class Model:
         return self.tree.link_names[0]
 
 
-for _parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS):
+for _parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS):
     setattr(Model, _parameter.name, _ParameterAttribute(_parameter))
 del _parameter
 

@@ -10,6 +10,7 @@ Groups and where the values live:
 - "link": one value per link (nL), on the model (`model.link_mass`, ...), a Warp array (nL, *item) shared
   by all environments or (N, nL, *item), one row per environment;
 - "joint": one value per joint (n), on the model likewise;
+- "actuator": one value per actuator (na, the MJCF actuators on kept joints), on the model likewise;
 - "contact": the soft-contact K, D, mu in `model.contact_params` (a number, NumPy (N,) or a Warp array);
 - "terrain": a FlatTerrain's height ((1,) or (N,)) or a HeightfieldTerrain's heights (nx, ny).
 """
@@ -25,6 +26,7 @@ __all__ = [
     "Parameter",
     "LINK_PARAMETERS",
     "JOINT_PARAMETERS",
+    "ACTUATOR_PARAMETERS",
     "CONTACT_PARAMETERS",
     "TERRAIN_PARAMETERS",
     "REGISTRY",
@@ -93,6 +95,15 @@ LINK_PARAMETERS = (
         "link_inertia", "link", (3, 3), "inertia", "kg m^2, about the CoM, link axes", "rotational inertia", check_inertia,
         lambda tree: tree.link_inertia,
     ),
+    Parameter(
+        "gravcomp_mass", "link", (), "gravcomp_mass", "kg",
+        "gravity compensation: the mass whose weight a force along +z of the world carries (MJCF gravcomp)",
+        check_non_negative, lambda tree: tree.gravcomp_mass,
+    ),
+    Parameter(
+        "gravcomp_com", "link", (3,), "gravcomp_com", "m, link frame", "where the gravity compensation acts",
+        check_finite, lambda tree: tree.gravcomp_com,
+    ),
 )
 
 JOINT_PARAMETERS = (
@@ -113,8 +124,56 @@ JOINT_PARAMETERS = (
         check_non_negative, lambda tree: tree.friction,
     ),
     Parameter(
-        "friction_viscous", "joint", (), "friction_viscous", "N m s/rad or N s/m", "viscous joint friction",
-        check_non_negative, lambda tree: tree.damping,
+        "friction_viscous", "joint", (), "friction_viscous", "N m s/rad or N s/m",
+        "viscous joint friction, JaxSim's (URDF <dynamics damping>)", check_non_negative, lambda tree: tree.damping,
+    ),
+    Parameter(
+        "armature", "joint", (), "armature", "kg m^2 or kg",
+        "armature (reflected rotor inertia), added to the joint's diagonal entry of the mass matrix (MJCF)",
+        check_non_negative, lambda tree: tree.armature,
+    ),
+    Parameter(
+        "damping", "joint", (), "damping", "N m s/rad or N s/m",
+        "MuJoCo's joint damper, -damping * sdot, implicit in the semi-implicit Euler when model.implicit_damping (MJCF)",
+        check_non_negative, lambda tree: tree.passive_damping,
+    ),
+    Parameter(
+        "stiffness", "joint", (), "stiffness", "N m/rad or N/m", "joint spring, -stiffness * (s - springref) (MJCF)",
+        check_non_negative, lambda tree: tree.stiffness,
+    ),
+    Parameter(
+        "springref", "joint", (), "springref", "rad or m", "the joint spring's rest position (MJCF)",
+        check_finite, lambda tree: tree.springref,
+    ),
+    Parameter(
+        "joint_actuator_force_range", "joint", (2,), "actuator_force_range", "N m or N",
+        "clamp of the summed actuator force on the joint (MJCF actuatorfrcrange; inf where none)",
+        check_limits, lambda tree: tree.actuator_force_range,
+    ),
+)
+
+ACTUATOR_PARAMETERS = (
+    Parameter(
+        "actuator_gear", "actuator", (), "gear", "", "transmission: length = gear s, joint force = gear force",
+        check_finite, lambda tree: np.array([a.gear for a in tree.actuators], dtype=np.float64),
+    ),
+    Parameter(
+        "actuator_gain", "actuator", (3,), "gain", "",
+        "force = (g0 + g1 length + g2 velocity) ctrl + bias (a fixed gain has g1 = g2 = 0)",
+        check_finite, lambda tree: np.array([a.gain * (1.0, 0.0, 0.0) if a.gain_type == "fixed" else a.gain for a in tree.actuators]).reshape(-1, 3),
+    ),
+    Parameter(
+        "actuator_bias", "actuator", (3,), "bias", "", "bias = b0 + b1 length + b2 velocity (none: 0)",
+        check_finite, lambda tree: np.array([a.bias if a.bias_type == "affine" else np.zeros(3) for a in tree.actuators]).reshape(-1, 3),
+    ),
+    Parameter(
+        "actuator_ctrl_range", "actuator", (2,), "ctrl_range", "ctrl units", "clamp of the control (inf where none)",
+        check_limits, lambda tree: np.array([a.ctrl_range if a.ctrl_limited else (-np.inf, np.inf) for a in tree.actuators]).reshape(-1, 2),
+    ),
+    Parameter(
+        "actuator_force_range", "actuator", (2,), "force_range", "N m or N per unit gear",
+        "clamp of the actuator's force before the gear (inf where none)",
+        check_limits, lambda tree: np.array([a.force_range if a.force_limited else (-np.inf, np.inf) for a in tree.actuators]).reshape(-1, 2),
     ),
 )
 
@@ -126,8 +185,10 @@ CONTACT_PARAMETERS = (
 
 TERRAIN_PARAMETERS = (Parameter("terrain_height", "terrain", (), "height", "m", "terrain height", check_finite),)
 
-REGISTRY: dict[str, Parameter] = {p.name: p for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *CONTACT_PARAMETERS, *TERRAIN_PARAMETERS)}
+REGISTRY: dict[str, Parameter] = {
+    p.name: p for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS, *CONTACT_PARAMETERS, *TERRAIN_PARAMETERS)
+}
 """Every model parameter by name."""
 
-MODEL_ARRAYS = tuple(p.name for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS))
-"""The parameters held as the model's own arrays (link and joint parameters, shared or per environment)."""
+MODEL_ARRAYS = tuple(p.name for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS))
+"""The parameters held as the model's own arrays (link, joint and actuator parameters, shared or per environment)."""
