@@ -379,3 +379,65 @@ def test_float32_steps_stay_near_float64():
         states.append(np.concatenate([final.joint_positions.numpy(), final.base_position.numpy()]))
     assert np.all(np.isfinite(states[1]))
     np.testing.assert_allclose(states[1], states[0], rtol=0, atol=1e-3)
+
+
+def test_add_actuators_equals_the_same_actuators_in_the_xml():
+    """wd.model.add_actuators on DAMPING (no actuators) gives the forces and the Euler step of MuJoCo on the
+    XML with the same <position>, <velocity> and <motor> elements (gear, ranges); parameters set before are
+    carried over, also per environment; bad arguments are named."""
+    xml_actuators = """
+  <actuator>
+    <position name="slider_position" joint="slider" kp="40" kv="3" gear="2" ctrlrange="-0.5 0.5"/>
+    <position name="hinge_position" joint="hinge" kp="15" kv="0.5" ctrlrange="-1 1" forcerange="-4 4"/>
+    <velocity name="hinge2_velocity" joint="hinge2" kv="2"/>
+    <motor name="hinge_motor" joint="hinge" gear="3"/>
+  </actuator>
+</mujoco>"""
+    FIXTURES["DAMPING_ACTUATED"] = mm.DAMPING.replace("</mujoco>", xml_actuators)
+    try:
+        pair = Pair("DAMPING_ACTUATED")
+    finally:
+        del FIXTURES["DAMPING_ACTUATED"]
+    model = build(mm.DAMPING)
+    model.set_joint_parameters(armature=[0.01, 0.02, 0.0])
+    model = wd.model.add_actuators(model, "position", joints=["slider", "hinge"], kp=[40, 15], kv=[3, 0.5], gear=[2, 1],
+                                   ctrl_range=[[-0.5, 0.5], [-1, 1]], force_range=[[-np.inf, np.inf], [-4, 4]])  # fmt: skip
+    model = wd.model.add_actuators(model, "velocity", joints=["hinge2"], kv=2)
+    model = wd.model.add_actuators(model, "motor", joints=["hinge"], gear=3, names=["hinge_motor"])
+    assert model.actuator_names() == pair.model.actuator_names() and model.actuators_per_joint == 2
+    np.testing.assert_array_equal(model.armature.numpy(), [0.01, 0.02, 0.0])
+    model.set_joint_parameters(armature=np.zeros(3))
+    for _ in range(3):
+        data, qpos, qvel, _ = pair.state()
+        u = pair.ctrl()
+        close(wd.model.actuator_forces(model, data, ctrl=u).numpy(), mm.actuator_forces(pair.mj, qpos, qvel, u).qfrc_actuator[pair.st.dof_adr], what="forces")
+        step = mm.euler_step(pair.mj, qpos, qvel, ctrl=u)
+        _compare_step(pair, wd.model.step(model, data, ctrl=u), (step.qpos, step.qvel), "step")
+    per_env = build(mm.DAMPING)
+    per_env.set_joint_parameters(armature=np.full((2, 3), 0.1))
+    per_env = wd.model.add_actuators(per_env, "motor", joints=["hinge"])
+    per_env.set_actuator_parameters(gear=[[1.0], [2.0]])
+    per_env = wd.model.add_actuators(per_env, "motor", joints=["hinge2"])
+    np.testing.assert_array_equal(per_env.actuator_gear.numpy(), [[1.0, 1.0], [2.0, 1.0]])
+    with pytest.raises(ValueError, match="needs kp"):
+        wd.model.add_actuators(model, "position", joints=["hinge"])
+    with pytest.raises(ValueError, match="'elbow'"):
+        wd.model.add_actuators(model, "motor", joints=["elbow"])
+    with pytest.raises(ValueError, match="hinge_motor"):
+        wd.model.add_actuators(model, "motor", joints=["hinge"], names=["hinge_motor"])
+    with pytest.raises(ValueError, match="kp must be"):
+        wd.model.add_actuators(model, "position", joints=["hinge"], kp=[1.0, 2.0], names=["p"])
+
+
+def test_reduce_keeps_what_the_mjcf_says():
+    """A reduced MJCF model still follows MuJoCo's integrator and flags (they come from the description);
+    gravity and the time step are carried over."""
+    xml = mm.FLOATING_HUMANOID.replace("<worldbody>", '<option timestep="0.003"><flag spring="disable"/></option>\n  <worldbody>', 1)
+    model = build(xml)
+    with pytest.warns(NotModelledWarning, match="actuators on joints that the reduction locks are dropped"):
+        reduced = wd.model.reduce(model, model.joint_names()[:4])
+    assert reduced.integrator == wd.model.IntegratorType.SemiImplicitEulerSO3 and reduced.implicit_damping
+    assert reduced.time_step == 0.003 and not reduced.stiffness.numpy().any()
+    mj = mm.load(xml)
+    kept = [mj.actuator(k).name for k in range(mj.nu) if mj.joint(int(mj.actuator_trnid[k, 0])).name in reduced.joint_names()]
+    assert reduced.actuator_names() == tuple(kept) and len(kept) > 0

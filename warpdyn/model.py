@@ -21,6 +21,7 @@ import warp as wp
 from . import arrays
 from .engine import centroidal, coriolis, derivatives, dynamics, kinematics
 from .engine import step as stepping
+from .description.model import ActuatorDescription
 from .engine.kinematics import link_targets
 from .types.enums import IntegratorType, VelRepr, output_repr
 from .types.model import Model
@@ -36,6 +37,7 @@ __all__ = [
     "PARAMETERS",
     "VelRepr",
     "reduce",
+    "add_actuators",
     "total_mass",
     "parameters_requiring_grad",
     "forward_kinematics",
@@ -78,6 +80,59 @@ def reduce(model: Model, considered_joints, locked_joint_positions: dict | None 
     set_joint_parameters, contact_params, terrain, integrator) are not carried over; set them on the result.
     """
     return model.reduced(considered_joints, locked_joint_positions)
+
+
+def add_actuators(model: Model, kind: str, *, joints=None, kp=None, kv=None, gear=1.0, ctrl_range=None, force_range=None, names=None) -> Model:
+    """A model like `model` (its parameters and settings carried over) with an actuator of `kind` on each of
+    `joints` (names; default: every joint), after its own actuators: MuJoCo's shortcuts, for robots whose
+    description has none (a URDF) or to add servos to an MJCF. With L = gear s and V = gear sdot the
+    actuator's force on the joint is gear * force:
+        "motor":    force = ctrl
+        "position": force = kp (ctrl - L) - kv V      (ctrl: the target position, in gear units)
+        "velocity": force = kv (ctrl - V)              (ctrl: the target velocity)
+    kp [N m/rad or N/m], kv [N m s/rad or N s/m] and gear: a number or one per joint. ctrl_range and
+    force_range (2,) or (len(joints), 2): clips of the control and of the force (None: none). names: the
+    actuators' names (default "{joint}_{kind}"). The controls (`ctrl` of `step`, rollouts and the torch
+    bridge) follow `model.actuator_names()`; the parameters are then `model.actuator_gain`, ... (set them
+    with `set_actuator_parameters`, shared or per environment)."""
+    joints = list(model.joint_names() if joints is None else joints)
+    count = len(joints)
+
+    def per_joint(value, name, shape=()):
+        """value as (count, *shape) (None stays None); the stored parameters check the values."""
+        if value is None:
+            return None
+        try:
+            return np.broadcast_to(np.asarray(value, dtype=np.float64), (count, *shape))
+        except ValueError:
+            raise ValueError(f"add_actuators: {name} must be {shape or 'a number'} or one per joint {(count, *shape)}, got {value!r}") from None
+
+    if kind not in ("motor", "position", "velocity"):
+        raise ValueError(f"add_actuators: kind must be 'motor', 'position' or 'velocity', got {kind!r}")
+    if kind == "position" and kp is None:
+        raise ValueError("add_actuators: a 'position' actuator needs kp (and optionally kv)")
+    if kind == "velocity" and kv is None:
+        raise ValueError("add_actuators: a 'velocity' actuator needs kv")
+    kp = per_joint(kp if kp is not None else 0.0, "kp")
+    kv = per_joint(kv if kv is not None else 0.0, "kv")
+    gear = per_joint(gear, "gear")
+    ctrl = per_joint(ctrl_range, "ctrl_range", (2,))
+    force = per_joint(force_range, "force_range", (2,))
+    names = [f"{joint}_{kind}" for joint in joints] if names is None else list(names)
+    if len(names) != count:
+        raise ValueError(f"add_actuators: {len(names)} names for {count} joints")
+    actuators = []
+    for i, joint in enumerate(joints):
+        gain, bias = {"motor": (1.0, (0.0, 0.0, 0.0)), "position": (kp[i], (0.0, -kp[i], -kv[i])), "velocity": (kv[i], (0.0, 0.0, -kv[i]))}[kind]
+        actuators.append(
+            ActuatorDescription(
+                name=names[i], joint=joint, gear=float(gear[i]), gain=np.array([gain, 0.0, 0.0]), bias=np.array(bias),
+                bias_type="none" if kind == "motor" else "affine",
+                ctrl_range=np.array(ctrl[i]) if ctrl is not None else np.zeros(2), ctrl_limited=ctrl is not None,
+                force_range=np.array(force[i]) if force is not None else np.zeros(2), force_limited=force is not None,
+            )
+        )  # fmt: skip
+    return model.with_actuators(actuators)
 
 
 def total_mass(model: Model):

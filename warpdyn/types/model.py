@@ -181,15 +181,7 @@ class Model:
         self.next_sibling = wp.array(next_sibling, dtype=int, device=d)
         self.all_links = wp.array(np.arange(tree.number_of_links), dtype=int, device=d)
         self.identity_offsets = transforms(np.tile(np.eye(4), (tree.number_of_links, 1, 1)), s, d)
-        # actuators: the joint of each, and each joint's actuators (sorted by joint: joint_actuator[k] for
-        # k in joint_actuator_start[j] .. joint_actuator_start[j + 1] - 1)
-        joint_of = np.array([a.joint for a in tree.actuators], dtype=np.int32)
-        order = np.argsort(joint_of, kind="stable").astype(np.int32)
-        start = np.searchsorted(joint_of[order], np.arange(tree.dofs + 1)).astype(np.int32)
-        self.actuator_joint = wp.array(joint_of, dtype=int, device=d)
-        self.joint_actuator = wp.array(order, dtype=int, device=d)
-        self.joint_actuator_start = wp.array(start, dtype=int, device=d)
-        self.actuators_per_joint = int(np.diff(start).max(initial=0))  # the most actuators on one joint
+        self._actuator_structure(tree)
         for parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS):
             # the description's inertial values are taken as they are; what a user sets is checked
             self._store(parameter, parameter.default(tree), checked=parameter.group != "link")
@@ -201,6 +193,20 @@ class Model:
         self.actuation_params = ActuationParams()
         self.quaternion_tolerance = 0.1
         self.implicit_damping = False
+        if description.integrator is not None:
+            self._follow_mujoco(description.integrator, description.disabled)
+
+    def _actuator_structure(self, tree: KinematicTree) -> None:
+        """The joint of each actuator, and each joint's actuators (sorted by joint: joint_actuator[k] for k in
+        joint_actuator_start[j] .. joint_actuator_start[j + 1] - 1), on the device."""
+        d = self.device
+        joint_of = np.array([a.joint for a in tree.actuators], dtype=np.int32)
+        order = np.argsort(joint_of, kind="stable").astype(np.int32)
+        start = np.searchsorted(joint_of[order], np.arange(tree.dofs + 1)).astype(np.int32)
+        self.actuator_joint = wp.array(joint_of, dtype=int, device=d)
+        self.joint_actuator = wp.array(order, dtype=int, device=d)
+        self.joint_actuator_start = wp.array(start, dtype=int, device=d)
+        self.actuators_per_joint = int(np.diff(start).max(initial=0))  # the most actuators on one joint
 
     @classmethod
     def build_from_model_description(
@@ -254,8 +260,6 @@ class Model:
             dtype=dtype,
             device=device,
         )
-        if description.integrator is not None:
-            model._follow_mujoco(description.integrator, disabled)
         if model.floating_base():
             warn_without_points(model.model_name, tree, stacklevel=2)
         return model
@@ -517,6 +521,29 @@ class Model:
         """A model like this one (sharing its device constants and parameters) with other collidable points."""
         new = self.copy()
         new._kin_dyn = params
+        return new
+
+    def with_actuators(self, actuators: list) -> Model:
+        """See warpdyn.model.add_actuators: a model like this one, its parameters and settings carried over,
+        with `actuators` (ActuatorDescription) after its own (their parameters from the descriptions)."""
+        names = [a.name for a in actuators]
+        taken = sorted(set(names) & set(self.actuator_names())) + sorted({x for x in names if names.count(x) > 1})
+        if taken:
+            raise ValueError(f"actuator names must be new and distinct: {taken} (model '{self.name()}' has {list(self.actuator_names())})")
+        unknown = sorted({a.joint for a in actuators} - set(self.joint_names()))
+        if unknown:
+            raise ValueError(f"actuators on joints that model '{self.name()}' does not have: {unknown}")
+        description = dataclasses.replace(self.description, actuators=[*self.description.actuators, *actuators])
+        new = self.copy()
+        new.description = description
+        new.tree = build_tree(description, self.joint_names(), dict(self.tree.locked_joints))
+        new._actuator_structure(new.tree)
+        before = self.number_of_actuators()
+        for parameter in ACTUATOR_PARAMETERS:
+            old, added = self._hosts[parameter.name], parameter.default(new.tree)[before:]
+            if parameter.name in self._per_env:  # (N, na, ...): the added actuators' values in every row
+                added = np.broadcast_to(added, (old.shape[0], *added.shape))
+            new._store(parameter, np.concatenate([old, added], axis=1 if parameter.name in self._per_env else 0), checked=True)
         return new
 
     def reduced(self, considered_joints, locked_joint_positions: dict | None = None) -> Model:
