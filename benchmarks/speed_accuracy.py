@@ -1,6 +1,7 @@
 """The speed/accuracy trade of a simulation: integrator x time step x dtype x contact stiffness.
 
-    python benchmarks/speed_accuracy.py [--device cuda:0] [--joints pd | passive] [--envs N] [--steps T]
+    python benchmarks/speed_accuracy.py [--device cuda:0] [--joints pd | passive | servo | servo-explicit]
+                                        [--envs N] [--steps T]
                                         [--repeats 11] [--ks 1e4,1e5,1e6,1e7] [--dts 1e-4,...]
                                         [--dtypes float32,float64] [--integrators SIE,RK4] [--d-scale 1]
                                         [--tag cpu] [--recompute-reference] [--no-throughput]
@@ -28,6 +29,12 @@ dt < 2 Kd / Kp. Both limits are printed (1.61 and 2.16 ms here; a probe at other
 1.5 ms and flagged in flight at 1.7 ms, RK4 stable at 2.0 ms and flagged at 2.25 ms).
 `--joints passive`: no joint torque at all (no PD, Coulomb and viscous friction off): every force is then
 evaluated at each RK4 stage, which isolates the integrators; the legs fold after landing.
+`--joints servo`: the same gains as MuJoCo writes a servo: a position actuator per joint (`wd.model.add_actuators`,
+kp = Kp, ctrl = 0) and the joint damper `damping` = Kd, which the semi-implicit Euler integrates implicitly
+(model.implicit_damping, MuJoCo's Euler: (M + dt Kd) nu_dot = f); both are evaluated at each RK4 stage.
+With the damping implicit the held-spring mode is stable while dt^2 Kp/I - 2 dt Kd/I < 4 (the damping now
+widens the range, printed); `--joints servo-explicit`: the same with the damping explicit (model.implicit_damping
+= False), stable while dt^2 Kp/I + 2 dt Kd/I < 4 as the held PD. Both servo modes share one reference.
 
 Contact stiffness K in {1e4, 1e5, 1e6 (JaxSim's default), 1e7} N/m^1.5 with D = 2000 (K / 1e6)^(2/3)
 N s/m^1.5: JaxSim's default pair at K = 1e6, and the same damping ratio at every K. (Hunt/Crossley with
@@ -121,7 +128,11 @@ def scene_model(base, integrator, dt: float, K: float):
     the integrator."""
     model = wd.model.reduce(base, base.joint_names())
     n = model.dofs()
-    if SCENE["joints"] == "pd":
+    if SCENE["joints"].startswith("servo"):
+        model = wd.model.add_actuators(model, "position", kp=SCENE["kp"])
+        model.set_joint_parameters(friction_static=np.zeros(n), friction_viscous=np.zeros(n), damping=np.full(n, SCENE["kd"]))
+        model.implicit_damping = SCENE["joints"] == "servo"
+    elif SCENE["joints"] == "pd":
         model.set_joint_parameters(
             position_limits=np.zeros((n, 2)),
             limit_spring=np.full(n, SCENE["kp"]),
@@ -176,6 +187,15 @@ def pd_limits(base, init: dict) -> tuple[float, float, float]:
     kp, kd = SCENE["kp"] * lam, SCENE["kd"] * lam  # omega^2 and c of the stiffest mode
     sie = (-2.0 * kd + np.sqrt(4.0 * kd**2 + 16.0 * kp)) / (2.0 * kp)  # dt^2 kp + 2 dt kd = 4
     rk4 = min(2.0 / kd, 2.0 * kd / kp)
+    if SCENE["joints"] == "servo":  # damping implicit: dt^2 kp - 2 dt kd = 4
+        sie = (2.0 * kd + np.sqrt(4.0 * kd**2 + 16.0 * kp)) / (2.0 * kp)
+    if SCENE["joints"].startswith("servo"):  # RK4 on x'' = -kp x - kd x' (forces at each stage): |R(dt lambda)| <= 1
+        lam_ = np.roots([1.0, kd, kp])
+        stable = lambda dt: all(abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24) <= 1.0 for z in dt * lam_)  # noqa: E731
+        lo, hi = 0.0, 1.0
+        for _ in range(60):
+            lo, hi = ((lo + hi) / 2, hi) if stable((lo + hi) / 2) else (lo, (lo + hi) / 2)
+        rk4 = lo
     return 1.0 / lam, float(sie), float(rk4)
 
 
@@ -230,8 +250,14 @@ def errors(run: dict, ref: dict) -> dict:
 # -------------------------------------------------------------------------------------------- reference
 
 
+def _reference_joints() -> str:
+    """The joints of the reference: the servo modes differ only in how the Euler integrates the damping."""
+    return "servo" if SCENE["joints"].startswith("servo") else SCENE["joints"]
+
+
 def reference_path() -> pathlib.Path:
-    return RESULTS / ("speed_accuracy_reference.npz" if SCENE["joints"] == "pd" else f"speed_accuracy_reference_{SCENE['joints']}.npz")
+    joints = _reference_joints()
+    return RESULTS / ("speed_accuracy_reference.npz" if joints == "pd" else f"speed_accuracy_reference_{joints}.npz")
 
 
 def reference(base64, init: dict, ks, recompute: bool, device) -> tuple[dict, str, bool]:
@@ -239,6 +265,7 @@ def reference(base64, init: dict, ks, recompute: bool, device) -> tuple[dict, st
     it matches the scene."""
     path = reference_path()
     scene = {k: v for k, v in SCENE.items() if k != "d_scale"}  # D is in each trajectory's key
+    scene["joints"] = _reference_joints()
     meta = {"scene": scene, "robot": base64.name(), "dofs": base64.dofs()}
     names = ("t", "base_position", "base_quaternion", "joint_positions", "valid")
     key = lambda K: f"K{K:g}_D{damping(K):.6g}"  # noqa: E731
@@ -377,7 +404,7 @@ def plot(rows: list, path: pathlib.Path, title: str) -> bool:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--device", default=None)
-    parser.add_argument("--joints", default="pd", choices=("pd", "passive"))
+    parser.add_argument("--joints", default="pd", choices=("pd", "passive", "servo", "servo-explicit"))
     parser.add_argument("--d-scale", type=float, default=1.0, help="multiply every D by this (a probe of the damping's role)")
     parser.add_argument("--envs", type=int, default=None, help="batch size of the throughput runs (CPU 256, GPU 16384)")
     parser.add_argument("--steps", type=int, default=None, help="steps per throughput run (CPU 32, GPU 100)")
@@ -465,6 +492,15 @@ def main() -> None:
             f"step: its stiffest mode (I = {inertia:.2g} kg m^2) is stable for SIE while dt^2 Kp/I + 2 dt Kd/I < 4, i.e. dt < {sie_limit * 1e3:.2f} ms,",
             f"and for RK4 (torque held over the stages) while dt < min(2 I/Kd, 2 Kd/Kp) = {rk4_limit * 1e3:.2f} ms, at every K (in flight).",
         ]
+    elif args.joints.startswith("servo"):
+        how = "implicitly" if args.joints == "servo" else "explicitly"
+        bound = "dt^2 Kp/I - 2 dt Kd/I < 4" if args.joints == "servo" else "dt^2 Kp/I + 2 dt Kd/I < 4"
+        joints_text = [
+            f"MuJoCo-style servos: a position actuator per joint (kp = {SCENE['kp']:g} N m/rad, ctrl = 0) and the joint damper",
+            f"damping = {SCENE['kd']:g} N m s/rad, which the semi-implicit Euler integrates {how}; both evaluated at each RK4 stage.",
+            f"Stiffest mode (I = {inertia:.2g} kg m^2) stable for SIE while {bound}, i.e. dt < {sie_limit * 1e3:.2f} ms, and for RK4",
+            f"while dt < {rk4_limit * 1e3:.2f} ms (its stability region), in flight.",
+        ]
     else:
         joints_text = ["passive joints: no torque, no friction (every force evaluated at each RK4 stage); the legs fold after landing."]
     lines = [
@@ -503,7 +539,7 @@ def main() -> None:
         lines += ["", *summary(rows)]
     md.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
-    joints = "joint PD" if args.joints == "pd" else "passive joints"
+    joints = {"pd": "joint PD", "passive": "passive joints", "servo": "servos, implicit damping", "servo-explicit": "servos, explicit damping"}[args.joints]
     title = (
         f"ergoCub legs landing ({joints}): error vs throughput ({wp.get_device(device).name}, N = {N}); "
         "reference float64 RK4, dt = 1e-5 s"

@@ -1,18 +1,21 @@
 """Simulation steps and rollouts for N environments: what a model pays for contacts, and for Python.
 
     python benchmarks/step.py [--device cuda:0] [--max-envs 65536 | --sizes 1,256,4096]
-                              [--dtypes float32,float64] [--robots legs,legs-no-contacts,arm]
+                              [--dtypes float32,float64] [--robots legs,legs-no-contacts,legs-actuated,arm]
                               [--repeats 10] [--fresh-cache]
 
 Robots:
 - legs: the seed's ergoCub legs (12 joints, 13 links) with its 32 collidable points (the ankle boxes),
   standing on flat ground (feet a few mm in the ground, so the contact kernel runs its contact branches);
 - legs-no-contacts: the same model with every point disabled: no FK, link-velocity or contact kernel;
+- legs-actuated: the legs with what an MJCF robot brings (issue 11): armature 0.05 kg m^2 on every joint
+  and a position servo per joint (`wd.model.add_actuators`: kp 300 N m/rad, kv 5 N m s/rad, ctrl within
+  +-1.5 rad, force within +-100 N m), driven by `ctrl` (N, 12) instead of joint torques;
 - arm: a fixed-base arm without collidable points: the iCub (icub-models) welded to the world at its root,
   torso and left arm (10 joints); a 7-joint chain when icub-models is not installed.
 Each row times, after a warm-up (compilation, graph capture) and synchronising around the timed region:
-- step: one `wd.model.step(model, data, joint_force_references=tau)` call (tau a device array (N, n)),
-  the median over repeats: the latency of a Python loop of steps;
+- step: one `wd.model.step(model, data, joint_force_references=tau)` call (tau a device array (N, n);
+  `ctrl=` (N, na) for legs-actuated), the median over repeats: the latency of a Python loop of steps;
 - rollout: `wd.simulation.Rollout.run` of T steps with per-step torques (T, N, n) recording the joint
   positions, replaying its captured graph (CUDA graph on GPUs, Warp's CPU graph on the CPU); the median
   run divided by T (the run's initial copies included);
@@ -75,7 +78,7 @@ def arm_model(dtype, device):
 def robots(names, dtype, device):
     """[(label, model, standing)]: standing says whether to place the base so the feet touch the ground."""
     out = []
-    if "legs" in names or "legs-no-contacts" in names:
+    if {"legs", "legs-no-contacts", "legs-actuated"} & set(names):
         legs = seed_model(dtype, device)
         count = len(legs.kin_dyn_parameters.contact_parameters.body)
         if "legs" in names:
@@ -83,6 +86,10 @@ def robots(names, dtype, device):
         if "legs-no-contacts" in names:
             none = wd.contact.with_collidable_points(copy.copy(legs), enabled=np.zeros(count, dtype=bool))
             out.append(("ergoCub legs, no points", none, True))
+        if "legs-actuated" in names:
+            actuated = wd.model.add_actuators(legs, "position", kp=300.0, kv=5.0, ctrl_range=(-1.5, 1.5), force_range=(-100.0, 100.0))
+            actuated.set_joint_parameters(armature=np.full(legs.dofs(), 0.05))
+            out.append((f"ergoCub legs, {count} points, armature + servos", actuated, True))
     if "arm" in names:
         label, model = arm_model(dtype, device)
         out.append((label, model, False))
@@ -141,23 +148,24 @@ def main() -> None:
     for dtype_name in args.dtypes.split(","):
         dtype = np_dtype[dtype_name]
         for label, model, standing in robots(names, dtype, device):
-            n = model.dofs()
+            # the actuated legs take the servos' targets (ctrl, (N, na) [rad]), the others joint torques (N, n) [N m]
+            control, width, scale = ("ctrl", model.number_of_actuators(), 0.1) if model.number_of_actuators() else ("joint_force_references", model.dofs(), 1.0)
             for N in Ns:
                 data = initial_data(model, N, standing)
                 rng = np.random.default_rng(1)
-                tau = wp.array(rng.normal(0.0, 1.0, (N, n)), dtype=model.scalar, device=device)
-                wd.model.step(model, data, joint_force_references=tau)  # compile
-                step_s = median_time(lambda: wd.model.step(model, data, joint_force_references=tau), device, args.repeats)
+                tau = {control: wp.array(rng.normal(0.0, scale, (N, width)), dtype=model.scalar, device=device)}
+                wd.model.step(model, data, **tau)  # compile
+                step_s = median_time(lambda: wd.model.step(model, data, **tau), device, args.repeats)
                 T = rollout_steps(N, device)
-                taus = wp.array(rng.normal(0.0, 1.0, (T, N, n)), dtype=model.scalar, device=device)
+                taus = {control: wp.array(rng.normal(0.0, scale, (T, N, width)), dtype=model.scalar, device=device)}
                 roll = wd.simulation.Rollout(model, steps=T, record=("joint_positions",))
-                roll.run(data, joint_force_references=taus)  # compile, capture
-                roll_s = median_time(lambda: roll.run(data, joint_force_references=taus), device, max(3, args.repeats // 2)) / T
+                roll.run(data, **taus)  # compile, capture
+                roll_s = median_time(lambda: roll.run(data, **taus), device, max(3, args.repeats // 2)) / T
                 eager = "-"
                 if not args.no_eager:
                     eager_roll = wd.simulation.Rollout(model, steps=T, record=("joint_positions",), use_graph=False)
-                    eager_roll.run(data, joint_force_references=taus)
-                    eager_s = median_time(lambda: eager_roll.run(data, joint_force_references=taus), device, 3) / T
+                    eager_roll.run(data, **taus)
+                    eager_s = median_time(lambda: eager_roll.run(data, **taus), device, 3) / T
                     eager = f"{eager_s * 1e3:.4g}"
                 summary[(label, dtype_name, N)] = (step_s, roll_s)
                 print(
@@ -165,15 +173,24 @@ def main() -> None:
                     f"{N / roll_s:.3g} | {eager} |",
                     flush=True,
                 )
-    with_c = [k for k in summary if k[0].startswith("ergoCub legs,") and "no points" not in k[0]]
-    if with_c:
+    plain = [k for k in summary if k[0].startswith("ergoCub legs,") and "no points" not in k[0] and "servos" not in k[0]]
+    ratios(summary, "Contacts' share (ergoCub legs, rollout per step, with / without points):", plain, lambda k: "no points" in k[0])
+    actuated = [k for k in summary if "servos" in k[0]]
+    ratios(summary, "Armature and servos' share (ergoCub legs with points, rollout per step, with / without):", actuated, lambda k: k in plain)
+
+
+def ratios(summary: dict, title: str, rows: list, is_baseline) -> None:
+    """Print rollout-per-step ratios of `rows` to the baseline row (is_baseline) of the same dtype and N."""
+    lines = []
+    for label, dtype_name, N in rows:
+        other = [k for k in summary if is_baseline(k) and k[1:] == (dtype_name, N)]
+        if other:
+            a, b = summary[(label, dtype_name, N)][1], summary[other[0]][1]
+            lines.append(f"- {dtype_name}, N = {N}: {a * 1e3:.4g} / {b * 1e3:.4g} ms = {a / b:.2f}")
+    if lines:
         print()
-        print("Contacts' share (ergoCub legs, rollout per step, with / without points):")
-        for label, dtype_name, N in with_c:
-            other = [k for k in summary if "no points" in k[0] and k[1:] == (dtype_name, N)]
-            if other:
-                a, b = summary[(label, dtype_name, N)][1], summary[other[0]][1]
-                print(f"- {dtype_name}, N = {N}: {a * 1e3:.4g} / {b * 1e3:.4g} ms = {a / b:.2f}")
+        print(title)
+        print("\n".join(lines))
 
 
 if __name__ == "__main__":

@@ -1,5 +1,7 @@
-"""Shared test set-up: Warp on the CPU, quiet; outputs filled with NaN so unwritten entries fail."""
+"""Shared test set-up: Warp quiet, on the device WARPDYN_TEST_DEVICE names (default: the CPU, e.g.
+`WARPDYN_TEST_DEVICE=cuda:0 python -m pytest`); outputs filled with NaN so unwritten entries fail."""
 
+import os
 import sys
 import pathlib
 
@@ -12,7 +14,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).parent))
 wp.config.quiet = True
 wp.config.log_level = wp.LOG_WARNING
 wp.init()
-wp.set_device("cpu")
+wp.set_device(os.environ.get("WARPDYN_TEST_DEVICE", "cpu"))
 
 import warpdyn  # noqa: E402
 

@@ -21,6 +21,7 @@ import warp as wp
 from . import arrays
 from .engine import centroidal, coriolis, derivatives, dynamics, kinematics
 from .engine import step as stepping
+from .description import NotModelledWarning
 from .description.model import ActuatorDescription
 from .engine.kinematics import link_targets
 from .types.enums import IntegratorType, VelRepr, output_repr
@@ -68,6 +69,7 @@ __all__ = [
     "step",
     "ActuationParams",
     "IntegratorType",
+    "NotModelledWarning",
     "SoftContactsParams",
 ]
 
