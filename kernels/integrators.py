@@ -8,7 +8,7 @@ Semi-implicit Euler (JaxSim's default): velocities first, then positions with th
     s+ = s + dt sdot+;  m+ = m + dt mdot.
 RK4: the classic four stages, contacts evaluated at each, the quaternion normalised at each stage.
 Semi-implicit Euler on SO(3) (MuJoCo's Euler): the base's Mixed velocity integrated and its orientation
-advanced by the exact rotation dt omega+ (see `semi_implicit_euler_so3`); the joints as above.
+advanced by the exact rotation dt omega+ (see `so3_base_step`); the joints as above.
 
 Health: an environment whose new state is not finite, or whose quaternion needed a normalisation by more
 than `quaternion_tolerance` (|Q+| - 1 before normalising), is flagged (valid = 0) and keeps its state;
@@ -67,88 +67,25 @@ def kernels(scalar):
     def read3(a: wp.array2d(dtype=scalar), env: int, offset: int):
         return sp.vec3(a[env, offset], a[env, offset + 1], a[env, offset + 2])
 
-    @wp.kernel(module="unique")
-    def semi_implicit_euler(
-        dt: scalar,
-        quaternion_tolerance: scalar,
-        x: B.State,
-        # derivatives at t
-        nu_dot: wp.array2d(dtype=scalar),
-        m_dot: wp.array3d(dtype=scalar),
-        # outputs: the state at t + dt
-        y: B.State,
-    ):
-        """One semi-implicit Euler step from x to y; nu_dot (N, 6 + n) is [W_vdot_WB (Inertial); sddot]."""
-        env = wp.tid()
-        p = read3(x.base_position, env, 0)
-        Q = quaternion_of(x, env)
-        Q = Q / wp.length(Q)
-        pdot = read3(x.base_velocity, env, 0)
-        omega = read3(x.base_velocity, env, 3)
-        v_inertial = pdot - wp.cross(omega, p)
-        v_next = v_inertial + dt * read3(nu_dot, env, 0)
-        omega_next = omega + dt * read3(nu_dot, env, 3)
+    @wp.func
+    def jaxsim_base_step(dt: scalar, p: sp.vec3, Q: quat4, pdot: sp.vec3, omega: sp.vec3, vdot: sp.vec3, omega_dot: sp.vec3):
+        """JaxSim's semi-implicit Euler of the base (see the module docstring): (p+, pdot+, omega+, Q+, |Q+| before
+        normalising)."""
+        v_next = pdot - wp.cross(omega, p) + dt * vdot
+        omega_next = omega + dt * omega_dot
         p_next = p + dt * (v_next + wp.cross(omega_next, p))
         Q_step = Q + dt * quaternion_rate(Q, omega_next)
         Q_norm = wp.length(Q_step)
-        Q_next = Q_step / Q_norm
-        pdot_next = v_next + wp.cross(omega_next, p_next)
-        ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
-        ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm)
-        n = x.joint_positions.shape[1]
-        m = x.tangential_deformation
-        for j in range(n):
-            sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
-            ok = ok and wp.isfinite(sd_next) and wp.isfinite(x.joint_positions[env, j] + dt * sd_next)
-        for c in range(m.shape[1]):
-            for a in range(3):
-                ok = ok and wp.isfinite(m[env, c, a] + dt * m_dot[env, c, a])
-        if ok:
-            for a in range(3):
-                y.base_position[env, a] = p_next[a]
-                y.base_velocity[env, a] = pdot_next[a]
-                y.base_velocity[env, 3 + a] = omega_next[a]
-            for a in range(4):
-                y.base_quaternion[env, a] = Q_next[a]
-            for j in range(n):
-                sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
-                y.joint_velocities[env, j] = sd_next
-                y.joint_positions[env, j] = x.joint_positions[env, j] + dt * sd_next
-            for c in range(m.shape[1]):
-                for a in range(3):
-                    y.tangential_deformation[env, c, a] = m[env, c, a] + dt * m_dot[env, c, a]
-            y.valid[env] = 1
-        else:
-            keep_state(env, x, y)
+        return p_next, v_next + wp.cross(omega_next, p_next), omega_next, Q_step / Q_norm, Q_norm
 
-    @wp.kernel(module="unique")
-    def semi_implicit_euler_so3(
-        dt: scalar,
-        quaternion_tolerance: scalar,
-        x: B.State,
-        # derivatives at t
-        nu_dot: wp.array2d(dtype=scalar),
-        m_dot: wp.array3d(dtype=scalar),
-        # outputs: the state at t + dt
-        y: B.State,
-    ):
-        """MuJoCo's Euler from x to y; nu_dot (N, 6 + n) is [W_vdot_WB (Inertial); sddot]. The base's Mixed
-        velocity is integrated, pdot+ = pdot + dt pddot with pddot = vdot + omegadot x p + omega x pdot,
-        omega+ = omega + dt omegadot; then p+ = p + dt pdot+ and Q+ = exp(dt omega+ / 2) (x) Q, the exact
-        rotation by dt omega+ (world axes; MuJoCo's Q (x) exp(dt B_omega+ / 2) with B_omega+ = R^T omega+).
-        quaternion_tolerance bounds |Q| - 1 of the state read (the exponential keeps |Q+| = 1)."""
-        env = wp.tid()
-        p = read3(x.base_position, env, 0)
-        Q = quaternion_of(x, env)
-        Q_norm = wp.length(Q)
-        Q = Q / Q_norm
-        pdot = read3(x.base_velocity, env, 0)
-        omega = read3(x.base_velocity, env, 3)
-        omega_dot = read3(nu_dot, env, 3)
-        pddot = read3(nu_dot, env, 0) + wp.cross(omega_dot, p) + wp.cross(omega, pdot)
-        pdot_next = pdot + dt * pddot
+    @wp.func
+    def so3_base_step(dt: scalar, p: sp.vec3, Q: quat4, pdot: sp.vec3, omega: sp.vec3, vdot: sp.vec3, omega_dot: sp.vec3):
+        """MuJoCo's Euler of the base: the Mixed velocity integrated, pdot+ = pdot + dt pddot with
+        pddot = vdot + omegadot x p + omega x pdot, omega+ = omega + dt omegadot; then p+ = p + dt pdot+ and
+        Q+ = exp(dt omega+ / 2) (x) Q, the exact rotation by dt omega+ (world axes; MuJoCo's
+        Q (x) exp(dt B_omega+ / 2) with B_omega+ = R^T omega+). Returns (p+, pdot+, omega+, Q+, 1)."""
+        pdot_next = pdot + dt * (vdot + wp.cross(omega_dot, p) + wp.cross(omega, pdot))
         omega_next = omega + dt * omega_dot
-        p_next = p + dt * pdot_next
         # exp(dt omega+ / 2) = (cos h, sin(h) omega+ / |omega+|), h = dt |omega+| / 2 (series below 1e-4)
         h2 = scalar(0.25) * dt * dt * wp.dot(omega_next, omega_next)
         cos_h = scalar(1.0) - scalar(0.5) * h2 + h2 * h2 / scalar(24.0)
@@ -161,34 +98,71 @@ def kernels(scalar):
         qv = sp.vec3(Q[1], Q[2], Q[3])
         r = cos_h * qv + Q[0] * e + wp.cross(e, qv)
         Q_next = quat4(cos_h * Q[0] - wp.dot(e, qv), r[0], r[1], r[2])
-        Q_next = Q_next / wp.length(Q_next)
-        ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance and wp.isfinite(Q_norm)
-        ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(cos_h)
-        n = x.joint_positions.shape[1]
-        m = x.tangential_deformation
-        for j in range(n):
-            sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
-            ok = ok and wp.isfinite(sd_next) and wp.isfinite(x.joint_positions[env, j] + dt * sd_next)
-        for c in range(m.shape[1]):
-            for a in range(3):
-                ok = ok and wp.isfinite(m[env, c, a] + dt * m_dot[env, c, a])
-        if ok:
-            for a in range(3):
-                y.base_position[env, a] = p_next[a]
-                y.base_velocity[env, a] = pdot_next[a]
-                y.base_velocity[env, 3 + a] = omega_next[a]
-            for a in range(4):
-                y.base_quaternion[env, a] = Q_next[a]
+        return p + dt * pdot_next, pdot_next, omega_next, Q_next / wp.length(Q_next), scalar(1.0)
+
+    def euler(so3: bool):
+        """The semi-implicit Euler kernel with JaxSim's base step, or MuJoCo's (so3)."""
+        SO3 = wp.constant(so3)
+
+        @wp.kernel(module="unique")
+        def semi_implicit_euler(
+            dt: scalar,
+            quaternion_tolerance: scalar,
+            x: B.State,
+            # derivatives at t
+            nu_dot: wp.array2d(dtype=scalar),
+            m_dot: wp.array3d(dtype=scalar),
+            # outputs: the state at t + dt
+            y: B.State,
+        ):
+            """One semi-implicit Euler step from x to y; nu_dot (N, 6 + n) is [W_vdot_WB (Inertial); sddot]. The
+            quaternion tolerance bounds |Q+| - 1 before normalising (JaxSim's), |Q| - 1 of the state read (SO3)."""
+            env = wp.tid()
+            p = read3(x.base_position, env, 0)
+            Q = quaternion_of(x, env)
+            Q_read = wp.length(Q)
+            Q = Q / Q_read
+            pdot = read3(x.base_velocity, env, 0)
+            omega = read3(x.base_velocity, env, 3)
+            vdot = read3(nu_dot, env, 0)
+            omega_dot = read3(nu_dot, env, 3)
+            if SO3:
+                p_next, pdot_next, omega_next, Q_next, Q_norm = so3_base_step(dt, p, Q, pdot, omega, vdot, omega_dot)
+                Q_norm = Q_read
+            else:
+                p_next, pdot_next, omega_next, Q_next, Q_norm = jaxsim_base_step(dt, p, Q, pdot, omega, vdot, omega_dot)
+            ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
+            ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm) and wp.isfinite(Q_next[0])
+            n = x.joint_positions.shape[1]
+            m = x.tangential_deformation
             for j in range(n):
                 sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
-                y.joint_velocities[env, j] = sd_next
-                y.joint_positions[env, j] = x.joint_positions[env, j] + dt * sd_next
+                ok = ok and wp.isfinite(sd_next) and wp.isfinite(x.joint_positions[env, j] + dt * sd_next)
             for c in range(m.shape[1]):
                 for a in range(3):
-                    y.tangential_deformation[env, c, a] = m[env, c, a] + dt * m_dot[env, c, a]
-            y.valid[env] = 1
-        else:
-            keep_state(env, x, y)
+                    ok = ok and wp.isfinite(m[env, c, a] + dt * m_dot[env, c, a])
+            if ok:
+                for a in range(3):
+                    y.base_position[env, a] = p_next[a]
+                    y.base_velocity[env, a] = pdot_next[a]
+                    y.base_velocity[env, 3 + a] = omega_next[a]
+                for a in range(4):
+                    y.base_quaternion[env, a] = Q_next[a]
+                for j in range(n):
+                    sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
+                    y.joint_velocities[env, j] = sd_next
+                    y.joint_positions[env, j] = x.joint_positions[env, j] + dt * sd_next
+                for c in range(m.shape[1]):
+                    for a in range(3):
+                        y.tangential_deformation[env, c, a] = m[env, c, a] + dt * m_dot[env, c, a]
+                y.valid[env] = 1
+            else:
+                keep_state(env, x, y)
+
+        return semi_implicit_euler
+
+    semi_implicit_euler = euler(False)
+    semi_implicit_euler_so3 = euler(True)
 
     @wp.kernel(module="unique")
     def slope(
