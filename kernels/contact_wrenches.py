@@ -18,7 +18,7 @@ import warp as wp
 
 from .bundles import bundles
 from .soft_contacts import kernels as soft_contact_kernels
-from .spatial import spatial
+from .spatial import INERTIAL, spatial
 
 
 @functools.cache
@@ -63,6 +63,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         X = W_H_L[env, contacts.point_link[c]] * sp.transform(contacts.L_p_C[c], wp.quat_identity(dtype=scalar))
         W_f = sp.vec6(W_f_C[env, c, 0], W_f_C[env, c, 1], W_f_C[env, c, 2], W_f_C[env, c, 3], W_f_C[env, c, 4], W_f_C[env, c, 5])
         f = sp.inertial_to_force_repr(repr, X, W_f)
+        if repr != INERTIAL:  # a pure force at C: its moment about C is zero, exactly (not a rounded difference)
+            f = sp.stack(sp.lin(f), sp.vec3(scalar(0.0)))
         k = point_out[c]
         for a in range(6):
             f_C[env, k, a] = f[a]

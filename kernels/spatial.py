@@ -138,6 +138,15 @@ def spatial(scalar) -> types.SimpleNamespace:
         return v
 
     @wp.func
+    def change_repr(source: int, target: int, W_H_F: transform, v: vec6):
+        """The velocity v of frame F given in representation `source`, in `target`; v itself, bit for bit,
+        when they are the same (the round trip through Inertial would round differently with fused
+        multiply-adds)."""
+        if source == target:
+            return v
+        return inertial_to_repr(target, W_H_F, repr_to_inertial(source, W_H_F, v))
+
+    @wp.func
     def blocks(A: mat33, B: mat33, C: mat33, D: mat33):
         """The (6, 6) matrix [[A, B], [C, D]]."""
         return mat66(
@@ -311,4 +320,5 @@ def spatial(scalar) -> types.SimpleNamespace:
         force_repr_to_inertial=force_repr_to_inertial,
         inertial_to_force_repr=inertial_to_force_repr,
         repr_to_inertial=repr_to_inertial,
+        change_repr=change_repr,
     )

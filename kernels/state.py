@@ -47,7 +47,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         """out (N, 6): the state's Mixed base velocity in representation `repr`."""
         env = wp.tid()
         W_H_B = base_pose(base_position, base_quaternion, env)
-        v = sp.inertial_to_repr(repr, W_H_B, sp.repr_to_inertial(MIXED, W_H_B, row6(base_velocity, env, 0)))
+        v = sp.change_repr(MIXED, repr, W_H_B, row6(base_velocity, env, 0))
         for r in range(6):
             out[env, r] = v[r]
 
@@ -68,7 +68,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         given = sp.vec6(
             linear[env, 0], linear[env, 1], linear[env, 2], angular[env, 0], angular[env, 1], angular[env, 2]
         )
-        v = sp.inertial_to_repr(MIXED, W_H_B, sp.repr_to_inertial(repr, W_H_B, given))
+        v = sp.change_repr(repr, MIXED, W_H_B, given)
         for r in range(6):
             base_velocity[env, r] = v[r]
 
@@ -86,7 +86,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         """nu (N, 6 + n): the base velocity in `repr`, then the joint velocities."""
         env = wp.tid()
         W_H_B = base_pose(base_position, base_quaternion, env)
-        v = sp.inertial_to_repr(repr, W_H_B, sp.repr_to_inertial(MIXED, W_H_B, row6(base_velocity, env, 0)))
+        v = sp.change_repr(MIXED, repr, W_H_B, row6(base_velocity, env, 0))
         for r in range(6):
             nu[env, r] = v[r]
         for j in range(joint_velocities.shape[1]):

@@ -14,7 +14,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).parent))
 wp.config.quiet = True
 wp.config.log_level = wp.LOG_WARNING
 wp.init()
-wp.set_device(os.environ.get("WARPDYN_TEST_DEVICE", "cpu"))
+wp.set_device(os.environ.get("WARPDYN_TEST_DEVICE", "cpu"))  # robots.TEST_DEVICE
 
 import warpdyn  # noqa: E402
 

@@ -24,6 +24,7 @@
 from __future__ import annotations
 
 import functools
+import os
 import pathlib
 import xml.etree.ElementTree as ET
 import zlib
@@ -264,6 +265,9 @@ def from_mixed(repr_name: str, R: np.ndarray, p) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------
 # Simulation (tests/test_simulation.py, test_simulation_energy.py, test_simulation_extremes.py,
 # test_actuation.py)
+
+TEST_DEVICE = os.environ.get("WARPDYN_TEST_DEVICE", "cpu")
+"""The device the suite runs on (tests/conftest.py makes it Warp's default)."""
 
 SIE = wd.model.IntegratorType.SemiImplicitEuler
 RK4 = wd.model.IntegratorType.RungeKutta4

@@ -357,7 +357,7 @@ def test_data_on_another_device_is_rejected_before_launch():
         joint_positions_state=data.joint_positions_state,
         device=_FakeDevice("cuda:3"),
     )
-    with pytest.raises(ValueError, match=r"data is on device 'cuda:3' but the model is on 'cpu'"):
+    with pytest.raises(ValueError, match=rf"data is on device 'cuda:3' but the model is on '{model.device}'"):
         wd.model.forward_kinematics(model, fake)
 
 

@@ -277,7 +277,7 @@ def test_seed_centroidal_cell_17(dtype):
     W_p_CoM = np.einsum("l,lij,lj->i", m, W_H_L[:, :3, :3], model.tree.link_com) / m.sum()
     W_p_CoM += np.einsum("l,li->i", m, W_H_L[:, :3, 3]) / m.sum()
     G_H_W = wd.math.Transform.inverse(wd.math.Transform.from_rotation_and_translation(translation=W_p_CoM))
-    G_Xf_C = wd.math.Adjoint.from_transform(transform=G_H_W @ W_H_C, inverse=True)
+    G_Xf_C = wd.math.Adjoint.from_transform(transform=G_H_W @ W_H_C.numpy(), inverse=True)  # JAX's arrays mix with NumPy; Warp's off the CPU do not
     assert G_Xf_C.shape == (32, 6, 6)
     H = W_H_C.numpy().astype(np.float64)
     R, p = H[:, :3, :3], H[:, :3, 3] - W_p_CoM

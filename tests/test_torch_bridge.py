@@ -34,6 +34,7 @@ import warpdyn.torch as wdt
 from warpdyn import VelRepr
 
 F64 = torch.float64
+torch.set_default_device(wp.device_to_torch(wp.get_device()))  # the tests' device (tests/conftest.py)
 
 
 def _pendulum(n=3):
@@ -245,12 +246,12 @@ def test_floating_base_with_contacts_equals_the_plain_tape(per_env, monkeypatch)
         velocity_representation=VelRepr.Inertial,
     )
     for k in RECORDS:
-        np.testing.assert_array_equal(out[k].detach().numpy(), rec[k].numpy(), err_msg=k)
-    total = sum((torch.from_numpy(weights[k]) * out[k]).sum() for k in RECORDS)
+        np.testing.assert_array_equal(out[k].detach().cpu().numpy(), rec[k].numpy(), err_msg=k)
+    total = sum((torch.from_numpy(weights[k]).to(out[k].device) * out[k]).sum() for k in RECORDS)
     total.backward()
-    got = {k: t.grad.numpy() for k, t in inputs.items()}
-    got["tau"] = tau_t.grad.numpy()
-    got.update({k: t.grad.numpy() for k, t in torch_params.items()})
+    got = {k: t.grad.cpu().numpy() for k, t in inputs.items()}
+    got["tau"] = tau_t.grad.cpu().numpy()
+    got.update({k: t.grad.cpu().numpy() for k, t in torch_params.items()})
     for k, e in expected.items():
         if k == "D":
             continue
@@ -356,12 +357,12 @@ def test_parameters_are_functional_and_no_grad_skips_the_tape():
     m = _t(masses, True)
     rec = wdt.rollout(model, steps=T, joint_positions=_t(s0), parameters={"link_mass": m}, record="joint_positions")
     assert rec["joint_positions"].requires_grad
-    np.testing.assert_array_equal(rec["joint_positions"].detach().numpy(), expected["joint_positions"].numpy())
+    np.testing.assert_array_equal(rec["joint_positions"].detach().cpu().numpy(), expected["joint_positions"].numpy())
     np.testing.assert_array_equal(model.link_mass.numpy(), before)
     with torch.no_grad():
         quiet = wdt.rollout(model, steps=T, joint_positions=_t(s0), parameters={"link_mass": m}, record=("joint_positions", "valid"))
     assert not quiet["joint_positions"].requires_grad and quiet["valid"].dtype == torch.int32
-    np.testing.assert_array_equal(quiet["joint_positions"].numpy(), expected["joint_positions"].numpy())
+    np.testing.assert_array_equal(quiet["joint_positions"].cpu().numpy(), expected["joint_positions"].numpy())
     assert quiet["valid"].shape == (T + 1,) and bool(quiet["valid"].all())
 
 
@@ -377,7 +378,7 @@ def test_errors_name_the_tensor():
     s0 = torch.zeros(3, dtype=F64)
     with pytest.raises(TypeError, match=r"joint_positions \(dtype torch.float32.*torch.float64"):
         wdt.rollout(model, steps=T, joint_positions=s0.float())
-    with pytest.raises(ValueError, match=r"joint_velocities \(dtype torch.float64, device meta.*model is on 'cpu'"):
+    with pytest.raises(ValueError, match=rf"joint_velocities \(dtype torch.float64, device meta.*model is on '{model.device}'"):
         wdt.rollout(model, steps=T, joint_positions=s0, joint_velocities=torch.zeros(3, dtype=F64, device="meta"))
     with pytest.raises(ValueError, match=r"joint_positions has shape \(4,\)"):
         wdt.rollout(model, steps=T, joint_positions=torch.zeros(4, dtype=F64))
@@ -403,7 +404,7 @@ def test_errors_name_the_tensor():
         loss.backward()
 
 
-def test_importing_warpdyn_does_not_import_torch():
+def test_importing_warpdyn_does_not_import_torch(tmp_path):
     code = "import sys, warpdyn; assert 'torch' not in sys.modules, 'torch was imported'"
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)  # the installed warpdyn
     assert result.returncode == 0, result.stderr

@@ -12,9 +12,11 @@ import sys
 import numpy as np
 import pytest
 
-import warpdyn as wd
-import warpdyn.visualization as viz
-from warpdyn.description import CollisionShape
+pytest.importorskip("rerun", reason="rerun-sdk (the test extra) is not installed")
+
+import warpdyn as wd  # noqa: E402
+import warpdyn.visualization as viz  # noqa: E402
+from warpdyn.description import CollisionShape  # noqa: E402
 
 BOX_MASS, BOX_HALF, G = 2.0, 0.1, 9.81
 BOX_URDF = """<robot name="box"><link name="box"><inertial><mass value="2"/>

@@ -75,6 +75,22 @@ def checked_host(value, name: str, accepted: list) -> np.ndarray:
     return host
 
 
+def strided_view(array: wp.array, shape: tuple, strides: tuple) -> wp.array:
+    """A view of `array`'s memory with another shape and strides (in bytes), its gradient likewise, keeping
+    `array` alive: a leading axis of 1 or a broadcast axis (stride 0) on any layout, where `reshape` refuses
+    non-contiguous arrays. Under a tape the adjoints of reads through a stride-0 axis add up atomically."""
+    view = wp.array(ptr=array.ptr, dtype=array.dtype, shape=tuple(shape), strides=tuple(strides), device=array.device)
+    if array.grad is not None:
+        view.grad = wp.array(ptr=array.grad.ptr, dtype=array.dtype, shape=tuple(shape), strides=tuple(strides), device=array.device)
+    view._ref = array  # the memory's owner (Warp's own views keep theirs the same way)
+    return view
+
+
+def with_env_axis(array: wp.array, N: int = 1) -> wp.array:
+    """The (N, *S) view of an (S) array: one environment (N = 1) or the same value for N (stride 0)."""
+    return strided_view(array, (N, *array.shape), (0, *array.strides))
+
+
 def batched_input(value, name: str, per_env: tuple, num_envs: int | None, scalar, device) -> wp.array:
     """A (N, *per_env) device array from a shared (per_env) or per-environment (N, *per_env) value.
 
@@ -88,7 +104,7 @@ def batched_input(value, name: str, per_env: tuple, num_envs: int | None, scalar
             raise ValueError(f"{name} has shape {tuple(value.shape)}, expected one of {accepted}")
         if tuple(value.shape) == (N, *per_env):
             return value
-        return value.reshape((1, *per_env)) if N == 1 else batched_input(value.numpy(), name, per_env, num_envs, scalar, device)
+        return with_env_axis(value, N)  # shared by the environments: read in place, its gradient summed over them
     host = checked_host(value, name, accepted)
     out = empty(per_env, N, scalar, device)
     out.assign(wp.array(np.ascontiguousarray(np.broadcast_to(host, (N, *per_env))), dtype=scalar, device=device))

@@ -56,7 +56,7 @@ from warpdyn import simulation as _simulation
 from warpdyn.data import Data
 from warpdyn.model import VelRepr
 
-__all__ = ["rollout", "STATE_INPUTS"]
+__all__ = ["rollout", "torch_device", "STATE_INPUTS"]
 
 STATE_INPUTS = (
     "base_position",
@@ -73,6 +73,11 @@ _NON_NEGATIVE = (
     "link_mass", "gravcomp_mass", "friction_static", "friction_viscous", "joint_limit_spring", "joint_limit_damper", "armature",
     "damping", "stiffness", "K", "mu",
 )  # fmt: skip
+
+
+def torch_device(model) -> torch.device:
+    """The torch device of the model's Warp device (where `rollout`'s tensors must be): cuda:k or cpu."""
+    return torch.device(wp.device_to_torch(model.device))
 
 
 def rollout(

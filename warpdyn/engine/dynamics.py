@@ -117,10 +117,10 @@ class _Outputs:
             if config.fill_outputs_with_nan:
                 for a in self.user:
                     a.fill_(float("nan"))
-            self.args = [with_env_axis(a) for a in self.user]
+            self.args = [env_axis_descriptor(a) for a in self.user]
 
 
-def with_env_axis(array: wp.array):
+def env_axis_descriptor(array: wp.array):
     """A launch argument showing a single environment's contiguous `array` (shape S) as (1, *S)."""
     return warp_private.array_descriptor(array, (1, *array.shape), (array.capacity or 0, *array.strides))
 
@@ -224,7 +224,7 @@ def _offset(model) -> int:
 
 
 def _batched(data, array):
-    return array if data.num_envs is not None else array.reshape((1, *array.shape))
+    return array if data.num_envs is not None else arrays.with_env_axis(array)
 
 
 def forward_dynamics_crb(model, data, joint_forces=None, link_forces=None):

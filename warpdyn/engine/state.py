@@ -45,7 +45,7 @@ def state_array(value, name: str, per_env: tuple, num_envs: int | None, scalar, 
             raise ValueError(f"{name} has shape {tuple(value.shape)}, expected one of {accepted}")
         if len(per_env) != 1:
             raise ValueError(f"{name}: pass a NumPy array here; Warp arrays are accepted for one axis per environment")
-        src = value.reshape((1, per_env[0])) if tuple(value.shape) == tuple(per_env) else value
+        src = arrays.with_env_axis(value) if tuple(value.shape) == tuple(per_env) else value
         launch(state_kernels(scalar).broadcast_rows, dim=out.shape, inputs=[src], outputs=[out], device=device)
         return out
     host = np.broadcast_to(arrays.checked_host(value, name, accepted), (N, *per_env))

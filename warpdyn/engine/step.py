@@ -252,18 +252,12 @@ class Plan:
 
 def broadcast_envs(row: wp.array, N: int) -> wp.array:
     """The (N, *S) view of a (1, *S) array with a zero stride on the environment axis (its gradient likewise):
-    what kernels read as one value per environment, without N copies. The view does not own the memory:
-    keep `row` alive."""
+    what kernels read as one value per environment, without N copies (it keeps `row` alive)."""
     if row.shape[0] != 1:
         raise ValueError(f"broadcast_envs needs a leading axis of 1, got shape {row.shape}")
     if N == 1:
         return row
-    view = wp.array(ptr=row.ptr, dtype=row.dtype, shape=(N, *row.shape[1:]), strides=(0, *row.strides[1:]), device=row.device)
-    if row.grad is not None:
-        view.grad = wp.array(
-            ptr=row.grad.ptr, dtype=row.dtype, shape=(N, *row.shape[1:]), strides=(0, *row.grad.strides[1:]), device=row.device
-        )
-    return view
+    return arrays.strided_view(row, (N, *row.shape[1:]), (0, *row.strides[1:]))
 
 
 def plan(model) -> Plan:
