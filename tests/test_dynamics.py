@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import warp as wp
 
+import gradcheck
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
@@ -217,13 +218,13 @@ def test_tape_gradients_match_finite_differences(algorithm, repr):
     n = model.dofs()
     w_base = wp.array(rng.normal(size=(N, 6)), dtype=wp.float64)
     w_joints = wp.array(rng.normal(size=(N, n)), dtype=wp.float64)
-    w_matrix = wp.array(rng.normal(size=(N, (6 + n) ** 2)), dtype=wp.float64)
+    w_matrix = wp.array(rng.normal(size=(N, 6 + n, 6 + n)), dtype=wp.float64)
 
     def evaluate(data, u_array):
         loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
         if algorithm == "crba":
-            M = wd.model.free_floating_mass_matrix(model, data)
-            _add_weighted_sum(loss, M.reshape((N, (6 + n) ** 2)), w_matrix)
+            M = wd.model.free_floating_mass_matrix(model, data)  # (N, 6 + n, 6 + n), any layout (GPUs: environment fastest)
+            loss = gradcheck.weighted_sum([M], [w_matrix])
             return loss
         if algorithm == "aba":
             b, s = wd.model.forward_dynamics_aba(model, data, joint_forces=u_array)

@@ -259,7 +259,8 @@ def test_single_environment_data_and_unmarked_parameters():
         with tape:
             M = wd.model.free_floating_mass_matrix(model, d)
             loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-            _weighted_sum([M.reshape((1, *M.shape[-2:]))], [wp.ones(M.shape[-2:], dtype=wp.float64).reshape((1, *M.shape[-2:]))], loss)
+            M1 = M if M.ndim == 3 else wd.arrays.with_env_axis(M)  # (1, k, k): a view, whatever the layout
+            _weighted_sum([M1], [wp.ones((1, *M.shape[-2:]), dtype=wp.float64)], loss)
         tape.backward(loss)
         grads.append(params["link_mass"].grad.numpy().copy())
         tape.zero()

@@ -167,17 +167,20 @@ def _checks(problem: _Problem, rng, skip=()) -> dict:
 
 def _compare(problem: _Problem, checks: dict, rtol: float, zero=(), label="") -> dict:
     """Tape g . d against the extrapolated central differences for every check; `zero`: inputs that must
-    not matter (both exactly 0). Prints the table; asserts all within rtol at once. Returns the errors."""
+    not matter (the tape's exactly 0; the differences within the loss's rounding, 64 u |L| / H: a GPU sums
+    the loss with atomics, whose order changes its last bits). Prints the table; asserts all within rtol at
+    once. Returns the errors."""
     problem.backward()
     got = gc.tape_directional(checks)
     fd = gc.directional_derivatives(checks, problem.value, H, richardson=True)
+    noise = 64.0 * np.finfo(np.float64).eps * abs(problem.value()) / H
     errors, failures = {}, []
     print(f"\n{label}: input, tape g.d, finite differences, relative error")
     for name in checks:
         if name in zero:
             print(f"  {name:28s} {got[name]: .12e} {fd[name]: .12e}  (must not matter)")
-            if got[name] != 0.0 or fd[name] != 0.0:
-                failures.append(f"{name}: tape {got[name]:.6e}, differences {fd[name]:.6e}, both should be 0")
+            if got[name] != 0.0 or abs(fd[name]) > noise:
+                failures.append(f"{name}: tape {got[name]:.6e} (should be 0), differences {fd[name]:.6e} (beyond the rounding {noise:.1e})")
             continue
         errors[name] = abs(got[name] - fd[name]) / abs(fd[name]) if fd[name] != 0.0 else np.inf
         print(f"  {name:28s} {got[name]: .12e} {fd[name]: .12e}  {errors[name]:.2e}")
