@@ -116,9 +116,33 @@ from __future__ import annotations
 
 from .engine.rollout import DEFAULT_RECORD, STATE_RECORDS, STEP_RECORDS, Rollout
 from .engine.step import check_deformation_stability
+from .engine.stepper import Stepper as _Stepper
 from .engine.tape import taping
 
-__all__ = ["Rollout", "rollout", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "check_contact_stability", "taping"]
+__all__ = ["Rollout", "rollout", "Stepper", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "check_contact_stability", "taping"]
+
+
+class Stepper(_Stepper):
+    """In-place steps of N environments, for loops that step from Python (control, RL): the fast path.
+
+        stepper = wd.simulation.Stepper(model, data, substeps=4)   # 4 steps of model.time_step a call
+        tau = wp.to_torch(stepper.joint_force_references)          # (N, n) controls, written in place
+        for _ in range(1000):
+            tau[:] = policy(...)                                   # or stepper.ctrl (N, na): the actuators
+            data = stepper.step()                                  # replays one graph: no allocation
+
+    What `wd.model.step` computes (the same kernels, numbers and health flags), but its state lives in the
+    Stepper: `step()` overwrites it, and `data` (returned by `step`) is a Data of views of the Stepper's
+    buffers, valid until the next call (copy what you keep, e.g. `data.joint_positions.numpy()`). The
+    controls are the Stepper's arrays, zero until written, held over each call's `substeps` steps:
+    `joint_force_references` (N, n) [N m or N], `ctrl` (N, na) (the model's actuators), and, when built with
+    link_forces=True, `link_forces` (N, nL, 6) in the data's representation. `set_state(data, envs=None)`
+    copies a state in, for every environment or, without a host synchronisation, those an int32 mask (N,)
+    selects (resets). The launches of a call are built once, and captured as a graph unless use_graph=False
+    (CUDA graph on GPUs, Warp's CPU graph on the CPU); setting a model parameter or setting rebuilds them at
+    the next call, while writing into a parameter's array in place does not need to. Not differentiable:
+    use `wd.model.step` or a rollout under a wp.Tape. One Stepper serves one thread at a time.
+    """
 
 
 def rollout(

@@ -25,7 +25,7 @@ from .launch import run as run_launches
 from .step import Evaluation, Workspace, broadcast_envs, prepare, state_buffers, step_launches, with_state
 from .step import plan as step_plan
 
-__all__ = ["Rollout", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "CONTROLS"]
+__all__ = ["Rollout", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "CONTROLS", "copy_launch"]
 
 STATE_RECORDS = (
     "base_position",
@@ -84,7 +84,7 @@ def _at(array: wp.array, t: int) -> wp.array:
     return array[t]
 
 
-def _copy_launch(scalar, src: wp.array, dst: wp.array):
+def copy_launch(scalar, src: wp.array, dst: wp.array):
     """The launch copying src into dst (same logical shape; src may broadcast with zero strides)."""
     if dst.size == 0:
         return None
@@ -310,7 +310,7 @@ class _Config:
             if name == "base_velocity" and self.repr != int(VelRepr.Mixed):
                 launches.append(Launch(state_kernels(self.scalar).base_velocity_to_repr, self.N, [x[0], x[1], x[3], self.repr], [out]))
             else:
-                launches.append(_copy_launch(self.scalar, x[_STATE_INDEX[name]], out))
+                launches.append(copy_launch(self.scalar, x[_STATE_INDEX[name]], out))
         return [k for k in launches if k is not None]
 
     def step(self, t: int, copies: bool = True) -> list:
@@ -344,14 +344,14 @@ class _Config:
         """Launches copying `data`'s state into the state t (recorded by a tape)."""
         x = self.state(t)
         src = state_arrays(data)
-        run_launches([k for k in (_copy_launch(self.scalar, a, b) for a, b in zip(src, x)) if k is not None], self.device)
+        run_launches([k for k in (copy_launch(self.scalar, a, b) for a, b in zip(src, x)) if k is not None], self.device)
 
     def load_controls(self, sources: dict) -> None:
         """Copy the given controls ({name: source}) into the rollout's buffers (recorded by a tape)."""
         launches = []
         for name, source in sources.items():
             if source is not None:
-                launches.append(_copy_launch(self.scalar, source, self.buffers[name]))
+                launches.append(copy_launch(self.scalar, source, self.buffers[name]))
         run_launches([k for k in launches if k is not None], self.device)
 
     def run_steps(self, start: int, stop: int, graph: bool) -> None:

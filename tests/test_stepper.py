@@ -1,0 +1,120 @@
+"""wd.simulation.Stepper: in-place steps, the fast path. Reference: wd.model.step in a loop on the same
+inputs, which runs the same kernels on the same numbers, so every state must be equal bit for bit."""
+
+import numpy as np
+import pytest
+import warp as wp
+
+import mjcf_models as mm
+import robots
+import warpdyn as wd
+from warpdyn import VelRepr
+
+
+def _legs(integrator=robots.SIE):
+    model = robots.ergocub_seed_with_points(np.float64)
+    model = wd.model.reduce(model, model.joint_names())  # its own plan and settings
+    model.integrator = integrator
+    return model
+
+
+def _standing(model, N, repr_=VelRepr.Mixed, seed=0):
+    return wd.data.random_model_data(
+        model, seed=seed, num_envs=N, velocity_representation=repr_,
+        base_pos_bounds=((-0.1, -0.1, 0.56), (0.1, 0.1, 0.6)), base_rpy_bounds=(-0.3, 0.3), joint_pos_bounds=(-0.3, 0.3),
+    )  # fmt: skip
+
+
+def _assert_same_state(a, b, label):
+    for name in ("base_position", "base_quaternion", "joint_positions", "joint_velocities", "base_velocity", "valid"):
+        np.testing.assert_array_equal(getattr(a, name).numpy(), getattr(b, name).numpy(), err_msg=f"{label}: {name}")
+    np.testing.assert_array_equal(a.tangential_deformation_state.numpy(), b.tangential_deformation_state.numpy(), err_msg=label)
+
+
+@pytest.mark.parametrize("use_graph", [True, False], ids=["graph", "recorded"])
+@pytest.mark.parametrize("integrator", [robots.SIE, robots.RK4], ids=["euler", "rk4"])
+def test_steps_equal_model_step_bitwise(integrator, use_graph):
+    """The legs in contact, 3 environments in Body, per-call torques and Body link forces written into the
+    Stepper's arrays, substeps 3 (odd: the buffers swap) over 4 calls: every state equals wd.model.step's."""
+    model = _legs(integrator)
+    N, n, nL = 3, model.dofs(), model.number_of_links()
+    data = _standing(model, N, VelRepr.Body)
+    stepper = wd.simulation.Stepper(model, data, substeps=3, link_forces=True, use_graph=use_graph)
+    _assert_same_state(stepper.data, data, "initial")
+    rng = np.random.default_rng(1)
+    expected = data
+    for call in range(4):
+        tau, f = rng.normal(0, 5, (N, n)), rng.normal(0, 2, (N, nL, 6))
+        stepper.joint_force_references.assign(tau)
+        stepper.link_forces.assign(f)
+        got = stepper.step()
+        for _ in range(3):
+            expected = wd.model.step(model, expected, joint_force_references=tau, link_forces=f)
+        _assert_same_state(got, expected, f"call {call}")
+    assert np.abs(stepper.data.tangential_deformation_state.numpy()).max() > 0, "no contact"
+
+
+def test_actuators_and_a_model_change():
+    """An MJCF humanoid with position servos driven by `ctrl`; then a setter changes the gains: the next call
+    rebuilds its launches and follows the new values, as wd.model.step does."""
+    model = wd.model.Model.build_from_model_description(mm.FLOATING_HUMANOID, dtype=np.float64)
+    N, na = 2, model.number_of_actuators()
+    data = wd.data.Data.build(model, num_envs=N, joint_positions=np.random.default_rng(0).uniform(-0.3, 0.3, (N, model.dofs())))
+    stepper = wd.simulation.Stepper(model, data, substeps=2)
+    u = np.random.default_rng(2).uniform(-1, 1, (N, na))
+    stepper.ctrl.assign(u)
+    expected = data
+    for _ in range(2):
+        got = stepper.step()
+        for _ in range(2):
+            expected = wd.model.step(model, expected, ctrl=u)
+        _assert_same_state(got, expected, "servos")
+    model.set_actuator_parameters(gain=model.actuator_gain.numpy() * 2.0)
+    got = stepper.step()
+    for _ in range(2):
+        expected = wd.model.step(model, expected, ctrl=u)
+    _assert_same_state(got, expected, "after the setter")
+
+
+def test_masked_reset_and_health():
+    """A pendulum chain, 3 environments; environment 1 diverges (1e200 rad/s) and is flagged, the others
+    step on as alone; set_state with a mask (1 only) restores it, valid again, and leaves 0 and 2 as they were."""
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(3), dtype=np.float64)
+    v = np.array([[0.5, 0.0, 0.0], [1e200, 0.0, 0.0], [0.0, -0.5, 0.0]])
+    data = wd.data.Data.build(model, num_envs=3, joint_velocities=v)
+    stepper = wd.simulation.Stepper(model, data)
+    stepper.step()
+    assert stepper.data.valid.numpy().tolist() == [1, 0, 1]
+    alone = wd.model.step(model, wd.data.Data.build(model, num_envs=3, joint_velocities=np.where(np.abs(v) > 1e100, 0.0, v)))
+    np.testing.assert_array_equal(stepper.data.joint_positions.numpy()[[0, 2]], alone.joint_positions.numpy()[[0, 2]])
+    before = stepper.data.joint_positions.numpy().copy()
+    fresh = wd.data.Data.build(model, num_envs=3, joint_positions=np.full((3, 3), 0.25))
+    stepper.set_state(fresh, envs=wp.array([0, 1, 0], dtype=wp.int32))
+    after = stepper.data
+    assert after.valid.numpy().tolist() == [1, 1, 1]
+    np.testing.assert_array_equal(after.joint_positions.numpy()[1], [0.25] * 3)
+    np.testing.assert_array_equal(after.joint_velocities.numpy()[1], [0.0] * 3)
+    np.testing.assert_array_equal(after.joint_positions.numpy()[[0, 2]], before[[0, 2]])
+    stepper.step()
+    assert stepper.data.valid.numpy().all()
+
+
+def test_errors_are_named():
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(2), dtype=np.float64)
+    data = wd.data.Data.build(model, num_envs=2)
+    with pytest.raises(ValueError, match="substeps must be a positive integer"):
+        wd.simulation.Stepper(model, data, substeps=0)
+    with pytest.raises(ValueError, match="use_graph must be"):
+        wd.simulation.Stepper(model, data, use_graph="yes")
+    stepper = wd.simulation.Stepper(model, data)
+    with pytest.raises(ValueError, match="data has 3 environments in Mixed; this Stepper steps 2"):
+        stepper.set_state(wd.data.Data.build(model, num_envs=3))
+    with pytest.raises(ValueError, match=r"envs has shape \(3,\)"):
+        stepper.set_state(data, envs=wp.zeros(3, dtype=wp.int32))
+    with pytest.raises(TypeError, match="envs must be a Warp int32 array"):
+        stepper.set_state(data, envs=wp.zeros(2, dtype=wp.float64))
+    with pytest.raises(TypeError, match="got list"):
+        stepper.set_state(data, envs=[1, 0])
+    with pytest.raises(RuntimeError, match="overwrites its states"):
+        with wp.Tape():
+            stepper.step()
