@@ -73,8 +73,16 @@ def state_bundle(scalar, state: list):
 
 
 def empty_like_input(scalar, device, ndim: int) -> wp.array:
-    """The absent input of `ndim` axes: an array whose axes are all 0 (kernels test `.shape[0] > 0`)."""
-    return wp.empty((0,) * ndim, dtype=scalar, device=device)
+    """The absent input of `ndim` axes: an array whose axes are all 0 (kernels test `.shape[0] > 0`); one per
+    (scalar, device, ndim), made once (it holds no memory and nothing writes it)."""
+    key = (scalar, str(device), ndim)
+    empty = _EMPTY.get(key)
+    if empty is None:
+        empty = _EMPTY[key] = wp.empty((0,) * ndim, dtype=scalar, device=device)
+    return empty
+
+
+_EMPTY: dict = {}
 
 
 def controls_bundle(scalar, device, joint_forces=None, link_forces=None):
