@@ -105,6 +105,11 @@ class Stepper:
         return self._data[self._current]
 
     @property
+    def buffers(self) -> tuple:
+        """The two state buffers as Data (views): `data` is one of them, the other the previous state."""
+        return tuple(self._data)
+
+    @property
     def data(self):
         """The current state as Data (views of the Stepper's buffers: the next `step` overwrites them)."""
         return self._data[self._current]

@@ -1,0 +1,19 @@
+"""Batched RL environments on warpdyn (optional: `pip install -e ".[rl]"`, torch and gymnasium; rsl-rl-lib
+for `warpdyn.envs.rsl_rl`).
+
+    import warpdyn.envs as envs
+    env = envs.LeggedEnv(model, num_envs=4096, cfg=envs.LeggedEnvConfig(push_velocity=0.5))
+    obs, info = env.reset(seed=0)                        # torch (N, obs_dim) on the model's device
+    obs, reward, terminated, truncated, info = env.step(actions)   # actions: torch (N, na)
+
+`LeggedEnv` follows Gymnasium's vector API (SAME_STEP autoreset) with torch tensors sharing memory with
+Warp: a step writes the actions into a `wd.simulation.Stepper`'s controls, replays its graph of
+`decimation` simulation steps, and computes observations, rewards and resets with torch ops on the device,
+without a host synchronisation. Its terms (`warpdyn.envs.terms`) are functions of the state that a
+configuration composes. `warpdyn.envs.rsl_rl.RslRlVecEnv` hands it to rsl-rl's PPO (examples/rl_ergocub.py).
+"""
+
+from . import terms
+from .legged import DEFAULT_OBSERVATIONS, DEFAULT_REWARDS, LeggedEnv, LeggedEnvConfig
+
+__all__ = ["LeggedEnv", "LeggedEnvConfig", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS", "terms"]

@@ -1,0 +1,287 @@
+"""A batched legged-robot environment: Gymnasium's vector API over a `wd.simulation.Stepper`, torch tensors on
+the model's device (see warpdyn.envs)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import gymnasium as gym
+import numpy as np
+import torch
+import warp as wp
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+import warpdyn as wd
+
+from . import terms
+
+__all__ = ["LeggedEnvConfig", "LeggedEnv", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS"]
+
+DEFAULT_OBSERVATIONS: tuple = (
+    (terms.base_height, 1.0),
+    (terms.projected_gravity, 1.0),
+    (terms.base_linear_velocity, 2.0),
+    (terms.base_angular_velocity, 0.25),
+    (terms.joint_positions, 1.0),
+    (terms.joint_velocities, 0.05),
+    (terms.actions, 1.0),
+    (terms.commands, 1.0),
+)
+"""(term, scale) pairs whose scaled values, concatenated, are the observation."""
+
+DEFAULT_REWARDS: dict = {
+    "track_linear_velocity": (terms.track_linear_velocity, 1.0),
+    "track_angular_velocity": (terms.track_angular_velocity, 0.5),
+    "alive": (terms.alive, 1.0),
+    "upright": (terms.upright, -5.0),
+    "height_error": (terms.height_error, -50.0),
+    "vertical_velocity": (terms.vertical_velocity_squared, -1.0),
+    "torque": (terms.torque_squared, -1e-5),
+    "action_rate": (terms.action_rate, -0.01),
+    "joint_velocity": (terms.joint_velocity_squared, -1e-3),
+}
+"""name: (term, weight); the reward is sum(weight * term) * policy_dt."""
+
+
+@dataclasses.dataclass
+class LeggedEnvConfig:
+    """What `LeggedEnv` simulates and rewards; units SI (s, m, rad, N m).
+
+    Simulation: `time_step` [s] of the semi-implicit Euler (the joints' damping implicit), `policy_dt` [s]
+    per action (decimation = policy_dt / time_step steps), soft contacts `contact_stiffness` K and
+    `contact_damping` D (None: JaxSim's damping ratio at that K). Actions: joint position targets
+    default + action_scale * clip(action, +-action_clip), followed by a position actuator per joint (kp)
+    and the joint damper (kd) (a model that has actuators keeps its own and takes the targets as ctrl).
+    Episodes: `episode_seconds` (then truncated); terminated when the base falls below
+    `termination_height` x its standing height, tilts beyond `termination_tilt` [rad], or its state stops
+    being finite (the health flag: reset and reported in info["invalid"]). Commands (vx, vy, yaw rate) drawn
+    uniformly from the ranges at each reset and every `command_seconds`. Pushes: every `push_seconds`, a
+    random horizontal velocity change of at most `push_velocity` [m/s] to every environment. Domain
+    randomisation at each reset: link masses times U(mass_scale), contact friction U(friction).
+    """
+
+    time_step: float = 0.002
+    policy_dt: float = 0.02
+    contact_stiffness: float = 1e5
+    contact_damping: float | None = None
+    kp: float = 300.0
+    kd: float = 5.0
+    action_scale: float = 0.25
+    action_clip: float = 5.0
+    episode_seconds: float = 20.0
+    termination_height: float = 0.6
+    termination_tilt: float = 1.0
+    base_height_target: float | None = None  # None: the standing height
+    joint_noise: float = 0.1
+    lin_vel_x: tuple = (0.0, 0.0)
+    lin_vel_y: tuple = (0.0, 0.0)
+    yaw_rate: tuple = (0.0, 0.0)
+    command_seconds: float = 10.0
+    tracking_sigma: float = 0.25
+    push_seconds: float = 8.0
+    push_velocity: float = 0.0
+    mass_scale: tuple = (1.0, 1.0)
+    friction: tuple = (0.5, 0.5)
+    observations: tuple = DEFAULT_OBSERVATIONS
+    rewards: dict = dataclasses.field(default_factory=lambda: dict(DEFAULT_REWARDS))
+
+
+class LeggedEnv(gym.vector.VectorEnv):
+    """N environments of a floating-base robot on flat ground, stepped in place on the model's device.
+
+    Gymnasium's vector API with SAME_STEP autoreset: `reset(seed=...)` -> (obs, info); `step(actions)` ->
+    (obs, reward, terminated, truncated, info), torch tensors (N, ...) on the device (float32 observations
+    and rewards, bool flags), no host synchronisation; the environments that ended are reset at once and
+    their new observation returned, the last one in info["final_obs"] where info["_final_obs"]. info also
+    holds "invalid" (environments whose state stopped being finite, reset) and "log" (the mean of each
+    reward term over the environments, tensors). `episode_statistics()` reads (one synchronisation) the
+    mean return and length of the episodes completed since its last call.
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
+
+    def __init__(self, model, num_envs: int, cfg: LeggedEnvConfig | None = None, *, seed: int = 0):
+        if not model.floating_base():
+            raise ValueError(f"LeggedEnv needs a floating-base model; '{model.name()}' is welded to the world")
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        self.cfg = cfg = cfg if cfg is not None else LeggedEnvConfig()
+        decimation = cfg.policy_dt / cfg.time_step
+        if abs(decimation - round(decimation)) > 1e-6 or round(decimation) < 1:
+            raise ValueError(f"policy_dt {cfg.policy_dt} s must be a whole number of time steps of {cfg.time_step} s")
+        self.num_envs = N = int(num_envs)
+        self.decimation = int(round(decimation))
+        self.model = model = self._simulated(model, N)
+        self.device = torch.device(wp.device_to_torch(model.device))
+        self.torch_dtype = wp.dtype_to_torch(model.scalar)
+        self.max_episode_length = int(math.ceil(cfg.episode_seconds / cfg.policy_dt))
+        self._generator = torch.Generator(device=self.device)
+        self._generator.manual_seed(seed)
+        n, na = model.dofs(), model.number_of_actuators()
+        self.default_joint_positions = torch.zeros(n, device=self.device, dtype=self.torch_dtype)
+        # the standing pose: the lowest collidable point on the ground
+        zero = wd.data.Data.build(model)
+        lowest = float(wd.contact.collidable_point_positions(model, zero).numpy()[..., 2].min())
+        self.standing_height = -lowest
+        if cfg.base_height_target is None:
+            cfg = self.cfg = dataclasses.replace(cfg, base_height_target=self.standing_height)
+        # the state the resets copy from, and the Stepper
+        self._reset_data = wd.data.Data.build(model, num_envs=N, base_position=(0.0, 0.0, self.standing_height))
+        self.stepper = wd.simulation.Stepper(model, self._reset_data, substeps=self.decimation)
+        # torch views, made once (outside torch.inference_mode: they are written inside it)
+        self._reset_views = self._views(self._reset_data)
+        self._state_views = {id(d): self._views(d) for d in self.stepper.buffers}
+        self._ctrl = wp.to_torch(self.stepper.ctrl)
+        self._link_mass = wp.to_torch(model.link_mass)
+        self._mu = wp.to_torch(model.contact_params.mu)
+        self._nominal_mass = self._link_mass[0].clone()
+        self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
+        self._reset_mask_wp = wp.from_torch(self._reset_mask)
+        # buffers
+        f32 = dict(device=self.device, dtype=torch.float32)
+        self.actions = torch.zeros(N, na, **f32)
+        self.previous_actions = torch.zeros(N, na, **f32)
+        self.commands = torch.zeros(N, 3, **f32)
+        self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
+        self.joint_torques = torch.zeros(N, n, device=self.device, dtype=self.torch_dtype)
+        self._return = torch.zeros(N, **f32)
+        self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)  # episodes, return sum, length sum
+        self._steps = 0
+        self.state = self._state()
+        obs_dim = self._observe().shape[1]
+        self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
+        self.single_action_space = gym.spaces.Box(-cfg.action_clip, cfg.action_clip, (na,), np.float32)
+        self.observation_space = batch_space(self.single_observation_space, N)
+        self.action_space = batch_space(self.single_action_space, N)
+
+    def _simulated(self, model, N: int):
+        """A copy of `model` with the task's actuators, damping, contacts and per-environment parameters."""
+        cfg = self.cfg
+        model = model.copy()
+        if model.number_of_actuators() == 0:
+            model = wd.model.add_actuators(model, "position", kp=cfg.kp)
+            model.set_joint_parameters(damping=np.full(model.dofs(), cfg.kd))
+        model.integrator = wd.model.IntegratorType.SemiImplicitEuler
+        model.implicit_damping = True
+        model.time_step = cfg.time_step
+        D = cfg.contact_damping if cfg.contact_damping is not None else 2000.0 * (cfg.contact_stiffness / 1e6) ** (2.0 / 3.0)
+        mu = wp.array(np.full(N, np.mean(cfg.friction)), dtype=model.scalar, device=model.device)
+        model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=D, mu=mu)
+        model.set_link_parameters(mass=np.tile(model.tree.link_mass, (N, 1)))  # per environment: randomised in place
+        return model
+
+    def _views(self, data) -> dict:
+        return {name: wp.to_torch(getattr(data, f"{name}_state")) for name in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "valid")}
+
+    def _state(self) -> terms.State:
+        v = self._state_views[id(self.stepper.data)]
+        q = v["base_quaternion"] / v["base_quaternion"].norm(dim=1, keepdim=True)
+        down = torch.zeros_like(v["base_position"])
+        down[:, 2] = -1.0
+        return terms.State(
+            base_position=v["base_position"],
+            base_quaternion=q,
+            joint_positions=v["joint_positions"],
+            joint_velocities=v["joint_velocities"],
+            base_linear_velocity=terms.quat_rotate_inverse(q, v["base_velocity"][:, :3]),
+            base_angular_velocity=terms.quat_rotate_inverse(q, v["base_velocity"][:, 3:]),
+            projected_gravity=terms.quat_rotate_inverse(q, down),
+            valid=v["valid"],
+        )
+
+    def _observe(self) -> torch.Tensor:
+        parts = [(term(self) * scale).reshape(self.num_envs, -1).to(torch.float32) for term, scale in self.cfg.observations]
+        return torch.nan_to_num(torch.cat(parts, dim=1), nan=0.0, posinf=0.0, neginf=0.0)
+
+    def _uniform(self, low, high, shape) -> torch.Tensor:
+        u = torch.rand(shape, generator=self._generator, device=self.device, dtype=self.torch_dtype)
+        return low + (high - low) * u
+
+    def _resample_commands(self, mask: torch.Tensor) -> None:
+        cfg = self.cfg
+        new = torch.stack([self._uniform(*r, (self.num_envs,)) for r in (cfg.lin_vel_x, cfg.lin_vel_y, cfg.yaw_rate)], dim=1)
+        self.commands.copy_(torch.where(mask[:, None], new.to(torch.float32), self.commands))
+
+    def _reset(self, mask: torch.Tensor) -> None:
+        """Reset the environments where `mask` (bool (N,)): a new initial state, parameters and commands."""
+        cfg, N, n = self.cfg, self.num_envs, self.model.dofs()
+        v = self._reset_views
+        yaw = self._uniform(-math.pi, math.pi, (N,))
+        v["base_quaternion"].copy_(torch.stack([torch.cos(yaw / 2), 0 * yaw, 0 * yaw, torch.sin(yaw / 2)], dim=1))
+        v["base_position"].copy_(torch.stack([0 * yaw, 0 * yaw, 0 * yaw + self.standing_height + 0.02], dim=1))
+        v["joint_positions"].copy_(self.default_joint_positions + self._uniform(-cfg.joint_noise, cfg.joint_noise, (N, n)))
+        v["base_velocity"].zero_()
+        v["joint_velocities"].zero_()
+        self._reset_mask.copy_(mask.to(torch.int32))
+        self.stepper.set_state(self._reset_data, envs=self._reset_mask_wp)
+        masses = self._nominal_mass * self._uniform(*cfg.mass_scale, (N, self._nominal_mass.shape[0]))
+        self._link_mass.copy_(torch.where(mask[:, None], masses, self._link_mass))
+        self._mu.copy_(torch.where(mask, self._uniform(*cfg.friction, (N,)), self._mu))
+        self._resample_commands(mask)
+        zero = torch.zeros_like(self.actions)
+        self.actions.copy_(torch.where(mask[:, None], zero, self.actions))
+        self.previous_actions.copy_(torch.where(mask[:, None], zero, self.previous_actions))
+        self.episode_length_buf.masked_fill_(mask, 0)
+        self._return.masked_fill_(mask, 0.0)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Reset every environment; seed: reseed the environment's random numbers (states, commands,
+        randomisation, pushes). Returns (obs (N, obs_dim), info)."""
+        if seed is not None:
+            self._generator.manual_seed(int(seed))
+        self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
+        self._finished.zero_()
+        self.state = self._state()
+        return self._observe(), {}
+
+    def step(self, actions):
+        """Apply `actions` (N, na) for policy_dt; see the class docstring for what comes back."""
+        cfg = self.cfg
+        actions = torch.as_tensor(actions, device=self.device, dtype=torch.float32)
+        if tuple(actions.shape) != (self.num_envs, self.actions.shape[1]):
+            raise ValueError(f"actions has shape {tuple(actions.shape)}; expected {(self.num_envs, self.actions.shape[1])}")
+        self.previous_actions.copy_(self.actions)
+        self.actions.copy_(torch.nan_to_num(actions, nan=0.0).clamp(-cfg.action_clip, cfg.action_clip))
+        targets = self.default_joint_positions + cfg.action_scale * self.actions.to(self.torch_dtype)
+        self._ctrl.copy_(targets)
+        self._steps += 1
+        if cfg.push_velocity > 0 and self._steps % max(1, round(cfg.push_seconds / cfg.policy_dt)) == 0:
+            velocity = self._state_views[id(self.stepper.data)]["base_velocity"]
+            velocity[:, :2] += self._uniform(-cfg.push_velocity, cfg.push_velocity, (self.num_envs, 2))
+        self.stepper.step()
+        self.state = s = self._state()
+        self.joint_torques = cfg.kp * (targets - s.joint_positions) - cfg.kd * s.joint_velocities
+        self.episode_length_buf += 1
+        log, reward = {}, torch.zeros(self.num_envs, device=self.device, dtype=torch.float32)
+        for name, (term, weight) in cfg.rewards.items():
+            value = term(self).to(torch.float32) * (weight * cfg.policy_dt)
+            log[f"/reward/{name}"] = value.mean()
+            reward += value
+        invalid = s.valid == 0
+        fell = (s.base_position[:, 2] < cfg.termination_height * self.standing_height) | (s.projected_gravity[:, 2] > -math.cos(cfg.termination_tilt))
+        terminated = fell | invalid
+        truncated = (self.episode_length_buf >= self.max_episode_length) & ~terminated
+        reward = torch.where(invalid, torch.zeros_like(reward), torch.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0))
+        done = terminated | truncated
+        self._return += reward
+        self._finished += torch.stack([done.sum(), (self._return * done).sum(), (self.episode_length_buf * done).sum()]).to(torch.float64)
+        final = self._observe()
+        self._reset(done)
+        resample = (self.episode_length_buf % max(1, round(cfg.command_seconds / cfg.policy_dt)) == 0) & ~done
+        self._resample_commands(resample)
+        self.state = self._state()
+        obs = self._observe()
+        info = {"final_obs": final, "_final_obs": done, "invalid": invalid, "log": log}
+        return obs, reward, terminated, truncated, info
+
+    def episode_statistics(self) -> dict:
+        """{"episodes", "mean_return", "mean_length"} of the episodes completed since the last call (one
+        host synchronisation)."""
+        count, total, length = self._finished.tolist()
+        self._finished.zero_()
+        return {"episodes": int(count), "mean_return": total / count if count else float("nan"), "mean_length": length / count if count else float("nan")}
+
+    def close_extras(self, **kwargs) -> None:
+        self.stepper = None
+

@@ -1,0 +1,137 @@
+"""Observation and reward terms of `warpdyn.envs.LeggedEnv`: functions of the environment's current state,
+each returning a torch tensor (N,) or (N, k) on the environment's device, computed with torch ops (no host
+synchronisation). A term reads `env.state` (`State`: the base and joint state, with the base velocities
+in the base frame and gravity projected into it), `env.actions`, `env.previous_actions`, `env.commands`
+and `env.joint_torques`; a task composes them with weights (`LeggedEnvConfig.rewards`, `.observations`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import torch
+
+__all__ = [
+    "State",
+    "quat_rotate_inverse",
+    "base_height",
+    "projected_gravity",
+    "base_linear_velocity",
+    "base_angular_velocity",
+    "joint_positions",
+    "joint_velocities",
+    "actions",
+    "commands",
+    "track_linear_velocity",
+    "track_angular_velocity",
+    "upright",
+    "height_error",
+    "torque_squared",
+    "action_rate",
+    "joint_velocity_squared",
+    "vertical_velocity_squared",
+    "alive",
+]
+
+
+def quat_rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    """R(q)^T v for unit quaternions q (N, 4) as (w, x, y, z) and vectors v (N, 3)."""
+    w, u = q[:, :1], q[:, 1:]
+    return v * (2.0 * w * w - 1.0) - 2.0 * w * torch.cross(u, v, dim=1) + 2.0 * u * (u * v).sum(dim=1, keepdim=True)
+
+
+@dataclasses.dataclass
+class State:
+    """The environments' state as torch tensors (N, ...): W_p_B [m], W_Q_B (w, x, y, z), s [rad], sdot [rad/s],
+    B_v (the base origin's velocity in base axes) [m/s], B_omega [rad/s], gravity's direction in base axes,
+    and the health flags (1 valid)."""
+
+    base_position: torch.Tensor
+    base_quaternion: torch.Tensor
+    joint_positions: torch.Tensor
+    joint_velocities: torch.Tensor
+    base_linear_velocity: torch.Tensor
+    base_angular_velocity: torch.Tensor
+    projected_gravity: torch.Tensor
+    valid: torch.Tensor
+
+
+# ------------------------------------------------------------------------------------------ observations
+
+
+def base_height(env) -> torch.Tensor:
+    return env.state.base_position[:, 2:3]
+
+
+def projected_gravity(env) -> torch.Tensor:
+    return env.state.projected_gravity
+
+
+def base_linear_velocity(env) -> torch.Tensor:
+    return env.state.base_linear_velocity
+
+
+def base_angular_velocity(env) -> torch.Tensor:
+    return env.state.base_angular_velocity
+
+
+def joint_positions(env) -> torch.Tensor:
+    """s - s_default."""
+    return env.state.joint_positions - env.default_joint_positions
+
+
+def joint_velocities(env) -> torch.Tensor:
+    return env.state.joint_velocities
+
+
+def actions(env) -> torch.Tensor:
+    """The last actions the policy gave (clipped)."""
+    return env.actions
+
+
+def commands(env) -> torch.Tensor:
+    """(vx, vy, yaw rate) wanted, in the base's heading frame [m/s, m/s, rad/s]."""
+    return env.commands
+
+
+# ------------------------------------------------------------------------------------------ rewards
+
+
+def track_linear_velocity(env) -> torch.Tensor:
+    """exp(-|v_cmd - B_v|^2 / sigma) over x, y: 1 when the command is followed."""
+    error = (env.commands[:, :2] - env.state.base_linear_velocity[:, :2]).square().sum(dim=1)
+    return torch.exp(-error / env.cfg.tracking_sigma)
+
+
+def track_angular_velocity(env) -> torch.Tensor:
+    error = (env.commands[:, 2] - env.state.base_angular_velocity[:, 2]).square()
+    return torch.exp(-error / env.cfg.tracking_sigma)
+
+
+def upright(env) -> torch.Tensor:
+    """|g_xy|^2 in base axes: 0 upright (a penalty: give it a negative weight)."""
+    return env.state.projected_gravity[:, :2].square().sum(dim=1)
+
+
+def height_error(env) -> torch.Tensor:
+    return (env.state.base_position[:, 2] - env.cfg.base_height_target).square()
+
+
+def torque_squared(env) -> torch.Tensor:
+    return env.joint_torques.square().sum(dim=1)
+
+
+def action_rate(env) -> torch.Tensor:
+    return (env.actions - env.previous_actions).square().sum(dim=1)
+
+
+def joint_velocity_squared(env) -> torch.Tensor:
+    return env.state.joint_velocities.square().sum(dim=1)
+
+
+def vertical_velocity_squared(env) -> torch.Tensor:
+    return env.state.base_linear_velocity[:, 2].square()
+
+
+def alive(env) -> torch.Tensor:
+    return torch.ones_like(env.state.base_position[:, 0])
