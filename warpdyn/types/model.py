@@ -355,7 +355,9 @@ class Model:
         row per environment, read by every dynamics function, `step` and rollouts. A model with
         per-environment parameters serves data of those N environments only (a ValueError otherwise), and
         its gradients (`parameters_requiring_grad`) come back per environment. Masses must be non-negative,
-        inertias symmetric positive semi-definite. Each value given makes a new Warp array (`model.link_mass`, ...).
+        inertias symmetric positive semi-definite (the loader's checks and tolerances,
+        warpdyn.description.physical; an UnphysicalInertiaWarning for principal moments that violate the
+        triangle inequality). Each value given makes a new Warp array (`model.link_mass`, ...).
         """
         self._set_group(LINK_PARAMETERS, values, "set_link_parameters")
 
@@ -548,15 +550,17 @@ class Model:
 
     def reduced(self, considered_joints, locked_joint_positions: dict | None = None) -> Model:
         """See warpdyn.model.reduce."""
-        considered_joints = list(considered_joints)
+        considered_joints = arrays.names_argument(considered_joints, "considered_joints")
         unknown = [name for name in considered_joints if name not in self.joint_names()]
         if unknown:
             raise ValueError(f"considered_joints names joints that model '{self.name()}' does not have: {unknown}")
         locked = dict(self.tree.locked_joints)
+        if locked_joint_positions is not None and not isinstance(locked_joint_positions, dict):
+            raise TypeError(f"locked_joint_positions must be a dict {{joint name: position}}, got {type(locked_joint_positions).__name__}")
         for name, value in (locked_joint_positions or {}).items():
             if name not in self.joint_names() or name in considered_joints:
                 raise ValueError(f"locked_joint_positions names '{name}', which is not a joint this reduction locks")
-            locked[name] = float(value)
+            locked[name] = value  # build_tree checks it
         tree = build_tree(self.description, considered_joints, locked)
         return Model(
             self.description,
