@@ -90,6 +90,8 @@ def _setting(name: str, check, doc: str) -> property:
 
 
 def _number(name: str, value, positive: bool) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a number, got {value!r}")
     try:
         value = float(value)
     except (TypeError, ValueError):
@@ -97,6 +99,13 @@ def _number(name: str, value, positive: bool) -> float:
     if not np.isfinite(value) or (positive and value <= 0.0):
         raise ValueError(f"{name} must be {'positive and ' if positive else ''}finite, got {value}")
     return value
+
+
+def _integrator(value) -> IntegratorType:
+    try:
+        return IntegratorType(value)
+    except ValueError:
+        raise ValueError(f"integrator must be one of {[f'IntegratorType.{k.name}' for k in IntegratorType]}, got {value!r}") from None
 
 
 def _instance(name: str, *kinds):
@@ -330,7 +339,7 @@ class Model:
         lambda v: _number("quaternion_tolerance", v, positive=True),
         "A step whose base quaternion changes by more than this (a norm) flags the environment invalid.",
     )
-    integrator = _setting("integrator", IntegratorType, "The step's integrator (IntegratorType).")
+    integrator = _setting("integrator", _integrator, "The step's integrator (IntegratorType).")
     terrain = _setting("terrain", _instance("terrain", FlatTerrain, PlaneTerrain, HeightfieldTerrain), "The terrain (warpdyn.terrain).")
     contact_params = _setting("contact_params", _instance("contact_params", SoftContactsParams), "The soft contacts' parameters.")
     actuation_params = _setting("actuation_params", _instance("actuation_params", ActuationParams), "The torque-speed curve.")
