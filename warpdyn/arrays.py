@@ -96,12 +96,11 @@ def batched_input(value, name: str, per_env: tuple, num_envs: int | None, scalar
 
 
 def num_envs_argument(value, name: str = "num_envs") -> int | None:
-    """A number of environments as an int (None stays None), or a TypeError / ValueError naming `name`."""
+    """A number of environments as an int (None stays None), or a ValueError naming `name` and the value (a
+    bool, a float such as 2.0 or a string included)."""
     if value is None:
         return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be a positive integer or None, got {value!r} ({type(value).__name__})")
-    if value < 1:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
         raise ValueError(f"{name} must be a positive integer or None, got {value!r}")
     return int(value)
 

@@ -135,8 +135,9 @@ def _control(value, name: str, per_env: tuple, T: int, N: int, batched: bool, sc
             host = np.asarray(value, dtype=np.float64)
         except (TypeError, ValueError) as error:
             raise TypeError(f"{name} must be an array of numbers: {error}") from None
-        if not np.all(np.isfinite(host)):
-            raise ValueError(f"{name} has non-finite values")
+        bad = np.argwhere(~np.isfinite(host))
+        if bad.size:
+            raise ValueError(f"{name} has non-finite values, first at index {tuple(bad[0].tolist())}: {host[tuple(bad[0])]}")
         source = wp.array(np.ascontiguousarray(host.reshape(target)), dtype=scalar, device=device)
     return layout, source
 
@@ -578,7 +579,7 @@ class Rollout:
     def run(self, data, *, joint_force_references=None, link_forces=None, ctrl=None, callback=None, callback_every: int = 1):
         """(final Data, {name: record}) after `steps` steps from `data` (unchanged)."""
         model, T = self.model, self.steps
-        plan, N = prepare(model, data)
+        plan, N = prepare(model, data, health=True)
         taping = tape_records()
         storage = self._storage(taping)
         checkpointed = storage == "checkpointed"
@@ -646,7 +647,7 @@ class Rollout:
             raise ValueError("a callback replaced the state under a wp.Tape: resets are not differentiable")
         if type(data) is not type(cfg.template):
             raise TypeError(f"a callback returns None or Data, got {type(data).__name__}")
-        prepare(self.model, data)
+        prepare(self.model, data, health=True)
         if data.batch_size != cfg.N or int(data.velocity_representation) != cfg.repr:
             raise ValueError(
                 f"the callback's data has {data.batch_size} environments in {VelRepr(data.velocity_representation).name}, "

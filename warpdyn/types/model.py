@@ -30,7 +30,7 @@ from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, 
 from .settings import ActuationParams, SoftContactsParams
 from .terrain import FlatTerrain, HeightfieldTerrain, PlaneTerrain
 
-__all__ = ["Model", "SCALARS", "check_data", "transforms", "quaternion_xyzw"]
+__all__ = ["Model", "SCALARS", "transforms", "quaternion_xyzw"]
 
 SCALARS = {np.dtype(np.float32): wp.float32, np.dtype(np.float64): wp.float64}
 """The NumPy dtypes a model computes in, and their Warp scalars."""
@@ -630,19 +630,3 @@ class Model:
 for _parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS):
     setattr(Model, _parameter.name, _ParameterAttribute(_parameter))
 del _parameter
-
-
-def check_data(model: Model, data, parameters: bool = False) -> None:
-    """Errors naming what does not match between the data and the model; parameters: the caller reads the
-    link or joint parameters, which, given per environment, need data of those N environments."""
-    if parameters and model._per_env and any(N != data.batch_size for N in model._per_env.values()):
-        raise ValueError(
-            f"the model's parameters {model.per_environment_parameters()} are given per environment, "
-            f"but the data has {data.batch_size} environments"
-        )
-    if data.scalar != model.scalar:
-        raise TypeError(f"data is in {data.dtype.name} but the model computes in {model.dtype.name}")
-    if data.joint_positions_state.shape[1] != model.dofs():
-        raise ValueError(f"data has {data.joint_positions_state.shape[1]} joints but the model has {model.dofs()}")
-    if str(data.device) != str(model.device):
-        raise ValueError(f"data is on device '{data.device}' but the model is on '{model.device}'")
