@@ -22,7 +22,8 @@ from .tape import taping as tape_records
 from .kinematics import state_arrays
 from .launch import Launch, capture_lock, ensure_loaded, launch
 from .launch import run as run_launches
-from .step import Evaluation, Workspace, broadcast_envs, prepare, state_buffers, step_launches, with_state
+from .rollout_memory import STATE_INDEX, control_shapes, counts, nbytes, plan_memory, plan_rows, record_is_view, roots, state_shapes
+from .step import Workspace, broadcast_envs, prepare, state_buffers, step_launches, with_state
 from .step import plan as step_plan
 
 __all__ = ["Rollout", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "CONTROLS"]
@@ -45,21 +46,6 @@ DEFAULT_RECORD = ("base_position", "base_quaternion", "joint_positions", "base_v
 
 CONTROLS = ("joint_force_references", "link_forces", "ctrl")
 """The controls of a rollout's steps (warpdyn.model.step's arguments)."""
-
-
-def _control_shapes(plan) -> dict:
-    """{control: its shape per environment}."""
-    return {"joint_force_references": (plan.n,), "link_forces": (plan.nL, 6), "ctrl": (plan.na,)}
-
-_STATE_INDEX = {
-    "base_position": 0,
-    "base_quaternion": 1,
-    "joint_positions": 2,
-    "base_velocity": 3,
-    "joint_velocities": 4,
-    "tangential_deformation": 5,
-    "valid": 6,
-}
 
 
 def _env_array(lead: tuple, N: int, per_env: tuple, dtype, device, grad: bool = False) -> wp.array:
@@ -145,68 +131,6 @@ def _control(value, name: str, per_env: tuple, T: int, N: int, batched: bool, sc
 # ------------------------------------------------------------------------------------------ memory
 
 
-def _counts(storage: str, T: int, every: int, grad: bool) -> tuple[int, int, int]:
-    """(kept, between, workspaces): how many states a configuration keeps for the whole rollout (ping-pong's
-    two slots, the trajectory's T + 1, the checkpoints' ceil(T / every) + 1), how many it keeps for one
-    segment (every - 1) and how many workspaces of step intermediates it has."""
-    if storage == "ping-pong":
-        return 2, 0, 1
-    if storage == "trajectory":
-        return T + 1, 0, T if grad else 1
-    return -(-T // every) + 1, every - 1, every if grad else 1
-
-
-def _record_is_view(name: str, storage: str, every: int, repr: int) -> bool:
-    """Whether a state record is a view of the kept states (all T + 1 of them kept, in the same form)."""
-    all_kept = storage == "trajectory" or (storage == "checkpointed" and every == 1)
-    return all_kept and (name != "base_velocity" or repr == int(VelRepr.Mixed))
-
-
-def _state_shapes(plan) -> list:
-    """The per-environment shapes of the float state arrays (p, Q, s, v, sdot, m); `valid` is an int32 more."""
-    return [(3,), (4,), (plan.n,), (6,), (plan.n,), (plan.total, 3)]
-
-
-def _roots(obj, found: dict, skip: set) -> dict:
-    """{id: array}: the allocations (arrays owning their memory) that the Warp arrays in `obj` (an array, a
-    list or tuple of them, a step workspace) are views of, except those in `skip` (ids)."""
-    if isinstance(obj, wp.array):
-        root = obj
-        while getattr(root, "_ref", None) is not None:
-            root = root._ref
-        if root.deleter is not None and id(root) not in skip:  # not a view of memory owned elsewhere
-            found[id(root)] = root
-    elif isinstance(obj, (list, tuple)):
-        for item in obj:
-            _roots(item, found, skip)
-    elif isinstance(obj, (Workspace, Evaluation)):
-        for item in vars(obj).values():
-            _roots(item, found, skip)
-    return found
-
-
-def _nbytes(roots) -> int:
-    """Bytes of these allocations and of their gradients."""
-    total = 0
-    for array in roots:
-        for a in (array, array.grad):
-            if a is not None:
-                total += a.size * wp.types.type_size_in_bytes(a.dtype)
-    return total
-
-
-def _plan_rows(plan) -> set:
-    """Ids of the plan's shared zero rows (a workspace may hold them; they are the plan's, not the rollout's)."""
-    return {id(row) for row in plan.zero_rows()}
-
-
-def _workspace_bytes_per_env(plan, grad: bool, forces: bool) -> int:
-    """Bytes (gradients included) of one step workspace per environment: one built for 1 environment (every
-    workspace array is (N, ...), so the bytes are N times these)."""
-    ws = Workspace(plan, 1, grad, forces)
-    return _nbytes(_roots(ws, {}, _plan_rows(plan)).values())
-
-
 # ------------------------------------------------------------------------------------------ configuration
 
 
@@ -224,8 +148,8 @@ class _Config:
         self.storage, self.every, self.grad, self.layouts = storage, every, grad, layouts
         T, s, d = roll.steps, plan.scalar, plan.device
         self.T, self.scalar, self.device = T, s, d
-        kept, between, count = _counts(storage, T, every, grad)
-        per_env = _state_shapes(plan)
+        kept, between, count = counts(storage, T, every, grad)
+        per_env = state_shapes(plan)
         self.slots = self.traj = self.seg = None
         if storage == "ping-pong":
             self.slots = [state_buffers(plan, N, False) for _ in range(2)]
@@ -238,15 +162,15 @@ class _Config:
         with_forces = layouts["link_forces"].kind is not None
         self.workspaces = [Workspace(plan, N, grad, with_forces) for _ in range(count)]
         # controls: {name: the rollout's copy, None when absent}
-        shapes = _control_shapes(plan)
+        shapes = control_shapes(plan)
         self.buffers = {name: self._control_buffer(layout, shapes[name]) for name, layout in layouts.items()}
         # records
         self.records: dict[str, wp.array] = {}
         self.state_records: dict[str, wp.array] = {}  # the ones written by launches (not views of the states)
         for name in roll.record:
-            if name in _STATE_INDEX:
-                i = _STATE_INDEX[name]
-                if _record_is_view(name, storage, every, repr):
+            if name in STATE_INDEX:
+                i = STATE_INDEX[name]
+                if record_is_view(name, storage, every, repr):
                     self.records[name] = self.traj[i]
                     continue
                 if name == "valid":
@@ -283,7 +207,7 @@ class _Config:
         """Bytes of the buffers this configuration allocated (states, workspaces, controls, records), with
         their gradients; the model's and plan's constants are not counted."""
         owned = [self.slots, self.traj, self.seg, self.workspaces, list(self.buffers.values()), list(self.records.values())]
-        return _nbytes(_roots([x for x in owned if x is not None], {}, _plan_rows(self.plan)).values())
+        return nbytes(roots([x for x in owned if x is not None], {}, plan_rows(self.plan)).values())
 
     # ----------------------------------------------------------------------------------- views per step
 
@@ -311,7 +235,7 @@ class _Config:
             if name == "base_velocity" and self.repr != int(VelRepr.Mixed):
                 launches.append(Launch(state_kernels(self.scalar).base_velocity_to_repr, self.N, [x[0], x[1], x[3], self.repr], [out]))
             else:
-                launches.append(_copy_launch(self.scalar, x[_STATE_INDEX[name]], out))
+                launches.append(_copy_launch(self.scalar, x[STATE_INDEX[name]], out))
         return [k for k in launches if k is not None]
 
     def step(self, t: int, copies: bool = True) -> list:
@@ -391,7 +315,7 @@ class _Config:
         adds the loss's first: the same sums in the same order."""
         K = rollout_kernels(self.scalar).copy
         for name in self.copied:
-            i, record = _STATE_INDEX[name], self.state_records[name]
+            i, record = STATE_INDEX[name], self.state_records[name]
             if record.size == 0:
                 continue
             pairs = [(self.state(start)[i], record[start])]
@@ -431,8 +355,8 @@ class _Config:
                 "of the same Rollout overwrote: call tape.backward before running it again (or use another Rollout)"
             )
         if self._scratch_grads is None:
-            roots = _roots([self.seg, self.workspaces] if self.seg is not None else self.workspaces, {}, _plan_rows(self.plan))
-            self._scratch_grads = [r.grad for r in roots.values() if r.grad is not None and r.size > 0]
+            scratch = roots([self.seg, self.workspaces] if self.seg is not None else self.workspaces, {}, plan_rows(self.plan))
+            self._scratch_grads = [r.grad for r in scratch.values() if r.grad is not None and r.size > 0]
         S, T = self.every, self.T
         for a in self.parameters():
             tape.gradients[a] = a.grad
@@ -498,50 +422,6 @@ class Rollout:
             return "trajectory" if taping else "ping-pong"
         return self.storage
 
-    def _plan_memory(self, plan, N: int, repr: int, storage: str, grad: bool, layouts: dict) -> dict:
-        """{part: bytes} of the configuration, and the checkpoint interval it uses (see `memory_bytes`)."""
-        T, s = self.steps, plan.scalar
-        size = wp.types.type_size_in_bytes(s)
-        g = 2 if grad else 1
-        shapes = _state_shapes(plan)
-        state = sum(int(np.prod(shape)) for shape in shapes) * size * g + 4  # + the int32 health flag
-        workspace = _workspace_bytes_per_env(plan, grad, layouts["link_forces"].kind is not None)
-        control_shapes = _control_shapes(plan)
-
-        def controls():
-            total = 0
-            for name, layout in layouts.items():
-                per_env = control_shapes[name]
-                if layout.kind is not None:
-                    rows = 1 if layout.shared else N
-                    total += rows * (T if layout.kind == "step" else 1) * int(np.prod(per_env)) * size * g
-            return total
-
-        def parts(every: int) -> dict:
-            kept, between, count = _counts(storage, T, every, grad)
-            records = 0
-            for name in self.record:
-                if name in _STATE_INDEX:
-                    if _record_is_view(name, storage, every, repr):
-                        continue
-                    i = _STATE_INDEX[name]
-                    records += (T + 1) * (4 if name == "valid" else int(np.prod(shapes[i])) * size * g)
-                else:
-                    per_env = {"joint_torques": (plan.n,), "link_contact_forces": (plan.nL, 6), "collidable_point_forces": (plan.count, 6)}[name]
-                    records += T * int(np.prod(per_env)) * size * g
-            out = {"states": (kept + between) * state * N, "intermediates": count * workspace * N, "controls": controls(), "records": records * N}
-            out["total"] = sum(out.values())
-            return out
-
-        every = 1
-        if storage == "checkpointed":
-            every = self.checkpoint_every
-            if every is None:  # the interval that keeps the fewest bytes (ties: the shorter one)
-                every = min(range(1, T + 1), key=lambda S: parts(S)["total"])
-        result = parts(every)
-        result["checkpoint_every"] = every if storage == "checkpointed" else None
-        return result
-
     def memory_bytes(
         self, num_envs, *, grad: bool = True, velocity_representation=VelRepr.Mixed, joint_force_references=None, link_forces=None, ctrl=None
     ) -> dict:
@@ -564,12 +444,12 @@ class Rollout:
         plan.check_envs(N)
         given = {"joint_force_references": joint_force_references, "link_forces": link_forces, "ctrl": ctrl}
         layouts = {}
-        for (name, value), per_env in zip(given.items(), _control_shapes(plan).values()):
+        for (name, value), per_env in zip(given.items(), control_shapes(plan).values()):
             shape = None if value is None else (tuple(value.shape) if hasattr(value, "shape") else np.shape(value))
             layouts[name] = _Layout(None) if shape is None else _control_layout(shape, name, per_env, self.steps, N, batched)[1]
         storage = self._storage(grad)
         grad = grad and storage != "ping-pong"
-        return self._plan_memory(plan, N, int(velocity_representation), storage, grad, layouts)
+        return plan_memory(self, plan, N, int(velocity_representation), storage, grad, layouts)
 
     @property
     def nbytes(self) -> int:
@@ -601,7 +481,7 @@ class Rollout:
         s, d, batched = plan.scalar, plan.device, data.num_envs is not None
         given = {"joint_force_references": joint_force_references, "link_forces": link_forces, "ctrl": ctrl}
         layouts, sources = {}, {}
-        for (name, value), per_env in zip(given.items(), _control_shapes(plan).values()):
+        for (name, value), per_env in zip(given.items(), control_shapes(plan).values()):
             layouts[name], sources[name] = _control(value, name, per_env, T, N, batched, s, d)
         grad = taping and storage != "ping-pong"
         repr = int(data.velocity_representation)
@@ -612,7 +492,7 @@ class Rollout:
             if checkpointed:
                 every = self.checkpoint_every
                 if every is None:
-                    every = self._plan_memory(plan, N, repr, storage, grad, layouts)["checkpoint_every"]
+                    every = plan_memory(self, plan, N, repr, storage, grad, layouts)["checkpoint_every"]
             self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, layouts)
             self._key = key
         cfg = self._config
