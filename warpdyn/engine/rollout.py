@@ -22,7 +22,9 @@ from .tape import taping as tape_records
 from .kinematics import state_arrays
 from .launch import Launch, capture_lock, ensure_loaded, launch
 from .launch import run as run_launches
-from .rollout_memory import STATE_INDEX, control_shapes, counts, nbytes, plan_memory, plan_rows, record_is_view, roots, state_shapes
+from . import rollout_memory as memory
+from .rollout_memory import GRAPH_BYTES_PER_LAUNCH, STATE_INDEX, check_available, control_shapes, counts, memory_error, nbytes
+from .rollout_memory import plan_memory, plan_rows, record_is_view, roots, state_shapes
 from .step import Workspace, broadcast_envs, prepare, state_buffers, step_launches, with_state
 from .step import plan as step_plan
 
@@ -75,7 +77,8 @@ def _copy_launch(scalar, src: wp.array, dst: wp.array):
     if dst.size == 0:
         return None
     if dst.dtype == wp.int32:
-        return Launch(rollout_int_kernels().copy_flags, dst.shape, [src], [dst])
+        kernels = rollout_int_kernels()
+        return Launch(kernels.copy_flags if dst.ndim == 1 else kernels.copy_flags_2d, dst.shape, [src], [dst])
     return Launch(rollout_kernels(scalar).copy[dst.ndim], dst.shape, [src], [dst])
 
 
@@ -128,9 +131,6 @@ def _control(value, name: str, per_env: tuple, T: int, N: int, batched: bool, sc
     return layout, source
 
 
-# ------------------------------------------------------------------------------------------ memory
-
-
 # ------------------------------------------------------------------------------------------ configuration
 
 
@@ -141,6 +141,12 @@ class _Config:
     States: ping-pong's two slots (`slots`), or the kept states `traj` (all T + 1, or the checkpoints
     t = 0, S, 2S, ..., T) and, for checkpointed storage with S > 1, `seg`: the S - 1 states inside one
     segment, reused by every segment.
+
+    Graphs of ping-pong storage are captured in chunks of at most GRAPH_CHUNK steps (rollout_memory), one graph per chunk
+    length and parity of its first step (which slot it starts from), replayed as many times as the run has
+    chunks: their steps read their controls from and write their records into `stage`, (K, ...) buffers
+    (K = min(T, GRAPH_CHUNK)) that plain launches fill and empty around each replay, so that a graph's memory
+    does not grow with T. Other storages keep their states per step: their graphs hold every step.
     """
 
     def __init__(self, roll: Rollout, plan, N: int, num_envs, repr: int, storage: str, every: int, grad: bool, layouts: dict):
@@ -191,7 +197,8 @@ class _Config:
         converted = ("valid",) if repr == int(VelRepr.Mixed) else ("valid", "base_velocity")
         self.copied = [name for name in self.state_records if name not in converted]
         self.launched = [name for name in self.state_records if name in converted]
-        self.graphs: dict[tuple[int, int], object] = {}
+        self.graphs: dict[tuple, object] = {}
+        self.stage: dict[str, wp.array] | None = None  # allocated by the first chunked capture (`_staging`)
         self._scratch_grads = None
         self.runs = 0  # runs of this configuration (a checkpointed backward checks that it is the latest)
         self.template = None  # the data of the last run (see `data_at`)
@@ -207,6 +214,7 @@ class _Config:
         """Bytes of the buffers this configuration allocated (states, workspaces, controls, records), with
         their gradients; the model's and plan's constants are not counted."""
         owned = [self.slots, self.traj, self.seg, self.workspaces, list(self.buffers.values()), list(self.records.values())]
+        owned.append(list(self.stage.values()) if self.stage is not None else None)
         return nbytes(roots([x for x in owned if x is not None], {}, plan_rows(self.plan)).values())
 
     # ----------------------------------------------------------------------------------- views per step
@@ -219,47 +227,54 @@ class _Config:
             return [_at(a, -(-t // S)) for a in self.traj]  # checkpoint ceil(t / S): t / S, or the last one at T
         return [_at(a, t % S - 1) for a in self.seg]
 
-    def _input(self, name: str, t: int, absent):
-        """Control `name` at step t as an (N, *shape) array (`absent` when not given)."""
+    def _input(self, name: str, t: int, absent, k: int | None = None):
+        """Control `name` at step t as an (N, *shape) array (`absent` when not given); from stage row k when given."""
         layout, buffer = self.layouts[name], self.buffers[name]
         if layout.kind is None:
             return absent
-        view = _at(buffer, t) if layout.kind == "step" else buffer
+        if layout.kind == "step":
+            view = _at(buffer, t) if k is None else _at(self.stage[name], k)
+        else:
+            view = buffer
         return broadcast_envs(view, self.N) if layout.shared else view
 
-    def record_state(self, t: int, x: list, names=None) -> list:
-        """The launches writing the state records at t (those in `names`, default all) from the state arrays x."""
+    def _record(self, name: str, t: int, k: int | None) -> wp.array:
+        """Record `name` at t, or stage row k when given."""
+        return _at(self.records[name] if k is None else self.stage[name], t if k is None else k)
+
+    def record_state(self, t: int, x: list, names=None, k: int | None = None) -> list:
+        """The launches writing the state records at t (those in `names`, default all) from the state arrays x
+        (into stage row k when given)."""
         launches = []
         for name in self.state_records if names is None else names:
-            out = _at(self.state_records[name], t)
+            out = self._record(name, t, k)
             if name == "base_velocity" and self.repr != int(VelRepr.Mixed):
                 launches.append(Launch(state_kernels(self.scalar).base_velocity_to_repr, self.N, [x[0], x[1], x[3], self.repr], [out]))
             else:
                 launches.append(_copy_launch(self.scalar, x[STATE_INDEX[name]], out))
         return [k for k in launches if k is not None]
 
-    def step(self, t: int, copies: bool = True) -> list:
+    def step(self, t: int, copies: bool = True, k: int | None = None) -> list:
         """The launches of step t: the state t to t + 1, its records, and the state records at t + 1 (without
-        the plain copies unless `copies`)."""
+        the plain copies unless `copies`); controls and records in stage row k when given (chunked graphs)."""
         plan = self.plan
         ws = self.workspaces[t % len(self.workspaces)]
         x, y = self.state(t), self.state(t + 1)
-        tau_ref = self._input("joint_force_references", t, plan.zeros((plan.n,), self.N))
-        f_user = self._input("link_forces", t, None)
-        ctrl = self._input("ctrl", t, None)
-        torques = self.records.get("joint_torques")
-        tau_out = _at(torques, t) if torques is not None else None
+        tau_ref = self._input("joint_force_references", t, plan.zeros((plan.n,), self.N), k)
+        f_user = self._input("link_forces", t, None, k)
+        ctrl = self._input("ctrl", t, None, k)
+        tau_out = self._record("joint_torques", t, k) if "joint_torques" in self.records else None
         launches = step_launches(plan, ws, x, y, tau_ref, f_user, self.repr, tau_out, ctrl)
         ev = ws.evals[0]
         K = wrench_kernels(self.scalar)
         if "link_contact_forces" in self.records and plan.contacts:
-            out = self.records["link_contact_forces"][t]
+            out = self._record("link_contact_forces", t, k)
             launches.append(Launch(K.link_wrenches, (self.N, plan.nL), [plan.contact_bundle, ev.W_H_L, ev.chain, self.repr], [out]))
         if "collidable_point_forces" in self.records and plan.contacts:
-            out = self.records["collidable_point_forces"][t]
+            out = self._record("collidable_point_forces", t, k)
             args = [plan.contact_bundle, plan.point_out, ev.W_H_L, ev.W_f_C, self.repr]
             launches.append(Launch(K.point_wrenches, (self.N, plan.count), args, [out]))
-        return launches + self.record_state(t + 1, y, None if copies else self.launched)
+        return launches + self.record_state(t + 1, y, None if copies else self.launched, k)
 
     def data_at(self, t: int):
         """The state at t as the caller's kind of Data (views of the rollout's buffers)."""
@@ -284,16 +299,60 @@ class _Config:
             for t in range(start, stop):
                 run_launches(self.step(t), self.device)
             return
-        key = (start, stop)
+        if self.slots is None:  # every step has its own states: one graph of the stretch
+            self._replay((start, stop), lambda: [k for t in range(start, stop) for k in self.step(t)])
+            return
+        self._staging()
+        chunk = memory.GRAPH_CHUNK
+        for first in range(start, stop, chunk):
+            length = min(chunk, stop - first)
+            run_launches(self._stage_copies(first, length, into_stage=True), self.device)
+            self._replay(("chunk", length, first % 2), lambda: [k for i in range(length) for k in self.step(first + i, k=i)])
+            run_launches(self._stage_copies(first, length, into_stage=False), self.device)
+
+    def _replay(self, key: tuple, launches) -> None:
+        """Launch the graph captured under `key`, capturing `launches()` first if there is none."""
         captured = self.graphs.get(key)
         if captured is None:
-            launches = [k for t in range(start, stop) for k in self.step(t)]
-            for kernel in {k.kernel for k in launches}:
+            recorded = launches()
+            for kernel in {k.kernel for k in recorded}:
                 ensure_loaded(kernel, self.device)
-            with capture_lock, wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
-                run_launches(launches, self.device)
+            try:
+                with capture_lock, wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
+                    run_launches(recorded, self.device)
+            except RuntimeError as error:
+                raise memory_error(f"capturing a graph of {len(recorded)} launches", len(recorded) * GRAPH_BYTES_PER_LAUNCH, error) from None
             captured = self.graphs[key] = capture.graph
         wp.capture_launch(captured)
+
+    def _staging(self) -> None:
+        """The stage buffers of chunked graphs (see the class docstring), allocated once: a row per step of a
+        chunk for each per-step control and each record a step writes."""
+        if self.stage is not None:
+            return
+        rows = min(self.T, memory.GRAPH_CHUNK)
+        self.stage = {}
+        for name, layout in self.layouts.items():
+            if layout.kind == "step":
+                buffer = self.buffers[name]
+                self.stage[name] = _env_array((rows,), buffer.shape[1], buffer.shape[2:], self.scalar, self.device)
+        for name, record in self.records.items():
+            if name in self.state_records or name == "joint_torques" or self.plan.contacts:
+                self.stage[name] = _env_array((rows,), self.N, record.shape[2:], record.dtype, self.device)
+
+    def _stage_copies(self, first: int, length: int, into_stage: bool) -> list:
+        """The launches copying the controls of steps first .. first + length - 1 into the stage
+        (into_stage), or the stage's records out to theirs (state records at t + 1, step records at t)."""
+        launches = []
+        for name, stage in self.stage.items():
+            control = name in self.buffers
+            if control != into_stage or stage.size == 0:
+                continue
+            offset = first + (1 if name in self.state_records else 0)
+            full = (self.buffers if control else self.records)[name][offset : offset + length]
+            src, dst = (full, stage[:length]) if into_stage else (stage[:length], full)
+            launches.append(_copy_launch(self.scalar, src, dst))
+        return [k for k in launches if k is not None]
 
     # ----------------------------------------------------------------------------------- checkpointed
 
@@ -427,8 +486,10 @@ class Rollout:
     ) -> dict:
         """The bytes `run` would keep allocated for `num_envs` environments (None: single-environment data),
         with gradients when `grad` (under a wp.Tape), without allocating them: {"states", "intermediates"
-        (the step workspaces), "controls" (the rollout's copies), "records", "total"} in bytes, and
-        "checkpoint_every" (the interval used, None unless storage is "checkpointed").
+        (the step workspaces), "controls" (the rollout's copies), "records", "staging" (the stage buffers of
+        chunked graphs), "total"} in bytes, "graph" (host memory of the captured graphs without callbacks,
+        an estimate: GRAPH_BYTES_PER_LAUNCH per launch; not in "total") and "checkpoint_every" (the interval
+        used, None unless storage is "checkpointed").
 
         The controls are given as to `run`, or anything with their `.shape` (only the shape is read:
         `np.broadcast_to(0.0, (T, N, n))` costs nothing). Counted: the buffers the rollout owns and their
@@ -488,12 +549,16 @@ class Rollout:
         key = (plan, N, data.num_envs, repr, storage, self.checkpoint_every, grad, *layouts.values())
         if self._key is None or len(key) != len(self._key) or not all(a is b or a == b for a, b in zip(key, self._key)):
             self._config = None  # release the old buffers first
-            every = 1
-            if checkpointed:
-                every = self.checkpoint_every
-                if every is None:
-                    every = plan_memory(self, plan, N, repr, storage, grad, layouts)["checkpoint_every"]
-            self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, layouts)
+            budget = plan_memory(self, plan, N, repr, storage, grad, layouts)
+            every = (self.checkpoint_every or budget["checkpoint_every"]) if checkpointed else 1
+            what = f"a rollout of {T} steps of {N} environments ({storage} storage)"
+            check_available(d, budget["total"], what)
+            try:
+                self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, layouts)
+            except RuntimeError as error:  # Warp's "Failed to allocate N bytes on device"
+                if "allocate" not in str(error):
+                    raise
+                raise memory_error(what, budget["total"], error) from None
             self._key = key
         cfg = self._config
         cfg.template = data  # the Data the records and callbacks' states are made like

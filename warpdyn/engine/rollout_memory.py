@@ -7,10 +7,16 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from .. import arrays
 from ..types.enums import VelRepr
-from .step import Evaluation, Workspace
+from .step import Evaluation, Workspace, state_buffers, step_launches
 
 __all__ = [
+    "GRAPH_CHUNK",
+    "GRAPH_BYTES_PER_LAUNCH",
+    "memory_error",
+    "check_available",
+    "launches_per_step",
     "STATE_INDEX",
     "control_shapes",
     "counts",
@@ -22,6 +28,61 @@ __all__ = [
     "workspace_bytes_per_env",
     "plan_memory",
 ]
+
+GRAPH_CHUNK = 256
+"""The most steps one captured graph of a ping-pong rollout holds (see warpdyn.engine.rollout._Config): a graph
+replayed ceil(T / GRAPH_CHUNK) times, around plain copies of the controls and records (a few launches per
+chunk), so that its memory does not grow with T."""
+
+GRAPH_BYTES_PER_LAUNCH = 4096
+"""Host memory of one launch in a captured graph, measured with Warp 1.19's CPU graphs (their resident memory
+freed when a graph is released, /proc/self/status after malloc_trim): 3.0 to 4.2 KiB per launch for the
+pendulum chain (4 launches per step, 14-16 KiB per step) and the ergoCub legs with contacts (10 launches,
+29-35 KiB per step). An estimate for `Rollout.memory_bytes`; a CUDA graph's memory is the driver's."""
+
+
+def memory_error(what: str, size: int, error: Exception | None = None) -> MemoryError:
+    """A MemoryError saying what needed how many bytes (and the allocator's message)."""
+    cause = f": {error}" if error is not None else ""
+    return MemoryError(f"{what} needs about {size / 2**30:.3g} GiB ({size} bytes){cause}")
+
+
+def _available(device) -> int | None:
+    """Bytes that can still be allocated on `device`: the CUDA device's free memory, the host's MemAvailable
+    (Linux), None when unknown."""
+    if device.is_cuda:
+        return int(device.free_memory)
+    try:
+        with open("/proc/meminfo") as info:
+            for line in info:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        return None
+    return None
+
+
+def check_available(device, size: int, what: str) -> None:
+    """A MemoryError naming `what` and its size when more than the device has available: the host would
+    otherwise overcommit and kill the process when the pages are touched, a CUDA device fail midway."""
+    available = _available(device)
+    if available is not None and size > available:
+        raise memory_error(what, size, RuntimeError(f"{available} bytes are available on '{device}'"))
+
+
+def launches_per_step(plan, repr: int, record, forces: bool, ctrl: bool) -> int:
+    """The launches of one step of a rollout with these records (built for one environment: the count does
+    not depend on N)."""
+    ws = Workspace(plan, 1, False, forces)
+    x, y = state_buffers(plan, 1, False), state_buffers(plan, 1, False)
+    f = arrays.zeros((plan.nL, 6), 1, plan.scalar, plan.device) if forces else None
+    u = plan.zeros((plan.na,), 1) if ctrl else None
+    count = len(step_launches(plan, ws, x, y, plan.zeros((plan.n,), 1), f, repr, None, u))
+    shapes = state_shapes(plan)
+    count += sum(1 for name in record if name in STATE_INDEX and (name == "valid" or int(np.prod(shapes[STATE_INDEX[name]])) > 0))
+    count += sum(1 for name in record if name in ("link_contact_forces", "collidable_point_forces") and plan.contacts)
+    return count
+
 
 STATE_INDEX = {
     "base_position": 0,
@@ -103,8 +164,8 @@ def workspace_bytes_per_env(plan, grad: bool, forces: bool) -> int:
 
 
 def plan_memory(roll, plan, N: int, repr: int, storage: str, grad: bool, layouts: dict) -> dict:
-    """{part: bytes} of a configuration of the Rollout `roll`, and the checkpoint interval it uses (see
-    Rollout.memory_bytes)."""
+    """{part: bytes} of a configuration of the Rollout `roll` (grad: under a tape), and the checkpoint interval
+    it uses (see Rollout.memory_bytes)."""
     T, s = roll.steps, plan.scalar
     size = wp.types.type_size_in_bytes(s)
     g = 2 if grad else 1
@@ -122,6 +183,26 @@ def plan_memory(roll, plan, N: int, repr: int, storage: str, grad: bool, layouts
                 total += rows * (T if layout.kind == "step" else 1) * int(np.prod(per_env)) * size * g
         return total
 
+    graphs = (not grad or storage == "checkpointed") if roll.use_graph == "auto" else bool(roll.use_graph)
+    chunked = graphs and storage == "ping-pong"
+    rows = min(T, GRAPH_CHUNK)
+
+    def staging():
+        """The stage buffers of chunked graphs: a row per step of a chunk for per-step controls and records."""
+        if not chunked:
+            return 0
+        total = 0
+        for name, layout in layouts.items():
+            if layout.kind == "step":
+                total += rows * (1 if layout.shared else N) * int(np.prod(per_control[name])) * size
+        for name in roll.record:
+            if name in STATE_INDEX:
+                total += rows * N * (4 if name == "valid" else int(np.prod(shapes[STATE_INDEX[name]])) * size)
+            elif name == "joint_torques" or plan.contacts:
+                per_env = {"joint_torques": (plan.n,), "link_contact_forces": (plan.nL, 6), "collidable_point_forces": (plan.count, 6)}[name]
+                total += rows * N * int(np.prod(per_env)) * size
+        return total
+
     def parts(every: int) -> dict:
         kept, between, count = counts(storage, T, every, grad)
         records = 0
@@ -135,6 +216,7 @@ def plan_memory(roll, plan, N: int, repr: int, storage: str, grad: bool, layouts
                 per_env = {"joint_torques": (plan.n,), "link_contact_forces": (plan.nL, 6), "collidable_point_forces": (plan.count, 6)}[name]
                 records += T * int(np.prod(per_env)) * size * g
         out = {"states": (kept + between) * state * N, "intermediates": count * workspace * N, "controls": controls(), "records": records * N}
+        out["staging"] = staging()
         out["total"] = sum(out.values())
         return out
 
@@ -145,5 +227,10 @@ def plan_memory(roll, plan, N: int, repr: int, storage: str, grad: bool, layouts
             every = min(range(1, T + 1), key=lambda S: parts(S)["total"])
     result = parts(every)
     result["checkpoint_every"] = every if storage == "checkpointed" else None
+    steps = 0  # the steps the captured graphs hold (without callbacks)
+    if graphs:
+        steps = rows + (T % GRAPH_CHUNK if T > GRAPH_CHUNK else 0) if chunked else T
+    per_step = launches_per_step(plan, repr, roll.record, layouts["link_forces"].kind is not None, layouts["ctrl"].kind is not None)
+    result["graph"] = steps * per_step * GRAPH_BYTES_PER_LAUNCH
     return result
 
