@@ -320,7 +320,9 @@ class _Config:
             try:
                 with capture_lock, wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
                     run_launches(recorded, self.device)
-            except RuntimeError as error:
+            except RuntimeError as error:  # a failed allocation; other errors pass as they are
+                if "alloc" not in str(error).lower():
+                    raise
                 raise memory_error(f"capturing a graph of {len(recorded)} launches", len(recorded) * GRAPH_BYTES_PER_LAUNCH, error) from None
             captured = self.graphs[key] = capture.graph
         wp.capture_launch(captured)
@@ -552,7 +554,7 @@ class Rollout:
             budget = plan_memory(self, plan, N, repr, storage, grad, layouts)
             every = (self.checkpoint_every or budget["checkpoint_every"]) if checkpointed else 1
             what = f"a rollout of {T} steps of {N} environments ({storage} storage)"
-            check_available(d, budget["total"], what)
+            check_available(d, budget["total"] + (0 if d.is_cuda else budget["graph"]), what)  # CPU graphs: host memory
             try:
                 self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, layouts)
             except RuntimeError as error:  # Warp's "Failed to allocate N bytes on device"
