@@ -11,8 +11,8 @@ the MJCF actuators.
     tau_actuators = clip(sum over the joint's actuators a of gear_a force_a, joint_actuator_force_range),
     force_a = clip((g0 + g1 L + g2 V) clip(ctrl_a, ctrl_range) + b0 + b1 L + b2 V, force_range),
         L = gear_a s, V = gear_a sdot                                                           (MuJoCo's)
-A clip passes NaN through (a NaN control or reference makes the state non-finite, which the integrator
-flags), where wp.clamp(NaN, a, b) would give a. Which terms exist is decided when the kernel is built
+A clip passes NaN and +-inf through (a non-finite control or reference makes the state non-finite, which the
+integrator flags), where wp.clamp(NaN, a, b) would give a and an infinite reference would become a bound. Which terms exist is decided when the kernel is built
 (`with_limits`, `with_friction`, `with_passive`, and the most actuators on one joint, whose loop is
 unrolled): a model without them compiles none of that code. JaxSim's part is evaluated once per step, at
 its start (as JaxSim); MuJoCo's part, which RK4 must see change within the step as MuJoCo's RK4 does, is
@@ -35,8 +35,8 @@ def functions(scalar, per_joint: int):
 
     @wp.func
     def clip(x: scalar, lower: scalar, upper: scalar):
-        """x clamped to [lower, upper]; NaN stays NaN."""
-        if x != x:  # noqa: PLR0124 (NaN test)
+        """x clamped to [lower, upper]; NaN and +-inf stay as they are (not values to clamp)."""
+        if not wp.isfinite(x):
             return x
         return wp.min(wp.max(x, lower), upper)
 

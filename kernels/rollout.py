@@ -46,4 +46,10 @@ def int_kernels() -> types.SimpleNamespace:
         i = wp.tid()
         dst[i] = src[i]
 
-    return types.SimpleNamespace(copy_flags=copy_flags)
+    @wp.kernel(module="unique")
+    def copy_flags_2d(src: wp.array2d(dtype=wp.int32), dst: wp.array2d(dtype=wp.int32)):
+        """dst (L, N) = src (L, N): health flags of L steps (a rollout's records)."""
+        i, j = wp.tid()
+        dst[i, j] = src[i, j]
+
+    return types.SimpleNamespace(copy_flags=copy_flags, copy_flags_2d=copy_flags_2d)

@@ -10,6 +10,9 @@ height h(x, y) and unit normal n (see warpdyn.terrain), with eps = 2.22e-16 (flo
     f_t = 0 when delta <= 0,
     m_dot = -(K/D) m (no contact), v_t - (K/D) m_n (sticking), -(f_t + K (delta + eps)^p m_t) / (D (delta + eps)^q) (slipping).
 The force f = fn n + f_t acts at p; its wrench on the point's link, Inertial, is [f; p x f].
+A NaN terrain height or normal (a heightfield or height array written in place, which no host check sees)
+gives a NaN force, so that the step flags the environment: wp.max(0, NaN) is 0, which would read it as no
+contact.
 """
 
 import functools
@@ -82,7 +85,8 @@ def kernels(scalar):
         """(f (3,), m_dot (3,), delta): the contact force [N, world axes] and the deformation rate [m/s]."""
         zero = scalar(0.0)
         eps = scalar(EPSILON)
-        delta = wp.max(zero, (h - p[2]) * n[2])
+        depth = (h - p[2]) * n[2]
+        delta = wp.max(zero, depth)
         delta_dot = zero
         if delta > zero:
             delta_dot = -wp.dot(v, n)
@@ -105,6 +109,8 @@ def kernels(scalar):
                 direction = f_t / norm
             f_t = wp.min(limit, norm) * direction
             m_dot = -(f_t + K * delta_p * m_t) / (D * delta_q)
+        if depth != depth:  # noqa: PLR0124 (NaN test) a NaN height (written in place): a NaN force, which the step flags
+            f_t = sp.vec3(depth)
         return fn * n + f_t, m_dot, delta
 
     @wp.kernel(module="unique")

@@ -121,6 +121,7 @@ def test_every_icub_models_urdf_loads_and_matches_mujoco(robot):
     text = pathlib.Path(icub_models.get_model_file(robot)).read_text()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.contact.NoCollidablePointsWarning)  # mesh-only robots (tested below)
+        warnings.simplefilter("ignore", wd.model.UnphysicalInertiaWarning)  # three robots: tests/test_faults_loader.py
         model = _load(text)
     data = wd.data.random_model_data(model, seed=3)
     tau = np.random.default_rng(1).uniform(-1, 1, model.dofs())

@@ -346,7 +346,7 @@ def test_memory_bytes_equal_the_allocated_buffers(storage, every, taping, integr
     else:
         roll.run(data, joint_force_references=tau, link_forces=forces)
     assert expected["total"] == roll.nbytes, expected
-    assert expected["total"] == sum(v for k, v in expected.items() if k not in ("total", "checkpoint_every"))
+    assert expected["total"] == sum(v for k, v in expected.items() if k not in ("total", "checkpoint_every", "graph"))  # graph: host memory
     S = expected["checkpoint_every"]
     if storage == "checkpointed":
         assert S == (every or roll._config.every)

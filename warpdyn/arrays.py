@@ -111,6 +111,51 @@ def batched_input(value, name: str, per_env: tuple, num_envs: int | None, scalar
     return out
 
 
+def num_envs_argument(value, name: str = "num_envs") -> int | None:
+    """A number of environments as an int (None stays None), or a ValueError naming `name` and the value (a
+    bool, a float such as 2.0 or a string included)."""
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name} must be a positive integer or None, got {value!r}")
+    return int(value)
+
+
+def env_mask(envs, num_envs: int, name: str = "envs") -> np.ndarray:
+    """A boolean mask (num_envs,) of environments given as an index, indices (negative ones count from the
+    end) or a boolean mask of length num_envs; a TypeError or ValueError naming `name` otherwise."""
+    values = np.asarray(envs)
+    if values.dtype == np.bool_:
+        if values.shape != (num_envs,):
+            raise ValueError(f"{name} as a boolean mask must have shape ({num_envs},), one entry per environment, got shape {values.shape}")
+        return values.copy()
+    if values.size == 0:
+        return np.zeros(num_envs, dtype=bool)
+    if not np.issubdtype(values.dtype, np.integer):
+        raise TypeError(f"{name} must be environment indices (integers) or a boolean mask of length {num_envs}, got {envs!r}")
+    outside = values[(values < -num_envs) | (values >= num_envs)]
+    if outside.size:
+        raise ValueError(f"{name} holds environment {int(outside.ravel()[0])}, but there are {num_envs} (indices 0 to {num_envs - 1})")
+    mask = np.zeros(num_envs, dtype=bool)
+    mask[values.ravel()] = True
+    return mask
+
+
+def names_argument(value, name: str) -> list[str]:
+    """A list of names from an iterable of strings; a TypeError naming `name` for one string (which would
+    be read as its letters) or elements that are not strings."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be a list of names, got the string {value!r} (write [{value!r}])")
+    try:
+        names = list(value)
+    except TypeError:
+        raise TypeError(f"{name} must be a list of names, got {value!r}") from None
+    others = [n for n in names if not isinstance(n, str)]
+    if others:
+        raise TypeError(f"{name} must hold names (strings), got {others[:5]!r}")
+    return names
+
+
 def zeros(shape: tuple, num_envs: int, dtype, device) -> wp.array:
     """A zero array of logical shape (num_envs, *shape)."""
     array = empty(shape, num_envs, dtype, device)

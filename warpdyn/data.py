@@ -22,6 +22,7 @@ import warp as wp
 
 from . import arrays
 from .engine import state as states
+from .types.data_checks import check_data, check_state
 from .types.enums import VelRepr, switched_representation
 from .types.model import quaternion_xyzw
 
@@ -70,10 +71,7 @@ class Data:
         (finite; unit quaternion within 1e-6 when `validate`); Warp arrays are copied on the device,
         and checked on the host (a synchronisation) only when `validate` is set.
         """
-        if num_envs is not None:
-            if isinstance(num_envs, (bool, np.bool_)) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-                raise ValueError(f"num_envs must be a positive integer or None, got {num_envs!r}")
-            num_envs = int(num_envs)
+        num_envs = arrays.num_envs_argument(num_envs)
         velocity_representation = VelRepr(velocity_representation)
         s, d, n = model.scalar, model.device, model.dofs()
         N = 1 if num_envs is None else int(num_envs)
@@ -183,16 +181,19 @@ class Data:
     @property
     def base_orientation(self) -> wp.array:
         """W_Q_B normalised, (w, x, y, z): (4,) or (N, 4) (as JaxSim: a quaternion, not a matrix)."""
+        check_state(self)
         return self._out(states.normalized_quaternion(self, self.requires_grad))
 
     @property
     def base_transform(self) -> wp.array:
         """W_H_B: (4, 4) or (N, 4, 4)."""
+        check_state(self)
         return self._out(states.base_transform(self, self.requires_grad))
 
     @property
     def base_velocity(self) -> wp.array:
         """The base velocity in the data's representation: (6,) or (N, 6), [linear; angular]."""
+        check_state(self)
         return self._out(states.base_velocity_in(self, int(self.velocity_representation), self.requires_grad))
 
     @property
@@ -203,6 +204,7 @@ class Data:
     @property
     def generalized_velocity(self) -> wp.array:
         """nu = [base velocity in the data's representation; sdot]: (6 + n,) or (N, 6 + n)."""
+        check_state(self)
         return self._out(states.generalized_velocity(self, int(self.velocity_representation), self.requires_grad))
 
     @property
@@ -219,11 +221,14 @@ class Data:
     def reset(self, model, envs, source: Data | None = None) -> Data:
         """New data in which the environments `envs` (indices or a boolean mask of length N) take their
         state from `source` (default: Data.zero) and are valid again; the others are unchanged."""
+        check_data(model, self)
         source = Data.zero(model, velocity_representation=self.velocity_representation, num_envs=self.batch_size) if source is None else source
+        check_data(model, source)
         if source.batch_size != self.batch_size:
             raise ValueError(f"source has {source.batch_size} environments, this data {self.batch_size}")
-        mask = np.zeros(self.batch_size, dtype=np.int32)
-        mask[np.asarray(envs)] = 1
+        if self.valid_state is None or source.tangential_deformation_state is None or self.tangential_deformation_state is None:
+            raise ValueError("reset needs data with a contact state and a health flag (built by wd.data.Data.build)")
+        mask = arrays.env_mask(envs, self.batch_size).astype(np.int32)
         selected = wp.array(mask, dtype=wp.int32, device=self.device)
         fields = {}
         for name in (*_STATE_FIELDS, "tangential_deformation"):
@@ -256,6 +261,9 @@ class Data:
         envs: the environments to change (indices or a boolean mask of length N); the others keep their
         state. A base velocity given without its other half keeps that half from this data.
         """
+        check_data(model, self)
+        if envs is not None:
+            arrays.env_mask(envs, self.batch_size)  # checked before any work
         current_base = self.base_velocity.numpy().reshape(self.batch_size, 6)
         if base_linear_velocity is None and base_angular_velocity is not None:
             base_linear_velocity = current_base[:, :3]
@@ -285,8 +293,7 @@ class Data:
             validate=validate,
         )
         if envs is not None:
-            keep = np.ones(self.batch_size, dtype=bool)
-            keep[np.asarray(envs)] = False
+            keep = ~arrays.env_mask(envs, self.batch_size)
             for name in _STATE_FIELDS:
                 old, fresh = getattr(self, f"{name}_state").numpy(), getattr(new, f"{name}_state").numpy()
                 fresh[keep] = old[keep]
@@ -340,6 +347,7 @@ def random_model_data(
     `joint_pos_bounds` is given. The base pose and velocity are drawn only for floating-base models;
     base velocities are in `velocity_representation` (default Mixed).
     """
+    num_envs = arrays.num_envs_argument(num_envs)
     rng = np.random.default_rng(seed)
     N = 1 if num_envs is None else num_envs
     n = model.dofs()

@@ -21,7 +21,7 @@ import warp as wp
 from . import arrays
 from .engine import centroidal, coriolis, derivatives, dynamics, kinematics
 from .engine import step as stepping
-from .description import NotModelledWarning
+from .description import NotModelledWarning, UnphysicalInertiaWarning
 from .description.model import ActuatorDescription
 from .engine.kinematics import link_targets
 from .types.enums import IntegratorType, VelRepr, output_repr
@@ -70,6 +70,7 @@ __all__ = [
     "ActuationParams",
     "IntegratorType",
     "NotModelledWarning",
+    "UnphysicalInertiaWarning",
     "SoftContactsParams",
 ]
 

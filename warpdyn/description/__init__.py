@@ -25,6 +25,7 @@ from .model import (
     quaternion_wxyz_to_matrix,
     warn_not_modelled,
 )
+from .physical import UnphysicalInertiaWarning, check_description
 from .urdf import load_urdf
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
     "ActuatorDescription",
     "ModelDescription",
     "NotModelledWarning",
+    "UnphysicalInertiaWarning",
     "load",
     "joint_motion",
     "axis_angle_to_matrix",
@@ -62,7 +64,9 @@ def _read_document(model_description) -> tuple[bytes, str | None]:
     ):
         path = pathlib.Path(model_description).expanduser()
         if not path.is_file():
-            raise FileNotFoundError(f"robot description '{model_description}' does not exist or is not a file")
+            shown = str(model_description)
+            shown = repr(shown if len(shown) <= 80 else shown[:80] + "...")
+            raise FileNotFoundError(f"robot description {shown} does not exist or is not a file (nor an XML document)")
         return path.read_bytes(), str(path)
     if isinstance(model_description, str):
         text = _XML_DECLARATION.sub("", model_description.lstrip("\ufeff"), count=1)
@@ -100,8 +104,17 @@ def load(
             is_urdf = False
         else:
             raise ValueError(f"{where} has root element <{root.tag}>: expected <robot> (URDF) or <mujoco> (MJCF)")
+    if not is_urdf and path is not None:
+        try:
+            document.decode("utf-8")
+        except UnicodeDecodeError as error:  # MuJoCo reads a file's bytes as UTF-8, whatever it declares
+            raise ValueError(
+                f"{where} is not UTF-8 (byte {error.start}): MuJoCo reads MJCF files as UTF-8; save it as UTF-8, or pass its "
+                "text (a str) instead of its path"
+            ) from None
     description = load_urdf(document, where) if is_urdf else load_mjcf(root, path, where)
     description.path = path
+    check_description(description, where)
     description = _with_base(description, fixed_base, base_pose, where)
     warn_not_modelled(where, description.not_modelled)
     return description

@@ -264,7 +264,15 @@ def quaternion_wxyz_to_matrix(q) -> np.ndarray:
 
 
 def finish_tree(name, links, joints, source, where) -> ModelDescription:
-    """Checks that the joints form one tree and finds its base (a 'world' root is the world)."""
+    """Checks that the joints form one tree of named links and joints, and finds its base (a 'world' root is
+    the world)."""
+    for kind, names in (("link", [link.name for link in links]), ("joint", [joint.name for joint in joints])):
+        unnamed = [k for k, n in enumerate(names) if not isinstance(n, str) or not n.strip()]
+        if unnamed:
+            raise ValueError(f"{where}: the {kind}s at positions {unnamed} (in the description's order) have empty names")
+        duplicated = sorted({n for n in names if names.count(n) > 1})
+        if duplicated:
+            raise ValueError(f"{where}: {kind} names {duplicated} are used more than once")
     link_names = {link.name for link in links}
     children = set()
     for joint in joints:
@@ -277,6 +285,19 @@ def finish_tree(name, links, joints, source, where) -> ModelDescription:
     roots = [link.name for link in links if link.name not in children]
     if len(roots) != 1:
         raise ValueError(f"{where}: expected one root link, found {len(roots)}: {roots}")
+    reached, queue = {roots[0]}, [roots[0]]
+    by_parent: dict[str, list[str]] = {}
+    for joint in joints:
+        by_parent.setdefault(joint.parent, []).append(joint.child)
+    while queue:
+        for child in by_parent.get(queue.pop(), []):
+            reached.add(child)
+            queue.append(child)
+    detached = [link.name for link in links if link.name not in reached]
+    if detached:
+        raise ValueError(
+            f"{where}: links {detached} are not connected to the root link '{roots[0]}': their joints form a cycle"
+        )
     base, fixed_base, world_H_base = roots[0], False, np.eye(4)
     if base == "world":
         world_joints = [j for j in joints if j.parent == "world"]

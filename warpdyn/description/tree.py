@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..arrays import names_argument
 from .model import CollisionShape, ModelDescription, NotModelledWarning, caller_stacklevel, joint_motion
 
 JOINT_REVOLUTE = 1
@@ -145,14 +146,56 @@ def _spatial_inertia_about(mass, com, inertia, H):
 def _combine(bodies):
     """Mass, CoM and inertia about the CoM of rigidly joined bodies given in one frame."""
     total = sum(m for m, _, _ in bodies)
-    if total <= 0.0:
-        return 0.0, np.zeros(3), np.zeros((3, 3))
+    if total <= 0.0:  # massless bodies: only their rotational inertias (unphysical, but as described) add up
+        inertia = sum((I for _, _, I in bodies), np.zeros((3, 3)))
+        return 0.0, np.zeros(3), 0.5 * (inertia + inertia.T)
     com = sum(m * c for m, c, _ in bodies) / total
     inertia = np.zeros((3, 3))
     for m, c, I in bodies:
         d = c - com
         inertia += I + m * (d @ d * np.eye(3) - np.outer(d, d))
     return total, com, 0.5 * (inertia + inertia.T)
+
+
+def _locked_position(name: str, value) -> float:
+    """A locked joint's position as a float, or a ValueError naming the joint."""
+    try:
+        position = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"locked_joint_positions['{name}'] must be a number [rad or m], got {value!r}") from None
+    if not np.isfinite(position):
+        raise ValueError(f"locked_joint_positions['{name}'] is {position}: a locked position must be finite [rad or m]")
+    return position
+
+
+def _check_moving_mass(description: ModelDescription, link_names, joints, parents, mass, com, inertia) -> None:
+    """A ValueError naming the link when a leaf of the lumped tree has no inertia about its joint's axis (a
+    massless leaf, or a point mass on a revolute joint's axis: the joint's acceleration is 0 / 0), or when a
+    floating base carries no mass at all. Massless links inside a chain (MJCF's multi-joint bodies, URDF's
+    dummy links) are fine: what they carry gives their joints inertia."""
+    where = f"'{description.path}'" if description.path else f"model '{description.name}'"
+    if not description.fixed_base and float(np.sum(mass)) <= 0.0:
+        raise ValueError(f"{where}: the floating base '{link_names[0]}' and everything it carries have no mass")
+    has_child = np.zeros(len(link_names), dtype=bool)
+    has_child[[p for p in parents if p >= 0]] = True
+    scale = max(float(np.abs(inertia).max(initial=0.0)), float(np.max(mass * np.einsum("ij,ij->i", com, com), initial=0.0)))
+    for i in range(1, len(link_names)):
+        if has_child[i]:
+            continue
+        joint = joints[i - 1]
+        if joint.type == "prismatic":
+            about_axis = mass[i]
+        else:
+            axis = joint.axis / np.linalg.norm(joint.axis)
+            r = com[i] - joint.pivot
+            r = r - (r @ axis) * axis  # from the axis to the centre of mass
+            about_axis = axis @ inertia[i] @ axis + mass[i] * (r @ r)
+        if about_axis <= 1e-12 * scale:
+            raise ValueError(
+                f"{where}: link '{link_names[i]}' ends the chain of {joint.type} joint '{joint.name}' but has no inertia about "
+                f"its axis (mass {mass[i]:g} kg): the joint's acceleration is undefined; give the link a mass and inertia, "
+                "or make the joint fixed"
+            )
 
 
 def build_tree(
@@ -168,7 +211,7 @@ def build_tree(
     if considered_joints is None:
         considered = set(movable)
     else:
-        considered_joints = list(considered_joints)
+        considered_joints = names_argument(considered_joints, "considered_joints")
         unknown = [name for name in considered_joints if name not in movable]
         if unknown:
             raise ValueError(
@@ -176,10 +219,12 @@ def build_tree(
             )
         considered = set(considered_joints)
     locked = {name: 0.0 for name in movable if name not in considered}
+    if locked_joint_positions is not None and not isinstance(locked_joint_positions, dict):
+        raise TypeError(f"locked_joint_positions must be a dict {{joint name: position}}, got {type(locked_joint_positions).__name__}")
     for name, value in (locked_joint_positions or {}).items():
         if name not in locked:
             raise ValueError(f"locked_joint_positions names joint '{name}', which is not a locked joint of the model")
-        locked[name] = float(value)
+        locked[name] = _locked_position(name, value)
 
     children: dict[str, list] = {}
     for joint in description.joints:
@@ -229,7 +274,7 @@ def build_tree(
             continue
         owner = kept_of[link.name]
         H = kept_H_link[link.name]
-        if link.mass > 0.0:
+        if link.mass > 0.0 or np.any(link.inertia != 0.0):  # a massless link's inertia is kept too, as described
             members[owner].append(_spatial_inertia_about(link.mass, link.com, link.inertia, H))
         if link.gravcomp != 0.0 and link.mass != 0.0:
             compensated[owner].append((link.name, link.gravcomp * link.mass, H[:3, :3] @ link.com + H[:3, 3]))
@@ -259,6 +304,7 @@ def build_tree(
         gravcomp_mass[i], gravcomp_com[i] = total, moment / total
 
     movable_joints = joints[1:]
+    _check_moving_mass(description, link_names, movable_joints, parents, mass, com, inertia)
     n = len(movable_joints)
     joint_index = {j.name: i for i, j in enumerate(movable_joints)}
     actuators, dropped = [], []

@@ -21,7 +21,7 @@ from .. import arrays, config
 from ..kernels.centroidal import FRAME_GB, FRAME_GW
 from ..kernels.centroidal import kernels as centroidal_kernels
 from ..types.enums import VelRepr
-from ..types.model import check_data
+from ..types.data_checks import check_data
 from .bundles import model_bundle
 from .dynamics import requires_grad
 from .kinematics import link_poses, state_of

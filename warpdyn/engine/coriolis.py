@@ -23,7 +23,7 @@ import warp as wp
 
 from .. import arrays
 from ..kernels.coriolis import kernels as coriolis_kernels
-from ..types.model import check_data
+from ..types.data_checks import check_data
 from .bundles import model_bundle
 from .dynamics import requires_grad
 from .kinematics import state_of

@@ -35,7 +35,7 @@ from ..kernels.rnea import RNEA_RECORD
 from ..kernels.rnea import kernels as rnea_kernels
 from ..kernels.scratch import TRANSFORM
 from ..kernels.state import kernels as state_kernels
-from ..types.model import check_data
+from ..types.data_checks import check_data
 from . import tape, warp_private
 from .bundles import controls_bundle, empty_like_input, model_bundle
 from .kinematics import link_poses, state_of

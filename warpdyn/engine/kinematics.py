@@ -16,7 +16,7 @@ from ..kernels.jacobians import kernels as jacobian_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import output_repr
-from ..types.model import check_data
+from ..types.data_checks import check_data
 from .bundles import model_bundle, state_bundle
 from .launch import launch
 

@@ -22,7 +22,10 @@ from .tape import taping as tape_records
 from .kinematics import state_arrays
 from .launch import Launch, capture_lock, ensure_loaded, launch
 from .launch import run as run_launches
-from .step import Evaluation, Workspace, broadcast_envs, prepare, state_buffers, step_launches, with_state
+from . import rollout_memory as memory
+from .rollout_memory import GRAPH_BYTES_PER_LAUNCH, STATE_INDEX, check_available, control_shapes, counts, memory_error, nbytes
+from .rollout_memory import plan_memory, plan_rows, record_is_view, roots, state_shapes
+from .step import Workspace, broadcast_envs, prepare, state_buffers, step_launches, with_state
 from .step import plan as step_plan
 
 __all__ = ["Rollout", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "CONTROLS", "copy_launch"]
@@ -45,21 +48,6 @@ DEFAULT_RECORD = ("base_position", "base_quaternion", "joint_positions", "base_v
 
 CONTROLS = ("joint_force_references", "link_forces", "ctrl")
 """The controls of a rollout's steps (warpdyn.model.step's arguments)."""
-
-
-def _control_shapes(plan) -> dict:
-    """{control: its shape per environment}."""
-    return {"joint_force_references": (plan.n,), "link_forces": (plan.nL, 6), "ctrl": (plan.na,)}
-
-_STATE_INDEX = {
-    "base_position": 0,
-    "base_quaternion": 1,
-    "joint_positions": 2,
-    "base_velocity": 3,
-    "joint_velocities": 4,
-    "tangential_deformation": 5,
-    "valid": 6,
-}
 
 
 def _env_array(lead: tuple, N: int, per_env: tuple, dtype, device, grad: bool = False) -> wp.array:
@@ -89,7 +77,8 @@ def copy_launch(scalar, src: wp.array, dst: wp.array):
     if dst.size == 0:
         return None
     if dst.dtype == wp.int32:
-        return Launch(rollout_int_kernels().copy_flags, dst.shape, [src], [dst])
+        kernels = rollout_int_kernels()
+        return Launch(kernels.copy_flags if dst.ndim == 1 else kernels.copy_flags_2d, dst.shape, [src], [dst])
     return Launch(rollout_kernels(scalar).copy[dst.ndim], dst.shape, [src], [dst])
 
 
@@ -135,75 +124,11 @@ def _control(value, name: str, per_env: tuple, T: int, N: int, batched: bool, sc
             host = np.asarray(value, dtype=np.float64)
         except (TypeError, ValueError) as error:
             raise TypeError(f"{name} must be an array of numbers: {error}") from None
-        if not np.all(np.isfinite(host)):
-            raise ValueError(f"{name} has non-finite values")
+        bad = np.argwhere(~np.isfinite(host))
+        if bad.size:
+            raise ValueError(f"{name} has non-finite values, first at index {tuple(bad[0].tolist())}: {host[tuple(bad[0])]}")
         source = wp.array(np.ascontiguousarray(host.reshape(target)), dtype=scalar, device=device)
     return layout, source
-
-
-# ------------------------------------------------------------------------------------------ memory
-
-
-def _counts(storage: str, T: int, every: int, grad: bool) -> tuple[int, int, int]:
-    """(kept, between, workspaces): how many states a configuration keeps for the whole rollout (ping-pong's
-    two slots, the trajectory's T + 1, the checkpoints' ceil(T / every) + 1), how many it keeps for one
-    segment (every - 1) and how many workspaces of step intermediates it has."""
-    if storage == "ping-pong":
-        return 2, 0, 1
-    if storage == "trajectory":
-        return T + 1, 0, T if grad else 1
-    return -(-T // every) + 1, every - 1, every if grad else 1
-
-
-def _record_is_view(name: str, storage: str, every: int, repr: int) -> bool:
-    """Whether a state record is a view of the kept states (all T + 1 of them kept, in the same form)."""
-    all_kept = storage == "trajectory" or (storage == "checkpointed" and every == 1)
-    return all_kept and (name != "base_velocity" or repr == int(VelRepr.Mixed))
-
-
-def _state_shapes(plan) -> list:
-    """The per-environment shapes of the float state arrays (p, Q, s, v, sdot, m); `valid` is an int32 more."""
-    return [(3,), (4,), (plan.n,), (6,), (plan.n,), (plan.total, 3)]
-
-
-def _roots(obj, found: dict, skip: set) -> dict:
-    """{id: array}: the allocations (arrays owning their memory) that the Warp arrays in `obj` (an array, a
-    list or tuple of them, a step workspace) are views of, except those in `skip` (ids)."""
-    if isinstance(obj, wp.array):
-        root = obj
-        while getattr(root, "_ref", None) is not None:
-            root = root._ref
-        if root.deleter is not None and id(root) not in skip:  # not a view of memory owned elsewhere
-            found[id(root)] = root
-    elif isinstance(obj, (list, tuple)):
-        for item in obj:
-            _roots(item, found, skip)
-    elif isinstance(obj, (Workspace, Evaluation)):
-        for item in vars(obj).values():
-            _roots(item, found, skip)
-    return found
-
-
-def _nbytes(roots) -> int:
-    """Bytes of these allocations and of their gradients."""
-    total = 0
-    for array in roots:
-        for a in (array, array.grad):
-            if a is not None:
-                total += a.size * wp.types.type_size_in_bytes(a.dtype)
-    return total
-
-
-def _plan_rows(plan) -> set:
-    """Ids of the plan's shared zero rows (a workspace may hold them; they are the plan's, not the rollout's)."""
-    return {id(row) for row in plan.zero_rows()}
-
-
-def _workspace_bytes_per_env(plan, grad: bool, forces: bool) -> int:
-    """Bytes (gradients included) of one step workspace per environment: one built for 1 environment (every
-    workspace array is (N, ...), so the bytes are N times these)."""
-    ws = Workspace(plan, 1, grad, forces)
-    return _nbytes(_roots(ws, {}, _plan_rows(plan)).values())
 
 
 # ------------------------------------------------------------------------------------------ configuration
@@ -216,6 +141,12 @@ class _Config:
     States: ping-pong's two slots (`slots`), or the kept states `traj` (all T + 1, or the checkpoints
     t = 0, S, 2S, ..., T) and, for checkpointed storage with S > 1, `seg`: the S - 1 states inside one
     segment, reused by every segment.
+
+    Graphs of ping-pong storage are captured in chunks of at most GRAPH_CHUNK steps (rollout_memory), one graph per chunk
+    length and parity of its first step (which slot it starts from), replayed as many times as the run has
+    chunks: their steps read their controls from and write their records into `stage`, (K, ...) buffers
+    (K = min(T, GRAPH_CHUNK)) that plain launches fill and empty around each replay, so that a graph's memory
+    does not grow with T. Other storages keep their states per step: their graphs hold every step.
     """
 
     def __init__(self, roll: Rollout, plan, N: int, num_envs, repr: int, storage: str, every: int, grad: bool, layouts: dict):
@@ -223,8 +154,8 @@ class _Config:
         self.storage, self.every, self.grad, self.layouts = storage, every, grad, layouts
         T, s, d = roll.steps, plan.scalar, plan.device
         self.T, self.scalar, self.device = T, s, d
-        kept, between, count = _counts(storage, T, every, grad)
-        per_env = _state_shapes(plan)
+        kept, between, count = counts(storage, T, every, grad)
+        per_env = state_shapes(plan)
         self.slots = self.traj = self.seg = None
         if storage == "ping-pong":
             self.slots = [state_buffers(plan, N, False) for _ in range(2)]
@@ -237,15 +168,15 @@ class _Config:
         with_forces = layouts["link_forces"].kind is not None
         self.workspaces = [Workspace(plan, N, grad, with_forces) for _ in range(count)]
         # controls: {name: the rollout's copy, None when absent}
-        shapes = _control_shapes(plan)
+        shapes = control_shapes(plan)
         self.buffers = {name: self._control_buffer(layout, shapes[name]) for name, layout in layouts.items()}
         # records
         self.records: dict[str, wp.array] = {}
         self.state_records: dict[str, wp.array] = {}  # the ones written by launches (not views of the states)
         for name in roll.record:
-            if name in _STATE_INDEX:
-                i = _STATE_INDEX[name]
-                if _record_is_view(name, storage, every, repr):
+            if name in STATE_INDEX:
+                i = STATE_INDEX[name]
+                if record_is_view(name, storage, every, repr):
                     self.records[name] = self.traj[i]
                     continue
                 if name == "valid":
@@ -266,7 +197,8 @@ class _Config:
         converted = ("valid",) if repr == int(VelRepr.Mixed) else ("valid", "base_velocity")
         self.copied = [name for name in self.state_records if name not in converted]
         self.launched = [name for name in self.state_records if name in converted]
-        self.graphs: dict[tuple[int, int], object] = {}
+        self.graphs: dict[tuple, object] = {}
+        self.stage: dict[str, wp.array] | None = None  # allocated by the first chunked capture (`_staging`)
         self._scratch_grads = None
         self.runs = 0  # runs of this configuration (a checkpointed backward checks that it is the latest)
         self.template = None  # the data of the last run (see `data_at`)
@@ -282,7 +214,8 @@ class _Config:
         """Bytes of the buffers this configuration allocated (states, workspaces, controls, records), with
         their gradients; the model's and plan's constants are not counted."""
         owned = [self.slots, self.traj, self.seg, self.workspaces, list(self.buffers.values()), list(self.records.values())]
-        return _nbytes(_roots([x for x in owned if x is not None], {}, _plan_rows(self.plan)).values())
+        owned.append(list(self.stage.values()) if self.stage is not None else None)
+        return nbytes(roots([x for x in owned if x is not None], {}, plan_rows(self.plan)).values())
 
     # ----------------------------------------------------------------------------------- views per step
 
@@ -294,47 +227,54 @@ class _Config:
             return [_at(a, -(-t // S)) for a in self.traj]  # checkpoint ceil(t / S): t / S, or the last one at T
         return [_at(a, t % S - 1) for a in self.seg]
 
-    def _input(self, name: str, t: int, absent):
-        """Control `name` at step t as an (N, *shape) array (`absent` when not given)."""
+    def _input(self, name: str, t: int, absent, k: int | None = None):
+        """Control `name` at step t as an (N, *shape) array (`absent` when not given); from stage row k when given."""
         layout, buffer = self.layouts[name], self.buffers[name]
         if layout.kind is None:
             return absent
-        view = _at(buffer, t) if layout.kind == "step" else buffer
+        if layout.kind == "step":
+            view = _at(buffer, t) if k is None else _at(self.stage[name], k)
+        else:
+            view = buffer
         return broadcast_envs(view, self.N) if layout.shared else view
 
-    def record_state(self, t: int, x: list, names=None) -> list:
-        """The launches writing the state records at t (those in `names`, default all) from the state arrays x."""
+    def _record(self, name: str, t: int, k: int | None) -> wp.array:
+        """Record `name` at t, or stage row k when given."""
+        return _at(self.records[name] if k is None else self.stage[name], t if k is None else k)
+
+    def record_state(self, t: int, x: list, names=None, k: int | None = None) -> list:
+        """The launches writing the state records at t (those in `names`, default all) from the state arrays x
+        (into stage row k when given)."""
         launches = []
         for name in self.state_records if names is None else names:
-            out = _at(self.state_records[name], t)
+            out = self._record(name, t, k)
             if name == "base_velocity" and self.repr != int(VelRepr.Mixed):
                 launches.append(Launch(state_kernels(self.scalar).base_velocity_to_repr, self.N, [x[0], x[1], x[3], self.repr], [out]))
             else:
-                launches.append(copy_launch(self.scalar, x[_STATE_INDEX[name]], out))
+                launches.append(copy_launch(self.scalar, x[STATE_INDEX[name]], out))
         return [k for k in launches if k is not None]
 
-    def step(self, t: int, copies: bool = True) -> list:
+    def step(self, t: int, copies: bool = True, k: int | None = None) -> list:
         """The launches of step t: the state t to t + 1, its records, and the state records at t + 1 (without
-        the plain copies unless `copies`)."""
+        the plain copies unless `copies`); controls and records in stage row k when given (chunked graphs)."""
         plan = self.plan
         ws = self.workspaces[t % len(self.workspaces)]
         x, y = self.state(t), self.state(t + 1)
-        tau_ref = self._input("joint_force_references", t, plan.zeros((plan.n,), self.N))
-        f_user = self._input("link_forces", t, None)
-        ctrl = self._input("ctrl", t, None)
-        torques = self.records.get("joint_torques")
-        tau_out = _at(torques, t) if torques is not None else None
+        tau_ref = self._input("joint_force_references", t, plan.zeros((plan.n,), self.N), k)
+        f_user = self._input("link_forces", t, None, k)
+        ctrl = self._input("ctrl", t, None, k)
+        tau_out = self._record("joint_torques", t, k) if "joint_torques" in self.records else None
         launches = step_launches(plan, ws, x, y, tau_ref, f_user, self.repr, tau_out, ctrl)
         ev = ws.evals[0]
         K = wrench_kernels(self.scalar)
         if "link_contact_forces" in self.records and plan.contacts:
-            out = self.records["link_contact_forces"][t]
+            out = self._record("link_contact_forces", t, k)
             launches.append(Launch(K.link_wrenches, (self.N, plan.nL), [plan.contact_bundle, ev.W_H_L, ev.chain, self.repr], [out]))
         if "collidable_point_forces" in self.records and plan.contacts:
-            out = self.records["collidable_point_forces"][t]
+            out = self._record("collidable_point_forces", t, k)
             args = [plan.contact_bundle, plan.point_out, ev.W_H_L, ev.W_f_C, self.repr]
             launches.append(Launch(K.point_wrenches, (self.N, plan.count), args, [out]))
-        return launches + self.record_state(t + 1, y, None if copies else self.launched)
+        return launches + self.record_state(t + 1, y, None if copies else self.launched, k)
 
     def data_at(self, t: int):
         """The state at t as the caller's kind of Data (views of the rollout's buffers)."""
@@ -359,16 +299,62 @@ class _Config:
             for t in range(start, stop):
                 run_launches(self.step(t), self.device)
             return
-        key = (start, stop)
+        if self.slots is None:  # every step has its own states: one graph of the stretch
+            self._replay((start, stop), lambda: [k for t in range(start, stop) for k in self.step(t)])
+            return
+        self._staging()
+        chunk = memory.GRAPH_CHUNK
+        for first in range(start, stop, chunk):
+            length = min(chunk, stop - first)
+            run_launches(self._stage_copies(first, length, into_stage=True), self.device)
+            self._replay(("chunk", length, first % 2), lambda: [k for i in range(length) for k in self.step(first + i, k=i)])
+            run_launches(self._stage_copies(first, length, into_stage=False), self.device)
+
+    def _replay(self, key: tuple, launches) -> None:
+        """Launch the graph captured under `key`, capturing `launches()` first if there is none."""
         captured = self.graphs.get(key)
         if captured is None:
-            launches = [k for t in range(start, stop) for k in self.step(t)]
-            for kernel in {k.kernel for k in launches}:
+            recorded = launches()
+            for kernel in {k.kernel for k in recorded}:
                 ensure_loaded(kernel, self.device)
-            with capture_lock, wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
-                run_launches(launches, self.device)
+            try:
+                with capture_lock, wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
+                    run_launches(recorded, self.device)
+            except RuntimeError as error:  # a failed allocation; other errors pass as they are
+                if "alloc" not in str(error).lower():
+                    raise
+                raise memory_error(f"capturing a graph of {len(recorded)} launches", len(recorded) * GRAPH_BYTES_PER_LAUNCH, error) from None
             captured = self.graphs[key] = capture.graph
         wp.capture_launch(captured)
+
+    def _staging(self) -> None:
+        """The stage buffers of chunked graphs (see the class docstring), allocated once: a row per step of a
+        chunk for each per-step control and each record a step writes."""
+        if self.stage is not None:
+            return
+        rows = min(self.T, memory.GRAPH_CHUNK)
+        self.stage = {}
+        for name, layout in self.layouts.items():
+            if layout.kind == "step":
+                buffer = self.buffers[name]
+                self.stage[name] = _env_array((rows,), buffer.shape[1], buffer.shape[2:], self.scalar, self.device)
+        for name, record in self.records.items():
+            if name in self.state_records or name == "joint_torques" or self.plan.contacts:
+                self.stage[name] = _env_array((rows,), self.N, record.shape[2:], record.dtype, self.device)
+
+    def _stage_copies(self, first: int, length: int, into_stage: bool) -> list:
+        """The launches copying the controls of steps first .. first + length - 1 into the stage
+        (into_stage), or the stage's records out to theirs (state records at t + 1, step records at t)."""
+        launches = []
+        for name, stage in self.stage.items():
+            control = name in self.buffers
+            if control != into_stage or stage.size == 0:
+                continue
+            offset = first + (1 if name in self.state_records else 0)
+            full = (self.buffers if control else self.records)[name][offset : offset + length]
+            src, dst = (full, stage[:length]) if into_stage else (stage[:length], full)
+            launches.append(copy_launch(self.scalar, src, dst))
+        return [k for k in launches if k is not None]
 
     # ----------------------------------------------------------------------------------- checkpointed
 
@@ -390,7 +376,7 @@ class _Config:
         adds the loss's first: the same sums in the same order."""
         K = rollout_kernels(self.scalar).copy
         for name in self.copied:
-            i, record = _STATE_INDEX[name], self.state_records[name]
+            i, record = STATE_INDEX[name], self.state_records[name]
             if record.size == 0:
                 continue
             pairs = [(self.state(start)[i], record[start])]
@@ -430,8 +416,8 @@ class _Config:
                 "of the same Rollout overwrote: call tape.backward before running it again (or use another Rollout)"
             )
         if self._scratch_grads is None:
-            roots = _roots([self.seg, self.workspaces] if self.seg is not None else self.workspaces, {}, _plan_rows(self.plan))
-            self._scratch_grads = [r.grad for r in roots.values() if r.grad is not None and r.size > 0]
+            scratch = roots([self.seg, self.workspaces] if self.seg is not None else self.workspaces, {}, plan_rows(self.plan))
+            self._scratch_grads = [r.grad for r in scratch.values() if r.grad is not None and r.size > 0]
         S, T = self.every, self.T
         for a in self.parameters():
             tape.gradients[a] = a.grad
@@ -497,57 +483,15 @@ class Rollout:
             return "trajectory" if taping else "ping-pong"
         return self.storage
 
-    def _plan_memory(self, plan, N: int, repr: int, storage: str, grad: bool, layouts: dict) -> dict:
-        """{part: bytes} of the configuration, and the checkpoint interval it uses (see `memory_bytes`)."""
-        T, s = self.steps, plan.scalar
-        size = wp.types.type_size_in_bytes(s)
-        g = 2 if grad else 1
-        shapes = _state_shapes(plan)
-        state = sum(int(np.prod(shape)) for shape in shapes) * size * g + 4  # + the int32 health flag
-        workspace = _workspace_bytes_per_env(plan, grad, layouts["link_forces"].kind is not None)
-        control_shapes = _control_shapes(plan)
-
-        def controls():
-            total = 0
-            for name, layout in layouts.items():
-                per_env = control_shapes[name]
-                if layout.kind is not None:
-                    rows = 1 if layout.shared else N
-                    total += rows * (T if layout.kind == "step" else 1) * int(np.prod(per_env)) * size * g
-            return total
-
-        def parts(every: int) -> dict:
-            kept, between, count = _counts(storage, T, every, grad)
-            records = 0
-            for name in self.record:
-                if name in _STATE_INDEX:
-                    if _record_is_view(name, storage, every, repr):
-                        continue
-                    i = _STATE_INDEX[name]
-                    records += (T + 1) * (4 if name == "valid" else int(np.prod(shapes[i])) * size * g)
-                else:
-                    per_env = {"joint_torques": (plan.n,), "link_contact_forces": (plan.nL, 6), "collidable_point_forces": (plan.count, 6)}[name]
-                    records += T * int(np.prod(per_env)) * size * g
-            out = {"states": (kept + between) * state * N, "intermediates": count * workspace * N, "controls": controls(), "records": records * N}
-            out["total"] = sum(out.values())
-            return out
-
-        every = 1
-        if storage == "checkpointed":
-            every = self.checkpoint_every
-            if every is None:  # the interval that keeps the fewest bytes (ties: the shorter one)
-                every = min(range(1, T + 1), key=lambda S: parts(S)["total"])
-        result = parts(every)
-        result["checkpoint_every"] = every if storage == "checkpointed" else None
-        return result
-
     def memory_bytes(
         self, num_envs, *, grad: bool = True, velocity_representation=VelRepr.Mixed, joint_force_references=None, link_forces=None, ctrl=None
     ) -> dict:
         """The bytes `run` would keep allocated for `num_envs` environments (None: single-environment data),
         with gradients when `grad` (under a wp.Tape), without allocating them: {"states", "intermediates"
-        (the step workspaces), "controls" (the rollout's copies), "records", "total"} in bytes, and
-        "checkpoint_every" (the interval used, None unless storage is "checkpointed").
+        (the step workspaces), "controls" (the rollout's copies), "records", "staging" (the stage buffers of
+        chunked graphs), "total"} in bytes, "graph" (host memory of the captured graphs without callbacks,
+        an estimate: GRAPH_BYTES_PER_LAUNCH per launch; not in "total") and "checkpoint_every" (the interval
+        used, None unless storage is "checkpointed").
 
         The controls are given as to `run`, or anything with their `.shape` (only the shape is read:
         `np.broadcast_to(0.0, (T, N, n))` costs nothing). Counted: the buffers the rollout owns and their
@@ -563,12 +507,12 @@ class Rollout:
         plan.check_envs(N)
         given = {"joint_force_references": joint_force_references, "link_forces": link_forces, "ctrl": ctrl}
         layouts = {}
-        for (name, value), per_env in zip(given.items(), _control_shapes(plan).values()):
+        for (name, value), per_env in zip(given.items(), control_shapes(plan).values()):
             shape = None if value is None else (tuple(value.shape) if hasattr(value, "shape") else np.shape(value))
             layouts[name] = _Layout(None) if shape is None else _control_layout(shape, name, per_env, self.steps, N, batched)[1]
         storage = self._storage(grad)
         grad = grad and storage != "ping-pong"
-        return self._plan_memory(plan, N, int(velocity_representation), storage, grad, layouts)
+        return plan_memory(self, plan, N, int(velocity_representation), storage, grad, layouts)
 
     @property
     def nbytes(self) -> int:
@@ -578,7 +522,7 @@ class Rollout:
     def run(self, data, *, joint_force_references=None, link_forces=None, ctrl=None, callback=None, callback_every: int = 1):
         """(final Data, {name: record}) after `steps` steps from `data` (unchanged)."""
         model, T = self.model, self.steps
-        plan, N = prepare(model, data)
+        plan, N = prepare(model, data, health=True)
         taping = tape_records()
         storage = self._storage(taping)
         checkpointed = storage == "checkpointed"
@@ -600,19 +544,23 @@ class Rollout:
         s, d, batched = plan.scalar, plan.device, data.num_envs is not None
         given = {"joint_force_references": joint_force_references, "link_forces": link_forces, "ctrl": ctrl}
         layouts, sources = {}, {}
-        for (name, value), per_env in zip(given.items(), _control_shapes(plan).values()):
+        for (name, value), per_env in zip(given.items(), control_shapes(plan).values()):
             layouts[name], sources[name] = _control(value, name, per_env, T, N, batched, s, d)
         grad = taping and storage != "ping-pong"
         repr = int(data.velocity_representation)
         key = (plan, N, data.num_envs, repr, storage, self.checkpoint_every, grad, *layouts.values())
         if self._key is None or len(key) != len(self._key) or not all(a is b or a == b for a, b in zip(key, self._key)):
             self._config = None  # release the old buffers first
-            every = 1
-            if checkpointed:
-                every = self.checkpoint_every
-                if every is None:
-                    every = self._plan_memory(plan, N, repr, storage, grad, layouts)["checkpoint_every"]
-            self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, layouts)
+            budget = plan_memory(self, plan, N, repr, storage, grad, layouts)
+            every = (self.checkpoint_every or budget["checkpoint_every"]) if checkpointed else 1
+            what = f"a rollout of {T} steps of {N} environments ({storage} storage)"
+            check_available(d, budget["total"] + (0 if d.is_cuda else budget["graph"]), what)  # CPU graphs: host memory
+            try:
+                self._config = _Config(self, plan, N, data.num_envs, repr, storage, every, grad, layouts)
+            except RuntimeError as error:  # Warp's "Failed to allocate N bytes on device"
+                if "allocate" not in str(error):
+                    raise
+                raise memory_error(what, budget["total"], error) from None
             self._key = key
         cfg = self._config
         cfg.template = data  # the Data the records and callbacks' states are made like
@@ -646,7 +594,7 @@ class Rollout:
             raise ValueError("a callback replaced the state under a wp.Tape: resets are not differentiable")
         if type(data) is not type(cfg.template):
             raise TypeError(f"a callback returns None or Data, got {type(data).__name__}")
-        prepare(self.model, data)
+        prepare(self.model, data, health=True)
         if data.batch_size != cfg.N or int(data.velocity_representation) != cfg.repr:
             raise ValueError(
                 f"the callback's data has {data.batch_size} environments in {VelRepr(data.velocity_representation).name}, "

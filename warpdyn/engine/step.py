@@ -50,7 +50,7 @@ from ..kernels.scratch import TRANSFORM
 from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import IntegratorType, VelRepr
-from ..types.model import check_data
+from ..types.data_checks import check_data
 from ..types.parameters import MODEL_ARRAYS
 from ..types.settings import host_values
 from ..types.terrain import FlatTerrain, HeightfieldTerrain
@@ -482,12 +482,17 @@ def _ctrl(plan: Plan, data, value):
     return arrays.batched_input(value, "ctrl", (plan.na,), data.num_envs, plan.scalar, plan.device)
 
 
-def prepare(model, data, parameters: bool = True) -> tuple[Plan, int]:
+def prepare(model, data, parameters: bool = True, health: bool = False) -> tuple[Plan, int]:
     """(plan, N) after checking the data against the model (parameters: the caller reads the link or joint
-    parameters, see warpdyn.types.model.check_data; the contact parameters and the terrain are checked in
-    any case)."""
+    parameters, see warpdyn.types.model.check_data; health: the caller steps, which reads and writes the
+    health flag; the contact parameters and the terrain are checked in any case)."""
     check_data(model, data, parameters)
     check_contact_state(model, data)
+    if health and data.valid_state is None:
+        raise ValueError(
+            "data.valid_state is None, but a step reads and writes each environment's health flag: build the data "
+            "with wd.data.Data.build, or give valid_state=wp.ones(N, dtype=wp.int32)"
+        )
     current = plan(model)
     current.check_envs(data.batch_size)
     return current, data.batch_size
@@ -548,7 +553,7 @@ class _Shared:
 
 def step(model, data, *, link_forces=None, joint_force_references=None, ctrl=None):
     """The data after one step (see warpdyn.model.step): new Data, fresh arrays, same representation."""
-    current, N = prepare(model, data)
+    current, N = prepare(model, data, health=True)
     tau_ref = _joint_force_references(current, data, joint_force_references)
     f_user = _link_forces(current, data, link_forces)
     u = _ctrl(current, data, ctrl)

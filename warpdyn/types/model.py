@@ -30,7 +30,7 @@ from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, 
 from .settings import ActuationParams, SoftContactsParams
 from .terrain import FlatTerrain, HeightfieldTerrain, PlaneTerrain
 
-__all__ = ["Model", "SCALARS", "check_data", "transforms", "quaternion_xyzw"]
+__all__ = ["Model", "SCALARS", "transforms", "quaternion_xyzw"]
 
 SCALARS = {np.dtype(np.float32): wp.float32, np.dtype(np.float64): wp.float64}
 """The NumPy dtypes a model computes in, and their Warp scalars."""
@@ -90,6 +90,8 @@ def _setting(name: str, check, doc: str) -> property:
 
 
 def _number(name: str, value, positive: bool) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a number, got {value!r}")
     try:
         value = float(value)
     except (TypeError, ValueError):
@@ -97,6 +99,13 @@ def _number(name: str, value, positive: bool) -> float:
     if not np.isfinite(value) or (positive and value <= 0.0):
         raise ValueError(f"{name} must be {'positive and ' if positive else ''}finite, got {value}")
     return value
+
+
+def _integrator(value) -> IntegratorType:
+    try:
+        return IntegratorType(value)
+    except ValueError:
+        raise ValueError(f"integrator must be one of {[f'IntegratorType.{k.name}' for k in IntegratorType]}, got {value!r}") from None
 
 
 def _instance(name: str, *kinds):
@@ -330,7 +339,7 @@ class Model:
         lambda v: _number("quaternion_tolerance", v, positive=True),
         "A step whose base quaternion changes by more than this (a norm) flags the environment invalid.",
     )
-    integrator = _setting("integrator", IntegratorType, "The step's integrator (IntegratorType).")
+    integrator = _setting("integrator", _integrator, "The step's integrator (IntegratorType).")
     terrain = _setting("terrain", _instance("terrain", FlatTerrain, PlaneTerrain, HeightfieldTerrain), "The terrain (warpdyn.terrain).")
     contact_params = _setting("contact_params", _instance("contact_params", SoftContactsParams), "The soft contacts' parameters.")
     actuation_params = _setting("actuation_params", _instance("actuation_params", ActuationParams), "The torque-speed curve.")
@@ -355,7 +364,9 @@ class Model:
         row per environment, read by every dynamics function, `step` and rollouts. A model with
         per-environment parameters serves data of those N environments only (a ValueError otherwise), and
         its gradients (`parameters_requiring_grad`) come back per environment. Masses must be non-negative,
-        inertias symmetric positive semi-definite. Each value given makes a new Warp array (`model.link_mass`, ...).
+        inertias symmetric positive semi-definite (the loader's checks and tolerances,
+        warpdyn.description.physical; an UnphysicalInertiaWarning for principal moments that violate the
+        triangle inequality). Each value given makes a new Warp array (`model.link_mass`, ...).
         """
         self._set_group(LINK_PARAMETERS, values, "set_link_parameters")
 
@@ -548,15 +559,17 @@ class Model:
 
     def reduced(self, considered_joints, locked_joint_positions: dict | None = None) -> Model:
         """See warpdyn.model.reduce."""
-        considered_joints = list(considered_joints)
+        considered_joints = arrays.names_argument(considered_joints, "considered_joints")
         unknown = [name for name in considered_joints if name not in self.joint_names()]
         if unknown:
             raise ValueError(f"considered_joints names joints that model '{self.name()}' does not have: {unknown}")
         locked = dict(self.tree.locked_joints)
+        if locked_joint_positions is not None and not isinstance(locked_joint_positions, dict):
+            raise TypeError(f"locked_joint_positions must be a dict {{joint name: position}}, got {type(locked_joint_positions).__name__}")
         for name, value in (locked_joint_positions or {}).items():
             if name not in self.joint_names() or name in considered_joints:
                 raise ValueError(f"locked_joint_positions names '{name}', which is not a joint this reduction locks")
-            locked[name] = float(value)
+            locked[name] = value  # build_tree checks it
         tree = build_tree(self.description, considered_joints, locked)
         return Model(
             self.description,
@@ -617,19 +630,3 @@ class Model:
 for _parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS):
     setattr(Model, _parameter.name, _ParameterAttribute(_parameter))
 del _parameter
-
-
-def check_data(model: Model, data, parameters: bool = False) -> None:
-    """Errors naming what does not match between the data and the model; parameters: the caller reads the
-    link or joint parameters, which, given per environment, need data of those N environments."""
-    if parameters and model._per_env and any(N != data.batch_size for N in model._per_env.values()):
-        raise ValueError(
-            f"the model's parameters {model.per_environment_parameters()} are given per environment, "
-            f"but the data has {data.batch_size} environments"
-        )
-    if data.scalar != model.scalar:
-        raise TypeError(f"data is in {data.dtype.name} but the model computes in {model.dtype.name}")
-    if data.joint_positions_state.shape[1] != model.dofs():
-        raise ValueError(f"data has {data.joint_positions_state.shape[1]} joints but the model has {model.dofs()}")
-    if str(data.device) != str(model.device):
-        raise ValueError(f"data is on device '{data.device}' but the model is on '{model.device}'")

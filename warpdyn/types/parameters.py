@@ -18,9 +18,13 @@ Groups and where the values live:
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Callable
 
 import numpy as np
+
+from ..description.model import caller_stacklevel
+from ..description.physical import UnphysicalInertiaWarning, inertia_faults
 
 __all__ = [
     "Parameter",
@@ -52,13 +56,25 @@ def check_non_negative(name: str, host: np.ndarray) -> None:
 
 
 def check_inertia(name: str, host: np.ndarray) -> None:
-    """Symmetric positive semi-definite (3, 3) matrices, to a relative tolerance of 1e-9."""
+    """Symmetric positive semi-definite (3, 3) matrices; an UnphysicalInertiaWarning for those violating the
+    triangle inequality (the loader's checks and tolerances: warpdyn.description.physical)."""
     check_finite(name, host)
-    scale = max(float(np.abs(host).max(initial=0.0)), 1e-300)
-    if np.abs(host - np.swapaxes(host, -1, -2)).max(initial=0.0) > 1e-9 * scale:
-        raise ValueError(f"{name} must hold symmetric matrices")
-    if np.linalg.eigvalsh(host).min(initial=0.0) < -1e-9 * scale:
-        raise ValueError(f"{name} must hold positive semi-definite matrices")
+    asymmetric, indefinite, triangle, moments = inertia_faults(host)
+    if np.any(asymmetric):
+        raise ValueError(f"{name} must hold symmetric matrices: entry {tuple(np.argwhere(asymmetric)[0].tolist())} is not")
+    if np.any(indefinite):
+        at = tuple(np.argwhere(indefinite)[0].tolist())
+        raise ValueError(
+            f"{name} must hold positive semi-definite matrices: entry {at} has principal moments {moments[at].tolist()}"
+        )
+    if np.any(triangle):
+        at = tuple(np.argwhere(triangle)[0].tolist())
+        warnings.warn(
+            f"{name}: entry {at} has principal moments {moments[at].tolist()} that violate the triangle inequality "
+            "(e0 + e1 >= e2): no rigid body has them; warpdyn computes with them as given",
+            UnphysicalInertiaWarning,
+            stacklevel=caller_stacklevel(),
+        )
 
 
 def check_limits(name: str, host: np.ndarray) -> None:

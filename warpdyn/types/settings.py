@@ -10,11 +10,17 @@ import warp as wp
 __all__ = ["SoftContactsParams", "ActuationParams", "host_values"]
 
 
-def host_values(value) -> np.ndarray:
-    """A parameter's values on the host (float64), from a number, a NumPy array or a Warp array."""
+def host_values(value, name: str = "value") -> np.ndarray:
+    """A parameter's values on the host (float64), from a number, a NumPy array or a Warp array; a TypeError
+    naming `name` for anything else."""
     if isinstance(value, wp.array):
         value = value.numpy()
-    return np.asarray(value, dtype=np.float64)
+    if isinstance(value, (bool, np.bool_, str, bytes)) or value is None:
+        raise TypeError(f"{name} must be a number or an array of numbers, got {value!r}")
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a number or an array of numbers, got {value!r}") from None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,9 +43,10 @@ class SoftContactsParams:
 
     def __post_init__(self):
         for name in ("K", "D", "mu", "p", "q"):
-            value = host_values(getattr(self, name))
-            if value.ndim > 1 or not np.all(np.isfinite(value)) or np.any(value < 0.0):
-                raise ValueError(f"SoftContactsParams.{name} must be finite and non-negative (a number or (N,)), got {value}")
+            value = host_values(getattr(self, name), f"SoftContactsParams.{name}")
+            if value.ndim > (1 if name in ("K", "D", "mu") else 0) or not np.all(np.isfinite(value)) or np.any(value < 0.0):
+                shape = "a number or (N,)" if name in ("K", "D", "mu") else "a number"
+                raise ValueError(f"SoftContactsParams.{name} must be finite and non-negative ({shape}), got {value}")
         if np.any(host_values(self.D) <= 0.0):
             raise ValueError("SoftContactsParams.D must be positive (the deformation relaxes with rate K/D)")
 
@@ -57,6 +64,16 @@ class ActuationParams:
     enable_friction: bool = True
 
     def __post_init__(self):
-        values = (self.torque_max, self.omega_th, self.omega_max)
-        if not all(np.isfinite(values)) or not (0.0 < self.omega_th < self.omega_max) or self.torque_max < 0.0:
-            raise ValueError(f"ActuationParams needs finite torque_max >= 0 and 0 < omega_th < omega_max, got {self}")
+        for name, unit in (("torque_max", "N m"), ("omega_th", "rad/s"), ("omega_max", "rad/s")):
+            value = host_values(getattr(self, name), f"ActuationParams.{name}")
+            if value.ndim != 0:
+                raise TypeError(f"ActuationParams.{name} must be a number [{unit}], got {getattr(self, name)!r}")
+            if not np.isfinite(value):
+                raise ValueError(f"ActuationParams.{name} must be finite [{unit}], got {float(value)}")
+            object.__setattr__(self, name, float(value))
+        if self.torque_max < 0.0:
+            raise ValueError(f"ActuationParams.torque_max must be non-negative [N m], got {self.torque_max}")
+        if not 0.0 < self.omega_th < self.omega_max:
+            raise ValueError(f"ActuationParams needs 0 < omega_th < omega_max [rad/s], got omega_th {self.omega_th}, omega_max {self.omega_max}")
+        if not isinstance(self.enable_friction, (bool, np.bool_)):
+            raise TypeError(f"ActuationParams.enable_friction must be True or False, got {self.enable_friction!r}")

@@ -15,6 +15,13 @@ Differentiable terrain: FlatTerrain.height and HeightfieldTerrain.heights may be
 dtype and device ((1,) or (N,), and (nx, ny)), which the contact kernels read in place, so that with
 requires_grad their .grad receives tape gradients (`warpdyn.model.parameters_requiring_grad(model,
 ("terrain_height",))` makes them). Host-side methods (`height_at`, `normal_at`) copy them to the host.
+
+Checks: every value is checked when a terrain is made (finite heights, origin and spacing, positive
+spacing; a Warp array is copied to the host once for that). Values written into a Warp array afterwards
+(`terrain.heights.assign(...)`, a kernel's output) are read by the next step as they are, unchecked: a check
+there would synchronise the host at every step. A NaN height at a corner of the cell under a collidable
+point gives it a NaN contact force (kernels/soft_contacts.py), so `step` flags its environment (Data.valid) and keeps its state;
+an infinite one gives an infinite or NaN force, flagged likewise. A finite but wrong height is not detected.
 """
 
 from __future__ import annotations
@@ -42,7 +49,7 @@ class FlatTerrain:
     kind = FLAT
 
     def __post_init__(self):
-        h = host_values(self.height)
+        h = host_values(self.height, "FlatTerrain.height")
         if h.ndim > 1 or h.size == 0 or not np.all(np.isfinite(h)):
             raise ValueError(f"FlatTerrain.height must be a finite number or (N,) array, got {self.height!r}")
 
@@ -107,6 +114,16 @@ class PlaneTerrain:
         return self
 
 
+def _pair(name: str, value) -> tuple[float, float]:
+    """Two finite numbers [m], or an error naming HeightfieldTerrain.{name}."""
+    host = host_values(value, f"HeightfieldTerrain.{name}")
+    if host.shape != (2,):
+        raise ValueError(f"HeightfieldTerrain.{name} must be two numbers (x, y) [m], got {value!r}")
+    if not np.all(np.isfinite(host)):
+        raise ValueError(f"HeightfieldTerrain.{name} must be two finite numbers [m], got {value!r}")
+    return float(host[0]), float(host[1])
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class HeightfieldTerrain:
     """A grid of heights (nx, ny) [m], heights[i, j] at origin + (i dx, j dy), bilinear in between."""
@@ -118,15 +135,16 @@ class HeightfieldTerrain:
     kind = HEIGHTFIELD
 
     def __post_init__(self):
-        h = host_values(self.heights)
-        if h.ndim != 2 or h.shape[0] < 2 or h.shape[1] < 2 or not np.all(np.isfinite(h)):
-            raise ValueError(f"HeightfieldTerrain.heights must be a finite (nx >= 2, ny >= 2) grid, got shape {h.shape}")
-        spacing = tuple(float(s) for s in self.spacing)
-        if len(spacing) != 2 or not all(np.isfinite(spacing)) or min(spacing) <= 0.0:
+        h = host_values(self.heights, "HeightfieldTerrain.heights")
+        if h.ndim != 2 or h.shape[0] < 2 or h.shape[1] < 2:
+            raise ValueError(f"HeightfieldTerrain.heights must be a (nx >= 2, ny >= 2) grid, got shape {h.shape}")
+        bad = np.argwhere(~np.isfinite(h))
+        if bad.size:
+            raise ValueError(f"HeightfieldTerrain.heights has non-finite values, first at {tuple(bad[0].tolist())}: {h[tuple(bad[0])]}")
+        spacing = _pair("spacing", self.spacing)
+        if min(spacing) <= 0.0:
             raise ValueError(f"HeightfieldTerrain.spacing must be two finite positive numbers [m], got {self.spacing!r}")
-        origin = tuple(float(o) for o in self.origin)
-        if len(origin) != 2 or not all(np.isfinite(origin)):
-            raise ValueError(f"HeightfieldTerrain.origin must be two finite numbers [m], got {self.origin!r}")
+        origin = _pair("origin", self.origin)
         if not isinstance(self.heights, wp.array):
             object.__setattr__(self, "heights", h)
         object.__setattr__(self, "origin", origin)
