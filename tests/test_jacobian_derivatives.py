@@ -281,21 +281,9 @@ def _integrate(state: dict, t: float) -> dict:
     angle = np.linalg.norm(w, axis=1, keepdims=True) * t
     axis = np.divide(w, np.linalg.norm(w, axis=1, keepdims=True), out=np.zeros_like(w), where=angle != 0)
     dq = np.concatenate([np.cos(angle / 2), np.sin(angle / 2) * axis], axis=1)
-    q = np.array([_quat_mul(a, b) for a, b in zip(dq, state["base_quaternion"])])
+    q = np.array([robots.qmul(a, b) for a, b in zip(dq, state["base_quaternion"])])
     s = state["joint_positions"] + t * state["joint_velocities"]
     return {**state, "base_position": p, "base_quaternion": q, "joint_positions": s}
-
-
-def _quat_mul(a, b) -> np.ndarray:
-    """Hamilton product of quaternions (w, x, y, z)."""
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array([
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    ])
 
 
 @pytest.mark.parametrize("name", MODELS)
