@@ -2,7 +2,9 @@
 each returning a torch tensor (N,) or (N, k) on the environment's device, computed with torch ops (no host
 synchronisation). A term reads `env.state` (`State`: the base and joint state, with the base velocities
 in the base frame and gravity projected into it), `env.actions`, `env.previous_actions`, `env.commands`
-and `env.joint_torques`; a task composes them with weights (`LeggedEnvConfig.rewards`, `.observations`).
+and `env.joint_torques` (the servo law kp (target - s) - kd sdot with the configuration's gains: what the
+environment's own servos apply before any force range); a task composes them with weights
+(`LeggedEnvConfig.rewards`, `.observations`).
 """
 
 from __future__ import annotations
