@@ -260,18 +260,21 @@ def broadcast_envs(row: wp.array, N: int) -> wp.array:
     return arrays.strided_view(row, (N, *row.shape[1:]), (0, *row.strides[1:]))
 
 
+_TERMS = (
+    ("friction_static", "friction_viscous"),
+    ("joint_limit_spring", "joint_limit_damper"),
+    ("stiffness", "damping", "springref"),
+    ("gravcomp_mass", "gravcomp_com"),
+)
+"""The parameters of the optional terms of a step (Plan's gradient_terms): friction, limits, passive, gravcomp."""
+
+
 def plan(model) -> Plan:
-    """The model's plan at its current version (and marking of the parameters of its optional terms)."""
-
-    def marked(*names):
-        return any(getattr(model, name).requires_grad for name in names)
-
-    terms = (
-        marked("friction_static", "friction_viscous"),
-        marked("joint_limit_spring", "joint_limit_damper"),
-        marked("stiffness", "damping", "springref"),
-        marked("gravcomp_mass", "gravcomp_com"),
-    )
+    """The model's plan at its current version (and marking of the parameters of its optional terms). The
+    parameters' arrays are looked up once per version (only a setter, which announces itself, replaces one);
+    whether they require gradients is read at each call."""
+    groups = model.cached("step plan terms", lambda: tuple(tuple(getattr(model, name) for name in names) for names in _TERMS))
+    terms = tuple([any([a.requires_grad for a in group]) for group in groups])
     return model.cached(("step plan", terms), lambda: Plan(model, terms))
 
 

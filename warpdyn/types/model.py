@@ -462,13 +462,18 @@ class Model:
         return self._values[name]
 
     def parameters_require_grad(self, groups=("link", "joint", "actuator", "contact", "terrain")) -> bool:
-        """Whether a parameter of these groups is a Warp array that requires gradients (attribute reads only)."""
-        for name, parameter in REGISTRY.items():
-            if parameter.group in groups:
-                value = self.parameter(name)
-                if isinstance(value, wp.array) and value.requires_grad:
-                    return True
+        """Whether a parameter of these groups is a Warp array that requires gradients (attribute reads only).
+        The parameters' arrays are listed once per version (a parameter becomes another object only through a
+        setter, which announces it); whether each requires gradients is read at every call, since marking an
+        array (`requires_grad = True`) announces nothing."""
+        for value in self.cached(("parameter arrays", tuple(groups)), lambda: self._parameter_arrays(groups)):
+            if value.requires_grad:
+                return True
         return False
+
+    def _parameter_arrays(self, groups) -> tuple:
+        values = (self.parameter(name) for name, parameter in REGISTRY.items() if parameter.group in groups)
+        return tuple(value for value in values if isinstance(value, wp.array))
 
     def mark_for_gradients(self, names) -> dict:
         """See warpdyn.model.parameters_requiring_grad: {name: Warp array requiring gradients}."""
