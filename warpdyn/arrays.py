@@ -69,6 +69,8 @@ def checked_host(value, name: str, accepted: list) -> np.ndarray:
         raise TypeError(f"{name} must be an array of numbers: {error}") from None
     if host.shape not in accepted:
         raise ValueError(f"{name} has shape {host.shape}, expected one of {accepted}")
+    if np.isfinite(host).all():
+        return host
     bad = np.argwhere(~np.isfinite(host))
     if bad.size:
         raise ValueError(f"{name} has non-finite values, first at index {tuple(bad[0].tolist())}: {host[tuple(bad[0])]}")
@@ -91,21 +93,31 @@ def with_env_axis(array: wp.array, N: int = 1) -> wp.array:
     return strided_view(array, (N, *array.shape), (0, *array.strides))
 
 
-def batched_input(value, name: str, per_env: tuple, num_envs: int | None, scalar, device) -> wp.array:
-    """A (N, *per_env) device array from a shared (per_env) or per-environment (N, *per_env) value.
-
-    A Warp array of the full shape is used as it is (no copy); NumPy-like values are checked and copied.
-    """
+def checked_input(value, name: str, per_env: tuple, num_envs: int | None, scalar, device):
+    """A user's shared (per_env) or per-environment (N, *per_env) value, checked as `batched_input` checks it:
+    a Warp array as it is, anything else as a float64 ndarray (`checked_host`)."""
     N = 1 if num_envs is None else num_envs
     accepted = [tuple(per_env)] + ([(N, *per_env)] if num_envs is not None else [])
     if isinstance(value, wp.array):
         check_device_array(value, name, scalar, device)
         if tuple(value.shape) not in accepted:
             raise ValueError(f"{name} has shape {tuple(value.shape)}, expected one of {accepted}")
+        return value
+    return checked_host(value, name, accepted)
+
+
+def batched_input(value, name: str, per_env: tuple, num_envs: int | None, scalar, device) -> wp.array:
+    """A (N, *per_env) device array from a shared (per_env) or per-environment (N, *per_env) value.
+
+    A Warp array of the full shape is used as it is (no copy); NumPy-like values are checked and copied.
+    """
+    N = 1 if num_envs is None else num_envs
+    value = checked_input(value, name, per_env, num_envs, scalar, device)
+    if isinstance(value, wp.array):
         if tuple(value.shape) == (N, *per_env):
             return value
         return with_env_axis(value, N)  # shared by the environments: read in place, its gradient summed over them
-    host = checked_host(value, name, accepted)
+    host = value
     out = empty(per_env, N, scalar, device)
     out.assign(wp.array(np.ascontiguousarray(np.broadcast_to(host, (N, *per_env))), dtype=scalar, device=device))
     return out

@@ -20,7 +20,7 @@ import warp as wp
 
 from . import arrays
 from .engine import centroidal, coriolis, derivatives, dynamics, kinematics
-from .engine import step as stepping
+from .engine import fast_step as stepping
 from .description import NotModelledWarning, UnphysicalInertiaWarning
 from .description.model import ActuatorDescription
 from .engine.kinematics import link_targets
@@ -390,8 +390,12 @@ def step(model: Model, data, *, link_forces=None, joint_force_references=None, c
     ctrl (na,) or (N, na): the controls of the model's actuators (see `actuator_forces`), held for the step.
     The step also applies the passive forces (`free_floating_passive_forces`; the gravity compensation at
     each RK4 stage) and, when model.implicit_damping, integrates the joints' damping implicitly.
-    Returns new Data (fresh arrays, same representation); `data` is unchanged. Outside a wp.Tape the step's
-    intermediate arrays and its recorded launches are kept per model and reused (a call packs only its new
-    arguments); under one they are fresh (the adjoint reads them later).
+    Returns new Data (same representation) whose arrays are the caller's: no later call overwrites them
+    while anything refers to them (the Data, a view, `.numpy()`, a torch tensor, a wp.Tape); `data` is
+    unchanged. Outside a wp.Tape the step's intermediate arrays are kept per model and thread, its output
+    arrays come from a small pool that hands a set out again once nothing else refers to it, and its
+    launches, from a state to a pooled set, are replayed from a graph after a few calls
+    (warpdyn.engine.fast_step); under a tape, or when gradients are needed, all are fresh (the adjoint
+    reads them later).
     """
     return stepping.step(model, data, link_forces=link_forces, joint_force_references=joint_force_references, ctrl=ctrl)

@@ -75,10 +75,35 @@ class Launch(NamedTuple):
     block_dim: int | None = None
 
 
-def run(launches, device) -> None:
-    """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them)."""
+def run(launches, device, stream=None) -> None:
+    """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them); on a CUDA
+    `stream` when given, else on the device's current stream."""
+    options = {} if stream is None else {"stream": stream}
     for item in launches:
-        launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
+        launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim, **options)
+
+
+_capture_streams: dict = {}
+
+
+def capture(launches, device):
+    """A graph of `launches` (Launch tuples) to replay with `wp.capture_launch`: Warp's CPU graph on the CPU, a
+    CUDA graph on a GPU. Their modules are loaded first; the capture holds `capture_lock`. On a GPU it is made on
+    a stream of its own (the graph may be launched on any stream of the device), so that what other threads
+    launch meanwhile on the device's stream runs rather than being captured with it. Warp's CPU capture
+    records only the capturing thread's launches."""
+    device = wp.get_device(device)
+    for item in launches:
+        ensure_loaded(item.kernel, device, item.block_dim if device.is_cuda else None)
+    with capture_lock:
+        stream = None
+        if device.is_cuda:
+            stream = _capture_streams.get(str(device))
+            if stream is None:
+                stream = _capture_streams[str(device)] = wp.Stream(device)
+        with wp.ScopedCapture(device=device, stream=stream, force_module_load=False) as captured:
+            run(launches, device, stream)
+    return captured.graph
 
 
 class Recorded:

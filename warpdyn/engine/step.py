@@ -10,7 +10,8 @@ A step, as JaxSim's `js.model.step` with SoftContacts:
 4. the integrator (kernels/integrators.py); environments whose new state is not finite are flagged
    (`data.valid`) and keep their state.
 `step` returns new Data (fresh arrays): nothing an adjoint needs is overwritten, so a wp.Tape through
-many steps gives gradients.
+many steps gives gradients. warpdyn.model.step comes here under a tape and when gradients are needed;
+otherwise it goes through warpdyn.engine.fast_step (pooled outputs, captured graphs: the same launches).
 
 Structure. What a model's steps launch is chosen once per model version (`Plan`, cached on the model:
 warpdyn.types.model). Parts a model does not need are not launched (no enabled collidable points: no FK,
@@ -67,6 +68,8 @@ __all__ = [
     "plan",
     "prepare",
     "step",
+    "step_inputs",
+    "advance",
     "step_launches",
     "state_buffers",
     "resultant_torques",
@@ -400,17 +403,17 @@ def _joint_forces(plan: Plan, X, tau_ref, u, tau, held) -> list:
     ]
 
 
-def step_launches(plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None, ctrl=None) -> list:
+def step_launches(plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None, ctrl=None, bundles=None) -> list:
     """The launches of one step from the state x to the state y (lists of 7 arrays, see
     warpdyn.engine.kinematics.state_arrays), all arrays given: nothing is allocated, nothing read back.
 
     tau_ref (N, n): the joint force references; f_user (N, nL, 6) in representation `repr`, or None;
     tau_out (N, n): where the applied joint torques go (default ws.tau); ctrl (N, na): the actuators'
-    controls (None: zero).
+    controls (None: zero); bundles: the State bundles (X, Y) of x and y when the caller has them.
     """
     N = x[0].shape[0]
     s = plan.scalar
-    X, Y = state_bundle(s, x), state_bundle(s, y)
+    X, Y = bundles if bundles is not None else (state_bundle(s, x), state_bundle(s, y))
     tau = ws.tau if tau_out is None else tau_out
     launches = []
     u = ctrl if ctrl is not None else plan.zeros((plan.na,), N)
@@ -555,11 +558,27 @@ class _Shared:
 
 
 def step(model, data, *, link_forces=None, joint_force_references=None, ctrl=None):
-    """The data after one step (see warpdyn.model.step): new Data, fresh arrays, same representation."""
-    current, N = prepare(model, data, health=True)
+    """The data after one step (see warpdyn.model.step): new Data, fresh arrays, same representation. The path
+    under a wp.Tape; warpdyn.engine.fast_step serves warpdyn.model.step and comes here when it must."""
+    current, _ = prepare(model, data, health=True)
+    return advance(model, data, current, *step_inputs(current, data, joint_force_references, link_forces, ctrl))
+
+
+def step_inputs(current: Plan, data, joint_force_references, link_forces, ctrl) -> tuple:
+    """(tau_ref, f_user, u): a step's inputs as device arrays (N, ...), checked; absent ones zero or None."""
     tau_ref = _joint_force_references(current, data, joint_force_references)
     f_user = _link_forces(current, data, link_forces)
     u = _ctrl(current, data, ctrl)
+    return tau_ref, f_user, u
+
+
+def advance(model, data, current: Plan, tau_ref, f_user, u):
+    """`step` after `prepare` and `step_inputs`: new Data on fresh arrays (tau_ref or u None: zero)."""
+    N = data.batch_size
+    if tau_ref is None:
+        tau_ref = current.zeros((current.n,), N)
+    if u is None:
+        u = current.zeros((current.na,), N)
     grad = data.requires_grad or inputs_require_grad(tau_ref, f_user, u) or model.parameters_require_grad()
     forces = f_user is not None
     y = state_buffers(current, N, grad)

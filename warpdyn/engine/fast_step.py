@@ -1,0 +1,171 @@
+"""`warpdyn.model.step` from Python: outputs from a pool, launches replayed from captured graphs.
+
+A step is functional: it returns new Data whose arrays the caller owns, and nothing it returns is overwritten
+while anybody can still see it (warpdyn.engine.step.step, which allocates them). Here the output state comes
+from an output pool (warpdyn.engine.pool: a few sets of state arrays, each handed out again once nobody refers
+to it), so a step allocates nothing. When the input data's state is itself one of the pool's sets (the usual
+`data = step(model, data, ...)`), the launches from that set to the output set are captured once per pair of
+sets (and velocity representation, and which controls are given) as a graph (Warp's CPU graph on the CPU, a
+CUDA graph on a GPU) and replayed: no argument packing, one call. An input state that is not the pool's (data
+that a user built, or another pool's) is treated the same way while it is the last such state (`foreign`: its
+arrays are kept alive while graphs read them), so stepping one state again and again with new controls is as
+fast. The controls reach those graphs through the pool's fixed input buffers, into which each call copies the
+user's values, checked as before (on the CPU through NumPy; on a GPU on the device, ordered on the stream
+before the replay). A launch list is replayed through `Recorded` for its first CAPTURE_AFTER calls, then
+captured. The result is that of warpdyn.engine.step.step bit for bit: the same kernels on the same numbers.
+
+Fresh arrays, as in warpdyn.engine.step.step, under a wp.Tape or a graph capture, when gradients are needed
+(the data, an input or a model parameter requires them), where reference counts say nothing
+(`pool.available()`), and when every set of the pool is held (a caller that keeps its results).
+
+One pool per model version, thread and stream, and number of environments (warpdyn.engine.launch.per_thread):
+a setter (a new model version) drops it with its graphs; a new plan at the same version (parameters marked for
+gradients, then no longer) rebuilds the graphs and workspaces and keeps the sets.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .. import arrays
+from . import pool, tape
+from .bundles import state_bundle
+from .kinematics import state_arrays
+from .launch import Recorded, capture, per_thread, run
+from .rollout import copy_launch
+from .step import Plan, Workspace, advance, prepare, state_buffers, step_inputs, step_launches, with_state
+from .step import plan as step_plan
+
+__all__ = ["step", "pool_of"]
+
+_INPUTS = ("joint_force_references", "link_forces", "ctrl")
+
+
+def step(model, data, *, link_forces=None, joint_force_references=None, ctrl=None):
+    """The data after one step (see warpdyn.model.step): new Data, same representation, arrays the caller owns."""
+    current, N = prepare(model, data, health=True)
+    if tape.taping() or current.device.is_capturing or not pool.available() or _requires_grad(model, data, joint_force_references, link_forces, ctrl):
+        return advance(model, data, current, *step_inputs(current, data, joint_force_references, link_forces, ctrl))
+    steps = per_thread(model, ("pooled steps", N), lambda: _Steps(current, N))
+    if steps.plan is not current:
+        steps.reset(current)
+    return steps.step(model, data, (joint_force_references, link_forces, ctrl))
+
+
+def pool_of(model, N: int):
+    """The calling thread's output pool of `step` for N environments: for tests, which look at the sets that the
+    steps hand out (`pool.slots`)."""
+    return per_thread(model, ("pooled steps", N), lambda: _Steps(step_plan(model), N)).pool
+
+
+def _requires_grad(model, data, *inputs) -> bool:
+    return data.requires_grad or any(isinstance(v, wp.array) and v.requires_grad for v in inputs) or model.parameters_require_grad()
+
+
+def _shadow(scalar):
+    """The engine's side of a set of state arrays: their aliases and the State bundle of those."""
+
+    def make(state: tuple) -> tuple:
+        aliases = [pool.alias(a) for a in state]
+        return aliases, state_bundle(scalar, aliases)
+
+    return make
+
+
+CAPTURE_AFTER = 2
+"""Calls of one launch list (input state, output set, representation, which controls are given) replayed
+through `Recorded` before it is captured as a graph: a capture costs ~1 ms on the CPU, the saving of some 20
+replays, so launches that run once or twice (a few steps of a new model) are not captured."""
+
+
+class _Steps:
+    """A thread's pooled steps of a model for N environments: the output pool, the input buffers, the
+    workspaces, the last input state that is not one of the pool's sets (`foreign`), and the graphs or
+    recorded launches from an input state to an output set."""
+
+    def __init__(self, plan: Plan, N: int):
+        self.N = N
+        self.pool = pool.OutputPool(lambda: state_buffers(plan, N, False), _shadow(plan.scalar))
+        self.buffers: dict = {}  # input index -> (device array (N, ...), its NumPy view on the CPU)
+        self.reset(plan)
+
+    def reset(self, plan: Plan) -> None:
+        self.plan = plan
+        self.workspaces: dict = {}  # link forces given -> Workspace
+        self.recorded: dict = {}  # link forces given -> Recorded
+        self.graphs: dict = {}  # (input, output set, representation, controls given) -> graph
+        self.uses: dict = {}  # same keys -> calls replayed through Recorded
+        self.foreign = None  # (state arrays, (the same as a list, their State bundle))
+
+    def step(self, model, data, values: tuple):
+        plan = self.plan
+        tau, f, u = (self._input(k, value, data) for k, value in enumerate(values))
+        x = state_arrays(data)
+        source = self.pool.slot_of(x)
+        out = self.pool.take(busy=source)
+        if out is None:  # every set is held: fresh arrays
+            return advance(model, data, plan, tau, f, u)
+        name, shadow = (source.index, source.shadow) if source is not None else ("foreign", self._foreign(x))
+        key = (name, out.index, int(data.velocity_representation), tau is not None, f is not None, u is not None)
+        graph = self.graphs.get(key)
+        if graph is None:
+            launches = self._launches(*shadow, out, tau, f, u, key[2])
+            uses = self.uses.get(key, 0)
+            if uses < CAPTURE_AFTER:
+                self.uses[key] = uses + 1
+                recorded = self.recorded.get(f is not None)
+                if recorded is None:
+                    recorded = self.recorded[f is not None] = Recorded()
+                recorded.run(launches, plan.device)
+                return with_state(data, out.arrays)
+            graph = self.graphs[key] = capture(launches, plan.device)
+        wp.capture_launch(graph)
+        return with_state(data, out.arrays)
+
+    def _foreign(self, x: list) -> tuple:
+        """(x, its State bundle) for an input state that is not the pool's: kept (alive, while graphs read its
+        memory) until another such state comes, which drops its graphs."""
+        held = self.foreign
+        if held is None or not all(a is b for a, b in zip(held[0], x)):
+            for table in (self.graphs, self.uses):
+                for key in [k for k in table if k[0] == "foreign"]:
+                    del table[key]
+            held = self.foreign = (tuple(x), (x, state_bundle(self.plan.scalar, x)))
+        return held[1]
+
+    def _launches(self, x, X, out, tau, f, u, repr: int) -> list:
+        plan, N = self.plan, self.N
+        forces = f is not None
+        ws = self.workspaces.get(forces)
+        if ws is None:
+            ws = self.workspaces[forces] = Workspace(plan, N, False, forces)
+        y, Y = out.shadow
+        tau = tau if tau is not None else plan.zeros((plan.n,), N)
+        return step_launches(plan, ws, x, y, tau, f, repr, ctrl=u, bundles=(X, Y))
+
+    def _input(self, k: int, value, data):
+        """The pool's buffer k holding the user's value (checked as warpdyn.arrays.batched_input checks it), or
+        None for an absent input."""
+        if value is None:
+            return None
+        plan = self.plan
+        per_env = ((plan.n,), (plan.nL, 6), (plan.na,))[k]
+        value = arrays.checked_input(value, _INPUTS[k], per_env, data.num_envs, plan.scalar, plan.device)
+        held = self.buffers.get(k)
+        if held is None:
+            buffer = arrays.empty(per_env, self.N, plan.scalar, plan.device)
+            held = self.buffers[k] = (buffer, buffer.numpy() if plan.device.is_cpu else None)
+        buffer, view = held
+        if view is not None:  # the CPU: a copy through NumPy (a Warp array's view broadcasts as it does)
+            np.copyto(view, value.numpy() if isinstance(value, wp.array) else value)
+            return buffer
+        if not isinstance(value, wp.array):
+            host = np.ascontiguousarray(np.broadcast_to(value, buffer.shape))
+            value = wp.array(host, dtype=plan.scalar, device=plan.device)
+        elif tuple(value.shape) != tuple(buffer.shape):
+            value = arrays.with_env_axis(value, self.N)
+        item = copy_launch(plan.scalar, value, buffer)
+        if item is not None:
+            run([item], plan.device)
+        return buffer
