@@ -37,7 +37,7 @@ from .rollout import copy_launch
 from .step import Plan, Workspace, advance, prepare, state_buffers, step_inputs, step_launches, with_state
 from .step import plan as step_plan
 
-__all__ = ["step", "pool_of"]
+__all__ = ["step", "steps_of", "CAPTURE_AFTER"]
 
 _INPUTS = ("joint_force_references", "link_forces", "ctrl")
 
@@ -53,10 +53,10 @@ def step(model, data, *, link_forces=None, joint_force_references=None, ctrl=Non
     return steps.step(model, data, (joint_force_references, link_forces, ctrl))
 
 
-def pool_of(model, N: int):
-    """The calling thread's output pool of `step` for N environments: for tests, which look at the sets that the
-    steps hand out (`pool.slots`)."""
-    return per_thread(model, ("pooled steps", N), lambda: _Steps(step_plan(model), N)).pool
+def steps_of(model, N: int):
+    """The calling thread's pooled steps of `model` for N environments (made if there are none): for tests, which
+    look at the sets they hand out (`.pool.slots`) and the graphs they captured (`.graphs`)."""
+    return per_thread(model, ("pooled steps", N), lambda: _Steps(step_plan(model), N))
 
 
 def _requires_grad(model, data, *inputs) -> bool:

@@ -1,0 +1,382 @@
+"""The pooled wd.model.step (warpdyn.engine.fast_step) and its output pool (warpdyn.engine.pool).
+
+Reference: warpdyn.engine.step.step, the path that allocates fresh arrays and runs the same kernels on the same
+numbers, so every state must be equal bit for bit. The pool's contract: a set of output arrays is handed out
+again only when nothing but the pool refers to its arrays, so nothing a caller can still see is overwritten;
+each holder a user may keep is checked (it keeps the set from being reused, and letting it go frees it)."""
+
+import dataclasses
+import gc
+import threading
+
+import numpy as np
+import pytest
+import warp as wp
+
+import robots
+import warpdyn as wd
+from warpdyn import VelRepr
+from warpdyn.engine import fast_step, pool
+from warpdyn.engine import step as fresh
+from warpdyn.engine.kinematics import state_arrays
+
+STATE = (
+    "base_position_state",
+    "base_quaternion_state",
+    "joint_positions_state",
+    "base_velocity_state",
+    "joint_velocities_state",
+    "tangential_deformation_state",
+    "valid_state",
+)
+ON_CPU = wp.get_device(robots.TEST_DEVICE).is_cpu
+pytestmark = pytest.mark.skipif(not pool.available(), reason="reference counts are not exact here: no pool")
+
+
+def _legs(integrator=robots.SIE):
+    model = robots.ergocub_seed_with_points(np.float64)
+    model = wd.model.reduce(model, model.joint_names())  # its own plan, settings and pools
+    model.integrator = integrator
+    return model
+
+
+def _standing(model, N, repr_=VelRepr.Mixed, seed=0):
+    """The legs standing, the feet 3 mm deep, joints within 0.05 rad of zero: they stay healthy for 200 steps
+    under the tests' torques (N(0, 0.5) N m) and link forces (N(0, 1))."""
+    lowest = float(wd.contact.collidable_point_positions(model, wd.data.Data.build(model)).numpy()[:, 2].min())
+    joints = np.random.default_rng(seed).uniform(-0.05, 0.05, (1 if N is None else N, model.dofs()))
+    return wd.data.Data.build(
+        model, num_envs=N, base_position=(0.0, 0.0, -lowest - 0.003), joint_positions=joints[0] if N is None else joints, velocity_representation=repr_,
+    )  # fmt: skip
+
+
+def _host(data) -> dict:
+    return {name: getattr(data, name).numpy().copy() for name in STATE}
+
+
+def _assert_same(a, b, label):
+    a, b = (x if isinstance(x, dict) else _host(x) for x in (a, b))
+    for name in STATE:
+        np.testing.assert_array_equal(a[name], b[name], err_msg=f"{label}: {name}")
+
+
+def _slot(model, data):
+    N = data.batch_size
+    return fast_step.steps_of(model, N).pool.slot_of(state_arrays(data))
+
+
+def test_pool_hands_out_a_set_again_only_when_nobody_holds_it():
+    """The pool alone (arrays of a CPU or GPU device): a set is free right after it is made, busy while any
+    array of it is held (a list, a view), free again once let go; at most `size` sets, then None."""
+    made = []
+
+    def make():
+        made.append(1)
+        return [wp.zeros(3, dtype=wp.float64), wp.zeros((2, 2), dtype=wp.float32)]
+
+    outputs = pool.OutputPool(make, shadow=lambda arrays: [pool.alias(a) for a in arrays], size=2)
+    first = outputs.take()
+    assert first.free() and outputs.take() is first and len(made) == 1
+    assert all(s.ptr == a.ptr and not hasattr(s, "_ref") or s._ref is None for s, a in zip(first.shadow, first.arrays))
+    held = [first.arrays[1]]
+    assert not first.free()
+    second = outputs.take()
+    assert second is not first and len(made) == 2
+    view = second.arrays[0][1:]
+    assert outputs.take() is None, "both sets are held: no third"
+    del held
+    assert outputs.take() is first and outputs.take(busy=first) is None
+    del view
+    gc.collect()
+    assert outputs.take(busy=first) is second
+    assert outputs.slot_of(list(second.arrays)) is second and outputs.slot_of([second.arrays[0], first.arrays[1]]) is None
+    second.arrays[0].requires_grad = True  # a set marked for gradients is not handed out again
+    assert not second.free()
+
+
+@pytest.mark.parametrize("N", [None, 3], ids=["single", "batched"])
+@pytest.mark.parametrize("integrator", [robots.SIE, robots.RK4], ids=["euler", "rk4"])
+def test_a_loop_equals_fresh_steps_bitwise_and_cycles_two_sets(integrator, N):
+    """200 steps `data = step(model, data, ...)` of the legs in contact with new torques at every step (NumPy,
+    or a Warp array every third step), Body link forces in the second half: every state equals that of the
+    fresh path. The outputs cycle through two sets of the pool (the same two pointers), replayed from graphs."""
+    steps = 200
+    model = _legs(integrator)
+    n, nL = model.dofs(), model.number_of_links()
+    data = expected = _standing(model, N, VelRepr.Body)
+    batch = () if N is None else (N,)
+    rng = np.random.default_rng(1)
+    pointers = []
+    for t in range(steps):
+        tau = rng.normal(0, 0.5, (*batch, n))
+        if t % 3 == 2:
+            tau = wp.array(tau, dtype=wp.float64)
+        f = rng.normal(0, 1, (*batch, nL, 6)) if t >= steps // 2 else None
+        data = wd.model.step(model, data, joint_force_references=tau, link_forces=f)
+        expected = fresh.step(model, expected, joint_force_references=tau, link_forces=f)
+        _assert_same(data, expected, f"step {t}")
+        assert data.velocity_representation == VelRepr.Body and data.num_envs == N
+        pointers.append(data.joint_positions_state.ptr)
+    assert np.abs(data.tangential_deformation_state.numpy()).max() > 0, "no contact"
+    assert data.valid_state.numpy().all()
+    pooled = fast_step.steps_of(model, 1 if N is None else N)
+    assert len(pooled.pool.slots) == 2 and _slot(model, data) is not None
+    assert len(set(pointers[2:])) == 2 and pointers[2::2] == [pointers[2]] * len(pointers[2::2])
+    assert len(pooled.graphs) >= 4, pooled.graphs.keys()  # 2 pairs, without and with link forces
+
+
+def test_stepping_one_state_again_and_again():
+    """The same user-built data stepped with new torques each call (the `foreign` input: replayed from graphs
+    after CAPTURE_AFTER calls), then edited in place (the graphs read its memory as it is then), then another
+    data: every result equals the fresh path's, and every result is a pool set."""
+    model = _legs()
+    n = model.dofs()
+    data = _standing(model, 2)
+    rng = np.random.default_rng(3)
+    for k in range(6):
+        tau = rng.normal(0, 0.5, (2, n))
+        got = wd.model.step(model, data, joint_force_references=tau)
+        _assert_same(got, fresh.step(model, data, joint_force_references=tau), f"call {k}")
+        assert _slot(model, got) is not None
+    assert any(key[0] == "foreign" for key in fast_step.steps_of(model, 2).graphs)
+    data.joint_positions_state.assign(rng.uniform(-0.2, 0.2, (2, n)))
+    _assert_same(wd.model.step(model, data), fresh.step(model, data), "edited in place")
+    other = _standing(model, 2, seed=5)
+    for _ in range(4):
+        _assert_same(wd.model.step(model, other), fresh.step(model, other), "another data")
+    assert not any(key[0] == "foreign" and key[1] is None for key in fast_step.steps_of(model, 2).graphs)
+
+
+def _holders():
+    """Ways to keep a step's result (or a part of it) that a user has: each must keep the set from reuse."""
+    holders = {
+        "data": lambda d: d,
+        "field": lambda d: d.joint_positions_state,
+        "view [0]": lambda d: d.joint_positions_state[0],
+        "property": lambda d: d.joint_positions,
+        "slice": lambda d: d.base_velocity_state[:, 3:],
+        "strided view": lambda d: wd.arrays.strided_view(d.base_position_state, (3,), (d.base_position_state.strides[1],)),
+        "wp.array(copy=False)": lambda d: wp.array(d.joint_velocities_state, copy=False),
+        "closure": lambda d: (lambda q=d.valid_state: q),
+        "list": lambda d: [d.tangential_deformation_state],
+        "dlpack": lambda d: wp.to_dlpack(d.joint_positions_state),
+    }
+    if ON_CPU:  # on a GPU .numpy() is a copy, which nothing overwrites
+        holders["numpy view"] = lambda d: d.joint_positions_state.numpy()
+        holders["reshape"] = lambda d: d.joint_positions_state.reshape((-1,))
+        holders["flatten"] = lambda d: d.base_quaternion_state.flatten()
+    return holders
+
+
+@pytest.mark.parametrize("holder", list(_holders()))
+def test_a_held_result_is_never_overwritten(holder):
+    """A result of the loop is kept only through `holder`, then 12 more steps run: its set is not handed out,
+    its memory keeps the values it had (bitwise); once the holder is let go, the set is free again."""
+    model = _legs()
+    data = _standing(model, None)
+    for _ in range(3):
+        data = wd.model.step(model, data, joint_force_references=np.ones(model.dofs()))
+    slot = _slot(model, data)
+    kept = _holders()[holder](data)
+    before = {name: a.numpy().copy() for name, a in zip(STATE, slot.arrays)}
+    data = wd.model.step(model, data)
+    gc.collect()
+    assert not slot.free(), f"{holder} does not count"
+    for t in range(12):
+        data = wd.model.step(model, data, joint_force_references=np.full(model.dofs(), float(t)))
+        assert _slot(model, data) is not slot
+    _assert_same(before, {name: a.numpy() for name, a in zip(STATE, slot.arrays)}, holder)
+    del kept
+    gc.collect()
+    assert slot.free(), f"letting {holder} go does not free the set"
+
+
+def test_a_torch_tensor_keeps_its_result():
+    """wp.to_torch (zero copy) and torch.from_dlpack of results of the loop: their values stay while later steps
+    run, and the sets are free once the tensors are gone."""
+    torch = pytest.importorskip("torch")
+    model = _legs()
+    data = _standing(model, 2)
+    data = wd.model.step(model, data)
+    tensor = wp.to_torch(data.joint_positions_state)
+    slot = _slot(model, data)
+    data = wd.model.step(model, data)
+    other = torch.from_dlpack(data.base_velocity_state)
+    held = tensor.clone(), other.clone()
+    other_slot = _slot(model, data)
+    for _ in range(10):
+        data = wd.model.step(model, data, joint_force_references=np.ones(model.dofs()))
+    assert torch.equal(tensor, held[0]) and torch.equal(other, held[1])
+    assert not slot.free() and not other_slot.free()
+    del tensor, other
+    gc.collect()
+    assert slot.free() and other_slot.free()
+
+
+def test_a_tape_keeps_the_state_it_read():
+    """forward_dynamics_aba of a pooled result under a wp.Tape (the tape keeps the State bundle, which keeps the
+    arrays); the result is then let go and 10 more steps run; the tape's gradient equals that of a tape on a
+    copy of the state: the steps did not overwrite what the adjoint reads."""
+    model = _legs()
+    n = model.dofs()
+    data = _standing(model, None)
+    for _ in range(3):
+        data = wd.model.step(model, data)
+    copy = dataclasses.replace(data, **{name: wp.clone(getattr(data, name)) for name in STATE})
+    slot = _slot(model, data)
+
+    def gradient(d):
+        tau = wp.array(np.linspace(-1, 1, n), dtype=wp.float64, requires_grad=True)
+        tape = wp.Tape()
+        with tape:
+            _, joints = wd.model.forward_dynamics_aba(model, d, joint_forces=tau)
+        return tape, tau, joints
+
+    tape, tau, joints = gradient(data)
+    del data
+    data = copy
+    for _ in range(10):
+        data = wd.model.step(model, data, joint_force_references=np.ones(n))
+    assert not slot.free()
+    tape.backward(grads={joints: wp.array(np.ones(n), dtype=wp.float64)})
+    ref_tape, ref_tau, ref_joints = gradient(copy)
+    ref_tape.backward(grads={ref_joints: wp.array(np.ones(n), dtype=wp.float64)})
+    np.testing.assert_array_equal(tau.grad.numpy(), ref_tau.grad.numpy())
+    assert np.abs(tau.grad.numpy()).max() > 0
+    tape.reset()
+    del tape, joints
+    gc.collect()
+    assert slot.free()
+
+
+def test_under_a_tape_and_with_gradients_steps_are_fresh():
+    """Under a wp.Tape, or when the data or a parameter requires gradients, a step's arrays are not the pool's
+    (the adjoint reads them later); the results equal the fresh path's."""
+    model = _legs()
+    data = wd.model.step(model, _standing(model, 2))
+    with wp.Tape():
+        taped = wd.model.step(model, data)
+    assert _slot(model, taped) is None
+    _assert_same(taped, fresh.step(model, data), "taped")
+    tau = wp.array(np.ones((2, model.dofs())), dtype=wp.float64, requires_grad=True)
+    assert _slot(model, wd.model.step(model, data, joint_force_references=tau)) is None
+    model.mark_for_gradients(["link_mass"])
+    assert _slot(model, wd.model.step(model, data)) is None
+
+
+def test_a_model_change_after_graphs_exist():
+    """Graphs exist after 8 steps; then setters (friction on, a new time step) change the plan: the next steps
+    follow the new values as the fresh path does (a new model version, a new pool)."""
+    model = _legs()
+    data = expected = _standing(model, 2)
+    rng = np.random.default_rng(4)
+
+    def run(k):
+        nonlocal data, expected
+        for t in range(k):
+            tau = rng.normal(0, 0.5, (2, model.dofs()))
+            data = wd.model.step(model, data, joint_force_references=tau)
+            expected = fresh.step(model, expected, joint_force_references=tau)
+            _assert_same(data, expected, f"version {model.version}, step {t}")
+
+    run(8)
+    first = fast_step.steps_of(model, 2)
+    assert len(first.graphs) >= 2
+    model.set_joint_parameters(friction_static=np.full(model.dofs(), 0.5), friction_viscous=np.full(model.dofs(), 0.2))
+    run(6)
+    second = fast_step.steps_of(model, 2)
+    assert second is not first and second.plan.with_friction and len(second.graphs) >= 1
+    model.time_step = 5e-4
+    run(6)
+    assert fast_step.steps_of(model, 2).plan.dt == 5e-4 and data.valid_state.numpy().all()
+
+
+def test_inputs_copied_on_the_device():
+    """The GPU's way of filling the input buffers (a copy kernel, a host value uploaded first), forced on any
+    device: NumPy (shared and per environment), shared and full Warp arrays, link forces, bitwise as fresh."""
+    model = _legs()
+    n, nL = model.dofs(), model.number_of_links()
+    data = expected = _standing(model, 3, VelRepr.Inertial)
+    data = wd.model.step(model, data, joint_force_references=np.zeros(n), link_forces=np.zeros((nL, 6)))
+    expected = fresh.step(model, expected, joint_force_references=np.zeros(n), link_forces=np.zeros((nL, 6)))
+    pooled = fast_step.steps_of(model, 3)
+    for k, (buffer, _) in list(pooled.buffers.items()):
+        pooled.buffers[k] = (buffer, None)
+    rng = np.random.default_rng(6)
+    for t in range(8):
+        tau = (rng.normal(0, 0.5, n), rng.normal(0, 0.5, (3, n)))[t % 2]
+        tau = wp.array(tau, dtype=wp.float64) if t % 4 >= 2 else tau
+        f = rng.normal(0, 1, (nL, 6)) if t % 3 else wp.array(rng.normal(0, 1, (3, nL, 6)), dtype=wp.float64)
+        data = wd.model.step(model, data, joint_force_references=tau, link_forces=f)
+        expected = fresh.step(model, expected, joint_force_references=tau, link_forces=f)
+        _assert_same(data, expected, f"step {t}")
+
+
+def test_actuators_through_the_pool():
+    """An MJCF humanoid with position servos driven by `ctrl` (NumPy, then absent): the loop equals the fresh path."""
+    import mjcf_models as mm
+
+    model = wd.model.Model.build_from_model_description(mm.FLOATING_HUMANOID, dtype=np.float64)
+    N, na = 2, model.number_of_actuators()
+    data = expected = wd.data.Data.build(model, num_envs=N, joint_positions=np.random.default_rng(0).uniform(-0.3, 0.3, (N, model.dofs())))
+    rng = np.random.default_rng(2)
+    for t in range(10):
+        u = rng.uniform(-1, 1, (N, na)) if t < 6 else None
+        data = wd.model.step(model, data, ctrl=u)
+        expected = fresh.step(model, expected, ctrl=u)
+        _assert_same(data, expected, f"step {t}")
+
+
+def test_bad_inputs_to_a_pooled_step_are_named():
+    """Inputs to a step of a pooled result get the errors of warpdyn.arrays.batched_input, and the pool steps on."""
+    model = _legs()
+    n = model.dofs()
+    data = wd.model.step(model, _standing(model, None))
+    with pytest.raises(ValueError, match=r"joint_force_references has shape \(3,\)"):
+        wd.model.step(model, data, joint_force_references=np.zeros(3))
+    with pytest.raises(ValueError, match="joint_force_references has non-finite values"):
+        wd.model.step(model, data, joint_force_references=np.full(n, np.nan))
+    with pytest.raises(TypeError, match="link_forces has dtype"):
+        wd.model.step(model, data, link_forces=wp.zeros((model.number_of_links(), 6), dtype=wp.float32))
+    with pytest.raises(TypeError, match="ctrl must be an array of numbers"):
+        wd.model.step(model, data, ctrl="one")
+    _assert_same(wd.model.step(model, data), fresh.step(model, data), "after the errors")
+
+
+def test_two_threads_step_one_model():
+    """Two threads step the same model, each its own data and torques, 60 steps at once (each its own pool and
+    graphs; captures under the capture lock): every state equals the serial fresh path's."""
+    model = _legs()
+    n = model.dofs()
+    starts = [_standing(model, 2, seed=s) for s in (0, 1)]
+    torques = [np.random.default_rng(10 + s).normal(0, 0.5, (60, 2, n)) for s in (0, 1)]
+    expected = []
+    for start, tau in zip(starts, torques):
+        d, states = start, []
+        for t in range(60):
+            d = fresh.step(model, d, joint_force_references=tau[t])
+            states.append(_host(d))
+        expected.append(states)
+    got = [[], []]
+    barrier = threading.Barrier(2)
+    errors = []
+
+    def worker(k):
+        try:
+            barrier.wait()
+            d = starts[k]
+            for t in range(60):
+                d = wd.model.step(model, d, joint_force_references=torques[k][t])
+                got[k].append(_host(d))
+        except Exception as error:  # noqa: BLE001 - reported below
+            errors.append(error)
+
+    threads = [threading.Thread(target=worker, args=(k,)) for k in (0, 1)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert not errors, errors
+    for k in (0, 1):
+        for t in range(60):
+            _assert_same(got[k][t], expected[k][t], f"thread {k}, step {t}")
