@@ -151,7 +151,13 @@ class Data:
 
     @property
     def requires_grad(self) -> bool:
-        return any(getattr(self, f"{name}_state").requires_grad for name in _STATE_FIELDS)
+        return (
+            self.base_position_state.requires_grad
+            or self.base_quaternion_state.requires_grad
+            or self.joint_positions_state.requires_grad
+            or self.base_velocity_state.requires_grad
+            or self.joint_velocities_state.requires_grad
+        )
 
     def _out(self, array: wp.array) -> wp.array:
         return arrays.squeeze_env(array, self.num_envs)

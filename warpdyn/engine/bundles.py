@@ -8,6 +8,8 @@ the environments (a view of the (count,) array), N for one given per environment
 
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 import warp as wp
 
@@ -52,9 +54,15 @@ def _build_model_bundle(model):
 
 
 def model_bundle(model):
-    """The model's `bundles(scalar).Model`, cached per model version and per gradient arrays of its parameters."""
-    grads = tuple(id(getattr(model, name).grad) for name in _PARAMETERS)
+    """The model's `bundles(scalar).Model`, cached per model version and per gradient arrays of its parameters
+    (the parameters' arrays listed once per version: only a setter, which announces itself, replaces one;
+    their .grad, which marking an array for gradients sets, read at each call)."""
+    parameters = model.cached("model bundle arrays", lambda: tuple(getattr(model, name) for name in _PARAMETERS))
+    grads = tuple(map(id, map(_GRAD, parameters)))
     return model.cached(("model bundle", grads), lambda: _build_model_bundle(model))
+
+
+_GRAD = operator.attrgetter("grad")
 
 
 def state_bundle(scalar, state: list):
@@ -83,10 +91,18 @@ def empty_like_input(scalar, device, ndim: int) -> wp.array:
 
 
 _EMPTY: dict = {}
+_NO_CONTROLS: dict = {}
 
 
 def controls_bundle(scalar, device, joint_forces=None, link_forces=None):
-    """A `bundles(scalar).Controls`: joint forces (N, n) and link forces (N, nL, 6), None for absent."""
+    """A `bundles(scalar).Controls`: joint forces (N, n) and link forces (N, nL, 6), None for absent (both
+    absent: one bundle per (scalar, device), made once; nothing writes it)."""
+    if joint_forces is None and link_forces is None:
+        key = (scalar, str(device))
+        bundle = _NO_CONTROLS.get(key)
+        if bundle is None:
+            bundle = _NO_CONTROLS[key] = controls_bundle(scalar, device, empty_like_input(scalar, device, 2))
+        return bundle
     bundle = bundles(scalar).Controls()
     bundle.joint_forces = joint_forces if joint_forces is not None else empty_like_input(scalar, device, 2)
     bundle.link_forces = link_forces if link_forces is not None else empty_like_input(scalar, device, 3)

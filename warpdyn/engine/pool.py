@@ -45,6 +45,7 @@ outside a graph capture (the callers check both).
 
 from __future__ import annotations
 
+import operator
 import sys
 
 import warp as wp
@@ -71,6 +72,9 @@ def alias(array: wp.array) -> wp.array:
     return wp.array(ptr=array.ptr, dtype=array.dtype, shape=array.shape, strides=array.strides, device=array.device)
 
 
+_REQUIRES_GRAD = operator.attrgetter("requires_grad")
+
+
 def _counts(arrays: tuple) -> tuple:
     # one function for the baseline and for the checks, so that its own temporary references cancel out
     return tuple(map(sys.getrefcount, arrays))
@@ -92,7 +96,7 @@ class Slot:
 
     def free(self) -> bool:
         """Whether nothing but the pool refers to the set's arrays (and none was marked for gradients since)."""
-        return _counts(self.arrays) == self._baseline and not any(a.requires_grad for a in self.arrays)
+        return _counts(self.arrays) == self._baseline and True not in map(_REQUIRES_GRAD, self.arrays)
 
     def holds(self, arrays) -> bool:
         """Whether `arrays` are this set's arrays, the same objects in the same order."""
