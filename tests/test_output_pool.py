@@ -380,3 +380,67 @@ def test_two_threads_step_one_model():
     for k in (0, 1):
         for t in range(60):
             _assert_same(got[k][t], expected[k][t], f"thread {k}, step {t}")
+
+
+def _dynamics(model, data, tau, f):
+    """The dynamics functions whose outputs come from pools, with inputs where they take them."""
+    return {
+        "aba": wd.model.forward_dynamics_aba(model, data, joint_forces=tau, link_forces=f),
+        "crb": wd.model.forward_dynamics_crb(model, data, joint_forces=tau, link_forces=f),
+        "mass matrix": wd.model.free_floating_mass_matrix(model, data),
+        "mass matrix inverse": wd.model.free_floating_mass_matrix_inverse(model, data),
+        "bias": wd.model.free_floating_bias_forces(model, data),
+        "gravity": wd.model.free_floating_gravity_forces(model, data),
+        "inverse": wd.model.inverse_dynamics(model, data, joint_accelerations=tau, base_acceleration=np.full(6, 0.5), link_forces=f),
+        "passive": wd.model.free_floating_passive_forces(model, data),
+    }
+
+
+def _hosts(results: dict) -> dict:
+    return {k: [a.numpy().copy() for a in (v if isinstance(v, tuple | list) else [v])] for k, v in results.items()}
+
+
+@pytest.mark.parametrize("N", [None, 2], ids=["single", "batched"])
+def test_dynamics_outputs_from_pools_equal_fresh_ones(N):
+    """Each dynamics function, with NumPy and Warp inputs (shared and per environment; copied into the thread's
+    buffers on the CPU), equals its result under a wp.Tape (fresh outputs and inputs) bitwise, call after call;
+    a result let go is handed out again (the same array), a held one (its NumPy values) is not overwritten."""
+    model = _legs()
+    n, nL = model.dofs(), model.number_of_links()
+    batch = () if N is None else (N,)
+    rng = np.random.default_rng(7)
+    held = None
+    for k in range(4):
+        data = _standing(model, N, (VelRepr.Body, VelRepr.Mixed)[k % 2], seed=k)
+        tau = rng.normal(0, 1, (*batch, n)) if k % 2 else wp.array(rng.normal(0, 1, n), dtype=wp.float64)
+        f = rng.normal(0, 1, (nL, 6)) if k < 2 else wp.array(rng.normal(0, 1, (*batch, nL, 6)), dtype=wp.float64)
+        got = _hosts(_dynamics(model, data, tau, f))
+        with wp.Tape():
+            expected = _hosts(_dynamics(model, data, tau, f))
+        for name in got:
+            for a, b in zip(got[name], expected[name]):
+                np.testing.assert_array_equal(a, b, err_msg=f"call {k}: {name}")
+        if held is None:
+            held = wd.model.free_floating_mass_matrix(model, data)
+            values = held.numpy().copy()
+    np.testing.assert_array_equal(held.numpy(), values)
+    first = wd.model.forward_dynamics_aba(model, data)[1]
+    pointer = first.ptr
+    del first
+    assert wd.model.forward_dynamics_aba(model, data)[1].ptr == pointer
+    kept = wd.model.forward_dynamics_aba(model, data)[1]
+    assert wd.model.forward_dynamics_aba(model, data)[1].ptr != kept.ptr
+
+
+def test_dynamics_inputs_with_gradients_are_read_in_place():
+    """An input that requires gradients is not copied: under a tape its gradient arrives (ABA's joint forces)."""
+    model = _legs()
+    n = model.dofs()
+    data = _standing(model, None)
+    tau = wp.array(np.linspace(-1, 1, n), dtype=wp.float64, requires_grad=True)
+    tape = wp.Tape()
+    with tape:
+        _, joints = wd.model.forward_dynamics_aba(model, data, joint_forces=tau)
+    tape.backward(grads={joints: wp.array(np.ones(n), dtype=wp.float64)})
+    assert np.abs(tau.grad.numpy()).max() > 0
+    assert joints.requires_grad

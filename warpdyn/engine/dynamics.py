@@ -8,10 +8,13 @@ link forces from the data's representation themselves).
 
 Cost of a call. Outside a `wp.Tape`, each kernel keeps per model and thread a scratch array and a recorded
 launch (warpdyn.engine.launch.Recorded) for the last batch size it ran: a call then packs only the
-arguments that changed since the last one and allocates only its outputs. Under a tape every call gets
-fresh scratch (with gradients when the data, an input or a mass parameter requires them), since the
-adjoint reads it later. Outputs are always fresh arrays that the caller owns. Absent inputs (no joint
-forces, no link forces, zero accelerations) reach the kernels as empty arrays, which skip that work.
+arguments that changed since the last one. Its outputs are arrays that the caller owns, from an output
+pool (warpdyn.engine.pool: handed out again only once nothing else refers to them; fresh when gradients
+are needed or in a graph capture), and on the CPU its inputs are copied, after their checks, into the
+thread's buffers (`_input`), so that a call allocates nothing and re-packs nothing. Under a tape every call
+gets fresh scratch and outputs (with gradients when the data, an input or a mass parameter requires them),
+since the adjoint reads them later, and reads its inputs in place. Absent inputs (no joint forces, no link
+forces, zero accelerations) reach the kernels as empty arrays, which skip that work.
 Gradients reach the model's link parameters (their .grad) under a tape once they require gradients
 (`warpdyn.model.parameters_requiring_grad`).
 """
@@ -36,7 +39,7 @@ from ..kernels.rnea import kernels as rnea_kernels
 from ..kernels.scratch import TRANSFORM
 from ..kernels.state import kernels as state_kernels
 from ..types.data_checks import check_data
-from . import tape, warp_private
+from . import pool, tape, warp_private
 from .bundles import controls_bundle, empty_like_input, model_bundle
 from .kinematics import link_poses, state_of
 from .launch import Launch, Recorded, launch, per_thread
@@ -67,7 +70,7 @@ class _Cached:
         self.N, self.scratch, self.recorded = N, scratch, Recorded()
 
 
-def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, grad: bool) -> None:
+def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, grad: bool, taping: bool) -> None:
     """Launch the kernel `name` over N environments: inputs, then the scratch (N, nL, width), then outputs.
 
     Under a tape: fresh scratch (with gradients when `grad`) and a plain launch. Otherwise the thread's
@@ -77,7 +80,7 @@ def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, g
     block_dim, registers = config.cuda_launch.get(name, (None, "tuned")) if device.is_cuda else (None, "tuned")
     kernel = _KERNELS[name](model.scalar, registers)
     nL = model.number_of_links()
-    if tape.taping():
+    if taping:
         scratch = arrays.empty((nL, width), N, model.scalar, device, grad)
         launch(kernel, N, [*inputs, scratch], outputs, device=device, block_dim=block_dim)
         return
@@ -88,24 +91,88 @@ def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, g
     cached.recorded.run([Launch(kernel, N, [*inputs, cached.scratch], outputs, block_dim)], device)
 
 
+def _constant(scalar, value: float):
+    """`scalar(value)`, one object per (scalar, value), so that a recorded launch sees the argument it holds."""
+    key = (scalar, value)
+    constant = _CONSTANTS.get(key)
+    if constant is None:
+        constant = _CONSTANTS[key] = scalar(value)
+    return constant
+
+
+_CONSTANTS: dict = {}
+
+
 def _input(model, data, value, name: str, per_env: tuple):
-    """None for an absent input, else its (N, *per_env) device array (checked: shape, dtype, device, finite)."""
+    """None for an absent input, else its (N, *per_env) device array (checked: shape, dtype, device, finite).
+
+    On the CPU outside a tape and a graph capture, a value that requires no gradient is copied (after the same
+    checks) into the thread's buffer for `name` (`_Buffers`): the kernel, launched at once, reads the same
+    numbers, and the launch argument and its Controls bundle stay the same objects from call to call."""
     if value is None:
         return None
-    return arrays.batched_input(value, name, per_env, data.num_envs, model.scalar, model.device)
+    device = model.device
+    if device.is_cpu and not (isinstance(value, wp.array) and value.requires_grad) and not tape.taping() and not device.is_capturing:
+        value = arrays.checked_input(value, name, per_env, data.num_envs, model.scalar, device)
+        return per_thread(model, ("input buffers", data.batch_size), lambda: _Buffers(model, data.batch_size)).fill(name, per_env, value)
+    return arrays.batched_input(value, name, per_env, data.num_envs, model.scalar, device)
+
+
+class _Buffers:
+    """A thread's CPU buffers (N, *per_env) of the dynamics functions' inputs, one per input name, and the
+    Controls bundles of them (see `_input`, `_controls`)."""
+
+    def __init__(self, model, N: int):
+        self.model, self.N = model, N
+        self.arrays: dict = {}  # name -> (buffer, its NumPy view)
+        self.controls: dict = {}  # (id of joint forces, id of link forces) -> Controls bundle
+
+    def fill(self, name: str, per_env: tuple, value) -> wp.array:
+        held = self.arrays.get(name)
+        if held is None:
+            buffer = arrays.empty(per_env, self.N, self.model.scalar, self.model.device)
+            held = self.arrays[name] = (buffer, buffer.numpy())
+        np.copyto(held[1], value.numpy() if isinstance(value, wp.array) else value)
+        return held[0]
+
+
+def _controls(model, data, joint_forces, link_forces):
+    """controls_bundle of the inputs, made once for the thread's buffers (see `_input`)."""
+    if joint_forces is None and link_forces is None:
+        return controls_bundle(model.scalar, model.device)
+    buffers = per_thread(model, ("input buffers", data.batch_size), lambda: _Buffers(model, data.batch_size))
+    mine = {id(held[0]) for held in buffers.arrays.values()}
+    if all(a is None or id(a) in mine for a in (joint_forces, link_forces)):
+        key = (id(joint_forces), id(link_forces))
+        bundle = buffers.controls.get(key)
+        if bundle is None:
+            bundle = buffers.controls[key] = controls_bundle(model.scalar, model.device, joint_forces, link_forces)
+        return bundle
+    return controls_bundle(model.scalar, model.device, joint_forces, link_forces)
 
 
 class _Outputs:
-    """Fresh output arrays for a kernel: what the caller gets (`user`) and what the kernel writes (`args`).
+    """Output arrays for a kernel: what the caller gets (`user`) and what the kernel writes (`args`).
 
-    Batched data: (N, *shape) arrays in the device's layout, given to both. Single-environment data gets
-    arrays of JaxSim's shapes; the kernel sees them with a leading axis of 1, through launch descriptors
-    outside a tape (no view objects) and as views of (1, *shape) arrays under one (gradients flow through
-    views).
+    Batched data: (N, *shape) arrays in the device's layout. Single-environment data gets arrays of JaxSim's
+    shapes; the kernel sees them with a leading axis of 1, through launch descriptors outside a tape (no view
+    objects) and as views of (1, *shape) arrays under one (gradients flow through views).
+
+    Outside a tape and a graph capture, without gradients, the arrays come from an output pool per model,
+    thread, shapes and batch (warpdyn.engine.pool: handed out again once nothing else refers to them) and the
+    kernel writes them through the pool's aliases or descriptors (`slot`: the set, whose `cache` keeps what a
+    caller derives from it); otherwise they are fresh, and batched data's are given to both.
     """
 
     def __init__(self, model, data, shapes, grad: bool, taping: bool):
         s, d, N = model.scalar, model.device, data.batch_size
+        self.slot = None
+        if not (grad or taping) and pool.available() and not d.is_capturing:
+            shapes, batched = tuple(shapes), data.num_envs is not None
+            slot = per_thread(model, ("outputs", shapes, N, batched), lambda: _output_pool(model, shapes, N, batched)).take()
+            if slot is not None:
+                self.slot, self.user, self.args = slot, list(slot.arrays), slot.shadow
+                return
         if data.num_envs is not None:
             self.user = [arrays.output(shape, N, s, d, grad) for shape in shapes]
             self.args = self.user
@@ -120,6 +187,23 @@ class _Outputs:
             self.args = [env_axis_descriptor(a) for a in self.user]
 
 
+def _output_pool(model, shapes: tuple, N: int, batched: bool) -> pool.OutputPool:
+    """The pool of output sets of `shapes`: (N, *shape) arrays written through aliases (batched data), or
+    arrays of JaxSim's shapes written through launch descriptors (single-environment data)."""
+    s, d = model.scalar, model.device
+    if batched:
+        return pool.OutputPool(lambda: [arrays.output(shape, N, s, d) for shape in shapes], lambda made: [pool.alias(a) for a in made])
+
+    def make():
+        made = [wp.empty(shape, dtype=s, device=d) for shape in shapes]
+        if config.fill_outputs_with_nan:
+            for a in made:
+                a.fill_(float("nan"))
+        return made
+
+    return pool.OutputPool(make, lambda made: [env_axis_descriptor(a) for a in made])
+
+
 def env_axis_descriptor(array: wp.array):
     """A launch argument showing a single environment's contiguous `array` (shape S) as (1, *S)."""
     return warp_private.array_descriptor(array, (1, *array.shape), (array.capacity or 0, *array.strides))
@@ -129,11 +213,12 @@ def requires_grad(model, data, *inputs) -> bool:
     """Whether the data's state, an input or a link or joint parameter of the model (armature and damping enter
     the dynamics) requires gradients: then outputs and scratch get gradient arrays, so that the adjoint
     reaches them."""
-    return (
-        data.requires_grad
-        or model.parameters_require_grad(("link", "joint"))
-        or any(isinstance(x, wp.array) and x.requires_grad for x in inputs)
-    )
+    if data.requires_grad or model.parameters_require_grad(("link", "joint")):
+        return True
+    for x in inputs:
+        if isinstance(x, wp.array) and x.requires_grad:
+            return True
+    return False
 
 
 def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool, with_gravity: bool = True):
@@ -152,25 +237,30 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
     else:
         out = _Outputs(model, data, [(6 + n,)], grad, taping)
         Q = out.args[0]
-        if taping or data.num_envs is not None:
+        parts = out.slot.cache.get("parts") if out.slot is not None else None
+        if parts is not None:  # the pool's set: its parts made once
+            f_B, tau = parts
+        elif taping or data.num_envs is not None:
             f_B, tau = Q[:, :6], (Q[:, 6:] if n > 0 else arrays.empty((0,), N, s, d))
         else:
             size = wp.types.type_size_in_bytes(s)
             f_B = warp_private.array_descriptor(out.user[0], (1, 6), (0, size))
             tau = warp_private.array_descriptor(out.user[0], (1, n), (0, size), 6 * size)
-    empty2 = wp.empty((0, 0), dtype=s, device=d)
+        if out.slot is not None:
+            out.slot.cache["parts"] = (f_B, tau)
+    empty2 = empty_like_input(s, d, 2)
     inputs = [
         model_bundle(model),
         state_of(model, data),
         a_B if a_B is not None else empty2,
         s_dd if s_dd is not None else empty2,
-        controls_bundle(s, d, link_forces=f_L),
+        _controls(model, data, None, f_L),
         int(data.velocity_representation),
-        s(1.0 if with_velocity else 0.0),
-        s(1.0 if with_gravity else 0.0),
+        _constant(s, 1.0 if with_velocity else 0.0),
+        _constant(s, 1.0 if with_gravity else 0.0),
     ]
     width = RNEA_RECORD + (TRANSFORM if f_L is not None else 0)
-    _launch(model, "rnea", N, width, inputs, [f_B, tau], grad)
+    _launch(model, "rnea", N, width, inputs, [f_B, tau], grad, taping)
     return out.user if split else out.user[0]
 
 
@@ -193,7 +283,7 @@ def mass_matrix(model, data) -> wp.array:
     grad = requires_grad(model, data)
     out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping)
     inputs = [model_bundle(model), state_of(model, data), int(data.velocity_representation)]
-    _launch(model, "crba", data.batch_size, CRBA_RECORD, inputs, out.args, grad)
+    _launch(model, "crba", data.batch_size, CRBA_RECORD, inputs, out.args, grad, taping)
     return out.user[0]
 
 
@@ -209,12 +299,12 @@ def forward_dynamics_aba(model, data, joint_forces=None, link_forces=None):
     inputs = [
         model_bundle(model),
         state_of(model, data),
-        controls_bundle(model.scalar, model.device, tau, f_L),
+        _controls(model, data, tau, f_L),
         int(data.velocity_representation),
-        model.scalar(0.0),  # no implicit damping: the equations of motion as they are
+        _constant(model.scalar, 0.0),  # no implicit damping: the equations of motion as they are
     ]
     width = ABA_RECORD + (TRANSFORM if f_L is not None else 0)
-    _launch(model, "aba", data.batch_size, width, inputs, out.args, grad)
+    _launch(model, "aba", data.batch_size, width, inputs, out.args, grad, taping)
     base, joints = out.user
     return base, joints
 
