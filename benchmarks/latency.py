@@ -5,11 +5,14 @@
 Robot: the seed's ergoCub legs (12 joints, 13 links, 32 collidable points), standing with the feet 3 mm deep,
 dt = 1 ms, zero torques. Each row is the median wall time of one call after a warm-up (compilation, graph
 capture), the device synchronised around it:
-- `wd.model.step`: the functional step (new Data, fresh arrays), one environment;
+- `wd.model.step`: the functional step (new Data whose arrays the caller owns: from the output pool,
+  replayed from a graph, warpdyn.engine.fast_step), one environment: from the same data at every call, with
+  the torques as a Warp or a NumPy array, and in the loop `data = step(model, data, ...)`;
 - `Stepper.step`: `wd.simulation.Stepper`, in place, one call = one step (a replayed graph);
 - `Stepper.step`, batched: N = --batched environments, reported per env-step;
 - `Rollout.run`: a 1000-step rollout (ping-pong, graph), per step;
-- `forward_dynamics_aba`, `free_floating_mass_matrix`: one call each, one environment;
+- `forward_dynamics_aba` (with Warp joint forces, and without), `free_floating_mass_matrix`,
+  `free_floating_bias_forces`: one call each, one environment;
 - MuJoCo (CPU only): `mj_step` and `mj_forward` on the same legs compiled from the URDF (fused fixed joints,
   a free joint, no contacts: its collision geoms are dropped, so it is a lower bound of MuJoCo's cost).
 Prints the header and a Markdown table (µs).
@@ -80,7 +83,15 @@ def main() -> None:
         fn()
         rows.append((label, f"{median_time(fn, device, args.repeats, 0.5) / per * 1e6:.3g}"))
 
-    row("`wd.model.step`, one environment", lambda: wd.model.step(model, data, joint_force_references=tau))
+    row("`wd.model.step`, one environment, Warp torques", lambda: wd.model.step(model, data, joint_force_references=tau))
+    tau_host = np.zeros(n)
+    row("`wd.model.step`, one environment, NumPy torques", lambda: wd.model.step(model, data, joint_force_references=tau_host))
+    state = [data]
+
+    def loop():
+        state[0] = wd.model.step(model, state[0], joint_force_references=tau_host)
+
+    row("`data = wd.model.step(model, data, ...)`, one environment, NumPy torques", loop)
     stepper = wd.simulation.Stepper(model, data)
     row("`Stepper.step`, one environment", stepper.step)
     batched = wd.simulation.Stepper(model, standing(model, args.batched))
@@ -89,7 +100,9 @@ def main() -> None:
     roll = wd.simulation.Rollout(model, steps=T, record=())
     row(f"`Rollout.run` of {T} steps, one environment, per step", lambda: roll.run(data), per=T)
     row("`forward_dynamics_aba`, one environment", lambda: wd.model.forward_dynamics_aba(model, data, joint_forces=tau))
+    row("`forward_dynamics_aba`, one environment, no forces", lambda: wd.model.forward_dynamics_aba(model, data))
     row("`free_floating_mass_matrix`, one environment", lambda: wd.model.free_floating_mass_matrix(model, data))
+    row("`free_floating_bias_forces`, one environment", lambda: wd.model.free_floating_bias_forces(model, data))
     if not device.is_cuda:
         rows += mujoco_rows(model, args.repeats)
     print(header(device))
