@@ -27,7 +27,10 @@ What the pool itself keeps must not move those counts, and must never leave the 
 bundles and captured graphs of the engine reach a set's memory through `shadow` objects (Warp arrays made with
 `ptr=` on the same memory, or launch descriptors) that hold no reference to the arrays handed out. Those shadows
 are used only for launches made at once outside a wp.Tape (or captured into the pool's own graphs); nothing
-that a user or a tape could keep refers to them, since anything kept that way must count on the arrays.
+that a user or a tape could keep refers to them, since anything kept that way must count on the arrays (so a
+State bundle of aliases is never put on a Data: a tape recording a launch with it would not count). Where the
+engine keeps a user's arrays (a recorded launch's bound arguments, fast_step's last foreign input state), it
+holds ordinary references: when those are another pool's arrays, they only keep that set from reuse.
 
 Not covered, as with freed memory before: what sees the memory without a reference (`arr.ptr`, a user's
 `wp.array(ptr=...)`, a graph the user captured, a weak reference, which stays alive while the pool keeps the

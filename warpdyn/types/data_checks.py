@@ -1,6 +1,6 @@
 """The checks of a Data's state arrays against each other and against a model, run before every launch
 that reads them: attribute reads only (types, dtypes, devices, shapes), no device synchronisation, about
-1.5 us per call on the CPU (a step of a small model costs ~130 us)."""
+1.5 us per call on the CPU (a step of a small model costs ~20 us from Python)."""
 
 from __future__ import annotations
 
