@@ -12,7 +12,9 @@ arrays are kept alive while graphs read them), so stepping one state again and a
 fast. The controls reach those graphs through the pool's fixed input buffers, into which each call copies the
 user's values, checked as before (on the CPU through NumPy; on a GPU on the device, ordered on the stream
 before the replay). A launch list is replayed through `Recorded` for its first CAPTURE_AFTER calls, then
-captured. The result is that of warpdyn.engine.step.step bit for bit: the same kernels on the same numbers.
+captured, on the CPU only while the calling thread is the process's only thread (`_may_capture`: Warp's CPU
+capture is process-wide); otherwise it stays a recorded replay (~30 µs a step on this CPU instead of ~17). The
+result is that of warpdyn.engine.step.step bit for bit: the same kernels on the same numbers.
 
 Fresh arrays, as in warpdyn.engine.step.step, under a wp.Tape or a graph capture, when gradients are needed
 (the data, an input or a model parameter requires them), where reference counts say nothing
@@ -24,6 +26,8 @@ gradients, then no longer) rebuilds the graphs and workspaces and keeps the sets
 """
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 import warp as wp
@@ -79,6 +83,16 @@ through `Recorded` before it is captured as a graph: a capture costs ~1 ms on th
 replays, so launches that run once or twice (a few steps of a new model) are not captured."""
 
 
+def _may_capture(device) -> bool:
+    """Whether a graph may be captured now. On a GPU, yes (warpdyn.engine.launch.capture captures on a stream
+    of its own). On the CPU only while the calling thread is the process's only thread: Warp 1.19's CPU capture
+    is process-wide state (`runtime._apic_capture`) through which other threads' launches, copies and
+    allocations then go while it lasts, which they do not survive (NotImplementedError for launch descriptors
+    and strided copies, crashes). With other threads, the launch lists are replayed through `Recorded` instead
+    (~10 us more per step on the CPU)."""
+    return device.is_cuda or threading.active_count() == 1
+
+
 class _Steps:
     """A thread's pooled steps of a model for N environments: the output pool, the input buffers, the
     workspaces, the last input state that is not one of the pool's sets (`foreign`), and the graphs or
@@ -93,9 +107,10 @@ class _Steps:
     def reset(self, plan: Plan) -> None:
         self.plan = plan
         self.workspaces: dict = {}  # link forces given -> Workspace
-        self.recorded: dict = {}  # link forces given -> Recorded
-        self.graphs: dict = {}  # (input, output set, representation, controls given) -> graph
-        self.uses: dict = {}  # same keys -> calls replayed through Recorded
+        # keyed by (input: a set's index or "foreign", output set, representation, which controls are given):
+        self.launches: dict = {}  # -> [the launch list, calls replayed through Recorded]
+        self.recorded: dict = {}  # -> Recorded (kept when another foreign state comes: it re-packs that one)
+        self.graphs: dict = {}  # -> captured graph
         self.foreign = None  # (state arrays, (the same as a list, their State bundle))
 
     def step(self, model, data, values: tuple):
@@ -110,25 +125,26 @@ class _Steps:
         key = (name, out.index, int(data.velocity_representation), tau is not None, f is not None, u is not None)
         graph = self.graphs.get(key)
         if graph is None:
-            launches = self._launches(*shadow, out, tau, f, u, key[2])
-            uses = self.uses.get(key, 0)
-            if uses < CAPTURE_AFTER:
-                self.uses[key] = uses + 1
-                recorded = self.recorded.get(f is not None)
+            entry = self.launches.get(key)
+            if entry is None:
+                entry = self.launches[key] = [self._launches(*shadow, out, tau, f, u, key[2]), 0]
+            if entry[1] < CAPTURE_AFTER or not _may_capture(plan.device):
+                entry[1] += 1
+                recorded = self.recorded.get(key)
                 if recorded is None:
-                    recorded = self.recorded[f is not None] = Recorded()
-                recorded.run(launches, plan.device)
+                    recorded = self.recorded[key] = Recorded()
+                recorded.run(entry[0], plan.device)
                 return with_state(data, out.arrays)
-            graph = self.graphs[key] = capture(launches, plan.device)
+            graph = self.graphs[key] = capture(entry[0], plan.device)
         wp.capture_launch(graph)
         return with_state(data, out.arrays)
 
     def _foreign(self, x: list) -> tuple:
         """(x, its State bundle) for an input state that is not the pool's: kept (alive, while graphs read its
-        memory) until another such state comes, which drops its graphs."""
+        memory) until another such state comes, which drops its launch lists and graphs."""
         held = self.foreign
         if held is None or not all(a is b for a, b in zip(held[0], x)):
-            for table in (self.graphs, self.uses):
+            for table in (self.graphs, self.launches):
                 for key in [k for k in table if k[0] == "foreign"]:
                     del table[key]
             held = self.foreign = (tuple(x), (x, state_bundle(self.plan.scalar, x)))

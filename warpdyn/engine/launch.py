@@ -116,9 +116,17 @@ class Recorded:
 
     def __init__(self):
         self._commands: list | None = None
+        self._launches = None
 
     def run(self, launches, device) -> None:
+        """Launch `launches`; a list given again (the same object, unchanged: a caller's cached list) is
+        replayed without comparing its arguments."""
         commands = self._commands
+        if launches is self._launches:
+            for command, _, _ in commands:
+                command.launch()
+            return
+        self._launches = None
         if commands is None or len(commands) != len(launches) or any(c[0].kernel is not l.kernel for c, l in zip(commands, launches)):
             commands = self._commands = []
             for item in launches:
@@ -135,6 +143,7 @@ class Recorded:
                         continue
                     command.set_param_at_index(i, a)
                     bound[i] = a
+        self._launches = launches
         for command, _, _ in commands:
             command.launch()
 
