@@ -92,6 +92,9 @@ def test_pool_hands_out_a_set_again_only_when_nobody_holds_it():
     assert outputs.slot_of(list(second.arrays)) is second and outputs.slot_of([second.arrays[0], first.arrays[1]]) is None
     second.arrays[0].requires_grad = True  # a set marked for gradients is not handed out again
     assert not second.free()
+    kept = []  # arrays that something else refers to as they are made (a capture that records them, say)
+    leaky = pool.OutputPool(lambda: kept.append(wp.zeros(3, dtype=wp.float64)) or kept[-1:])
+    assert leaky.take() is None and leaky.slots == []
 
 
 @pytest.mark.parametrize("N", [None, 3], ids=["single", "batched"])

@@ -18,9 +18,10 @@ the object the pool handed out):
   `__cuda_array_interface__`, which torch keeps, on a GPU; a DLPack capsule (`wp.to_dlpack`, `torch.from_dlpack`)
   increments the array's count until its consumer lets it go;
 - a Warp struct (a kernel bundle's field) and a `wp.Tape` (its recorded launches keep their arguments).
-tests/test_output_pool.py checks each of these. So when `sys.getrefcount` of every array of a set is back at
-the count measured right after the set was made (when the pool alone held it), nobody can read those arrays
-any more, and overwriting them is as good as allocating new ones. The check needs no lock: an array that
+tests/test_output_pool.py checks each of these. So when `sys.getrefcount` of every array of a set reads what
+it reads for an object that only one tuple refers to (the set's own tuple, the pool's only reference to its
+arrays; measured once on a probe, `_ALONE`), nobody can read those arrays any more, and overwriting them is as
+good as allocating new ones. A new set that reads more is not kept. The check needs no lock: an array that
 nothing else refers to cannot be reached by another thread either.
 
 What the pool itself keeps must not move those counts, and must never leave the engine: the launches, kernel
@@ -79,8 +80,15 @@ _REQUIRES_GRAD = operator.attrgetter("requires_grad")
 
 
 def _counts(arrays: tuple) -> tuple:
-    # one function for the baseline and for the checks, so that its own temporary references cancel out
+    # one function for the reference count below and for the checks, so that its temporaries cancel out
     return tuple(map(sys.getrefcount, arrays))
+
+
+_ALONE = _counts((object(),))[0]
+"""What `_counts` reads for an object that only its tuple refers to: a set's arrays when nobody else holds
+them. Measured once on a probe rather than on each new set, so that a reference that happens to exist while a
+set is made (Warp's CPU capture keeps the arrays allocated while it records, in another thread say) cannot
+become part of what counts as free."""
 
 
 class Slot:
@@ -88,18 +96,17 @@ class Slot:
     (see the module docstring); `index`, its place in the pool; `cache`, what a caller derives from the set
     once (launch lists, descriptors), which must refer to the shadow only."""
 
-    __slots__ = ("arrays", "shadow", "index", "cache", "_baseline")
+    __slots__ = ("arrays", "shadow", "index", "cache")
 
     def __init__(self, make, shadow, index: int):
-        self.arrays = tuple(make())  # make's own list is gone before the baseline is taken
+        self.arrays = tuple(make())  # make's own list is gone once the tuple is made
         self.shadow = shadow(self.arrays) if shadow is not None else None
         self.index = index
         self.cache: dict = {}
-        self._baseline = _counts(self.arrays)
 
     def free(self) -> bool:
         """Whether nothing but the pool refers to the set's arrays (and none was marked for gradients since)."""
-        return _counts(self.arrays) == self._baseline and True not in map(_REQUIRES_GRAD, self.arrays)
+        return all(count == _ALONE for count in _counts(self.arrays)) and True not in map(_REQUIRES_GRAD, self.arrays)
 
     def holds(self, arrays) -> bool:
         """Whether `arrays` are this set's arrays, the same objects in the same order."""
@@ -135,6 +142,8 @@ class OutputPool:
         if len(self.slots) >= self._size:
             return None
         slot = Slot(self._make, self._shadow, len(self.slots))
+        if not slot.free():  # something else already refers to the new arrays: not a set to recycle
+            return None
         self.slots.append(slot)
         if slot.arrays:
             self._by_first[id(slot.arrays[0])] = slot
