@@ -157,7 +157,10 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
     that replace them in `model.contact_params` / `model.terrain` (the step's plan is rebuilt once). After
     `tape.backward(loss)` the gradient of the loss is in `arrays[name].grad`, the same shape as the
     parameter: a parameter shared by the environments gets the sum over them, a per-environment one a row
-    per environment. Zero the grads in place (`tape.zero()`) between backward passes: kernels recorded on a
+    per environment. On a GPU the environments' adjoints of a shared parameter are added with atomics, in
+    an order that varies from run to run (the last bits differ); a parameter given per environment (its
+    shared value tiled to N rows) gets bit-identical gradients run to run, whose sum over the rows is the
+    shared one's (tests/test_reproducibility.py). Zero the grads in place (`tape.zero()`) between backward passes: kernels recorded on a
     tape hold views of the arrays and their gradients, so a .grad replaced by a new array afterwards is not
     the one they write. Each call returns the model's
     current arrays: replacing a parameter later (set_link_parameters, set_joint_parameters, a new

@@ -16,6 +16,8 @@ from typing import NamedTuple
 
 import warp as wp
 
+from .tape import check_thread
+
 NOTICE_AFTER = 1.0
 """Seconds a first load may take before warpdyn says that it is compiling."""
 
@@ -62,6 +64,7 @@ def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | Non
     """wp.launch (its other options passed on), the kernel's module loaded first (see the module docstring)."""
     device = wp.get_device(device)
     ensure_loaded(kernel, device, block_dim if device.is_cuda else None)
+    check_thread()
     return wp.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device, block_dim=block_dim, **options)
 
 
