@@ -12,10 +12,39 @@ benchmarks/kinematics.py measures both layouts on both kinds of device.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import warp as wp
 
 from . import config
+
+capture_lock = threading.Lock()
+"""Held while a graph is captured (warpdyn.engine.launch.capture): Warp captures one graph at a time, and on
+a GPU a thread's first allocation or launch waits for a capture in progress (`note_thread`)."""
+
+_gpu_threads: dict = {}
+
+
+def note_thread(device) -> None:
+    """Count the calling thread among those that allocate or launch on a GPU, after any capture in progress:
+    Warp's CUDA stream is shared by all threads, so work of another thread during a capture would join or
+    break the captured graph, and a capture is made only while no other such thread is alive
+    (`other_gpu_threads`)."""
+    if not device.is_cuda:
+        return
+    me = threading.current_thread()
+    if _gpu_threads.get(me.ident) is me:
+        return
+    with capture_lock:
+        _gpu_threads[me.ident] = me
+
+
+def other_gpu_threads() -> list[str]:
+    """The names of the other live threads that have allocated or launched on a GPU."""
+    me = threading.current_thread()
+    return [t.name for t in list(_gpu_threads.values()) if t is not me and t.is_alive()]
+
 
 def env_fastest(device) -> bool:
     """Whether per-environment arrays on `device` are stored environment-fastest (warpdyn.config.env_fastest)."""
@@ -25,6 +54,7 @@ def env_fastest(device) -> bool:
 def empty(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = False) -> wp.array:
     """An uninitialised array of logical shape (num_envs, *shape) in the device's layout."""
     shape = tuple(int(s) for s in shape)
+    note_thread(wp.get_device(device))
     if env_fastest(device):
         physical = wp.empty((*shape, num_envs), dtype=dtype, device=device, requires_grad=requires_grad)
         array = physical.transpose((len(shape), *range(len(shape)))) if shape else physical

@@ -1,5 +1,6 @@
 """Kernel launches: every warpdyn launch goes through `launch` (a recorded launch is made by it), singly, as
-a list of `Launch`es (`run`), or replayed from a recording (`Recorded`).
+a list of `Launch`es (`run`), or replayed from a recording (`Recorded`); graphs are captured by `capture`,
+when `graphs_allowed` (on a GPU, not while another thread works on it: Warp's CUDA stream is shared).
 
 The first launch of a kernel module on a device compiles it, or loads it from Warp's kernel cache
 (`wp.config.kernel_cache_dir`). That first load runs under one process-wide lock, since Warp's module
@@ -10,12 +11,14 @@ result is cached.
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import threading
 from typing import NamedTuple
 
 import warp as wp
 
+from ..arrays import capture_lock, note_thread, other_gpu_threads
 from .tape import check_thread
 
 NOTICE_AFTER = 1.0
@@ -24,9 +27,6 @@ NOTICE_AFTER = 1.0
 _loaded: set = set()
 _lock = threading.RLock()
 _noticed = threading.Event()
-
-capture_lock = threading.Lock()
-"""Held while a graph is captured: Warp captures one graph per device at a time."""
 
 
 def _notice(device) -> None:
@@ -63,6 +63,7 @@ def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
 def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | None = None, **options):
     """wp.launch (its other options passed on), the kernel's module loaded first (see the module docstring)."""
     device = wp.get_device(device)
+    note_thread(device)
     ensure_loaded(kernel, device, block_dim if device.is_cuda else None)
     check_thread()
     return wp.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device, block_dim=block_dim, **options)
@@ -115,6 +116,32 @@ class Recorded:
                     bound[i] = a
         for command, _, _ in commands:
             command.launch()
+
+
+def graphs_allowed(device, use_graph, what: str) -> bool:
+    """Whether `what` ("a Rollout", "a Stepper") captures graphs: use_graph True or "auto" (False: never). On a
+    GPU a capture needs every other thread that works on a GPU to be finished (see warpdyn.arrays.note_thread):
+    with one alive, "auto" replays recorded launches instead and True raises a RuntimeError naming them."""
+    if use_graph is False:
+        return False
+    others = other_gpu_threads() if wp.get_device(device).is_cuda else []
+    if not others:
+        return True
+    if use_graph is True:
+        raise RuntimeError(
+            f"{what} with use_graph=True would capture a CUDA graph while threads {others} also work on the GPU: "
+            "Warp's CUDA stream is shared by all threads, so their work would join or break the capture. Use "
+            "use_graph='auto' (recorded launches while other threads work on the GPU) or False."
+        )
+    return False
+
+
+@contextlib.contextmanager
+def capture(device):
+    """wp.ScopedCapture on `device` under `capture_lock` (one capture at a time; on a GPU, no thread's first
+    allocation or launch meanwhile); yields the capture (its .graph after the block)."""
+    with capture_lock, wp.ScopedCapture(device=device, force_module_load=False) as captured:
+        yield captured
 
 
 def per_thread(model, key, build):
