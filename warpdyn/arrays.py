@@ -20,30 +20,30 @@ import warp as wp
 from . import config
 
 capture_lock = threading.Lock()
-"""Held while a graph is captured (warpdyn.engine.launch.capture): Warp captures one graph at a time, and on
-a GPU a thread's first allocation or launch waits for a capture in progress (`note_thread`)."""
+"""Held while a graph is captured (warpdyn.engine.launch.capture): Warp captures one graph at a time, and a
+thread's first allocation or launch on a device waits for a capture in progress (`note_thread`)."""
 
-_gpu_threads: dict = {}
+_threads: dict = {}
+"""{(device is CUDA, thread ident): thread} of the threads that allocated or launched through warpdyn."""
 
 
 def note_thread(device) -> None:
-    """Count the calling thread among those that allocate or launch on a GPU, after any capture in progress:
-    Warp's CUDA stream is shared by all threads, so work of another thread during a capture would join or
-    break the captured graph, and a capture is made only while no other such thread is alive
-    (`other_gpu_threads`)."""
-    if not device.is_cuda:
-        return
+    """Count the calling thread among those that allocate or launch on `device`'s kind (CPU or GPU), after any
+    capture in progress. A capture takes the work of other threads on that kind of device: Warp's CUDA stream
+    is shared by all threads, and its CPU capture records every thread's operations (which then fail). So a
+    graph is captured only while no other such thread is alive (`other_threads`)."""
     me = threading.current_thread()
-    if _gpu_threads.get(me.ident) is me:
+    key = (device.is_cuda, me.ident)
+    if _threads.get(key) is me:
         return
     with capture_lock:
-        _gpu_threads[me.ident] = me
+        _threads[key] = me
 
 
-def other_gpu_threads() -> list[str]:
-    """The names of the other live threads that have allocated or launched on a GPU."""
+def other_threads(device) -> list[str]:
+    """The names of the other live threads that have allocated or launched on `device`'s kind of device."""
     me = threading.current_thread()
-    return [t.name for t in list(_gpu_threads.values()) if t is not me and t.is_alive()]
+    return [t.name for (cuda, _), t in list(_threads.items()) if cuda == device.is_cuda and t is not me and t.is_alive()]
 
 
 def env_fastest(device) -> bool:

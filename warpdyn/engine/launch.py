@@ -1,6 +1,6 @@
 """Kernel launches: every warpdyn launch goes through `launch` (a recorded launch is made by it), singly, as
 a list of `Launch`es (`run`), or replayed from a recording (`Recorded`); graphs are captured by `capture`,
-when `graphs_allowed` (on a GPU, not while another thread works on it: Warp's CUDA stream is shared).
+when `graphs_allowed` (not while another thread works on that kind of device: a capture would take its work).
 
 The first launch of a kernel module on a device compiles it, or loads it from Warp's kernel cache
 (`wp.config.kernel_cache_dir`). That first load runs under one process-wide lock, since Warp's module
@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import warp as wp
 
-from ..arrays import capture_lock, note_thread, other_gpu_threads
+from ..arrays import capture_lock, note_thread, other_threads
 from .tape import check_thread
 
 NOTICE_AFTER = 1.0
@@ -119,26 +119,29 @@ class Recorded:
 
 
 def graphs_allowed(device, use_graph, what: str) -> bool:
-    """Whether `what` ("a Rollout", "a Stepper") captures graphs: use_graph True or "auto" (False: never). On a
-    GPU a capture needs every other thread that works on a GPU to be finished (see warpdyn.arrays.note_thread):
-    with one alive, "auto" replays recorded launches instead and True raises a RuntimeError naming them."""
+    """Whether `what` ("a Rollout", "a Stepper") captures graphs: use_graph True or "auto" (False: never). A
+    capture needs every other thread that works on that kind of device to be finished (see
+    warpdyn.arrays.note_thread): with one alive, "auto" replays recorded launches instead and True raises a
+    RuntimeError naming them."""
     if use_graph is False:
         return False
-    others = other_gpu_threads() if wp.get_device(device).is_cuda else []
+    device = wp.get_device(device)
+    others = other_threads(device)
     if not others:
         return True
     if use_graph is True:
         raise RuntimeError(
-            f"{what} with use_graph=True would capture a CUDA graph while threads {others} also work on the GPU: "
-            "Warp's CUDA stream is shared by all threads, so their work would join or break the capture. Use "
-            "use_graph='auto' (recorded launches while other threads work on the GPU) or False."
+            f"{what} with use_graph=True would capture a graph on '{device}' while threads {others} also work on "
+            "that kind of device: Warp's CUDA stream is shared by all threads and its CPU capture records every "
+            "thread's operations, so their work would join or break the capture. Use use_graph='auto' (recorded "
+            "launches while other threads work there) or False."
         )
     return False
 
 
 @contextlib.contextmanager
 def capture(device):
-    """wp.ScopedCapture on `device` under `capture_lock` (one capture at a time; on a GPU, no thread's first
+    """wp.ScopedCapture on `device` under `capture_lock` (one capture at a time, and no thread's first
     allocation or launch meanwhile); yields the capture (its .graph after the block)."""
     with capture_lock, wp.ScopedCapture(device=device, force_module_load=False) as captured:
         yield captured
