@@ -183,12 +183,14 @@ def test_rollouts_and_steppers_in_threads(use_graph):
         _assert_same(got, expected[i], f"thread {i}")
 
 
-def _gradients(model, data, i):
-    """Two steps and ABA under a tape; the loss (sum of squared joint accelerations) and d loss / d tau."""
+def _gradients(model, data, i, between=lambda: None):
+    """Two steps and ABA under a tape; the loss (sum of squared joint accelerations) and d loss / d tau.
+    between(): called under the tape after the first step."""
     tau = wp.array(np.full((data.batch_size, model.dofs()), 0.5 + i), dtype=wp.float64, requires_grad=True)
     tape = wp.Tape()
     with tape:
         stepped = wd.model.step(model, data, joint_force_references=tau)
+        between()
         stepped = wd.model.step(model, stepped, joint_force_references=tau)
         _, acc = wd.model.forward_dynamics_aba(model, stepped, joint_forces=tau)
         loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
@@ -235,20 +237,15 @@ def test_a_call_from_another_thread_while_a_tape_records_is_refused():
 
     b = threading.Thread(target=thread_b, name="thread-B")
     b.start()
-    tau = wp.array(np.full((2, model.dofs()), 0.5), dtype=wp.float64, requires_grad=True)
-    tape = wp.Tape()
-    with tape:
-        stepped = wd.model.step(model, data_a, joint_force_references=tau)
+
+    def let_b_call():
         recording.set()
         done.wait(timeout=60)
-        stepped = wd.model.step(model, stepped, joint_force_references=tau)
-        _, acc = wd.model.forward_dynamics_aba(model, stepped, joint_forces=tau)
-        loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-        wp.launch(_sum_squares, dim=acc.shape, inputs=[acc], outputs=[loss])
-    tape.backward(loss)
+
+    got = _gradients(model, data_a, 0, between=let_b_call)
     b.join()
     assert len(errors) == 1 and "thread-B" in errors[0] and threading.current_thread().name in errors[0], errors
-    _assert_same([_host(loss), _host(tau.grad)], expected, "the tape's thread")
+    _assert_same(got, expected, "the tape's thread")
     after = _in_threads(lambda i: _host(wd.model.forward_dynamics_aba(model, data_b)), count=2)
     for got in after:
         _assert_same(got, expected_b, "thread B after the tape")
