@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
 import warp as wp
 
 import warpdyn as wd

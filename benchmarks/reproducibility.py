@@ -5,17 +5,21 @@
 The seed's legs with collidable points standing on flat ground (float64, Body representation), per-step
 joint torques and link forces, a rollout under a wp.Tape, a random linear loss of its records. Prints:
 1. run to run (a fresh forward and backward each time, three runs): the largest difference of every
-   gradient, with the marked parameters shared by the environments and given per environment (their
-   shared value tiled), at N = 8 (T = 6) and N = 4096 (T = 50, checkpointed);
+   gradient, with the marked parameters shared by the environments (default, and
+   parameters_requiring_grad(..., deterministic=True)) and given per environment (their shared value
+   tiled), at N = 8 (T = 6) and N = 4096 (T = 50, checkpointed), and the median time of a forward and
+   backward pass (the cost of deterministic=True);
 2. ABA's backward kernel replayed four times with the same output adjoints: whether its input adjoints
    differ between replays, and how many entries of its forward scratch it rewrites (and by how much),
-   with the scratch left as the replays leave it and restored before each replay.
+   with the scratch left as the replays leave it and restored before each replay, compiled with Warp's
+   default floating-point contraction (fuse_fp: fused multiply-adds) and without.
 On the CPU every figure is 0; README ("Reproducibility") and RESULTS.md quote a GPU's.
 """
 
 from __future__ import annotations
 
 import argparse
+import time
 
 import numpy as np
 import warp as wp
@@ -69,14 +73,19 @@ def _weighted_sum_4d(x: wp.array4d(dtype=wp.float64), w: wp.array4d(dtype=wp.flo
 WEIGHTED_SUM = {2: _weighted_sum_2d, 3: _weighted_sum_3d, 4: _weighted_sum_4d}
 
 
-def gradients(device, N: int, T: int, per_environment: bool, storage: str) -> dict:
-    """{name: gradient} of one fresh forward and backward pass."""
-    model = legs(device, N, per_environment)
-    params = wd.model.parameters_requiring_grad(model, names=PARAMETERS)
+MODES = ("shared", "shared, deterministic=True", "per environment")
+
+
+def gradients(device, N: int, T: int, mode: str, storage: str) -> tuple[dict, float]:
+    """({name: gradient}, seconds) of one fresh forward and backward pass."""
+    model = legs(device, N, mode == "per environment")
+    params = wd.model.parameters_requiring_grad(model, names=PARAMETERS, deterministic=mode == "shared, deterministic=True")
     data = standing(model, N)
     rng = np.random.default_rng(2)
     tau = wp.array(5.0 * rng.normal(size=(T, N, model.dofs())), dtype=wp.float64, requires_grad=True, device=device)
     f = wp.array(rng.normal(size=(T, N, model.number_of_links(), 6)), dtype=wp.float64, requires_grad=True, device=device)
+    wp.synchronize_device(device)
+    start = time.perf_counter()
     tape = wp.Tape()
     with tape:
         final, rec = wd.simulation.Rollout(model, steps=T, record=RECORD, storage=storage).run(data, joint_force_references=tau, link_forces=f)
@@ -86,18 +95,20 @@ def gradients(device, N: int, T: int, per_environment: bool, storage: str) -> di
             w = wp.array(weights.normal(size=x.shape), dtype=wp.float64, device=device)
             wp.launch(WEIGHTED_SUM[x.ndim], dim=x.shape, inputs=[x, w], outputs=[loss], device=device)
     tape.backward(loss)
+    wp.synchronize_device(device)
+    seconds = time.perf_counter() - start
     state = {"base_position": data.base_position_state, "joint_positions": data.joint_positions_state,
              "base_velocity": data.base_velocity_state, "tangential_deformation": data.tangential_deformation_state}  # fmt: skip
-    return {k: a.grad.numpy().copy() for k, a in {**state, "tau": tau, "link_forces": f, **params}.items()}
+    return {k: a.grad.numpy().copy() for k, a in {**state, "tau": tau, "link_forces": f, **params}.items()}, seconds
 
 
 def run_to_run(device, N: int, T: int, storage: str) -> None:
-    for per_environment in (False, True):
-        runs = [gradients(device, N, T, per_environment, storage) for _ in range(3)]
-        kind = "per environment" if per_environment else "shared"
+    for mode in MODES:
+        gradients(device, N, T, mode, storage)  # compiles what the mode needs
+        runs, seconds = zip(*(gradients(device, N, T, mode, storage) for _ in range(3)))
         diffs = {k: max(float(np.abs(runs[0][k] - r[k]).max()) for r in runs[1:]) for k in runs[0]}
         cells = ", ".join(f"{k} {v:.2g}" for k, v in diffs.items())
-        print(f"| {N} | {T} | {storage} | {kind} | {cells} |", flush=True)
+        print(f"| {N} | {T} | {storage} | {mode} | {1e3 * float(np.median(seconds)):.1f} | {cells} |", flush=True)
 
 
 def arrays_of(x) -> list:
@@ -107,15 +118,28 @@ def arrays_of(x) -> list:
     return [a for name in cls.vars for a in arrays_of(getattr(x, name))] if cls is not None else []
 
 
-def aba_replays(device) -> None:
-    model = wd.contact.with_collidable_points(seed_model(np.float64, device))
-    data = standing(model, 1)
+def _step_tape(model, data, device):
     rng = np.random.default_rng(2)
     tape = wp.Tape()
     with tape:
         tau = wp.array(5.0 * rng.normal(size=(1, model.dofs())), dtype=wp.float64, requires_grad=True, device=device)
         wd.model.step(model, data, joint_force_references=tau)
-    kernel, dim, max_blocks, inputs, outputs, dev, block_dim = next(l for l in tape.launches if isinstance(l, list) and "aba" in l[0].key)[:7]
+    return tape, next(launch for launch in tape.launches if isinstance(launch, list) and "aba" in launch[0].key)
+
+
+def aba_replays(device, fuse_fp: bool) -> None:
+    """The replays of ABA's backward kernel (its module compiled with or without floating-point contraction)."""
+    model = wd.contact.with_collidable_points(seed_model(np.float64, device))
+    data = standing(model, 1)
+    tape, recorded = _step_tape(model, data, device)
+    module = recorded[0].module
+    if module.options["fuse_fp"] != fuse_fp:
+        module.options["fuse_fp"] = fuse_fp
+        module.mark_modified()
+        wp.load_module(module, device=device)
+        tape, recorded = _step_tape(model, data, device)  # its forward compiled likewise
+    rng = np.random.default_rng(2)
+    kernel, dim, max_blocks, inputs, outputs, dev, block_dim = recorded[:7]
     scratch = inputs[-1]
     ins = [a for x in inputs for a in arrays_of(x) if a.grad is not None and a.size]
     outs = [a for x in outputs for a in arrays_of(x) if a.grad is not None and a.size]
@@ -140,7 +164,10 @@ def aba_replays(device) -> None:
         rewritten = (after != forward) & ~(np.isnan(after) & np.isnan(forward))  # entries the forward never writes hold what they held
         change = float(np.abs(after - forward)[rewritten].max()) if rewritten.any() else 0.0
         label = "restored before each replay" if restore else "as the replays leave it"
-        print(f"| {label} | {grad_diff:.2g} | {int(rewritten.sum())} of {forward.size} | {change:.2g} |", flush=True)
+        contraction = "on (default)" if fuse_fp else "off"
+        print(f"| {contraction} | {label} | {grad_diff:.2g} | {int(rewritten.sum())} of {forward.size} | {change:.2g} |", flush=True)
+    module.options["fuse_fp"] = True
+    module.mark_modified()
 
 
 def main() -> None:
@@ -152,12 +179,13 @@ def main() -> None:
     device = wp.get_device(args.device)
     print(header(device))
     print("\nRun to run: largest difference of each gradient over three fresh forward and backward passes\n")
-    print("| N | T | storage | parameters | gradients |\n| ---: | ---: | --- | --- | --- |")
+    print("| N | T | storage | parameters | forward + backward [ms] | gradients |\n| ---: | ---: | --- | --- | ---: | --- |")
     run_to_run(device, 8, 6, "trajectory")
     run_to_run(device, args.large, 50, "checkpointed")
     print("\nABA's backward kernel, N = 1, four replays with the same output adjoints\n")
-    print("| forward scratch | input adjoints differ by | scratch entries rewritten | by up to |\n| --- | ---: | ---: | ---: |")
-    aba_replays(device)
+    print("| fuse_fp | forward scratch | input adjoints differ by | scratch entries rewritten | by up to |\n| --- | --- | ---: | ---: | ---: |")
+    aba_replays(device, fuse_fp=True)
+    aba_replays(device, fuse_fp=False)
 
 
 if __name__ == "__main__":

@@ -3,8 +3,9 @@ the same states bit for bit, and its gradients, from a fresh forward and backwar
 respect to the state, the controls and parameters given per environment (one thread per environment reads
 its own row and sums its adjoints in program order). A parameter shared by the environments gets the sum of
 their adjoints, which a GPU adds up with atomics in an order that varies from run to run (the last bits;
-within 1e-12 of its largest entry here); its gradient equals the sum of the per-environment rows, which is
-the reproducible way to get it (warpdyn.model.parameters_requiring_grad says so)."""
+within 1e-12 of its largest entry here); its gradient equals the sum of the per-environment rows. With
+parameters_requiring_grad(..., deterministic=True) it is that sum, taken in environment order: bit-identical
+run to run on any device."""
 
 import numpy as np
 import pytest
@@ -49,11 +50,11 @@ def _controls(model, rng):
     return {"joint_force_references": tau, "link_forces": f}
 
 
-def _run(per_environment: bool, storage: str = "trajectory"):
+def _run(per_environment: bool, storage: str = "trajectory", deterministic: bool = False):
     """A fresh model, data and controls, a rollout under a tape and one backward pass: (records, gradients)
     as host copies (the gradients of the initial state, the controls and the marked parameters)."""
     model = _legs(per_environment)
-    params = wd.model.parameters_requiring_grad(model, names=PARAMETERS)
+    params = wd.model.parameters_requiring_grad(model, names=PARAMETERS, deterministic=deterministic)
     data = _data(model, requires_grad=True)
     controls = _controls(model, np.random.default_rng(2))
     tape = wp.Tape()
@@ -115,3 +116,76 @@ def test_shared_parameter_gradients_are_the_sums_of_the_per_environment_rows():
             np.testing.assert_array_equal(grad_a[k], grad_b[k], err_msg=k)
         else:
             np.testing.assert_allclose(grad_a[k], grad_b[k], rtol=0, atol=1e-12 * scale, err_msg=k)
+
+
+@pytest.mark.parametrize("storage", ["trajectory", "checkpointed"])
+def test_deterministic_shared_parameter_gradients_are_bitwise_reproducible(storage):
+    """deterministic=True: twice a fresh forward and backward give bit-identical gradients of the shared
+    parameters (and of everything else), equal to the per-environment rows summed in environment order:
+    bit for bit where one backward pass sums them ("trajectory"), to rounding where each recomputed segment
+    adds its sum ("checkpointed")."""
+    _, grad_env = _run(True, storage)
+    (rec_a, grad_a), (rec_b, grad_b) = _run(False, storage, True), _run(False, storage, True)
+    for k in rec_a:
+        np.testing.assert_array_equal(rec_a[k], rec_b[k], err_msg=k)
+    for k in grad_a:
+        np.testing.assert_array_equal(grad_a[k], grad_b[k], err_msg=k)
+    for k in PARAMETERS:
+        rows = grad_env[k]
+        summed = rows[0].copy()
+        for row in rows[1:]:
+            summed += row
+        summed = summed.reshape(grad_a[k].shape)  # K and the terrain's height: (1,) shared, (N,) per environment
+        assert np.abs(summed).max() > 0, k
+        if storage == "trajectory":
+            np.testing.assert_array_equal(grad_a[k], summed, err_msg=k)
+        else:
+            np.testing.assert_allclose(grad_a[k], summed, rtol=0, atol=1e-12 * np.abs(summed).max(), err_msg=k)
+
+
+def test_deterministic_gradients_refuse_heightfield_heights():
+    model = _legs(False)
+    model.terrain = wd.terrain.HeightfieldTerrain(heights=np.zeros((4, 4)), spacing=(1.0, 1.0), origin=(-2.0, -2.0))
+    with pytest.raises(ValueError, match="terrain_height with deterministic=True: a HeightfieldTerrain"):
+        wd.model.parameters_requiring_grad(model, names=("link_mass", "terrain_height"), deterministic=True)
+
+
+@wp.kernel
+def _sum_squares(x: wp.array2d(dtype=wp.float64), loss: wp.array(dtype=wp.float64)):
+    i, j = wp.tid()
+    wp.atomic_add(loss, 0, x[i, j] * x[i, j])
+
+
+def _step_gradients(deterministic: bool):
+    """Two steps and ABA under a tape: d loss / d every kind of shared parameter (scalar, vec3 and mat33 per
+    link, per joint, contact, terrain), after one backward pass and after tape.zero() and a second."""
+    names = ("link_mass", "link_com", "link_inertia", "friction_viscous", "K", "D", "mu", "terrain_height")
+    model = _legs(False)
+    params = wd.model.parameters_requiring_grad(model, names=names, deterministic=deterministic)
+    data = _data(model)
+    tau = wp.array(np.random.default_rng(5).normal(0.0, 5.0, (N, model.dofs())), dtype=wp.float64, requires_grad=True)
+    tape = wp.Tape()
+    with tape:
+        stepped = wd.model.step(model, data, joint_force_references=tau)
+        stepped = wd.model.step(model, stepped, joint_force_references=tau)
+        _, acc = wd.model.forward_dynamics_aba(model, stepped, joint_forces=tau)
+        loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+        wp.launch(_sum_squares, dim=acc.shape, inputs=[acc], outputs=[loss])
+    passes = []
+    for _ in range(2):
+        tape.backward(loss)
+        passes.append({k: a.grad.numpy().copy() for k, a in {**params, "tau": tau}.items()})
+        tape.zero()
+    return passes
+
+
+def test_deterministic_gradients_of_every_kind_of_parameter_equal_the_default_ones():
+    """deterministic=True changes the order of the sums only: the gradients of scalar, vec3 and mat33
+    parameters of links, joints, contacts and the terrain through steps and ABA equal the default ones to
+    rounding, and a second backward pass after tape.zero() repeats the first."""
+    default, deterministic = _step_gradients(False), _step_gradients(True)
+    for k, expected in default[0].items():
+        scale = np.abs(expected).max()
+        assert scale > 0, f"no gradient reaches {k}"
+        np.testing.assert_allclose(deterministic[0][k], expected, rtol=0, atol=1e-12 * scale, err_msg=k)
+        np.testing.assert_allclose(deterministic[1][k], deterministic[0][k], rtol=0, atol=1e-12 * scale, err_msg=f"{k}, second pass")

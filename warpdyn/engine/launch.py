@@ -2,62 +2,22 @@
 a list of `Launch`es (`run`), or replayed from a recording (`Recorded`); graphs are captured by `capture`,
 when `graphs_allowed` (not while another thread works on that kind of device: a capture would take its work).
 
-The first launch of a kernel module on a device compiles it, or loads it from Warp's kernel cache
-(`wp.config.kernel_cache_dir`). That first load runs under one process-wide lock, since Warp's module
-loading is not safe from several threads at once; once a compilation has taken longer than
-`NOTICE_AFTER` seconds, warpdyn says on stderr, once per process, that it is compiling and that the
-result is cached.
+A kernel's module is loaded first (warpdyn.engine.loading). Under a recording tape, parameters marked
+for deterministic gradients are handed to the launch as one row per environment (warpdyn.engine.determinism).
 """
 
 from __future__ import annotations
 
 import contextlib
-import sys
 import threading
 from typing import NamedTuple
 
 import warp as wp
 
 from ..arrays import capture_lock, note_thread, other_threads
+from . import determinism
+from .loading import ensure_loaded
 from .tape import check_thread
-
-NOTICE_AFTER = 1.0
-"""Seconds a first load may take before warpdyn says that it is compiling."""
-
-_loaded: set = set()
-_lock = threading.RLock()
-_noticed = threading.Event()
-
-
-def _notice(device) -> None:
-    if _noticed.is_set():
-        return
-    _noticed.set()
-    print(
-        f"warpdyn: compiling Warp kernels for device '{device}' (each algorithm once per device and dtype; a "
-        f"model's first step takes seconds to a minute); they are cached in {wp.config.kernel_cache_dir}, so later "
-        "runs load them in about a second.",
-        file=sys.stderr,
-        flush=True,
-    )
-
-
-def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
-    """Compile or load `kernel`'s module for `device` (and CUDA block size) before a first launch."""
-    key = (kernel.module, str(device), block_dim)
-    if key in _loaded:
-        return
-    with _lock:
-        if key in _loaded:
-            return
-        timer = threading.Timer(NOTICE_AFTER, _notice, args=(device,))
-        timer.daemon = True
-        timer.start()
-        try:
-            wp.load_module(kernel.module, device=device, block_dim=block_dim)
-        finally:
-            timer.cancel()
-        _loaded.add(key)
 
 
 def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | None = None, **options):
@@ -66,6 +26,8 @@ def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | Non
     note_thread(device)
     ensure_loaded(kernel, device, block_dim if device.is_cuda else None)
     check_thread()
+    if determinism.any_marked() and options.get("record_tape", True) and not options.get("adjoint", False):
+        inputs = determinism.rows_per_environment(inputs, dim, device)
     return wp.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device, block_dim=block_dim, **options)
 
 
@@ -139,12 +101,27 @@ def graphs_allowed(device, use_graph, what: str) -> bool:
     return False
 
 
+_own_streams: dict = {}
+"""{device alias: a Warp stream made by `capture`} for devices found on the null stream."""
+
+
 @contextlib.contextmanager
 def capture(device):
     """wp.ScopedCapture on `device` under `capture_lock` (one capture at a time, and no thread's first
-    allocation or launch meanwhile); yields the capture (its .graph after the block)."""
-    with capture_lock, wp.ScopedCapture(device=device, force_module_load=False) as captured:
-        yield captured
+    allocation or launch meanwhile); yields the capture (its .graph after the block).
+
+    A CUDA device whose current stream is the legacy null stream, which cannot be captured, gets a Warp
+    stream of its own first (kept as its current stream). Warp 1.19 leaves a device there after threads call
+    `array.numpy()` at once: numpy() swaps the device's process-wide current stream to the null stream and
+    back, and those swaps interleave."""
+    device = wp.get_device(device)
+    with capture_lock:
+        if device.is_cuda and not device.stream.cuda_stream:
+            if device.alias not in _own_streams:
+                _own_streams[device.alias] = wp.Stream(device)
+            device.set_stream(_own_streams[device.alias])
+        with wp.ScopedCapture(device=device, force_module_load=False) as captured:
+            yield captured
 
 
 def per_thread(model, key, build):
