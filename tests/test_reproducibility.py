@@ -7,6 +7,10 @@ within 1e-12 of its largest entry here); its gradient equals the sum of the per-
 parameters_requiring_grad(..., deterministic=True) it is that sum, taken in environment order: bit-identical
 run to run on any device."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import warp as wp
@@ -189,3 +193,71 @@ def test_deterministic_gradients_of_every_kind_of_parameter_equal_the_default_on
         assert scale > 0, f"no gradient reaches {k}"
         np.testing.assert_allclose(deterministic[0][k], expected, rtol=0, atol=1e-12 * scale, err_msg=k)
         np.testing.assert_allclose(deterministic[1][k], deterministic[0][k], rtol=0, atol=1e-12 * scale, err_msg=f"{k}, second pass")
+
+
+NO_CONTRACTION = """
+import sys
+import numpy as np
+import warp as wp
+sys.path.insert(0, sys.argv[1])
+import robots
+import warpdyn as wd
+wd.config.fuse_fp = False
+wp.set_device(sys.argv[2])
+
+@wp.kernel
+def sum_squares(x: wp.array2d(dtype=wp.float64), loss: wp.array(dtype=wp.float64)):
+    i, j = wp.tid()
+    wp.atomic_add(loss, 0, x[i, j] * x[i, j])
+
+model = robots.ergocub_seed_with_points(np.float64)
+model = wd.model.reduce(model, model.joint_names())
+data = wd.data.random_model_data(model, seed=4, num_envs=8, requires_grad=True)
+tau = wp.array(np.random.default_rng(5).normal(0.0, 5.0, (8, model.dofs())), dtype=wp.float64, requires_grad=True)
+tape = wp.Tape()
+with tape:
+    _, acc = wd.model.forward_dynamics_aba(model, data, joint_forces=tau)
+    loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+    wp.launch(sum_squares, dim=acc.shape, inputs=[acc], outputs=[loss])
+arrays = [tau, data.joint_positions_state, data.base_quaternion_state, data.base_velocity_state, data.joint_velocities_state]
+passes = []
+for _ in range(3):
+    tape.backward(loss)
+    passes.append([a.grad.numpy().copy() for a in arrays])
+    tape.zero()
+assert all(np.abs(g).max() > 0 for g in passes[0])
+for other in passes[1:]:
+    for a, b in zip(passes[0], other):
+        assert np.array_equal(a, b), np.abs(a - b).max()
+print("identical", len(passes))
+"""
+
+
+def test_repeated_backward_passes_agree_bitwise_without_contraction(tmp_path):
+    """warpdyn.config.fuse_fp = False (set before the first launch, in a fresh interpreter): three backward
+    passes of one tape through ABA give bit-identical gradients (on a GPU too, where contracted kernels
+    replay their forward with other roundings)."""
+    tests = os.path.dirname(os.path.abspath(__file__))
+    script = tmp_path / "no_contraction.py"  # a file: Warp reads its kernels' source
+    script.write_text(NO_CONTRACTION)
+    proc = subprocess.run(
+        [sys.executable, str(script), tests, robots.TEST_DEVICE],
+        capture_output=True, text=True, env=dict(os.environ, WARPDYN_VERBOSE="0"), timeout=600,
+    )  # fmt: skip
+    assert proc.returncode == 0 and "identical 3" in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_fuse_fp_changed_after_kernels_loaded_is_refused():
+    """Recorded launches and graphs hold compiled kernels: once kernels are loaded, assigning the other value
+    of warpdyn.config.fuse_fp raises (and leaves it), the same value is accepted, a non-bool is refused."""
+    model = _legs(False)
+    data = _data(model)
+    expected = wd.model.forward_dynamics_aba(model, data)[1].numpy()
+    before = wd.config.fuse_fp
+    with pytest.raises(RuntimeError, match=f"warpdyn.config.fuse_fp = {not before}: kernels are loaded with {before}"):
+        wd.config.fuse_fp = not before
+    with pytest.raises(TypeError, match="fuse_fp must be True or False, got 0"):
+        wd.config.fuse_fp = 0
+    wd.config.fuse_fp = before
+    assert wd.config.fuse_fp is before
+    np.testing.assert_array_equal(wd.model.forward_dynamics_aba(model, data)[1].numpy(), expected)

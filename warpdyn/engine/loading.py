@@ -12,6 +12,8 @@ import threading
 
 import warp as wp
 
+from .. import config
+
 NOTICE_AFTER = 1.0
 """Seconds a first load may take before warpdyn says that it is compiling."""
 
@@ -34,18 +36,25 @@ def _notice(device) -> None:
 
 
 def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
-    """Compile or load `kernel`'s module for `device` (and CUDA block size) before a first launch."""
+    """Compile or load `kernel`'s module for `device` (and CUDA block size) before a first launch, with
+    warpdyn.config.fuse_fp (fixed by the process's first load: warpdyn.config refuses a change after it)."""
     key = (kernel.module, str(device), block_dim)
     if key in _loaded:
         return
     with _lock:
         if key in _loaded:
             return
+        fuse_fp = config.fuse_fp
+        config.loaded_fuse_fp = fuse_fp
+        module = kernel.module
+        if module.options["fuse_fp"] != fuse_fp:
+            module.options["fuse_fp"] = fuse_fp
+            module.mark_modified()
         timer = threading.Timer(NOTICE_AFTER, _notice, args=(device,))
         timer.daemon = True
         timer.start()
         try:
-            wp.load_module(kernel.module, device=device, block_dim=block_dim)
+            wp.load_module(module, device=device, block_dim=block_dim)
         finally:
             timer.cancel()
         _loaded.add(key)
