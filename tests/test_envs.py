@@ -4,18 +4,18 @@ on the tests' device. The ergoCub legs, few environments: shapes and spaces, dec
 few PPO iterations that must raise the return of standing."""
 
 import math
+import pathlib
+import sys
 
+import gymnasium as gym
 import numpy as np
 import pytest
+import torch
+import warp as wp
+from gymnasium.vector.utils import batch_space
 
-torch = pytest.importorskip("torch")
-gym = pytest.importorskip("gymnasium")
-
-import warp as wp  # noqa: E402
-from gymnasium.vector.utils import batch_space  # noqa: E402
-
-import warpdyn as wd  # noqa: E402
-import warpdyn.envs as envs  # noqa: E402
+import warpdyn as wd
+import warpdyn.envs as envs
 
 
 def _legs():
@@ -123,14 +123,10 @@ def test_resets_randomise_masses_and_friction():
     assert mu.shape == (6,) and mu.min() >= 0.3 and mu.max() <= 0.9 and len(set(mu.tolist())) == 6
 
 
-def test_ppo_learns_to_stand():
+def test_ppo_learns_to_stand(tmp_path):
     """rsl-rl's PPO (examples/rl_ergocub.py's configuration), 96 environments, 16 iterations: the mean
     return of the last 4 iterations is higher than that of the first 4 by 0.1 (measured on the CPU: -0.68 ->
     -0.39; seeded, so a run repeats)."""
-    pytest.importorskip("rsl_rl")
-    import pathlib
-    import sys
-
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
     try:
         import rl_ergocub
@@ -138,7 +134,7 @@ def test_ppo_learns_to_stand():
         sys.path.pop(0)
     torch.manual_seed(0)
     env = rl_ergocub.make_env("stand", 96, wp.get_device(), seed=0)
-    history = rl_ergocub.train(env, 16, pathlib.Path(pytest.importorskip("tempfile").mkdtemp()), str(env.device))
+    history = rl_ergocub.train(env, 16, tmp_path, str(env.device))
     returns = [h[1] for h in history if not math.isnan(h[1])]
     assert len(returns) >= 12
     assert np.mean(returns[-4:]) > np.mean(returns[:4]) + 0.1, returns

@@ -47,7 +47,9 @@ def test_no_file_names_a_path_outside_the_repository():
 
 
 def test_the_check_catches_what_it_is_for(tmp_path):
-    """The patterns match the forms that broke bare clones (tests/robots.py read ../shared/models)."""
-    assert CLIMB.search('ERGOCUB = ROOT / "../shared/models/ergoCubSN001.urdf"')
-    assert ABSOLUTE.search('open("/work/shared/models/x.urdf")')
-    assert PARENTS.findall('pathlib.Path(__file__).resolve().parents[2] / "shared"') == ["2"]
+    """The patterns match the forms that broke bare clones (tests/robots.py read the models from the workplace
+    folder beside the repository)."""
+    outside = "/".join(["..", "shared"])  # assembled, so that this file names no such path itself
+    assert CLIMB.search(f'ERGOCUB = ROOT / "{outside}/models/ergoCubSN001.urdf"')
+    assert ABSOLUTE.search(f'open("/work/{outside[3:]}/models/x.urdf")')
+    assert PARENTS.findall(f'pathlib.Path(__file__).resolve().parents[2] / "{outside[3:]}"') == ["2"]

@@ -11,12 +11,11 @@ import sys
 
 import numpy as np
 import pytest
+import rerun  # noqa: F401  (the test extra; a missing install fails here, it does not skip)
 
-pytest.importorskip("rerun", reason="rerun-sdk (the test extra) is not installed")
-
-import warpdyn as wd  # noqa: E402
-import warpdyn.visualization as viz  # noqa: E402
-from warpdyn.description import CollisionShape  # noqa: E402
+import warpdyn as wd
+import warpdyn.visualization as viz
+from warpdyn.description import CollisionShape
 
 BOX_MASS, BOX_HALF, G = 2.0, 0.1, 9.81
 BOX_URDF = """<robot name="box"><link name="box"><inertial><mass value="2"/>

@@ -12,10 +12,39 @@ benchmarks/kinematics.py measures both layouts on both kinds of device.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import warp as wp
 
 from . import config
+
+capture_lock = threading.Lock()
+"""Held while a graph is captured (warpdyn.engine.launch.capture): Warp captures one graph at a time, and a
+thread's first allocation or launch on a device waits for a capture in progress (`note_thread`)."""
+
+_threads: dict = {}
+"""{(device is CUDA, thread ident): thread} of the threads that allocated or launched through warpdyn."""
+
+
+def note_thread(device) -> None:
+    """Count the calling thread among those that allocate or launch on `device`'s kind (CPU or GPU), after any
+    capture in progress. A capture takes the work of other threads on that kind of device: Warp's CUDA stream
+    is shared by all threads, and its CPU capture records every thread's operations (which then fail). So a
+    graph is captured only while no other such thread is alive (`other_threads`)."""
+    me = threading.current_thread()
+    key = (device.is_cuda, me.ident)
+    if _threads.get(key) is me:
+        return
+    with capture_lock:
+        _threads[key] = me
+
+
+def other_threads(device) -> list[str]:
+    """The names of the other live threads that have allocated or launched on `device`'s kind of device."""
+    me = threading.current_thread()
+    return [t.name for (cuda, _), t in list(_threads.items()) if cuda == device.is_cuda and t is not me and t.is_alive()]
+
 
 def env_fastest(device) -> bool:
     """Whether per-environment arrays on `device` are stored environment-fastest (warpdyn.config.env_fastest)."""
@@ -25,6 +54,7 @@ def env_fastest(device) -> bool:
 def empty(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = False) -> wp.array:
     """An uninitialised array of logical shape (num_envs, *shape) in the device's layout."""
     shape = tuple(int(s) for s in shape)
+    note_thread(wp.get_device(device))
     if env_fastest(device):
         physical = wp.empty((*shape, num_envs), dtype=dtype, device=device, requires_grad=requires_grad)
         array = physical.transpose((len(shape), *range(len(shape)))) if shape else physical

@@ -8,10 +8,42 @@
 - `cuda_launch`: CUDA settings by kernel name ("aba", "rnea", "crba"): (threads per block, register cap per
   thread). Missing: Warp's default block (256) and each kernel module's MAX_REGISTERS; a cap of None: the
   compiler's choice. benchmarks/dynamics.py --sweep measures them.
+- `fuse_fp`: floating-point contraction (fused multiply-adds) when kernels are compiled: True, Warp's
+  default, or False: each kernel then rounds every operation it writes, so the forward code a backward
+  kernel replays gives its forward's values bit for bit and repeated backward passes of one tape agree on
+  a GPU (with True they differ in the last bits there). Applied as each kernel module is first loaded
+  (warpdyn.engine.loading): set it before the first launch; an assignment of another value after it
+  raises a RuntimeError (recorded launches and captured graphs hold the compiled kernels).
+  benchmarks/reproducibility.py measures both.
 """
 
 from __future__ import annotations
 
+import sys
+import types
+
 env_fastest: bool | None = None
 fill_outputs_with_nan: bool = False
 cuda_launch: dict[str, tuple[int | None, int | None | str]] = {}
+fuse_fp: bool = True
+
+
+class _Config(types.ModuleType):
+    """Validates assignments: fuse_fp is a bool, fixed once kernels are loaded (`loaded_fuse_fp`)."""
+
+    loaded_fuse_fp: bool | None = None
+    """fuse_fp as the first kernel module was loaded with it (set by warpdyn.engine.loading)."""
+
+    def __setattr__(self, name, value):
+        if name == "fuse_fp":
+            if not isinstance(value, bool):
+                raise TypeError(f"warpdyn.config.fuse_fp must be True or False, got {value!r}")
+            if self.loaded_fuse_fp is not None and value is not self.loaded_fuse_fp:
+                raise RuntimeError(
+                    f"warpdyn.config.fuse_fp = {value}: kernels are loaded with {self.loaded_fuse_fp}; set it before the "
+                    "first launch (recorded launches and captured graphs hold the compiled kernels)"
+                )
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Config

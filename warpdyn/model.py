@@ -19,7 +19,7 @@ import numpy as np
 import warp as wp
 
 from . import arrays
-from .engine import centroidal, coriolis, derivatives, dynamics, kinematics
+from .engine import centroidal, coriolis, derivatives, determinism, dynamics, kinematics
 from .engine import fast_step as stepping
 from .description import NotModelledWarning, UnphysicalInertiaWarning
 from .description.model import ActuatorDescription
@@ -28,6 +28,7 @@ from .types.enums import IntegratorType, VelRepr, output_repr
 from .types.model import Model
 from .types.parameters import REGISTRY
 from .types.settings import ActuationParams, SoftContactsParams
+from .types.terrain import HeightfieldTerrain
 
 PARAMETERS = tuple(REGISTRY)
 """The names of the model parameters (warpdyn.types.parameters): what `parameters_requiring_grad` marks and
@@ -144,7 +145,7 @@ def total_mass(model: Model):
     return float(total) if total.ndim == 0 else total
 
 
-def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "link_inertia")) -> dict:
+def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "link_inertia"), *, deterministic: bool = False) -> dict:
     """Mark model parameters whose gradients a wp.Tape should compute; returns {name: Warp array}.
 
     names, any of: "link_mass" (nL,) [kg], "link_com" (nL,) vec3 [m, link frame], "link_inertia" (nL,)
@@ -157,11 +158,18 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
     that replace them in `model.contact_params` / `model.terrain` (the step's plan is rebuilt once). After
     `tape.backward(loss)` the gradient of the loss is in `arrays[name].grad`, the same shape as the
     parameter: a parameter shared by the environments gets the sum over them, a per-environment one a row
-    per environment. Zero the grads in place (`tape.zero()`) between backward passes: kernels recorded on a
-    tape hold views of the arrays and their gradients, so a .grad replaced by a new array afterwards is not
-    the one they write. Each call returns the model's
-    current arrays: replacing a parameter later (set_link_parameters, set_joint_parameters, a new
-    contact_params or terrain) makes new arrays without gradients.
+    per environment. On a GPU the environments' adjoints of a shared parameter are added with atomics, in
+    an order that varies from run to run (the last bits differ). deterministic=True makes them bit-identical
+    run to run: launches under a tape read a copy of each named shared parameter with one row per
+    environment, and the rows' adjoints are summed into its .grad in environment order by the tape's
+    backward pass (warpdyn.engine.determinism; the sum's rounding differs from the atomics', not its value;
+    benchmarks/reproducibility.py measures its cost). A HeightfieldTerrain's heights are refused with it
+    (ValueError). A parameter given per environment is deterministic either way, and its rows sum to the
+    shared one's gradient (tests/test_reproducibility.py). Zero the grads in place (`tape.zero()`) between
+    backward passes: kernels recorded on a tape hold views of the arrays and their gradients, so a .grad
+    replaced by a new array afterwards is not the one they write. Each call returns the model's current
+    arrays: replacing a parameter later (set_link_parameters, set_joint_parameters, a new contact_params or
+    terrain) makes new arrays without gradients (nor determinism).
 
     What reaches them: ABA, RNEA, CRBA (and what calls them: forward/inverse dynamics, bias forces, mass
     matrix), the Coriolis matrix, the centroidal, momentum and energy functions (`warpdyn.com`, this
@@ -170,7 +178,17 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
     requires gradients keeps its term in the step's compiled actuation kernel even where it is zero (a joint
     with a zero limit spring has its limit off: its gradient is 0 there).
     """
-    return model.mark_for_gradients(names)
+    names = (names,) if isinstance(names, str) else tuple(names)
+    if deterministic and "terrain_height" in names and isinstance(model.terrain, HeightfieldTerrain):
+        raise ValueError(
+            "terrain_height with deterministic=True: a HeightfieldTerrain's heights get the adjoints of the cells "
+            "under the collidable points from every environment; deterministic gradients are for parameters each "
+            "environment reads once (the model's, K, D, mu, a FlatTerrain's height)"
+        )
+    marked = model.mark_for_gradients(names)
+    for value in marked.values():
+        (determinism.mark if deterministic else determinism.unmark)(value)
+    return marked
 
 
 # Kinematics ------------------------------------------------------------------------------------

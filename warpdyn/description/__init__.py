@@ -65,7 +65,8 @@ def _read_document(model_description) -> tuple[bytes, str | None]:
         path = pathlib.Path(model_description).expanduser()
         if not path.is_file():
             shown = str(model_description)
-            shown = repr(shown if len(shown) <= 80 else shown[:80] + "...")
+            a_path = isinstance(model_description, os.PathLike) or ("\n" not in shown and len(shown) <= 4096)
+            shown = repr(shown if a_path or len(shown) <= 80 else shown[:80] + "...")  # a path in full, text cut
             raise FileNotFoundError(f"robot description {shown} does not exist or is not a file (nor an XML document)")
         return path.read_bytes(), str(path)
     if isinstance(model_description, str):

@@ -36,7 +36,7 @@ from .. import arrays
 from . import pool, tape
 from .bundles import state_bundle
 from .kinematics import state_arrays
-from .launch import Recorded, capture, per_thread, run
+from .launch import Recorded, capture_graph, per_thread, run
 from .rollout import copy_launch
 from .step import Plan, Workspace, advance, prepare, state_buffers, step_inputs, step_launches, with_state
 from .step import plan as step_plan
@@ -84,7 +84,7 @@ replays, so launches that run once or twice (a few steps of a new model) are not
 
 
 def _may_capture(device) -> bool:
-    """Whether a graph may be captured now. On a GPU, yes (warpdyn.engine.launch.capture captures on a stream
+    """Whether a graph may be captured now. On a GPU, yes (warpdyn.engine.launch.capture_graph captures on a stream
     of its own). On the CPU only while the calling thread is the process's only thread: Warp 1.19's CPU capture
     is process-wide state (`runtime._apic_capture`) through which other threads' launches, copies and
     allocations then go while it lasts, which they do not survive (NotImplementedError for launch descriptors
@@ -135,7 +135,7 @@ class _Steps:
                     recorded = self.recorded[key] = Recorded()
                 recorded.run(entry[0], plan.device)
                 return with_state(data, out.arrays)
-            graph = self.graphs[key] = capture(entry[0], plan.device)
+            graph = self.graphs[key] = capture_graph(entry[0], plan.device)
         wp.capture_launch(graph)
         return with_state(data, out.arrays)
 

@@ -1,67 +1,33 @@
 """Kernel launches: every warpdyn launch goes through `launch` (a recorded launch is made by it), singly, as
-a list of `Launch`es (`run`), or replayed from a recording (`Recorded`).
+a list of `Launch`es (`run`), or replayed from a recording (`Recorded`); graphs are captured by `capture`,
+when `graphs_allowed` (not while another thread works on that kind of device: a capture would take its work).
 
-The first launch of a kernel module on a device compiles it, or loads it from Warp's kernel cache
-(`wp.config.kernel_cache_dir`). That first load runs under one process-wide lock, since Warp's module
-loading is not safe from several threads at once; once a compilation has taken longer than
-`NOTICE_AFTER` seconds, warpdyn says on stderr, once per process, that it is compiling and that the
-result is cached.
+A kernel's module is loaded first (warpdyn.engine.loading). Under a recording tape, parameters marked
+for deterministic gradients are handed to the launch as one row per environment (warpdyn.engine.determinism).
 """
 
 from __future__ import annotations
 
-import sys
+import contextlib
 import threading
 from typing import NamedTuple
 
 import warp as wp
 
-NOTICE_AFTER = 1.0
-"""Seconds a first load may take before warpdyn says that it is compiling."""
-
-_loaded: set = set()
-_lock = threading.RLock()
-_noticed = threading.Event()
-
-capture_lock = threading.Lock()
-"""Held while a graph is captured: Warp captures one graph per device at a time."""
-
-
-def _notice(device) -> None:
-    if _noticed.is_set():
-        return
-    _noticed.set()
-    print(
-        f"warpdyn: compiling Warp kernels for device '{device}' (each algorithm once per device and dtype; a "
-        f"model's first step takes seconds to a minute); they are cached in {wp.config.kernel_cache_dir}, so later "
-        "runs load them in about a second.",
-        file=sys.stderr,
-        flush=True,
-    )
-
-
-def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
-    """Compile or load `kernel`'s module for `device` (and CUDA block size) before a first launch."""
-    key = (kernel.module, str(device), block_dim)
-    if key in _loaded:
-        return
-    with _lock:
-        if key in _loaded:
-            return
-        timer = threading.Timer(NOTICE_AFTER, _notice, args=(device,))
-        timer.daemon = True
-        timer.start()
-        try:
-            wp.load_module(kernel.module, device=device, block_dim=block_dim)
-        finally:
-            timer.cancel()
-        _loaded.add(key)
+from ..arrays import capture_lock, note_thread, other_threads
+from . import determinism
+from .loading import ensure_loaded
+from .tape import check_thread
 
 
 def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | None = None, **options):
     """wp.launch (its other options passed on), the kernel's module loaded first (see the module docstring)."""
     device = wp.get_device(device)
+    note_thread(device)
     ensure_loaded(kernel, device, block_dim if device.is_cuda else None)
+    check_thread()
+    if determinism.any_marked() and options.get("record_tape", True) and not options.get("adjoint", False):
+        inputs = determinism.rows_per_environment(inputs, dim, device)
     return wp.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device, block_dim=block_dim, **options)
 
 
@@ -81,29 +47,6 @@ def run(launches, device, stream=None) -> None:
     options = {} if stream is None else {"stream": stream}
     for item in launches:
         launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim, **options)
-
-
-_capture_streams: dict = {}
-
-
-def capture(launches, device):
-    """A graph of `launches` (Launch tuples) to replay with `wp.capture_launch`: Warp's CPU graph on the CPU, a
-    CUDA graph on a GPU. Their modules are loaded first; the capture holds `capture_lock`. On a GPU it is made on
-    a stream of its own (the graph may be launched on any stream of the device), so that what other threads
-    launch meanwhile on the device's stream runs rather than being captured with it. Warp's CPU capture
-    records only the capturing thread's launches."""
-    device = wp.get_device(device)
-    for item in launches:
-        ensure_loaded(item.kernel, device, item.block_dim if device.is_cuda else None)
-    with capture_lock:
-        stream = None
-        if device.is_cuda:
-            stream = _capture_streams.get(str(device))
-            if stream is None:
-                stream = _capture_streams[str(device)] = wp.Stream(device)
-        with wp.ScopedCapture(device=device, stream=stream, force_module_load=False) as captured:
-            run(launches, device, stream)
-    return captured.graph
 
 
 class Recorded:
@@ -146,6 +89,72 @@ class Recorded:
         self._launches = launches
         for command, _, _ in commands:
             command.launch()
+
+
+def graphs_allowed(device, use_graph, what: str) -> bool:
+    """Whether `what` ("a Rollout", "a Stepper") captures graphs: use_graph True or "auto" (False: never). A
+    capture needs every other thread that works on that kind of device to be finished (see
+    warpdyn.arrays.note_thread): with one alive, "auto" replays recorded launches instead and True raises a
+    RuntimeError naming them."""
+    if use_graph is False:
+        return False
+    device = wp.get_device(device)
+    others = other_threads(device)
+    if not others:
+        return True
+    if use_graph is True:
+        raise RuntimeError(
+            f"{what} with use_graph=True would capture a graph on '{device}' while threads {others} also work on "
+            "that kind of device: Warp's CUDA stream is shared by all threads and its CPU capture records every "
+            "thread's operations, so their work would join or break the capture. Use use_graph='auto' (recorded "
+            "launches while other threads work there) or False."
+        )
+    return False
+
+
+_own_streams: dict = {}
+"""{device alias: a Warp stream made by `capture`} for devices found on the null stream."""
+
+_capture_streams: dict = {}
+"""{device alias: the stream `capture_graph` captures on}."""
+
+
+@contextlib.contextmanager
+def capture(device, stream=None):
+    """wp.ScopedCapture on `device` (on `stream`, a CUDA stream, when given) under `capture_lock` (one capture
+    at a time, and no thread's first allocation or launch meanwhile); yields the capture (its .graph after
+    the block).
+
+    A CUDA device whose current stream is the legacy null stream, which cannot be captured, gets a Warp
+    stream of its own first (kept as its current stream). Warp 1.19 leaves a device there after threads call
+    `array.numpy()` at once: numpy() swaps the device's process-wide current stream to the null stream and
+    back, and those swaps interleave."""
+    device = wp.get_device(device)
+    with capture_lock:
+        if stream is None and device.is_cuda and not device.stream.cuda_stream:
+            if device.alias not in _own_streams:
+                _own_streams[device.alias] = wp.Stream(device)
+            device.set_stream(_own_streams[device.alias])
+        with wp.ScopedCapture(device=device, stream=stream, force_module_load=False) as captured:
+            yield captured
+
+
+def capture_graph(launches, device):
+    """A graph of `launches` (Launch tuples) to replay with `wp.capture_launch`: Warp's CPU graph on the CPU, a
+    CUDA graph on a GPU, captured there on a stream of its own (the graph may be launched on any stream of the
+    device), so that what other threads launch meanwhile on the device's stream runs rather than being
+    captured with it. Their modules are loaded first."""
+    device = wp.get_device(device)
+    for item in launches:
+        ensure_loaded(item.kernel, device, item.block_dim if device.is_cuda else None)
+    stream = None
+    if device.is_cuda:
+        stream = _capture_streams.get(device.alias)
+        if stream is None:
+            stream = _capture_streams[device.alias] = wp.Stream(device)
+    with capture(device, stream) as captured:
+        run(launches, device, stream)
+    return captured.graph
 
 
 def per_thread(model, key, build):

@@ -20,7 +20,7 @@ from .tape import known as tape_known
 from .tape import suspended
 from .tape import taping as tape_records
 from .kinematics import state_arrays
-from .launch import Launch, capture_lock, ensure_loaded, launch
+from .launch import Launch, capture, ensure_loaded, graphs_allowed, launch
 from .launch import run as run_launches
 from . import rollout_memory as memory
 from .rollout_memory import GRAPH_BYTES_PER_LAUNCH, STATE_INDEX, check_available, control_shapes, counts, memory_error, nbytes
@@ -318,13 +318,13 @@ class _Config:
             for kernel in {k.kernel for k in recorded}:
                 ensure_loaded(kernel, self.device)
             try:
-                with capture_lock, wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
+                with capture(self.device) as scope:
                     run_launches(recorded, self.device)
             except RuntimeError as error:  # a failed allocation; other errors pass as they are
                 if "alloc" not in str(error).lower():
                     raise
                 raise memory_error(f"capturing a graph of {len(recorded)} launches", len(recorded) * GRAPH_BYTES_PER_LAUNCH, error) from None
-            captured = self.graphs[key] = capture.graph
+            captured = self.graphs[key] = scope.graph
         wp.capture_launch(captured)
 
     def _staging(self) -> None:
@@ -566,6 +566,7 @@ class Rollout:
         cfg.template = data  # the Data the records and callbacks' states are made like
         cfg.runs += 1
         graph = (not taping or checkpointed) if self.use_graph == "auto" else bool(self.use_graph)
+        graph = graph and graphs_allowed(d, self.use_graph, "a Rollout")
         cfg.load_controls(sources)
         cfg.load_state(0, data)
         if checkpointed and taping:

@@ -19,7 +19,7 @@ from ..kernels.state import kernels as state_kernels
 from ..types.enums import VelRepr
 from . import tape
 from .kinematics import state_arrays
-from .launch import capture_lock, ensure_loaded, launch
+from .launch import capture, ensure_loaded, graphs_allowed, launch
 from .launch import run as run_launches
 from .rollout import copy_launch
 from .step import Workspace, prepare, state_buffers, step_launches, with_state
@@ -74,10 +74,10 @@ class Stepper:
         launches = self._launches(start)
         for kernel in {item.kernel for item in launches}:
             ensure_loaded(kernel, self.device)
-        if self.use_graph is not False:
-            with capture_lock, wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
+        if graphs_allowed(self.device, self.use_graph, "a Stepper"):
+            with capture(self.device) as captured:
                 run_launches(launches, self.device)
-            return lambda: wp.capture_launch(capture.graph)
+            return lambda: wp.capture_launch(captured.graph)
         commands = [
             launch(item.kernel, item.dim, [*item.inputs, *item.outputs], device=self.device, block_dim=item.block_dim, record_cmd=True)
             for item in launches

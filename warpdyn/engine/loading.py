@@ -1,0 +1,60 @@
+"""Loading kernel modules: the first launch of a kernel module on a device compiles it, or loads it from
+Warp's kernel cache (`wp.config.kernel_cache_dir`). That first load runs under one process-wide lock, since
+Warp's module loading is not safe from several threads at once; once a compilation has taken longer than
+`NOTICE_AFTER` seconds, warpdyn says on stderr, once per process, that it is compiling and that the result
+is cached.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+
+import warp as wp
+
+from .. import config
+
+NOTICE_AFTER = 1.0
+"""Seconds a first load may take before warpdyn says that it is compiling."""
+
+_loaded: set = set()
+_lock = threading.RLock()
+_noticed = threading.Event()
+
+
+def _notice(device) -> None:
+    if _noticed.is_set():
+        return
+    _noticed.set()
+    print(
+        f"warpdyn: compiling Warp kernels for device '{device}' (each algorithm once per device and dtype; a "
+        f"model's first step takes seconds to a minute); they are cached in {wp.config.kernel_cache_dir}, so later "
+        "runs load them in about a second.",
+        file=sys.stderr,
+        flush=True,
+    )
+
+
+def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
+    """Compile or load `kernel`'s module for `device` (and CUDA block size) before a first launch, with
+    warpdyn.config.fuse_fp (fixed by the process's first load: warpdyn.config refuses a change after it)."""
+    key = (kernel.module, str(device), block_dim)
+    if key in _loaded:
+        return
+    with _lock:
+        if key in _loaded:
+            return
+        fuse_fp = config.fuse_fp
+        config.loaded_fuse_fp = fuse_fp
+        module = kernel.module
+        if module.options["fuse_fp"] != fuse_fp:
+            module.options["fuse_fp"] = fuse_fp
+            module.mark_modified()
+        timer = threading.Timer(NOTICE_AFTER, _notice, args=(device,))
+        timer.daemon = True
+        timer.start()
+        try:
+            wp.load_module(module, device=device, block_dim=block_dim)
+        finally:
+            timer.cancel()
+        _loaded.add(key)
