@@ -12,8 +12,9 @@ arrays are kept alive while graphs read them), so stepping one state again and a
 fast. The controls reach those graphs through the pool's fixed input buffers, into which each call copies the
 user's values, checked as before (on the CPU through NumPy; on a GPU on the device, ordered on the stream
 before the replay). A launch list is replayed through `Recorded` for its first CAPTURE_AFTER calls, then
-captured, on the CPU only while the calling thread is the process's only thread (`_may_capture`: Warp's CPU
-capture is process-wide); otherwise it stays a recorded replay (~30 µs a step on this CPU instead of ~17). The
+captured, only while no other thread works on the device (on the CPU, while the calling thread is the
+process's only thread: `_may_capture`); otherwise it stays a recorded replay (~30 µs a step on this CPU
+instead of ~17). The
 result is that of warpdyn.engine.step.step bit for bit: the same kernels on the same numbers.
 
 Fresh arrays, as in warpdyn.engine.step.step, under a wp.Tape or a graph capture, when gradients are needed
@@ -33,6 +34,7 @@ import numpy as np
 import warp as wp
 
 from .. import arrays
+from ..arrays import other_threads
 from . import pool, tape
 from .bundles import state_bundle
 from .kinematics import state_arrays
@@ -84,13 +86,17 @@ replays, so launches that run once or twice (a few steps of a new model) are not
 
 
 def _may_capture(device) -> bool:
-    """Whether a graph may be captured now. On a GPU, yes (warpdyn.engine.launch.capture_graph captures on a stream
-    of its own). On the CPU only while the calling thread is the process's only thread: Warp 1.19's CPU capture
-    is process-wide state (`runtime._apic_capture`) through which other threads' launches, copies and
-    allocations then go while it lasts, which they do not survive (NotImplementedError for launch descriptors
-    and strided copies, crashes). With other threads, the launch lists are replayed through `Recorded` instead
-    (~10 us more per step on the CPU)."""
-    return device.is_cuda or threading.active_count() == 1
+    """Whether a graph may be captured now: only while no other thread works on the device, as for Rollouts
+    (warpdyn.engine.launch.graphs_allowed). On a GPU a capture takes what other threads launch on Warp's
+    shared stream, and their copies through the legacy null stream (`array.numpy()`) fail while a blocking
+    stream captures (CUDA error 906, seen on an H100). On the CPU only while the calling thread is the
+    process's only thread: Warp 1.19's CPU capture is process-wide state (`runtime._apic_capture`) through
+    which other threads' launches, copies and allocations then go, which they do not survive
+    (NotImplementedError for launch descriptors and strided copies, crashes). Otherwise the launch lists are
+    replayed through `Recorded` (~10 us more per step on the CPU)."""
+    if device.is_cuda:
+        return not other_threads(device)
+    return threading.active_count() == 1
 
 
 class _Steps:

@@ -41,12 +41,10 @@ class Launch(NamedTuple):
     block_dim: int | None = None
 
 
-def run(launches, device, stream=None) -> None:
-    """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them); on a CUDA
-    `stream` when given, else on the device's current stream."""
-    options = {} if stream is None else {"stream": stream}
+def run(launches, device) -> None:
+    """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them)."""
     for item in launches:
-        launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim, **options)
+        launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
 
 
 class Recorded:
@@ -115,15 +113,11 @@ def graphs_allowed(device, use_graph, what: str) -> bool:
 _own_streams: dict = {}
 """{device alias: a Warp stream made by `capture`} for devices found on the null stream."""
 
-_capture_streams: dict = {}
-"""{device alias: the stream `capture_graph` captures on}."""
-
 
 @contextlib.contextmanager
-def capture(device, stream=None):
-    """wp.ScopedCapture on `device` (on `stream`, a CUDA stream, when given) under `capture_lock` (one capture
-    at a time, and no thread's first allocation or launch meanwhile); yields the capture (its .graph after
-    the block).
+def capture(device):
+    """wp.ScopedCapture on `device` under `capture_lock` (one capture at a time, and no thread's first
+    allocation or launch meanwhile); yields the capture (its .graph after the block).
 
     A CUDA device whose current stream is the legacy null stream, which cannot be captured, gets a Warp
     stream of its own first (kept as its current stream). Warp 1.19 leaves a device there after threads call
@@ -131,29 +125,23 @@ def capture(device, stream=None):
     back, and those swaps interleave."""
     device = wp.get_device(device)
     with capture_lock:
-        if stream is None and device.is_cuda and not device.stream.cuda_stream:
+        if device.is_cuda and not device.stream.cuda_stream:
             if device.alias not in _own_streams:
                 _own_streams[device.alias] = wp.Stream(device)
             device.set_stream(_own_streams[device.alias])
-        with wp.ScopedCapture(device=device, stream=stream, force_module_load=False) as captured:
+        with wp.ScopedCapture(device=device, force_module_load=False) as captured:
             yield captured
 
 
 def capture_graph(launches, device):
     """A graph of `launches` (Launch tuples) to replay with `wp.capture_launch`: Warp's CPU graph on the CPU, a
-    CUDA graph on a GPU, captured there on a stream of its own (the graph may be launched on any stream of the
-    device), so that what other threads launch meanwhile on the device's stream runs rather than being
-    captured with it. Their modules are loaded first."""
+    CUDA graph on a GPU, captured by `capture` (the caller checks that no other thread works on the device).
+    Their modules are loaded first."""
     device = wp.get_device(device)
     for item in launches:
         ensure_loaded(item.kernel, device, item.block_dim if device.is_cuda else None)
-    stream = None
-    if device.is_cuda:
-        stream = _capture_streams.get(device.alias)
-        if stream is None:
-            stream = _capture_streams[device.alias] = wp.Stream(device)
-    with capture(device, stream) as captured:
-        run(launches, device, stream)
+    with capture(device) as captured:
+        run(launches, device)
     return captured.graph
 
 
