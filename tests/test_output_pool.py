@@ -8,6 +8,7 @@ each holder a user may keep is checked (it keeps the set from being reused, and 
 import dataclasses
 import gc
 import threading
+import weakref
 
 import numpy as np
 import pytest
@@ -76,19 +77,28 @@ def test_pool_hands_out_a_set_again_only_when_nobody_holds_it():
 
     outputs = pool.OutputPool(make, shadow=lambda arrays: [pool.alias(a) for a in arrays], size=2)
     first = outputs.take()
+    assert first.lent and not first.free() and len(made) == 1, "taken, not handed out: lent"
+    held = outputs.hand_out(first)
+    assert not first.lent and not first.free() and all(a is b for a, b in zip(held, first.arrays))
+    del held
     assert first.free() and outputs.take() is first and len(made) == 1
-    assert all(s.ptr == a.ptr and not hasattr(s, "_ref") or s._ref is None for s, a in zip(first.shadow, first.arrays))
+    outputs.hand_out(first)
+    assert all(s.ptr == a.ptr and s._ref is None for s, a in zip(first.shadow, first.arrays)), "aliases keep nothing alive"
     held = [first.arrays[1]]
     assert not first.free()
     second = outputs.take()
     assert second is not first and len(made) == 2
+    outputs.hand_out(second)
     view = second.arrays[0][1:]
     assert outputs.take() is None, "both sets are held: no third"
     del held
-    assert outputs.take() is first and outputs.take(busy=first) is None
+    assert outputs.take() is first
+    outputs.hand_out(first)
+    assert outputs.take(busy=first) is None
     del view
     gc.collect()
     assert outputs.take(busy=first) is second
+    outputs.hand_out(second)
     assert outputs.slot_of(list(second.arrays)) is second and outputs.slot_of([second.arrays[0], first.arrays[1]]) is None
     second.arrays[0].requires_grad = True  # a set marked for gradients is not handed out again
     assert not second.free()
@@ -147,7 +157,52 @@ def test_stepping_one_state_again_and_again():
     other = _standing(model, 2, seed=5)
     for _ in range(4):
         _assert_same(wd.model.step(model, other), fresh.step(model, other), "another data")
-    assert not any(key[0] == "foreign" and key[1] is None for key in fast_step.steps_of(model, 2).graphs)
+    held = fast_step.steps_of(model, 2).foreign[0]
+    assert all(a is b for a, b in zip(held, state_arrays(other))), "the last user-built state is the one kept"
+
+
+def test_a_step_inside_a_step_gets_another_set():
+    """A finalizer that steps while a step runs (fired as the step lets go of the previous user-built input
+    state) gets another set than the outer step; both results equal the fresh path's."""
+    model = _legs()
+    kept = wd.model.step(model, _standing(model, 2))
+    first = _standing(model, 2, seed=5)
+    wd.model.step(model, first)  # the pooled steps keep its arrays (the `foreign` input)
+    nested = []
+    weakref.finalize(first.joint_positions_state, lambda: nested.append(wd.model.step(model, kept)))
+    del first
+    second = _standing(model, 2, seed=6)
+    outer = wd.model.step(model, second)
+    assert len(nested) == 1, "the finalizer ran inside the step"
+    assert nested[0].joint_positions_state is not outer.joint_positions_state
+    _assert_same(outer, fresh.step(model, second), "outer")
+    _assert_same(nested[0], fresh.step(model, kept), "nested")
+
+
+def test_representations_batch_sizes_and_non_finite_states_through_the_pool():
+    """One model stepped in turn with each velocity representation and two batch sizes (each its own launch
+    lists and graphs), and with an environment driven non-finite: every result equals the fresh path's,
+    health flags included."""
+    model = _legs()
+    for N in (2, 3):
+        datas = {r: _standing(model, N, r, seed=N) for r in (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)}
+        expected = dict(datas)
+        for t in range(4):
+            for r in datas:
+                datas[r] = wd.model.step(model, datas[r])
+                expected[r] = fresh.step(model, expected[r])
+                _assert_same(datas[r], expected[r], f"N = {N}, {r.name}, step {t}")
+                assert datas[r].velocity_representation == r
+        assert {key[2] for key in fast_step.steps_of(model, N).launches} == {int(r) for r in datas}
+    data = expected = _standing(model, 2)
+    tau = np.zeros((2, model.dofs()))
+    tau[1, 0] = np.nan  # in a Warp array, a non-finite control flags its environment (NumPy's is refused)
+    tau = wp.array(tau, dtype=wp.float64)
+    for t in range(3):
+        data = wd.model.step(model, data, joint_force_references=tau)
+        expected = fresh.step(model, expected, joint_force_references=tau)
+        _assert_same(data, expected, f"non-finite, step {t}")
+    assert data.valid_state.numpy().tolist() == [1, 0]
 
 
 def _holders():
@@ -166,6 +221,7 @@ def _holders():
     }
     if ON_CPU:  # on a GPU .numpy() is a copy, which nothing overwrites
         holders["numpy view"] = lambda d: d.joint_positions_state.numpy()
+    if not wd.arrays.env_fastest(robots.TEST_DEVICE):  # Warp reshapes contiguous arrays only (not the GPU layout)
         holders["reshape"] = lambda d: d.joint_positions_state.reshape((-1,))
         holders["flatten"] = lambda d: d.base_quaternion_state.flatten()
     return holders
@@ -443,11 +499,15 @@ def test_dynamics_outputs_from_pools_equal_fresh_ones(N):
 
 
 def test_dynamics_inputs_with_gradients_are_read_in_place():
-    """An input that requires gradients is not copied: under a tape its gradient arrives (ABA's joint forces)."""
+    """An input that requires gradients is not copied: outside a tape the outputs are fresh arrays that require
+    gradients (not a pool's), and under a tape its gradient arrives (ABA's joint forces)."""
     model = _legs()
     n = model.dofs()
     data = _standing(model, None)
     tau = wp.array(np.linspace(-1, 1, n), dtype=wp.float64, requires_grad=True)
+    _, first = wd.model.forward_dynamics_aba(model, data, joint_forces=tau)
+    _, second = wd.model.forward_dynamics_aba(model, data, joint_forces=tau)
+    assert first.requires_grad and second.requires_grad and first.ptr != second.ptr
     tape = wp.Tape()
     with tape:
         _, joints = wd.model.forward_dynamics_aba(model, data, joint_forces=tau)

@@ -414,6 +414,8 @@ def step(model: Model, data, *, link_forces=None, joint_force_references=None, c
     arrays come from a small pool that hands a set out again once nothing else refers to it, and its
     launches, from a state to a pooled set, are replayed from a graph after a few calls
     (warpdyn.engine.fast_step); under a tape, or when gradients are needed, all are fresh (the adjoint
-    reads them later).
+    reads them later). Not references, so not covered, as with freed memory: a weak reference, `arr.ptr`,
+    a `wp.array(ptr=...)` on it, a graph you captured reading it: these see new values once the set is
+    handed out again.
     """
     return stepping.step(model, data, link_forces=link_forces, joint_force_references=joint_force_references, ctrl=ctrl)

@@ -171,7 +171,7 @@ class _Outputs:
             shapes, batched = tuple(shapes), data.num_envs is not None
             slot = per_thread(model, ("outputs", shapes, N, batched), lambda: _output_pool(model, shapes, N, batched)).take()
             if slot is not None:
-                self.slot, self.user, self.args = slot, list(slot.arrays), slot.shadow
+                self.slot, self.user, self.args = slot, pool.OutputPool.hand_out(slot), slot.shadow
                 return
         if data.num_envs is not None:
             self.user = [arrays.output(shape, N, s, d, grad) for shape in shapes]

@@ -12,23 +12,19 @@ arrays are kept alive while graphs read them), so stepping one state again and a
 fast. The controls reach those graphs through the pool's fixed input buffers, into which each call copies the
 user's values, checked as before (on the CPU through NumPy; on a GPU on the device, ordered on the stream
 before the replay). A launch list is replayed through `Recorded` for its first CAPTURE_AFTER calls, then
-captured, only while no other thread works on the device (on the CPU, while the calling thread is the
-process's only thread: `_may_capture`); otherwise it stays a recorded replay (~30 µs a step on this CPU
-instead of ~17). The
+captured, only while no other thread works on that kind of device (`_may_capture`); otherwise it stays a
+recorded replay (benchmarks/latency.py measures both). The
 result is that of warpdyn.engine.step.step bit for bit: the same kernels on the same numbers.
 
 Fresh arrays, as in warpdyn.engine.step.step, under a wp.Tape or a graph capture, when gradients are needed
 (the data, an input or a model parameter requires them), where reference counts say nothing
 (`pool.available()`), and when every set of the pool is held (a caller that keeps its results).
 
-One pool per model version, thread and stream, and number of environments (warpdyn.engine.launch.per_thread):
-a setter (a new model version) drops it with its graphs; a new plan at the same version (parameters marked for
-gradients, then no longer) rebuilds the graphs and workspaces and keeps the sets.
+One pool per model version, plan (warpdyn.engine.step.plan), thread and stream, and number of environments
+(warpdyn.engine.launch.per_thread): a setter (a new model version) drops it with its graphs.
 """
 
 from __future__ import annotations
-
-import threading
 
 import numpy as np
 import warp as wp
@@ -53,16 +49,15 @@ def step(model, data, *, link_forces=None, joint_force_references=None, ctrl=Non
     current, N = prepare(model, data, health=True)
     if tape.taping() or current.device.is_capturing or not pool.available() or _requires_grad(model, data, joint_force_references, link_forces, ctrl):
         return advance(model, data, current, *step_inputs(current, data, joint_force_references, link_forces, ctrl))
-    steps = per_thread(model, ("pooled steps", N), lambda: _Steps(current, N))
-    if steps.plan is not current:
-        steps.reset(current)
+    steps = per_thread(model, ("pooled steps", N, current), lambda: _Steps(current, N))
     return steps.step(model, data, (joint_force_references, link_forces, ctrl))
 
 
 def steps_of(model, N: int):
     """The calling thread's pooled steps of `model` for N environments (made if there are none): for tests, which
     look at the sets they hand out (`.pool.slots`) and the graphs they captured (`.graphs`)."""
-    return per_thread(model, ("pooled steps", N), lambda: _Steps(step_plan(model), N))
+    current = step_plan(model)
+    return per_thread(model, ("pooled steps", N, current), lambda: _Steps(current, N))
 
 
 def _requires_grad(model, data, *inputs) -> bool:
@@ -86,17 +81,14 @@ replays, so launches that run once or twice (a few steps of a new model) are not
 
 
 def _may_capture(device) -> bool:
-    """Whether a graph may be captured now: only while no other thread works on the device, as for Rollouts
-    (warpdyn.engine.launch.graphs_allowed). On a GPU a capture takes what other threads launch on Warp's
-    shared stream, and their copies through the legacy null stream (`array.numpy()`) fail while a blocking
-    stream captures (CUDA error 906, seen on an H100). On the CPU only while the calling thread is the
-    process's only thread: Warp 1.19's CPU capture is process-wide state (`runtime._apic_capture`) through
-    which other threads' launches, copies and allocations then go, which they do not survive
-    (NotImplementedError for launch descriptors and strided copies, crashes). Otherwise the launch lists are
-    replayed through `Recorded` (~10 us more per step on the CPU)."""
-    if device.is_cuda:
-        return not other_threads(device)
-    return threading.active_count() == 1
+    """Whether a graph may be captured now: only while no other live thread has worked on that kind of device
+    through warpdyn, the rule of Rollouts and Steppers (warpdyn.engine.launch.graphs_allowed, README
+    "Threads"). On a GPU a capture takes what other threads launch on Warp's shared stream, and their copies
+    through the legacy null stream (`array.numpy()`) fail while a blocking stream captures (CUDA error 906,
+    seen on an H100); Warp 1.19's CPU capture is process-wide state through which other threads' launches,
+    copies and allocations go, which they do not survive. Otherwise the launch lists are replayed through
+    `Recorded`."""
+    return not other_threads(device)
 
 
 class _Steps:
@@ -108,14 +100,11 @@ class _Steps:
         self.N = N
         self.pool = pool.OutputPool(lambda: state_buffers(plan, N, False), _shadow(plan.scalar))
         self.buffers: dict = {}  # input index -> (device array (N, ...), its NumPy view on the CPU)
-        self.reset(plan)
-
-    def reset(self, plan: Plan) -> None:
         self.plan = plan
         self.workspaces: dict = {}  # link forces given -> Workspace
         # keyed by (input: a set's index or "foreign", output set, representation, which controls are given):
         self.launches: dict = {}  # -> [the launch list, calls replayed through Recorded]
-        self.recorded: dict = {}  # -> Recorded (kept when another foreign state comes: it re-packs that one)
+        self.recorded: dict = {}  # -> Recorded
         self.graphs: dict = {}  # -> captured graph
         self.foreign = None  # (state arrays, (the same as a list, their State bundle))
 
@@ -127,6 +116,7 @@ class _Steps:
         out = self.pool.take(busy=source)
         if out is None:  # every set is held: fresh arrays
             return advance(model, data, plan, tau, f, u)
+        y = self.pool.hand_out(out)  # held from here: a step inside this one (a finalizer) cannot take the set
         name, shadow = (source.index, source.shadow) if source is not None else ("foreign", self._foreign(x))
         key = (name, out.index, int(data.velocity_representation), tau is not None, f is not None, u is not None)
         graph = self.graphs.get(key)
@@ -140,17 +130,17 @@ class _Steps:
                 if recorded is None:
                     recorded = self.recorded[key] = Recorded()
                 recorded.run(entry[0], plan.device)
-                return with_state(data, out.arrays)
+                return with_state(data, y)
             graph = self.graphs[key] = capture_graph(entry[0], plan.device)
         wp.capture_launch(graph)
-        return with_state(data, out.arrays)
+        return with_state(data, y)
 
     def _foreign(self, x: list) -> tuple:
         """(x, its State bundle) for an input state that is not the pool's: kept (alive, while graphs read its
-        memory) until another such state comes, which drops its launch lists and graphs."""
+        memory) until another such state comes, which drops its launch lists, recorded launches and graphs."""
         held = self.foreign
         if held is None or not all(a is b for a, b in zip(held[0], x)):
-            for table in (self.graphs, self.launches):
+            for table in (self.graphs, self.launches, self.recorded):
                 for key in [k for k in table if k[0] == "foreign"]:
                     del table[key]
             held = self.foreign = (tuple(x), (x, state_bundle(self.plan.scalar, x)))

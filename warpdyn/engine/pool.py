@@ -96,16 +96,19 @@ class Slot:
     (see the module docstring); `index`, its place in the pool; `cache`, what a caller derives from the set
     once (launch lists, descriptors), which must refer to the shadow only."""
 
-    __slots__ = ("arrays", "shadow", "index", "cache")
+    __slots__ = ("arrays", "shadow", "index", "cache", "lent")
 
     def __init__(self, make, shadow, index: int):
         self.arrays = tuple(make())  # make's own list is gone once the tuple is made
         self.shadow = shadow(self.arrays) if shadow is not None else None
         self.index = index
         self.cache: dict = {}
+        self.lent = False  # taken, not handed out yet (see OutputPool.take)
 
     def free(self) -> bool:
         """Whether nothing but the pool refers to the set's arrays (and none was marked for gradients since)."""
+        if self.lent:
+            return False
         return all(count == _ALONE for count in _counts(self.arrays)) and True not in map(_REQUIRES_GRAD, self.arrays)
 
     def holds(self, arrays) -> bool:
@@ -131,9 +134,11 @@ class OutputPool:
     def take(self, busy: Slot | None = None) -> Slot | None:
         """A set that nobody holds (other than `busy`, which the caller reads), a new one while there are fewer
         than `size`, or None. A reused set is filled with NaN when warpdyn.config.fill_outputs_with_nan is set, as
-        a new one is (warpdyn.arrays.output)."""
+        a new one is (warpdyn.arrays.output). The set is lent until `hand_out`: no other take returns it meanwhile,
+        not even one from code that runs inside the caller's (a finalizer that the garbage collector runs)."""
         for slot in self.slots:
             if slot is not busy and slot.free():
+                slot.lent = True
                 if config.fill_outputs_with_nan:
                     for a in slot.arrays:
                         if a.dtype in (wp.float32, wp.float64):
@@ -144,7 +149,17 @@ class OutputPool:
         slot = Slot(self._make, self._shadow, len(self.slots))
         if not slot.free():  # something else already refers to the new arrays: not a set to recycle
             return None
+        slot.lent = True
         self.slots.append(slot)
         if slot.arrays:
             self._by_first[id(slot.arrays[0])] = slot
         return slot
+
+    @staticmethod
+    def hand_out(slot: Slot) -> list:
+        """The taken set's arrays, in a list that the caller keeps while it uses them (its references keep the
+        set from being taken again); the set is no longer lent."""
+        try:
+            return list(slot.arrays)
+        finally:
+            slot.lent = False
