@@ -77,11 +77,14 @@ def main() -> None:
     n = model.dofs()
     data = standing(model)
     tau = wp.zeros(n, dtype=model.scalar, device=device)
-    rows = []
+    print(header(device))
+    print(f"\nergoCub legs standing, {args.dtype}, dt 1 ms; median of >= {args.repeats} calls\n")
+    print("| call | µs |")
+    print("| --- | ---: |", flush=True)
 
     def row(label, fn, per=1):
         fn()
-        rows.append((label, f"{median_time(fn, device, args.repeats, 0.5) / per * 1e6:.3g}"))
+        print(f"| {label} | {median_time(fn, device, args.repeats, 0.5) / per * 1e6:.3g} |", flush=True)
 
     row("`wd.model.step`, one environment, Warp torques", lambda: wd.model.step(model, data, joint_force_references=tau))
     tau_host = np.zeros(n)
@@ -104,13 +107,8 @@ def main() -> None:
     row("`free_floating_mass_matrix`, one environment", lambda: wd.model.free_floating_mass_matrix(model, data))
     row("`free_floating_bias_forces`, one environment", lambda: wd.model.free_floating_bias_forces(model, data))
     if not device.is_cuda:
-        rows += mujoco_rows(model, args.repeats)
-    print(header(device))
-    print(f"\nergoCub legs standing, {args.dtype}, dt 1 ms; median of >= {args.repeats} calls\n")
-    print("| call | µs |")
-    print("| --- | ---: |")
-    for label, value in rows:
-        print(f"| {label} | {value} |")
+        for label, value in mujoco_rows(model, args.repeats):
+            print(f"| {label} | {value} |")
 
 
 if __name__ == "__main__":
