@@ -514,3 +514,20 @@ def test_dynamics_inputs_with_gradients_are_read_in_place():
     tape.backward(grads={joints: wp.array(np.ones(n), dtype=wp.float64)})
     assert np.abs(tau.grad.numpy()).max() > 0
     assert joints.requires_grad
+
+
+def test_a_plan_change_without_a_new_model_version():
+    """A parameter's requires_grad set directly (no setter, so no new model version) changes the step's plan
+    (gravity compensation kept for its gradient): steps before, during and after give the same states, and
+    each plan gets its own workspaces (an AttributeError once: the old plan's workspace had no such buffer)."""
+    model = _legs()
+    data = _standing(model, 2)
+    before = _host(fresh.step(model, data))  # the fresh path's per-thread workspace, made for this plan
+    model.gravcomp_mass.requires_grad = True
+    try:
+        during = _host(wd.model.step(model, data))
+    finally:
+        model.gravcomp_mass.requires_grad = False
+    after = _host(wd.model.step(model, data))
+    _assert_same(during, before, "gravity compensation marked")
+    _assert_same(after, before, "unmarked")

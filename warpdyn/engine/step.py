@@ -550,7 +550,7 @@ def contact_forces(model, data, W_f_ext: wp.array | None = None):
 
 
 class _Shared:
-    """A thread's workspace and recorded launches of `step` for one batch size and link-force presence."""
+    """A thread's workspace and recorded launches of `step` for one plan, batch size and link-force presence."""
 
     def __init__(self, current: Plan, N: int, forces: bool):
         self.workspace = Workspace(current, N, False, forces)
@@ -588,7 +588,7 @@ def advance(model, data, current: Plan, tau_ref, f_user, u):
         ws = Workspace(current, N, grad, forces)
         run(step_launches(current, ws, x, y, tau_ref, f_user, repr, ctrl=u), current.device)
     else:
-        shared = per_thread(model, ("step", N, forces), lambda: _Shared(current, N, forces))
+        shared = per_thread(model, ("step", N, forces, current), lambda: _Shared(current, N, forces))
         shared.recorded.run(step_launches(current, shared.workspace, x, y, tau_ref, f_user, repr, ctrl=u), current.device)
     return with_state(data, y)
 
