@@ -65,8 +65,12 @@ def empty(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = Fals
 
 def output(shape: tuple, num_envs: int, dtype, device, requires_grad: bool = False) -> wp.array:
     """An array for a kernel's output: like `empty`, filled with NaN when warpdyn.config.fill_outputs_with_nan is set."""
-    array = empty(shape, num_envs, dtype, device, requires_grad)
-    if config.fill_outputs_with_nan and dtype in (wp.float32, wp.float64):
+    return fill_outputs_with_nan(empty(shape, num_envs, dtype, device, requires_grad))
+
+
+def fill_outputs_with_nan(array: wp.array) -> wp.array:
+    """`array`, filled with NaN when warpdyn.config.fill_outputs_with_nan is set and it holds floats."""
+    if config.fill_outputs_with_nan and array.dtype in (wp.float32, wp.float64):
         array.fill_(float("nan"))
     return array
 

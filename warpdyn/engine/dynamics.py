@@ -180,10 +180,7 @@ class _Outputs:
             self.args = [arrays.output(shape, 1, s, d, grad) for shape in shapes]
             self.user = [arrays.squeeze_env(a, None) for a in self.args]
         else:
-            self.user = [wp.empty(shape, dtype=s, device=d, requires_grad=grad) for shape in shapes]
-            if config.fill_outputs_with_nan:
-                for a in self.user:
-                    a.fill_(float("nan"))
+            self.user = [arrays.fill_outputs_with_nan(wp.empty(shape, dtype=s, device=d, requires_grad=grad)) for shape in shapes]
             self.args = [env_axis_descriptor(a) for a in self.user]
 
 
@@ -195,11 +192,7 @@ def _output_pool(model, shapes: tuple, N: int, batched: bool) -> pool.OutputPool
         return pool.OutputPool(lambda: [arrays.output(shape, N, s, d) for shape in shapes], lambda made: [pool.alias(a) for a in made])
 
     def make():
-        made = [wp.empty(shape, dtype=s, device=d) for shape in shapes]
-        if config.fill_outputs_with_nan:
-            for a in made:
-                a.fill_(float("nan"))
-        return made
+        return [arrays.fill_outputs_with_nan(wp.empty(shape, dtype=s, device=d)) for shape in shapes]
 
     return pool.OutputPool(make, lambda made: [env_axis_descriptor(a) for a in made])
 

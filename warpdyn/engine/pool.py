@@ -54,7 +54,7 @@ import sys
 
 import warp as wp
 
-from .. import config
+from ..arrays import fill_outputs_with_nan
 
 __all__ = ["POOL_SIZE", "available", "OutputPool", "Slot", "alias"]
 
@@ -139,10 +139,8 @@ class OutputPool:
         for slot in self.slots:
             if slot is not busy and slot.free():
                 slot.lent = True
-                if config.fill_outputs_with_nan:
-                    for a in slot.arrays:
-                        if a.dtype in (wp.float32, wp.float64):
-                            a.fill_(float("nan"))
+                for a in slot.arrays:
+                    fill_outputs_with_nan(a)
                 return slot
         if len(self.slots) >= self._size:
             return None
