@@ -19,6 +19,7 @@ import gradcheck
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
+from warpdyn.engine import determinism
 
 N, T = 8, 6
 PARAMETERS = ("link_mass", "friction_viscous", "K", "terrain_height")
@@ -261,3 +262,39 @@ def test_fuse_fp_changed_after_kernels_loaded_is_refused():
     wd.config.fuse_fp = before
     assert wd.config.fuse_fp is before
     np.testing.assert_array_equal(wd.model.forward_dynamics_aba(model, data)[1].numpy(), expected)
+
+
+def _aba_loss_and_gradient(model, data, mass, tape):
+    """sum of squared joint accelerations of ABA recorded on `tape`, and d/d link_mass after its backward."""
+    with tape:
+        _, acc = wd.model.forward_dynamics_aba(model, data)
+        loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+        wp.launch(_sum_squares, dim=acc.shape, inputs=[acc], outputs=[loss])
+    tape.backward(loss)
+    return float(loss.numpy()[0]), mass.grad.numpy().copy()
+
+
+def test_deterministic_marks_are_kept_and_a_reset_tape_records_anew():
+    """A call without `deterministic` keeps a parameter's marking (the torch bridge marks its parameters so);
+    a tape reset after an optimiser step records a new copy of the parameter: the loss and gradient of the
+    new masses, as without determinism; np.int64 launch dimensions are accepted."""
+    model = _legs(False)
+    mass = wd.model.parameters_requiring_grad(model, names=("link_mass",), deterministic=True)["link_mass"]
+    wd.model.parameters_requiring_grad(model, names=("link_mass",))
+    assert determinism.is_marked(mass)
+    data = _data(model)
+    tape = wp.Tape()
+    _aba_loss_and_gradient(model, data, mass, tape)
+    mass.assign(mass.numpy() * 1.1)
+    tape.reset()
+    got = _aba_loss_and_gradient(model, data, mass, tape)
+    wd.model.parameters_requiring_grad(model, names=("link_mass",), deterministic=False)
+    assert not determinism.is_marked(mass)
+    mass.grad.zero_()
+    expected = _aba_loss_and_gradient(model, data, mass, wp.Tape())
+    np.testing.assert_allclose(got[0], expected[0], rtol=1e-13)
+    np.testing.assert_allclose(got[1], expected[1], rtol=0, atol=1e-12 * np.abs(expected[1]).max())
+    wd.model.parameters_requiring_grad(model, names=("link_mass",), deterministic=True)
+    with wp.Tape():
+        rows = determinism.rows_per_environment([mass.reshape((1, -1))], np.int64(N), mass.device)
+    assert rows[0].shape == (N, mass.shape[0])

@@ -20,6 +20,7 @@
 from __future__ import annotations
 
 import sys
+import threading
 import types
 
 env_fastest: bool | None = None
@@ -32,18 +33,24 @@ class _Config(types.ModuleType):
     """Validates assignments: fuse_fp is a bool, fixed once kernels are loaded (`loaded_fuse_fp`)."""
 
     loaded_fuse_fp: bool | None = None
-    """fuse_fp as the first kernel module was loaded with it (set by warpdyn.engine.loading)."""
+    """fuse_fp as the first kernel module was loaded with it (set by warpdyn.engine.loading under fuse_fp_lock)."""
+
+    fuse_fp_lock = threading.Lock()
+    """Held while fuse_fp is assigned and while the first load fixes it."""
 
     def __setattr__(self, name, value):
-        if name == "fuse_fp":
-            if not isinstance(value, bool):
-                raise TypeError(f"warpdyn.config.fuse_fp must be True or False, got {value!r}")
+        if name != "fuse_fp":
+            super().__setattr__(name, value)
+            return
+        if not isinstance(value, bool):
+            raise TypeError(f"warpdyn.config.fuse_fp must be True or False, got {value!r}")
+        with self.fuse_fp_lock:
             if self.loaded_fuse_fp is not None and value is not self.loaded_fuse_fp:
                 raise RuntimeError(
                     f"warpdyn.config.fuse_fp = {value}: kernels are loaded with {self.loaded_fuse_fp}; set it before the "
                     "first launch (recorded launches and captured graphs hold the compiled kernels)"
                 )
-        super().__setattr__(name, value)
+            super().__setattr__(name, value)
 
 
 sys.modules[__name__].__class__ = _Config

@@ -24,6 +24,7 @@ from .engine import fast_step as stepping
 from .description import NotModelledWarning, UnphysicalInertiaWarning
 from .description.model import ActuatorDescription
 from .engine.kinematics import link_targets
+from .engine.warp_private import tape_known
 from .types.enums import IntegratorType, VelRepr, output_repr
 from .types.model import Model
 from .types.parameters import REGISTRY
@@ -145,7 +146,7 @@ def total_mass(model: Model):
     return float(total) if total.ndim == 0 else total
 
 
-def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "link_inertia"), *, deterministic: bool = False) -> dict:
+def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "link_inertia"), *, deterministic: bool | None = None) -> dict:
     """Mark model parameters whose gradients a wp.Tape should compute; returns {name: Warp array}.
 
     names, any of: "link_mass" (nL,) [kg], "link_com" (nL,) vec3 [m, link frame], "link_inertia" (nL,)
@@ -163,8 +164,9 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
     run to run: launches under a tape read a copy of each named shared parameter with one row per
     environment, and the rows' adjoints are summed into its .grad in environment order by the tape's
     backward pass (warpdyn.engine.determinism; the sum's rounding differs from the atomics', not its value;
-    benchmarks/reproducibility.py measures its cost). A HeightfieldTerrain's heights are refused with it
-    (ValueError). A parameter given per environment is deterministic either way, and its rows sum to the
+    benchmarks/reproducibility.py measures its cost; the parameter must not change while a tape records).
+    False: atomics again; None (the default): each named parameter keeps its setting. A HeightfieldTerrain's
+    heights are refused with it (ValueError). A parameter given per environment is deterministic either way, and its rows sum to the
     shared one's gradient (tests/test_reproducibility.py). Zero the grads in place (`tape.zero()`) between
     backward passes: kernels recorded on a tape hold views of the arrays and their gradients, so a .grad
     replaced by a new array afterwards is not the one they write. Each call returns the model's current
@@ -179,6 +181,8 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
     with a zero limit spring has its limit off: its gradient is 0 there).
     """
     names = (names,) if isinstance(names, str) else tuple(names)
+    if deterministic and not tape_known():
+        raise RuntimeError("deterministic=True needs to know which wp.Tape records, which this Warp version does not say")
     if deterministic and "terrain_height" in names and isinstance(model.terrain, HeightfieldTerrain):
         raise ValueError(
             "terrain_height with deterministic=True: a HeightfieldTerrain's heights get the adjoints of the cells "
@@ -186,8 +190,9 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
             "environment reads once (the model's, K, D, mu, a FlatTerrain's height)"
         )
     marked = model.mark_for_gradients(names)
-    for value in marked.values():
-        (determinism.mark if deterministic else determinism.unmark)(value)
+    if deterministic is not None:
+        for value in marked.values():
+            (determinism.mark if deterministic else determinism.unmark)(value)
     return marked
 
 

@@ -12,13 +12,16 @@ into the parameter's .grad in environment order (one thread per number) when tap
 after every launch that read the copy, and zeroes them.
 
 Parameters are recognised by the address of their values (the kernels' bundles hold (1, count) views of
-the model's (count,) arrays). Cost: N copies of each marked parameter per tape, a copy and a sum kernel.
+the model's (count,) arrays). Cost: N copies of each marked parameter per recording, a copy and a sum
+kernel. The copies hold the values a recording first read: a parameter must not change while a tape
+records (an optimiser steps between recordings, after tape.reset() or with a new tape).
 """
 
 from __future__ import annotations
 
 import weakref
 
+import numpy as np
 import warp as wp
 
 from ..kernels.env_rows import kernels as env_rows_kernels
@@ -32,19 +35,28 @@ _marked: dict = {}
 """{address of a parameter's values: weak reference to the array marked}."""
 
 _tapes: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-"""{tape: {key: (what the key's object was, its replacement)}} of the copies and bundles made for a tape."""
+"""{tape: (its launch list, {key: (what the key's object was, its replacement)})}: the copies and bundles made
+for a tape's recording (tape.reset() gives the tape a new launch list: a new recording, new copies)."""
 
 _FIELDS = frozenset((*MODEL_ARRAYS, "K", "D", "mu", "height"))
 """The parameter fields of the kernels' bundles: the model's, the contacts' and a flat terrain's."""
 
 
 def mark(array: wp.array) -> None:
-    """Give `array` (a shared parameter requiring gradients) deterministic gradients."""
-    _marked[array.ptr] = weakref.ref(array)
+    """Give `array` (a shared parameter requiring gradients) deterministic gradients (an empty one has none)."""
+    if array.ptr is not None:
+        _marked[array.ptr] = weakref.ref(array, lambda _, ptr=array.ptr: _forget(ptr))
+
+
+def _forget(ptr) -> None:
+    ref = _marked.get(ptr)
+    if ref is not None and ref() is None:
+        _marked.pop(ptr, None)
 
 
 def unmark(array: wp.array) -> None:
-    _marked.pop(array.ptr, None)
+    if array.ptr is not None:
+        _marked.pop(array.ptr, None)
 
 
 def is_marked(array) -> bool:
@@ -54,10 +66,7 @@ def is_marked(array) -> bool:
     ref = _marked.get(array.ptr)
     if ref is None:
         return False
-    if ref() is None:
-        del _marked[array.ptr]
-        return False
-    return True
+    return ref() is not None
 
 
 def any_marked() -> bool:
@@ -69,13 +78,13 @@ def rows_per_environment(inputs, dim, device) -> list:
     by its copy of one row per environment, when a tape records and the launch has more than one
     environment; otherwise `inputs` unchanged."""
     tape = recording_tape()
-    N = int(dim if isinstance(dim, int) else dim[0])
+    N = int(dim) if np.ndim(dim) == 0 else int(dim[0])
     if tape is None or N < 2:
         return inputs
-    made = _tapes.get(tape)
-    if made is None:
-        made = _tapes[tape] = {}
-    return [_replace(value, tape, made, N, device) for value in inputs]
+    recording = _tapes.get(tape)
+    if recording is None or recording[0] is not tape.launches:
+        recording = _tapes[tape] = (tape.launches, {})
+    return [_replace(value, tape, recording[1], N, device) for value in inputs]
 
 
 def _replace(value, tape, made: dict, N: int, device):

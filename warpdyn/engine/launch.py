@@ -26,7 +26,7 @@ def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | Non
     note_thread(device)
     ensure_loaded(kernel, device, block_dim if device.is_cuda else None)
     check_thread()
-    if determinism.any_marked() and options.get("record_tape", True) and not options.get("adjoint", False):
+    if determinism.any_marked() and options.get("record_tape", True) and not (options.get("adjoint") or options.get("record_cmd")):
         inputs = determinism.rows_per_environment(inputs, dim, device)
     return wp.launch(kernel, dim=dim, inputs=inputs, outputs=outputs, device=device, block_dim=block_dim, **options)
 

@@ -44,8 +44,10 @@ def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
     with _lock:
         if key in _loaded:
             return
-        fuse_fp = config.fuse_fp
-        config.loaded_fuse_fp = fuse_fp
+        with config.fuse_fp_lock:
+            if config.loaded_fuse_fp is None:
+                config.loaded_fuse_fp = config.fuse_fp
+            fuse_fp = config.loaded_fuse_fp
         module = kernel.module
         if module.options["fuse_fp"] != fuse_fp:
             module.options["fuse_fp"] = fuse_fp
