@@ -21,6 +21,7 @@ Prints the header and a Markdown table (µs).
 from __future__ import annotations
 
 import argparse
+import threading
 
 import numpy as np
 import warp as wp
@@ -63,6 +64,32 @@ def mujoco_rows(model, repeats: int) -> list:
     return rows
 
 
+def row_with_another_thread(row, dtype: str, device, tau_host) -> None:
+    """The loop above on a new model while another thread that has worked through warpdyn is alive (idle):
+    graphs are not captured then (README, "Threads"), the launches are replayed as recorded."""
+    model = seed_model(np_dtype[dtype], device)
+    started, done = threading.Event(), threading.Event()
+
+    def idle():
+        wd.model.forward_kinematics(model, standing(model))
+        started.set()
+        done.wait()
+
+    other = threading.Thread(target=idle)
+    other.start()
+    started.wait()
+    state = [standing(model)]
+
+    def loop():
+        state[0] = wd.model.step(model, state[0], joint_force_references=tau_host)
+
+    try:
+        row("`data = wd.model.step(model, data, ...)`, NumPy torques, another warpdyn thread alive (no graphs)", loop)
+    finally:
+        done.set()
+        other.join()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--device", default="cpu")
@@ -95,6 +122,7 @@ def main() -> None:
         state[0] = wd.model.step(model, state[0], joint_force_references=tau_host)
 
     row("`data = wd.model.step(model, data, ...)`, one environment, NumPy torques", loop)
+    row_with_another_thread(row, args.dtype, device, tau_host)
     stepper = wd.simulation.Stepper(model, data)
     row("`Stepper.step`, one environment", stepper.step)
     batched = wd.simulation.Stepper(model, standing(model, args.batched))

@@ -76,8 +76,8 @@ def _shadow(scalar):
 
 CAPTURE_AFTER = 2
 """Calls of one launch list (input state, output set, representation, which controls are given) replayed
-through `Recorded` before it is captured as a graph: a capture costs ~1 ms on the CPU, the saving of some 20
-replays, so launches that run once or twice (a few steps of a new model) are not captured."""
+through `Recorded` before it is captured as a graph: a capture costs far more than a replay, so launches that
+run once or twice (a few steps of a new model) are not captured."""
 
 
 def _may_capture(device) -> bool:
