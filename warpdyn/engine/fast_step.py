@@ -12,7 +12,9 @@ arrays are kept alive while graphs read them), so stepping one state again and a
 fast. The controls reach those graphs through the pool's fixed input buffers, into which each call copies the
 user's values, checked as before (on the CPU through NumPy; on a GPU on the device, ordered on the stream
 before the replay). A launch list is replayed through `Recorded` for its first CAPTURE_AFTER calls, then
-captured, only while no other thread works on that kind of device (`_may_capture`); otherwise it stays a
+captured, only while no other thread works on that kind of device (warpdyn.engine.launch.graphs_allowed, as
+for Rollout and Stepper: on a GPU other threads' launches would join the capture and their `array.numpy()`
+copies fail during it, CUDA error 906 on an H100; Warp's CPU capture is process-wide); otherwise it stays a
 recorded replay (benchmarks/latency.py measures both). The
 result is that of warpdyn.engine.step.step bit for bit: the same kernels on the same numbers.
 
@@ -30,11 +32,10 @@ import numpy as np
 import warp as wp
 
 from .. import arrays
-from ..arrays import other_threads
 from . import pool, tape
 from .bundles import state_bundle
 from .kinematics import state_arrays
-from .launch import Recorded, capture_graph, per_thread, run
+from .launch import Recorded, capture_graph, graphs_allowed, per_thread, run
 from .rollout import copy_launch
 from .step import Plan, Workspace, advance, prepare, state_buffers, step_inputs, step_launches, with_state
 from .step import plan as step_plan
@@ -80,17 +81,6 @@ through `Recorded` before it is captured as a graph: a capture costs far more th
 run once or twice (a few steps of a new model) are not captured."""
 
 
-def _may_capture(device) -> bool:
-    """Whether a graph may be captured now: only while no other live thread has worked on that kind of device
-    through warpdyn, the rule of Rollouts and Steppers (warpdyn.engine.launch.graphs_allowed, README
-    "Threads"). On a GPU a capture takes what other threads launch on Warp's shared stream, and their copies
-    through the legacy null stream (`array.numpy()`) fail while a blocking stream captures (CUDA error 906,
-    seen on an H100); Warp 1.19's CPU capture is process-wide state through which other threads' launches,
-    copies and allocations go, which they do not survive. Otherwise the launch lists are replayed through
-    `Recorded`."""
-    return not other_threads(device)
-
-
 class _Steps:
     """A thread's pooled steps of a model for N environments: the output pool, the input buffers, the
     workspaces, the last input state that is not one of the pool's sets (`foreign`), and the graphs or
@@ -124,7 +114,7 @@ class _Steps:
             entry = self.launches.get(key)
             if entry is None:
                 entry = self.launches[key] = [self._launches(*shadow, out, tau, f, u, key[2]), 0]
-            if entry[1] < CAPTURE_AFTER or not _may_capture(plan.device):
+            if entry[1] < CAPTURE_AFTER or not graphs_allowed(plan.device, "auto", "wd.model.step"):
                 entry[1] += 1
                 recorded = self.recorded.get(key)
                 if recorded is None:
