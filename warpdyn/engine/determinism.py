@@ -6,8 +6,8 @@ thread, so under a tape its adjoint is added with atomics from all of them, in a
 run to run on a GPU (the last bits of the gradient differ). For a parameter marked here, each launch
 recorded on a tape reads instead a copy with one row per environment of the launch (N = its first
 dimension; the rows equal the parameter, so the launch computes the same numbers): each row's adjoint
-then comes from its environment's thread alone. The copy is made once per tape, when a launch on it first
-reads the parameter, and a function recorded on the tape just before that launch sums the rows' adjoints
+then comes from its environment's thread alone. The copy is made once per recording of a tape, when a
+launch in it first reads the parameter, and a function recorded on the tape just before that launch sums the rows' adjoints
 into the parameter's .grad in environment order (one thread per number) when tape.backward reaches it,
 after every launch that read the copy, and zeroes them.
 
