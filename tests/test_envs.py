@@ -138,3 +138,108 @@ def test_ppo_learns_to_stand(tmp_path):
     returns = [h[1] for h in history if not math.isnan(h[1])]
     assert len(returns) >= 12
     assert np.mean(returns[-4:]) > np.mean(returns[:4]) + 0.1, returns
+
+
+def test_the_default_posture_and_its_checks():
+    """Targets and resets centre on default_joint_positions; the standing height is that posture's; a joint
+    that the model lacks, or a non-finite angle, is refused by name."""
+    knees = {"l_knee": -0.4, "r_knee": -0.4}
+    env = _env(N=2, joint_noise=0.0, default_joint_positions=knees)
+    names = env.model.joint_names()
+    expected = np.zeros(12)
+    expected[[names.index("l_knee"), names.index("r_knee")]] = -0.4
+    expected = expected.astype(env.model.dtype)
+    np.testing.assert_array_equal(env.default_joint_positions.cpu().numpy(), expected)
+    env.reset(seed=0)
+    np.testing.assert_array_equal(env.stepper.data.joint_positions.numpy(), np.tile(expected, (2, 1)))
+    posture = wd.data.Data.build(env.model, joint_positions=expected)
+    lowest = wd.contact.collidable_point_positions(env.model, posture).numpy()[..., 2].min()
+    assert env.standing_height == -lowest and abs(env.standing_height - _env(N=1).standing_height) > 1e-3
+    env.step(torch.ones(2, 12, device=env.device))
+    np.testing.assert_array_equal(wp.to_torch(env.stepper.ctrl).cpu().numpy(), np.tile(expected + np.float32(0.25), (2, 1)))
+    with pytest.raises(ValueError, match="names joint 'l_elbow'"):
+        _env(default_joint_positions={"l_elbow": 0.3})
+    with pytest.raises(ValueError, match=r"default_joint_positions\['l_knee'\] is nan"):
+        _env(default_joint_positions={"l_knee": float("nan")})
+
+
+def test_feet_contact_and_air_time():
+    """The ergoCub's feet are the two links with collidable points. Standing (policy steps 30 to 50, after
+    landing and before zero actions let it topple), both touch the ground and carry the robot's weight on
+    average; dropped from 0.3 m above its stance, no foot touches, the air time grows by policy_dt per step,
+    and the step a foot lands its first contact is flagged."""
+    rewards = dict(envs.DEFAULT_REWARDS, feet_air_time=(envs.terms.feet_air_time, 1.0))
+    env = _env(N=2, joint_noise=0.0, lin_vel_x=(0.5, 0.5), air_time_target=0.1, rewards=rewards)
+    assert env.feet == ("l_ankle_2", "r_ankle_2")
+    env.reset(seed=0)
+    normal = []
+    for k in range(50):
+        env.step(torch.zeros(2, 12, device=env.device))
+        if k >= 30:
+            assert env.feet_contact.all(), k
+            normal.append(wp.to_torch(env.stepper.contact_wrenches)[:, :, 2].sum(dim=1).cpu().numpy())
+    weight = env.model.link_mass.numpy().sum(axis=1) * 9.81
+    np.testing.assert_allclose(np.mean(normal, axis=0), weight, rtol=0.1)
+    high = wd.data.Data.build(env.model, num_envs=2, base_position=(0.0, 0.0, env.standing_height + 0.3))
+    env.stepper.set_state(high)
+    env.feet_air_time.zero_()
+    env._previous_contact.zero_()
+    dt, landed = env.cfg.policy_dt, None
+    for k in range(20):
+        info = env.step(torch.zeros(2, 12, device=env.device))[4]
+        if env.feet_first_contact.any():
+            landed = k
+            break
+        assert not env.feet_contact.any()
+        np.testing.assert_allclose(env.feet_air_time.cpu().numpy(), (k + 1) * dt, rtol=1e-6)
+    assert landed is not None and landed >= 8, landed  # a 0.3 m fall takes ~0.25 s = 12 policy steps
+    first = env.feet_first_contact.cpu().numpy()
+    paid = ((landed + 1) * dt - 0.1) * first.sum(axis=1) * dt  # (air time - target) per landing foot, x policy_dt
+    np.testing.assert_allclose(float(info["log"]["/reward/feet_air_time"]), paid.mean(), rtol=1e-5)
+    assert (env.feet_air_time.cpu().numpy()[env.feet_contact.cpu().numpy()] == 0).all()  # landed feet start anew
+
+
+def test_pushes_follow_each_episodes_clock():
+    """push_seconds = 2 policy steps: an environment's base gets a horizontal kick at its episode steps 2, 4, ...
+    (its own clock: rsl-rl spreads the clocks), the others do not."""
+    env = _env(N=4, push_velocity=0.5, push_seconds=0.04, joint_noise=0.0)
+    env.reset(seed=0)
+    env.episode_length_buf.copy_(torch.tensor([0, 1, 2, 3], device=env.device))
+    twin = _env(N=4, push_velocity=0.0, joint_noise=0.0)
+    twin.reset(seed=0)
+    twin.episode_length_buf.copy_(env.episode_length_buf)
+    env.step(torch.zeros(4, 12, device=env.device))
+    twin.step(torch.zeros(4, 12, device=env.device))
+    moved = (env.state.base_linear_velocity - twin.state.base_linear_velocity)[:, :2].abs().amax(dim=1) > 1e-3
+    assert moved.tolist() == [False, False, True, False]
+
+
+def test_a_torque_limit_clips_the_servos():
+    env = _env(N=2, torque_limit=20.0)
+    env.reset(seed=0)
+    env.step(torch.full((2, 12), 5.0, device=env.device))
+    assert float(env.joint_torques.abs().max()) == 20.0
+    np.testing.assert_array_equal(env.model.actuator_force_range.numpy(), np.tile([-20.0, 20.0], (12, 1)))
+
+
+def test_graph_replays_equal_eager_steps():
+    """On a GPU, use_graph=True captures a whole step (actions, simulation, rewards, resets, randomisation)
+    and its replays give what eager steps give, bitwise, through pushes and time-limit resets; on the CPU,
+    use_graph=True is refused (torch ops are not captured there)."""
+    if not wp.get_device().is_cuda:
+        with pytest.raises(ValueError, match="use_graph=True captures torch ops"):
+            envs.LeggedEnv(_legs(), num_envs=2, use_graph=True)
+        return
+    settings = dict(N=8, push_velocity=0.5, push_seconds=0.06, episode_seconds=0.1, mass_scale=(0.8, 1.2), friction=(0.4, 1.0), lin_vel_x=(-0.5, 0.5))
+    graphed = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**{k: v for k, v in settings.items() if k != "N"}), seed=3, use_graph=True)
+    eager = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**{k: v for k, v in settings.items() if k != "N"}), seed=3, use_graph=False)
+    actions = torch.tensor(np.random.default_rng(0).uniform(-1, 1, (12, 8, 12)), dtype=torch.float32, device=graphed.device)
+    for env in (graphed, eager):
+        env.reset(seed=3)
+    for k in range(12):
+        a = graphed.step(actions[k])
+        b = eager.step(actions[k])
+        for x, y in zip(a[:4], b[:4]):
+            assert torch.equal(x, y), k
+        assert torch.equal(a[4]["final_obs"], b[4]["final_obs"])
+    assert len(graphed._graphs) == 1 and not eager._graphs

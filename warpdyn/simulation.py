@@ -148,10 +148,12 @@ class Stepper(_Stepper):
     `joint_force_references` (N, n) [N m or N], `ctrl` (N, na) (the model's actuators), and, when built with
     link_forces=True, `link_forces` (N, nL, 6) in the data's representation. `set_state(data, envs=None)`
     copies a state in, for every environment or, without a host synchronisation, those an int32 mask (N,)
-    selects (resets). The launches of a call are built once, and captured as a graph unless use_graph=False
-    (CUDA graph on GPUs, Warp's CPU graph on the CPU); setting a model parameter or setting rebuilds them at
-    the next call, while writing into a parameter's array in place does not need to. Not differentiable:
-    use `wd.model.step` or a rollout under a wp.Tape. One Stepper serves one thread at a time.
+    selects (resets). `contact_wrenches` (N, nc, 6) holds the enabled collidable points' contact wrenches at
+    the start of the last step of a call (Inertial: [force; torque about the world origin]). The launches of
+    a call are built once, and captured as a graph unless use_graph=False (CUDA graph on GPUs, Warp's CPU
+    graph on the CPU); setting a model parameter or setting rebuilds them at the next call, while writing
+    into a parameter's array in place does not need to. Not differentiable: use `wd.model.step` or a rollout
+    under a wp.Tape. One Stepper serves one thread at a time.
     """
 
 

@@ -105,6 +105,14 @@ class Stepper:
         return self._data[self._current]
 
     @property
+    def contact_wrenches(self):
+        """W_f_C (N, nc, 6): the Inertial wrench [force; torque about the world origin] [N, N m] of each enabled
+        collidable point's contact force at the start of the last step of the latest call (None for a model
+        without enabled points); a view of the Stepper's workspace, overwritten by each call."""
+        evaluation = self._workspace.evals[0]
+        return evaluation.W_f_C if self._plan.contacts else None
+
+    @property
     def buffers(self) -> tuple:
         """The two state buffers as Data (views): `data` is one of them, the other the previous state."""
         return tuple(self._data)

@@ -3,8 +3,10 @@ the model's device (see warpdyn.envs)."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
+
 import gymnasium as gym
 import numpy as np
 import torch
@@ -13,6 +15,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 import warpdyn as wd
+from warpdyn.engine.launch import graphs_allowed
 
 from . import terms
 
@@ -53,12 +56,16 @@ class LeggedEnvConfig:
     `contact_damping` D (None: JaxSim's damping ratio at that K). Actions: joint position targets
     default + action_scale * clip(action, +-action_clip), followed by a position actuator per joint (kp)
     and the joint damper (kd) (a model that has actuators keeps its own and takes the targets as ctrl).
-    Episodes: `episode_seconds` (then truncated); terminated when the base falls below
-    `termination_height` x its standing height, tilts beyond `termination_tilt` [rad], or its state stops
-    being finite (the health flag: reset and reported in info["invalid"]). Commands (vx, vy, yaw rate) drawn
-    uniformly from the ranges at each reset and every `command_seconds`. Pushes: every `push_seconds`, a
-    random horizontal velocity change of at most `push_velocity` [m/s] to every environment. Domain
-    randomisation at each reset: link masses times U(mass_scale), contact friction U(friction).
+    `default_joint_positions` {joint: rad} is the posture the targets are taken around and resets start from
+    (joints not named: 0); `torque_limit` [N m] clips each servo's force (None: no clip). Episodes:
+    `episode_seconds` (then truncated); terminated when the base falls below `termination_height` x its
+    standing height, tilts beyond `termination_tilt` [rad], or its state stops being finite (the health
+    flag: reset and reported in info["invalid"]). Commands (vx, vy, yaw rate) drawn uniformly from the
+    ranges at each reset and every `command_seconds`. Pushes: every `push_seconds` of each episode, a random
+    horizontal velocity change of at most `push_velocity` [m/s]. Feet: `feet` names the links whose
+    collidable points are the feet (empty: every link with enabled points); a foot is in contact while the
+    normal force on its points exceeds `contact_force_threshold` [N]. Domain randomisation at each reset:
+    link masses times U(mass_scale), contact friction U(friction).
     """
 
     time_step: float = 0.002
@@ -67,6 +74,8 @@ class LeggedEnvConfig:
     contact_damping: float | None = None
     kp: float = 300.0
     kd: float = 5.0
+    torque_limit: float | None = None
+    default_joint_positions: dict | None = None
     action_scale: float = 0.25
     action_clip: float = 5.0
     episode_seconds: float = 20.0
@@ -81,6 +90,9 @@ class LeggedEnvConfig:
     tracking_sigma: float = 0.25
     push_seconds: float = 8.0
     push_velocity: float = 0.0
+    feet: tuple = ()
+    contact_force_threshold: float = 1.0
+    air_time_target: float = 0.5
     mass_scale: tuple = (1.0, 1.0)
     friction: tuple = (0.5, 0.5)
     observations: tuple = DEFAULT_OBSERVATIONS
@@ -97,21 +109,35 @@ class LeggedEnv(gym.vector.VectorEnv):
     holds "invalid" (environments whose state stopped being finite, reset) and "log" (the mean of each
     reward term over the environments, tensors). `episode_statistics()` reads (one synchronisation) the
     mean return and length of the episodes completed since its last call.
+
+    use_graph: on a GPU, "auto" captures a whole `step` (the actions' mapping, the `decimation` simulation
+    steps, observations, rewards, resets and randomisation) as one CUDA graph at the second call and
+    replays it after, while no other warpdyn thread works on the GPU (otherwise it runs eagerly); True
+    requires the capture, False never captures. On the CPU the simulation steps replay a Warp CPU graph and
+    the torch ops run eagerly ("auto"; True is refused). Whatever the mode, the returned tensors are the
+    environment's buffers, valid until the next `step` (clone what you keep).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
 
-    def __init__(self, model, num_envs: int, cfg: LeggedEnvConfig | None = None, *, seed: int = 0):
+    def __init__(self, model, num_envs: int, cfg: LeggedEnvConfig | None = None, *, seed: int = 0, use_graph="auto"):
         if not model.floating_base():
             raise ValueError(f"LeggedEnv needs a floating-base model; '{model.name()}' is welded to the world")
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        if use_graph not in ("auto", True, False):
+            raise ValueError(f"use_graph must be 'auto', True or False, got {use_graph!r}")
+        if model.kin_dyn_parameters.enabled_link.shape[0] == 0:
+            raise ValueError(f"LeggedEnv needs collidable points to stand on; '{model.name()}' has none enabled")
+        if use_graph is True and not model.device.is_cuda:
+            raise ValueError(f"use_graph=True captures torch ops in a CUDA graph; '{model.device}' is not a GPU (use 'auto')")
         self.cfg = cfg = cfg if cfg is not None else LeggedEnvConfig()
         decimation = cfg.policy_dt / cfg.time_step
         if abs(decimation - round(decimation)) > 1e-6 or round(decimation) < 1:
             raise ValueError(f"policy_dt {cfg.policy_dt} s must be a whole number of time steps of {cfg.time_step} s")
         self.num_envs = N = int(num_envs)
         self.decimation = int(round(decimation))
+        self.use_graph = use_graph
         self.model = model = self._simulated(model, N)
         self.device = torch.device(wp.device_to_torch(model.device))
         self.torch_dtype = wp.dtype_to_torch(model.scalar)
@@ -119,16 +145,18 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(seed)
         n, na = model.dofs(), model.number_of_actuators()
-        self.default_joint_positions = torch.zeros(n, device=self.device, dtype=self.torch_dtype)
-        # the standing pose: the lowest collidable point on the ground
-        zero = wd.data.Data.build(model)
-        lowest = float(wd.contact.collidable_point_positions(model, zero).numpy()[..., 2].min())
+        default = self._default_joint_positions(model)
+        self.default_joint_positions = torch.tensor(default, device=self.device, dtype=self.torch_dtype)
+        # the standing pose: the default posture with its lowest collidable point on the ground
+        posture = wd.data.Data.build(model, joint_positions=default)
+        lowest = float(wd.contact.collidable_point_positions(model, posture).numpy()[..., 2].min())
         self.standing_height = -lowest
         if cfg.base_height_target is None:
             cfg = self.cfg = dataclasses.replace(cfg, base_height_target=self.standing_height)
-        # the state the resets copy from, and the Stepper
-        self._reset_data = wd.data.Data.build(model, num_envs=N, base_position=(0.0, 0.0, self.standing_height))
-        self.stepper = wd.simulation.Stepper(model, self._reset_data, substeps=self.decimation)
+        # the state the resets copy from, and the Stepper (on a GPU its launches join the env's graph)
+        self._reset_data = wd.data.Data.build(model, num_envs=N, base_position=(0.0, 0.0, self.standing_height), joint_positions=default)
+        stepper_graph = False if model.device.is_cuda else (use_graph and "auto")
+        self.stepper = wd.simulation.Stepper(model, self._reset_data, substeps=self.decimation, use_graph=stepper_graph)
         # torch views, made once (outside torch.inference_mode: they are written inside it)
         self._reset_views = self._views(self._reset_data)
         self._state_views = {id(d): self._views(d) for d in self.stepper.buffers}
@@ -138,16 +166,25 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._nominal_mass = self._link_mass[0].clone()
         self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
         self._reset_mask_wp = wp.from_torch(self._reset_mask)
+        self.feet, self._foot_points = self._feet(model)
         # buffers
         f32 = dict(device=self.device, dtype=torch.float32)
+        nf = len(self.feet)
         self.actions = torch.zeros(N, na, **f32)
         self.previous_actions = torch.zeros(N, na, **f32)
         self.commands = torch.zeros(N, 3, **f32)
         self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
         self.joint_torques = torch.zeros(N, n, device=self.device, dtype=self.torch_dtype)
+        self.feet_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
+        self.feet_first_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
+        self.feet_air_time = torch.zeros(N, nf, **f32)
+        self._previous_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
+        self._action_input = torch.zeros(N, na, **f32)
         self._return = torch.zeros(N, **f32)
         self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)  # episodes, return sum, length sum
-        self._steps = 0
+        self._graphs: dict = {}
+        self._graph_version = model.version
+        self._eager_steps = 0
         self.state = self._state()
         obs_dim = self._observe().shape[1]
         self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
@@ -160,7 +197,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         cfg = self.cfg
         model = model.copy()
         if model.number_of_actuators() == 0:
-            model = wd.model.add_actuators(model, "position", kp=cfg.kp)
+            limit = None if cfg.torque_limit is None else (-cfg.torque_limit, cfg.torque_limit)
+            model = wd.model.add_actuators(model, "position", kp=cfg.kp, force_range=limit)
             model.set_joint_parameters(damping=np.full(model.dofs(), cfg.kd))
         model.integrator = wd.model.IntegratorType.SemiImplicitEuler
         model.implicit_damping = True
@@ -170,6 +208,33 @@ class LeggedEnv(gym.vector.VectorEnv):
         model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=D, mu=mu)
         model.set_link_parameters(mass=np.tile(model.tree.link_mass, (N, 1)))  # per environment: randomised in place
         return model
+
+    def _default_joint_positions(self, model) -> np.ndarray:
+        """The default posture (n,) [rad] from cfg.default_joint_positions, checked against the model's joints."""
+        names = model.joint_names()
+        default = np.zeros(model.dofs())
+        for name, value in (self.cfg.default_joint_positions or {}).items():
+            if name not in names:
+                raise ValueError(f"default_joint_positions names joint '{name}', which '{model.name()}' does not have (its joints: {', '.join(names)})")
+            if not np.isfinite(value):
+                raise ValueError(f"default_joint_positions['{name}'] is {value}; a finite angle is needed")
+            default[names.index(name)] = value
+        return default
+
+    def _feet(self, model) -> tuple:
+        """(foot link names, [torch index tensor of each foot's enabled collidable points])."""
+        link_of_point = np.asarray(model.kin_dyn_parameters.enabled_link.numpy()).reshape(-1)
+        links = model.link_names()
+        feet = tuple(self.cfg.feet) or tuple(links[i] for i in sorted(set(link_of_point.tolist())))
+        points = []
+        for foot in feet:
+            if foot not in links:
+                raise ValueError(f"feet names link '{foot}', which '{model.name()}' does not have (its links: {', '.join(links)})")
+            index = np.flatnonzero(link_of_point == links.index(foot))
+            if index.size == 0:
+                raise ValueError(f"foot '{foot}' has no enabled collidable points: it cannot touch the ground")
+            points.append(torch.tensor(index, device=self.device, dtype=torch.long))
+        return feet, points
 
     def _views(self, data) -> dict:
         return {name: wp.to_torch(getattr(data, f"{name}_state")) for name in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "valid")}
@@ -198,6 +263,9 @@ class LeggedEnv(gym.vector.VectorEnv):
         u = torch.rand(shape, generator=self._generator, device=self.device, dtype=self.torch_dtype)
         return low + (high - low) * u
 
+    def _every(self, seconds: float) -> int:
+        return max(1, round(seconds / self.cfg.policy_dt))
+
     def _resample_commands(self, mask: torch.Tensor) -> None:
         cfg = self.cfg
         new = torch.stack([self._uniform(*r, (self.num_envs,)) for r in (cfg.lin_vel_x, cfg.lin_vel_y, cfg.yaw_rate)], dim=1)
@@ -222,42 +290,86 @@ class LeggedEnv(gym.vector.VectorEnv):
         zero = torch.zeros_like(self.actions)
         self.actions.copy_(torch.where(mask[:, None], zero, self.actions))
         self.previous_actions.copy_(torch.where(mask[:, None], zero, self.previous_actions))
+        self.feet_air_time.masked_fill_(mask[:, None], 0.0)
+        self._previous_contact.masked_fill_(mask[:, None], False)
         self.episode_length_buf.masked_fill_(mask, 0)
         self._return.masked_fill_(mask, 0.0)
+
+    def _on_device_stream(self):
+        """On a GPU, Warp's launches on torch's current stream (ordered with the torch ops; captured with them)."""
+        if not self.device.type == "cuda":
+            return contextlib.nullcontext()
+        stream = wp.stream_from_torch(torch.cuda.current_stream(self.device))
+        return wp.ScopedStream(stream, sync_enter=False, sync_exit=False)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Reset every environment; seed: reseed the environment's random numbers (states, commands,
         randomisation, pushes). Returns (obs (N, obs_dim), info)."""
         if seed is not None:
             self._generator.manual_seed(int(seed))
-        self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
+        with self._on_device_stream():
+            self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
         self._finished.zero_()
         self.state = self._state()
         return self._observe(), {}
 
     def step(self, actions):
         """Apply `actions` (N, na) for policy_dt; see the class docstring for what comes back."""
-        cfg = self.cfg
         actions = torch.as_tensor(actions, device=self.device, dtype=torch.float32)
         if tuple(actions.shape) != (self.num_envs, self.actions.shape[1]):
             raise ValueError(f"actions has shape {tuple(actions.shape)}; expected {(self.num_envs, self.actions.shape[1])}")
+        self._action_input.copy_(actions)
+        if self.model.version != self._graph_version:  # a setter changed the model: capture anew
+            self._graphs.clear()
+            self._graph_version = self.model.version
+        key = id(self.stepper.data)
+        if key not in self._graphs and self._eager_steps > 0 and self._captures():
+            self._graphs[key] = self._capture()
+        if key in self._graphs:
+            graph, outputs, self.state, self.joint_torques = self._graphs[key]
+            graph.replay()
+            return outputs
+        with self._on_device_stream():
+            outputs = self._advance()
+        self._eager_steps += 1
+        return outputs
+
+    def _captures(self) -> bool:
+        return self.device.type == "cuda" and graphs_allowed(self.model.device, self.use_graph, "a LeggedEnv")
+
+    def _capture(self) -> tuple:
+        """(graph, outputs, state, joint_torques) of one `_advance` captured in a CUDA graph (not run)."""
+        graph = torch.cuda.CUDAGraph()
+        graph.register_generator_state(self._generator)
+        with torch.cuda.graph(graph), self._on_device_stream():
+            outputs = self._advance()
+        return graph, outputs, self.state, self.joint_torques
+
+    def _advance(self) -> tuple:
+        """One policy step from the actions in `_action_input`: (obs, reward, terminated, truncated, info)."""
+        cfg = self.cfg
         self.previous_actions.copy_(self.actions)
-        self.actions.copy_(torch.nan_to_num(actions, nan=0.0).clamp(-cfg.action_clip, cfg.action_clip))
+        self.actions.copy_(torch.nan_to_num(self._action_input, nan=0.0).clamp(-cfg.action_clip, cfg.action_clip))
         targets = self.default_joint_positions + cfg.action_scale * self.actions.to(self.torch_dtype)
         self._ctrl.copy_(targets)
-        self._steps += 1
-        if cfg.push_velocity > 0 and self._steps % max(1, round(cfg.push_seconds / cfg.policy_dt)) == 0:
+        if cfg.push_velocity > 0:
+            push = (self.episode_length_buf % self._every(cfg.push_seconds) == 0) & (self.episode_length_buf > 0)
             velocity = self._state_views[id(self.stepper.data)]["base_velocity"]
-            velocity[:, :2] += self._uniform(-cfg.push_velocity, cfg.push_velocity, (self.num_envs, 2))
+            kick = self._uniform(-cfg.push_velocity, cfg.push_velocity, (self.num_envs, 2))
+            velocity[:, :2] += torch.where(push[:, None], kick, torch.zeros_like(kick))
         self.stepper.step()
         self.state = s = self._state()
-        self.joint_torques = cfg.kp * (targets - s.joint_positions) - cfg.kd * s.joint_velocities
+        torques = cfg.kp * (targets - s.joint_positions) - cfg.kd * s.joint_velocities
+        self.joint_torques = torques if cfg.torque_limit is None else torques.clamp(-cfg.torque_limit, cfg.torque_limit)
+        self._update_feet()
         self.episode_length_buf += 1
         log, reward = {}, torch.zeros(self.num_envs, device=self.device, dtype=torch.float32)
         for name, (term, weight) in cfg.rewards.items():
             value = term(self).to(torch.float32) * (weight * cfg.policy_dt)
             log[f"/reward/{name}"] = value.mean()
             reward += value
+        self.feet_air_time.masked_fill_(self.feet_contact | self._previous_contact, 0.0)
+        self._previous_contact.copy_(self.feet_contact)
         invalid = s.valid == 0
         fell = (s.base_position[:, 2] < cfg.termination_height * self.standing_height) | (s.projected_gravity[:, 2] > -math.cos(cfg.termination_tilt))
         terminated = fell | invalid
@@ -268,12 +380,21 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._finished += torch.stack([done.sum(), (self._return * done).sum(), (self.episode_length_buf * done).sum()]).to(torch.float64)
         final = self._observe()
         self._reset(done)
-        resample = (self.episode_length_buf % max(1, round(cfg.command_seconds / cfg.policy_dt)) == 0) & ~done
+        resample = (self.episode_length_buf % self._every(cfg.command_seconds) == 0) & ~done
         self._resample_commands(resample)
         self.state = self._state()
         obs = self._observe()
         info = {"final_obs": final, "_final_obs": done, "invalid": invalid, "log": log}
         return obs, reward, terminated, truncated, info
+
+    def _update_feet(self) -> None:
+        """Contact of each foot (normal force above the threshold), its first contact and its air time [s]."""
+        W_f_C = wp.to_torch(self.stepper.contact_wrenches)
+        normal = torch.stack([W_f_C[:, index, 2].sum(dim=1) for index in self._foot_points], dim=1)
+        self.feet_contact.copy_(normal > self.cfg.contact_force_threshold)
+        touching = self.feet_contact | self._previous_contact
+        self.feet_first_contact.copy_((self.feet_air_time > 0) & touching)
+        self.feet_air_time += self.cfg.policy_dt
 
     def episode_statistics(self) -> dict:
         """{"episodes", "mean_return", "mean_length"} of the episodes completed since the last call (one
@@ -283,5 +404,5 @@ class LeggedEnv(gym.vector.VectorEnv):
         return {"episodes": int(count), "mean_return": total / count if count else float("nan"), "mean_length": length / count if count else float("nan")}
 
     def close_extras(self, **kwargs) -> None:
+        self._graphs.clear()
         self.stepper = None
-

@@ -1,9 +1,10 @@
 """Observation and reward terms of `warpdyn.envs.LeggedEnv`: functions of the environment's current state,
 each returning a torch tensor (N,) or (N, k) on the environment's device, computed with torch ops (no host
 synchronisation). A term reads `env.state` (`State`: the base and joint state, with the base velocities
-in the base frame and gravity projected into it), `env.actions`, `env.previous_actions`, `env.commands`
-and `env.joint_torques` (the servo law kp (target - s) - kd sdot with the configuration's gains: what the
-environment's own servos apply before any force range); a task composes them with weights
+in the base frame and gravity projected into it), `env.actions`, `env.previous_actions`, `env.commands`,
+the feet's `env.feet_contact`, `env.feet_first_contact` and `env.feet_air_time` (N, feet), and
+`env.joint_torques` (the servo law kp (target - s) - kd sdot with the configuration's gains: what the
+environment's own servos apply, clipped to cfg.torque_limit); a task composes them with weights
 (`LeggedEnvConfig.rewards`, `.observations`).
 """
 
@@ -33,6 +34,9 @@ __all__ = [
     "joint_velocity_squared",
     "vertical_velocity_squared",
     "alive",
+    "feet_contact",
+    "feet_air_time",
+    "angular_velocity_xy_squared",
 ]
 
 
@@ -91,6 +95,11 @@ def actions(env) -> torch.Tensor:
     return env.actions
 
 
+def feet_contact(env) -> torch.Tensor:
+    """1 for each foot (`env.feet`) whose normal contact force exceeds cfg.contact_force_threshold, else 0."""
+    return env.feet_contact.to(torch.float32)
+
+
 def commands(env) -> torch.Tensor:
     """(vx, vy, yaw rate) wanted, in the base's heading frame [m/s, m/s, rad/s]."""
     return env.commands
@@ -133,6 +142,18 @@ def joint_velocity_squared(env) -> torch.Tensor:
 
 def vertical_velocity_squared(env) -> torch.Tensor:
     return env.state.base_linear_velocity[:, 2].square()
+
+
+def angular_velocity_xy_squared(env) -> torch.Tensor:
+    """|B_omega_xy|^2: the base's roll and pitch rates (a penalty)."""
+    return env.state.base_angular_velocity[:, :2].square().sum(dim=1)
+
+
+def feet_air_time(env) -> torch.Tensor:
+    """Sum over the feet touching down in this step of (their air time - cfg.air_time_target) [s], while a
+    planar velocity above 0.1 m/s is commanded (Rudin et al. 2021): rewards steps of at least that length."""
+    steps = ((env.feet_air_time - env.cfg.air_time_target) * env.feet_first_contact).sum(dim=1)
+    return steps * (env.commands[:, :2].norm(dim=1) > 0.1)
 
 
 def alive(env) -> torch.Tensor:
