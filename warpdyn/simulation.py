@@ -127,9 +127,10 @@ from __future__ import annotations
 from .engine.rollout import DEFAULT_RECORD, STATE_RECORDS, STEP_RECORDS, Rollout
 from .engine.step import check_deformation_stability
 from .engine.stepper import Stepper as _Stepper
+from .engine.launch import graphs_allowed as _graphs_allowed
 from .engine.tape import taping
 
-__all__ = ["Rollout", "rollout", "Stepper", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "check_contact_stability", "taping"]
+__all__ = ["Rollout", "rollout", "Stepper", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "check_contact_stability", "graphs_allowed", "taping"]
 
 
 class Stepper(_Stepper):
@@ -192,3 +193,12 @@ def check_contact_stability(model, *, K=None, D=None) -> None:
     2 for the semi-implicit Euler, 2.785 for RK4; `step` refuses such settings)."""
     c = model.contact_params
     check_deformation_stability(model.time_step, c.K if K is None else K, c.D if D is None else D, model.integrator)
+
+
+def graphs_allowed(device, use_graph="auto", what: str = "a graph capture") -> bool:
+    """Whether `what` may capture a graph of warpdyn's launches on `device` now, by the rule Rollout and Stepper
+    follow: use_graph False never; "auto" or True only while no other live thread works with warpdyn on that
+    kind of device (Warp's CUDA stream is shared by all threads and its CPU capture records every thread's
+    operations). With such a thread, "auto" gives False and True raises a RuntimeError naming the threads.
+    For code that captures its own graphs around warpdyn's launches (warpdyn.envs)."""
+    return _graphs_allowed(device, use_graph, what)

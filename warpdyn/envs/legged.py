@@ -15,7 +15,6 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 import warpdyn as wd
-from warpdyn.engine.launch import graphs_allowed
 
 from . import terms
 
@@ -335,7 +334,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         return outputs
 
     def _captures(self) -> bool:
-        return self.device.type == "cuda" and graphs_allowed(self.model.device, self.use_graph, "a LeggedEnv")
+        return self.device.type == "cuda" and wd.simulation.graphs_allowed(self.model.device, self.use_graph, "a LeggedEnv")
 
     def _capture(self) -> tuple:
         """(graph, outputs, state, joint_torques) of one `_advance` captured in a CUDA graph (not run)."""
