@@ -1,17 +1,62 @@
-"""Robot descriptions shipped with warpdyn.
+"""Robot descriptions: shipped with warpdyn, or found in an installed pip package.
 
 - `ergocub_urdf()`: the ergoCub humanoid, serial SN001 (the robot of JaxSim's notebook "JaxSim as a
   multibody dynamics library" that warpdyn's tour and tests use), from the ergocub-software repository of
   iCub Tech (https://github.com/icub-tech-iit/ergocub-software), BSD-3-Clause: its licence text is
   `LICENSE.ergoCub` beside the file. Meshes are not included: its collision boxes and spheres give the
   collidable points; its mesh URIs (`package://ergoCub/...`) stay unresolved.
+- `example_robot_data_urdf(robot)`: a URDF of the pip package example-robot-data (Gepetto, LAAS-CNRS;
+  BSD-3-Clause; `pip install example-robot-data`, a cmeel wheel that puts the files under
+  `<site-packages>/cmeel.prefix/share/example-robot-data/robots/`). Not shipped with warpdyn: found in the
+  installed package. Its meshes (`package://example-robot-data/...`) resolve from the file's own ancestors.
+  Each robot keeps its upstream licence beside it (go1_description/README.md: from unitreerobotics/unitree_ros,
+  MPL-2.0).
+
+The Unitree Go1 quadruped, `example_robot_data_urdf("go1")` (tests/test_go1.py checks it against MuJoCo):
+floating base `base` (a 1e-6 kg placeholder, fixed to the 5.2 kg `trunk`), 13.1 kg in all, 12 revolute joints
+(GO1_JOINTS), 13 links after warpdyn lumps the fixed joints (the trunk, IMU, cameras, sensors and the motors'
+rotors into their parents, each `<leg>_foot` into `<leg>_calf`: frames, GO1_FOOT_FRAMES). Loading it warns
+once, an UnphysicalInertiaWarning for the placeholder `base`, whose URDF inertia (every entry 1e-6: rank 1) no
+rigid body has; harmless once lumped into the trunk (MuJoCo refuses that inertia: it does not compile the file
+as it is). The URDF's `<dynamics damping="0.01" friction="0.2">` become the joints' viscous and static
+friction, as JaxSim reads them; its transmissions (one motor per joint, reduction 1) and visual meshes are not
+read. The rotors are rigid bodies fixed to the links, not geared: no reflected inertia (armature). Effort and
+velocity limits (`model.tree.effort_limits`, `velocity_limits`): 23.7 N m and 30.1 rad/s for the hips and
+thighs, 35.55 N m and 20.06 rad/s for the calves; warpdyn stores them but does not enforce them (clip the
+servos with `wd.model.add_actuators(..., force_range=...)`).
+
+Its 38 collision shapes (boxes, cylinders, and one sphere of radius 0.02 m per foot) all give collidable points
+by default: 888 points. For legged locomotion keep the four foot spheres, the Go1's only collision spheres,
+with a few points each: 20 Fibonacci points per sphere, of which the 9 below the sphere's centre (the lower
+hemisphere in the calf frame, whose -z runs along the shank):
+
+    go1 = wd.model.Model.build_from_model_description(wd.assets.example_robot_data_urdf("go1"))
+    go1 = wd.contact.with_collidable_points(
+        go1, options=wd.contact.CollidablePointsOptions(shapes=("sphere",), sphere_points=20))
+    point = go1.kin_dyn_parameters.contact_parameters.point          # L_p_C of every point, calf frames
+    go1 = wd.contact.with_collidable_points(go1, enabled=point[:, 2] < wd.assets.GO1_FOOT_CENTRE[2])
+
+36 enabled points, 9 on each link of GO1_FEET. Their lowest lies within 3.1 mm of the sphere's lowest point
+while the shank is within 60 degrees of vertical (standing: 40), 7.3 mm when it is horizontal. Keeping all 20
+per foot (drop the second call): 3.6 mm up to horizontal; the default 50 per sphere: 24 below the centre, 1.2 mm.
 """
 
 from __future__ import annotations
 
+import importlib.metadata
 import pathlib
 
-__all__ = ["ergocub_urdf", "ERGOCUB_LEG_JOINTS"]
+__all__ = [
+    "ergocub_urdf",
+    "ERGOCUB_LEG_JOINTS",
+    "example_robot_data_urdf",
+    "GO1_JOINTS",
+    "GO1_FEET",
+    "GO1_FOOT_FRAMES",
+    "GO1_FOOT_CENTRE",
+    "GO1_FOOT_RADIUS",
+    "GO1_STANDING_POSE",
+]
 
 _HERE = pathlib.Path(__file__).resolve().parent
 
@@ -35,3 +80,97 @@ ERGOCUB_LEG_JOINTS = (
 def ergocub_urdf() -> pathlib.Path:
     """The path of the shipped ergoCubSN001 URDF (a file inside the installed package)."""
     return _HERE / "ergoCubSN001.urdf"
+
+
+# ------------------------------------------------------------------------------------ example-robot-data
+
+_ERD = "example-robot-data"
+_ERD_ROBOTS = "share/example-robot-data/robots/"  # under the cmeel prefix, `cmeel.prefix/` in site-packages
+_ERD_INSTALL = "pip install example-robot-data"
+
+
+def _example_robot_data_urdfs() -> list[pathlib.Path]:
+    """Every URDF of the installed example-robot-data (the files its distribution records, or, when it records
+    none, those under its cmeel prefix); ImportError when it is not installed."""
+    try:
+        dist = importlib.metadata.distribution(_ERD)
+    except importlib.metadata.PackageNotFoundError:
+        raise ImportError(
+            f"the robot descriptions of the pip package {_ERD} are needed, and it is not installed: {_ERD_INSTALL}"
+        ) from None
+    if dist.files is not None:
+        found = [pathlib.Path(dist.locate_file(f)) for f in dist.files if f.suffix == ".urdf" and _ERD_ROBOTS in f.as_posix()]
+    else:
+        found = sorted(pathlib.Path(dist.locate_file("cmeel.prefix/" + _ERD_ROBOTS)).rglob("*.urdf"))
+    return sorted(path for path in found if path.is_file())
+
+
+def example_robot_data_urdf(robot: str) -> pathlib.Path:
+    """The path of a URDF of the installed pip package example-robot-data (`pip install example-robot-data`).
+
+    robot: the URDF's file name without `.urdf` ("go1", "solo12", "panda", "talos_reduced", ...), or the end of
+        its path under `robots/` where a name is in several descriptions ("anymal_c_simple_description/urdf/anymal").
+    Raises ImportError (naming the pip command) when the package is not installed, FileNotFoundError (listing
+    the names it has) when no URDF is called `robot`, ValueError (listing them) when several are.
+    """
+    if not isinstance(robot, str) or not robot:
+        raise TypeError(f"robot must be a URDF's name (e.g. 'go1'), got {robot!r}")
+    name = robot.removesuffix(".urdf")
+    urdfs = _example_robot_data_urdfs()
+    matches = [path for path in urdfs if (path.stem == name if "/" not in name else path.with_suffix("").as_posix().endswith("/" + name))]
+    if not matches:
+        available = ", ".join(sorted({path.stem for path in urdfs}))
+        raise FileNotFoundError(
+            f"the installed {_ERD} ({importlib.metadata.version(_ERD)}) has no URDF called '{robot}' "
+            f"(its URDFs: {available}); '{_ERD_INSTALL} --upgrade' for a newer one"
+        )
+    if len(matches) > 1:
+        listed = ", ".join(path.with_suffix("").as_posix().split("/robots/", 1)[-1] for path in matches)
+        raise ValueError(f"several URDFs of {_ERD} are called '{robot}': {listed}; give the end of one's path")
+    return matches[0]
+
+
+# ------------------------------------------------------------------------------------ the Unitree Go1
+
+GO1_JOINTS = (
+    "FR_hip_joint",
+    "FR_thigh_joint",
+    "FR_calf_joint",
+    "FL_hip_joint",
+    "FL_thigh_joint",
+    "FL_calf_joint",
+    "RR_hip_joint",
+    "RR_thigh_joint",
+    "RR_calf_joint",
+    "RL_hip_joint",
+    "RL_thigh_joint",
+    "RL_calf_joint",
+)
+"""The Go1's 12 revolute joints in the URDF's order (leg by leg: front right, front left, rear right, rear
+left; hip about x, thigh and calf about y), Unitree's order. warpdyn's model orders them breadth-first
+(`model.joint_names()`: the four hips, the four thighs, the four calves), the order of its state and of its
+actuators; map by name."""
+
+GO1_FEET = ("FR_calf", "FL_calf", "RR_calf", "RL_calf")
+"""The links that carry the foot spheres: warpdyn lumps each fixed `<leg>_foot_fixed` joint, so the foot's
+sphere (and its 0.06 kg) belong to the calf, and the foot is the frame `GO1_FOOT_FRAMES` of that calf."""
+
+GO1_FOOT_FRAMES = ("FR_foot", "FL_foot", "RR_foot", "RL_foot")
+"""The frames at the centres of the foot spheres (the lumped `<leg>_foot` links), in GO1_FEET's order."""
+
+GO1_FOOT_CENTRE = (0.0, 0.0, -0.213)
+"""The centre of each foot sphere in its calf's frame [m] (the `<leg>_foot_fixed` joint's origin)."""
+
+GO1_FOOT_RADIUS = 0.02
+"""The radius of the foot spheres [m]."""
+
+GO1_STANDING_POSE = {
+    **{f"{leg}_hip_joint": 0.0 for leg in ("FR", "FL", "RR", "RL")},
+    **{f"{leg}_thigh_joint": 0.8 for leg in ("FR", "FL", "RR", "RL")},
+    **{f"{leg}_calf_joint": -1.5 for leg in ("FR", "FL", "RR", "RL")},
+}
+"""joint -> angle [rad] of the usual standing posture: hips 0 (limits +-0.863), thighs 0.8 (limits -0.686 to
+4.501; positive moves the knee backwards), calves -1.5 (limits -2.818 to -0.888: the knee bends one way, the
+foot swinging forwards under it; all four knees point backwards). Each foot's centre then lies 1.6 cm behind
+its thigh joint and 0.311 m below it: the base touches the ground at a height of 0.330 m and settles at
+0.320 m on kp = 100 N m/rad servos and K = 1e5 soft contacts (tests/test_go1.py)."""
