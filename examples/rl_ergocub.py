@@ -4,24 +4,47 @@
     python examples/rl_ergocub.py --task stand --iterations 300 --out runs/stand       # a GPU: N = 4096
     python examples/rl_ergocub.py --task stand --replay runs/stand/policy.pt --out runs/stand   # a recording
 
+On K GPUs of one host (data parallel, torch.distributed with NCCL):
+
+    torchrun --standalone --nproc_per_node K examples/rl_ergocub.py --task stand --iterations 300 --out runs/stand
+
+Rank r simulates its own `--num-envs` environments (the number is PER RANK: K x N in all; pass N / K to keep
+the total batch) on Warp device and torch device `cuda:<LOCAL_RANK>`, seeded with `--seed + r` (the
+environments' resets and the torch generator, hence the actions' noise); rank 0's initial parameters are
+broadcast, rsl-rl's PPO averages the gradients, the KL divergence (adaptive learning rate) and the
+observation normaliser's statistics over the ranks, so every rank holds the same policy (checked at the end:
+the run fails if the ranks' parameters differ by more than 1e-5). Only rank 0 prints, saves and plots. On
+the CPU (`--device cpu`) the same runs with the gloo backend, e.g. `torchrun --standalone --nproc_per_node 2
+examples/rl_ergocub.py --device cpu --num-envs 8 --iterations 2` (tests/test_rl_distributed.py). The process
+group is initialised here (nccl on GPUs, gloo on the CPU) and the PPO built with rsl-rl's
+`PPO.construct_algorithm` and its `multi_gpu` configuration: rsl-rl's OnPolicyRunner would initialise NCCL
+itself and accepts only `cuda:<LOCAL_RANK>`.
+
 Environment (`warpdyn.envs.LeggedEnv`): the ergoCub legs (12 joints, floating base, the 32 corners of the foot
 boxes on flat ground), a position servo per joint (kp 300 N m/rad, joint damping 5 N m s/rad, implicit), the
 policy at 50 Hz over 10 simulation steps of 2 ms (soft contacts K = 1e5), actions = joint targets around the
 straight stance (0.25 rad per unit). Episodes of 20 s, ended by a fall; each reset draws a yaw, joint offsets
 (0.1 rad), link masses (x 0.9..1.1) and friction (0.5..1.0). `stand`: zero commands, a push of up to 0.5 m/s
 every 4 s. `walk`: forward commands of 0..0.5 m/s. Trainer: rsl-rl-lib's PPO (the one Isaac Lab and mjlab
-use): 24 steps per environment and iteration, 5 epochs of 4 mini-batches, MLP (256, 128, 64) actor and
-critic with observation normalisation.
+use): 24 steps per environment and iteration, 5 epochs of 4 mini-batches (per rank), MLP (256, 128, 64)
+actor and critic with observation normalisation.
 
-Prints, per iteration: the mean return and length of the episodes completed in it, env-steps/s (policy
-steps x N and simulation steps, collection and update included) and the wall time; writes
-`<out>/policy.pt` (rsl-rl's checkpoint), `<out>/rewards.png` (mean return per iteration) and, with
---replay, `<out>/policy.rrd` (rerun: one environment for 10 s under the trained policy).
+Prints, per iteration: the mean return and length of the episodes completed in it (on all ranks), env-steps/s
+(policy steps x N x K and simulation steps, collection and update included, over rank 0's wall time of the
+iteration), the env-steps so far (all ranks) and the wall time since training started; at the end the total
+env-steps. `--target-return R` stops at the first iteration whose mean return reaches R and prints that time
+(time-to-reward; the compilation and set-up before the first iteration are not counted), `--max-minutes M`
+after M minutes. Writes `<out>/policy.pt` (rsl-rl's checkpoint: OnPolicyRunner.load reads it),
+`<out>/rewards.png` (mean return against wall time) and, with --replay (one process), `<out>/policy.rrd`
+(rerun: one environment for 10 s under the trained policy).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import os
 import pathlib
 import time
 
@@ -62,17 +85,57 @@ def train_config(iterations: int) -> dict:
     }
 
 
-def train(env: envs.LeggedEnv, iterations: int, out: pathlib.Path, torch_device: str) -> list:
-    """rsl-rl's PPO for `iterations`; returns [(iteration, mean return, env-steps/s, seconds)]."""
-    from rsl_rl.runners import OnPolicyRunner
+def torchrun_ranks() -> tuple[int, int, int]:
+    """(world size, rank, local rank) from torchrun's environment variables; (1, 0, 0) without torchrun."""
+    return int(os.getenv("WORLD_SIZE", "1")), int(os.getenv("RANK", "0")), int(os.getenv("LOCAL_RANK", "0"))
 
+
+def _group() -> tuple[int, int]:
+    """(world size, rank) of the initialised process group, (1, 0) without one."""
+    if torch.distributed.is_available() and torch.distributed.is_initialized():
+        return torch.distributed.get_world_size(), torch.distributed.get_rank()
+    return 1, 0
+
+
+def parameters_difference(alg) -> float:
+    """The largest difference between this rank's actor and critic state (parameters and normaliser
+    statistics) and rank 0's, over all ranks (collective: every rank calls it)."""
+    saved = alg.save()
+    tensors = [*saved["actor_state_dict"].values(), *saved["critic_state_dict"].values()]
+    mine = torch.cat([t.detach().reshape(-1).to(torch.float64) for t in tensors])
+    reference = mine.clone()
+    torch.distributed.broadcast(reference, src=0)
+    difference = (mine - reference).abs().max()
+    torch.distributed.all_reduce(difference, op=torch.distributed.ReduceOp.MAX)
+    return float(difference)
+
+
+def train(
+    env: envs.LeggedEnv,
+    iterations: int,
+    out: pathlib.Path,
+    torch_device: str,
+    target_return: float | None = None,
+    max_minutes: float | None = None,
+) -> list:
+    """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass); returns
+    [(iteration, mean return, env-steps/s, seconds)], the returns and rates over all ranks when a process
+    group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
+    from rsl_rl.algorithms import PPO
+
+    world, rank = _group()
     vec = RslRlVecEnv(env)
     cfg = train_config(iterations)
-    runner = OnPolicyRunner(vec, cfg, log_dir=None, device=torch_device)
-    alg = runner.alg
+    if world > 1:  # rsl-rl's PPO then averages gradients, KL and normaliser statistics over the ranks
+        cfg["multi_gpu"] = {"global_rank": rank, "local_rank": torchrun_ranks()[2], "world_size": world}
+    quiet = contextlib.redirect_stdout(io.StringIO()) if rank else contextlib.nullcontext()
+    with quiet:  # construct_algorithm prints the models
+        alg = PPO.construct_algorithm(vec.get_observations(), vec, cfg, torch_device)  # as OnPolicyRunner does
     alg.train_mode()
+    if world > 1:
+        alg.broadcast_parameters()  # rank 0's initial parameters everywhere (as OnPolicyRunner.learn does)
     obs = vec.get_observations().to(torch_device)
-    history, start = [], time.perf_counter()
+    history, start, total_steps, reached = [], time.perf_counter(), 0, None
     steps = cfg["num_steps_per_env"]
     for it in range(iterations):
         t0 = time.perf_counter()
@@ -85,16 +148,51 @@ def train(env: envs.LeggedEnv, iterations: int, out: pathlib.Path, torch_device:
             alg.compute_returns(obs)
         alg.update()
         stats = env.episode_statistics()
+        episodes = stats["episodes"]
+        out_of_time = max_minutes is not None and time.perf_counter() - start > 60.0 * max_minutes
+        counts = [steps * env.num_envs, episodes, stats["mean_return"] * episodes if episodes else 0.0,
+                  stats["mean_length"] * episodes if episodes else 0.0, float(out_of_time)]  # fmt: skip
+        if world > 1:  # one small all-reduce per iteration
+            reduced = torch.tensor(counts, dtype=torch.float64, device=torch_device)
+            torch.distributed.all_reduce(reduced)
+            counts = reduced.tolist()
+        new_steps, episodes, return_sum, length_sum, out_of_time = counts
+        total_steps += int(new_steps)
+        mean_return = return_sum / episodes if episodes else float("nan")
+        mean_length = length_sum / episodes if episodes else float("nan")
         seconds = time.perf_counter() - t0
-        rate = steps * env.num_envs / seconds
-        history.append((it, stats["mean_return"], rate, time.perf_counter() - start))
-        print(
-            f"iteration {it:4d}  mean return {stats['mean_return']:8.3f}  mean length {stats['mean_length']:7.1f}  "
-            f"{rate / 1e3:8.1f} k env-steps/s ({rate * env.decimation / 1e6:6.2f} M sim steps/s)  {history[-1][3]:7.1f} s",
-            flush=True,
-        )
-    out.mkdir(parents=True, exist_ok=True)
-    runner.save(str(out / "policy.pt"))
+        rate = new_steps / seconds
+        history.append((it, mean_return, rate, time.perf_counter() - start))
+        if rank == 0:
+            print(
+                f"iteration {it:4d}  mean return {mean_return:8.3f}  mean length {mean_length:7.1f}  "
+                f"{rate / 1e3:8.1f} k env-steps/s ({rate * env.decimation / 1e6:6.2f} M sim steps/s)  "
+                f"{total_steps:11d} env-steps  {history[-1][3]:7.1f} s",
+                flush=True,
+            )
+        if target_return is not None and reached is None and mean_return >= target_return:  # NaN: not reached
+            reached = history[-1][3]
+            if rank == 0:
+                print(f"reached mean return {target_return:g} at iteration {it} after {reached:.1f} s and {total_steps} env-steps", flush=True)  # fmt: skip
+            break
+        if out_of_time:
+            if rank == 0:
+                print(f"stopping after {max_minutes:g} minutes (--max-minutes)", flush=True)
+            break
+    elapsed = time.perf_counter() - start
+    if rank == 0:
+        if target_return is not None and reached is None:
+            print(f"mean return {target_return:g} not reached", flush=True)
+        print(f"total: {total_steps} env-steps on {world} rank(s) in {elapsed:.1f} s ({total_steps / elapsed / 1e3:.1f} k env-steps/s)", flush=True)  # fmt: skip
+    if world > 1:
+        difference = parameters_difference(alg)
+        if difference > 1e-5:
+            raise RuntimeError(f"rank {rank}: the ranks' policies differ (by up to {difference:.3g}): not synchronised")
+        if rank == 0:
+            print(f"policy identical on {world} ranks (largest difference {difference:.3g})", flush=True)
+    if rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+        torch.save({**alg.save(), "iter": len(history) - 1, "infos": None}, out / "policy.pt")  # OnPolicyRunner.save's format
     return history
 
 
@@ -141,28 +239,64 @@ def replay(task: str, policy_path: pathlib.Path, out: pathlib.Path, device, seed
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0],
+        epilog="On K GPUs: torchrun --standalone --nproc_per_node K examples/rl_ergocub.py ... (rank r on cuda:<LOCAL_RANK>)",
+    )
     parser.add_argument("--task", choices=sorted(TASKS), default="stand")
-    parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
-    parser.add_argument("--num-envs", type=int, default=None, help="default: 4096 on a GPU, 64 on the CPU")
-    parser.add_argument("--iterations", type=int, default=300)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--device", default=None,
+        help="Warp device (default: a GPU if there is one); under torchrun 'cuda' or none gives rank r cuda:<LOCAL_RANK>, "
+        "'cpu' runs every rank on the CPU (gloo)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--num-envs", type=int, default=None,
+        help="environments PER RANK (under torchrun K x this in all); default: 4096 on a GPU, 64 on the CPU",
+    )  # fmt: skip
+    parser.add_argument("--iterations", type=int, default=300, help="at most this many PPO iterations")
+    parser.add_argument("--seed", type=int, default=0, help="rank r uses seed + r")
+    parser.add_argument("--target-return", type=float, default=None, help="stop when an iteration's mean return reaches this; prints the time")  # fmt: skip
+    parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
     parser.add_argument("--out", default="runs/ergocub")
-    parser.add_argument("--replay", default=None, help="a policy.pt to record instead of training")
+    parser.add_argument("--replay", default=None, help="a policy.pt to record instead of training (one process)")
     args = parser.parse_args(argv)
+    world, rank, local_rank = torchrun_ranks()
+    if world > 1 and args.replay:
+        parser.error("--replay runs in one process: python examples/rl_ergocub.py --replay ..., not torchrun")
     wp.config.quiet = True
-    device = wp.get_device(args.device)
+    name = args.device
+    if world > 1 and (name is None or name.startswith("cuda")) and wp.is_cuda_available():
+        if name not in (None, "cuda", f"cuda:{local_rank}"):
+            parser.error(f"under torchrun rank r runs on cuda:<LOCAL_RANK> (here cuda:{local_rank}): pass --device cuda, not {name}")
+        name = f"cuda:{local_rank}"
+    device = wp.get_device(name)
     out = pathlib.Path(args.out)
-    torch.manual_seed(args.seed)
+    torch.manual_seed(args.seed + rank)
     if args.replay:
         replay(args.task, pathlib.Path(args.replay), out, device, args.seed)
         return None
-    N = args.num_envs or (4096 if device.is_cuda else 64)
-    env = make_env(args.task, N, device, args.seed)
-    print(f"{args.task}: {N} environments on {device.name}, {env.single_observation_space.shape[0]} observations, "
-          f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps")  # fmt: skip
-    history = train(env, args.iterations, out, str(env.device))
-    plot(history, out / "rewards.png", f"ergoCub legs, {args.task}: {N} environments on {device.name}")
+    if world > 1:
+        if device.is_cuda:
+            wp.set_device(device)
+            torch.cuda.set_device(device.ordinal)
+            torch.distributed.init_process_group("nccl", device_id=torch.device(f"cuda:{device.ordinal}"))
+        else:
+            torch.distributed.init_process_group("gloo")  # the CPU: the same collectives, e.g. for tests
+    try:
+        N = args.num_envs or (4096 if device.is_cuda else 64)
+        env = make_env(args.task, N, device, args.seed + rank)
+        where = f"{N} environments on {device.name}"
+        if world > 1:
+            where = f"{world} ranks x {N} environments on {'cuda:<LOCAL_RANK>' if device.is_cuda else device.name} ({torch.distributed.get_backend()})"  # fmt: skip
+        if rank == 0:
+            print(f"{args.task}: {where}, {env.single_observation_space.shape[0]} observations, "
+                  f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps")  # fmt: skip
+        history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes)
+        if rank == 0:
+            plot(history, out / "rewards.png", f"ergoCub legs, {args.task}: {where}")
+    finally:
+        if world > 1:
+            torch.distributed.destroy_process_group()
     return history
 
 
