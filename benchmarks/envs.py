@@ -2,7 +2,7 @@
 
     python benchmarks/envs.py [--device cuda:0] [--sizes 1024,4096,16384] [--dtype float32] [--steps 200]
 
-The seed's ergoCub legs in the `stand` task of examples/rl_ergocub.py (policy at 50 Hz over 10 simulation
+The seed's ergoCub legs in the `stand` task of examples/rl_locomotion.py (policy at 50 Hz over 10 simulation
 steps of 2 ms, pushes, mass and friction randomisation, automatic resets), actions drawn once (uniform in
 [-1, 1]) and reused; the policy itself is not timed. For each N: the median time of blocks of `--steps`
 env.step calls (device synchronised around each block, after a warm-up that compiles and captures), with

@@ -124,17 +124,17 @@ def test_resets_randomise_masses_and_friction():
 
 
 def test_ppo_learns_to_stand(tmp_path):
-    """rsl-rl's PPO (examples/rl_ergocub.py's configuration), 96 environments, 16 iterations: the mean
+    """rsl-rl's PPO (examples/rl_locomotion.py's configuration), 96 environments, 16 iterations: the mean
     return of the last 4 iterations is higher than that of the first 4 by 0.1 (measured on the CPU: -0.68 ->
     -0.39; seeded, so a run repeats)."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
     try:
-        import rl_ergocub
+        import rl_locomotion
     finally:
         sys.path.pop(0)
     torch.manual_seed(0)
-    env = rl_ergocub.make_env("stand", 96, wp.get_device(), seed=0)
-    history = rl_ergocub.train(env, 16, tmp_path, str(env.device))
+    env = rl_locomotion.make_env("stand", 96, wp.get_device(), seed=0)
+    history = rl_locomotion.train(env, 16, tmp_path, str(env.device))
     returns = [h[1] for h in history if not math.isnan(h[1])]
     assert len(returns) >= 12
     assert np.mean(returns[-4:]) > np.mean(returns[:4]) + 0.1, returns
@@ -243,3 +243,23 @@ def test_graph_replays_equal_eager_steps():
             assert torch.equal(x, y), k
         assert torch.equal(a[4]["final_obs"], b[4]["final_obs"])
     assert len(graphed._graphs) == 1 and not eager._graphs
+
+
+@pytest.mark.filterwarnings("ignore:.*link 'base': principal moments:warpdyn.model.UnphysicalInertiaWarning")  # tests/test_go1.py checks it
+def test_the_go1_walk_task_steps_and_its_feet_touch_down():
+    """examples/rl_locomotion.py's Go1 (example-robot-data): its walk task builds, its feet are the four calves
+    with 9 points each, observations and rewards are finite, and landing in its default posture (at step 3 of
+    the policy, from 2 cm) the four feet touch the ground together."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    try:
+        import rl_locomotion
+    finally:
+        sys.path.pop(0)
+    env = rl_locomotion.make_env("walk", 4, wp.get_device(), seed=0, robot="go1", joint_noise=0.0)
+    assert env.feet == wd.assets.GO1_FEET and [len(p) for p in env._foot_points] == [9, 9, 9, 9]
+    assert env.decimation == 5 and env.single_action_space.shape == (12,)
+    obs, _ = env.reset(seed=0)
+    for k in range(8):
+        obs, reward, terminated, truncated, info = env.step(torch.zeros(4, 12, device=env.device))
+        assert bool(torch.isfinite(obs).all()) and bool(torch.isfinite(reward).all()) and not info["invalid"].any()
+        assert not terminated.any() and bool(env.feet_contact.all()) == (k >= 3), k

@@ -1,4 +1,4 @@
-"""examples/rl_ergocub.py data parallel (issue 14) on the CPU: `torchrun --standalone --nproc_per_node 2` with
+"""examples/rl_locomotion.py data parallel (issue 14) on the CPU: `torchrun --standalone --nproc_per_node 2` with
 the gloo backend, the code path of K GPUs with NCCL but for the backend and the devices.
 
 - Two ranks x 8 environments x 2 iterations: the run exits 0; only rank 0 prints (one line per iteration);
@@ -23,7 +23,7 @@ import sys
 import torch
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-EXAMPLE = ROOT / "examples" / "rl_ergocub.py"
+EXAMPLE = ROOT / "examples" / "rl_locomotion.py"
 N, ITERATIONS, STEPS = 8, 2, 24  # STEPS: train_config's num_steps_per_env
 
 

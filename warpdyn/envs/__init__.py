@@ -10,7 +10,7 @@ for `warpdyn.envs.rsl_rl`).
 Warp: a step writes the actions into a `wd.simulation.Stepper`'s controls, replays its graph of
 `decimation` simulation steps, and computes observations, rewards and resets with torch ops on the device,
 without a host synchronisation. Its terms (`warpdyn.envs.terms`) are functions of the state that a
-configuration composes. `warpdyn.envs.rsl_rl.RslRlVecEnv` hands it to rsl-rl's PPO (examples/rl_ergocub.py).
+configuration composes. `warpdyn.envs.rsl_rl.RslRlVecEnv` hands it to rsl-rl's PPO (examples/rl_locomotion.py).
 """
 
 from . import terms

@@ -1,12 +1,14 @@
-"""Train the seed's ergoCub legs to stand under pushes (or walk on command) with rsl-rl's PPO on warpdyn.envs.
+"""Train a legged robot to stand under pushes or walk on command with rsl-rl's PPO on warpdyn.envs: the seed's
+ergoCub legs (shipped) or the Unitree Go1 quadruped (from the pip package example-robot-data).
 
     pip install -e ".[rl,viz,examples]"
-    python examples/rl_ergocub.py --task stand --iterations 300 --out runs/stand       # a GPU: N = 4096
-    python examples/rl_ergocub.py --task stand --replay runs/stand/policy.pt --out runs/stand   # a recording
+    python examples/rl_locomotion.py --robot ergocub --task stand --iterations 300 --out runs/stand   # a GPU: N = 4096
+    python examples/rl_locomotion.py --robot go1 --task walk --max-minutes 4 --evaluate 0.5 --out runs/go1
+    python examples/rl_locomotion.py --robot go1 --task walk --replay runs/go1/policy.pt --out runs/go1   # a recording
 
 On K GPUs of one host (data parallel, torch.distributed with NCCL):
 
-    torchrun --standalone --nproc_per_node K examples/rl_ergocub.py --task stand --iterations 300 --out runs/stand
+    torchrun --standalone --nproc_per_node K examples/rl_locomotion.py --task stand --iterations 300 --out runs/stand
 
 Rank r simulates its own `--num-envs` environments (the number is PER RANK: K x N in all; pass N / K to keep
 the total batch) on Warp device and torch device `cuda:<LOCAL_RANK>`, seeded with `--seed + r` (the
@@ -15,17 +17,22 @@ broadcast, rsl-rl's PPO averages the gradients, the KL divergence (adaptive lear
 observation normaliser's statistics over the ranks, so every rank holds the same policy (checked at the end:
 the run fails if the ranks' parameters differ by more than 1e-5). Only rank 0 prints, saves and plots. On
 the CPU (`--device cpu`) the same runs with the gloo backend, e.g. `torchrun --standalone --nproc_per_node 2
-examples/rl_ergocub.py --device cpu --num-envs 8 --iterations 2` (tests/test_rl_distributed.py). The process
+examples/rl_locomotion.py --device cpu --num-envs 8 --iterations 2` (tests/test_rl_distributed.py). The process
 group is initialised here (nccl on GPUs, gloo on the CPU) and the PPO built with rsl-rl's
 `PPO.construct_algorithm` and its `multi_gpu` configuration: rsl-rl's OnPolicyRunner would initialise NCCL
 itself and accepts only `cuda:<LOCAL_RANK>`.
 
-Environment (`warpdyn.envs.LeggedEnv`): the ergoCub legs (12 joints, floating base, the 32 corners of the foot
-boxes on flat ground), a position servo per joint (kp 300 N m/rad, joint damping 5 N m s/rad, implicit), the
-policy at 50 Hz over 10 simulation steps of 2 ms (soft contacts K = 1e5), actions = joint targets around the
-straight stance (0.25 rad per unit). Episodes of 20 s, ended by a fall; each reset draws a yaw, joint offsets
-(0.1 rad), link masses (x 0.9..1.1) and friction (0.5..1.0). `stand`: zero commands, a push of up to 0.5 m/s
-every 4 s. `walk`: forward commands of 0..0.5 m/s. Trainer: rsl-rl-lib's PPO (the one Isaac Lab and mjlab
+Environments (`warpdyn.envs.LeggedEnv`, settings in ROBOTS): flat ground, soft contacts K = 1e5, the policy at
+50 Hz, actions = joint targets around a default posture (0.25 rad per unit) for a position servo per joint
+with implicit joint damping; episodes of 20 s, ended by a fall; each reset draws a yaw, joint offsets (0.1
+rad), link masses (x 0.9..1.1) and friction. ergoCub legs: 12 joints, the 32 corners of the foot boxes, kp
+300 N m/rad, damping 5 N m s/rad, 10 steps of 2 ms per action, straight stance. Go1: 12 joints, the lower
+halves of the four foot spheres (9 points each), kp 20, damping 0.5, servo torques clipped at 23.7 N m, 5
+steps of 4 ms per action, GO1_STANDING_POSE, Rudin et al.'s flat-ground rewards (velocity tracking, feet air
+time, penalties on vertical and roll/pitch velocity, torque and action rate). `stand`: zero commands, a push
+of up to 0.5 m/s every 4 s of each episode. `walk`: ergoCub: forward commands of 0..0.5 m/s, feet air time
+rewarded; Go1: vx in [-1, 1], vy in [-0.5, 0.5] m/s, yaw rate in [-1, 1] rad/s, redrawn every 10 s. `--evaluate
+SPEED` then commands SPEED m/s straight ahead and prints the forward speed reached. Trainer: rsl-rl-lib's PPO (the one Isaac Lab and mjlab
 use): 24 steps per environment and iteration, 5 epochs of 4 mini-batches (per rank), MLP (256, 128, 64)
 actor and critic with observation normalisation.
 
@@ -56,17 +63,57 @@ import warpdyn as wd
 import warpdyn.envs as envs
 from warpdyn.envs.rsl_rl import RslRlVecEnv
 
-TASKS = {
-    "stand": dict(push_velocity=0.5, push_seconds=4.0),
-    "walk": dict(lin_vel_x=(0.0, 0.5), push_velocity=0.2),
+ERGOCUB_WALK_REWARDS = dict(
+    envs.DEFAULT_REWARDS,
+    feet_air_time=(envs.terms.feet_air_time, 1.0),
+    angular_velocity_xy=(envs.terms.angular_velocity_xy_squared, -0.05),
+)
+GO1_REWARDS = {  # Rudin et al. (2021)'s flat-ground terms and weights, with warpdyn's height and tilt terms
+    "track_linear_velocity": (envs.terms.track_linear_velocity, 1.0),
+    "track_angular_velocity": (envs.terms.track_angular_velocity, 0.5),
+    "vertical_velocity": (envs.terms.vertical_velocity_squared, -2.0),
+    "angular_velocity_xy": (envs.terms.angular_velocity_xy_squared, -0.05),
+    "upright": (envs.terms.upright, -1.0),
+    "height_error": (envs.terms.height_error, -10.0),
+    "torque": (envs.terms.torque_squared, -2e-4),
+    "action_rate": (envs.terms.action_rate, -0.01),
+    "feet_air_time": (envs.terms.feet_air_time, 1.0),
 }
 
+ROBOTS = {
+    "ergocub": dict(
+        common=dict(mass_scale=(0.9, 1.1), friction=(0.5, 1.0)),
+        stand=dict(push_velocity=0.5, push_seconds=4.0),
+        walk=dict(lin_vel_x=(0.0, 0.5), push_velocity=0.2, air_time_target=0.4, rewards=ERGOCUB_WALK_REWARDS),
+    ),
+    "go1": dict(
+        common=dict(
+            time_step=0.004, kp=20.0, kd=0.5, torque_limit=23.7, default_joint_positions=dict(wd.assets.GO1_STANDING_POSE),
+            base_height_target=0.30, mass_scale=(0.9, 1.1), friction=(0.5, 1.25), rewards=GO1_REWARDS,
+        ),  # fmt: skip
+        stand=dict(push_velocity=0.5, push_seconds=4.0),
+        walk=dict(lin_vel_x=(-1.0, 1.0), lin_vel_y=(-0.5, 0.5), yaw_rate=(-1.0, 1.0), push_velocity=0.5, push_seconds=8.0),
+    ),
+}
+"""Per robot, the LeggedEnvConfig settings of both tasks ("common") and of each task."""
+TASKS = ("stand", "walk")
 
-def make_env(task: str, num_envs: int, device, seed: int) -> envs.LeggedEnv:
-    full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device=device)
-    legs = wd.model.reduce(full, wd.assets.ERGOCUB_LEG_JOINTS)
-    cfg = envs.LeggedEnvConfig(mass_scale=(0.9, 1.1), friction=(0.5, 1.0), **TASKS[task])
-    return envs.LeggedEnv(legs, num_envs=num_envs, cfg=cfg, seed=seed)
+
+def robot_model(robot: str, device) -> wd.model.Model:
+    """The ergoCub legs (shipped) or the Go1 of example-robot-data with its four foot spheres as contacts."""
+    if robot == "ergocub":
+        full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device=device)
+        return wd.model.reduce(full, wd.assets.ERGOCUB_LEG_JOINTS)
+    go1 = wd.model.Model.build_from_model_description(wd.assets.example_robot_data_urdf("go1"), device=device)
+    go1 = wd.contact.with_collidable_points(go1, options=wd.contact.CollidablePointsOptions(shapes=("sphere",), sphere_points=20))
+    point = go1.kin_dyn_parameters.contact_parameters.point
+    return wd.contact.with_collidable_points(go1, enabled=point[:, 2] < wd.assets.GO1_FOOT_CENTRE[2])  # the lower half of each foot
+
+
+def make_env(task: str, num_envs: int, device, seed: int, robot: str = "ergocub", **overrides) -> envs.LeggedEnv:
+    """`robot`'s LeggedEnv for `task` (ROBOTS' settings, then `overrides`)."""
+    settings = {**ROBOTS[robot]["common"], **ROBOTS[robot][task], **overrides}
+    return envs.LeggedEnv(robot_model(robot, device), num_envs=num_envs, cfg=envs.LeggedEnvConfig(**settings), seed=seed)
 
 
 def train_config(iterations: int) -> dict:
@@ -217,20 +264,25 @@ def plot(history: list, path: pathlib.Path, title: str) -> None:
     print(f"wrote {path}")
 
 
-def replay(task: str, policy_path: pathlib.Path, out: pathlib.Path, device, seed: int, seconds: float = 10.0) -> None:
-    """Run the trained policy on one environment and record it with rerun."""
+def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
+    """(rsl-rl VecEnv of `env`, the deterministic policy of a policy.pt on env's device)."""
     from rsl_rl.runners import OnPolicyRunner
 
-    import warpdyn.visualization as viz
-
-    env = make_env(task, 1, device, seed)
     vec = RslRlVecEnv(env)
     runner = OnPolicyRunner(vec, train_config(1), log_dir=None, device=str(env.device))
     runner.load(str(policy_path))
-    policy = runner.get_inference_policy(device=str(env.device))
+    return vec, runner.get_inference_policy(device=str(env.device))
+
+
+def replay(robot: str, task: str, policy_path: pathlib.Path, out: pathlib.Path, device, seed: int, seconds: float = 10.0) -> None:
+    """Run the trained policy on one environment and record it with rerun."""
+    import warpdyn.visualization as viz
+
+    env = make_env(task, 1, device, seed, robot)
+    vec, policy = load_policy(env, policy_path)
     obs = vec.get_observations()
     path = out / "policy.rrd"
-    with viz.RerunRecorder(env.model, path=path, meshes=False) as recorder:  # the seed's URDF comes without its meshes
+    with viz.RerunRecorder(env.model, path=path, meshes=False) as recorder:  # the collision-point view: no meshes
         for k in range(int(seconds / env.cfg.policy_dt)):
             with torch.inference_mode():
                 obs, _, _, _ = vec.step(policy(obs))
@@ -238,12 +290,37 @@ def replay(task: str, policy_path: pathlib.Path, out: pathlib.Path, device, seed
     print(f"wrote {path}")
 
 
+def evaluate(robot: str, task: str, policy_path: pathlib.Path, device, seed: int, speed: float, num_envs: int = 256, seconds: float = 5.0) -> dict:
+    """The trained policy commanded to walk straight ahead at `speed` [m/s] (no pushes) in `num_envs` fresh
+    environments for `seconds`: {"speed": mean forward velocity over the environments and the last
+    seconds - 1 s (base frame x) [m/s], "spread": its standard deviation over the environments, "falls":
+    the environments that ended early}."""
+    env = make_env(task, num_envs, device, seed, robot, lin_vel_x=(speed, speed), lin_vel_y=(0.0, 0.0), yaw_rate=(0.0, 0.0),
+                   push_velocity=0.0, command_seconds=2 * seconds)  # fmt: skip
+    vec, policy = load_policy(env, policy_path)
+    obs = vec.get_observations()
+    steps, settle = int(round(seconds / env.cfg.policy_dt)), int(round(1.0 / env.cfg.policy_dt))
+    forward = torch.zeros(num_envs, device=env.device, dtype=torch.float64)
+    fell = torch.zeros(num_envs, device=env.device, dtype=torch.bool)
+    with torch.inference_mode():
+        for k in range(steps):
+            obs, _, dones, _ = vec.step(policy(obs))
+            fell |= dones.bool()
+            if k >= settle:
+                forward += env.state.base_linear_velocity[:, 0].to(torch.float64)
+    forward /= steps - settle
+    kept = forward[~fell]
+    return {"speed": float(kept.mean()) if kept.numel() else float("nan"), "spread": float(kept.std()) if kept.numel() > 1 else 0.0,
+            "falls": int(fell.sum()), "environments": num_envs}  # fmt: skip
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0],
-        epilog="On K GPUs: torchrun --standalone --nproc_per_node K examples/rl_ergocub.py ... (rank r on cuda:<LOCAL_RANK>)",
+        epilog="On K GPUs: torchrun --standalone --nproc_per_node K examples/rl_locomotion.py ... (rank r on cuda:<LOCAL_RANK>)",
     )
-    parser.add_argument("--task", choices=sorted(TASKS), default="stand")
+    parser.add_argument("--robot", choices=sorted(ROBOTS), default="ergocub", help="ergocub: the shipped legs; go1: example-robot-data's")
+    parser.add_argument("--task", choices=TASKS, default="stand")
     parser.add_argument(
         "--device", default=None,
         help="Warp device (default: a GPU if there is one); under torchrun 'cuda' or none gives rank r cuda:<LOCAL_RANK>, "
@@ -257,12 +334,14 @@ def main(argv=None) -> None:
     parser.add_argument("--seed", type=int, default=0, help="rank r uses seed + r")
     parser.add_argument("--target-return", type=float, default=None, help="stop when an iteration's mean return reaches this; prints the time")  # fmt: skip
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
-    parser.add_argument("--out", default="runs/ergocub")
+    parser.add_argument("--evaluate", type=float, default=None, metavar="SPEED",
+                        help="after training, command SPEED m/s straight ahead in 256 fresh environments for 5 s and print the speed reached")  # fmt: skip
+    parser.add_argument("--out", default="runs/locomotion")
     parser.add_argument("--replay", default=None, help="a policy.pt to record instead of training (one process)")
     args = parser.parse_args(argv)
     world, rank, local_rank = torchrun_ranks()
     if world > 1 and args.replay:
-        parser.error("--replay runs in one process: python examples/rl_ergocub.py --replay ..., not torchrun")
+        parser.error("--replay runs in one process: python examples/rl_locomotion.py --replay ..., not torchrun")
     wp.config.quiet = True
     name = args.device
     if world > 1 and (name is None or name.startswith("cuda")) and wp.is_cuda_available():
@@ -273,7 +352,7 @@ def main(argv=None) -> None:
     out = pathlib.Path(args.out)
     torch.manual_seed(args.seed + rank)
     if args.replay:
-        replay(args.task, pathlib.Path(args.replay), out, device, args.seed)
+        replay(args.robot, args.task, pathlib.Path(args.replay), out, device, args.seed)
         return None
     if world > 1:
         if device.is_cuda:
@@ -284,16 +363,21 @@ def main(argv=None) -> None:
             torch.distributed.init_process_group("gloo")  # the CPU: the same collectives, e.g. for tests
     try:
         N = args.num_envs or (4096 if device.is_cuda else 64)
-        env = make_env(args.task, N, device, args.seed + rank)
+        env = make_env(args.task, N, device, args.seed + rank, args.robot)
         where = f"{N} environments on {device.name}"
         if world > 1:
             where = f"{world} ranks x {N} environments on {'cuda:<LOCAL_RANK>' if device.is_cuda else device.name} ({torch.distributed.get_backend()})"  # fmt: skip
         if rank == 0:
-            print(f"{args.task}: {where}, {env.single_observation_space.shape[0]} observations, "
+            print(f"{args.robot} {args.task}: {where}, {env.single_observation_space.shape[0]} observations, "
                   f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps")  # fmt: skip
         history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes)
         if rank == 0:
-            plot(history, out / "rewards.png", f"ergoCub legs, {args.task}: {where}")
+            plot(history, out / "rewards.png", f"{args.robot}, {args.task}: {where}")
+            if args.evaluate is not None:
+                result = evaluate(args.robot, args.task, out / "policy.pt", device, args.seed + 1000, args.evaluate)
+                print(f"evaluation: commanded {args.evaluate:g} m/s straight ahead, {result['environments']} environments, 5 s: "
+                      f"forward speed {result['speed']:.3f} m/s (std over environments {result['spread']:.3f}), "
+                      f"{result['falls']} ended early", flush=True)  # fmt: skip
     finally:
         if world > 1:
             torch.distributed.destroy_process_group()
