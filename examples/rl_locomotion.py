@@ -27,8 +27,8 @@ Environments (`warpdyn.envs.LeggedEnv`, settings in ROBOTS): flat ground, soft c
 with implicit joint damping; episodes of 20 s, ended by a fall; each reset draws a yaw, joint offsets (0.1
 rad), link masses (x 0.9..1.1) and friction. ergoCub legs: 12 joints, the 32 corners of the foot boxes, kp
 300 N m/rad, damping 5 N m s/rad, 10 steps of 2 ms per action, straight stance. Go1: 12 joints, the lower
-halves of the four foot spheres (9 points each), kp 20, damping 0.5, servo torques clipped at 23.7 N m, 5
-steps of 4 ms per action, GO1_STANDING_POSE, Rudin et al.'s flat-ground rewards (velocity tracking, feet air
+halves of the four foot spheres (9 points each), kp 20, damping 0.5, servo torques clipped at 23.7 N m, 10
+steps of 2 ms per action (at 4 ms, actions at their clip drive some states to diverge), GO1_STANDING_POSE, Rudin et al.'s flat-ground rewards (velocity tracking, feet air
 time, penalties on vertical and roll/pitch velocity, torque and action rate). `stand`: zero commands, a push
 of up to 0.5 m/s every 4 s of each episode. `walk`: ergoCub: forward commands of 0..0.5 m/s, feet air time
 rewarded; Go1: vx in [-1, 1], vy in [-0.5, 0.5] m/s, yaw rate in [-1, 1] rad/s, redrawn every 10 s. `--evaluate
@@ -88,7 +88,7 @@ ROBOTS = {
     ),
     "go1": dict(
         common=dict(
-            time_step=0.004, kp=20.0, kd=0.5, torque_limit=23.7, default_joint_positions=dict(wd.assets.GO1_STANDING_POSE),
+            kp=20.0, kd=0.5, torque_limit=23.7, default_joint_positions=dict(wd.assets.GO1_STANDING_POSE),
             base_height_target=0.30, mass_scale=(0.9, 1.1), friction=(0.5, 1.25), rewards=GO1_REWARDS,
         ),  # fmt: skip
         stand=dict(push_velocity=0.5, push_seconds=4.0),

@@ -224,7 +224,8 @@ def test_a_torque_limit_clips_the_servos():
 
 def test_graph_replays_equal_eager_steps():
     """On a GPU, use_graph=True captures a whole step (actions, simulation, rewards, resets, randomisation)
-    and its replays give what eager steps give, bitwise, through pushes and time-limit resets; on the CPU,
+    and its replays give what eager steps give, bitwise, through pushes and time-limit resets, in tensors
+    that the next step does not overwrite; on the CPU,
     use_graph=True is refused (torch ops are not captured there)."""
     if not wp.get_device().is_cuda:
         with pytest.raises(ValueError, match="use_graph=True captures torch ops"):
@@ -236,16 +237,20 @@ def test_graph_replays_equal_eager_steps():
     actions = torch.tensor(np.random.default_rng(0).uniform(-1, 1, (12, 8, 12)), dtype=torch.float32, device=graphed.device)
     for env in (graphed, eager):
         env.reset(seed=3)
+    kept = None
     for k in range(12):
         a = graphed.step(actions[k])
         b = eager.step(actions[k])
         for x, y in zip(a[:4], b[:4]):
             assert torch.equal(x, y), k
         assert torch.equal(a[4]["final_obs"], b[4]["final_obs"])
+        if kept is not None:  # the previous step's observation is its own tensor (rsl-rl stores it after the step)
+            assert torch.equal(kept[0], kept[1]), k
+        kept = (a[0], a[0].clone())
     assert len(graphed._graphs) == 1 and not eager._graphs
 
 
-@pytest.mark.filterwarnings("ignore:.*link 'base': principal moments:warpdyn.model.UnphysicalInertiaWarning")  # tests/test_go1.py checks it
+@pytest.mark.filterwarnings("ignore:.*link 'base'. principal moments:warpdyn.model.UnphysicalInertiaWarning")  # tests/test_go1.py checks it
 def test_the_go1_walk_task_steps_and_its_feet_touch_down():
     """examples/rl_locomotion.py's Go1 (example-robot-data): its walk task builds, its feet are the four calves
     with 9 points each, observations and rewards are finite, and landing in its default posture (at step 3 of
@@ -257,7 +262,7 @@ def test_the_go1_walk_task_steps_and_its_feet_touch_down():
         sys.path.pop(0)
     env = rl_locomotion.make_env("walk", 4, wp.get_device(), seed=0, robot="go1", joint_noise=0.0)
     assert env.feet == wd.assets.GO1_FEET and [len(p) for p in env._foot_points] == [9, 9, 9, 9]
-    assert env.decimation == 5 and env.single_action_space.shape == (12,)
+    assert env.decimation == 10 and env.single_action_space.shape == (12,)
     obs, _ = env.reset(seed=0)
     for k in range(8):
         obs, reward, terminated, truncated, info = env.step(torch.zeros(4, 12, device=env.device))

@@ -113,8 +113,8 @@ class LeggedEnv(gym.vector.VectorEnv):
     steps, observations, rewards, resets and randomisation) as one CUDA graph at the second call and
     replays it after, while no other warpdyn thread works on the GPU (otherwise it runs eagerly); True
     requires the capture, False never captures. On the CPU the simulation steps replay a Warp CPU graph and
-    the torch ops run eagerly ("auto"; True is refused). Whatever the mode, the returned tensors are the
-    environment's buffers, valid until the next `step` (clone what you keep).
+    the torch ops run eagerly ("auto"; True is refused). Whatever the mode, a step returns new tensors (a
+    replay copies its graph's outputs: trainers such as rsl-rl keep the observation they acted on).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
@@ -327,7 +327,10 @@ class LeggedEnv(gym.vector.VectorEnv):
         if key in self._graphs:
             graph, outputs, self.state, self.joint_torques = self._graphs[key]
             graph.replay()
-            return outputs
+            obs, reward, terminated, truncated, info = outputs  # the graph's buffers: fresh copies, as an eager step
+            info = {"final_obs": info["final_obs"].clone(), "_final_obs": info["_final_obs"].clone(), "invalid": info["invalid"].clone(),
+                    "log": {name: value.clone() for name, value in info["log"].items()}}  # fmt: skip
+            return obs.clone(), reward.clone(), terminated.clone(), truncated.clone(), info
         with self._on_device_stream():
             outputs = self._advance()
         self._eager_steps += 1
