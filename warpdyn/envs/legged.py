@@ -318,9 +318,10 @@ class LeggedEnv(gym.vector.VectorEnv):
         if tuple(actions.shape) != (self.num_envs, self.actions.shape[1]):
             raise ValueError(f"actions has shape {tuple(actions.shape)}; expected {(self.num_envs, self.actions.shape[1])}")
         self._action_input.copy_(actions)
-        if self.model.version != self._graph_version:  # a setter changed the model: capture anew
+        if self.model.version != self._graph_version:  # a setter changed the model: an eager step rebuilds, then a capture
             self._graphs.clear()
             self._graph_version = self.model.version
+            self._eager_steps = 0
         key = id(self.stepper.data)
         if key not in self._graphs and self._eager_steps > 0 and self._captures():
             self._graphs[key] = self._capture()
