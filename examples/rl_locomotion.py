@@ -270,7 +270,7 @@ def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
 
     vec = RslRlVecEnv(env)
     runner = OnPolicyRunner(vec, train_config(1), log_dir=None, device=str(env.device))
-    runner.load(str(policy_path))
+    runner.load(str(policy_path), map_location=str(env.device))  # a policy trained on a GPU replays on the CPU too
     return vec, runner.get_inference_policy(device=str(env.device))
 
 
