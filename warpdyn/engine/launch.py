@@ -16,7 +16,7 @@ import warp as wp
 
 from ..arrays import capture_lock, note_thread, other_threads
 from . import determinism
-from .loading import ensure_loaded
+from .loading import ensure_loaded, preload
 from .tape import check_thread
 
 
@@ -70,6 +70,7 @@ class Recorded:
         self._launches = None
         if commands is None or len(commands) != len(launches) or any(c[0].kernel is not l.kernel for c, l in zip(commands, launches)):
             commands = self._commands = []
+            preload(launches, device)
             for item in launches:
                 args = [*item.inputs, *item.outputs]
                 command = launch(item.kernel, item.dim, args, device=device, block_dim=item.block_dim, record_cmd=True)
@@ -138,8 +139,7 @@ def capture_graph(launches, device):
     CUDA graph on a GPU, captured by `capture` (the caller checks that no other thread works on the device).
     Their modules are loaded first."""
     device = wp.get_device(device)
-    for item in launches:
-        ensure_loaded(item.kernel, device, item.block_dim if device.is_cuda else None)
+    preload(launches, device)
     with capture(device) as captured:
         run(launches, device)
     return captured.graph

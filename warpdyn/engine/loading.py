@@ -7,6 +7,7 @@ is cached.
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 
@@ -39,24 +40,49 @@ def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
     """Compile or load `kernel`'s module for `device` (and CUDA block size) before a first launch, with
     warpdyn.config.fuse_fp (fixed by the process's first load: warpdyn.config refuses a change after it)."""
     key = (kernel.module, str(device), block_dim)
-    if key in _loaded:
-        return
+    if key not in _loaded:
+        _load({key}, device, block_dim)
+
+
+def preload(launches, device) -> None:
+    """Compile or load at once, in parallel (Warp's force_load, one thread per module up to the CPU count),
+    the modules of `launches` (Launch tuples) not loaded on `device` yet: a first step needs about ten, which
+    one by one took most of its cold start. Each as `ensure_loaded` loads it."""
+    device = wp.get_device(device)
+    wanted: dict = {}
+    for item in launches:
+        block_dim = item.block_dim if device.is_cuda else None
+        key = (item.kernel.module, str(device), block_dim)
+        if key not in _loaded:
+            wanted.setdefault(block_dim, set()).add(key)
+    for block_dim, keys in wanted.items():
+        _load(keys, device, block_dim)
+
+
+def _load(keys: set, device, block_dim: int | None) -> None:
+    """Load the modules of `keys` ((module, device name, block_dim)) that are not loaded, under the lock."""
     with _lock:
-        if key in _loaded:
+        keys = [key for key in keys if key not in _loaded]
+        if not keys:
             return
         with config.fuse_fp_lock:
             if config.loaded_fuse_fp is None:
                 config.loaded_fuse_fp = config.fuse_fp
             fuse_fp = config.loaded_fuse_fp
-        module = kernel.module
-        if module.options["fuse_fp"] != fuse_fp:
-            module.options["fuse_fp"] = fuse_fp
-            module.mark_modified()
+        modules = [key[0] for key in keys]
+        for module in modules:
+            if module.options["fuse_fp"] != fuse_fp:
+                module.options["fuse_fp"] = fuse_fp
+                module.mark_modified()
         timer = threading.Timer(NOTICE_AFTER, _notice, args=(device,))
         timer.daemon = True
         timer.start()
         try:
-            wp.load_module(module, device=device, block_dim=block_dim)
+            if len(modules) == 1:
+                wp.load_module(modules[0], device=device, block_dim=block_dim)
+            else:
+                workers = min(len(modules), os.cpu_count() or 1)
+                wp.force_load(device=device, modules=modules, block_dim=block_dim, max_workers=workers)
         finally:
             timer.cancel()
-        _loaded.add(key)
+        _loaded.update(keys)

@@ -20,7 +20,7 @@ from .tape import known as tape_known
 from .tape import suspended
 from .tape import taping as tape_records
 from .kinematics import state_arrays
-from .launch import Launch, capture, ensure_loaded, graphs_allowed, launch
+from .launch import Launch, capture, graphs_allowed, launch, preload
 from .launch import run as run_launches
 from . import rollout_memory as memory
 from .rollout_memory import GRAPH_BYTES_PER_LAUNCH, STATE_INDEX, check_available, control_shapes, counts, memory_error, nbytes
@@ -315,8 +315,7 @@ class _Config:
         captured = self.graphs.get(key)
         if captured is None:
             recorded = launches()
-            for kernel in {k.kernel for k in recorded}:
-                ensure_loaded(kernel, self.device)
+            preload(recorded, self.device)
             try:
                 with capture(self.device) as scope:
                     run_launches(recorded, self.device)

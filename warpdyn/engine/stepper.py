@@ -19,7 +19,7 @@ from ..kernels.state import kernels as state_kernels
 from ..types.enums import VelRepr
 from . import tape
 from .kinematics import state_arrays
-from .launch import capture, ensure_loaded, graphs_allowed, launch
+from .launch import capture, graphs_allowed, launch, preload
 from .launch import run as run_launches
 from .rollout import copy_launch
 from .step import Workspace, prepare, state_buffers, step_launches, with_state
@@ -72,8 +72,7 @@ class Stepper:
     def _program(self, start: int):
         """A callable running `substeps` steps from buffer `start`: a graph's replay, or recorded launches."""
         launches = self._launches(start)
-        for kernel in {item.kernel for item in launches}:
-            ensure_loaded(kernel, self.device)
+        preload(launches, self.device)
         if graphs_allowed(self.device, self.use_graph, "a Stepper"):
             with capture(self.device) as captured:
                 run_launches(launches, self.device)

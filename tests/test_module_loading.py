@@ -1,0 +1,54 @@
+"""Loading kernel modules (warpdyn/engine/loading.py): a model's first step compiles the modules its launches
+need in one parallel load, each with warpdyn.config.fuse_fp, and later steps load nothing. In a fresh
+interpreter with an empty kernel cache (the test's own process has loaded everything already)."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import warp as wp
+
+SCRIPT = textwrap.dedent(
+    """
+    import json, sys
+    import numpy as np
+    import warp as wp
+    wp.config.kernel_cache_dir = sys.argv[1]
+    wp.config.quiet = True
+    import warpdyn as wd
+    wd.config.fuse_fp = False
+    calls = []
+    force_load = wp.force_load
+    def spy(device=None, modules=None, block_dim=None, max_workers=None):
+        calls.append({"modules": len(modules), "workers": max_workers, "fuse_fp": sorted({m.options["fuse_fp"] for m in modules})})
+        return force_load(device=device, modules=modules, block_dim=block_dim, max_workers=max_workers)
+    wp.force_load = spy
+    device = sys.argv[2]
+    full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device=device)
+    legs = wd.model.reduce(full, wd.assets.ERGOCUB_LEG_JOINTS)
+    data = wd.data.Data.build(legs, base_position=(0.0, 0.0, 0.8))
+    first = len(calls)
+    data = wd.model.step(legs, data)
+    during = calls[first:]
+    data = wd.model.step(legs, data)
+    print(json.dumps({"first_step": during, "second_step": calls[first + len(during):],
+                      "finite": bool(np.isfinite(data.joint_positions.numpy()).all())}))
+    """
+)
+
+
+def test_a_first_step_loads_its_modules_at_once(tmp_path):
+    device = str(wp.get_device())
+    done = subprocess.run(
+        [sys.executable, "-c", SCRIPT, str(tmp_path / "cache"), device],
+        capture_output=True, text=True, timeout=600, env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    loads = report["first_step"]
+    assert len(loads) == 1, loads  # one parallel load for the step's launches
+    assert loads[0]["modules"] >= 5 and loads[0]["workers"] == min(loads[0]["modules"], os.cpu_count() or 1)
+    assert loads[0]["fuse_fp"] == [False]  # warpdyn.config.fuse_fp reached every module
+    assert report["second_step"] == [] and report["finite"]
