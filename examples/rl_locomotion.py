@@ -28,7 +28,7 @@ with implicit joint damping; episodes of 20 s, ended by a fall; each reset draws
 rad), link masses (x 0.9..1.1) and friction. ergoCub legs: 12 joints, the 32 corners of the foot boxes, kp
 300 N m/rad, damping 5 N m s/rad, 10 steps of 2 ms per action, straight stance. Go1: 12 joints, the lower
 halves of the four foot spheres (9 points each), kp 20, damping 0.5, servo torques clipped at 23.7 N m, 10
-steps of 2 ms per action (at 4 ms, actions at their clip drive some states to diverge), GO1_STANDING_POSE, Rudin et al.'s flat-ground rewards (velocity tracking, feet air
+steps of 2 ms per action, GO1_STANDING_POSE, Rudin et al.'s flat-ground rewards (velocity tracking, feet air
 time, penalties on vertical and roll/pitch velocity, torque and action rate). `stand`: zero commands, a push
 of up to 0.5 m/s every 4 s of each episode. `walk`: ergoCub: forward commands of 0..0.5 m/s, feet air time
 rewarded; Go1: vx in [-1, 1], vy in [-0.5, 0.5] m/s, yaw rate in [-1, 1] rad/s, redrawn every 10 s. `--evaluate
@@ -265,13 +265,17 @@ def plot(history: list, path: pathlib.Path, title: str) -> None:
 
 
 def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
-    """(rsl-rl VecEnv of `env`, the deterministic policy of a policy.pt on env's device)."""
-    from rsl_rl.runners import OnPolicyRunner
+    """(rsl-rl VecEnv of `env`, the deterministic policy of a policy.pt on env's device). Built as `train`
+    builds it (not by OnPolicyRunner, which would start a process group of its own under torchrun); a policy
+    trained on a GPU loads on the CPU too."""
+    from rsl_rl.algorithms import PPO
 
     vec = RslRlVecEnv(env)
-    runner = OnPolicyRunner(vec, train_config(1), log_dir=None, device=str(env.device))
-    runner.load(str(policy_path), map_location=str(env.device))  # a policy trained on a GPU replays on the CPU too
-    return vec, runner.get_inference_policy(device=str(env.device))
+    with contextlib.redirect_stdout(io.StringIO()):  # construct_algorithm prints the models
+        alg = PPO.construct_algorithm(vec.get_observations(), vec, train_config(1), str(env.device))
+    alg.load(torch.load(policy_path, map_location=str(env.device), weights_only=False), load_cfg={"actor": True, "critic": True}, strict=True)
+    alg.eval_mode()
+    return vec, alg.get_policy()
 
 
 def replay(robot: str, task: str, policy_path: pathlib.Path, out: pathlib.Path, device, seed: int, seconds: float = 10.0) -> None:

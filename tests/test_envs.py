@@ -215,30 +215,64 @@ def test_pushes_follow_each_episodes_clock():
 
 
 def test_a_torque_limit_clips_the_servos():
+    """torque_limit becomes the servos' force range; env.joint_torques is what servos and dampers apply:
+    clip(kp (target - s), +-limit) - kd sdot. A model with actuators of its own is refused a torque_limit."""
     env = _env(N=2, torque_limit=20.0)
     env.reset(seed=0)
     env.step(torch.full((2, 12), 5.0, device=env.device))
-    assert float(env.joint_torques.abs().max()) == 20.0
     np.testing.assert_array_equal(env.model.actuator_force_range.numpy(), np.tile([-20.0, 20.0], (12, 1)))
+    s = env.state
+    targets = env.default_joint_positions + 0.25 * env.actions.to(env.torch_dtype)
+    servo = (300.0 * (targets - s.joint_positions)).clamp(-20.0, 20.0)
+    assert float(servo.abs().max()) == 20.0  # saturated
+    torch.testing.assert_close(env.joint_torques, servo - 5.0 * s.joint_velocities, rtol=0, atol=0)
+    actuated = wd.model.add_actuators(_legs(), "position", kp=100.0)
+    with pytest.raises(ValueError, match="has actuators of its own"):
+        envs.LeggedEnv(actuated, num_envs=2, cfg=envs.LeggedEnvConfig(torque_limit=20.0))
+    with pytest.raises(TypeError, match="feet must be a tuple of link names"):
+        _env(feet="l_ankle_2")
 
 
-def test_graph_replays_equal_eager_steps():
-    """On a GPU, use_graph=True captures a whole step (actions, simulation, rewards, resets, randomisation)
-    and its replays give what eager steps give, bitwise, through pushes and time-limit resets, in tensors
-    that the next step does not overwrite; on the CPU,
-    use_graph=True is refused (torch ops are not captured there)."""
-    if not wp.get_device().is_cuda:
-        with pytest.raises(ValueError, match="use_graph=True captures torch ops"):
-            envs.LeggedEnv(_legs(), num_envs=2, use_graph=True)
-        return
-    settings = dict(N=8, push_velocity=0.5, push_seconds=0.06, episode_seconds=0.1, mass_scale=(0.8, 1.2), friction=(0.4, 1.0), lin_vel_x=(-0.5, 0.5))
-    graphed = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**{k: v for k, v in settings.items() if k != "N"}), seed=3, use_graph=True)
-    eager = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**{k: v for k, v in settings.items() if k != "N"}), seed=3, use_graph=False)
+def test_a_setter_or_a_new_configuration_is_taken_up():
+    """After a setter gives the model new parameter arrays, resets randomise those (not the old ones); a
+    changed cfg (what a curriculum does) reaches the next step, graphs or not."""
+    env = _env(N=3, mass_scale=(0.5, 1.5))
+    env.reset(seed=0)
+    env.step(torch.zeros(3, 12, device=env.device))
+    env.model.set_link_parameters(mass=np.tile(env.model.tree.link_mass, (3, 1)))  # new arrays
+    env.reset(seed=1)
+    ratio = env.model.link_mass.numpy() / env.model.tree.link_mass
+    assert np.nanstd(ratio[:, env.model.tree.link_mass > 0]) > 0.05  # the new arrays were randomised
+    env.cfg.rewards = {"alive": (envs.terms.alive, 2.0)}
+    for _ in range(3):
+        reward = env.step(torch.zeros(3, 12, device=env.device))[1]
+    torch.testing.assert_close(reward, torch.full((3,), 2.0 * env.cfg.policy_dt, device=env.device))
+
+
+def test_use_graph_true_is_refused_on_the_cpu():
+    """Torch ops cannot be captured on the CPU: use_graph=True says so (and "auto" steps eagerly there)."""
+    full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device="cpu")
+    legs = wd.model.reduce(full, wd.assets.ERGOCUB_LEG_JOINTS)
+    with pytest.raises(ValueError, match="use_graph=True captures torch ops"):
+        envs.LeggedEnv(legs, num_envs=2, use_graph=True)
+
+
+@pytest.mark.skipif(not wp.get_device().is_cuda, reason="CUDA graphs: the tests' device is not a GPU")
+@pytest.mark.parametrize("policy_dt", [0.02, 0.01])  # 10 and 5 simulation steps: an odd count ends on the other buffer
+def test_graph_replays_equal_eager_steps(policy_dt):
+    """use_graph=True captures a whole step (actions, simulation, rewards, resets, randomisation) and its
+    replays give what eager steps give, bitwise, through pushes, time-limit resets and a reset() between
+    replays, in tensors that the next step does not overwrite."""
+    settings = dict(policy_dt=policy_dt, push_velocity=0.5, push_seconds=0.06, episode_seconds=0.1, mass_scale=(0.8, 1.2), friction=(0.4, 1.0), lin_vel_x=(-0.5, 0.5))
+    graphed = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=True)
+    eager = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=False)
     actions = torch.tensor(np.random.default_rng(0).uniform(-1, 1, (12, 8, 12)), dtype=torch.float32, device=graphed.device)
     for env in (graphed, eager):
         env.reset(seed=3)
     kept = None
     for k in range(12):
+        if k == 7:  # a reset between replays
+            assert torch.equal(graphed.reset(seed=5)[0], eager.reset(seed=5)[0])
         a = graphed.step(actions[k])
         b = eager.step(actions[k])
         for x, y in zip(a[:4], b[:4]):
@@ -247,7 +281,7 @@ def test_graph_replays_equal_eager_steps():
         if kept is not None:  # the previous step's observation is its own tensor (rsl-rl stores it after the step)
             assert torch.equal(kept[0], kept[1]), k
         kept = (a[0], a[0].clone())
-    assert len(graphed._graphs) == 1 and not eager._graphs
+    assert len(graphed._graphs) == (1 if graphed.decimation % 2 == 0 else 2) and not eager._graphs
 
 
 @pytest.mark.filterwarnings("ignore:.*link 'base'. principal moments:warpdyn.model.UnphysicalInertiaWarning")  # tests/test_go1.py checks it

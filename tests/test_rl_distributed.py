@@ -7,13 +7,13 @@ the gloo backend, the code path of K GPUs with NCCL but for the backend and the 
   rank's with rank 0's after training and fails otherwise: without the initial broadcast (each rank seeds
   torch with seed + rank) the parameters differ by ~0.3, without rsl-rl's gradient averaging by ~0.01;
   with gloo and two ranks the sums are exact, so the difference printed must be 0); rank 0 alone writes
-  policy.pt in OnPolicyRunner.save's format, which --replay (OnPolicyRunner.load) then reads.
+  policy.pt in OnPolicyRunner.save's format, which --replay then reads; --evaluate runs on rank 0 inside the
+  process group (one evaluation line).
 - One process (plain python) still trains, counts 8 x 24 env-steps per iteration and stops at
   --target-return.
 About 20 s warm on 2 cores (plus Warp's compilation of the ergoCub legs the first time, ~15 s).
 """
 
-import importlib.util
 import os
 import pathlib
 import re
@@ -49,20 +49,21 @@ def _total(stdout: str) -> tuple[int, int]:
 def test_two_ranks_train_one_policy(tmp_path):
     out = tmp_path / "two"
     stdout = _run(["-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2", str(EXAMPLE),
-                   "--device", "cpu", "--num-envs", str(N), "--iterations", str(ITERATIONS), "--out", str(out)])  # fmt: skip
+                   "--device", "cpu", "--num-envs", str(N), "--iterations", str(ITERATIONS), "--evaluate", "0.3", "--out", str(out)])  # fmt: skip
     assert f"2 ranks x {N} environments on CPU (gloo)" in stdout, stdout
     per_iteration = 2 * N * STEPS
     assert _iterations(stdout) == [(it, per_iteration * (it + 1)) for it in range(ITERATIONS)], stdout  # rank 0 only
     assert _total(stdout) == (per_iteration * ITERATIONS, 2)
     match = re.search(r"^policy identical on 2 ranks \(largest difference (\S+)\)", stdout, re.M)
     assert match and float(match[1]) == 0.0, stdout
+    evaluations = re.findall(r"^evaluation: commanded 0.3 m/s straight ahead, 256 environments, 5 s: forward speed (\S+) m/s", stdout, re.M)
+    assert len(evaluations) == 1, stdout  # rank 0 alone, inside the process group (no second one started)
     assert sorted(p.name for p in out.iterdir()) == ["policy.pt", "rewards.png"]
     checkpoint = torch.load(out / "policy.pt", weights_only=False)
     assert checkpoint["iter"] == ITERATIONS - 1
     assert {"actor_state_dict", "critic_state_dict", "optimizer_state_dict"} <= set(checkpoint)
-    if importlib.util.find_spec("rerun") is not None:  # the viz extra: --replay loads it with OnPolicyRunner.load
-        stdout = _run([str(EXAMPLE), "--device", "cpu", "--replay", str(out / "policy.pt"), "--out", str(out)])
-        assert (out / "policy.rrd").stat().st_size > 0, stdout
+    stdout = _run([str(EXAMPLE), "--device", "cpu", "--replay", str(out / "policy.pt"), "--out", str(out)])
+    assert (out / "policy.rrd").stat().st_size > 0, stdout
 
 
 def test_one_process_still_trains(tmp_path):

@@ -149,7 +149,8 @@ class Stepper(_Stepper):
     `joint_force_references` (N, n) [N m or N], `ctrl` (N, na) (the model's actuators), and, when built with
     link_forces=True, `link_forces` (N, nL, 6) in the data's representation. `set_state(data, envs=None)`
     copies a state in, for every environment or, without a host synchronisation, those an int32 mask (N,)
-    selects (resets). `contact_wrenches` (N, nc, 6) holds the enabled collidable points' contact wrenches at
+    selects (resets). A caller that captures `step()` in a graph of its own calls `advance_buffers()` after
+    each replay (the ping-pong buffers' turn is host state). `contact_wrenches` (N, nc, 6) holds the enabled collidable points' contact wrenches at
     the start of the last step of a call (Inertial: [force; torque about the world origin]). The launches of
     a call are built once, and captured as a graph unless use_graph=False (CUDA graph on GPUs, Warp's CPU
     graph on the CPU); setting a model parameter or setting rebuilds them at the next call, while writing
@@ -200,5 +201,7 @@ def graphs_allowed(device, use_graph="auto", what: str = "a graph capture") -> b
     follow: use_graph False never; "auto" or True only while no other live thread works with warpdyn on that
     kind of device (Warp's CUDA stream is shared by all threads and its CPU capture records every thread's
     operations). With such a thread, "auto" gives False and True raises a RuntimeError naming the threads.
-    For code that captures its own graphs around warpdyn's launches (warpdyn.envs)."""
+    For code that captures its own graphs around warpdyn's launches (warpdyn.envs does): run the work once
+    outside the capture first (kernels load, workspaces are allocated), and point Warp's stream at the
+    capturing one (wp.ScopedStream) so that the launches join it."""
     return _graphs_allowed(device, use_graph, what)

@@ -1,6 +1,7 @@
 """Loading kernel modules: the first launch of a kernel module on a device compiles it, or loads it from
-Warp's kernel cache (`wp.config.kernel_cache_dir`). That first load runs under one process-wide lock, since
-Warp's module loading is not safe from several threads at once; once a compilation has taken longer than
+Warp's kernel cache (`wp.config.kernel_cache_dir`). Loads run under one process-wide lock, since Warp's
+module loading is not safe from several calling threads at once (one `force_load` may compile several
+modules on threads of its own: `preload`); once a compilation has taken longer than
 `NOTICE_AFTER` seconds, warpdyn says on stderr, once per process, that it is compiling and that the result
 is cached.
 """
@@ -45,7 +46,8 @@ def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
 
 
 def preload(launches, device) -> None:
-    """Compile or load at once, in parallel (Warp's force_load, one thread per module up to the CPU count),
+    """Compile or load at once, in parallel (Warp's force_load, a thread per module up to the CPUs this process
+    may use, or wp.config.load_module_max_workers when set),
     the modules of `launches` (Launch tuples) not loaded on `device` yet: a first step needs about ten, which
     one by one took most of its cold start. Each as `ensure_loaded` loads it."""
     device = wp.get_device(device)
@@ -81,7 +83,8 @@ def _load(keys: set, device, block_dim: int | None) -> None:
             if len(modules) == 1:
                 wp.load_module(modules[0], device=device, block_dim=block_dim)
             else:
-                workers = min(len(modules), os.cpu_count() or 1)
+                workers = wp.config.load_module_max_workers or len(os.sched_getaffinity(0))
+                workers = min(len(modules), workers)
                 wp.force_load(device=device, modules=modules, block_dim=block_dim, max_workers=workers)
         finally:
             timer.cancel()

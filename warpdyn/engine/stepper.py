@@ -100,14 +100,21 @@ class Stepper:
         if program is None:
             program = self._programs[self._current] = self._program(self._current)
         program()
-        self._current = (self._current + self.substeps) % 2
+        self.advance_buffers()
         return self._data[self._current]
+
+    def advance_buffers(self) -> None:
+        """Account for one call's `substeps` steps run by a replay of a graph the caller captured around
+        `step()` (warpdyn.envs): the buffer that call wrote becomes the current one, as `step()` makes it."""
+        self._current = (self._current + self.substeps) % 2
 
     @property
     def contact_wrenches(self):
         """W_f_C (N, nc, 6): the Inertial wrench [force; torque about the world origin] [N, N m] of each enabled
-        collidable point's contact force at the start of the last step of the latest call (None for a model
-        without enabled points); a view of the Stepper's workspace, overwritten by each call."""
+        collidable point's contact force (points in the order of `model.kin_dyn_parameters.enabled_link`: by
+        link) at the start of the last step of the latest call, a sample of one step (None for a model without
+        enabled points); a view of the Stepper's workspace, overwritten by each call and replaced when a
+        setter changes the model."""
         evaluation = self._workspace.evals[0]
         return evaluation.W_f_C if self._plan.contacts else None
 

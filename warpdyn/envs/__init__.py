@@ -7,9 +7,10 @@ for `warpdyn.envs.rsl_rl`).
     obs, reward, terminated, truncated, info = env.step(actions)   # actions: torch (N, na)
 
 `LeggedEnv` follows Gymnasium's vector API (SAME_STEP autoreset) with torch tensors sharing memory with
-Warp: a step writes the actions into a `wd.simulation.Stepper`'s controls, replays its graph of
-`decimation` simulation steps, and computes observations, rewards and resets with torch ops on the device,
-without a host synchronisation. Its terms (`warpdyn.envs.terms`) are functions of the state that a
+Warp: a step writes the actions into a `wd.simulation.Stepper`'s controls, runs its `decimation` simulation
+steps, and computes observations, rewards and resets with torch ops on the device, without a host
+synchronisation; on a GPU the whole step replays as one CUDA graph (eager while another warpdyn thread works
+there; on the CPU the simulation steps replay a Warp CPU graph). Its terms (`warpdyn.envs.terms`) are functions of the state that a
 configuration composes. `warpdyn.envs.rsl_rl.RslRlVecEnv` hands it to rsl-rl's PPO (examples/rl_locomotion.py).
 """
 

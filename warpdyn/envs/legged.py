@@ -98,6 +98,11 @@ class LeggedEnvConfig:
     rewards: dict = dataclasses.field(default_factory=lambda: dict(DEFAULT_REWARDS))
 
 
+def _snapshot(cfg: LeggedEnvConfig) -> LeggedEnvConfig:
+    """A copy of `cfg` that changes to it (also in place, to its rewards) do not reach."""
+    return dataclasses.replace(cfg, rewards=dict(cfg.rewards), observations=tuple(cfg.observations))
+
+
 class LeggedEnv(gym.vector.VectorEnv):
     """N environments of a floating-base robot on flat ground, stepped in place on the model's device.
 
@@ -131,6 +136,12 @@ class LeggedEnv(gym.vector.VectorEnv):
         if use_graph is True and not model.device.is_cuda:
             raise ValueError(f"use_graph=True captures torch ops in a CUDA graph; '{model.device}' is not a GPU (use 'auto')")
         self.cfg = cfg = cfg if cfg is not None else LeggedEnvConfig()
+        if isinstance(cfg.feet, str) or not all(isinstance(foot, str) for foot in cfg.feet):
+            raise TypeError(f"feet must be a tuple of link names, got {cfg.feet!r}")
+        if not cfg.contact_force_threshold >= 0:
+            raise ValueError(f"contact_force_threshold must be a force >= 0 N, got {cfg.contact_force_threshold!r}")
+        if cfg.torque_limit is not None and not cfg.torque_limit > 0:
+            raise ValueError(f"torque_limit must be a positive torque [N m] or None, got {cfg.torque_limit!r}")
         decimation = cfg.policy_dt / cfg.time_step
         if abs(decimation - round(decimation)) > 1e-6 or round(decimation) < 1:
             raise ValueError(f"policy_dt {cfg.policy_dt} s must be a whole number of time steps of {cfg.time_step} s")
@@ -182,7 +193,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._return = torch.zeros(N, **f32)
         self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)  # episodes, return sum, length sum
         self._graphs: dict = {}
-        self._graph_version = model.version
+        self._warp_streams: dict = {}
+        self._graph_version, self._graph_cfg = model.version, _snapshot(cfg)
         self._eager_steps = 0
         self.state = self._state()
         obs_dim = self._observe().shape[1]
@@ -195,6 +207,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         """A copy of `model` with the task's actuators, damping, contacts and per-environment parameters."""
         cfg = self.cfg
         model = model.copy()
+        if model.number_of_actuators() > 0 and cfg.torque_limit is not None:
+            raise ValueError(f"torque_limit clips the servos LeggedEnv adds; '{model.name()}' has actuators of its own: set their force_range")
         if model.number_of_actuators() == 0:
             limit = None if cfg.torque_limit is None else (-cfg.torque_limit, cfg.torque_limit)
             model = wd.model.add_actuators(model, "position", kp=cfg.kp, force_range=limit)
@@ -294,18 +308,41 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.episode_length_buf.masked_fill_(mask, 0)
         self._return.masked_fill_(mask, 0.0)
 
-    def _on_device_stream(self):
-        """On a GPU, Warp's launches on torch's current stream (ordered with the torch ops; captured with them)."""
+    def _on_device_stream(self, capturing: bool = False):
+        """On a GPU, Warp's launches on torch's current stream, ordered with the torch ops (captured with them):
+        outside a capture that stream first waits for Warp's, and Warp's for it at the exit."""
         if not self.device.type == "cuda":
             return contextlib.nullcontext()
-        stream = wp.stream_from_torch(torch.cuda.current_stream(self.device))
-        return wp.ScopedStream(stream, sync_enter=False, sync_exit=False)
+        current = torch.cuda.current_stream(self.device)
+        stream = self._warp_streams.get(current.cuda_stream)
+        if stream is None:
+            stream = self._warp_streams[current.cuda_stream] = wp.stream_from_torch(current)
+        return wp.ScopedStream(stream, sync_enter=not capturing, sync_exit=not capturing)
+
+    def _sync_model(self) -> None:
+        """After a setter changed the model (new parameter arrays, a rebuilt Stepper workspace) or a change of
+        `cfg` (read when a graph was captured): drop the graphs (the next step runs eagerly, then captures)
+        and take new views of the randomised parameters."""
+        if self.model.version == self._graph_version and self.cfg == self._graph_cfg:
+            return
+        self._graphs.clear()
+        self._graph_version, self._graph_cfg = self.model.version, _snapshot(self.cfg)
+        self._eager_steps = 0
+        self._link_mass = wp.to_torch(self.model.link_mass)
+        self._mu = wp.to_torch(self.model.contact_params.mu)
+        if tuple(self._link_mass.shape[:1]) != (self.num_envs,) or tuple(self._mu.shape) != (self.num_envs,):
+            raise ValueError(
+                f"LeggedEnv randomises link masses and friction per environment: after a setter, model.link_mass has "
+                f"shape {tuple(self._link_mass.shape)} and contact_params.mu {tuple(self._mu.shape)}; give them a leading "
+                f"axis of {self.num_envs} environments"
+            )
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Reset every environment; seed: reseed the environment's random numbers (states, commands,
         randomisation, pushes). Returns (obs (N, obs_dim), info)."""
         if seed is not None:
             self._generator.manual_seed(int(seed))
+        self._sync_model()
         with self._on_device_stream():
             self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
         self._finished.zero_()
@@ -318,16 +355,15 @@ class LeggedEnv(gym.vector.VectorEnv):
         if tuple(actions.shape) != (self.num_envs, self.actions.shape[1]):
             raise ValueError(f"actions has shape {tuple(actions.shape)}; expected {(self.num_envs, self.actions.shape[1])}")
         self._action_input.copy_(actions)
-        if self.model.version != self._graph_version:  # a setter changed the model: an eager step rebuilds, then a capture
-            self._graphs.clear()
-            self._graph_version = self.model.version
-            self._eager_steps = 0
-        key = id(self.stepper.data)
+        self._sync_model()
+        key = id(self.stepper.data)  # which ping-pong buffer the step starts from: one graph for each
         if key not in self._graphs and self._eager_steps > 0 and self._captures():
             self._graphs[key] = self._capture()
         if key in self._graphs:
             graph, outputs, self.state, self.joint_torques = self._graphs[key]
-            graph.replay()
+            with torch.cuda.device(self.device):
+                graph.replay()
+            self.stepper.advance_buffers()
             obs, reward, terminated, truncated, info = outputs  # the graph's buffers: fresh copies, as an eager step
             info = {"final_obs": info["final_obs"].clone(), "_final_obs": info["_final_obs"].clone(), "invalid": info["invalid"].clone(),
                     "log": {name: value.clone() for name, value in info["log"].items()}}  # fmt: skip
@@ -344,7 +380,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         """(graph, outputs, state, joint_torques) of one `_advance` captured in a CUDA graph (not run)."""
         graph = torch.cuda.CUDAGraph()
         graph.register_generator_state(self._generator)
-        with torch.cuda.graph(graph), self._on_device_stream():
+        with torch.cuda.device(self.device), torch.cuda.graph(graph), self._on_device_stream(capturing=True):
             outputs = self._advance()
         return graph, outputs, self.state, self.joint_torques
 
@@ -362,8 +398,10 @@ class LeggedEnv(gym.vector.VectorEnv):
             velocity[:, :2] += torch.where(push[:, None], kick, torch.zeros_like(kick))
         self.stepper.step()
         self.state = s = self._state()
-        torques = cfg.kp * (targets - s.joint_positions) - cfg.kd * s.joint_velocities
-        self.joint_torques = torques if cfg.torque_limit is None else torques.clamp(-cfg.torque_limit, cfg.torque_limit)
+        servo = cfg.kp * (targets - s.joint_positions)  # the position actuator's force, clipped at torque_limit
+        if cfg.torque_limit is not None:
+            servo = servo.clamp(-cfg.torque_limit, cfg.torque_limit)
+        self.joint_torques = servo - cfg.kd * s.joint_velocities  # and the joint's damper
         self._update_feet()
         self.episode_length_buf += 1
         log, reward = {}, torch.zeros(self.num_envs, device=self.device, dtype=torch.float32)

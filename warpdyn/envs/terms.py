@@ -3,8 +3,8 @@ each returning a torch tensor (N,) or (N, k) on the environment's device, comput
 synchronisation). A term reads `env.state` (`State`: the base and joint state, with the base velocities
 in the base frame and gravity projected into it), `env.actions`, `env.previous_actions`, `env.commands`,
 the feet's `env.feet_contact`, `env.feet_first_contact` and `env.feet_air_time` (N, feet), and
-`env.joint_torques` (the servo law kp (target - s) - kd sdot with the configuration's gains: what the
-environment's own servos apply, clipped to cfg.torque_limit); a task composes them with weights
+`env.joint_torques` (what the environment's own servos and dampers apply: kp (target - s) clipped at
+cfg.torque_limit, minus kd sdot); a task composes them with weights
 (`LeggedEnvConfig.rewards`, `.observations`).
 """
 
