@@ -20,7 +20,9 @@ import re
 import subprocess
 import sys
 
+import pytest
 import torch
+import warp as wp
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "rl_locomotion.py"
@@ -46,6 +48,10 @@ def _total(stdout: str) -> tuple[int, int]:
     return int(match[1]), int(match[2])
 
 
+CPU_BACKEND = pytest.mark.skipif(not wp.is_cpu_available(), reason="this Warp build has no CPU backend (LLVM): the gloo runs simulate on the CPU")
+
+
+@CPU_BACKEND
 def test_two_ranks_train_one_policy(tmp_path):
     out = tmp_path / "two"
     stdout = _run(["-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2", str(EXAMPLE),
@@ -66,6 +72,7 @@ def test_two_ranks_train_one_policy(tmp_path):
     assert (out / "policy.rrd").stat().st_size > 0, stdout
 
 
+@CPU_BACKEND
 def test_one_process_still_trains(tmp_path):
     stdout = _run([str(EXAMPLE), "--device", "cpu", "--num-envs", str(N), "--iterations", "3",
                    "--target-return=-1e9", "--out", str(tmp_path)])  # fmt: skip

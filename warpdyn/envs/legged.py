@@ -380,8 +380,11 @@ class LeggedEnv(gym.vector.VectorEnv):
         """(graph, outputs, state, joint_torques) of one `_advance` captured in a CUDA graph (not run)."""
         graph = torch.cuda.CUDAGraph()
         graph.register_generator_state(self._generator)
+        start = self.stepper.data
         with torch.cuda.device(self.device), torch.cuda.graph(graph), self._on_device_stream(capturing=True):
             outputs = self._advance()
+        if self.stepper.data is not start:  # the capture ran nothing: the turn stays where replays start (odd decimation)
+            self.stepper.advance_buffers()
         return graph, outputs, self.state, self.joint_torques
 
     def _advance(self) -> tuple:
