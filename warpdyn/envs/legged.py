@@ -361,7 +361,7 @@ class LeggedEnv(gym.vector.VectorEnv):
             self._graphs[key] = self._capture()
         if key in self._graphs:
             graph, outputs, self.state, self.joint_torques = self._graphs[key]
-            with torch.cuda.device(self.device):
+            with torch.cuda.device(self.device), self._on_device_stream():  # ordered after Warp's pending work
                 graph.replay()
             self.stepper.advance_buffers()
             obs, reward, terminated, truncated, info = outputs  # the graph's buffers: fresh copies, as an eager step
