@@ -36,9 +36,9 @@ hemisphere in the calf frame, whose -z runs along the shank):
     point = go1.kin_dyn_parameters.contact_parameters.point          # L_p_C of every point, calf frames
     go1 = wd.contact.with_collidable_points(go1, enabled=point[:, 2] < wd.assets.GO1_FOOT_CENTRE[2])
 
-36 enabled points, 9 on each link of GO1_FEET. Their lowest lies within 3.1 mm of the sphere's lowest point
-while the shank is within 60 degrees of vertical (standing: 40), 7.3 mm when it is horizontal. Keeping all 20
-per foot (drop the second call): 3.6 mm up to horizontal; the default 50 per sphere: 24 below the centre, 1.2 mm.
+36 enabled points, 9 on each link of GO1_FEET, all on the sphere; in the standing pose the lowest is within a
+tenth of the radius of the sphere's bottom (tests/test_go1.py). More points per sphere (`sphere_points`) follow
+the sphere more closely, at the cost of more contact points per step.
 """
 
 from __future__ import annotations
