@@ -1,5 +1,6 @@
 """Loading kernel modules (warpdyn/engine/loading.py): a model's first step compiles the modules its launches
-need in one parallel load, each with warpdyn.config.fuse_fp, and later steps load nothing. In a fresh
+need in one parallel load, each with warpdyn.config.fuse_fp and, on a GPU, warpdyn.config.cuda_block_dim's
+block size (the one its launches use), and later steps load nothing. In a fresh
 interpreter with an empty kernel cache (the test's own process has loaded everything already)."""
 
 import json
@@ -8,7 +9,10 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
 import warp as wp
+
+import warpdyn as wd
 
 SCRIPT = textwrap.dedent(
     """
@@ -22,7 +26,7 @@ SCRIPT = textwrap.dedent(
     calls = []
     force_load = wp.force_load
     def spy(device=None, modules=None, block_dim=None, max_workers=None):
-        calls.append({"modules": len(modules), "workers": max_workers, "fuse_fp": sorted({m.options["fuse_fp"] for m in modules})})
+        calls.append({"block_dim": block_dim, "modules": len(modules), "workers": max_workers, "fuse_fp": sorted({m.options["fuse_fp"] for m in modules})})
         return force_load(device=device, modules=modules, block_dim=block_dim, max_workers=max_workers)
     wp.force_load = spy
     from warpdyn.engine import loading
@@ -53,4 +57,30 @@ def test_a_first_step_loads_its_modules_at_once(tmp_path):
     assert loads[0]["modules"] == report["modules_loaded"] >= 5, report  # ... of every module the step loaded
     assert loads[0]["workers"] == min(loads[0]["modules"], len(os.sched_getaffinity(0)))
     assert loads[0]["fuse_fp"] == [False]  # warpdyn.config.fuse_fp reached every module
+    assert loads[0]["block_dim"] == (wd.config.cuda_block_dim if wp.get_device(device).is_cuda else None)
     assert report["second_step"] == 0 and report["finite"]
+
+
+@pytest.mark.parametrize("value", [0, 48, 2048, 64.0, "64", None])
+def test_cuda_block_dim_must_be_a_multiple_of_32_up_to_1024(value):
+    before = wd.config.cuda_block_dim
+    with pytest.raises(ValueError, match="cuda_block_dim"):
+        wd.config.cuda_block_dim = value
+    assert wd.config.cuda_block_dim == before
+
+
+def test_the_block_size_of_a_launch():
+    """On a GPU a launch that names no block size gets warpdyn.config.cuda_block_dim; on the CPU none (Warp would
+    compile a CPU module once per block size it is given)."""
+    from warpdyn.engine.loading import block_size
+
+    cuda = type("Device", (), {"is_cuda": True})()
+    cpu = type("Device", (), {"is_cuda": False})()
+    before = wd.config.cuda_block_dim
+    try:
+        wd.config.cuda_block_dim = 128
+        assert block_size(None, cuda) == 128
+        assert block_size(256, cuda) == 256
+        assert block_size(None, cpu) is None and block_size(256, cpu) is None
+    finally:
+        wd.config.cuda_block_dim = before

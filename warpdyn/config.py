@@ -5,8 +5,12 @@
   already allocated keep their layout; every layout gives the same results.
 - `fill_outputs_with_nan`: a debugging aid: fill every output with NaN before a kernel writes it, so an
   entry a kernel fails to write shows (the test suite sets it).
+- `cuda_block_dim`: threads per CUDA block of every launch that does not set its own (`cuda_launch`): 64, so
+  that a few thousand environments (one thread each) spread over all of a GPU's multiprocessors instead of
+  a few of them (an H100 has 132: at N = 4096, blocks of 256 fill 16). A kernel module is compiled once per
+  block size: a change compiles the kernels again. benchmarks/step.py --block-dims measures it.
 - `cuda_launch`: CUDA settings by kernel name ("aba", "rnea", "crba"): (threads per block, register cap per
-  thread). Missing: Warp's default block (256) and each kernel module's MAX_REGISTERS; a cap of None: the
+  thread). Missing: `cuda_block_dim` and each kernel module's MAX_REGISTERS; a cap of None: the
   compiler's choice. benchmarks/dynamics.py --sweep measures them.
 - `fuse_fp`: floating-point contraction (fused multiply-adds) when kernels are compiled: True, Warp's
   default, or False: each kernel then rounds every operation it writes, so the forward code a backward
@@ -25,6 +29,7 @@ import types
 
 env_fastest: bool | None = None
 fill_outputs_with_nan: bool = False
+cuda_block_dim: int = 64
 cuda_launch: dict[str, tuple[int | None, int | None | str]] = {}
 fuse_fp: bool = True
 
@@ -39,6 +44,8 @@ class _Config(types.ModuleType):
     """Held while fuse_fp is assigned and while the first load fixes it."""
 
     def __setattr__(self, name, value):
+        if name == "cuda_block_dim" and not (type(value) is int and 32 <= value <= 1024 and value % 32 == 0):
+            raise ValueError(f"warpdyn.config.cuda_block_dim must be a multiple of 32 from 32 to 1024, got {value!r}")
         if name != "fuse_fp":
             super().__setattr__(name, value)
             return

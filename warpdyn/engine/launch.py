@@ -16,15 +16,17 @@ import warp as wp
 
 from ..arrays import capture_lock, note_thread, other_threads
 from . import determinism
-from .loading import ensure_loaded, preload
+from .loading import block_size, ensure_loaded, preload
 from .tape import check_thread
 
 
 def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | None = None, **options):
-    """wp.launch (its other options passed on), the kernel's module loaded first (see the module docstring)."""
+    """wp.launch (its other options passed on) with `block_size(block_dim)` threads per block, the kernel's module
+    loaded first (see the module docstring)."""
     device = wp.get_device(device)
     note_thread(device)
-    ensure_loaded(kernel, device, block_dim if device.is_cuda else None)
+    block_dim = block_size(block_dim, device)
+    ensure_loaded(kernel, device, block_dim)
     check_thread()
     if determinism.any_marked() and options.get("record_tape", True) and not (options.get("adjoint") or options.get("record_cmd")):
         inputs = determinism.rows_per_environment(inputs, dim, device)

@@ -37,6 +37,14 @@ def _notice(device) -> None:
     )
 
 
+def block_size(block_dim: int | None, device) -> int | None:
+    """The CUDA threads per block of a launch asking for `block_dim` (None: warpdyn.config.cuda_block_dim); None
+    on the CPU, where Warp ignores it (a CPU module compiled for another block size would be compiled twice)."""
+    if not device.is_cuda:
+        return None
+    return config.cuda_block_dim if block_dim is None else block_dim
+
+
 def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
     """Compile or load `kernel`'s module for `device` (and CUDA block size) before a first launch, with
     warpdyn.config.fuse_fp (fixed by the process's first load: warpdyn.config refuses a change after it)."""
@@ -53,7 +61,7 @@ def preload(launches, device) -> None:
     device = wp.get_device(device)
     wanted: dict = {}
     for item in launches:
-        block_dim = item.block_dim if device.is_cuda else None
+        block_dim = block_size(item.block_dim, device)
         key = (item.kernel.module, str(device), block_dim)
         if key not in _loaded:
             wanted.setdefault(block_dim, set()).add(key)
