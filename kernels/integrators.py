@@ -42,6 +42,13 @@ def kernels(scalar):
         return wp.isfinite(v[0]) and wp.isfinite(v[1]) and wp.isfinite(v[2])
 
     @wp.func
+    def poison(acc: scalar, value: scalar):
+        """acc + 0 value: NaN once a value is NaN or +-inf (0 inf is NaN), 0 otherwise. The health checks of
+        the integrators sum it over the state instead of `ok = ok and isfinite(...)`, whose short circuit makes
+        every load wait for the previous one (a chain of ~130 loads per environment)."""
+        return acc + scalar(0.0) * value
+
+    @wp.func
     def keep_state(env: int, x: B.State, y: B.State):
         """A flagged environment: its next state y is its state x, and y.valid = 0."""
         for a in range(3):
@@ -135,12 +142,14 @@ def kernels(scalar):
             ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm) and wp.isfinite(Q_next[0])
             n = x.joint_positions.shape[1]
             m = x.tangential_deformation
+            nonfinite = scalar(0.0)
             for j in range(n):
                 sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
-                ok = ok and wp.isfinite(sd_next) and wp.isfinite(x.joint_positions[env, j] + dt * sd_next)
+                nonfinite = poison(poison(nonfinite, sd_next), x.joint_positions[env, j] + dt * sd_next)
             for c in range(m.shape[1]):
                 for a in range(3):
-                    ok = ok and wp.isfinite(m[env, c, a] + dt * m_dot[env, c, a])
+                    nonfinite = poison(nonfinite, m[env, c, a] + dt * m_dot[env, c, a])
+            ok = ok and wp.isfinite(nonfinite)
             if ok:
                 for a in range(3):
                     y.base_position[env, a] = p_next[a]
@@ -265,12 +274,14 @@ def kernels(scalar):
         pdot_next = v_next + wp.cross(omega_next, p_next)
         ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
         ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm)
+        nonfinite = scalar(0.0)
         for j in range(n):
-            ok = ok and wp.isfinite(k1[env, 7 + j] + k2[env, 7 + j] + k3[env, 7 + j] + k4[env, 7 + j])
-            ok = ok and wp.isfinite(k1[env, 13 + n + j] + k2[env, 13 + n + j] + k3[env, 13 + n + j] + k4[env, 13 + n + j])
+            nonfinite = poison(nonfinite, k1[env, 7 + j] + k2[env, 7 + j] + k3[env, 7 + j] + k4[env, 7 + j])
+            nonfinite = poison(nonfinite, k1[env, 13 + n + j] + k2[env, 13 + n + j] + k3[env, 13 + n + j] + k4[env, 13 + n + j])
         for c in range(3 * m.shape[1]):
             i = 13 + 2 * n + c
-            ok = ok and wp.isfinite(k1[env, i] + k2[env, i] + k3[env, i] + k4[env, i])
+            nonfinite = poison(nonfinite, k1[env, i] + k2[env, i] + k3[env, i] + k4[env, i])
+        ok = ok and wp.isfinite(nonfinite)
         if ok:
             for a in range(3):
                 y.base_position[env, a] = p_next[a]

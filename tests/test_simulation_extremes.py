@@ -25,6 +25,7 @@ import functools
 import mujoco
 import numpy as np
 import pytest
+import warp as wp
 
 import robots
 import warpdyn as wd
@@ -426,3 +427,42 @@ def test_a_diverging_environment_is_flagged_frozen_and_reset(dtype, layout):
     assert host(stepped.valid).tolist() == [1, 1, 1, 1]
     assert np.all(np.isfinite(host(stepped.base_position)))
 
+
+
+@pytest.mark.parametrize("bad_value", [np.nan, np.inf], ids=["nan", "inf"])
+@pytest.mark.parametrize("integrator", [SIE, wd.model.IntegratorType.SemiImplicitEulerSO3, RK4], ids=lambda i: i.name)
+def test_each_kind_of_state_value_is_in_the_health_check(integrator, bad_value):
+    """The integrators check the next state by summing 0 x value over it (NaN once a value is not finite;
+    kernels/integrators.py's `poison`), not by a chain of isfinite tests. One non-finite value in the state
+    of environment k (the last joint position, the last joint velocity, the last collidable point's last
+    deformation component: the ends of each loop of that sum) flags environment k alone and keeps its state;
+    the other environments' next states equal a clean batch's bitwise. The seed's legs with their points,
+    float64, a step each, in the air: a non-finite deformation of a point out of contact changes no force,
+    so only the sum over the deformations can flag it (checked by removing that term: the test fails)."""
+    model = robots.ergocub_seed_with_points(np.float64)
+    model.integrator = integrator
+    n, N = model.dofs(), 4
+    rng = np.random.default_rng(7)
+    s, sdot = rng.uniform(-0.2, 0.2, (N, n)), rng.uniform(-0.5, 0.5, (N, n))
+    clean = wd.data.Data.build(model, joint_positions=s, joint_velocities=sdot, base_position=(0.0, 0.0, 2.0), num_envs=N)
+    reference = wd.model.step(model, clean)
+    m = host(clean.tangential_deformation_state)
+    for k, where in enumerate(("joint_positions", "joint_velocities", "tangential_deformation")):
+        values = {"joint_positions": s.copy(), "joint_velocities": sdot.copy(), "tangential_deformation": m.copy()}
+        values[where][(k, -1) if where != "tangential_deformation" else (k, -1, 2)] = bad_value
+        faulty = wd.data.Data.build(
+            model, joint_positions=wp.array(values["joint_positions"], dtype=wp.float64),
+            joint_velocities=wp.array(values["joint_velocities"], dtype=wp.float64),
+            base_position=(0.0, 0.0, 2.0), num_envs=N, validate=False,
+        )  # fmt: skip
+        deformation = wp.array(values["tangential_deformation"], dtype=wp.float64)
+        wp.copy(faulty.tangential_deformation_state, deformation)
+        stepped = wd.model.step(model, faulty)
+        expected = [1] * N
+        expected[k] = 0
+        assert host(stepped.valid).tolist() == expected, where
+        others = [e for e in range(N) if e != k]
+        for name in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "tangential_deformation"):
+            got, ref, before = (host(getattr(d, f"{name}_state")) for d in (stepped, reference, faulty))
+            np.testing.assert_array_equal(got[others], ref[others], err_msg=f"{where}: {name}")
+            np.testing.assert_array_equal(got[k], before[k], err_msg=f"{where}: {name} of the flagged environment")
