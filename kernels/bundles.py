@@ -119,8 +119,9 @@ def bundles(scalar) -> types.SimpleNamespace:
         point_link: wp.array(dtype=int)  # (nc,) the link of each enabled point
         L_p_C: wp.array(dtype=sp.vec3)  # (nc,) the point in its link's frame [m]
         point_row: wp.array(dtype=int)  # (nc,) its index among all points (the contact state's row)
-        row_enabled: wp.array(dtype=int)  # (nc_all,) 1 for the enabled points
+        row_point: wp.array(dtype=int)  # (nc_all,) a point's index among the enabled points, -1 if disabled
         link_first_point: wp.array(dtype=int)  # (nL,) a link's first enabled point, -1 for none
+        link_point_count: wp.array(dtype=int)  # (nL,) its number of enabled points (consecutive from the first)
         K: wp.array(dtype=scalar)  # (1,) or (N,) stiffness [N/m^(1+p)]
         D: wp.array(dtype=scalar)  # (1,) or (N,) damping [N s/m^(1+q)]
         mu: wp.array(dtype=scalar)  # (1,) or (N,) friction coefficient

@@ -1,10 +1,9 @@
 """Soft-contact results in the façade's representations, and contact with the terrain.
 
-- `link_wrenches`: the contact wrench on each link, read from the per-point chain sums that the contact
-  kernel (soft_contacts.contact_forces) leaves in its scratch: chain[env, c] is the Inertial wrench of point
-  c plus chain[env, c + 1] when point c + 1 is on the same link, so chain[env, first point of L] is L's total,
-  the very number the step adds to the link's external force. Then written in `repr` (link frame L as the
-  body frame): Inertial [f; W_p x f summed], Body L_X*_W W_f, Mixed the force at the link origin, world axes.
+- `link_wrenches`: the contact wrench on each link, the sum of its points' Inertial wrenches that the contact
+  kernel (soft_contacts.point_contact_forces) writes, as the step sums them into the link's external force
+  (soft_contacts.link_contact_wrench). Then written in `repr` (link frame L as the body frame): Inertial
+  [f; W_p x f summed], Body L_X*_W W_f, Mixed the force at the link origin, world axes.
 - `point_wrenches`: each enabled point's wrench in `repr` for the contact frame C = (W_p_C, [L]); in Body
   and Mixed the torque about C is zero: Mixed is [W_f; 0], Body [L_R_W W_f; 0].
 - `links_below_terrain`: JaxSim's `in_contact`: a link touches the terrain when one of its enabled points
@@ -26,23 +25,21 @@ def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)
     terrain_height = soft_contact_kernels(scalar).terrain_height
+    link_contact_wrench = soft_contact_kernels(scalar).link_contact_wrench
 
     @wp.kernel(module="unique")
     def link_wrenches(
         contacts: B.Contacts,
-        # the links' poses and the contact kernel's chain sums
+        # the links' poses and the contact kernel's point wrenches (N, P, 6), Inertial
         W_H_L: wp.array2d(dtype=sp.transform),
-        chain: wp.array2d(dtype=sp.vec6),
+        W_f_C: wp.array3d(dtype=scalar),
         repr: int,
         # outputs
         f_L: wp.array3d(dtype=scalar),
     ):
         """f_L (N, nL, 6): the contact wrench of each link in `repr`, launched over (N, nL)."""
         env, L = wp.tid()
-        total = sp.vec6(scalar(0.0))
-        if contacts.link_first_point[L] >= 0:
-            total = chain[env, contacts.link_first_point[L]]
-        f = sp.inertial_to_force_repr(repr, W_H_L[env, L], total)
+        f = sp.inertial_to_force_repr(repr, W_H_L[env, L], link_contact_wrench(contacts, W_f_C, env, L))
         for a in range(6):
             f_L[env, L, a] = f[a]
 

@@ -114,38 +114,34 @@ def kernels(scalar):
         return fn * n + f_t, m_dot, delta
 
     @wp.kernel(module="unique")
-    def contact_forces(
+    def point_contact_forces(
         contacts: B.Contacts,
         terrain: B.Terrain,
-        # the links' poses and Inertial velocities (N, nL), the contact state (N, nc_all, 3), link forces
+        # the links' poses and Inertial velocities (N, nL), the contact state (N, nc_all, 3)
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
         m: wp.array3d(dtype=scalar),
-        W_f_ext: wp.array3d(dtype=scalar),
-        # scratch
-        chain: wp.array2d(dtype=sp.vec6),
         # outputs
         W_f_C: wp.array3d(dtype=scalar),
         m_dot: wp.array3d(dtype=scalar),
-        W_f_L: wp.array3d(dtype=scalar),
     ):
-        """Per environment: W_f_C (N, P, 6) the Inertial wrench of each enabled point's contact force;
-        m_dot (N, nc, 3) for all points (0 for disabled ones); W_f_L (N, nL, 6) = W_f_ext + contact wrenches
-        summed per link (W_f_ext: in the Inertial representation). K, D, mu and the terrain's height: (1,) or
-        (N,) (shared or per environment)."""
-        env = wp.tid()
-        P = contacts.point_link.shape[0]
-        K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
-        D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
-        mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
-        for r in range(P):
-            c = P - 1 - r
+        """Launched over (N, nc_all), a thread per point (the points of an environment are independent):
+        W_f_C (N, P, 6) the Inertial wrench of each enabled point's contact force, in the enabled points' order
+        (by link); m_dot (N, nc_all, 3) for all points, 0 for disabled ones. K, D, mu and the terrain's height:
+        (1,) or (N,) (shared or per environment)."""
+        env, row = wp.tid()
+        c = contacts.row_point[row]
+        if c < 0:
+            for a in range(3):
+                m_dot[env, row, a] = scalar(0.0)
+        else:
+            K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
+            D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
+            mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
             L = contacts.point_link[c]
-            X = W_H_L[env, L]
-            p = wp.transform_point(X, contacts.L_p_C[c])
+            p = wp.transform_point(W_H_L[env, L], contacts.L_p_C[c])
             W_v = W_v_WL[env, L]
             v = sp.lin(W_v) + wp.cross(sp.ang(W_v), p)
-            row = contacts.point_row[c]
             m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
             h = terrain_height(terrain, env, p[0], p[1])
             n = terrain_normal(terrain, p[0], p[1])
@@ -155,23 +151,38 @@ def kernels(scalar):
                 W_f_C[env, c, a] = w[a]
             for a in range(3):
                 m_dot[env, row, a] = md[a]
-            link_sum = w
-            if c + 1 < P:
-                if contacts.point_link[c + 1] == L:
-                    link_sum = w + chain[env, c + 1]
-            chain[env, c] = link_sum
-        for row in range(m.shape[1]):
-            if contacts.row_enabled[row] == 0:
-                for a in range(3):
-                    m_dot[env, row, a] = scalar(0.0)
-        for L in range(W_H_L.shape[1]):
-            total = sp.vec6(scalar(0.0))
-            if contacts.link_first_point[L] >= 0:
-                total = chain[env, contacts.link_first_point[L]]
-            for a in range(6):
-                W_f_L[env, L, a] = W_f_ext[env, L, a] + total[a]
+
+    @wp.func
+    def link_contact_wrench(contacts: B.Contacts, W_f_C: wp.array3d(dtype=scalar), env: int, L: int):
+        """The sum of link L's enabled points' Inertial wrenches: the rows link_first_point[L] ..
+        + link_point_count[L] of W_f_C (N, P, 6) (a link's points are consecutive); zero without points."""
+        total = sp.vec6(scalar(0.0))
+        first = contacts.link_first_point[L]
+        for k in range(contacts.link_point_count[L]):
+            c = first + k
+            total = total + sp.vec6(W_f_C[env, c, 0], W_f_C[env, c, 1], W_f_C[env, c, 2], W_f_C[env, c, 3], W_f_C[env, c, 4], W_f_C[env, c, 5])
+        return total
+
+    @wp.kernel(module="unique")
+    def link_contact_forces(
+        contacts: B.Contacts,
+        W_f_C: wp.array3d(dtype=scalar),
+        W_f_ext: wp.array3d(dtype=scalar),
+        # outputs
+        W_f_L: wp.array3d(dtype=scalar),
+    ):
+        """W_f_L (N, nL, 6) = W_f_ext + the contact wrenches of each link's points (Inertial), launched over (N, nL)."""
+        env, L = wp.tid()
+        total = link_contact_wrench(contacts, W_f_C, env, L)
+        for a in range(6):
+            W_f_L[env, L, a] = W_f_ext[env, L, a] + total[a]
 
     return types.SimpleNamespace(
         vec4=vec4,
-        terrain_height=terrain_height, terrain_normal=terrain_normal, hunt_crossley=hunt_crossley, contact_forces=contact_forces
+        terrain_height=terrain_height,
+        terrain_normal=terrain_normal,
+        hunt_crossley=hunt_crossley,
+        point_contact_forces=point_contact_forces,
+        link_contact_wrench=link_contact_wrench,
+        link_contact_forces=link_contact_forces,
     )

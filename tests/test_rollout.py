@@ -573,14 +573,15 @@ def test_plan_is_cached_and_rebuilt_when_parameters_change():
 
 
 def test_models_launch_only_what_they_need():
-    """Legs with contacts: actuation, FK, link velocities, contacts, ABA, integrator; without enabled
+    """Legs with contacts: actuation, FK, link velocities, the points' contact forces, their sums per link,
+    ABA, integrator; without enabled
     points: actuation, ABA, integrator; Mixed link forces add FK and a conversion (Inertial ones nothing)."""
     legs = _legs_model(np.float64)
     data = _standing_data(legs, 2)
     with_contacts = _kernel_names(legs, data)
     no_contacts = wd.contact.with_collidable_points(legs, enabled=np.zeros(32, dtype=bool))
     without = _kernel_names(no_contacts, data)
-    assert with_contacts == ["resultant_torques", "forward_kinematics", "link_velocities", "contact_forces", "aba", "semi_implicit_euler"]
+    assert with_contacts == ["resultant_torques", "forward_kinematics", "link_velocities", "point_contact_forces", "link_contact_forces", "aba", "semi_implicit_euler"]
     assert without == ["resultant_torques", "aba", "semi_implicit_euler"]
     assert len(_kernel_names(no_contacts, data, forces=True)) == 5
     inertial = wd.data.random_model_data(legs, seed=1, num_envs=2, velocity_representation=VelRepr.Inertial)

@@ -59,7 +59,7 @@ def link_wrenches(model, data, out_repr: int) -> wp.array:
         launch(
             wrench_kernels(model.scalar).link_wrenches,
             dim=(N, nL),
-            inputs=[current.contact_bundle, ev.W_H_L, ev.chain, int(out_repr)],
+            inputs=[current.contact_bundle, ev.W_H_L, ev.W_f_C, int(out_repr)],
             outputs=[out],
             device=model.device,
         )

@@ -269,7 +269,7 @@ class _Config:
         K = wrench_kernels(self.scalar)
         if "link_contact_forces" in self.records and plan.contacts:
             out = self._record("link_contact_forces", t, k)
-            launches.append(Launch(K.link_wrenches, (self.N, plan.nL), [plan.contact_bundle, ev.W_H_L, ev.chain, self.repr], [out]))
+            launches.append(Launch(K.link_wrenches, (self.N, plan.nL), [plan.contact_bundle, ev.W_H_L, ev.W_f_C, self.repr], [out]))
         if "collidable_point_forces" in self.records and plan.contacts:
             out = self._record("collidable_point_forces", t, k)
             args = [plan.contact_bundle, plan.point_out, ev.W_H_L, ev.W_f_C, self.repr]

@@ -19,7 +19,7 @@ link-velocity or contact kernel; no link forces: no conversion, and ABA skips th
 compiled (no limit springs, no friction: an actuation kernel without that code). A step is then a fixed
 list of launches on given arrays (`step_launches`): nothing allocated, nothing read back, so
 warpdyn.engine.rollout captures many of them in a graph. Launches per semi-implicit Euler step:
-actuation (if joints), [FK, link velocities, contacts] (if enabled points), [FK if no contacts, force
+actuation (if joints), [FK, link velocities, the points' contact forces (a thread per point), their sums per link] (if enabled points), [FK if no contacts, force
 conversion] (if link forces not Inertial), ABA, integrator.
 
 Gradients with respect to model parameters (warpdyn.types.parameters). Every parameter a step reads is an
@@ -202,8 +202,8 @@ class Plan:
         first = np.full(self.nL, -1, dtype=np.int32)
         for k in range(len(links) - 1, -1, -1):
             first[links[k]] = k
-        enabled = np.zeros(len(cp.body), dtype=np.int32)
-        enabled[rows] = 1
+        row_point = np.full(len(cp.body), -1, dtype=np.int32)
+        row_point[rows] = np.arange(len(rows), dtype=np.int32)
         self.total = len(cp.body)
         self.count = len(rows)
         self.contacts = self.count > 0
@@ -216,8 +216,9 @@ class Plan:
         contacts.point_link = wp.array(links.astype(np.int32), dtype=int, device=d)
         contacts.L_p_C = wp.array(L_p_C, dtype=wp.types.vector(3, s), device=d)
         contacts.point_row = wp.array(rows.astype(np.int32), dtype=int, device=d)
-        contacts.row_enabled = wp.array(enabled, dtype=int, device=d)
+        contacts.row_point = wp.array(row_point, dtype=int, device=d)
         contacts.link_first_point = wp.array(first, dtype=int, device=d)
+        contacts.link_point_count = wp.array(np.bincount(links, minlength=self.nL).astype(np.int32), dtype=int, device=d)
         contacts.K, contacts.D, contacts.mu = (per_env(getattr(c, k), k, s, d) for k in ("K", "D", "mu"))
         contacts.p, contacts.q = s(c.p), s(c.q)
         self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
@@ -304,7 +305,6 @@ class Evaluation:
             self.W_f_C = out((plan.count, 6))
             self.m_dot = out((plan.total, 3))
             self.W_f_L = out((nL, 6))
-            self.chain = arrays.empty((plan.count,), N, vec6, d, grad)
         else:
             self.m_dot = plan.zeros((plan.total, 3), N)
         if not aba:  # contact results only (warpdyn.engine.contact)
@@ -381,8 +381,9 @@ def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: 
         args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
         launches.append(Launch(velocity_kernels(s).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities]))
         f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
-        args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, f_in, ev.chain]
-        launches.append(Launch(contact_kernels(s).contact_forces, N, args, [ev.W_f_C, ev.m_dot, ev.W_f_L]))
+        args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation]
+        launches.append(Launch(contact_kernels(s).point_contact_forces, (N, plan.total), args, [ev.W_f_C, ev.m_dot]))
+        launches.append(Launch(contact_kernels(s).link_contact_forces, (N, plan.nL), [plan.contact_bundle, ev.W_f_C, f_in], [ev.W_f_L]))
         f_ext = ev.W_f_L
     if aba:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
