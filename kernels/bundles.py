@@ -129,6 +129,15 @@ def bundles(scalar) -> types.SimpleNamespace:
         q: scalar  # exponent of the damper term
 
     @wp.func
+    def env_and_item(i: int, N: int, K: int, env_fastest: int):
+        """(env, k) of thread i of a 1-D launch over N K threads, one per environment and item (a collidable
+        point, a link): with environment-fastest arrays (env_fastest != 0, warpdyn.arrays) the environment
+        varies fastest, so that the 32 threads of a warp read 32 neighbouring numbers; otherwise the item."""
+        if env_fastest != 0:
+            return i % N, i // N
+        return i // K, i % K
+
+    @wp.func
     def link_parameter(values: wp.array2d(dtype=scalar), env: int, i: int):
         """Link i's value of a (P, nL) scalar parameter in environment env (row min(env, P - 1))."""
         return values[wp.min(env, values.shape[0] - 1), i]
@@ -236,4 +245,5 @@ def bundles(scalar) -> types.SimpleNamespace:
         base_pose=base_pose,
         base_velocity_mixed=base_velocity_mixed,
         link_force=link_force,
+        env_and_item=env_and_item,
     )

@@ -121,15 +121,17 @@ def kernels(scalar):
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
         m: wp.array3d(dtype=scalar),
+        env_fastest: int,
         # outputs
         W_f_C: wp.array3d(dtype=scalar),
         m_dot: wp.array3d(dtype=scalar),
     ):
-        """Launched over (N, nc_all), a thread per point (the points of an environment are independent):
+        """Launched over N nc_all threads, one per point (the points of an environment are independent; order:
+        bundles.env_and_item):
         W_f_C (N, P, 6) the Inertial wrench of each enabled point's contact force, in the enabled points' order
         (by link); m_dot (N, nc_all, 3) for all points, 0 for disabled ones. K, D, mu and the terrain's height:
         (1,) or (N,) (shared or per environment)."""
-        env, row = wp.tid()
+        env, row = B.env_and_item(wp.tid(), m.shape[0], m.shape[1], env_fastest)
         c = contacts.row_point[row]
         if c < 0:
             for a in range(3):
@@ -168,11 +170,13 @@ def kernels(scalar):
         contacts: B.Contacts,
         W_f_C: wp.array3d(dtype=scalar),
         W_f_ext: wp.array3d(dtype=scalar),
+        env_fastest: int,
         # outputs
         W_f_L: wp.array3d(dtype=scalar),
     ):
-        """W_f_L (N, nL, 6) = W_f_ext + the contact wrenches of each link's points (Inertial), launched over (N, nL)."""
-        env, L = wp.tid()
+        """W_f_L (N, nL, 6) = W_f_ext + the contact wrenches of each link's points (Inertial), launched over N nL
+        threads (order: bundles.env_and_item)."""
+        env, L = B.env_and_item(wp.tid(), W_f_L.shape[0], W_f_L.shape[1], env_fastest)
         total = link_contact_wrench(contacts, W_f_C, env, L)
         for a in range(6):
             W_f_L[env, L, a] = W_f_ext[env, L, a] + total[a]

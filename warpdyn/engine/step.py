@@ -381,9 +381,11 @@ def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: 
         args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
         launches.append(Launch(velocity_kernels(s).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities]))
         f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
-        args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation]
-        launches.append(Launch(contact_kernels(s).point_contact_forces, (N, plan.total), args, [ev.W_f_C, ev.m_dot]))
-        launches.append(Launch(contact_kernels(s).link_contact_forces, (N, plan.nL), [plan.contact_bundle, ev.W_f_C, f_in], [ev.W_f_L]))
+        order = int(arrays.env_fastest(plan.device))
+        args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, order]
+        launches.append(Launch(contact_kernels(s).point_contact_forces, N * plan.total, args, [ev.W_f_C, ev.m_dot]))
+        args = [plan.contact_bundle, ev.W_f_C, f_in, order]
+        launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL, args, [ev.W_f_L]))
         f_ext = ev.W_f_L
     if aba:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
