@@ -122,37 +122,41 @@ def kernels(scalar):
         W_v_WL: wp.array2d(dtype=sp.vec6),
         m: wp.array3d(dtype=scalar),
         env_fastest: int,
+        rows_per_thread: int,
         # outputs
         W_f_C: wp.array3d(dtype=scalar),
         m_dot: wp.array3d(dtype=scalar),
     ):
-        """Launched over N nc_all threads, one per point (the points of an environment are independent; order:
-        bundles.env_and_item):
+        """Launched over N nc_all / rows_per_thread threads (order: bundles.env_and_item), each for
+        rows_per_thread consecutive rows of the contact state: 1 (a thread per point, the points of an
+        environment are independent) or nc_all (a thread per environment: under a tape, each adjoint of a
+        link's pose, velocity and per-environment parameter then comes from one thread, in a fixed order).
         W_f_C (N, P, 6) the Inertial wrench of each enabled point's contact force, in the enabled points' order
         (by link); m_dot (N, nc_all, 3) for all points, 0 for disabled ones. K, D, mu and the terrain's height:
         (1,) or (N,) (shared or per environment)."""
-        env, row = B.env_and_item(wp.tid(), m.shape[0], m.shape[1], env_fastest)
-        c = contacts.row_point[row]
-        if c < 0:
-            for a in range(3):
-                m_dot[env, row, a] = scalar(0.0)
-        else:
-            K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
-            D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
-            mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
-            L = contacts.point_link[c]
-            p = wp.transform_point(W_H_L[env, L], contacts.L_p_C[c])
-            W_v = W_v_WL[env, L]
-            v = sp.lin(W_v) + wp.cross(sp.ang(W_v), p)
-            m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-            h = terrain_height(terrain, env, p[0], p[1])
-            n = terrain_normal(terrain, p[0], p[1])
-            f, md, delta = hunt_crossley(p, v, m_c, h, n, K, D, mu, contacts.p, contacts.q)
-            w = sp.stack(f, wp.cross(p, f))
-            for a in range(6):
-                W_f_C[env, c, a] = w[a]
-            for a in range(3):
-                m_dot[env, row, a] = md[a]
+        env, chunk = B.env_and_item(wp.tid(), m.shape[0], m.shape[1] // rows_per_thread, env_fastest)
+        for row in range(chunk * rows_per_thread, (chunk + 1) * rows_per_thread):
+            c = contacts.row_point[row]
+            if c < 0:
+                for a in range(3):
+                    m_dot[env, row, a] = scalar(0.0)
+            else:
+                K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
+                D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
+                mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
+                L = contacts.point_link[c]
+                p = wp.transform_point(W_H_L[env, L], contacts.L_p_C[c])
+                W_v = W_v_WL[env, L]
+                v = sp.lin(W_v) + wp.cross(sp.ang(W_v), p)
+                m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+                h = terrain_height(terrain, env, p[0], p[1])
+                n = terrain_normal(terrain, p[0], p[1])
+                f, md, delta = hunt_crossley(p, v, m_c, h, n, K, D, mu, contacts.p, contacts.q)
+                w = sp.stack(f, wp.cross(p, f))
+                for a in range(6):
+                    W_f_C[env, c, a] = w[a]
+                for a in range(3):
+                    m_dot[env, row, a] = md[a]
 
     @wp.func
     def link_contact_wrench(contacts: B.Contacts, W_f_C: wp.array3d(dtype=scalar), env: int, L: int):
@@ -171,15 +175,18 @@ def kernels(scalar):
         W_f_C: wp.array3d(dtype=scalar),
         W_f_ext: wp.array3d(dtype=scalar),
         env_fastest: int,
+        links_per_thread: int,
         # outputs
         W_f_L: wp.array3d(dtype=scalar),
     ):
-        """W_f_L (N, nL, 6) = W_f_ext + the contact wrenches of each link's points (Inertial), launched over N nL
-        threads (order: bundles.env_and_item)."""
-        env, L = B.env_and_item(wp.tid(), W_f_L.shape[0], W_f_L.shape[1], env_fastest)
-        total = link_contact_wrench(contacts, W_f_C, env, L)
-        for a in range(6):
-            W_f_L[env, L, a] = W_f_ext[env, L, a] + total[a]
+        """W_f_L (N, nL, 6) = W_f_ext + the contact wrenches of each link's points (Inertial), launched over
+        N nL / links_per_thread threads (order: bundles.env_and_item), each for links_per_thread consecutive
+        links: 1 or nL (a thread per environment, as point_contact_forces under a tape)."""
+        env, chunk = B.env_and_item(wp.tid(), W_f_L.shape[0], W_f_L.shape[1] // links_per_thread, env_fastest)
+        for L in range(chunk * links_per_thread, (chunk + 1) * links_per_thread):
+            total = link_contact_wrench(contacts, W_f_C, env, L)
+            for a in range(6):
+                W_f_L[env, L, a] = W_f_ext[env, L, a] + total[a]
 
     return types.SimpleNamespace(
         vec4=vec4,

@@ -7,6 +7,7 @@ within 1e-12 of its largest entry here); its gradient equals the sum of the per-
 parameters_requiring_grad(..., deterministic=True) it is that sum, taken in environment order: bit-identical
 run to run on any device."""
 
+import contextlib
 import os
 import subprocess
 import sys
@@ -89,6 +90,25 @@ def test_forward_rollouts_are_bitwise_reproducible():
     for other in runs[1:]:
         for a, b in zip(runs[0], other):
             np.testing.assert_array_equal(a, b)
+
+
+def test_contacts_with_gradients_match_contacts_without():
+    """With gradients the step's contact forces run a thread per environment (its points and links in a
+    loop: deterministic adjoints), without them a thread per point and per link: the same records, bit for
+    bit on the CPU (the same operations per point), to rounding on a GPU (another compilation of them)."""
+    model = _legs(True)
+    tau = np.random.default_rng(1).normal(0.0, 5.0, (N, model.dofs()))
+    runs = []
+    for grad in (False, True):
+        with wp.Tape() if grad else contextlib.nullcontext():
+            final, rec = wd.simulation.Rollout(model, steps=T, record=RECORD).run(_data(model, requires_grad=grad), joint_force_references=tau)
+        runs.append([final.base_velocity_state.numpy(), *(rec[k].numpy() for k in RECORD)])
+    assert np.abs(runs[0][5]).max() > 10.0, "no contact"
+    for a, b in zip(*runs):
+        if robots.TEST_DEVICE == "cpu":
+            np.testing.assert_array_equal(a, b)
+        else:
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(a).max()))
 
 
 @pytest.mark.parametrize("storage", ["trajectory", "checkpointed"])

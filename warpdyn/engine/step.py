@@ -288,6 +288,7 @@ class Evaluation:
     def __init__(self, plan: Plan, N: int, grad: bool, forces: bool, nu_dot: wp.array | None, aba: bool = True):
         s, d = plan.scalar, plan.device
         nL, n = plan.nL, plan.n
+        self.grad = grad
 
         def out(shape, dtype=s):
             return arrays.output(shape, N, dtype, d, grad)
@@ -382,10 +383,12 @@ def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: 
         launches.append(Launch(velocity_kernels(s).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities]))
         f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
         order = int(arrays.env_fastest(plan.device))
-        args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, order]
-        launches.append(Launch(contact_kernels(s).point_contact_forces, N * plan.total, args, [ev.W_f_C, ev.m_dot]))
-        args = [plan.contact_bundle, ev.W_f_C, f_in, order]
-        launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL, args, [ev.W_f_L]))
+        # a thread per point and per link; with gradients a thread per environment (deterministic adjoints)
+        rows, links = (plan.total, plan.nL) if ev.grad else (1, 1)
+        args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, order, rows]
+        launches.append(Launch(contact_kernels(s).point_contact_forces, N * plan.total // rows, args, [ev.W_f_C, ev.m_dot]))
+        args = [plan.contact_bundle, ev.W_f_C, f_in, order, links]
+        launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
         f_ext = ev.W_f_L
     if aba:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
