@@ -365,6 +365,14 @@ def state_buffers(plan: Plan, N: int, grad: bool) -> list:
     ]
 
 
+def contacts_per_environment(device, grad: bool) -> bool:
+    """Whether the step's contact kernels run a thread per environment (its points, then its links, in a
+    loop) rather than a thread per point and per link: with gradients (each adjoint of a link's pose,
+    velocity or per-environment parameter then comes from one thread, in a fixed order: deterministic on a
+    GPU) and on the CPU (whose threads run one after another: a loop costs less than a thread per point)."""
+    return grad or not wp.get_device(device).is_cuda
+
+
 def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: bool = True) -> list:
     """The launches of one derivative evaluation at the state x (a State bundle): FK (if contacts or gravity
     compensation), the gravity compensation and contacts (if any), then ABA (Inertial). f_ext (N, nL, 6)
@@ -383,8 +391,7 @@ def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: 
         launches.append(Launch(velocity_kernels(s).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities]))
         f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
         order = int(arrays.env_fastest(plan.device))
-        # a thread per point and per link; with gradients a thread per environment (deterministic adjoints)
-        rows, links = (plan.total, plan.nL) if ev.grad else (1, 1)
+        rows, links = (plan.total, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)
         args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, order, rows]
         launches.append(Launch(contact_kernels(s).point_contact_forces, N * plan.total // rows, args, [ev.W_f_C, ev.m_dot]))
         args = [plan.contact_bundle, ev.W_f_C, f_in, order, links]
