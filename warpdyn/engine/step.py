@@ -19,8 +19,9 @@ link-velocity or contact kernel; no link forces: no conversion, and ABA skips th
 compiled (no limit springs, no friction: an actuation kernel without that code). A step is then a fixed
 list of launches on given arrays (`step_launches`): nothing allocated, nothing read back, so
 warpdyn.engine.rollout captures many of them in a graph. Launches per semi-implicit Euler step:
-actuation (if joints), [FK, link velocities, the points' contact forces (a thread per point), their sums per link] (if enabled points), [FK if no contacts, force
-conversion] (if link forces not Inertial), ABA, integrator.
+actuation (if joints), [FK, link velocities, the points' contact forces, their sums per link] (if enabled
+points; a thread per point and per link, or per environment: `contacts_per_environment`), [FK if no
+contacts, force conversion] (if link forces not Inertial), ABA, integrator.
 
 Gradients with respect to model parameters (warpdyn.types.parameters). Every parameter a step reads is an
 array the user holds: the model bundle holds the model's own arrays, and the contact K, D, mu and the
