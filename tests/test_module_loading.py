@@ -1,7 +1,8 @@
 """Loading kernel modules (warpdyn/engine/loading.py): a model's first step compiles the modules its launches
 need in one parallel load, each with warpdyn.config.fuse_fp and, on a GPU, warpdyn.config.cuda_block_dim's
-block size (the one its launches use), and later steps load nothing. In a fresh
-interpreter with an empty kernel cache (the test's own process has loaded everything already)."""
+block size (the one its launches use), without the backward pass when no tape records, and later steps load
+nothing. In a fresh interpreter with an empty kernel cache (the test's own process has loaded everything
+already)."""
 
 import json
 import os
@@ -9,9 +10,11 @@ import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
 import warp as wp
 
+import robots
 import warpdyn as wd
 
 SCRIPT = textwrap.dedent(
@@ -26,7 +29,8 @@ SCRIPT = textwrap.dedent(
     calls = []
     force_load = wp.force_load
     def spy(device=None, modules=None, block_dim=None, max_workers=None):
-        calls.append({"block_dim": block_dim, "modules": len(modules), "workers": max_workers, "fuse_fp": sorted({m.options["fuse_fp"] for m in modules})})
+        calls.append({"block_dim": block_dim, "modules": len(modules), "workers": max_workers, "fuse_fp": sorted({m.options["fuse_fp"] for m in modules}),
+                      "backward": sorted({m.options["enable_backward"] for m in modules})})
         return force_load(device=device, modules=modules, block_dim=block_dim, max_workers=max_workers)
     wp.force_load = spy
     from warpdyn.engine import loading
@@ -57,6 +61,7 @@ def test_a_first_step_loads_its_modules_at_once(tmp_path):
     assert loads[0]["modules"] == report["modules_loaded"] >= 5, report  # ... of every module the step loaded
     assert loads[0]["workers"] == min(loads[0]["modules"], len(os.sched_getaffinity(0)))
     assert loads[0]["fuse_fp"] == [False]  # warpdyn.config.fuse_fp reached every module
+    assert loads[0]["backward"] == [False]  # no tape records the step: forward-only twins (loading.for_launch)
     assert loads[0]["block_dim"] == (wd.config.cuda_block_dim if wp.get_device(device).is_cuda else None)
     assert report["second_step"] == 0 and report["finite"]
 
@@ -84,3 +89,32 @@ def test_the_block_size_of_a_launch():
         assert block_size(None, cpu) is None and block_size(256, cpu) is None
     finally:
         wd.config.cuda_block_dim = before
+
+
+def test_launches_that_no_tape_records_run_forward_only_twins():
+    """Outside a tape a launch runs its kernel's twin without the backward pass (one twin per kernel); under a
+    tape, and for an adjoint, the kernel itself. Both compute the same numbers: ABA with and without a tape."""
+    from warpdyn.engine.loading import for_launch
+    from warpdyn.kernels.aba import kernels as aba_kernels
+
+    kernel = aba_kernels(wp.float64).aba
+    twin = for_launch(kernel)
+    assert twin is not kernel and twin is for_launch(kernel) and twin.key == kernel.key
+    assert twin.module.options["enable_backward"] is False and kernel.module.options["enable_backward"] is True
+    assert twin.options == kernel.options  # the register cap travels
+    assert for_launch(kernel, adjoint=True) is kernel
+    with wp.Tape():
+        assert for_launch(kernel) is kernel
+
+    model = robots.ergocub_seed_with_points(np.float64)
+    data = wd.data.random_model_data(model, num_envs=5, seed=3)
+    tau = np.random.default_rng(3).normal(size=(5, model.dofs()))
+    plain = [a.numpy() for a in wd.model.forward_dynamics_aba(model, data, joint_forces=tau)]
+    taped = wd.data.random_model_data(model, num_envs=5, seed=3, requires_grad=True)
+    with wp.Tape():
+        recorded = [a.numpy() for a in wd.model.forward_dynamics_aba(model, taped, joint_forces=tau)]
+    for a, b in zip(plain, recorded):
+        if robots.TEST_DEVICE == "cpu":
+            np.testing.assert_array_equal(a, b)
+        else:
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(a).max()))

@@ -16,7 +16,7 @@ import warp as wp
 
 from ..arrays import capture_lock, note_thread, other_threads
 from . import determinism
-from .loading import block_size, ensure_loaded, preload
+from .loading import block_size, ensure_loaded, for_launch, preload
 from .tape import check_thread
 
 
@@ -26,6 +26,7 @@ def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | Non
     device = wp.get_device(device)
     note_thread(device)
     block_dim = block_size(block_dim, device)
+    kernel = for_launch(kernel, bool(options.get("adjoint")))
     ensure_loaded(kernel, device, block_dim)
     check_thread()
     if determinism.any_marked() and options.get("record_tape", True) and not (options.get("adjoint") or options.get("record_cmd")):
@@ -70,7 +71,7 @@ class Recorded:
                 command.launch()
             return
         self._launches = None
-        if commands is None or len(commands) != len(launches) or any(c[0].kernel is not l.kernel for c, l in zip(commands, launches)):
+        if commands is None or len(commands) != len(launches) or any(c[0].kernel is not for_launch(l.kernel) for c, l in zip(commands, launches)):
             commands = self._commands = []
             preload(launches, device)
             for item in launches:
