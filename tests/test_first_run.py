@@ -18,8 +18,8 @@ import numpy as np
 import warp as wp
 wp.config.kernel_cache_dir = sys.argv[1]
 import warpdyn as wd
-import warpdyn.engine.launch
-warpdyn.engine.launch.NOTICE_AFTER = float(sys.argv[2])
+import warpdyn.engine.loading
+warpdyn.engine.loading.NOTICE_AFTER = float(sys.argv[2])
 model = wd.model.Model.build_from_model_description(
     '<robot name="r"><link name="a"><inertial><mass value="1"/>'
     '<inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>', device=sys.argv[3])
