@@ -2,7 +2,7 @@
 
     python benchmarks/step.py [--device cuda:0] [--max-envs 65536 | --sizes 1,256,4096]
                               [--dtypes float32,float64] [--robots legs,legs-no-contacts,legs-actuated,arm]
-                              [--repeats 10] [--fresh-cache] [--block-dims 64,256]
+                              [--repeats 10] [--fresh-cache] [--block-dims 64,256] [--fused on,off]
 
 Robots:
 - legs: the seed's ergoCub legs (12 joints, 13 links) with its 32 collidable points (the ankle boxes),
@@ -21,7 +21,8 @@ Each row times, after a warm-up (compilation, graph capture) and synchronising a
   run divided by T (the run's initial copies included);
 - eager: the same rollout with use_graph=False (one Python launch per kernel).
 env-steps/s = N / (seconds per step). --block-dims repeats each row with each CUDA block size
-(warpdyn.config.cuda_block_dim; default: the configured one). Prints the header (device, versions) and a
+(warpdyn.config.cuda_block_dim; default: the configured one), --fused with the fused Euler step on and off
+(warpdyn.config.fused_step; default: the configured one). Prints the header (device, versions) and a
 Markdown table.
 """
 
@@ -130,6 +131,7 @@ def main() -> None:
     parser.add_argument("--no-eager", action="store_true", help="skip the eager rollout column")
     parser.add_argument("--fresh-cache", action="store_true", help="compile into an empty kernel cache")
     parser.add_argument("--block-dims", default=None, help="comma-separated CUDA threads per block (default: warpdyn.config.cuda_block_dim)")
+    parser.add_argument("--fused", default=None, help="on, off or on,off: warpdyn.config.fused_step (default: the configured one)")
     args = parser.parse_args()
     if args.fresh_cache:
         from common import init_warp
@@ -146,16 +148,20 @@ def main() -> None:
     print(header(device))
     print()
     blocks = [int(b) for b in args.block_dims.split(",")] if args.block_dims else [wd.config.cuda_block_dim]
-    print("| robot | dtype | N | CUDA block | step [ms] | step env-steps/s | rollout T | rollout per step [ms] | rollout env-steps/s | eager per step [ms] |")
-    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    fused_settings = [{"on": True, "off": False}[f] for f in args.fused.split(",")] if args.fused else [wd.config.fused_step]
+    print("| robot | dtype | N | CUDA block | fused | step [ms] | step env-steps/s | rollout T | rollout per step [ms] | rollout env-steps/s | eager per step [ms] |")
+    print("| --- | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
     summary = {}
     for dtype_name in args.dtypes.split(","):
         dtype = np_dtype[dtype_name]
         for label, model, standing in robots(names, dtype, device):
             # the actuated legs take the servos' targets (ctrl, (N, na) [rad]), the others joint torques (N, n) [N m]
             control, width, scale = ("ctrl", model.number_of_actuators(), 0.1) if model.number_of_actuators() else ("joint_force_references", model.dofs(), 1.0)
-            for N, block in ((N, b) for N in Ns for b in blocks):
+            for N, block, fused in ((N, b, f) for N in Ns for b in blocks for f in fused_settings):
                 wd.config.cuda_block_dim = block
+                if fused != wd.config.fused_step:
+                    wd.config.fused_step = fused
+                    model.notify_model_changed()  # a new model version: `step` builds its launches and graphs again
                 data = initial_data(model, N, standing)
                 rng = np.random.default_rng(1)
                 tau = {control: wp.array(rng.normal(0.0, scale, (N, width)), dtype=model.scalar, device=device)}
@@ -172,9 +178,9 @@ def main() -> None:
                     eager_roll.run(data, **taus)
                     eager_s = median_time(lambda: eager_roll.run(data, **taus), device, 3) / T
                     eager = f"{eager_s * 1e3:.4g}"
-                summary[(label, dtype_name, N, block)] = (step_s, roll_s)
+                summary[(label, dtype_name, N, block, fused)] = (step_s, roll_s)
                 print(
-                    f"| {label} | {dtype_name} | {N} | {block if device.is_cuda else '-'} | {step_s * 1e3:.4g} | {N / step_s:.3g} | {T} | {roll_s * 1e3:.4g} | "
+                    f"| {label} | {dtype_name} | {N} | {block if device.is_cuda else '-'} | {'on' if fused else 'off'} | {step_s * 1e3:.4g} | {N / step_s:.3g} | {T} | {roll_s * 1e3:.4g} | "
                     f"{N / roll_s:.3g} | {eager} |",
                     flush=True,
                 )
@@ -185,13 +191,14 @@ def main() -> None:
 
 
 def ratios(summary: dict, title: str, rows: list, is_baseline) -> None:
-    """Print rollout-per-step ratios of `rows` to the baseline row (is_baseline) of the same dtype, N and block."""
+    """Print rollout-per-step ratios of `rows` to the baseline row (is_baseline) of the same dtype, N, block and
+    fused setting."""
     lines = []
-    for label, dtype_name, N, block in rows:
-        other = [k for k in summary if is_baseline(k) and k[1:] == (dtype_name, N, block)]
+    for label, dtype_name, N, block, fused in rows:
+        other = [k for k in summary if is_baseline(k) and k[1:] == (dtype_name, N, block, fused)]
         if other:
-            a, b = summary[(label, dtype_name, N, block)][1], summary[other[0]][1]
-            lines.append(f"- {dtype_name}, N = {N}, block {block}: {a * 1e3:.4g} / {b * 1e3:.4g} ms = {a / b:.2f}")
+            a, b = summary[(label, dtype_name, N, block, fused)][1], summary[other[0]][1]
+            lines.append(f"- {dtype_name}, N = {N}, block {block}, fused {'on' if fused else 'off'}: {a * 1e3:.4g} / {b * 1e3:.4g} ms = {a / b:.2f}")
     if lines:
         print()
         print(title)

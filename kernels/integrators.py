@@ -310,6 +310,13 @@ def kernels(scalar):
 
     return types.SimpleNamespace(
         quaternion_rate=quaternion_rate,
+        finite3=finite3,
+        poison=poison,
+        keep_state=keep_state,
+        quaternion_of=quaternion_of,
+        read3=read3,
+        jaxsim_base_step=jaxsim_base_step,
+        so3_base_step=so3_base_step,
         semi_implicit_euler=semi_implicit_euler,
         semi_implicit_euler_so3=semi_implicit_euler_so3,
         slope=slope,

@@ -113,6 +113,19 @@ def kernels(scalar):
             f_t = sp.vec3(depth)
         return fn * n + f_t, m_dot, delta
 
+    @wp.func
+    def point_wrench(
+        contacts: B.Contacts, terrain: B.Terrain, env: int, c: int, W_H_L: sp.transform, W_v_WL: sp.vec6, m: sp.vec3, K: scalar, D: scalar, mu: scalar
+    ):
+        """(the Inertial wrench [f; p x f] of enabled point c's contact force, its m_dot) for the point's link at
+        the pose W_H_L with the Inertial velocity W_v_WL and the point's deformation m."""
+        p = wp.transform_point(W_H_L, contacts.L_p_C[c])
+        v = sp.lin(W_v_WL) + wp.cross(sp.ang(W_v_WL), p)
+        h = terrain_height(terrain, env, p[0], p[1])
+        n = terrain_normal(terrain, p[0], p[1])
+        f, m_dot, delta = hunt_crossley(p, v, m, h, n, K, D, mu, contacts.p, contacts.q)
+        return sp.stack(f, wp.cross(p, f)), m_dot
+
     @wp.kernel(module="unique")
     def point_contact_forces(
         contacts: B.Contacts,
@@ -145,14 +158,8 @@ def kernels(scalar):
                 D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
                 mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
                 L = contacts.point_link[c]
-                p = wp.transform_point(W_H_L[env, L], contacts.L_p_C[c])
-                W_v = W_v_WL[env, L]
-                v = sp.lin(W_v) + wp.cross(sp.ang(W_v), p)
                 m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-                h = terrain_height(terrain, env, p[0], p[1])
-                n = terrain_normal(terrain, p[0], p[1])
-                f, md, delta = hunt_crossley(p, v, m_c, h, n, K, D, mu, contacts.p, contacts.q)
-                w = sp.stack(f, wp.cross(p, f))
+                w, md = point_wrench(contacts, terrain, env, c, W_H_L[env, L], W_v_WL[env, L], m_c, K, D, mu)
                 for a in range(6):
                     W_f_C[env, c, a] = w[a]
                 for a in range(3):
@@ -193,6 +200,7 @@ def kernels(scalar):
         terrain_height=terrain_height,
         terrain_normal=terrain_normal,
         hunt_crossley=hunt_crossley,
+        point_wrench=point_wrench,
         point_contact_forces=point_contact_forces,
         link_contact_wrench=link_contact_wrench,
         link_contact_forces=link_contact_forces,

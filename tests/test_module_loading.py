@@ -58,7 +58,7 @@ def test_a_first_step_loads_its_modules_at_once(tmp_path):
     report = json.loads(done.stdout.strip().splitlines()[-1])
     loads = report["first_step"]
     assert len(loads) == 1, loads  # one parallel load ...
-    assert loads[0]["modules"] == report["modules_loaded"] >= 5, report  # ... of every module the step loaded
+    assert loads[0]["modules"] == report["modules_loaded"] >= 2, report  # ... of every module the step loaded
     assert loads[0]["workers"] == min(loads[0]["modules"], len(os.sched_getaffinity(0)))
     assert loads[0]["fuse_fp"] == [False]  # warpdyn.config.fuse_fp reached every module
     assert loads[0]["backward"] == [False]  # no tape records the step: forward-only twins (loading.for_launch)

@@ -12,6 +12,11 @@
 - `cuda_launch`: CUDA settings by kernel name ("aba", "rnea", "crba"): (threads per block, register cap per
   thread). Missing: `cuda_block_dim` and each kernel module's MAX_REGISTERS; a cap of None: the
   compiler's choice. benchmarks/dynamics.py --sweep measures them.
+- `fused_step`: steps without gradients (outside a tape, nothing requiring them) with the semi-implicit Euler
+  integrators and no gravity compensation run as one fused kernel after the joint forces
+  (kernels/fused_step.py) instead of five to seven (True, the default), or as the launch list a tape
+  records (False). Both give the same numbers to rounding; launch lists and graphs already built keep theirs.
+  benchmarks/step.py --fused measures both.
 - `fuse_fp`: floating-point contraction (fused multiply-adds) when kernels are compiled: True, Warp's
   default, or False: each kernel then rounds every operation it writes, so the forward code a backward
   kernel replays gives its forward's values bit for bit and repeated backward passes of one tape agree on
@@ -31,6 +36,7 @@ env_fastest: bool | None = None
 fill_outputs_with_nan: bool = False
 cuda_block_dim: int = 64
 cuda_launch: dict[str, tuple[int | None, int | None | str]] = {}
+fused_step: bool = True
 fuse_fp: bool = True
 
 
@@ -46,6 +52,8 @@ class _Config(types.ModuleType):
     def __setattr__(self, name, value):
         if name == "cuda_block_dim" and not (type(value) is int and 32 <= value <= 1024 and value % 32 == 0):
             raise ValueError(f"warpdyn.config.cuda_block_dim must be a multiple of 32 from 32 to 1024, got {value!r}")
+        if name == "fused_step" and not isinstance(value, bool):
+            raise TypeError(f"warpdyn.config.fused_step must be True or False, got {value!r}")
         if name != "fuse_fp":
             super().__setattr__(name, value)
             return

@@ -59,6 +59,8 @@ def for_launch(kernel, adjoint: bool = False):
     kernels too."""
     if adjoint or not warp_private.tape_known() or warp_private.recording_tape() is not None:
         return kernel
+    if kernel.module.options.get("enable_backward") is False:  # forward-only already: its own twin
+        return kernel
     twin = _twins.get(kernel)
     if twin is None:
         with _lock:

@@ -24,7 +24,7 @@ from .launch import Launch, capture, graphs_allowed, launch, preload
 from .launch import run as run_launches
 from . import rollout_memory as memory
 from .rollout_memory import GRAPH_BYTES_PER_LAUNCH, STATE_INDEX, check_available, control_shapes, counts, memory_error, nbytes
-from .rollout_memory import plan_memory, plan_rows, record_is_view, roots, state_shapes
+from .rollout_memory import plan_memory, plan_rows, reads_evaluation, record_is_view, roots, state_shapes
 from .step import Workspace, broadcast_envs, prepare, state_buffers, step_launches, with_state
 from .step import plan as step_plan
 
@@ -264,7 +264,7 @@ class _Config:
         f_user = self._input("link_forces", t, None, k)
         ctrl = self._input("ctrl", t, None, k)
         tau_out = self._record("joint_torques", t, k) if "joint_torques" in self.records else None
-        launches = step_launches(plan, ws, x, y, tau_ref, f_user, self.repr, tau_out, ctrl)
+        launches = step_launches(plan, ws, x, y, tau_ref, f_user, self.repr, tau_out, ctrl, evaluation=reads_evaluation(self.records))
         ev = ws.evals[0]
         K = wrench_kernels(self.scalar)
         if "link_contact_forces" in self.records and plan.contacts:

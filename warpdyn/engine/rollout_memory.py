@@ -17,6 +17,8 @@ __all__ = [
     "memory_error",
     "check_available",
     "launches_per_step",
+    "reads_evaluation",
+    "EVALUATION_RECORDS",
     "STATE_INDEX",
     "control_shapes",
     "counts",
@@ -70,6 +72,16 @@ def check_available(device, size: int, what: str) -> None:
         raise memory_error(what, size, RuntimeError(f"{available} bytes are available on '{device}'"))
 
 
+EVALUATION_RECORDS = ("link_contact_forces", "collidable_point_forces")
+"""The records read from a step's intermediate results (its workspace's evaluation: the link poses and the
+points' contact wrenches), which a fused step then writes too (warpdyn.engine.step.step_launches)."""
+
+
+def reads_evaluation(record) -> bool:
+    """Whether recording `record` (names) reads the steps' intermediate results (EVALUATION_RECORDS)."""
+    return any(name in EVALUATION_RECORDS for name in record)
+
+
 def launches_per_step(plan, repr: int, record, forces: bool, ctrl: bool) -> int:
     """The launches of one step of a rollout with these records (built for one environment: the count does
     not depend on N)."""
@@ -77,7 +89,7 @@ def launches_per_step(plan, repr: int, record, forces: bool, ctrl: bool) -> int:
     x, y = state_buffers(plan, 1, False), state_buffers(plan, 1, False)
     f = arrays.zeros((plan.nL, 6), 1, plan.scalar, plan.device) if forces else None
     u = plan.zeros((plan.na,), 1) if ctrl else None
-    count = len(step_launches(plan, ws, x, y, plan.zeros((plan.n,), 1), f, repr, None, u))
+    count = len(step_launches(plan, ws, x, y, plan.zeros((plan.n,), 1), f, repr, None, u, evaluation=reads_evaluation(record)))
     shapes = state_shapes(plan)
     count += sum(1 for name in record if name in STATE_INDEX and (name == "valid" or int(np.prod(shapes[STATE_INDEX[name]])) > 0))
     count += sum(1 for name in record if name in ("link_contact_forces", "collidable_point_forces") and plan.contacts)

@@ -39,13 +39,14 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from .. import arrays
+from .. import arrays, config
 from ..kernels.aba import ABA_RECORD
 from ..kernels.aba import kernels as aba_kernels
 from ..kernels.actuation import kernel as actuation_kernel
 from ..kernels.actuation import mujoco_kernel
 from ..kernels.bundles import bundles
 from ..kernels.forces import kernels as force_kernels
+from ..kernels.fused_step import kernel as fused_step_kernel
 from ..kernels.integrators import kernels as integrator_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.scratch import TRANSFORM
@@ -72,6 +73,7 @@ __all__ = [
     "step_inputs",
     "advance",
     "step_launches",
+    "fused_applies",
     "state_buffers",
     "resultant_torques",
     "contact_evaluation",
@@ -226,6 +228,11 @@ class Plan:
         self.terrain = terrain_bundle(model)
         self.no_targets = targets(model, model.all_links[:0], model.identity_offsets[:0])
         self.integrators = integrator_kernels(s)
+        # the fused Euler step (kernels/fused_step.py), for steps without gradients; not with gravity compensation
+        self.fused = None
+        if self.euler and not self.gravcomp:
+            self.fused = fused_step_kernel(s, self.nL, self.integrator == IntegratorType.SemiImplicitEulerSO3)
+        self.no_poses = wp.empty((0, 0), dtype=wp.types.transformation(s), device=d)
         self._zeros: dict = {}
 
     def check_envs(self, N: int) -> None:
@@ -417,9 +424,21 @@ def _joint_forces(plan: Plan, X, tau_ref, u, tau, held) -> list:
     ]
 
 
-def step_launches(plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None, ctrl=None, bundles=None) -> list:
+def fused_applies(plan: Plan, ws: Workspace) -> bool:
+    """Whether a step runs as the fused kernel (kernels/fused_step.py) after the joint forces: a semi-implicit
+    Euler step without gravity compensation, outside a tape, on a workspace without gradients, while
+    warpdyn.config.fused_step is on. Its intermediate results (link poses, contact forces) are then not in
+    the workspace."""
+    return plan.fused is not None and config.fused_step and not ws.grad and not tape.taping()
+
+
+def step_launches(
+    plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None, ctrl=None, bundles=None, evaluation: bool = False
+) -> list:
     """The launches of one step from the state x to the state y (lists of 7 arrays, see
     warpdyn.engine.kinematics.state_arrays), all arrays given: nothing is allocated, nothing read back.
+    Where the fused kernel applies (`fused_applies`) it leaves the workspace's intermediate results unwritten,
+    but for the link poses and the points' contact wrenches (ws.evals[0].W_H_L, .W_f_C) when `evaluation`.
 
     tau_ref (N, n): the joint force references; f_user (N, nL, 6) in representation `repr`, or None;
     tau_out (N, n): where the applied joint torques go (default ws.tau); ctrl (N, na): the actuators'
@@ -444,6 +463,14 @@ def step_launches(plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, 
             poses_done = plan.poses
             launches.append(Launch(force_kernels(s).link_forces_to_inertial, (N, plan.nL), [holder.W_H_L, f_user, repr], [ws.W_f_ext]))
             f_ext = ws.W_f_ext
+    if fused_applies(plan, ws):
+        controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
+        args = [plan.model, plan.contact_bundle, plan.terrain, X, controls, plan.dt, plan.quaternion_tolerance, plan.implicit_dt]
+        outputs = [plan.no_poses, empty_like_input(s, plan.device, 3)]
+        if evaluation and plan.contacts:
+            outputs = [ws.evals[0].W_H_L, ws.evals[0].W_f_C]
+        launches.append(Launch(plan.fused, N, args, [Y, *outputs]))
+        return launches
     K = plan.integrators
     ev = ws.evals[0]
     launches += _evaluate(plan, ev, X, tau, f_ext, poses_done)

@@ -64,9 +64,11 @@ class Stepper:
         for k in range(self.substeps):
             x, y = self._slots[(start + k) % 2], self._slots[(start + k + 1) % 2]
             u = self.ctrl if self._plan.na > 0 else None
+            last = k == self.substeps - 1  # its evaluation holds `contact_wrenches`
             launches += step_launches(
-                self._plan, self._workspace, x, y, self.joint_force_references, self.link_forces, int(self.velocity_representation), ctrl=u
-            )
+                self._plan, self._workspace, x, y, self.joint_force_references, self.link_forces, int(self.velocity_representation), ctrl=u,
+                evaluation=last,
+            )  # fmt: skip
         return launches
 
     def _program(self, start: int):

@@ -1,0 +1,247 @@
+"""A semi-implicit Euler step in one kernel, for launches that no tape records.
+
+One thread per environment runs what warpdyn.engine.step otherwise launches as five to seven kernels (FK,
+link velocities, the contact forces of the points and their sums per link, ABA, the integrator), from the
+state x and the joint forces tau (the actuation kernel's, launched before):
+1. from the base: the link poses W_H_i and velocities v_i (link coordinates);
+2. from the leaves: the external force on each link (the contact forces of its enabled points,
+   kernels/soft_contacts.py's `point_wrench`, plus the given Inertial link force), the tangential
+   deformation integrated, m+ = m + dt m_dot; ABA's articulated inertias and bias forces (kernels/aba.py:
+   the same equations), a link's terms summed into its parent's;
+3. from the base: ABA's accelerations, the joints integrated; then the base (kernels/integrators.py's
+   functions) and the health check: a flagged environment keeps its state (rewritten over what 2 and 3
+   wrote) and gets valid = 0.
+What one pass hands to the next (W_H_i, v_i then a'_i, the children's sums, U_i / d_i, u_i / d_i: 48 numbers
+per link) stays in the thread's local memory instead of arrays in global memory, and is read and written
+once per step; lambda_X_i and c_i are recomputed. The local arrays' sizes are the model's number of links,
+so one kernel serves the models of that size (`kernel`); the loops over links are not unrolled (unrolled,
+a 13-link model took 44 to 70 s to compile on an H100, and ran slower at N = 1).
+
+Forward only: the module has no backward pass. Under a tape, with gradients, for RK4 and with gravity
+compensation, a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding
+(tests/test_fused_step.py).
+"""
+
+import functools
+
+import warp as wp
+
+from .aba import inertia_funcs
+from .bundles import bundles
+from .integrators import kernels as integrator_funcs
+from .scratch import SYM66
+from .soft_contacts import kernels as contact_funcs
+from .spatial import INERTIAL, MIXED, spatial
+
+
+@functools.cache
+def kernel(scalar, links: int, so3: bool):
+    """The fused step in `scalar` for models of `links` links (local arrays of that size), with MuJoCo's base
+    step (so3) or JaxSim's."""
+    sp = spatial(scalar)
+    B = bundles(scalar)
+    I = integrator_funcs(scalar)
+    C = contact_funcs(scalar)
+    inertia_to = inertia_funcs(scalar).inertia_to
+    SO3 = wp.constant(so3)
+    nL = links
+    links6 = wp.types.matrix((nL, 6), scalar)
+    links7 = wp.types.matrix((nL, 7), scalar)
+    links21 = wp.types.matrix((nL, SYM66), scalar)
+    per_link = wp.types.vector(nL, scalar)
+    vec7 = wp.types.vector(7, scalar)
+    vec21 = wp.types.vector(SYM66, scalar)
+
+    @wp.func
+    def pack7(X: sp.transform):
+        p = wp.transform_get_translation(X)
+        q = wp.transform_get_rotation(X)
+        return vec7(p[0], p[1], p[2], q[0], q[1], q[2], q[3])
+
+    @wp.func
+    def unpack7(r: vec7):
+        return sp.transform(sp.vec3(r[0], r[1], r[2]), sp.quat(r[3], r[4], r[5], r[6]))
+
+    @wp.func
+    def pack21(M: sp.mat66):
+        """The upper triangle of a symmetric M, row by row."""
+        return vec21(
+            M[0, 0], M[0, 1], M[0, 2], M[0, 3], M[0, 4], M[0, 5], M[1, 1], M[1, 2], M[1, 3], M[1, 4], M[1, 5],
+            M[2, 2], M[2, 3], M[2, 4], M[2, 5], M[3, 3], M[3, 4], M[3, 5], M[4, 4], M[4, 5], M[5, 5],
+        )  # fmt: skip
+
+    @wp.func
+    def unpack21(a: vec21):
+        return sp.mat66(
+            a[0], a[1], a[2], a[3], a[4], a[5],
+            a[1], a[6], a[7], a[8], a[9], a[10],
+            a[2], a[7], a[11], a[12], a[13], a[14],
+            a[3], a[8], a[12], a[15], a[16], a[17],
+            a[4], a[9], a[13], a[16], a[18], a[19],
+            a[5], a[10], a[14], a[17], a[19], a[20],
+        )  # fmt: skip
+
+    @wp.func
+    def external_force(contacts: B.Contacts, terrain: B.Terrain, controls: B.Controls, env: int, L: int, W_H_L: sp.transform,
+                       v_L: sp.vec6, K: scalar, D: scalar, mu: scalar, dt: scalar, x: B.State, y: B.State, W_f_C: wp.array3d(dtype=scalar)):
+        """(the external force on link L in its own coordinates, 0 or NaN): the contact forces of its enabled
+        points (at the pose W_H_L, velocity v_L in link coordinates) plus the given Inertial link force if any.
+        Writes each point's m+ = m + dt m_dot into y, and its Inertial wrench into W_f_C unless that is empty;
+        the second value is 0 x the sum of the m+, NaN when one is not finite (the health check's)."""
+        W_f = sp.vec6(scalar(0.0))
+        nonfinite = scalar(0.0)
+        if controls.link_forces.shape[0] > 0:
+            W_f = B.link_force(controls, env, L)
+        first = contacts.link_first_point[L]
+        W_v = sp.motion_to(W_H_L, v_L)
+        for k in range(contacts.link_point_count[L]):
+            c = first + k
+            row = contacts.point_row[c]
+            m = sp.vec3(x.tangential_deformation[env, row, 0], x.tangential_deformation[env, row, 1], x.tangential_deformation[env, row, 2])
+            w, m_dot = C.point_wrench(contacts, terrain, env, c, W_H_L, W_v, m, K, D, mu)
+            W_f = W_f + w
+            if W_f_C.shape[0] > 0:
+                for a in range(6):
+                    W_f_C[env, c, a] = w[a]
+            for a in range(3):
+                m_next = m[a] + dt * m_dot[a]
+                nonfinite = I.poison(nonfinite, m_next)
+                y.tangential_deformation[env, row, a] = m_next
+        return sp.force_from(W_H_L, W_f), nonfinite
+
+    @wp.kernel(module="unique", module_options={"enable_backward": False})
+    def fused_euler_step(
+        model: B.Model,
+        contacts: B.Contacts,
+        terrain: B.Terrain,
+        x: B.State,
+        controls: B.Controls,
+        dt: scalar,
+        quaternion_tolerance: scalar,
+        implicit_dt: scalar,
+        # outputs: the state at t + dt; the link poses and the points' contact wrenches at x (or empty: none)
+        y: B.State,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_f_C: wp.array3d(dtype=scalar),
+    ):
+        """One semi-implicit Euler step from x to y with soft contacts and ABA.
+
+        W_H_L (N, nL): the link poses at x, as kernels/kinematics.py's forward_kinematics writes them, and
+        W_f_C (N, P, 6): the Inertial wrench of each enabled point's contact force at x, as
+        kernels/soft_contacts.py's point_contact_forces writes it; each when not empty.
+        controls: the joint forces tau (N, n) (or none) and Inertial link forces (N, nL, 6) (or none).
+        implicit_dt: dt for MuJoCo's implicit joint damping in ABA's joint inertia, else 0.
+        """
+        env = wp.tid()
+        nl = model.parent.shape[0]
+        K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
+        D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
+        mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
+        W_H_B = B.base_pose(x, env)
+        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
+        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
+        nonfinite = scalar(0.0)
+        W_H = links7()  # W_H_i
+        v = links6()  # v_i, link coordinates; in pass 3 a'_i
+        qd = per_link()  # the joint velocity of link i's joint
+        # 1. poses and velocities, from the base
+        W_H[0] = pack7(W_H_B)
+        if W_H_L.shape[0] > 0:
+            W_H_L[env, 0] = W_H_B
+        v[0] = B_v
+        for i in range(1, nl):
+            X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
+            W_H_i = unpack7(W_H[model.parent[i]]) * X_i
+            W_H[i] = pack7(W_H_i)
+            if W_H_L.shape[0] > 0:
+                W_H_L[env, i] = W_H_i
+            qd[i] = x.joint_velocities[env, i - 1]
+            v[i] = sp.motion_from(X_i, v[model.parent[i]]) + B.motion_subspace_of(model, i) * qd[i]
+        # 2. external forces, articulated inertias and bias forces, from the leaves; a link's terms summed into
+        # its parent's
+        IA_sum = links21()
+        pA_sum = links6()
+        Ud = links6()  # U_i / d_i
+        ud = per_link()  # u_i / d_i
+        for k in range(nl - 1):
+            i = nl - 1 - k
+            f_i, bad = external_force(contacts, terrain, controls, env, i, unpack7(W_H[i]), v[i], K, D, mu, dt, x, y, W_f_C)
+            nonfinite = nonfinite + bad
+            X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
+            S = B.motion_subspace_of(model, i)
+            v_i = v[i]
+            c_i = sp.cross_motion(v_i, S * qd[i])
+            I_i = B.spatial_inertia_of(model, env, i)
+            IA = I_i + unpack21(IA_sum[i])
+            pA = sp.cross_force(v_i, I_i * v_i) - f_i + pA_sum[i]
+            U_i = IA * S
+            rotor = B.armature_of(model, env, i - 1) + implicit_dt * B.joint_parameter(model.damping, env, i - 1)
+            d_inv = scalar(1.0) / (wp.dot(S, U_i) + rotor)
+            u_i = -wp.dot(S, pA)
+            if controls.joint_forces.shape[0] > 0:
+                u_i = u_i + controls.joint_forces[env, i - 1]
+            Ud_i = U_i * d_inv
+            Ud[i] = Ud_i
+            ud[i] = u_i * d_inv
+            Ia = IA - wp.outer(Ud_i, U_i)
+            pa = pA + Ia * c_i + U_i * (u_i * d_inv)
+            P = model.parent[i]
+            IA_sum[P] = IA_sum[P] + pack21(inertia_to(X_i, Ia))
+            pA_sum[P] = pA_sum[P] + sp.force_to(X_i, pa)
+        # 3. accelerations, from the base; the joints integrated (written now: a flagged environment's state is
+        # rewritten below)
+        f_0, bad = external_force(contacts, terrain, controls, env, 0, W_H_B, B_v, K, D, mu, dt, x, y, W_f_C)
+        nonfinite = nonfinite + bad
+        a0 = -B_a_g
+        base = sp.vec6(scalar(0.0))
+        if model.floating_base != 0:
+            I0 = B.spatial_inertia_of(model, env, 0)
+            IA0 = I0 + unpack21(IA_sum[0])
+            pA0 = sp.cross_force(B_v, I0 * B_v) - f_0 + pA_sum[0]
+            a0 = -sp.solve_spd6(IA0, pA0)
+            base = sp.base_acceleration_from_body(INERTIAL, W_H_B, B_v, a0 + B_a_g)
+        v[0] = a0
+        for i in range(1, nl):
+            X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
+            S = B.motion_subspace_of(model, i)
+            a_i = sp.motion_from(X_i, v[model.parent[i]]) + sp.cross_motion(v[i], S * qd[i])
+            qdd = ud[i] - wp.dot(Ud[i], a_i)
+            v[i] = a_i + S * qdd
+            sd_next = qd[i] + dt * qdd
+            s_next = x.joint_positions[env, i - 1] + dt * sd_next
+            nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)
+            y.joint_velocities[env, i - 1] = sd_next
+            y.joint_positions[env, i - 1] = s_next
+        for row in range(x.tangential_deformation.shape[1]):
+            if contacts.row_point[row] < 0:  # a disabled point's deformation does not change
+                for r in range(3):
+                    m_row = x.tangential_deformation[env, row, r]
+                    nonfinite = I.poison(nonfinite, m_row)
+                    y.tangential_deformation[env, row, r] = m_row
+        # 4. the base integrated
+        p = I.read3(x.base_position, env, 0)
+        Q = I.quaternion_of(x, env)
+        Q_read = wp.length(Q)
+        Q = Q / Q_read
+        pdot = I.read3(x.base_velocity, env, 0)
+        omega = I.read3(x.base_velocity, env, 3)
+        if SO3:
+            p_next, pdot_next, omega_next, Q_next, Q_norm = I.so3_base_step(dt, p, Q, pdot, omega, sp.lin(base), sp.ang(base))
+            Q_norm = Q_read
+        else:
+            p_next, pdot_next, omega_next, Q_next, Q_norm = I.jaxsim_base_step(dt, p, Q, pdot, omega, sp.lin(base), sp.ang(base))
+        ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
+        ok = ok and I.finite3(p_next) and I.finite3(pdot_next) and I.finite3(omega_next) and wp.isfinite(Q_norm) and wp.isfinite(Q_next[0])
+        ok = ok and wp.isfinite(nonfinite)
+        if ok:
+            for r in range(3):
+                y.base_position[env, r] = p_next[r]
+                y.base_velocity[env, r] = pdot_next[r]
+                y.base_velocity[env, 3 + r] = omega_next[r]
+            for r in range(4):
+                y.base_quaternion[env, r] = Q_next[r]
+            y.valid[env] = 1
+        else:
+            I.keep_state(env, x, y)
+
+    return fused_euler_step

@@ -1,0 +1,212 @@
+"""The fused Euler step (kernels/fused_step.py) against the launch list it replaces (warpdyn.engine.step's
+FK, link velocities, contact, ABA and integrator kernels, which the rest of the suite checks against MuJoCo,
+JaxSim and identities).
+
+Both compute the same equations in another order (the fused kernel takes a point's velocity from the link's
+velocity in link coordinates, sums a link's contact wrenches before converting them, recomputes the joint
+transforms), so they agree to rounding, not bit for bit: over one step of the legs in contact, to 5e-16 of
+each quantity's size in float64 and 3e-7 in float32 (measured); the tolerances, 1e-12 and 1e-5, leave
+room for other states and for a GPU's fused multiply-adds. The health flags must agree exactly.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+import warp as wp
+
+import robots
+import warpdyn as wd
+from warpdyn.engine import step as engine_step
+from warpdyn.types.enums import VelRepr
+
+STATE = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "tangential_deformation_state")
+TOLERANCE = {np.float64: 1e-12, np.float32: 1e-5}
+SO3 = wd.model.IntegratorType.SemiImplicitEulerSO3
+
+
+def _standing(model, N, seed=0, spread=1.0, repr_=VelRepr.Mixed):
+    """N states of the legs near a stance, the feet 3 mm in the ground (+- 2 mm): random joints, base velocity
+    and joint velocities (scaled by `spread`), so contacts stick, slip and release across the batch."""
+    rng = np.random.default_rng(seed)
+    lowest = float(wd.contact.collidable_point_positions(model, wd.data.Data.build(model)).numpy()[:, 2].min())
+    z = -lowest - 0.003 + rng.uniform(-0.002, 0.002, N)
+    n = model.dofs()
+    return wd.data.Data.build(
+        model,
+        num_envs=N,
+        base_position=np.stack([np.zeros(N), np.zeros(N), z], axis=1),
+        joint_positions=rng.uniform(-0.05, 0.05, (N, n)),
+        joint_velocities=spread * rng.uniform(-1.0, 1.0, (N, n)),
+        base_linear_velocity=spread * rng.normal(0.0, 0.3, (N, 3)),
+        base_angular_velocity=spread * rng.normal(0.0, 0.5, (N, 3)),
+        velocity_representation=repr_,
+    )
+
+
+def _with(data, m=None, valid=None):
+    """data with the tangential deformation m (N, nc, 3) and the health flags valid (N,) given."""
+    changes = {}
+    if m is not None:
+        changes["tangential_deformation_state"] = wp.array(m, dtype=data.scalar, device=data.device)
+    if valid is not None:
+        changes["valid_state"] = wp.array(valid, dtype=wp.int32, device=data.device)
+    return dataclasses.replace(data, **changes)
+
+
+def _legs(dtype, integrator=robots.SIE):
+    model = robots.ergocub_seed_with_points(dtype)
+    model = wd.model.reduce(model, model.joint_names())  # its own plan and caches
+    model.integrator = integrator
+    return model
+
+
+def _both(monkeypatch, model, data, **inputs):
+    """(fused, launch list): the data after one step (warpdyn.engine.step.step, which builds its launches at
+    each call) with warpdyn.config.fused_step on, then off."""
+    out = []
+    for fused in (True, False):
+        monkeypatch.setattr(wd.config, "fused_step", fused)
+        out.append(engine_step.step(model, data, **inputs))
+    return out
+
+
+def _assert_close(fused, listed, dtype, label=""):
+    tolerance = TOLERANCE[dtype]
+    np.testing.assert_array_equal(fused.valid_state.numpy(), listed.valid_state.numpy(), err_msg=f"{label} health flags")
+    for name in STATE:
+        a, b = getattr(fused, name).numpy(), getattr(listed, name).numpy()
+        finite = np.abs(b[np.isfinite(b)])
+        scale = max(1.0, float(finite.max())) if finite.size else 1.0
+        np.testing.assert_allclose(a, b, rtol=0.0, atol=tolerance * scale, err_msg=f"{label} {name}")
+
+
+def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch):
+    model = _legs(np.float64)
+    data = _standing(model, 4)
+    monkeypatch.setattr(wd.config, "fused_step", True)
+    plan, _ = engine_step.prepare(model, data, health=True)
+    ws = engine_step.Workspace(plan, 4, False, False)
+    x, y = engine_step.state_arrays(data), engine_step.state_buffers(plan, 4, False)
+    kernels = [item.kernel for item in engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))]
+    assert kernels == [plan.actuation, plan.fused]
+    grad_ws = engine_step.Workspace(plan, 4, True, False)
+    listed = engine_step.step_launches(plan, grad_ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
+    assert plan.fused not in [item.kernel for item in listed] and len(listed) == 7, "with gradients: the launch list"
+    with wp.Tape():
+        taped = engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
+    assert plan.fused not in [item.kernel for item in taped], "under a tape: the launch list"
+
+
+@pytest.mark.parametrize("integrator", [robots.SIE, SO3], ids=["jaxsim_euler", "mujoco_euler"])
+def test_legs_in_contact_with_torques(monkeypatch, dtype, integrator):
+    model = _legs(dtype, integrator)
+    data = _standing(model, 64)
+    tau = np.random.default_rng(1).normal(0.0, 5.0, (64, model.dofs()))
+    fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
+    assert fused.valid_state.numpy().all()
+    _assert_close(fused, listed, dtype)
+    # a second step from a state whose tangential deformation is not zero
+    fused2, listed2 = _both(monkeypatch, model, listed, joint_force_references=tau)
+    assert np.abs(listed.tangential_deformation_state.numpy()).max() > 1e-6
+    _assert_close(fused2, listed2, dtype, "second step")
+
+
+@pytest.mark.parametrize("repr_", [VelRepr.Inertial, VelRepr.Body, VelRepr.Mixed], ids=lambda r: r.name)
+def test_link_forces_in_each_representation(monkeypatch, repr_):
+    model = _legs(np.float64)
+    data = _standing(model, 8, repr_=repr_)
+    f = np.random.default_rng(2).normal(0.0, 5.0, (8, model.number_of_links(), 6))
+    fused, listed = _both(monkeypatch, model, data, link_forces=f)
+    _assert_close(fused, listed, np.float64, repr_.name)
+
+
+def test_actuators_armature_implicit_damping_and_per_environment_contact_parameters(monkeypatch):
+    model = _legs(np.float64)
+    model = wd.model.add_actuators(model, "position", kp=300.0, kv=5.0, ctrl_range=(-1.5, 1.5), force_range=(-100.0, 100.0))
+    n = model.dofs()
+    model.set_joint_parameters(armature=np.full(n, 0.05), damping=np.full(n, 0.3))
+    model.implicit_damping = True
+    N = 16
+    rng = np.random.default_rng(3)
+    model.contact_params = wd.contact.SoftContactsParams(K=rng.uniform(5e5, 2e6, N), D=rng.uniform(2e3, 5e3, N), mu=rng.uniform(0.2, 1.0, N))
+    data = _standing(model, N)
+    ctrl = rng.uniform(-1.0, 1.0, (N, model.number_of_actuators()))
+    fused, listed = _both(monkeypatch, model, data, ctrl=ctrl)
+    _assert_close(fused, listed, np.float64)
+
+
+def test_heightfield_terrain_and_disabled_points(monkeypatch):
+    model = _legs(np.float64)
+    count = len(model.kin_dyn_parameters.contact_parameters.body)
+    enabled = np.arange(count) % 3 != 0
+    model = wd.contact.with_collidable_points(model, enabled=enabled)
+    xs = np.linspace(-1.0, 1.0, 9)
+    heights = 0.01 * np.sin(3.0 * xs)[:, None] * np.cos(2.0 * xs)[None, :]
+    model.terrain = wd.terrain.HeightfieldTerrain(heights, origin=(-1.0, -1.0), spacing=(0.25, 0.25))
+    data = _standing(model, 8)
+    m = np.random.default_rng(4).normal(0.0, 1e-3, (8, count, 3))
+    data = _with(data, m=m)
+    fused, listed = _both(monkeypatch, model, data)
+    _assert_close(fused, listed, np.float64)
+    np.testing.assert_array_equal(fused.tangential_deformation_state.numpy()[:, ~enabled], m[:, ~enabled])
+
+
+@pytest.mark.parametrize("case", ["no_points", "fixed_base_chain", "single_body"])
+def test_models_without_contacts_or_without_a_floating_base(monkeypatch, case):
+    if case == "no_points":
+        legs = _legs(np.float64)
+        data = _standing(legs, 8)  # placed by the points, which the model then disables (the rows stay)
+        model = robots.contact_free(legs)
+    elif case == "fixed_base_chain":
+        model = robots.build(robots.pendulum_chain_urdf(5), np.float64, is_urdf=True)
+        data = wd.data.Data.build(model, num_envs=8, **robots.random_state_kwargs(model, np.random.default_rng(5), 8))
+    else:
+        model = robots.build(robots.BODY_URDF, np.float64, is_urdf=True)
+        data = wd.data.Data.build(model, num_envs=8, **robots.random_state_kwargs(model, np.random.default_rng(6), 8))
+    fused, listed = _both(monkeypatch, model, data)
+    _assert_close(fused, listed, np.float64, case)
+
+
+def test_unhealthy_environments_are_flagged_alike_and_keep_their_state(monkeypatch):
+    model = _legs(np.float64)
+    count = len(model.kin_dyn_parameters.contact_parameters.body)
+    enabled = np.arange(count) != 0
+    model = wd.contact.with_collidable_points(model, enabled=enabled)
+    data = _standing(model, 6)
+    tau = np.zeros((6, model.dofs()))
+    tau[1, 3] = np.nan  # a NaN torque
+    tau[2, 0] = np.inf  # an infinite torque
+    m = np.zeros((6, count, 3))
+    m[3, 0, 1] = np.inf  # a disabled point's deformation: not finite
+    valid = np.ones(6, dtype=np.int32)
+    valid[4] = 0  # already flagged
+    data = _with(data, m=m, valid=valid)
+    tau = wp.array(tau, dtype=wp.float64, device=data.device)  # a device array: not checked on the host
+    fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
+    np.testing.assert_array_equal(fused.valid_state.numpy(), [1, 0, 0, 0, 0, 1])
+    _assert_close(fused, listed, np.float64)
+    for name in STATE:  # a flagged environment keeps its state
+        np.testing.assert_array_equal(getattr(fused, name).numpy()[1:5], getattr(data, name).numpy()[1:5], err_msg=name)
+
+
+def test_a_stepper_reports_the_contact_wrenches_of_its_last_substep(monkeypatch):
+    """Stepper.contact_wrenches with the fused step: the wrenches at the start of a call's last step, as the
+    launch list's contact kernel wrote them."""
+    model = _legs(np.float64)
+    data = _standing(model, 8)
+    out = []
+    for fused in (True, False):
+        monkeypatch.setattr(wd.config, "fused_step", fused)
+        stepper = wd.simulation.Stepper(model, data, substeps=3, use_graph=False)
+        stepper.step()
+        out.append((stepper.contact_wrenches.numpy(), stepper.data))
+    (W_f_fused, data_fused), (W_f_listed, data_listed) = out
+    assert np.abs(W_f_listed[:, :, 2]).max() > 1.0, "the feet press on the ground"
+    np.testing.assert_allclose(W_f_fused, W_f_listed, rtol=0.0, atol=1e-9 * np.abs(W_f_listed).max())
+    _assert_close(data_fused, data_listed, np.float64, "after 3 substeps")
+
+
+def test_the_setting_is_a_bool():
+    with pytest.raises(TypeError, match="fused_step"):
+        wd.config.fused_step = 1
