@@ -75,7 +75,24 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         X = sc.get_transform(W_H_L, env, i, col)
         return sp.force_from(X, sp.force_repr_to_inertial(repr, X, B.link_force(controls, env, i)))
 
-    return types.SimpleNamespace(inertia_to=inertia_to, external_force=external_force)
+    @wp.func
+    def articulated(
+        model: B.Model, controls: B.Controls, env: int, i: int, implicit_dt: scalar, S: sp.vec6, IA: sp.mat66, pA: sp.vec6, c_i: sp.vec6
+    ):
+        """ABA at link i (i >= 1) from its articulated inertia IA and bias force pA (the module docstring's
+        step 2): (U_i / d_i, u_i / d_i, Ia_i, pa_i), with d_i = S_i^T U_i + armature_i + implicit_dt damping_i
+        and u_i with the controls' joint force when given."""
+        U_i = IA * S
+        rotor = B.armature_of(model, env, i - 1) + implicit_dt * B.joint_parameter(model.damping, env, i - 1)
+        d_inv = scalar(1.0) / (wp.dot(S, U_i) + rotor)
+        u_i = -wp.dot(S, pA)
+        if controls.joint_forces.shape[0] > 0:
+            u_i = u_i + controls.joint_forces[env, i - 1]
+        Ud = U_i * d_inv
+        Ia = sc.sym_upper(IA - wp.outer(Ud, U_i))
+        return Ud, u_i * d_inv, Ia, pA + Ia * c_i + U_i * (u_i * d_inv)
+
+    return types.SimpleNamespace(inertia_to=inertia_to, external_force=external_force, articulated=articulated)
 
 
 MAX_REGISTERS = {wp.float32: 128, wp.float64: None}
@@ -93,6 +110,7 @@ def kernels(scalar, max_registers):
     B = bundles(scalar)
     inertia_to = inertia_funcs(scalar).inertia_to
     external_force = inertia_funcs(scalar).external_force
+    articulated = inertia_funcs(scalar).articulated
 
     @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def aba(
@@ -146,17 +164,9 @@ def kernels(scalar, max_registers):
             if model.first_child[i] >= 0:
                 IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
                 pA = pA + sc.get6(s, env, model.first_child[i], _PA)
-            U_i = IA * S
-            rotor = B.armature_of(model, env, i - 1) + implicit_dt * B.joint_parameter(model.damping, env, i - 1)
-            d_inv = scalar(1.0) / (wp.dot(S, U_i) + rotor)
-            u_i = -wp.dot(S, pA)
-            if controls.joint_forces.shape[0] > 0:
-                u_i = u_i + controls.joint_forces[env, i - 1]
-            Ud = U_i * d_inv
+            Ud, ud, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, IA, pA, c_i)
             sc.put6(s, env, i, _UD, Ud)
-            s[env, i, _UD + 6] = u_i * d_inv
-            Ia = sc.sym_upper(IA - wp.outer(Ud, U_i))
-            pa = pA + Ia * c_i + U_i * (u_i * d_inv)
+            s[env, i, _UD + 6] = ud
             chain_I = inertia_to(X, Ia)
             chain_p = sp.force_to(X, pa)
             if model.next_sibling[i] >= 0:

@@ -43,7 +43,8 @@ def kernel(scalar, links: int, so3: bool):
     I = integrator_funcs(scalar)
     C = contact_funcs(scalar)
     inertia_to = inertia_funcs(scalar).inertia_to
-    SO3 = wp.constant(so3)
+    articulated = inertia_funcs(scalar).articulated
+    SO3 = wp.constant(int(so3))
     nL = links
     links6 = wp.types.matrix((nL, 6), scalar)
     links7 = wp.types.matrix((nL, 7), scalar)
@@ -174,17 +175,9 @@ def kernel(scalar, links: int, so3: bool):
             I_i = B.spatial_inertia_of(model, env, i)
             IA = I_i + unpack21(IA_sum[i])
             pA = sp.cross_force(v_i, I_i * v_i) - f_i + pA_sum[i]
-            U_i = IA * S
-            rotor = B.armature_of(model, env, i - 1) + implicit_dt * B.joint_parameter(model.damping, env, i - 1)
-            d_inv = scalar(1.0) / (wp.dot(S, U_i) + rotor)
-            u_i = -wp.dot(S, pA)
-            if controls.joint_forces.shape[0] > 0:
-                u_i = u_i + controls.joint_forces[env, i - 1]
-            Ud_i = U_i * d_inv
+            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, IA, pA, c_i)
             Ud[i] = Ud_i
-            ud[i] = u_i * d_inv
-            Ia = IA - wp.outer(Ud_i, U_i)
-            pa = pA + Ia * c_i + U_i * (u_i * d_inv)
+            ud[i] = ud_i
             P = model.parent[i]
             IA_sum[P] = IA_sum[P] + pack21(inertia_to(X_i, Ia))
             pA_sum[P] = pA_sum[P] + sp.force_to(X_i, pa)
@@ -219,27 +212,10 @@ def kernel(scalar, links: int, so3: bool):
                     nonfinite = I.poison(nonfinite, m_row)
                     y.tangential_deformation[env, row, r] = m_row
         # 4. the base integrated
-        p = I.read3(x.base_position, env, 0)
-        Q = I.quaternion_of(x, env)
-        Q_read = wp.length(Q)
-        Q = Q / Q_read
-        pdot = I.read3(x.base_velocity, env, 0)
-        omega = I.read3(x.base_velocity, env, 3)
-        if SO3:
-            p_next, pdot_next, omega_next, Q_next, Q_norm = I.so3_base_step(dt, p, Q, pdot, omega, sp.lin(base), sp.ang(base))
-            Q_norm = Q_read
-        else:
-            p_next, pdot_next, omega_next, Q_next, Q_norm = I.jaxsim_base_step(dt, p, Q, pdot, omega, sp.lin(base), sp.ang(base))
-        ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
-        ok = ok and I.finite3(p_next) and I.finite3(pdot_next) and I.finite3(omega_next) and wp.isfinite(Q_norm) and wp.isfinite(Q_next[0])
+        p_next, pdot_next, omega_next, Q_next, ok = I.euler_base(SO3, dt, quaternion_tolerance, x, env, sp.lin(base), sp.ang(base))
         ok = ok and wp.isfinite(nonfinite)
         if ok:
-            for r in range(3):
-                y.base_position[env, r] = p_next[r]
-                y.base_velocity[env, r] = pdot_next[r]
-                y.base_velocity[env, 3 + r] = omega_next[r]
-            for r in range(4):
-                y.base_quaternion[env, r] = Q_next[r]
+            I.write_base(env, y, p_next, pdot_next, omega_next, Q_next)
             y.valid[env] = 1
         else:
             I.keep_state(env, x, y)

@@ -107,9 +107,39 @@ def kernels(scalar):
         Q_next = quat4(cos_h * Q[0] - wp.dot(e, qv), r[0], r[1], r[2])
         return p + dt * pdot_next, pdot_next, omega_next, Q_next / wp.length(Q_next), scalar(1.0)
 
+    @wp.func
+    def euler_base(so3: int, dt: scalar, quaternion_tolerance: scalar, x: B.State, env: int, vdot: sp.vec3, omega_dot: sp.vec3):
+        """The semi-implicit Euler step of environment env's base with MuJoCo's base step (so3 != 0) or JaxSim's,
+        from the Inertial base acceleration (vdot, omega_dot): (p+, pdot+, omega+, Q+, ok), ok when the
+        environment is healthy, the quaternion within `quaternion_tolerance` (see the kernel) and all finite."""
+        p = read3(x.base_position, env, 0)
+        Q = quaternion_of(x, env)
+        Q_read = wp.length(Q)
+        Q = Q / Q_read
+        pdot = read3(x.base_velocity, env, 0)
+        omega = read3(x.base_velocity, env, 3)
+        if so3 != 0:
+            p_next, pdot_next, omega_next, Q_next, Q_norm = so3_base_step(dt, p, Q, pdot, omega, vdot, omega_dot)
+            Q_norm = Q_read
+        else:
+            p_next, pdot_next, omega_next, Q_next, Q_norm = jaxsim_base_step(dt, p, Q, pdot, omega, vdot, omega_dot)
+        ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
+        ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm) and wp.isfinite(Q_next[0])
+        return p_next, pdot_next, omega_next, Q_next, ok
+
+    @wp.func
+    def write_base(env: int, y: B.State, p: sp.vec3, pdot: sp.vec3, omega: sp.vec3, Q: quat4):
+        """y's base position, Mixed velocity [pdot; omega] and quaternion (w, x, y, z) of environment env."""
+        for a in range(3):
+            y.base_position[env, a] = p[a]
+            y.base_velocity[env, a] = pdot[a]
+            y.base_velocity[env, 3 + a] = omega[a]
+        for a in range(4):
+            y.base_quaternion[env, a] = Q[a]
+
     def euler(so3: bool):
         """The semi-implicit Euler kernel with JaxSim's base step, or MuJoCo's (so3)."""
-        SO3 = wp.constant(so3)
+        SO3 = wp.constant(int(so3))
 
         @wp.kernel(module="unique")
         def semi_implicit_euler(
@@ -125,21 +155,7 @@ def kernels(scalar):
             """One semi-implicit Euler step from x to y; nu_dot (N, 6 + n) is [W_vdot_WB (Inertial); sddot]. The
             quaternion tolerance bounds |Q+| - 1 before normalising (JaxSim's), |Q| - 1 of the state read (SO3)."""
             env = wp.tid()
-            p = read3(x.base_position, env, 0)
-            Q = quaternion_of(x, env)
-            Q_read = wp.length(Q)
-            Q = Q / Q_read
-            pdot = read3(x.base_velocity, env, 0)
-            omega = read3(x.base_velocity, env, 3)
-            vdot = read3(nu_dot, env, 0)
-            omega_dot = read3(nu_dot, env, 3)
-            if SO3:
-                p_next, pdot_next, omega_next, Q_next, Q_norm = so3_base_step(dt, p, Q, pdot, omega, vdot, omega_dot)
-                Q_norm = Q_read
-            else:
-                p_next, pdot_next, omega_next, Q_next, Q_norm = jaxsim_base_step(dt, p, Q, pdot, omega, vdot, omega_dot)
-            ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
-            ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm) and wp.isfinite(Q_next[0])
+            p_next, pdot_next, omega_next, Q_next, ok = euler_base(SO3, dt, quaternion_tolerance, x, env, read3(nu_dot, env, 0), read3(nu_dot, env, 3))
             n = x.joint_positions.shape[1]
             m = x.tangential_deformation
             nonfinite = scalar(0.0)
@@ -151,12 +167,7 @@ def kernels(scalar):
                     nonfinite = poison(nonfinite, m[env, c, a] + dt * m_dot[env, c, a])
             ok = ok and wp.isfinite(nonfinite)
             if ok:
-                for a in range(3):
-                    y.base_position[env, a] = p_next[a]
-                    y.base_velocity[env, a] = pdot_next[a]
-                    y.base_velocity[env, 3 + a] = omega_next[a]
-                for a in range(4):
-                    y.base_quaternion[env, a] = Q_next[a]
+                write_base(env, y, p_next, pdot_next, omega_next, Q_next)
                 for j in range(n):
                     sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
                     y.joint_velocities[env, j] = sd_next
@@ -220,13 +231,7 @@ def kernels(scalar):
         Q = quaternion_of(x, env)
         Q_h = Q / wp.length(Q) + h * quat4(k[env, 3], k[env, 4], k[env, 5], k[env, 6])
         Q_h = Q_h / wp.length(Q_h)
-        pdot_h = v_h + wp.cross(omega_h, p_h)
-        for a in range(3):
-            stage.base_position[env, a] = p_h[a]
-            stage.base_velocity[env, a] = pdot_h[a]
-            stage.base_velocity[env, 3 + a] = omega_h[a]
-        for a in range(4):
-            stage.base_quaternion[env, a] = Q_h[a]
+        write_base(env, stage, p_h, v_h + wp.cross(omega_h, p_h), omega_h, Q_h)
         for j in range(n):
             stage.joint_positions[env, j] = x.joint_positions[env, j] + h * k[env, 7 + j]
             stage.joint_velocities[env, j] = x.joint_velocities[env, j] + h * k[env, 13 + n + j]
@@ -283,12 +288,7 @@ def kernels(scalar):
             nonfinite = poison(nonfinite, k1[env, i] + k2[env, i] + k3[env, i] + k4[env, i])
         ok = ok and wp.isfinite(nonfinite)
         if ok:
-            for a in range(3):
-                y.base_position[env, a] = p_next[a]
-                y.base_velocity[env, a] = pdot_next[a]
-                y.base_velocity[env, 3 + a] = omega_next[a]
-            for a in range(4):
-                y.base_quaternion[env, a] = Q_next[a]
+            write_base(env, y, p_next, pdot_next, omega_next, Q_next)
             for j in range(n):
                 i = 7 + j
                 y.joint_positions[env, j] = x.joint_positions[env, j] + w * (k1[env, i] + scalar(2.0) * (k2[env, i] + k3[env, i]) + k4[env, i])
@@ -310,13 +310,10 @@ def kernels(scalar):
 
     return types.SimpleNamespace(
         quaternion_rate=quaternion_rate,
-        finite3=finite3,
         poison=poison,
         keep_state=keep_state,
-        quaternion_of=quaternion_of,
-        read3=read3,
-        jaxsim_base_step=jaxsim_base_step,
-        so3_base_step=so3_base_step,
+        euler_base=euler_base,
+        write_base=write_base,
         semi_implicit_euler=semi_implicit_euler,
         semi_implicit_euler_so3=semi_implicit_euler_so3,
         slope=slope,

@@ -99,6 +99,7 @@ def test_contacts_with_gradients_match_contacts_without(monkeypatch):
     link: the same records, bit for bit on the CPU (the same operations per point), to rounding on a GPU
     (another compilation of them)."""
     monkeypatch.setattr(engine_step, "contacts_per_environment", lambda device, grad: grad)
+    monkeypatch.setattr(wd.config, "fused_step", False)  # without gradients too: the launch list's contact kernels
     model = _legs(True)
     tau = np.random.default_rng(1).normal(0.0, 5.0, (N, model.dofs()))
     runs = []

@@ -14,7 +14,9 @@
     tape.backward(loss)                        # tau_wp.grad, data's .grad, marked parameters' .grad
 
 A rollout is `steps` applications of `wd.model.step` (same launches, same numbers: bitwise equal to calling
-`step` in a loop), with these differences:
+`step` in a loop; without gradients both run the semi-implicit Euler integrators as one fused kernel per
+step, under a tape as the launch list, which agree to rounding: `warpdyn.config.fused_step`), with these
+differences:
 - every array it uses is allocated before the first step, so the whole loop can be captured as a graph:
   a CUDA graph on GPUs, Warp's CPU graph (APIC) on the CPU; replaying it costs no Python per step;
 - controls for all steps are given at once and the results a user asks for are recorded on the device.
