@@ -68,24 +68,59 @@ def test_a_step_without_a_health_flag_is_refused(chain, call):
     assert wd.model.free_floating_mass_matrix(chain, data).shape[0] == N
 
 
-@pytest.mark.parametrize(
-    "field, value, error, message",
-    [
-        ("joint_positions_state", None, TypeError, r"data.joint_positions_state must be a Warp array \(N, k\), got None"),
-        ("base_velocity_state", np.zeros((N, 6)), TypeError, r"data.base_velocity_state must be a Warp array \(N, k\), got a ndarray"),
-        ("joint_velocities_state", wp.zeros((N, 3), dtype=wp.float32), TypeError, r"data.joint_velocities_state has dtype float32, expected float64"),
-        ("joint_velocities_state", wp.zeros((N, 4), dtype=wp.float64), ValueError, r"data.joint_velocities_state has shape \(3, 4\), expected \(3, 3\)"),
-        ("base_position_state", wp.zeros((N, 4), dtype=wp.float64), ValueError, r"data.base_position_state has shape \(3, 4\), expected \(3, 3\)"),
-        ("valid_state", wp.ones(N, dtype=wp.float64), TypeError, r"data.valid_state has dtype float64, expected int32"),
-        ("valid_state", wp.ones((N, 1), dtype=wp.int32), ValueError, r"data.valid_state has shape \(3, 1\), expected \(3,\)"),
-        ("tangential_deformation_state", wp.zeros((N, 0), dtype=wp.float64), TypeError, r"tangential_deformation_state must be a Warp array \(N, nc, 3\) or None"),
-        ("num_envs", 5, ValueError, r"data.num_envs is 5, but its arrays hold 3 environments"),
-    ],
-)
+MALFORMED = [
+    ("joint_positions_state", None, TypeError, r"data.joint_positions_state must be a Warp array \(N, k\), got None"),
+    ("base_velocity_state", np.zeros((N, 6)), TypeError, r"data.base_velocity_state must be a Warp array \(N, k\), got a ndarray"),
+    ("joint_velocities_state", wp.zeros((N, 3), dtype=wp.float32), TypeError, r"data.joint_velocities_state has dtype float32, expected float64"),
+    ("joint_velocities_state", wp.zeros((N, 4), dtype=wp.float64), ValueError, r"data.joint_velocities_state has shape \(3, 4\), expected \(3, 3\)"),
+    ("base_position_state", wp.zeros((N, 4), dtype=wp.float64), ValueError, r"data.base_position_state has shape \(3, 4\), expected \(3, 3\)"),
+    ("valid_state", wp.ones(N, dtype=wp.float64), TypeError, r"data.valid_state has dtype float64, expected int32"),
+    ("valid_state", wp.ones((N, 1), dtype=wp.int32), ValueError, r"data.valid_state has shape \(3, 1\), expected \(3,\)"),
+    ("tangential_deformation_state", wp.zeros((N, 0), dtype=wp.float64), TypeError, r"tangential_deformation_state must be a Warp array \(N, nc, 3\) or None"),
+    ("num_envs", 5, ValueError, r"data.num_envs is 5, but its arrays hold 3 environments"),
+]
+
+
+@pytest.mark.parametrize("field, value, error, message", MALFORMED)
 def test_each_malformed_field_is_named(chain, field, value, error, message):
     data = dataclasses.replace(wd.data.Data.build(chain, num_envs=N), **{field: value})
     with pytest.raises(error, match=message):
         wd.model.step(chain, data)
+
+
+@pytest.mark.parametrize("source", ["built", "stepped"])
+@pytest.mark.parametrize("field, value, error, message", MALFORMED)
+def test_a_checked_data_is_checked_again_after_a_field_is_set(chain, field, value, error, message, source):
+    """check_data remembers a data that passed (warpdyn.types.data_checks) and a step's result inherits that;
+    setting a field of the same Data object afterwards makes the next call check it again and name the field
+    (reference: the same message as for a new malformed Data)."""
+    data = wd.data.Data.build(chain, num_envs=N)
+    wd.model.step(chain, data)
+    wd.model.free_floating_mass_matrix(chain, data)
+    if source == "stepped":
+        data = wd.model.step(chain, data)
+        wd.model.free_floating_mass_matrix(chain, data)
+    setattr(data, field, value)
+    with pytest.raises(error, match=message):
+        wd.model.step(chain, data)
+    with pytest.raises(error, match=message):
+        wd.model.free_floating_mass_matrix(chain, data)
+
+
+def test_a_checked_data_is_checked_again_after_the_model_changes(chain):
+    """Link parameters given per environment for another N (a new model version) after the data passed: the
+    next call says so (reference: the message for data built after the change)."""
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(3), dtype=np.float64)
+    data = wd.data.Data.build(model, num_envs=N)
+    stepped = wd.model.step(model, data)
+    wd.model.free_floating_mass_matrix(model, stepped)
+    model.set_link_parameters(mass=np.ones((N + 1, model.number_of_links())))
+    for d in (data, stepped):
+        with pytest.raises(ValueError, match=rf"per environment, but the data has {N} environments"):
+            wd.model.free_floating_mass_matrix(model, d)
+    other = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(4), dtype=np.float64)
+    with pytest.raises(ValueError, match="data has 3 joints but the model has 4"):
+        wd.model.free_floating_mass_matrix(other, stepped)
 
 
 def test_single_environment_data_with_several_rows_is_refused(chain):

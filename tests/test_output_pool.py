@@ -481,18 +481,24 @@ def _hosts(results: dict) -> dict:
 
 @pytest.mark.parametrize("N", [None, 2], ids=["single", "batched"])
 def test_dynamics_outputs_from_pools_equal_fresh_ones(N):
-    """Each dynamics function, with NumPy and Warp inputs (shared and per environment; copied into the thread's
-    buffers on the CPU), equals its result under a wp.Tape (fresh outputs and inputs) bitwise, call after call;
-    a result let go is handed out again (the same array), a held one (its NumPy values) is not overwritten."""
+    """Each dynamics function, with NumPy and Warp inputs (shared and per environment, contiguous or strided views;
+    copied into the thread's buffers on the CPU), equals its result under a wp.Tape (fresh outputs and inputs)
+    bitwise, call after call; a result let go is handed out again (the same array), a held one (its NumPy values)
+    is not overwritten."""
     model = _legs()
     n, nL = model.dofs(), model.number_of_links()
     batch = () if N is None else (N,)
     rng = np.random.default_rng(7)
     held = None
-    for k in range(4):
+    for k in range(5):
         data = _standing(model, N, (VelRepr.Body, VelRepr.Mixed)[k % 2], seed=k)
         tau = rng.normal(0, 1, (*batch, n)) if k % 2 else wp.array(rng.normal(0, 1, n), dtype=wp.float64)
         f = rng.normal(0, 1, (nL, 6)) if k < 2 else wp.array(rng.normal(0, 1, (*batch, nL, 6)), dtype=wp.float64)
+        if k == 4:  # strided views: every other number of wider arrays
+            every = (slice(None),) * (len(batch) + 1)
+            tau = wp.array(rng.normal(0, 1, (*batch, n, 2)), dtype=wp.float64)[(*every, 0)]
+            f = wp.array(rng.normal(0, 1, (*batch, nL, 6, 2)), dtype=wp.float64)[(*every, slice(None), 0)]
+            assert not (tau.is_contiguous or f.is_contiguous)
         got = _hosts(_dynamics(model, data, tau, f))
         with wp.Tape():
             expected = _hosts(_dynamics(model, data, tau, f))

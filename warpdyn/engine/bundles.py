@@ -58,7 +58,7 @@ def model_bundle(model):
     (the parameters' arrays listed once per version: only a setter, which announces itself, replaces one;
     their .grad, which marking an array for gradients sets, read at each call)."""
     parameters = model.cached("model bundle arrays", lambda: tuple(getattr(model, name) for name in _PARAMETERS))
-    grads = tuple(map(id, map(_GRAD, parameters)))
+    grads = tuple(map(_GRAD, parameters))  # the arrays, not their ids: a freed grad's id may come back
     return model.cached(("model bundle", grads), lambda: _build_model_bundle(model))
 
 

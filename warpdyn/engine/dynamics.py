@@ -21,6 +21,7 @@ Gradients reach the model's link parameters (their .grad) under a tape once they
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 
 import numpy as np
@@ -125,15 +126,26 @@ class _Buffers:
     def __init__(self, model, N: int):
         self.model, self.N = model, N
         self.arrays: dict = {}  # name -> (buffer, its NumPy view)
+        self.mine: set = set()  # the ids of the buffers
         self.controls: dict = {}  # (id of joint forces, id of link forces) -> Controls bundle
 
     def fill(self, name: str, per_env: tuple, value) -> wp.array:
+        """The buffer of `name` holding `value` (checked: a Warp array of the model's dtype on its device, or
+        a float64 ndarray; per_env or (N, *per_env)): a contiguous Warp array of the buffer's size is copied
+        byte for byte, anything else through NumPy (broadcast over the environments)."""
         held = self.arrays.get(name)
         if held is None:
             buffer = arrays.empty(per_env, self.N, self.model.scalar, self.model.device)
             held = self.arrays[name] = (buffer, buffer.numpy())
-        np.copyto(held[1], value.numpy() if isinstance(value, wp.array) else value)
-        return held[0]
+            self.mine.add(id(buffer))
+        buffer = held[0]
+        if isinstance(value, wp.array):
+            if value.is_contiguous and value.size == buffer.size:
+                ctypes.memmove(buffer.ptr, value.ptr, buffer.capacity)
+                return buffer
+            value = value.numpy()
+        np.copyto(held[1], value)
+        return buffer
 
 
 def _controls(model, data, joint_forces, link_forces):
@@ -141,8 +153,8 @@ def _controls(model, data, joint_forces, link_forces):
     if joint_forces is None and link_forces is None:
         return controls_bundle(model.scalar, model.device)
     buffers = per_thread(model, ("input buffers", data.batch_size), lambda: _Buffers(model, data.batch_size))
-    mine = {id(held[0]) for held in buffers.arrays.values()}
-    if all(a is None or id(a) in mine for a in (joint_forces, link_forces)):
+    mine = buffers.mine
+    if (joint_forces is None or id(joint_forces) in mine) and (link_forces is None or id(link_forces) in mine):
         key = (id(joint_forces), id(link_forces))
         bundle = buffers.controls.get(key)
         if bundle is None:

@@ -53,7 +53,7 @@ from ..kernels.scratch import TRANSFORM
 from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import IntegratorType, VelRepr
-from ..types.data_checks import check_data
+from ..types.data_checks import check_data, passes_like
 from ..types.parameters import MODEL_ARRAYS
 from ..types.settings import host_values
 from ..types.terrain import FlatTerrain, HeightfieldTerrain
@@ -635,8 +635,9 @@ def advance(model, data, current: Plan, tau_ref, f_user, u):
 
 
 def with_state(data, state: list):
-    """`data` with its state arrays replaced by `state` (p, Q, s, v, sdot, m, valid)."""
-    return dataclasses.replace(
+    """`data` with its state arrays replaced by `state` (p, Q, s, v, sdot, m, valid), arrays made like the
+    data's own (what the data passed of warpdyn.types.data_checks' checks, it passes)."""
+    stepped = dataclasses.replace(
         data,
         base_position_state=state[0],
         base_quaternion_state=state[1],
@@ -646,3 +647,5 @@ def with_state(data, state: list):
         tangential_deformation_state=state[5],
         valid_state=state[6],
     )
+    passes_like(stepped, data)
+    return stepped
