@@ -16,24 +16,11 @@ from ..kernels.jacobians import kernels as jacobian_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import output_repr
-from ..types.data_checks import check_data
+from ..types.data_checks import check_data, state_arrays
 from .bundles import model_bundle, state_bundle
 from .launch import launch
 
 __all__ = ["state_arrays", "state_of", "targets", "link_targets", "link_poses", "homogeneous", "poses", "jacobians", "velocities"]
-
-
-def state_arrays(data) -> list:
-    """The state of `data` as the kernels take it: (p, Q, s, v (Mixed), sdot, m, valid)."""
-    return [
-        data.base_position_state,
-        data.base_quaternion_state,
-        data.joint_positions_state,
-        data.base_velocity_state,
-        data.joint_velocities_state,
-        data.tangential_deformation_state,
-        data.valid_state,
-    ]
 
 
 def state_of(model, data):

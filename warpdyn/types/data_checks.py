@@ -10,7 +10,7 @@ import weakref
 
 import warp as wp
 
-__all__ = ["check_data", "check_state", "passes_like"]
+__all__ = ["check_data", "check_state", "passes_like", "state_arrays"]
 
 _STATE_ARRAYS = (
     ("base_position_state", 3),
@@ -29,7 +29,7 @@ def check_data(model, data, parameters: bool = False) -> None:
     environment, need data of those N environments."""
     memo = getattr(data, "__dict__", None)
     passed = memo.get("_checked") if memo is not None else None
-    arrays = _arrays(data) if passed is not None else None
+    arrays = state_arrays(data) if passed is not None else None
     if (
         passed is not None
         and passed[0]() is model
@@ -54,7 +54,7 @@ def check_data(model, data, parameters: bool = False) -> None:
             f"but the data has {N} environments"
         )
     if memo is not None:
-        memo["_checked"] = (weakref.ref(model), model.version, parameters, data.num_envs, _arrays(data))
+        memo["_checked"] = (weakref.ref(model), model.version, parameters, data.num_envs, state_arrays(data))
 
 
 def passes_like(data, source) -> None:
@@ -63,14 +63,15 @@ def passes_like(data, source) -> None:
     on it then checks nothing)."""
     passed = getattr(source, "__dict__", {}).get("_checked")
     memo = getattr(data, "__dict__", None)
-    if passed is None or memo is None or passed[3] != data.num_envs or not all(a is b for a, b in zip(passed[4], _arrays(source))):
+    if passed is None or memo is None or passed[3] != data.num_envs or not all(a is b for a, b in zip(passed[4], state_arrays(source))):
         return
-    memo["_checked"] = (*passed[:4], _arrays(data))
+    memo["_checked"] = (*passed[:4], state_arrays(data))
 
 
-def _arrays(data) -> tuple:
-    """The arrays the checks read of `data` (a Data that passed them has them all)."""
-    return (
+def state_arrays(data) -> list:
+    """The state of `data` as the kernels take it: (p, Q, s, v (Mixed), sdot, m, valid); also what the checks
+    remember a data by."""
+    return [
         data.base_position_state,
         data.base_quaternion_state,
         data.joint_positions_state,
@@ -78,7 +79,7 @@ def _arrays(data) -> tuple:
         data.joint_velocities_state,
         data.tangential_deformation_state,
         data.valid_state,
-    )
+    ]
 
 
 def check_state(data) -> None:
