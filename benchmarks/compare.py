@@ -410,8 +410,8 @@ def versions() -> str:
     for name in names:
         try:
             out.append(f"{name} {md.version(name)}")
-        except md.PackageNotFoundError:
-            out.append(f"{name} -")
+        except md.PackageNotFoundError:  # Warp unpacked without its metadata (the GPU machine) says its version
+            out.append(f"{name} {wp.config.version}" if name == "warp-lang" else f"{name} -")
     return ", ".join(out)
 
 
