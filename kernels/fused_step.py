@@ -13,9 +13,12 @@ state x and the joint forces tau (the actuation kernel's, launched before):
    wrote) and gets valid = 0.
 What one pass hands to the next (W_H_i, v_i then a'_i, the children's sums, U_i / d_i, u_i / d_i: 48 numbers
 per link) stays in the thread's local memory instead of arrays in global memory, and is read and written
-once per step; lambda_X_i and c_i are recomputed. The local arrays' sizes are the model's number of links,
-so one kernel serves the models of that size (`kernel`); the loops over links are not unrolled (unrolled,
-a 13-link model took 44 to 70 s to compile on an H100, and ran slower at N = 1).
+once per step; c_i is recomputed, and the joint transforms lambda(i)_H_i either kept from pass 1 (7 numbers
+more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (two sines and cosines per joint and
+pass: cheaper on a GPU once the environments' local arrays outgrow its caches, benchmarks/RESULTS.md). The local
+arrays' sizes are the model's number of links, so one kernel serves the models of that size (`kernel`); the
+loops over links are not unrolled (unrolled, a 13-link model took 44 to 70 s to compile on an H100, and ran
+slower at N = 1).
 
 Forward only: the module has no backward pass. Under a tape, with gradients, for RK4 and with gravity
 compensation, a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding
@@ -35,9 +38,9 @@ from .spatial import INERTIAL, MIXED, spatial
 
 
 @functools.cache
-def kernel(scalar, links: int, so3: bool):
+def kernel(scalar, links: int, so3: bool, keep_joint_transforms: bool):
     """The fused step in `scalar` for models of `links` links (local arrays of that size), with MuJoCo's base
-    step (so3) or JaxSim's."""
+    step (so3) or JaxSim's, keeping the joint transforms of pass 1 for passes 2 and 3 or recomputing them."""
     sp = spatial(scalar)
     B = bundles(scalar)
     I = integrator_funcs(scalar)
@@ -45,6 +48,7 @@ def kernel(scalar, links: int, so3: bool):
     inertia_to = inertia_funcs(scalar).inertia_to
     articulated = inertia_funcs(scalar).articulated
     SO3 = wp.constant(int(so3))
+    KEEP = keep_joint_transforms
     nL = links
     links6 = wp.types.matrix((nL, 6), scalar)
     links7 = wp.types.matrix((nL, 7), scalar)
@@ -143,6 +147,7 @@ def kernel(scalar, links: int, so3: bool):
         B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
         nonfinite = scalar(0.0)
         W_H = links7()  # W_H_i
+        X = links7()  # lambda(i)_H_i, when kept
         v = links6()  # v_i, link coordinates; in pass 3 a'_i
         qd = per_link()  # the joint velocity of link i's joint
         # 1. poses and velocities, from the base
@@ -152,6 +157,8 @@ def kernel(scalar, links: int, so3: bool):
         v[0] = B_v
         for i in range(1, nl):
             X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
+            if wp.static(KEEP):
+                X[i] = pack7(X_i)
             W_H_i = unpack7(W_H[model.parent[i]]) * X_i
             W_H[i] = pack7(W_H_i)
             if W_H_L.shape[0] > 0:
@@ -168,7 +175,10 @@ def kernel(scalar, links: int, so3: bool):
             i = nl - 1 - k
             f_i, bad = external_force(contacts, terrain, controls, env, i, unpack7(W_H[i]), v[i], K, D, mu, dt, x, y, W_f_C)
             nonfinite = nonfinite + bad
-            X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
+            if wp.static(KEEP):
+                X_i = unpack7(X[i])
+            else:
+                X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
             S = B.motion_subspace_of(model, i)
             v_i = v[i]
             c_i = sp.cross_motion(v_i, S * qd[i])
@@ -195,7 +205,10 @@ def kernel(scalar, links: int, so3: bool):
             base = sp.base_acceleration_from_body(INERTIAL, W_H_B, B_v, a0 + B_a_g)
         v[0] = a0
         for i in range(1, nl):
-            X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
+            if wp.static(KEEP):
+                X_i = unpack7(X[i])
+            else:
+                X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
             S = B.motion_subspace_of(model, i)
             a_i = sp.motion_from(X_i, v[model.parent[i]]) + sp.cross_motion(v[i], S * qd[i])
             qdd = ud[i] - wp.dot(Ud[i], a_i)

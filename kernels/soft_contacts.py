@@ -79,6 +79,13 @@ def kernels(scalar):
         return sp.vec3(scalar(0.0), scalar(0.0), scalar(1.0))
 
     @wp.func
+    def power(x: scalar, e: scalar):
+        """x^e for x > 0: a square root for e = 1/2 (JaxSim's exponents; within an ulp of pow, and cheaper)."""
+        if e == scalar(0.5):
+            return wp.sqrt(x)
+        return wp.pow(x, e)
+
+    @wp.func
     def hunt_crossley(
         p: sp.vec3, v: sp.vec3, m: sp.vec3, h: scalar, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar
     ):
@@ -88,10 +95,15 @@ def kernels(scalar):
         depth = (h - p[2]) * n[2]
         delta = wp.max(zero, depth)
         delta_dot = zero
+        # (delta + eps)^p and ^q only in contact: out of it every term they scale is 0 or replaced below
+        delta_p = zero
+        delta_q = zero
         if delta > zero:
             delta_dot = -wp.dot(v, n)
-        delta_p = wp.pow(delta + eps, pe)
-        delta_q = wp.pow(delta + eps, qe)
+            delta_p = power(delta + eps, pe)
+            delta_q = delta_p
+            if qe != pe:
+                delta_q = power(delta + eps, qe)
         fn = wp.max(zero, K * delta_p * delta + D * delta_q * delta_dot)
         v_t = v - wp.dot(v, n) * n
         m_n = wp.dot(m, n) * n

@@ -4,9 +4,11 @@ JaxSim and identities).
 
 Both compute the same equations in another order (the fused kernel takes a point's velocity from the link's
 velocity in link coordinates, sums a link's contact wrenches before converting them, recomputes the joint
-transforms), so they agree to rounding, not bit for bit: over one step of the legs in contact, to 5e-16 of
-each quantity's size in float64 and 3e-7 in float32 (measured); the tolerances, 1e-12 and 1e-5, leave
-room for other states and for a GPU's fused multiply-adds. The health flags must agree exactly.
+transforms or keeps them), so they agree to rounding, not bit for bit: over one step of the legs in contact,
+to 5e-16 of each quantity's size in float64 and 3e-7 in float32 (measured); the tolerances, 1e-12 and 1e-5,
+leave room for other states and for a GPU's fused multiply-adds. The health flags must agree exactly. Every
+test runs both variants of the kernel (warpdyn.engine.step.keeps_joint_transforms: the CPU keeps the joint
+transforms, a GPU keeps them for few environments only).
 """
 
 import dataclasses
@@ -23,6 +25,13 @@ from warpdyn.types.enums import VelRepr
 STATE = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "tangential_deformation_state")
 TOLERANCE = {np.float64: 1e-12, np.float32: 1e-5}
 SO3 = wd.model.IntegratorType.SemiImplicitEulerSO3
+
+
+@pytest.fixture(autouse=True, params=[True, False], ids=["kept transforms", "recomputed transforms"])
+def keep(request, monkeypatch):
+    """Each variant of the fused kernel, whatever the device and N would choose."""
+    monkeypatch.setattr(engine_step, "keeps_joint_transforms", lambda device, N: request.param)
+    return request.param
 
 
 def _standing(model, N, seed=0, spread=1.0, repr_=VelRepr.Mixed):
@@ -81,7 +90,7 @@ def _assert_close(fused, listed, dtype, label=""):
         np.testing.assert_allclose(a, b, rtol=0.0, atol=tolerance * scale, err_msg=f"{label} {name}")
 
 
-def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch):
+def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch, keep):
     model = _legs(np.float64)
     data = _standing(model, 4)
     monkeypatch.setattr(wd.config, "fused_step", True)
@@ -89,13 +98,15 @@ def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch):
     ws = engine_step.Workspace(plan, 4, False, False)
     x, y = engine_step.state_arrays(data), engine_step.state_buffers(plan, 4, False)
     kernels = [item.kernel for item in engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))]
-    assert kernels == [plan.actuation, plan.fused]
+    fused = engine_step.fused_kernel(plan, 4)
+    assert kernels == [plan.actuation, fused]
+    assert fused is engine_step.fused_kernel(plan, 4) and fused is not engine_step.plan(model).fused(not keep)
     grad_ws = engine_step.Workspace(plan, 4, True, False)
     listed = engine_step.step_launches(plan, grad_ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
-    assert plan.fused not in [item.kernel for item in listed] and len(listed) == 7, "with gradients: the launch list"
+    assert fused not in [item.kernel for item in listed] and len(listed) == 7, "with gradients: the launch list"
     with wp.Tape():
         taped = engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
-    assert plan.fused not in [item.kernel for item in taped], "under a tape: the launch list"
+    assert fused not in [item.kernel for item in taped], "under a tape: the launch list"
 
 
 @pytest.mark.parametrize("integrator", [robots.SIE, SO3], ids=["jaxsim_euler", "mujoco_euler"])
@@ -210,3 +221,14 @@ def test_a_stepper_reports_the_contact_wrenches_of_its_last_substep(monkeypatch)
 def test_the_setting_is_a_bool():
     with pytest.raises(TypeError, match="fused_step"):
         wd.config.fused_step = 1
+
+
+def test_which_devices_and_sizes_keep_the_joint_transforms(monkeypatch):
+    """The CPU keeps them at any N; a GPU up to KEEP_JOINT_TRANSFORMS_UP_TO environments (the autouse fixture
+    replaces the rule in the other tests: here the module's own function is read)."""
+    monkeypatch.undo()
+    rule, limit = engine_step.keeps_joint_transforms, engine_step.KEEP_JOINT_TRANSFORMS_UP_TO
+    cpu = wp.get_device("cpu")
+    gpu = type("GPU", (), {"is_cpu": False, "is_cuda": True})()
+    assert rule(cpu, 1) and rule(cpu, 10 * limit)
+    assert rule(gpu, 1) and rule(gpu, limit) and not rule(gpu, limit + 1)
