@@ -14,11 +14,11 @@ state x and the joint forces tau (the actuation kernel's, launched before):
 What one pass hands to the next (W_H_i, v_i then a'_i, the children's sums, U_i / d_i, u_i / d_i: 48 numbers
 per link) stays in the thread's local memory instead of arrays in global memory, and is read and written
 once per step; c_i is recomputed, and the joint transforms lambda(i)_H_i either kept from pass 1 (7 numbers
-more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (two sines and cosines per joint and
-pass: cheaper on a GPU once the environments' local arrays outgrow its caches, benchmarks/RESULTS.md). The local
-arrays' sizes are the model's number of links, so one kernel serves the models of that size (`kernel`); the
-loops over links are not unrolled (unrolled, a 13-link model took 44 to 70 s to compile on an H100, and ran
-slower at N = 1).
+more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (a sine and a cosine per revolute
+joint and pass: cheaper on a GPU once the environments' local arrays outgrow its caches, benchmarks/RESULTS.md).
+The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's number of links, so
+one kernel serves the models of that size (`kernel`); the loops over links are not unrolled (unrolled, a model
+took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
 
 Forward only: the module has no backward pass. Under a tape, with gradients, for RK4 and with gravity
 compensation, a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding
@@ -32,7 +32,7 @@ import warp as wp
 from .aba import inertia_funcs
 from .bundles import bundles
 from .integrators import kernels as integrator_funcs
-from .scratch import SYM66
+from .scratch import SYM66, TRANSFORM, scratch
 from .soft_contacts import kernels as contact_funcs
 from .spatial import INERTIAL, MIXED, spatial
 
@@ -51,40 +51,11 @@ def kernel(scalar, links: int, so3: bool, keep_joint_transforms: bool):
     KEEP = keep_joint_transforms
     nL = links
     links6 = wp.types.matrix((nL, 6), scalar)
-    links7 = wp.types.matrix((nL, 7), scalar)
+    links7 = wp.types.matrix((nL, TRANSFORM), scalar)
     links21 = wp.types.matrix((nL, SYM66), scalar)
     per_link = wp.types.vector(nL, scalar)
-    vec7 = wp.types.vector(7, scalar)
-    vec21 = wp.types.vector(SYM66, scalar)
-
-    @wp.func
-    def pack7(X: sp.transform):
-        p = wp.transform_get_translation(X)
-        q = wp.transform_get_rotation(X)
-        return vec7(p[0], p[1], p[2], q[0], q[1], q[2], q[3])
-
-    @wp.func
-    def unpack7(r: vec7):
-        return sp.transform(sp.vec3(r[0], r[1], r[2]), sp.quat(r[3], r[4], r[5], r[6]))
-
-    @wp.func
-    def pack21(M: sp.mat66):
-        """The upper triangle of a symmetric M, row by row."""
-        return vec21(
-            M[0, 0], M[0, 1], M[0, 2], M[0, 3], M[0, 4], M[0, 5], M[1, 1], M[1, 2], M[1, 3], M[1, 4], M[1, 5],
-            M[2, 2], M[2, 3], M[2, 4], M[2, 5], M[3, 3], M[3, 4], M[3, 5], M[4, 4], M[4, 5], M[5, 5],
-        )  # fmt: skip
-
-    @wp.func
-    def unpack21(a: vec21):
-        return sp.mat66(
-            a[0], a[1], a[2], a[3], a[4], a[5],
-            a[1], a[6], a[7], a[8], a[9], a[10],
-            a[2], a[7], a[11], a[12], a[13], a[14],
-            a[3], a[8], a[12], a[15], a[16], a[17],
-            a[4], a[9], a[13], a[16], a[18], a[19],
-            a[5], a[10], a[14], a[17], a[19], a[20],
-        )  # fmt: skip
+    sc = scratch(scalar)
+    pack7, unpack7, pack21, unpack21 = sc.pack_transform, sc.unpack_transform, sc.pack_sym66, sc.unpack_sym66
 
     @wp.func
     def external_force(contacts: B.Contacts, terrain: B.Terrain, controls: B.Controls, env: int, L: int, W_H_L: sp.transform,

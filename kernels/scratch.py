@@ -7,7 +7,8 @@ and write 32 neighbouring numbers; an array of structs (a mat66 is 144 bytes per
 every thread touch its own 144-byte run, and the warp many cache lines per load.
 
 Symmetric 6x6 matrices keep their upper triangle, row by row (21 numbers); transforms their translation
-then their quaternion (x, y, z, w) (7 numbers).
+then their quaternion (x, y, z, w) (7 numbers). The same records as vectors (`pack_transform`, `pack_sym66` and
+their inverses) serve a kernel that keeps them in its thread's local memory (kernels/fused_step.py).
 """
 
 import functools
@@ -27,6 +28,8 @@ TRANSFORM = 7
 def scratch(scalar) -> types.SimpleNamespace:
     """Readers and writers of per-link records in `scalar` (wp.float32 or wp.float64)."""
     sp = spatial(scalar)
+    vec7 = wp.types.vector(TRANSFORM, scalar)
+    vec21 = wp.types.vector(SYM66, scalar)
 
     @wp.func
     def get6(a: wp.array3d(dtype=scalar), env: int, i: int, col: int):
@@ -121,6 +124,38 @@ def scratch(scalar) -> types.SimpleNamespace:
         a[env, i, col + 20] = M[5, 5]
 
     @wp.func
+    def pack_transform(X: sp.transform):
+        """X's record as a vector: translation, quaternion (x, y, z, w)."""
+        p = wp.transform_get_translation(X)
+        q = wp.transform_get_rotation(X)
+        return vec7(p[0], p[1], p[2], q[0], q[1], q[2], q[3])
+
+    @wp.func
+    def unpack_transform(r: vec7):
+        """The transform of the record r (`pack_transform`)."""
+        return sp.transform(sp.vec3(r[0], r[1], r[2]), sp.quat(r[3], r[4], r[5], r[6]))
+
+    @wp.func
+    def pack_sym66(M: sp.mat66):
+        """The record of a symmetric M as a vector: its upper triangle, row by row."""
+        return vec21(
+            M[0, 0], M[0, 1], M[0, 2], M[0, 3], M[0, 4], M[0, 5], M[1, 1], M[1, 2], M[1, 3], M[1, 4], M[1, 5],
+            M[2, 2], M[2, 3], M[2, 4], M[2, 5], M[3, 3], M[3, 4], M[3, 5], M[4, 4], M[4, 5], M[5, 5],
+        )  # fmt: skip
+
+    @wp.func
+    def unpack_sym66(a: vec21):
+        """The symmetric mat66 of the record a (`pack_sym66`)."""
+        return sp.mat66(
+            a[0], a[1], a[2], a[3], a[4], a[5],
+            a[1], a[6], a[7], a[8], a[9], a[10],
+            a[2], a[7], a[11], a[12], a[13], a[14],
+            a[3], a[8], a[12], a[15], a[16], a[17],
+            a[4], a[9], a[13], a[16], a[18], a[19],
+            a[5], a[10], a[14], a[17], a[19], a[20],
+        )  # fmt: skip
+
+    @wp.func
     def sym_upper(M: sp.mat66):
         """The symmetric mat66 with M's upper triangle: only those 21 entries of M's expression are computed."""
         return sp.mat66(
@@ -141,4 +176,8 @@ def scratch(scalar) -> types.SimpleNamespace:
         put_transform=put_transform,
         get_sym66=get_sym66,
         put_sym66=put_sym66,
+        pack_transform=pack_transform,
+        unpack_transform=unpack_transform,
+        pack_sym66=pack_sym66,
+        unpack_sym66=unpack_sym66,
     )
