@@ -92,7 +92,7 @@ def launches_per_step(plan, repr: int, record, forces: bool, ctrl: bool) -> int:
     count = len(step_launches(plan, ws, x, y, plan.zeros((plan.n,), 1), f, repr, None, u, evaluation=reads_evaluation(record)))
     shapes = state_shapes(plan)
     count += sum(1 for name in record if name in STATE_INDEX and (name == "valid" or int(np.prod(shapes[STATE_INDEX[name]])) > 0))
-    count += sum(1 for name in record if name in ("link_contact_forces", "collidable_point_forces") and plan.contacts)
+    count += sum(1 for name in record if name in EVALUATION_RECORDS and plan.contacts)
     return count
 
 
