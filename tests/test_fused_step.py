@@ -4,11 +4,11 @@ JaxSim and identities).
 
 Both compute the same equations in another order (the fused kernel takes a point's velocity from the link's
 velocity in link coordinates, sums a link's contact wrenches before converting them, recomputes the joint
-transforms or keeps them), so they agree to rounding, not bit for bit: over one step of the legs in contact,
-to 5e-16 of each quantity's size in float64 and 3e-7 in float32 (measured); the tolerances, 1e-12 and 1e-5,
-leave room for other states and for a GPU's fused multiply-adds. The health flags must agree exactly. Every
-test runs both variants of the kernel (warpdyn.engine.step.keeps_joint_transforms: the CPU keeps the joint
-transforms, a GPU keeps them for few environments only).
+transforms or keeps them), so they agree to rounding, not bit for bit: to 1e-12 of each quantity's size in
+float64 and 1e-5 in float32, tolerances that leave room for other states and for a GPU's fused multiply-adds.
+The health flags must agree exactly. Every test of a step runs both variants of the kernel (the `keep`
+fixture; warpdyn.engine.step.keeps_joint_transforms: the CPU keeps the joint transforms, a GPU keeps them for
+few environments only).
 """
 
 import dataclasses
@@ -27,7 +27,7 @@ TOLERANCE = {np.float64: 1e-12, np.float32: 1e-5}
 SO3 = wd.model.IntegratorType.SemiImplicitEulerSO3
 
 
-@pytest.fixture(autouse=True, params=[True, False], ids=["kept transforms", "recomputed transforms"])
+@pytest.fixture(params=[True, False], ids=["kept transforms", "recomputed transforms"])
 def keep(request, monkeypatch):
     """Each variant of the fused kernel, whatever the device and N would choose."""
     monkeypatch.setattr(engine_step, "keeps_joint_transforms", lambda device, N: request.param)
@@ -109,6 +109,7 @@ def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch, k
     assert fused not in [item.kernel for item in taped], "under a tape: the launch list"
 
 
+@pytest.mark.usefixtures("keep")
 @pytest.mark.parametrize("integrator", [robots.SIE, SO3], ids=["jaxsim_euler", "mujoco_euler"])
 def test_legs_in_contact_with_torques(monkeypatch, dtype, integrator):
     model = _legs(dtype, integrator)
@@ -123,6 +124,7 @@ def test_legs_in_contact_with_torques(monkeypatch, dtype, integrator):
     _assert_close(fused2, listed2, dtype, "second step")
 
 
+@pytest.mark.usefixtures("keep")
 @pytest.mark.parametrize("repr_", [VelRepr.Inertial, VelRepr.Body, VelRepr.Mixed], ids=lambda r: r.name)
 def test_link_forces_in_each_representation(monkeypatch, repr_):
     model = _legs(np.float64)
@@ -132,6 +134,7 @@ def test_link_forces_in_each_representation(monkeypatch, repr_):
     _assert_close(fused, listed, np.float64, repr_.name)
 
 
+@pytest.mark.usefixtures("keep")
 def test_actuators_armature_implicit_damping_and_per_environment_contact_parameters(monkeypatch):
     model = _legs(np.float64)
     model = wd.model.add_actuators(model, "position", kp=300.0, kv=5.0, ctrl_range=(-1.5, 1.5), force_range=(-100.0, 100.0))
@@ -147,6 +150,7 @@ def test_actuators_armature_implicit_damping_and_per_environment_contact_paramet
     _assert_close(fused, listed, np.float64)
 
 
+@pytest.mark.usefixtures("keep")
 def test_heightfield_terrain_and_disabled_points(monkeypatch):
     model = _legs(np.float64)
     count = len(model.kin_dyn_parameters.contact_parameters.body)
@@ -163,6 +167,7 @@ def test_heightfield_terrain_and_disabled_points(monkeypatch):
     np.testing.assert_array_equal(fused.tangential_deformation_state.numpy()[:, ~enabled], m[:, ~enabled])
 
 
+@pytest.mark.usefixtures("keep")
 @pytest.mark.parametrize("case", ["no_points", "fixed_base_chain", "single_body"])
 def test_models_without_contacts_or_without_a_floating_base(monkeypatch, case):
     if case == "no_points":
@@ -179,6 +184,7 @@ def test_models_without_contacts_or_without_a_floating_base(monkeypatch, case):
     _assert_close(fused, listed, np.float64, case)
 
 
+@pytest.mark.usefixtures("keep")
 def test_unhealthy_environments_are_flagged_alike_and_keep_their_state(monkeypatch):
     model = _legs(np.float64)
     count = len(model.kin_dyn_parameters.contact_parameters.body)
@@ -201,6 +207,7 @@ def test_unhealthy_environments_are_flagged_alike_and_keep_their_state(monkeypat
         np.testing.assert_array_equal(getattr(fused, name).numpy()[1:5], getattr(data, name).numpy()[1:5], err_msg=name)
 
 
+@pytest.mark.usefixtures("keep")
 def test_a_stepper_reports_the_contact_wrenches_of_its_last_substep(monkeypatch):
     """Stepper.contact_wrenches with the fused step: the wrenches at the start of a call's last step, as the
     launch list's contact kernel wrote them."""
@@ -223,10 +230,9 @@ def test_the_setting_is_a_bool():
         wd.config.fused_step = 1
 
 
-def test_which_devices_and_sizes_keep_the_joint_transforms(monkeypatch):
-    """The CPU keeps them at any N; a GPU up to KEEP_JOINT_TRANSFORMS_UP_TO environments (the autouse fixture
-    replaces the rule in the other tests: here the module's own function is read)."""
-    monkeypatch.undo()
+def test_which_devices_and_sizes_keep_the_joint_transforms():
+    """The CPU keeps them at any N; a GPU up to KEEP_JOINT_TRANSFORMS_UP_TO environments (the `keep` fixture
+    replaces this rule in the tests of the step)."""
     rule, limit = engine_step.keeps_joint_transforms, engine_step.KEEP_JOINT_TRANSFORMS_UP_TO
     cpu = wp.get_device("cpu")
     gpu = type("GPU", (), {"is_cpu": False, "is_cuda": True})()
