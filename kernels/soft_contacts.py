@@ -80,7 +80,8 @@ def kernels(scalar):
 
     @wp.func
     def power(x: scalar, e: scalar):
-        """x^e for x > 0: a square root for e = 1/2 (JaxSim's exponents; within an ulp of pow, and cheaper)."""
+        """x^e for x > 0: a square root for e = 1/2 (JaxSim's exponents): correctly rounded, where pow(x, 1/2)
+        may be off by its own error of a few ulps, and cheaper."""
         if e == scalar(0.5):
             return wp.sqrt(x)
         return wp.pow(x, e)
