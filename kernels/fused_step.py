@@ -2,23 +2,27 @@
 
 One thread per environment runs what warpdyn.engine.step otherwise launches as five to seven kernels (FK,
 link velocities, the contact forces of the points and their sums per link, ABA, the integrator), from the
-state x and the joint forces tau (the actuation kernel's, launched before):
-1. from the base: the link poses W_H_i and velocities v_i (link coordinates);
-2. from the leaves: the external force on each link (the contact forces of its enabled points,
-   kernels/soft_contacts.py's `point_wrench`, plus the given Inertial link force), the tangential
-   deformation integrated, m+ = m + dt m_dot; ABA's articulated inertias and bias forces (kernels/aba.py:
-   the same equations), a link's terms summed into its parent's;
+state x and the joint forces tau (the actuation kernel's, launched before). It walks the tree in depth-first
+order (`walk`), so that most links follow their parent:
+1. from the base: the link poses W_H_i and velocities v_i (link coordinates); the external force f_i on each
+   link (the contact forces of its enabled points, kernels/soft_contacts.py's `point_wrench`, plus the given
+   Inertial link force), the tangential deformation integrated, m+ = m + dt m_dot; c_i and the bias
+   force v_i x* I_i v_i - f_i (kernels/aba.py: the same equations);
+2. from the leaves: ABA's articulated inertias and bias forces, a link's terms summed into its parent's;
 3. from the base: ABA's accelerations, the joints integrated; then the base (kernels/integrators.py's
-   functions) and the health check: a flagged environment keeps its state (rewritten over what 2 and 3
+   functions) and the health check: a flagged environment keeps its state (rewritten over what 1 and 3
    wrote) and gets valid = 0.
-What one pass hands to the next (W_H_i, v_i then a'_i, the children's sums, U_i / d_i, u_i / d_i: 48 numbers
-per link) stays in the thread's local memory instead of arrays in global memory, and is read and written
-once per step; c_i is recomputed, and the joint transforms lambda(i)_H_i either kept from pass 1 (7 numbers
-more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (a sine and a cosine per revolute
-joint and pass: cheaper on a GPU once the environments' local arrays outgrow its caches, benchmarks/RESULTS.md).
-The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's number of links, so
-one kernel serves the models of that size (`kernel`); the loops over links are not unrolled (unrolled, a model
-took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
+What a link hands to the next link of the walk (its pose and velocity, its articulated terms for its parent,
+its acceleration) stays in registers when that link is its child, the first one; a link with more children
+keeps it in a slot for the others (`walk`). What one pass hands to the next per link (c_i, the bias force
+then U_i / d_i, u_i / d_i, qd_i: 14 numbers) stays in the thread's local memory instead of arrays in global
+memory, and is read and written once per step; the joint transforms lambda(i)_H_i are either kept from
+pass 1 (7 numbers more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (a sine and a
+cosine per revolute joint and pass: cheaper on a GPU once the environments' local arrays outgrow its caches,
+benchmarks/RESULTS.md).
+The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links
+and slots, so one kernel serves the models of those sizes (`kernel`); the loops over links are not unrolled
+(unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
 
 Forward only: the module has no backward pass. Under a tape, with gradients, for RK4 and with gravity
 compensation, a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding
@@ -38,9 +42,10 @@ from .spatial import INERTIAL, MIXED, spatial
 
 
 @functools.cache
-def kernel(scalar, links: int, so3: bool, keep_joint_transforms: bool):
-    """The fused step in `scalar` for models of `links` links (local arrays of that size), with MuJoCo's base
-    step (so3) or JaxSim's, keeping the joint transforms of pass 1 for passes 2 and 3 or recomputing them."""
+def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: bool):
+    """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
+    sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, keeping the joint transforms of pass 1 for
+    passes 2 and 3 or recomputing them."""
     sp = spatial(scalar)
     B = bundles(scalar)
     I = integrator_funcs(scalar)
@@ -49,11 +54,13 @@ def kernel(scalar, links: int, so3: bool, keep_joint_transforms: bool):
     articulated = inertia_funcs(scalar).articulated
     SO3 = wp.constant(int(so3))
     KEEP = keep_joint_transforms
-    nL = links
-    links6 = wp.types.matrix((nL, 6), scalar)
-    links7 = wp.types.matrix((nL, TRANSFORM), scalar)
-    links21 = wp.types.matrix((nL, SYM66), scalar)
-    per_link = wp.types.vector(nL, scalar)
+    links6 = wp.types.matrix((links, 6), scalar)
+    links7 = wp.types.matrix((links, TRANSFORM), scalar)
+    per_link = wp.types.vector(links, scalar)
+    slots6 = wp.types.matrix((slots, 6), scalar)
+    slots7 = wp.types.matrix((slots, TRANSFORM), scalar)
+    slots21 = wp.types.matrix((slots, SYM66), scalar)
+    sym21 = wp.types.vector(SYM66, scalar)
     sc = scratch(scalar)
     pack7, unpack7, pack21, unpack21 = sc.pack_transform, sc.unpack_transform, sc.pack_sym66, sc.unpack_sym66
 
@@ -92,6 +99,7 @@ def kernel(scalar, links: int, so3: bool, keep_joint_transforms: bool):
         terrain: B.Terrain,
         x: B.State,
         controls: B.Controls,
+        walk: wp.array(dtype=wp.vec3i),
         dt: scalar,
         quaternion_tolerance: scalar,
         implicit_dt: scalar,
@@ -102,6 +110,8 @@ def kernel(scalar, links: int, so3: bool, keep_joint_transforms: bool):
     ):
         """One semi-implicit Euler step from x to y with soft contacts and ABA.
 
+        walk (nL,): the links in depth-first order, the base first, each as (i, its slot or -1, its parent's
+        slot, or -1 when the parent is the link before it in the walk), warpdyn.engine.step's `fused_walk`.
         W_H_L (N, nL): the link poses at x, as kernels/kinematics.py's forward_kinematics writes them, and
         W_f_C (N, P, 6): the Inertial wrench of each enabled point's contact force at x, as
         kernels/soft_contacts.py's point_contact_forces writes it; each when not empty.
@@ -116,74 +126,119 @@ def kernel(scalar, links: int, so3: bool, keep_joint_transforms: bool):
         W_H_B = B.base_pose(x, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
         B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
-        nonfinite = scalar(0.0)
-        W_H = links7()  # W_H_i
         X = links7()  # lambda(i)_H_i, when kept
-        v = links6()  # v_i, link coordinates; in pass 3 a'_i
+        c = links6()  # c_i = v_i x S_i qd_i
+        pU = links6()  # pass 1: v_i x* I_i v_i - f_i; pass 2: U_i / d_i
+        ud = per_link()  # u_i / d_i
         qd = per_link()  # the joint velocity of link i's joint
-        # 1. poses and velocities, from the base
-        W_H[0] = pack7(W_H_B)
+        slot_H = slots7()  # W_H_i of the links with slots
+        slot_v = slots6()  # pass 1: their v_i; pass 3: their a'_i
+        slot_IA = slots21()  # the sums of the articulated inertias and bias forces of their children but the first
+        slot_pA = slots6()
+        # 1. poses, velocities, external and bias forces, from the base
+        f_0, nonfinite = external_force(contacts, terrain, controls, env, 0, W_H_B, B_v, K, D, mu, dt, x, y, W_f_C)
+        I_0 = B.spatial_inertia_of(model, env, 0)
+        p_0 = sp.cross_force(B_v, I_0 * B_v) - f_0
         if W_H_L.shape[0] > 0:
             W_H_L[env, 0] = W_H_B
-        v[0] = B_v
-        for i in range(1, nl):
+        own = walk[0][1]
+        if own >= 0:
+            slot_H[own] = pack7(W_H_B)
+            slot_v[own] = B_v
+        W_H_prev = W_H_B
+        v_prev = B_v
+        for k in range(1, nl):
+            i = walk[k][0]
+            own = walk[k][1]
+            up = walk[k][2]
+            W_H_P = W_H_prev
+            v_P = v_prev
+            if up >= 0:
+                W_H_P = unpack7(slot_H[up])
+                v_P = slot_v[up]
             X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
             if wp.static(KEEP):
                 X[i] = pack7(X_i)
-            W_H_i = unpack7(W_H[model.parent[i]]) * X_i
-            W_H[i] = pack7(W_H_i)
+            W_H_i = W_H_P * X_i
             if W_H_L.shape[0] > 0:
                 W_H_L[env, i] = W_H_i
-            qd[i] = x.joint_velocities[env, i - 1]
-            v[i] = sp.motion_from(X_i, v[model.parent[i]]) + B.motion_subspace_of(model, i) * qd[i]
-        # 2. external forces, articulated inertias and bias forces, from the leaves; a link's terms summed into
-        # its parent's
-        IA_sum = links21()
-        pA_sum = links6()
-        Ud = links6()  # U_i / d_i
-        ud = per_link()  # u_i / d_i
-        for k in range(nl - 1):
-            i = nl - 1 - k
-            f_i, bad = external_force(contacts, terrain, controls, env, i, unpack7(W_H[i]), v[i], K, D, mu, dt, x, y, W_f_C)
+            qd_i = x.joint_velocities[env, i - 1]
+            qd[i] = qd_i
+            S_qd = B.motion_subspace_of(model, i) * qd_i
+            v_i = sp.motion_from(X_i, v_P) + S_qd
+            if own >= 0:
+                slot_H[own] = pack7(W_H_i)
+                slot_v[own] = v_i
+            f_i, bad = external_force(contacts, terrain, controls, env, i, W_H_i, v_i, K, D, mu, dt, x, y, W_f_C)
             nonfinite = nonfinite + bad
+            c[i] = sp.cross_motion(v_i, S_qd)
+            pU[i] = sp.cross_force(v_i, B.spatial_inertia_of(model, env, i) * v_i) - f_i
+            W_H_prev = W_H_i
+            v_prev = v_i
+        # 2. articulated inertias and bias forces, from the leaves; a link's terms summed into its parent's: the
+        # first child's in registers (the next link of the walk back), the others' in the parent's slot
+        IA_next = sym21()
+        pA_next = sp.vec6(scalar(0.0))
+        for k in range(nl - 1):
+            kk = nl - 1 - k
+            i = walk[kk][0]
+            own = walk[kk][1]
+            up = walk[kk][2]
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
                 X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
             S = B.motion_subspace_of(model, i)
-            v_i = v[i]
-            c_i = sp.cross_motion(v_i, S * qd[i])
-            I_i = B.spatial_inertia_of(model, env, i)
-            IA = I_i + unpack21(IA_sum[i])
-            pA = sp.cross_force(v_i, I_i * v_i) - f_i + pA_sum[i]
-            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, IA, pA, c_i)
-            Ud[i] = Ud_i
+            IA = B.spatial_inertia_of(model, env, i) + unpack21(IA_next)
+            pA = pU[i] + pA_next
+            if own >= 0:
+                IA = IA + unpack21(slot_IA[own])
+                pA = pA + slot_pA[own]
+            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, IA, pA, c[i])
+            pU[i] = Ud_i
             ud[i] = ud_i
-            P = model.parent[i]
-            IA_sum[P] = IA_sum[P] + pack21(inertia_to(X_i, Ia))
-            pA_sum[P] = pA_sum[P] + sp.force_to(X_i, pa)
+            IA_next = pack21(inertia_to(X_i, Ia))
+            pA_next = sp.force_to(X_i, pa)
+            if up >= 0:
+                slot_IA[up] = slot_IA[up] + IA_next
+                slot_pA[up] = slot_pA[up] + pA_next
+                IA_next = sym21()
+                pA_next = sp.vec6(scalar(0.0))
         # 3. accelerations, from the base; the joints integrated (written now: a flagged environment's state is
         # rewritten below)
-        f_0, bad = external_force(contacts, terrain, controls, env, 0, W_H_B, B_v, K, D, mu, dt, x, y, W_f_C)
-        nonfinite = nonfinite + bad
         a0 = -B_a_g
         base = sp.vec6(scalar(0.0))
         if model.floating_base != 0:
-            I0 = B.spatial_inertia_of(model, env, 0)
-            IA0 = I0 + unpack21(IA_sum[0])
-            pA0 = sp.cross_force(B_v, I0 * B_v) - f_0 + pA_sum[0]
+            IA0 = I_0 + unpack21(IA_next)
+            pA0 = p_0 + pA_next
+            own = walk[0][1]
+            if own >= 0:
+                IA0 = IA0 + unpack21(slot_IA[own])
+                pA0 = pA0 + slot_pA[own]
             a0 = -sp.solve_spd6(IA0, pA0)
             base = sp.base_acceleration_from_body(INERTIAL, W_H_B, B_v, a0 + B_a_g)
-        v[0] = a0
-        for i in range(1, nl):
+        own = walk[0][1]
+        if own >= 0:
+            slot_v[own] = a0
+        a_prev = a0
+        for k in range(1, nl):
+            i = walk[k][0]
+            own = walk[k][1]
+            up = walk[k][2]
+            a_P = a_prev
+            if up >= 0:
+                a_P = slot_v[up]
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
                 X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
             S = B.motion_subspace_of(model, i)
-            a_i = sp.motion_from(X_i, v[model.parent[i]]) + sp.cross_motion(v[i], S * qd[i])
-            qdd = ud[i] - wp.dot(Ud[i], a_i)
-            v[i] = a_i + S * qdd
+            a_i = sp.motion_from(X_i, a_P) + c[i]
+            qdd = ud[i] - wp.dot(pU[i], a_i)
+            a_i = a_i + S * qdd
+            if own >= 0:
+                slot_v[own] = a_i
+            a_prev = a_i
             sd_next = qd[i] + dt * qdd
             s_next = x.joint_positions[env, i - 1] + dt * sd_next
             nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)

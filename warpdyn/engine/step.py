@@ -75,6 +75,7 @@ __all__ = [
     "advance",
     "step_launches",
     "fused_applies",
+    "fused_walk",
     "fused_kernel",
     "keeps_joint_transforms",
     "state_buffers",
@@ -97,6 +98,29 @@ def keeps_joint_transforms(device, N: int) -> bool:
     H100 (benchmarks/RESULTS.md): keeping them, the step took 7-11% less time at N = 1, 7% less (float32) or as
     long (float64) at 4096, and 7-12% more at 32768 and 131072."""
     return device.is_cpu or N <= KEEP_JOINT_TRANSFORMS_UP_TO
+
+
+def fused_walk(parent) -> tuple[np.ndarray, int]:
+    """(walk (nL, 3) int32, slots): the links in depth-first order for the fused step (kernels/fused_step.py),
+    the base first and the children of a link in index order, each as (i, its slot, its parent's slot). A link
+    with two children or more has a slot (0, 1, ...; else -1): its first child follows it in the walk and takes
+    what it hands over in registers, the others read and write the slot. The parent's slot is -1 where the
+    parent is the link before i in the walk. parent (nL,): the parent of each link, -1 for the base (link 0)."""
+    parent = [int(p) for p in parent]
+    children = [[] for _ in parent]
+    for i, p in enumerate(parent[1:], start=1):
+        children[p].append(i)
+    order, pending = [], [0]
+    while pending:
+        i = pending.pop()
+        order.append(i)
+        pending.extend(reversed(children[i]))
+    branching = [i for i, c in enumerate(children) if len(c) > 1]
+    slot = {i: k for k, i in enumerate(branching)}
+    walk = [(0, slot.get(0, -1), -1)]
+    for k, i in enumerate(order[1:], start=1):
+        walk.append((i, slot.get(i, -1), -1 if order[k - 1] == parent[i] else slot[parent[i]]))
+    return np.array(walk, dtype=np.int32).reshape(len(parent), 3), len(branching)
 
 
 DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.SemiImplicitEulerSO3: 2.0, IntegratorType.RungeKutta4: 2.785}
@@ -248,7 +272,10 @@ class Plan:
         # gradients; not with gravity compensation
         self.fused = None
         if self.euler and not self.gravcomp:
-            self.fused = functools.partial(fused_step_kernel, s, self.nL, self.integrator == IntegratorType.SemiImplicitEulerSO3)
+            walk, slots = fused_walk(model.tree.parent)
+            self.walk = wp.array(walk, dtype=wp.vec3i, device=d)
+            so3 = self.integrator == IntegratorType.SemiImplicitEulerSO3
+            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(slots, 1), so3)
         self.no_poses = wp.empty((0, 0), dtype=wp.types.transformation(s), device=d)
         self._zeros: dict = {}
 
@@ -487,7 +514,7 @@ def step_launches(
             f_ext = ws.W_f_ext
     if fused_applies(plan, ws):
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
-        args = [plan.model, plan.contact_bundle, plan.terrain, X, controls, plan.dt, plan.quaternion_tolerance, plan.implicit_dt]
+        args = [plan.model, plan.contact_bundle, plan.terrain, X, controls, plan.walk, plan.dt, plan.quaternion_tolerance, plan.implicit_dt]
         outputs = [plan.no_poses, empty_like_input(s, plan.device, 3)]
         if evaluation and plan.contacts:
             outputs = [ws.evals[0].W_H_L, ws.evals[0].W_f_C]
