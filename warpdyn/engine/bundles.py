@@ -14,11 +14,12 @@ import numpy as np
 import warp as wp
 
 from ..kernels.bundles import bundles
-from ..types.parameters import MODEL_ARRAYS
+from ..types.parameters import JOINT_PARAMETERS, LINK_PARAMETERS, MODEL_ARRAYS
 
-__all__ = ["model_bundle", "state_bundle", "controls_bundle", "empty_like_input"]
+__all__ = ["model_bundle", "model_bundle_and_grad", "state_bundle", "controls_bundle", "empty_like_input"]
 
 _PARAMETERS = MODEL_ARRAYS
+_LINK_AND_JOINT = len(LINK_PARAMETERS) + len(JOINT_PARAMETERS)  # MODEL_ARRAYS lists them first
 
 
 def _rows(model, name: str, per_env: dict) -> wp.array:
@@ -54,12 +55,19 @@ def _build_model_bundle(model):
 
 
 def model_bundle(model):
-    """The model's `bundles(scalar).Model`, cached per model version and per gradient arrays of its parameters
-    (the parameters' arrays listed once per version: only a setter, which announces itself, replaces one;
-    their .grad, which marking an array for gradients sets, read at each call)."""
+    """The model's `bundles(scalar).Model` (see `model_bundle_and_grad`)."""
+    return model_bundle_and_grad(model)[0]
+
+
+def model_bundle_and_grad(model) -> tuple:
+    """(the model's `bundles(scalar).Model`, whether a link or joint parameter requires gradients), cached per
+    model version and per gradient arrays of its parameters (the parameters' arrays listed once per version:
+    only a setter, which announces itself, replaces one; their .grad, which marking an array for gradients
+    sets, read at each call). An array requires gradients exactly when it has a .grad (Warp's requires_grad
+    and grad setters keep the two together)."""
     parameters = model.cached("model bundle arrays", lambda: tuple(getattr(model, name) for name in _PARAMETERS))
     grads = tuple(map(_GRAD, parameters))  # the arrays, not their ids: a freed grad's id may come back
-    return model.cached(("model bundle", grads), lambda: _build_model_bundle(model))
+    return model.cached(("model bundle", grads), lambda: (_build_model_bundle(model), any(g is not None for g in grads[:_LINK_AND_JOINT])))
 
 
 _GRAD = operator.attrgetter("grad")

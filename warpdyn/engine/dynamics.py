@@ -41,7 +41,7 @@ from ..kernels.scratch import TRANSFORM
 from ..kernels.state import kernels as state_kernels
 from ..types.data_checks import check_data
 from . import pool, tape, warp_private
-from .bundles import controls_bundle, empty_like_input, model_bundle
+from .bundles import controls_bundle, empty_like_input, model_bundle, model_bundle_and_grad
 from .kinematics import link_poses, state_of
 from .launch import Launch, Recorded, launch, per_thread
 
@@ -218,7 +218,12 @@ def requires_grad(model, data, *inputs) -> bool:
     """Whether the data's state, an input or a link or joint parameter of the model (armature and damping enter
     the dynamics) requires gradients: then outputs and scratch get gradient arrays, so that the adjoint
     reaches them."""
-    if data.requires_grad or model.parameters_require_grad(("link", "joint")):
+    return _requires_grad(model_bundle_and_grad(model)[1], data, inputs)
+
+
+def _requires_grad(parameters: bool, data, inputs) -> bool:
+    """`requires_grad` with the parameters' part given (model_bundle_and_grad's)."""
+    if parameters or data.requires_grad:
         return True
     for x in inputs:
         if isinstance(x, wp.array) and x.requires_grad:
@@ -235,7 +240,8 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
     a_B = _input(model, data, base_acceleration, "base_acceleration", (6,))
     s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,))
     f_L = _input(model, data, link_forces, "link_forces", (nL, 6))
-    grad = requires_grad(model, data, a_B, s_dd, f_L)
+    bundle, parameters_grad = model_bundle_and_grad(model)
+    grad = _requires_grad(parameters_grad, data, (a_B, s_dd, f_L))
     if split:
         out = _Outputs(model, data, [(6,), (n,)], grad, taping)
         f_B, tau = out.args
@@ -255,7 +261,7 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
             out.slot.cache["parts"] = (f_B, tau)
     empty2 = empty_like_input(s, d, 2)
     inputs = [
-        model_bundle(model),
+        bundle,
         state_of(model, data),
         a_B if a_B is not None else empty2,
         s_dd if s_dd is not None else empty2,
@@ -285,9 +291,10 @@ def mass_matrix(model, data) -> wp.array:
     check_data(model, data, parameters=True)
     taping = tape.taping()
     n = model.dofs()
-    grad = requires_grad(model, data)
+    bundle, parameters_grad = model_bundle_and_grad(model)
+    grad = _requires_grad(parameters_grad, data, ())
     out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping)
-    inputs = [model_bundle(model), state_of(model, data), int(data.velocity_representation)]
+    inputs = [bundle, state_of(model, data), int(data.velocity_representation)]
     _launch(model, "crba", data.batch_size, CRBA_RECORD, inputs, out.args, grad, taping)
     return out.user[0]
 
@@ -299,10 +306,11 @@ def forward_dynamics_aba(model, data, joint_forces=None, link_forces=None):
     n, nL = model.dofs(), model.number_of_links()
     tau = _input(model, data, joint_forces, "joint_forces", (n,))
     f_L = _input(model, data, link_forces, "link_forces", (nL, 6))
-    grad = requires_grad(model, data, tau, f_L)
+    bundle, parameters_grad = model_bundle_and_grad(model)
+    grad = _requires_grad(parameters_grad, data, (tau, f_L))
     out = _Outputs(model, data, [(6,), (n,)], grad, taping)
     inputs = [
-        model_bundle(model),
+        bundle,
         state_of(model, data),
         _controls(model, data, tau, f_L),
         int(data.velocity_representation),

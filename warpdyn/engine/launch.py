@@ -15,7 +15,7 @@ from typing import NamedTuple
 import warp as wp
 
 from ..arrays import capture_lock, note_thread, other_threads
-from . import determinism
+from . import determinism, warp_private
 from .loading import block_size, ensure_loaded, for_launch, preload
 from .tape import check_thread
 
@@ -53,7 +53,9 @@ def run(launches, device) -> None:
 class Recorded:
     """A list of launches recorded once (wp.launch(record_cmd=True)) and replayed: a later `run` with the same
     kernels re-packs only the arguments that are not the ones bound last time (new state arrays, new
-    outputs), not the tens of arguments of a step. Outside a tape only: a tape records wp.launch calls.
+    outputs), not the tens of arguments of a step. On the CPU a command runs from an argument struct kept
+    between runs (warp_private.CpuLaunch) where Warp would build one per run. Outside a tape only: a tape
+    records wp.launch calls.
 
     Not thread-safe: one per thread (see `per_thread`).
     """
@@ -77,7 +79,7 @@ class Recorded:
             for item in launches:
                 args = [*item.inputs, *item.outputs]
                 command = launch(item.kernel, item.dim, args, device=device, block_dim=item.block_dim, record_cmd=True)
-                commands.append((command, args, item.dim))
+                commands.append((warp_private.cpu_launch(command) or command, args, item.dim))
         else:
             for (command, bound, dim), item in zip(commands, launches):
                 if dim != item.dim:

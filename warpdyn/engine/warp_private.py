@@ -5,10 +5,14 @@
   paths everywhere (`tape_known()` is False) and refuses what needs it (checkpointed rollouts).
 - `array_descriptor(ptr, shape, strides)`: the launch descriptor of a view of memory (Warp's `array_t`),
   about 1 µs to make where a view object takes ~8 µs on a slow CPU; without it, a view object.
-tests/test_layers.py checks that both are found with the pinned Warp version.
+- `cpu_launch(command)`: a recorded CPU launch run from an argument struct kept between runs (`CpuLaunch`);
+  without what it reads, None, and the command runs as Warp runs it.
+tests/test_layers.py checks that all are found with the pinned Warp version.
 """
 
 from __future__ import annotations
+
+import ctypes
 
 import warp as wp
 
@@ -22,7 +26,12 @@ try:
 except ImportError:  # pragma: no cover - other Warp versions
     _array_t = None
 
-__all__ = ["tape_known", "recording_tape", "set_recording_tape", "descriptor_known", "array_descriptor"]
+try:
+    from warp._src.codegen import Struct as _Struct
+except ImportError:  # pragma: no cover - other Warp versions
+    _Struct = None
+
+__all__ = ["tape_known", "recording_tape", "set_recording_tape", "descriptor_known", "array_descriptor", "CpuLaunch", "cpu_launch"]
 
 
 def tape_known() -> bool:
@@ -50,3 +59,64 @@ def array_descriptor(array: wp.array, shape: tuple, strides: tuple, offset: int 
     if _array_t is None:
         return wp.array(ptr=ptr, shape=shape, strides=strides, dtype=array.dtype, device=array.device)
     return _array_t(ptr, 0, len(shape), shape, strides)
+
+
+class CpuLaunch:
+    """A recorded launch (wp.launch(..., record_cmd=True)) on the CPU, run with one argument struct kept between
+    runs: Warp's Launch.launch builds that struct from the packed parameters at every run, which costs about as
+    much as a dynamics kernel on one environment. It has the methods of Warp's Launch that a replay uses
+    (`kernel`, `set_param_at_index`, `set_dim`, `launch`); a parameter set goes to Warp's launch and to the
+    struct. Struct parameters (kernel bundles) are copied at every run, as Warp does: Warp packs a
+    struct as its live ctype, which assigning a field of the struct changes. While a CPU graph capture records
+    (Warp's APIC capture), a run is Warp's own, which the capture records. One thread at a time."""
+
+    __slots__ = ("command", "_params", "_labels", "_structs", "_args", "_args_ref", "_forward")
+
+    def __init__(self, command, labels: list, structs: list):
+        params = command.params
+        fields = [(label, type(value)) for label, value in zip(labels, params[1:])]
+        self.command, self._params, self._labels, self._structs = command, params, labels, structs
+        self._args = type("LaunchArgs", (ctypes.Structure,), {"_fields_": fields})()
+        for label, value in zip(labels, params[1:]):
+            setattr(self._args, label, value)
+        self._args_ref = ctypes.byref(self._args)
+        self._forward = command.hooks.forward
+
+    @property
+    def kernel(self):
+        return self.command.kernel
+
+    def set_param_at_index(self, index: int, value) -> None:
+        """Bind `value` to the kernel's parameter `index` (inputs, then outputs)."""
+        self.command.set_param_at_index(index, value)
+        setattr(self._args, self._labels[index], self._params[1 + index])
+
+    def set_dim(self, dim) -> None:
+        self.command.set_dim(dim)
+
+    def launch(self) -> None:
+        if _context.runtime._apic_capture is not None:
+            self.command.launch()
+            return
+        args, params = self._args, self._params
+        for label, index in self._structs:
+            setattr(args, label, params[index])
+        self._forward(ctypes.byref(params[0]), self._args_ref)
+
+
+def cpu_launch(command) -> CpuLaunch | None:
+    """A `CpuLaunch` of the recorded launch `command` when it runs on the CPU as one forward call (no adjoint, no
+    blocks of threads) and this Warp version has what CpuLaunch reads; else None."""
+    try:
+        if _context is None or _Struct is None or not command.device.is_cpu or command.adjoint or command.block_dim > 1:
+            return None
+        if not hasattr(_context.runtime, "_apic_capture") or command.hooks.forward is None:
+            return None
+        arguments = command.kernel.adj.args
+        if len(command.params) != 1 + len(arguments):
+            return None
+        labels = [a.label for a in arguments]
+        structs = [(a.label, 1 + i) for i, a in enumerate(arguments) if isinstance(a.type, _Struct)]
+        return CpuLaunch(command, labels, structs)
+    except AttributeError:  # pragma: no cover - other Warp versions
+        return None
