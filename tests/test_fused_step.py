@@ -5,7 +5,9 @@ JaxSim and identities).
 Both compute the same equations in another order (the fused kernel takes a point's velocity from the link's
 velocity in link coordinates, sums a link's contact wrenches before converting them, recomputes the joint
 transforms or keeps them), so they agree to rounding, not bit for bit: to 1e-12 of each quantity's size in
-float64 and 1e-5 in float32, tolerances that leave room for other states and for a GPU's fused multiply-adds.
+float64 and 1e-4 in float32, tolerances that leave room for other states and for a GPU's fused multiply-adds
+(on an H100 the legs' second float32 step differs by 4e-5 of the largest joint velocity, 47 rad/s in an
+environment that the contact drives hard: the articulated terms are summed in another order).
 The health flags must agree exactly. Every test of a step runs both variants of the kernel (the `keep`
 fixture; warpdyn.engine.step.keeps_joint_transforms: the CPU keeps the joint transforms, a GPU keeps them for
 few environments only).
@@ -23,7 +25,7 @@ from warpdyn.engine import step as engine_step
 from warpdyn.types.enums import VelRepr
 
 STATE = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "tangential_deformation_state")
-TOLERANCE = {np.float64: 1e-12, np.float32: 1e-5}
+TOLERANCE = {np.float64: 1e-12, np.float32: 1e-4}
 SO3 = wd.model.IntegratorType.SemiImplicitEulerSO3
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import warp as wp
 
+import robots
 from warpdyn.engine import warp_private
 from warpdyn.engine.launch import Launch, Recorded
 
@@ -24,17 +25,21 @@ def _affine(p: Scale, x: wp.array(dtype=wp.float64), power: int, y: wp.array(dty
     y[i] = p.factor * wp.pow(x[i], wp.float64(power)) + p.offset[0]
 
 
-def _scale(factor: float, offset: float) -> Scale:
+def _scale(factor: float, offset: float, device="cpu") -> Scale:
     p = Scale()
     p.factor = wp.float64(factor)
-    p.offset = wp.array([offset], dtype=wp.float64, device="cpu")
+    p.offset = wp.array([offset], dtype=wp.float64, device=device)
     return p
+
+
+CPU_BACKEND = pytest.mark.skipif(not wp.is_cpu_available(), reason="this Warp build has no CPU backend (LLVM)")
 
 
 def _expected(factor, x, power, offset):
     return factor * x**power + offset
 
 
+@CPU_BACKEND
 def test_a_recorded_cpu_launch_runs_from_a_kept_argument_struct():
     x = wp.array(np.arange(4.0), dtype=wp.float64, device="cpu")
     y = wp.zeros(4, dtype=wp.float64, device="cpu")
@@ -47,33 +52,36 @@ def test_a_recorded_cpu_launch_runs_from_a_kept_argument_struct():
 
 
 def test_replays_follow_rebound_arguments_struct_fields_and_sizes():
-    x1 = wp.array(np.arange(6.0), dtype=wp.float64, device="cpu")
-    x2 = wp.array(np.arange(6.0) + 10.0, dtype=wp.float64, device="cpu")
-    y1, y2 = (wp.zeros(6, dtype=wp.float64, device="cpu") for _ in range(2))
-    p = _scale(2.0, 1.0)
+    """On the tests' device (the CPU's CpuLaunch, or CUDA's packed parameters)."""
+    d = robots.TEST_DEVICE
+    x1 = wp.array(np.arange(6.0), dtype=wp.float64, device=d)
+    x2 = wp.array(np.arange(6.0) + 10.0, dtype=wp.float64, device=d)
+    y1, y2 = (wp.zeros(6, dtype=wp.float64, device=d) for _ in range(2))
+    p = _scale(2.0, 1.0, d)
     recorded = Recorded()
-    recorded.run([Launch(_affine, 6, [p, x1, 2], [y1])], "cpu")
+    recorded.run([Launch(_affine, 6, [p, x1, 2], [y1])], d)
     np.testing.assert_array_equal(y1.numpy(), _expected(2.0, np.arange(6.0), 2, 1.0))
-    assert isinstance(recorded._commands[0][0], warp_private.CpuLaunch)
+    assert isinstance(recorded._commands[0][0], warp_private.CpuLaunch) == wp.get_device(d).is_cpu
     # another input array, another number, another output
-    recorded.run([Launch(_affine, 6, [p, x2, 3], [y2])], "cpu")
+    recorded.run([Launch(_affine, 6, [p, x2, 3], [y2])], d)
     np.testing.assert_array_equal(y2.numpy(), _expected(2.0, np.arange(6.0) + 10.0, 3, 1.0))
     # the struct bound at recording, a field assigned in place: the next replay reads the new values
     p.factor = wp.float64(-0.5)
-    p.offset = wp.array([7.0], dtype=wp.float64, device="cpu")
+    p.offset = wp.array([7.0], dtype=wp.float64, device=d)
     same = [Launch(_affine, 6, [p, x2, 3], [y2])]
-    recorded.run(same, "cpu")
+    recorded.run(same, d)
     np.testing.assert_array_equal(y2.numpy(), _expected(-0.5, np.arange(6.0) + 10.0, 3, 7.0))
     # the same list again (replayed without comparing its arguments), after the struct changed again
     p.factor = wp.float64(4.0)
-    recorded.run(same, "cpu")
+    recorded.run(same, d)
     np.testing.assert_array_equal(y2.numpy(), _expected(4.0, np.arange(6.0) + 10.0, 3, 7.0))
     # a smaller launch: only its first entries are written
-    y3 = wp.full(6, -1.0, dtype=wp.float64, device="cpu")
-    recorded.run([Launch(_affine, 2, [p, x1, 1], [y3])], "cpu")
+    y3 = wp.full(6, -1.0, dtype=wp.float64, device=d)
+    recorded.run([Launch(_affine, 2, [p, x1, 1], [y3])], d)
     np.testing.assert_array_equal(y3.numpy(), [7.0, 11.0, -1.0, -1.0, -1.0, -1.0])
 
 
+@CPU_BACKEND
 def test_a_cpu_graph_capture_records_a_replayed_launch():
     x = wp.array(np.arange(3.0), dtype=wp.float64, device="cpu")
     y = wp.zeros(3, dtype=wp.float64, device="cpu")
@@ -100,11 +108,12 @@ def _adjoint_scale(device) -> Scale:
 def test_launches_that_warp_runs_otherwise_are_left_to_it(case):
     if case == "cuda" and not wp.is_cuda_available():
         pytest.skip("no CUDA device")
+    if case == "adjoint" and not wp.is_cpu_available():
+        pytest.skip("this Warp build has no CPU backend (LLVM)")
     device = "cpu" if case == "adjoint" else "cuda:0"
     x = wp.array(np.arange(3.0), dtype=wp.float64, device=device, requires_grad=True)
     y = wp.zeros(3, dtype=wp.float64, device=device, requires_grad=True)
-    p = _scale(1.0, 0.0)
-    p.offset = wp.array([0.0], dtype=wp.float64, device=device)
+    p = _scale(1.0, 0.0, device)
     command = wp.launch(
         _affine, dim=3, inputs=[p, x, 2], outputs=[y], device=device, record_cmd=True,
         adjoint=case == "adjoint", adj_inputs=[_adjoint_scale(device), x.grad, 0] if case == "adjoint" else None,
