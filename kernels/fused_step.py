@@ -111,7 +111,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
         """One semi-implicit Euler step from x to y with soft contacts and ABA.
 
         walk (nL,): the links in depth-first order, the base first, each as (i, its slot or -1, its parent's
-        slot, or -1 when the parent is the link before it in the walk), warpdyn.engine.step's `fused_walk`.
+        slot, or -1 when the parent is the link before it in the walk), warpdyn.engine.walk's `fused_walk`.
         W_H_L (N, nL): the link poses at x, as kernels/kinematics.py's forward_kinematics writes them, and
         W_f_C (N, P, 6): the Inertial wrench of each enabled point's contact force at x, as
         kernels/soft_contacts.py's point_contact_forces writes it; each when not empty.

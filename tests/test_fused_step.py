@@ -22,6 +22,7 @@ import warp as wp
 import robots
 import warpdyn as wd
 from warpdyn.engine import step as engine_step
+from warpdyn.engine.walk import fused_walk
 from warpdyn.types.enums import VelRepr
 
 STATE = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "tangential_deformation_state")
@@ -191,7 +192,7 @@ def test_models_without_contacts_or_without_a_floating_base(monkeypatch, case):
 def test_random_trees_branching_below_the_base(monkeypatch, seed, fixed_base):
     """Trees whose links have several children anywhere (the walk's slots), floating and fixed bases."""
     model = robots.build(robots.random_tree_urdf(seed, num_links=14, max_depth=4, fixed_base=fixed_base), np.float64, is_urdf=True)
-    _, slots = engine_step.fused_walk(model.tree.parent)
+    _, slots = fused_walk(model.tree.parent)
     assert slots >= 2, "the case is meant to branch below the base"
     data = wd.data.Data.build(model, num_envs=8, **robots.random_state_kwargs(model, np.random.default_rng(seed), 8))
     tau = np.random.default_rng(seed + 1).normal(0.0, 2.0, (8, model.dofs()))
@@ -203,7 +204,7 @@ def test_random_trees_branching_below_the_base(monkeypatch, seed, fixed_base):
 def test_the_whole_ergocub_in_contact(monkeypatch):
     """The whole ergoCub (legs, torso, arms and head: branches below the base) with its points."""
     model = wd.contact.with_collidable_points(robots.ergocub_full_model(np.float64), options=robots.NO_MESH)
-    _, slots = engine_step.fused_walk(model.tree.parent)
+    _, slots = fused_walk(model.tree.parent)
     assert slots >= 3
     data = _standing(model, 8)
     fused, listed = _both(monkeypatch, model, data)
@@ -220,14 +221,14 @@ def test_the_walk_visits_each_link_after_its_parent_and_hands_over_through_slots
     # 2   3   5
     #  \
     #   6
-    walk, slots = engine_step.fused_walk([-1, 0, 1, 1, 0, 4, 2])
+    walk, slots = fused_walk([-1, 0, 1, 1, 0, 4, 2])
     assert slots == 2
     assert walk.tolist() == [[0, 0, -1], [1, 1, -1], [2, -1, -1], [6, -1, -1], [3, -1, 1], [4, -1, 0], [5, -1, -1]]
-    chain, slots = engine_step.fused_walk([-1, 0, 1, 2])
+    chain, slots = fused_walk([-1, 0, 1, 2])
     assert slots == 0 and chain.tolist() == [[0, -1, -1], [1, -1, -1], [2, -1, -1], [3, -1, -1]]
     for seed in range(20):
         parent = [-1] + [int(np.random.default_rng(seed).integers(0, i)) for i in range(1, 12)]
-        walk, slots = engine_step.fused_walk(parent)
+        walk, slots = fused_walk(parent)
         order = walk[:, 0].tolist()
         assert sorted(order) == list(range(12)) and order[0] == 0
         for k in range(1, 12):

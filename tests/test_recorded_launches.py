@@ -114,9 +114,11 @@ def test_launches_that_warp_runs_otherwise_are_left_to_it(case):
     x = wp.array(np.arange(3.0), dtype=wp.float64, device=device, requires_grad=True)
     y = wp.zeros(3, dtype=wp.float64, device=device, requires_grad=True)
     p = _scale(1.0, 0.0, device)
-    command = wp.launch(
-        _affine, dim=3, inputs=[p, x, 2], outputs=[y], device=device, record_cmd=True,
-        adjoint=case == "adjoint", adj_inputs=[_adjoint_scale(device), x.grad, 0] if case == "adjoint" else None,
-        adj_outputs=[y.grad] if case == "adjoint" else None,
-    )  # fmt: skip
+    if case == "adjoint":
+        command = wp.launch(
+            _affine, dim=3, inputs=[p, x, 2], outputs=[y], device=device, record_cmd=True, adjoint=True,
+            adj_inputs=[_adjoint_scale(device), x.grad, 0], adj_outputs=[y.grad],
+        )  # fmt: skip
+    else:
+        command = wp.launch(_affine, dim=3, inputs=[p, x, 2], outputs=[y], device=device, record_cmd=True)
     assert warp_private.cpu_launch(command) is None

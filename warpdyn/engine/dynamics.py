@@ -104,7 +104,7 @@ def _constant(scalar, value: float):
 _CONSTANTS: dict = {}
 
 
-def _input(model, data, value, name: str, per_env: tuple):
+def _input(model, data, value, name: str, per_env: tuple, taping: bool):
     """None for an absent input, else its (N, *per_env) device array (checked: shape, dtype, device, finite).
 
     On the CPU outside a tape and a graph capture, a value that requires no gradient is copied (after the same
@@ -113,7 +113,7 @@ def _input(model, data, value, name: str, per_env: tuple):
     if value is None:
         return None
     device = model.device
-    if device.is_cpu and not (isinstance(value, wp.array) and value.requires_grad) and not tape.taping() and not device.is_capturing:
+    if device.is_cpu and not (isinstance(value, wp.array) and value.requires_grad) and not taping and not device.is_capturing:
         value = arrays.checked_input(value, name, per_env, data.num_envs, model.scalar, device)
         return per_thread(model, ("input buffers", data.batch_size), lambda: _Buffers(model, data.batch_size)).fill(name, per_env, value)
     return arrays.batched_input(value, name, per_env, data.num_envs, model.scalar, device)
@@ -237,9 +237,9 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
     taping = tape.taping()
     n, nL, N = model.dofs(), model.number_of_links(), data.batch_size
     s, d = model.scalar, model.device
-    a_B = _input(model, data, base_acceleration, "base_acceleration", (6,))
-    s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,))
-    f_L = _input(model, data, link_forces, "link_forces", (nL, 6))
+    a_B = _input(model, data, base_acceleration, "base_acceleration", (6,), taping)
+    s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,), taping)
+    f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping)
     bundle, parameters_grad = model_bundle_and_grad(model)
     grad = _requires_grad(parameters_grad, data, (a_B, s_dd, f_L))
     if split:
@@ -304,8 +304,8 @@ def forward_dynamics_aba(model, data, joint_forces=None, link_forces=None):
     check_data(model, data, parameters=True)
     taping = tape.taping()
     n, nL = model.dofs(), model.number_of_links()
-    tau = _input(model, data, joint_forces, "joint_forces", (n,))
-    f_L = _input(model, data, link_forces, "link_forces", (nL, 6))
+    tau = _input(model, data, joint_forces, "joint_forces", (n,), taping)
+    f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping)
     bundle, parameters_grad = model_bundle_and_grad(model)
     grad = _requires_grad(parameters_grad, data, (tau, f_L))
     out = _Outputs(model, data, [(6,), (n,)], grad, taping)
@@ -412,7 +412,7 @@ def actuator_forces(model, data, ctrl) -> wp.array:
     zero), MuJoCo's qfrc_actuator (kernels/actuation.py)."""
     check_data(model, data, parameters=True)
     n, na, N = model.dofs(), model.number_of_actuators(), data.batch_size
-    u = _input(model, data, ctrl if ctrl is not None else np.zeros(na), "ctrl", (na,))
+    u = _input(model, data, ctrl if ctrl is not None else np.zeros(na), "ctrl", (na,), tape.taping())
     grad = requires_grad(model, data, u) or model.parameters_require_grad(("actuator",))
     out = arrays.output((n,), N, model.scalar, model.device, grad)
     if n > 0:

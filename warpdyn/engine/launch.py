@@ -61,7 +61,7 @@ class Recorded:
     """
 
     def __init__(self):
-        self._commands: list | None = None
+        self._commands: list | None = None  # [command, its bound arguments, its dim, the kernel given] per launch
         self._launches = None
 
     def run(self, launches, device) -> None:
@@ -69,21 +69,23 @@ class Recorded:
         replayed without comparing its arguments."""
         commands = self._commands
         if launches is self._launches:
-            for command, _, _ in commands:
-                command.launch()
+            for entry in commands:
+                entry[0].launch()
             return
         self._launches = None
-        if commands is None or len(commands) != len(launches) or any(c[0].kernel is not for_launch(l.kernel) for c, l in zip(commands, launches)):
+        if commands is None or len(commands) != len(launches) or any(c[3] is not l.kernel for c, l in zip(commands, launches)):
             commands = self._commands = []
             preload(launches, device)
             for item in launches:
                 args = [*item.inputs, *item.outputs]
                 command = launch(item.kernel, item.dim, args, device=device, block_dim=item.block_dim, record_cmd=True)
-                commands.append((warp_private.cpu_launch(command) or command, args, item.dim))
+                commands.append([warp_private.cpu_launch(command) or command, args, item.dim, item.kernel])
         else:
-            for (command, bound, dim), item in zip(commands, launches):
-                if dim != item.dim:
+            for entry, item in zip(commands, launches):
+                command, bound = entry[0], entry[1]
+                if entry[2] != item.dim:
                     command.set_dim(item.dim)
+                    entry[2] = item.dim
                 for i, a in enumerate((*item.inputs, *item.outputs)):
                     b = bound[i]
                     if a is b or (type(a) in (int, float) and type(b) is type(a) and a == b):
@@ -91,8 +93,8 @@ class Recorded:
                     command.set_param_at_index(i, a)
                     bound[i] = a
         self._launches = launches
-        for command, _, _ in commands:
-            command.launch()
+        for entry in commands:
+            entry[0].launch()
 
 
 def graphs_allowed(device, use_graph, what: str) -> bool:

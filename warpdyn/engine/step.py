@@ -62,6 +62,7 @@ from . import tape
 from .bundles import controls_bundle, empty_like_input, model_bundle, state_bundle
 from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
+from .walk import fused_walk
 
 __all__ = [
     "DEFORMATION_STABILITY",
@@ -75,7 +76,6 @@ __all__ = [
     "advance",
     "step_launches",
     "fused_applies",
-    "fused_walk",
     "fused_kernel",
     "keeps_joint_transforms",
     "state_buffers",
@@ -95,32 +95,10 @@ def keeps_joint_transforms(device, N: int) -> bool:
     """Whether the fused step of N environments keeps the joint transforms of its first pass for the other two
     (kernels/fused_step.py): on the CPU, where that costs less than recomputing their sines and cosines, and on
     a GPU for up to KEEP_JOINT_TRANSFORMS_UP_TO environments, whose local arrays its caches hold. Measured on an
-    H100 (benchmarks/RESULTS.md): keeping them, the step took 7-11% less time at N = 1, 7% less (float32) or as
-    long (float64) at 4096, and 7-12% more at 32768 and 131072."""
+    H100 (benchmarks/RESULTS.md, round 4): keeping them, the step took 7-11% less time at N = 1, 7% less
+    (float32) or as long (float64) at 4096, and 7-12% more at 32768 and 131072; after round 5's smaller local
+    arrays a probe found the same crossover."""
     return device.is_cpu or N <= KEEP_JOINT_TRANSFORMS_UP_TO
-
-
-def fused_walk(parent) -> tuple[np.ndarray, int]:
-    """(walk (nL, 3) int32, slots): the links in depth-first order for the fused step (kernels/fused_step.py),
-    the base first and the children of a link in index order, each as (i, its slot, its parent's slot). A link
-    with two children or more has a slot (0, 1, ...; else -1): its first child follows it in the walk and takes
-    what it hands over in registers, the others read and write the slot. The parent's slot is -1 where the
-    parent is the link before i in the walk. parent (nL,): the parent of each link, -1 for the base (link 0)."""
-    parent = [int(p) for p in parent]
-    children = [[] for _ in parent]
-    for i, p in enumerate(parent[1:], start=1):
-        children[p].append(i)
-    order, pending = [], [0]
-    while pending:
-        i = pending.pop()
-        order.append(i)
-        pending.extend(reversed(children[i]))
-    branching = [i for i, c in enumerate(children) if len(c) > 1]
-    slot = {i: k for k, i in enumerate(branching)}
-    walk = [(0, slot.get(0, -1), -1)]
-    for k, i in enumerate(order[1:], start=1):
-        walk.append((i, slot.get(i, -1), -1 if order[k - 1] == parent[i] else slot[parent[i]]))
-    return np.array(walk, dtype=np.int32).reshape(len(parent), 3), len(branching)
 
 
 DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.SemiImplicitEulerSO3: 2.0, IntegratorType.RungeKutta4: 2.785}

@@ -31,8 +31,10 @@ def taping() -> bool:
     tape-safe path)."""
     if not known():
         return True
+    if warp_private.recording_tape() is None:
+        return False
     check_thread()
-    return warp_private.recording_tape() is not None
+    return True
 
 
 def check_thread() -> None:

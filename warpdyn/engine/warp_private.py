@@ -34,14 +34,20 @@ except ImportError:  # pragma: no cover - other Warp versions
 __all__ = ["tape_known", "recording_tape", "set_recording_tape", "descriptor_known", "array_descriptor", "CpuLaunch", "cpu_launch"]
 
 
+_tape_found = False
+
+
 def tape_known() -> bool:
-    """Whether this Warp version tells which tape records."""
-    return _context is not None and hasattr(_context.runtime, "tape")
+    """Whether this Warp version tells which tape records (once found, Warp's runtime keeps telling)."""
+    global _tape_found
+    if not _tape_found:
+        _tape_found = _context is not None and hasattr(_context.runtime, "tape")
+    return _tape_found
 
 
 def recording_tape():
     """The wp.Tape recording launches, or None (a Warp version that does not say: see `tape_known`)."""
-    return _context.runtime.tape if tape_known() else None
+    return _context.runtime.tape if _tape_found or tape_known() else None
 
 
 def set_recording_tape(tape) -> None:
