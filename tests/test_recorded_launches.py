@@ -104,17 +104,13 @@ def _adjoint_scale(device) -> Scale:
     return p
 
 
-@pytest.mark.parametrize("case", ["adjoint", "cuda"])
-def test_launches_that_warp_runs_otherwise_are_left_to_it(case):
-    if case == "cuda" and not wp.is_cuda_available():
-        pytest.skip("no CUDA device")
-    if case == "adjoint" and not wp.is_cpu_available():
-        pytest.skip("this Warp build has no CPU backend (LLVM)")
-    device = "cpu" if case == "adjoint" else "cuda:0"
+def test_launches_that_warp_runs_otherwise_are_left_to_it():
+    """An adjoint launch on the CPU (where the tests run on the CPU), a CUDA launch (where they run on a GPU)."""
+    device = robots.TEST_DEVICE
     x = wp.array(np.arange(3.0), dtype=wp.float64, device=device, requires_grad=True)
     y = wp.zeros(3, dtype=wp.float64, device=device, requires_grad=True)
     p = _scale(1.0, 0.0, device)
-    if case == "adjoint":
+    if wp.get_device(device).is_cpu:
         command = wp.launch(
             _affine, dim=3, inputs=[p, x, 2], outputs=[y], device=device, record_cmd=True, adjoint=True,
             adj_inputs=[_adjoint_scale(device), x.grad, 0], adj_outputs=[y.grad],

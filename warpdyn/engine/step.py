@@ -96,8 +96,8 @@ def keeps_joint_transforms(device, N: int) -> bool:
     (kernels/fused_step.py): on the CPU, where that costs less than recomputing their sines and cosines, and on
     a GPU for up to KEEP_JOINT_TRANSFORMS_UP_TO environments, whose local arrays its caches hold. Measured on an
     H100 (benchmarks/RESULTS.md, round 4): keeping them, the step took 7-11% less time at N = 1, 7% less
-    (float32) or as long (float64) at 4096, and 7-12% more at 32768 and 131072; after round 5's smaller local
-    arrays a probe found the same crossover."""
+    (float32) or as long (float64) at 4096, and 7-12% more at 32768 and 131072 (round 5's smaller local arrays
+    were not re-measured by a script in the repository)."""
     return device.is_cpu or N <= KEEP_JOINT_TRANSFORMS_UP_TO
 
 
