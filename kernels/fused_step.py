@@ -14,7 +14,11 @@ order (`walk`), so that most links follow their parent:
    wrote) and gets valid = 0.
 What a link hands to the next link of the walk (its pose and velocity, its articulated terms for its parent,
 its acceleration) stays in registers when that link is its child, the first one; a link with more children
-keeps it in a slot for the others (`walk`). What one pass hands to the next per link (c_i, the bias force
+keeps it in a slot for the others (`walk`). The walk comes in groups of the base's subtrees
+(warpdyn.engine.walk): one thread walks them all, or `lanes` threads of one block walk one group each side
+by side (a latency kernel for few environments: a step's chain of dependent operations is shorter), each
+with the base computed alike, and sum their terms of the base's articulated inertia and bias force, then
+their health checks, through a tile. What one pass hands to the next per link (c_i, the bias force
 then U_i / d_i, u_i / d_i, qd_i: 14 numbers) stays in the thread's local memory instead of arrays in global
 memory, and is read and written once per step; the joint transforms lambda(i)_H_i are either kept from
 pass 1 (7 numbers more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (a sine and a
@@ -40,12 +44,16 @@ from .scratch import SYM66, TRANSFORM, scratch
 from .soft_contacts import kernels as contact_funcs
 from .spatial import INERTIAL, MIXED, spatial
 
+BASE = wp.constant(-2)
+"""In a walk, a link's parent slot when its parent is the base (the first link of a group)."""
+
 
 @functools.cache
-def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: bool):
+def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: bool, lanes: int = 1):
     """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
     sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, keeping the joint transforms of pass 1 for
-    passes 2 and 3 or recomputing them."""
+    passes 2 and 3 or recomputing them; one thread per environment (lanes 1, launched over N), or `lanes`
+    threads per environment, one per group of the walk (launched over (N, lanes) in blocks of `lanes`)."""
     sp = spatial(scalar)
     B = bundles(scalar)
     I = integrator_funcs(scalar)
@@ -54,6 +62,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
     articulated = inertia_funcs(scalar).articulated
     SO3 = wp.constant(int(so3))
     KEEP = keep_joint_transforms
+    LANES = lanes
+    base_terms = wp.types.vector(SYM66 + 6, scalar)
     links6 = wp.types.matrix((links, 6), scalar)
     links7 = wp.types.matrix((links, TRANSFORM), scalar)
     per_link = wp.types.vector(links, scalar)
@@ -92,6 +102,27 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
                 y.tangential_deformation[env, row, a] = m_next
         return sp.force_from(W_H_L, W_f), nonfinite
 
+    @wp.func
+    def join_terms(IA: sym21, pA: sp.vec6):
+        """(IA's 21 numbers then pA's 6): a base's terms as one vector, for a tile."""
+        out = base_terms()
+        for a in range(SYM66):
+            out[a] = IA[a]
+        for a in range(6):
+            out[SYM66 + a] = pA[a]
+        return out
+
+    @wp.func
+    def sym21_of(terms: base_terms):
+        out = sym21()
+        for a in range(SYM66):
+            out[a] = terms[a]
+        return out
+
+    @wp.func
+    def vec6_of(terms: base_terms):
+        return sp.vec6(terms[SYM66], terms[SYM66 + 1], terms[SYM66 + 2], terms[SYM66 + 3], terms[SYM66 + 4], terms[SYM66 + 5])
+
     @wp.kernel(module="unique", module_options={"enable_backward": False})
     def fused_euler_step(
         model: B.Model,
@@ -100,6 +131,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
         x: B.State,
         controls: B.Controls,
         walk: wp.array(dtype=wp.vec3i),
+        starts: wp.array(dtype=wp.int32),
         dt: scalar,
         quaternion_tolerance: scalar,
         implicit_dt: scalar,
@@ -111,14 +143,20 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
         """One semi-implicit Euler step from x to y with soft contacts and ABA.
 
         walk (nL,): the links in depth-first order, the base first, each as (i, its slot or -1, its parent's
-        slot, or -1 when the parent is the link before it in the walk), warpdyn.engine.walk's `fused_walk`.
+        slot, or -1 when the parent is the link before it in the walk, BASE for a group's first link); starts
+        (G + 1,): where each group begins in the walk, then nL (warpdyn.engine.walk's `fused_walk`; G is `lanes`
+        when lanes > 1; a single thread walks the groups one after the other).
         W_H_L (N, nL): the link poses at x, as kernels/kinematics.py's forward_kinematics writes them, and
         W_f_C (N, P, 6): the Inertial wrench of each enabled point's contact force at x, as
         kernels/soft_contacts.py's point_contact_forces writes it; each when not empty.
         controls: the joint forces tau (N, n) (or none) and Inertial link forces (N, nL, 6) (or none).
         implicit_dt: dt for MuJoCo's implicit joint damping in ABA's joint inertia, else 0.
         """
-        env = wp.tid()
+        if wp.static(LANES == 1):
+            env = wp.tid()
+            lane = 0
+        else:
+            env, lane = wp.tid()
         nl = model.parent.shape[0]
         K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
         D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
@@ -135,25 +173,36 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
         slot_v = slots6()  # pass 1: their v_i; pass 3: their a'_i
         slot_IA = slots21()  # the sums of the articulated inertias and bias forces of their children but the first
         slot_pA = slots6()
-        # 1. poses, velocities, external and bias forces, from the base
-        f_0, nonfinite = external_force(contacts, terrain, controls, env, 0, W_H_B, B_v, K, D, mu, dt, x, y, W_f_C)
+        # 1. poses, velocities, external and bias forces, from the base (its own forces in lane 0)
+        f_0 = sp.vec6(scalar(0.0))
+        nonfinite = scalar(0.0)
+        if lane == 0:
+            f_0, nonfinite = external_force(contacts, terrain, controls, env, 0, W_H_B, B_v, K, D, mu, dt, x, y, W_f_C)
+            if W_H_L.shape[0] > 0:
+                W_H_L[env, 0] = W_H_B
         I_0 = B.spatial_inertia_of(model, env, 0)
         p_0 = sp.cross_force(B_v, I_0 * B_v) - f_0
-        if W_H_L.shape[0] > 0:
-            W_H_L[env, 0] = W_H_B
-        own = walk[0][1]
-        if own >= 0:
-            slot_H[own] = pack7(W_H_B)
-            slot_v[own] = B_v
+        base_own = walk[0][1]
+        if base_own >= 0:
+            slot_H[base_own] = pack7(W_H_B)
+            slot_v[base_own] = B_v
         W_H_prev = W_H_B
         v_prev = B_v
-        for k in range(1, nl):
+        first = int(1)
+        last = nl
+        if wp.static(LANES > 1):
+            first = starts[lane]
+            last = starts[lane + 1]
+        for k in range(first, last):
             i = walk[k][0]
             own = walk[k][1]
             up = walk[k][2]
             W_H_P = W_H_prev
             v_P = v_prev
-            if up >= 0:
+            if up == BASE:
+                W_H_P = W_H_B
+                v_P = B_v
+            elif up >= 0:
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
             X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
@@ -179,8 +228,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
         # first child's in registers (the next link of the walk back), the others' in the parent's slot
         IA_next = sym21()
         pA_next = sp.vec6(scalar(0.0))
-        for k in range(nl - 1):
-            kk = nl - 1 - k
+        for k in range(last - first):
+            kk = last - 1 - k
             i = walk[kk][0]
             own = walk[kk][1]
             up = walk[kk][2]
@@ -199,6 +248,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
             ud[i] = ud_i
             IA_next = pack21(inertia_to(X_i, Ia))
             pA_next = sp.force_to(X_i, pa)
+            if up == BASE:
+                up = base_own
             if up >= 0:
                 slot_IA[up] = slot_IA[up] + IA_next
                 slot_pA[up] = slot_pA[up] + pA_next
@@ -206,27 +257,35 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
                 pA_next = sp.vec6(scalar(0.0))
         # 3. accelerations, from the base; the joints integrated (written now: a flagged environment's state is
         # rewritten below)
+        # (the base's terms: its own in lane 0, its children's in the lane that walks them)
+        IA0 = unpack21(IA_next)
+        pA0 = pA_next
+        if base_own >= 0:
+            IA0 = IA0 + unpack21(slot_IA[base_own])
+            pA0 = pA0 + slot_pA[base_own]
+        if lane == 0:
+            IA0 = IA0 + I_0
+            pA0 = pA0 + p_0
+        if wp.static(LANES > 1):
+            summed = wp.tile_extract(wp.tile_sum(wp.tile(join_terms(pack21(IA0), pA0), preserve_type=True)), 0)
+            IA0 = unpack21(sym21_of(summed))
+            pA0 = vec6_of(summed)
         a0 = -B_a_g
         base = sp.vec6(scalar(0.0))
         if model.floating_base != 0:
-            IA0 = I_0 + unpack21(IA_next)
-            pA0 = p_0 + pA_next
-            own = walk[0][1]
-            if own >= 0:
-                IA0 = IA0 + unpack21(slot_IA[own])
-                pA0 = pA0 + slot_pA[own]
             a0 = -sp.solve_spd6(IA0, pA0)
             base = sp.base_acceleration_from_body(INERTIAL, W_H_B, B_v, a0 + B_a_g)
-        own = walk[0][1]
-        if own >= 0:
-            slot_v[own] = a0
+        if base_own >= 0:
+            slot_v[base_own] = a0
         a_prev = a0
-        for k in range(1, nl):
+        for k in range(first, last):
             i = walk[k][0]
             own = walk[k][1]
             up = walk[k][2]
             a_P = a_prev
-            if up >= 0:
+            if up == BASE:
+                a_P = a0
+            elif up >= 0:
                 a_P = slot_v[up]
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
@@ -244,19 +303,23 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
             nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)
             y.joint_velocities[env, i - 1] = sd_next
             y.joint_positions[env, i - 1] = s_next
-        for row in range(x.tangential_deformation.shape[1]):
-            if contacts.row_point[row] < 0:  # a disabled point's deformation does not change
-                for r in range(3):
-                    m_row = x.tangential_deformation[env, row, r]
-                    nonfinite = I.poison(nonfinite, m_row)
-                    y.tangential_deformation[env, row, r] = m_row
-        # 4. the base integrated
-        p_next, pdot_next, omega_next, Q_next, ok = I.euler_base(SO3, dt, quaternion_tolerance, x, env, sp.lin(base), sp.ang(base))
-        ok = ok and wp.isfinite(nonfinite)
-        if ok:
-            I.write_base(env, y, p_next, pdot_next, omega_next, Q_next)
-            y.valid[env] = 1
-        else:
-            I.keep_state(env, x, y)
+        if lane == 0:
+            for row in range(x.tangential_deformation.shape[1]):
+                if contacts.row_point[row] < 0:  # a disabled point's deformation does not change
+                    for r in range(3):
+                        m_row = x.tangential_deformation[env, row, r]
+                        nonfinite = I.poison(nonfinite, m_row)
+                        y.tangential_deformation[env, row, r] = m_row
+        if wp.static(LANES > 1):  # (after every lane's writes)
+            nonfinite = wp.tile_extract(wp.tile_sum(wp.tile(nonfinite)), 0)
+        # 4. the base integrated, in lane 0
+        if lane == 0:
+            p_next, pdot_next, omega_next, Q_next, ok = I.euler_base(SO3, dt, quaternion_tolerance, x, env, sp.lin(base), sp.ang(base))
+            ok = ok and wp.isfinite(nonfinite)
+            if ok:
+                I.write_base(env, y, p_next, pdot_next, omega_next, Q_next)
+                y.valid[env] = 1
+            else:
+                I.keep_state(env, x, y)
 
     return fused_euler_step

@@ -8,9 +8,11 @@ transforms or keeps them), so they agree to rounding, not bit for bit: to 1e-12 
 float64 and 1e-4 in float32, tolerances that leave room for other states and for a GPU's fused multiply-adds
 (on an H100 the legs' second float32 step differs by 4e-5 of the largest joint velocity, 47 rad/s in an
 environment that the contact drives hard: the articulated terms are summed in another order).
-The health flags must agree exactly. Every test of a step runs both variants of the kernel (the `keep`
+The health flags must agree exactly. Every test of a step runs each variant of the kernel (the `keep`
 fixture; warpdyn.engine.step.keeps_joint_transforms: the CPU keeps the joint transforms, a GPU keeps them for
-few environments only).
+few environments only), on one thread per environment and on the lanes of the walk's groups (the `lanes`
+fixture; warpdyn.engine.step.fused_lanes: a GPU's choice for few environments, run on the CPU here as Warp's
+blocks of fibers).
 """
 
 import dataclasses
@@ -23,6 +25,7 @@ import robots
 import warpdyn as wd
 from warpdyn.engine import step as engine_step
 from warpdyn.engine.walk import fused_walk
+from warpdyn.kernels.fused_step import BASE
 from warpdyn.types.enums import VelRepr
 
 STATE = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "tangential_deformation_state")
@@ -34,6 +37,16 @@ SO3 = wd.model.IntegratorType.SemiImplicitEulerSO3
 def keep(request, monkeypatch):
     """Each variant of the fused kernel, whatever the device and N would choose."""
     monkeypatch.setattr(engine_step, "keeps_joint_transforms", lambda device, N: request.param)
+    return request.param
+
+
+@pytest.fixture(params=[False, True], ids=["one thread", "lanes"])
+def lanes(request, monkeypatch):
+    """One thread per environment, or one per group of the model's walk (on the CPU: Warp's blocks of threads,
+    which it runs with wp.config.enable_cpu_blocks only), whatever the device and N would choose."""
+    if request.param:
+        monkeypatch.setattr(wp.config, "enable_cpu_blocks", True)
+    monkeypatch.setattr(engine_step, "fused_lanes", lambda plan, N: plan.lanes if request.param else 1)
     return request.param
 
 
@@ -93,17 +106,20 @@ def _assert_close(fused, listed, dtype, label=""):
         np.testing.assert_allclose(a, b, rtol=0.0, atol=tolerance * scale, err_msg=f"{label} {name}")
 
 
-def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch, keep):
+def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch, keep, lanes):
     model = _legs(np.float64)
     data = _standing(model, 4)
     monkeypatch.setattr(wd.config, "fused_step", True)
     plan, _ = engine_step.prepare(model, data, health=True)
+    assert plan.lanes == 2, "the legs: one group per leg"
     ws = engine_step.Workspace(plan, 4, False, False)
     x, y = engine_step.state_arrays(data), engine_step.state_buffers(plan, 4, False)
-    kernels = [item.kernel for item in engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))]
-    fused = engine_step.fused_kernel(plan, 4)
-    assert kernels == [plan.actuation, fused]
-    assert fused is engine_step.fused_kernel(plan, 4) and fused is not engine_step.plan(model).fused(not keep)
+    launches = engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
+    fused, dim, block_dim = engine_step.fused_kernel(plan, 4)
+    assert [item.kernel for item in launches] == [plan.actuation, fused]
+    assert (launches[1].dim, launches[1].block_dim) == (((4, 2), 2) if lanes else (4, None))
+    assert fused is engine_step.fused_kernel(plan, 4)[0] and fused is not engine_step.plan(model).fused(not keep, 2 if lanes else 1)
+    assert fused is not engine_step.plan(model).fused(keep, 1 if lanes else 2)
     grad_ws = engine_step.Workspace(plan, 4, True, False)
     listed = engine_step.step_launches(plan, grad_ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
     assert fused not in [item.kernel for item in listed] and len(listed) == 7, "with gradients: the launch list"
@@ -112,7 +128,7 @@ def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch, k
     assert fused not in [item.kernel for item in taped], "under a tape: the launch list"
 
 
-@pytest.mark.usefixtures("keep")
+@pytest.mark.usefixtures("keep", "lanes")
 @pytest.mark.parametrize("integrator", [robots.SIE, SO3], ids=["jaxsim_euler", "mujoco_euler"])
 def test_legs_in_contact_with_torques(monkeypatch, dtype, integrator):
     model = _legs(dtype, integrator)
@@ -127,7 +143,7 @@ def test_legs_in_contact_with_torques(monkeypatch, dtype, integrator):
     _assert_close(fused2, listed2, dtype, "second step")
 
 
-@pytest.mark.usefixtures("keep")
+@pytest.mark.usefixtures("keep", "lanes")
 @pytest.mark.parametrize("repr_", [VelRepr.Inertial, VelRepr.Body, VelRepr.Mixed], ids=lambda r: r.name)
 def test_link_forces_in_each_representation(monkeypatch, repr_):
     model = _legs(np.float64)
@@ -137,7 +153,7 @@ def test_link_forces_in_each_representation(monkeypatch, repr_):
     _assert_close(fused, listed, np.float64, repr_.name)
 
 
-@pytest.mark.usefixtures("keep")
+@pytest.mark.usefixtures("keep", "lanes")
 def test_actuators_armature_implicit_damping_and_per_environment_contact_parameters(monkeypatch):
     model = _legs(np.float64)
     model = wd.model.add_actuators(model, "position", kp=300.0, kv=5.0, ctrl_range=(-1.5, 1.5), force_range=(-100.0, 100.0))
@@ -153,7 +169,7 @@ def test_actuators_armature_implicit_damping_and_per_environment_contact_paramet
     _assert_close(fused, listed, np.float64)
 
 
-@pytest.mark.usefixtures("keep")
+@pytest.mark.usefixtures("keep", "lanes")
 def test_heightfield_terrain_and_disabled_points(monkeypatch):
     model = _legs(np.float64)
     count = len(model.kin_dyn_parameters.contact_parameters.body)
@@ -170,7 +186,7 @@ def test_heightfield_terrain_and_disabled_points(monkeypatch):
     np.testing.assert_array_equal(fused.tangential_deformation_state.numpy()[:, ~enabled], m[:, ~enabled])
 
 
-@pytest.mark.usefixtures("keep")
+@pytest.mark.usefixtures("keep", "lanes")
 @pytest.mark.parametrize("case", ["no_points", "fixed_base_chain", "single_body"])
 def test_models_without_contacts_or_without_a_floating_base(monkeypatch, case):
     if case == "no_points":
@@ -187,25 +203,25 @@ def test_models_without_contacts_or_without_a_floating_base(monkeypatch, case):
     _assert_close(fused, listed, np.float64, case)
 
 
-@pytest.mark.usefixtures("keep")
+@pytest.mark.usefixtures("keep", "lanes")
 @pytest.mark.parametrize(("seed", "fixed_base"), [(0, False), (1, False), (0, True)])
 def test_random_trees_branching_below_the_base(monkeypatch, seed, fixed_base):
     """Trees whose links have several children anywhere (the walk's slots), floating and fixed bases."""
     model = robots.build(robots.random_tree_urdf(seed, num_links=14, max_depth=4, fixed_base=fixed_base), np.float64, is_urdf=True)
-    _, slots = fused_walk(model.tree.parent)
-    assert slots >= 2, "the case is meant to branch below the base"
+    walk = fused_walk(model.tree.parent, engine_step.MAX_LANES)
+    assert walk.slots >= 2 and walk.groups >= 2, "the case is meant to branch at the base and below it"
     data = wd.data.Data.build(model, num_envs=8, **robots.random_state_kwargs(model, np.random.default_rng(seed), 8))
     tau = np.random.default_rng(seed + 1).normal(0.0, 2.0, (8, model.dofs()))
     fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
     _assert_close(fused, listed, np.float64, f"tree {seed}")
 
 
-@pytest.mark.usefixtures("keep")
+@pytest.mark.usefixtures("keep", "lanes")
 def test_the_whole_ergocub_in_contact(monkeypatch):
     """The whole ergoCub (legs, torso, arms and head: branches below the base) with its points."""
     model = wd.contact.with_collidable_points(robots.ergocub_full_model(np.float64), options=robots.NO_MESH)
-    _, slots = fused_walk(model.tree.parent)
-    assert slots >= 3
+    walk = fused_walk(model.tree.parent, engine_step.MAX_LANES)
+    assert walk.slots >= 3 and walk.groups == 3, "the base's legs and torso, and branches below"
     data = _standing(model, 8)
     fused, listed = _both(monkeypatch, model, data)
     _assert_close(fused, listed, np.float64)
@@ -221,48 +237,96 @@ def test_the_walk_visits_each_link_after_its_parent_and_hands_over_through_slots
     # 2   3   5
     #  \
     #   6
-    walk, slots = fused_walk([-1, 0, 1, 1, 0, 4, 2])
-    assert slots == 2
-    assert walk.tolist() == [[0, 0, -1], [1, 1, -1], [2, -1, -1], [6, -1, -1], [3, -1, 1], [4, -1, 0], [5, -1, -1]]
-    chain, slots = fused_walk([-1, 0, 1, 2])
-    assert slots == 0 and chain.tolist() == [[0, -1, -1], [1, -1, -1], [2, -1, -1], [3, -1, -1]]
+    walk, starts, slots = fused_walk([-1, 0, 1, 1, 0, 4, 2])
+    assert slots == 2 and starts.tolist() == [1, 7]
+    assert walk.tolist() == [[0, 0, -1], [1, 1, BASE], [2, -1, -1], [6, -1, -1], [3, -1, 1], [4, -1, 0], [5, -1, -1]]
+    walk, starts, slots = fused_walk([-1, 0, 1, 1, 0, 4, 2], 2)  # each subtree of the base in a group of its own
+    assert slots == 2 and starts.tolist() == [1, 5, 7]
+    assert walk.tolist() == [[0, 0, -1], [1, 1, BASE], [2, -1, -1], [6, -1, -1], [3, -1, 1], [4, -1, BASE], [5, -1, -1]]
+    chain = fused_walk([-1, 0, 1, 2], 4)
+    assert chain.slots == 0 and chain.groups == 1 and chain.walk.tolist() == [[0, -1, -1], [1, -1, BASE], [2, -1, -1], [3, -1, -1]]
+    assert fused_walk([-1], 4).starts.tolist() == [1, 1], "a single body: one empty group"
     for seed in range(20):
-        parent = [-1] + [int(np.random.default_rng(seed).integers(0, i)) for i in range(1, 12)]
-        walk, slots = fused_walk(parent)
+        rng = np.random.default_rng(seed)
+        parent = [-1] + [int(rng.integers(0, i)) for i in range(1, 12)]
+        groups = int(rng.integers(1, 5))
+        walk, starts, slots = fused_walk(parent, groups)
         order = walk[:, 0].tolist()
         assert sorted(order) == list(range(12)) and order[0] == 0
+        assert len(starts) - 1 == min(groups, max(1, parent.count(0))) and starts[0] == 1 and starts[-1] == 12
         for k in range(1, 12):
             i, up = order[k], walk[k, 2]
             assert order.index(parent[i]) < k
-            assert (up == -1) == (order[k - 1] == parent[i])
+            if k in starts:
+                assert parent[i] == 0 and up == BASE, "a group begins below the base"
+            else:
+                assert (up == -1) == (order[k - 1] == parent[i])
             if up >= 0:
                 assert walk[order.index(parent[i]), 1] == up
+        group = np.searchsorted(starts, np.arange(1, 12), side="right") - 1
+        for k in range(1, 12):  # a link walks in its parent's group
+            p = order.index(parent[order[k]])
+            if p > 0:
+                assert group[p - 1] == group[k - 1]
 
 
-@pytest.mark.usefixtures("keep")
+def test_the_groups_share_the_work_of_the_base_subtrees():
+    """Largest subtree first, to the group with the least work so far; a link's work counts its points."""
+    #          0
+    #   /   /    \    \
+    #  1   4      6    8
+    #  |   |      |
+    #  2   5      7
+    #  |
+    #  3
+    parent = [-1, 0, 1, 2, 0, 4, 0, 6, 0]
+    walk, starts, _ = fused_walk(parent, 2)
+    groups = [walk[starts[g]:starts[g + 1], 0].tolist() for g in range(2)]
+    assert groups == [[1, 2, 3, 8], [4, 5, 6, 7]], "3 + 1 links against 2 + 2"
+    work = np.ones(9)
+    work[8] = 10.0  # a link with many points
+    walk, starts, _ = fused_walk(parent, 2, work)
+    groups = [walk[starts[g]:starts[g + 1], 0].tolist() for g in range(2)]
+    assert groups == [[8], [1, 2, 3, 4, 5, 6, 7]]
+    assert fused_walk(parent, 8).groups == 4, "no more groups than subtrees"
+
+
+@pytest.mark.usefixtures("keep", "lanes")
 def test_unhealthy_environments_are_flagged_alike_and_keep_their_state(monkeypatch):
     model = _legs(np.float64)
     count = len(model.kin_dyn_parameters.contact_parameters.body)
     enabled = np.arange(count) != 0
     model = wd.contact.with_collidable_points(model, enabled=enabled)
-    data = _standing(model, 6)
-    tau = np.zeros((6, model.dofs()))
+    data = _standing(model, 7)
+    tau = np.zeros((7, model.dofs()))
     tau[1, 3] = np.nan  # a NaN torque
     tau[2, 0] = np.inf  # an infinite torque
-    m = np.zeros((6, count, 3))
+    m = np.zeros((7, count, 3))
     m[3, 0, 1] = np.inf  # a disabled point's deformation: not finite
-    valid = np.ones(6, dtype=np.int32)
+    # in the air, an infinite deformation of a point that the last group walks: its force is 0, its next
+    # deformation NaN, seen by that group's lane only (the lanes sum their checks)
+    plan, _ = engine_step.prepare(model, data, health=True)
+    walk, starts = plan.walk.numpy(), plan.walk_starts.numpy()
+    last_group = walk[starts[-2] : starts[-1], 0]
+    point_links = np.asarray(model.kin_dyn_parameters.contact_parameters.body)
+    row = int(np.flatnonzero(enabled & np.isin(point_links, last_group))[0])
+    m[6, row, 2] = np.inf
+    position = data.base_position.numpy()
+    position[6, 2] += 0.2
+    valid = np.ones(7, dtype=np.int32)
     valid[4] = 0  # already flagged
     data = _with(data, m=m, valid=valid)
+    data = dataclasses.replace(data, base_position_state=wp.array(position, dtype=wp.float64, device=data.device))
     tau = wp.array(tau, dtype=wp.float64, device=data.device)  # a device array: not checked on the host
     fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
-    np.testing.assert_array_equal(fused.valid_state.numpy(), [1, 0, 0, 0, 0, 1])
+    np.testing.assert_array_equal(fused.valid_state.numpy(), [1, 0, 0, 0, 0, 1, 0])
     _assert_close(fused, listed, np.float64)
     for name in STATE:  # a flagged environment keeps its state
         np.testing.assert_array_equal(getattr(fused, name).numpy()[1:5], getattr(data, name).numpy()[1:5], err_msg=name)
+        np.testing.assert_array_equal(getattr(fused, name).numpy()[6], getattr(data, name).numpy()[6], err_msg=name)
 
 
-@pytest.mark.usefixtures("keep")
+@pytest.mark.usefixtures("keep", "lanes")
 def test_a_stepper_reports_the_contact_wrenches_of_its_last_substep(monkeypatch):
     """Stepper.contact_wrenches with the fused step: the wrenches at the start of a call's last step, as the
     launch list's contact kernel wrote them."""

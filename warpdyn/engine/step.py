@@ -77,6 +77,7 @@ __all__ = [
     "step_launches",
     "fused_applies",
     "fused_kernel",
+    "fused_lanes",
     "keeps_joint_transforms",
     "state_buffers",
     "resultant_torques",
@@ -99,6 +100,21 @@ def keeps_joint_transforms(device, N: int) -> bool:
     (float32) or as long (float64) at 4096, and 7-12% more at 32768 and 131072 (round 5's smaller local arrays
     were not re-measured by a script in the repository)."""
     return device.is_cpu or N <= KEEP_JOINT_TRANSFORMS_UP_TO
+
+
+MAX_LANES = 8
+"""The most threads (lanes) that the fused step gives one environment: the groups of its walk (warpdyn.engine.walk)."""
+
+LANES_UP_TO = 1024
+"""The most environments for which the fused step runs one environment on several threads on a GPU (`fused_lanes`)."""
+
+
+def fused_lanes(plan: Plan, N: int) -> int:
+    """The threads (lanes) per environment of the fused step of N environments: on a GPU, for up to LANES_UP_TO
+    environments, one per group of the model's walk (its subtrees below the base walked side by side: a
+    shorter chain of dependent operations per step), else 1. On the CPU 1: Warp runs blocks of threads there
+    only with wp.config.enable_cpu_blocks, as fibers of one core."""
+    return plan.lanes if plan.device.is_cuda and N <= LANES_UP_TO else 1
 
 
 DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.SemiImplicitEulerSO3: 2.0, IntegratorType.RungeKutta4: 2.785}
@@ -239,21 +255,25 @@ class Plan:
         contacts.point_row = wp.array(rows.astype(np.int32), dtype=int, device=d)
         contacts.row_point = wp.array(row_point, dtype=int, device=d)
         contacts.link_first_point = wp.array(first, dtype=int, device=d)
-        contacts.link_point_count = wp.array(np.bincount(links, minlength=self.nL).astype(np.int32), dtype=int, device=d)
+        points_per_link = np.bincount(links, minlength=self.nL).astype(np.int32)
+        contacts.link_point_count = wp.array(points_per_link, dtype=int, device=d)
         contacts.K, contacts.D, contacts.mu = (per_env(getattr(c, k), k, s, d) for k in ("K", "D", "mu"))
         contacts.p, contacts.q = s(c.p), s(c.q)
         self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
         self.terrain = terrain_bundle(model)
         self.no_targets = targets(model, model.all_links[:0], model.identity_offsets[:0])
         self.integrators = integrator_kernels(s)
-        # the fused Euler step (kernels/fused_step.py) by whether it keeps the joint transforms, for steps without
-        # gradients; not with gravity compensation
+        # the fused Euler step (kernels/fused_step.py) by whether it keeps the joint transforms and its lanes, for
+        # steps without gradients; not with gravity compensation. Its walk's groups (the base's subtrees by their
+        # links and points) are its lanes for few environments on a GPU (`fused_lanes`).
         self.fused = None
         if self.euler and not self.gravcomp:
-            walk, slots = fused_walk(model.tree.parent)
-            self.walk = wp.array(walk, dtype=wp.vec3i, device=d)
+            walk = fused_walk(model.tree.parent, MAX_LANES, 1 + points_per_link)
+            self.walk = wp.array(walk.walk, dtype=wp.vec3i, device=d)
+            self.walk_starts = wp.array(walk.starts, dtype=wp.int32, device=d)
+            self.lanes = walk.groups
             so3 = self.integrator == IntegratorType.SemiImplicitEulerSO3
-            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(slots, 1), so3)
+            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(walk.slots, 1), so3)
         self.no_poses = wp.empty((0, 0), dtype=wp.types.transformation(s), device=d)
         self._zeros: dict = {}
 
@@ -455,8 +475,11 @@ def fused_applies(plan: Plan, ws: Workspace) -> bool:
 
 
 def fused_kernel(plan: Plan, N: int):
-    """The fused step's kernel for N environments (`keeps_joint_transforms`)."""
-    return plan.fused(keeps_joint_transforms(plan.device, N))
+    """The fused step's kernel for N environments (`keeps_joint_transforms`, `fused_lanes`), its launch dim and
+    block size (None: warpdyn's)."""
+    lanes = fused_lanes(plan, N)
+    kernel = plan.fused(keeps_joint_transforms(plan.device, N), lanes)
+    return (kernel, N, None) if lanes == 1 else (kernel, (N, lanes), lanes)
 
 
 def step_launches(
@@ -492,11 +515,12 @@ def step_launches(
             f_ext = ws.W_f_ext
     if fused_applies(plan, ws):
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
-        args = [plan.model, plan.contact_bundle, plan.terrain, X, controls, plan.walk, plan.dt, plan.quaternion_tolerance, plan.implicit_dt]
+        args = [plan.model, plan.contact_bundle, plan.terrain, X, controls, plan.walk, plan.walk_starts, plan.dt, plan.quaternion_tolerance, plan.implicit_dt]
         outputs = [plan.no_poses, empty_like_input(s, plan.device, 3)]
         if evaluation and plan.contacts:
             outputs = [ws.evals[0].W_H_L, ws.evals[0].W_f_C]
-        launches.append(Launch(fused_kernel(plan, N), N, args, [Y, *outputs]))
+        kernel, dim, block_dim = fused_kernel(plan, N)
+        launches.append(Launch(kernel, dim, args, [Y, *outputs], block_dim))
         return launches
     K = plan.integrators
     ev = ws.evals[0]
