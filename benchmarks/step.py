@@ -2,7 +2,7 @@
 
     python benchmarks/step.py [--device cuda:0] [--max-envs 65536 | --sizes 1,256,4096]
                               [--dtypes float32,float64] [--robots legs,legs-no-contacts,legs-actuated,arm]
-                              [--repeats 10] [--fresh-cache] [--block-dims 64,256] [--fused on,off]
+                              [--repeats 10] [--fresh-cache] [--block-dims 64,256] [--fused on,off,one,groups]
 
 Robots:
 - legs: the seed's ergoCub legs (12 joints, 13 links) with its 32 collidable points (the ankle boxes),
@@ -21,9 +21,10 @@ Each row times, after a warm-up (compilation, graph capture) and synchronising a
   run divided by T (the run's initial copies included);
 - eager: the same rollout with use_graph=False (one Python launch per kernel).
 env-steps/s = N / (seconds per step). --block-dims repeats each row with each CUDA block size
-(warpdyn.config.cuda_block_dim; default: the configured one), --fused with the fused Euler step on and off
-(warpdyn.config.fused_step; default: the configured one). Prints the header (device, versions) and a
-Markdown table.
+(warpdyn.config.cuda_block_dim; default: the configured one), --fused with the fused Euler step on (its
+threads per environment chosen by N and device), off, or on with one thread per environment (one) or one
+per group of the model's walk (groups) (warpdyn.config.fused_step and .fused_lanes; default: the configured
+ones). Prints the header (device, versions) and a Markdown table.
 """
 
 from __future__ import annotations
@@ -36,6 +37,9 @@ import warp as wp
 
 import warpdyn as wd
 from common import header, median_time, np_dtype, seed_model, sizes
+
+FUSED = {"on": (True, None), "off": (False, None), "one": (True, False), "groups": (True, True)}
+"""--fused's settings: (warpdyn.config.fused_step, warpdyn.config.fused_lanes)."""
 
 ARM_JOINTS = ("torso_pitch", "torso_roll", "torso_yaw", "l_shoulder_pitch", "l_shoulder_roll", "l_shoulder_yaw", "l_elbow", "l_wrist_prosup", "l_wrist_pitch", "l_wrist_yaw")
 
@@ -131,7 +135,7 @@ def main() -> None:
     parser.add_argument("--no-eager", action="store_true", help="skip the eager rollout column")
     parser.add_argument("--fresh-cache", action="store_true", help="compile into an empty kernel cache")
     parser.add_argument("--block-dims", default=None, help="comma-separated CUDA threads per block (default: warpdyn.config.cuda_block_dim)")
-    parser.add_argument("--fused", default=None, help="on, off or on,off: warpdyn.config.fused_step (default: the configured one)")
+    parser.add_argument("--fused", default=None, help="comma-separated on, off, one, groups: warpdyn.config.fused_step and .fused_lanes (default: the configured ones)")
     args = parser.parse_args()
     if args.fresh_cache:
         from common import init_warp
@@ -148,7 +152,8 @@ def main() -> None:
     print(header(device))
     print()
     blocks = [int(b) for b in args.block_dims.split(",")] if args.block_dims else [wd.config.cuda_block_dim]
-    fused_settings = [{"on": True, "off": False}[f] for f in args.fused.split(",")] if args.fused else [wd.config.fused_step]
+    current = next((k for k, v in FUSED.items() if v == (wd.config.fused_step, wd.config.fused_lanes)), "on")
+    fused_settings = args.fused.split(",") if args.fused else [current]
     print("| robot | dtype | N | CUDA block | fused | step [ms] | step env-steps/s | rollout T | rollout per step [ms] | rollout env-steps/s | eager per step [ms] |")
     print("| --- | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
     summary = {}
@@ -159,8 +164,8 @@ def main() -> None:
             control, width, scale = ("ctrl", model.number_of_actuators(), 0.1) if model.number_of_actuators() else ("joint_force_references", model.dofs(), 1.0)
             for N, block, fused in ((N, b, f) for N in Ns for b in blocks for f in fused_settings):
                 wd.config.cuda_block_dim = block
-                if fused != wd.config.fused_step:
-                    wd.config.fused_step = fused
+                if FUSED[fused] != (wd.config.fused_step, wd.config.fused_lanes):
+                    wd.config.fused_step, wd.config.fused_lanes = FUSED[fused]
                     model.notify_model_changed()  # a new model version: `step` builds its launches and graphs again
                 data = initial_data(model, N, standing)
                 rng = np.random.default_rng(1)
@@ -180,7 +185,7 @@ def main() -> None:
                     eager = f"{eager_s * 1e3:.4g}"
                 summary[(label, dtype_name, N, block, fused)] = (step_s, roll_s)
                 print(
-                    f"| {label} | {dtype_name} | {N} | {block if device.is_cuda else '-'} | {'on' if fused else 'off'} | {step_s * 1e3:.4g} | {N / step_s:.3g} | {T} | {roll_s * 1e3:.4g} | "
+                    f"| {label} | {dtype_name} | {N} | {block if device.is_cuda else '-'} | {fused} | {step_s * 1e3:.4g} | {N / step_s:.3g} | {T} | {roll_s * 1e3:.4g} | "
                     f"{N / roll_s:.3g} | {eager} |",
                     flush=True,
                 )
@@ -198,7 +203,7 @@ def ratios(summary: dict, title: str, rows: list, is_baseline) -> None:
         other = [k for k in summary if is_baseline(k) and k[1:] == (dtype_name, N, block, fused)]
         if other:
             a, b = summary[(label, dtype_name, N, block, fused)][1], summary[other[0]][1]
-            lines.append(f"- {dtype_name}, N = {N}, block {block}, fused {'on' if fused else 'off'}: {a * 1e3:.4g} / {b * 1e3:.4g} ms = {a / b:.2f}")
+            lines.append(f"- {dtype_name}, N = {N}, block {block}, fused {fused}: {a * 1e3:.4g} / {b * 1e3:.4g} ms = {a / b:.2f}")
     if lines:
         print()
         print(title)

@@ -88,8 +88,10 @@ def mujoco_terms(scalar, with_passive: bool, per_joint: int):
 
 
 @functools.cache
-def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
-    """The step's joint forces; per_joint: the most actuators on one joint (0: no actuator code)."""
+def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
+    """The wp.func giving the step's force on joint j [N m or N] at (s, sdot) from its reference tau_ref_j and
+    the actuators' controls ctrl (N, na) (the module docstring's tau); per_joint: the most actuators on one
+    joint (0: no actuator code). The actuation kernel and the fused step (kernels/fused_step.py) call it."""
     B = bundles(scalar)
     clip, _ = functions(scalar, max(per_joint, 1))
     mujoco_joint_force = mujoco_terms(scalar, with_passive, per_joint)
@@ -97,24 +99,11 @@ def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = 
     FRICTION = wp.constant(with_friction)
     MUJOCO = wp.constant(with_passive or per_joint > 0)
 
-    @wp.kernel(module="unique")
-    def resultant_torques(
-        model: B.Model,
-        torque_max: scalar,
-        omega_th: scalar,
-        omega_max: scalar,
-        state: B.State,
-        tau_ref: wp.array2d(dtype=scalar),
-        ctrl: wp.array2d(dtype=scalar),
-        # outputs
-        tau: wp.array2d(dtype=scalar),
+    @wp.func
+    def resultant_torque(
+        model: B.Model, torque_max: scalar, omega_th: scalar, omega_max: scalar, env: int, j: int, s: scalar, sd: scalar, tau_ref_j: scalar, ctrl: wp.array2d(dtype=scalar)
     ):
-        """tau (N, n) from the references tau_ref (N, n) and the actuators' controls ctrl (N, na); launched over
-        (N, n). The model's parameters are shared or per environment (kernels/bundles.py)."""
-        env, j = wp.tid()
-        s = state.joint_positions[env, j]
-        sd = state.joint_velocities[env, j]
-        total = tau_ref[env, j]
+        total = tau_ref_j
         if FRICTION:
             sign = scalar(0.0)
             if sd > scalar(0.0):
@@ -137,7 +126,35 @@ def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = 
         out = clip(total, -limit, limit)
         if MUJOCO:
             out = out + mujoco_joint_force(model, env, j, s, sd, ctrl)
-        tau[env, j] = out
+        return out
+
+    return resultant_torque
+
+
+@functools.cache
+def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
+    """The step's joint forces (`joint_force`) as a kernel over (N, n)."""
+    B = bundles(scalar)
+    resultant_torque = joint_force(scalar, with_limits, with_friction, with_passive, per_joint)
+
+    @wp.kernel(module="unique")
+    def resultant_torques(
+        model: B.Model,
+        torque_max: scalar,
+        omega_th: scalar,
+        omega_max: scalar,
+        state: B.State,
+        tau_ref: wp.array2d(dtype=scalar),
+        ctrl: wp.array2d(dtype=scalar),
+        # outputs
+        tau: wp.array2d(dtype=scalar),
+    ):
+        """tau (N, n) from the references tau_ref (N, n) and the actuators' controls ctrl (N, na); launched over
+        (N, n). The model's parameters are shared or per environment (kernels/bundles.py)."""
+        env, j = wp.tid()
+        s = state.joint_positions[env, j]
+        sd = state.joint_velocities[env, j]
+        tau[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, s, sd, tau_ref[env, j], ctrl)
 
     return resultant_torques
 

@@ -1,10 +1,11 @@
 """A semi-implicit Euler step in one kernel, for launches that no tape records.
 
-One thread per environment runs what warpdyn.engine.step otherwise launches as five to seven kernels (FK,
-link velocities, the contact forces of the points and their sums per link, ABA, the integrator), from the
-state x and the joint forces tau (the actuation kernel's, launched before). It walks the tree in depth-first
-order (`walk`), so that most links follow their parent:
-1. from the base: the link poses W_H_i and velocities v_i (link coordinates); the external force f_i on each
+One thread per environment runs what warpdyn.engine.step otherwise launches as six to eight kernels (the
+joint forces, FK, link velocities, the contact forces of the points and their sums per link, ABA, the
+integrator), from the state x. It walks the tree in depth-first order (`walk`), so that most links follow
+their parent:
+1. from the base: the link poses W_H_i and velocities v_i (link coordinates); the joint forces tau_i
+   (kernels/actuation.py's `joint_force`, written to the controls' joint forces); the external force f_i on each
    link (the contact forces of its enabled points, kernels/soft_contacts.py's `point_wrench`, plus the given
    Inertial link force), the tangential deformation integrated, m+ = m + dt m_dot; c_i and the bias
    force v_i x* I_i v_i - f_i (kernels/aba.py: the same equations);
@@ -15,7 +16,7 @@ order (`walk`), so that most links follow their parent:
 What a link hands to the next link of the walk (its pose and velocity, its articulated terms for its parent,
 its acceleration) stays in registers when that link is its child, the first one; a link with more children
 keeps it in a slot for the others (`walk`). The walk comes in groups of the base's subtrees
-(warpdyn.engine.walk): one thread walks them all, or `lanes` threads of one block walk one group each side
+(warpdyn.engine.fused_layout): one thread walks them all, or `lanes` threads of one block walk one group each side
 by side (a latency kernel for few environments: a step's chain of dependent operations is shorter), each
 with the base computed alike, and sum their terms of the base's articulated inertia and bias force, then
 their health checks, through a tile. What one pass hands to the next per link (c_i, the bias force
@@ -38,6 +39,7 @@ import functools
 import warp as wp
 
 from .aba import inertia_funcs
+from .actuation import joint_force
 from .bundles import bundles
 from .integrators import kernels as integrator_funcs
 from .scratch import SYM66, TRANSFORM, scratch
@@ -49,9 +51,10 @@ BASE = wp.constant(-2)
 
 
 @functools.cache
-def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: bool, lanes: int = 1):
+def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, keep_joint_transforms: bool, lanes: int = 1):
     """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
-    sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, keeping the joint transforms of pass 1 for
+    sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, the joint forces of kernels/actuation.py's
+    `joint_force(scalar, *actuation)` (None: a model without joints), keeping the joint transforms of pass 1 for
     passes 2 and 3 or recomputing them; one thread per environment (lanes 1, launched over N), or `lanes`
     threads per environment, one per group of the walk (launched over (N, lanes) in blocks of `lanes`)."""
     sp = spatial(scalar)
@@ -62,6 +65,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
     articulated = inertia_funcs(scalar).articulated
     SO3 = wp.constant(int(so3))
     KEEP = keep_joint_transforms
+    ACTUATED = actuation is not None
+    resultant_torque = joint_force(scalar, *(actuation or (False, False)))
     LANES = lanes
     base_terms = wp.types.vector(SYM66 + 6, scalar)
     links6 = wp.types.matrix((links, 6), scalar)
@@ -130,6 +135,11 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
         terrain: B.Terrain,
         x: B.State,
         controls: B.Controls,
+        torque_max: scalar,
+        omega_th: scalar,
+        omega_max: scalar,
+        tau_ref: wp.array2d(dtype=scalar),
+        ctrl: wp.array2d(dtype=scalar),
         walk: wp.array(dtype=wp.vec3i),
         starts: wp.array(dtype=wp.int32),
         dt: scalar,
@@ -144,12 +154,14 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
 
         walk (nL,): the links in depth-first order, the base first, each as (i, its slot or -1, its parent's
         slot, or -1 when the parent is the link before it in the walk, BASE for a group's first link); starts
-        (G + 1,): where each group begins in the walk, then nL (warpdyn.engine.walk's `fused_walk`; G is `lanes`
+        (G + 1,): where each group begins in the walk, then nL (warpdyn.engine.fused_layout's `fused_walk`; G is `lanes`
         when lanes > 1; a single thread walks the groups one after the other).
         W_H_L (N, nL): the link poses at x, as kernels/kinematics.py's forward_kinematics writes them, and
         W_f_C (N, P, 6): the Inertial wrench of each enabled point's contact force at x, as
         kernels/soft_contacts.py's point_contact_forces writes it; each when not empty.
-        controls: the joint forces tau (N, n) (or none) and Inertial link forces (N, nL, 6) (or none).
+        controls: the joint forces tau (N, n), an output (none without joints), and the Inertial link forces
+        (N, nL, 6) (or none); tau from the joint force references tau_ref (N, n), the actuators' controls ctrl
+        (N, na) and the torque-speed curve (torque_max, omega_th, omega_max), as the actuation kernel's.
         implicit_dt: dt for MuJoCo's implicit joint damping in ABA's joint inertia, else 0.
         """
         if wp.static(LANES == 1):
@@ -205,7 +217,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
             elif up >= 0:
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
-            X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
+            s_i = x.joint_positions[env, i - 1]
+            X_i = B.joint_transform(model, i, s_i)
             if wp.static(KEEP):
                 X[i] = pack7(X_i)
             W_H_i = W_H_P * X_i
@@ -213,6 +226,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, keep_joint_transforms: boo
                 W_H_L[env, i] = W_H_i
             qd_i = x.joint_velocities[env, i - 1]
             qd[i] = qd_i
+            if wp.static(ACTUATED):
+                j = i - 1
+                controls.joint_forces[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, s_i, qd_i, tau_ref[env, j], ctrl)
             S_qd = B.motion_subspace_of(model, i) * qd_i
             v_i = sp.motion_from(X_i, v_P) + S_qd
             if own >= 0:

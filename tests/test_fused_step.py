@@ -9,10 +9,10 @@ float64 and 1e-4 in float32, tolerances that leave room for other states and for
 (on an H100 the legs' second float32 step differs by 4e-5 of the largest joint velocity, 47 rad/s in an
 environment that the contact drives hard: the articulated terms are summed in another order).
 The health flags must agree exactly. Every test of a step runs each variant of the kernel (the `keep`
-fixture; warpdyn.engine.step.keeps_joint_transforms: the CPU keeps the joint transforms, a GPU keeps them for
+fixture; warpdyn.engine.fused_layout.keeps_joint_transforms: the CPU keeps the joint transforms, a GPU keeps them for
 few environments only), on one thread per environment and on the lanes of the walk's groups (the `lanes`
-fixture; warpdyn.engine.step.fused_lanes: a GPU's choice for few environments, run on the CPU here as Warp's
-blocks of fibers).
+fixture, warpdyn.config.fused_lanes; warpdyn.engine.fused_layout.fused_lanes: a GPU's choice for few environments,
+run on the CPU here as Warp's blocks of fibers).
 """
 
 import dataclasses
@@ -23,8 +23,10 @@ import warp as wp
 
 import robots
 import warpdyn as wd
+from warpdyn.engine import launch
 from warpdyn.engine import step as engine_step
-from warpdyn.engine.walk import fused_walk
+from warpdyn.engine import fused_layout
+from warpdyn.engine.fused_layout import fused_walk
 from warpdyn.kernels.fused_step import BASE
 from warpdyn.types.enums import VelRepr
 
@@ -36,7 +38,7 @@ SO3 = wd.model.IntegratorType.SemiImplicitEulerSO3
 @pytest.fixture(params=[True, False], ids=["kept transforms", "recomputed transforms"])
 def keep(request, monkeypatch):
     """Each variant of the fused kernel, whatever the device and N would choose."""
-    monkeypatch.setattr(engine_step, "keeps_joint_transforms", lambda device, N: request.param)
+    monkeypatch.setattr(fused_layout, "keeps_joint_transforms", lambda device, N: request.param)
     return request.param
 
 
@@ -44,9 +46,8 @@ def keep(request, monkeypatch):
 def lanes(request, monkeypatch):
     """One thread per environment, or one per group of the model's walk (on the CPU: Warp's blocks of threads,
     which it runs with wp.config.enable_cpu_blocks only), whatever the device and N would choose."""
-    if request.param:
-        monkeypatch.setattr(wp.config, "enable_cpu_blocks", True)
-    monkeypatch.setattr(engine_step, "fused_lanes", lambda plan, N: plan.lanes if request.param else 1)
+    monkeypatch.setattr(wp.config, "enable_cpu_blocks", request.param)
+    monkeypatch.setattr(wd.config, "fused_lanes", request.param)
     return request.param
 
 
@@ -116,8 +117,8 @@ def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch, k
     x, y = engine_step.state_arrays(data), engine_step.state_buffers(plan, 4, False)
     launches = engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
     fused, dim, block_dim = engine_step.fused_kernel(plan, 4)
-    assert [item.kernel for item in launches] == [plan.actuation, fused]
-    assert (launches[1].dim, launches[1].block_dim) == (((4, 2), 2) if lanes else (4, None))
+    assert [item.kernel for item in launches] == [fused], "the joint forces in the fused kernel"
+    assert (launches[0].dim, launches[0].block_dim) == (((4, 2), 2) if lanes else (4, None))
     assert fused is engine_step.fused_kernel(plan, 4)[0] and fused is not engine_step.plan(model).fused(not keep, 2 if lanes else 1)
     assert fused is not engine_step.plan(model).fused(keep, 1 if lanes else 2)
     grad_ws = engine_step.Workspace(plan, 4, True, False)
@@ -170,6 +171,40 @@ def test_actuators_armature_implicit_damping_and_per_environment_contact_paramet
 
 
 @pytest.mark.usefixtures("keep", "lanes")
+def test_friction_limit_springs_and_the_torque_speed_curve(monkeypatch):
+    """JaxSim's joint forces, computed in the fused kernel, with each term active somewhere in the batch: joints
+    beyond their limits, static and viscous friction, references clipped by the torque-speed curve. The
+    applied torques it writes are the actuation kernel's."""
+    model = _legs(np.float64)
+    n, N = model.dofs(), 16
+    rng = np.random.default_rng(7)
+    model.set_joint_parameters(
+        limit_spring=rng.uniform(50.0, 500.0, n), limit_damper=rng.uniform(0.0, 0.2, n), friction_static=rng.uniform(0.0, 5.0, n), friction_viscous=rng.uniform(0.0, 2.0, n)
+    )
+    model.actuation_params = wd.model.ActuationParams(torque_max=40.0, omega_th=0.5, omega_max=2.0)
+    data = _standing(model, N, spread=2.0)
+    lower, upper = wd.joint.position_limits(model)
+    s = data.joint_positions.numpy()
+    s[: N // 2] = np.where(rng.random((N // 2, n)) < 0.5, lower - 0.05, upper + 0.05)  # beyond a limit
+    data = dataclasses.replace(data, joint_positions_state=wp.array(s, dtype=wp.float64, device=data.device))
+    tau = rng.uniform(-80.0, 80.0, (N, n))
+    plan, _ = engine_step.prepare(model, data, health=True)
+    assert plan.with_limits and plan.with_friction
+    applied = []
+    for fused in (True, False):
+        monkeypatch.setattr(wd.config, "fused_step", fused)
+        ws = engine_step.Workspace(plan, N, False, False)
+        x, y = engine_step.state_arrays(data), engine_step.state_buffers(plan, N, False)
+        tau_ref = wp.array(tau, dtype=wp.float64, device=data.device)
+        launch.run(engine_step.step_launches(plan, ws, x, y, tau_ref, None, int(data.velocity_representation)), plan.device)
+        applied.append(ws.tau.numpy())
+    assert (np.abs(applied[1]) == 40.0).any() and (np.abs(applied[1]) < 40.0).any(), "clipped and not"
+    np.testing.assert_array_equal(applied[0], applied[1])
+    fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
+    _assert_close(fused, listed, np.float64)
+
+
+@pytest.mark.usefixtures("keep", "lanes")
 def test_heightfield_terrain_and_disabled_points(monkeypatch):
     model = _legs(np.float64)
     count = len(model.kin_dyn_parameters.contact_parameters.body)
@@ -208,7 +243,7 @@ def test_models_without_contacts_or_without_a_floating_base(monkeypatch, case):
 def test_random_trees_branching_below_the_base(monkeypatch, seed, fixed_base):
     """Trees whose links have several children anywhere (the walk's slots), floating and fixed bases."""
     model = robots.build(robots.random_tree_urdf(seed, num_links=14, max_depth=4, fixed_base=fixed_base), np.float64, is_urdf=True)
-    walk = fused_walk(model.tree.parent, engine_step.MAX_LANES)
+    walk = fused_walk(model.tree.parent, fused_layout.MAX_LANES)
     assert walk.slots >= 2 and walk.groups >= 2, "the case is meant to branch at the base and below it"
     data = wd.data.Data.build(model, num_envs=8, **robots.random_state_kwargs(model, np.random.default_rng(seed), 8))
     tau = np.random.default_rng(seed + 1).normal(0.0, 2.0, (8, model.dofs()))
@@ -220,7 +255,7 @@ def test_random_trees_branching_below_the_base(monkeypatch, seed, fixed_base):
 def test_the_whole_ergocub_in_contact(monkeypatch):
     """The whole ergoCub (legs, torso, arms and head: branches below the base) with its points."""
     model = wd.contact.with_collidable_points(robots.ergocub_full_model(np.float64), options=robots.NO_MESH)
-    walk = fused_walk(model.tree.parent, engine_step.MAX_LANES)
+    walk = fused_walk(model.tree.parent, fused_layout.MAX_LANES)
     assert walk.slots >= 3 and walk.groups == 3, "the base's legs and torso, and branches below"
     data = _standing(model, 8)
     fused, listed = _both(monkeypatch, model, data)
@@ -344,15 +379,40 @@ def test_a_stepper_reports_the_contact_wrenches_of_its_last_substep(monkeypatch)
     _assert_close(data_fused, data_listed, np.float64, "after 3 substeps")
 
 
-def test_the_setting_is_a_bool():
+def test_the_settings_are_checked():
     with pytest.raises(TypeError, match="fused_step"):
         wd.config.fused_step = 1
+    with pytest.raises(TypeError, match="fused_lanes"):
+        wd.config.fused_lanes = "auto"
+
+
+def test_which_devices_sizes_and_settings_give_lanes(monkeypatch):
+    """By default a GPU's groups up to LANES_UP_TO environments (by the scalar's size), one thread beyond and
+    on the CPU; True forces the groups, on the CPU only with Warp's CPU blocks; False one thread."""
+    gpu = type("GPU", (), {"is_cpu": False, "is_cuda": True})()
+    for dtype, size in ((np.float32, 4), (np.float64, 8)):
+        plan, _ = engine_step.prepare(_legs(dtype), _standing(_legs(dtype), 1), health=True)
+        limit = fused_layout.LANES_UP_TO[size]
+        assert fused_layout.fused_lanes(plan, 1) == 1, "the CPU"
+        on_gpu = type("Plan", (), {"device": gpu, "lanes": plan.lanes, "scalar": plan.scalar})()
+        assert fused_layout.fused_lanes(on_gpu, 1) == fused_layout.fused_lanes(on_gpu, limit) == 2
+        assert fused_layout.fused_lanes(on_gpu, limit + 1) == 1
+        monkeypatch.setattr(wd.config, "fused_lanes", False)
+        assert fused_layout.fused_lanes(on_gpu, 1) == 1
+        monkeypatch.setattr(wd.config, "fused_lanes", True)
+        assert fused_layout.fused_lanes(on_gpu, 10 * limit) == 2
+        monkeypatch.setattr(wp.config, "enable_cpu_blocks", False)
+        with pytest.raises(RuntimeError, match="enable_cpu_blocks"):
+            fused_layout.fused_lanes(plan, 1)
+        monkeypatch.setattr(wp.config, "enable_cpu_blocks", True)
+        assert fused_layout.fused_lanes(plan, 1) == 2
+        monkeypatch.setattr(wd.config, "fused_lanes", None)
 
 
 def test_which_devices_and_sizes_keep_the_joint_transforms():
     """The CPU keeps them at any N; a GPU up to KEEP_JOINT_TRANSFORMS_UP_TO environments (the `keep` fixture
     replaces this rule in the tests of the step)."""
-    rule, limit = engine_step.keeps_joint_transforms, engine_step.KEEP_JOINT_TRANSFORMS_UP_TO
+    rule, limit = fused_layout.keeps_joint_transforms, fused_layout.KEEP_JOINT_TRANSFORMS_UP_TO
     cpu = wp.get_device("cpu")
     gpu = type("GPU", (), {"is_cpu": False, "is_cuda": True})()
     assert rule(cpu, 1) and rule(cpu, 10 * limit)

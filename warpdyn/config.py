@@ -17,6 +17,11 @@
   (kernels/fused_step.py) instead of five to seven (True, the default), or as the launch list a tape
   records (False). Both give the same numbers to rounding; launch lists and graphs already built keep theirs.
   benchmarks/step.py --fused measures both.
+- `fused_lanes`: the threads per environment of the fused step: None (the default) chooses by device and N
+  (warpdyn.engine.fused_layout.fused_lanes: on a GPU, for few environments, one thread per group of the model's
+  subtrees below the base, which walk them side by side; else one), True forces the groups (on the CPU only
+  with wp.config.enable_cpu_blocks, without which Warp runs no blocks of threads there: a step raises), False
+  one thread. All give the same numbers to rounding. benchmarks/step.py --fused one,groups measures them.
 - `fuse_fp`: floating-point contraction (fused multiply-adds) when kernels are compiled: True, Warp's
   default, or False: each kernel then rounds every operation it writes, so the forward code a backward
   kernel replays gives its forward's values bit for bit and repeated backward passes of one tape agree on
@@ -37,6 +42,7 @@ fill_outputs_with_nan: bool = False
 cuda_block_dim: int = 64
 cuda_launch: dict[str, tuple[int | None, int | None | str]] = {}
 fused_step: bool = True
+fused_lanes: bool | None = None
 fuse_fp: bool = True
 
 
@@ -54,6 +60,8 @@ class _Config(types.ModuleType):
             raise ValueError(f"warpdyn.config.cuda_block_dim must be a multiple of 32 from 32 to 1024, got {value!r}")
         if name == "fused_step" and not isinstance(value, bool):
             raise TypeError(f"warpdyn.config.fused_step must be True or False, got {value!r}")
+        if name == "fused_lanes" and not (value is None or isinstance(value, bool)):
+            raise TypeError(f"warpdyn.config.fused_lanes must be None, True or False, got {value!r}")
         if name != "fuse_fp":
             super().__setattr__(name, value)
             return

@@ -21,7 +21,10 @@ list of launches on given arrays (`step_launches`): nothing allocated, nothing r
 warpdyn.engine.rollout captures many of them in a graph. Launches per semi-implicit Euler step:
 actuation (if joints), [FK, link velocities, the points' contact forces, their sums per link] (if enabled
 points; a thread per point and per link, or per environment: `contacts_per_environment`), [FK if no
-contacts, force conversion] (if link forces not Inertial), ABA, integrator.
+contacts, force conversion] (if link forces not Inertial), ABA, integrator; without gradients, outside a
+tape (`fused_applies`): [FK, force conversion] (if link forces not Inertial), then one kernel for the rest
+(kernels/fused_step.py, the joint forces included), on one thread per environment or, on a GPU for few
+environments, on one thread per group of the model's walk (warpdyn.engine.fused_layout).
 
 Gradients with respect to model parameters (warpdyn.types.parameters). Every parameter a step reads is an
 array the user holds: the model bundle holds the model's own arrays, and the contact K, D, mu and the
@@ -62,7 +65,7 @@ from . import tape
 from .bundles import controls_bundle, empty_like_input, model_bundle, state_bundle
 from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
-from .walk import fused_walk
+from . import fused_layout
 
 __all__ = [
     "DEFORMATION_STABILITY",
@@ -77,8 +80,6 @@ __all__ = [
     "step_launches",
     "fused_applies",
     "fused_kernel",
-    "fused_lanes",
-    "keeps_joint_transforms",
     "state_buffers",
     "resultant_torques",
     "contact_evaluation",
@@ -87,35 +88,6 @@ __all__ = [
     "terrain_bundle",
     "check_deformation_stability",
 ]
-
-KEEP_JOINT_TRANSFORMS_UP_TO = 4096
-"""The most environments for which the fused step keeps its joint transforms on a GPU (`keeps_joint_transforms`)."""
-
-
-def keeps_joint_transforms(device, N: int) -> bool:
-    """Whether the fused step of N environments keeps the joint transforms of its first pass for the other two
-    (kernels/fused_step.py): on the CPU, where that costs less than recomputing their sines and cosines, and on
-    a GPU for up to KEEP_JOINT_TRANSFORMS_UP_TO environments, whose local arrays its caches hold. Measured on an
-    H100 (benchmarks/RESULTS.md, round 4): keeping them, the step took 7-11% less time at N = 1, 7% less
-    (float32) or as long (float64) at 4096, and 7-12% more at 32768 and 131072 (round 5's smaller local arrays
-    were not re-measured by a script in the repository)."""
-    return device.is_cpu or N <= KEEP_JOINT_TRANSFORMS_UP_TO
-
-
-MAX_LANES = 8
-"""The most threads (lanes) that the fused step gives one environment: the groups of its walk (warpdyn.engine.walk)."""
-
-LANES_UP_TO = 1024
-"""The most environments for which the fused step runs one environment on several threads on a GPU (`fused_lanes`)."""
-
-
-def fused_lanes(plan: Plan, N: int) -> int:
-    """The threads (lanes) per environment of the fused step of N environments: on a GPU, for up to LANES_UP_TO
-    environments, one per group of the model's walk (its subtrees below the base walked side by side: a
-    shorter chain of dependent operations per step), else 1. On the CPU 1: Warp runs blocks of threads there
-    only with wp.config.enable_cpu_blocks, as fibers of one core."""
-    return plan.lanes if plan.device.is_cuda and N <= LANES_UP_TO else 1
-
 
 DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.SemiImplicitEulerSO3: 2.0, IntegratorType.RungeKutta4: 2.785}
 """Stability limits of dt K / D: the tangential deformation relaxes as m_dot = -(K / D) m (out of contact,
@@ -265,15 +237,16 @@ class Plan:
         self.integrators = integrator_kernels(s)
         # the fused Euler step (kernels/fused_step.py) by whether it keeps the joint transforms and its lanes, for
         # steps without gradients; not with gravity compensation. Its walk's groups (the base's subtrees by their
-        # links and points) are its lanes for few environments on a GPU (`fused_lanes`).
+        # links and points) are its lanes for few environments on a GPU (fused_layout.fused_lanes).
         self.fused = None
         if self.euler and not self.gravcomp:
-            walk = fused_walk(model.tree.parent, MAX_LANES, 1 + points_per_link)
+            walk = fused_layout.fused_walk(model.tree.parent, fused_layout.MAX_LANES, 1 + points_per_link)
             self.walk = wp.array(walk.walk, dtype=wp.vec3i, device=d)
             self.walk_starts = wp.array(walk.starts, dtype=wp.int32, device=d)
             self.lanes = walk.groups
             so3 = self.integrator == IntegratorType.SemiImplicitEulerSO3
-            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(walk.slots, 1), so3)
+            actuation = (self.with_limits, self.with_friction, self.with_passive, per_joint) if self.n > 0 else None
+            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(walk.slots, 1), so3, actuation)
         self.no_poses = wp.empty((0, 0), dtype=wp.types.transformation(s), device=d)
         self._zeros: dict = {}
 
@@ -475,10 +448,10 @@ def fused_applies(plan: Plan, ws: Workspace) -> bool:
 
 
 def fused_kernel(plan: Plan, N: int):
-    """The fused step's kernel for N environments (`keeps_joint_transforms`, `fused_lanes`), its launch dim and
-    block size (None: warpdyn's)."""
-    lanes = fused_lanes(plan, N)
-    kernel = plan.fused(keeps_joint_transforms(plan.device, N), lanes)
+    """The fused step's kernel for N environments (warpdyn.engine.fused_layout's `keeps_joint_transforms` and
+    `fused_lanes`), its launch dim and block size (None: warpdyn's)."""
+    lanes = fused_layout.fused_lanes(plan, N)
+    kernel = plan.fused(fused_layout.keeps_joint_transforms(plan.device, N), lanes)
     return (kernel, N, None) if lanes == 1 else (kernel, (N, lanes), lanes)
 
 
@@ -500,7 +473,8 @@ def step_launches(
     tau = ws.tau if tau_out is None else tau_out
     launches = []
     u = ctrl if ctrl is not None else plan.zeros((plan.na,), N)
-    if plan.n > 0:
+    fused = fused_applies(plan, ws)
+    if plan.n > 0 and not fused:
         launches += _joint_forces(plan, X, tau_ref, u, tau, ws.tau_held if plan.stage_forces else None)
     f_ext = None
     poses_done = False
@@ -513,9 +487,10 @@ def step_launches(
             poses_done = plan.poses
             launches.append(Launch(force_kernels(s).link_forces_to_inertial, (N, plan.nL), [holder.W_H_L, f_user, repr], [ws.W_f_ext]))
             f_ext = ws.W_f_ext
-    if fused_applies(plan, ws):
+    if fused:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
-        args = [plan.model, plan.contact_bundle, plan.terrain, X, controls, plan.walk, plan.walk_starts, plan.dt, plan.quaternion_tolerance, plan.implicit_dt]
+        args = [plan.model, plan.contact_bundle, plan.terrain, X, controls, *plan.torque_curve, tau_ref, u, plan.walk, plan.walk_starts]
+        args += [plan.dt, plan.quaternion_tolerance, plan.implicit_dt]
         outputs = [plan.no_poses, empty_like_input(s, plan.device, 3)]
         if evaluation and plan.contacts:
             outputs = [ws.evals[0].W_H_L, ws.evals[0].W_f_C]
