@@ -391,10 +391,12 @@ def test_which_devices_sizes_and_settings_give_lanes(monkeypatch):
     on the CPU; True forces the groups, on the CPU only with Warp's CPU blocks; False one thread."""
     gpu = type("GPU", (), {"is_cpu": False, "is_cuda": True})()
     for dtype, size in ((np.float32, 4), (np.float64, 8)):
-        plan, _ = engine_step.prepare(_legs(dtype), _standing(_legs(dtype), 1), health=True)
+        model = _legs(dtype)
+        lanes = engine_step.prepare(model, _standing(model, 1), health=True)[0].lanes
         limit = fused_layout.LANES_UP_TO[size]
+        plan = type("Plan", (), {"device": wp.get_device("cpu"), "lanes": lanes, "scalar": wp.dtype_from_numpy(np.dtype(dtype))})()
         assert fused_layout.fused_lanes(plan, 1) == 1, "the CPU"
-        on_gpu = type("Plan", (), {"device": gpu, "lanes": plan.lanes, "scalar": plan.scalar})()
+        on_gpu = type("Plan", (), {"device": gpu, "lanes": lanes, "scalar": plan.scalar})()
         assert fused_layout.fused_lanes(on_gpu, 1) == fused_layout.fused_lanes(on_gpu, limit) == 2
         assert fused_layout.fused_lanes(on_gpu, limit + 1) == 1
         monkeypatch.setattr(wd.config, "fused_lanes", False)

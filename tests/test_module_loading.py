@@ -1,5 +1,5 @@
 """Loading kernel modules (warpdyn/engine/loading.py): a model's first step compiles the modules its launches
-need in one parallel load, each with warpdyn.config.fuse_fp and, on a GPU, warpdyn.config.cuda_block_dim's
+need in one parallel load (the launch list's, warpdyn.config.fused_step off: the fused step is one module), each with warpdyn.config.fuse_fp and, on a GPU, warpdyn.config.cuda_block_dim's
 block size (the one its launches use), without the backward pass when no tape records, and later steps load
 nothing. In a fresh interpreter with an empty kernel cache (the test's own process has loaded everything
 already)."""
@@ -26,6 +26,7 @@ SCRIPT = textwrap.dedent(
     wp.config.quiet = True
     import warpdyn as wd
     wd.config.fuse_fp = False
+    wd.config.fused_step = False
     calls = []
     force_load = wp.force_load
     def spy(device=None, modules=None, block_dim=None, max_workers=None):
@@ -76,7 +77,8 @@ def test_cuda_block_dim_must_be_a_multiple_of_32_up_to_1024(value):
 
 def test_the_block_size_of_a_launch():
     """On a GPU a launch that names no block size gets warpdyn.config.cuda_block_dim; on the CPU none (Warp would
-    compile a CPU module once per block size it is given)."""
+    compile a CPU module once per block size it is given) but for blocks of threads where Warp runs them there
+    (wp.config.enable_cpu_blocks: the fused step's lanes)."""
     from warpdyn.engine.loading import block_size
 
     cuda = type("Device", (), {"is_cuda": True})()
@@ -87,8 +89,11 @@ def test_the_block_size_of_a_launch():
         assert block_size(None, cuda) == 128
         assert block_size(256, cuda) == 256
         assert block_size(None, cpu) is None and block_size(256, cpu) is None
+        wp.config.enable_cpu_blocks = True
+        assert block_size(None, cpu) is None and block_size(1, cpu) is None and block_size(2, cpu) == 2
     finally:
         wd.config.cuda_block_dim = before
+        wp.config.enable_cpu_blocks = False
 
 
 def test_launches_that_no_tape_records_run_forward_only_twins():

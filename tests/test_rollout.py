@@ -585,7 +585,7 @@ def test_plan_is_cached_and_rebuilt_when_parameters_change():
 def test_models_launch_only_what_they_need(monkeypatch, fused):
     """The launch list (what a tape records): legs with contacts: actuation, FK, link velocities, the points'
     contact forces, their sums per link, ABA, integrator; without enabled points: actuation, ABA, integrator.
-    Fused (warpdyn.config.fused_step): actuation and the fused step, with or without points. Mixed link forces
+    Fused (warpdyn.config.fused_step): the fused step alone (the joint forces in it), with or without points. Mixed link forces
     add FK and a conversion (Inertial ones nothing)."""
     monkeypatch.setattr(wd.config, "fused_step", fused)
     legs = _legs_model(np.float64)
@@ -594,7 +594,7 @@ def test_models_launch_only_what_they_need(monkeypatch, fused):
     no_contacts = wd.contact.with_collidable_points(legs, enabled=np.zeros(32, dtype=bool))
     without = _kernel_names(no_contacts, data)
     if fused:
-        assert with_contacts == without == ["resultant_torques", "fused_euler_step"]
+        assert with_contacts == without == ["fused_euler_step"], "the joint forces in the fused kernel"
     else:
         assert with_contacts == ["resultant_torques", "forward_kinematics", "link_velocities", "point_contact_forces", "link_contact_forces", "aba", "semi_implicit_euler"]
         assert without == ["resultant_torques", "aba", "semi_implicit_euler"]

@@ -40,10 +40,10 @@ def _notice(device) -> None:
 
 def block_size(block_dim: int | None, device) -> int | None:
     """The CUDA threads per block of a launch asking for `block_dim` (None: warpdyn.config.cuda_block_dim); on the
-    CPU None (Warp's 1: a CPU module compiled for another block size would be compiled twice) but for a launch
-    asking for blocks of threads (a kernel of tiles: Warp runs them as blocks with wp.config.enable_cpu_blocks)."""
+    CPU None (Warp's 1: a CPU module compiled for another block size would be compiled twice) but for blocks of
+    threads that Warp runs there (with wp.config.enable_cpu_blocks: the fused step's lanes)."""
     if not device.is_cuda:
-        return block_dim if block_dim is not None and block_dim > 1 else None
+        return block_dim if block_dim is not None and block_dim > 1 and wp.config.enable_cpu_blocks else None
     return config.cuda_block_dim if block_dim is None else block_dim
 
 
