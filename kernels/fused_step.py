@@ -5,8 +5,8 @@ joint forces, FK, link velocities, the contact forces of the points and their su
 integrator), from the state x. It walks the tree in depth-first order (`walk`), so that most links follow
 their parent:
 1. from the base: the link poses W_H_i and velocities v_i (link coordinates); the joint forces tau_i
-   (kernels/actuation.py's `joint_force`, written to the controls' joint forces); the external force f_i on each
-   link (the contact forces of its enabled points, kernels/soft_contacts.py's `point_wrench`, plus the given
+   (kernels/actuation.py's `joint_force`, written to the controls' joint forces); the external force f_i on
+   each link (the contact forces of its enabled points, kernels/soft_contacts.py's `point_wrench`, plus the given
    Inertial link force), the tangential deformation integrated, m+ = m + dt m_dot; c_i and the bias
    force v_i x* I_i v_i - f_i (kernels/aba.py: the same equations);
 2. from the leaves: ABA's articulated inertias and bias forces, a link's terms summed into its parent's;
@@ -16,10 +16,10 @@ their parent:
 What a link hands to the next link of the walk (its pose and velocity, its articulated terms for its parent,
 its acceleration) stays in registers when that link is its child, the first one; a link with more children
 keeps it in a slot for the others (`walk`). The walk comes in groups of the base's subtrees
-(warpdyn.engine.fused_layout): one thread walks them all, or `lanes` threads of one block walk one group each side
-by side (a latency kernel for few environments: a step's chain of dependent operations is shorter), each
-with the base computed alike, and sum their terms of the base's articulated inertia and bias force, then
-their health checks, through a tile. What one pass hands to the next per link (c_i, the bias force
+(warpdyn.engine.fused_layout): one thread walks them all, or `lanes` threads of one block walk a group each,
+side by side (for few environments: a step's chain of dependent operations is shorter), each computing the
+base alike; they sum their terms of the base's articulated inertia and bias force, then their health checks,
+through a tile. What one pass hands to the next per link (c_i, the bias force
 then U_i / d_i, u_i / d_i, qd_i: 14 numbers) stays in the thread's local memory instead of arrays in global
 memory, and is read and written once per step; the joint transforms lambda(i)_H_i are either kept from
 pass 1 (7 numbers more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (a sine and a
@@ -154,8 +154,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
 
         walk (nL,): the links in depth-first order, the base first, each as (i, its slot or -1, its parent's
         slot, or -1 when the parent is the link before it in the walk, BASE for a group's first link); starts
-        (G + 1,): where each group begins in the walk, then nL (warpdyn.engine.fused_layout's `fused_walk`; G is `lanes`
-        when lanes > 1; a single thread walks the groups one after the other).
+        (G + 1,): where each group begins in the walk, then nL (warpdyn.engine.fused_layout's `fused_walk`; G
+        is `lanes` when lanes > 1; a single thread walks the groups one after the other).
         W_H_L (N, nL): the link poses at x, as kernels/kinematics.py's forward_kinematics writes them, and
         W_f_C (N, P, 6): the Inertial wrench of each enabled point's contact force at x, as
         kernels/soft_contacts.py's point_contact_forces writes it; each when not empty.
@@ -271,9 +271,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
                 slot_pA[up] = slot_pA[up] + pA_next
                 IA_next = sym21()
                 pA_next = sp.vec6(scalar(0.0))
-        # 3. accelerations, from the base; the joints integrated (written now: a flagged environment's state is
-        # rewritten below)
-        # (the base's terms: its own in lane 0, its children's in the lane that walks them)
+        # the base's articulated terms: its own in lane 0, its children's in the lanes that walk them, summed
         IA0 = unpack21(IA_next)
         pA0 = pA_next
         if base_own >= 0:
@@ -286,6 +284,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             summed = wp.tile_extract(wp.tile_sum(wp.tile(join_terms(pack21(IA0), pA0), preserve_type=True)), 0)
             IA0 = unpack21(sym21_of(summed))
             pA0 = vec6_of(summed)
+        # 3. accelerations, from the base; the joints integrated (written now: a flagged environment's state is
+        # rewritten below)
         a0 = -B_a_g
         base = sp.vec6(scalar(0.0))
         if model.floating_base != 0:

@@ -19,8 +19,8 @@ __all__ = ["FusedWalk", "fused_walk", "fused_lanes", "keeps_joint_transforms", "
 class FusedWalk(NamedTuple):
     """walk (nL, 3) int32: the links in depth-first order, the base first, each as (i, its slot or -1, its
     parent's slot, or where the parent hands over in registers -1 (it is the link before i in the walk) or
-    BASE (-2: i is the first link of a group, its parent the base)); starts (groups + 1,) int32: where each group begins in the walk, then
-    nL; slots: how many links have a slot (those with two children or more)."""
+    BASE (-2: i is the first link of a group, its parent the base)); starts (groups + 1,) int32: where each
+    group begins in the walk, then nL; slots: how many links have a slot (those with two children or more)."""
 
     walk: np.ndarray
     starts: np.ndarray
@@ -28,6 +28,7 @@ class FusedWalk(NamedTuple):
 
     @property
     def groups(self) -> int:
+        """The number of groups (1 at least; the threads of an environment when it runs on lanes)."""
         return len(self.starts) - 1
 
 
@@ -56,11 +57,12 @@ def fused_walk(parent, groups: int = 1, work=None) -> FusedWalk:
     roots = children[0]
     count = max(1, min(int(groups), len(roots)))
     trees = {r: subtree(r) for r in roots}
+    size = {r: float(work[trees[r]].sum()) for r in roots}
     load, members = [0.0] * count, [[] for _ in range(count)]
-    for r in sorted(roots, key=lambda r: (-sum(work[j] for j in trees[r]), r)):
+    for r in sorted(roots, key=lambda r: (-size[r], r)):
         g = min(range(count), key=lambda g: (load[g], g))
         members[g].append(r)
-        load[g] += sum(work[j] for j in trees[r])
+        load[g] += size[r]
     slot = {i: k for k, i in enumerate(i for i, c in enumerate(children) if len(c) > 1)}
     walk, starts = [(0, slot.get(0, -1), -1)], []
     for group in members:

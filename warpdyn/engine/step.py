@@ -61,11 +61,10 @@ from ..types.data_checks import check_data, passes_like
 from ..types.parameters import MODEL_ARRAYS
 from ..types.settings import host_values
 from ..types.terrain import FlatTerrain, HeightfieldTerrain
-from . import tape
+from . import fused_layout, tape
 from .bundles import controls_bundle, empty_like_input, model_bundle, state_bundle
 from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
-from . import fused_layout
 
 __all__ = [
     "DEFORMATION_STABILITY",
