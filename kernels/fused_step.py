@@ -85,14 +85,18 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
         """(the external force on link L in its own coordinates, 0 or NaN): the contact forces of its enabled
         points (at the pose W_H_L, velocity v_L in link coordinates) plus the given Inertial link force if any.
         Writes each point's m+ = m + dt m_dot into y, and its Inertial wrench into W_f_C unless that is empty;
-        the second value is 0 x the sum of the m+, NaN when one is not finite (the health check's)."""
+        the second value is 0 x the sum of the m+, NaN when one is not finite (the health check's). A link
+        without points or a given force costs two loads."""
         W_f = sp.vec6(scalar(0.0))
         nonfinite = scalar(0.0)
+        count = contacts.link_point_count[L]
+        if controls.link_forces.shape[0] == 0 and count == 0:
+            return W_f, nonfinite
         if controls.link_forces.shape[0] > 0:
             W_f = B.link_force(controls, env, L)
         first = contacts.link_first_point[L]
         W_v = sp.motion_to(W_H_L, v_L)
-        for k in range(contacts.link_point_count[L]):
+        for k in range(count):
             c = first + k
             row = contacts.point_row[c]
             m = sp.vec3(x.tangential_deformation[env, row, 0], x.tangential_deformation[env, row, 1], x.tangential_deformation[env, row, 2])
