@@ -9,10 +9,10 @@ float64 and 1e-4 in float32, tolerances that leave room for other states and for
 (on an H100 the legs' second float32 step differs by 4e-5 of the largest joint velocity, 47 rad/s in an
 environment that the contact drives hard: the articulated terms are summed in another order).
 The health flags must agree exactly. Every test of a step runs each variant of the kernel (the `keep`
-fixture; warpdyn.engine.fused_layout.keeps_joint_transforms: the CPU keeps the joint transforms, a GPU keeps them for
-few environments only), on one thread per environment and on the lanes of the walk's groups (the `lanes`
-fixture, warpdyn.config.fused_lanes; warpdyn.engine.fused_layout.fused_lanes: a GPU's choice for few environments,
-run on the CPU here as Warp's blocks of fibers).
+fixture; warpdyn.engine.fused_layout.keeps_joint_transforms: the CPU keeps the joint transforms, a GPU
+keeps them for few environments only), on one thread per environment and on the lanes of the walk's groups
+(the `lanes` fixture, warpdyn.config.fused_lanes; warpdyn.engine.fused_layout.fused_lanes: a GPU's choice
+for few environments, run on the CPU here as Warp's blocks of fibers).
 """
 
 import dataclasses
@@ -23,9 +23,8 @@ import warp as wp
 
 import robots
 import warpdyn as wd
-from warpdyn.engine import launch
+from warpdyn.engine import fused_layout, launch
 from warpdyn.engine import step as engine_step
-from warpdyn.engine import fused_layout
 from warpdyn.engine.fused_layout import fused_walk
 from warpdyn.kernels.fused_step import BASE
 from warpdyn.types.enums import VelRepr
