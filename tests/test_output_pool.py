@@ -128,6 +128,12 @@ def test_a_loop_equals_fresh_steps_bitwise_and_cycles_two_sets(integrator, N):
     or a Warp array every third step), Body link forces in the second half: every state equals that of the
     fresh path. The outputs cycle through two sets of the pool (the same two pointers), replayed from graphs."""
     steps = 200
+    device = wp.get_device(robots.TEST_DEVICE)
+    if device.is_cuda and not device.stream.cuda_stream:
+        # Warp 1.19's array.numpy() from several threads at once (tests/test_threads.py) can leave the device on
+        # the legacy null stream; the first capture then gives it a stream of its own (launch.capture), and the
+        # pool, one per stream, starts again with new sets. Start on a capturable stream, as a capture leaves it.
+        device.set_stream(wp.Stream(device))
     model = _legs(integrator)
     n, nL = model.dofs(), model.number_of_links()
     data = expected = _standing(model, N, VelRepr.Body)
