@@ -25,6 +25,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)
     terrain_height = soft_contact_kernels(scalar).terrain_height
+    height_parameter = soft_contact_kernels(scalar).height_parameter
     link_contact_wrench = soft_contact_kernels(scalar).link_contact_wrench
 
     @wp.kernel(module="unique")
@@ -82,7 +83,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         below = int(0)
         for c in range(point_link.shape[0]):
             if point_link[c] == links[k]:
-                h = terrain_height(terrain, env, W_p_C[env, c, 0], W_p_C[env, c, 1])
+                h = terrain_height(terrain, height_parameter(terrain, env), W_p_C[env, c, 0], W_p_C[env, c, 1])
                 if W_p_C[env, c, 2] <= h:
                     below = 1
         out[env, k] = below != 0

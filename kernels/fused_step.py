@@ -19,15 +19,19 @@ keeps it in a slot for the others (`walk`). The walk comes in groups of the base
 (warpdyn.engine.fused_layout): one thread walks them all, or `lanes` threads of one block walk a group each,
 side by side (for few environments: a step's chain of dependent operations is shorter), each computing the
 base alike; they sum their terms of the base's articulated inertia and bias force, then their health checks,
-through a tile. What one pass hands to the next per link (c_i, the bias force
-then U_i / d_i, u_i / d_i, qd_i: 14 numbers) stays in the thread's local memory instead of arrays in global
-memory, and is read and written once per step; the joint transforms lambda(i)_H_i are either kept from
-pass 1 (7 numbers more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (a sine and a
-cosine per revolute joint and pass: cheaper on a GPU once the environments' local arrays outgrow its caches,
+through a tile.
+What one pass hands to the next per link (c_i, the bias force then U_i / d_i, u_i / d_i: 13 numbers) stays in
+the thread's local memory instead of arrays in global memory, and is read and written once per step. So do
+the joint positions, velocities and force references: read from global memory all at once before pass 1
+rather than one link at a time, so that their waits for memory overlap; likewise a contact point's state is
+read while the point before it is computed. The joint transforms lambda(i)_H_i are either kept from pass 1
+(7 numbers more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (a sine and a cosine per
+revolute joint and pass: cheaper on a GPU once the environments' local arrays outgrow its caches,
 benchmarks/RESULTS.md).
 The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links
-and slots, so one kernel serves the models of those sizes (`kernel`); the loops over links are not unrolled
-(unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
+and slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not
+unrolled (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3), the
+joint states' loads are (up to Warp's max_unroll links).
 
 Forward only: the module has no backward pass. Under a tape, with gradients, for RK4 and with gravity
 compensation, a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding
@@ -80,8 +84,15 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
     pack7, unpack7, pack21, unpack21 = sc.pack_transform, sc.unpack_transform, sc.pack_sym66, sc.unpack_sym66
 
     @wp.func
+    def point_state(contacts: B.Contacts, x: B.State, env: int, c: int):
+        """(enabled point c's position on its link L_p_C, its contact-state row, its tangential deformation m at x)."""
+        row = contacts.point_row[c]
+        m = x.tangential_deformation
+        return contacts.L_p_C[c], row, sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+
+    @wp.func
     def external_force(contacts: B.Contacts, terrain: B.Terrain, controls: B.Controls, env: int, L: int, W_H_L: sp.transform,
-                       v_L: sp.vec6, K: scalar, D: scalar, mu: scalar, dt: scalar, x: B.State, y: B.State, W_f_C: wp.array3d(dtype=scalar)):
+                       v_L: sp.vec6, h0: scalar, K: scalar, D: scalar, mu: scalar, dt: scalar, x: B.State, y: B.State, W_f_C: wp.array3d(dtype=scalar)):
         """(the external force on link L in its own coordinates, 0 or NaN): the contact forces of its enabled
         points (at the pose W_H_L, velocity v_L in link coordinates) plus the given Inertial link force if any.
         Writes each point's m+ = m + dt m_dot into y, and its Inertial wrench into W_f_C unless that is empty;
@@ -94,21 +105,26 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             return W_f, nonfinite
         if controls.link_forces.shape[0] > 0:
             W_f = B.link_force(controls, env, L)
-        first = contacts.link_first_point[L]
-        W_v = sp.motion_to(W_H_L, v_L)
-        for k in range(count):
-            c = first + k
-            row = contacts.point_row[c]
-            m = sp.vec3(x.tangential_deformation[env, row, 0], x.tangential_deformation[env, row, 1], x.tangential_deformation[env, row, 2])
-            w, m_dot = C.point_wrench(contacts, terrain, env, c, W_H_L, W_v, m, K, D, mu)
-            W_f = W_f + w
-            if W_f_C.shape[0] > 0:
-                for a in range(6):
-                    W_f_C[env, c, a] = w[a]
-            for a in range(3):
-                m_next = m[a] + dt * m_dot[a]
-                nonfinite = I.poison(nonfinite, m_next)
-                y.tangential_deformation[env, row, a] = m_next
+        if count > 0:
+            first = contacts.link_first_point[L]
+            last = first + count - 1
+            W_v = sp.motion_to(W_H_L, v_L)
+            next_p, next_row, next_m = point_state(contacts, x, env, first)
+            for c in range(first, last + 1):
+                L_p_C = next_p
+                row = next_row
+                m = next_m
+                # the next point's (this one's again at the last), loaded while this one is computed
+                next_p, next_row, next_m = point_state(contacts, x, env, wp.min(c + 1, last))
+                w, m_dot = C.point_wrench(contacts, terrain, h0, L_p_C, W_H_L, W_v, m, K, D, mu)
+                W_f = W_f + w
+                if W_f_C.shape[0] > 0:
+                    for a in range(6):
+                        W_f_C[env, c, a] = w[a]
+                for a in range(3):
+                    m_next = m[a] + dt * m_dot[a]
+                    nonfinite = I.poison(nonfinite, m_next)
+                    y.tangential_deformation[env, row, a] = m_next
         return sp.force_from(W_H_L, W_f), nonfinite
 
     @wp.func
@@ -177,14 +193,20 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
         K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
         D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
         mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
+        h0 = C.height_parameter(terrain, env)
         W_H_B = B.base_pose(x, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
-        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
         X = links7()  # lambda(i)_H_i, when kept
         c = links6()  # c_i = v_i x S_i qd_i
         pU = links6()  # pass 1: v_i x* I_i v_i - f_i; pass 2: U_i / d_i
         ud = per_link()  # u_i / d_i
-        qd = per_link()  # the joint velocity of link i's joint
+        q = per_link()  # the joint position and velocity of link i's joint, and its force reference
+        qd = per_link()
+        q_ref = per_link()
+        for i in range(1, links):  # loaded at once (unrolled up to max_unroll links), not one link at a time
+            q[i] = x.joint_positions[env, i - 1]
+            qd[i] = x.joint_velocities[env, i - 1]
+            q_ref[i] = tau_ref[env, i - 1]
         slot_H = slots7()  # W_H_i of the links with slots
         slot_v = slots6()  # pass 1: their v_i; pass 3: their a'_i
         slot_IA = slots21()  # the sums of the articulated inertias and bias forces of their children but the first
@@ -193,11 +215,10 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
         f_0 = sp.vec6(scalar(0.0))
         nonfinite = scalar(0.0)
         if lane == 0:
-            f_0, nonfinite = external_force(contacts, terrain, controls, env, 0, W_H_B, B_v, K, D, mu, dt, x, y, W_f_C)
+            f_0, nonfinite = external_force(contacts, terrain, controls, env, 0, W_H_B, B_v, h0, K, D, mu, dt, x, y, W_f_C)
             if W_H_L.shape[0] > 0:
                 W_H_L[env, 0] = W_H_B
-        I_0 = B.spatial_inertia_of(model, env, 0)
-        p_0 = sp.cross_force(B_v, I_0 * B_v) - f_0
+        p_0 = sp.cross_force(B_v, B.spatial_inertia_of(model, env, 0) * B_v) - f_0
         base_own = walk[0][1]
         if base_own >= 0:
             slot_H[base_own] = pack7(W_H_B)
@@ -221,24 +242,23 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             elif up >= 0:
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
-            s_i = x.joint_positions[env, i - 1]
+            s_i = q[i]
             X_i = B.joint_transform(model, i, s_i)
             if wp.static(KEEP):
                 X[i] = pack7(X_i)
             W_H_i = W_H_P * X_i
             if W_H_L.shape[0] > 0:
                 W_H_L[env, i] = W_H_i
-            qd_i = x.joint_velocities[env, i - 1]
-            qd[i] = qd_i
+            qd_i = qd[i]
             if wp.static(ACTUATED):
                 j = i - 1
-                controls.joint_forces[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, s_i, qd_i, tau_ref[env, j], ctrl)
+                controls.joint_forces[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, s_i, qd_i, q_ref[i], ctrl)
             S_qd = B.motion_subspace_of(model, i) * qd_i
             v_i = sp.motion_from(X_i, v_P) + S_qd
             if own >= 0:
                 slot_H[own] = pack7(W_H_i)
                 slot_v[own] = v_i
-            f_i, bad = external_force(contacts, terrain, controls, env, i, W_H_i, v_i, K, D, mu, dt, x, y, W_f_C)
+            f_i, bad = external_force(contacts, terrain, controls, env, i, W_H_i, v_i, h0, K, D, mu, dt, x, y, W_f_C)
             nonfinite = nonfinite + bad
             c[i] = sp.cross_motion(v_i, S_qd)
             pU[i] = sp.cross_force(v_i, B.spatial_inertia_of(model, env, i) * v_i) - f_i
@@ -256,7 +276,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
-                X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
+                X_i = B.joint_transform(model, i, q[i])
             S = B.motion_subspace_of(model, i)
             IA = B.spatial_inertia_of(model, env, i) + unpack21(IA_next)
             pA = pU[i] + pA_next
@@ -282,7 +302,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             IA0 = IA0 + unpack21(slot_IA[base_own])
             pA0 = pA0 + slot_pA[base_own]
         if lane == 0:
-            IA0 = IA0 + I_0
+            IA0 = IA0 + B.spatial_inertia_of(model, env, 0)
             pA0 = pA0 + p_0
         if wp.static(LANES > 1):
             summed = wp.tile_extract(wp.tile_sum(wp.tile(join_terms(pack21(IA0), pA0), preserve_type=True)), 0)
@@ -290,6 +310,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             pA0 = vec6_of(summed)
         # 3. accelerations, from the base; the joints integrated (written now: a flagged environment's state is
         # rewritten below)
+        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
         a0 = -B_a_g
         base = sp.vec6(scalar(0.0))
         if model.floating_base != 0:
@@ -310,7 +331,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
-                X_i = B.joint_transform(model, i, x.joint_positions[env, i - 1])
+                X_i = B.joint_transform(model, i, q[i])
             S = B.motion_subspace_of(model, i)
             a_i = sp.motion_from(X_i, a_P) + c[i]
             qdd = ud[i] - wp.dot(pU[i], a_i)
@@ -319,7 +340,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
                 slot_v[own] = a_i
             a_prev = a_i
             sd_next = qd[i] + dt * qdd
-            s_next = x.joint_positions[env, i - 1] + dt * sd_next
+            s_next = q[i] + dt * sd_next
             nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)
             y.joint_velocities[env, i - 1] = sd_next
             y.joint_positions[env, i - 1] = s_next

@@ -44,10 +44,14 @@ def kernels(scalar):
         return i, j, u - scalar(float(i)), v - scalar(float(j))
 
     @wp.func
-    def terrain_height(terrain: B.Terrain, env: int, x: scalar, y: scalar):
-        """h(x, y) in environment env. Flat: its height. Plane: through (0, 0, height) with the unit normal.
-        Heightfield: the grid's heights, bilinear, clamped to its edges."""
-        h0 = terrain.height[wp.min(env, terrain.height.shape[0] - 1)]
+    def height_parameter(terrain: B.Terrain, env: int):
+        """The terrain's height [m] in environment env: a flat terrain's, a plane's at (0, 0) (unused by a heightfield)."""
+        return terrain.height[wp.min(env, terrain.height.shape[0] - 1)]
+
+    @wp.func
+    def terrain_height(terrain: B.Terrain, h0: scalar, x: scalar, y: scalar):
+        """h(x, y), h0 the environment's `height_parameter`. Flat: h0. Plane: through (0, 0, h0) with the unit
+        normal. Heightfield: the grid's heights, bilinear, clamped to its edges."""
         hf = terrain.heights
         n = terrain.normal
         if terrain.kind == HEIGHTFIELD:
@@ -128,13 +132,14 @@ def kernels(scalar):
 
     @wp.func
     def point_wrench(
-        contacts: B.Contacts, terrain: B.Terrain, env: int, c: int, W_H_L: sp.transform, W_v_WL: sp.vec6, m: sp.vec3, K: scalar, D: scalar, mu: scalar
+        contacts: B.Contacts, terrain: B.Terrain, h0: scalar, L_p_C: sp.vec3, W_H_L: sp.transform, W_v_WL: sp.vec6, m: sp.vec3, K: scalar, D: scalar, mu: scalar
     ):
-        """(the Inertial wrench [f; p x f] of enabled point c's contact force, its m_dot) for the point's link at
-        the pose W_H_L with the Inertial velocity W_v_WL and the point's deformation m."""
-        p = wp.transform_point(W_H_L, contacts.L_p_C[c])
+        """(the Inertial wrench [f; p x f] of a point's contact force, its m_dot) for a point at L_p_C on its link,
+        at the pose W_H_L with the Inertial velocity W_v_WL, with the deformation m; h0 the environment's
+        `height_parameter`."""
+        p = wp.transform_point(W_H_L, L_p_C)
         v = sp.lin(W_v_WL) + wp.cross(sp.ang(W_v_WL), p)
-        h = terrain_height(terrain, env, p[0], p[1])
+        h = terrain_height(terrain, h0, p[0], p[1])
         n = terrain_normal(terrain, p[0], p[1])
         f, m_dot, delta = hunt_crossley(p, v, m, h, n, K, D, mu, contacts.p, contacts.q)
         return sp.stack(f, wp.cross(p, f)), m_dot
@@ -172,7 +177,7 @@ def kernels(scalar):
                 mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
                 L = contacts.point_link[c]
                 m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-                w, md = point_wrench(contacts, terrain, env, c, W_H_L[env, L], W_v_WL[env, L], m_c, K, D, mu)
+                w, md = point_wrench(contacts, terrain, height_parameter(terrain, env), contacts.L_p_C[c], W_H_L[env, L], W_v_WL[env, L], m_c, K, D, mu)
                 for a in range(6):
                     W_f_C[env, c, a] = w[a]
                 for a in range(3):
@@ -210,6 +215,7 @@ def kernels(scalar):
 
     return types.SimpleNamespace(
         vec4=vec4,
+        height_parameter=height_parameter,
         terrain_height=terrain_height,
         terrain_normal=terrain_normal,
         hunt_crossley=hunt_crossley,
