@@ -318,6 +318,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             base = sp.base_acceleration_from_body(INERTIAL, W_H_B, B_v, a0 + B_a_g)
         if base_own >= 0:
             slot_v[base_own] = a0
+        p_B, Q_B, pdot_B, omega_B, healthy = I.base_state(x, env)  # for 4., read now: its wait overlaps pass 3
         a_prev = a0
         for k in range(first, last):
             i = walk[k][0]
@@ -355,7 +356,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             nonfinite = wp.tile_extract(wp.tile_sum(wp.tile(nonfinite)), 0)
         # 4. the base integrated, in lane 0
         if lane == 0:
-            p_next, pdot_next, omega_next, Q_next, ok = I.euler_base(SO3, dt, quaternion_tolerance, x, env, sp.lin(base), sp.ang(base))
+            p_next, pdot_next, omega_next, Q_next, ok = I.euler_base_from(
+                SO3, dt, quaternion_tolerance, p_B, Q_B, pdot_B, omega_B, healthy, sp.lin(base), sp.ang(base)
+            )
             ok = ok and wp.isfinite(nonfinite)
             if ok:
                 I.write_base(env, y, p_next, pdot_next, omega_next, Q_next)

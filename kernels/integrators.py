@@ -108,22 +108,32 @@ def kernels(scalar):
         return p + dt * pdot_next, pdot_next, omega_next, Q_next / wp.length(Q_next), scalar(1.0)
 
     @wp.func
+    def base_state(x: B.State, env: int):
+        """Environment env's base in x: (position p, quaternion Q (w, x, y, z) as stored, Mixed velocity pdot and
+        omega, healthy)."""
+        return read3(x.base_position, env, 0), quaternion_of(x, env), read3(x.base_velocity, env, 0), read3(x.base_velocity, env, 3), x.valid[env] != 0
+
+    @wp.func
     def euler_base(so3: int, dt: scalar, quaternion_tolerance: scalar, x: B.State, env: int, vdot: sp.vec3, omega_dot: sp.vec3):
         """The semi-implicit Euler step of environment env's base with MuJoCo's base step (so3 != 0) or JaxSim's,
         from the Inertial base acceleration (vdot, omega_dot): (p+, pdot+, omega+, Q+, ok), ok when the
         environment is healthy, the quaternion within `quaternion_tolerance` (see the kernel) and all finite."""
-        p = read3(x.base_position, env, 0)
-        Q = quaternion_of(x, env)
+        p, Q, pdot, omega, healthy = base_state(x, env)
+        return euler_base_from(so3, dt, quaternion_tolerance, p, Q, pdot, omega, healthy, vdot, omega_dot)
+
+    @wp.func
+    def euler_base_from(
+        so3: int, dt: scalar, quaternion_tolerance: scalar, p: sp.vec3, Q: quat4, pdot: sp.vec3, omega: sp.vec3, healthy: bool, vdot: sp.vec3, omega_dot: sp.vec3
+    ):
+        """`euler_base` from the base's `base_state`."""
         Q_read = wp.length(Q)
         Q = Q / Q_read
-        pdot = read3(x.base_velocity, env, 0)
-        omega = read3(x.base_velocity, env, 3)
         if so3 != 0:
             p_next, pdot_next, omega_next, Q_next, Q_norm = so3_base_step(dt, p, Q, pdot, omega, vdot, omega_dot)
             Q_norm = Q_read
         else:
             p_next, pdot_next, omega_next, Q_next, Q_norm = jaxsim_base_step(dt, p, Q, pdot, omega, vdot, omega_dot)
-        ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
+        ok = healthy and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
         ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm) and wp.isfinite(Q_next[0])
         return p_next, pdot_next, omega_next, Q_next, ok
 
@@ -313,6 +323,8 @@ def kernels(scalar):
         poison=poison,
         keep_state=keep_state,
         euler_base=euler_base,
+        base_state=base_state,
+        euler_base_from=euler_base_from,
         write_base=write_base,
         semi_implicit_euler=semi_implicit_euler,
         semi_implicit_euler_so3=semi_implicit_euler_so3,

@@ -110,22 +110,23 @@ def kernels(scalar):
             if qe != pe:
                 delta_q = power(delta + eps, qe)
         fn = wp.max(zero, K * delta_p * delta + D * delta_q * delta_dot)
-        v_t = v - wp.dot(v, n) * n
-        m_n = wp.dot(m, n) * n
-        m_t = m - m_n
-        f_t = -(K * delta_p * m_t + D * delta_q * v_t)
-        norm = wp.length(f_t)
-        limit = mu * fn
-        m_dot = v_t - (K / D) * m_n
-        if delta <= zero:
-            f_t = sp.vec3(zero)
-            m_dot = -(K / D) * m
-        elif norm > limit:
-            direction = sp.vec3(zero)
-            if norm > eps:
-                direction = f_t / norm
-            f_t = wp.min(limit, norm) * direction
-            m_dot = -(f_t + K * delta_p * m_t) / (D * delta_q)
+        # out of contact no tangential force (nor its terms: a zero f_t's length is a square root's slow path)
+        f_t = sp.vec3(zero)
+        m_dot = -(K / D) * m
+        if delta > zero:
+            v_t = v - wp.dot(v, n) * n
+            m_n = wp.dot(m, n) * n
+            m_t = m - m_n
+            f_t = -(K * delta_p * m_t + D * delta_q * v_t)
+            norm = wp.length(f_t)
+            limit = mu * fn
+            m_dot = v_t - (K / D) * m_n
+            if norm > limit:
+                direction = sp.vec3(zero)
+                if norm > eps:
+                    direction = f_t / norm
+                f_t = wp.min(limit, norm) * direction
+                m_dot = -(f_t + K * delta_p * m_t) / (D * delta_q)
         if depth != depth:  # noqa: PLR0124 (NaN test) a NaN height (written in place): a NaN force, which the step flags
             f_t = sp.vec3(depth)
         return fn * n + f_t, m_dot, delta
