@@ -34,9 +34,14 @@ def bundles(scalar) -> types.SimpleNamespace:
         # the tree
         parent: wp.array(dtype=int)  # (nL,) parent link index, -1 for the base
         joint_type: wp.array(dtype=int)  # (nL,) spatial.REVOLUTE or PRISMATIC (0 for the base)
-        X_tree: wp.array(dtype=sp.transform)  # (nL,) joint frame in the parent link at q = 0
-        joint_axis: wp.array(dtype=sp.vec3)  # (nL,) joint axis, link frame
-        joint_pivot: wp.array(dtype=sp.vec3)  # (nL,) a point of a revolute axis, link frame [m]
+        # link i in its parent at joint position q: (t0 + alpha t1 + beta t2, c Q0 + s Q1) with the joint's
+        # coefficients (c, s, alpha, beta) (spatial.joint_coefficients; warpdyn.types.model's joint_motion_terms)
+        joint_Q0: wp.array(dtype=sp.quat)  # (nL,)
+        joint_Q1: wp.array(dtype=sp.quat)  # (nL,)
+        joint_t0: wp.array(dtype=sp.vec3)  # (nL,) [m]
+        joint_t1: wp.array(dtype=sp.vec3)  # (nL,) [m, or 1 for a prismatic joint]
+        joint_t2: wp.array(dtype=sp.vec3)  # (nL,) [m]
+        joint_S: wp.array(dtype=sp.vec6)  # (nL,) the joint's motion subspace, link frame (0 for the base)
         first_child: wp.array(dtype=int)  # (nL,) smallest-index child, -1 for none
         next_sibling: wp.array(dtype=int)  # (nL,) next larger-index child of the parent, -1 for none
         support: wp.array2d(dtype=int)  # (nL, n) 1 where joint j moves link L
@@ -188,14 +193,31 @@ def bundles(scalar) -> types.SimpleNamespace:
         return sp.spatial_inertia(mass_of(model, env, i), com_of(model, env, i), inertia_of(model, env, i))
 
     @wp.func
+    def spatial_inertia_times(model: Model, env: int, i: int, v: sp.vec6):
+        """Link i's spatial inertia (`spatial_inertia_of`) times the motion v, without forming it."""
+        return sp.inertia_times(mass_of(model, env, i), com_of(model, env, i), inertia_of(model, env, i), v)
+
+    @wp.func
+    def joint_transform_at(model: Model, i: int, k: sp.vec4):
+        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent, from its joint's coefficients k at q
+        (`joint_coefficients`; i >= 1)."""
+        t = model.joint_t0[i] + k[2] * model.joint_t1[i] + k[3] * model.joint_t2[i]
+        return sp.transform(t, k[0] * model.joint_Q0[i] + k[1] * model.joint_Q1[i])
+
+    @wp.func
+    def joint_coefficients(model: Model, i: int, q: scalar):
+        """Link i's joint coefficients at joint position q (spatial.joint_coefficients; i >= 1)."""
+        return sp.joint_coefficients(model.joint_type[i], q)
+
+    @wp.func
     def joint_transform(model: Model, i: int, q: scalar):
         """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q (i >= 1)."""
-        return model.X_tree[i] * sp.joint_motion(model.joint_type[i], model.joint_axis[i], model.joint_pivot[i], q)
+        return joint_transform_at(model, i, joint_coefficients(model, i, q))
 
     @wp.func
     def motion_subspace_of(model: Model, i: int):
         """S_i: the motion subspace of link i's joint, link frame (i >= 1)."""
-        return sp.motion_subspace(model.joint_type[i], model.joint_axis[i], model.joint_pivot[i])
+        return model.joint_S[i]
 
     @wp.func
     def base_pose_of(base_position: wp.array2d(dtype=scalar), base_quaternion: wp.array2d(dtype=scalar), env: int):
@@ -239,6 +261,9 @@ def bundles(scalar) -> types.SimpleNamespace:
         com_of=com_of,
         inertia_of=inertia_of,
         spatial_inertia_of=spatial_inertia_of,
+        spatial_inertia_times=spatial_inertia_times,
+        joint_transform_at=joint_transform_at,
+        joint_coefficients=joint_coefficients,
         joint_transform=joint_transform,
         motion_subspace_of=motion_subspace_of,
         base_pose_of=base_pose_of,

@@ -25,9 +25,9 @@ the thread's local memory instead of arrays in global memory, and is read and wr
 the joint positions, velocities and force references: read from global memory all at once before pass 1
 rather than one link at a time, so that their waits for memory overlap; likewise a contact point's state is
 read while the point before it is computed. The joint transforms lambda(i)_H_i are either kept from pass 1
-(7 numbers more per link; `keep_joint_transforms`) or recomputed in passes 2 and 3 (a sine and a cosine per
-revolute joint and pass: cheaper on a GPU once the environments' local arrays outgrow its caches,
-benchmarks/RESULTS.md).
+(7 numbers more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from their joints'
+coefficients, kept from pass 1 instead (B.joint_coefficients: 4 numbers per link, no sine or cosine again;
+cheaper on a GPU once the environments' local arrays outgrow its caches, benchmarks/RESULTS.md).
 The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links
 and slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not
 unrolled (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3), the
@@ -75,6 +75,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
     base_terms = wp.types.vector(SYM66 + 6, scalar)
     links6 = wp.types.matrix((links, 6), scalar)
     links7 = wp.types.matrix((links, TRANSFORM), scalar)
+    links4 = wp.types.matrix((links, 4), scalar)
     per_link = wp.types.vector(links, scalar)
     slots6 = wp.types.matrix((slots, 6), scalar)
     slots7 = wp.types.matrix((slots, TRANSFORM), scalar)
@@ -197,6 +198,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
         W_H_B = B.base_pose(x, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
         X = links7()  # lambda(i)_H_i, when kept
+        k_q = links4()  # else its joint's coefficients (B.joint_coefficients)
         c = links6()  # c_i = v_i x S_i qd_i
         pU = links6()  # pass 1: v_i x* I_i v_i - f_i; pass 2: U_i / d_i
         ud = per_link()  # u_i / d_i
@@ -218,7 +220,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             f_0, nonfinite = external_force(contacts, terrain, controls, env, 0, W_H_B, B_v, h0, K, D, mu, dt, x, y, W_f_C)
             if W_H_L.shape[0] > 0:
                 W_H_L[env, 0] = W_H_B
-        p_0 = sp.cross_force(B_v, B.spatial_inertia_of(model, env, 0) * B_v) - f_0
+        p_0 = sp.cross_force(B_v, B.spatial_inertia_times(model, env, 0, B_v)) - f_0
         base_own = walk[0][1]
         if base_own >= 0:
             slot_H[base_own] = pack7(W_H_B)
@@ -243,9 +245,12 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
             s_i = q[i]
-            X_i = B.joint_transform(model, i, s_i)
+            k_i = B.joint_coefficients(model, i, s_i)
+            X_i = B.joint_transform_at(model, i, k_i)
             if wp.static(KEEP):
                 X[i] = pack7(X_i)
+            else:
+                k_q[i] = k_i
             W_H_i = W_H_P * X_i
             if W_H_L.shape[0] > 0:
                 W_H_L[env, i] = W_H_i
@@ -261,7 +266,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             f_i, bad = external_force(contacts, terrain, controls, env, i, W_H_i, v_i, h0, K, D, mu, dt, x, y, W_f_C)
             nonfinite = nonfinite + bad
             c[i] = sp.cross_motion(v_i, S_qd)
-            pU[i] = sp.cross_force(v_i, B.spatial_inertia_of(model, env, i) * v_i) - f_i
+            pU[i] = sp.cross_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i
             W_H_prev = W_H_i
             v_prev = v_i
         # 2. articulated inertias and bias forces, from the leaves; a link's terms summed into its parent's: the
@@ -276,7 +281,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
-                X_i = B.joint_transform(model, i, q[i])
+                X_i = B.joint_transform_at(model, i, k_q[i])
             S = B.motion_subspace_of(model, i)
             IA = B.spatial_inertia_of(model, env, i) + unpack21(IA_next)
             pA = pU[i] + pA_next
@@ -332,7 +337,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
-                X_i = B.joint_transform(model, i, q[i])
+                X_i = B.joint_transform_at(model, i, k_q[i])
             S = B.motion_subspace_of(model, i)
             a_i = sp.motion_from(X_i, a_P) + c[i]
             qdd = ud[i] - wp.dot(pU[i], a_i)

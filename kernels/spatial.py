@@ -28,6 +28,7 @@ PRISMATIC = 2
 def spatial(scalar) -> types.SimpleNamespace:
     """Types and functions of spatial algebra in `scalar` (wp.float32 or wp.float64)."""
     vec3 = wp.types.vector(3, scalar)
+    vec4 = wp.types.vector(4, scalar)
     vec6 = wp.types.vector(6, scalar)
     mat33 = wp.types.matrix((3, 3), scalar)
     mat44 = wp.types.matrix((4, 4), scalar)
@@ -101,23 +102,19 @@ def spatial(scalar) -> types.SimpleNamespace:
         return stack(wp.cross(ang(v), lin(f)), wp.cross(ang(v), ang(f)) + wp.cross(lin(v), lin(f)))
 
     @wp.func
-    def joint_motion(joint_type: int, axis: vec3, pivot: vec3, q: scalar):
-        """M(q): the pose of a link in its joint frame at joint position q (see warpdyn.description)."""
+    def joint_coefficients(joint_type: int, q: scalar):
+        """(c, s, alpha, beta) with which a joint at position q moves its link (kernels/bundles.py's
+        `joint_transform_at`): (cos q/2, sin q/2, cos q, sin q) for a revolute joint, (1, 0, q, 0) for a
+        prismatic one, (1, 0, 0, 0) otherwise (see warpdyn.description's joint_motion)."""
+        one = scalar(1.0)
+        zero = scalar(0.0)
         if joint_type == REVOLUTE:
-            r = wp.quat_from_axis_angle(axis, q)
-            return transform(pivot - wp.quat_rotate(r, pivot), r)
+            c = wp.cos(scalar(0.5) * q)
+            s = wp.sin(scalar(0.5) * q)
+            return vec4(c, s, c * c - s * s, scalar(2.0) * s * c)
         if joint_type == PRISMATIC:
-            return transform(axis * q, quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0)))
-        return transform(vec3(scalar(0.0)), quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0)))
-
-    @wp.func
-    def motion_subspace(joint_type: int, axis: vec3, pivot: vec3):
-        """S, the joint's motion subspace in the link frame: [pivot x axis; axis] or [axis; 0]."""
-        if joint_type == REVOLUTE:
-            return stack(wp.cross(pivot, axis), axis)
-        if joint_type == PRISMATIC:
-            return stack(axis, vec3(scalar(0.0)))
-        return vec6(scalar(0.0))
+            return vec4(one, zero, q, zero)
+        return vec4(one, zero, zero, zero)
 
     @wp.func
     def inertial_to_repr(repr: int, W_H_F: transform, W_v: vec6):
@@ -190,7 +187,9 @@ def spatial(scalar) -> types.SimpleNamespace:
         """A link's spatial inertia about its origin, link axes: [[m 1, -m c^], [m c^, I_c - m c^ c^]]."""
         C = wp.skew(com)
         mC = mass * C
-        Io = inertia - mC * C
+        cc = wp.dot(com, com)
+        x, y, z = com[0], com[1], com[2]
+        Io = inertia + mass * mat33(cc - x * x, -x * y, -x * z, -x * y, cc - y * y, -y * z, -x * z, -y * z, cc - z * z)  # I_c - m c^ c^
         zero = scalar(0.0)
         return mat66(
             mass, zero, zero, -mC[0, 0], -mC[0, 1], -mC[0, 2],
@@ -200,6 +199,13 @@ def spatial(scalar) -> types.SimpleNamespace:
             mC[1, 0], mC[1, 1], mC[1, 2], Io[1, 0], Io[1, 1], Io[1, 2],
             mC[2, 0], mC[2, 1], mC[2, 2], Io[2, 0], Io[2, 1], Io[2, 2],
         )
+
+    @wp.func
+    def inertia_times(mass: scalar, com: vec3, inertia: mat33, v: vec6):
+        """I v for the spatial inertia I = spatial_inertia(mass, com, inertia) and a motion v = [v_lin; omega]:
+        f = m (v_lin - c x omega), [f; inertia omega + c x f], without forming I."""
+        f = mass * (lin(v) - wp.cross(com, ang(v)))
+        return stack(f, inertia * ang(v) + wp.cross(com, f))
 
     @wp.func
     def orientation_only(W_H_F: transform):
@@ -285,6 +291,7 @@ def spatial(scalar) -> types.SimpleNamespace:
     return types.SimpleNamespace(
         scalar=scalar,
         vec3=vec3,
+        vec4=vec4,
         vec6=vec6,
         mat33=mat33,
         mat44=mat44,
@@ -302,8 +309,7 @@ def spatial(scalar) -> types.SimpleNamespace:
         force_from=force_from,
         cross_motion=cross_motion,
         cross_force=cross_force,
-        joint_motion=joint_motion,
-        motion_subspace=motion_subspace,
+        joint_coefficients=joint_coefficients,
         inertial_to_repr=inertial_to_repr,
         mixed_frame=mixed_frame,
         solve_spd6=solve_spd6,
@@ -312,6 +318,7 @@ def spatial(scalar) -> types.SimpleNamespace:
         motion_cross_matrix=motion_cross_matrix,
         force_cross_matrix=force_cross_matrix,
         spatial_inertia=spatial_inertia,
+        inertia_times=inertia_times,
         orientation_only=orientation_only,
         base_T=base_T,
         base_acceleration_to_body=base_acceleration_to_body,

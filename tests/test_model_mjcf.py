@@ -152,3 +152,47 @@ def test_mjcf_joint_pivot_and_reference():
         p, R = st.body_pose("c")
         assert_close(wd.frame.transform(model, data, frame_index=4).numpy(), H_of(R, p), 1e-12, "frame 'c'")
 
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_joint_transforms_at_extreme_positions(dtype):
+    """The kernels move a joint by its terms (warpdyn.types.model's joint_motion_terms, kernels/spatial.py's
+    joint_coefficients: half-angle sines and cosines, Rodrigues' formula about the pivot): link poses equal
+    the description's parent_H_joint @ joint_motion(q) composed down the tree, for hinges off their body's
+    origin at angles up to 1e3 rad and a slide at 1e2 m. Tolerance: float64 1e-10 (the sines of 1e3 rad carry
+    ~1e-13 absolute), float32 2e-4 of the poses' largest entry (ulps of 1e3 rad and 1e2 m)."""
+    xml = """
+<mujoco model="extremes">
+  <worldbody>
+    <body name="base" pos="0.1 0.2 0.3">
+      <freejoint/>
+      <inertial pos="0 0 0" mass="2" diaginertia="0.1 0.2 0.3"/>
+      <body name="a" pos="0.3 0 0" quat="0.9 0.1 0.3 -0.2">
+        <joint name="hinge_a" type="hinge" axis="0 1 1" pos="0.05 -0.1 0.2"/>
+        <inertial pos="0.1 0 0" mass="1" diaginertia="0.01 0.02 0.03"/>
+        <body name="b" pos="0 0.4 0" euler="0.3 0.2 0.1">
+          <joint name="slide_b" type="slide" axis="1 0.5 0" pos="0.3 0.3 0.3"/>
+          <inertial pos="0 0.1 0" mass="0.5" diaginertia="0.01 0.01 0.01"/>
+          <body name="d" pos="0.1 0 0">
+            <joint name="hinge_d" type="hinge" axis="1 0 0" pos="0 0.2 0"/>
+            <inertial pos="0 0 0" mass="0.2" diaginertia="0.01 0.01 0.01"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"""
+    model = Model.build_from_model_description(xml, dtype=dtype)
+    tree = model.tree
+    cases = np.array([[1e3 + 0.3, 1e2, -1e3 - 1.1], [-np.pi, -1e2, np.pi], [0.0, 0.0, 0.0], [1e-8, 1e-9, -1e-8]])
+    data = wd.data.Data.build(model, num_envs=len(cases), joint_positions=cases)
+    H = wd.model.forward_kinematics(model, data).numpy()
+    kinds = {1: "revolute", 2: "prismatic"}
+    for e, q in enumerate(cases):
+        expected = [np.eye(4)]  # the base at the origin (Data.build)
+        for i in range(1, tree.number_of_links):
+            motion = wd.description.joint_motion(kinds[tree.joint_type[i]], tree.joint_axis[i], tree.joint_pivot[i], q[i - 1])
+            expected.append(expected[tree.parent[i]] @ tree.parent_H_joint[i] @ motion)
+        for i, name in enumerate(model.link_names()):
+            atol = 1e-10 if dtype == np.float64 else 2e-4 * max(1.0, np.abs(expected[i]).max())
+            np.testing.assert_allclose(H[e, i], expected[i], rtol=0, atol=atol, err_msg=f"link '{name}', q = {q}")

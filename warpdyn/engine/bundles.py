@@ -32,9 +32,8 @@ def _build_model_bundle(model):
     bundle = bundles(model.scalar).Model()
     bundle.parent = model.parent
     bundle.joint_type = model.joint_type
-    bundle.X_tree = model.X_tree
-    bundle.joint_axis = model.joint_axis
-    bundle.joint_pivot = model.joint_pivot
+    for name in ("joint_Q0", "joint_Q1", "joint_t0", "joint_t1", "joint_t2", "joint_S"):
+        setattr(bundle, name, getattr(model, name))
     bundle.first_child = model.first_child
     bundle.next_sibling = model.next_sibling
     bundle.support = model.support

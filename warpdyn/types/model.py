@@ -23,7 +23,7 @@ import warp as wp
 from .. import arrays
 from ..description import ModelDescription, load
 from ..description.collidable import warn_without_points
-from ..description.tree import KinematicTree, build_tree
+from ..description.tree import JOINT_PRISMATIC, JOINT_REVOLUTE, KinematicTree, build_tree
 from .enums import IntegratorType
 from .kin_dyn import KinDynParameters
 from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter
@@ -62,6 +62,48 @@ def quaternion_xyzw(R: np.ndarray) -> np.ndarray:
         q[k] = (R[k, i] + R[i, k]) / s
     q = np.asarray(q)
     return q / np.linalg.norm(q)
+
+
+def _quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a b of quaternions (x, y, z, w)."""
+    return np.array([
+        a[3] * b[0] + b[3] * a[0] + a[1] * b[2] - a[2] * b[1],
+        a[3] * b[1] + b[3] * a[1] + a[2] * b[0] - a[0] * b[2],
+        a[3] * b[2] + b[3] * a[2] + a[0] * b[1] - a[1] * b[0],
+        a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2],
+    ])  # fmt: skip
+
+
+def joint_motion_terms(tree: KinematicTree) -> dict[str, np.ndarray]:
+    """Each link's joint as the kernels move it (kernels/bundles.py's Model): link i in its parent at joint
+    position q, X_tree M(q) (warpdyn.description's joint_motion), is (t0 + alpha t1 + beta t2, c Q0 + s Q1) with
+    the joint's coefficients (c, s, alpha, beta) (kernels/spatial.py's joint_coefficients), and S its motion
+    subspace. With X_tree = (p, A):
+    - revolute, unit axis a through the pivot d (Rodrigues' formula, d_perp = d - (a.d) a): Q0 = A,
+      Q1 = A (a, 0), t0 = p + A d_perp, t1 = -A d_perp, t2 = -A (a x d), S = [d x a; a];
+    - prismatic along a: Q0 = A, Q1 = 0, t0 = p, t1 = A a, t2 = 0, S = [a; 0];
+    - the base: Q0 = A, t0 = p, the others 0.
+    (nL, 4) quaternions (x, y, z, w), (nL, 3) and (nL, 6) arrays, float64."""
+    nL = tree.number_of_links
+    terms = {name: np.zeros((nL, size)) for name, size in (("Q0", 4), ("Q1", 4), ("t0", 3), ("t1", 3), ("t2", 3), ("S", 6))}
+    for i in range(nL):
+        H = np.asarray(tree.parent_H_joint[i], dtype=np.float64)
+        R, p = H[:3, :3], H[:3, 3]
+        A = quaternion_xyzw(R)
+        a, d = np.asarray(tree.joint_axis[i], dtype=np.float64), np.asarray(tree.joint_pivot[i], dtype=np.float64)
+        terms["Q0"][i] = A
+        terms["t0"][i] = p
+        if tree.joint_type[i] == JOINT_REVOLUTE:
+            d_perp = d - (a @ d) * a
+            terms["Q1"][i] = _quaternion_product(A, np.array([*a, 0.0]))
+            terms["t0"][i] = p + R @ d_perp
+            terms["t1"][i] = -R @ d_perp
+            terms["t2"][i] = -R @ np.cross(a, d)
+            terms["S"][i] = [*np.cross(d, a), *a]
+        elif tree.joint_type[i] == JOINT_PRISMATIC:
+            terms["t1"][i] = R @ a
+            terms["S"][i] = [*a, 0.0, 0.0, 0.0]
+    return terms
 
 
 def _sibling_chains(parent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -137,7 +179,8 @@ class Model:
     Build it with `warpdyn.model.Model.build_from_model_description`. The host-side tree (`model.tree`,
     NumPy float64) holds the description's constants; the Warp arrays below are what kernels read:
     parent (nL,) int, joint_type (nL,) int, X_tree (nL,) transform (joint frame in the parent link),
-    joint_axis, joint_pivot (nL,) vec3 (link frame), support (nL, n) int, frame_parent (nF,) int,
+    joint_axis, joint_pivot (nL,) vec3 (link frame), the same joints as the kernels move them (joint_Q0, joint_Q1
+    (nL,) quaternion, joint_t0, joint_t1, joint_t2 (nL,) vec3, joint_S (nL,) vec6: `joint_motion_terms`), support (nL, n) int, frame_parent (nF,) int,
     link_H_frame (nF,) transform, first_child and next_sibling (nL,) int (-1 for none: the sibling chains
     that backward passes sum over).
 
@@ -182,6 +225,11 @@ class Model:
         self.X_tree = transforms(tree.parent_H_joint, s, d)
         self.joint_axis = wp.array(tree.joint_axis, dtype=vec3, device=d)
         self.joint_pivot = wp.array(tree.joint_pivot, dtype=vec3, device=d)
+        terms = joint_motion_terms(tree)
+        quat, vec6 = wp.types.quaternion(s), wp.types.vector(6, s)
+        self.joint_Q0, self.joint_Q1 = (wp.array(terms[k], dtype=quat, device=d) for k in ("Q0", "Q1"))
+        self.joint_t0, self.joint_t1, self.joint_t2 = (wp.array(terms[k], dtype=vec3, device=d) for k in ("t0", "t1", "t2"))
+        self.joint_S = wp.array(terms["S"], dtype=vec6, device=d)
         self.support = wp.array(tree.support().reshape(tree.number_of_links, tree.dofs), dtype=int, device=d)
         self.frame_parent = wp.array(tree.frame_parent, dtype=int, device=d)
         self.link_H_frame = transforms(tree.link_H_frame, s, d)
