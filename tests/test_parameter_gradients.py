@@ -4,7 +4,9 @@ The reference everywhere is central finite differences of the same loss computed
 parameter entry at a time, with step h = 1e-6 relative to the entry's magnitude (h = 1e-6 |x|, or 1e-6
 where x = 0: an absolute step of 1e-6 on K = 1e6 would be lost in rounding). Truncation error is
 O(h^2) ~ 1e-12 relative and rounding ~ 1e-16 / 1e-6 = 1e-10 relative to the loss, so the bound is
-rtol 1e-6 (atol 1e-9 for entries whose gradient is ~0), on gradients times the entry's size (d loss /
+rtol 1e-6 (atol 1e-9 for entries whose gradient is ~0; for a loss summed over many outputs, 1e-10 times the
+sum of its terms' magnitudes when that is larger: its rounding, which a GPU's contractions make differ
+from the CPU's), on gradients times the entry's size (d loss /
 d log x for K and D), so that one atol fits parameters of every magnitude. Parameters are marked with
 `wd.model.parameters_requiring_grad`, and their gradients are read from the returned arrays' .grad.
 """
@@ -52,6 +54,11 @@ def _scale(name: str, x: np.ndarray) -> np.ndarray:
     return np.abs(x) if name in ("K", "D") else np.maximum(np.abs(x), 1.0)
 
 
+def _weighted_size(outputs, weights) -> float:
+    """sum |w x| over the outputs: the size of the loss sum w x, whose rounding the differences divide by the step."""
+    return sum(float(np.sum(np.abs(w.numpy() * x.numpy()))) for x, w in zip(outputs, weights))
+
+
 def _finite_differences(arrays: dict, f) -> dict:
     """{name: d f / d array} by central differences, perturbing each entry of each Warp array in place."""
     result = {}
@@ -74,13 +81,16 @@ def _finite_differences(arrays: dict, f) -> dict:
     return result
 
 
-def _assert_gradients(arrays: dict, fd: dict) -> None:
+def _assert_gradients(arrays: dict, fd: dict, loss_size: float = 0.0) -> None:
+    """Tape gradients against the differences fd: rtol RTOL, atol ATOL or, when larger, the differences'
+    rounding for a loss of size loss_size (the sum of its terms' magnitudes): 1e-16 / STEP of it."""
+    atol = max(ATOL, 1e-16 / STEP * loss_size)
     for name, array in arrays.items():
         assert array.grad is not None, name
         grad = array.grad.numpy()
         assert grad.shape == fd[name].shape, name
         scale = _scale(name, array.numpy())
-        np.testing.assert_allclose(grad * scale, fd[name] * scale, rtol=RTOL, atol=ATOL, err_msg=name)
+        np.testing.assert_allclose(grad * scale, fd[name] * scale, rtol=RTOL, atol=atol, err_msg=name)
     assert max(np.abs(g * _scale(k, arrays[k].numpy())).max() for k, g in fd.items()) > 1e-3, "the parameters do not matter"
 
 
@@ -125,7 +135,7 @@ def test_dynamics_gradients_with_respect_to_link_masses_coms_and_inertias():
     def f():
         return sum(float(np.sum(w.numpy() * x.numpy())) for x, w in zip(_dynamics_outputs(model, data, tau, a), weights))
 
-    _assert_gradients(params, _finite_differences(params, f))
+    _assert_gradients(params, _finite_differences(params, f), _weighted_size(_dynamics_outputs(model, data, tau, a), weights))
 
 
 def _centroidal_outputs(model, data):
@@ -164,7 +174,7 @@ def test_centroidal_energy_and_coriolis_gradients_with_respect_to_mass_parameter
     def f():
         return sum(float(np.sum(w.numpy() * x.numpy())) for x, w in zip(_centroidal_outputs(model, data), weights))
 
-    _assert_gradients(params, _finite_differences(params, f))
+    _assert_gradients(params, _finite_differences(params, f), _weighted_size(_centroidal_outputs(model, data), weights))
 
 
 @pytest.mark.parametrize("fixed", [False, True], ids=["floating", "fixed-base"])
