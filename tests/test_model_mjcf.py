@@ -97,12 +97,7 @@ def test_mjcf_matches_urdf(case, which, source, tmp_path):
         assert_close(H_m, H_u, 1e-5, f"frame '{name}': MJCF vs URDF")
 
 
-def test_mjcf_joint_pivot_and_reference():
-    """An MJCF with what URDF cannot say: hinge and slide joints with a `pos` off the body origin and a
-    `ref` (qpos0) != 0, angles in MJCF's default degrees, and a body with no joint (lumped). warpdyn's q
-    equals MuJoCo's qpos (radians); limits are converted to radians; poses, Mixed Jacobians and velocities
-    vs MuJoCo at random states, float64 1e-12 (a few transforms of O(1) numbers)."""
-    xml = """
+PIVOTS = """
 <mujoco model="pivots">
   <worldbody>
     <body name="base" pos="0.1 0.2 0.3">
@@ -126,7 +121,15 @@ def test_mjcf_joint_pivot_and_reference():
     </body>
   </worldbody>
 </mujoco>"""
-    model = Model.build_from_model_description(xml, dtype=np.float64)
+"""An MJCF with what URDF cannot say: hinge and slide joints off their body's origin, `ref` != 0, a lumped body ('c')."""
+
+
+def test_mjcf_joint_pivot_and_reference():
+    """An MJCF with what URDF cannot say: hinge and slide joints with a `pos` off the body origin and a
+    `ref` (qpos0) != 0, angles in MJCF's default degrees, and a body with no joint (lumped). warpdyn's q
+    equals MuJoCo's qpos (radians); limits are converted to radians; poses, Mixed Jacobians and velocities
+    vs MuJoCo at random states, float64 1e-12 (a few transforms of O(1) numbers)."""
+    model = Model.build_from_model_description(PIVOTS, dtype=np.float64)
     assert model.name() == "pivots"
     assert model.floating_base()
     assert model.link_names() == ("base", "a", "b", "d")
@@ -135,7 +138,7 @@ def test_mjcf_joint_pivot_and_reference():
     lower, upper = wd.joint.position_limits(model)
     np.testing.assert_allclose(lower, [-np.pi / 6, -0.5, -np.inf], rtol=1e-15)
     np.testing.assert_allclose(upper, [np.pi / 3, 0.25, np.inf], rtol=1e-15)
-    mj = mujoco.MjModel.from_xml_string(xml)
+    mj = mujoco.MjModel.from_xml_string(PIVOTS)
     st = robots.MujocoState(mj, model.joint_names(), True)
     rng = rng_for("pivots")
     for _ in range(3):
@@ -158,31 +161,11 @@ def test_mjcf_joint_pivot_and_reference():
 def test_joint_transforms_at_extreme_positions(dtype):
     """The kernels move a joint by its terms (warpdyn.types.model's joint_motion_terms, kernels/spatial.py's
     joint_coefficients: half-angle sines and cosines, Rodrigues' formula about the pivot): link poses equal
-    the description's parent_H_joint @ joint_motion(q) composed down the tree, for hinges off their body's
-    origin at angles up to 1e3 rad and a slide at 1e2 m. Tolerance: float64 1e-10 (the sines of 1e3 rad carry
-    ~1e-13 absolute), float32 2e-4 of the poses' largest entry (ulps of 1e3 rad and 1e2 m)."""
-    xml = """
-<mujoco model="extremes">
-  <worldbody>
-    <body name="base" pos="0.1 0.2 0.3">
-      <freejoint/>
-      <inertial pos="0 0 0" mass="2" diaginertia="0.1 0.2 0.3"/>
-      <body name="a" pos="0.3 0 0" quat="0.9 0.1 0.3 -0.2">
-        <joint name="hinge_a" type="hinge" axis="0 1 1" pos="0.05 -0.1 0.2"/>
-        <inertial pos="0.1 0 0" mass="1" diaginertia="0.01 0.02 0.03"/>
-        <body name="b" pos="0 0.4 0" euler="0.3 0.2 0.1">
-          <joint name="slide_b" type="slide" axis="1 0.5 0" pos="0.3 0.3 0.3"/>
-          <inertial pos="0 0.1 0" mass="0.5" diaginertia="0.01 0.01 0.01"/>
-          <body name="d" pos="0.1 0 0">
-            <joint name="hinge_d" type="hinge" axis="1 0 0" pos="0 0.2 0"/>
-            <inertial pos="0 0 0" mass="0.2" diaginertia="0.01 0.01 0.01"/>
-          </body>
-        </body>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>"""
-    model = Model.build_from_model_description(xml, dtype=dtype)
+    the description's parent_H_joint @ joint_motion(q) composed down the tree (`ref` folded into
+    parent_H_joint) for PIVOTS' hinges off their body's origin at angles up to 1e3 rad and its slide at 1e2 m.
+    Tolerance: float64 1e-10 (the sines of 1e3 rad carry ~1e-13 absolute), float32 2e-4 of the poses' largest
+    entry (ulps of 1e3 rad and 1e2 m)."""
+    model = Model.build_from_model_description(PIVOTS, dtype=dtype)
     tree = model.tree
     cases = np.array([[1e3 + 0.3, 1e2, -1e3 - 1.1], [-np.pi, -1e2, np.pi], [0.0, 0.0, 0.0], [1e-8, 1e-9, -1e-8]])
     data = wd.data.Data.build(model, num_envs=len(cases), joint_positions=cases)
