@@ -178,9 +178,9 @@ class Model:
 
     Build it with `warpdyn.model.Model.build_from_model_description`. The host-side tree (`model.tree`,
     NumPy float64) holds the description's constants; the Warp arrays below are what kernels read:
-    parent (nL,) int, joint_type (nL,) int, X_tree (nL,) transform (joint frame in the parent link),
-    joint_axis, joint_pivot (nL,) vec3 (link frame), the same joints as the kernels move them (joint_Q0, joint_Q1
-    (nL,) quaternion, joint_t0, joint_t1, joint_t2 (nL,) vec3, joint_S (nL,) vec6: `joint_motion_terms`), support (nL, n) int, frame_parent (nF,) int,
+    parent (nL,) int, joint_type (nL,) int, the joints as the kernels move them (from the tree's parent_H_joint,
+    joint_axis and joint_pivot: joint_Q0, joint_Q1 (nL,) quaternion, joint_t0, joint_t1, joint_t2 (nL,) vec3,
+    joint_S (nL,) vec6: `joint_motion_terms`), support (nL, n) int, frame_parent (nF,) int,
     link_H_frame (nF,) transform, first_child and next_sibling (nL,) int (-1 for none: the sibling chains
     that backward passes sum over).
 
@@ -222,9 +222,6 @@ class Model:
         vec3 = wp.types.vector(3, s)
         self.parent = wp.array(tree.parent, dtype=int, device=d)
         self.joint_type = wp.array(tree.joint_type, dtype=int, device=d)
-        self.X_tree = transforms(tree.parent_H_joint, s, d)
-        self.joint_axis = wp.array(tree.joint_axis, dtype=vec3, device=d)
-        self.joint_pivot = wp.array(tree.joint_pivot, dtype=vec3, device=d)
         terms = joint_motion_terms(tree)
         quat, vec6 = wp.types.quaternion(s), wp.types.vector(6, s)
         self.joint_Q0, self.joint_Q1 = (wp.array(terms[k], dtype=quat, device=d) for k in ("Q0", "Q1"))
