@@ -55,16 +55,17 @@ BASE = wp.constant(-2)
 
 
 @functools.cache
-def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, keep_joint_transforms: bool, lanes: int = 1):
+def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, terrain_kind: int | None, keep_joint_transforms: bool, lanes: int = 1):
     """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
     sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, the joint forces of kernels/actuation.py's
-    `joint_force(scalar, *actuation)` (None: a model without joints), keeping the joint transforms of pass 1 for
+    `joint_force(scalar, *actuation)` (None: a model without joints), the contacts of kernels/soft_contacts.py's
+    `kernels(scalar, terrain_kind)` (a kind of terrain, or None: any), keeping the joint transforms of pass 1 for
     passes 2 and 3 or recomputing them; one thread per environment (lanes 1, launched over N), or `lanes`
     threads per environment, one per group of the walk (launched over (N, lanes) in blocks of `lanes`)."""
     sp = spatial(scalar)
     B = bundles(scalar)
     I = integrator_funcs(scalar)
-    C = contact_funcs(scalar)
+    C = contact_funcs(scalar, terrain_kind)
     inertia_to = inertia_funcs(scalar).inertia_to
     articulated = inertia_funcs(scalar).articulated
     SO3 = wp.constant(int(so3))
@@ -98,18 +99,25 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
         points (at the pose W_H_L, velocity v_L in link coordinates) plus the given Inertial link force if any.
         Writes each point's m+ = m + dt m_dot into y, and its Inertial wrench into W_f_C unless that is empty;
         the second value is 0 x the sum of the m+, NaN when one is not finite (the health check's). A link
-        without points or a given force costs two loads."""
-        W_f = sp.vec6(scalar(0.0))
+        without points or a given force costs two loads. The points are placed with the link's rotation matrix
+        W_R_L, their velocities from the link origin's, their moments summed about the link's origin (not the
+        world's: short lever arms, whatever the robot's distance from the origin)."""
+        L_f = sp.vec6(scalar(0.0))
         nonfinite = scalar(0.0)
         count = contacts.link_point_count[L]
         if controls.link_forces.shape[0] == 0 and count == 0:
-            return W_f, nonfinite
+            return L_f, nonfinite
         if controls.link_forces.shape[0] > 0:
-            W_f = B.link_force(controls, env, L)
+            L_f = sp.force_from(W_H_L, B.link_force(controls, env, L))
         if count > 0:
             first = contacts.link_first_point[L]
             last = first + count - 1
-            W_v = sp.motion_to(W_H_L, v_L)
+            W_R_L = wp.quat_to_matrix(wp.transform_get_rotation(W_H_L))
+            W_o_L = wp.transform_get_translation(W_H_L)
+            W_v_o = W_R_L * sp.lin(v_L)  # the link origin's velocity, world axes
+            W_omega = W_R_L * sp.ang(v_L)
+            W_f = sp.vec3(scalar(0.0))  # the points' forces, and their moments about the link's origin, world axes
+            W_tau = sp.vec3(scalar(0.0))
             next_p, next_row, next_m = point_state(contacts, x, env, first)
             for c in range(first, last + 1):
                 L_p_C = next_p
@@ -117,16 +125,21 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, k
                 m = next_m
                 # the next point's (this one's again at the last), loaded while this one is computed
                 next_p, next_row, next_m = point_state(contacts, x, env, wp.min(c + 1, last))
-                w, m_dot = C.point_wrench(contacts, terrain, h0, L_p_C, W_H_L, W_v, m, K, D, mu)
-                W_f = W_f + w
+                r = W_R_L * L_p_C  # the point from the link's origin, world axes
+                p = W_o_L + r
+                f, m_dot = C.contact_at(contacts, terrain, h0, p, W_v_o + wp.cross(W_omega, r), m, K, D, mu)
+                W_f = W_f + f
+                W_tau = W_tau + wp.cross(r, f)
                 if W_f_C.shape[0] > 0:
+                    w = sp.stack(f, wp.cross(p, f))
                     for a in range(6):
                         W_f_C[env, c, a] = w[a]
                 for a in range(3):
                     m_next = m[a] + dt * m_dot[a]
                     nonfinite = I.poison(nonfinite, m_next)
                     y.tangential_deformation[env, row, a] = m_next
-        return sp.force_from(W_H_L, W_f), nonfinite
+            L_f = L_f + sp.stack(W_f * W_R_L, W_tau * W_R_L)  # (W_R_L^T W_f, W_R_L^T W_tau)
+        return L_f, nonfinite
 
     @wp.func
     def join_terms(IA: sym21, pA: sp.vec6):

@@ -28,10 +28,51 @@ FLAT, PLANE, HEIGHTFIELD = 0, 1, 2
 
 
 @functools.cache
-def kernels(scalar):
+def kernels(scalar, terrain_kind: int | None = None):
+    """The functions and kernels in `scalar`, for any terrain (terrain_kind None: its kind is read from the
+    bundle at run time) or for one kind (FLAT, PLANE, HEIGHTFIELD): a constant, so that the compiler drops the
+    other kinds' code; on a flat terrain the normal's components are then not multiplied either (the numbers
+    are the same but for the sign of zeros, and a NaN in one component of a point's velocity or deformation
+    stays in that component; a NaN height still gives a NaN force)."""
     sp = spatial(scalar)
     B = bundles(scalar)
     vec4 = B.vec4
+    FLAT_ONLY = terrain_kind == FLAT
+
+    if terrain_kind is None:
+
+        @wp.func
+        def kind_of(terrain: B.Terrain):
+            """The terrain's kind: read from the bundle."""
+            return terrain.kind
+
+    else:
+
+        @wp.func
+        def kind_of(terrain: B.Terrain):
+            """The terrain's kind: the functions' (a constant)."""
+            return wp.static(terrain_kind)
+
+    @wp.func
+    def normal_part(u: sp.vec3, n: sp.vec3):
+        """u.n (u's z on a flat terrain)."""
+        if wp.static(FLAT_ONLY):
+            return u[2]
+        return wp.dot(u, n)
+
+    @wp.func
+    def along_normal(n: sp.vec3, a: scalar):
+        """a n (on a flat terrain (0, 0, a))."""
+        if wp.static(FLAT_ONLY):
+            return sp.vec3(scalar(0.0), scalar(0.0), a)
+        return a * n
+
+    @wp.func
+    def tangential_part(u: sp.vec3, n: sp.vec3):
+        """u - (u.n) n (on a flat terrain (u_x, u_y, 0))."""
+        if wp.static(FLAT_ONLY):
+            return sp.vec3(u[0], u[1], scalar(0.0))
+        return u - wp.dot(u, n) * n
 
     @wp.func
     def heightfield_cell(hf: wp.array2d(dtype=scalar), grid: vec4, x: scalar, y: scalar):
@@ -54,7 +95,7 @@ def kernels(scalar):
         normal. Heightfield: the grid's heights, bilinear, clamped to its edges."""
         hf = terrain.heights
         n = terrain.normal
-        if terrain.kind == HEIGHTFIELD:
+        if kind_of(terrain) == HEIGHTFIELD:
             i, j, a, b = heightfield_cell(hf, terrain.grid, x, y)
             one = scalar(1.0)
             return (
@@ -63,7 +104,7 @@ def kernels(scalar):
                 + (one - a) * b * hf[i, j + 1]
                 + a * b * hf[i + 1, j + 1]
             )
-        if terrain.kind == PLANE:
+        if kind_of(terrain) == PLANE:
             return h0 - (n[0] * x + n[1] * y) / n[2]
         return h0
 
@@ -72,13 +113,13 @@ def kernels(scalar):
         """The unit normal at (x, y): constant for flat and plane terrains, from the bilinear gradient otherwise."""
         hf = terrain.heights
         grid = terrain.grid
-        if terrain.kind == HEIGHTFIELD:
+        if kind_of(terrain) == HEIGHTFIELD:
             i, j, a, b = heightfield_cell(hf, grid, x, y)
             one = scalar(1.0)
             dhdx = ((one - b) * (hf[i + 1, j] - hf[i, j]) + b * (hf[i + 1, j + 1] - hf[i, j + 1])) / grid[2]
             dhdy = ((one - a) * (hf[i, j + 1] - hf[i, j]) + a * (hf[i + 1, j + 1] - hf[i + 1, j])) / grid[3]
             return wp.normalize(sp.vec3(-dhdx, -dhdy, one))
-        if terrain.kind == PLANE:
+        if kind_of(terrain) == PLANE:
             return terrain.normal
         return sp.vec3(scalar(0.0), scalar(0.0), scalar(1.0))
 
@@ -104,7 +145,7 @@ def kernels(scalar):
         delta_p = zero
         delta_q = zero
         if delta > zero:
-            delta_dot = -wp.dot(v, n)
+            delta_dot = -normal_part(v, n)
             delta_p = power(delta + eps, pe)
             delta_q = delta_p
             if qe != pe:
@@ -114,9 +155,9 @@ def kernels(scalar):
         f_t = sp.vec3(zero)
         m_dot = -(K / D) * m
         if delta > zero:
-            v_t = v - wp.dot(v, n) * n
-            m_n = wp.dot(m, n) * n
-            m_t = m - m_n
+            v_t = tangential_part(v, n)
+            m_n = along_normal(n, normal_part(m, n))
+            m_t = tangential_part(m, n)
             f_t = -(K * delta_p * m_t + D * delta_q * v_t)
             norm = wp.length(f_t)
             limit = mu * fn
@@ -129,7 +170,16 @@ def kernels(scalar):
                 m_dot = -(f_t + K * delta_p * m_t) / (D * delta_q)
         if depth != depth:  # noqa: PLR0124 (NaN test) a NaN height (written in place): a NaN force, which the step flags
             f_t = sp.vec3(depth)
-        return fn * n + f_t, m_dot, delta
+        return along_normal(n, fn) + f_t, m_dot, delta
+
+    @wp.func
+    def contact_at(contacts: B.Contacts, terrain: B.Terrain, h0: scalar, p: sp.vec3, v: sp.vec3, m: sp.vec3, K: scalar, D: scalar, mu: scalar):
+        """(f, m_dot): the contact force [N, world axes] of a point at p [m, world] with the velocity v [m/s] and
+        the deformation m, and its m_dot; h0 the environment's `height_parameter`."""
+        h = terrain_height(terrain, h0, p[0], p[1])
+        n = terrain_normal(terrain, p[0], p[1])
+        f, m_dot, delta = hunt_crossley(p, v, m, h, n, K, D, mu, contacts.p, contacts.q)
+        return f, m_dot
 
     @wp.func
     def point_wrench(
@@ -139,10 +189,7 @@ def kernels(scalar):
         at the pose W_H_L with the Inertial velocity W_v_WL, with the deformation m; h0 the environment's
         `height_parameter`."""
         p = wp.transform_point(W_H_L, L_p_C)
-        v = sp.lin(W_v_WL) + wp.cross(sp.ang(W_v_WL), p)
-        h = terrain_height(terrain, h0, p[0], p[1])
-        n = terrain_normal(terrain, p[0], p[1])
-        f, m_dot, delta = hunt_crossley(p, v, m, h, n, K, D, mu, contacts.p, contacts.q)
+        f, m_dot = contact_at(contacts, terrain, h0, p, sp.lin(W_v_WL) + wp.cross(sp.ang(W_v_WL), p), m, K, D, mu)
         return sp.stack(f, wp.cross(p, f)), m_dot
 
     @wp.kernel(module="unique")
@@ -220,6 +267,7 @@ def kernels(scalar):
         terrain_height=terrain_height,
         terrain_normal=terrain_normal,
         hunt_crossley=hunt_crossley,
+        contact_at=contact_at,
         point_wrench=point_wrench,
         point_contact_forces=point_contact_forces,
         link_contact_wrench=link_contact_wrench,

@@ -245,7 +245,7 @@ class Plan:
             self.lanes = walk.groups
             so3 = self.integrator == IntegratorType.SemiImplicitEulerSO3
             actuation = (self.with_limits, self.with_friction, self.with_passive, per_joint) if self.n > 0 else None
-            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(walk.slots, 1), so3, actuation)
+            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(walk.slots, 1), so3, actuation, self.terrain.kind)
         self.no_poses = wp.empty((0, 0), dtype=wp.types.transformation(s), device=d)
         self._zeros: dict = {}
 
@@ -415,7 +415,7 @@ def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: 
         order = int(arrays.env_fastest(plan.device))
         rows, links = (plan.total, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)
         args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, order, rows]
-        launches.append(Launch(contact_kernels(s).point_contact_forces, N * plan.total // rows, args, [ev.W_f_C, ev.m_dot]))
+        launches.append(Launch(contact_kernels(s, plan.terrain.kind).point_contact_forces, N * plan.total // rows, args, [ev.W_f_C, ev.m_dot]))
         args = [plan.contact_bundle, ev.W_f_C, f_in, order, links]
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
         f_ext = ev.W_f_L
