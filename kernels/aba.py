@@ -45,20 +45,25 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         """A_X*_B I B_X_A: a symmetric spatial inertia from B to A coordinates, X = A_H_B = (p, R), by 3x3 blocks.
 
         I = [[K, H], [H^T, L]] goes to [[K', H' - K' p^], [., L' + p^ H' - H'^T p^ - p^ K' p^]] with
-        K' = R K R^T, H' = R H R^T, L' = R L R^T (about 250 operations instead of two 6x6 products).
+        K' = R K R^T, H' = R H R^T, L' = R L R^T (about 200 operations instead of two 6x6 products). The
+        products with p^ are cross products (M p^ has the rows m_i x p, p^ M the columns p x m_j), not 3x3
+        products whose zeros IEEE arithmetic keeps.
         """
         R = wp.quat_to_matrix(wp.transform_get_rotation(X))
-        P = wp.skew(wp.transform_get_translation(X))
+        p = wp.transform_get_translation(X)
         K = sp.mat33(I[0, 0], I[0, 1], I[0, 2], I[1, 0], I[1, 1], I[1, 2], I[2, 0], I[2, 1], I[2, 2])
         H = sp.mat33(I[0, 3], I[0, 4], I[0, 5], I[1, 3], I[1, 4], I[1, 5], I[2, 3], I[2, 4], I[2, 5])
         L = sp.mat33(I[3, 3], I[3, 4], I[3, 5], I[4, 3], I[4, 4], I[4, 5], I[5, 3], I[5, 4], I[5, 5])
         Rt = wp.transpose(R)
         K1 = R * K * Rt
         H1 = R * H * Rt
-        KP = K1 * P
-        PH = P * H1
+        KP = wp.matrix_from_rows(wp.cross(K1[0], p), wp.cross(K1[1], p), wp.cross(K1[2], p))  # K' p^
+        H1t = wp.transpose(H1)
+        PH = wp.matrix_from_cols(wp.cross(p, H1t[0]), wp.cross(p, H1t[1]), wp.cross(p, H1t[2]))  # p^ H'
+        KPt = wp.transpose(KP)
+        PKP = wp.matrix_from_cols(wp.cross(p, KPt[0]), wp.cross(p, KPt[1]), wp.cross(p, KPt[2]))  # p^ K' p^
         H2 = H1 - KP
-        L2 = R * L * Rt + PH + wp.transpose(PH) - P * KP
+        L2 = R * L * Rt + PH + wp.transpose(PH) - PKP
         return sc.sym_upper(sp.mat66(
             K1[0, 0], K1[0, 1], K1[0, 2], H2[0, 0], H2[0, 1], H2[0, 2],
             K1[1, 0], K1[1, 1], K1[1, 2], H2[1, 0], H2[1, 1], H2[1, 2],
