@@ -25,9 +25,9 @@ the thread's local memory instead of arrays in global memory, and is read and wr
 the joint positions, velocities and force references: read from global memory all at once before pass 1
 rather than one link at a time, so that their waits for memory overlap; likewise a contact point's state is
 read while the point before it is computed. The joint transforms lambda(i)_H_i are either kept from pass 1
-(7 numbers more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from their joints'
-coefficients, kept from pass 1 instead (B.joint_coefficients: 4 numbers per link, no sine or cosine again;
-cheaper on a GPU once the environments' local arrays outgrow its caches, benchmarks/RESULTS.md).
+(7 numbers more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from the joint positions
+(their sines and cosines again: cheaper on a GPU once the environments' local arrays outgrow its caches, than
+keeping either the transforms or their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
 The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links
 and slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not
 unrolled (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3), the
@@ -76,7 +76,6 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     base_terms = wp.types.vector(SYM66 + 6, scalar)
     links6 = wp.types.matrix((links, 6), scalar)
     links7 = wp.types.matrix((links, TRANSFORM), scalar)
-    links4 = wp.types.matrix((links, 4), scalar)
     per_link = wp.types.vector(links, scalar)
     slots6 = wp.types.matrix((slots, 6), scalar)
     slots7 = wp.types.matrix((slots, TRANSFORM), scalar)
@@ -211,7 +210,6 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         W_H_B = B.base_pose(x, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
         X = links7()  # lambda(i)_H_i, when kept
-        k_q = links4()  # else its joint's coefficients (B.joint_coefficients)
         c = links6()  # c_i = v_i x S_i qd_i
         pU = links6()  # pass 1: v_i x* I_i v_i - f_i; pass 2: U_i / d_i
         ud = per_link()  # u_i / d_i
@@ -258,12 +256,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
             s_i = q[i]
-            k_i = B.joint_coefficients(model, i, s_i)
-            X_i = B.joint_transform_at(model, i, k_i)
+            X_i = B.joint_transform(model, i, s_i)
             if wp.static(KEEP):
                 X[i] = pack7(X_i)
-            else:
-                k_q[i] = k_i
             W_H_i = W_H_P * X_i
             if W_H_L.shape[0] > 0:
                 W_H_L[env, i] = W_H_i
@@ -294,7 +289,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
-                X_i = B.joint_transform_at(model, i, k_q[i])
+                X_i = B.joint_transform(model, i, q[i])
             S = B.motion_subspace_of(model, i)
             IA = B.spatial_inertia_of(model, env, i) + unpack21(IA_next)
             pA = pU[i] + pA_next
@@ -350,7 +345,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
-                X_i = B.joint_transform_at(model, i, k_q[i])
+                X_i = B.joint_transform(model, i, q[i])
             S = B.motion_subspace_of(model, i)
             a_i = sp.motion_from(X_i, a_P) + c[i]
             qdd = ud[i] - wp.dot(pU[i], a_i)

@@ -83,7 +83,7 @@ KEEP_JOINT_TRANSFORMS_UP_TO = 4096
 
 def keeps_joint_transforms(device, N: int) -> bool:
     """Whether the fused step of N environments keeps the joint transforms of its first pass for the other two
-    (kernels/fused_step.py) rather than rebuild them from their joints' coefficients: on the CPU, and on
+    (kernels/fused_step.py) rather than rebuild them from the joint positions: on the CPU, and on
     a GPU for up to KEEP_JOINT_TRANSFORMS_UP_TO environments, whose local arrays its caches hold. Measured on an
     H100 (benchmarks/RESULTS.md, round 4): keeping them, the step took 7-11% less time at N = 1, 7% less
     (float32) or as long (float64) at 4096, and 7-12% more at 32768 and 131072 (round 5's smaller local arrays
