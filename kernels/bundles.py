@@ -198,21 +198,23 @@ def bundles(scalar) -> types.SimpleNamespace:
         return sp.inertia_times(mass_of(model, env, i), com_of(model, env, i), inertia_of(model, env, i), v)
 
     @wp.func
-    def joint_transform_at(model: Model, i: int, k: sp.vec4):
-        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent, from its joint's coefficients k at q
-        (`joint_coefficients`; i >= 1)."""
-        t = model.joint_t0[i] + k[2] * model.joint_t1[i] + k[3] * model.joint_t2[i]
-        return sp.transform(t, k[0] * model.joint_Q0[i] + k[1] * model.joint_Q1[i])
+    def joint_terms_of(model: Model, i: int):
+        """Link i's joint: (its type, Q0, Q1, t0, t1, t2), the terms that move its link (i >= 1)."""
+        return model.joint_type[i], model.joint_Q0[i], model.joint_Q1[i], model.joint_t0[i], model.joint_t1[i], model.joint_t2[i]
 
     @wp.func
-    def joint_coefficients(model: Model, i: int, q: scalar):
-        """Link i's joint coefficients at joint position q (spatial.joint_coefficients; i >= 1)."""
-        return sp.joint_coefficients(model.joint_type[i], q)
+    def joint_transform_from(joint_type: int, Q0: sp.quat, Q1: sp.quat, t0: sp.vec3, t1: sp.vec3, t2: sp.vec3, q: scalar):
+        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q, from its joint's terms
+        (`joint_terms_of`): (t0 + alpha t1 + beta t2, c Q0 + s Q1) with (c, s, alpha, beta) =
+        spatial.joint_coefficients(joint_type, q)."""
+        k = sp.joint_coefficients(joint_type, q)
+        return sp.transform(t0 + k[2] * t1 + k[3] * t2, k[0] * Q0 + k[1] * Q1)
 
     @wp.func
     def joint_transform(model: Model, i: int, q: scalar):
         """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q (i >= 1)."""
-        return joint_transform_at(model, i, joint_coefficients(model, i, q))
+        joint_type, Q0, Q1, t0, t1, t2 = joint_terms_of(model, i)
+        return joint_transform_from(joint_type, Q0, Q1, t0, t1, t2, q)
 
     @wp.func
     def motion_subspace_of(model: Model, i: int):
@@ -262,8 +264,8 @@ def bundles(scalar) -> types.SimpleNamespace:
         inertia_of=inertia_of,
         spatial_inertia_of=spatial_inertia_of,
         spatial_inertia_times=spatial_inertia_times,
-        joint_transform_at=joint_transform_at,
-        joint_coefficients=joint_coefficients,
+        joint_terms_of=joint_terms_of,
+        joint_transform_from=joint_transform_from,
         joint_transform=joint_transform,
         motion_subspace_of=motion_subspace_of,
         base_pose_of=base_pose_of,

@@ -117,13 +117,18 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             W_omega = W_R_L * sp.ang(v_L)
             W_f = sp.vec3(scalar(0.0))  # the points' forces, and their moments about the link's origin, world axes
             W_tau = sp.vec3(scalar(0.0))
+            # two points ahead: the state of point c + 2 (the last's again near the end) is loaded while point c
+            # is computed, so that a load from memory has two points' work to arrive
             next_p, next_row, next_m = point_state(contacts, x, env, first)
+            then_p, then_row, then_m = point_state(contacts, x, env, wp.min(first + 1, last))
             for c in range(first, last + 1):
                 L_p_C = next_p
                 row = next_row
                 m = next_m
-                # the next point's (this one's again at the last), loaded while this one is computed
-                next_p, next_row, next_m = point_state(contacts, x, env, wp.min(c + 1, last))
+                next_p = then_p
+                next_row = then_row
+                next_m = then_m
+                then_p, then_row, then_m = point_state(contacts, x, env, wp.min(c + 2, last))
                 r = W_R_L * L_p_C  # the point from the link's origin, world axes
                 p = W_o_L + r
                 f, m_dot = C.contact_at(contacts, terrain, h0, p, W_v_o + wp.cross(W_omega, r), m, K, D, mu)
@@ -333,28 +338,59 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             slot_v[base_own] = a0
         p_B, Q_B, pdot_B, omega_B, healthy = I.base_state(x, env)  # for 4., read now: its wait overlaps pass 3
         a_prev = a0
+        # what link k + 1 needs (its walk entry, joint terms, motion subspace, and what passes 1 and 2 kept) is
+        # loaded while link k is computed, so that its waits for memory overlap that work
+        w_n = walk[wp.max(wp.min(first, last - 1), 0)]
+        i_n = w_n[0]
+        if wp.static(KEEP):
+            X_n = X[i_n]
+        else:
+            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
+        S_n = B.motion_subspace_of(model, i_n)
+        c_n = c[i_n]
+        pU_n = pU[i_n]
+        ud_n = ud[i_n]
+        q_n = q[i_n]
+        qd_n = qd[i_n]
         for k in range(first, last):
-            i = walk[k][0]
-            own = walk[k][1]
-            up = walk[k][2]
+            i = i_n
+            own = w_n[1]
+            up = w_n[2]
+            if wp.static(KEEP):
+                X_i = unpack7(X_n)
+            else:
+                X_i = B.joint_transform_from(jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n, q_n)
+            S = S_n
+            c_i = c_n
+            Ud_i = pU_n
+            ud_i = ud_n
+            s_i = q_n
+            sd_i = qd_n
+            w_n = walk[wp.min(k + 1, last - 1)]
+            i_n = w_n[0]
+            if wp.static(KEEP):
+                X_n = X[i_n]
+            else:
+                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
+            S_n = B.motion_subspace_of(model, i_n)
+            c_n = c[i_n]
+            pU_n = pU[i_n]
+            ud_n = ud[i_n]
+            q_n = q[i_n]
+            qd_n = qd[i_n]
             a_P = a_prev
             if up == BASE:
                 a_P = a0
             elif up >= 0:
                 a_P = slot_v[up]
-            if wp.static(KEEP):
-                X_i = unpack7(X[i])
-            else:
-                X_i = B.joint_transform(model, i, q[i])
-            S = B.motion_subspace_of(model, i)
-            a_i = sp.motion_from(X_i, a_P) + c[i]
-            qdd = ud[i] - wp.dot(pU[i], a_i)
+            a_i = sp.motion_from(X_i, a_P) + c_i
+            qdd = ud_i - wp.dot(Ud_i, a_i)
             a_i = a_i + S * qdd
             if own >= 0:
                 slot_v[own] = a_i
             a_prev = a_i
-            sd_next = qd[i] + dt * qdd
-            s_next = q[i] + dt * sd_next
+            sd_next = sd_i + dt * qdd
+            s_next = s_i + dt * sd_next
             nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)
             y.joint_velocities[env, i - 1] = sd_next
             y.joint_positions[env, i - 1] = s_next

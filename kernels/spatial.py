@@ -104,7 +104,7 @@ def spatial(scalar) -> types.SimpleNamespace:
     @wp.func
     def joint_coefficients(joint_type: int, q: scalar):
         """(c, s, alpha, beta) with which a joint at position q moves its link (kernels/bundles.py's
-        `joint_transform_at`): (cos q/2, sin q/2, cos q, sin q) for a revolute joint, (1, 0, q, 0) for a
+        `joint_transform_from`): (cos q/2, sin q/2, cos q, sin q) for a revolute joint, (1, 0, q, 0) for a
         prismatic one, (1, 0, 0, 0) otherwise (see warpdyn.description's joint_motion)."""
         one = scalar(1.0)
         zero = scalar(0.0)
