@@ -53,8 +53,8 @@ def test_a_first_step_loads_its_modules_at_once(tmp_path):
     device = str(wp.get_device())
     done = subprocess.run(
         [sys.executable, "-c", SCRIPT, str(tmp_path / "cache"), device],
-        capture_output=True, text=True, timeout=600, env={**os.environ, "PYTHONWARNINGS": "ignore"},
-    )  # fmt: skip
+        capture_output=True, text=True, timeout=600, env={**os.environ, "PYTHONWARNINGS": "ignore"}, cwd=tmp_path,
+    )  # fmt: skip (cwd: the warpdyn this process imports, not a source tree in the working directory)
     assert done.returncode == 0, done.stderr[-3000:]
     report = json.loads(done.stdout.strip().splitlines()[-1])
     loads = report["first_step"]
