@@ -25,10 +25,11 @@ the thread's local memory instead of arrays in global memory, and is read and wr
 the joint positions, velocities and force references: read from global memory all at once before pass 1
 rather than one link at a time, so that their waits for memory overlap; likewise a contact point's state is
 read while the point two before it is computed, and what pass 3 needs of a link while the link before it is
-(in passes 1 and 2 the same spilled registers in float64: benchmarks/RESULTS.md, round 9). The joint transforms lambda(i)_H_i are either kept from pass 1
-(7 numbers more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from the joint positions
-(their sines and cosines again: cheaper on a GPU once the environments' local arrays outgrow its caches, than
-keeping either the transforms or their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
+(in passes 1 and 2 the same spilled registers in float64: benchmarks/RESULTS.md, round 9). The joint
+transforms lambda(i)_H_i are either kept from pass 1 (7 numbers more per link; `keep_joint_transforms`) or
+rebuilt in passes 2 and 3 from the joint positions (their sines and cosines again: cheaper on a GPU once the
+environments' local arrays outgrow its caches than keeping either the transforms or their joints' 4
+coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
 The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links
 and slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not
 unrolled (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3), the

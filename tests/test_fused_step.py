@@ -220,6 +220,36 @@ def test_heightfield_terrain_and_disabled_points(monkeypatch):
     np.testing.assert_array_equal(fused.tangential_deformation_state.numpy()[:, ~enabled], m[:, ~enabled])
 
 
+TERRAINS = {
+    "flat": wd.terrain.FlatTerrain(height=0.002),
+    "plane": wd.terrain.PlaneTerrain(normal=(0.05, -0.03, 1.0), point=(0.0, 0.0, 0.004)),
+    "heightfield": wd.terrain.HeightfieldTerrain(
+        0.004 * np.sin(np.linspace(0.0, 3.0, 9))[:, None] * np.cos(np.linspace(0.0, 2.0, 9))[None, :], origin=(-1.0, -1.0), spacing=(0.25, 0.25)
+    ),
+}
+
+
+@pytest.mark.parametrize("terrain", list(TERRAINS))
+def test_contacts_made_for_a_terrain_kind_equal_those_for_any_kind(monkeypatch, terrain):
+    """The contact kernel made for the plan's terrain kind (kernels/soft_contacts.py's kernels(scalar, kind):
+    a constant, the other kinds' code dropped, on flat terrain no products with the normal) gives the numbers
+    of the one that reads the kind at run time: each point's wrench and deformation rate, and the links'
+    wrenches, bit for bit (assert_array_equal does not tell -0 from 0), some points in contact, others not."""
+    contact_kernels = engine_step.contact_kernels
+    out = []
+    for any_kind in (False, True):
+        if any_kind:
+            monkeypatch.setattr(engine_step, "contact_kernels", lambda scalar, kind=None: contact_kernels(scalar))
+        model = _legs(np.float64)  # its own plan: the launches are built afresh
+        model.terrain = TERRAINS[terrain]
+        data = _with(_standing(model, 8), m=np.random.default_rng(9).normal(0.0, 2e-3, (8, 32, 3)))
+        out.append([a.numpy() for a in engine_step.contact_forces(model, data)])
+    W_f_C, m_dot, W_f_L = out[0]
+    assert (np.abs(W_f_C[..., 2]) > 0.0).any() and (W_f_C[..., 2] == 0.0).any(), "points in contact and not"
+    for name, specific, generic in zip(("W_f_C", "m_dot", "W_f_L"), out[0], out[1]):
+        np.testing.assert_array_equal(specific, generic, err_msg=f"{terrain}: {name}")
+
+
 @pytest.mark.usefixtures("keep", "lanes")
 @pytest.mark.parametrize("case", ["no_points", "fixed_base_chain", "single_body"])
 def test_models_without_contacts_or_without_a_floating_base(monkeypatch, case):
