@@ -203,18 +203,24 @@ def bundles(scalar) -> types.SimpleNamespace:
         return model.joint_type[i], model.joint_Q0[i], model.joint_Q1[i], model.joint_t0[i], model.joint_t1[i], model.joint_t2[i]
 
     @wp.func
-    def joint_transform_from(joint_type: int, Q0: sp.quat, Q1: sp.quat, t0: sp.vec3, t1: sp.vec3, t2: sp.vec3, q: scalar):
-        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q, from its joint's terms
-        (`joint_terms_of`): (t0 + alpha t1 + beta t2, c Q0 + s Q1) with (c, s, alpha, beta) =
-        spatial.joint_coefficients(joint_type, q)."""
-        k = sp.joint_coefficients(joint_type, q)
+    def transform_of_terms(k: sp.vec4, Q0: sp.quat, Q1: sp.quat, t0: sp.vec3, t1: sp.vec3, t2: sp.vec3):
+        """(t0 + alpha t1 + beta t2, c Q0 + s Q1): a link in its parent from its joint's terms and coefficients
+        k = (c, s, alpha, beta) (spatial.joint_coefficients)."""
         return sp.transform(t0 + k[2] * t1 + k[3] * t2, k[0] * Q0 + k[1] * Q1)
 
     @wp.func
+    def joint_transform_from(joint_type: int, Q0: sp.quat, Q1: sp.quat, t0: sp.vec3, t1: sp.vec3, t2: sp.vec3, q: scalar):
+        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q, from its joint's terms
+        loaded earlier (`joint_terms_of`)."""
+        return transform_of_terms(sp.joint_coefficients(joint_type, q), Q0, Q1, t0, t1, t2)
+
+    @wp.func
     def joint_transform(model: Model, i: int, q: scalar):
-        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q (i >= 1)."""
-        joint_type, Q0, Q1, t0, t1, t2 = joint_terms_of(model, i)
-        return joint_transform_from(joint_type, Q0, Q1, t0, t1, t2, q)
+        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q (i >= 1). Its terms are
+        loaded once its coefficients are computed: fewer registers live across the sine and cosine (RNEA in
+        float64 spilled 372 instead of 300 bytes with them loaded first, ptxas 13.5 for sm_90)."""
+        k = sp.joint_coefficients(model.joint_type[i], q)
+        return transform_of_terms(k, model.joint_Q0[i], model.joint_Q1[i], model.joint_t0[i], model.joint_t1[i], model.joint_t2[i])
 
     @wp.func
     def motion_subspace_of(model: Model, i: int):

@@ -263,7 +263,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
             s_i = q[i]
-            X_i = B.joint_transform(model, i, s_i)
+            jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)  # loaded first, as round 9 measured
+            X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, s_i)
             if wp.static(KEEP):
                 X[i] = pack7(X_i)
             W_H_i = W_H_P * X_i
@@ -296,7 +297,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
-                X_i = B.joint_transform(model, i, q[i])
+                jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)
+                X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, q[i])
             S = B.motion_subspace_of(model, i)
             IA = B.spatial_inertia_of(model, env, i) + unpack21(IA_next)
             pA = pU[i] + pA_next
