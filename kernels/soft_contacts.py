@@ -135,7 +135,7 @@ def kernels(scalar, terrain_kind: int | None = None):
     def hunt_crossley(
         p: sp.vec3, v: sp.vec3, m: sp.vec3, h: scalar, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar
     ):
-        """(f (3,), m_dot (3,), delta): the contact force [N, world axes] and the deformation rate [m/s]."""
+        """(f (3,), m_dot (3,)): the contact force [N, world axes] and the deformation rate [m/s]."""
         zero = scalar(0.0)
         eps = scalar(EPSILON)
         depth = (h - p[2]) * n[2]
@@ -170,7 +170,7 @@ def kernels(scalar, terrain_kind: int | None = None):
                 m_dot = -(f_t + K * delta_p * m_t) / (D * delta_q)
         if depth != depth:  # noqa: PLR0124 (NaN test) a NaN height (written in place): a NaN force, which the step flags
             f_t = sp.vec3(depth)
-        return along_normal(n, fn) + f_t, m_dot, delta
+        return along_normal(n, fn) + f_t, m_dot
 
     @wp.func
     def contact_at(contacts: B.Contacts, terrain: B.Terrain, h0: scalar, p: sp.vec3, v: sp.vec3, m: sp.vec3, K: scalar, D: scalar, mu: scalar):
@@ -178,8 +178,7 @@ def kernels(scalar, terrain_kind: int | None = None):
         the deformation m, and its m_dot; h0 the environment's `height_parameter`."""
         h = terrain_height(terrain, h0, p[0], p[1])
         n = terrain_normal(terrain, p[0], p[1])
-        f, m_dot, delta = hunt_crossley(p, v, m, h, n, K, D, mu, contacts.p, contacts.q)
-        return f, m_dot
+        return hunt_crossley(p, v, m, h, n, K, D, mu, contacts.p, contacts.q)
 
     @wp.func
     def point_wrench(

@@ -64,16 +64,6 @@ def quaternion_xyzw(R: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
-def _quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a b of quaternions (x, y, z, w)."""
-    return np.array([
-        a[3] * b[0] + b[3] * a[0] + a[1] * b[2] - a[2] * b[1],
-        a[3] * b[1] + b[3] * a[1] + a[2] * b[0] - a[0] * b[2],
-        a[3] * b[2] + b[3] * a[2] + a[0] * b[1] - a[1] * b[0],
-        a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2],
-    ])  # fmt: skip
-
-
 def joint_motion_terms(tree: KinematicTree) -> dict[str, np.ndarray]:
     """Each link's joint as the kernels move it (kernels/bundles.py's Model): link i in its parent at joint
     position q, X_tree M(q) (warpdyn.description's joint_motion), is (t0 + alpha t1 + beta t2, c Q0 + s Q1) with
@@ -95,7 +85,7 @@ def joint_motion_terms(tree: KinematicTree) -> dict[str, np.ndarray]:
         terms["t0"][i] = p
         if tree.joint_type[i] == JOINT_REVOLUTE:
             d_perp = d - (a @ d) * a
-            terms["Q1"][i] = _quaternion_product(A, np.array([*a, 0.0]))
+            terms["Q1"][i] = [*(A[3] * a + np.cross(A[:3], a)), -A[:3] @ a]  # A (a, 0), (x, y, z, w)
             terms["t0"][i] = p + R @ d_perp
             terms["t1"][i] = -R @ d_perp
             terms["t2"][i] = -R @ np.cross(a, d)
