@@ -218,7 +218,7 @@ def bundles(scalar) -> types.SimpleNamespace:
     def joint_transform(model: Model, i: int, q: scalar):
         """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q (i >= 1). Its terms are
         loaded once its coefficients are computed: fewer registers live across the sine and cosine (RNEA in
-        float64 spilled 372 instead of 300 bytes with them loaded first, ptxas 13.5 for sm_90)."""
+        float64 spilled 372 instead of 300 bytes with them loaded first: benchmarks/registers.py)."""
         k = sp.joint_coefficients(model.joint_type[i], q)
         return transform_of_terms(k, model.joint_Q0[i], model.joint_Q1[i], model.joint_t0[i], model.joint_t1[i], model.joint_t2[i])
 
