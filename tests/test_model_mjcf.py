@@ -156,7 +156,6 @@ def test_mjcf_joint_pivot_and_reference():
         assert_close(wd.frame.transform(model, data, frame_index=4).numpy(), H_of(R, p), 1e-12, "frame 'c'")
 
 
-
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_joint_transforms_at_extreme_positions(dtype):
     """The kernels move a joint by its terms (warpdyn.types.model's joint_motion_terms, kernels/spatial.py's
