@@ -21,19 +21,21 @@ side by side (for few environments: a step's chain of dependent operations is sh
 base alike; they sum their terms of the base's articulated inertia and bias force, then their health checks,
 through a tile.
 What one pass hands to the next per link (c_i, the bias force then U_i / d_i, u_i / d_i: 13 numbers) stays in
-the thread's local memory instead of arrays in global memory, and is read and written once per step. So do
-the joint positions, velocities and force references: read from global memory all at once before pass 1
-rather than one link at a time, so that their waits for memory overlap; likewise a contact point's state is
-read while the point two before it is computed, and what pass 3 needs of a link while the link before it is
-(in passes 1 and 2 the same spilled registers in float64: benchmarks/RESULTS.md, round 9). The joint
-transforms lambda(i)_H_i are either kept from pass 1 (7 numbers more per link; `keep_joint_transforms`) or
-rebuilt in passes 2 and 3 from the joint positions (their sines and cosines again: cheaper on a GPU once the
-environments' local arrays outgrow its caches than keeping either the transforms or their joints' 4
-coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
+the thread's local memory instead of arrays in global memory, and is read and written once per step. The joint
+positions, velocities and force references are not kept there: passes 1 and 3 load link k + 1's while link k
+is computed (pass 2 reads the positions again), so that the local arrays fill less of the L1 cache
+(benchmarks/RESULTS.md, round 10). Likewise what pass 3 needs of a link is loaded while the link before it is
+computed, and the contact points' states ahead of their use: in float32 two points per iteration, their chains
+side by side, while the next two are loaded; in float64 one at a time, two points ahead (pairs make float64
+spill registers). Pass 2 sums the articulated inertias as their 21 numbers (symmetric: fewer registers than
+6x6 sums). The kernel has no grid-stride loop (a thread per environment or lane: fewer registers; float64
+spills less). The joint transforms lambda(i)_H_i are either kept from pass 1 (7 numbers more per link;
+`keep_joint_transforms`) or rebuilt in passes 2 and 3 from the joint positions (their sines and cosines again:
+cheaper on a GPU once the environments' local arrays outgrow its caches than keeping either the transforms or
+their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
 The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links
 and slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not
-unrolled (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3), the
-joint states' loads are (up to Warp's max_unroll links).
+unrolled (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
 
 Forward only: the module has no backward pass. Under a tape, with gradients, for RK4 and with gravity
 compensation, a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding
@@ -72,6 +74,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     articulated = inertia_funcs(scalar).articulated
     SO3 = wp.constant(int(so3))
     KEEP = keep_joint_transforms
+    PAIRS = scalar == wp.float32  # contact points two at a time (in float64 that spills: RESULTS, round 10)
     ACTUATED = actuation is not None
     resultant_torque = joint_force(scalar, *(actuation or (False, False)))
     LANES = lanes
@@ -92,6 +95,29 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         row = contacts.point_row[c]
         m = x.tangential_deformation
         return contacts.L_p_C[c], row, sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+
+    @wp.func
+    def point_force(contacts: B.Contacts, terrain: B.Terrain, h0: scalar, K: scalar, D: scalar, mu: scalar, dt: scalar, env: int, c: int, row: int,
+                    L_p_C: sp.vec3, m: sp.vec3, W_R_L: sp.mat33, W_o_L: sp.vec3, W_v_o: sp.vec3, W_omega: sp.vec3, write: bool,
+                    y: B.State, W_f_C: wp.array3d(dtype=scalar)):
+        """(f, r, 0 x m+): enabled point c's contact force f [N, world axes], the point from its link's origin r
+        [m, world axes], and the health check's term of its m+ = m + dt m_dot (NaN when not finite), for a link
+        at W_o_L with the rotation W_R_L, its origin's velocity W_v_o and angular velocity W_omega (world axes).
+        When `write`: m+ goes to y's contact-state row `row`, the Inertial wrench to W_f_C unless that is empty."""
+        r = W_R_L * L_p_C
+        p = W_o_L + r
+        f, m_dot = C.contact_at(contacts, terrain, h0, p, W_v_o + wp.cross(W_omega, r), m, K, D, mu)
+        bad = scalar(0.0)
+        if write:
+            if W_f_C.shape[0] > 0:
+                w = sp.stack(f, wp.cross(p, f))
+                for a in range(6):
+                    W_f_C[env, c, a] = w[a]
+            for a in range(3):
+                m_next = m[a] + dt * m_dot[a]
+                bad = I.poison(bad, m_next)
+                y.tangential_deformation[env, row, a] = m_next
+        return f, r, bad
 
     @wp.func
     def external_force(contacts: B.Contacts, terrain: B.Terrain, controls: B.Controls, env: int, L: int, W_H_L: sp.transform,
@@ -119,31 +145,46 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             W_omega = W_R_L * sp.ang(v_L)
             W_f = sp.vec3(scalar(0.0))  # the points' forces, and their moments about the link's origin, world axes
             W_tau = sp.vec3(scalar(0.0))
-            # two points ahead: the state of point c + 2 (the last's again near the end) is loaded while point c
-            # is computed, so that a load from memory has two points' work to arrive
-            next_p, next_row, next_m = point_state(contacts, x, env, first)
-            then_p, then_row, then_m = point_state(contacts, x, env, wp.min(first + 1, last))
-            for c in range(first, last + 1):
-                L_p_C = next_p
-                row = next_row
-                m = next_m
-                next_p = then_p
-                next_row = then_row
-                next_m = then_m
-                then_p, then_row, then_m = point_state(contacts, x, env, wp.min(c + 2, last))
-                r = W_R_L * L_p_C  # the point from the link's origin, world axes
-                p = W_o_L + r
-                f, m_dot = C.contact_at(contacts, terrain, h0, p, W_v_o + wp.cross(W_omega, r), m, K, D, mu)
-                W_f = W_f + f
-                W_tau = W_tau + wp.cross(r, f)
-                if W_f_C.shape[0] > 0:
-                    w = sp.stack(f, wp.cross(p, f))
-                    for a in range(6):
-                        W_f_C[env, c, a] = w[a]
-                for a in range(3):
-                    m_next = m[a] + dt * m_dot[a]
-                    nonfinite = I.poison(nonfinite, m_next)
-                    y.tangential_deformation[env, row, a] = m_next
+            if wp.static(PAIRS):
+                # two points per iteration, their chains side by side; the next two loaded meanwhile
+                a_p, a_row, a_m = point_state(contacts, x, env, first)
+                b_p, b_row, b_m = point_state(contacts, x, env, wp.min(first + 1, last))
+                for pair in range((count + 1) // 2):
+                    c = first + 2 * pair
+                    p0 = a_p
+                    row0 = a_row
+                    m0 = a_m
+                    p1 = b_p
+                    row1 = b_row
+                    m1 = b_m
+                    a_p, a_row, a_m = point_state(contacts, x, env, wp.min(c + 2, last))
+                    b_p, b_row, b_m = point_state(contacts, x, env, wp.min(c + 3, last))
+                    two = c + 1 <= last  # else the second is the first again, neither summed nor written
+                    f0, r0, bad0 = point_force(contacts, terrain, h0, K, D, mu, dt, env, c, row0, p0, m0, W_R_L, W_o_L, W_v_o, W_omega, True, y, W_f_C)
+                    f1, r1, bad1 = point_force(contacts, terrain, h0, K, D, mu, dt, env, c + 1, row1, p1, m1, W_R_L, W_o_L, W_v_o, W_omega, two, y, W_f_C)
+                    if not two:
+                        f1 = sp.vec3(scalar(0.0))
+                        bad1 = scalar(0.0)
+                    W_f = W_f + f0 + f1
+                    W_tau = W_tau + wp.cross(r0, f0) + wp.cross(r1, f1)
+                    nonfinite = nonfinite + bad0 + bad1
+            else:
+                # two points ahead: the state of point c + 2 (the last's again near the end) is loaded while point
+                # c is computed, so that a load from memory has two points' work to arrive
+                next_p, next_row, next_m = point_state(contacts, x, env, first)
+                then_p, then_row, then_m = point_state(contacts, x, env, wp.min(first + 1, last))
+                for c in range(first, last + 1):
+                    L_p_C = next_p
+                    row = next_row
+                    m = next_m
+                    next_p = then_p
+                    next_row = then_row
+                    next_m = then_m
+                    then_p, then_row, then_m = point_state(contacts, x, env, wp.min(c + 2, last))
+                    f, r, bad = point_force(contacts, terrain, h0, K, D, mu, dt, env, c, row, L_p_C, m, W_R_L, W_o_L, W_v_o, W_omega, True, y, W_f_C)
+                    W_f = W_f + f
+                    W_tau = W_tau + wp.cross(r, f)
+                    nonfinite = nonfinite + bad
             L_f = L_f + sp.stack(W_f * W_R_L, W_tau * W_R_L)  # (W_R_L^T W_f, W_R_L^T W_tau)
         return L_f, nonfinite
 
@@ -168,7 +209,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     def vec6_of(terms: base_terms):
         return sp.vec6(terms[SYM66], terms[SYM66 + 1], terms[SYM66 + 2], terms[SYM66 + 3], terms[SYM66 + 4], terms[SYM66 + 5])
 
-    @wp.kernel(module="unique", module_options={"enable_backward": False})
+    @wp.kernel(module="unique", module_options={"enable_backward": False}, grid_stride=False)
     def fused_euler_step(
         model: B.Model,
         contacts: B.Contacts,
@@ -220,13 +261,6 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         c = links6()  # c_i = v_i x S_i qd_i
         pU = links6()  # pass 1: v_i x* I_i v_i - f_i; pass 2: U_i / d_i
         ud = per_link()  # u_i / d_i
-        q = per_link()  # the joint position and velocity of link i's joint, and its force reference
-        qd = per_link()
-        q_ref = per_link()
-        for i in range(1, links):  # loaded at once (unrolled up to max_unroll links), not one link at a time
-            q[i] = x.joint_positions[env, i - 1]
-            qd[i] = x.joint_velocities[env, i - 1]
-            q_ref[i] = tau_ref[env, i - 1]
         slot_H = slots7()  # W_H_i of the links with slots
         slot_v = slots6()  # pass 1: their v_i; pass 3: their a'_i
         slot_IA = slots21()  # the sums of the articulated inertias and bias forces of their children but the first
@@ -250,10 +284,27 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         if wp.static(LANES > 1):
             first = starts[lane]
             last = starts[lane + 1]
+        # link k + 1's joint position, velocity and force reference are loaded while link k is computed
+        has_joints = x.joint_positions.shape[1] > 0
+        s_n = scalar(0.0)
+        sd_n = scalar(0.0)
+        ref_n = scalar(0.0)
+        if has_joints:
+            j_n = wp.max(walk[wp.max(wp.min(first, last - 1), 0)][0] - 1, 0)
+            s_n = x.joint_positions[env, j_n]
+            sd_n = x.joint_velocities[env, j_n]
+            ref_n = tau_ref[env, j_n]
         for k in range(first, last):
             i = walk[k][0]
             own = walk[k][1]
             up = walk[k][2]
+            s_i = s_n
+            qd_i = sd_n
+            ref_i = ref_n
+            j_n = walk[wp.min(k + 1, last - 1)][0] - 1
+            s_n = x.joint_positions[env, j_n]
+            sd_n = x.joint_velocities[env, j_n]
+            ref_n = tau_ref[env, j_n]
             W_H_P = W_H_prev
             v_P = v_prev
             if up == BASE:
@@ -262,7 +313,6 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             elif up >= 0:
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
-            s_i = q[i]
             jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)  # loaded first, as round 9 measured
             X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, s_i)
             if wp.static(KEEP):
@@ -270,10 +320,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             W_H_i = W_H_P * X_i
             if W_H_L.shape[0] > 0:
                 W_H_L[env, i] = W_H_i
-            qd_i = qd[i]
             if wp.static(ACTUATED):
                 j = i - 1
-                controls.joint_forces[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, s_i, qd_i, q_ref[i], ctrl)
+                controls.joint_forces[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, s_i, qd_i, ref_i, ctrl)
             S_qd = B.motion_subspace_of(model, i) * qd_i
             v_i = sp.motion_from(X_i, v_P) + S_qd
             if own >= 0:
@@ -298,14 +347,14 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 X_i = unpack7(X[i])
             else:
                 jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)
-                X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, q[i])
+                X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, x.joint_positions[env, i - 1])
             S = B.motion_subspace_of(model, i)
-            IA = B.spatial_inertia_of(model, env, i) + unpack21(IA_next)
+            IA = pack21(B.spatial_inertia_of(model, env, i)) + IA_next  # summed as 21 numbers: symmetric, fewer registers
             pA = pU[i] + pA_next
             if own >= 0:
-                IA = IA + unpack21(slot_IA[own])
+                IA = IA + slot_IA[own]
                 pA = pA + slot_pA[own]
-            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, IA, pA, c[i])
+            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, unpack21(IA), pA, c[i])
             pU[i] = Ud_i
             ud[i] = ud_i
             IA_next = pack21(inertia_to(X_i, Ia))
@@ -354,8 +403,11 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         c_n = c[i_n]
         pU_n = pU[i_n]
         ud_n = ud[i_n]
-        q_n = q[i_n]
-        qd_n = qd[i_n]
+        q_n = scalar(0.0)
+        qd_n = scalar(0.0)
+        if has_joints:
+            q_n = x.joint_positions[env, wp.max(i_n - 1, 0)]
+            qd_n = x.joint_velocities[env, wp.max(i_n - 1, 0)]
         for k in range(first, last):
             i = i_n
             own = w_n[1]
@@ -380,8 +432,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             c_n = c[i_n]
             pU_n = pU[i_n]
             ud_n = ud[i_n]
-            q_n = q[i_n]
-            qd_n = qd[i_n]
+            q_n = x.joint_positions[env, i_n - 1]
+            qd_n = x.joint_velocities[env, i_n - 1]
             a_P = a_prev
             if up == BASE:
                 a_P = a0
