@@ -159,12 +159,11 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                     m1 = b_m
                     a_p, a_row, a_m = point_state(contacts, x, env, wp.min(c + 2, last))
                     b_p, b_row, b_m = point_state(contacts, x, env, wp.min(c + 3, last))
-                    two = c + 1 <= last  # else the second is the first again, neither summed nor written
+                    two = c + 1 <= last  # else the second is the first again: not summed, not written (bad1 is 0)
                     f0, r0, bad0 = point_force(contacts, terrain, h0, K, D, mu, dt, env, c, row0, p0, m0, W_R_L, W_o_L, W_v_o, W_omega, True, y, W_f_C)
                     f1, r1, bad1 = point_force(contacts, terrain, h0, K, D, mu, dt, env, c + 1, row1, p1, m1, W_R_L, W_o_L, W_v_o, W_omega, two, y, W_f_C)
                     if not two:
                         f1 = sp.vec3(scalar(0.0))
-                        bad1 = scalar(0.0)
                     W_f = W_f + f0 + f1
                     W_tau = W_tau + wp.cross(r0, f0) + wp.cross(r1, f1)
                     nonfinite = nonfinite + bad0 + bad1
@@ -284,13 +283,14 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         if wp.static(LANES > 1):
             first = starts[lane]
             last = starts[lane + 1]
+        k_first = wp.max(wp.min(first, last - 1), 0)  # where the prefetches of passes 1 and 3 begin (valid if no link)
         # link k + 1's joint position, velocity and force reference are loaded while link k is computed
         has_joints = x.joint_positions.shape[1] > 0
         s_n = scalar(0.0)
         sd_n = scalar(0.0)
         ref_n = scalar(0.0)
         if has_joints:
-            j_n = wp.max(walk[wp.max(wp.min(first, last - 1), 0)][0] - 1, 0)
+            j_n = wp.max(walk[k_first][0] - 1, 0)
             s_n = x.joint_positions[env, j_n]
             sd_n = x.joint_velocities[env, j_n]
             ref_n = tau_ref[env, j_n]
@@ -393,7 +393,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         a_prev = a0
         # what link k + 1 needs (its walk entry, joint terms, motion subspace, and what passes 1 and 2 kept) is
         # loaded while link k is computed, so that its waits for memory overlap that work
-        w_n = walk[wp.max(wp.min(first, last - 1), 0)]
+        w_n = walk[k_first]
         i_n = w_n[0]
         if wp.static(KEEP):
             X_n = X[i_n]
