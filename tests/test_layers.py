@@ -220,7 +220,7 @@ def test_warp_internals_are_read_in_one_module_and_found():
     assert readers == ["warpdyn.engine.warp_private"], readers
     from warpdyn.engine import warp_private
 
-    assert warp_private.tape_known() and warp_private.descriptor_known()
+    assert warp_private.tape_known() and warp_private.descriptor_known() and warp_private.grads_known()
 
 
 PYTHON_FILES = sorted(p.relative_to(ROOT).as_posix() for folder in ("warpdyn", "kernels", "tests", "examples", "benchmarks") for p in (ROOT / folder).rglob("*.py"))

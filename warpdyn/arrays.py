@@ -90,7 +90,7 @@ def check_device_array(value: wp.array, name: str, scalar, device) -> None:
         raise TypeError(
             f"{name} has dtype {wp.types.type_repr(value.dtype)}, but the model computes in {wp.types.type_repr(scalar)}"
         )
-    if str(value.device) != str(device):
+    if value.device is not device and str(value.device) != str(device):
         raise ValueError(f"{name} is on device '{value.device}', but the model is on '{device}'")
 
 

@@ -22,6 +22,7 @@ import warp as wp
 
 from . import arrays
 from .engine import state as states
+from .engine import warp_private
 from .types.data_checks import check_data, check_state
 from .types.enums import VelRepr, switched_representation
 from .types.model import quaternion_xyzw
@@ -29,6 +30,9 @@ from .types.model import quaternion_xyzw
 __all__ = ["Data", "random_model_data"]
 
 _STATE_FIELDS = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities")
+
+
+_NO_GRADS = (None,) * 5
 
 
 @dataclasses.dataclass(eq=False)
@@ -151,13 +155,10 @@ class Data:
 
     @property
     def requires_grad(self) -> bool:
-        return (
-            self.base_position_state.requires_grad
-            or self.base_quaternion_state.requires_grad
-            or self.joint_positions_state.requires_grad
-            or self.base_velocity_state.requires_grad
-            or self.joint_velocities_state.requires_grad
-        )
+        """Whether a state array (base pose and velocity, joint positions and velocities) requires gradients
+        (has a .grad: Warp's setters keep the two together)."""
+        state = (self.base_position_state, self.base_quaternion_state, self.joint_positions_state, self.base_velocity_state, self.joint_velocities_state)
+        return warp_private.grads(state) != _NO_GRADS
 
     def _out(self, array: wp.array) -> wp.array:
         return arrays.squeeze_env(array, self.num_envs)

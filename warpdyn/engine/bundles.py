@@ -8,13 +8,12 @@ the environments (a view of the (count,) array), N for one given per environment
 
 from __future__ import annotations
 
-import operator
-
 import numpy as np
 import warp as wp
 
 from ..kernels.bundles import bundles
 from ..types.parameters import JOINT_PARAMETERS, LINK_PARAMETERS, MODEL_ARRAYS
+from . import warp_private
 
 __all__ = ["model_bundle", "model_bundle_and_grad", "state_bundle", "controls_bundle", "empty_like_input"]
 
@@ -65,11 +64,8 @@ def model_bundle_and_grad(model) -> tuple:
     sets, read at each call). An array requires gradients exactly when it has a .grad (Warp's requires_grad
     and grad setters keep the two together)."""
     parameters = model.cached("model bundle arrays", lambda: tuple(getattr(model, name) for name in _PARAMETERS))
-    grads = tuple(map(_GRAD, parameters))  # the arrays, not their ids: a freed grad's id may come back
+    grads = warp_private.grads(parameters)  # the arrays, not their ids: a freed grad's id may come back
     return model.cached(("model bundle", grads), lambda: (_build_model_bundle(model), any(g is not None for g in grads[:_LINK_AND_JOINT])))
-
-
-_GRAD = operator.attrgetter("grad")
 
 
 def state_bundle(scalar, state: list):

@@ -6,12 +6,13 @@ with nu, nu_dot, the base part of every generalized force, and the link forces f
 velocity representation (JaxSim's convention). Each function is one kernel launch (the kernels convert
 link forces from the data's representation themselves).
 
-Cost of a call. Outside a `wp.Tape`, each kernel keeps per model and thread a scratch array and a recorded
-launch (warpdyn.engine.launch.Recorded) for the last batch size it ran: a call then packs only the
-arguments that changed since the last one. Its outputs are arrays that the caller owns, from an output
-pool (warpdyn.engine.pool: handed out again only once nothing else refers to them; fresh when gradients
-are needed or in a graph capture), and on the CPU its inputs are copied, after their checks, into the
-thread's buffers (`_input`), so that a call allocates nothing and re-packs nothing. Under a tape every call
+Cost of a call. Outside a `wp.Tape`, a call uses the calling thread's workspace for the model and the data's
+batch size (`_Workspace`, one lookup per call): each kernel keeps there a scratch array and a recorded launch
+(warpdyn.engine.launch.Recorded), so that a call packs only the arguments that changed since the last one.
+Its outputs are arrays that the caller owns, from the workspace's output pools (warpdyn.engine.pool: handed
+out again only once nothing else refers to them; fresh when gradients are needed or in a graph capture), and
+on the CPU its inputs are copied, after their checks, into the workspace's buffers (`_input`), so that a call
+allocates nothing and re-packs nothing. Under a tape every call
 gets fresh scratch and outputs (with gradients when the data, an input or a mass parameter requires them),
 since the adjoint reads them later, and reads its inputs in place. Absent inputs (no joint forces, no link
 forces, zero accelerations) reach the kernels as empty arrays, which skip that work.
@@ -64,32 +65,44 @@ _KERNELS = {
 }
 
 
-class _Cached:
-    """A kernel's scratch and recorded launch for one batch size (one per model, kernel and thread)."""
+class _Workspace:
+    """What one thread's dynamics calls on a model keep for data of one batch size and shape (see `_workspace`):
+    the input buffers and their Controls bundles (`buffers`), the output pools by shapes (`pools`), and each
+    kernel's scratch and recorded launch by (kernel, scratch width) (`launches`)."""
 
-    def __init__(self, N: int, scratch: wp.array):
-        self.N, self.scratch, self.recorded = N, scratch, Recorded()
+    __slots__ = ("buffers", "pools", "launches")
+
+    def __init__(self, model, N: int):
+        self.buffers = _Buffers(model, N)
+        self.pools: dict = {}
+        self.launches: dict = {}
 
 
-def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, grad: bool, taping: bool) -> None:
+def _workspace(model, data) -> _Workspace:
+    """The calling thread's `_Workspace` for `data`'s batch size and shape (one lookup per call)."""
+    N, batched = data.batch_size, data.num_envs is not None
+    return per_thread(model, ("dynamics", N, batched), lambda: _Workspace(model, N))
+
+
+def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, grad: bool, taping: bool, ws: _Workspace) -> None:
     """Launch the kernel `name` over N environments: inputs, then the scratch (N, nL, width), then outputs.
 
-    Under a tape: fresh scratch (with gradients when `grad`) and a plain launch. Otherwise the thread's
+    Under a tape: fresh scratch (with gradients when `grad`) and a plain launch. Otherwise the workspace's
     recorded launch for this kernel, re-packing only the arguments that are not the ones it holds.
     """
     device = model.device
     block_dim, registers = config.cuda_launch.get(name, (None, "tuned")) if device.is_cuda else (None, "tuned")
     kernel = _KERNELS[name](model.scalar, registers)
-    nL = model.number_of_links()
     if taping:
-        scratch = arrays.empty((nL, width), N, model.scalar, device, grad)
+        scratch = arrays.empty((model.number_of_links(), width), N, model.scalar, device, grad)
         launch(kernel, N, [*inputs, scratch], outputs, device=device, block_dim=block_dim)
         return
-    holder = per_thread(model, (name, width), dict)
-    cached = holder.get("entry")
-    if cached is None or cached.N != N:
-        cached = holder["entry"] = _Cached(N, arrays.empty((nL, width), N, model.scalar, device))
-    cached.recorded.run([Launch(kernel, N, [*inputs, cached.scratch], outputs, block_dim)], device)
+    entry = ws.launches.get((name, width))
+    if entry is None:
+        scratch = arrays.empty((model.number_of_links(), width), N, model.scalar, device)
+        entry = ws.launches[(name, width)] = (scratch, Recorded())
+    scratch, recorded = entry
+    recorded.run([Launch(kernel, N, [*inputs, scratch], outputs, block_dim)], device)
 
 
 def _constant(scalar, value: float):
@@ -104,23 +117,23 @@ def _constant(scalar, value: float):
 _CONSTANTS: dict = {}
 
 
-def _input(model, data, value, name: str, per_env: tuple, taping: bool):
+def _input(model, data, value, name: str, per_env: tuple, taping: bool, ws: _Workspace):
     """None for an absent input, else its (N, *per_env) device array (checked: shape, dtype, device, finite).
 
     On the CPU outside a tape and a graph capture, a value that requires no gradient is copied (after the same
-    checks) into the thread's buffer for `name` (`_Buffers`): the kernel, launched at once, reads the same
+    checks) into the workspace's buffer for `name` (`_Buffers`): the kernel, launched at once, reads the same
     numbers, and the launch argument and its Controls bundle stay the same objects from call to call."""
     if value is None:
         return None
     device = model.device
-    if device.is_cpu and not (isinstance(value, wp.array) and value.requires_grad) and not taping and not device.is_capturing:
+    if not taping and device.is_cpu and not (isinstance(value, wp.array) and value.requires_grad) and not device.is_capturing:
         value = arrays.checked_input(value, name, per_env, data.num_envs, model.scalar, device)
-        return per_thread(model, ("input buffers", data.batch_size), lambda: _Buffers(model, data.batch_size)).fill(name, per_env, value)
+        return ws.buffers.fill(name, per_env, value)
     return arrays.batched_input(value, name, per_env, data.num_envs, model.scalar, device)
 
 
 class _Buffers:
-    """A thread's CPU buffers (N, *per_env) of the dynamics functions' inputs, one per input name, and the
+    """A workspace's CPU buffers (N, *per_env) of the dynamics functions' inputs, one per input name, and the
     Controls bundles of them (see `_input`, `_controls`)."""
 
     def __init__(self, model, N: int):
@@ -148,11 +161,11 @@ class _Buffers:
         return buffer
 
 
-def _controls(model, data, joint_forces, link_forces):
-    """controls_bundle of the inputs, made once for the thread's buffers (see `_input`)."""
+def _controls(model, ws: _Workspace, joint_forces, link_forces):
+    """controls_bundle of the inputs, made once for the workspace's buffers (see `_input`)."""
     if joint_forces is None and link_forces is None:
         return controls_bundle(model.scalar, model.device)
-    buffers = per_thread(model, ("input buffers", data.batch_size), lambda: _Buffers(model, data.batch_size))
+    buffers = ws.buffers
     mine = buffers.mine
     if (joint_forces is None or id(joint_forces) in mine) and (link_forces is None or id(link_forces) in mine):
         key = (id(joint_forces), id(link_forces))
@@ -170,18 +183,21 @@ class _Outputs:
     shapes; the kernel sees them with a leading axis of 1, through launch descriptors outside a tape (no view
     objects) and as views of (1, *shape) arrays under one (gradients flow through views).
 
-    Outside a tape and a graph capture, without gradients, the arrays come from an output pool per model,
-    thread, shapes and batch (warpdyn.engine.pool: handed out again once nothing else refers to them) and the
+    Outside a tape and a graph capture, without gradients, the arrays come from the workspace's output pool for
+    the shapes (warpdyn.engine.pool: handed out again once nothing else refers to them) and the
     kernel writes them through the pool's aliases or descriptors (`slot`: the set, whose `cache` keeps what a
     caller derives from it); otherwise they are fresh, and batched data's are given to both.
     """
 
-    def __init__(self, model, data, shapes, grad: bool, taping: bool):
+    def __init__(self, model, data, shapes, grad: bool, taping: bool, ws: _Workspace):
         s, d, N = model.scalar, model.device, data.batch_size
         self.slot = None
         if not (grad or taping) and pool.available() and not d.is_capturing:
-            shapes, batched = tuple(shapes), data.num_envs is not None
-            slot = per_thread(model, ("outputs", shapes, N, batched), lambda: _output_pool(model, shapes, N, batched)).take()
+            shapes = tuple(shapes)
+            outputs = ws.pools.get(shapes)
+            if outputs is None:
+                outputs = ws.pools[shapes] = _output_pool(model, shapes, N, data.num_envs is not None)
+            slot = outputs.take()
             if slot is not None:
                 self.slot, self.user, self.args = slot, pool.OutputPool.hand_out(slot), slot.shadow
                 return
@@ -234,19 +250,19 @@ def _requires_grad(parameters: bool, data, inputs) -> bool:
 def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool, with_gravity: bool = True):
     """RNEA (kernels/rnea.py) on user inputs (None: zero): (f_B, tau) when `split`, else Q = [f_B; tau]."""
     check_data(model, data, parameters=True)
-    taping = tape.taping()
+    taping, ws = tape.taping(), _workspace(model, data)
     n, nL, N = model.dofs(), model.number_of_links(), data.batch_size
     s, d = model.scalar, model.device
-    a_B = _input(model, data, base_acceleration, "base_acceleration", (6,), taping)
-    s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,), taping)
-    f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping)
+    a_B = _input(model, data, base_acceleration, "base_acceleration", (6,), taping, ws)
+    s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,), taping, ws)
+    f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping, ws)
     bundle, parameters_grad = model_bundle_and_grad(model)
     grad = _requires_grad(parameters_grad, data, (a_B, s_dd, f_L))
     if split:
-        out = _Outputs(model, data, [(6,), (n,)], grad, taping)
+        out = _Outputs(model, data, [(6,), (n,)], grad, taping, ws)
         f_B, tau = out.args
     else:
-        out = _Outputs(model, data, [(6 + n,)], grad, taping)
+        out = _Outputs(model, data, [(6 + n,)], grad, taping, ws)
         Q = out.args[0]
         parts = out.slot.cache.get("parts") if out.slot is not None else None
         if parts is not None:  # the pool's set: its parts made once
@@ -265,13 +281,13 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
         state_of(model, data),
         a_B if a_B is not None else empty2,
         s_dd if s_dd is not None else empty2,
-        _controls(model, data, None, f_L),
+        _controls(model, ws, None, f_L),
         int(data.velocity_representation),
         _constant(s, 1.0 if with_velocity else 0.0),
         _constant(s, 1.0 if with_gravity else 0.0),
     ]
     width = RNEA_RECORD + (TRANSFORM if f_L is not None else 0)
-    _launch(model, "rnea", N, width, inputs, [f_B, tau], grad, taping)
+    _launch(model, "rnea", N, width, inputs, [f_B, tau], grad, taping, ws)
     return out.user if split else out.user[0]
 
 
@@ -289,35 +305,35 @@ def inverse_dynamics(model, data, joint_accelerations=None, base_acceleration=No
 def mass_matrix(model, data) -> wp.array:
     """M(q): (6 + n, 6 + n) or (N, 6 + n, 6 + n), for the generalized velocity in the data's representation."""
     check_data(model, data, parameters=True)
-    taping = tape.taping()
+    taping, ws = tape.taping(), _workspace(model, data)
     n = model.dofs()
     bundle, parameters_grad = model_bundle_and_grad(model)
     grad = _requires_grad(parameters_grad, data, ())
-    out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping)
+    out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping, ws)
     inputs = [bundle, state_of(model, data), int(data.velocity_representation)]
-    _launch(model, "crba", data.batch_size, CRBA_RECORD, inputs, out.args, grad, taping)
+    _launch(model, "crba", data.batch_size, CRBA_RECORD, inputs, out.args, grad, taping, ws)
     return out.user[0]
 
 
 def forward_dynamics_aba(model, data, joint_forces=None, link_forces=None):
     """(base acceleration, joint accelerations) by ABA (see warpdyn.model.forward_dynamics_aba)."""
     check_data(model, data, parameters=True)
-    taping = tape.taping()
+    taping, ws = tape.taping(), _workspace(model, data)
     n, nL = model.dofs(), model.number_of_links()
-    tau = _input(model, data, joint_forces, "joint_forces", (n,), taping)
-    f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping)
+    tau = _input(model, data, joint_forces, "joint_forces", (n,), taping, ws)
+    f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping, ws)
     bundle, parameters_grad = model_bundle_and_grad(model)
     grad = _requires_grad(parameters_grad, data, (tau, f_L))
-    out = _Outputs(model, data, [(6,), (n,)], grad, taping)
+    out = _Outputs(model, data, [(6,), (n,)], grad, taping, ws)
     inputs = [
         bundle,
         state_of(model, data),
-        _controls(model, data, tau, f_L),
+        _controls(model, ws, tau, f_L),
         int(data.velocity_representation),
         _constant(model.scalar, 0.0),  # no implicit damping: the equations of motion as they are
     ]
     width = ABA_RECORD + (TRANSFORM if f_L is not None else 0)
-    _launch(model, "aba", data.batch_size, width, inputs, out.args, grad, taping)
+    _launch(model, "aba", data.batch_size, width, inputs, out.args, grad, taping, ws)
     base, joints = out.user
     return base, joints
 
@@ -412,7 +428,7 @@ def actuator_forces(model, data, ctrl) -> wp.array:
     zero), MuJoCo's qfrc_actuator (kernels/actuation.py)."""
     check_data(model, data, parameters=True)
     n, na, N = model.dofs(), model.number_of_actuators(), data.batch_size
-    u = _input(model, data, ctrl if ctrl is not None else np.zeros(na), "ctrl", (na,), tape.taping())
+    u = _input(model, data, ctrl if ctrl is not None else np.zeros(na), "ctrl", (na,), tape.taping(), _workspace(model, data))
     grad = requires_grad(model, data, u) or model.parameters_require_grad(("actuator",))
     out = arrays.output((n,), N, model.scalar, model.device, grad)
     if n > 0:

@@ -28,6 +28,8 @@ One pool per model version, plan (warpdyn.engine.step.plan), thread and stream, 
 
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 import warp as wp
 
@@ -129,7 +131,7 @@ class _Steps:
         """(x, its State bundle) for an input state that is not the pool's: kept (alive, while graphs read its
         memory) until another such state comes, which drops its launch lists, recorded launches and graphs."""
         held = self.foreign
-        if held is None or not all(a is b for a, b in zip(held[0], x)):
+        if held is None or not all(map(operator.is_, held[0], x)):
             for table in (self.graphs, self.launches, self.recorded):
                 for key in [k for k in table if k[0] == "foreign"]:
                     del table[key]

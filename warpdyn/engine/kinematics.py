@@ -8,6 +8,8 @@ single-environment data.
 
 from __future__ import annotations
 
+import operator
+
 import warp as wp
 
 from .. import arrays
@@ -28,7 +30,7 @@ def state_of(model, data):
     (a Data's fields are replaced, not written, by warpdyn; a bundle costs ~10 us of Python to fill)."""
     state = state_arrays(data)
     cached = data.__dict__.get("_state_bundle")
-    if cached is not None and len(cached[0]) == len(state) and all(a is b for a, b in zip(cached[0], state)):
+    if cached is not None and len(cached[0]) == len(state) and all(map(operator.is_, cached[0], state)):
         return cached[1]
     bundle = state_bundle(model.scalar, state)
     data.__dict__["_state_bundle"] = (state, bundle)

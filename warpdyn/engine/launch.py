@@ -9,6 +9,7 @@ for deterministic gradients are handed to the launch as one row per environment 
 from __future__ import annotations
 
 import contextlib
+import operator
 import threading
 from typing import NamedTuple
 
@@ -50,6 +51,10 @@ def run(launches, device) -> None:
         launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
 
 
+_KERNEL = operator.attrgetter("kernel")
+_KERNEL_OF_COMMAND = operator.itemgetter(3)
+
+
 class Recorded:
     """A list of launches recorded once (wp.launch(record_cmd=True)) and replayed: a later `run` with the same
     kernels re-packs only the arguments that are not the ones bound last time (new state arrays, new
@@ -73,7 +78,7 @@ class Recorded:
                 entry[0].launch()
             return
         self._launches = None
-        if commands is None or len(commands) != len(launches) or any(c[3] is not l.kernel for c, l in zip(commands, launches)):
+        if commands is None or len(commands) != len(launches) or not all(map(operator.is_, map(_KERNEL_OF_COMMAND, commands), map(_KERNEL, launches))):
             commands = self._commands = []
             preload(launches, device)
             for item in launches:
@@ -86,7 +91,10 @@ class Recorded:
                 if entry[2] != item.dim:
                     command.set_dim(item.dim)
                     entry[2] = item.dim
-                for i, a in enumerate((*item.inputs, *item.outputs)):
+                given = (*item.inputs, *item.outputs)
+                if all(map(operator.is_, given, bound)):  # the arguments it holds (the usual case)
+                    continue
+                for i, a in enumerate(given):
                     b = bound[i]
                     if a is b or (type(a) in (int, float) and type(b) is type(a) and a == b):
                         continue

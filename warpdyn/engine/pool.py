@@ -54,7 +54,9 @@ import sys
 
 import warp as wp
 
+from .. import config
 from ..arrays import fill_outputs_with_nan
+from . import warp_private
 
 __all__ = ["POOL_SIZE", "available", "OutputPool", "Slot", "alias"]
 
@@ -74,9 +76,6 @@ def alias(array: wp.array) -> wp.array:
     """A Warp array on `array`'s memory (same shape, strides and dtype) that does not keep `array` alive and
     carries no gradient: what the engine's launches bind instead of an array the pool hands out."""
     return wp.array(ptr=array.ptr, dtype=array.dtype, shape=array.shape, strides=array.strides, device=array.device)
-
-
-_REQUIRES_GRAD = operator.attrgetter("requires_grad")
 
 
 def _counts(arrays: tuple) -> tuple:
@@ -109,12 +108,13 @@ class Slot:
         """Whether nothing but the pool refers to the set's arrays (and none was marked for gradients since)."""
         if self.lent:
             return False
-        return all(count == _ALONE for count in _counts(self.arrays)) and True not in map(_REQUIRES_GRAD, self.arrays)
+        arrays = self.arrays
+        return _counts(arrays) == (_ALONE,) * len(arrays) and warp_private.grads(arrays) == (None,) * len(arrays)
 
     def holds(self, arrays) -> bool:
         """Whether `arrays` are this set's arrays, the same objects in the same order."""
         mine = self.arrays
-        return len(arrays) == len(mine) and all(a is b for a, b in zip(arrays, mine))
+        return len(arrays) == len(mine) and all(map(operator.is_, arrays, mine))
 
 
 class OutputPool:
@@ -139,8 +139,9 @@ class OutputPool:
         for slot in self.slots:
             if slot is not busy and slot.free():
                 slot.lent = True
-                for a in slot.arrays:
-                    fill_outputs_with_nan(a)
+                if config.fill_outputs_with_nan:
+                    for a in slot.arrays:
+                        fill_outputs_with_nan(a)
                 return slot
         if len(self.slots) >= self._size:
             return None

@@ -6,6 +6,7 @@ not change)."""
 
 from __future__ import annotations
 
+import operator
 import weakref
 
 import warp as wp
@@ -36,7 +37,7 @@ def check_data(model, data, parameters: bool = False) -> None:
         and passed[1] == model.version
         and passed[2] >= parameters
         and passed[3] == data.num_envs
-        and all(a is b for a, b in zip(passed[4], arrays))
+        and all(map(operator.is_, passed[4], arrays))
     ):
         return
     _check_types(data)
@@ -63,7 +64,7 @@ def passes_like(data, source) -> None:
     on it then checks nothing)."""
     passed = getattr(source, "__dict__", {}).get("_checked")
     memo = getattr(data, "__dict__", None)
-    if passed is None or memo is None or passed[3] != data.num_envs or not all(a is b for a, b in zip(passed[4], state_arrays(source))):
+    if passed is None or memo is None or passed[3] != data.num_envs or not all(map(operator.is_, passed[4], state_arrays(source))):
         return
     memo["_checked"] = (*passed[:4], state_arrays(data))
 
