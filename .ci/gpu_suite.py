@@ -1,6 +1,6 @@
 """The whole test suite on a GPU, in pytest processes side by side (kernel compilation for CUDA dominates a
-run, and one call of the device tool may last 10 minutes; ../shared/device/README.md says how to stage Warp
-and the test dependencies there).
+run, and one call of the device tool may last 10 minutes; the device tool's README says how to stage Warp and
+the test dependencies there).
 
     python3 .ci/gpu_suite.py [FILE ...] [--device cuda:0] [--processes 9] [--timeout 540] [--log-dir DIR]
                              [--ignore tests/test_visualization.py ...] [-- extra pytest arguments]
