@@ -12,10 +12,10 @@ batch size (`_Workspace`, one lookup per call): each kernel keeps there a scratc
 Its outputs are arrays that the caller owns, from the workspace's output pools (warpdyn.engine.pool: handed
 out again only once nothing else refers to them; fresh when gradients are needed or in a graph capture), and
 on the CPU its inputs are copied, after their checks, into the workspace's buffers (`_input`), so that a call
-allocates nothing and re-packs nothing. Under a tape every call
-gets fresh scratch and outputs (with gradients when the data, an input or a mass parameter requires them),
-since the adjoint reads them later, and reads its inputs in place. Absent inputs (no joint forces, no link
-forces, zero accelerations) reach the kernels as empty arrays, which skip that work.
+allocates nothing and re-packs nothing. Under a tape every call gets fresh scratch and outputs (with gradients
+when the data, an input or a mass parameter requires them), since the adjoint reads them later, and reads its
+inputs in place. Absent inputs (no joint forces, no link forces, zero accelerations) reach the kernels as empty
+arrays, which skip that work.
 Gradients reach the model's link parameters (their .grad) under a tape once they require gradients
 (`warpdyn.model.parameters_requiring_grad`).
 """
