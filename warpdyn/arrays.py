@@ -130,12 +130,13 @@ def with_env_axis(array: wp.array, N: int = 1) -> wp.array:
 def checked_input(value, name: str, per_env: tuple, num_envs: int | None, scalar, device):
     """A user's shared (per_env) or per-environment (N, *per_env) value, checked as `batched_input` checks it:
     a Warp array as it is, anything else as a float64 ndarray (`checked_host`)."""
-    N = 1 if num_envs is None else num_envs
-    accepted = [tuple(per_env)] + ([(N, *per_env)] if num_envs is not None else [])
+    per_env = tuple(per_env)
+    accepted = [per_env] + ([(num_envs, *per_env)] if num_envs is not None else [])
     if isinstance(value, wp.array):
         check_device_array(value, name, scalar, device)
-        if tuple(value.shape) not in accepted:
-            raise ValueError(f"{name} has shape {tuple(value.shape)}, expected one of {accepted}")
+        shape = value.shape
+        if shape != per_env and (num_envs is None or shape != accepted[1]):
+            raise ValueError(f"{name} has shape {tuple(shape)}, expected one of {accepted}")
         return value
     return checked_host(value, name, accepted)
 

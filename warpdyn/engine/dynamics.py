@@ -68,7 +68,7 @@ _KERNELS = {
 class _Workspace:
     """What one thread's dynamics calls on a model keep for data of one batch size and shape (see `_workspace`):
     the input buffers and their Controls bundles (`buffers`), the output pools by shapes (`pools`), and each
-    kernel's scratch and recorded launch by (kernel, scratch width) (`launches`)."""
+    kernel with its scratch and recorded launch by (kernel name, scratch width, register setting) (`launches`)."""
 
     __slots__ = ("buffers", "pools", "launches")
 
@@ -92,16 +92,15 @@ def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, g
     """
     device = model.device
     block_dim, registers = config.cuda_launch.get(name, (None, "tuned")) if device.is_cuda else (None, "tuned")
-    kernel = _KERNELS[name](model.scalar, registers)
     if taping:
         scratch = arrays.empty((model.number_of_links(), width), N, model.scalar, device, grad)
-        launch(kernel, N, [*inputs, scratch], outputs, device=device, block_dim=block_dim)
+        launch(_KERNELS[name](model.scalar, registers), N, [*inputs, scratch], outputs, device=device, block_dim=block_dim)
         return
-    entry = ws.launches.get((name, width))
+    entry = ws.launches.get((name, width, registers))
     if entry is None:
         scratch = arrays.empty((model.number_of_links(), width), N, model.scalar, device)
-        entry = ws.launches[(name, width)] = (scratch, Recorded())
-    scratch, recorded = entry
+        entry = ws.launches[(name, width, registers)] = (_KERNELS[name](model.scalar, registers), scratch, Recorded())
+    kernel, scratch, recorded = entry
     recorded.run([Launch(kernel, N, [*inputs, scratch], outputs, block_dim)], device)
 
 
@@ -249,7 +248,7 @@ def _requires_grad(parameters: bool, data, inputs) -> bool:
 
 def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool, with_gravity: bool = True):
     """RNEA (kernels/rnea.py) on user inputs (None: zero): (f_B, tau) when `split`, else Q = [f_B; tau]."""
-    check_data(model, data, parameters=True)
+    checked = check_data(model, data, parameters=True)
     taping, ws = tape.taping(), _workspace(model, data)
     n, nL, N = model.dofs(), model.number_of_links(), data.batch_size
     s, d = model.scalar, model.device
@@ -278,7 +277,7 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
     empty2 = empty_like_input(s, d, 2)
     inputs = [
         bundle,
-        state_of(model, data),
+        state_of(model, data, checked),
         a_B if a_B is not None else empty2,
         s_dd if s_dd is not None else empty2,
         _controls(model, ws, None, f_L),
@@ -304,20 +303,20 @@ def inverse_dynamics(model, data, joint_accelerations=None, base_acceleration=No
 
 def mass_matrix(model, data) -> wp.array:
     """M(q): (6 + n, 6 + n) or (N, 6 + n, 6 + n), for the generalized velocity in the data's representation."""
-    check_data(model, data, parameters=True)
+    checked = check_data(model, data, parameters=True)
     taping, ws = tape.taping(), _workspace(model, data)
     n = model.dofs()
     bundle, parameters_grad = model_bundle_and_grad(model)
     grad = _requires_grad(parameters_grad, data, ())
     out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping, ws)
-    inputs = [bundle, state_of(model, data), int(data.velocity_representation)]
+    inputs = [bundle, state_of(model, data, checked), int(data.velocity_representation)]
     _launch(model, "crba", data.batch_size, CRBA_RECORD, inputs, out.args, grad, taping, ws)
     return out.user[0]
 
 
 def forward_dynamics_aba(model, data, joint_forces=None, link_forces=None):
     """(base acceleration, joint accelerations) by ABA (see warpdyn.model.forward_dynamics_aba)."""
-    check_data(model, data, parameters=True)
+    checked = check_data(model, data, parameters=True)
     taping, ws = tape.taping(), _workspace(model, data)
     n, nL = model.dofs(), model.number_of_links()
     tau = _input(model, data, joint_forces, "joint_forces", (n,), taping, ws)
@@ -327,7 +326,7 @@ def forward_dynamics_aba(model, data, joint_forces=None, link_forces=None):
     out = _Outputs(model, data, [(6,), (n,)], grad, taping, ws)
     inputs = [
         bundle,
-        state_of(model, data),
+        state_of(model, data, checked),
         _controls(model, ws, tau, f_L),
         int(data.velocity_representation),
         _constant(model.scalar, 0.0),  # no implicit damping: the equations of motion as they are

@@ -25,14 +25,19 @@ from .launch import launch
 __all__ = ["state_arrays", "state_of", "targets", "link_targets", "link_poses", "homogeneous", "poses", "jacobians", "velocities"]
 
 
-def state_of(model, data):
+def state_of(model, data, checked: list | None = None):
     """The kernels' State bundle of `data`, kept on the data while its state arrays are the same objects
-    (a Data's fields are replaced, not written, by warpdyn; a bundle costs ~10 us of Python to fill)."""
-    state = state_arrays(data)
+    (a Data's fields are replaced, not written, by warpdyn; a bundle costs ~10 us of Python to fill).
+    checked: what check_data returned for the data just now (its state arrays, a list the checks keep while
+    those arrays stay), so that a bundle kept with that list is found by one identity test."""
     cached = data.__dict__.get("_state_bundle")
-    if cached is not None and len(cached[0]) == len(state) and all(map(operator.is_, cached[0], state)):
+    if checked is not None and cached is not None and cached[0] is checked:
         return cached[1]
-    bundle = state_bundle(model.scalar, state)
+    state = state_arrays(data) if checked is None else checked
+    if cached is not None and len(cached[0]) == len(state) and all(map(operator.is_, cached[0], state)):
+        bundle = cached[1]
+    else:
+        bundle = state_bundle(model.scalar, state)
     data.__dict__["_state_bundle"] = (state, bundle)
     return bundle
 

@@ -23,11 +23,12 @@ _STATE_ARRAYS = (
 """The state arrays every computation reads, and their per-environment length (None: the joints, n)."""
 
 
-def check_data(model, data, parameters: bool = False) -> None:
+def check_data(model, data, parameters: bool = False) -> list:
     """Errors naming what does not match between the data and the model, before any kernel reads the data:
     data of another dtype, model or device, then each state array (`check_state`). Attribute reads only:
     no device synchronisation. parameters: the caller reads the link or joint parameters, which, given per
-    environment, need data of those N environments."""
+    environment, need data of those N environments. Returns the data's `state_arrays`: the list the checks
+    remember while those arrays stay (the same list object from call to call, which callers may key on)."""
     memo = getattr(data, "__dict__", None)
     passed = memo.get("_checked") if memo is not None else None
     arrays = state_arrays(data) if passed is not None else None
@@ -39,7 +40,7 @@ def check_data(model, data, parameters: bool = False) -> None:
         and passed[3] == data.num_envs
         and all(map(operator.is_, passed[4], arrays))
     ):
-        return
+        return passed[4]
     _check_types(data)
     if data.scalar != model.scalar:
         raise TypeError(f"data is in {data.dtype.name} but the model computes in {model.dtype.name}")
@@ -54,8 +55,10 @@ def check_data(model, data, parameters: bool = False) -> None:
             f"the model's parameters {model.per_environment_parameters()} are given per environment, "
             f"but the data has {N} environments"
         )
+    arrays = state_arrays(data)
     if memo is not None:
-        memo["_checked"] = (weakref.ref(model), model.version, parameters, data.num_envs, state_arrays(data))
+        memo["_checked"] = (weakref.ref(model), model.version, parameters, data.num_envs, arrays)
+    return arrays
 
 
 def passes_like(data, source) -> None:
