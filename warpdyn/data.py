@@ -30,9 +30,7 @@ from .types.model import quaternion_xyzw
 __all__ = ["Data", "random_model_data"]
 
 _STATE_FIELDS = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities")
-
-
-_NO_GRADS = (None,) * 5
+_NO_GRADS = (None,) * len(_STATE_FIELDS)  # Data.requires_grad: no state array has a .grad
 
 
 @dataclasses.dataclass(eq=False)
