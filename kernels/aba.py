@@ -14,12 +14,12 @@ What one pass hands to the next is one scalar record per link (kernels/scratch.p
 what is cheap to recompute from the joint position (iX_lambda, S_i, c_i) is recomputed instead of stored.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .registers import tuned
 from .scratch import SYM66, scratch
 from .spatial import MIXED, spatial
@@ -35,7 +35,7 @@ ABA_RECORD = _WHL
 """Scratch numbers per link without link forces (with them: ABA_RECORD + 7)."""
 
 
-@functools.cache
+@factory
 def inertia_funcs(scalar) -> types.SimpleNamespace:
     """Spatial-inertia helpers in `scalar`, shared by ABA and CRBA."""
     sp, sc, B = spatial(scalar), scratch(scalar), bundles(scalar)

@@ -19,14 +19,14 @@ its start (as JaxSim); MuJoCo's part, which RK4 must see change within the step 
 also a kernel of its own (`mujoco_kernel`), launched at each stage.
 """
 
-import functools
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 
 
-@functools.cache
+@factory
 def functions(scalar, per_joint: int):
     """clip, and actuator_force for models with at most `per_joint` actuators on a joint (its loop unrolled,
     so that its sum is differentiated by the tape)."""
@@ -65,7 +65,7 @@ def functions(scalar, per_joint: int):
     return clip, actuator_force
 
 
-@functools.cache
+@factory
 def mujoco_terms(scalar, with_passive: bool, per_joint: int):
     """The wp.func giving MuJoCo's joint forces on joint j at (s, sdot): the passive spring and damper (when
     with_passive) plus the actuators' forces (when per_joint > 0); the code of an absent term is not compiled."""
@@ -87,7 +87,7 @@ def mujoco_terms(scalar, with_passive: bool, per_joint: int):
     return mujoco_joint_force
 
 
-@functools.cache
+@factory
 def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
     """The wp.func giving the step's force on joint j [N m or N] at (s, sdot) from its reference tau_ref_j and
     the actuators' controls ctrl (N, na) (the module docstring's tau); per_joint: the most actuators on one
@@ -131,7 +131,7 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
     return resultant_torque
 
 
-@functools.cache
+@factory
 def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
     """The step's joint forces (`joint_force`) as a kernel over (N, n)."""
     B = bundles(scalar)
@@ -159,7 +159,7 @@ def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = 
     return resultant_torques
 
 
-@functools.cache
+@factory
 def mujoco_kernel(scalar, with_passive: bool, per_joint: int):
     """tau = tau_in + MuJoCo's joint forces at the state (see `mujoco_terms`): what RK4 evaluates at each stage
     on the JaxSim part held from the step's start, and, with tau_in absent, MuJoCo's qfrc_actuator

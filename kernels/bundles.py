@@ -12,15 +12,15 @@ Absent inputs are arrays with a zero leading axis, which kernels test with `.sha
 cannot take a struct holding a null array). The representation codes are spatial.BODY, MIXED, INERTIAL.
 """
 
-import functools
 import types
 
 import warp as wp
 
+from .factory import factory
 from .spatial import spatial
 
 
-@functools.cache
+@factory
 def bundles(scalar) -> types.SimpleNamespace:
     """The bundles in `scalar` (wp.float32 or wp.float64) and the `@wp.func`s that read them."""
     sp = spatial(scalar)

@@ -24,19 +24,19 @@ sums over links are prefix arrays (N, nL), element i = element i - 1 + the term 
 written once; composite (subtree) inertias use a sibling chain, see `momentum_jacobian`.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import BODY, INERTIAL, MIXED, spatial
 
 FRAME_GW = 4
 FRAME_GB = 5
 
 
-@functools.cache
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)

@@ -9,13 +9,14 @@ adj_A = -y x^T; for X = A^-1, adj_A = -X adj_X X (A symmetric). The factorisatio
 triangle, so those adjoints are folded onto it: adj_A[i, j] gets the (i, j) and (j, i) terms (i > j).
 """
 
-import functools
 import types
 
 import warp as wp
 
+from .factory import factory
 
-@functools.cache
+
+@factory
 def kernels(scalar):
     @wp.func
     def factor(A: wp.array3d(dtype=scalar), env: int, offset: int, L: wp.array3d(dtype=scalar)):

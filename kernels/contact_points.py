@@ -6,16 +6,16 @@ Its velocity is taken from the target-velocity kernel (kernels/velocities.py) wi
 part is the plain derivative of W_p_C.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)

@@ -10,17 +10,17 @@
   has W_p_C.z <= h(W_p_C.x, W_p_C.y) (at or below the terrain height above its (x, y), JaxSim's test).
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .soft_contacts import kernels as soft_contact_kernels
 from .spatial import INERTIAL, spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)

@@ -43,16 +43,16 @@ Tape discipline (kernels/__init__.py): every scratch and output element is writt
 children are sibling chains as in crba.py; every local assigned in a dynamic loop has a name of its own.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import INERTIAL, MIXED, spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)

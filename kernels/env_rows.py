@@ -5,13 +5,14 @@ Both act on flat views of contiguous buffers: a parameter of M numbers (its item
 and its copy of (N, M) numbers.
 """
 
-import functools
 import types
 
 import warp as wp
 
+from .factory import factory
 
-@functools.cache
+
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     @wp.kernel(module="unique")
     def tile(shared: wp.array(dtype=scalar), rows: wp.array2d(dtype=scalar)):

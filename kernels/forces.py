@@ -4,16 +4,16 @@ Link forces are kept in the Inertial representation W_f_L = [W_f; W_tau about th
 Body and Mixed representations the force acts at the link (or frame) origin, in link (or world) axes.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar):
     sp = spatial(scalar)
     B = bundles(scalar)

@@ -42,13 +42,13 @@ compensation, a step is warpdyn.engine.step's launch list, whose numbers these e
 (tests/test_fused_step.py).
 """
 
-import functools
 
 import warp as wp
 
 from .aba import inertia_funcs
 from .actuation import joint_force
 from .bundles import bundles
+from .factory import factory
 from .integrators import kernels as integrator_funcs
 from .scratch import SYM66, TRANSFORM, scratch
 from .soft_contacts import kernels as contact_funcs
@@ -58,7 +58,7 @@ BASE = wp.constant(-2)
 """In a walk, a link's parent slot when its parent is the base (the first link of a group)."""
 
 
-@functools.cache
+@factory
 def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, terrain_kind: int | None, keep_joint_transforms: bool, lanes: int = 1):
     """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
     sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, the joint forces of kernels/actuation.py's

@@ -15,16 +15,16 @@ than `quaternion_tolerance` (|Q+| - 1 before normalising), is flagged (valid = 0
 an environment already flagged does not change.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar):
     sp = spatial(scalar)
     B = bundles(scalar)

@@ -26,16 +26,16 @@ Tape gradients: a name assigned in a dynamic loop must not also be assigned befo
 loop): Warp 1.19 then treats it as loop-carried and the earlier loop's adjoint reads the later value.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import BODY, MIXED, spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)

@@ -7,16 +7,16 @@ representations are applied to its columns: the base columns are the unit vector
 representation mapped to Inertial; every column is then mapped to the output representation of F.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)

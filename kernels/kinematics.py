@@ -4,16 +4,16 @@ Featherstone's recursion over links in breadth-first order (parent index < child
     lambda_H_i = X_tree[i] * M_i(q_i),    W_H_i = W_H_lambda(i) * lambda_H_i,    W_H_0 = W_H_B.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)

@@ -11,15 +11,15 @@ layout A_X_B = [[R, p^ R], [0, R]]. Arguments have JaxSim's names (`transform=`,
 boolean flags have no default (Warp functions need every argument).
 """
 
-import functools
 import types
 
 import warp as wp
 
+from .factory import factory
 from .spatial import spatial
 
 
-@functools.cache
+@factory
 def functions(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     vec3, vec6, mat33, mat44, mat66, quat = sp.vec3, sp.vec6, sp.mat33, sp.mat44, sp.mat66, sp.quat

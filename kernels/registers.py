@@ -4,10 +4,12 @@
 
 import functools
 
+from .factory import factory
+
 
 def tuned(table: dict):
     def decorate(build):
-        cached = functools.cache(build)
+        cached = factory(build)
 
         @functools.wraps(build)
         def kernels(scalar, max_registers="tuned"):

@@ -7,13 +7,14 @@ copies strided arrays outside both). Launched over the destination's full shape;
 once. A source may broadcast over the environment axis with a zero stride (see warpdyn.simulation).
 """
 
-import functools
 import types
 
 import warp as wp
 
+from .factory import factory
 
-@functools.cache
+
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     @wp.kernel(module="unique")
     def copy1d(src: wp.array(dtype=scalar), dst: wp.array(dtype=scalar)):
@@ -38,7 +39,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     return types.SimpleNamespace(copy={1: copy1d, 2: copy2d, 3: copy3d, 4: copy4d})
 
 
-@functools.cache
+@factory
 def int_kernels() -> types.SimpleNamespace:
     @wp.kernel(module="unique")
     def copy_flags(src: wp.array(dtype=wp.int32), dst: wp.array(dtype=wp.int32)):

@@ -11,11 +11,11 @@ then their quaternion (x, y, z, w) (7 numbers). The same records as vectors (`pa
 their inverses) serve a kernel that keeps them in its thread's local memory (kernels/fused_step.py).
 """
 
-import functools
 import types
 
 import warp as wp
 
+from .factory import factory
 from .spatial import spatial
 
 SYM66 = 21
@@ -24,7 +24,7 @@ TRANSFORM = 7
 """Numbers of a transform: translation, quaternion (x, y, z, w)."""
 
 
-@functools.cache
+@factory
 def scratch(scalar) -> types.SimpleNamespace:
     """Readers and writers of per-link records in `scalar` (wp.float32 or wp.float64)."""
     sp = spatial(scalar)

@@ -15,19 +15,19 @@ gives a NaN force, so that the step flags the environment: wp.max(0, NaN) is 0, 
 contact.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import spatial
 
 EPSILON = 2.220446049250313e-16
 FLAT, PLANE, HEIGHTFIELD = 0, 1, 2
 
 
-@functools.cache
+@factory
 def kernels(scalar, terrain_kind: int | None = None):
     """The functions and kernels in `scalar`, for any terrain (terrain_kind None: its kind is read from the
     bundle at run time) or for one kind (FLAT, PLANE, HEIGHTFIELD): a constant, so that the compiler drops the

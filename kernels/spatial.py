@@ -11,10 +11,11 @@ Conventions used by every kernel:
   the velocity of the point of F that passes through the world origin.
 """
 
-import functools
 import types
 
 import warp as wp
+
+from .factory import factory
 
 BODY = 1
 MIXED = 2
@@ -24,7 +25,7 @@ REVOLUTE = 1
 PRISMATIC = 2
 
 
-@functools.cache
+@factory
 def spatial(scalar) -> types.SimpleNamespace:
     """Types and functions of spatial algebra in `scalar` (wp.float32 or wp.float64)."""
     vec3 = wp.types.vector(3, scalar)

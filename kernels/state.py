@@ -3,17 +3,17 @@
 The state keeps the base velocity in the Mixed representation, [W_pdot_B; W_omega_WB].
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .scratch import scratch
 from .spatial import MIXED, spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     base_pose = bundles(scalar).base_pose_of

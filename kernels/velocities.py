@@ -5,16 +5,16 @@ starting from the base velocity. Targets (links or frames on links) are then wri
 representation.
 """
 
-import functools
 import types
 
 import warp as wp
 
 from .bundles import bundles
+from .factory import factory
 from .spatial import MIXED, spatial
 
 
-@functools.cache
+@factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     B = bundles(scalar)

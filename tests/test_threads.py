@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ import warp as wp
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
+from warpdyn.kernels.factory import factory
 
 THREADS = 4
 REPEATS = 6
@@ -305,3 +307,29 @@ def test_first_compilation_from_several_threads(tmp_path):
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "same" in proc.stdout
+
+
+def test_kernel_factories_make_each_result_once_one_thread_at_a_time():
+    """kernels/factory.py: eight threads asking a factory for the same result at once get one object, made once;
+    two results are never made at the same time (Warp parses sources with ast when it makes kernels, which
+    CPython 3.11 cannot do in two threads at once: test_first_compilation_from_several_threads failed 4 of 20
+    runs on a 2-core CPU when the factories were functools.cache)."""
+    calls, inside, overlaps = [], [0], []
+
+    @factory
+    def build(key, flag=False):
+        inside[0] += 1
+        overlaps.append(inside[0])
+        time.sleep(0.01)
+        calls.append((key, flag))
+        inside[0] -= 1
+        return object()
+
+    def ask(i):
+        return build(i % 2), build(i % 2, flag=True)
+
+    results = _in_threads(ask, count=8)
+    assert sorted(calls, key=repr) == sorted([(0, False), (1, False), (0, True), (1, True)], key=repr)
+    assert max(overlaps) == 1
+    for i, (plain, flagged) in enumerate(results):
+        assert plain is build(i % 2) and flagged is build(i % 2, flag=True) and plain is not flagged

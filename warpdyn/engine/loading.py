@@ -1,7 +1,8 @@
 """Loading kernel modules: the first launch of a kernel module on a device compiles it, or loads it from
 Warp's kernel cache (`wp.config.kernel_cache_dir`). Loads run under one process-wide lock, since Warp's
 module loading is not safe from several calling threads at once (one `force_load` may compile several
-modules on threads of its own: `preload`); once a compilation has taken longer than
+modules on threads of its own: `preload`): the kernel factories' lock (kernels/factory.py), under which the
+forward-only twins are made too, since making a Warp kernel parses its source with `ast`; once a compilation has taken longer than
 `NOTICE_AFTER` seconds, warpdyn says on stderr, once per process, that it is compiling and that the result
 is cached.
 """
@@ -15,13 +16,14 @@ import threading
 import warp as wp
 
 from .. import config
+from ..kernels.factory import BUILD_LOCK
 from . import warp_private
 
 NOTICE_AFTER = 1.0
 """Seconds a first load may take before warpdyn says that it is compiling."""
 
 _loaded: set = set()
-_lock = threading.RLock()
+_lock = BUILD_LOCK
 _noticed = threading.Event()
 
 
