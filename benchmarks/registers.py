@@ -3,7 +3,8 @@
     python benchmarks/registers.py --ptxas PATH [--arch 90] [--dtypes float32,float64] [--nvdisasm PATH]
 
 For the seed's ergoCub legs (12 joints, 13 links, 32 points, flat terrain): the fused Euler step (keeping the
-joint transforms, and rebuilding them: kernels/fused_step.py), ABA, RNEA and CRBA. Warp writes each kernel's
+joint transforms, and rebuilding them: kernels/fused_step.py; in float32 also with its records in the shared
+memory of blocks of 64 threads, as a GPU runs it for many environments), ABA, RNEA and CRBA. Warp writes each kernel's
 PTX (wp.compile_aot_module, no device needed); ptxas -v compiles it for sm_ARCH and reports each kernel's
 registers, stack frame and spill bytes; with --nvdisasm, the number of SASS instructions too. PATH: a ptxas
 that reads Warp's PTX (Warp 1.19 writes PTX 9.4: CUDA 13.0's ptxas refuses it, 13.5's from the pip package
@@ -35,6 +36,7 @@ def kernels(dtype: str) -> dict:
     return {
         "fused step, transforms kept": plan.fused(True, 1),
         "fused step, transforms rebuilt": plan.fused(False, 1),
+        **({"fused step, transforms rebuilt, records in shared memory (blocks of 64)": plan.fused(False, 1, 64)} if dtype == "float32" else {}),
         "ABA": aba.kernels(s).aba,
         "RNEA": rnea.kernels(s).rnea,
         "CRBA": crba.kernels(s).crba,

@@ -20,19 +20,21 @@ keeps it in a slot for the others (`walk`). The walk comes in groups of the base
 side by side (for few environments: a step's chain of dependent operations is shorter), each computing the
 base alike; they sum their terms of the base's articulated inertia and bias force, then their health checks,
 through a tile.
-What one pass hands to the next per link (c_i, the bias force then U_i / d_i, u_i / d_i: 13 numbers) stays in
-the thread's local memory instead of arrays in global memory, and is read and written once per step. The joint
-positions, velocities and force references are not kept there: passes 1 and 3 load link k + 1's while link k
-is computed (pass 2 reads the positions again), so that the local arrays fill less of the L1 cache
-(benchmarks/RESULTS.md, round 10). Likewise what pass 3 needs of a link is loaded while the link before it is
-computed, and the contact points' states ahead of their use: in float32 two points per iteration, their chains
-side by side, while the next two are loaded; in float64 one at a time, two points ahead (pairs make float64
-spill registers). Pass 2 sums the articulated inertias as their 21 numbers (symmetric: fewer registers than
-6x6 sums). The kernel has no grid-stride loop (a thread per environment or lane: fewer registers; float64
-spills less). The joint transforms lambda(i)_H_i are either kept from pass 1 (7 numbers more per link;
-`keep_joint_transforms`) or rebuilt in passes 2 and 3 from the joint positions (their sines and cosines again:
-cheaper on a GPU once the environments' local arrays outgrow its caches than keeping either the transforms or
-their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
+What one pass hands to the next per link (c_i, the bias force then U_i / d_i, u_i / d_i: RECORD numbers, its
+record) stays on the chip instead of in arrays in global memory, and is read and written once per step: in the
+thread's local memory, or in the block's shared memory (`shared_block`; warpdyn.engine.fused_layout's
+`shared_records_block`), where the loads of the state, which share the L1 cache with local memory, do not evict
+it (benchmarks/RESULTS.md, round 12). The joint positions, velocities and force references are not kept there:
+passes 1 and 3 load link k + 1's while link k is computed (pass 2 reads the positions again), so that the local
+arrays fill less of the L1 cache (benchmarks/RESULTS.md, round 10). Likewise what pass 3 needs of a link is
+loaded while the link before it is computed, and the contact points' states ahead of their use: in float32 two
+points per iteration, their chains side by side, while the next two are loaded; in float64 one at a time, two
+points ahead (pairs make float64 spill registers). Pass 2 sums the articulated inertias as their 21 numbers
+(symmetric: fewer registers than 6x6 sums). The kernel has no grid-stride loop (a thread per environment or lane:
+fewer registers; float64 spills less). The joint transforms lambda(i)_H_i are either kept from pass 1 (7 numbers
+more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from the joint positions (their sines and
+cosines again: cheaper on a GPU once the environments' local arrays outgrow its caches than keeping either the
+transforms or their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
 The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links
 and slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not
 unrolled (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
@@ -57,15 +59,21 @@ from .spatial import INERTIAL, MIXED, spatial
 BASE = wp.constant(-2)
 """In a walk, a link's parent slot when its parent is the base (the first link of a group)."""
 
+RECORD = wp.constant(13)
+"""The numbers a link's passes hand to each other: c_i (6), the bias force then U_i / d_i (6), u_i / d_i (1)."""
+
 
 @factory
-def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, terrain_kind: int | None, keep_joint_transforms: bool, lanes: int = 1):
+def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, terrain_kind: int | None, keep_joint_transforms: bool, lanes: int = 1, shared_block: int = 0):
     """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
     sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, the joint forces of kernels/actuation.py's
     `joint_force(scalar, *actuation)` (None: a model without joints), the contacts of kernels/soft_contacts.py's
     `kernels(scalar, terrain_kind)` (a kind of terrain, or None: any), keeping the joint transforms of pass 1 for
     passes 2 and 3 or recomputing them; one thread per environment (lanes 1, launched over N), or `lanes`
-    threads per environment, one per group of the walk (launched over (N, lanes) in blocks of `lanes`)."""
+    threads per environment, one per group of the walk (launched over (N, lanes) in blocks of `lanes`); the
+    links' records in each thread's local memory (shared_block 0), or, for launches in blocks of `shared_block`
+    threads, one thread per environment, in the block's shared memory (RECORD x links x shared_block numbers,
+    under CUDA's 48 KiB of static shared memory; CUDA only)."""
     sp = spatial(scalar)
     B = bundles(scalar)
     I = integrator_funcs(scalar)
@@ -88,6 +96,31 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     sym21 = wp.types.vector(SYM66, scalar)
     sc = scratch(scalar)
     pack7, unpack7, pack21, unpack21 = sc.pack_transform, sc.unpack_transform, sc.pack_sym66, sc.unpack_sym66
+    SHARED = shared_block
+    if SHARED:
+        code = f"""
+        __shared__ {"float" if scalar == wp.float32 else "double"} records[{RECORD * links * SHARED}];
+        const int at = k * {SHARED} + threadIdx.x;
+        if (store) records[at] = value;
+        return records[at];"""
+
+        @wp.func_native(code)
+        def shared_record(k: int, value: scalar, store: int) -> scalar:
+            """This thread's record number k in its block's shared memory: `value` stored there first when
+            `store`. Record k of the block's thread t is element k * SHARED + t (consecutive threads, consecutive
+            banks)."""
+
+        @wp.func
+        def put6(k: int, v: sp.vec6):
+            """v as this thread's shared records k to k + 5."""
+            for a in range(6):
+                shared_record(k + a, v[a], 1)
+
+        @wp.func
+        def get6(k: int):
+            """This thread's shared records k to k + 5."""
+            z = scalar(0.0)
+            return sp.vec6(shared_record(k, z, 0), shared_record(k + 1, z, 0), shared_record(k + 2, z, 0), shared_record(k + 3, z, 0), shared_record(k + 4, z, 0), shared_record(k + 5, z, 0))
 
     @wp.func
     def point_state(contacts: B.Contacts, x: B.State, env: int, c: int):
@@ -330,8 +363,12 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 slot_v[own] = v_i
             f_i, bad = external_force(contacts, terrain, controls, env, i, W_H_i, v_i, h0, K, D, mu, dt, x, y, W_f_C)
             nonfinite = nonfinite + bad
-            c[i] = sp.cross_motion(v_i, S_qd)
-            pU[i] = sp.cross_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i
+            if wp.static(SHARED):
+                put6(RECORD * i, sp.cross_motion(v_i, S_qd))
+                put6(RECORD * i + 6, sp.cross_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i)
+            else:
+                c[i] = sp.cross_motion(v_i, S_qd)
+                pU[i] = sp.cross_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i
             W_H_prev = W_H_i
             v_prev = v_i
         # 2. articulated inertias and bias forces, from the leaves; a link's terms summed into its parent's: the
@@ -350,13 +387,24 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, x.joint_positions[env, i - 1])
             S = B.motion_subspace_of(model, i)
             IA = pack21(B.spatial_inertia_of(model, env, i)) + IA_next  # summed as 21 numbers: symmetric, fewer registers
-            pA = pU[i] + pA_next
+            if wp.static(SHARED):
+                pA = get6(RECORD * i + 6) + pA_next
+            else:
+                pA = pU[i] + pA_next
             if own >= 0:
                 IA = IA + slot_IA[own]
                 pA = pA + slot_pA[own]
-            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, unpack21(IA), pA, c[i])
-            pU[i] = Ud_i
-            ud[i] = ud_i
+            if wp.static(SHARED):
+                c_i = get6(RECORD * i)
+            else:
+                c_i = c[i]
+            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, unpack21(IA), pA, c_i)
+            if wp.static(SHARED):
+                put6(RECORD * i + 6, Ud_i)
+                shared_record(RECORD * i + 12, ud_i, 1)
+            else:
+                pU[i] = Ud_i
+                ud[i] = ud_i
             IA_next = pack21(inertia_to(X_i, Ia))
             pA_next = sp.force_to(X_i, pa)
             if up == BASE:
@@ -400,9 +448,14 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         else:
             jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
         S_n = B.motion_subspace_of(model, i_n)
-        c_n = c[i_n]
-        pU_n = pU[i_n]
-        ud_n = ud[i_n]
+        if wp.static(SHARED):
+            c_n = get6(RECORD * i_n)
+            pU_n = get6(RECORD * i_n + 6)
+            ud_n = shared_record(RECORD * i_n + 12, scalar(0.0), 0)
+        else:
+            c_n = c[i_n]
+            pU_n = pU[i_n]
+            ud_n = ud[i_n]
         q_n = scalar(0.0)
         qd_n = scalar(0.0)
         if has_joints:
@@ -429,9 +482,14 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             else:
                 jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
             S_n = B.motion_subspace_of(model, i_n)
-            c_n = c[i_n]
-            pU_n = pU[i_n]
-            ud_n = ud[i_n]
+            if wp.static(SHARED):
+                c_n = get6(RECORD * i_n)
+                pU_n = get6(RECORD * i_n + 6)
+                ud_n = shared_record(RECORD * i_n + 12, scalar(0.0), 0)
+            else:
+                c_n = c[i_n]
+                pU_n = pU[i_n]
+                ud_n = ud[i_n]
             q_n = x.joint_positions[env, i_n - 1]
             qd_n = x.joint_velocities[env, i_n - 1]
             a_P = a_prev

@@ -450,3 +450,43 @@ def test_which_devices_and_sizes_keep_the_joint_transforms():
     gpu = type("GPU", (), {"is_cpu": False, "is_cuda": True})()
     assert rule(cpu, 1) and rule(cpu, 10 * limit)
     assert rule(gpu, 1) and rule(gpu, limit) and not rule(gpu, limit + 1)
+
+
+def test_which_devices_dtypes_and_blocks_keep_the_records_in_shared_memory():
+    """A GPU in float32 on one thread per environment, when a block's records fit SHARED_RECORDS_BYTES; else
+    (the CPU, float64, lanes, blocks too large for the model) each thread's local memory (0)."""
+    rule = fused_layout.shared_records_block
+    gpu = type("GPU", (), {"is_cpu": False, "is_cuda": True})()
+
+    def plan(device, scalar, nL):
+        return type("Plan", (), {"device": device, "scalar": scalar, "nL": nL})()
+
+    legs = plan(gpu, wp.float32, 13)
+    assert rule(legs, 1, 64) == 64 and rule(legs, 1, 32) == 32
+    assert rule(legs, 1, 128) == 0, "13 links x 13 numbers x 4 B x 128 threads: 84.5 KiB"
+    assert rule(legs, 2, 2) == 0, "lanes"
+    assert rule(plan(gpu, wp.float64, 13), 1, 32) == 0, "float64"
+    assert rule(plan(wp.get_device("cpu"), wp.float32, 13), 1, None) == 0, "the CPU"
+    largest = fused_layout.SHARED_RECORDS_BYTES // (13 * 4 * 64)
+    assert rule(plan(gpu, wp.float32, largest), 1, 64) == 64 and rule(plan(gpu, wp.float32, largest + 1), 1, 64) == 0
+
+
+@pytest.mark.skipif(not wp.get_device().is_cuda, reason="shared memory: the tests' device is not a GPU")
+@pytest.mark.parametrize("block", [32, 64])
+def test_records_in_shared_memory_are_what_a_step_launches_in_each_block_size(monkeypatch, keep, block):
+    """In float32 on a GPU, one thread per environment: the kernel made for the block size of
+    warpdyn.config.cuda_block_dim, its launches pinned to it, the step as the launch list's."""
+    monkeypatch.setattr(wd.config, "fused_lanes", False)
+    monkeypatch.setattr(wd.config, "cuda_block_dim", block)
+    model = _legs(np.float32)
+    data = _standing(model, 100)
+    plan, _ = engine_step.prepare(model, data, health=True)
+    kernel, dim, block_dim = engine_step.fused_kernel(plan, 100)
+    assert (dim, block_dim) == (100, block) and kernel is plan.fused(keep, 1, block)
+    assert kernel is not plan.fused(keep, 1, 96 - block) and kernel is not plan.fused(keep, 1)
+    tau = np.random.default_rng(1).normal(0.0, 5.0, (100, model.dofs()))
+    fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
+    assert fused.valid_state.numpy().all()
+    _assert_close(fused, listed, np.float32)
+    fused2, listed2 = _both(monkeypatch, model, listed, joint_force_references=tau)
+    _assert_close(fused2, listed2, np.float32, "second step")

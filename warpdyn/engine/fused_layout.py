@@ -1,7 +1,7 @@
 """How the fused step (kernels/fused_step.py) runs a model: the order in which it walks the tree and its
 groups (the subtrees below the base split into sets of about equal work, which the threads of one
-environment can walk side by side: its lanes), how many threads an environment gets, and whether the joint
-transforms are kept between passes."""
+environment can walk side by side: its lanes), how many threads an environment gets, whether the joint
+transforms are kept between passes, and where the links' records between passes are kept."""
 
 from __future__ import annotations
 
@@ -11,9 +11,19 @@ import numpy as np
 import warp as wp
 
 from .. import config
-from ..kernels.fused_step import BASE
+from ..kernels.fused_step import BASE, RECORD
 
-__all__ = ["FusedWalk", "fused_walk", "fused_lanes", "keeps_joint_transforms", "MAX_LANES", "LANES_UP_TO", "KEEP_JOINT_TRANSFORMS_UP_TO"]
+__all__ = [
+    "FusedWalk",
+    "fused_walk",
+    "fused_lanes",
+    "keeps_joint_transforms",
+    "shared_records_block",
+    "MAX_LANES",
+    "LANES_UP_TO",
+    "KEEP_JOINT_TRANSFORMS_UP_TO",
+    "SHARED_RECORDS_BYTES",
+]
 
 
 class FusedWalk(NamedTuple):
@@ -89,6 +99,25 @@ def keeps_joint_transforms(device, N: int) -> bool:
     (float32) or as long (float64) at 4096, and 7-12% more at 32768 and 131072 (round 5's smaller local arrays
     were not re-measured by a script in the repository)."""
     return device.is_cpu or N <= KEEP_JOINT_TRANSFORMS_UP_TO
+
+
+SHARED_RECORDS_BYTES = 46 * 1024
+"""The most CUDA shared memory that a block of the fused step gives its threads' records (`shared_records_block`):
+a kernel's static shared memory is at most 48 KiB per block, and Warp takes 1 KiB of it."""
+
+
+def shared_records_block(plan, lanes: int, block_dim: int | None) -> int:
+    """The CUDA block size for which the fused step of `plan` (its device, scalar and links) with `lanes` threads
+    per environment keeps its links' records (kernels/fused_step.py: RECORD numbers per link) in the block's
+    shared memory, or 0: in each thread's local memory. Shared on a GPU, in float32, one thread per environment,
+    when a block of `block_dim` threads holds its records in SHARED_RECORDS_BYTES (the legs' 13 links: 42.25 KiB
+    in blocks of 64). Local memory shares the L1 cache with the loads of the state, which evict the records;
+    shared memory keeps them. Measured on an H100 (benchmarks/RESULTS.md, round 12): in float32 the step took
+    13-21% less time at 32768 and 131072 environments in blocks of 64; float64's records fit only blocks of 32
+    (5 warps per multiprocessor instead of 8), which took 18-22% more time than local memory in blocks of 64."""
+    if not plan.device.is_cuda or lanes != 1 or block_dim is None or plan.scalar != wp.float32:
+        return 0
+    return block_dim if RECORD * plan.nL * block_dim * 4 <= SHARED_RECORDS_BYTES else 0
 
 
 MAX_LANES = 8

@@ -65,6 +65,7 @@ from . import fused_layout, tape
 from .bundles import controls_bundle, empty_like_input, model_bundle, state_bundle
 from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
+from .loading import block_size
 
 __all__ = [
     "DEFORMATION_STABILITY",
@@ -447,11 +448,16 @@ def fused_applies(plan: Plan, ws: Workspace) -> bool:
 
 
 def fused_kernel(plan: Plan, N: int):
-    """The fused step's kernel for N environments (warpdyn.engine.fused_layout's `keeps_joint_transforms` and
-    `fused_lanes`), its launch dim and block size (None: warpdyn's)."""
+    """The fused step's kernel for N environments (warpdyn.engine.fused_layout's `keeps_joint_transforms`,
+    `fused_lanes` and `shared_records_block`), its launch dim and block size (None: warpdyn's). A kernel that
+    keeps its records in shared memory is made for the block size of warpdyn.config.cuda_block_dim now, which
+    its launches keep."""
     lanes = fused_layout.fused_lanes(plan, N)
-    kernel = plan.fused(fused_layout.keeps_joint_transforms(plan.device, N), lanes)
-    return (kernel, N, None) if lanes == 1 else (kernel, (N, lanes), lanes)
+    keep = fused_layout.keeps_joint_transforms(plan.device, N)
+    if lanes > 1:
+        return plan.fused(keep, lanes), (N, lanes), lanes
+    shared = fused_layout.shared_records_block(plan, lanes, block_size(None, plan.device))
+    return plan.fused(keep, 1, shared), N, shared or None
 
 
 def step_launches(
