@@ -3,12 +3,13 @@
     python benchmarks/registers.py --ptxas PATH [--arch 90] [--dtypes float32,float64] [--nvdisasm PATH]
 
 For the seed's ergoCub legs (12 joints, 13 links, 32 points, flat terrain): the fused Euler step (keeping the
-joint transforms, and rebuilding them: kernels/fused_step.py; in float32 also with its records in the shared
-memory of blocks of 64 threads, as a GPU runs it for many environments), ABA, RNEA and CRBA. Warp writes each kernel's
-PTX (wp.compile_aot_module, no device needed); ptxas -v compiles it for sm_ARCH and reports each kernel's
-registers, stack frame and spill bytes; with --nvdisasm, the number of SASS instructions too. PATH: a ptxas
-that reads Warp's PTX (Warp 1.19 writes PTX 9.4: CUDA 13.0's ptxas refuses it, 13.5's from the pip package
-nvidia-cuda-nvcc reads it). These are the compiler's figures, not times: speed is measured by revisions.py.
+joint transforms, and rebuilding them: kernels/fused_step.py; also with its records in the shared memory of
+blocks of 64 threads, as a GPU runs it for many environments: whole in float32, without c_i in float64), ABA,
+RNEA and CRBA. Warp writes each kernel's PTX (wp.compile_aot_module, no device needed); ptxas -v compiles it
+for sm_ARCH and reports each kernel's registers, stack frame and spill bytes; with --nvdisasm, the number of
+SASS instructions too. PATH: a ptxas that reads Warp's PTX (Warp 1.19 writes PTX 9.4: CUDA 13.0's ptxas
+refuses it, 13.5's from the pip package nvidia-cuda-nvcc reads it). These are the compiler's figures, not
+times: speed is measured by revisions.py.
 Prints a Markdown table.
 """
 
@@ -19,11 +20,13 @@ import pathlib
 import re
 import subprocess
 import tempfile
+import types
 
 import numpy as np
 import warp as wp
 
 from common import seed_model
+from warpdyn.engine import fused_layout
 from warpdyn.engine import step as engine_step
 from warpdyn.kernels import aba, crba, rnea
 
@@ -32,11 +35,12 @@ def kernels(dtype: str) -> dict:
     """{name: Warp kernel} for the seed's legs in `dtype`."""
     model = seed_model(np.dtype(dtype), "cpu")
     plan = engine_step.plan(model)
+    gpu_plan = types.SimpleNamespace(device=types.SimpleNamespace(is_cuda=True), scalar=plan.scalar, nL=plan.nL)  # as a GPU's
     s = model.scalar
     return {
         "fused step, transforms kept": plan.fused(True, 1),
         "fused step, transforms rebuilt": plan.fused(False, 1),
-        **({"fused step, transforms rebuilt, records in shared memory (blocks of 64)": plan.fused(False, 1, 64)} if dtype == "float32" else {}),
+        "fused step, transforms rebuilt, records in shared memory (blocks of 64)": plan.fused(False, 1, *fused_layout.shared_records(gpu_plan, 1, 64)),
         "ABA": aba.kernels(s).aba,
         "RNEA": rnea.kernels(s).rnea,
         "CRBA": crba.kernels(s).crba,

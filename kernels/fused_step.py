@@ -20,10 +20,10 @@ keeps it in a slot for the others (`walk`). The walk comes in groups of the base
 side by side (for few environments: a step's chain of dependent operations is shorter), each computing the
 base alike; they sum their terms of the base's articulated inertia and bias force, then their health checks,
 through a tile.
-What one pass hands to the next per link (c_i, the bias force then U_i / d_i, u_i / d_i: RECORD numbers, its
+What one pass hands to the next per link (the bias force then U_i / d_i, u_i / d_i, c_i: RECORD numbers, its
 record) stays on the chip instead of in arrays in global memory, and is read and written once per step: in the
 thread's local memory, or in the block's shared memory (`shared_block`; warpdyn.engine.fused_layout's
-`shared_records_block`), where the loads of the state, which share the L1 cache with local memory, do not evict
+`shared_records`), where the loads of the state, which share the L1 cache with local memory, do not evict
 it (benchmarks/RESULTS.md, round 12). The joint positions, velocities and force references are not kept there:
 passes 1 and 3 load link k + 1's while link k is computed (pass 2 reads the positions again), so that the local
 arrays fill less of the L1 cache (benchmarks/RESULTS.md, round 10). Likewise what pass 3 needs of a link is
@@ -60,11 +60,17 @@ BASE = wp.constant(-2)
 """In a walk, a link's parent slot when its parent is the base (the first link of a group)."""
 
 RECORD = wp.constant(13)
-"""The numbers a link's passes hand to each other: c_i (6), the bias force then U_i / d_i (6), u_i / d_i (1)."""
+"""The numbers a link's passes hand to each other: the bias force then U_i / d_i (6), u_i / d_i (1), c_i (6)."""
+
+
+def shared_numbers(links: int, block: int, shared_c: bool = True) -> int:
+    """The numbers a block of `block` threads keeps in shared memory for a model of `links` links: each link's
+    record, without c_i unless shared_c (`kernel`)."""
+    return (RECORD if shared_c else 7) * links * block
 
 
 @factory
-def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, terrain_kind: int | None, keep_joint_transforms: bool, lanes: int = 1, shared_block: int = 0):
+def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, terrain_kind: int | None, keep_joint_transforms: bool, lanes: int = 1, shared_block: int = 0, shared_c: bool = True):
     """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
     sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, the joint forces of kernels/actuation.py's
     `joint_force(scalar, *actuation)` (None: a model without joints), the contacts of kernels/soft_contacts.py's
@@ -72,8 +78,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     passes 2 and 3 or recomputing them; one thread per environment (lanes 1, launched over N), or `lanes`
     threads per environment, one per group of the walk (launched over (N, lanes) in blocks of `lanes`); the
     links' records in each thread's local memory (shared_block 0), or, for launches in blocks of `shared_block`
-    threads, one thread per environment, in the block's shared memory (RECORD x links x shared_block numbers,
-    under CUDA's 48 KiB of static shared memory; CUDA only)."""
+    threads, one thread per environment, in the block's shared memory (CUDA only; within CUDA's 48 KiB of static
+    shared memory: `shared_numbers(links, shared_block, shared_c)` numbers): the whole record, or without c_i
+    (not shared_c: the bias force then U_i / d_i, and u_i / d_i, 7 numbers per link, c_i in local memory)."""
     sp = spatial(scalar)
     B = bundles(scalar)
     I = integrator_funcs(scalar)
@@ -97,9 +104,11 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     sc = scratch(scalar)
     pack7, unpack7, pack21, unpack21 = sc.pack_transform, sc.unpack_transform, sc.pack_sym66, sc.unpack_sym66
     SHARED = shared_block
+    C_SHARED = bool(SHARED) and shared_c
+    PER_LINK = RECORD if C_SHARED else 7  # a link's shared numbers: the bias force then U_i / d_i, u_i / d_i, c_i
     if SHARED:
         code = f"""
-        __shared__ {"float" if scalar == wp.float32 else "double"} records[{RECORD * links * SHARED}];
+        __shared__ {"float" if scalar == wp.float32 else "double"} records[{shared_numbers(links, SHARED, shared_c)}];
         const int at = k * {SHARED} + threadIdx.x;
         if (store) records[at] = value;
         return records[at];"""
@@ -363,11 +372,13 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 slot_v[own] = v_i
             f_i, bad = external_force(contacts, terrain, controls, env, i, W_H_i, v_i, h0, K, D, mu, dt, x, y, W_f_C)
             nonfinite = nonfinite + bad
-            if wp.static(SHARED):
-                put6(RECORD * i, sp.cross_motion(v_i, S_qd))
-                put6(RECORD * i + 6, sp.cross_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i)
+            if wp.static(C_SHARED):
+                put6(PER_LINK * i + 7, sp.cross_motion(v_i, S_qd))
             else:
                 c[i] = sp.cross_motion(v_i, S_qd)
+            if wp.static(SHARED):
+                put6(PER_LINK * i, sp.cross_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i)
+            else:
                 pU[i] = sp.cross_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i
             W_H_prev = W_H_i
             v_prev = v_i
@@ -388,20 +399,20 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             S = B.motion_subspace_of(model, i)
             IA = pack21(B.spatial_inertia_of(model, env, i)) + IA_next  # summed as 21 numbers: symmetric, fewer registers
             if wp.static(SHARED):
-                pA = get6(RECORD * i + 6) + pA_next
+                pA = get6(PER_LINK * i) + pA_next
             else:
                 pA = pU[i] + pA_next
             if own >= 0:
                 IA = IA + slot_IA[own]
                 pA = pA + slot_pA[own]
-            if wp.static(SHARED):
-                c_i = get6(RECORD * i)
+            if wp.static(C_SHARED):
+                c_i = get6(PER_LINK * i + 7)
             else:
                 c_i = c[i]
             Ud_i, ud_i, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, unpack21(IA), pA, c_i)
             if wp.static(SHARED):
-                put6(RECORD * i + 6, Ud_i)
-                shared_record(RECORD * i + 12, ud_i, 1)
+                put6(PER_LINK * i, Ud_i)
+                shared_record(PER_LINK * i + 6, ud_i, 1)
             else:
                 pU[i] = Ud_i
                 ud[i] = ud_i
@@ -448,12 +459,14 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         else:
             jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
         S_n = B.motion_subspace_of(model, i_n)
-        if wp.static(SHARED):
-            c_n = get6(RECORD * i_n)
-            pU_n = get6(RECORD * i_n + 6)
-            ud_n = shared_record(RECORD * i_n + 12, scalar(0.0), 0)
+        if wp.static(C_SHARED):
+            c_n = get6(PER_LINK * i_n + 7)
         else:
             c_n = c[i_n]
+        if wp.static(SHARED):
+            pU_n = get6(PER_LINK * i_n)
+            ud_n = shared_record(PER_LINK * i_n + 6, scalar(0.0), 0)
+        else:
             pU_n = pU[i_n]
             ud_n = ud[i_n]
         q_n = scalar(0.0)
@@ -482,12 +495,14 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             else:
                 jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
             S_n = B.motion_subspace_of(model, i_n)
-            if wp.static(SHARED):
-                c_n = get6(RECORD * i_n)
-                pU_n = get6(RECORD * i_n + 6)
-                ud_n = shared_record(RECORD * i_n + 12, scalar(0.0), 0)
+            if wp.static(C_SHARED):
+                c_n = get6(PER_LINK * i_n + 7)
             else:
                 c_n = c[i_n]
+            if wp.static(SHARED):
+                pU_n = get6(PER_LINK * i_n)
+                ud_n = shared_record(PER_LINK * i_n + 6, scalar(0.0), 0)
+            else:
                 pU_n = pU[i_n]
                 ud_n = ud[i_n]
             q_n = x.joint_positions[env, i_n - 1]

@@ -452,41 +452,49 @@ def test_which_devices_and_sizes_keep_the_joint_transforms():
     assert rule(gpu, 1) and rule(gpu, limit) and not rule(gpu, limit + 1)
 
 
-def test_which_devices_dtypes_and_blocks_keep_the_records_in_shared_memory():
-    """A GPU in float32 on one thread per environment, when a block's records fit SHARED_RECORDS_BYTES; else
-    (the CPU, float64, lanes, blocks too large for the model) each thread's local memory (0)."""
-    rule = fused_layout.shared_records_block
+def test_which_devices_and_blocks_keep_the_records_in_shared_memory():
+    """A GPU on one thread per environment: the whole records when a block's fit SHARED_RECORDS_BYTES, else
+    without c_i when those fit; else (the CPU, lanes, blocks too large for the model) each thread's local
+    memory (0, False)."""
+    rule, budget = fused_layout.shared_records, fused_layout.SHARED_RECORDS_BYTES
     gpu = type("GPU", (), {"is_cpu": False, "is_cuda": True})()
 
     def plan(device, scalar, nL):
         return type("Plan", (), {"device": device, "scalar": scalar, "nL": nL})()
 
-    legs = plan(gpu, wp.float32, 13)
-    assert rule(legs, 1, 64) == 64 and rule(legs, 1, 32) == 32
-    assert rule(legs, 1, 128) == 0, "13 links x 13 numbers x 4 B x 128 threads: 84.5 KiB"
-    assert rule(legs, 2, 2) == 0, "lanes"
-    assert rule(plan(gpu, wp.float64, 13), 1, 32) == 0, "float64"
-    assert rule(plan(wp.get_device("cpu"), wp.float32, 13), 1, None) == 0, "the CPU"
-    largest = fused_layout.SHARED_RECORDS_BYTES // (13 * 4 * 64)
-    assert rule(plan(gpu, wp.float32, largest), 1, 64) == 64 and rule(plan(gpu, wp.float32, largest + 1), 1, 64) == 0
+    legs32, legs64 = plan(gpu, wp.float32, 13), plan(gpu, wp.float64, 13)
+    assert rule(legs32, 1, 64) == (64, True) and rule(legs32, 1, 32) == (32, True)
+    assert rule(legs32, 1, 96) == (96, False), "13 links x 13 numbers x 4 B x 96 threads: 63.4 KiB; x 7 numbers: 34.1 KiB"
+    assert rule(legs32, 1, 192) == (0, False), "x 7 numbers x 192 threads: 68.25 KiB"
+    assert rule(legs64, 1, 64) == (64, False) and rule(legs64, 1, 32) == (32, True)
+    assert rule(legs32, 2, 2) == (0, False), "lanes"
+    assert rule(plan(wp.get_device("cpu"), wp.float32, 13), 1, None) == (0, False), "the CPU"
+    whole, without_c = budget // (13 * 4 * 64), budget // (7 * 4 * 64)
+    assert rule(plan(gpu, wp.float32, whole), 1, 64) == (64, True) and rule(plan(gpu, wp.float32, whole + 1), 1, 64) == (64, False)
+    assert rule(plan(gpu, wp.float32, without_c), 1, 64) == (64, False) and rule(plan(gpu, wp.float32, without_c + 1), 1, 64) == (0, False)
 
 
 @pytest.mark.skipif(not wp.get_device().is_cuda, reason="shared memory: the tests' device is not a GPU")
-@pytest.mark.parametrize("block", [32, 64])
-def test_records_in_shared_memory_are_what_a_step_launches_in_each_block_size(monkeypatch, keep, block):
-    """In float32 on a GPU, one thread per environment: the kernel made for the block size of
-    warpdyn.config.cuda_block_dim, its launches pinned to it, the step as the launch list's."""
+@pytest.mark.parametrize(
+    ("dtype_", "block", "shared_c"),
+    [(np.float32, 32, True), (np.float32, 64, True), (np.float32, 96, False), (np.float64, 32, True), (np.float64, 64, False)],
+    ids=["float32-32", "float32-64", "float32-96", "float64-32", "float64-64"],
+)
+def test_records_in_shared_memory_are_what_a_step_launches_in_each_block_size(monkeypatch, keep, dtype_, block, shared_c):
+    """On a GPU, one thread per environment: the kernel made for the block size of warpdyn.config.cuda_block_dim
+    (records whole or without c_i, as they fit), its launches pinned to it, the step as the launch list's."""
     monkeypatch.setattr(wd.config, "fused_lanes", False)
     monkeypatch.setattr(wd.config, "cuda_block_dim", block)
-    model = _legs(np.float32)
+    model = _legs(dtype_)
     data = _standing(model, 100)
     plan, _ = engine_step.prepare(model, data, health=True)
+    assert fused_layout.shared_records(plan, 1, block) == (block, shared_c)
     kernel, dim, block_dim = engine_step.fused_kernel(plan, 100)
-    assert (dim, block_dim) == (100, block) and kernel is plan.fused(keep, 1, block)
-    assert kernel is not plan.fused(keep, 1, 96 - block) and kernel is not plan.fused(keep, 1)
+    assert (dim, block_dim) == (100, block) and kernel is plan.fused(keep, 1, block, shared_c)
+    assert kernel is not plan.fused(keep, 1) and kernel is not plan.fused(keep, 1, block, not shared_c)
     tau = np.random.default_rng(1).normal(0.0, 5.0, (100, model.dofs()))
     fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
     assert fused.valid_state.numpy().all()
-    _assert_close(fused, listed, np.float32)
+    _assert_close(fused, listed, dtype_)
     fused2, listed2 = _both(monkeypatch, model, listed, joint_force_references=tau)
-    _assert_close(fused2, listed2, np.float32, "second step")
+    _assert_close(fused2, listed2, dtype_, "second step")

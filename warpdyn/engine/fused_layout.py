@@ -11,14 +11,14 @@ import numpy as np
 import warp as wp
 
 from .. import config
-from ..kernels.fused_step import BASE, RECORD
+from ..kernels.fused_step import BASE, shared_numbers
 
 __all__ = [
     "FusedWalk",
     "fused_walk",
     "fused_lanes",
     "keeps_joint_transforms",
-    "shared_records_block",
+    "shared_records",
     "MAX_LANES",
     "LANES_UP_TO",
     "KEEP_JOINT_TRANSFORMS_UP_TO",
@@ -102,22 +102,25 @@ def keeps_joint_transforms(device, N: int) -> bool:
 
 
 SHARED_RECORDS_BYTES = 46 * 1024
-"""The most CUDA shared memory that a block of the fused step gives its threads' records (`shared_records_block`):
+"""The most CUDA shared memory that a block of the fused step gives its threads' records (`shared_records`):
 a kernel's static shared memory is at most 48 KiB per block, and Warp takes 1 KiB of it."""
 
 
-def shared_records_block(plan, lanes: int, block_dim: int | None) -> int:
-    """The CUDA block size for which the fused step of `plan` (its device, scalar and links) with `lanes` threads
-    per environment keeps its links' records (kernels/fused_step.py: RECORD numbers per link) in the block's
-    shared memory, or 0: in each thread's local memory. Shared on a GPU, in float32, one thread per environment,
-    when a block of `block_dim` threads holds its records in SHARED_RECORDS_BYTES (the legs' 13 links: 42.25 KiB
-    in blocks of 64). Local memory shares the L1 cache with the loads of the state, which evict the records;
-    shared memory keeps them. Measured on an H100 (benchmarks/RESULTS.md, round 12): in float32 the step took
-    13-21% less time at 32768 and 131072 environments in blocks of 64; float64's records fit only blocks of 32
-    (5 warps per multiprocessor instead of 8), which took 18-22% more time than local memory in blocks of 64."""
-    if not plan.device.is_cuda or lanes != 1 or block_dim is None or plan.scalar != wp.float32:
-        return 0
-    return block_dim if RECORD * plan.nL * block_dim * 4 <= SHARED_RECORDS_BYTES else 0
+def shared_records(plan, lanes: int, block_dim: int | None) -> tuple:
+    """(block, shared_c): the CUDA block size for which the fused step of `plan` (its device, scalar and links)
+    with `lanes` threads per environment keeps its links' records (kernels/fused_step.py) in the block's shared
+    memory, and whether their c_i too, or (0, False): in each thread's local memory. Shared on a GPU, one thread
+    per environment, the whole records when a block of `block_dim` threads holds them in SHARED_RECORDS_BYTES,
+    else without c_i when that fits (the legs' 13 links in blocks of 64: 42.25 KiB in float32, whole; 45.5 KiB in
+    float64, without c_i). Local memory shares the L1 cache with the loads of the state, which evict the records;
+    shared memory keeps them (measured on an H100: benchmarks/RESULTS.md, round 12)."""
+    if not plan.device.is_cuda or lanes != 1 or block_dim is None:
+        return 0, False
+    size = wp.types.type_size_in_bytes(plan.scalar)
+    for shared_c in (True, False):
+        if shared_numbers(plan.nL, block_dim, shared_c) * size <= SHARED_RECORDS_BYTES:
+            return block_dim, shared_c
+    return 0, False
 
 
 MAX_LANES = 8

@@ -449,15 +449,17 @@ def fused_applies(plan: Plan, ws: Workspace) -> bool:
 
 def fused_kernel(plan: Plan, N: int):
     """The fused step's kernel for N environments (warpdyn.engine.fused_layout's `keeps_joint_transforms`,
-    `fused_lanes` and `shared_records_block`), its launch dim and block size (None: warpdyn's). A kernel that
+    `fused_lanes` and `shared_records`), its launch dim and block size (None: warpdyn's). A kernel that
     keeps its records in shared memory is made for the block size of warpdyn.config.cuda_block_dim now, which
     its launches keep."""
     lanes = fused_layout.fused_lanes(plan, N)
     keep = fused_layout.keeps_joint_transforms(plan.device, N)
     if lanes > 1:
         return plan.fused(keep, lanes), (N, lanes), lanes
-    shared = fused_layout.shared_records_block(plan, lanes, block_size(None, plan.device))
-    return plan.fused(keep, 1, shared), N, shared or None
+    block, shared_c = fused_layout.shared_records(plan, lanes, block_size(None, plan.device))
+    if not block:
+        return plan.fused(keep, 1), N, None
+    return plan.fused(keep, 1, block, shared_c), N, block
 
 
 def step_launches(
