@@ -9,8 +9,9 @@ Each process runs `python3 -P -m pytest` (-P: the installed warpdyn, not the sou
 kernels/) on its share of the test files (FILE ..., default tests/test_*.py), dealt out by file size, the largest first, to the process with the
 least so far; each has WARPDYN_TEST_DEVICE set (tests/conftest.py) and a Warp kernel cache of its own
 (WARP_CACHE_PATH), so that no two compile into one folder. Each writes its log into --log-dir; a process
-still running at --timeout seconds is stopped and its log kept. Prints each process's files and pytest's
-summary line, then the totals of the lines; exits 1 when a test failed or a process did not finish.
+still running at --timeout seconds is stopped and its log kept. Prints each process's files, pytest's summary
+line and the FAILED and ERROR lines of its short summary, then the totals; exits 1 when a test failed or a
+process did not finish.
 """
 
 from __future__ import annotations
@@ -45,6 +46,12 @@ def summary(log: str) -> dict:
     if not lines:
         return {}
     return {kind.rstrip("s") if kind.startswith("error") else kind: int(n) for n, kind in SUMMARY.findall(lines[-1])}
+
+
+def failures(log: str, width: int = 300) -> list[str]:
+    """pytest's FAILED and ERROR lines of a log's short test summary, each cut to `width` characters (the
+    device tool returns a few log files only, and the last lines of what a call prints)."""
+    return [line[:width] for line in log.splitlines() if line.startswith(("FAILED ", "ERROR "))]
 
 
 def main() -> int:
@@ -88,6 +95,8 @@ def main() -> int:
         names = " ".join(p.stem.removeprefix("test_") for p in group)
         result = ", ".join(f"{n} {kind}" for kind, n in counts.items()) or f"no summary (return code {process.returncode})"
         print(f"process {k}: {result} [{names}]")
+        for line in failures(log.read_text(errors="replace")):
+            print(f"  {line}")
     print(f"device {args.device}, {len(runs)} processes, {time.monotonic() - start:.0f} s: " + ", ".join(f"{n} {kind}" for kind, n in totals.items()))
     return 0 if complete and not totals.get("failed") and not totals.get("error") else 1
 

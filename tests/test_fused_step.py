@@ -117,7 +117,8 @@ def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch, k
     launches = engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
     fused, dim, block_dim = engine_step.fused_kernel(plan, 4)
     assert [item.kernel for item in launches] == [fused], "the joint forces in the fused kernel"
-    assert (launches[0].dim, launches[0].block_dim) == (((4, 2), 2) if lanes else (4, None))
+    shared = fused_layout.shared_records(plan, 1, wd.config.cuda_block_dim if plan.device.is_cuda else None)[0]
+    assert (launches[0].dim, launches[0].block_dim) == (((4, 2), 2) if lanes else (4, shared or None))
     assert fused is engine_step.fused_kernel(plan, 4)[0] and fused is not engine_step.plan(model).fused(not keep, 2 if lanes else 1)
     assert fused is not engine_step.plan(model).fused(keep, 1 if lanes else 2)
     grad_ws = engine_step.Workspace(plan, 4, True, False)
