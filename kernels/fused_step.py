@@ -60,13 +60,18 @@ BASE = wp.constant(-2)
 """In a walk, a link's parent slot when its parent is the base (the first link of a group)."""
 
 RECORD = wp.constant(13)
-"""The numbers a link's passes hand to each other: the bias force then U_i / d_i (6), u_i / d_i (1), c_i (6)."""
+"""The numbers a link's passes hand to each other, its record: the bias force then U_i / d_i (6), at 0; u_i / d_i
+(1), at UD_AT; c_i (6), at C_AT."""
+
+UD_AT = wp.constant(6)
+C_AT = wp.constant(7)
+"""Where u_i / d_i and c_i are in a link's record (`RECORD`); a record without c_i has C_AT numbers."""
 
 
 def shared_numbers(links: int, block: int, shared_c: bool = True) -> int:
     """The numbers a block of `block` threads keeps in shared memory for a model of `links` links: each link's
     record, without c_i unless shared_c (`kernel`)."""
-    return (RECORD if shared_c else 7) * links * block
+    return (RECORD if shared_c else C_AT) * links * block
 
 
 @factory
@@ -80,7 +85,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     links' records in each thread's local memory (shared_block 0), or, for launches in blocks of `shared_block`
     threads, one thread per environment, in the block's shared memory (CUDA only; within CUDA's 48 KiB of static
     shared memory: `shared_numbers(links, shared_block, shared_c)` numbers): the whole record, or without c_i
-    (not shared_c: the bias force then U_i / d_i, and u_i / d_i, 7 numbers per link, c_i in local memory)."""
+    (not shared_c: the bias force then U_i / d_i, and u_i / d_i, C_AT numbers per link; c_i in local memory)."""
     sp = spatial(scalar)
     B = bundles(scalar)
     I = integrator_funcs(scalar)
@@ -103,9 +108,11 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     sym21 = wp.types.vector(SYM66, scalar)
     sc = scratch(scalar)
     pack7, unpack7, pack21, unpack21 = sc.pack_transform, sc.unpack_transform, sc.pack_sym66, sc.unpack_sym66
+    if shared_block and lanes != 1:
+        raise ValueError(f"the fused step keeps its records in shared memory on one thread per environment, not {lanes} lanes")
     SHARED = shared_block
     C_SHARED = bool(SHARED) and shared_c
-    PER_LINK = RECORD if C_SHARED else 7  # a link's shared numbers: the bias force then U_i / d_i, u_i / d_i, c_i
+    PER_LINK = RECORD if C_SHARED else C_AT  # a link's shared numbers
     if SHARED:
         code = f"""
         __shared__ {"float" if scalar == wp.float32 else "double"} records[{shared_numbers(links, SHARED, shared_c)}];
@@ -373,7 +380,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             f_i, bad = external_force(contacts, terrain, controls, env, i, W_H_i, v_i, h0, K, D, mu, dt, x, y, W_f_C)
             nonfinite = nonfinite + bad
             if wp.static(C_SHARED):
-                put6(PER_LINK * i + 7, sp.cross_motion(v_i, S_qd))
+                put6(PER_LINK * i + C_AT, sp.cross_motion(v_i, S_qd))
             else:
                 c[i] = sp.cross_motion(v_i, S_qd)
             if wp.static(SHARED):
@@ -406,13 +413,13 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 IA = IA + slot_IA[own]
                 pA = pA + slot_pA[own]
             if wp.static(C_SHARED):
-                c_i = get6(PER_LINK * i + 7)
+                c_i = get6(PER_LINK * i + C_AT)
             else:
                 c_i = c[i]
             Ud_i, ud_i, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, unpack21(IA), pA, c_i)
             if wp.static(SHARED):
                 put6(PER_LINK * i, Ud_i)
-                shared_record(PER_LINK * i + 6, ud_i, 1)
+                shared_record(PER_LINK * i + UD_AT, ud_i, 1)
             else:
                 pU[i] = Ud_i
                 ud[i] = ud_i
@@ -460,12 +467,12 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
         S_n = B.motion_subspace_of(model, i_n)
         if wp.static(C_SHARED):
-            c_n = get6(PER_LINK * i_n + 7)
+            c_n = get6(PER_LINK * i_n + C_AT)
         else:
             c_n = c[i_n]
         if wp.static(SHARED):
             pU_n = get6(PER_LINK * i_n)
-            ud_n = shared_record(PER_LINK * i_n + 6, scalar(0.0), 0)
+            ud_n = shared_record(PER_LINK * i_n + UD_AT, scalar(0.0), 0)
         else:
             pU_n = pU[i_n]
             ud_n = ud[i_n]
@@ -496,12 +503,12 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
             S_n = B.motion_subspace_of(model, i_n)
             if wp.static(C_SHARED):
-                c_n = get6(PER_LINK * i_n + 7)
+                c_n = get6(PER_LINK * i_n + C_AT)
             else:
                 c_n = c[i_n]
             if wp.static(SHARED):
                 pU_n = get6(PER_LINK * i_n)
-                ud_n = shared_record(PER_LINK * i_n + 6, scalar(0.0), 0)
+                ud_n = shared_record(PER_LINK * i_n + UD_AT, scalar(0.0), 0)
             else:
                 pU_n = pU[i_n]
                 ud_n = ud[i_n]

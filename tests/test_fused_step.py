@@ -26,6 +26,7 @@ import warpdyn as wd
 from warpdyn.engine import fused_layout, launch
 from warpdyn.engine import step as engine_step
 from warpdyn.engine.fused_layout import fused_walk
+from warpdyn.kernels import fused_step
 from warpdyn.kernels.fused_step import BASE
 from warpdyn.types.enums import VelRepr
 
@@ -473,6 +474,8 @@ def test_which_devices_and_blocks_keep_the_records_in_shared_memory():
     whole, without_c = budget // (13 * 4 * 64), budget // (7 * 4 * 64)
     assert rule(plan(gpu, wp.float32, whole), 1, 64) == (64, True) and rule(plan(gpu, wp.float32, whole + 1), 1, 64) == (64, False)
     assert rule(plan(gpu, wp.float32, without_c), 1, 64) == (64, False) and rule(plan(gpu, wp.float32, without_c + 1), 1, 64) == (0, False)
+    with pytest.raises(ValueError, match="one thread per environment, not 2 lanes"):
+        fused_step.kernel(wp.float32, 13, 1, False, None, None, False, 2, 64)
 
 
 @pytest.mark.skipif(not wp.get_device().is_cuda, reason="shared memory: the tests' device is not a GPU")
