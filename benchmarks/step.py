@@ -2,7 +2,7 @@
 
     python benchmarks/step.py [--device cuda:0] [--max-envs 65536 | --sizes 1,256,4096]
                               [--dtypes float32,float64] [--robots legs,legs-no-contacts,legs-actuated,arm]
-                              [--repeats 10] [--fresh-cache] [--block-dims 64,256] [--fused on,off,one,groups]
+                              [--repeats 10] [--fresh-cache] [--block-dims 64,256] [--fused on,off,one,groups,local]
 
 Robots:
 - legs: the seed's ergoCub legs (12 joints, 13 links) with its 32 collidable points (the ankle boxes),
@@ -23,8 +23,9 @@ Each row times, after a warm-up (compilation, graph capture) and synchronising a
 env-steps/s = N / (seconds per step). --block-dims repeats each row with each CUDA block size
 (warpdyn.config.cuda_block_dim; default: the configured one), --fused with the fused Euler step on (its
 threads per environment chosen by N and device), off, or on with one thread per environment (one) or one
-per group of the model's walk (groups) (warpdyn.config.fused_step and .fused_lanes; default: the configured
-ones). Prints the header (device, versions) and a Markdown table.
+per group of the model's walk (groups), and on with its records in local memory instead of a GPU's shared
+memory (local, one-local) (warpdyn.config.fused_step, .fused_lanes and .fused_shared_records; default: the
+configured ones). Prints the header (device, versions) and a Markdown table.
 """
 
 from __future__ import annotations
@@ -38,8 +39,15 @@ import warp as wp
 import warpdyn as wd
 from common import header, median_time, np_dtype, seed_model, sizes
 
-FUSED = {"on": (True, None), "off": (False, None), "one": (True, False), "groups": (True, True)}
-"""--fused's settings: (warpdyn.config.fused_step, warpdyn.config.fused_lanes)."""
+FUSED = {
+    "on": (True, None, True),
+    "off": (False, None, True),
+    "one": (True, False, True),
+    "groups": (True, True, True),
+    "local": (True, None, False),
+    "one-local": (True, False, False),
+}
+"""--fused's settings: (warpdyn.config.fused_step, .fused_lanes, .fused_shared_records)."""
 
 ARM_JOINTS = ("torso_pitch", "torso_roll", "torso_yaw", "l_shoulder_pitch", "l_shoulder_roll", "l_shoulder_yaw", "l_elbow", "l_wrist_prosup", "l_wrist_pitch", "l_wrist_yaw")
 
@@ -135,7 +143,7 @@ def main() -> None:
     parser.add_argument("--no-eager", action="store_true", help="skip the eager rollout column")
     parser.add_argument("--fresh-cache", action="store_true", help="compile into an empty kernel cache")
     parser.add_argument("--block-dims", default=None, help="comma-separated CUDA threads per block (default: warpdyn.config.cuda_block_dim)")
-    parser.add_argument("--fused", default=None, help="comma-separated on, off, one, groups: warpdyn.config.fused_step and .fused_lanes (default: the configured ones)")
+    parser.add_argument("--fused", default=None, help="comma-separated on, off, one, groups, local, one-local: warpdyn.config.fused_step, .fused_lanes and .fused_shared_records (default: the configured ones)")
     args = parser.parse_args()
     if args.fresh_cache:
         from common import init_warp
@@ -152,7 +160,7 @@ def main() -> None:
     print(header(device))
     print()
     blocks = [int(b) for b in args.block_dims.split(",")] if args.block_dims else [wd.config.cuda_block_dim]
-    current = next((k for k, v in FUSED.items() if v == (wd.config.fused_step, wd.config.fused_lanes)), "on")
+    current = next((k for k, v in FUSED.items() if v == settings()), "on")
     fused_settings = args.fused.split(",") if args.fused else [current]
     print("| robot | dtype | N | CUDA block | fused | step [ms] | step env-steps/s | rollout T | rollout per step [ms] | rollout env-steps/s | eager per step [ms] |")
     print("| --- | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
@@ -164,8 +172,8 @@ def main() -> None:
             control, width, scale = ("ctrl", model.number_of_actuators(), 0.1) if model.number_of_actuators() else ("joint_force_references", model.dofs(), 1.0)
             for N, block, fused in ((N, b, f) for N in Ns for b in blocks for f in fused_settings):
                 wd.config.cuda_block_dim = block
-                if FUSED[fused] != (wd.config.fused_step, wd.config.fused_lanes):
-                    wd.config.fused_step, wd.config.fused_lanes = FUSED[fused]
+                if FUSED[fused] != settings():
+                    wd.config.fused_step, wd.config.fused_lanes, wd.config.fused_shared_records = FUSED[fused]
                     model.notify_model_changed()  # a new model version: `step` builds its launches and graphs again
                 data = initial_data(model, N, standing)
                 rng = np.random.default_rng(1)
@@ -193,6 +201,11 @@ def main() -> None:
     ratios(summary, "Contacts' share (ergoCub legs, rollout per step, with / without points):", plain, lambda k: "no points" in k[0])
     actuated = [k for k in summary if "servos" in k[0]]
     ratios(summary, "Armature and servos' share (ergoCub legs with points, rollout per step, with / without):", actuated, lambda k: k in plain)
+
+
+def settings() -> tuple:
+    """warpdyn's fused-step settings now, as FUSED's values."""
+    return wd.config.fused_step, wd.config.fused_lanes, wd.config.fused_shared_records
 
 
 def ratios(summary: dict, title: str, rows: list, is_baseline) -> None:

@@ -417,6 +417,9 @@ def test_the_settings_are_checked():
         wd.config.fused_step = 1
     with pytest.raises(TypeError, match="fused_lanes"):
         wd.config.fused_lanes = "auto"
+    with pytest.raises(TypeError, match="fused_shared_records"):
+        wd.config.fused_shared_records = None
+    assert wd.config.fused_shared_records is True
 
 
 def test_which_devices_sizes_and_settings_give_lanes(monkeypatch):
@@ -454,10 +457,10 @@ def test_which_devices_and_sizes_keep_the_joint_transforms():
     assert rule(gpu, 1) and rule(gpu, limit) and not rule(gpu, limit + 1)
 
 
-def test_which_devices_and_blocks_keep_the_records_in_shared_memory():
+def test_which_devices_blocks_and_settings_keep_the_records_in_shared_memory(monkeypatch):
     """A GPU on one thread per environment: the whole records when a block's fit SHARED_RECORDS_BYTES, else
-    without c_i when those fit; else (the CPU, lanes, blocks too large for the model) each thread's local
-    memory (0, False)."""
+    without c_i when those fit; else (the CPU, lanes, blocks too large for the model, and
+    warpdyn.config.fused_shared_records = False) each thread's local memory (0, False)."""
     rule, budget = fused_layout.shared_records, fused_layout.SHARED_RECORDS_BYTES
     gpu = type("GPU", (), {"is_cpu": False, "is_cuda": True})()
 
@@ -476,6 +479,8 @@ def test_which_devices_and_blocks_keep_the_records_in_shared_memory():
     assert rule(plan(gpu, wp.float32, without_c), 1, 64) == (64, False) and rule(plan(gpu, wp.float32, without_c + 1), 1, 64) == (0, False)
     with pytest.raises(ValueError, match="one thread per environment, not 2 lanes"):
         fused_step.kernel(wp.float32, 13, 1, False, None, None, False, 2, 64)
+    monkeypatch.setattr(wd.config, "fused_shared_records", False)
+    assert rule(legs32, 1, 64) == (0, False) and rule(legs64, 1, 32) == (0, False)
 
 
 @pytest.mark.skipif(not wp.get_device().is_cuda, reason="shared memory: the tests' device is not a GPU")
@@ -496,6 +501,9 @@ def test_records_in_shared_memory_are_what_a_step_launches_in_each_block_size(mo
     kernel, dim, block_dim = engine_step.fused_kernel(plan, 100)
     assert (dim, block_dim) == (100, block) and kernel is plan.fused(keep, 1, block, shared_c)
     assert kernel is not plan.fused(keep, 1) and kernel is not plan.fused(keep, 1, block, not shared_c)
+    monkeypatch.setattr(wd.config, "fused_shared_records", False)
+    assert engine_step.fused_kernel(plan, 100) == (plan.fused(keep, 1), 100, None), "local memory"
+    monkeypatch.setattr(wd.config, "fused_shared_records", True)
     tau = np.random.default_rng(1).normal(0.0, 5.0, (100, model.dofs()))
     fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
     assert fused.valid_state.numpy().all()

@@ -22,6 +22,11 @@
   subtrees below the base, which walk them side by side; else one), True forces the groups (on the CPU only
   with wp.config.enable_cpu_blocks, without which Warp runs no blocks of threads there: a step raises), False
   one thread. All give the same numbers to rounding. benchmarks/step.py --fused one,groups measures them.
+- `fused_shared_records`: where the fused step keeps what its passes hand to each other per link, on a GPU
+  with one thread per environment: in the CUDA block's shared memory where it fits (True, the default;
+  warpdyn.engine.fused_layout.shared_records), or in each thread's local memory (False, as on the CPU). The
+  same arithmetic, the same numbers; launch lists and graphs already built keep theirs. benchmarks/step.py
+  --fused on,local measures both.
 - `fuse_fp`: floating-point contraction (fused multiply-adds) when kernels are compiled: True, Warp's
   default, or False: each kernel then rounds every operation it writes, so the forward code a backward
   kernel replays gives its forward's values bit for bit and repeated backward passes of one tape agree on
@@ -43,6 +48,7 @@ cuda_block_dim: int = 64
 cuda_launch: dict[str, tuple[int | None, int | None | str]] = {}
 fused_step: bool = True
 fused_lanes: bool | None = None
+fused_shared_records: bool = True
 fuse_fp: bool = True
 
 
@@ -62,6 +68,8 @@ class _Config(types.ModuleType):
             raise TypeError(f"warpdyn.config.fused_step must be True or False, got {value!r}")
         if name == "fused_lanes" and not (value is None or isinstance(value, bool)):
             raise TypeError(f"warpdyn.config.fused_lanes must be None, True or False, got {value!r}")
+        if name == "fused_shared_records" and not isinstance(value, bool):
+            raise TypeError(f"warpdyn.config.fused_shared_records must be True or False, got {value!r}")
         if name != "fuse_fp":
             super().__setattr__(name, value)
             return
