@@ -110,10 +110,11 @@ def shared_records(plan, lanes: int, block_dim: int | None) -> tuple:
     """(block, shared_c): the CUDA block size for which the fused step of `plan` (its device, scalar and links)
     with `lanes` threads per environment keeps its links' records (kernels/fused_step.py) in the block's shared
     memory, and whether their c_i too, or (0, False): in each thread's local memory. Shared (while
-    warpdyn.config.fused_shared_records) on a GPU, one thread per environment, the whole records when a block of `block_dim` threads holds them in SHARED_RECORDS_BYTES,
-    else without c_i when that fits (the legs' 13 links in blocks of 64: 42.25 KiB in float32, whole; 45.5 KiB in
-    float64, without c_i). Local memory shares the L1 cache with the loads of the state, which evict the records;
-    shared memory keeps them (measured on an H100: benchmarks/RESULTS.md, round 12)."""
+    warpdyn.config.fused_shared_records) on a GPU, one thread per environment, the whole records when a block of
+    `block_dim` threads holds them in SHARED_RECORDS_BYTES, else without c_i when that fits (the legs' 13 links
+    in blocks of 64: 42.25 KiB in float32, whole; 45.5 KiB in float64, without c_i). Local memory shares the L1
+    cache with the loads of the state, which evict the records; shared memory keeps them (measured on an H100:
+    benchmarks/RESULTS.md, round 12)."""
     if not config.fused_shared_records or not plan.device.is_cuda or lanes != 1 or block_dim is None:
         return 0, False
     size = wp.types.type_size_in_bytes(plan.scalar)
