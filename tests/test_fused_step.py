@@ -16,6 +16,7 @@ for few environments, run on the CPU here as Warp's blocks of fibers).
 """
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -510,3 +511,27 @@ def test_records_in_shared_memory_are_what_a_step_launches_in_each_block_size(mo
     _assert_close(fused, listed, dtype_)
     fused2, listed2 = _both(monkeypatch, model, listed, joint_force_references=tau)
     _assert_close(fused2, listed2, dtype_, "second step")
+
+
+def _cuda_compiler() -> bool:
+    """Whether this Warp build compiles CUDA code (its NVRTC), a GPU present or not."""
+    wp.init()
+    return bool(getattr(wp._src.context.runtime.core, "wp_is_cuda_enabled", lambda: 0)())
+
+
+@pytest.mark.skipif(not _cuda_compiler(), reason="this Warp build compiles no CUDA code")
+@pytest.mark.parametrize(("dtype_", "shared_c", "size"), [(np.float32, True, 4), (np.float64, False, 8)], ids=["float32", "float64"])
+def test_the_shared_records_compile_for_a_gpu_at_their_size(tmp_path, dtype_, shared_c, size):
+    """Without a GPU too: the kernels that keep the records in shared memory compile to PTX (sm_90), whose
+    shared array holds a block's records (shared_numbers x the scalar's bytes: 42.25 KiB for the legs in float32
+    in blocks of 64, 45.5 KiB in float64 without c_i), within SHARED_RECORDS_BYTES."""
+    model = _legs(dtype_)
+    plan = engine_step.plan(model)
+    gpu = type("Plan", (), {"device": type("GPU", (), {"is_cuda": True})(), "scalar": plan.scalar, "nL": plan.nL})()
+    assert fused_layout.shared_records(gpu, 1, 64) == (64, shared_c)
+    kernel = plan.fused(False, 1, 64, shared_c)
+    wp.compile_aot_module(kernel.module, arch=90, module_dir=str(tmp_path), use_ptx=True)
+    ptx = next(tmp_path.glob("*.ptx")).read_text(errors="replace")
+    declared = [int(n) for n in re.findall(r"\.shared\s.*records\[(\d+)\]", ptx)]
+    expected = fused_step.shared_numbers(plan.nL, 64, shared_c) * size
+    assert declared == [expected] and expected <= fused_layout.SHARED_RECORDS_BYTES
