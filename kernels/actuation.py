@@ -19,7 +19,6 @@ its start (as JaxSim); MuJoCo's part, which RK4 must see change within the step 
 also a kernel of its own (`mujoco_kernel`), launched at each stage.
 """
 
-
 import warp as wp
 
 from .bundles import bundles

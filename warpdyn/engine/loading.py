@@ -1,10 +1,10 @@
 """Loading kernel modules: the first launch of a kernel module on a device compiles it, or loads it from
 Warp's kernel cache (`wp.config.kernel_cache_dir`). Loads run under one process-wide lock, since Warp's
 module loading is not safe from several calling threads at once (one `force_load` may compile several
-modules on threads of its own: `preload`): the kernel factories' lock (kernels/factory.py), under which the
-forward-only twins are made too, since making a Warp kernel parses its source with `ast`; once a compilation has taken longer than
-`NOTICE_AFTER` seconds, warpdyn says on stderr, once per process, that it is compiling and that the result
-is cached.
+modules on threads of its own: `preload`). That lock is the kernel factories' (kernels/factory.py), under
+which the forward-only twins are made too, since making a Warp kernel parses its source with `ast`. Once a
+compilation has taken longer than `NOTICE_AFTER` seconds, warpdyn says on stderr, once per process, that it
+is compiling and that the result is cached.
 """
 
 from __future__ import annotations
