@@ -6,12 +6,12 @@ the test dependencies there).
                              [--ignore tests/test_visualization.py ...] [-- extra pytest arguments]
 
 Each process runs `python3 -P -m pytest` (-P: the installed warpdyn, not the source tree, which has no
-kernels/) on its share of the test files (FILE ..., default tests/test_*.py), dealt out by file size, the largest first, to the process with the
-least so far; each has WARPDYN_TEST_DEVICE set (tests/conftest.py) and a Warp kernel cache of its own
-(WARP_CACHE_PATH), so that no two compile into one folder. Each writes its log into --log-dir; a process
-still running at --timeout seconds is stopped and its log kept. Prints each process's files, pytest's summary
-line and the FAILED and ERROR lines of its short summary, then the totals; exits 1 when a test failed or a
-process did not finish.
+kernels/) on its share of the test files (FILE ..., default tests/test_*.py), dealt out by file size, the
+largest first, to the process with the least so far; each has WARPDYN_TEST_DEVICE set (tests/conftest.py) and
+a Warp kernel cache of its own (WARP_CACHE_PATH), so that no two compile into one folder. Each writes its log
+into --log-dir; a process still running at --timeout seconds is stopped and its log kept. Prints each
+process's files, pytest's summary line and the FAILED and ERROR lines of its short summary, then the totals;
+exits 1 when a test failed or a process did not finish.
 """
 
 from __future__ import annotations
