@@ -23,18 +23,19 @@ through a tile.
 What one pass hands to the next per link (the bias force then U_i / d_i, u_i / d_i, c_i: RECORD numbers, its
 record) stays on the chip instead of in arrays in global memory, and is read and written once per step: in the
 thread's local memory, or in the block's shared memory (`shared_block`; warpdyn.engine.fused_layout's
-`shared_records`), where the loads of the state, which share the L1 cache with local memory, do not evict
-it (benchmarks/RESULTS.md, round 12). The joint positions, velocities and force references are not kept there:
-passes 1 and 3 load link k + 1's while link k is computed (pass 2 reads the positions again), so that the local
-arrays fill less of the L1 cache (benchmarks/RESULTS.md, round 10). Likewise what pass 3 needs of a link is
-loaded while the link before it is computed, and the contact points' states ahead of their use: in float32 two
-points per iteration, their chains side by side, while the next two are loaded; in float64 one at a time, two
-points ahead (pairs make float64 spill registers). Pass 2 sums the articulated inertias as their 21 numbers
-(symmetric: fewer registers than 6x6 sums). The kernel has no grid-stride loop (a thread per environment or lane:
-fewer registers; float64 spills less). The joint transforms lambda(i)_H_i are either kept from pass 1 (7 numbers
-more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from the joint positions (their sines and
-cosines again: cheaper on a GPU once the environments' local arrays outgrow its caches than keeping either the
-transforms or their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
+`shared_records`), where the loads of the state, which share the L1 cache with local memory, do not evict it
+(benchmarks/RESULTS.md, round 12). The joint positions, velocities and force references are not kept there:
+passes 1 and 3 load link k + 1's while link k is computed (pass 2 reads the positions again, the next link's
+likewise), so that the local arrays fill less of the L1 cache (benchmarks/RESULTS.md, round 10). Likewise what
+pass 3 needs of a link is loaded while the link before it is computed, and so are the joint terms in pass 2 and,
+in float32, in pass 1 (in float64 that spills registers: round 13), and the contact points' states ahead of their
+use: in float32 two points per iteration, their chains side by side, while the next two are loaded; in float64
+one at a time, two points ahead (pairs make float64 spill registers). Pass 2 sums the articulated inertias as
+their 21 numbers (symmetric: fewer registers than 6x6 sums). The kernel has no grid-stride loop (a thread per
+environment or lane: fewer registers; float64 spills less). The joint transforms lambda(i)_H_i are either kept
+from pass 1 (7 numbers more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from the joint
+positions (their sines and cosines again: cheaper on a GPU once the environments' local arrays outgrow its caches
+than keeping either the transforms or their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
 The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links
 and slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not
 unrolled (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
@@ -95,6 +96,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     SO3 = wp.constant(int(so3))
     KEEP = keep_joint_transforms
     PAIRS = scalar == wp.float32  # contact points two at a time (in float64 that spills: RESULTS, round 10)
+    TERMS_AHEAD = scalar == wp.float32  # pass 1 loads link k + 1's joint terms ahead (in float64 that spills: RESULTS, round 13)
     ACTUATED = actuation is not None
     resultant_torque = joint_force(scalar, *(actuation or (False, False)))
     LANES = lanes
@@ -343,6 +345,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             s_n = x.joint_positions[env, j_n]
             sd_n = x.joint_velocities[env, j_n]
             ref_n = tau_ref[env, j_n]
+        if wp.static(TERMS_AHEAD):
+            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, walk[k_first][0])
         for k in range(first, last):
             i = walk[k][0]
             own = walk[k][1]
@@ -362,8 +366,12 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             elif up >= 0:
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
-            jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)  # loaded first, as round 9 measured
-            X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, s_i)
+            if wp.static(TERMS_AHEAD):
+                X_i = B.joint_transform_from(jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n, s_i)
+                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, walk[wp.min(k + 1, last - 1)][0])
+            else:
+                jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)  # loaded first, as round 9 measured
+                X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, s_i)
             if wp.static(KEEP):
                 X[i] = pack7(X_i)
             W_H_i = W_H_P * X_i
@@ -393,6 +401,12 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         # first child's in registers (the next link of the walk back), the others' in the parent's slot
         IA_next = sym21()
         pA_next = sp.vec6(scalar(0.0))
+        if wp.static(not KEEP):  # link kk - 1's joint terms and position are loaded while link kk is computed
+            i_n = walk[wp.max(last - 1, k_first)][0]
+            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
+            q_n = scalar(0.0)
+            if has_joints:
+                q_n = x.joint_positions[env, wp.max(i_n - 1, 0)]
         for k in range(last - first):
             kk = last - 1 - k
             i = walk[kk][0]
@@ -401,8 +415,10 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:
-                jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)
-                X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, x.joint_positions[env, i - 1])
+                X_i = B.joint_transform_from(jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n, q_n)
+                i_n = walk[wp.max(kk - 1, first)][0]
+                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
+                q_n = x.joint_positions[env, i_n - 1]
             S = B.motion_subspace_of(model, i)
             IA = pack21(B.spatial_inertia_of(model, env, i)) + IA_next  # summed as 21 numbers: symmetric, fewer registers
             if wp.static(SHARED):
