@@ -70,7 +70,7 @@ def array_descriptor(array: wp.array, shape: tuple, strides: tuple, offset: int 
     return _array_t(ptr, 0, len(shape), shape, strides)
 
 
-_GRAD_ATTRIBUTE = "_grad"  # where Warp 1.19's wp.array keeps what its `grad` property returns
+_GRAD_ATTRIBUTE = "_grad"  # where Warp 1.19's wp.array keeps what its `grad` property returns (`grads` reads a._grad)
 
 
 def grads_known() -> bool:
