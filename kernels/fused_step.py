@@ -15,7 +15,9 @@ their parent:
    wrote) and gets valid = 0.
 What a link hands to the next link of the walk (its pose and velocity, its articulated terms for its parent,
 its acceleration) stays in registers when that link is its child, the first one; a link with more children
-keeps it in a slot for the others (`walk`). The walk comes in groups of the base's subtrees
+keeps it in a slot for the others (`walk`). The base's slot, when it has one, also holds its pose, velocity and
+own bias force for its children, and pass 3 computes its pose and velocity from x again: live in registers through
+passes 1 and 2, they made float64 spill (benchmarks/RESULTS.md, round 14). The walk comes in groups of the base's subtrees
 (warpdyn.engine.fused_layout): one thread walks them all, or `lanes` threads of one block walk a group each,
 side by side (for few environments: a step's chain of dependent operations is shorter), each computing the
 base alike; they sum their terms of the base's articulated inertia and bias force, then their health checks,
@@ -327,6 +329,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         if base_own >= 0:
             slot_H[base_own] = pack7(W_H_B)
             slot_v[base_own] = B_v
+            if lane == 0:  # p_0 summed with the base's children's terms in pass 2, rather than live through it
+                slot_pA[base_own] = p_0
         W_H_prev = W_H_B
         v_prev = B_v
         first = int(1)
@@ -361,9 +365,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             W_H_P = W_H_prev
             v_P = v_prev
             if up == BASE:
-                W_H_P = W_H_B
-                v_P = B_v
-            elif up >= 0:
+                up = base_own
+            if up >= 0:
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
             if wp.static(TERMS_AHEAD):
@@ -456,13 +459,16 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             pA0 = pA0 + slot_pA[base_own]
         if lane == 0:
             IA0 = IA0 + B.spatial_inertia_of(model, env, 0)
-            pA0 = pA0 + p_0
+            if base_own < 0:
+                pA0 = pA0 + p_0
         if wp.static(LANES > 1):
             summed = wp.tile_extract(wp.tile_sum(wp.tile(join_terms(pack21(IA0), pA0), preserve_type=True)), 0)
             IA0 = unpack21(sym21_of(summed))
             pA0 = vec6_of(summed)
         # 3. accelerations, from the base; the joints integrated (written now: a flagged environment's state is
         # rewritten below)
+        W_H_B = B.base_pose(x, env)  # again, rather than live in registers through passes 1 and 2
+        B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
         B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
         a0 = -B_a_g
         base = sp.vec6(scalar(0.0))
@@ -532,8 +538,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             qd_n = x.joint_velocities[env, i_n - 1]
             a_P = a_prev
             if up == BASE:
-                a_P = a0
-            elif up >= 0:
+                up = base_own
+            if up >= 0:
                 a_P = slot_v[up]
             a_i = sp.motion_from(X_i, a_P) + c_i
             qdd = ud_i - wp.dot(Ud_i, a_i)
