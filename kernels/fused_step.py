@@ -13,34 +13,34 @@ their parent:
 3. from the base: ABA's accelerations, the joints integrated; then the base (kernels/integrators.py's
    functions) and the health check: a flagged environment keeps its state (rewritten over what 1 and 3
    wrote) and gets valid = 0.
-What a link hands to the next link of the walk (its pose and velocity, its articulated terms for its parent,
-its acceleration) stays in registers when that link is its child, the first one; a link with more children
-keeps it in a slot for the others (`walk`). The base's slot, when it has one, also holds its pose, velocity and
-own bias force for its children, and pass 3 computes its pose and velocity from x again: live in registers through
-passes 1 and 2, they made float64 spill (benchmarks/RESULTS.md, round 14). The walk comes in groups of the base's subtrees
-(warpdyn.engine.fused_layout): one thread walks them all, or `lanes` threads of one block walk a group each,
-side by side (for few environments: a step's chain of dependent operations is shorter), each computing the
-base alike; they sum their terms of the base's articulated inertia and bias force, then their health checks,
-through a tile.
+What a link hands to the next link of the walk (its pose and velocity, its articulated terms for its parent, its
+acceleration) stays in registers when that link is its child, the first one; a link with more children keeps it in
+a slot for the others (`walk`). The base's slot, when it has one, also holds its pose, velocity and own bias force
+for its children, and pass 3 computes its pose and velocity from x again: live in registers through passes 1 and 2,
+they made float64 spill (benchmarks/RESULTS.md, round 14). The walk comes in groups of the base's subtrees
+(warpdyn.engine.fused_layout): one thread walks them all, or `lanes` threads of one block walk a group each, side
+by side (for few environments: a step's chain of dependent operations is shorter), each computing the base alike;
+they sum their terms of the base's articulated inertia and bias force, then their health checks, through a tile.
 What one pass hands to the next per link (the bias force then U_i / d_i, u_i / d_i, c_i: RECORD numbers, its
 record) stays on the chip instead of in arrays in global memory, and is read and written once per step: in the
 thread's local memory, or in the block's shared memory (`shared_block`; warpdyn.engine.fused_layout's
 `shared_records`), where the loads of the state, which share the L1 cache with local memory, do not evict it
-(benchmarks/RESULTS.md, round 12). The joint positions, velocities and force references are not kept there:
-passes 1 and 3 load link k + 1's while link k is computed (pass 2 reads the positions again, the next link's
-likewise), so that the local arrays fill less of the L1 cache (benchmarks/RESULTS.md, round 10). Likewise what
-pass 3 needs of a link is loaded while the link before it is computed, and so are the joint terms in pass 2 and,
-in float32, in pass 1 (in float64 that spills registers: round 13), and the contact points' states ahead of their
-use: in float32 two points per iteration, their chains side by side, while the next two are loaded; in float64
-one at a time, two points ahead (pairs make float64 spill registers). Pass 2 sums the articulated inertias as
-their 21 numbers (symmetric: fewer registers than 6x6 sums). The kernel has no grid-stride loop (a thread per
-environment or lane: fewer registers; float64 spills less). The joint transforms lambda(i)_H_i are either kept
-from pass 1 (7 numbers more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from the joint
-positions (their sines and cosines again: cheaper on a GPU once the environments' local arrays outgrow its caches
-than keeping either the transforms or their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and 9).
-The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links
-and slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not
-unrolled (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
+(benchmarks/RESULTS.md, round 12). The joint positions, velocities and force references are not kept there: passes
+1 and 3 load link k + 1's while link k is computed (pass 2 reads the positions again), so that the local arrays
+fill less of the L1 cache (benchmarks/RESULTS.md, round 10). Likewise what pass 3 needs of a link is loaded while
+the link before it is computed, and so are, in float32, the joint terms in pass 1 (in float64 that spills
+registers: round 13); pass 2 loads a link's joint terms first and computes its joint transform last, so that its
+articulated terms' arithmetic covers the loads and the transform is not live across it (round 14); and the contact
+points' states ahead of their use: in float32 two points per iteration, their chains side by side, while the next
+two are loaded; in float64 one at a time, two points ahead (pairs make float64 spill registers). Pass 2 sums the
+articulated inertias as their 21 numbers (symmetric: fewer registers than 6x6 sums). The kernel has no grid-stride
+loop (a thread per environment or lane: fewer registers; float64 spills less). The joint transforms lambda(i)_H_i
+are either kept from pass 1 (7 numbers more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from
+the joint positions (their sines and cosines again: cheaper on a GPU once the environments' local arrays outgrow
+its caches than keeping either the transforms or their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and
+9). The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links and
+slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not unrolled
+(unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
 
 Forward only: the module has no backward pass. Under a tape, with gradients, for RK4 and with gravity
 compensation, a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding
@@ -404,12 +404,6 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         # first child's in registers (the next link of the walk back), the others' in the parent's slot
         IA_next = sym21()
         pA_next = sp.vec6(scalar(0.0))
-        if wp.static(not KEEP):  # link kk - 1's joint terms and position are loaded while link kk is computed
-            i_n = walk[wp.max(last - 1, k_first)][0]
-            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
-            q_n = scalar(0.0)
-            if has_joints:
-                q_n = x.joint_positions[env, wp.max(i_n - 1, 0)]
         for k in range(last - first):
             kk = last - 1 - k
             i = walk[kk][0]
@@ -417,11 +411,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             up = walk[kk][2]
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
-            else:
-                X_i = B.joint_transform_from(jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n, q_n)
-                i_n = walk[wp.max(kk - 1, first)][0]
-                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
-                q_n = x.joint_positions[env, i_n - 1]
+            else:  # the joint's terms and position loaded now, its transform computed after `articulated`
+                jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)
+                q_i = x.joint_positions[env, i - 1]
             S = B.motion_subspace_of(model, i)
             IA = pack21(B.spatial_inertia_of(model, env, i)) + IA_next  # summed as 21 numbers: symmetric, fewer registers
             if wp.static(SHARED):
@@ -442,6 +434,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             else:
                 pU[i] = Ud_i
                 ud[i] = ud_i
+            if wp.static(not KEEP):
+                X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, q_i)
             IA_next = pack21(inertia_to(X_i, Ia))
             pA_next = sp.force_to(X_i, pa)
             if up == BASE:
