@@ -77,6 +77,18 @@ def shared_numbers(links: int, block: int, shared_c: bool = True) -> int:
     return (RECORD if shared_c else C_AT) * links * block
 
 
+def unfilled(scalar, *shape: int) -> str:
+    """A native snippet that returns a local Warp vector (shape (n,)) or matrix (rows, cols) of `scalar` whose
+    numbers nothing has written. Warp's constructors write zeros first, which a record that each pass writes before
+    a pass reads it does not need: in float64 on a GPU, the 78 zeros of c (local memory) stalled the start of a step
+    (benchmarks/RESULTS.md, round 15). The union's other member is the one its constructor sets."""
+    cpp_scalar = "wp::float32" if scalar == wp.float32 else "wp::float64"
+    cpp = f"wp::vec_t<{shape[0]}, {cpp_scalar}>" if len(shape) == 1 else f"wp::mat_t<{shape[0]}, {shape[1]}, {cpp_scalar}>"
+    return f"""
+    union Unfilled {{ {cpp} value; unsigned char none; CUDA_CALLABLE Unfilled() : none(0) {{}} }} unfilled;
+    return unfilled.value;"""
+
+
 @factory
 def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, terrain_kind: int | None, keep_joint_transforms: bool, lanes: int = 1, shared_block: int = 0, shared_c: bool = True):
     """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
@@ -111,6 +123,19 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     slots21 = wp.types.matrix((slots, SYM66), scalar)
     sym21 = wp.types.vector(SYM66, scalar)
     sc = scratch(scalar)
+
+    @wp.func_native(unfilled(scalar, links, TRANSFORM))
+    def links7_unfilled() -> links7:
+        """A links7 whose numbers nothing has written (`unfilled`)."""
+
+    @wp.func_native(unfilled(scalar, links, 6))
+    def links6_unfilled() -> links6:
+        """A links6 whose numbers nothing has written (`unfilled`)."""
+
+    @wp.func_native(unfilled(scalar, links))
+    def per_link_unfilled() -> per_link:
+        """A per_link whose numbers nothing has written (`unfilled`)."""
+
     pack7, unpack7, pack21, unpack21 = sc.pack_transform, sc.unpack_transform, sc.pack_sym66, sc.unpack_sym66
     if shared_block and lanes != 1:
         raise ValueError(f"the fused step keeps its records in shared memory on one thread per environment, not {lanes} lanes")
@@ -309,10 +334,11 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         h0 = C.height_parameter(terrain, env)
         W_H_B = B.base_pose(x, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
-        X = links7()  # lambda(i)_H_i, when kept
-        c = links6()  # c_i = v_i x S_i qd_i
-        pU = links6()  # pass 1: v_i x* I_i v_i - f_i; pass 2: U_i / d_i
-        ud = per_link()  # u_i / d_i
+        # a link's records, each written by a pass before a pass reads it
+        X = links7_unfilled()  # lambda(i)_H_i, when kept
+        c = links6_unfilled()  # c_i = v_i x S_i qd_i
+        pU = links6_unfilled()  # pass 1: v_i x* I_i v_i - f_i; pass 2: U_i / d_i
+        ud = per_link_unfilled()  # u_i / d_i
         slot_H = slots7()  # W_H_i of the links with slots
         slot_v = slots6()  # pass 1: their v_i; pass 3: their a'_i
         slot_IA = slots21()  # the sums of the articulated inertias and bias forces of their children but the first
