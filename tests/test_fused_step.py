@@ -24,7 +24,7 @@ import warp as wp
 
 import robots
 import warpdyn as wd
-from warpdyn.engine import fused_layout, launch
+from warpdyn.engine import fused_layout, launch, warp_private
 from warpdyn.engine import step as engine_step
 from warpdyn.engine.fused_layout import fused_walk
 from warpdyn.kernels import fused_step
@@ -513,13 +513,7 @@ def test_records_in_shared_memory_are_what_a_step_launches_in_each_block_size(mo
     _assert_close(fused2, listed2, dtype_, "second step")
 
 
-def _cuda_compiler() -> bool:
-    """Whether this Warp build compiles CUDA code (its NVRTC), a GPU present or not."""
-    wp.init()
-    return bool(getattr(wp._src.context.runtime.core, "wp_is_cuda_enabled", lambda: 0)())
-
-
-@pytest.mark.skipif(not _cuda_compiler(), reason="this Warp build compiles no CUDA code")
+@pytest.mark.skipif(not warp_private.compiles_cuda(), reason="this Warp build compiles no CUDA code")
 @pytest.mark.parametrize(("dtype_", "shared_c", "size"), [(np.float32, True, 4), (np.float64, False, 8)], ids=["float32", "float64"])
 def test_the_shared_records_compile_for_a_gpu_at_their_size(tmp_path, dtype_, shared_c, size):
     """Without a GPU too: the kernels that keep the records in shared memory compile to PTX (sm_90), whose

@@ -221,6 +221,7 @@ def test_warp_internals_are_read_in_one_module_and_found():
     from warpdyn.engine import warp_private
 
     assert warp_private.tape_known() and warp_private.descriptor_known() and warp_private.grads_known()
+    assert warp_private.cuda_compiler_known()
 
 
 PYTHON_FILES = sorted(p.relative_to(ROOT).as_posix() for folder in ("warpdyn", "kernels", "tests", "examples", "benchmarks") for p in (ROOT / folder).rglob("*.py"))

@@ -10,6 +10,9 @@
 - `grads(arrays)`: the arrays' gradient arrays, read from the attribute behind Warp's `grad` property (a
   dynamics call reads the 20 parameters' at each call; the property call is what costs); without it, the
   property.
+- `compiles_cuda()`: whether this Warp build compiles CUDA code, a GPU present or not (Warp 1.19's runtime
+  says it: `core.wp_is_cuda_enabled`; the pip wheel compiles PTX on a machine without a GPU); without it,
+  whether Warp found a GPU. tests/test_fused_step.py compiles the GPU's kernels where it is True.
 tests/test_layers.py checks that all are found with the pinned Warp version.
 """
 
@@ -34,7 +37,7 @@ try:
 except ImportError:  # pragma: no cover - other Warp versions
     _Struct = None
 
-__all__ = ["tape_known", "recording_tape", "set_recording_tape", "descriptor_known", "array_descriptor", "grads_known", "grads", "CpuLaunch", "cpu_launch"]
+__all__ = ["tape_known", "recording_tape", "set_recording_tape", "descriptor_known", "array_descriptor", "grads_known", "grads", "CpuLaunch", "cpu_launch", "cuda_compiler_known", "compiles_cuda"]
 
 
 _tape_found = False
@@ -68,6 +71,20 @@ def array_descriptor(array: wp.array, shape: tuple, strides: tuple, offset: int 
     if _array_t is None:
         return wp.array(ptr=ptr, shape=shape, strides=strides, dtype=array.dtype, device=array.device)
     return _array_t(ptr, 0, len(shape), shape, strides)
+
+
+def cuda_compiler_known() -> bool:
+    """Whether this Warp version's runtime says if it compiles CUDA code (`compiles_cuda`)."""
+    wp.init()
+    return _context is not None and hasattr(_context.runtime.core, "wp_is_cuda_enabled")
+
+
+def compiles_cuda() -> bool:
+    """Whether this Warp build compiles CUDA code (its NVRTC), a GPU present or not; where Warp does not say
+    (`cuda_compiler_known`), whether it found a GPU."""
+    if cuda_compiler_known():
+        return bool(_context.runtime.core.wp_is_cuda_enabled())
+    return wp.is_cuda_available()
 
 
 _GRAD_ATTRIBUTE = "_grad"  # where Warp 1.19's wp.array keeps what its `grad` property returns (`grads` reads a._grad)
