@@ -94,13 +94,31 @@ def check_device_array(value: wp.array, name: str, scalar, device) -> None:
         raise ValueError(f"{name} is on device '{value.device}', but the model is on '{device}'")
 
 
-def checked_host(value, name: str, accepted: list) -> np.ndarray:
-    """A user's NumPy-like value as float64, with a TypeError (not numbers) or ValueError (a shape not in
-    `accepted`, non-finite values) naming it."""
+REAL_KINDS = "iuf"
+"""The NumPy dtype kinds a user's numbers may have (signed and unsigned integers, floats): not complex (NumPy's
+cast to float would drop the imaginary part with a warning), bool (True would become 1), object, strings,
+bytes, datetimes or records."""
+
+
+def host_numbers(value, name: str) -> np.ndarray:
+    """A user's NumPy-like value (a number, a list, a NumPy array, anything `np.asarray` reads) as a float64
+    ndarray: the one conversion of users' numbers from the host. A TypeError naming `name` and the dtype for
+    values that are not real numbers (see REAL_KINDS), or that NumPy cannot read as an array."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be real numbers, got the string {value!r}")
     try:
-        host = np.asarray(value, dtype=np.float64)
+        host = np.asarray(value)
     except (TypeError, ValueError) as error:
         raise TypeError(f"{name} must be an array of numbers: {error}") from None
+    if host.dtype.kind not in REAL_KINDS:
+        raise TypeError(f"{name} must be real numbers, got an array of {host.dtype}")
+    return host.astype(np.float64, copy=False)
+
+
+def checked_host(value, name: str, accepted: list) -> np.ndarray:
+    """A user's NumPy-like value as float64 (`host_numbers`), with a TypeError (not real numbers) or ValueError
+    (a shape not in `accepted`, non-finite values) naming it."""
+    host = host_numbers(value, name)
     if host.shape not in accepted:
         raise ValueError(f"{name} has shape {host.shape}, expected one of {accepted}")
     if np.isfinite(host).all():
