@@ -7,20 +7,53 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-__all__ = ["SoftContactsParams", "ActuationParams", "host_values"]
+from .. import arrays
+
+__all__ = ["SoftContactsParams", "ActuationParams", "host_values", "check_contact_value", "CONTACT_UNITS"]
 
 
 def host_values(value, name: str = "value") -> np.ndarray:
-    """A parameter's values on the host (float64), from a number, a NumPy array or a Warp array; a TypeError
-    naming `name` for anything else."""
+    """A parameter's values on the host (float64), from a number, a NumPy array or a Warp array (copied to the
+    host); a TypeError naming `name` for anything else: a string, None, a bool, or an array that is not real
+    numbers (complex, bool, object, ...: warpdyn.arrays.host_numbers, the one conversion of users' numbers)."""
     if isinstance(value, wp.array):
         value = value.numpy()
     if isinstance(value, (bool, np.bool_, str, bytes)) or value is None:
         raise TypeError(f"{name} must be a number or an array of numbers, got {value!r}")
-    try:
-        return np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a number or an array of numbers, got {value!r}") from None
+    return arrays.host_numbers(value, name)
+
+
+CONTACT_UNITS = {"K": "N/m^(1+p)", "D": "N s/m^(1+q)", "mu": "", "p": "", "q": ""}
+"""The units of SoftContactsParams' fields."""
+
+_POSITIVE = {
+    "K": "K = 0 is no ground at all: the collidable points fall through the terrain",
+    "D": "the deformation relaxes with rate K/D",
+}
+
+
+def check_contact_value(name: str, value) -> None:
+    """A TypeError or ValueError naming `SoftContactsParams.<name>` and the first offending value (and its
+    environment, for per-environment values): K, D and mu a number or (N,), p and q a number; all finite and
+    non-negative (JaxSim 0.9.0's SoftContactsParams.valid() asks K, D, mu, p, q >= 0), and K and D positive
+    (K = 0 is no ground; D = 0 makes the deformation's rate K/D infinite). A Warp array is copied to the host."""
+    field = f"SoftContactsParams.{name}"
+    host = host_values(value, field)
+    per_env = name in ("K", "D", "mu")
+    shape = "a number or (N,)" if per_env else "a number"
+    if host.ndim > (1 if per_env else 0):
+        raise ValueError(f"{field} must be finite and non-negative ({shape}), got {value}")
+    flat = np.atleast_1d(host)
+
+    def shown(bad: np.ndarray) -> str:
+        k = int(np.argmax(bad))
+        return f"{flat[k]}" + (f" (environment {k})" if host.ndim == 1 else "")
+
+    bad = ~(np.isfinite(flat) & (flat >= 0.0))
+    if bad.any():
+        raise ValueError(f"{field} must be finite and non-negative ({shape}), got {shown(bad)}")
+    if name in _POSITIVE and np.any(flat <= 0.0):
+        raise ValueError(f"{field} must be positive [{CONTACT_UNITS[name]}] ({_POSITIVE[name]}), got {shown(flat <= 0.0)}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -31,8 +64,16 @@ class SoftContactsParams:
     p: exponent of the spring term, q: of the damper term. K, D and mu may be arrays (N,), one value per
     environment (domain randomisation). They may also be Warp arrays ((1,) or (N,), the model's dtype and
     device): `step` then reads them in place, so that with requires_grad their .grad receives the gradient
-    (see `warpdyn.model.parameters_requiring_grad`); their values are read once, when the step's plan is
-    built, for the checks.
+    (see `warpdyn.model.parameters_requiring_grad`).
+
+    Checks (`check_contact_value`), when made: K and D positive and finite (K = 0 is no ground at all), mu,
+    p and q finite and non-negative (at least JaxSim 0.9.0's SoftContactsParams.valid(): all >= 0); a
+    TypeError or ValueError naming the field and the value. A Warp array's values are copied to the host for
+    these checks here, once. Values written into a Warp array later (`K.assign(...)`, a randomisation on the
+    device) no host check sees without a synchronisation: the step checks them on the device and flags the
+    environments whose K, D or mu is out of range, or whose dt K / D is unstable where their points can reach
+    the terrain (data.valid 0, their state kept: warpdyn.kernels.parameter_checks); the host checks them
+    again when the step's plan is next built (warpdyn.types.parameters.validate_parameters).
     """
 
     K: float | np.ndarray = 1e6
@@ -43,12 +84,7 @@ class SoftContactsParams:
 
     def __post_init__(self):
         for name in ("K", "D", "mu", "p", "q"):
-            value = host_values(getattr(self, name), f"SoftContactsParams.{name}")
-            if value.ndim > (1 if name in ("K", "D", "mu") else 0) or not np.all(np.isfinite(value)) or np.any(value < 0.0):
-                shape = "a number or (N,)" if name in ("K", "D", "mu") else "a number"
-                raise ValueError(f"SoftContactsParams.{name} must be finite and non-negative ({shape}), got {value}")
-        if np.any(host_values(self.D) <= 0.0):
-            raise ValueError("SoftContactsParams.D must be positive (the deformation relaxes with rate K/D)")
+            check_contact_value(name, getattr(self, name))
 
 
 @dataclasses.dataclass(frozen=True)
