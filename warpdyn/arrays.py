@@ -226,3 +226,45 @@ def zeros(shape: tuple, num_envs: int, dtype, device) -> wp.array:
     array = empty(shape, num_envs, dtype, device)
     array.zero_()
     return array
+
+
+class InputArray(wp.array):
+    """A per-environment input a user writes in place, (N, *per_env) in the device's layout (`input_array`): a
+    Warp array over memory it does not own, which kernels read as any Warp array, `wp.to_torch` shares and a
+    captured graph reads as it is at each replay, and whose `assign` checks what it is given.
+
+    `assign(values)`: values of one environment (per_env), written to every environment, or one row per
+    environment (N, *per_env): NumPy-like real numbers (`checked_host`: finite, not complex, bool, object or
+    str) or a Warp array of the same dtype (copied on the device, its values unchecked: that would synchronise
+    the host). A TypeError or ValueError naming the array, and nothing written, for anything else. Warp's own
+    `wp.array.assign` copies by byte count, so an array one environment short used to leave the last
+    environment's old values in place. Other writes are the user's and unchecked: `wp.copy`, `fill_`, kernels,
+    and writes through a view (`wp.to_torch(array)[:] = ...`, zero-copy) or a slice.
+    """
+
+    name: str = "input"
+
+    def assign(self, src) -> None:
+        """Check and copy `src` (see the class docstring)."""
+        N, per_env = self.shape[0], tuple(self.shape[1:])
+        accepted = [per_env, (N, *per_env)]
+        if isinstance(src, wp.array):
+            if src.dtype != self.dtype:
+                raise TypeError(
+                    f"{self.name} has dtype {wp.types.type_repr(src.dtype)}, but the model computes in {wp.types.type_repr(self.dtype)}"
+                )
+            if tuple(src.shape) not in accepted:
+                raise ValueError(f"{self.name} has shape {tuple(src.shape)}, expected one of {accepted}")
+            wp.copy(self, src if tuple(src.shape) == tuple(self.shape) else with_env_axis(src, N))
+            return
+        host = checked_host(src, self.name, accepted)
+        super().assign(np.ascontiguousarray(np.broadcast_to(host, self.shape)))
+
+
+def input_array(shape: tuple, num_envs: int, dtype, device, name: str) -> InputArray:
+    """A zero `InputArray` of logical shape (num_envs, *shape), named `name` in its errors."""
+    owner = zeros(shape, num_envs, dtype, device)
+    array = InputArray(ptr=owner.ptr, dtype=dtype, shape=owner.shape, strides=owner.strides, device=owner.device)
+    array._ref = owner  # the memory's owner (Warp's own views keep theirs the same way)
+    array.name = name
+    return array

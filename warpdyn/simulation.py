@@ -139,17 +139,22 @@ class Stepper(_Stepper):
     """In-place steps of N environments, for loops that step from Python (control, RL): the fast path.
 
         stepper = wd.simulation.Stepper(model, data, substeps=4)   # 4 steps of model.time_step a call
-        tau = wp.to_torch(stepper.joint_force_references)          # (N, n) controls, written in place
         for _ in range(1000):
-            tau[:] = policy(...)                                   # or stepper.ctrl (N, na): the actuators
+            stepper.joint_force_references.assign(tau)             # (N, n) or (n,), checked; or stepper.ctrl
             data = stepper.step()                                  # replays one graph: no allocation
+        view = wp.to_torch(stepper.ctrl)                           # (N, na), zero-copy: view[:] = ... unchecked
 
     What `wd.model.step` computes (the same kernels, numbers and health flags), but its state lives in the
     Stepper: `step()` overwrites it, and `data` (returned by `step`) is a Data of views of the Stepper's
     buffers, valid until the next call (copy what you keep, e.g. `data.joint_positions.numpy()`). The
     controls are the Stepper's arrays, zero until written, held over each call's `substeps` steps:
     `joint_force_references` (N, n) [N m or N], `ctrl` (N, na) (the model's actuators), and, when built with
-    link_forces=True, `link_forces` (N, nL, 6) in the data's representation. `set_state(data, envs=None)`
+    link_forces=True, `link_forces` (N, nL, 6) in the data's representation. Write them with `.assign(values)`,
+    which checks them (warpdyn.arrays.InputArray): one row per environment (N, ...) or one environment's
+    values (...), written to every environment; NumPy-like real finite numbers, or a Warp array of the model's
+    dtype (copied on the device, its values unchecked); a TypeError or ValueError naming the array otherwise.
+    They are Warp arrays over the Stepper's memory: zero-copy writes (through `wp.to_torch(stepper.ctrl)`,
+    `wp.copy`, a kernel) reach the next call as written, unchecked. `set_state(data, envs=None)`
     copies a state in, for every environment or, without a host synchronisation, those an int32 mask (N,)
     selects (resets). A caller that captures `step()` in a graph of its own calls `advance_buffers()` after
     each replay (the ping-pong buffers' turn is host state). `contact_wrenches` (N, nc, 6) holds the enabled collidable points' contact wrenches at

@@ -43,10 +43,11 @@ class Stepper:
         self.velocity_representation = VelRepr(data.velocity_representation)
         n, nL, na = plan.n, plan.nL, plan.na
         s, d = self.scalar, self.device
-        # the user's controls, written in place (wp.to_torch shares them): zero until written
-        self.joint_force_references = arrays.zeros((n,), N, s, d)
-        self.ctrl = arrays.zeros((na,), N, s, d)
-        self.link_forces = arrays.zeros((nL, 6), N, s, d) if link_forces else None
+        # the user's controls, written in place (wp.to_torch shares them), zero until written; their `assign`
+        # checks what it is given (warpdyn.arrays.InputArray)
+        self.joint_force_references = arrays.input_array((n,), N, s, d, "Stepper.joint_force_references")
+        self.ctrl = arrays.input_array((na,), N, s, d, "Stepper.ctrl")
+        self.link_forces = arrays.input_array((nL, 6), N, s, d, "Stepper.link_forces") if link_forces else None
         self._slots = [state_buffers(plan, N, False) for _ in range(2)]
         self._data = [with_state(data, slot) for slot in self._slots]
         self._current = 0
