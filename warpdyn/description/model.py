@@ -1,16 +1,18 @@
-"""The plain, host-side form that the URDF and MJCF readers agree on.
+"""The plain, host-side form that the URDF, MJCF and SDF readers agree on.
 
 A `ModelDescription` is what the parsers agree on: links with their inertial parameters and collision
-shapes, joints with their type, axis and origin, and which link is the base. Nothing is lumped or
-reordered here; `warpdyn.tree` does that. All arrays are float64 NumPy, SI units.
+shapes, joints with their type, axis and origin, which link is the base, and explicit frames (SDF
+`<frame>`s) attached to links. Nothing is lumped or reordered here; `warpdyn.tree` does that. All arrays
+are float64 NumPy, SI units.
 
-Joint convention (both formats): the pose of the child link in the parent link at joint position q is
+Joint convention (every format): the pose of the child link in the parent link at joint position q is
 
     parent_H_child(q) = origin @ M(q),
 
 where `origin` is the joint frame in the parent link at q = 0 and M(q) is, in the child frame, a rotation
 by q about `axis` through the point `pivot` (revolute) or a translation by q along `axis` (prismatic).
-URDF joints have pivot 0; MJCF joints have their `pos` as pivot. For MJCF hinge and slide joints q is
+URDF joints have pivot 0; MJCF joints have their `pos` as pivot; SDF joints have the joint frame's origin
+in the child link as pivot. For MJCF hinge and slide joints q is
 MuJoCo's qpos: the loader folds MuJoCo's `ref` (qpos0) into `origin`, so that q = qpos everywhere (springs,
 actuator lengths and limits included, which MuJoCo also writes in qpos units).
 
@@ -32,6 +34,7 @@ __all__ = [
     "NotModelledWarning",
     "warn_not_modelled",
     "CollisionShape",
+    "FrameDescription",
     "LinkDescription",
     "JointDescription",
     "ModelDescription",
@@ -167,6 +170,17 @@ class JointDescription:
 
 
 @dataclass
+class FrameDescription:
+    """An explicit frame (SDF `<frame>`) rigidly attached to link `link` of the description, at `link_H_frame`
+    (4, 4) in that link's frame. `build_tree` makes it a frame of the model (after the lumped links), moved to
+    the kept link its link is lumped into. Its name must differ from every link's and every other frame's."""
+
+    name: str
+    link: str
+    link_H_frame: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+
+@dataclass
 class ActuatorDescription:
     """A MuJoCo actuator with a joint transmission on a hinge or slide joint and no activation dynamics
     (what warpdyn models; the loader drops the others and lists them in its NotModelledWarning).
@@ -204,6 +218,10 @@ class ModelDescription:
     """A robot as read from its description, before lumping.
 
     base: name of the base link. fixed_base: whether the base is welded to the world, at world_H_base.
+    initial_world_H_base: (4, 4) where the description places a floating base in the world (SDF: the pose
+    of the `<model>`, in its `<world>` if any, composed with the base link's pose in the model), the default
+    base pose of `Data.build`; None where the description says nothing (URDF, MJCF: the origin) and for a
+    fixed base (whose pose is world_H_base).
     links and joints keep the order of the description; joints form a tree rooted at `base`. A fixed
     base named "world" is the MJCF world body when it has several children (bodies welded to the world
     are lumped into it by `build_tree`, each jointed child starts a subtree).
@@ -220,6 +238,8 @@ class ModelDescription:
     "frictionloss", "limit".
     not_modelled: kind -> names of the elements warpdyn does not model (reported by `load` in one
     NotModelledWarning).
+    frames: explicit frames attached to links (`FrameDescription`; SDF `<frame>`s, in the file's order).
+    URDF and MJCF have none: their frames are the links that fixed joints weld (`build_tree`).
     """
 
     name: str
@@ -236,6 +256,8 @@ class ModelDescription:
     integrator: str | None = None
     disabled: frozenset = frozenset()
     not_modelled: dict[str, list[str]] = field(default_factory=dict)
+    frames: list[FrameDescription] = field(default_factory=list)
+    initial_world_H_base: np.ndarray | None = None
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:

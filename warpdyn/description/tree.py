@@ -4,7 +4,9 @@ Orders (documented once, used everywhere):
 - Links: breadth-first from the base over the lumped tree; the children of a link in the order their
   joints appear in the description. So parent index < child index, and link 0 is the base.
 - Joints: joint i is the joint whose child is link i + 1, so joints follow the link order.
-- Frames: every lumped link, in breadth-first order over the description's tree.
+- Frames: every lumped link, in breadth-first order over the description's tree, then the description's
+  explicit frames (`ModelDescription.frames`, SDF `<frame>`s) in its order, each on the kept link that its
+  link is lumped into.
 
 Lumping a fixed joint (or a joint locked by a reduction) moves the child's mass into the parent: its
 centre of mass is moved into the parent frame and its inertia rotated and shifted with the parallel-axis
@@ -198,6 +200,27 @@ def _check_moving_mass(description: ModelDescription, link_names, joints, parent
             )
 
 
+def _explicit_frames(description: ModelDescription, kept_of: dict[str, str]) -> list:
+    """The description's explicit frames, checked: each on a link of the tree, named unlike every link and
+    every other frame (a ValueError naming them)."""
+    frames = list(description.frames)
+    if not frames:
+        return frames
+    links = {link.name for link in description.links} | set(kept_of)
+    names = [frame.name for frame in frames]
+    clashes = sorted({n for n in names if n in links})
+    duplicated = sorted({n for n in names if names.count(n) > 1})
+    if clashes or duplicated:
+        raise ValueError(
+            f"model '{description.name}': frame names must differ from link names and from each other: frames named "
+            f"like links {clashes}, frames named twice {duplicated}"
+        )
+    detached = [f"{frame.name} (on '{frame.link}')" for frame in frames if frame.link not in kept_of]
+    if detached:
+        raise ValueError(f"model '{description.name}': frames {detached} are attached to links that the tree does not have")
+    return frames
+
+
 def build_tree(
     description: ModelDescription,
     considered_joints: list[str] | None = None,
@@ -303,6 +326,14 @@ def build_tree(
             continue
         gravcomp_mass[i], gravcomp_com[i] = total, moment / total
 
+    frame_names = list(lumped_order)
+    frame_parent = [index[kept_of[f]] for f in lumped_order]
+    link_H_frame = [kept_H_link[f] for f in lumped_order]
+    for frame in _explicit_frames(description, kept_of):
+        frame_names.append(frame.name)
+        frame_parent.append(index[kept_of[frame.link]])
+        link_H_frame.append(kept_H_link[frame.link] @ np.asarray(frame.link_H_frame, dtype=np.float64))
+
     movable_joints = joints[1:]
     _check_moving_mass(description, link_names, movable_joints, parents, mass, com, inertia)
     n = len(movable_joints)
@@ -329,7 +360,7 @@ def build_tree(
     return KinematicTree(
         link_names=link_names,
         joint_names=[j.name for j in movable_joints],
-        frame_names=list(lumped_order),
+        frame_names=frame_names,
         parent=np.array(parents, dtype=np.int32),
         joint_type=joint_type,
         parent_H_joint=np.array(parent_H_joint).reshape(nL, 4, 4),
@@ -338,8 +369,8 @@ def build_tree(
         link_mass=mass,
         link_com=com,
         link_inertia=inertia,
-        frame_parent=np.array([index[kept_of[f]] for f in lumped_order], dtype=np.int32),
-        link_H_frame=np.array([kept_H_link[f] for f in lumped_order]).reshape(len(lumped_order), 4, 4),
+        frame_parent=np.array(frame_parent, dtype=np.int32),
+        link_H_frame=np.array(link_H_frame).reshape(len(frame_names), 4, 4),
         position_limits=np.array([[j.lower, j.upper] for j in movable_joints]).reshape(len(movable_joints), 2),
         effort_limits=np.array([j.effort for j in movable_joints]),
         velocity_limits=np.array([j.velocity for j in movable_joints]),
