@@ -97,6 +97,98 @@ class LeggedEnvConfig:
     observations: tuple = DEFAULT_OBSERVATIONS
     rewards: dict = dataclasses.field(default_factory=lambda: dict(DEFAULT_REWARDS))
 
+    def __post_init__(self):
+        self.validate()
+
+    def validate(self) -> None:
+        """A TypeError (not a number, a bool or a string given) or ValueError (out of range) naming the field
+        and its value, for every numeric field (`_FIELD_CHECKS`): finite, positive or non-negative where the
+        physics or the task needs it, ranges (low, high) ordered; and policy_dt a whole number of time steps.
+        Run when the config is made (also by dataclasses.replace) and by LeggedEnv, which a config changed in
+        place after it was made reaches."""
+        for name, (kind, unit) in _FIELD_CHECKS.items():
+            _check_field(name, getattr(self, name), kind, unit)
+        decimation = self.policy_dt / self.time_step
+        if abs(decimation - round(decimation)) > 1e-6 or round(decimation) < 1:
+            raise ValueError(f"LeggedEnvConfig.policy_dt {self.policy_dt} s must be a whole number of time steps of {self.time_step} s")
+        if isinstance(self.feet, str) or not all(isinstance(foot, str) for foot in self.feet):
+            raise TypeError(f"LeggedEnvConfig.feet must be a tuple of link names, got {self.feet!r}")
+        default = self.default_joint_positions
+        if default is not None and not isinstance(default, dict):
+            raise TypeError(f"LeggedEnvConfig.default_joint_positions must be a dict {{joint name: angle [rad]}} or None, got {default!r}")
+        for joint, value in (default or {}).items():
+            _check_field(f"default_joint_positions[{joint!r}]", value, "finite", "rad")
+        for k, entry in enumerate(self.observations):
+            if not (isinstance(entry, (tuple, list)) and len(entry) == 2 and callable(entry[0])):
+                raise TypeError(f"LeggedEnvConfig.observations[{k}] must be a pair (term, scale), got {entry!r}")
+            _check_field(f"observations[{k}] scale", entry[1], "finite", "")
+        if not isinstance(self.rewards, dict):
+            raise TypeError(f"LeggedEnvConfig.rewards must be a dict {{name: (term, weight)}}, got {self.rewards!r}")
+        for key, entry in self.rewards.items():
+            if not (isinstance(entry, (tuple, list)) and len(entry) == 2 and callable(entry[0])):
+                raise TypeError(f"LeggedEnvConfig.rewards[{key!r}] must be a pair (term, weight), got {entry!r}")
+            _check_field(f"rewards[{key!r}] weight", entry[1], "finite", "")
+
+
+_FIELD_CHECKS = {
+    "time_step": ("positive", "s"),
+    "policy_dt": ("positive", "s"),
+    "contact_stiffness": ("positive", "N/m^1.5"),
+    "contact_damping": ("positive or None", "N s/m^1.5"),
+    "kp": ("non-negative", "N m/rad"),
+    "kd": ("non-negative", "N m s/rad"),
+    "torque_limit": ("positive or None", "N m"),
+    "action_scale": ("positive", "rad"),
+    "action_clip": ("positive", ""),
+    "episode_seconds": ("positive", "s"),
+    "termination_height": ("non-negative", "x the standing height"),
+    "termination_tilt": ("positive", "rad"),
+    "base_height_target": ("positive or None", "m"),
+    "joint_noise": ("non-negative", "rad"),
+    "lin_vel_x": ("range", "m/s"),
+    "lin_vel_y": ("range", "m/s"),
+    "yaw_rate": ("range", "rad/s"),
+    "command_seconds": ("positive", "s"),
+    "tracking_sigma": ("positive", ""),
+    "push_seconds": ("positive", "s"),
+    "push_velocity": ("non-negative", "m/s"),
+    "contact_force_threshold": ("non-negative", "N"),
+    "air_time_target": ("non-negative", "s"),
+    "mass_scale": ("positive range", ""),
+    "friction": ("non-negative range", ""),
+}
+"""LeggedEnvConfig's numeric fields: (what each must be, its unit)."""
+
+_RANGES = {"range": ("", lambda low: True), "positive range": ("0 < ", lambda low: low > 0.0), "non-negative range": ("0 <= ", lambda low: low >= 0.0)}
+
+
+def _check_field(name: str, value, kind: str, unit: str) -> None:
+    """A TypeError or ValueError naming LeggedEnvConfig.<name> and `value` unless it is `kind` (_FIELD_CHECKS)."""
+    field, unit = f"LeggedEnvConfig.{name}", f" [{unit}]" if unit else ""
+    if kind.endswith("or None") and value is None:
+        return
+    if kind.endswith("range"):
+        prefix, low_ok = _RANGES[kind]
+        pair = tuple(value) if isinstance(value, (tuple, list)) else None
+        numbers = pair is not None and len(pair) == 2 and all(_is_number(v) for v in pair)
+        if not numbers or not all(math.isfinite(v) for v in pair) or not (low_ok(pair[0]) and pair[0] <= pair[1]):
+            raise ValueError(f"{field} must be a range (low, high) of finite numbers with {prefix}low <= high{unit}, got {value!r}")
+        return
+    if not _is_number(value):
+        raise TypeError(f"{field} must be a number, got {value!r}")
+    value = float(value)
+    if kind.startswith("positive") and not (math.isfinite(value) and value > 0.0):
+        raise ValueError(f"{field} must be a positive finite number{unit}{' or None' if kind.endswith('or None') else ''}, got {value}")
+    if kind == "non-negative" and not (math.isfinite(value) and value >= 0.0):
+        raise ValueError(f"{field} must be a finite number >= 0{unit}, got {value}")
+    if kind == "finite" and not math.isfinite(value):
+        raise ValueError(f"{field} is {value}; a finite number{unit} is needed")
+
+
+def _is_number(value) -> bool:
+    """A real number: an int or float (NumPy's included), not a bool."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
 
 def _snapshot(cfg: LeggedEnvConfig) -> LeggedEnvConfig:
     """A copy of `cfg` that changes to it (also in place, to its rewards) do not reach."""
@@ -136,15 +228,10 @@ class LeggedEnv(gym.vector.VectorEnv):
         if use_graph is True and not model.device.is_cuda:
             raise ValueError(f"use_graph=True captures torch ops in a CUDA graph; '{model.device}' is not a GPU (use 'auto')")
         self.cfg = cfg = cfg if cfg is not None else LeggedEnvConfig()
-        if isinstance(cfg.feet, str) or not all(isinstance(foot, str) for foot in cfg.feet):
-            raise TypeError(f"feet must be a tuple of link names, got {cfg.feet!r}")
-        if not cfg.contact_force_threshold >= 0:
-            raise ValueError(f"contact_force_threshold must be a force >= 0 N, got {cfg.contact_force_threshold!r}")
-        if cfg.torque_limit is not None and not cfg.torque_limit > 0:
-            raise ValueError(f"torque_limit must be a positive torque [N m] or None, got {cfg.torque_limit!r}")
+        if not isinstance(cfg, LeggedEnvConfig):
+            raise TypeError(f"cfg must be a LeggedEnvConfig, got {type(cfg).__name__}")
+        cfg.validate()  # again: a config's fields may have changed since it was made
         decimation = cfg.policy_dt / cfg.time_step
-        if abs(decimation - round(decimation)) > 1e-6 or round(decimation) < 1:
-            raise ValueError(f"policy_dt {cfg.policy_dt} s must be a whole number of time steps of {cfg.time_step} s")
         self.num_envs = N = int(num_envs)
         self.decimation = int(round(decimation))
         self.use_graph = use_graph
