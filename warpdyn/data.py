@@ -68,7 +68,8 @@ class Data:
 
         Each argument is shared by all environments (JaxSim's shape) or given per environment (leading
         axis N); defaults are zero, with the identity quaternion (w, x, y, z) = (1, 0, 0, 0), except the
-        base pose of a fixed-base model, which defaults to where its description welds it. Base
+        base pose, which defaults to where the description welds a fixed base or places a floating one
+        (`description.initial_world_H_base`: an SDF model's pose). Base
         velocities are read in `velocity_representation`. NumPy-like inputs are checked on the host
         (finite; unit quaternion within 1e-6 when `validate`); Warp arrays are copied on the device,
         and checked on the host (a synchronisation) only when `validate` is set.
@@ -85,9 +86,9 @@ class Data:
             return array
 
         default_position, default_quaternion = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
-        if not model.floating_base():
-            welded = model.description.world_H_base
-            default_position, default_quaternion = welded[:3, 3], _quaternion_wxyz(welded[:3, :3])
+        placed = model.description.initial_world_H_base if model.floating_base() else model.description.world_H_base
+        if placed is not None:
+            default_position, default_quaternion = placed[:3, 3], _quaternion_wxyz(placed[:3, :3])
         quaternion = state(base_quaternion, "base_quaternion", (4,), default_quaternion)
         if validate:
             norms = np.linalg.norm(quaternion.numpy(), axis=-1)

@@ -1,6 +1,9 @@
-"""Robot descriptions (URDF, MJCF) read into one plain, host-side form: `load` and the `ModelDescription`
-it returns (warpdyn.description.model), the lumped tree (`tree`) and the collidable points of its shapes
-(`collidable`). Host code only (NumPy, float64, SI units): nothing here touches a device.
+"""Robot descriptions (URDF, MJCF, SDFormat) read into one plain, host-side form: `load` and the
+`ModelDescription` it returns (warpdyn.description.model), the lumped tree (`tree`) and the collidable points
+of its shapes (`collidable`). Host code only (NumPy, float64, SI units): nothing here touches a device.
+
+Readers: URDF with yourdfpy (`urdf`), MJCF compiled by MuJoCo (`mjcf`), SDFormat 1.4 to 1.11 with
+xml.etree and no Gazebo library (`sdf`; docs/formats_sdf.md says what it reads and refuses).
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from .mjcf import load_mjcf
 from .model import (
     ActuatorDescription,
     CollisionShape,
+    FrameDescription,
     NotModelledWarning,
     JointDescription,
     LinkDescription,
@@ -26,12 +30,14 @@ from .model import (
     warn_not_modelled,
 )
 from .physical import UnphysicalInertiaWarning, check_description
+from .sdf import load_sdf
 from .urdf import load_urdf
 
 __all__ = [
     "LinkDescription",
     "JointDescription",
     "CollisionShape",
+    "FrameDescription",
     "ActuatorDescription",
     "ModelDescription",
     "NotModelledWarning",
@@ -81,16 +87,24 @@ def _read_document(model_description) -> tuple[bytes, str | None]:
 def load(
     model_description, *, is_urdf: bool | None = None, fixed_base: bool | None = None, base_pose=None
 ) -> ModelDescription:
-    """Read a URDF or MJCF description (a path, an XML string or XML bytes) into a `ModelDescription`.
+    """Read a URDF, MJCF or SDFormat description (a path, an XML string or XML bytes) into a `ModelDescription`.
 
-    fixed_base: None keeps what the description says (a root welded to a `world` link, or an MJCF body
-    without a free joint, is a fixed base); True welds the base to the world (an MJCF free joint becomes a
-    weld) at `base_pose`; False frees a base the description welds to the world. base_pose (4, 4): the
-    homogeneous transform W_H_B of the welded base (default: the description's weld, or the identity).
+    The format is the root element's: `<robot>` URDF, `<mujoco>` MJCF, `<sdf>` SDFormat (1.4 to 1.11; its
+    `<include>`s resolve against the file's directory, or the working directory for an XML string, and the
+    resource paths, see warpdyn.description.sdf). is_urdf (JaxSim's keyword): True reads the document as a
+    URDF whatever its root; False as MJCF or SDFormat by its root; None detects it.
+
+    fixed_base: None keeps what the description says (a root welded to a `world` link, an MJCF body
+    without a free joint, a static SDF model is a fixed base); True welds the base to the world (an MJCF
+    free joint becomes a weld) at `base_pose`; False frees a base the description welds to the world.
+    base_pose (4, 4): the homogeneous transform W_H_B of the welded base (default: the description's weld,
+    else where it places its floating base (`initial_world_H_base`, SDF), else the identity). A freed SDF
+    base starts where the description welded it (`initial_world_H_base`); a freed URDF or MJCF base at the
+    origin.
 
     Elements of the description that warpdyn does not model (`ModelDescription.not_modelled`: MJCF
-    constraints, tendons, unsupported actuators..., URDF mimic joints) are listed in one
-    `NotModelledWarning`, pointing at the first caller outside warpdyn.
+    constraints, tendons, unsupported actuators..., URDF mimic joints, SDF sensors, plugins, surfaces...)
+    are listed in one `NotModelledWarning`, pointing at the first caller outside warpdyn.
     """
     document, path = _read_document(model_description)
     where = f"'{path}'" if path else "the given XML document"
@@ -99,13 +113,13 @@ def load(
     except ET.ParseError as error:
         raise ValueError(f"{where} is not well-formed XML: {error}") from None
     if is_urdf is None:
-        if root.tag == "robot":
-            is_urdf = True
-        elif root.tag == "mujoco":
-            is_urdf = False
-        else:
-            raise ValueError(f"{where} has root element <{root.tag}>: expected <robot> (URDF) or <mujoco> (MJCF)")
-    if not is_urdf and path is not None:
+        if root.tag not in ("robot", "mujoco", "sdf"):
+            raise ValueError(
+                f"{where} has root element <{root.tag}>: expected <robot> (URDF), <mujoco> (MJCF) or <sdf> (SDFormat)"
+            )
+        is_urdf = root.tag == "robot"
+    is_sdf = not is_urdf and root.tag == "sdf"
+    if not is_urdf and not is_sdf and path is not None:
         try:
             document.decode("utf-8")
         except UnicodeDecodeError as error:  # MuJoCo reads a file's bytes as UTF-8, whatever it declares
@@ -113,7 +127,12 @@ def load(
                 f"{where} is not UTF-8 (byte {error.start}): MuJoCo reads MJCF files as UTF-8; save it as UTF-8, or pass its "
                 "text (a str) instead of its path"
             ) from None
-    description = load_urdf(document, where) if is_urdf else load_mjcf(root, path, where)
+    if is_urdf:
+        description = load_urdf(document, where)
+    elif is_sdf:
+        description = load_sdf(root, path, where)
+    else:
+        description = load_mjcf(root, path, where)
     description.path = path
     check_description(description, where)
     description = _with_base(description, fixed_base, base_pose, where)
@@ -137,8 +156,10 @@ def _with_base(description: ModelDescription, fixed_base: bool | None, base_pose
             description.world_H_base = H
         return description
     if fixed_base:
+        placed = description.initial_world_H_base
         description.fixed_base = True
-        description.world_H_base = np.eye(4) if base_pose is None else H
+        description.world_H_base = H if base_pose is not None else (np.eye(4) if placed is None else placed)
+        description.initial_world_H_base = None
         return description
     if description.base == "world":
         raise ValueError(
@@ -146,6 +167,8 @@ def _with_base(description: ModelDescription, fixed_base: bool | None, base_pose
             "base to free"
         )
     description.fixed_base = False
+    if description.source == "sdf":  # SDF says where the model is: the freed base starts there
+        description.initial_world_H_base = description.world_H_base
     description.world_H_base = np.eye(4)
     return description
 
