@@ -5,6 +5,12 @@
   iCub Tech (https://github.com/icub-tech-iit/ergocub-software), BSD-3-Clause: its licence text is
   `LICENSE.ergoCub` beside the file. Meshes are not included: its collision boxes and spheres give the
   collidable points; its mesh URIs (`package://ergoCub/...`) stay unresolved.
+- `ergocub_sdf()`: the same robot as Gazebo's URDF-to-SDF converter writes it (SDFormat 1.9, same licence,
+  `LICENSE.ergoCub`): the same links, joints and dynamics as the URDF (tests/test_sdf.py checks M, h, ABA and
+  poses to 1e-12), with 8 fixed joints kept (the force-torque sensors': their child links become frames) and
+  the URDF's other fixed links lumped away by the converter, without `<frame>`s: its model has 8 frames where
+  the URDF's has 146. The model's `<pose>` (0, 0, 0.8) is the default base pose of `Data.build`. Its sensors,
+  Gazebo plugins, ODE joint settings and contact surfaces are not modelled (one NotModelledWarning at load).
 - `example_robot_data_urdf(robot)`: a URDF of the pip package example-robot-data (Gepetto, LAAS-CNRS;
   BSD-3-Clause; `pip install example-robot-data`, a cmeel wheel that puts the files under
   `<site-packages>/cmeel.prefix/share/example-robot-data/robots/`). Not shipped with warpdyn: found in the
@@ -48,6 +54,7 @@ import pathlib
 
 __all__ = [
     "ergocub_urdf",
+    "ergocub_sdf",
     "ERGOCUB_LEG_JOINTS",
     "example_robot_data_urdf",
     "GO1_JOINTS",
@@ -80,6 +87,12 @@ ERGOCUB_LEG_JOINTS = (
 def ergocub_urdf() -> pathlib.Path:
     """The path of the shipped ergoCubSN001 URDF (a file inside the installed package)."""
     return _HERE / "ergoCubSN001.urdf"
+
+
+def ergocub_sdf() -> pathlib.Path:
+    """The path of the shipped ergoCubSN001 SDF (SDFormat 1.9, Gazebo's conversion of the URDF; a file inside
+    the installed package)."""
+    return _HERE / "ergoCubSN001.sdf"
 
 
 # ------------------------------------------------------------------------------------ example-robot-data
