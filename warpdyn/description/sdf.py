@@ -644,11 +644,12 @@ class _Reader(FrameGraph):
                                      origin=self.transform(self.world, node_of[root]))
                 )
             world_jointed = True
-        elif world_jointed and roots:
-            raise ValueError(
-                f"{where}: model '{top.name}' has links jointed to the world and also the floating roots {roots}: several "
-                "trees (not supported yet)"
-            )
+        elif world_jointed:
+            if roots:
+                raise ValueError(
+                    f"{where}: model '{top.name}' has links jointed to the world and also the floating roots {roots}: several "
+                    "trees (not supported yet)"
+                )
         elif len(roots) != 1:
             raise ValueError(
                 f"{where}: model '{top.name}' has {len(roots)} kinematic roots {roots} (links that are no joint's child): "
