@@ -26,6 +26,11 @@ tape (`fused_applies`): [FK, force conversion] (if link forces not Inertial), th
 (kernels/fused_step.py, the joint forces included), on one thread per environment or, on a GPU for few
 environments, on one thread per group of the model's walk (warpdyn.engine.fused_layout).
 
+Checked on the host, once per model version (when the plan is built): the stability of the contact
+deformation, dt K / D below the integrator's limit (DEFORMATION_STABILITY), only where the scene can have
+contacts: enabled collidable points, and a floating base or a point that can reach the terrain from the
+welded base (warpdyn.engine.stability); stiff parameters that never act are not refused.
+
 Gradients with respect to model parameters (warpdyn.types.parameters). Every parameter a step reads is an
 array the user holds: the model bundle holds the model's own arrays, and the contact K, D, mu and the
 terrain's heights are read in place when they are Warp arrays (numbers and NumPy arrays are copied when
@@ -59,13 +64,13 @@ from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import IntegratorType, VelRepr
 from ..types.data_checks import check_data, passes_like
 from ..types.parameters import MODEL_ARRAYS
-from ..types.settings import host_values
 from ..types.terrain import FlatTerrain, HeightfieldTerrain
 from . import fused_layout, tape
 from .bundles import controls_bundle, empty_like_input, model_bundle, state_bundle
 from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
 from .loading import block_size
+from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, contact_reach
 
 __all__ = [
     "DEFORMATION_STABILITY",
@@ -87,28 +92,9 @@ __all__ = [
     "broadcast_envs",
     "terrain_bundle",
     "check_deformation_stability",
+    "ContactReach",
+    "contact_reach",
 ]
-
-DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.SemiImplicitEulerSO3: 2.0, IntegratorType.RungeKutta4: 2.785}
-"""Stability limits of dt K / D: the tangential deformation relaxes as m_dot = -(K / D) m (out of contact,
-and for p = q in contact), which explicit Euler integrates stably for dt K / D < 2 and RK4 for
-dt K / D < 2.785 (its stability region on the negative real axis). Beyond, m grows geometrically while
-staying finite for many steps, so no health check would catch it: `step` refuses such settings."""
-
-
-def check_deformation_stability(time_step: float, K, D, integrator) -> None:
-    """A ValueError when dt K / D reaches the integrator's stability limit (DEFORMATION_STABILITY)."""
-    rate = float(np.max(host_values(K) / host_values(D)))
-    integrator = IntegratorType(integrator)
-    limit = DEFORMATION_STABILITY[integrator]
-    if time_step * rate >= limit:
-        raise ValueError(
-            f"time_step {time_step} s with contact K/D = {rate:.4g} 1/s gives dt K/D = {time_step * rate:.3g}, "
-            f"beyond the stability limit {limit} of {integrator.name} for the tangential "
-            f"deformation: take time_step < {limit / rate:.3g} s, or a smaller K (a larger D also lowers K/D but makes "
-            "the explicit contact damping less stable: README, 'Speed and accuracy')"
-        )
-
 
 def per_env(value, name, scalar, device, owner="SoftContactsParams") -> wp.array:
     """A parameter shared (1,) or per environment (N,) as the kernels read it: a Warp array is the user's,
@@ -218,8 +204,10 @@ class Plan:
         self.contacts = self.count > 0
         self.poses = self.contacts or self.gravcomp  # an evaluation runs FK
         c = model.contact_params
-        if self.contacts:
-            check_deformation_stability(model.time_step, c.K, c.D, model.integrator)
+        # the stability of the deformation, where the points can touch the terrain (contact_reach)
+        reach = contact_reach(model) if self.contacts else ContactReach(0.0, False, "")
+        if reach.may_touch:
+            check_deformation_stability(model.time_step, c.K, c.D, model.integrator, reach.why)
         L_p_C = np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3)
         contacts = self.contact_bundle = B.Contacts()
         contacts.point_link = wp.array(links.astype(np.int32), dtype=int, device=d)
