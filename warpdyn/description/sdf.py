@@ -433,24 +433,17 @@ class _Reader(FrameGraph):
             block = inertial.find("inertia")
             if block is None:
                 defaults.append("<inertia>")
-            values = {}
+            v = {}
             for key, default in (("ixx", 1.0), ("ixy", 0.0), ("ixz", 0.0), ("iyy", 1.0), ("iyz", 0.0), ("izz", 1.0)):
                 entry = block.find(key) if block is not None else None
                 if block is not None and entry is None and default != 0.0:  # a missing product of inertia is 0
                     defaults.append(f"<{key}>")
-                values[key] = number(entry, f"link '{name}' <inertia><{key}>", where, default)
-            I = np.array(
-                [
-                    [values["ixx"], values["ixy"], values["ixz"]],
-                    [values["ixy"], values["iyy"], values["iyz"]],
-                    [values["ixz"], values["iyz"], values["izz"]],
-                ]
-            )
+                v[key] = number(entry, f"link '{name}' <inertia><{key}>", where, default)
+            I = np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]], [v["ixz"], v["iyz"], v["izz"]]])
             if inertial.find("fluid_added_mass") is not None:
                 self.note(FLUID_ADDED_MASS, name)
-            for child in inertial:
-                if child.tag not in ("mass", "pose", "inertia", "fluid_added_mass", "density", "auto_inertia_params"):
-                    self.note(OTHER, f"link '{name}' <inertial><{child.tag}>")
+            read = ("mass", "pose", "inertia", "fluid_added_mass", "density", "auto_inertia_params")
+            self.others(inertial, "link", name, where, read)
         if defaults:
             self.note(DEFAULT_INERTIAL, f"{name} ({', '.join(defaults)})")
         link.mass = mass
@@ -469,9 +462,8 @@ class _Reader(FrameGraph):
         H, relative_to = self.pose_of(element, where, f"collision '{label}'")
         if relative_to:
             H = self.transform(link, self.lookup(scope, relative_to, f"collision '{label}' <pose relative_to>")) @ H
-        for child in element:
-            if child.tag in ("surface", "max_contacts", "laser_retro"):
-                self.note(SURFACES, label)
+        if any(element.find(tag) is not None for tag in ("surface", "max_contacts", "laser_retro")):
+            self.note(SURFACES, label)
         read = ("pose", "geometry", "density", "auto_inertia_params", "surface", "max_contacts", "laser_retro")
         self.others(element, "collision", label, where, read)
         geometry = element.find("geometry")
@@ -610,6 +602,8 @@ class _Reader(FrameGraph):
                 f"{where}: the static models {nested_static} are welded to the world inside the floating model '{top.name}': "
                 "several trees (not supported yet)"
             )
+        for node in (*self.models, *self.links, *self.joints, *self.frames):
+            self.transform(self.world, node)  # every pose resolves: unknown relative_to and cycles are refused, used or not
         links = [self.link_description(node) for node in self.links]
         if any(link.name == "world" for link in links):
             raise ValueError(f"{where}: a link is named 'world', which SDFormat reserves")
@@ -636,6 +630,11 @@ class _Reader(FrameGraph):
             )
         roots = [link.name for link in links if link.name not in children]
         world_jointed = any(j.parent == "world" for j in joints)
+        if not roots and not world_jointed and links:
+            raise ValueError(
+                f"{where}: every link of model '{top.name}' is a joint's child: its joints {[j.name for j in joints]} close a "
+                "kinematic loop (warpdyn's trees cannot hold one)"
+            )
         node_of = {node.name: node for node in self.links}
         if top.static:
             for root in roots:
