@@ -303,14 +303,13 @@ def run_tour(
     shape(say, "G_Xf_C", G_Xf_C, "per point: the transform of a 6D force from the point's frame C to G")
     # Random 3D linear forces applied to the contact points (in C, i.e. in the link's axes).
     C_fl = rng.uniform(-10.0, 10.0, size=(*batch, n_cp, 3))
-    # The total mass of the robot and the gravity: JaxSim's model.gravity is -9.81 (the z component),
-    # warpdyn's is the magnitude 9.81 (acting along -z).
+    # The total mass of the robot and the gravity: model.gravity is the world's z component, -9.81, as JaxSim's.
     m = wd.model.total_mass(model)
     # The centroidal dynamics can be computed as follows. (The notebook's einsum "c66,c6->6" repeats a
     # subscript, which takes the diagonal of each G_Xf_C; the sum over the points of G_Xf_C @ C_f is
     # "cij,cj->i".)
     G_ḣ = np.zeros((*batch, 6))
-    G_ḣ += m * np.array([0.0, 0.0, -model.gravity, 0.0, 0.0, 0.0])
+    G_ḣ += m * np.array([0.0, 0.0, model.gravity, 0.0, 0.0, 0.0])
     G_ḣ += np.einsum("...cij,...cj->...i", G_Xf_C, np.concatenate([C_fl, np.zeros_like(C_fl)], axis=-1))
     shape(say, "G_ḣ", G_ḣ, "the rate of the centroidal momentum: gravity plus random point forces")
     out.update(n_cp=n_cp, J_CMM=J_CMM, G_h=G_h, W_p_CoM=W_p_CoM, G_H_W=G_H_W, G_Xf_C=G_Xf_C, C_fl=C_fl, m=m, G_ḣ=G_ḣ)

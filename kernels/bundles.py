@@ -49,7 +49,7 @@ def bundles(scalar) -> types.SimpleNamespace:
         pair_j: wp.array(dtype=int)  # (P,) (j == k included)
         zero_k: wp.array(dtype=int)  # (Z,) with zero_j: the joint pairs where neither joint moves the
         zero_j: wp.array(dtype=int)  # (Z,) other's link (a zero in the mass matrix)
-        gravity: scalar  # [m/s^2], along -z of the world
+        gravity: scalar  # [m/s^2] its magnitude, pulling along -z of the world (the model's `gravity` is the z component, -9.81)
         floating_base: int  # 1 floating, 0 welded
         # actuators (na): joint_actuator[k] for k in joint_actuator_start[j] .. joint_actuator_start[j + 1] - 1
         # are joint j's

@@ -272,3 +272,35 @@ def kernels(scalar, terrain_kind: int | None = None):
         link_contact_wrench=link_contact_wrench,
         link_contact_forces=link_contact_forces,
     )
+
+
+@factory
+def points_kernel(scalar):
+    """`hunt_crossley_points`: the law at independent points (warpdyn.types.contact_models' host functions)."""
+    law = kernels(scalar)
+    vec3 = wp.types.vector(3, scalar)
+
+    @wp.kernel(module="unique")
+    def hunt_crossley_points(
+        p: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+        m: wp.array(dtype=vec3),
+        h: wp.array(dtype=scalar),
+        n: wp.array(dtype=vec3),
+        K: scalar,
+        D: scalar,
+        mu: scalar,
+        pe: scalar,
+        qe: scalar,
+        # outputs
+        f: wp.array(dtype=vec3),
+        m_dot: wp.array(dtype=vec3),
+    ):
+        """The law (`hunt_crossley`) at each point: one thread per point."""
+        i = wp.tid()
+        fi, mi = law.hunt_crossley(p[i], v[i], m[i], h[i], n[i], K, D, mu, pe, qe)
+        f[i] = fi
+        m_dot[i] = mi
+
+    return hunt_crossley_points
+

@@ -288,7 +288,7 @@ def test_seed_centroidal_cell_17(dtype):
     np.testing.assert_allclose(G_Xf_C, ref, rtol=0, atol=_tol(dtype, ref))
     C_fl = np.random.default_rng(0).uniform(-10.0, 10.0, size=(n_cp, 3))
     G_hdot = 0
-    G_hdot += wd.model.total_mass(model) * np.hstack([0, 0, -model.gravity, 0, 0, 0])
+    G_hdot += wd.model.total_mass(model) * np.hstack([0, 0, model.gravity, 0, 0, 0])
     # The seed writes einsum("c66,c6->6", ...): JAX reads the repeated "6" as a diagonal; NumPy needs
     # letters. The port contracts the matrix with the force, which is what the cell means.
     G_hdot += np.einsum("cij,cj->i", G_Xf_C, np.hstack([C_fl, np.zeros_like(C_fl)]))

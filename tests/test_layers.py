@@ -44,6 +44,13 @@ API = {
     "warpdyn.simulation",
     "warpdyn.terrain",
     "warpdyn.math",
+    "warpdyn.common",
+    "warpdyn.ode",
+    "warpdyn.integrators",
+    "warpdyn.actuation_model",
+    "warpdyn.kin_dyn_parameters",
+    "warpdyn.rbda",
+    "warpdyn.rbda.contacts",
 }
 BRIDGES = {"warpdyn.torch", "warpdyn.visualization"}
 LEAVES = {"warpdyn.assets", "warpdyn.config"}  # import nothing of warpdyn: any layer may use them

@@ -262,7 +262,7 @@ def test_mujoco_options_and_disable_flags_are_followed():
     actuation and clampctrl flags switch the same terms off as in MuJoCo (checked through the passive and
     actuator forces and an Euler step against MuJoCo on the same XML); eulerdamp makes damping explicit."""
     model = build(mm.OPTIONS)
-    assert (model.gravity, model.time_step, model.implicit_damping) == (3.0, 0.004, True)
+    assert (model.gravity, model.time_step, model.implicit_damping) == (-3.0, 0.004, True)
     rk4 = build(mm.OPTIONS.replace('integrator="Euler"', 'integrator="RK4"'))
     assert rk4.integrator == wd.model.IntegratorType.RungeKutta4 and not rk4.implicit_damping
     flags = ['spring="disable"', 'damper="disable"', 'gravity="disable"', 'actuation="disable"', 'clampctrl="disable"', 'eulerdamp="disable"']

@@ -25,8 +25,23 @@ import numpy as np
 import warp as wp
 
 from .kernels.math_funcs import functions
+from .types.model import STANDARD_GRAVITY
 
-__all__ = ["Skew", "Cross", "Quaternion", "Rotation", "Transform", "Adjoint", "Inertia", "functions"]
+__all__ = [
+    "STANDARD_GRAVITY",
+    "Skew",
+    "Cross",
+    "Quaternion",
+    "Rotation",
+    "Transform",
+    "Adjoint",
+    "Inertia",
+    "JointModel",
+    "safe_norm",
+    "supported_joint_motion",
+    "functions",
+]
+
 
 
 def _array(x, name: str, last: tuple) -> np.ndarray:
@@ -209,6 +224,31 @@ class Rotation:
         return eye + np.sin(theta) * K + (1.0 - np.cos(theta)) * (K @ K)
 
 
+    @staticmethod
+    def log_vee(R) -> np.ndarray:
+        """The rotation vector (..., 3) of rotation matrices R (..., 3, 3): axis times angle in [0, pi], the
+        logarithm of SO(3) (the inverse of `from_axis_angle`). Near pi the axis comes from R + R^T
+        (accurate to the rounding of R), elsewhere from the skew part over sin(angle)."""
+        R = _array(R, "R", (3, 3))
+        cos = np.clip(0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0), -1.0, 1.0)
+        angle = np.arccos(cos)
+        skew = Skew.vee(R)  # sin(angle) * axis
+        sin = np.sin(angle)
+        small = angle < 1e-6
+        scale = np.where(small, 1.0 + angle**2 / 6.0, angle / np.where(small, 1.0, sin))
+        out = scale[..., None] * skew
+        near_pi = angle > np.pi - 1e-3
+        if np.any(near_pi):
+            # (R + R^T) / 2 = cos I + (1 - cos) a a^T: the axis from its largest diagonal entry's column
+            S = 0.5 * (R + np.swapaxes(R, -1, -2)) - cos[..., None, None] * np.eye(3)
+            column = np.argmax(np.diagonal(S, axis1=-2, axis2=-1), axis=-1)
+            axis = np.take_along_axis(S, column[..., None, None], axis=-1)[..., 0]
+            axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
+            axis *= np.where(np.sum(axis * skew, axis=-1, keepdims=True) < 0.0, -1.0, 1.0)  # the sign of sin * axis
+            out = np.where(near_pi[..., None], angle[..., None] * axis, out)
+        return out
+
+
 class Transform:
     """Homogeneous transforms A_H_B (..., 4, 4)."""
 
@@ -309,3 +349,31 @@ class Inertia:
         c = Skew.vee(mC) / m[..., None]
         I = M[..., 3:, 3:] - mC @ np.swapaxes(mC, -1, -2) / m[..., None, None]
         return m, c, I
+
+
+def safe_norm(array, *, axis=None, keepdims: bool = False) -> np.ndarray:
+    """The Euclidean norm of `array` over `axis` (all axes when None), 0 for a zero array: JaxSim's norm
+    whose gradient is finite at 0 (NumPy computes no gradient; in kernels, `functions(scalar)` has
+    `safe_norm`)."""
+    a = _array(array, "array", ())
+    return np.sqrt(np.sum(a * a, axis=axis, keepdims=keepdims))
+
+
+def supported_joint_motion(joint_types, joint_positions, joint_axes) -> np.ndarray:
+    """pre_H_suc (..., 4, 4): the motion of joints of `joint_types` (...) (0 fixed, 1 revolute, 2 prismatic,
+    JaxSim's codes) at `joint_positions` (...) [rad or m] along the unit `joint_axes` (..., 3): a rotation
+    by q about the axis, a translation by q along it, or the identity."""
+    types = np.asarray(joint_types)
+    q = _array(joint_positions, "joint_positions", ())
+    axes = _array(joint_axes, "joint_axes", (3,))
+    batch = np.broadcast_shapes(types.shape, q.shape, axes.shape[:-1])
+    types, q, axes = np.broadcast_to(types, batch), np.broadcast_to(q, batch), np.broadcast_to(axes, (*batch, 3))
+    unknown = sorted(set(np.unique(types).tolist()) - {0, 1, 2})
+    if unknown:
+        raise ValueError(f"joint_types must be 0 (fixed), 1 (revolute) or 2 (prismatic), got {unknown}")
+    H = np.zeros((*batch, 4, 4), dtype=np.result_type(q, axes))
+    H[...] = np.eye(4)
+    revolute, prismatic = types == 1, types == 2
+    H[..., :3, :3] = np.where(revolute[..., None, None], Rotation.from_axis_angle(q[..., None] * axes), H[..., :3, :3])
+    H[..., :3, 3] = np.where(prismatic[..., None], q[..., None] * axes, 0.0)
+    return H

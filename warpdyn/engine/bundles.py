@@ -44,7 +44,7 @@ def _build_model_bundle(model):
     bundle.actuator_joint = model.actuator_joint
     bundle.joint_actuator = model.joint_actuator
     bundle.joint_actuator_start = model.joint_actuator_start
-    bundle.gravity = model.scalar(model.gravity)
+    bundle.gravity = model.scalar(-model.gravity)  # the kernels' magnitude along -z; model.gravity is JaxSim's z component
     bundle.floating_base = int(model.floating_base())
     per_env = model.per_environment_parameters()
     for name in _PARAMETERS:

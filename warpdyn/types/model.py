@@ -23,130 +23,24 @@ import warp as wp
 from .. import arrays
 from ..description import ModelDescription, load
 from ..description.collidable import warn_without_points
-from ..description.tree import JOINT_PRISMATIC, JOINT_REVOLUTE, KinematicTree, build_tree
+from ..description.tree import KinematicTree, build_tree
+from .contact_models import SoftContacts
 from .enums import IntegratorType
-from .kin_dyn import KinDynParameters
+from .kin_dyn import JointModel, JointParameters, KinDynParameters, LinkParameters
+from .model_constants import joint_motion_terms, quaternion_xyzw, sibling_chains, transforms
+from .model_settings import ModelSettings
 from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter
 from .settings import ActuationParams, SoftContactsParams
-from .terrain import FlatTerrain, HeightfieldTerrain, PlaneTerrain
+from .terrain import FlatTerrain, HeightfieldTerrain
 
-__all__ = ["Model", "SCALARS", "transforms", "quaternion_xyzw"]
+__all__ = ["Model", "SCALARS", "STANDARD_GRAVITY", "transforms", "quaternion_xyzw"]
 
 SCALARS = {np.dtype(np.float32): wp.float32, np.dtype(np.float64): wp.float64}
+
+STANDARD_GRAVITY = 9.81
+"""JaxSim's standard gravity [m/s^2] (warpdyn.math.STANDARD_GRAVITY): the magnitude of a model's gravity
+unless its description or the builder says otherwise."""
 """The NumPy dtypes a model computes in, and their Warp scalars."""
-
-
-def transforms(H: np.ndarray, scalar, device) -> wp.array:
-    """Warp transforms (p, quaternion xyzw) of homogeneous matrices (K, 4, 4)."""
-    H = np.asarray(H, dtype=np.float64).reshape(-1, 4, 4)
-    rows = np.zeros((len(H), 7))
-    for k, M in enumerate(H):
-        rows[k, :3] = M[:3, 3]
-        rows[k, 3:] = quaternion_xyzw(M[:3, :3])
-    return wp.array(rows, dtype=wp.types.transformation(scalar), device=device)
-
-
-def quaternion_xyzw(R: np.ndarray) -> np.ndarray:
-    """Unit quaternion (x, y, z, w) of a rotation matrix (Shepperd's method)."""
-    t = np.trace(R)
-    if t > 0.0:
-        s = 2.0 * np.sqrt(1.0 + t)
-        q = [(R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, 0.25 * s]
-    else:
-        i = int(np.argmax(np.diag(R)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * np.sqrt(max(1.0 + R[i, i] - R[j, j] - R[k, k], 1e-300))
-        q = [0.0, 0.0, 0.0, (R[k, j] - R[j, k]) / s]
-        q[i] = 0.25 * s
-        q[j] = (R[j, i] + R[i, j]) / s
-        q[k] = (R[k, i] + R[i, k]) / s
-    q = np.asarray(q)
-    return q / np.linalg.norm(q)
-
-
-def joint_motion_terms(tree: KinematicTree) -> dict[str, np.ndarray]:
-    """Each link's joint as the kernels move it (kernels/bundles.py's Model): link i in its parent at joint
-    position q, X_tree M(q) (warpdyn.description's joint_motion), is (t0 + alpha t1 + beta t2, c Q0 + s Q1) with
-    the joint's coefficients (c, s, alpha, beta) (kernels/spatial.py's joint_coefficients), and S its motion
-    subspace. With X_tree = (p, A):
-    - revolute, unit axis a through the pivot d (Rodrigues' formula, d_perp = d - (a.d) a): Q0 = A,
-      Q1 = A (a, 0), t0 = p + A d_perp, t1 = -A d_perp, t2 = -A (a x d), S = [d x a; a];
-    - prismatic along a: Q0 = A, Q1 = 0, t0 = p, t1 = A a, t2 = 0, S = [a; 0];
-    - the base: Q0 = A, t0 = p, the others 0.
-    (nL, 4) quaternions (x, y, z, w), (nL, 3) and (nL, 6) arrays, float64."""
-    nL = tree.number_of_links
-    terms = {name: np.zeros((nL, size)) for name, size in (("Q0", 4), ("Q1", 4), ("t0", 3), ("t1", 3), ("t2", 3), ("S", 6))}
-    for i in range(nL):
-        H = np.asarray(tree.parent_H_joint[i], dtype=np.float64)
-        R, p = H[:3, :3], H[:3, 3]
-        A = quaternion_xyzw(R)
-        a, d = np.asarray(tree.joint_axis[i], dtype=np.float64), np.asarray(tree.joint_pivot[i], dtype=np.float64)
-        terms["Q0"][i] = A
-        terms["t0"][i] = p
-        if tree.joint_type[i] == JOINT_REVOLUTE:
-            d_perp = d - (a @ d) * a
-            terms["Q1"][i] = [*(A[3] * a + np.cross(A[:3], a)), -A[:3] @ a]  # A (a, 0), (x, y, z, w)
-            terms["t0"][i] = p + R @ d_perp
-            terms["t1"][i] = -R @ d_perp
-            terms["t2"][i] = -R @ np.cross(a, d)
-            terms["S"][i] = [*np.cross(d, a), *a]
-        elif tree.joint_type[i] == JOINT_PRISMATIC:
-            terms["t1"][i] = R @ a
-            terms["S"][i] = [*a, 0.0, 0.0, 0.0]
-    return terms
-
-
-def _sibling_chains(parent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """first_child (nL,) and next_sibling (nL,), -1 where there is none; siblings in index order."""
-    first_child = np.full(len(parent), -1, dtype=np.int32)
-    next_sibling = np.full(len(parent), -1, dtype=np.int32)
-    for i in range(len(parent) - 1, 0, -1):
-        next_sibling[i] = first_child[parent[i]]
-        first_child[parent[i]] = i
-    return first_child, next_sibling
-
-
-def _setting(name: str, check, doc: str) -> property:
-    """A model setting: assigning it checks the value (`check` returns it, or raises naming it) and
-    announces the change (Model.notify_model_changed)."""
-    attribute = f"_{name}"
-
-    def get(model):
-        return getattr(model, attribute)
-
-    def put(model, value):
-        setattr(model, attribute, check(value))
-        model.notify_model_changed()
-
-    return property(get, put, doc=doc)
-
-
-def _number(name: str, value, positive: bool) -> float:
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a number, got {value!r}")
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a number, got {value!r}") from None
-    if not np.isfinite(value) or (positive and value <= 0.0):
-        raise ValueError(f"{name} must be {'positive and ' if positive else ''}finite, got {value}")
-    return value
-
-
-def _integrator(value) -> IntegratorType:
-    try:
-        return IntegratorType(value)
-    except ValueError:
-        raise ValueError(f"integrator must be one of {[f'IntegratorType.{k.name}' for k in IntegratorType]}, got {value!r}") from None
-
-
-def _instance(name: str, *kinds):
-    def check(value):
-        if not isinstance(value, kinds):
-            raise TypeError(f"{name} must be a {' or '.join(k.__name__ for k in kinds)}, got {type(value).__name__}")
-        return value
-
-    return check
 
 
 class _ParameterAttribute:
@@ -163,7 +57,7 @@ class _ParameterAttribute:
         return model._values[self.name]
 
 
-class Model:
+class Model(ModelSettings):
     """A robot's constants on a Warp device, in one scalar type (float32 or float64).
 
     Build it with `warpdyn.model.Model.build_from_model_description`. The host-side tree (`model.tree`,
@@ -178,8 +72,10 @@ class Model:
     (`set_link_parameters`) and the joints' `position_limits`, `joint_limit_spring`, `joint_limit_damper`,
     `friction_static`, `friction_viscous` (`set_joint_parameters`), each shared by all environments or
     given per environment (domain randomisation; then the model serves data of those N environments only).
-    Settings of `step`: `terrain`, `contact_params`, `actuation_params`, `integrator`, `time_step` [s],
-    `gravity` [m/s^2, along -z], `quaternion_tolerance`; each checked when assigned.
+    Settings (warpdyn.types.model_settings, each checked when assigned): `terrain`, `contact_model`,
+    `contact_params`, `actuation_params`, `integrator`, `time_step` [s], `gravity` (JaxSim's: the world's z
+    component [m/s^2], -9.81 by default), `quaternion_tolerance`, `implicit_damping`; JaxSim's `replace`,
+    `editable`, `mutable_context`, `built_from` (what the model was built from), equality and hashing.
     """
 
     def __init__(
@@ -193,6 +89,7 @@ class Model:
         dtype,
         device,
     ):
+        """The model of a lumped `tree` of `description`; gravity: its magnitude [m/s^2], pulling along -z."""
         if np.dtype(dtype) not in SCALARS:
             raise TypeError(f"dtype must be np.float32 or np.float64, got {dtype!r}")
         self.description = description
@@ -208,6 +105,7 @@ class Model:
         self._hosts: dict[str, np.ndarray] = {}
         self._per_env: dict[str, int] = {}
         self._kin_dyn: KinDynParameters | None = None
+        self.built_from = None
         s, d = self.scalar, self.device
         vec3 = wp.types.vector(3, s)
         self.parent = wp.array(tree.parent, dtype=int, device=d)
@@ -220,7 +118,7 @@ class Model:
         self.support = wp.array(tree.support().reshape(tree.number_of_links, tree.dofs), dtype=int, device=d)
         self.frame_parent = wp.array(tree.frame_parent, dtype=int, device=d)
         self.link_H_frame = transforms(tree.link_H_frame, s, d)
-        first_child, next_sibling = _sibling_chains(tree.parent)
+        first_child, next_sibling = sibling_chains(tree.parent)
         self.first_child = wp.array(first_child, dtype=int, device=d)
         self.next_sibling = wp.array(next_sibling, dtype=int, device=d)
         self.all_links = wp.array(np.arange(tree.number_of_links), dtype=int, device=d)
@@ -229,9 +127,10 @@ class Model:
         for parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS):
             # the description's inertial values are taken as they are; what a user sets is checked
             self._store(parameter, parameter.default(tree), checked=parameter.group != "link")
-        self.gravity = gravity
+        self.gravity = -float(gravity)
         self.time_step = time_step
         self.terrain = FlatTerrain()
+        self.contact_model = SoftContacts()
         self.contact_params = SoftContactsParams()
         self.integrator = IntegratorType.SemiImplicitEuler
         self.actuation_params = ActuationParams()
@@ -258,26 +157,38 @@ class Model:
         model_description,
         *,
         model_name: str | None = None,
-        considered_joints: list[str] | None = None,
+        time_step: float | None = None,
+        terrain=None,
+        contact_model=None,
+        contact_params=None,
+        actuation_params=None,
+        integrator=None,
         is_urdf: bool | None = None,
+        considered_joints: list[str] | None = None,
+        gravity: float | None = None,
+        constraints=None,
+        parametrized_links=None,
         fixed_base: bool | None = None,
         base_pose=None,
-        gravity: float | None = None,
-        time_step: float | None = None,
         dtype=np.float32,
         device=None,
     ) -> Model:
-        """Build a model from a URDF or MJCF: a path, an XML string or XML bytes (any encoding its XML
-        declaration names).
+        """Build a model from a URDF, SDF or MJCF: a path, an XML string or XML bytes (any encoding its XML
+        declaration names). JaxSim's keywords, and warpdyn's (fixed_base, base_pose, dtype, device).
 
         Fixed joints are lumped (their child links become frames); only `considered_joints` are kept
         when given (the others are locked at 0 and lumped). fixed_base: None keeps the description's base
         (welded to a `world` link, or floating); True welds the base to the world at `base_pose`, a (4, 4)
         homogeneous transform W_H_B [m] (default: the description's weld, else the identity; an MJCF free
-        joint becomes a weld); False frees a base the description welds. gravity [m/s^2] acts along -z of
-        the world; gravity and time_step [s] default to an MJCF's `<option>` (9.81 and 0.001 for a URDF).
-        dtype: np.float32 (the default) or np.float64, the scalar of every computation. device: a Warp
-        device (default: Warp's default device, a GPU when there is one).
+        joint becomes a weld); False frees a base the description welds. gravity: its magnitude [m/s^2]
+        (JaxSim's keyword; `model.gravity` is then -gravity, the world's z component), pulling along -z;
+        gravity and time_step [s] default to the description's (MJCF `<option>`, SDF `<world>`), else 9.81
+        and 0.001. terrain, contact_model, contact_params, actuation_params, integrator: the settings
+        (defaults: FlatTerrain, SoftContacts, SoftContactsParams(), ActuationParams(), SemiImplicitEuler or
+        MuJoCo's). constraints and parametrized_links: JaxSim's kinematic constraints and hardware
+        parametrisation, not in warpdyn yet (anything but None: NotImplementedError). dtype: np.float32 (the
+        default) or np.float64, the scalar of every computation. device: a Warp device (default: Warp's
+        default device, a GPU when there is one). `model.built_from` keeps `model_description`.
 
         From an MJCF, the model also takes MuJoCo's integrator (RK4 as RungeKutta4; Euler, implicit and
         implicitfast as SemiImplicitEulerSO3, MuJoCo's Euler, with the joints' damping implicit unless
@@ -289,40 +200,71 @@ class Model:
         if np.dtype(dtype) not in SCALARS:
             raise TypeError(f"dtype must be np.float32 or np.float64, got {dtype!r}")
         description = load(model_description, is_urdf=is_urdf, fixed_base=fixed_base, base_pose=base_pose)
-        tree = build_tree(description, considered_joints)
-        disabled = description.disabled
-        if gravity is None:
-            gravity = 0.0 if "gravity" in disabled else description.gravity if description.gravity is not None else 9.81
-        if time_step is None:
-            time_step = description.time_step if description.time_step is not None else 0.001
-        model = cls(
+        model = cls.build(
             description,
+            model_name=model_name,
+            time_step=time_step,
+            terrain=terrain,
+            contact_model=contact_model,
+            contact_params=contact_params,
+            actuation_params=actuation_params,
+            integrator=integrator,
+            considered_joints=considered_joints,
+            gravity=gravity,
+            constraints=constraints,
+            parametrized_links=parametrized_links,
+            dtype=dtype,
+            device=device,
+        )
+        model.built_from = model_description
+        if model.floating_base():
+            warn_without_points(model.model_name, model.tree, stacklevel=2)
+        return model
+
+    @classmethod
+    def build(
+        cls,
+        model_description: ModelDescription,
+        *,
+        model_name: str | None = None,
+        time_step: float | None = None,
+        terrain=None,
+        contact_model=None,
+        contact_params=None,
+        actuation_params=None,
+        integrator=None,
+        considered_joints: list[str] | None = None,
+        gravity: float | None = None,
+        constraints=None,
+        parametrized_links=None,
+        dtype=np.float32,
+        device=None,
+    ) -> Model:
+        """Build a model from a parsed description (warpdyn.description.ModelDescription, as `load` returns
+        it; JaxSim's `build` takes its own parsed description). Keywords: see `build_from_model_description`."""
+        for name, value in (("constraints", constraints), ("parametrized_links", parametrized_links)):
+            if value is not None:
+                raise NotImplementedError(f"{name}: JaxSim's kinematic constraints and hardware parametrisation are not in warpdyn yet (docs/porting.md)")
+        if not isinstance(model_description, ModelDescription):
+            raise TypeError(f"model_description must be a warpdyn ModelDescription (build_from_model_description reads files), got {type(model_description).__name__}")
+        tree = build_tree(model_description, considered_joints)
+        disabled = model_description.disabled
+        if gravity is None:
+            gravity = 0.0 if "gravity" in disabled else model_description.gravity if model_description.gravity is not None else STANDARD_GRAVITY
+        if time_step is None:
+            time_step = model_description.time_step if model_description.time_step is not None else 0.001
+        model = cls(
+            model_description,
             tree,
-            model_name=model_name if model_name is not None else description.name,
+            model_name=model_name if model_name is not None else model_description.name,
             gravity=gravity,
             time_step=time_step,
             dtype=dtype,
             device=device,
         )
-        if model.floating_base():
-            warn_without_points(model.model_name, tree, stacklevel=2)
+        settings = {"terrain": terrain, "contact_model": contact_model, "contact_params": contact_params, "actuation_params": actuation_params, "integrator": integrator}
+        model.apply_settings(**{k: v for k, v in settings.items() if v is not None})
         return model
-
-    def _follow_mujoco(self, integrator: str, disabled: frozenset) -> None:
-        """MuJoCo's integrator and disable flags (see build_from_model_description)."""
-        self.integrator = IntegratorType.RungeKutta4 if integrator == "RK4" else IntegratorType.SemiImplicitEulerSO3
-        self.implicit_damping = integrator != "RK4" and not {"eulerdamp", "damper"} & disabled
-        n, nL, na = self.dofs(), self.number_of_links(), self.number_of_actuators()
-        if "spring" in disabled:
-            self.set_joint_parameters(stiffness=np.zeros(n))
-        if "damper" in disabled:
-            self.set_joint_parameters(damping=np.zeros(n))
-        if "gravity" in disabled or {"spring", "damper"} <= disabled:
-            self.set_link_parameters(gravcomp_mass=np.zeros(nL))
-        if "actuation" in disabled:
-            self.set_actuator_parameters(gain=np.zeros((na, 3)), bias=np.zeros((na, 3)))
-        if "clampctrl" in disabled:
-            self.set_actuator_parameters(ctrl_range=np.tile([-np.inf, np.inf], (na, 1)))
 
     # Changes and caches --------------------------------------------------------------------------
 
@@ -362,29 +304,6 @@ class Model:
         return new
 
     __copy__ = copy
-
-    # Settings (each checked when assigned) --------------------------------------------------------
-
-    gravity = _setting(
-        "gravity", lambda v: _number("gravity", v, positive=False), "The magnitude of gravity [m/s^2], acting along -z of the world."
-    )
-    time_step = _setting("time_step", lambda v: _number("time_step", v, positive=True), "The step's time step [s].")
-    quaternion_tolerance = _setting(
-        "quaternion_tolerance",
-        lambda v: _number("quaternion_tolerance", v, positive=True),
-        "A step whose base quaternion changes by more than this (a norm) flags the environment invalid.",
-    )
-    integrator = _setting("integrator", _integrator, "The step's integrator (IntegratorType).")
-    terrain = _setting("terrain", _instance("terrain", FlatTerrain, PlaneTerrain, HeightfieldTerrain), "The terrain (warpdyn.terrain).")
-    contact_params = _setting("contact_params", _instance("contact_params", SoftContactsParams), "The soft contacts' parameters.")
-    actuation_params = _setting("actuation_params", _instance("actuation_params", ActuationParams), "The torque-speed curve.")
-    implicit_damping = _setting(
-        "implicit_damping",
-        _instance("implicit_damping", bool),
-        "Whether the Euler integrators (SemiImplicitEuler, SemiImplicitEulerSO3) integrate the joints' `damping` "
-        "implicitly, as MuJoCo's Euler, (M + dt diag(damping)) ν̇ = f; RK4 integrates it explicitly, as MuJoCo's. MJCF models start with "
-        "MuJoCo's choice (its eulerdamp flag), URDF models with False.",
-    )
 
     # Parameters ----------------------------------------------------------------------------------
 
@@ -556,23 +475,75 @@ class Model:
 
     @property
     def kin_dyn_parameters(self) -> KinDynParameters:
-        """JaxSim's `kin_dyn_parameters` (host-side, NumPy): `.contact_parameters` (body, point, enabled of
-        the collidable points), `.frame_parameters`, `.link_names`, `.parent_array`, `.support_body_array_bool`.
+        """JaxSim's `kin_dyn_parameters` (host-side, NumPy, warpdyn.types.kin_dyn): `.contact_parameters`
+        (body, point, enabled of the collidable points), `.frame_parameters`, `.link_names`, `.parent_array`,
+        `.support_body_array_bool`, `.joint_model`, and `.link_parameters` and `.joint_parameters`: a
+        snapshot of the model's parameters now (taken once per model version). Change them through a copy
+        (`kin_dyn_parameters.set_link_mass(...)`) and `model.replace(kin_dyn_parameters=...)`, as in JaxSim,
+        or with the setters.
 
-        Built on first use with the default `warpdyn.contact.CollidablePointsOptions`; see
-        `warpdyn.contact.with_collidable_points` for other options or enabled points.
+        The collidable points are made on first use with the default `warpdyn.contact.CollidablePointsOptions`;
+        see `warpdyn.contact.with_collidable_points` for other options or enabled points.
         """
         if self._kin_dyn is None:
             with self._lock:
                 if self._kin_dyn is None:
                     self._kin_dyn = KinDynParameters.build(self)
-        return self._kin_dyn
+        return self.cached("kin_dyn_parameters", self._kin_dyn_snapshot)
+
+    def _kin_dyn_snapshot(self) -> KinDynParameters:
+        hosts, nL, n = self._hosts, self.number_of_links(), self.dofs()
+        links = LinkParameters.build_from_inertial_parameters(np.arange(nL), hosts["link_mass"], hosts["link_inertia"], hosts["link_com"])
+        limits = hosts["position_limits"]
+        joints = JointParameters(
+            index=np.arange(1, n + 1),
+            friction_static=hosts["friction_static"].copy(),
+            friction_viscous=hosts["friction_viscous"].copy(),
+            position_limits_min=limits[..., 0].copy(),
+            position_limits_max=limits[..., 1].copy(),
+            position_limit_spring=hosts["joint_limit_spring"].copy(),
+            position_limit_damper=hosts["joint_limit_damper"].copy(),
+        )
+        return dataclasses.replace(self._kin_dyn, joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints)
+
+    def apply_kin_dyn_parameters(self, params: KinDynParameters) -> None:
+        """Set the link and joint parameters `params` holds (when it has them) and use its collidable points
+        (what `replace(kin_dyn_parameters=...)` does). A ValueError when it is another model's structure."""
+        if not isinstance(params, KinDynParameters):
+            raise TypeError(f"kin_dyn_parameters must be a KinDynParameters, got {type(params).__name__}")
+        if params.link_names != self.link_names() or params != self.kin_dyn_parameters:
+            raise ValueError(f"kin_dyn_parameters describe links {list(params.link_names)[:4]}..., not model '{self.name()}''s structure")
+        self._kin_dyn = dataclasses.replace(params, joint_model=None, link_parameters=None, joint_parameters=None)
+        links, joints = params.link_parameters, params.joint_parameters
+        if links is not None:
+            self.set_link_parameters(mass=links.mass, com=links.center_of_mass, inertia=LinkParameters.inertia_tensor(links))
+        if joints is not None:
+            self.set_joint_parameters(
+                friction_static=joints.friction_static,
+                friction_viscous=joints.friction_viscous,
+                position_limits=np.stack([joints.position_limits_min, joints.position_limits_max], axis=-1),
+                limit_spring=joints.position_limit_spring,
+                limit_damper=joints.position_limit_damper,
+            )
+        self.notify_model_changed()
 
     def with_kin_dyn_parameters(self, params: KinDynParameters) -> Model:
         """A model like this one (sharing its device constants and parameters) with other collidable points."""
         new = self.copy()
-        new._kin_dyn = params
+        new._kin_dyn = dataclasses.replace(params, joint_model=None, link_parameters=None, joint_parameters=None)
         return new
+
+    def snapshot_state(self) -> dict:
+        """What `restore_state` puts back: the settings and the parameter tables (not the arrays' contents)."""
+        return {"attributes": dict(self.__dict__), "values": dict(self._values), "hosts": dict(self._hosts), "per_env": dict(self._per_env)}
+
+    def restore_state(self, saved: dict) -> None:
+        """Put back the settings and parameters of `snapshot_state` (JaxSim's mutable_context on an error)."""
+        with self._lock:
+            attributes = {k: v for k, v in saved["attributes"].items() if k not in ("_lock", "_version", "_cache")}
+            self.__dict__.update(attributes)
+            self._values, self._hosts, self._per_env = saved["values"], saved["hosts"], saved["per_env"]
+        self.notify_model_changed()
 
     def with_actuators(self, actuators: list) -> Model:
         """See warpdyn.model.add_actuators: a model like this one, its parameters and settings carried over,
@@ -606,20 +577,17 @@ class Model:
         locked = dict(self.tree.locked_joints)
         if locked_joint_positions is not None and not isinstance(locked_joint_positions, dict):
             raise TypeError(f"locked_joint_positions must be a dict {{joint name: position}}, got {type(locked_joint_positions).__name__}")
+        strangers = sorted(set(locked_joint_positions or {}) - set(self.joint_names()))
+        if strangers:
+            raise ValueError(f"locked_joint_positions names joints that model '{self.name()}' does not have: {strangers}")
         for name, value in (locked_joint_positions or {}).items():
-            if name not in self.joint_names() or name in considered_joints:
-                raise ValueError(f"locked_joint_positions names '{name}', which is not a joint this reduction locks")
-            locked[name] = value  # build_tree checks it
+            if name not in considered_joints:
+                locked[name] = value  # build_tree checks it; a kept joint's position locks nothing (JaxSim's)
         tree = build_tree(self.description, considered_joints, locked)
-        return Model(
-            self.description,
-            tree,
-            model_name=self.model_name,
-            gravity=self.gravity,
-            time_step=self.time_step,
-            dtype=self.dtype,
-            device=self.device,
-        )
+        reduced = Model(self.description, tree, model_name=self.model_name, gravity=-self.gravity, time_step=self.time_step, dtype=self.dtype, device=self.device)
+        carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "implicit_damping")
+        reduced.apply_settings(**{name: getattr(self, name) for name in carried}, built_from=self.built_from)
+        return reduced
 
     # Queries, with JaxSim's names ----------------------------------------------------------------
 

@@ -1,0 +1,197 @@
+"""A model's settings (what `step` and the dynamics read beside the link, joint and actuator parameters) and
+JaxSim's ways of changing a model: `replace`, `editable`, `mutable_context`, equality and hashing.
+
+Each setting is checked when assigned (a TypeError or ValueError naming it and the value) and announces the
+change (`Model.notify_model_changed`), so the engine rebuilds what it derived from the model. JaxSim's models
+are immutable pytrees edited through copies; a warpdyn model is an object whose settings may also be assigned
+in place (`model.time_step = 0.002`), which JaxSim's `mutable_context` does too.
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+import numpy as np
+
+from .contact_models import SoftContacts
+from .enums import IntegratorType
+from .settings import ActuationParams, SoftContactsParams
+from .terrain import FlatTerrain, HeightfieldTerrain, PlaneTerrain
+
+__all__ = ["ModelSettings", "REPLACEABLE"]
+
+
+def _setting(name: str, check, doc: str) -> property:
+    """A model setting: assigning it checks the value (`check` returns it, or raises naming it) and
+    announces the change (Model.notify_model_changed)."""
+    attribute = f"_{name}"
+
+    def get(model):
+        return getattr(model, attribute)
+
+    def put(model, value):
+        setattr(model, attribute, check(value))
+        model.notify_model_changed()
+
+    return property(get, put, doc=doc)
+
+
+def _number(name: str, value, positive: bool) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a number, got {value!r}")
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a number, got {value!r}") from None
+    if not np.isfinite(value) or (positive and value <= 0.0):
+        raise ValueError(f"{name} must be {'positive and ' if positive else ''}finite, got {value}")
+    return value
+
+
+def _integrator(value) -> IntegratorType:
+    try:
+        return IntegratorType(value)
+    except ValueError:
+        raise ValueError(f"integrator must be one of {[f'IntegratorType.{k.name}' for k in IntegratorType]}, got {value!r}") from None
+
+
+def _instance(name: str, *kinds):
+    def check(value):
+        if not isinstance(value, kinds):
+            raise TypeError(f"{name} must be a {' or '.join(k.__name__ for k in kinds)}, got {type(value).__name__}")
+        return value
+
+    return check
+
+
+def _name(value) -> str:
+    if not isinstance(value, str) or not value:
+        raise TypeError(f"model_name must be a non-empty string, got {value!r}")
+    return value
+
+
+REPLACEABLE = (
+    "model_name",
+    "time_step",
+    "terrain",
+    "gravity",
+    "contact_model",
+    "contact_params",
+    "actuation_params",
+    "integrator",
+    "quaternion_tolerance",
+    "implicit_damping",
+    "kin_dyn_parameters",
+    "built_from",
+)
+"""What `ModelSettings.replace` takes: JaxSim's model fields, and warpdyn's own settings."""
+
+
+class ModelSettings:
+    """The settings of a `Model` (its base class) and JaxSim's dataclass methods on them."""
+
+    gravity = _setting(
+        "gravity",
+        lambda v: _number("gravity", v, positive=False),
+        "Gravity's z component in the world [m/s^2], as JaxSim's `model.gravity`: -9.81 by default (gravity "
+        "pulls along -z); `build_from_model_description(gravity=9.81)` takes the magnitude, as JaxSim's.",
+    )
+    time_step = _setting("time_step", lambda v: _number("time_step", v, positive=True), "The step's time step [s].")
+    quaternion_tolerance = _setting(
+        "quaternion_tolerance",
+        lambda v: _number("quaternion_tolerance", v, positive=True),
+        "A step whose base quaternion changes by more than this (a norm) flags the environment invalid.",
+    )
+    integrator = _setting("integrator", _integrator, "The step's integrator (IntegratorType).")
+    terrain = _setting("terrain", _instance("terrain", FlatTerrain, PlaneTerrain, HeightfieldTerrain), "The terrain (warpdyn.terrain).")
+    contact_model = _setting(
+        "contact_model",
+        _instance("contact_model", SoftContacts),
+        "The contact model (warpdyn.rbda.contacts): SoftContacts, JaxSim's default (its rigid and relaxed-rigid "
+        "models are not in warpdyn yet).",
+    )
+    contact_params = _setting("contact_params", _instance("contact_params", SoftContactsParams), "The contact model's parameters.")
+    actuation_params = _setting("actuation_params", _instance("actuation_params", ActuationParams), "The torque-speed curve.")
+    implicit_damping = _setting(
+        "implicit_damping",
+        _instance("implicit_damping", bool),
+        "Whether the Euler integrators (SemiImplicitEuler, SemiImplicitEulerSO3) integrate the joints' `damping` "
+        "implicitly, as MuJoCo's Euler, (M + dt diag(damping)) ν̇ = f; RK4 integrates it explicitly, as MuJoCo's. MJCF models start with "
+        "MuJoCo's choice (its eulerdamp flag), URDF models with False.",
+    )
+
+    def _follow_mujoco(self, integrator: str, disabled: frozenset) -> None:
+        """MuJoCo's integrator and disable flags (see build_from_model_description)."""
+        self.integrator = IntegratorType.RungeKutta4 if integrator == "RK4" else IntegratorType.SemiImplicitEulerSO3
+        self.implicit_damping = integrator != "RK4" and not {"eulerdamp", "damper"} & disabled
+        n, nL, na = self.dofs(), self.number_of_links(), self.number_of_actuators()
+        if "spring" in disabled:
+            self.set_joint_parameters(stiffness=np.zeros(n))
+        if "damper" in disabled:
+            self.set_joint_parameters(damping=np.zeros(n))
+        if "gravity" in disabled or {"spring", "damper"} <= disabled:
+            self.set_link_parameters(gravcomp_mass=np.zeros(nL))
+        if "actuation" in disabled:
+            self.set_actuator_parameters(gain=np.zeros((na, 3)), bias=np.zeros((na, 3)))
+        if "clampctrl" in disabled:
+            self.set_actuator_parameters(ctrl_range=np.tile([-np.inf, np.inf], (na, 1)))
+
+    def apply_settings(self, **values) -> None:
+        """Assign the settings in `values` (names of `REPLACEABLE`), each checked; `kin_dyn_parameters` sets
+        the link and joint parameters it holds and its collidable points. A TypeError names an unknown one."""
+        unknown = sorted(set(values) - set(REPLACEABLE))
+        if unknown:
+            raise TypeError(f"unknown model fields {unknown}; known: {list(REPLACEABLE)}")
+        kin_dyn = values.pop("kin_dyn_parameters", None)
+        for name, value in values.items():
+            setattr(self, name, _name(value) if name == "model_name" else value)
+        if kin_dyn is not None:
+            self.apply_kin_dyn_parameters(kin_dyn)
+        if "contact_model" in values and "contact_params" not in values and not isinstance(self.contact_params, self.contact_model.parameters_class):
+            self.contact_params = self.contact_model.parameters_class()
+
+    def replace(self, validate: bool = True, **kwargs):
+        """A copy of the model with the given fields replaced (JaxSim's `model.replace`): time_step, terrain,
+        gravity, contact_model, contact_params, actuation_params, integrator, model_name, kin_dyn_parameters
+        (its link and joint parameters and collidable points), built_from, and warpdyn's
+        quaternion_tolerance and implicit_damping. Each value is checked (`validate` is JaxSim's switch of
+        its pytree's shape checks; warpdyn checks values always, so it changes nothing). The copy shares the
+        device constants and parameter arrays (`Model.copy`)."""
+        new = self.copy()
+        new.apply_settings(**kwargs)
+        return new
+
+    @contextlib.contextmanager
+    def editable(self, validate: bool = True):
+        """A context manager yielding an editable copy of the model, as JaxSim's: `with model.editable() as
+        model: model.time_step = ...`. (`validate`: see `replace`.)"""
+        yield self.copy()
+
+    @contextlib.contextmanager
+    def mutable_context(self, mutability=None, restore_after_exception: bool = True):
+        """A context manager yielding this model, to assign its settings in place (JaxSim's; a warpdyn model's
+        settings are always assignable). If the block raises, the settings and parameters it changed are
+        restored when `restore_after_exception` (the default). `mutability`: JaxSim's, accepted for porting;
+        it changes nothing."""
+        saved = self.snapshot_state()
+        try:
+            yield self
+        except BaseException:
+            if restore_after_exception:
+                self.restore_state(saved)
+            raise
+
+    def __eq__(self, other) -> bool:
+        """JaxSim's model equality: the same name, time step and kinematic structure (KinDynParameters'
+        equality: links, joints, frames, parent and support arrays; not the parameters' values)."""
+        if not isinstance(other, ModelSettings):
+            return NotImplemented
+        if self is other:
+            return True
+        return (self.model_name, self.time_step) == (other.model_name, other.time_step) and self.kin_dyn_parameters == other.kin_dyn_parameters
+
+    def __hash__(self) -> int:
+        """The hash of the name and the kinematic structure (what does not change over a model's life; equal
+        models have equal hashes)."""
+        return hash((self.model_name, self.kin_dyn_parameters))
+
