@@ -326,8 +326,9 @@ def test_include_from_the_model_directory_beside_the_file():
 
 
 def test_include_through_sdf_path_with_overrides_and_merge(tmp_path, monkeypatch):
-    """A model directory in a temporary folder found through SDF_PATH: included inside a model with <name>,
-    <pose> and a frame of the includer as relative_to, and again with merge="true" (its elements keep their own
+    """A model directory in a temporary folder found through SDF_PATH (the first of its two entries does not
+    exist), then, SDF_PATH unset, not found from elsewhere but found beside the including file: included inside a
+    model with <name>, <pose> and a frame of the includer as relative_to; with merge="true" (its elements keep their own
     names; its model frame becomes the frame `_merged__gripper__model__`); in a <world> with <static> true, the
     included model is a fixed base. A relative <uri> is read against the including file."""
     library = tmp_path / "library" / "gripper"
@@ -343,6 +344,12 @@ def test_include_through_sdf_path_with_overrides_and_merge(tmp_path, monkeypatch
         <joint name="grip" type="prismatic"><parent>base</parent><child>left::palm</child></joint></model>"""))
     posed = Posed(build(host))
     assert posed.model.link_names() == ("base", "left::palm") and posed.model.frame_names() == ("flange", "left::tcp")
+    monkeypatch.delenv("SDF_PATH")
+    with pytest.raises(ValueError, match=r"<include> of 'model://gripper': no model 'gripper'"):
+        wd.description.load(host)
+    beside = tmp_path / "library" / "host.sdf"  # the model directory beside the including file
+    beside.write_text(host.read_text())
+    assert build(beside).link_names() == posed.model.link_names()
     assert_close(posed.link("left::palm"), T((0, 0.2, 1)), TOL, "palm")  # the include's pose replaces the file's
     assert_close(posed.frame("left::tcp"), T((0, 0.2, 1.1)), TOL, "tcp")
     merged = tmp_path / "merged.sdf"
@@ -352,7 +359,7 @@ def test_include_through_sdf_path_with_overrides_and_merge(tmp_path, monkeypatch
     description = wd.description.load(merged)
     assert [f.name for f in description.frames] == ["_merged__gripper__model__", "tcp"]
     assert description.frames[1].link == "palm"
-    world = tmp_path / "world.sdf"
+    world = tmp_path / "library" / "world.sdf"
     world.write_text(sdf('<world name="w"><include><uri>model://gripper</uri><static>true</static></include></world>'))
     welded = wd.description.load(world)
     assert welded.fixed_base and welded.base == "palm"
