@@ -171,7 +171,7 @@ class _Reader(FrameGraph):
         """Notes the children of `element` (the `kind` named `name`: link, model, joint, collision, world) that are
         not `read`: sensors, plugins, lights... by name; flags that differ from their default (which has no
         effect); anything else as OTHER."""
-        owner = name if kind == "world" else f"{kind} '{name}'"
+        owner = f"<{name}>" if kind in ("world", "sdf") else f"{kind} '{name}'"
         for child in element:
             tag = child.tag
             if tag in read:
@@ -202,9 +202,7 @@ class _Reader(FrameGraph):
         """The one model of the document (in its <world> or alone), read with everything it includes."""
         version = parse_version(root, where)
         worlds, models = root.findall("world"), root.findall("model")
-        for tag, kind in (("light", LIGHTS), ("actor", ACTORS)):
-            for element in root.findall(tag):
-                self.note(kind, element.get("name", tag))
+        self.others(root, "sdf", "sdf", where, read=("world", "model"))  # lights, actors
         if len(worlds) > 1:
             raise ValueError(f"{where} has {len(worlds)} worlds {[w.get('name') for w in worlds]}: warpdyn reads one")
         if worlds and models:
@@ -291,11 +289,8 @@ class _Reader(FrameGraph):
             node.pose, node.relative_to = self.pose_of(element, where, f"model '{global_name}'")
         node.placement = placement if placement is not None else element.get("placement_frame", "")
         node.canonical = element.get("canonical_link", "") if version >= (1, 7) else ""
-        own_static = boolean(element.find("static"), f"model '{global_name}' <static>", where, False)
-        node.static = bool(static) if static is not None else own_static
-        parent_model = parent.frame if parent.frame is not self.world else None
-        if parent_model is not None and parent_model.static:
-            node.static = True  # a static model's nested models are static
+        node.static = static if static is not None else boolean(element.find("static"), f"model '{global_name}' <static>", where, False)
+        node.static |= parent.frame is not self.world and parent.frame.static  # a static model's nested models are static
         if merge:
             parent.add(f"_merged__{local}__model__", node, "merged model frame")
             scope = Scope(node, parent.prefix, where, version, base_dir, parent.names, model_name=local)
@@ -342,9 +337,7 @@ class _Reader(FrameGraph):
         if root.tag != "sdf":
             raise ValueError(f"{inner_where} (included as '{uri}' by {where}) has root element <{root.tag}>, not <sdf>")
         version = parse_version(root, inner_where)
-        for tag, kind in (("light", LIGHTS), ("actor", ACTORS)):
-            for light in root.findall(tag):
-                self.note(kind, light.get("name", tag))
+        self.others(root, "sdf", "sdf", inner_where, read=("world", "model"))  # lights, actors
         models = root.findall("model")
         if root.findall("world") or len(models) > 1:
             raise ValueError(f"{inner_where} (included as '{uri}' by {where}) must hold one <model>, not worlds or several models")
