@@ -17,6 +17,7 @@ The refusals are checked for the element their message names (the file, the join
 from __future__ import annotations
 
 import math
+import os
 import pathlib
 import warnings
 
@@ -336,7 +337,7 @@ def test_include_through_sdf_path_with_overrides_and_merge(tmp_path, monkeypatch
     (library / "model.config").write_text('<model><sdf version="1.9">gripper.sdf</sdf></model>')
     (library / "gripper.sdf").write_text(sdf(f'<model name="gripper"><pose>0 0 5 0 0 0</pose><link name="palm">{INERTIAL}'
                                              '</link><frame name="tcp" attached_to="palm"><pose>0 0 0.1 0 0 0</pose></frame></model>'))
-    monkeypatch.setenv("SDF_PATH", str(tmp_path / "nowhere") + ":" + str(tmp_path / "library"))
+    monkeypatch.setenv("SDF_PATH", os.pathsep.join([str(tmp_path / "nowhere"), str(tmp_path / "library")]))
     host = tmp_path / "host.sdf"
     host.write_text(sdf(f"""<model name="robot"><link name="base">{INERTIAL}</link>
         <frame name="flange" attached_to="base"><pose>0 0 1 0 0 0</pose></frame>
