@@ -243,6 +243,21 @@ def test_pose_formats(pose):
 # ------------------------------------------------------------------------------------ models in the world
 
 
+@pytest.mark.parametrize("q", [0.0, 1.2])
+def test_relative_to_world_and_a_joint_from_the_world(q):
+    """The model sits at (0, 0, 1); `post` is placed relative_to `world` at (2, 0, 0), whatever the model's pose;
+    the revolute joint `turn` from `world` to `base` (at the model's origin, axis z) makes the world the fixed base
+    and turns base, and post with it, about the world's z through (0, 0, 1)."""
+    model = build(sdf(f"""<model name="m"><pose>0 0 1 0 0 0</pose><link name="base">{INERTIAL}</link>
+        <link name="post"><pose relative_to="world">2 0 0 0 0 0</pose>{INERTIAL}</link>
+        <joint name="turn" type="revolute"><parent>world</parent><child>base</child><axis><xyz>0 0 1</xyz></axis></joint>
+        <joint name="bolt" type="fixed"><parent>base</parent><child>post</child></joint></model>"""))
+    assert not model.floating_base() and model.base_link() == "world" and model.joint_names() == ("turn",)
+    posed = Posed(model, {"turn": q})
+    assert_close(posed.link("base"), T((0, 0, 1), Rz(q)), TOL, "base")
+    assert_close(posed.frame("post"), T((0, 0, 1), Rz(q)) @ T((2, 0, -1)), TOL, "post")
+
+
 def test_placement_frame_canonical_link_and_frames_as_joint_parents():
     """(1.8) The nested `table` places its link `leg` (at (1, 0, 0) in the table frame) at (2, 0, 0): the table
     frame lands at (1, 0, 0) and its `top` (1 m up in the table frame) at (1, 0, 1). canonical_link="top": the
@@ -346,8 +361,9 @@ def test_include_through_sdf_path_with_overrides_and_merge(tmp_path, monkeypatch
     posed = Posed(build(host))
     assert posed.model.link_names() == ("base", "left::palm") and posed.model.frame_names() == ("flange", "left::tcp")
     monkeypatch.delenv("SDF_PATH")
-    with pytest.raises(ValueError, match=r"<include> of 'model://gripper': no model 'gripper'"):
+    with pytest.raises(ValueError, match=r"<include> of 'model://gripper': no model 'gripper'") as raised:
         wd.description.load(host)
+    assert str(raised.value).startswith(f"'{host}': ")  # the including file
     beside = tmp_path / "library" / "host.sdf"  # the model directory beside the including file
     beside.write_text(host.read_text())
     assert build(beside).link_names() == posed.model.link_names()
@@ -411,6 +427,7 @@ def test_refusals_name_the_element(doc, message):
 
 
 def test_kinematic_loop_message_names_both_joints():
+    """Two joints with the same child: a loop warpdyn's trees cannot hold; the message names the link and joints."""
     with pytest.raises(ValueError, match=r"links with several parent joints"):
         wd.description.load(sdf(f'<model name="m">{LINK}<link name="c">{INERTIAL}</link>'
                                 '<joint name="j" type="fixed"><parent>a</parent><child>b</child></joint>'
