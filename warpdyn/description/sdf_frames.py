@@ -304,6 +304,8 @@ class FrameGraph:
         raise AssertionError(node.kind)
 
     def edge(self, node: Node) -> tuple[Node | None, np.ndarray]:
+        """(the node `node`'s pose is expressed in, parent_H_node), resolved once (a model with a placement_frame:
+        its pose places that frame, so the model frame is the pose times the inverse of model_H_placement)."""
         if node.edge is None:
             parent = self.parent_of(node)
             H = node.pose
@@ -389,7 +391,6 @@ class FrameGraph:
         if model.first_model is not None:
             return self.canonical_link(model.first_model)
         raise ValueError(f"{model.where}: {model.label()} has no link")
-
 
 
 # ------------------------------------------------------------------------------------------- files
