@@ -105,7 +105,7 @@ def host_numbers(value, name: str) -> np.ndarray:
     ndarray: the one conversion of users' numbers from the host. A TypeError naming `name` and the dtype for
     values that are not real numbers (see REAL_KINDS), or that NumPy cannot read as an array."""
     if isinstance(value, (str, bytes)):
-        raise TypeError(f"{name} must be real numbers, got the string {value!r}")
+        raise TypeError(f"{name} must be an array of numbers, got the string {value!r}")
     try:
         host = np.asarray(value)
     except (TypeError, ValueError) as error:
