@@ -247,6 +247,22 @@ def test_parameters_edited_in_place_flag_the_step(name, index, value):
     assert wd.model.step(model, data).valid.numpy().tolist() == [0, 0]
 
 
+def test_a_fixed_base_own_mass_is_not_checked():
+    """A fixed base's own mass and inertia enter no dynamics (the base does not move): neither the device check
+    nor the host's reads them, so a finite-difference probe around a massless fixed base
+    (tests/test_domain_randomisation, test_torch_bridge's gradcheck) steps as before."""
+    model = _pendulum(3.0)
+    data = wd.data.Data.build(model, num_envs=2)
+    expected = wd.model.step(model, data)
+    masses = model.link_mass.numpy().copy()
+    masses[0] = -1e-6
+    model.link_mass.assign(masses)
+    _assert_same(wd.model.step(model, data), expected, "a fixed base's mass, device check")
+    model.notify_model_changed()
+    registry.validate_parameters(model)
+    _assert_same(wd.model.step(model, data), expected, "a fixed base's mass, host check")
+
+
 def test_contact_parameters_edited_in_place_flag_the_step():
     """Warp arrays of the contact parameters (per environment, as LeggedEnv randomises mu) edited in place to
     K = 0, a negative mu or an unstable dt K / D: the affected environments are flagged."""
@@ -309,7 +325,7 @@ def test_validate_parameters_names_parameter_element_environment_and_value():
     K = wp.array([1e6], dtype=wp.float64)
     model.contact_params = SoftContactsParams(K=K)
     K.assign([-1.0])
-    with pytest.raises(ValueError, match=r"SoftContactsParams.K must be positive"):
+    with pytest.raises(ValueError, match=r"SoftContactsParams.K must be .*, got -1.0 \(environment 0\)"):
         registry.validate_parameters(model)
 
 
@@ -320,6 +336,7 @@ def test_the_device_check_covers_every_parameter_with_a_physical_range():
 
     ranged = {p.name for p in registry.REGISTRY.values() if p.name in registry.MODEL_ARRAYS and p.check is not registry.check_finite}
     assert ranged == set(parameter_checks.CHECKED)
+    assert parameter_checks.INERTIA_ATOL == wd.description.physical.INERTIA_ATOL
 
 
 # --------------------------------------------------------------------------- 4. SoftContactsParams
@@ -366,7 +383,7 @@ def test_soft_contact_parameters_that_are_not_numbers(value):
         ("mass_scale", (-1.0, 1.0), r"LeggedEnvConfig.mass_scale must be a range \(low, high\) of finite numbers with 0 < low <= high, got \(-1.0, 1.0\)"),
         ("mass_scale", (1.2, 0.8), r"LeggedEnvConfig.mass_scale must be a range"),
         ("friction", (-0.1, 0.5), r"LeggedEnvConfig.friction must be a range \(low, high\) of finite numbers with 0 <= low <= high"),
-        ("lin_vel_x", (1.0, -1.0), r"LeggedEnvConfig.lin_vel_x must be a range \(low, high\) of finite numbers with low <= high, got \(1.0, -1.0\)"),
+        ("lin_vel_x", (1.0, -1.0), r"LeggedEnvConfig.lin_vel_x must be a range \(low, high\) of finite numbers with low <= high \[m/s\], got \(1.0, -1.0\)"),
         ("yaw_rate", (0.0,), r"LeggedEnvConfig.yaw_rate must be a range \(low, high\)"),
         ("time_step", True, r"LeggedEnvConfig.time_step must be a number, got True"),
         ("kd", "5", r"LeggedEnvConfig.kd must be a number, got '5'"),

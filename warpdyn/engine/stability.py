@@ -4,7 +4,9 @@
 the integrator's limit, DEFORMATION_STABILITY), but only for a scene that can have contacts: enabled
 collidable points and a floating base or a point that can reach the terrain (`contact_reach`). Stiff contact
 parameters that never act (a fixed-base arm high above the ground) are not refused: a refusal must be right
-for the scene. Both are host work, once per model version (warpdyn.engine.step's Plan).
+for the scene. Both are host work, once per model version (warpdyn.engine.step's Plan); the device check of
+every step (kernels/parameter_checks.py) asks the same of values written in place and of a fixed base that the
+data places elsewhere.
 """
 
 from __future__ import annotations
@@ -66,7 +68,8 @@ def contact_reach(model) -> ContactReach:
     joint motion takes the point farther. A prismatic joint makes it unbounded (its limits do not bound its
     position: JaxSim's are a spring, 0 by default). The terrain: a FlatTerrain (its highest height) or a
     PlaneTerrain is touched when the welded base's origin is within the reach of it; a HeightfieldTerrain is
-    assumed touched (its heights may change in place). A floating base is assumed to reach anything.
+    assumed touched (its heights may change in place). A floating base is assumed to reach anything. The base
+    that a fixed-base Data puts elsewhere is checked on the device at every step (kernels/parameter_checks.py).
     """
     return model.cached("contact reach", lambda: _contact_reach(model))
 

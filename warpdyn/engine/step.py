@@ -8,7 +8,10 @@ A step, as JaxSim's `js.model.step` with SoftContacts:
    and the rate of the tangential deformation;
 3. forward dynamics by ABA in the Inertial representation;
 4. the integrator (kernels/integrators.py); environments whose new state is not finite are flagged
-   (`data.valid`) and keep their state.
+   (`data.valid`) and keep their state;
+5. the parameters' ranges (kernels/parameter_checks.py, `parameter_check`): environments whose parameters,
+   as their arrays hold them now (edits in place included, which no host check sees), are out of range,
+   or whose dt K / D is unstable where their points can reach the terrain, are flagged likewise.
 `step` returns new Data (fresh arrays): nothing an adjoint needs is overwritten, so a wp.Tape through
 many steps gives gradients. warpdyn.model.step comes here under a tape and when gradients are needed;
 otherwise it goes through warpdyn.engine.fast_step (pooled outputs, captured graphs: the same launches).
@@ -21,14 +24,16 @@ list of launches on given arrays (`step_launches`): nothing allocated, nothing r
 warpdyn.engine.rollout captures many of them in a graph. Launches per semi-implicit Euler step:
 actuation (if joints), [FK, link velocities, the points' contact forces, their sums per link] (if enabled
 points; a thread per point and per link, or per environment: `contacts_per_environment`), [FK if no
-contacts, force conversion] (if link forces not Inertial), ABA, integrator; without gradients, outside a
-tape (`fused_applies`): [FK, force conversion] (if link forces not Inertial), then one kernel for the rest
-(kernels/fused_step.py, the joint forces included), on one thread per environment or, on a GPU for few
-environments, on one thread per group of the model's walk (warpdyn.engine.fused_layout).
+contacts, force conversion] (if link forces not Inertial), ABA, integrator, parameter check; without
+gradients, outside a tape (`fused_applies`): [FK, force conversion] (if link forces not Inertial), then one
+kernel for the rest (kernels/fused_step.py, the joint forces included), on one thread per environment or, on a
+GPU for few environments, on one thread per group of the model's walk (warpdyn.engine.fused_layout), then the
+parameter check.
 
-Checked on the host, once per model version (when the plan is built): the stability of the contact
-deformation, dt K / D below the integrator's limit (DEFORMATION_STABILITY), only where the scene can have
-contacts: enabled collidable points, and a floating base or a point that can reach the terrain from the
+Checks on the host, once per model version (when the plan is built): the parameters' ranges
+(warpdyn.types.parameters.validate_parameters: the arrays as they are then), and the stability of the
+contact deformation, dt K / D below the integrator's limit (DEFORMATION_STABILITY), only where the scene can
+have contacts: enabled collidable points, and a floating base or a point that can reach the terrain from the
 welded base (warpdyn.engine.stability); stiff parameters that never act are not refused.
 
 Gradients with respect to model parameters (warpdyn.types.parameters). Every parameter a step reads is an
@@ -58,12 +63,13 @@ from ..kernels.forces import kernels as force_kernels
 from ..kernels.fused_step import kernel as fused_step_kernel
 from ..kernels.integrators import kernels as integrator_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
+from ..kernels.parameter_checks import kernels as parameter_check_kernels
 from ..kernels.scratch import TRANSFORM
 from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import IntegratorType, VelRepr
 from ..types.data_checks import check_data, passes_like
-from ..types.parameters import MODEL_ARRAYS
+from ..types.parameters import MODEL_ARRAYS, validate_parameters
 from ..types.terrain import FlatTerrain, HeightfieldTerrain
 from . import fused_layout, tape
 from .bundles import controls_bundle, empty_like_input, model_bundle, state_bundle
@@ -94,6 +100,7 @@ __all__ = [
     "check_deformation_stability",
     "ContactReach",
     "contact_reach",
+    "parameter_check",
 ]
 
 def per_env(value, name, scalar, device, owner="SoftContactsParams") -> wp.array:
@@ -154,6 +161,7 @@ class Plan:
     """
 
     def __init__(self, model, gradient_terms: tuple):
+        validate_parameters(model)  # the arrays as they are now, in-place edits included (once per model version)
         s, d = model.scalar, model.device
         B = bundles(s)
         self.scalar, self.device = s, d
@@ -204,10 +212,13 @@ class Plan:
         self.contacts = self.count > 0
         self.poses = self.contacts or self.gravcomp  # an evaluation runs FK
         c = model.contact_params
-        # the stability of the deformation, where the points can touch the terrain (contact_reach)
+        # the stability of the deformation, where the points can touch the terrain (contact_reach); the device
+        # check of every step (kernels/parameter_checks.py) asks it again of values written in place
         reach = contact_reach(model) if self.contacts else ContactReach(0.0, False, "")
         if reach.may_touch:
             check_deformation_stability(model.time_step, c.K, c.D, model.integrator, reach.why)
+        self.check_rate = s(DEFORMATION_STABILITY[self.integrator] / model.time_step)
+        self.check_reach = s(reach.reach if np.isfinite(reach.reach) else -1.0)
         L_p_C = np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3)
         contacts = self.contact_bundle = B.Contacts()
         contacts.point_link = wp.array(links.astype(np.int32), dtype=int, device=d)
@@ -450,6 +461,14 @@ def fused_kernel(plan: Plan, N: int):
     return plan.fused(keep, 1, block, shared_c), N, block
 
 
+def parameter_check(plan: Plan, X, Y, N: int) -> Launch:
+    """The launch that ends every step: environments whose parameters, as their arrays hold them now, are out
+    of range (or whose dt K / D is unstable where their points can reach the terrain) get y = x and valid 0
+    (kernels/parameter_checks.py): in-place edits, which no host check sees, do not step silently."""
+    args = [plan.model, plan.contact_bundle, plan.terrain, int(plan.contacts), plan.check_rate, plan.check_reach, X]
+    return Launch(parameter_check_kernels(plan.scalar).keep_unphysical, N, args, [Y])
+
+
 def step_launches(
     plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None, ctrl=None, bundles=None, evaluation: bool = False
 ) -> list:
@@ -491,6 +510,7 @@ def step_launches(
             outputs = [ws.evals[0].W_H_L, ws.evals[0].W_f_C]
         kernel, dim, block_dim = fused_kernel(plan, N)
         launches.append(Launch(kernel, dim, args, [Y, *outputs], block_dim))
+        launches.append(parameter_check(plan, X, Y, N))
         return launches
     K = plan.integrators
     ev = ws.evals[0]
@@ -498,6 +518,7 @@ def step_launches(
     if plan.euler:
         euler = K.semi_implicit_euler_so3 if plan.integrator == IntegratorType.SemiImplicitEulerSO3 else K.semi_implicit_euler
         launches.append(Launch(euler, N, [plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
+        launches.append(parameter_check(plan, X, Y, N))
         return launches
     stage = X
     for i, c in enumerate((0.5, 0.5, 1.0, None)):
@@ -513,6 +534,7 @@ def step_launches(
             stage = state_bundle(s, [*ws.stages[i], x[6]])
             launches.append(Launch(K.rk4_stage, N, [s(c * float(plan.dt)), X, ws.slopes[i]], [stage]))
     launches.append(Launch(K.rk4_combine, N, [plan.dt, plan.quaternion_tolerance, X, *ws.slopes], [Y]))
+    launches.append(parameter_check(plan, X, Y, N))
     return launches
 
 

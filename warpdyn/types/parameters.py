@@ -13,6 +13,14 @@ Groups and where the values live:
 - "actuator": one value per actuator (na, the MJCF actuators on kept joints), on the model likewise;
 - "contact": the soft-contact K, D, mu in `model.contact_params` (a number, NumPy (N,) or a Warp array);
 - "terrain": a FlatTerrain's height ((1,) or (N,)) or a HeightfieldTerrain's heights (nx, ny).
+
+Checks. A setter checks what it is given (each Parameter's `check`; SoftContactsParams its fields). A
+parameter's Warp array edited in place (`model.link_mass.assign(...)`, a randomisation through a torch view,
+a Warp K or mu of the contacts written later) passes no setter: `validate_parameters(model)` checks the
+arrays as they are now (a copy of each to the host) and raises naming the parameter, the link, joint or
+actuator, the environment and the value; warpdyn.engine.step runs it whenever it builds a step's plan (a new
+model version: after a setter or `model.notify_model_changed()`), and every step checks the ranges on the
+device (kernels/parameter_checks.py), flagging the environments it finds out of range.
 """
 
 from __future__ import annotations
@@ -25,6 +33,7 @@ import numpy as np
 
 from ..description.model import caller_stacklevel
 from ..description.physical import UnphysicalInertiaWarning, inertia_faults
+from .settings import check_contact_value
 
 __all__ = [
     "Parameter",
@@ -39,6 +48,8 @@ __all__ = [
     "check_non_negative",
     "check_inertia",
     "check_limits",
+    "faults",
+    "validate_parameters",
 ]
 
 
@@ -208,3 +219,64 @@ REGISTRY: dict[str, Parameter] = {
 
 MODEL_ARRAYS = tuple(p.name for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS))
 """The parameters held as the model's own arrays (link, joint and actuator parameters, shared or per environment)."""
+
+
+def faults(parameter: Parameter, host: np.ndarray) -> np.ndarray:
+    """A boolean mask over the values (host's shape without the item axes) of those `parameter`'s check
+    refuses: not finite (check_finite), not finite and non-negative (check_non_negative), NaN or lower > upper
+    (check_limits), not finite, not symmetric or not positive semi-definite within the loader's tolerances
+    (check_inertia; its triangle-inequality warning is not a fault). No warning is issued."""
+    items = len(parameter.item)
+    axes = tuple(range(host.ndim - items, host.ndim))
+    finite = np.isfinite(host).all(axis=axes) if items else np.isfinite(host)
+    check = parameter.check
+    if check is check_non_negative:
+        return ~(finite & (np.nan_to_num(host, nan=-1.0) >= 0.0))
+    if check is check_limits:
+        return np.isnan(host).any(axis=-1) | (host[..., 0] > host[..., 1])
+    if check is check_inertia:
+        bad = ~finite
+        if finite.any():
+            asymmetric, indefinite, _, _ = inertia_faults(host[finite])
+            bad[finite] = asymmetric | indefinite
+        return bad
+    return ~finite
+
+
+_REQUIREMENT = {
+    check_finite: "must be finite",
+    check_non_negative: "must be non-negative (and finite)",
+    check_limits: "must be (lower, upper) with lower <= upper and no NaN (inf where unlimited)",
+    check_inertia: "must be symmetric positive semi-definite (the loader's tolerances: warpdyn.description.physical)",
+}
+
+
+def validate_parameters(model) -> None:
+    """A ValueError naming the parameter, its link, joint or actuator, its environment (per-environment values)
+    and its value, for the first value of the model's link, joint and actuator arrays, or of its soft-contact
+    K, D, mu, p, q, that is out of range (the setters' checks, `faults`), as the arrays are now: edits in place
+    included. A fixed base's own mass, centre of mass and inertia are not checked: no dynamics reads them (a
+    gradient check may probe a massless fixed base's mass below 0). Copies each array to the host (a
+    synchronisation with the device)."""
+    names = {"link": model.link_names(), "joint": model.joint_names(), "actuator": model.actuator_names()}
+    per_env = model.per_environment_parameters()
+    for name in MODEL_ARRAYS:
+        parameter = REGISTRY[name]
+        host = np.asarray(model.parameter(name).numpy(), dtype=np.float64)
+        bad = faults(parameter, host)
+        if parameter.group == "link" and not model.floating_base():
+            bad[..., 0] = False  # a fixed base's own inertial values enter no dynamics (the device check skips them too)
+        if not bad.any():
+            continue
+        at = tuple(int(k) for k in np.argwhere(bad)[0])
+        env, k = at if name in per_env else (None, at[0])
+        value = host[at]
+        shown = f"{float(value):g}" if value.ndim == 0 else str(np.round(value, 6).tolist())
+        where = f"{parameter.group} '{names[parameter.group][k]}'" + (f" in environment {env}" if env is not None else "")
+        detail = ""
+        if parameter.check is check_inertia and np.isfinite(value).all():
+            detail = f"; principal moments {np.round(np.linalg.eigvalsh(0.5 * (value + value.T)), 9).tolist()}"
+        raise ValueError(f"{name} of {where} is {shown} [{parameter.unit}]: {_REQUIREMENT[parameter.check]}{detail}")
+    contact = model.contact_params
+    for field in ("K", "D", "mu", "p", "q"):
+        check_contact_value(field, getattr(contact, field))

@@ -1,0 +1,176 @@
+"""The physical ranges of a model's parameters, checked per environment on the device after each step.
+
+A parameter's Warp array edited in place (`model.link_mass.assign(...)`, a domain randomisation written by a
+torch view, a Warp K or mu of the contacts) is read by the next step as it is, with no host check: a check on
+the host would synchronise at every step. So every step ends with `keep_unphysical`, one thread per
+environment: an environment whose parameters (its row of each (P, count) parameter, P = 1 shared or N) are out
+of range is flagged (valid = 0) and keeps its state, as the integrators flag a non-finite state.
+
+Checked (`CHECKED`: every model array whose range is more than finiteness, warpdyn.types.parameters):
+- non-negative and finite: link_mass, gravcomp_mass (but a fixed base's, which no dynamics reads), the joints'
+  limit spring and damper, frictions, armature, damping, stiffness (NaN fails every comparison);
+- (lower, upper) with lower <= upper, no NaN: position_limits, joint_actuator_force_range, actuator_ctrl_range,
+  actuator_force_range;
+- link_inertia: finite, with a diagonal >= -INERTIA_ATOL x the largest entry of the environment's inertias
+  (a necessary condition of positive semi-definiteness, the host's tolerance; the host's full check, the
+  principal moments, is warpdyn.types.parameters.validate_parameters, when a step's plan is built);
+- with contacts: K and D positive and finite, mu non-negative and finite, and the deformation's stability
+  dt K / D < the integrator's limit wherever the environment's collidable points can reach the terrain:
+  a floating base, a chain of unbounded reach (`reach` < 0), a heightfield, or a fixed base whose origin is
+  within `reach` of the flat or inclined plane (the base where the data puts it).
+Parameters whose only fault can be a NaN or an infinity (centres of mass, spring references, gears, gains,
+biases) are not read: such a value makes the state non-finite, which the integrator flags.
+
+Cost: a read of each checked parameter per environment and step (shared ones from the cache), no host work.
+Gradients of a flagged environment are not meaningful (its state is copied over the integrator's).
+"""
+
+import types
+
+import warp as wp
+
+from .bundles import bundles
+from .factory import factory
+from .integrators import kernels as integrator_kernels
+from .soft_contacts import HEIGHTFIELD
+
+CHECKED = (
+    "link_mass",
+    "link_inertia",
+    "gravcomp_mass",
+    "position_limits",
+    "joint_limit_spring",
+    "joint_limit_damper",
+    "friction_static",
+    "friction_viscous",
+    "armature",
+    "damping",
+    "stiffness",
+    "joint_actuator_force_range",
+    "actuator_ctrl_range",
+    "actuator_force_range",
+)
+"""The model arrays the device check reads (those whose registry check is more than finiteness)."""
+
+INERTIA_ATOL = 1e-9
+"""Tolerance of a negative diagonal entry of an inertia, relative to the largest entry of the environment's
+inertias: warpdyn.description.physical.INERTIA_ATOL (tests/test_faults_inputs.py checks they agree)."""
+
+
+@factory
+def kernels(scalar) -> types.SimpleNamespace:
+    B = bundles(scalar)
+    I = integrator_kernels(scalar)
+    vec2 = wp.types.vector(2, scalar)
+    mat33 = wp.types.matrix((3, 3), scalar)
+
+    @wp.func
+    def negative_count(values: wp.array2d(dtype=scalar), env: int, first: int):
+        """The entries from `first` on of the environment's row that are not finite and non-negative."""
+        row = wp.min(env, values.shape[0] - 1)
+        bad = int(0)
+        for k in range(first, values.shape[1]):
+            v = values[row, k]
+            if not (wp.isfinite(v) and v >= scalar(0.0)):
+                bad = bad + 1
+        return bad
+
+    @wp.func
+    def unordered_count(values: wp.array2d(dtype=vec2), env: int):
+        """The (lower, upper) pairs of the environment's row with NaN or lower > upper (inf allowed)."""
+        row = wp.min(env, values.shape[0] - 1)
+        bad = int(0)
+        for k in range(values.shape[1]):
+            pair = values[row, k]
+            if not (pair[0] <= pair[1]):
+                bad = bad + 1
+        return bad
+
+    @wp.func
+    def inertia_count(values: wp.array2d(dtype=mat33), env: int, first: int):
+        """1 if an inertia from `first` on of the environment's row is not finite or has a diagonal entry below
+        -INERTIA_ATOL x the largest entry of those, else 0."""
+        row = wp.min(env, values.shape[0] - 1)
+        nonfinite = scalar(0.0)
+        largest = scalar(0.0)
+        lowest = scalar(0.0)
+        for k in range(first, values.shape[1]):
+            inertia = values[row, k]
+            for a in range(3):
+                for b in range(3):
+                    nonfinite = I.poison(nonfinite, inertia[a, b])
+                    largest = wp.max(largest, wp.abs(inertia[a, b]))
+                lowest = wp.min(lowest, inertia[a, a])
+        bad = int(0)
+        if not wp.isfinite(nonfinite) or lowest < -scalar(wp.static(INERTIA_ATOL)) * largest:
+            bad = 1
+        return bad
+
+    @wp.func
+    def unphysical_model(model: B.Model, env: int):
+        """The number of faults (see the module docstring) of the environment's model parameters. A fixed base's
+        own mass, inertia and gravity compensation are not read: no dynamics reads them."""
+        base = 1 - model.floating_base  # the first link whose inertial values matter
+        bad = negative_count(model.link_mass, env, base) + inertia_count(model.link_inertia, env, base)
+        bad = bad + negative_count(model.gravcomp_mass, env, base)
+        bad = bad + unordered_count(model.position_limits, env) + unordered_count(model.joint_actuator_force_range, env)
+        bad = bad + negative_count(model.joint_limit_spring, env, 0) + negative_count(model.joint_limit_damper, env, 0)
+        bad = bad + negative_count(model.friction_static, env, 0) + negative_count(model.friction_viscous, env, 0)
+        bad = bad + negative_count(model.armature, env, 0) + negative_count(model.damping, env, 0) + negative_count(model.stiffness, env, 0)
+        bad = bad + unordered_count(model.actuator_ctrl_range, env) + unordered_count(model.actuator_force_range, env)
+        return bad
+
+    @wp.func
+    def unphysical_contacts(contacts: B.Contacts, terrain: B.Terrain, rate_limit: scalar, reach: scalar, x: B.State, env: int):
+        """1 if the environment's K, D or mu is out of range, or if its dt K / D reaches the integrator's limit
+        (K / D >= rate_limit) while its points can reach the terrain (reach < 0: always), else 0."""
+        K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
+        D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
+        mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
+        bad = int(0)
+        if not (wp.isfinite(K) and K > scalar(0.0) and wp.isfinite(D) and D > scalar(0.0) and wp.isfinite(mu) and mu >= scalar(0.0)):
+            bad = 1
+        elif K >= rate_limit * D:
+            reachable = reach < scalar(0.0) or terrain.kind == HEIGHTFIELD
+            if not reachable:
+                h = terrain.height[wp.min(env, terrain.height.shape[0] - 1)]
+                n = terrain.normal
+                distance = n[0] * x.base_position[env, 0] + n[1] * x.base_position[env, 1] + n[2] * (x.base_position[env, 2] - h)
+                reachable = not (distance > reach)
+            if reachable:
+                bad = 1
+        return bad
+
+    @wp.kernel(module="unique")
+    def keep_unphysical(
+        # model
+        model: B.Model,
+        contacts: B.Contacts,
+        terrain: B.Terrain,
+        with_contacts: int,
+        rate_limit: scalar,
+        reach: scalar,
+        # state: the step's start x and its result y
+        x: B.State,
+        # outputs
+        y: B.State,
+    ):
+        """y = x and y.valid = 0 for an environment whose parameters are out of range (module docstring);
+        nothing written for the others. with_contacts: whether the step has enabled collidable points;
+        rate_limit: the integrator's dt K / D limit over dt [1/s]; reach: the farthest an enabled point can
+        be from the base origin [m], < 0 for unbounded (a floating base, a prismatic joint on its chain)."""
+        env = wp.tid()
+        bad = unphysical_model(model, env)
+        if with_contacts != 0:
+            bad = bad + unphysical_contacts(contacts, terrain, rate_limit, reach, x, env)
+        if bad > 0:
+            I.keep_state(env, x, y)
+
+    return types.SimpleNamespace(
+        negative_count=negative_count,
+        unordered_count=unordered_count,
+        inertia_count=inertia_count,
+        unphysical_model=unphysical_model,
+        unphysical_contacts=unphysical_contacts,
+        keep_unphysical=keep_unphysical,
+    )
