@@ -30,7 +30,7 @@ CPU alone, float32 M^-1 is 8.6e-4 from float64's)."""
 
 
 def states(model, seed: int = 3) -> dict[str, np.ndarray]:
-    data = wd.data.random_model_data(model, num_envs=N, seed=seed)
+    data = wd.data.random_model_data(model, num_envs=N, key=seed)
     rng = np.random.default_rng(seed + 1)
     return {
         "base_position": data.base_position.numpy(),

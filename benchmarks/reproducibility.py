@@ -48,7 +48,7 @@ def legs(device, N: int, per_environment: bool):
 
 def standing(model, N: int, requires_grad: bool = True):
     return wd.data.random_model_data(
-        model, seed=4, num_envs=N, velocity_representation=VelRepr.Body, requires_grad=requires_grad,
+        model, key=4, num_envs=N, velocity_representation=VelRepr.Body, requires_grad=requires_grad,
         base_pos_bounds=((-0.1, -0.1, 0.56), (0.1, 0.1, 0.58)), base_rpy_bounds=(-0.2, 0.2), joint_pos_bounds=(-0.3, 0.3),
     )  # fmt: skip
 

@@ -65,7 +65,11 @@ for dtype_name in dtypes:
     model = wd.model.reduce(full, wd.assets.ERGOCUB_LEG_JOINTS)
     n = model.dofs()
     for N in sizes:
-        data = wd.data.random_model_data(model, num_envs=N, seed=1)
+        rng = np.random.default_rng(1)  # a random state through Data.build, whose keywords every revision has
+        data = wd.data.Data.build(
+            model, num_envs=N, joint_positions=rng.uniform(-1, 1, (N, n)), joint_velocities=rng.uniform(-1, 1, (N, n)),
+            base_position=rng.uniform(-1, 1, (N, 3)), base_linear_velocity=rng.uniform(-1, 1, (N, 3)), base_angular_velocity=rng.uniform(-1, 1, (N, 3)),
+        )
         u = wp.array(np.random.default_rng(1).uniform(-1, 1, (N, n)), dtype=model.scalar, device=dev)
         calls = {
             "ABA": lambda: wd.model.forward_dynamics_aba(model, data, joint_forces=u),

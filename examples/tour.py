@@ -123,7 +123,7 @@ def run_tour(
 
     # --- cell 6: create a random data object from the reduced model (Mixed representation by default).
     section(say, "State (cell 6): a random state, in JaxSim's Mixed representation")
-    data = wd.data.random_model_data(model, seed=seed, num_envs=num_envs)
+    data = wd.data.random_model_data(model, key=seed, num_envs=num_envs)
     W_H_B, s = (x.numpy() for x in data.generalized_position)
     ν = data.generalized_velocity.numpy()
     shape(say, "W_H_B", W_H_B, "the base's pose in the world (homogeneous transform)")
@@ -141,7 +141,7 @@ def run_tour(
     joint_force_references = rng.uniform(-10.0, 10.0, size=(*batch, model.dofs()))
     # The references read the link forces in the data's representation (Mixed: L[W]_f_L).
     references = wd.references.References.build(
-        model, data, link_forces=link_forces, joint_force_references=joint_force_references
+        model=model, data=data, link_forces=link_forces, joint_force_references=joint_force_references
     )
     shape(say, "f_L", references.link_forces(model, data), "a 6D force [force; torque] on each link, Mixed")
     shape(say, "τ", references.joint_force_references(model), "a force (torque) on each joint [N m]")

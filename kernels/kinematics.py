@@ -65,6 +65,23 @@ def kernels(scalar) -> types.SimpleNamespace:
             for c in range(4):
                 H[env, r, c] = M[r, c]
 
+    @wp.kernel(module="unique")
+    def inverse_adjoints(
+        poses: wp.array2d(dtype=sp.transform),
+        # outputs
+        X: wp.array4d(dtype=scalar),
+    ):
+        """X (N, K, 6, 6): B_X_A of each pose A_H_B (N, K), the motion adjoint from A to B (of parent_H_link:
+        i_X_lambda(i), and B_X_W for the base)."""
+        env, k = wp.tid()
+        M = sp.motion_matrix_from(poses[env, k])
+        for r in range(6):
+            for c in range(6):
+                X[env, k, r, c] = M[r, c]
+
     return types.SimpleNamespace(
-        base_homogeneous_matrix=base_homogeneous_matrix, forward_kinematics=forward_kinematics, homogeneous_matrices=homogeneous_matrices
+        base_homogeneous_matrix=base_homogeneous_matrix,
+        forward_kinematics=forward_kinematics,
+        homogeneous_matrices=homogeneous_matrices,
+        inverse_adjoints=inverse_adjoints,
     )

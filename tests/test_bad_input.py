@@ -422,7 +422,7 @@ def test_fixed_base_with_base_velocity():
 def test_replace_checks_like_build():
     """Data.replace validates what it is given as Data.build does: a named error, the data untouched."""
     model = _model()
-    data = wd.data.random_model_data(model, seed=7)
+    data = wd.data.random_model_data(model, key=7)
     before = data.joint_positions.numpy().copy()
     with pytest.raises(ValueError, match=r"joint_positions has non-finite values"):
         data.replace(model, joint_positions=np.full(model.dofs(), np.nan))

@@ -268,7 +268,7 @@ def test_seed_centroidal_cell_17(dtype):
     with NumPy from W_H_C and the CoM c (computed here with NumPy from the link poses and the lumped
     masses; wd.com is another module)."""
     model = ergocub_seed_with_points(dtype)
-    data = wd.data.random_model_data(model, seed=3)
+    data = wd.data.random_model_data(model, key=3)
     n_cp = len(model.kin_dyn_parameters.contact_parameters.body)
     assert n_cp == 32
     W_H_C = wd.contact.transforms(model=model, data=data)
@@ -476,7 +476,7 @@ def test_enabled_mask_selects_points_and_leaves_the_model_unchanged(dtype):
     ones (as JaxSim); the original model keeps all points. Reference: the all-points results indexed
     with the mask."""
     model = ergocub_seed_with_points(dtype)
-    data = wd.data.random_model_data(model, seed=4)
+    data = wd.data.random_model_data(model, key=4)
     left = wd.contact.with_collidable_points(model, enabled_links=("l_ankle_2",))
     cp = left.kin_dyn_parameters.contact_parameters
     assert len(cp.body) == 32 and sum(cp.enabled) == 16

@@ -103,7 +103,7 @@ def test_coriolis_times_velocity_is_bias_minus_gravity(case, repr, dtype):
     states. Reference: warpdyn's RNEA (h with and without velocities). Tolerance: module docstring."""
     model = _model(case, dtype)
     N = 3
-    data = wd.data.random_model_data(model, num_envs=N, seed=_seed("cnu", case, repr), velocity_representation=repr)
+    data = wd.data.random_model_data(model, num_envs=N, key=_seed("cnu", case, repr), velocity_representation=repr)
     C = free_floating_coriolis_matrix(model, data).numpy()
     h = wd.model.free_floating_bias_forces(model, data).numpy()
     g = wd.model.free_floating_gravity_forces(model, data).numpy()
@@ -178,8 +178,8 @@ def test_mass_matrix_derivative_minus_twice_coriolis_is_skew(case, repr, dtype):
     model = _model(case, dtype)
     N = 2
     seed = _seed("skew", case, repr)
-    data64 = wd.data.random_model_data(model64, num_envs=N, seed=seed, velocity_representation=repr)
-    data = wd.data.random_model_data(model, num_envs=N, seed=seed, velocity_representation=repr)
+    data64 = wd.data.random_model_data(model64, num_envs=N, key=seed, velocity_representation=repr)
+    data = wd.data.random_model_data(model, num_envs=N, key=seed, velocity_representation=repr)
     Mdot = mass_matrix_derivative(model64, data64)
     C = free_floating_coriolis_matrix(model, data).numpy().astype(np.float64)
     tol = FD_TOL if np.dtype(dtype) == np.float64 else TOL[np.dtype(dtype)]
@@ -251,7 +251,7 @@ def test_matches_jaxsim_formula(case, repr):
     whole matrix. Fixed bases: the joint block against JaxSim's fixed-base rule, and the whole matrix
     against the rule that keeps the base link and the base-joint blocks. float64, TOL."""
     model = _model(case, np.float64)
-    data = wd.data.random_model_data(model, num_envs=2, seed=_seed("jaxsim", case, repr), velocity_representation=repr)
+    data = wd.data.random_model_data(model, num_envs=2, key=_seed("jaxsim", case, repr), velocity_representation=repr)
     C = free_floating_coriolis_matrix(model, data).numpy()
     tol = TOL[np.dtype(np.float64)] * _scale(C)
     np.testing.assert_allclose(C, jaxsim_coriolis(model, data, fixed_base_rule=False), atol=tol)
@@ -270,7 +270,7 @@ def test_batched_equals_single(case, repr, dtype, layout):
     JaxSim's shape (6 + n, 6 + n); both memory layouts. Same arithmetic, so float64 1e-12 and float32 1e-6."""
     model = _model(case, dtype)
     N = 3
-    batch = wd.data.random_model_data(model, num_envs=N, seed=_seed("batch", case, repr), velocity_representation=repr)
+    batch = wd.data.random_model_data(model, num_envs=N, key=_seed("batch", case, repr), velocity_representation=repr)
     C = free_floating_coriolis_matrix(model, batch).numpy()
     n = model.dofs()
     assert C.shape == (N, 6 + n, 6 + n)
@@ -314,7 +314,7 @@ def test_tape_gradients_match_finite_differences(case, repr):
     the tape's rounding reaches 1.5e-6 where the derivative is zero (a fixed base's quaternion)."""
     model = _model(case, np.float64)
     N, n = 2, model.dofs()
-    base = wd.data.random_model_data(model, num_envs=N, seed=_seed("grad", case, repr), velocity_representation=repr)
+    base = wd.data.random_model_data(model, num_envs=N, key=_seed("grad", case, repr), velocity_representation=repr)
     values = {name: getattr(base, f"{name}_state").numpy().copy() for name in _STATE}
     w = wp.array(np.random.default_rng(_seed("w", case, repr)).normal(size=(N, 6 + n, 6 + n)), dtype=wp.float64)
 

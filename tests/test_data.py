@@ -154,7 +154,7 @@ def test_fixed_base_default_pose_is_the_welded_pose(seed, dtype):
     H = _welded_pose_from_urdf(urdf)
     assert np.linalg.norm(H[:3, 3]) > 0.1 and not np.allclose(H[:3, :3], np.eye(3), atol=0.1)  # a real test
     tol = 1e-14 if np.dtype(dtype) == np.float64 else 1e-6
-    for data in (wd.data.Data.build(model), wd.data.Data.zero(model), wd.data.random_model_data(model, seed=seed),
+    for data in (wd.data.Data.build(model), wd.data.Data.zero(model), wd.data.random_model_data(model, key=seed),
                  wd.data.Data.build(model, num_envs=2)):
         got = data.base_transform.numpy().reshape(-1, 4, 4)
         np.testing.assert_allclose(got, np.broadcast_to(H, got.shape), rtol=0, atol=tol)
@@ -173,7 +173,7 @@ def test_properties_are_views_of_the_state(layout):
     """
     model = _model("tree")
     for num_envs in (None, 3):
-        data = wd.data.random_model_data(model, seed=11, num_envs=num_envs)
+        data = wd.data.random_model_data(model, key=11, num_envs=num_envs)
         for name in ("joint_positions", "joint_velocities", "base_position", "base_quaternion"):
             view, state = getattr(data, name), getattr(data, f"{name}_state")
             assert view.ptr == state.ptr, name
@@ -259,7 +259,7 @@ def test_random_model_data_within_default_bounds_and_joint_limits(name, dtype):
     """
     model = _model(name, dtype)
     N = 256
-    data = wd.data.random_model_data(model, seed=31, num_envs=N)
+    data = wd.data.random_model_data(model, key=31, num_envs=N)
     eps = 1e-12 if np.dtype(dtype) == np.float64 else 1e-6
     p = data.base_position.numpy()
     low, high = np.array([-1.0, -1.0, 0.5]), np.ones(3)
@@ -290,7 +290,7 @@ def test_random_model_data_with_custom_bounds_and_representation(dtype):
     model = _model("tree", dtype)
     N = 128
     data = wd.data.random_model_data(
-        model, seed=32, num_envs=N, velocity_representation=VelRepr.Body,
+        model, key=32, num_envs=N, velocity_representation=VelRepr.Body,
         base_pos_bounds=((0.0, 0.1, 0.2), (0.05, 0.15, 0.25)), joint_pos_bounds=(-0.1, 0.2),
         base_vel_lin_bounds=(2.0, 3.0), base_vel_ang_bounds=(-0.01, 0.01), joint_vel_bounds=(5.0, 6.0),
     )
@@ -315,20 +315,20 @@ def test_random_model_data_is_reproducible_by_seed(dtype):
     differs (fresh draws everywhere).
     """
     model = _model("tree", dtype)
-    a = _state_fields(wd.data.random_model_data(model, seed=41, num_envs=5))
-    b = _state_fields(wd.data.random_model_data(model, seed=41, num_envs=5))
-    c = _state_fields(wd.data.random_model_data(model, seed=42, num_envs=5))
+    a = _state_fields(wd.data.random_model_data(model, key=41, num_envs=5))
+    b = _state_fields(wd.data.random_model_data(model, key=41, num_envs=5))
+    c = _state_fields(wd.data.random_model_data(model, key=42, num_envs=5))
     for name in a:
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
         assert not np.array_equal(a[name], c[name]), name
-    single = wd.data.random_model_data(model, seed=41)
+    single = wd.data.random_model_data(model, key=41)
     assert single.num_envs is None and tuple(single.joint_positions.shape) == (model.dofs(),)
-    np.testing.assert_array_equal(single.joint_positions.numpy(), wd.data.random_model_data(model, seed=41).joint_positions.numpy())
+    np.testing.assert_array_equal(single.joint_positions.numpy(), wd.data.random_model_data(model, key=41).joint_positions.numpy())
 
 
 def test_random_model_data_requires_grad():
     """requires_grad=True gives state arrays with gradients allocated (and zero)."""
-    data = wd.data.random_model_data(_model("tree"), seed=43, requires_grad=True)
+    data = wd.data.random_model_data(_model("tree"), key=43, requires_grad=True)
     assert data.requires_grad
     for name in _state_fields(data):
         grad = getattr(data, f"{name}_state").grad
@@ -348,7 +348,7 @@ def test_replace_each_field(layout):
     model = _model("tree")
     n, N = model.dofs(), 3
     rng = np.random.default_rng(51)
-    data = wd.data.random_model_data(model, seed=51, num_envs=N)
+    data = wd.data.random_model_data(model, key=51, num_envs=N)
     old = _state_fields(data)
     new_values = {
         "joint_positions": ("joint_positions", rng.uniform(-1, 1, (N, n))),
@@ -366,7 +366,7 @@ def test_replace_each_field(layout):
                 np.testing.assert_array_equal(fields[other], array, err_msg=f"{argument} changed {other}")
         for name, array in old.items():
             np.testing.assert_array_equal(_state_fields(data)[name], array, err_msg=f"original {name}")
-    single = wd.data.random_model_data(model, seed=52)
+    single = wd.data.random_model_data(model, key=52)
     s = rng.uniform(-1, 1, n)
     new = single.replace(model, joint_positions=s)
     assert new.num_envs is None and tuple(new.joint_positions.shape) == (n,)
@@ -383,7 +383,7 @@ def test_replace_a_subset_of_environments(envs, layout):
     model = _model("tree")
     n, N = model.dofs(), 4
     rng = np.random.default_rng(53)
-    data = wd.data.random_model_data(model, seed=53, num_envs=N)
+    data = wd.data.random_model_data(model, key=53, num_envs=N)
     old = _state_fields(data)
     s, sdot = rng.uniform(-1, 1, (N, n)), rng.uniform(-1, 1, (N, n))
     p, q = rng.uniform(-1, 1, (N, 3)), _unit_quaternions(rng, N)
@@ -415,7 +415,7 @@ def test_replace_half_of_the_base_velocity_keeps_the_other_half(repr_, layout):
     model = _model("tree")
     N = 3
     rng = np.random.default_rng(54 + int(repr_))
-    data = wd.data.random_model_data(model, seed=54, num_envs=N, velocity_representation=repr_)
+    data = wd.data.random_model_data(model, key=54, num_envs=N, velocity_representation=repr_)
     before = data.base_velocity.numpy()
     lin, ang = rng.uniform(-2, 2, (N, 3)), rng.uniform(-2, 2, (N, 3))
     new = data.replace(model, base_angular_velocity=ang)
@@ -436,7 +436,7 @@ def test_switch_velocity_representation_restores_it():
     state read in the same representation).
     """
     model = _model("tree")
-    data = wd.data.random_model_data(model, seed=61, velocity_representation=VelRepr.Inertial)
+    data = wd.data.random_model_data(model, key=61, velocity_representation=VelRepr.Inertial)
     before = data.base_velocity.numpy()
     with data.switch_velocity_representation(VelRepr.Body) as switched:
         assert switched is data and data.velocity_representation == VelRepr.Body

@@ -88,7 +88,7 @@ def test_per_environment_parameters_equal_shared_models_row_by_row():
     assert model.per_environment_parameters() == dict.fromkeys(
         ("link_mass", "link_com", "link_inertia", "joint_limit_spring", "joint_limit_damper", "friction_static", "friction_viscous"), N
     )
-    data = wd.data.random_model_data(model, seed=1, num_envs=N)
+    data = wd.data.random_model_data(model, key=1, num_envs=N)
     got = {k: v.numpy() for k, v in _outputs(model, data).items()}
     M_links = wd.model.link_spatial_inertia_matrices(model).numpy()
     assert M_links.shape == (N, model.number_of_links(), 6, 6)
@@ -318,7 +318,7 @@ def test_functions_that_do_not_read_the_parameters_take_any_batch_size():
         e = wd.contact.estimate_good_contact_parameters(shared)
         np.testing.assert_allclose([estimate.K[k], estimate.D[k]], [e.K, e.D], rtol=1e-12)
     params = wd.model.parameters_requiring_grad(model, names=("link_com",))
-    data = wd.data.random_model_data(model, seed=3, num_envs=3)
+    data = wd.data.random_model_data(model, key=3, num_envs=3)
     tape = wp.Tape()
     with tape:
         p = wd.link.com_position(model, data, link_index=4, in_link_frame=False)

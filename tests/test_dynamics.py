@@ -78,7 +78,7 @@ def test_mass_matrix_bias_and_forward_dynamics_match_mujoco(case, dtype):
     """M vs mj_fullM, h vs qfrc_bias, g vs qfrc_bias at rest, ABA and CRB vs qacc with qfrc_applied;
     joint blocks only for fixed bases (MuJoCo has no base there)."""
     model, mj = _build(case, dtype)
-    data = wd.data.random_model_data(model, seed=7)
+    data = wd.data.random_model_data(model, key=7)
     state, idx, P = _mujoco_at(model, mj, data)
     d = state.d
     M_mj = np.zeros((mj.nv, mj.nv))
@@ -119,7 +119,7 @@ def test_inverse_dynamics_matches_mujoco(case, dtype):
     """RNEA vs mj_inverse (qfrc_inverse) for random accelerations; Mixed base acceleration mapped to
     MuJoCo's qacc by d/dt(P nu) = P nu_dot + Pdot nu, Pdot nu = [0; -B_omega x R^T W_omega = 0; 0]."""
     model, mj = _build(case, dtype)
-    data = wd.data.random_model_data(model, seed=11)
+    data = wd.data.random_model_data(model, key=11)
     state, idx, P = _mujoco_at(model, mj, data)
     rng = np.random.default_rng(5)
     base_acc = rng.uniform(-2, 2, 6) if model.floating_base() else np.zeros(6)
@@ -143,7 +143,7 @@ def test_equations_of_motion_identities(case, repr, dtype):
     identities themselves; tolerances as the MuJoCo comparison."""
     model, _ = _build(case, dtype)
     N = 3
-    data = wd.data.random_model_data(model, num_envs=N, seed=2, velocity_representation=repr)
+    data = wd.data.random_model_data(model, num_envs=N, key=2, velocity_representation=repr)
     rng = np.random.default_rng(9)
     tau = rng.uniform(-5, 5, (N, model.dofs()))
     f_L = rng.uniform(-5, 5, (N, model.number_of_links(), 6))
@@ -183,7 +183,7 @@ def test_seed_inverse_dynamics_recovers_base_wrench():
     rng = np.random.default_rng(0)
     link_forces = rng.uniform(-10, 10, (model.number_of_links(), 6))
     tau = rng.uniform(-10, 10, model.dofs())
-    references = wd.references.References.build(model, data, link_forces=link_forces, joint_force_references=tau)
+    references = wd.references.References.build(model, data=data, link_forces=link_forces, joint_force_references=tau)
     f_L = references.link_forces(model, data).numpy()
     v_dot_WB, s_ddot = wd.model.forward_dynamics_aba(model, data, link_forces=f_L, joint_forces=tau)
     without_base = f_L.copy()
@@ -214,7 +214,7 @@ def test_tape_gradients_match_finite_differences(algorithm, repr):
     float64; step 1e-6 gives FD errors ~1e-9 on O(1) quantities, so 1e-6 relative."""
     model, _ = _build("random_2", np.float64)
     N = 2
-    base = wd.data.random_model_data(model, num_envs=N, seed=4, velocity_representation=repr)
+    base = wd.data.random_model_data(model, num_envs=N, key=4, velocity_representation=repr)
     rng = np.random.default_rng(8)
     u = rng.uniform(-2, 2, (N, model.dofs()))
     n = model.dofs()
@@ -294,8 +294,8 @@ def test_calls_after_a_state_array_is_replaced_read_the_new_one(num_envs):
     follow the replacement. Reference: the same call on a Data built from the new values, bit for bit (the same
     kernel on the same numbers)."""
     model, _ = _build("random_2", np.float64)
-    data = wd.data.random_model_data(model, num_envs=num_envs, seed=1)
-    other = wd.data.random_model_data(model, num_envs=num_envs, seed=2)
+    data = wd.data.random_model_data(model, num_envs=num_envs, key=1)
+    other = wd.data.random_model_data(model, num_envs=num_envs, key=2)
     calls = {
         "aba": lambda d: wd.model.forward_dynamics_aba(model, d)[1],
         "crba": lambda d: wd.model.free_floating_mass_matrix(model, d),

@@ -185,7 +185,7 @@ def test_a_non_finite_warp_input_flags_its_environment_in_a_step(label, repr, ba
     host) flags its environment; an infinite reference used to be clamped to the torque-speed bound or the
     control range and applied silently."""
     model = MODELS[label]
-    data = wd.data.random_model_data(model, num_envs=N, seed=1, velocity_representation=repr)
+    data = wd.data.random_model_data(model, num_envs=N, key=1, velocity_representation=repr)
     for name, (clean, faulty) in _inputs(model, bad_value).items():
         reference = wd.model.step(model, data, **{name: clean})
         _flagged_and_others_intact(wd.model.step(model, data, **{name: faulty}), reference, data)
@@ -194,7 +194,7 @@ def test_a_non_finite_warp_input_flags_its_environment_in_a_step(label, repr, ba
 def test_the_torque_speed_clip_does_not_hide_a_nan_beyond_omega_max():
     """Beyond omega_max the torque-speed bound is 0 and clips every finite reference to 0; a NaN still flags."""
     model = MODELS["urdf"]
-    data = wd.data.random_model_data(model, num_envs=N, seed=2, joint_vel_bounds=(150.0, 160.0))
+    data = wd.data.random_model_data(model, num_envs=N, key=2, joint_vel_bounds=(150.0, 160.0))
     clean, faulty = _inputs(model, np.nan)["joint_force_references"]
     _flagged_and_others_intact(wd.model.step(model, data, joint_force_references=faulty), wd.model.step(model, data, joint_force_references=clean), data)
 
@@ -206,7 +206,7 @@ def test_a_non_finite_warp_control_flags_its_environment_in_a_rollout(label, use
     environment valid up to t = 2, flagged from t = 3 on, its state frozen at the state 2; the other
     environments' records equal the clean rollout's bitwise."""
     model, T, t_bad = MODELS[label], 5, 2
-    data = wd.data.random_model_data(model, num_envs=N, seed=3)
+    data = wd.data.random_model_data(model, num_envs=N, key=3)
     rng = np.random.default_rng(4)
     shapes = {"joint_force_references": (model.dofs(),), "link_forces": (model.number_of_links(), 6)}
     if model.number_of_actuators():

@@ -202,7 +202,7 @@ def test_massless_links_inside_a_chain_and_on_fixed_joints_stay_allowed():
     sensor = '<link name="sensor"/><joint name="to_sensor" type="fixed"><parent link="link2"/><child link="sensor"/></joint>'
     model = _load(_urdf(link1="", extra=sensor))
     assert model.frame_names() == ("sensor",)
-    M = wd.model.free_floating_mass_matrix(model, wd.data.random_model_data(model, seed=0)).numpy()
+    M = wd.model.free_floating_mass_matrix(model, wd.data.random_model_data(model, key=0)).numpy()
     assert np.all(np.isfinite(M)) and np.linalg.eigvalsh(M).min() > 0.0
     mjcf = _load(mf.MULTI_JOINT)
     assert mjcf.dofs() == 8

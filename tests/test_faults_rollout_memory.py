@@ -60,7 +60,7 @@ def test_chunked_graphs_equal_the_eager_rollout(small_chunks, callback_every):
     box_data = wd.data.Data.build(box, num_envs=N, base_position=np.array([0.0, 0.0, 0.098]) + rng.uniform(-0.002, 0.002, (N, 3)))
     forces = rng.uniform(-1.0, 1.0, (T, N, box.number_of_links(), 6))
     motor = wd.model.Model.build_from_model_description(mf.MOTOR, dtype=np.float64)
-    motor_data = wd.data.random_model_data(motor, num_envs=N, seed=1)
+    motor_data = wd.data.random_model_data(motor, num_envs=N, key=1)
     ctrl = wp.array(rng.uniform(-1.0, 1.0, (T, 1, motor.number_of_actuators())), dtype=wp.float64)
     tau = rng.uniform(-0.1, 0.1, (N, motor.dofs()))
     for model, data, controls in ((box, box_data, {"link_forces": forces}), (motor, motor_data, {"ctrl": ctrl, "joint_force_references": tau})):

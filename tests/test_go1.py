@@ -151,7 +151,7 @@ def mujoco_errors(dtype, seed: int) -> dict:
     off = mujoco.mjtDisableBit
     mj.opt.disableflags |= off.mjDSBL_CONSTRAINT | off.mjDSBL_DAMPER | off.mjDSBL_SPRING
     mj_unfused = _mujoco_unfused(text)
-    data = wd.data.random_model_data(model, seed=seed, velocity_representation=VelRepr.Mixed)
+    data = wd.data.random_model_data(model, key=seed, velocity_representation=VelRepr.Mixed)
     state = [robots.host(a) for a in (data.base_position, data.base_quaternion, data.joint_positions, data.base_velocity, data.joint_velocities)]
     st = robots.MujocoState(mj, model.joint_names(), True)
     st.set(*state)

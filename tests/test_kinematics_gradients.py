@@ -189,8 +189,8 @@ def _fk(model, data):
     return wd.model.forward_kinematics(model, data)
 
 
-def _joint_transforms(model, data):
-    return wd.model.joint_transforms(model, data)
+def _relative_link_transforms(model, data):
+    return wd.model.relative_link_transforms(model, data)
 
 
 def _jacobian(out_repr):
@@ -235,7 +235,7 @@ def _generalized_velocity(model, data):
 
 CASES = {
     "forward_kinematics": (_fk, VelRepr.Mixed),
-    "joint_transforms": (_joint_transforms, VelRepr.Mixed),
+    "relative_link_transforms": (_relative_link_transforms, VelRepr.Mixed),
     "jacobian_mixed_mixed": (_jacobian(VelRepr.Mixed), VelRepr.Mixed),
     "jacobian_body_inertial": (_jacobian(VelRepr.Inertial), VelRepr.Body),
     "jacobian_inertial_body": (_jacobian(VelRepr.Body), VelRepr.Inertial),

@@ -341,7 +341,7 @@ def _outputs(model, data, frame):
     last = model.number_of_links() - 1
     return {
         "forward_kinematics": wd.model.forward_kinematics(model, data),
-        "joint_transforms": wd.model.joint_transforms(model, data),
+        "relative_link_transforms": wd.model.relative_link_transforms(model, data),
         "generalized_free_floating_jacobian": wd.model.generalized_free_floating_jacobian(model, data),
         "jacobian_body_output": wd.model.generalized_free_floating_jacobian(model, data, output_vel_repr=VelRepr.Body),
         "link.transform": wd.link.transform(model, data, link_index=last),
@@ -366,7 +366,7 @@ def _single_shapes(model) -> dict:
     nL, n = model.number_of_links(), model.dofs()
     return {
         "forward_kinematics": (nL, 4, 4),
-        "joint_transforms": (n, 4, 4),
+        "relative_link_transforms": (n, 4, 4),
         "generalized_free_floating_jacobian": (nL, 6, 6 + n),
         "jacobian_body_output": (nL, 6, 6 + n),
         "link.transform": (4, 4),
@@ -444,7 +444,7 @@ def test_single_rigid_body_without_joints(dtype):
 
     Reference: with no joints, the base link's Jacobian maps the base velocity to itself (identity in
     matching input and output representations), its velocity is the base velocity, ν is the base velocity,
-    and joint_transforms is empty, (0, 4, 4) or (N, 0, 4, 4). Tolerance: float64 1e-14, float32 1e-6
+    and relative_link_transforms is empty, (0, 4, 4) or (N, 0, 4, 4). Tolerance: float64 1e-14, float32 1e-6
     (a representation round trip of the base velocity).
     """
     model = wd.model.Model.build_from_model_description(robots.random_tree_urdf(1, num_links=1), dtype=dtype)
@@ -463,4 +463,4 @@ def test_single_rigid_body_without_joints(dtype):
             v = wd.link.velocity(model, data, link_index=0).numpy()
             np.testing.assert_allclose(v, data.base_velocity.numpy(), rtol=0, atol=tol)
             np.testing.assert_array_equal(data.generalized_velocity.numpy(), data.base_velocity.numpy())
-            assert tuple(wd.model.joint_transforms(model, data).shape) == (*lead, 0, 4, 4)
+            assert tuple(wd.model.relative_link_transforms(model, data).shape) == (*lead, 0, 4, 4)

@@ -123,7 +123,7 @@ def test_every_icub_models_urdf_loads_and_matches_mujoco(robot):
         warnings.simplefilter("ignore", wd.contact.NoCollidablePointsWarning)  # mesh-only robots (tested below)
         warnings.simplefilter("ignore", wd.model.UnphysicalInertiaWarning)  # three robots: tests/test_faults_loader.py
         model = _load(text)
-    data = wd.data.random_model_data(model, seed=3)
+    data = wd.data.random_model_data(model, key=3)
     tau = np.random.default_rng(1).uniform(-1, 1, model.dofs())
     base, joints = wd.model.forward_dynamics_aba(model, data, joint_forces=tau)
     nu_dot = np.r_[base.numpy(), joints.numpy()]

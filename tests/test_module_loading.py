@@ -112,10 +112,10 @@ def test_launches_that_no_tape_records_run_forward_only_twins():
         assert for_launch(kernel) is kernel
 
     model = robots.ergocub_seed_with_points(np.float64)
-    data = wd.data.random_model_data(model, num_envs=5, seed=3)
+    data = wd.data.random_model_data(model, num_envs=5, key=3)
     tau = np.random.default_rng(3).normal(size=(5, model.dofs()))
     plain = [a.numpy() for a in wd.model.forward_dynamics_aba(model, data, joint_forces=tau)]
-    taped = wd.data.random_model_data(model, num_envs=5, seed=3, requires_grad=True)
+    taped = wd.data.random_model_data(model, num_envs=5, key=3, requires_grad=True)
     with wp.Tape():
         recorded = [a.numpy() for a in wd.model.forward_dynamics_aba(model, taped, joint_forces=tau)]
     for a, b in zip(plain, recorded):

@@ -118,7 +118,7 @@ def test_dynamics_gradients_with_respect_to_link_masses_coms_and_inertias():
     model = _random_tree()
     n, N = model.dofs(), 2
     rng = np.random.default_rng(1)
-    data = wd.data.random_model_data(model, seed=2, num_envs=N)
+    data = wd.data.random_model_data(model, key=2, num_envs=N)
     tau = wp.array(rng.normal(size=(N, n)), dtype=wp.float64)
     a = wp.array(rng.normal(size=(N, 6 + n)), dtype=wp.float64)
     shapes = [(N, 6), (N, n), (N, 6), (N, n), (N, 6 + n, 6 + n)]
@@ -162,7 +162,7 @@ def test_centroidal_energy_and_coriolis_gradients_with_respect_to_mass_parameter
     model = _random_tree()
     N = 2
     rng = np.random.default_rng(3)
-    data = wd.data.random_model_data(model, seed=5, num_envs=N, velocity_representation=wd.VelRepr.Body)
+    data = wd.data.random_model_data(model, key=5, num_envs=N, velocity_representation=wd.VelRepr.Body)
     weights = [wp.array(rng.normal(size=x.shape), dtype=wp.float64) for x in _centroidal_outputs(model, data)]
     params = wd.model.parameters_requiring_grad(model, names=("link_mass", "link_com", "link_inertia"))
     tape = wp.Tape()
@@ -191,7 +191,7 @@ def test_crb_forward_dynamics_and_mass_matrix_inverse_gradients(fixed):
     model = wd.model.Model.build_from_model_description(urdf, dtype=np.float64)
     n, N = model.dofs(), 2
     rng = np.random.default_rng(7)
-    state = wd.data.random_model_data(model, seed=8, num_envs=N)
+    state = wd.data.random_model_data(model, key=8, num_envs=N)
     s0, v0 = state.joint_positions_state.numpy(), state.joint_velocities_state.numpy()
     params = wd.model.parameters_requiring_grad(model, names=("link_mass", "link_com", "link_inertia"))
     w = [wp.array(rng.normal(size=(N, 6)), dtype=wp.float64), wp.array(rng.normal(size=(N, n)), dtype=wp.float64)]
@@ -257,14 +257,14 @@ def test_single_environment_data_and_unmarked_parameters():
     (reference: the batched call; exact up to the summation order, rtol 1e-12); without marked parameters
     a taped call leaves the model's arrays without gradients."""
     model = _random_tree()
-    data = wd.data.random_model_data(model, seed=4)
+    data = wd.data.random_model_data(model, key=4)
     tape = wp.Tape()
     with tape:
         M = wd.model.free_floating_mass_matrix(model, data)
     assert model.link_mass.grad is None and not M.requires_grad
     params = wd.model.parameters_requiring_grad(model, names="link_mass")
     grads = []
-    for d in (data, wd.data.random_model_data(model, seed=4, num_envs=1)):
+    for d in (data, wd.data.random_model_data(model, key=4, num_envs=1)):
         tape = wp.Tape()
         with tape:
             M = wd.model.free_floating_mass_matrix(model, d)
@@ -285,7 +285,7 @@ def test_each_link_and_joint_parameter_marked_makes_dynamics_outputs_carry_gradi
     """Marking any link or joint parameter gives the dynamics functions' outputs gradient arrays (they enter
     ABA, RNEA and CRBA); an actuator parameter does not (the dynamics functions do not read it)."""
     model = robots.build(robots.random_tree_urdf(2, num_links=4), np.float64, is_urdf=True)
-    data = wd.data.random_model_data(model, seed=1, num_envs=2)
+    data = wd.data.random_model_data(model, key=1, num_envs=2)
     assert not wd.model.forward_dynamics_aba(model, data)[1].requires_grad
     wd.model.parameters_requiring_grad(model, names=name)
     group = wd.types.parameters.REGISTRY[name].group
@@ -519,7 +519,7 @@ def test_gradient_at_a_contact_onset_is_the_one_sided_derivative_from_outside():
         data = wd.data.Data.build(model, base_position=[0.0, 0.0, z], base_linear_velocity=[0.0, 0.0, -0.1], requires_grad=grad)
         tape = wp.Tape()
         with tape:
-            f = wd.contact.link_contact_forces(model, data)
+            f = wd.contact.link_contact_forces(model, data)[0]
             out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
             _weighted_sum([f], [wp.array(np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]), dtype=wp.float64)], out)
         if grad:

@@ -32,9 +32,9 @@ def test_link_forces_round_trip_and_power(ergocub, repr):
     """Link forces given in `repr` read back unchanged in `repr`, and deliver the same power in every
     representation (f . v with v in the same representation)."""
     model = ergocub
-    data = wd.data.random_model_data(model, seed=1)
+    data = wd.data.random_model_data(model, key=1)
     f = np.random.default_rng(2).uniform(-10, 10, (model.number_of_links(), 6))
-    references = wd.references.References.build(model, data, link_forces=f, velocity_representation=repr)
+    references = wd.references.References.build(model, data=data, link_forces=f, velocity_representation=repr)
     np.testing.assert_allclose(references.link_forces(model, data).numpy(), f, atol=1e-12)
     power = np.einsum("lk,lk->l", f, _link_velocities(model, data, repr))
     for other in VelRepr:
@@ -49,12 +49,12 @@ def test_frame_forces_move_to_the_parent_link(ergocub, repr):
     power (f_F . v_F); without `additive` it replaces that link's force, with it adds to it; the other
     links keep theirs."""
     model = ergocub
-    data = wd.data.random_model_data(model, seed=3)
+    data = wd.data.random_model_data(model, key=3)
     rng = np.random.default_rng(4)
     f_L = rng.uniform(-10, 10, (model.number_of_links(), 6))
     names = ("l_foot_front", "l_foot_rear", "r_foot_front")
     f_F = rng.uniform(-10, 10, (len(names), 6))
-    base = wd.references.References.build(model, data, link_forces=f_L, velocity_representation=repr)
+    base = wd.references.References.build(model, data=data, link_forces=f_L, velocity_representation=repr)
     parents = [wd.frame.idx_of_parent_link(model, frame_index=wd.frame.name_to_idx(model, frame_name=n)) for n in names]
     v_F = np.array(
         [

@@ -46,7 +46,7 @@ def _legs(per_environment: bool):
 
 def _data(model, requires_grad=False):
     return wd.data.random_model_data(
-        model, seed=4, num_envs=N, velocity_representation=VelRepr.Body, requires_grad=requires_grad,
+        model, key=4, num_envs=N, velocity_representation=VelRepr.Body, requires_grad=requires_grad,
         base_pos_bounds=((-0.1, -0.1, 0.56), (0.1, 0.1, 0.58)), base_rpy_bounds=(-0.2, 0.2), joint_pos_bounds=(-0.3, 0.3),
     )  # fmt: skip
 
@@ -237,7 +237,7 @@ def sum_squares(x: wp.array2d(dtype=wp.float64), loss: wp.array(dtype=wp.float64
 
 model = robots.ergocub_seed_with_points(np.float64)
 model = wd.model.reduce(model, model.joint_names())
-data = wd.data.random_model_data(model, seed=4, num_envs=8, requires_grad=True)
+data = wd.data.random_model_data(model, key=4, num_envs=8, requires_grad=True)
 tau = wp.array(np.random.default_rng(5).normal(0.0, 5.0, (8, model.dofs())), dtype=wp.float64, requires_grad=True)
 tape = wp.Tape()
 with tape:

@@ -58,7 +58,7 @@ def _standing_data(model, N, seed=0, z=(0.56, 0.62)):
     """Random states of the legs with the feet near the ground (z of the base in `z`), some points in contact."""
     return wd.data.random_model_data(
         model,
-        seed=seed,
+        key=seed,
         num_envs=N,
         base_pos_bounds=((-0.1, -0.1, z[0]), (0.1, 0.1, z[1])),
         base_rpy_bounds=(-0.3, 0.3),
@@ -106,7 +106,7 @@ def _assert_records_match_steps(model, rec, states, batched=True):
             np.testing.assert_array_equal(rec["base_velocity"].numpy()[t], d.base_velocity.numpy(), err_msg=f"base_velocity at t={t}")
         if t < T:
             if "link_contact_forces" in rec:
-                _assert_contact_record(rec["link_contact_forces"].numpy()[t], wd.contact.link_contact_forces(model, d).numpy())
+                _assert_contact_record(rec["link_contact_forces"].numpy()[t], wd.contact.link_contact_forces(model, d, output_vel_repr=d.velocity_representation)[0].numpy())
             if "collidable_point_forces" in rec:
                 _assert_contact_record(rec["collidable_point_forces"].numpy()[t], wd.contact.collidable_point_forces(model, d).numpy())
 
@@ -142,7 +142,7 @@ def test_rollout_in_other_representations(repr_):
     """Body and Inertial data: link forces read and base velocities recorded in the data's representation."""
     model = _legs_model(np.float64)
     N, T = 2, 4
-    data = wd.data.random_model_data(model, seed=3, num_envs=N, velocity_representation=repr_, base_pos_bounds=((0, 0, 0.58), (0, 0, 0.6)), base_rpy_bounds=(-0.2, 0.2))
+    data = wd.data.random_model_data(model, key=3, num_envs=N, velocity_representation=repr_, base_pos_bounds=((0, 0, 0.58), (0, 0, 0.6)), base_rpy_bounds=(-0.2, 0.2))
     forces = np.random.default_rng(4).normal(size=(T, N, model.number_of_links(), 6))
     final, rec = wd.simulation.rollout(model, data, steps=T, link_forces=forces, record=ALL_RECORDS)
     assert final.velocity_representation == repr_
@@ -456,7 +456,7 @@ def test_link_contact_forces_sum_points_and_convert_representations(dtype):
     data = _standing_data(model, N, z=(0.55, 0.58))
     rel = REL[np.dtype(dtype)]
     f_C = wd.contact.collidable_point_forces(model, data, output_vel_repr=VelRepr.Inertial).numpy()
-    W_f_L = wd.contact.link_contact_forces(model, data, output_vel_repr=VelRepr.Inertial).numpy()
+    W_f_L = wd.contact.link_contact_forces(model, data, output_vel_repr=VelRepr.Inertial)[0].numpy()
     assert np.abs(f_C).max() > 1.0, "no contact force: the test lost its contacts"
     body = np.asarray(model.kin_dyn_parameters.contact_parameters.body)[model.kin_dyn_parameters.contact_parameters.indices_of_enabled_collidable_points]
     scale = np.abs(f_C).max()
@@ -476,7 +476,7 @@ def test_link_contact_forces_sum_points_and_convert_representations(dtype):
     body_f = np.concatenate([np.einsum("nlji,nlj->nli", R, f), np.einsum("nlji,nlj->nli", R, tau - np.cross(p, f))], axis=-1)
     for repr_, ref in ((VelRepr.Mixed, mixed), (VelRepr.Body, body_f)):
         with data.switch_velocity_representation(repr_):
-            got = wd.contact.link_contact_forces(model, data).numpy()
+            got = wd.contact.link_contact_forces(model, data, output_vel_repr=repr_)[0].numpy()
         np.testing.assert_allclose(got, ref, rtol=0, atol=rel * scale * 16, err_msg=repr_.name)
     point_mixed = wd.contact.collidable_point_forces(model, data, output_vel_repr=VelRepr.Mixed).numpy()
     np.testing.assert_array_equal(point_mixed[..., 3:], 0.0 * point_mixed[..., 3:])
@@ -503,19 +503,19 @@ def test_point_forces_at_rest_follow_hunt_crossley(dtype):
     np.testing.assert_allclose(f[:, 2], expected, rtol=REL[np.dtype(dtype)] * 100, atol=1e-12)
     np.testing.assert_array_equal(f[:, :2], 0.0 * f[:, :2])
     # the links: both ankles get the sum of their points, the others nothing
-    W_f_L = wd.contact.link_contact_forces(model, data, output_vel_repr=VelRepr.Inertial).numpy()
+    W_f_L = wd.contact.link_contact_forces(model, data, output_vel_repr=VelRepr.Inertial)[0].numpy()
     assert np.isclose(W_f_L[:, 2].sum(), expected.sum(), rtol=1e-5)
 
 
 def test_contact_api_without_enabled_points_and_ignored_inputs():
     model = wd.contact.with_collidable_points(_legs_model(np.float64), enabled=np.zeros(32, dtype=bool))
     data = _standing_data(model, 2)
-    assert np.all(wd.contact.link_contact_forces(model, data).numpy() == 0.0)
+    assert np.all(wd.contact.link_contact_forces(model, data)[0].numpy() == 0.0)
     assert wd.contact.collidable_point_forces(model, data).shape == (2, 0, 6)
     legs = _legs_model(np.float64)
     data = _standing_data(legs, 2)
-    a = wd.contact.link_contact_forces(legs, data).numpy()
-    b = wd.contact.link_contact_forces(legs, data, link_forces=np.ones((13, 6)), joint_torques=np.ones(12)).numpy()
+    a = wd.contact.link_contact_forces(legs, data)[0].numpy()
+    b = wd.contact.link_contact_forces(legs, data, link_forces=np.ones((13, 6)), joint_torques=np.ones(12))[0].numpy()
     np.testing.assert_array_equal(a, b)
     with pytest.raises(ValueError, match="link_forces has shape"):
         wd.contact.link_contact_forces(legs, data, link_forces=np.ones((12, 6)))
@@ -535,7 +535,7 @@ def test_in_contact_uses_the_terrain_height(terrain, dtype):
     model = _legs_model(dtype)
     model.terrain = terrain
     N = 64
-    data = wd.data.random_model_data(model, seed=9, num_envs=N, base_pos_bounds=((-0.2, -0.2, 0.5), (0.2, 0.2, 0.75)), base_rpy_bounds=(-0.4, 0.4), joint_pos_bounds=(-0.3, 0.3))
+    data = wd.data.random_model_data(model, key=9, num_envs=N, base_pos_bounds=((-0.2, -0.2, 0.5), (0.2, 0.2, 0.75)), base_rpy_bounds=(-0.4, 0.4), joint_pos_bounds=(-0.3, 0.3))
     p = wd.contact.collidable_point_positions(model, data).numpy().astype(np.float64)
     h = terrain.height_at(p[..., 0], p[..., 1])
     gap = p[..., 2] - h
@@ -599,10 +599,10 @@ def test_models_launch_only_what_they_need(monkeypatch, fused):
         assert with_contacts == ["resultant_torques", "forward_kinematics", "link_velocities", "point_contact_forces", "link_contact_forces", "aba", "semi_implicit_euler"]
         assert without == ["resultant_torques", "aba", "semi_implicit_euler"]
     assert len(_kernel_names(no_contacts, data, forces=True)) == len(without) + 2
-    inertial = wd.data.random_model_data(legs, seed=1, num_envs=2, velocity_representation=VelRepr.Inertial)
+    inertial = wd.data.random_model_data(legs, key=1, num_envs=2, velocity_representation=VelRepr.Inertial)
     assert len(_kernel_names(no_contacts, inertial, forces=True)) == len(without)
     # the no-contact model still steps as the model whose points never touch (same numbers)
-    high = wd.data.random_model_data(legs, seed=2, num_envs=2, base_pos_bounds=((0, 0, 5.0), (0, 0, 5.0)))
+    high = wd.data.random_model_data(legs, key=2, num_envs=2, base_pos_bounds=((0, 0, 5.0), (0, 0, 5.0)))
     a, b = wd.model.step(legs, high), wd.model.step(no_contacts, high)
     for x, y in zip(_state_numpy(a), _state_numpy(b)):
         np.testing.assert_array_equal(x, y)

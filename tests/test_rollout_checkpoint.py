@@ -64,7 +64,7 @@ def _standing(model, N, seed=0, repr_=VelRepr.Mixed):
     """Random states of the legs with the feet near the ground (some points in contact), requiring gradients."""
     return wd.data.random_model_data(
         model,
-        seed=seed,
+        key=seed,
         num_envs=N,
         velocity_representation=repr_,
         base_pos_bounds=((-0.1, -0.1, 0.56), (0.1, 0.1, 0.6)),

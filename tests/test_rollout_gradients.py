@@ -369,7 +369,7 @@ def _holding_torques(model, data) -> np.ndarray:
     """Joint torques (N, n) that give zero joint accelerations at `data` with its contact forces (ABA is
     affine in the joint torques: its response to each unit torque, then one linear solve per environment)."""
     n = model.dofs()
-    f_c = wd.contact.link_contact_forces(model, data)
+    f_c = wd.contact.link_contact_forces(model, data, output_vel_repr=data.velocity_representation)[0]
     N = data.batch_size
     a0 = wd.model.forward_dynamics_aba(model, data, link_forces=f_c)[1].numpy().reshape(N, n)
     columns = []

@@ -20,7 +20,7 @@ def _legs(integrator=robots.SIE):
 
 def _standing(model, N, repr_=VelRepr.Mixed, seed=0):
     return wd.data.random_model_data(
-        model, seed=seed, num_envs=N, velocity_representation=repr_,
+        model, key=seed, num_envs=N, velocity_representation=repr_,
         base_pos_bounds=((-0.1, -0.1, 0.56), (0.1, 0.1, 0.6)), base_rpy_bounds=(-0.3, 0.3), joint_pos_bounds=(-0.3, 0.3),
     )  # fmt: skip
 

@@ -32,7 +32,7 @@ def _legs():
 
 def _data(model, seed, N=3, repr_=VelRepr.Mixed):
     return wd.data.random_model_data(
-        model, seed=seed, num_envs=N, velocity_representation=repr_,
+        model, key=seed, num_envs=N, velocity_representation=repr_,
         base_pos_bounds=((-0.1, -0.1, 0.56), (0.1, 0.1, 0.6)), base_rpy_bounds=(-0.3, 0.3), joint_pos_bounds=(-0.3, 0.3),
     )  # fmt: skip
 
@@ -97,7 +97,7 @@ FAMILIES = {
                               wd.model.inverse_dynamics(m, d, base_acceleration=np.ones(6), joint_accelerations=np.ones(m.dofs()))],
     "centroidal": lambda m, d: [wd.com.com_position(m, d), wd.com.centroidal_momentum(m, d),
                                 wd.com.centroidal_momentum_jacobian(m, d), wd.model.mechanical_energy(m, d)],
-    "contact": lambda m, d: [wd.contact.link_contact_forces(m, d), wd.contact.collidable_point_positions(m, d)],
+    "contact": lambda m, d: [wd.contact.link_contact_forces(m, d)[0], wd.contact.collidable_point_positions(m, d)],
     "step": lambda m, d: _steps(m, d, 5),
 }  # fmt: skip
 

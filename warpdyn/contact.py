@@ -13,6 +13,8 @@ a leading environment axis N for batched data.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import warp as wp
 
@@ -21,7 +23,7 @@ from .data import Data
 from .description.collidable import CollidablePointsOptions, NoCollidablePointsWarning, UnresolvedMeshWarning, resolve_mesh_uri
 from .engine import contact, derivatives, kinematics
 from .types import names
-from .types.enums import output_repr
+from .types.enums import VelRepr, output_repr
 from .types.kin_dyn import ContactParameters, FrameParameters, KinDynParameters
 from .types.settings import SoftContactsParams
 
@@ -39,8 +41,10 @@ __all__ = [
     "collidable_point_velocities",
     "in_contact",
     "link_contact_forces",
+    "link_forces_from_contact_forces",
     "collidable_point_forces",
     "estimate_good_contact_parameters",
+    "estimate_good_soft_contacts_parameters",
     "transforms",
     "jacobian",
     "jacobian_derivative",
@@ -122,18 +126,20 @@ def _check_ignored_inputs(model, data, link_forces, joint_force_references) -> N
 
 
 def link_contact_forces(
-    model, data, *, link_forces=None, joint_force_references=None, joint_torques=None, output_vel_repr=None
-) -> wp.array:
-    """The contact wrench on each link: (nL, 6) or (N, nL, 6), [force; torque], in `output_vel_repr`
-    (default: the data's representation), for the link frame L:
+    model, data, *, link_forces=None, joint_force_references=None, joint_torques=None, output_vel_repr=VelRepr.Inertial
+) -> tuple[wp.array, dict]:
+    """(f_L, derivatives), JaxSim's: the contact wrench on each link, (nL, 6) or (N, nL, 6), [force; torque],
+    and the rates of the contact model's state, {"m_dot": (nc_all, 3) or (N, nc_all, 3)} [m/s] for the soft
+    law (0 for disabled points), at the data's state. f_L in `output_vel_repr` for the link frame L (default
+    Inertial, as JaxSim's, whatever the data's representation):
     - Inertial: W_f_L = sum over L's enabled points C of [f_C; W_p_C x f_C] (torque about the world origin),
-      what JaxSim 0.9's `link_contact_forces` returns and what `step` adds to the link's external force;
+      what `step` adds to the link's external force;
     - Mixed: the same force with its torque about the link origin, world axes: [f; tau_W - W_p_L x f];
     - Body: L_X*_W W_f_L, force and torque at the link origin in link axes.
-    The point forces are the soft-contact forces (`model.contact_params`, `model.terrain`) at the data's
-    state, the ones a step starting there applies. Links without enabled points get zeros.
-    link_forces, joint_force_references (alias joint_torques, JaxSim's name): accepted as JaxSim does;
-    soft contacts do not depend on them.
+    The point forces are the contact model's (`model.contact_model`, `model.contact_params`, `model.terrain`)
+    at the data's state, the ones a step starting there applies. Links without enabled points get zeros.
+    link_forces, joint_force_references (alias joint_torques, JaxSim's name): the other forces acting, which
+    JaxSim's rigid models use and the soft law does not (checked, then unused).
     """
     if joint_torques is not None:
         if joint_force_references is not None:
@@ -141,7 +147,21 @@ def link_contact_forces(
         joint_force_references = joint_torques
     _check_ignored_inputs(model, data, link_forces, joint_force_references)
     out = contact.link_wrenches(model, data, int(output_repr(data, output_vel_repr)))
-    return arrays.squeeze_env(out, data.num_envs)
+    _, derivatives = model.contact_model.compute_contact_forces(model, data)
+    return arrays.squeeze_env(out, data.num_envs), derivatives
+
+
+def link_forces_from_contact_forces(model, *, contact_forces) -> wp.array:
+    """W_f_L (nL, 6) or (N, nL, 6): the Inertial contact forces of the enabled points (nc, 6) or (N, nc, 6)
+    [N; N m] (as `model.contact_model.compute_contact_forces` returns them) summed per link, JaxSim's.
+    Inertial forces add without a transform. On the host (a NumPy sum), returned on the model's device."""
+    host = arrays.host_numbers(contact_forces.numpy() if isinstance(contact_forces, wp.array) else contact_forces, "contact_forces")
+    params = model.kin_dyn_parameters.contact_parameters
+    idx = params.indices_of_enabled_collidable_points
+    if host.shape[-2:] != (len(idx), 6) or host.ndim not in (2, 3):
+        raise ValueError(f"contact_forces has shape {host.shape}, expected ({len(idx)}, 6) or (N, {len(idx)}, 6): one row per enabled collidable point")
+    of_link = np.asarray(params.body, dtype=np.int64)[idx][:, None] == np.arange(model.number_of_links())  # (nc, nL)
+    return wp.array(np.einsum("cl,...ca->...la", of_link, host), dtype=model.scalar, device=model.device)
 
 
 def collidable_point_forces(model, data, *, link_forces=None, joint_force_references=None, output_vel_repr=None) -> wp.array:
@@ -216,3 +236,9 @@ def estimate_good_contact_parameters(
     if num_envs is None:
         K, D = float(K), float(D)
     return SoftContactsParams(K=K, D=D, mu=static_friction_coefficient, p=p, q=0.5)
+
+
+def estimate_good_soft_contacts_parameters(*args, **kwargs) -> SoftContactsParams:
+    """JaxSim's deprecated name of `estimate_good_contact_parameters` (a DeprecationWarning, then the same)."""
+    warnings.warn("estimate_good_soft_contacts_parameters is deprecated (as in JaxSim): use estimate_good_contact_parameters", DeprecationWarning, stacklevel=2)
+    return estimate_good_contact_parameters(*args, **kwargs)

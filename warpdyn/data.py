@@ -25,6 +25,8 @@ from .engine import state as states
 from .engine import warp_private
 from .types.data_checks import check_data, check_state
 from .types.enums import VelRepr, switched_representation
+from .joint import random_generator, random_joint_positions
+from .math import Rotation
 from .types.model import quaternion_xyzw
 
 __all__ = ["Data", "random_model_data"]
@@ -316,16 +318,17 @@ def _per_env(value, N: int) -> np.ndarray:
     return host if host.ndim == 2 and host.shape[0] == N else np.broadcast_to(host, (N, *host.shape[-1:]))
 
 
-def _rotation_xyz(angles: np.ndarray) -> np.ndarray:
-    """Rotation matrices (N, 3, 3) of intrinsic X-Y-Z Euler angles (N, 3), as scipy's 'XYZ'."""
-    out = np.empty((len(angles), 3, 3))
-    for k, (a, b, c) in enumerate(angles):
-        ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
-        Rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
-        Ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
-        Rz = np.array([[cc, -sc, 0], [sc, cc, 0], [0, 0, 1]])
-        out[k] = Rx @ Ry @ Rz
-    return out
+def _euler(seq: str, angles: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N, 3, 3) of Euler angles (N, 3) in scipy's `seq`: three of 'XYZ' (intrinsic
+    rotations, about the moving axes: R = R1 R2 R3) or of 'xyz' (extrinsic, about the fixed axes:
+    R = R3 R2 R1)."""
+    if not isinstance(seq, str) or len(seq) != 3 or not (set(seq) <= set("XYZ") or set(seq) <= set("xyz")) or seq[0] == seq[1] or seq[1] == seq[2]:
+        raise ValueError(f"base_rpy_seq must be three axes of 'XYZ' (intrinsic) or of 'xyz' (extrinsic), no axis twice in a row, got {seq!r}")
+    about = {"x": Rotation.x, "y": Rotation.y, "z": Rotation.z}
+    rotations = [about[axis.lower()](angles[:, k]) for k, axis in enumerate(seq)]
+    if seq.isupper():
+        return rotations[0] @ rotations[1] @ rotations[2]
+    return rotations[2] @ rotations[1] @ rotations[0]
 
 
 def _quaternion_wxyz(R: np.ndarray) -> np.ndarray:
@@ -336,46 +339,49 @@ def _quaternion_wxyz(R: np.ndarray) -> np.ndarray:
 def random_model_data(
     model,
     *,
-    seed: int = 0,
-    num_envs: int | None = None,
+    key=None,
     velocity_representation: VelRepr | None = None,
     base_pos_bounds=((-1.0, -1.0, 0.5), 1.0),
     base_rpy_bounds=(-np.pi, np.pi),
+    base_rpy_seq: str = "XYZ",
     joint_pos_bounds=None,
     base_vel_lin_bounds=(-1.0, 1.0),
     base_vel_ang_bounds=(-1.0, 1.0),
     joint_vel_bounds=(-1.0, 1.0),
+    num_envs: int | None = None,
     requires_grad: bool = False,
 ) -> Data:
-    """Random data, drawn uniformly within JaxSim's bounds (numpy's generator seeded with `seed`).
+    """Random data, drawn uniformly within JaxSim's bounds: JaxSim's `random_model_data`, and warpdyn's
+    num_envs (one draw per environment) and requires_grad.
 
-    Joint positions are drawn within the joint limits (within [-pi, pi] where a joint has none) unless
-    `joint_pos_bounds` is given. The base pose and velocity are drawn only for floating-base models;
-    base velocities are in `velocity_representation` (default Mixed).
+    key: JaxSim's random key (None: seed 0), an integer seed, a NumPy Generator or a JAX PRNG key
+    (`wd.joint.random_generator`): the same distributions as JaxSim, not the same numbers. The base
+    orientation is drawn as Euler angles within base_rpy_bounds in scipy's `base_rpy_seq` ('XYZ':
+    intrinsic). Joint positions: within the model's position limits (`wd.joint.random_joint_positions`,
+    per environment when the limits are), or within `joint_pos_bounds`. The base pose and velocity are
+    drawn for floating-base models only: a welded base stays where the model welds it (JaxSim also draws a
+    welded base's pose); base velocities are in `velocity_representation` (default Mixed).
     """
     num_envs = arrays.num_envs_argument(num_envs)
-    rng = np.random.default_rng(seed)
+    rng = random_generator(key)
     N = 1 if num_envs is None else num_envs
     n = model.dofs()
     velocity_representation = VelRepr.Mixed if velocity_representation is None else VelRepr(velocity_representation)
 
     def uniform(bounds, shape):
-        low, high = (np.broadcast_to(np.asarray(b, dtype=np.float64), shape[-1:]) for b in bounds)
+        low, high = (np.broadcast_to(arrays.host_numbers(b, "bounds"), shape[-1:]) for b in bounds)
         return rng.uniform(low, high, size=shape)
 
     kwargs = {}
     if model.floating_base():
         kwargs["base_position"] = uniform(base_pos_bounds, (N, 3))
-        R = _rotation_xyz(uniform(base_rpy_bounds, (N, 3)))
+        R = _euler(base_rpy_seq, uniform(base_rpy_bounds, (N, 3)))
         kwargs["base_quaternion"] = np.array([_quaternion_wxyz(r) for r in R])
         kwargs["base_linear_velocity"] = uniform(base_vel_lin_bounds, (N, 3))
         kwargs["base_angular_velocity"] = uniform(base_vel_ang_bounds, (N, 3))
     if n > 0:
         if joint_pos_bounds is None:
-            limits = model.tree.position_limits
-            low = np.where(np.isfinite(limits[:, 0]), limits[:, 0], -np.pi)
-            high = np.where(np.isfinite(limits[:, 1]), limits[:, 1], np.pi)
-            kwargs["joint_positions"] = rng.uniform(low, high, size=(N, n))
+            kwargs["joint_positions"] = random_joint_positions(model, key=rng, num_envs=N)
         else:
             kwargs["joint_positions"] = uniform(joint_pos_bounds, (N, n))
         kwargs["joint_velocities"] = uniform(joint_vel_bounds, (N, n))

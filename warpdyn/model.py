@@ -24,12 +24,17 @@ from .engine import fast_step as stepping
 from .description import NotModelledWarning, UnphysicalInertiaWarning
 from .description.model import ActuatorDescription
 from .engine.kinematics import link_targets
+from .data import Data
 from .engine.warp_private import tape_known
+from .math import Quaternion
 from .types.enums import IntegratorType, VelRepr, output_repr
 from .types.model import Model
 from .types.parameters import REGISTRY
 from .types.settings import ActuationParams, SoftContactsParams
 from .types.terrain import HeightfieldTerrain
+
+JaxSimModel = Model
+"""JaxSim's name of the model class (`js.model.JaxSimModel`)."""
 
 PARAMETERS = tuple(REGISTRY)
 """The names of the model parameters (warpdyn.types.parameters): what `parameters_requiring_grad` marks and
@@ -37,6 +42,7 @@ the torch bridge's `parameters=` takes."""
 
 __all__ = [
     "Model",
+    "JaxSimModel",
     "PARAMETERS",
     "VelRepr",
     "reduce",
@@ -45,6 +51,7 @@ __all__ = [
     "parameters_requiring_grad",
     "forward_kinematics",
     "joint_transforms",
+    "relative_link_transforms",
     "generalized_free_floating_jacobian",
     "generalized_free_floating_jacobian_derivative",
     "link_bias_accelerations",
@@ -80,9 +87,13 @@ __all__ = [
 def reduce(model: Model, considered_joints, locked_joint_positions: dict | None = None) -> Model:
     """A model keeping only `considered_joints`; the others are fixed at `locked_joint_positions` (default 0).
 
-    Joints already locked in `model` keep their locked positions. The new model is built from the
-    description (lumping changes the links): parameters set on `model` (set_link_parameters,
-    set_joint_parameters, contact_params, terrain, integrator) are not carried over; set them on the result.
+    locked_joint_positions: {joint name: position [rad or m]} of any joints of `model`, as JaxSim's: the
+    positions of the joints this reduction locks are used, those of kept joints lock nothing (a whole
+    posture may be passed); a name that is not a joint of `model` is a ValueError. Joints already locked in
+    `model` keep their locked positions. The settings are carried over (time_step, gravity, terrain,
+    contact_model, contact_params, actuation_params, integrator, quaternion_tolerance, implicit_damping,
+    built_from), as JaxSim's; the link and joint parameters are the description's (lumping changes the
+    links): values set on `model` with the setters are not carried over, set them on the result.
     """
     return model.reduced(considered_joints, locked_joint_positions)
 
@@ -199,13 +210,47 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
 # Kinematics ------------------------------------------------------------------------------------
 
 
-def forward_kinematics(model: Model, data) -> wp.array:
-    """W_H_L: the pose of every link in the world, (nL, 4, 4), or (N, nL, 4, 4) for batched data."""
+_PARALLEL = """parallel: JaxSim's choice between its sequential and its level-parallel algorithm, which give the same
+    numbers; warpdyn has one (a thread per environment), so the value changes nothing."""
+
+
+def forward_kinematics(model: Model, data, *, parallel: bool | None = None) -> wp.array:
+    """W_H_L: the pose of every link in the world, (nL, 4, 4), or (N, nL, 4, 4) for batched data.
+
+    {parallel}"""
     return arrays.squeeze_env(kinematics.poses(model, data, link_targets(model)), data.num_envs)
 
 
-def joint_transforms(model: Model, data) -> wp.array:
-    """λ(i)_H_i: the pose of each joint's child link in its parent link, (n, 4, 4), or (N, n, 4, 4) batched."""
+forward_kinematics.__doc__ = forward_kinematics.__doc__.format(parallel=_PARALLEL)
+
+
+def joint_transforms(model: Model, joint_positions, base_transform) -> wp.array:
+    """i_X_λ(i): the motion adjoint from each link's parent to the link at `joint_positions` (n,) [rad or m],
+    (1 + n, 6, 6), row 0 B_X_W of `base_transform` W_H_B (4, 4); (N, 1 + n, 6, 6) for (N, n) and (N, 4, 4).
+    JaxSim's. The links' poses in their parents as (4, 4) matrices: `relative_link_transforms`."""
+    q = arrays.host_numbers(joint_positions.numpy() if isinstance(joint_positions, wp.array) else joint_positions, "joint_positions")
+    H = arrays.host_numbers(base_transform.numpy() if isinstance(base_transform, wp.array) else base_transform, "base_transform")
+    batched = q.ndim == 2 or H.ndim == 3
+    N = q.shape[0] if q.ndim == 2 else H.shape[0] if H.ndim == 3 else None
+    if H.shape[-2:] != (4, 4) or q.shape[-1:] != (model.dofs(),) or q.ndim > 2 or H.ndim > 3:
+        raise ValueError(
+            f"joint_transforms: joint_positions ({model.dofs()},) or (N, {model.dofs()}) and base_transform (4, 4) or "
+            f"(N, 4, 4), got {q.shape} and {H.shape}"
+        )
+    data = Data.build(
+        model,
+        joint_positions=q,
+        base_position=H[..., :3, 3],
+        base_quaternion=Quaternion.from_dcm(H[..., :3, :3]),
+        num_envs=N if batched else None,
+    )
+    parent_H_link, _ = kinematics.link_poses(model, data)
+    return arrays.squeeze_env(kinematics.inverse_adjoints(model, parent_H_link), data.num_envs)
+
+
+def relative_link_transforms(model: Model, data) -> wp.array:
+    """λ(i)_H_i: the pose of each joint's child link in its parent link, (n, 4, 4), or (N, n, 4, 4) batched
+    (what warpdyn's `joint_transforms` returned before it took JaxSim's meaning)."""
     if model.dofs() == 0:
         shape = (0, 4, 4) if data.num_envs is None else (data.batch_size, 0, 4, 4)
         return wp.empty(shape, dtype=model.scalar, device=model.device)
@@ -245,13 +290,16 @@ def link_bias_accelerations(model: Model, data) -> wp.array:
 # Dynamics --------------------------------------------------------------------------------------
 
 
-def forward_dynamics_aba(model: Model, data, *, joint_forces=None, link_forces=None):
+def forward_dynamics_aba(model: Model, data, *, joint_forces=None, link_forces=None, parallel: bool | None = None):
     """(base acceleration (6,), joint accelerations (n,)) by the articulated-body algorithm.
 
     joint_forces (n,); link_forces (nL, 6) in the data's representation. The base acceleration is the
-    derivative of the base velocity in the data's representation (zero for a fixed base).
+    derivative of the base velocity in the data's representation (zero for a fixed base). {parallel}
     """
     return dynamics.forward_dynamics_aba(model, data, joint_forces, link_forces)
+
+
+forward_dynamics_aba.__doc__ = forward_dynamics_aba.__doc__.format(parallel=_PARALLEL)
 
 
 def forward_dynamics_crb(model: Model, data, *, joint_forces=None, link_forces=None):

@@ -17,18 +17,21 @@ import warp as wp
 
 from . import arrays as _arrays
 from . import frame, joint, link
+from .common import ModelDataWithVelocityRepresentation
 from .data import Data
 from .engine import forces as link_forces_engine
 from .engine import state as states
-from .types.enums import VelRepr, switched_representation
+from .types.enums import VelRepr
 from .types.model import transforms
 
-__all__ = ["References"]
+__all__ = ["References", "JaxSimModelReferences"]
 
 
 @dataclasses.dataclass(eq=False)
-class References:
-    """Joint force references and link forces of `num_envs` environments (None: one environment)."""
+class References(ModelDataWithVelocityRepresentation):
+    """Joint force references and link forces of `num_envs` environments (None: one environment).
+    JaxSim's `JaxSimModelReferences` (also under that name); its methods take JaxSim's arguments, in
+    JaxSim's order."""
 
     joint_force_references_state: wp.array
     link_forces_state: wp.array
@@ -36,7 +39,7 @@ class References:
     num_envs: int | None = None
 
     @staticmethod
-    def zero(model, data=None, *, velocity_representation=VelRepr.Inertial, num_envs=None) -> References:
+    def zero(model, data=None, velocity_representation=VelRepr.Inertial, *, num_envs=None) -> References:
         """References with zero joint forces and zero link forces."""
         if data is not None:
             num_envs = data.num_envs
@@ -51,11 +54,11 @@ class References:
     @staticmethod
     def build(
         model,
-        data=None,
-        *,
         joint_force_references=None,
         link_forces=None,
+        data=None,
         velocity_representation: VelRepr | None = None,
+        *,
         num_envs: int | None = None,
     ) -> References:
         """References of `model` (as many environments as `data`, or `num_envs`).
@@ -76,9 +79,12 @@ class References:
     def batch_size(self) -> int:
         return self.joint_force_references_state.shape[0]
 
-    def switch_velocity_representation(self, velocity_representation: VelRepr):
-        """A context manager: inside its block, link forces are read and written in `velocity_representation`."""
-        return switched_representation(self, velocity_representation)
+    def valid(self, model=None) -> bool:
+        """Whether these references fit `model` (JaxSim's check): n joint forces and nL link forces per
+        environment (always True without a model)."""
+        if model is None:
+            return True
+        return self.joint_force_references_state.shape[1:] == (model.dofs(),) and self.link_forces_state.shape[1:] == (model.number_of_links(), 6)
 
     def _needs_data(self, data) -> None:
         if data is None and self.velocity_representation != VelRepr.Inertial:
@@ -150,3 +156,7 @@ class References:
             rows = frame.names_to_idxs(model, frame_names=frame_names) - model.number_of_links()
         offset = transforms(model.tree.link_H_frame[rows], model.scalar, model.device)
         return self._apply(forces, model, data, np.asarray(model.tree.frame_parent)[rows], offset, "frame_forces", additive)
+
+
+JaxSimModelReferences = References
+"""JaxSim's name of the references class."""

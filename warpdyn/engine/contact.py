@@ -13,12 +13,13 @@ import warp as wp
 from .. import arrays
 from ..kernels.contact_points import kernels as point_kernels
 from ..kernels.contact_wrenches import kernels as wrench_kernels
+from ..types.contact_models import SoftContacts, register_forces
 from ..types.enums import VelRepr
 from .kinematics import link_poses, targets, velocities
 from .launch import launch
 from .step import contact_evaluation, plan
 
-__all__ = ["point_targets", "positions", "point_velocities", "link_wrenches", "point_wrenches", "links_in_contact"]
+__all__ = ["point_targets", "positions", "point_velocities", "link_wrenches", "point_wrenches", "soft_contact_forces", "links_in_contact"]
 
 
 def point_targets(model):
@@ -69,7 +70,28 @@ def link_wrenches(model, data, out_repr: int) -> wp.array:
 def point_wrenches(model, data, out_repr: int) -> wp.array:
     """(N, nc, 6): each enabled point's contact wrench for C = (W_p_C, [L]) in representation `out_repr`
     (see warpdyn.contact.collidable_point_forces)."""
+    return _point_wrenches(model, data, out_repr, *contact_evaluation(model, data))
+
+
+def soft_contact_forces(model, data, link_forces=None, joint_force_references=None) -> tuple:
+    """SoftContacts.compute_contact_forces (warpdyn.types.contact_models): (W_f_C (N, nc, 6), the enabled
+    points' Inertial contact wrenches [f; W_p_C x f], {"m_dot": (N, nc_all, 3)}, the deformation rates, 0
+    for disabled points), with the data's environment axis; link_forces and joint_force_references do not
+    act on the soft law."""
     current, ev = contact_evaluation(model, data)
+    W_f_C = _point_wrenches(model, data, int(VelRepr.Inertial), current, ev)
+    if ev is None:
+        m_dot = arrays.output((current.total, 3), data.batch_size, model.scalar, model.device)
+        m_dot.zero_()
+    else:
+        m_dot = ev.m_dot
+    return arrays.squeeze_env(W_f_C, data.num_envs), {"m_dot": arrays.squeeze_env(m_dot, data.num_envs)}
+
+
+register_forces(SoftContacts, soft_contact_forces)
+
+
+def _point_wrenches(model, data, out_repr: int, current, ev) -> wp.array:
     N = data.batch_size
     out = arrays.output((current.count, 6), N, model.scalar, model.device, data.requires_grad)
     if ev is not None:

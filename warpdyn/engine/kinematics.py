@@ -22,7 +22,7 @@ from ..types.data_checks import check_data, state_arrays
 from .bundles import model_bundle, state_bundle
 from .launch import launch
 
-__all__ = ["state_arrays", "state_of", "targets", "link_targets", "link_poses", "homogeneous", "poses", "jacobians", "velocities"]
+__all__ = ["state_arrays", "state_of", "targets", "link_targets", "link_poses", "homogeneous", "inverse_adjoints", "poses", "jacobians", "velocities"]
 
 
 def state_of(model, data, checked: list | None = None):
@@ -78,6 +78,14 @@ def homogeneous(model, poses: wp.array, target, requires_grad=False) -> wp.array
     H = arrays.output((T, 4, 4), N, model.scalar, model.device, requires_grad)
     launch(kinematics_kernels(model.scalar).homogeneous_matrices, dim=(N, T), inputs=[poses, target], outputs=[H], device=model.device)
     return H
+
+
+def inverse_adjoints(model, poses: wp.array, requires_grad=False) -> wp.array:
+    """(N, K, 6, 6): B_X_A, the motion adjoint of each pose A_H_B in poses (N, K)."""
+    N, K = poses.shape
+    X = arrays.output((K, 6, 6), N, model.scalar, model.device, requires_grad)
+    launch(kinematics_kernels(model.scalar).inverse_adjoints, dim=(N, K), inputs=[poses], outputs=[X], device=model.device)
+    return X
 
 
 def poses(model, data, target) -> wp.array:
