@@ -167,7 +167,7 @@ class Warpdyn:
         final = out["final"]
         z = final.base_position.numpy()[:, 2].astype(np.float64)
         finite = np.isfinite(final.base_position.numpy()).all(axis=1) & np.isfinite(final.joint_positions.numpy()).all(axis=1)
-        finite &= final.valid.numpy().astype(bool)
+        finite &= final.healthy.numpy().astype(bool)
         return Result(run_s=run_s, first_s=first, z0=self.scene.z0, z=z, finite=int(finite.sum()))
 
 

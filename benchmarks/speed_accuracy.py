@@ -53,7 +53,7 @@ Sweep: integrator {SemiImplicitEuler, RungeKutta4} x dt {0.1, 0.2, 0.5, 1, 2, 4 
 float64} x K. Outcomes:
 - refused: `step` raises ValueError because dt K / D reaches the tangential deformation's stability limit
   (2 for semi-implicit Euler, 2.785 for RK4: warpdyn/_simulation.py DEFORMATION_STABILITY);
-- flagged: some drop's state became non-finite and data.valid went to 0 (how many, and the first time);
+- flagged: some drop's state became non-finite and data.healthy went to 0 (how many, and the first time);
 - ok: the errors, against the reference sampled every 4 ms (a multiple of every dt):
   base [m]: max over drops and time of |p_B - p_B,ref| (and the median over drops of each drop's max);
   tilt [deg]: max over drops and time of the angle between the base orientations; joints [rad]: RMS over
@@ -223,7 +223,7 @@ def trajectory(model, init: dict) -> dict:
         out["base_position"][i] = d.base_position.numpy()
         out["base_quaternion"][i] = d.base_quaternion.numpy()
         out["joint_positions"][i] = d.joint_positions.numpy()
-        out["valid"][i] = d.valid.numpy()
+        out["valid"][i] = d.healthy.numpy()
 
     keep(0, data)
     for i in range(1, chunks + 1):
@@ -518,7 +518,7 @@ def main() -> None:
         f"Throughput: graph-replayed `Rollout.run` of {T} steps, N = {N} environments in contact, median of {args.repeats} runs,",
         "measured once per (integrator, dtype, K) (a step's launches do not depend on dt); sim-s/s = env-steps/s x dt.",
         "Outcomes: refused = `step` raises ValueError (dt K/D beyond 2 for SIE, 2.785 for RK4); flagged = some drops' states",
-        "went non-finite and data.valid = 0 (how many at the end, and the first time).",
+        "went non-finite and data.healthy = 0 (how many at the end, and the first time).",
         "",
         "Reference (and its own error, by the same comparison at dt = 2e-5 s; errors of that size are the reference's):",
         *[f"- {line}" for line in ref_note.splitlines() if line],

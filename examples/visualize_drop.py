@@ -84,7 +84,7 @@ def build(description, *, terrain, height: float, Kp: float, Kd: float, dtype=np
     )
     data = wd.data.Data.build(model, joint_positions=s0)
     if model.floating_base():
-        n_terrain = terrain.normal_at(0.0, 0.0).reshape(3)
+        n_terrain = terrain.normal(0.0, 0.0).reshape(3)
         if n_terrain[2] < 1.0 - 1e-12:  # tilt the base so that the robot's z axis is the terrain's normal there
             axis = np.cross([0.0, 0.0, 1.0], n_terrain)
             angle = np.arccos(np.clip(n_terrain[2], -1.0, 1.0))
@@ -92,7 +92,7 @@ def build(description, *, terrain, height: float, Kp: float, Kd: float, dtype=np
             data = data.replace(model, base_quaternion=np.r_[np.cos(angle / 2), np.sin(angle / 2) * axis])
         p = wd.contact.collidable_point_positions(model, data).numpy().astype(np.float64)
         if len(p):
-            lift = np.max(terrain.height_at(p[:, 0], p[:, 1]) - p[:, 2]) + height  # lowest point `height` above
+            lift = np.max(terrain.height(p[:, 0], p[:, 1]) - p[:, 2]) + height  # lowest point `height` above
             data = data.replace(model, base_position=[0.0, 0.0, lift])
     return model, data
 
@@ -133,7 +133,7 @@ def main(argv=None) -> dict:
     out = pathlib.Path(args.out).resolve()
     base = final.base_position.numpy().reshape(-1)
     print(f"simulated {steps * model.time_step:.3f} s and logged {steps // args.every + 1} frames in {elapsed:.2f} s; "
-          f"final base position {np.round(base, 4).tolist()}, valid = {bool(final.valid.numpy().reshape(-1)[0])}")
+          f"final base position {np.round(base, 4).tolist()}, valid = {bool(final.healthy.numpy().reshape(-1)[0])}")
     print(f"wrote {out} ({out.stat().st_size / 1e6:.2f} MB); open it with:\n    rerun {args.out}")
     return {"model": model, "final": final, "records": records, "path": out, "seconds": elapsed}
 

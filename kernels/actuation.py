@@ -19,6 +19,8 @@ its start (as JaxSim); MuJoCo's part, which RK4 must see change within the step 
 also a kernel of its own (`mujoco_kernel`), launched at each stage.
 """
 
+import types
+
 import warp as wp
 
 from .bundles import bundles
@@ -65,6 +67,39 @@ def functions(scalar, per_joint: int):
 
 
 @factory
+def torque_speed_curve(scalar):
+    """`torque_limit`, JaxSim's torque-speed curve tau_lim(|sdot|) (the module docstring), and the kernel
+    `torque_limits` that evaluates it for every joint (warpdyn.actuation_model.tn_curve_fn)."""
+    B = bundles(scalar)
+
+    @wp.func
+    def torque_limit(torque_max: scalar, omega_th: scalar, omega_max: scalar, sd: scalar):
+        """tau_lim [N m]: torque_max up to |sd| = omega_th, falling linearly to 0 at omega_max, 0 beyond."""
+        speed = wp.abs(sd)
+        limit = torque_max
+        if speed > omega_max:
+            limit = scalar(0.0)
+        elif speed > omega_th:
+            limit = torque_max * (scalar(1.0) - (speed - omega_th) / (omega_max - omega_th))
+        return limit
+
+    @wp.kernel(module="unique")
+    def torque_limits(
+        torque_max: scalar,
+        omega_th: scalar,
+        omega_max: scalar,
+        state: B.State,
+        # outputs
+        tau_lim: wp.array2d(dtype=scalar),
+    ):
+        """tau_lim (N, n): each joint's bound at its velocity; launched over (N, n)."""
+        env, j = wp.tid()
+        tau_lim[env, j] = torque_limit(torque_max, omega_th, omega_max, state.joint_velocities[env, j])
+
+    return types.SimpleNamespace(torque_limit=torque_limit, torque_limits=torque_limits)
+
+
+@factory
 def mujoco_terms(scalar, with_passive: bool, per_joint: int):
     """The wp.func giving MuJoCo's joint forces on joint j at (s, sdot): the passive spring and damper (when
     with_passive) plus the actuators' forces (when per_joint > 0); the code of an absent term is not compiled."""
@@ -93,6 +128,7 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
     joint (0: no actuator code). The actuation kernel and the fused step (kernels/fused_step.py) call it."""
     B = bundles(scalar)
     clip, _ = functions(scalar, max(per_joint, 1))
+    torque_limit = torque_speed_curve(scalar).torque_limit
     mujoco_joint_force = mujoco_terms(scalar, with_passive, per_joint)
     LIMITS = wp.constant(with_limits)
     FRICTION = wp.constant(with_friction)
@@ -116,12 +152,7 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
             above = wp.max(s - limits[1], scalar(0.0))
             spring = -B.joint_parameter(model.joint_limit_spring, env, j) * (below + above)
             total = total + spring * (scalar(1.0) - B.joint_parameter(model.joint_limit_damper, env, j) * sd)
-        speed = wp.abs(sd)
-        limit = torque_max
-        if speed > omega_max:
-            limit = scalar(0.0)
-        elif speed > omega_th:
-            limit = torque_max * (scalar(1.0) - (speed - omega_th) / (omega_max - omega_th))
+        limit = torque_limit(torque_max, omega_th, omega_max, sd)
         out = clip(total, -limit, limit)
         if MUJOCO:
             out = out + mujoco_joint_force(model, env, j, s, sd, ctrl)

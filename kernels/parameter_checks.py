@@ -7,8 +7,8 @@ environment: an environment whose parameters (its row of each (P, count) paramet
 of range is flagged (valid = 0) and keeps its state, as the integrators flag a non-finite state.
 
 Checked (`CHECKED`: every model array whose range is more than finiteness, warpdyn.types.parameters):
-- non-negative and finite: link_mass, gravcomp_mass (but a fixed base's, which no dynamics reads), the joints'
-  limit spring and damper, frictions, armature, damping, stiffness (NaN fails every comparison);
+- non-negative and finite: link_mass (but a fixed base's, which no dynamics reads), the joints' limit spring and
+  damper, frictions, armature, damping, stiffness (NaN fails every comparison);
 - (lower, upper) with lower <= upper, no NaN: position_limits, joint_actuator_force_range, actuator_ctrl_range,
   actuator_force_range;
 - link_inertia: a finite diagonal >= -INERTIA_ATOL x the largest diagonal entry of the environment's
@@ -18,8 +18,8 @@ Checked (`CHECKED`: every model array whose range is more than finiteness, warpd
   dt K / D < the integrator's limit wherever the environment's collidable points can reach the terrain:
   a floating base, a chain of unbounded reach (`reach` < 0), a heightfield, or a fixed base whose origin is
   within `reach` of the flat or inclined plane (the base where the data puts it).
-Parameters whose only fault can be a NaN or an infinity (centres of mass, spring references, gears, gains,
-biases) are not read: such a value makes the state non-finite, which the integrator flags.
+Parameters whose only fault can be a NaN or an infinity (centres of mass, gravity compensations, which MuJoCo
+allows negative, spring references, gears, gains, biases) are not read: such a value makes the state non-finite, which the integrator flags.
 
 Cost, per step and no host work: each environment's thread reads its own rows of the parameters given per
 environment (domain randomisation), its K, D, mu and, for a fixed base, its base position; a parameter shared
@@ -42,7 +42,6 @@ from .soft_contacts import HEIGHTFIELD
 CHECKED = (
     "link_mass",
     "link_inertia",
-    "gravcomp_mass",
     "position_limits",
     "joint_limit_spring",
     "joint_limit_damper",
@@ -131,10 +130,9 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.func
     def unphysical_model(model: B.Model, env: int):
         """(own, shared) counts of the faults (see the module docstring) of the model parameters this thread
-        checks. A fixed base's own mass, inertia and gravity compensation are not read: no dynamics reads them."""
+        checks. A fixed base's own mass and inertia are not read: no dynamics reads them."""
         base = 1 - model.floating_base  # the first link whose inertial values matter
         bad = negative_faults(model.link_mass, env, base) + inertia_faults(model.link_inertia, env, base)
-        bad = bad + negative_faults(model.gravcomp_mass, env, base)
         bad = bad + unordered_faults(model.position_limits, env) + unordered_faults(model.joint_actuator_force_range, env)
         bad = bad + negative_faults(model.joint_limit_spring, env, 0) + negative_faults(model.joint_limit_damper, env, 0)
         bad = bad + negative_faults(model.friction_static, env, 0) + negative_faults(model.friction_viscous, env, 0)

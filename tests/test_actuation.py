@@ -1,4 +1,4 @@
-"""The actuation model of `wd.model.step` (warpdyn.engine.step.resultant_torques): Coulomb and viscous
+"""The actuation model of `wd.model.step` (warpdyn.engine.evaluations.resultant_torques): Coulomb and viscous
 joint friction, the joint-limit spring and its damper, the torque-speed clip, enable_friction. Reference:
 JaxSim's `compute_resultant_torques` transcribed in NumPy (/tmp/jaxsim_sim.md section 3.2), as
 robots.jaxsim_resultant_torques. The set-up is the one of tests/test_simulation.py (tests/robots.py).
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 import warpdyn as wd
-import warpdyn.engine.step as simulation
+import warpdyn.engine.evaluations as simulation
 from robots import RK4, SIE, build, host, jaxsim_resultant_torques, rollout, wheels_urdf
 
 

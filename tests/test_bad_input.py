@@ -65,9 +65,9 @@ def test_malformed_xml_raises_value_error(tmp_path):
 
 
 def test_unknown_root_element_raises_value_error():
-    """XML that is neither URDF nor MJCF: ValueError naming the root element."""
-    with pytest.raises(ValueError, match=r"<sdf>.*expected <robot> \(URDF\) or <mujoco> \(MJCF\)"):
-        Model.build_from_model_description('<sdf version="1.6"><model name="m"/></sdf>')
+    """XML that is neither URDF, SDF nor MJCF: ValueError naming the root element."""
+    with pytest.raises(ValueError, match=r"<world>.*expected <robot> \(URDF\), <mujoco> \(MJCF\) or <sdf> \(SDFormat\)"):
+        Model.build_from_model_description('<world name="w"><model name="m"/></world>')
 
 
 def test_description_of_wrong_type_raises_type_error():
@@ -177,12 +177,15 @@ def test_reduce_with_unknown_joint_names():
         wd.model.reduce(model, keep + ["elbow_of_nobody"])
 
 
-def test_reduce_locking_a_considered_joint():
-    """locked_joint_positions naming a joint the reduction keeps: ValueError naming it."""
+def test_reduce_with_a_whole_posture():
+    """locked_joint_positions may name the joints the reduction keeps, as JaxSim's (a whole posture): their
+    positions lock nothing; the locked joints' are used."""
     model = _model()
     keep = list(model.joint_names()[:2])
-    with pytest.raises(ValueError, match=rf"locked_joint_positions names '{keep[0]}'"):
-        wd.model.reduce(model, keep, locked_joint_positions={keep[0]: 0.3})
+    posture = {name: 0.1 * k for k, name in enumerate(model.joint_names())}
+    reduced = wd.model.reduce(model, keep, locked_joint_positions=posture)
+    assert reduced.joint_names() == tuple(keep)
+    assert reduced.tree.locked_joints == {name: value for name, value in posture.items() if name not in keep}
 
 
 def test_reduce_locking_an_unknown_joint():
@@ -420,12 +423,15 @@ def test_fixed_base_with_base_velocity():
 
 
 def test_replace_checks_like_build():
-    """Data.replace validates what it is given as Data.build does: a named error, the data untouched."""
+    """Data.replace validates what it is given as Data.build does: a named error, the data untouched. The
+    base quaternion is normalised, as JaxSim's replace does; a zero or non-finite one is refused."""
     model = _model()
     data = wd.data.random_model_data(model, key=7)
     before = data.joint_positions.numpy().copy()
     with pytest.raises(ValueError, match=r"joint_positions has non-finite values"):
         data.replace(model, joint_positions=np.full(model.dofs(), np.nan))
-    with pytest.raises(ValueError, match=r"base_quaternion must be a unit quaternion"):
-        data.replace(model, base_quaternion=[2.0, 0.0, 0.0, 0.0])
+    for bad in ([0.0, 0.0, 0.0, 0.0], [np.nan, 0.0, 0.0, 1.0]):
+        with pytest.raises(ValueError, match=r"base_quaternion must be finite, non-zero"):
+            data.replace(model, base_quaternion=bad)
     np.testing.assert_array_equal(data.joint_positions.numpy(), before)
+    np.testing.assert_allclose(data.replace(model, base_quaternion=[2.0, 0.0, 0.0, 0.0]).base_quaternion.numpy(), [1.0, 0.0, 0.0, 0.0])

@@ -340,10 +340,12 @@ def test_random_model_data_requires_grad():
 
 
 def test_replace_each_field(layout):
-    """replace(field=value) changes that field only and leaves the original data untouched.
+    """replace(field=value) changes that field only and leaves the original data untouched; as JaxSim's, a
+    replace without a base velocity keeps the Inertial one, so a moved base has another Mixed velocity.
 
-    Reference: the new value, and the old data's state for every other field (exact copies; base
-    velocities are kept in the data's representation, here Mixed, which is the stored state).
+    Reference: the new value, and the old data's state for every other field (exact copies), but the Mixed
+    base velocity (the stored state) after base_position: the kept Inertial velocity (v_I, w) seen at the new
+    origin, (v_I + w x p_new, w), to 1e-14.
     """
     model = _model("tree")
     n, N = model.dofs(), 3
@@ -362,7 +364,12 @@ def test_replace_each_field(layout):
         fields = _state_fields(new)
         np.testing.assert_array_equal(fields[field], value, err_msg=argument)
         for other, array in old.items():
-            if other != field:
+            if other == "base_velocity" and field == "base_position":
+                w = array[:, 3:]
+                v_inertial = array[:, :3] - np.cross(w, old["base_position"])
+                expected = np.concatenate([v_inertial + np.cross(w, value), w], axis=1)
+                np.testing.assert_allclose(fields[other], expected, rtol=0, atol=1e-14, err_msg="kept Inertial velocity")
+            elif other != field:
                 np.testing.assert_array_equal(fields[other], array, err_msg=f"{argument} changed {other}")
         for name, array in old.items():
             np.testing.assert_array_equal(_state_fields(data)[name], array, err_msg=f"original {name}")

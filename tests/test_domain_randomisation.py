@@ -167,7 +167,7 @@ def test_per_environment_terrain_heights():
         np.testing.assert_allclose(got[k], wd.model.step(shared, data).base_velocity_state.numpy()[k], rtol=1e-13, atol=1e-15)
     assert np.all(got[:, 2] > -0.9 * 9.81 * model.time_step), "the ground does not push (free fall after one step)"
     params, rec, fd = _contact_rollout_gradients(model, data, 15, ("terrain_height",))
-    assert params["terrain_height"].shape == (2,) and model.terrain.height is params["terrain_height"]
+    assert params["terrain_height"].shape == (2,) and model.terrain.elevation is params["terrain_height"]
     assert np.all(rec["base_position"].numpy()[..., 2] < z + 0.001), "a corner left the ground"
     _assert_gradients(params, fd)
 
@@ -188,7 +188,7 @@ def test_heightfield_heights_gradient():
     model.contact_params = wd.model.SoftContactsParams(K=1e5, D=1e3, mu=0.4)
     model.terrain = wd.terrain.HeightfieldTerrain(grid, origin=(-0.6, -0.6), spacing=(0.5, 0.5))
     points = wd.contact.collidable_point_positions(model, wd.data.Data.build(model)).numpy()
-    lift = np.max(model.terrain.height_at(points[:, 0], points[:, 1]) - points[:, 2])
+    lift = np.max(model.terrain.height(points[:, 0], points[:, 1]) - points[:, 2])
     data = wd.data.Data.build(model, base_position=[0.0, 0.0, lift - 0.001], base_linear_velocity=[0.5, 0.1, 0.0])
     params, _, fd = _contact_rollout_gradients(model, data, 15, ("terrain_height",))
     assert params["terrain_height"].shape == (4, 4)
@@ -261,8 +261,8 @@ def test_a_diverging_environment_leaves_the_others_gradients_intact():
     and frozen); the loss reads environment 0 only. Environment 0's gradients (its initial joint velocities
     and, with masses given per environment, its row of d loss / d link_mass) equal those of a run where
     environment 1 stays finite (reference: that run; rtol 1e-12). Environment 1's own gradients are NaN, and
-    a mass shared by both environments gets NaN (its gradient sums over environments, README 'Differentiable
-    simulation'): this is the documented behaviour, asserted so that a change is noticed."""
+    a mass shared by both environments gets NaN (its gradient sums over environments, docs/differentiation.md, 'Where the
+    derivative is not defined'): this is the documented behaviour, asserted so that a change is noticed."""
     n, T = 3, 5
     urdf = robots.pendulum_chain_urdf(n)
     w = np.zeros((2, n))
@@ -330,4 +330,4 @@ def test_functions_that_do_not_read_the_parameters_take_any_batch_size():
     np.testing.assert_allclose(grad[4], R.sum(axis=(0, 1)), rtol=1e-12)  # link_com is shared: summed over envs
     assert np.all(np.delete(grad, 4, axis=0) == 0.0)
     terrain = wd.terrain.FlatTerrain(height=np.array([0.0, 0.1, 0.2]))
-    assert terrain.for_env(2).height == 0.2 and terrain.for_env(2).height_at(1.0, 2.0) == 0.2
+    assert terrain.for_env(2).elevation == 0.2 and terrain.for_env(2).height(1.0, 2.0) == 0.2

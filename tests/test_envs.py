@@ -109,7 +109,7 @@ def test_a_diverging_environment_is_reset_and_reported():
     assert info["invalid"].tolist() == [False, True, False]
     assert bool(terminated[1]) and float(reward[1]) == 0.0 and not terminated[[0, 2]].any()
     assert bool(torch.isfinite(obs).all()) and bool(torch.isfinite(info["final_obs"]).all())
-    assert env.stepper.data.valid.numpy().tolist() == [1, 1, 1]
+    assert env.stepper.data.healthy.numpy().tolist() == [1, 1, 1]
 
 
 def test_resets_randomise_masses_and_friction():
@@ -295,7 +295,8 @@ def test_the_go1_walk_task_steps_and_its_feet_touch_down():
     finally:
         sys.path.pop(0)
     env = rl_locomotion.make_env("walk", 4, wp.get_device(), seed=0, robot="go1", joint_noise=0.0)
-    assert env.feet == wd.assets.GO1_FEET and [len(p) for p in env._foot_points] == [9, 9, 9, 9]
+    in_link_order = tuple(sorted(wd.assets.GO1_FEET, key=env.model.link_names().index))  # the default: links with points
+    assert env.feet == in_link_order and [len(p) for p in env._foot_points] == [9, 9, 9, 9]
     assert env.decimation == 10 and env.single_action_space.shape == (12,)
     obs, _ = env.reset(seed=0)
     for k in range(8):

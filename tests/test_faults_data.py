@@ -134,7 +134,7 @@ def test_single_environment_data_with_several_rows_is_refused(chain):
 
 def _flagged_and_others_intact(out, reference, start, bad_envs=(BAD,)):
     """out's bad environments are flagged and hold `start`'s state; the others equal `reference` bitwise."""
-    valid = out.valid.numpy()
+    valid = out.healthy.numpy()
     assert valid.tolist() == [0 if e in bad_envs else 1 for e in range(len(valid))]
     for name in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities"):
         got, ref, before = (getattr(d, name).numpy() for d in (out, reference, start))

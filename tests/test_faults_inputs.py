@@ -85,7 +85,7 @@ def _actuated_pendulum(N: int = 3):
 
 
 def test_stepper_ctrl_assign_one_environment_short_is_refused():
-    """README's way of writing a Stepper's controls, `stepper.ctrl.assign(...)`, with an array one environment
+    """The documented way (README, docs/simulation.md) of writing a Stepper's controls, `stepper.ctrl.assign(...)`, with an array one environment
     short: ValueError naming Stepper.ctrl, the shape given and the shapes accepted; the controls unchanged
     (Warp's own assign copies by byte count: the last environment kept its old control)."""
     model, data, stepper = _actuated_pendulum(3)
@@ -193,18 +193,18 @@ def test_controls_that_are_not_real_numbers(value, dtype):
 
 def test_negative_mass_written_in_place_flags_the_next_step():
     """`model.link_mass.assign(...)` with a negative mass after the model has stepped (its plan built): the
-    next step flags every environment invalid (data.valid 0, the state kept, as for a non-finite state) on the
+    next step flags every environment invalid (data.healthy 0, the state kept, as for a non-finite state) on the
     device, without a host synchronisation; a mass made physical again steps as before."""
     model = _pendulum(3.0)
     data = wd.data.Data.build(model, num_envs=2, joint_positions=[0.3, -0.2])
     good = wd.model.step(model, data)
-    assert good.valid.numpy().tolist() == [1, 1]
+    assert good.healthy.numpy().tolist() == [1, 1]
     masses = model.link_mass.numpy().copy()
     bad = masses.copy()
     bad[2] = -1.0
     model.link_mass.assign(bad)
     flagged = wd.model.step(model, data)
-    assert flagged.valid.numpy().tolist() == [0, 0]
+    assert flagged.healthy.numpy().tolist() == [0, 0]
     for name, (x, y) in zip(("p", "Q", "s", "v", "sdot", "m"), zip(_state(data)[:6], _state(flagged)[:6])):
         np.testing.assert_array_equal(x, y, err_msg=f"{name}: a flagged environment keeps its state")
     model.link_mass.assign(masses)
@@ -224,7 +224,7 @@ def test_negative_mass_of_one_environment_flags_that_environment():
     masses[1, 1] = -0.5
     model.link_mass.assign(masses)
     for got in (wd.model.step(model, data), stepper.step()):
-        assert got.valid.numpy().tolist() == [1, 0, 1]
+        assert got.healthy.numpy().tolist() == [1, 0, 1]
         np.testing.assert_array_equal(got.joint_positions.numpy()[[0, 2]], expected.joint_positions.numpy()[[0, 2]])
         np.testing.assert_array_equal(got.joint_positions.numpy()[1], data.joint_positions.numpy()[1])
 
@@ -239,12 +239,12 @@ def test_parameters_edited_in_place_flag_the_step(name, index, value):
     in place to an impossible value flags the next step's environments."""
     model = _pendulum(3.0)
     data = wd.data.Data.build(model, num_envs=2)
-    assert wd.model.step(model, data).valid.numpy().tolist() == [1, 1]
+    assert wd.model.step(model, data).healthy.numpy().tolist() == [1, 1]
     array = getattr(model, name)
     host = array.numpy().copy()
     host[index] = value
     array.assign(host)
-    assert wd.model.step(model, data).valid.numpy().tolist() == [0, 0]
+    assert wd.model.step(model, data).healthy.numpy().tolist() == [0, 0]
 
 
 def test_a_fixed_base_own_mass_is_not_checked():
@@ -273,14 +273,14 @@ def test_contact_parameters_edited_in_place_flag_the_step():
     mu = wp.array(np.full(N, 0.5), dtype=wp.float64)
     model.contact_params = SoftContactsParams(K=K, D=D, mu=mu)
     data = wd.data.Data.build(model, num_envs=N, joint_positions=[np.pi / 2, 0.0])  # horizontal: in reach, not touching
-    assert wd.model.step(model, data).valid.numpy().tolist() == [1, 1, 1]
+    assert wd.model.step(model, data).healthy.numpy().tolist() == [1, 1, 1]
     K.assign([1e6, 0.0, 1e6])
     mu.assign([0.5, 0.5, -0.1])
-    assert wd.model.step(model, data).valid.numpy().tolist() == [1, 0, 0]
+    assert wd.model.step(model, data).healthy.numpy().tolist() == [1, 0, 0]
     K.assign([1e6, 1e6, 1e6])
     mu.assign([0.5, 0.5, 0.5])
     D.assign([2000.0, 2000.0, 400.0])  # dt K / D = 2.5: unstable deformation, and this pendulum reaches the ground
-    assert wd.model.step(model, data).valid.numpy().tolist() == [1, 1, 0]
+    assert wd.model.step(model, data).healthy.numpy().tolist() == [1, 1, 0]
 
 
 def test_negative_mass_before_the_first_step_is_refused_naming_link_and_value():
@@ -420,7 +420,7 @@ def test_fixed_pendulum_that_cannot_reach_the_ground_steps_at_a_large_time_step(
     a, b = data, data
     for _ in range(20):
         a, b = wd.model.step(model, a), wd.model.step(free, b)
-    assert a.valid.numpy().tolist() == [1, 1]
+    assert a.healthy.numpy().tolist() == [1, 1]
     _assert_same(a, b, "no contact force")
     assert np.abs(a.tangential_deformation_state.numpy()).max() == 0.0
 
@@ -454,7 +454,7 @@ def test_terrains_of_the_reach_check():
     model = _pendulum(3.0, time_step=0.005)
     data = wd.data.Data.build(model)
     model.terrain = wd.terrain.PlaneTerrain(normal=(0.1, 0.0, 1.0), point=(0.0, 0.0, 0.0))
-    assert wd.model.step(model, data).valid.numpy().tolist() == [1]
+    assert wd.model.step(model, data).healthy.numpy().tolist() == [1]
     model.terrain = wd.terrain.PlaneTerrain(normal=(0.1, 0.0, 1.0), point=(0.0, 0.0, 2.5))
     with pytest.raises(ValueError, match=r"beyond the stability limit"):
         wd.model.step(model, data)
@@ -470,7 +470,7 @@ def test_fixed_base_data_placed_where_points_reach_is_flagged():
     model = _pendulum(3.0, time_step=0.005)
     data = wd.data.Data.build(model, num_envs=2, base_position=np.array([[0.0, 0.0, 0.5], [0.0, 0.0, 3.0]]))
     out = wd.model.step(model, data)
-    assert out.valid.numpy().tolist() == [0, 1]
+    assert out.healthy.numpy().tolist() == [0, 1]
 
 
 def test_the_reach_is_cached_per_model_version():

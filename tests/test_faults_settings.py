@@ -5,7 +5,7 @@ Reference: the documented checks of Model's settings (warpdyn/types/model.py `_s
 and SoftContactsParams (warpdyn/types/settings.py) and the terrains (warpdyn/types/terrain.py): each bad
 value raises a TypeError (not a number) or ValueError (not a valid number) naming the setting and the
 value, and leaves the model as it was. For heights written in place, the reference is the same step with
-finite heights: the environments whose collidable points stand on a NaN cell are flagged (Data.valid 0) and
+finite heights: the environments whose collidable points stand on a NaN cell are flagged (Data.healthy 0) and
 keep their state, the others are bitwise equal.
 """
 
@@ -124,7 +124,7 @@ def test_nan_heights_written_in_place_flag_the_environments_standing_on_them(int
     host[2:4, 2:4] = np.nan
     heights.assign(host)
     out = wd.model.step(model, data)
-    assert out.valid.numpy().tolist() == [0, 1]
+    assert out.healthy.numpy().tolist() == [0, 1]
     np.testing.assert_array_equal(out.base_position.numpy()[0], data.base_position.numpy()[0])
     for name in ("base_position", "base_quaternion", "base_velocity"):
         np.testing.assert_array_equal(getattr(out, name).numpy()[1], getattr(reference, name).numpy()[1], err_msg=name)
@@ -136,6 +136,6 @@ def test_a_nan_flat_height_written_in_place_flags_its_environment():
     reference = wd.model.step(model, data)
     height.assign(np.array([0.0, NAN]))
     out = wd.model.step(model, data)
-    assert out.valid.numpy().tolist() == [1, 0]
+    assert out.healthy.numpy().tolist() == [1, 0]
     np.testing.assert_array_equal(out.base_position.numpy()[1], data.base_position.numpy()[1])
     np.testing.assert_array_equal(out.base_position.numpy()[0], reference.base_position.numpy()[0])

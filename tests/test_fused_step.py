@@ -25,6 +25,7 @@ import warp as wp
 import robots
 import warpdyn as wd
 from warpdyn.engine import fused_layout, launch, warp_private
+from warpdyn.engine import evaluations as engine_evaluations
 from warpdyn.engine import step as engine_step
 from warpdyn.engine.fused_layout import fused_walk
 from warpdyn.kernels import fused_step
@@ -118,14 +119,15 @@ def test_the_fused_step_is_what_a_step_launches_without_gradients(monkeypatch, k
     x, y = engine_step.state_arrays(data), engine_step.state_buffers(plan, 4, False)
     launches = engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
     fused, dim, block_dim = engine_step.fused_kernel(plan, 4)
-    assert [item.kernel for item in launches] == [fused], "the joint forces in the fused kernel"
+    check = engine_step.parameter_check(plan, None, None, 4).kernel
+    assert [item.kernel for item in launches] == [fused, check], "the joint forces in the fused kernel, then the parameters' check"
     shared = fused_layout.shared_records(plan, 1, wd.config.cuda_block_dim if plan.device.is_cuda else None)[0]
     assert (launches[0].dim, launches[0].block_dim) == (((4, 2), 2) if lanes else (4, shared or None))
     assert fused is engine_step.fused_kernel(plan, 4)[0] and fused is not engine_step.plan(model).fused(not keep, 2 if lanes else 1)
     assert fused is not engine_step.plan(model).fused(keep, 1 if lanes else 2)
     grad_ws = engine_step.Workspace(plan, 4, True, False)
     listed = engine_step.step_launches(plan, grad_ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
-    assert fused not in [item.kernel for item in listed] and len(listed) == 7, "with gradients: the launch list"
+    assert fused not in [item.kernel for item in listed] and len(listed) == 8, "with gradients: the launch list, the parameters' check last"
     with wp.Tape():
         taped = engine_step.step_launches(plan, ws, x, y, plan.zeros((plan.n,), 4), None, int(data.velocity_representation))
     assert fused not in [item.kernel for item in taped], "under a tape: the launch list"
@@ -248,7 +250,7 @@ def test_contacts_made_for_a_terrain_kind_equal_those_for_any_kind(monkeypatch, 
         model = _legs(np.float64)  # its own plan: the launches are built afresh
         model.terrain = TERRAINS[terrain]
         data = _with(_standing(model, 8), m=np.random.default_rng(9).normal(0.0, 2e-3, (8, 32, 3)))
-        out.append([a.numpy() for a in engine_step.contact_forces(model, data)])
+        out.append([a.numpy() for a in engine_evaluations.contact_forces(model, data)])
     W_f_C, m_dot, W_f_L = out[0]
     assert (np.abs(W_f_C[..., 2]) > 0.0).any() and (W_f_C[..., 2] == 0.0).any(), "points in contact and not"
     for name, specific, generic in zip(("W_f_C", "m_dot", "W_f_L"), out[0], out[1]):

@@ -97,8 +97,9 @@ def test_go1_loads_as_the_urdf_says():
     movable = [j for j in root.findall("joint") if j.get("type") != "fixed"]
     assert tuple(j.get("name") for j in movable) == assets.GO1_JOINTS
     assert model.floating_base() and model.base_link() == "base" and model.dofs() == 12
-    assert model.link_names() == ("base", *(f"{leg}_{part}" for part in ("hip", "thigh", "calf") for leg in LEGS))
-    assert model.joint_names() == tuple(f"{leg}_{part}_joint" for part in ("hip", "thigh", "calf") for leg in LEGS)
+    by_name = sorted(LEGS)  # breadth-first, siblings by name (JaxSim's order)
+    assert model.link_names() == ("base", *(f"{leg}_{part}" for part in ("hip", "thigh", "calf") for leg in by_name))
+    assert model.joint_names() == tuple(f"{leg}_{part}_joint" for part in ("hip", "thigh", "calf") for leg in by_name)
     order = [model.joint_names().index(j.get("name")) for j in movable]
     limit = np.array([[float(j.find("limit").get(k)) for k in ("lower", "upper", "effort", "velocity")] for j in movable])
     np.testing.assert_array_equal(model.tree.position_limits[order], limit[:, :2])
@@ -113,7 +114,7 @@ def test_go1_loads_as_the_urdf_says():
         assert model.link_names()[frames.body[i]] == calf
         np.testing.assert_array_equal(frames.transform[i][:3, 3], assets.GO1_FOOT_CENTRE)
     spheres = [(model.link_names()[k], s.radius) for k, shapes in enumerate(model.tree.collisions) for s in shapes if s.kind == "sphere"]
-    assert spheres == [(calf, assets.GO1_FOOT_RADIUS) for calf in assets.GO1_FEET]
+    assert spheres == [(calf, assets.GO1_FOOT_RADIUS) for calf in sorted(assets.GO1_FEET, key=model.link_names().index)]
 
     assert set(assets.GO1_STANDING_POSE) == set(assets.GO1_JOINTS)
     low, high = model.tree.position_limits.T

@@ -332,8 +332,12 @@ def test_actuator_parameters_per_environment():
 def test_gradients_of_a_step_against_finite_differences(integrator):
     """d(sum w * state after 3 steps) / d(armature, damping, stiffness, springref, gravcomp, actuator gear,
     gain, bias, the controls, the joint positions) by the tape against central differences, float64, 1e-6
-    relative (differences of step 1e-6 on O(1) losses)."""
+    relative (differences of step 1e-6 on O(1) losses). Every armature, damping and stiffness is positive, so
+    that the differences stay inside the parameters' range (a negative one is flagged by the step's check,
+    kernels/parameter_checks.py)."""
     model = build(GRAVCOMP_ARM.replace('<joint name="gj3" axis="1 0 1"/>', '<joint name="gj3" axis="1 0 1" damping="0.2" stiffness="3" springref="0.3" armature="0.05"/>'))
+    positive = np.linspace(0.05, 0.1, model.dofs())
+    model.set_joint_parameters(armature=positive, damping=2.0 * positive, stiffness=30.0 * positive)
     model.integrator = wd.model.IntegratorType[integrator]
     model.set_actuator_parameters(bias=[[0.1, -2.0, -0.3]])
     rng = np.random.default_rng(7)

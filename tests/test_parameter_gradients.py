@@ -505,7 +505,7 @@ def test_bad_parameter_names_and_contact_arrays_are_refused():
 
 
 def test_gradient_at_a_contact_onset_is_the_one_sided_derivative_from_outside():
-    """What the tape returns where the derivative is undefined (README, 'Differentiable simulation'): a
+    """What the tape returns where the derivative is undefined (docs/differentiation.md, 'Where the derivative is not defined'): a
     box whose 4 bottom corners lie exactly on the ground (penetration 0, moving down at 0.1 m/s). The
     gradient of the total normal force with respect to the base height is the derivative of the no-contact
     branch plus the spring's K eps^p per point (eps = 2.2e-16, p = 0.5: 4 x 1.5e-2 N/m at K = 1e6), i.e.

@@ -27,6 +27,7 @@ import robots
 import warpdyn as wd
 from warpdyn import VelRepr
 from warpdyn.engine import kinematics as engine_kinematics
+from warpdyn.engine import evaluations
 from warpdyn.engine import step as sim
 from warpdyn.simulation import STATE_RECORDS, STEP_RECORDS
 
@@ -133,7 +134,7 @@ def test_rollout_equals_repeated_step_bitwise(dtype, integrator, storage, graph)
     _assert_records_match_steps(model, rec, states)
     for a, b in zip(_state_numpy(final), _state_numpy(states[-1])):
         np.testing.assert_array_equal(a, b)
-    torques = [sim.resultant_torques(model, states[t], tau[t]).numpy() for t in range(T)]
+    torques = [evaluations.resultant_torques(model, states[t], tau[t]).numpy() for t in range(T)]
     np.testing.assert_array_equal(rec["joint_torques"].numpy(), np.stack(torques))
 
 
@@ -464,7 +465,7 @@ def test_link_contact_forces_sum_points_and_convert_representations(dtype):
     for L in range(model.number_of_links()):
         expected[:, L] = f_C[:, body == L].sum(axis=1)
     np.testing.assert_allclose(W_f_L, expected, rtol=0, atol=rel * scale * 16)
-    _, m_dot, W_f_step = sim.contact_forces(model, data)
+    _, m_dot, W_f_step = evaluations.contact_forces(model, data)
     np.testing.assert_array_equal(W_f_L, W_f_step.numpy())
 
     W_p_C = wd.contact.collidable_point_positions(model, data).numpy()
@@ -537,7 +538,7 @@ def test_in_contact_uses_the_terrain_height(terrain, dtype):
     N = 64
     data = wd.data.random_model_data(model, key=9, num_envs=N, base_pos_bounds=((-0.2, -0.2, 0.5), (0.2, 0.2, 0.75)), base_rpy_bounds=(-0.4, 0.4), joint_pos_bounds=(-0.3, 0.3))
     p = wd.contact.collidable_point_positions(model, data).numpy().astype(np.float64)
-    h = terrain.height_at(p[..., 0], p[..., 1])
+    h = terrain.height(p[..., 0], p[..., 1])
     gap = p[..., 2] - h
     tol = 1e-9 if dtype == np.float64 else 1e-5  # the kernel's h and z round differently from NumPy's
     cp = model.kin_dyn_parameters.contact_parameters
@@ -585,8 +586,9 @@ def test_plan_is_cached_and_rebuilt_when_parameters_change():
 def test_models_launch_only_what_they_need(monkeypatch, fused):
     """The launch list (what a tape records): legs with contacts: actuation, FK, link velocities, the points'
     contact forces, their sums per link, ABA, integrator; without enabled points: actuation, ABA, integrator.
-    Fused (warpdyn.config.fused_step): the fused step alone (the joint forces in it), with or without points. Mixed link forces
-    add FK and a conversion (Inertial ones nothing)."""
+    Fused (warpdyn.config.fused_step): the fused step alone (the joint forces in it), with or without points. Each list ends
+    with the parameters' device check (kernels/parameter_checks.py). Mixed link forces add FK and a conversion (Inertial ones
+    nothing)."""
     monkeypatch.setattr(wd.config, "fused_step", fused)
     legs = _legs_model(np.float64)
     data = _standing_data(legs, 2)
@@ -594,10 +596,10 @@ def test_models_launch_only_what_they_need(monkeypatch, fused):
     no_contacts = wd.contact.with_collidable_points(legs, enabled=np.zeros(32, dtype=bool))
     without = _kernel_names(no_contacts, data)
     if fused:
-        assert with_contacts == without == ["fused_euler_step"], "the joint forces in the fused kernel"
+        assert with_contacts == without == ["fused_euler_step", "keep_unphysical"], "the joint forces in the fused kernel"
     else:
-        assert with_contacts == ["resultant_torques", "forward_kinematics", "link_velocities", "point_contact_forces", "link_contact_forces", "aba", "semi_implicit_euler"]
-        assert without == ["resultant_torques", "aba", "semi_implicit_euler"]
+        assert with_contacts == ["resultant_torques", "forward_kinematics", "link_velocities", "point_contact_forces", "link_contact_forces", "aba", "semi_implicit_euler", "keep_unphysical"]
+        assert without == ["resultant_torques", "aba", "semi_implicit_euler", "keep_unphysical"]
     assert len(_kernel_names(no_contacts, data, forces=True)) == len(without) + 2
     inertial = wd.data.random_model_data(legs, key=1, num_envs=2, velocity_representation=VelRepr.Inertial)
     assert len(_kernel_names(no_contacts, inertial, forces=True)) == len(without)

@@ -210,8 +210,8 @@ def assert_same_robot(sdf, urdf, rng, *, frames_subset=False, num_envs=3, tol=1e
 
 # ------------------------------------------------------------------------------------ the ergoCub
 
-ERGOCUB_SDF_FRAMES = ("l_hip_3", "r_hip_3", "l_shoulder_3", "r_shoulder_3", "l_foot_front", "l_foot_rear", "r_foot_front",
-                      "r_foot_rear")  # fmt: skip
+ERGOCUB_SDF_FRAMES = ("l_foot_front", "l_foot_rear", "l_hip_3", "l_shoulder_3", "r_foot_front", "r_foot_rear", "r_hip_3",
+                      "r_shoulder_3")  # fmt: skip  # sorted by name, as JaxSim (warpdyn/description/tree.py)
 
 
 @functools.cache
@@ -238,12 +238,17 @@ def test_ergocub_sdf_equals_urdf(legs):
 
 def test_ergocub_sdf_collidable_points_and_placement():
     """The SDF's 4 foot boxes give the URDF's 32 collidable points (exactly the same numbers, 1e-15: one rpy
-    conversion each), its 62 meshes are meshes (model:// URIs, scale 1e-3), and Data.build puts the floating base
-    at the model's <pose> 0 0 0.8 (the URDF's at the origin)."""
+    conversion each), each file's in its own order (JaxSim's: the description's order of the shapes; Gazebo's
+    converter orders the links otherwise), its 62 meshes are meshes (model:// URIs, scale 1e-3), and Data.build
+    puts the floating base at the model's <pose> 0 0 0.8 (the URDF's at the origin)."""
     sdf, urdf = ergocub("sdf", False), ergocub("urdf", False)
     ps, pu = sdf.kin_dyn_parameters.contact_parameters, urdf.kin_dyn_parameters.contact_parameters
-    np.testing.assert_array_equal(ps.body, pu.body)
-    np.testing.assert_allclose(ps.point, pu.point, atol=1e-15)
+
+    def rows(params):  # (link, point) sorted: the same set of points
+        table = np.column_stack([np.asarray(params.body, dtype=np.float64), params.point])
+        return table[np.lexsort(table.T[::-1])]
+
+    np.testing.assert_allclose(rows(ps), rows(pu), atol=1e-15)
     meshes = [s for shapes in sdf.tree.collisions for s in shapes if s.kind == "mesh"]
     assert len(meshes) == 62 and all(s.filename.startswith("model://ergoCub/meshes/") for s in meshes)
     np.testing.assert_array_equal(meshes[0].scale, [1e-3, 1e-3, 1e-3])

@@ -70,7 +70,7 @@ def test_free_fall_matches_the_analytic_solution(dtype, integrator):
         expected_p = p0 + v0 * K * dt + 0.5 * g * (K * dt) ** 2
     expected_v = np.r_[v0 + g * K * dt, 0.0, 0.0, 0.0]
     tol = 1e-12 if dtype == np.float64 else 5e-5
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     np.testing.assert_allclose(host(data.base_position), expected_p, rtol=0, atol=tol)
     np.testing.assert_allclose(host(data.base_velocity), expected_v, rtol=0, atol=tol)
     np.testing.assert_allclose(host(data.base_quaternion), [1.0, 0.0, 0.0, 0.0], rtol=0, atol=1e-7)
@@ -121,7 +121,7 @@ def test_free_spin(dtype, integrator):
                               base_angular_velocity=omega0, num_envs=2)
     K, dt = 500, model.time_step
     data, _ = rollout(model, data, K)
-    assert host(data.valid).tolist() == [1, 1]
+    assert host(data.healthy).tolist() == [1, 1]
     p, Q, V = host(data.base_position), host(data.base_quaternion), host(data.base_velocity)
     f64 = dtype == np.float64
 
@@ -198,7 +198,7 @@ def test_box_rests_on_flat_terrain_at_the_predicted_penetration(dtype):
     data, _ = rollout(model, data, 600)
     expected = (BOX_MASS * G / 4 / 1e6) ** (1 / 1.5)
     tol = 1e-8 if dtype == np.float64 else 1e-4
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     np.testing.assert_allclose(_penetrations(model, data, n), expected, rtol=tol)
     np.testing.assert_allclose(host(data.base_position), [0.0, 0.0, BOX_HALF - expected], rtol=0, atol=tol * expected)
     np.testing.assert_allclose(host(data.base_velocity), 0.0, rtol=0, atol=1e-6 if dtype == np.float64 else 1e-4)
@@ -226,7 +226,7 @@ def test_box_sticks_below_the_friction_angle(dtype):
     model, data, n = _box_on(wd.terrain.PlaneTerrain(normal=(np.sin(theta), 0.0, np.cos(theta))), dtype, theta, mu)
     down = np.array([np.cos(theta), 0.0, -np.sin(theta)])
     data, track = rollout(model, data, 1000, record=lambda d: host(d.base_position) @ down)
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     delta = _penetrations(model, data, n)
     f64 = dtype == np.float64
     np.testing.assert_allclose(np.mean(delta**1.5), BOX_MASS * G * np.cos(theta) / 4 / 1e6, rtol=1e-6 if f64 else 1e-4)
@@ -263,7 +263,7 @@ def test_box_slides_above_the_friction_angle_and_a_heightfield_plane_equals_the_
     plane = wd.terrain.PlaneTerrain(normal=(np.sin(theta), 0.0, np.cos(theta)))
     data, track = _slide(plane, dtype, theta, mu)
     track = np.array(track)
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     a = (track[-1, 3] - track[199, 3]) / (400 * 1e-3)
     expected = G * (np.sin(theta) - mu * np.cos(theta))
     assert abs(a / expected - 1) < 1e-3
@@ -271,10 +271,10 @@ def test_box_slides_above_the_friction_angle_and_a_heightfield_plane_equals_the_
     assert quat_distance(host(data.base_quaternion), _slope_quaternion(theta)) < 1e-3
 
     xs, ys = np.arange(-2.0, 2.01, 0.25), np.arange(-1.0, 1.01, 0.25)
-    heights = plane.height_at(xs[:, None], ys[None, :])
+    heights = plane.height(xs[:, None], ys[None, :])
     heightfield = wd.terrain.HeightfieldTerrain(heights, origin=(xs[0], ys[0]), spacing=(0.25, 0.25))
     data_hf, track_hf = _slide(heightfield, dtype, theta, mu)
-    assert host(data_hf.valid)[0] == 1
+    assert host(data_hf.healthy)[0] == 1
     np.testing.assert_allclose(np.array(track_hf), track, rtol=0, atol=1e-12 if dtype == np.float64 else 2e-5)
 
 
@@ -332,7 +332,7 @@ def test_ergocub_stands_for_one_second_with_joint_pd(dtype):
     """
     model, data, z0 = _standing_ergocub(dtype)
     data, track = _pd_rollout(model, data, 1000)
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     dz = track[:, 2] - z0
     assert -3e-3 < dz.min() and dz.max() < 5e-4
     sink = (wd.model.total_mass(model) * G / 16 / 1e6) ** (2 / 3)
@@ -356,10 +356,10 @@ def test_ergocub_with_jaxsims_estimated_contact_parameters_needs_a_smaller_time_
     assert params.K == pytest.approx(913369.47, rel=1e-6) and params.D == 1e4
     model, data, _ = _standing_ergocub(np.float64, 1e-3, params)
     data, track = _pd_rollout(model, data, 40)
-    assert host(data.valid)[0] == 0
+    assert host(data.healthy)[0] == 0
     model, data, z0 = _standing_ergocub(np.float64, 2.5e-4, params)
     data, track = _pd_rollout(model, data, 400)
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     assert track[:, 6].max() < 0.5
     assert np.abs(track[:, 2] - z0).max() < 3e-3
 

@@ -101,7 +101,7 @@ def test_energy_drift_without_contacts(case, dtype):
                     base_angular_velocity=[0.5, -0.3, 0.2])
             E0 = host(wd.model.mechanical_energy(model, data))[0]
             data, energies = rollout(model, data, int(round(0.1 / dt)), record=lambda d: host(wd.model.mechanical_energy(model, d))[0])
-            assert host(data.valid)[0] == 1
+            assert host(data.healthy)[0] == 1
             drifts[(integrator.name, dt)] = np.abs(np.array(energies) - E0).max()
     name = np.dtype(dtype).name
     print(case, name, {k: f"{v:.3g}" for k, v in drifts.items()})
@@ -123,8 +123,8 @@ def test_icub_matches_mujoco_rk4(floating, dtype):
 
     Reference and tolerance: both are 4th-order schemes of the same ODE in different coordinates
     (warpdyn: Inertial base velocity, quaternion by Euler and normalisation at each stage), so they differ
-    by O(dt^4): floating, float64, measured 3.1e-13 at dt = 1 ms and 1.9e-14 at 0.5 ms (ratio 16.8 = 2^4),
-    bound 3e-12 and a ratio of at least 8. A fixed base makes both the same RK4 in joint coordinates:
+    by O(dt^4): floating, float64, measured 3.7e-12 at dt = 1 ms and 2.3e-13 at 0.5 ms (ratio 16.1 = 2^4;
+    the joints drawn in warpdyn's order, JaxSim's since round 16), bound 1e-11 and a ratio of at least 8. A fixed base makes both the same RK4 in joint coordinates:
     measured 1.4e-14, bound 1e-12. float32 (rounding): measured 2e-6, bound 2e-5.
     """
     text = _icub_text(floating)
@@ -145,7 +145,7 @@ def test_icub_matches_mujoco_rk4(floating, dtype):
         data, _ = rollout(model, data, steps)
         for _ in range(steps):
             mujoco.mj_step(mj, state.d)
-        assert host(data.valid)[0] == 1
+        assert host(data.healthy)[0] == 1
         d = state.d
         err = [np.abs(host(data.joint_positions) - d.qpos[state.qpos_adr]).max(),
                np.abs(host(data.joint_velocities) - d.qvel[state.dof_adr]).max()]
@@ -155,7 +155,7 @@ def test_icub_matches_mujoco_rk4(floating, dtype):
             err += [np.abs(host(data.base_position) - d.qpos[:3]).max(), quat_distance(host(data.base_quaternion), d.qpos[3:7]),
                     np.abs(V[:3] - d.qvel[:3]).max(), np.abs(V[3:] - R @ d.qvel[3:6]).max()]
         errors[dt] = max(err)
-    tol = (3e-12 if floating else 1e-12) if dtype == np.float64 else 2e-5
+    tol = (1e-11 if floating else 1e-12) if dtype == np.float64 else 2e-5
     assert errors[1e-3] < tol, errors
     if len(errors) == 2:
         assert errors[1e-3] / errors[5e-4] > 8, errors
@@ -165,7 +165,7 @@ def test_icub_sie_equals_mujoco_euler(dtype):
     """The fixed-base iCub (32 joints), contact-free and frictionless, 100 steps of 1 ms of SIE against
     MuJoCo's semi-implicit Euler (mjINT_EULER: qvel += dt qacc, then qpos += dt qvel, damping off so that
     nothing is implicit): on a fixed base both are the same map in joint coordinates, so they agree to
-    rounding, and so do their energies (both lose 0.0282 J: SIE's drift is the scheme's).
+    rounding, and so do their energies (both lose 4.19 mJ: SIE's drift is the scheme's).
     Tolerance: float64 measured 1e-14, bound 1e-12; float32 measured 2e-6, bound 2e-5; energies 1e-9 J
     (float64) and 1e-4 J (float32) apart.
     """
@@ -184,10 +184,10 @@ def test_icub_sie_equals_mujoco_euler(dtype):
         mujoco.mj_step(mj, state.d)
     mujoco.mj_forward(mj, state.d)
     f64 = dtype == np.float64
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     np.testing.assert_allclose(host(data.joint_positions), state.d.qpos[state.qpos_adr], rtol=0, atol=1e-12 if f64 else 2e-5)
     np.testing.assert_allclose(host(data.joint_velocities), state.d.qvel[state.dof_adr], rtol=0, atol=1e-12 if f64 else 2e-5)
     drift, drift_mj = host(wd.model.mechanical_energy(model, data))[0] - E0, state.d.energy.sum() - E0_mj
-    assert abs(drift - drift_mj) < (1e-9 if f64 else 1e-4) and drift < -0.02
+    assert abs(drift - drift_mj) < (1e-9 if f64 else 1e-4) and drift < -1e-3
 
 

@@ -100,7 +100,7 @@ def test_contact_stiffness_extremes(dtype):
     model.contact_params = wd.model.SoftContactsParams(K=1e3, D=50.0)
     data = wd.data.Data.build(model, base_position=[0.0, 0.0, BOX_HALF])
     data, _ = rollout(model, data, 1000)
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     delta = (BOX_MASS * G / 4 / 1e3) ** (2 / 3)
     np.testing.assert_allclose(BOX_HALF - host(data.base_position)[2], delta, rtol=2e-4)
 
@@ -108,7 +108,7 @@ def test_contact_stiffness_extremes(dtype):
     model.contact_params = wd.model.SoftContactsParams(K=1e8, D=2000.0)
     data = wd.data.Data.build(model, base_position=[0.0, 0.0, BOX_HALF], base_linear_velocity=[0.5, 0.0, -0.3])
     data, track = rollout(model, data, 1000, record=lambda d: host(d.base_position)[2])
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     assert max(track) < BOX_HALF + 1e-2
     assert np.abs(host(data.tangential_deformation_state)).max() < 1e-3
 
@@ -128,7 +128,7 @@ def _landing(dtype, dt, integrator=SIE, T=0.5, yaw_rate=0.0):
 @functools.cache
 def _reference_landing(dtype):
     data, track = _landing(dtype, 1e-4)
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     return track[-1, :3]
 
 
@@ -150,7 +150,7 @@ def test_time_steps_where_contacts_are_stable(integrator, dt, dtype):
     """
     reference = _reference_landing(dtype)
     data, track = _landing(dtype, dt, integrator)
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     assert abs(track[-1, 2] - reference[2]) < 1e-6
     assert abs(track[-1, 0] - reference[0]) < 1.5e-3
     assert track[:, 2].max() < BOX_HALF + 5e-3
@@ -173,7 +173,7 @@ def test_time_step_3ms_with_sie_leaves_a_torsional_chatter(dtype):
     """
     data, track = _landing(dtype, 3e-3, SIE, T=1.0, yaw_rate=1e-3)
     late = track[len(track) // 2:]
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     assert 0.1 < np.abs(late[:, 8]).max() < 1.0
     assert np.ptp(late[:, 0]) < 1e-3 and np.ptp(late[:, 1]) < 1e-3
     data, track = _landing(dtype, 3e-3, RK4, T=1.0)
@@ -201,7 +201,7 @@ def test_time_steps_beyond_the_deformation_stability_limit_are_flagged_or_refuse
     except ValueError as error:
         assert "time_step" in str(error) or "time step" in str(error)
         return
-    assert host(data.valid)[0] == 0, (
+    assert host(data.healthy)[0] == 0, (
         f"dt = {dt}: diverged without being flagged: max height {max(heights):.3g} m, "
         f"|m| = {np.abs(host(data.tangential_deformation_state)).max():.3g} m"
     )
@@ -266,7 +266,7 @@ def test_link_mass_extremes(dtype):
     def run(masses):
         model = contact_free(build(chain_urdf(masses), dtype, integrator=RK4))
         data, _ = rollout(model, wd.data.Data.build(model, joint_positions=s0), 300)
-        assert host(data.valid)[0] == 1
+        assert host(data.healthy)[0] == 1
         return np.r_[host(data.joint_positions), host(data.joint_velocities)]
 
     unit = run([1.0, 1.0, 1.0])
@@ -274,11 +274,11 @@ def test_link_mass_extremes(dtype):
         np.testing.assert_allclose(run([scale] * 3), unit, rtol=0, atol=1e-12 if f64 else 5e-5)
     for masses in ([1e3, 1e-3, 1e-3], [1e-3, 1e3, 1e-3]):
         data, _, s_err, sdot_err, _ = chain_vs_mujoco(chain_urdf(masses), dtype, s0, np.zeros(3), 0.3)
-        assert host(data.valid)[0] == 1
+        assert host(data.healthy)[0] == 1
         assert max(s_err, sdot_err) < (1e-11 if f64 else 5e-5)
     model = contact_free(build(chain_urdf([1e-3, 1e-3, 1e3]), dtype, integrator=RK4))
     data, _ = rollout(model, wd.data.Data.build(model, joint_positions=s0), 300)
-    assert host(data.valid)[0] == 0
+    assert host(data.healthy)[0] == 0
     assert np.all(np.isfinite(host(data.joint_positions))) and np.all(np.isfinite(host(data.joint_velocities)))
 
 
@@ -292,7 +292,7 @@ def test_chain_of_100_links_stretched(dtype):
     s0 = np.zeros(n)
     s0[0] = np.pi / 2
     data, _, s_err, sdot_err, _ = chain_vs_mujoco(robots.pendulum_chain_urdf(n, length=0.05, mass=0.1), dtype, s0, np.zeros(n), 0.05)
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     f64 = dtype == np.float64
     assert s_err < (1e-9 if f64 else 1e-5) and sdot_err < (1e-7 if f64 else 2e-4)
 
@@ -305,7 +305,7 @@ def test_near_singular_coaxial_joints(dtype):
     measured 1e-11) and 2e-5 J (float32, measured 4.8e-6)."""
     text = chain_urdf([1e-6, 1.0, 1.0], offsets=[0.0, 0.0, -0.5])
     data, _, s_err, sdot_err, drift = chain_vs_mujoco(text, dtype, np.array([0.3, 0.4, -0.2]), np.array([0.0, 1.0, 0.0]), 0.3)
-    assert host(data.valid)[0] == 1
+    assert host(data.healthy)[0] == 1
     f64 = dtype == np.float64
     assert max(s_err, sdot_err) < (1e-8 if f64 else 2e-2)
     assert drift < (1e-10 if f64 else 2e-5)
@@ -327,7 +327,7 @@ def test_long_run_spinning_body(dtype):
         model = build(BODY_URDF, dtype, integrator=integrator, gravity=0.0)
         data = wd.data.Data.build(model, base_angular_velocity=omega0, num_envs=2)
         data, _ = rollout(model, data, steps)
-        assert host(data.valid).tolist() == [1, 1]
+        assert host(data.healthy).tolist() == [1, 1]
         Q, V = host(data.base_quaternion), host(data.base_velocity)
         assert np.abs(np.linalg.norm(Q, axis=1) - 1).max() < 1e-6
         angle = 2 * steps * np.arctan(20 * 1e-3 / 2) if integrator == SIE else 20 * steps * 1e-3
@@ -412,8 +412,8 @@ def test_a_diverging_environment_is_flagged_frozen_and_reset(dtype, layout):
         data = wd.model.step(model, data, link_forces=torque if k < 5 else None)
         alone = wd.model.step(model, alone)
         if k == 0:
-            assert host(data.valid).tolist() == [1, 1, 0, 1]
-    assert host(data.valid).tolist() == [1, 1, 0, 1]
+            assert host(data.healthy).tolist() == [1, 1, 0, 1]
+    assert host(data.healthy).tolist() == [1, 1, 0, 1]
     for name in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "tangential_deformation"):
         mine, theirs = getattr(data, f"{name}_state").numpy(), getattr(alone, f"{name}_state").numpy()
         assert np.array_equal(mine[keep], theirs), name
@@ -422,7 +422,7 @@ def test_a_diverging_environment_is_flagged_frozen_and_reset(dtype, layout):
     assert np.abs(host(alone.base_velocity_state)).max() > 0.0  # the others did move
 
     reset = data.reset(model, envs=[bad])
-    assert host(reset.valid).tolist() == [1, 1, 1, 1]
+    assert host(reset.healthy).tolist() == [1, 1, 1, 1]
     np.testing.assert_array_equal(host(reset.base_position)[bad], [0.0, 0.0, 0.0])
     np.testing.assert_array_equal(host(reset.base_quaternion)[bad], [1.0, 0.0, 0.0, 0.0])
     np.testing.assert_array_equal(host(reset.base_velocity)[bad], np.zeros(6))
@@ -430,7 +430,7 @@ def test_a_diverging_environment_is_flagged_frozen_and_reset(dtype, layout):
     for name in ("base_position", "base_quaternion", "base_velocity"):
         assert np.array_equal(getattr(reset, f"{name}_state").numpy()[keep], getattr(data, f"{name}_state").numpy()[keep])
     stepped = wd.model.step(model, reset)
-    assert host(stepped.valid).tolist() == [1, 1, 1, 1]
+    assert host(stepped.healthy).tolist() == [1, 1, 1, 1]
     assert np.all(np.isfinite(host(stepped.base_position)))
 
 
@@ -466,7 +466,7 @@ def test_each_kind_of_state_value_is_in_the_health_check(integrator, bad_value):
         stepped = wd.model.step(model, faulty)
         expected = [1] * N
         expected[k] = 0
-        assert host(stepped.valid).tolist() == expected, where
+        assert host(stepped.healthy).tolist() == expected, where
         others = [e for e in range(N) if e != k]
         for name in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "tangential_deformation"):
             got, ref, before = (host(getattr(d, f"{name}_state")) for d in (stepped, reference, faulty))

@@ -26,7 +26,7 @@ def _standing(model, N, repr_=VelRepr.Mixed, seed=0):
 
 
 def _assert_same_state(a, b, label):
-    for name in ("base_position", "base_quaternion", "joint_positions", "joint_velocities", "base_velocity", "valid"):
+    for name in ("base_position", "base_quaternion", "joint_positions", "joint_velocities", "base_velocity", "healthy"):
         np.testing.assert_array_equal(getattr(a, name).numpy(), getattr(b, name).numpy(), err_msg=f"{label}: {name}")
     np.testing.assert_array_equal(a.tangential_deformation_state.numpy(), b.tangential_deformation_state.numpy(), err_msg=label)
 
@@ -84,19 +84,19 @@ def test_masked_reset_and_health():
     data = wd.data.Data.build(model, num_envs=3, joint_velocities=v)
     stepper = wd.simulation.Stepper(model, data)
     stepper.step()
-    assert stepper.data.valid.numpy().tolist() == [1, 0, 1]
+    assert stepper.data.healthy.numpy().tolist() == [1, 0, 1]
     alone = wd.model.step(model, wd.data.Data.build(model, num_envs=3, joint_velocities=np.where(np.abs(v) > 1e100, 0.0, v)))
     np.testing.assert_array_equal(stepper.data.joint_positions.numpy()[[0, 2]], alone.joint_positions.numpy()[[0, 2]])
     before = stepper.data.joint_positions.numpy().copy()
     fresh = wd.data.Data.build(model, num_envs=3, joint_positions=np.full((3, 3), 0.25))
     stepper.set_state(fresh, envs=wp.array([0, 1, 0], dtype=wp.int32))
     after = stepper.data
-    assert after.valid.numpy().tolist() == [1, 1, 1]
+    assert after.healthy.numpy().tolist() == [1, 1, 1]
     np.testing.assert_array_equal(after.joint_positions.numpy()[1], [0.25] * 3)
     np.testing.assert_array_equal(after.joint_velocities.numpy()[1], [0.0] * 3)
     np.testing.assert_array_equal(after.joint_positions.numpy()[[0, 2]], before[[0, 2]])
     stepper.step()
-    assert stepper.data.valid.numpy().all()
+    assert stepper.data.healthy.numpy().all()
 
 
 def test_errors_are_named():

@@ -207,7 +207,7 @@ def test_the_example_writes_a_recording(tmp_path):
     with pytest.warns(wd.contact.UnresolvedMeshWarning, match="62 collision mesh"):  # the seed has no mesh files
         result = visualize_drop.main(["ergocub", str(out), "--duration", "0.2", "--every", "10", "--terrain", "plane"])
     assert out.is_file() and out.stat().st_size > 10_000
-    assert bool(result["final"].valid.numpy().reshape(-1)[0])
+    assert bool(result["final"].healthy.numpy().reshape(-1)[0])
     logged, _ = _read(out)
     assert len(logged["/world/robot/links/root_link"]["frame"]) == 21
 
@@ -219,8 +219,8 @@ def test_the_example_writes_a_recording(tmp_path):
 def test_terrain_mesh_lies_on_the_terrain(kind):
     terrain = TERRAINS[kind]
     vertices, triangles, normals = viz.terrain_mesh(terrain, center=(0.4, -0.2), half_extent=1.5)
-    np.testing.assert_allclose(vertices[:, 2], terrain.height_at(vertices[:, 0], vertices[:, 1]), atol=1e-12)
-    np.testing.assert_allclose(normals, terrain.normal_at(vertices[:, 0], vertices[:, 1]), atol=1e-12)
+    np.testing.assert_allclose(vertices[:, 2], terrain.height(vertices[:, 0], vertices[:, 1]), atol=1e-12)
+    np.testing.assert_allclose(normals, terrain.normal(vertices[:, 0], vertices[:, 1]), atol=1e-12)
     assert triangles.dtype == np.int32 and triangles.min() == 0 and triangles.max() == len(vertices) - 1
     a, b, c = (vertices[triangles[:, k]] for k in range(3))
     up = np.cross(b - a, c - a)[:, 2]
@@ -230,7 +230,7 @@ def test_terrain_mesh_lies_on_the_terrain(kind):
         assert len(vertices) == nx * ny and len(triangles) == 2 * (nx - 1) * (ny - 1)
         np.testing.assert_allclose(vertices[:, 2], terrain.heights.reshape(-1), atol=1e-15)
         centres = (a + b + c) / 3  # the bilinear surface is not planar: the triangles are within its bumps
-        assert np.abs(centres[:, 2] - terrain.height_at(centres[:, 0], centres[:, 1])).max() < 0.05
+        assert np.abs(centres[:, 2] - terrain.height(centres[:, 0], centres[:, 1])).max() < 0.05
     else:
         np.testing.assert_allclose(np.sort(vertices[:, 0]), [-1.1, -1.1, 1.9, 1.9])
         np.testing.assert_allclose(np.sort(vertices[:, 1]), [-1.7, -1.7, 1.3, 1.3])
@@ -238,7 +238,7 @@ def test_terrain_mesh_lies_on_the_terrain(kind):
         # a plane's triangles are the plane: every point of them is on the terrain
         w = np.random.default_rng(1).dirichlet(np.ones(3), size=50)
         p = w @ np.stack([a[0], b[0], c[0]])
-        np.testing.assert_allclose(p[:, 2], terrain.height_at(p[:, 0], p[:, 1]), atol=1e-12)
+        np.testing.assert_allclose(p[:, 2], terrain.height(p[:, 0], p[:, 1]), atol=1e-12)
     with pytest.raises(ValueError, match="half_extent"):
         viz.terrain_mesh(wd.terrain.FlatTerrain(), half_extent=0.0)
 
@@ -249,10 +249,10 @@ def test_grid_lines_and_penetration(kind):
     lines = viz.terrain_grid_lines(terrain, center=(0.1, 0.0), half_extent=1.0, spacing=0.25, samples=9)
     assert len(lines) == 8 + 9  # x = -0.75, ..., 1.0 (the square spans [-0.9, 1.1]) and y = -1.0, ..., 1.0
     for line in lines:
-        np.testing.assert_allclose(line[:, 2], terrain.height_at(line[:, 0], line[:, 1]), atol=1e-12)
+        np.testing.assert_allclose(line[:, 2], terrain.height(line[:, 0], line[:, 1]), atol=1e-12)
     x = np.linspace(-1, 1, 11)
-    h = terrain.height_at(x, 0.3 * x)
-    n = terrain.normal_at(x, 0.3 * x)
+    h = terrain.height(x, 0.3 * x)
+    n = terrain.normal(x, 0.3 * x)
     for offset in (-0.01, 0.0, 0.02):
         points = np.stack([x, 0.3 * x, h - offset], axis=1)
         np.testing.assert_allclose(viz.point_penetration(terrain, points), offset * n[:, 2], atol=1e-15)

@@ -210,33 +210,26 @@ def estimate_good_contact_parameters(
 ) -> SoftContactsParams:
     """JaxSim's estimate: K so that the robot's weight shared by the active points penetrates
     max_penetration (default: 1% of the CoM height above the lowest collidable point at the zero state),
-    K = m g / n / delta_max^(1 + p) clipped to 1e6, and D = damping_ratio 2 sqrt(K m) clipped to 1e4.
-    m is the model's current total mass (`model.link_mass`); with masses given per environment, K and D are
-    one value per environment (N,)."""
-    masses = np.asarray(model.link_mass.numpy(), dtype=np.float64)
-    m = masses.sum(axis=-1)
-    num_envs = masses.shape[0] if masses.ndim == 2 else None
-    nc = int(number_of_active_collidable_points_steady_state)
-    if nc < 1:
-        raise ValueError(f"number_of_active_collidable_points_steady_state must be >= 1, got {nc}")
+    K = m g / n / delta_max^(1 + p) clipped to 1e6, and D = damping_ratio 2 sqrt(K m) clipped to 1e4
+    (`model.contact_params`' class's `build_default_from_jaxsim_model`). m is the model's current total mass
+    (`model.link_mass`); with masses given per environment, K and D are one value per environment (N,)."""
     if max_penetration is None:
-        zero = Data.build(model, num_envs=num_envs)
+        masses = np.asarray(model.link_mass.numpy())
+        zero = Data.build(model, num_envs=masses.shape[0] if masses.ndim == 2 else None)
         height = com.com_position(model, zero).numpy()[..., 2]
         if model.floating_base():
             points = collidable_point_positions(model, zero).numpy()
             if points.shape[-2]:
                 height = height - points[..., 2].min(axis=-1)
         max_penetration = 0.01 * height
-    max_penetration = np.asarray(max_penetration, dtype=np.float64)
-    if not np.all(max_penetration > 0.0):
-        raise ValueError(f"max_penetration must be positive, got {max_penetration}")
-    p = 0.5
-    K = np.clip(m * standard_gravity / nc / max_penetration ** (1.0 + p), 0.0, 1e6)
-    D = np.clip(damping_ratio * 2.0 * np.sqrt(K * m), 0.0, 1e4)
-    if num_envs is None:
-        K, D = float(K), float(D)
-    return SoftContactsParams(K=K, D=D, mu=static_friction_coefficient, p=p, q=0.5)
-
+    return model.contact_model.parameters_class.build_default_from_jaxsim_model(
+        model,
+        standard_gravity=standard_gravity,
+        static_friction_coefficient=static_friction_coefficient,
+        max_penetration=max_penetration,
+        number_of_active_collidable_points_steady_state=number_of_active_collidable_points_steady_state,
+        damping_ratio=damping_ratio,
+    )
 
 def estimate_good_soft_contacts_parameters(*args, **kwargs) -> SoftContactsParams:
     """JaxSim's deprecated name of `estimate_good_contact_parameters` (a DeprecationWarning, then the same)."""

@@ -23,21 +23,24 @@ import warp as wp
 from . import arrays
 from .engine import state as states
 from .engine import warp_private
-from .types.data_checks import check_data, check_state
-from .types.enums import VelRepr, switched_representation
+from .types.data_checks import check_contact_state, check_data, check_state
+from .types.enums import VelRepr
+from .common import ModelDataWithVelocityRepresentation
 from .joint import random_generator, random_joint_positions
-from .math import Rotation
+from .math import Quaternion, Rotation
 from .types.model import quaternion_xyzw
 
-__all__ = ["Data", "random_model_data"]
+__all__ = ["Data", "JaxSimModelData", "random_model_data"]
 
 _STATE_FIELDS = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities")
 _NO_GRADS = (None,) * len(_STATE_FIELDS)  # Data.requires_grad: no state array has a .grad
 
 
 @dataclasses.dataclass(eq=False)
-class Data:
-    """The state of `num_envs` environments (None: one environment, with JaxSim's unbatched shapes)."""
+class Data(ModelDataWithVelocityRepresentation):
+    """The state of `num_envs` environments (None: one environment, with JaxSim's unbatched shapes).
+    JaxSim's `JaxSimModelData` (also under that name): its constructors and methods take JaxSim's arguments,
+    in JaxSim's order, and warpdyn's (num_envs, requires_grad, validate, envs) as keywords."""
 
     base_position_state: wp.array
     base_quaternion_state: wp.array
@@ -54,14 +57,15 @@ class Data:
     @staticmethod
     def build(
         model,
-        *,
         base_position=None,
         base_quaternion=None,
         joint_positions=None,
         base_linear_velocity=None,
         base_angular_velocity=None,
         joint_velocities=None,
+        contact_state: dict | None = None,
         velocity_representation: VelRepr = VelRepr.Mixed,
+        *,
         num_envs: int | None = None,
         requires_grad: bool = False,
         validate: bool = True,
@@ -72,7 +76,8 @@ class Data:
         axis N); defaults are zero, with the identity quaternion (w, x, y, z) = (1, 0, 0, 0), except the
         base pose, which defaults to where the description welds a fixed base or places a floating one
         (`description.initial_world_H_base`: an SDF model's pose). Base
-        velocities are read in `velocity_representation`. NumPy-like inputs are checked on the host
+        velocities are read in `velocity_representation`. contact_state: JaxSim's, {"tangential_deformation":
+        (nc_all, 3) or (N, nc_all, 3) [m]} (default zero). NumPy-like inputs are checked on the host
         (finite; unit quaternion within 1e-6 when `validate`); Warp arrays are copied on the device,
         and checked on the host (a synchronisation) only when `validate` is set.
         """
@@ -114,9 +119,7 @@ class Data:
             joint_velocities_state=state(joint_velocities, "joint_velocities", (n,)),
             velocity_representation=velocity_representation,
             num_envs=None if num_envs is None else N,
-            tangential_deformation_state=arrays.zeros(
-                (len(model.kin_dyn_parameters.contact_parameters.body), 3), N, s, d
-            ),
+            tangential_deformation_state=_deformation(model, contact_state, num_envs, N),
             valid_state=wp.ones(N, dtype=wp.int32, device=d),
         )
         if not model.floating_base():
@@ -127,8 +130,8 @@ class Data:
         return data
 
     @staticmethod
-    def zero(model, *, velocity_representation: VelRepr = VelRepr.Mixed, num_envs: int | None = None) -> Data:
-        """Data at the zero configuration, at rest (base at the origin, identity orientation)."""
+    def zero(model, velocity_representation: VelRepr = VelRepr.Mixed, *, num_envs: int | None = None) -> Data:
+        """Data at the zero configuration, at rest, the base where `build` places it by default."""
         return Data.build(model, velocity_representation=velocity_representation, num_envs=num_envs)
 
     def _require_static_base(self, model) -> None:
@@ -221,10 +224,26 @@ class Data:
         return {"tangential_deformation": self._out(self.tangential_deformation_state)}
 
     @property
-    def valid(self) -> wp.array:
+    def healthy(self) -> wp.array:
         """(N,) int32 ((1,) for single-environment data): 1 where the simulation is healthy, 0 where a step
-        found a non-finite state or a quaternion step too large, and stopped changing the environment."""
+        found a non-finite state, a quaternion step too large or parameters out of range, and stopped changing
+        the environment (its state kept). The array is the state's `valid_state`."""
         return self.valid_state
+
+    def valid(self, model) -> bool:
+        """Whether this data fits `model` (JaxSim's check): its arrays' shapes, dtype and device are the
+        model's, and they are consistent with each other (warpdyn.types.data_checks)."""
+        try:
+            check_data(model, self)
+            check_contact_state(model, self)
+        except (TypeError, ValueError):
+            return False
+        return True
+
+    def copy(self) -> Data:
+        """A copy with its own state arrays (copied on the device; those that require gradients still do)."""
+        fields = {f"{name}_state": _clone(getattr(self, f"{name}_state")) for name in (*_STATE_FIELDS, "tangential_deformation", "valid")}
+        return dataclasses.replace(self, **fields)
 
     def reset(self, model, envs, source: Data | None = None) -> Data:
         """New data in which the environments `envs` (indices or a boolean mask of length N) take their
@@ -245,31 +264,45 @@ class Data:
         valid = states.select_valid(selected, self.valid_state, self.scalar)
         return dataclasses.replace(self, **fields, valid_state=valid)
 
-    def switch_velocity_representation(self, velocity_representation: VelRepr):
-        """A context manager: inside its block, velocities of this data are read and written in `velocity_representation`."""
-        return switched_representation(self, velocity_representation)
-
     # Changes -----------------------------------------------------------------------------------
+
+    def reset_base_quaternion(self, model, base_quaternion) -> Data:
+        """A new Data with the base orientation `base_quaternion` (w, x, y, z), normalised (JaxSim's)."""
+        return self.replace(model, base_quaternion=base_quaternion)
+
+    def reset_base_pose(self, model, base_pose) -> Data:
+        """A new Data with the base pose W_H_B (4, 4), or (N, 4, 4) for batched data (JaxSim's)."""
+        H = arrays.host_numbers(base_pose.numpy() if isinstance(base_pose, wp.array) else base_pose, "base_pose")
+        if H.shape[-2:] != (4, 4) or H.ndim > 3:
+            raise ValueError(f"base_pose must be a (4, 4) homogeneous transform, or (N, 4, 4), got shape {H.shape}")
+        return self.replace(model, base_position=H[..., :3, 3], base_quaternion=Quaternion.from_dcm(H[..., :3, :3]))
 
     def replace(
         self,
         model,
-        *,
         joint_positions=None,
         joint_velocities=None,
         base_quaternion=None,
         base_linear_velocity=None,
         base_angular_velocity=None,
         base_position=None,
-        envs=None,
+        *,
+        contact_state: dict | None = None,
         validate: bool = True,
+        envs=None,
     ) -> Data:
-        """A new Data with the given fields replaced (base velocities in the data's representation).
-
-        envs: the environments to change (indices or a boolean mask of length N); the others keep their
-        state. A base velocity given without its other half keeps that half from this data.
+        """A new Data with the given fields replaced (base velocities in the data's representation), JaxSim's:
+        the base quaternion is normalised (a zero or non-finite one is a ValueError), contact_state is
+        {"tangential_deformation": (nc_all, 3) or (N, nc_all, 3)}. validate: check the values on the host
+        (warpdyn's default; JaxSim's `validate`, off by default there, checks its pytree's shapes). envs
+        (warpdyn's): the environments to change (indices or a boolean mask of length N); the others keep their
+        state. A base velocity given without its other half keeps that half from this data (in its
+        representation); without either, the Inertial base velocity is kept, as JaxSim's (a moved base then has
+        another Body or Mixed velocity).
         """
         check_data(model, self)
+        if base_quaternion is not None:
+            base_quaternion = _normalised(base_quaternion)
         if envs is not None:
             arrays.env_mask(envs, self.batch_size)  # checked before any work
         current_base = self.base_velocity.numpy().reshape(self.batch_size, 6)
@@ -287,19 +320,23 @@ class Data:
         kwargs = {}
         for name, value in values.items():
             kwargs[name] = current[name] if value is None else value
-        if base_linear_velocity is None:
-            kwargs["base_linear_velocity"] = current_base[:, :3]
-            kwargs["base_angular_velocity"] = current_base[:, 3:]
+        given_in = self.velocity_representation
+        if base_linear_velocity is None:  # JaxSim's: the Inertial base velocity is kept as the base moves
+            given_in = VelRepr.Inertial
+            W_v = states.base_velocity_in(self, int(VelRepr.Inertial), False).numpy().reshape(self.batch_size, 6)
+            kwargs["base_linear_velocity"] = W_v[:, :3]
+            kwargs["base_angular_velocity"] = W_v[:, 3:]
         else:
             kwargs["base_linear_velocity"] = base_linear_velocity
             kwargs["base_angular_velocity"] = base_angular_velocity
         new = Data.build(
             model,
-            **{k: _per_env(v, self.batch_size) for k, v in kwargs.items()},
-            velocity_representation=self.velocity_representation,
+            **{k: _per_env(v, self.batch_size, k) for k, v in kwargs.items()},
+            velocity_representation=given_in,
             num_envs=self.batch_size,
             validate=validate,
         )
+        new.velocity_representation = self.velocity_representation
         if envs is not None:
             keep = ~arrays.env_mask(envs, self.batch_size)
             for name in _STATE_FIELDS:
@@ -308,13 +345,45 @@ class Data:
                 getattr(new, f"{name}_state").assign(wp.array(fresh, dtype=self.scalar, device=self.device))
         new.num_envs = self.num_envs
         new.tangential_deformation_state = self.tangential_deformation_state
+        if contact_state is not None:
+            new.tangential_deformation_state = _deformation(model, contact_state, self.num_envs, self.batch_size)
         new.valid_state = self.valid_state
         return new
 
 
-def _per_env(value, N: int) -> np.ndarray:
-    """`value` as a host array with a leading environment axis of N."""
-    host = value.numpy() if isinstance(value, wp.array) else np.asarray(value, dtype=np.float64)
+JaxSimModelData = Data
+"""JaxSim's name of the data class."""
+
+
+def _deformation(model, contact_state: dict | None, num_envs: int | None, N: int) -> wp.array:
+    """The tangential deformation state (N, nc_all, 3) of JaxSim's contact_state (None: zero)."""
+    rows = (len(model.kin_dyn_parameters.contact_parameters.body), 3)
+    if contact_state is None:
+        return arrays.zeros(rows, N, model.scalar, model.device)
+    if not isinstance(contact_state, dict) or set(contact_state) - {"tangential_deformation"}:
+        raise ValueError(f"contact_state must be {{'tangential_deformation': (nc_all, 3) array}} (the soft contacts' state), got {contact_state!r:.200}")
+    return states.state_array(contact_state.get("tangential_deformation"), "contact_state['tangential_deformation']", rows, num_envs, model.scalar, model.device)
+
+
+def _normalised(quaternion) -> np.ndarray:
+    """A quaternion (4,) or (N, 4) divided by its norm (JaxSim's replace); a zero or non-finite one is refused."""
+    host = arrays.host_numbers(quaternion.numpy() if isinstance(quaternion, wp.array) else quaternion, "base_quaternion")
+    norm = np.linalg.norm(host, axis=-1, keepdims=True)
+    if host.shape[-1:] != (4,) or not np.all(np.isfinite(host)) or np.any(norm == 0.0):
+        raise ValueError(f"base_quaternion must be finite, non-zero (w, x, y, z) quaternions (normalised here), got {host.tolist()!r:.200}")
+    return host / norm
+
+
+def _clone(array: wp.array | None) -> wp.array | None:
+    if array is None:
+        return None
+    copy = wp.clone(array, requires_grad=array.requires_grad)
+    return copy
+
+
+def _per_env(value, N: int, name: str) -> np.ndarray:
+    """`value` (the argument `name`) as a host array with a leading environment axis of N."""
+    host = value.numpy() if isinstance(value, wp.array) else arrays.host_numbers(value, name)
     return host if host.ndim == 2 and host.shape[0] == N else np.broadcast_to(host, (N, *host.shape[-1:]))
 
 

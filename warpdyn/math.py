@@ -25,6 +25,7 @@ import numpy as np
 import warp as wp
 
 from .kernels.math_funcs import functions
+from .types.kin_dyn import JointModel
 from .types.model import STANDARD_GRAVITY
 
 __all__ = [

@@ -1,6 +1,7 @@
 """JaxSim's `jaxsim.api.model`: the model and the functions of the whole model.
 
-Link order: breadth-first from the base (parent index < child index). Joint i moves link i + 1.
+Link order: breadth-first from the base, siblings by name, as JaxSim (parent index < child index). Joint i
+moves link i + 1. Frames: sorted by name, as JaxSim.
 Frame indices follow the link indices: frame k has index number_of_links() + k (as in JaxSim).
 Every function takes (model, data, *, ...) and returns Warp arrays on the model's device: JaxSim's shapes
 for single-environment data, a leading environment axis N for batched data. Scalars (the energies) are
@@ -119,7 +120,7 @@ def add_actuators(model: Model, kind: str, *, joints=None, kp=None, kv=None, gea
         if value is None:
             return None
         try:
-            return np.broadcast_to(np.asarray(value, dtype=np.float64), (count, *shape))
+            return np.broadcast_to(arrays.host_numbers(value, f"add_actuators: {name}"), (count, *shape))
         except ValueError:
             raise ValueError(f"add_actuators: {name} must be {shape or 'a number'} or one per joint {(count, *shape)}, got {value!r}") from None
 
@@ -318,7 +319,8 @@ def forward_dynamics(model: Model, data, *, joint_forces=None, link_forces=None,
 def inverse_dynamics(model: Model, data, *, joint_accelerations=None, base_acceleration=None, link_forces=None):
     """(f_B, tau): the base wrench (6,) and joint forces (n,) that produce the given accelerations.
 
-    base_acceleration (6,): the derivative of the base velocity in the data's representation (default 0);
+    base_acceleration (6,): the derivative of the base velocity in the data's representation (default 0; a
+    welded base does not accelerate: for a fixed-base model it is checked and not applied, as JaxSim's);
     joint_accelerations (n,) (default 0); link_forces (nL, 6) in the data's representation. f_B is the
     generalized force of the base, dual to its velocity in the data's representation: zero when the
     accelerations came from forward dynamics with the same forces. Leading N axis for batched data.

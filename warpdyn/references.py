@@ -107,7 +107,7 @@ class References(ModelDataWithVelocityRepresentation):
         else:
             idxs = joint.names_to_idxs(model, joint_names=joint_names)
             host = self.joint_force_references_state.numpy().copy()
-            given = forces.numpy() if isinstance(forces, wp.array) else np.asarray(forces, dtype=np.float64)
+            given = forces.numpy() if isinstance(forces, wp.array) else _arrays.host_numbers(forces, "joint_force_references")
             host[:, idxs] = np.broadcast_to(given, (N, len(idxs)))
             tau = states.state_array(host if self.num_envs is not None else host[0], "joint_force_references", (n,), self.num_envs, s, d)
         return dataclasses.replace(self, joint_force_references_state=tau)

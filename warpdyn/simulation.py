@@ -38,7 +38,7 @@ being what step t (from the state t to t + 1) computed at its start:
     base_position (T+1, N, 3) [m]        base_quaternion (T+1, N, 4) (w, x, y, z)
     joint_positions (T+1, N, n)          joint_velocities (T+1, N, n)
     base_velocity (T+1, N, 6) in the data's representation
-    tangential_deformation (T+1, N, nc_all, 3) [m]         valid (T+1, N) int32 (see Data.valid)
+    tangential_deformation (T+1, N, nc_all, 3) [m]         valid (T+1, N) int32 (see Data.healthy)
     joint_torques (T, N, n): the joint forces step t applied (references through friction, limits, clip;
         the joints' springs and dampers; the actuators)
     link_contact_forces (T, N, nL, 6): the contact wrench on each link in the data's representation, as

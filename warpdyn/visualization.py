@@ -149,9 +149,9 @@ def terrain_mesh(terrain, *, center=(0.0, 0.0), half_extent: float = 2.0) -> tup
         x, y = np.array([x0, x1]), np.array([y0, y1])
         nx, ny = 2, 2
     X, Y = np.meshgrid(x, y, indexing="ij")  # vertex (i, j) at index i * ny + j
-    Z = np.asarray(terrain.height_at(X, Y), dtype=np.float64)
+    Z = np.asarray(terrain.height(X, Y), dtype=np.float64)
     vertices = np.stack([X, Y, Z], axis=-1).reshape(-1, 3)
-    normals = np.asarray(terrain.normal_at(X, Y), dtype=np.float64).reshape(-1, 3)
+    normals = np.asarray(terrain.normal(X, Y), dtype=np.float64).reshape(-1, 3)
     i, j = np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), indexing="ij")
     a = (i * ny + j).reshape(-1)  # (i, j)
     b = a + ny  # (i + 1, j)
@@ -172,10 +172,10 @@ def terrain_grid_lines(terrain, *, center=(0.0, 0.0), half_extent: float = 2.0, 
     t = np.linspace(0.0, 1.0, samples)
     for x in spacing * np.arange(np.ceil(x0 / spacing), np.floor(x1 / spacing) + 1):
         ys = y0 + t * (y1 - y0)
-        lines.append(np.stack([np.full_like(ys, x), ys, terrain.height_at(np.full_like(ys, x), ys)], axis=1))
+        lines.append(np.stack([np.full_like(ys, x), ys, terrain.height(np.full_like(ys, x), ys)], axis=1))
     for y in spacing * np.arange(np.ceil(y0 / spacing), np.floor(y1 / spacing) + 1):
         xs = x0 + t * (x1 - x0)
-        lines.append(np.stack([xs, np.full_like(xs, y), terrain.height_at(xs, np.full_like(xs, y))], axis=1))
+        lines.append(np.stack([xs, np.full_like(xs, y), terrain.height(xs, np.full_like(xs, y))], axis=1))
     return lines
 
 
@@ -183,8 +183,8 @@ def point_penetration(terrain, points) -> np.ndarray:
     """delta = (h(x, y) - z) n_z(x, y) of points (..., 3) [m]: positive below the terrain (the depth the
     soft contacts use), zero on it, negative above."""
     p = np.asarray(points, dtype=np.float64)
-    h = np.asarray(terrain.height_at(p[..., 0], p[..., 1]), dtype=np.float64)
-    n = np.asarray(terrain.normal_at(p[..., 0], p[..., 1]), dtype=np.float64)
+    h = np.asarray(terrain.height(p[..., 0], p[..., 1]), dtype=np.float64)
+    n = np.asarray(terrain.normal(p[..., 0], p[..., 1]), dtype=np.float64)
     return (h - p[..., 2]) * n[..., 2]
 
 

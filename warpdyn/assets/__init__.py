@@ -160,9 +160,9 @@ GO1_JOINTS = (
     "RL_calf_joint",
 )
 """The Go1's 12 revolute joints in the URDF's order (leg by leg: front right, front left, rear right, rear
-left; hip about x, thigh and calf about y), Unitree's order. warpdyn's model orders them breadth-first
-(`model.joint_names()`: the four hips, the four thighs, the four calves), the order of its state and of its
-actuators; map by name."""
+left; hip about x, thigh and calf about y), Unitree's order. warpdyn's model orders them breadth-first,
+siblings by name as JaxSim (`model.joint_names()`: the four hips, the four thighs, the four calves, each FL,
+FR, RL, RR), the order of its state and of its actuators; map by name."""
 
 GO1_FEET = ("FR_calf", "FL_calf", "RR_calf", "RL_calf")
 """The links that carry the foot spheres: warpdyn lumps each fixed `<leg>_foot_fixed` joint, so the foot's

@@ -17,8 +17,9 @@ pose `link_H_shape`) into points `L_p_C` in the link frame:
   them); URDF meshes are loaded with trimesh when the file resolves (see `resolve_mesh_uri`). A mesh that
   cannot be found or read gives no points, and one `UnresolvedMeshWarning` per model lists all of them.
 
-Points are ordered by link (the model's link order), then by shape (the description's order, lumped
-links' shapes after the kept link's own, breadth-first), then within the shape as above.
+Points are ordered as JaxSim orders them: by shape in the description's order (its links' order, each
+link's shapes in order; a lumped link's shapes keep their place, moved onto the kept link), then within
+the shape as above.
 
 Defaults: every primitive shape gives points and meshes do not (add "mesh" to `shapes`): as in JaxSim,
 which uses meshes only when JAXSIM_COLLISION_MESH_ENABLED is set, since a mesh's vertices are many (the
@@ -302,18 +303,18 @@ def collidable_points(tree, options: CollidablePointsOptions | None = None, base
     """
     options = CollidablePointsOptions() if options is None else options
     body, points, missing = [], [], []
-    for link, shapes in enumerate(tree.collisions):
-        for shape in shapes:
-            if shape.kind not in options.shapes:
-                continue
-            local, why = _shape_points(shape, options, base_dir)
-            if local is None:
-                if why is not None:
-                    missing.append((why, tree.link_names[link], str(shape.filename)))
-                continue
-            H = np.asarray(shape.link_H_shape, dtype=np.float64)
-            points.append(local @ H[:3, :3].T + H[:3, 3])
-            body += [link] * len(local)
+    for link, k in tree.shape_order:  # the description's order of the shapes, as JaxSim's
+        shape = tree.collisions[link][k]
+        if shape.kind not in options.shapes:
+            continue
+        local, why = _shape_points(shape, options, base_dir)
+        if local is None:
+            if why is not None:
+                missing.append((why, tree.link_names[link], str(shape.filename)))
+            continue
+        H = np.asarray(shape.link_H_shape, dtype=np.float64)
+        points.append(local @ H[:3, :3].T + H[:3, 3])
+        body += [link] * len(local)
     if missing and warn:
         groups: dict[str, dict[str, list[str]]] = {}
         for why, link_name, uri in missing:

@@ -1,12 +1,14 @@
 """The kinematic tree a model computes on: fixed joints lumped, links in breadth-first order.
 
 Orders (documented once, used everywhere):
-- Links: breadth-first from the base over the lumped tree; the children of a link in the order their
-  joints appear in the description. So parent index < child index, and link 0 is the base.
+- Links: breadth-first from the base over the lumped tree, the children of a link sorted by name, as
+  JaxSim orders them (so that the order does not depend on the order of the description's elements, and
+  JaxSim's indices are warpdyn's). So parent index < child index, and link 0 is the base.
 - Joints: joint i is the joint whose child is link i + 1, so joints follow the link order.
-- Frames: every lumped link, in breadth-first order over the description's tree, then the description's
-  explicit frames (`ModelDescription.frames`, SDF `<frame>`s) in its order, each on the kept link that its
-  link is lumped into.
+- Frames: every lumped link and the description's explicit frames (`ModelDescription.frames`, SDF
+  `<frame>`s), sorted by name, as JaxSim, each on the kept link that its link is lumped into.
+- Collision shapes (and so collidable points): by link in the description's order of the links, each
+  link's in the description's order, on the kept link it is lumped into (JaxSim's order).
 
 Lumping a fixed joint (or a joint locked by a reduction) moves the child's mass into the parent: its
 centre of mass is moved into the parent frame and its inertia rotated and shifted with the parallel-axis
@@ -96,6 +98,7 @@ class KinematicTree:
     damping: np.ndarray  # (n,) viscous friction from the description (URDF; 0 for MJCF)
     friction: np.ndarray  # (n,) static friction from the description
     collisions: list[list[CollisionShape]]  # per link, shapes in the link frame
+    shape_order: list[tuple[int, int]] = field(default_factory=list)  # (link, k) of collisions[link][k], in the description's order
     locked_joints: dict[str, float] = field(default_factory=dict)
     armature: np.ndarray = None  # (n,) [kg m^2 or kg]
     passive_damping: np.ndarray = None  # (n,) MuJoCo's damper [N m s/rad or N s/m]
@@ -250,7 +253,7 @@ def build_tree(
         locked[name] = _locked_position(name, value)
 
     children: dict[str, list] = {}
-    for joint in description.joints:
+    for joint in sorted(description.joints, key=lambda j: j.child):
         children.setdefault(joint.parent, []).append(joint)
 
     # Walk the description's tree breadth-first; each link finds its kept ancestor.
@@ -292,6 +295,7 @@ def build_tree(
     members: dict[str, list] = {name: [] for name in link_names}
     compensated: dict[str, list] = {name: [] for name in link_names}
     collisions: list[list[CollisionShape]] = [[] for _ in range(nL)]
+    shape_order: list[tuple[int, int]] = []
     for link in description.links:
         if link.name not in kept_of:
             continue
@@ -303,6 +307,7 @@ def build_tree(
             compensated[owner].append((link.name, link.gravcomp * link.mass, H[:3, :3] @ link.com + H[:3, 3]))
         for shape in link.collisions:
             moved = CollisionShape(**{**shape.__dict__, "link_H_shape": H @ shape.link_H_shape})
+            shape_order.append((index[owner], len(collisions[index[owner]])))
             collisions[index[owner]].append(moved)
     mass, com, inertia = np.zeros(nL), np.zeros((nL, 3)), np.zeros((nL, 3, 3))
     for i, name in enumerate(link_names):
@@ -326,13 +331,13 @@ def build_tree(
             continue
         gravcomp_mass[i], gravcomp_com[i] = total, moment / total
 
-    frame_names = list(lumped_order)
-    frame_parent = [index[kept_of[f]] for f in lumped_order]
-    link_H_frame = [kept_H_link[f] for f in lumped_order]
+    frames = [(f, index[kept_of[f]], kept_H_link[f]) for f in lumped_order]
     for frame in _explicit_frames(description, kept_of):
-        frame_names.append(frame.name)
-        frame_parent.append(index[kept_of[frame.link]])
-        link_H_frame.append(kept_H_link[frame.link] @ np.asarray(frame.link_H_frame, dtype=np.float64))
+        frames.append((frame.name, index[kept_of[frame.link]], kept_H_link[frame.link] @ np.asarray(frame.link_H_frame, dtype=np.float64)))
+    frames.sort(key=lambda frame: frame[0])
+    frame_names = [name for name, _, _ in frames]
+    frame_parent = [parent for _, parent, _ in frames]
+    link_H_frame = [H for _, _, H in frames]
 
     movable_joints = joints[1:]
     _check_moving_mass(description, link_names, movable_joints, parents, mass, com, inertia)
@@ -377,6 +382,7 @@ def build_tree(
         damping=np.array([j.damping for j in movable_joints]),
         friction=np.array([j.friction for j in movable_joints]),
         collisions=collisions,
+        shape_order=shape_order,
         locked_joints=locked,
         armature=np.array([j.armature for j in movable_joints], dtype=np.float64).reshape(n),
         passive_damping=np.array([j.passive_damping for j in movable_joints], dtype=np.float64).reshape(n),

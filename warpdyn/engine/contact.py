@@ -17,7 +17,8 @@ from ..types.contact_models import SoftContacts, register_forces
 from ..types.enums import VelRepr
 from .kinematics import link_poses, targets, velocities
 from .launch import launch
-from .step import contact_evaluation, plan
+from .evaluations import contact_evaluation
+from .step import plan
 
 __all__ = ["point_targets", "positions", "point_velocities", "link_wrenches", "point_wrenches", "soft_contact_forces", "links_in_contact"]
 

@@ -253,6 +253,8 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
     n, nL, N = model.dofs(), model.number_of_links(), data.batch_size
     s, d = model.scalar, model.device
     a_B = _input(model, data, base_acceleration, "base_acceleration", (6,), taping, ws)
+    if not model.floating_base():
+        a_B = None  # a welded base does not accelerate (as JaxSim's RNEA): the argument is checked, not applied
     s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,), taping, ws)
     f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping, ws)
     bundle, parameters_grad = model_bundle_and_grad(model)

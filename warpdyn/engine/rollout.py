@@ -120,10 +120,7 @@ def _control(value, name: str, per_env: tuple, T: int, N: int, batched: bool, sc
         arrays.check_device_array(value, name, scalar, device)
         source = value if tuple(value.shape) == target else value.reshape(target)
     else:
-        try:
-            host = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError) as error:
-            raise TypeError(f"{name} must be an array of numbers: {error}") from None
+        host = arrays.host_numbers(value, name)
         bad = np.argwhere(~np.isfinite(host))
         if bad.size:
             raise ValueError(f"{name} has non-finite values, first at index {tuple(bad[0].tolist())}: {host[tuple(bad[0])]}")

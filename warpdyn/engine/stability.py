@@ -22,7 +22,12 @@ from ..types.terrain import FlatTerrain, HeightfieldTerrain, PlaneTerrain
 
 __all__ = ["DEFORMATION_STABILITY", "check_deformation_stability", "ContactReach", "contact_reach"]
 
-DEFORMATION_STABILITY = {IntegratorType.SemiImplicitEuler: 2.0, IntegratorType.SemiImplicitEulerSO3: 2.0, IntegratorType.RungeKutta4: 2.785}
+DEFORMATION_STABILITY = {
+    IntegratorType.SemiImplicitEuler: 2.0,
+    IntegratorType.SemiImplicitEulerSO3: 2.0,
+    IntegratorType.RungeKutta4: 2.785,
+    IntegratorType.RungeKutta4Fast: 2.0,  # the first stage's rate held: the deformation advances by explicit Euler
+}
 """Stability limits of dt K / D: the tangential deformation relaxes as m_dot = -(K / D) m (out of contact,
 and for p = q in contact), which explicit Euler integrates stably for dt K / D < 2 and RK4 for
 dt K / D < 2.785 (its stability region on the negative real axis). Beyond, m grows geometrically while
@@ -41,7 +46,7 @@ def check_deformation_stability(time_step: float, K, D, integrator, scene: str |
             f"time_step {time_step} s with contact K/D = {rate:.4g} 1/s gives dt K/D = {time_step * rate:.3g}, "
             f"beyond the stability limit {limit} of {integrator.name} for the tangential "
             f"deformation{where}: take time_step < {limit / rate:.3g} s, or a smaller K (a larger D also lowers K/D but makes "
-            "the explicit contact damping less stable: README, 'Speed and accuracy')"
+            "the explicit contact damping less stable: docs/simulation.md, 'Speed and accuracy')"
         )
 
 
@@ -103,9 +108,9 @@ def _contact_reach(model) -> ContactReach:
     if isinstance(terrain, HeightfieldTerrain):
         return ContactReach(reach, True, f"a collidable point reaches up to {reach:.4g} m from the base, over a heightfield")
     if isinstance(terrain, FlatTerrain):
-        normal, offset = np.array([0.0, 0.0, 1.0]), float(np.max(host_values(terrain.height)))
+        normal, offset = np.array([0.0, 0.0, 1.0]), float(np.max(host_values(terrain.elevation)))
     elif isinstance(terrain, PlaneTerrain):
-        normal = np.asarray(terrain.normal, dtype=np.float64)
+        normal = np.asarray(terrain.unit_normal, dtype=np.float64)
         offset = float(normal @ np.asarray(terrain.point, dtype=np.float64))
     else:
         return ContactReach(reach, True, f"a collidable point reaches up to {reach:.4g} m from the base")

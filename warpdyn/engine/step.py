@@ -8,7 +8,7 @@ A step, as JaxSim's `js.model.step` with SoftContacts:
    and the rate of the tangential deformation;
 3. forward dynamics by ABA in the Inertial representation;
 4. the integrator (kernels/integrators.py); environments whose new state is not finite are flagged
-   (`data.valid`) and keep their state;
+   (`data.healthy`) and keep their state;
 5. the parameters' ranges (kernels/parameter_checks.py, `parameter_check`): environments whose parameters,
    as their arrays hold them now (edits in place included, which no host check sees), are out of range,
    or whose dt K / D is unstable where their points can reach the terrain, are flagged likewise.
@@ -68,7 +68,7 @@ from ..kernels.scratch import TRANSFORM
 from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import IntegratorType, VelRepr
-from ..types.data_checks import check_data, passes_like
+from ..types.data_checks import check_contact_state, check_data, passes_like
 from ..types.parameters import MODEL_ARRAYS, validate_parameters
 from ..types.terrain import FlatTerrain, HeightfieldTerrain
 from . import fused_layout, tape
@@ -80,6 +80,12 @@ from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_st
 
 __all__ = [
     "DEFORMATION_STABILITY",
+    "evaluate",
+    "joint_forces",
+    "torque_reference_input",
+    "link_force_input",
+    "ctrl_input",
+    "inputs_require_grad",
     "Plan",
     "Workspace",
     "Evaluation",
@@ -92,9 +98,6 @@ __all__ = [
     "fused_applies",
     "fused_kernel",
     "state_buffers",
-    "resultant_torques",
-    "contact_evaluation",
-    "contact_forces",
     "broadcast_envs",
     "terrain_bundle",
     "check_deformation_stability",
@@ -140,7 +143,7 @@ def terrain_bundle(model):
         bundle.heights = heights
         bundle.grid = B.vec4(*terrain.origin, *terrain.spacing)
     elif isinstance(terrain, FlatTerrain):
-        bundle.height = per_env(terrain.height, "height", s, d, owner="FlatTerrain")
+        bundle.height = per_env(terrain.elevation, "height", s, d, owner="FlatTerrain")
     else:
         normal, h0 = terrain.plane()
         bundle.normal = wp.types.vector(3, s)(*normal)
@@ -182,7 +185,7 @@ class Plan:
         self.with_friction = bool(a.enable_friction) and (nonzero("friction_static", "friction_viscous") or friction_grad)
         self.with_passive = nonzero("stiffness", "damping") or passive_grad
         per_joint = model.actuators_per_joint
-        self.euler = self.integrator != IntegratorType.RungeKutta4
+        self.euler = self.integrator not in (IntegratorType.RungeKutta4, IntegratorType.RungeKutta4Fast)
         # RK4 evaluates MuJoCo's state-dependent joint forces at each stage, on JaxSim's part held from the start
         self.stage_forces = not self.euler and self.n > 0 and (self.with_passive or per_joint > 0)
         if self.stage_forces:
@@ -191,6 +194,8 @@ class Plan:
         else:
             self.actuation = actuation_kernel(s, self.with_limits, self.with_friction, self.with_passive, per_joint) if self.n > 0 else None
         self.torque_curve = [s(a.torque_max), s(a.omega_th), s(a.omega_max)]
+        # MuJoCo's joint forces alone (on given torques: warpdyn.engine.step.integrate)
+        self.mujoco_part = mujoco_kernel(s, self.with_passive, per_joint) if self.n > 0 and (self.with_passive or per_joint > 0) else None
         # MuJoCo's implicit joint damping in the Euler integrators (ABA's d_i + dt damping_i)
         implicit = self.euler and model.implicit_damping
         self.implicit_dt = s(model.time_step if implicit else 0.0)
@@ -395,29 +400,30 @@ def contacts_per_environment(device, grad: bool) -> bool:
     return grad or not wp.get_device(device).is_cuda
 
 
-def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: bool = True) -> list:
+def evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: bool = True, held: Evaluation | None = None) -> list:
     """The launches of one derivative evaluation at the state x (a State bundle): FK (if contacts or gravity
     compensation), the gravity compensation and contacts (if any), then ABA (Inertial). f_ext (N, nL, 6)
-    Inertial or None. poses_done: ev's link poses already hold FK at x. aba=False: contact results only."""
+    Inertial or None. poses_done: ev's link poses already hold FK at x. aba=False: contact results only.
+    held (RungeKutta4Fast's stages after the first): the first stage's evaluation, whose contact forces are
+    held (f_ext + the contacts, its W_f_L) instead of evaluated at x. RungeKutta4Fast's first stage sums the
+    contacts before the gravity compensation, so that W_f_L holds f_ext and the contacts alone."""
     N = x.base_position.shape[0]
     s = plan.scalar
     launches = []
     if plan.poses and not poses_done:
         launches.append(Launch(kinematics_kernels(s).forward_kinematics, N, [plan.model, x], [ev.parent_H_link, ev.W_H_L]))
+    contacts_first = plan.integrator == IntegratorType.RungeKutta4Fast
+    if held is not None and plan.contacts:
+        f_ext = held.W_f_L
+    if plan.contacts and held is None and contacts_first:
+        launches += _contacts(plan, ev, x, f_ext, N)
+        f_ext = ev.W_f_L
     if plan.gravcomp and aba:
         f_in = f_ext if f_ext is not None else empty_like_input(s, plan.device, 3)
         launches.append(Launch(force_kernels(s).gravity_compensation, (N, plan.nL), [plan.model, ev.W_H_L, f_in, int(VelRepr.Inertial)], [ev.W_f_gc]))
         f_ext = ev.W_f_gc
-    if plan.contacts:
-        args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
-        launches.append(Launch(velocity_kernels(s).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities]))
-        f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
-        order = int(arrays.env_fastest(plan.device))
-        rows, links = (plan.total, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)
-        args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, order, rows]
-        launches.append(Launch(contact_kernels(s, plan.terrain.kind).point_contact_forces, N * plan.total // rows, args, [ev.W_f_C, ev.m_dot]))
-        args = [plan.contact_bundle, ev.W_f_C, f_in, order, links]
-        launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
+    if plan.contacts and held is None and not contacts_first:
+        launches += _contacts(plan, ev, x, f_ext, N)
         f_ext = ev.W_f_L
     if aba:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
@@ -426,7 +432,23 @@ def _evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: 
     return launches
 
 
-def _joint_forces(plan: Plan, X, tau_ref, u, tau, held) -> list:
+def _contacts(plan: Plan, ev: Evaluation, x, f_ext, N: int) -> list:
+    """The launches of the contact forces at the state x (ev's link poses at x): link velocities, each enabled
+    point's force and deformation rate (ev.W_f_C, ev.m_dot), and ev.W_f_L = f_ext (None: 0) + each link's."""
+    s = plan.scalar
+    args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
+    launches = [Launch(velocity_kernels(s).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities])]
+    f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
+    order = int(arrays.env_fastest(plan.device))
+    rows, links = (plan.total, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)
+    args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, order, rows]
+    launches.append(Launch(contact_kernels(s, plan.terrain.kind).point_contact_forces, N * plan.total // rows, args, [ev.W_f_C, ev.m_dot]))
+    args = [plan.contact_bundle, ev.W_f_C, f_in, order, links]
+    launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
+    return launches
+
+
+def joint_forces(plan: Plan, X, tau_ref, u, tau, held) -> list:
     """The launches of the joint forces at the state X into tau: one kernel, or, for RK4 with MuJoCo's
     joint forces, JaxSim's part into `held` and then MuJoCo's part added (the first stage's forces)."""
     N = X.joint_positions.shape[0]
@@ -470,7 +492,18 @@ def parameter_check(plan: Plan, X, Y, N: int) -> Launch:
 
 
 def step_launches(
-    plan: Plan, ws: Workspace, x: list, y: list, tau_ref, f_user, repr: int, tau_out=None, ctrl=None, bundles=None, evaluation: bool = False
+    plan: Plan,
+    ws: Workspace,
+    x: list,
+    y: list,
+    tau_ref,
+    f_user,
+    repr: int,
+    tau_out=None,
+    ctrl=None,
+    bundles=None,
+    evaluation: bool = False,
+    torques_given: bool = False,
 ) -> list:
     """The launches of one step from the state x to the state y (lists of 7 arrays, see
     warpdyn.engine.kinematics.state_arrays), all arrays given: nothing is allocated, nothing read back.
@@ -480,6 +513,9 @@ def step_launches(
     tau_ref (N, n): the joint force references; f_user (N, nL, 6) in representation `repr`, or None;
     tau_out (N, n): where the applied joint torques go (default ws.tau); ctrl (N, na): the actuators'
     controls (None: zero); bundles: the State bundles (X, Y) of x and y when the caller has them.
+    torques_given: tau_ref is JaxSim's part of the joint torques, its actuation model's output (JaxSim's
+    integrators take it so): friction, limits and the torque-speed curve are not applied; MuJoCo's passive
+    forces and actuators are added (at each stage for RK4), as in a step.
     """
     N = x[0].shape[0]
     s = plan.scalar
@@ -487,9 +523,15 @@ def step_launches(
     tau = ws.tau if tau_out is None else tau_out
     launches = []
     u = ctrl if ctrl is not None else plan.zeros((plan.na,), N)
-    fused = fused_applies(plan, ws)
+    fused = fused_applies(plan, ws) and not torques_given
+    held = (tau_ref if torques_given else ws.tau_held) if plan.stage_forces else None
     if plan.n > 0 and not fused:
-        launches += _joint_forces(plan, X, tau_ref, u, tau, ws.tau_held if plan.stage_forces else None)
+        if not torques_given:
+            launches += joint_forces(plan, X, tau_ref, u, tau, held)
+        elif plan.mujoco_part is None:
+            tau = tau_ref
+        else:
+            launches.append(Launch(plan.mujoco_part, (N, plan.n), [plan.model, X, tau_ref, u], [tau]))
     f_ext = None
     poses_done = False
     if f_user is not None:
@@ -514,22 +556,25 @@ def step_launches(
         return launches
     K = plan.integrators
     ev = ws.evals[0]
-    launches += _evaluate(plan, ev, X, tau, f_ext, poses_done)
+    launches += evaluate(plan, ev, X, tau, f_ext, poses_done)
     if plan.euler:
         euler = K.semi_implicit_euler_so3 if plan.integrator == IntegratorType.SemiImplicitEulerSO3 else K.semi_implicit_euler
         launches.append(Launch(euler, N, [plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
         launches.append(parameter_check(plan, X, Y, N))
         return launches
     stage = X
+    first = ws.evals[0]
+    fast = plan.integrator == IntegratorType.RungeKutta4Fast  # the first stage's contacts held over the others
     for i, c in enumerate((0.5, 0.5, 1.0, None)):
         ev = ws.evals[i]
         if i > 0:
             tau_stage = tau
             if plan.stage_forces:
                 tau_stage = ev.tau
-                launches.append(Launch(plan.stage_actuation, (N, plan.n), [plan.model, stage, ws.tau_held, u], [tau_stage]))
-            launches += _evaluate(plan, ev, stage, tau_stage, f_ext, False)
-        launches.append(Launch(K.slope, N, [stage, ev.base_acceleration, ev.joint_accelerations, ev.m_dot], [ws.slopes[i]]))
+                launches.append(Launch(plan.stage_actuation, (N, plan.n), [plan.model, stage, held, u], [tau_stage]))
+            launches += evaluate(plan, ev, stage, tau_stage, f_ext, False, held=first if fast else None)
+        m_dot = first.m_dot if fast and plan.contacts else ev.m_dot
+        launches.append(Launch(K.slope, N, [stage, ev.base_acceleration, ev.joint_accelerations, m_dot], [ws.slopes[i]]))
         if c is not None:
             stage = state_bundle(s, [*ws.stages[i], x[6]])
             launches.append(Launch(K.rk4_stage, N, [s(c * float(plan.dt)), X, ws.slopes[i]], [stage]))
@@ -538,35 +583,23 @@ def step_launches(
     return launches
 
 
-def check_contact_state(model, data) -> None:
-    """A ValueError when the data's contact state does not hold one row per collidable point of the model."""
-    total = len(model.kin_dyn_parameters.contact_parameters.body)
-    m = data.tangential_deformation_state
-    if m is None or m.shape[1] != total:
-        got = None if m is None else m.shape[1]
-        raise ValueError(
-            f"data holds the tangential deformation of {got} collidable points but the model has {total}: "
-            "build the data from this model (wd.data.Data.build) after changing its collidable points"
-        )
-
-
 def inputs_require_grad(*values) -> bool:
     return any(isinstance(v, wp.array) and v.requires_grad for v in values)
 
 
-def _joint_force_references(plan: Plan, data, value) -> wp.array:
+def torque_reference_input(plan: Plan, data, value) -> wp.array:
     if value is None:
         return plan.zeros((plan.n,), data.batch_size)
     return arrays.batched_input(value, "joint_force_references", (plan.n,), data.num_envs, plan.scalar, plan.device)
 
 
-def _link_forces(plan: Plan, data, value):
+def link_force_input(plan: Plan, data, value):
     if value is None:
         return None
     return arrays.batched_input(value, "link_forces", (plan.nL, 6), data.num_envs, plan.scalar, plan.device)
 
 
-def _ctrl(plan: Plan, data, value):
+def ctrl_input(plan: Plan, data, value):
     if value is None:
         return plan.zeros((plan.na,), data.batch_size)
     return arrays.batched_input(value, "ctrl", (plan.na,), data.num_envs, plan.scalar, plan.device)
@@ -588,51 +621,6 @@ def prepare(model, data, parameters: bool = True, health: bool = False) -> tuple
     return current, data.batch_size
 
 
-def resultant_torques(model, data, joint_force_references, ctrl=None) -> wp.array:
-    """tau (N, n): the joint forces a step applies, from the references and the actuators' controls (see
-    kernels/actuation.py)."""
-    current, N = prepare(model, data)
-    tau_ref = _joint_force_references(current, data, joint_force_references)
-    u = _ctrl(current, data, ctrl)
-    if current.n == 0:
-        return arrays.empty((0,), N, current.scalar, current.device)
-    grad = data.requires_grad or inputs_require_grad(tau_ref, u) or model.parameters_require_grad()
-    tau = arrays.output((current.n,), N, current.scalar, current.device, grad)
-    held = arrays.output((current.n,), N, current.scalar, current.device, grad) if current.stage_forces else None
-    X = state_bundle(current.scalar, state_arrays(data))
-    run(_joint_forces(current, X, tau_ref, u, tau, held), current.device)
-    return tau
-
-
-def contact_evaluation(model, data, W_f_ext=None) -> tuple[Plan, Evaluation | None]:
-    """(plan, ev): ev holds FK, link velocities and the contact kernel's results at the data's state (fresh
-    arrays), None without enabled points. W_f_ext (N, nL, 6) Inertial or None (zero)."""
-    current, N = prepare(model, data, parameters=False)
-    if not current.contacts:
-        return current, None
-    grad = data.requires_grad or inputs_require_grad(W_f_ext) or model.parameters_require_grad()
-    ev = Evaluation(current, N, grad, W_f_ext is not None, None, aba=False)
-    X = state_bundle(current.scalar, state_arrays(data))
-    run(_evaluate(current, ev, X, None, W_f_ext, False, aba=False), current.device)
-    return current, ev
-
-
-def contact_forces(model, data, W_f_ext: wp.array | None = None):
-    """(W_f_C (N, nc, 6), m_dot (N, nc_all, 3), W_f_L (N, nL, 6)): the Inertial contact wrench of each
-    enabled point (ordered by link), the deformation rate of every point, and W_f_ext (Inertial; None: zero)
-    plus the contact wrenches per link."""
-    current, ev = contact_evaluation(model, data, W_f_ext)
-    N, s, d = data.batch_size, current.scalar, current.device
-    if ev is None:
-        m_dot = arrays.output((current.total, 3), N, s, d)
-        m_dot.zero_()
-        W_f_L = W_f_ext
-        if W_f_L is None:
-            W_f_L = arrays.zeros((current.nL, 6), N, s, d)
-        return arrays.output((0, 6), N, s, d), m_dot, W_f_L
-    return ev.W_f_C, ev.m_dot, ev.W_f_L
-
-
 class _Shared:
     """A thread's workspace and recorded launches of `step` for one plan, batch size and link-force presence."""
 
@@ -650,9 +638,9 @@ def step(model, data, *, link_forces=None, joint_force_references=None, ctrl=Non
 
 def step_inputs(current: Plan, data, joint_force_references, link_forces, ctrl) -> tuple:
     """(tau_ref, f_user, u): a step's inputs as device arrays (N, ...), checked; absent ones zero or None."""
-    tau_ref = _joint_force_references(current, data, joint_force_references)
-    f_user = _link_forces(current, data, link_forces)
-    u = _ctrl(current, data, ctrl)
+    tau_ref = torque_reference_input(current, data, joint_force_references)
+    f_user = link_force_input(current, data, link_forces)
+    u = ctrl_input(current, data, ctrl)
     return tau_ref, f_user, u
 
 

@@ -11,7 +11,7 @@ import weakref
 
 import warp as wp
 
-__all__ = ["check_data", "check_state", "passes_like", "state_arrays"]
+__all__ = ["check_data", "check_state", "check_contact_state", "passes_like", "state_arrays"]
 
 _STATE_ARRAYS = (
     ("base_position_state", 3),
@@ -141,4 +141,16 @@ def _check_field(name: str, array: wp.array, shape: tuple, dtype, device) -> Non
         raise ValueError(
             f"data.{name} has shape {tuple(array.shape)}, expected {shape}: N = {shape[0]} environments (from "
             "data.base_position_state)"
+        )
+
+
+def check_contact_state(model, data) -> None:
+    """A ValueError when the data's contact state does not hold one row per collidable point of the model."""
+    total = len(model.kin_dyn_parameters.contact_parameters.body)
+    m = data.tangential_deformation_state
+    if m is None or m.shape[1] != total:
+        got = None if m is None else m.shape[1]
+        raise ValueError(
+            f"data holds the tangential deformation of {got} collidable points but the model has {total}: "
+            "build the data from this model (wd.data.Data.build) after changing its collidable points"
         )

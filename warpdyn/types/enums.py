@@ -29,17 +29,20 @@ def output_repr(data, output_vel_repr) -> VelRepr:
 
 
 class IntegratorType(enum.IntEnum):
-    """The integrators of `step`: JaxSim's (kernels/integrators.py), and MuJoCo's Euler.
+    """The integrators of `step`: JaxSim's (kernels/integrators.py, with JaxSim's values), and MuJoCo's Euler.
 
     SemiImplicitEuler: JaxSim's; the base's Inertial velocity integrated, the quaternion to first order
-    and normalised. RungeKutta4: JaxSim's. SemiImplicitEulerSO3: MuJoCo's Euler (what MJCF models with
-    integrator Euler, implicit or implicitfast start with); the base's Mixed velocity integrated and its
-    orientation rotated exactly by dt omega. The three take the joints alike; the two Euler methods differ
-    on a floating base by O(dt^2) per step."""
+    and normalised. RungeKutta4: JaxSim's. RungeKutta4Fast: JaxSim's RK4 with the contact forces and the
+    contact state's rate of the first stage held over the four stages (one contact evaluation per step;
+    the contact state then advances by explicit Euler). SemiImplicitEulerSO3: MuJoCo's Euler (what MJCF
+    models with integrator Euler, implicit or implicitfast start with); the base's Mixed velocity integrated
+    and its orientation rotated exactly by dt omega. They take the joints alike; the two Euler methods
+    differ on a floating base by O(dt^2) per step."""
 
     SemiImplicitEuler = 1
     RungeKutta4 = 2
-    SemiImplicitEulerSO3 = 3
+    RungeKutta4Fast = 3
+    SemiImplicitEulerSO3 = 4
 
 
 @contextlib.contextmanager

@@ -211,6 +211,11 @@ class JointModel:
             joint_axis=np.asarray(tree.joint_axis[1:], dtype=np.float64).reshape(nL - 1, 3),
         )
 
+    @property
+    def λ_H_pre(self) -> np.ndarray:  # noqa: PLC2401 (JaxSim's name)
+        """JaxSim's name of `lambda_H_pre`."""
+        return self.lambda_H_pre
+
     def parent_H_predecessor(self, joint_index: int) -> np.ndarray:
         """lambda(i)_H_pre(i) (4, 4) of joint i (0 the world-to-base joint)."""
         return self.lambda_H_pre[joint_index]

@@ -1,6 +1,7 @@
 """The model: a robot's constants and parameters on a Warp device, in one scalar type.
 
-Link order: breadth-first from the base (parent index < child index). Joint i moves link i + 1.
+Link order: breadth-first from the base, siblings by name, as JaxSim (parent index < child index). Joint i
+moves link i + 1. Frames: sorted by name, as JaxSim.
 Frame indices follow the link indices: frame k has index number_of_links() + k (as in JaxSim).
 
 Changes and caches. Everything the engine derives from a model (kernel bundles, a step's plan, recorded
@@ -8,8 +9,12 @@ launches, workspaces) is cached on the model with `Model.cached` and rebuilt aft
 change is announced: every setter here (parameters, settings such as `terrain`, `contact_params`,
 `time_step`, marking parameters for gradients) calls `notify_model_changed`, which bumps `version`. A
 parameter's Warp array edited in place (`model.link_mass.assign(...)`) is read by kernels as it is then,
-without a rebuild; call `notify_model_changed()` after such an edit when it switches a term on or off
-(a friction or limit gain that was zero everywhere: the step compiles only the terms it needs).
+without a rebuild. No host check sees such an edit: every step checks the parameters' ranges on the device
+instead and flags the environments out of range (data.healthy 0, their state kept:
+kernels/parameter_checks.py), and `validate_parameters()` checks them on the host, naming parameter,
+element, environment and value; it runs whenever a step's plan is built, after `notify_model_changed()`.
+Call `notify_model_changed()` after such an edit when it switches a term on or off (a friction or limit
+gain that was zero everywhere: the step compiles only the terms it needs).
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ from .enums import IntegratorType
 from .kin_dyn import JointModel, JointParameters, KinDynParameters, LinkParameters
 from .model_constants import joint_motion_terms, quaternion_xyzw, sibling_chains, transforms
 from .model_settings import ModelSettings
-from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter
+from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter, validate_parameters
 from .settings import ActuationParams, SoftContactsParams
 from .terrain import FlatTerrain, HeightfieldTerrain
 
@@ -361,10 +366,7 @@ class Model(ModelSettings):
         """Store a link or joint parameter given shared (count, *item) or per environment (N, count, *item)."""
         name = parameter.name
         count = {"link": self.tree.number_of_links, "joint": self.tree.dofs, "actuator": len(self.tree.actuators)}[parameter.group]
-        try:
-            host = np.array(value, dtype=np.float64)
-        except (TypeError, ValueError) as error:
-            raise TypeError(f"{name} must be an array of numbers: {error}") from None
+        host = np.array(arrays.host_numbers(value.numpy() if isinstance(value, wp.array) else value, name))  # a copy, the table's own
         shared = (count, *parameter.item)
         if checked and parameter.check is not None and host.shape[-len(shared) :] == shared:
             parameter.check(name, host)
@@ -395,6 +397,12 @@ class Model(ModelSettings):
             return wp.types.vector(item[0], s)
         return wp.types.matrix(item, s)
 
+    def validate_parameters(self) -> None:
+        """Check the link, joint, actuator and contact parameters as they are now, arrays edited in place
+        included (warpdyn.types.parameters.validate_parameters): a ValueError naming the parameter, the link or
+        joint, the environment and the value."""
+        validate_parameters(self)
+
     def parameter_host(self, name: str) -> np.ndarray:
         """The host (float64) copy of a link or joint parameter as it was last set."""
         return self._hosts[name]
@@ -412,7 +420,7 @@ class Model(ModelSettings):
             return getattr(self.contact_params, name)
         if group == "terrain":
             terrain = self.terrain
-            return terrain.height if isinstance(terrain, FlatTerrain) else terrain.heights if isinstance(terrain, HeightfieldTerrain) else None
+            return terrain.elevation if isinstance(terrain, FlatTerrain) else terrain.heights if isinstance(terrain, HeightfieldTerrain) else None
         return self._values[name]
 
     def parameters_require_grad(self, groups=("link", "joint", "actuator", "contact", "terrain")) -> bool:
@@ -446,17 +454,19 @@ class Model(ModelSettings):
             elif group == "terrain":
                 terrain = self.terrain
                 if isinstance(terrain, FlatTerrain):
-                    field = "height"
+                    value = terrain.elevation
+                    if not isinstance(value, wp.array):
+                        value = self._parameter_array(value)
+                        self.terrain = FlatTerrain(value)
                 elif isinstance(terrain, HeightfieldTerrain):
-                    field = "heights"
+                    value = terrain.heights
+                    if not isinstance(value, wp.array):
+                        value = self._parameter_array(value)
+                        self.terrain = HeightfieldTerrain(value, terrain.origin, terrain.spacing)
                 else:
                     raise ValueError(
                         f"terrain_height: a {type(terrain).__name__} has no height parameter (FlatTerrain and HeightfieldTerrain have)"
                     )
-                value = getattr(terrain, field)
-                if not isinstance(value, wp.array):
-                    value = self._parameter_array(value)
-                    self.terrain = dataclasses.replace(terrain, **{field: value})
             else:
                 value = self._values[name]
             value.requires_grad = True

@@ -124,8 +124,9 @@ LINK_PARAMETERS = (
     ),
     Parameter(
         "gravcomp_mass", "link", (), "gravcomp_mass", "kg",
-        "gravity compensation: the mass whose weight a force along +z of the world carries (MJCF gravcomp)",
-        check_non_negative, lambda tree: tree.gravcomp_mass,
+        "gravity compensation: the mass whose weight a force along +z of the world carries (MJCF gravcomp; negative, as "
+        "MuJoCo allows: added weight)",
+        check_finite, lambda tree: tree.gravcomp_mass,
     ),
     Parameter(
         "gravcomp_com", "link", (3,), "gravcomp_com", "m, link frame", "where the gravity compensation acts",

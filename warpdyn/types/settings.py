@@ -9,7 +9,7 @@ import warp as wp
 
 from .. import arrays
 
-__all__ = ["SoftContactsParams", "ActuationParams", "host_values", "check_contact_value", "CONTACT_UNITS"]
+__all__ = ["ContactsParams", "SoftContactsParams", "ActuationParams", "host_values", "check_contact_value", "CONTACT_UNITS", "MAX_STIFFNESS", "MAX_DAMPING"]
 
 
 def host_values(value, name: str = "value") -> np.ndarray:
@@ -56,8 +56,65 @@ def check_contact_value(name: str, value) -> None:
         raise ValueError(f"{field} must be positive [{CONTACT_UNITS[name]}] ({_POSITIVE[name]}), got {shown(flat <= 0.0)}")
 
 
+MAX_STIFFNESS = 1e6
+"""The largest stiffness K [N/m^(1 + p)] of `build_default_from_jaxsim_model`, JaxSim's."""
+
+MAX_DAMPING = 1e4
+"""The largest damping D [N s/m^(1 + q)] of `build_default_from_jaxsim_model`, JaxSim's."""
+
+
+class ContactsParams:
+    """JaxSim's base class of a contact model's parameters: `build`, `build_default_from_jaxsim_model`,
+    `valid`."""
+
+    @classmethod
+    def build(cls, **kwargs):
+        """Parameters with the given fields (the others at their defaults), checked."""
+        return cls(**kwargs)
+
+    @classmethod
+    def build_default_from_jaxsim_model(
+        cls,
+        model,
+        *,
+        stiffness=None,
+        damping=None,
+        standard_gravity: float = 9.81,
+        static_friction_coefficient: float = 0.5,
+        max_penetration=0.001,
+        number_of_active_collidable_points_steady_state: int = 1,
+        damping_ratio: float = 1.0,
+        p: float = 0.5,
+        q: float = 0.5,
+        **kwargs,
+    ):
+        """JaxSim's estimate for `model` (its total mass m [kg], the current `model.link_mass`, per
+        environment when given so): K = m g / nc / max_penetration^(1 + p) clipped to [0, MAX_STIFFNESS]
+        (unless `stiffness` is given), D = damping_ratio 2 sqrt(K m) clipped to [0, MAX_DAMPING] (unless
+        `damping` is given), mu the static friction coefficient."""
+        nc = number_of_active_collidable_points_steady_state
+        if isinstance(nc, (bool, np.bool_)) or int(nc) != nc or nc < 1:
+            raise ValueError(f"number_of_active_collidable_points_steady_state must be an integer >= 1, got {nc!r}")
+        delta = host_values(max_penetration, "max_penetration")
+        if not np.all((delta > 0.0) & np.isfinite(delta)):
+            raise ValueError(f"max_penetration must be positive and finite [m], got {max_penetration}")
+        m = np.asarray(model.link_mass.numpy(), dtype=np.float64).sum(axis=-1)
+        K = np.clip(m * standard_gravity / nc / delta ** (1.0 + p), 0.0, MAX_STIFFNESS) if stiffness is None else host_values(stiffness, "stiffness")
+        D = np.clip(damping_ratio * 2.0 * np.sqrt(K * m), 0.0, MAX_DAMPING) if damping is None else host_values(damping, "damping")
+        return cls.build(K=_number_or_array(K), D=_number_or_array(D), mu=static_friction_coefficient, p=p, q=q, **kwargs)
+
+    def valid(self) -> bool:
+        """Whether the parameters are in range (each model's class says)."""
+        raise NotImplementedError(f"{type(self).__name__} does not say which of its values are valid")
+
+
+def _number_or_array(x: np.ndarray):
+    """A float for a 0-d array (a value shared by the environments), the array otherwise."""
+    return float(x) if np.ndim(x) == 0 else x
+
+
 @dataclasses.dataclass(frozen=True)
-class SoftContactsParams:
+class SoftContactsParams(ContactsParams):
     """JaxSim's soft-contact parameters and defaults.
 
     K: stiffness [N/m^(1+p)]; D: damping [N s/m^(1+q)]; mu: Coulomb friction coefficient (stick and slip);
@@ -72,7 +129,7 @@ class SoftContactsParams:
     these checks here, once. Values written into a Warp array later (`K.assign(...)`, a randomisation on the
     device) no host check sees without a synchronisation: the step checks them on the device and flags the
     environments whose K, D or mu is out of range, or whose dt K / D is unstable where their points can reach
-    the terrain (data.valid 0, their state kept: warpdyn.kernels.parameter_checks); the host checks them
+    the terrain (data.healthy 0, their state kept: warpdyn.kernels.parameter_checks); the host checks them
     again when the step's plan is next built (warpdyn.types.parameters.validate_parameters).
     """
 
@@ -85,6 +142,20 @@ class SoftContactsParams:
     def __post_init__(self):
         for name in ("K", "D", "mu", "p", "q"):
             check_contact_value(name, getattr(self, name))
+
+    @classmethod
+    def build(cls, *, K=1e6, D=2000.0, mu=0.5, p=0.5, q=0.5, **kwargs) -> SoftContactsParams:
+        """JaxSim's constructor: the parameters, checked; other keywords are a TypeError naming them (JaxSim
+        logs and ignores them)."""
+        if kwargs:
+            raise TypeError(f"SoftContactsParams.build() takes K, D, mu, p and q, got {sorted(kwargs)}")
+        return cls(K=K, D=D, mu=mu, p=p, q=q)
+
+    def valid(self) -> bool:
+        """JaxSim's check: K, D, mu, p, q >= 0, read as they are now (a Warp array edited in place included);
+        warpdyn's checks when made are stricter (K, D > 0; all finite)."""
+        values = [np.asarray(host_values(getattr(self, name), name)) for name in ("K", "D", "mu", "p", "q")]
+        return all(bool(np.all(v >= 0.0)) for v in values)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,0 +1,13 @@
+"""JaxSim's `jaxsim.api.kin_dyn_parameters`: a model's kinematic and dynamic parameters, host-side (NumPy).
+
+`model.kin_dyn_parameters` is a `KinDynParameters`: the links' and joints' parameters (a snapshot of the
+model's), the joint model, the tree's arrays, the collidable points and the frames. Change parameters as in
+JaxSim, through copies applied with `model.replace(kin_dyn_parameters=...)`, or with the model's setters
+(`Model.set_link_parameters`, `set_joint_parameters`), which also take one row per environment. JaxSim's
+hardware parametrisation (`HwLinkMetadata`, `ScalingFactors`, `LinkParametrizableShape`) and kinematic
+constraints (`ConstraintMap`, `ConstraintType`) are not in warpdyn yet (docs/porting.md).
+"""
+
+from .types.kin_dyn import ContactParameters, FrameParameters, JointModel, JointParameters, KinDynParameters, LinkParameters
+
+__all__ = ["KinDynParameters", "LinkParameters", "JointParameters", "ContactParameters", "FrameParameters", "JointModel"]

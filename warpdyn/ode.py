@@ -1,0 +1,72 @@
+"""JaxSim's `jaxsim.api.ode`: the system's equations of motion as derivatives of its state.
+
+The terms are JaxSim's: the given joint torques, the link forces and the contact forces of
+`model.contact_model`. An MJCF model's MuJoCo terms (passive joint forces, gravity compensation,
+actuators) are not in them: `warpdyn.model.step` and `warpdyn.integrators` apply them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from . import arrays
+from .data import Data
+from .engine import dynamics, evaluations
+from .engine.forces import forces_in
+from .math import Quaternion
+from .references import References
+from .types.enums import VelRepr
+
+__all__ = ["system_acceleration", "system_position_dynamics", "system_dynamics"]
+
+
+def system_acceleration(model, data: Data, *, link_forces=None, joint_torques=None) -> tuple[wp.array, wp.array, dict]:
+    """(base acceleration (6,), joint accelerations (n,), the contact state's rates): forward dynamics with
+    the joint torques (n,) [N m or N] (None: zero), the link forces (nL, 6) in the data's representation and
+    the contact forces at the data's state. The base acceleration is the derivative of the base velocity in
+    the data's representation; the rates are {"tangential_deformation": (nc_all, 3)} [m/s] (JaxSim's
+    `update_contact_state` of the contact model's rates). Leading (N,) for batched data."""
+    W_f_user = None
+    if link_forces is not None:
+        W_f_user = References.build(model, link_forces=link_forces, data=data, velocity_representation=data.velocity_representation).link_forces_state
+    _, m_dot, W_f_L = evaluations.contact_forces(model, data, W_f_user)
+    f_L = W_f_L if data.velocity_representation == VelRepr.Inertial else forces_in(model, data, W_f_L, int(data.velocity_representation))
+    base, joints = dynamics.forward_dynamics_aba(model, data, joint_torques, arrays.squeeze_env(f_L, data.num_envs))
+    rates = model.contact_model.update_contact_state({"m_dot": arrays.squeeze_env(m_dot, data.num_envs)})
+    return base, joints, rates
+
+
+def system_position_dynamics(data: Data, baumgarte_quaternion_regularization: float = 1.0) -> tuple[wp.array, wp.array, wp.array]:
+    """(W_pdot_B (3,) [m/s], W_Qdot_B (4,), sdot (n,)): the derivatives of the base position, of the base
+    quaternion (w, x, y, z), normalised first, with JaxSim's Baumgarte term K |omega| (1 - |Q|) pulling its
+    norm to 1 (K = `baumgarte_quaternion_regularization`), and of the joint positions. Leading (N,) for
+    batched data. Computed on the host (NumPy), returned on the data's device."""
+    v = np.asarray(data.base_velocity_state.numpy()).reshape(data.batch_size, 6)  # stored Mixed: [W_pdot_B; W_omega_WB]
+    Q = np.asarray(data.base_quaternion_state.numpy()).reshape(data.batch_size, 4)
+    Q = Q / np.linalg.norm(Q, axis=-1, keepdims=True)
+    Q_dot = Quaternion.derivative(Q, v[:, 3:], omega_in_body_fixed=False, K=float(baumgarte_quaternion_regularization))
+    out = (v[:, :3], Q_dot)
+    device, scalar = data.device, data.scalar
+    p_dot, q_dot = (arrays.squeeze_env(wp.array(x, dtype=scalar, device=device), data.num_envs) for x in out)
+    return p_dot, q_dot, data.joint_velocities
+
+
+def system_dynamics(model, data: Data, *, link_forces=None, joint_torques=None, baumgarte_quaternion_regularization: float = 1.0) -> dict:
+    """The state's derivatives as JaxSim's dict: base_position (W_pdot_B), base_quaternion, joint_positions
+    (sdot), base_linear_velocity and base_angular_velocity (the Inertial base acceleration W_vdot_WB, split),
+    joint_velocities (sdot_dot), contact_state ({"tangential_deformation": m_dot}). Computed, as JaxSim's,
+    with the data in the Inertial representation: link_forces (nL, 6) are read as Inertial forces."""
+    with data.switch_velocity_representation(VelRepr.Inertial):
+        base, joints, rates = system_acceleration(model, data, link_forces=link_forces, joint_torques=joint_torques)
+        p_dot, q_dot, s_dot = system_position_dynamics(data, baumgarte_quaternion_regularization)
+    linear, angular = (base[0:3], base[3:6]) if base.ndim == 1 else (base[:, 0:3], base[:, 3:6])
+    return dict(
+        base_position=p_dot,
+        base_quaternion=q_dot,
+        joint_positions=s_dot,
+        base_linear_velocity=linear,
+        base_angular_velocity=angular,
+        joint_velocities=joints,
+        contact_state=rates,
+    )
