@@ -66,7 +66,7 @@ def mujoco_rows(model, repeats: int) -> list:
 
 def row_with_another_thread(row, dtype: str, device, tau_host) -> None:
     """The loop above on a new model while another thread that has worked through warpdyn is alive (idle):
-    graphs are not captured then (README, "Threads"), the launches are replayed as recorded."""
+    graphs are not captured then (docs/simulation.md, "Threads"), the launches are replayed as recorded."""
     model = seed_model(np_dtype[dtype], device)
     started, done = threading.Event(), threading.Event()
 

@@ -13,7 +13,7 @@ joint torques and link forces, a rollout under a wp.Tape, a random linear loss o
    differ between replays, and how many entries of its forward scratch it rewrites (and by how much),
    with the scratch left as the replays leave it and restored before each replay.
 --no-fuse-fp compiles every kernel without floating-point contraction (warpdyn.config.fuse_fp = False):
-the replays then agree, and the times show its cost. On the CPU every difference is 0; README
+the replays then agree, and the times show its cost. On the CPU every difference is 0; docs/differentiation.md
 ("Reproducibility") and RESULTS.md quote a GPU's.
 """
 
