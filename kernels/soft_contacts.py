@@ -287,18 +287,18 @@ def points_kernel(scalar):
         m: wp.array(dtype=vec3),
         h: wp.array(dtype=scalar),
         n: wp.array(dtype=vec3),
-        K: scalar,
-        D: scalar,
-        mu: scalar,
+        K: wp.array(dtype=scalar),
+        D: wp.array(dtype=scalar),
+        mu: wp.array(dtype=scalar),
         pe: scalar,
         qe: scalar,
         # outputs
         f: wp.array(dtype=vec3),
         m_dot: wp.array(dtype=vec3),
     ):
-        """The law (`hunt_crossley`) at each point: one thread per point."""
+        """The law (`hunt_crossley`) at each point, with its own K, D and mu: one thread per point."""
         i = wp.tid()
-        fi, mi = law.hunt_crossley(p[i], v[i], m[i], h[i], n[i], K, D, mu, pe, qe)
+        fi, mi = law.hunt_crossley(p[i], v[i], m[i], h[i], n[i], K[i], D[i], mu[i], pe, qe)
         f[i] = fi
         m_dot[i] = mi
 

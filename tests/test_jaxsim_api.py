@@ -80,6 +80,18 @@ def test_reduce():
         wd.model.reduce(model=full, considered_joints=["l_hip"], locked_joint_positions={"phantom": 0.0})
 
 
+def test_link_order_with_lumping_in_mid_tree():
+    """Links and joints in JaxSim's order when a fixed joint lumps a link that carries a jointed child, and after
+    a reduction that lumps such links (reference: JaxSim 0.9.0 on tests/jaxsim/lumped.sdf: links (base, B, C, Z,
+    D), joints (j_b, j_c, j_z, j_d), frames (A,); reduced to j_c and j_d: links (base, C, D), frames (A, B, Z)).
+    JaxSim walks the reduced graph breadth-first, each link's children by name; C, the child of the lumped A,
+    is a child of the base there."""
+    model = _build((ROOT / "tests" / "jaxsim" / "lumped.sdf").read_text())
+    assert (model.link_names(), model.joint_names(), model.frame_names()) == (("base", "B", "C", "Z", "D"), ("j_b", "j_c", "j_z", "j_d"), ("A",))
+    reduced = wd.model.reduce(model=model, considered_joints=["j_c", "j_d"])
+    assert (reduced.link_names(), reduced.joint_names(), reduced.frame_names()) == (("base", "C", "D"), ("j_c", "j_d"), ("A", "B", "Z"))
+
+
 def test_model_replace_editable_equality():
     """JaxSim's dataclass methods: replace and editable give changed copies (the original unchanged),
     mutable_context edits in place and restores on an error; models are equal (and hash alike) when name,
@@ -130,6 +142,14 @@ def test_data_copy_and_resets():
     H = wd.math.Transform.from_rotation_and_translation(rotation=wd.math.Rotation.z(0.4), translation=[1.0, 2.0, 3.0])
     moved = data.reset_base_pose(model=model, base_pose=H)
     np.testing.assert_allclose(moved.base_transform.numpy(), H, atol=1e-15)
+    batch = wd.data.random_model_data(model=model, key=4, num_envs=3)
+    for name in ("joint_positions_state", "base_velocity_state", "tangential_deformation_state"):  # the device's layout kept
+        assert getattr(batch.copy(), name).strides == getattr(batch, name).strides, name
+    nc = len(model.kin_dyn_parameters.contact_parameters.body)
+    m = np.arange(3 * nc * 3, dtype=np.float64).reshape(3, nc, 3) * 1e-3
+    partly = batch.replace(model=model, contact_state={"tangential_deformation": m}, envs=[1])
+    np.testing.assert_array_equal(partly.tangential_deformation_state.numpy()[1], m[1])
+    np.testing.assert_array_equal(partly.tangential_deformation_state.numpy()[[0, 2]], batch.tangential_deformation_state.numpy()[[0, 2]])
 
 
 def test_random_model_data():
@@ -160,6 +180,9 @@ def test_random_joint_positions():
     assert low[2] >= -np.pi and high[2] <= np.pi and low[3] >= -1.0 and high[3] <= 1.0
     names = wd.joint.random_joint_positions(model=model, joint_names=["slide"], key=1)
     assert names.shape == (1,)
+    model.set_joint_parameters(position_limits=[[-1.0, 1.0], [-1.0, 1.0], [-1.0, 1.0], [5.0, np.inf]])  # one side: 2 m above it
+    one_sided = np.array([wd.joint.random_joint_positions(model=model, key=k)[3] for k in range(50)])
+    assert one_sided.min() >= 5.0 and one_sided.max() <= 7.0
 
 
 def test_references():
@@ -266,6 +289,14 @@ def test_kin_dyn_parameters():
     heavier = model.replace(kin_dyn_parameters=kd.set_link_inertia(link_index=2, inertia=inertia))
     np.testing.assert_array_equal(heavier.kin_dyn_parameters.link_parameters.inertia_elements[2], [0.1, 0.0, 0.0, 0.2, 0.0, 0.3])
     assert isinstance(kd, wd.kin_dyn_parameters.KinDynParameters) and wd.kin_dyn_parameters.KinDynParameters.build(model) == kd
+    model.link_mass.assign(np.array([3.0, 1.5, 7.0, 0.5, 0.2]))  # an edit in place: the next snapshot sees it
+    assert model.kin_dyn_parameters.link_parameters.mass[2] == 7.0
+    lighter = model.replace(kin_dyn_parameters=model.kin_dyn_parameters.set_link_mass(link_index=1, mass=1.0))
+    np.testing.assert_array_equal(lighter.link_mass.numpy(), [3.0, 1.0, 7.0, 0.5, 0.2])  # the edit kept, link 1 set
+    single = wd.model.JaxSimModel.build_from_model_description(ARM, dtype=np.float32)
+    single = single.replace(kin_dyn_parameters=model.kin_dyn_parameters)  # a float64 model's: its points in float32
+    points = wd.contact.collidable_point_positions(model=single, data=wd.data.JaxSimModelData.build(model=single))
+    assert points.numpy().dtype == np.float32
     joint = wd.description.load(ARM).joints[1]
     params = wd.kin_dyn_parameters.JointParameters.build_from_joint_description(joint_description=joint, index=1)
     assert (float(params.friction_static), float(params.friction_viscous)) == (joint.friction, joint.damping)
@@ -321,3 +352,40 @@ def test_terrains():
     assert plane == wd.terrain.PlaneTerrain(normal=[0.2, -0.1, 1.0], point=[0.0, 0.0, 0.1]) and hash(plane) == hash(wd.terrain.PlaneTerrain.build(height=0.1, normal=[0.2, -0.1, 1.0]))
     with pytest.raises(AttributeError, match="immutable"):
         plane.point = (0.0, 0.0, 0.0)
+    heights = np.array([0.0, 0.1])
+    flat = wd.terrain.FlatTerrain.build(height=heights)  # one height per environment, a copy kept
+    before = hash(flat)
+    heights[0] = 5.0
+    assert hash(flat) == before and flat.elevation.tolist() == [0.0, 0.1] and wd.terrain.FlatTerrain([0.0, 0.1]) == flat
+    points = np.array([[[0.0, 0.0, -0.01]], [[0.0, 0.0, 0.05]]])  # environment e's points on its height
+    np.testing.assert_allclose(flat.penetration(points), [[0.01], [0.05]], atol=1e-15)
+    depth, _, _ = wd.rbda.contacts.compute_penetration_data(points, np.zeros_like(points), flat)
+    np.testing.assert_allclose(depth, [[0.01], [0.05]], atol=1e-15)
+
+
+def test_host_contact_law_per_point_parameters():
+    """The host soft law takes one K, D, mu per point (broadcast against the points) and per-environment
+    terrain heights (reference: the same law called point by point with scalars)."""
+    law = wd.rbda.contacts.SoftContacts.hunt_crossley_contact_model
+    p = np.array([[0.0, 0.0, -0.001], [1.0, 0.0, -0.002]])
+    v, m = np.zeros((2, 3)), np.zeros((2, 3))
+    flat = wd.terrain.FlatTerrain()
+    K, D, mu = np.array([1e5, 1e3]), np.array([100.0, 10.0]), np.array([0.5, 0.8])
+    f, _ = law(p, v, m, flat, K, D, mu)
+    for k in range(2):
+        f_k, _ = law(p[k], v[k], m[k], flat, K[k], D[k], mu[k])
+        np.testing.assert_allclose(f[k], f_k, rtol=1e-15)
+    assert f[0, 2] > 10 * f[1, 2]
+    with pytest.raises(ValueError, match="exponent p"):
+        law(p, v, m, flat, 1e5, 100.0, 0.5, p=[0.5, 0.5])
+
+
+def test_log_vee_at_every_angle():
+    """Rotation.log_vee inverts from_axis_angle at angles from 0 to pi, in one batch, without warnings
+    (reference: the axis-angle drawn; 1e-12)."""
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    angles = np.array([0.0, 1e-9, 1e-3, 0.3, 2.0, np.pi - 1e-4, np.pi - 1e-9])
+    R = np.stack([wd.math.Rotation.from_axis_angle(vector=axis * a) for a in angles])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_allclose(wd.math.Rotation.log_vee(R), angles[:, None] * axis, atol=1e-12)

@@ -2,7 +2,7 @@
 
 The points come from the description's collision shapes (`warpdyn.description.collidable` says how each
 becomes points, and in which order); a lumped link's points belong to the link it is lumped into.
-`model.kin_dyn_parameters.contact_parameters` lists ALL points (`body`, `point`, `enabled`), as JaxSim;
+`model.kin_dyn_structure().contact_parameters` lists ALL points (`body`, `point`, `enabled`), as JaxSim;
 the functions below return the ENABLED points only, in that order: "nc" is their number. Change the
 options or the enabled points with `with_collidable_points`.
 
@@ -25,7 +25,7 @@ from .engine import contact, derivatives, kinematics
 from .types import names
 from .types.enums import VelRepr, output_repr
 from .types.kin_dyn import ContactParameters, FrameParameters, KinDynParameters
-from .types.settings import SoftContactsParams
+from .types.settings import STANDARD_GRAVITY, SoftContactsParams
 
 __all__ = [
     "CollidablePointsOptions",
@@ -68,7 +68,7 @@ def with_collidable_points(model, *, options: CollidablePointsOptions | None = N
         raise ValueError("give either enabled (a mask over the points) or enabled_links (link names), not both")
     if options is not None and not isinstance(options, CollidablePointsOptions):
         raise TypeError(f"options must be a CollidablePointsOptions, got {type(options).__name__}")
-    params = model.kin_dyn_parameters if options is None else KinDynParameters.build(model, options)
+    params = model.kin_dyn_structure() if options is None else KinDynParameters.build(model, options)
     if enabled_links is not None:
         if isinstance(enabled_links, str):
             enabled_links = (enabled_links,)
@@ -130,7 +130,7 @@ def link_contact_forces(
 ) -> tuple[wp.array, dict]:
     """(f_L, derivatives), JaxSim's: the contact wrench on each link, (nL, 6) or (N, nL, 6), [force; torque],
     and the rates of the contact model's state, {"m_dot": (nc_all, 3) or (N, nc_all, 3)} [m/s] for the soft
-    law (0 for disabled points), at the data's state. f_L in `output_vel_repr` for the link frame L (default
+    law (0 for disabled points), at the data's state (one contact evaluation). f_L in `output_vel_repr` for the link frame L (default
     Inertial, as JaxSim's, whatever the data's representation):
     - Inertial: W_f_L = sum over L's enabled points C of [f_C; W_p_C x f_C] (torque about the world origin),
       what `step` adds to the link's external force;
@@ -146,9 +146,8 @@ def link_contact_forces(
             raise ValueError("give joint_force_references or joint_torques (the same argument), not both")
         joint_force_references = joint_torques
     _check_ignored_inputs(model, data, link_forces, joint_force_references)
-    out = contact.link_wrenches(model, data, int(output_repr(data, output_vel_repr)))
-    _, derivatives = model.contact_model.compute_contact_forces(model, data)
-    return arrays.squeeze_env(out, data.num_envs), derivatives
+    out, m_dot = contact.link_wrenches_and_rates(model, data, int(output_repr(data, output_vel_repr)))
+    return arrays.squeeze_env(out, data.num_envs), {"m_dot": arrays.squeeze_env(m_dot, data.num_envs)}
 
 
 def link_forces_from_contact_forces(model, *, contact_forces) -> wp.array:
@@ -156,7 +155,7 @@ def link_forces_from_contact_forces(model, *, contact_forces) -> wp.array:
     [N; N m] (as `model.contact_model.compute_contact_forces` returns them) summed per link, JaxSim's.
     Inertial forces add without a transform. On the host (a NumPy sum), returned on the model's device."""
     host = arrays.host_numbers(contact_forces.numpy() if isinstance(contact_forces, wp.array) else contact_forces, "contact_forces")
-    params = model.kin_dyn_parameters.contact_parameters
+    params = model.kin_dyn_structure().contact_parameters
     idx = params.indices_of_enabled_collidable_points
     if host.shape[-2:] != (len(idx), 6) or host.ndim not in (2, 3):
         raise ValueError(f"contact_forces has shape {host.shape}, expected ({len(idx)}, 6) or (N, {len(idx)}, 6): one row per enabled collidable point")
@@ -202,7 +201,7 @@ def jacobian_derivative(model, data, *, output_vel_repr=None) -> wp.array:
 def estimate_good_contact_parameters(
     model,
     *,
-    standard_gravity: float = 9.81,
+    standard_gravity: float = STANDARD_GRAVITY,
     static_friction_coefficient: float = 0.5,
     number_of_active_collidable_points_steady_state: int = 1,
     damping_ratio: float = 1.0,

@@ -346,7 +346,12 @@ class Data(ModelDataWithVelocityRepresentation):
         new.num_envs = self.num_envs
         new.tangential_deformation_state = self.tangential_deformation_state
         if contact_state is not None:
-            new.tangential_deformation_state = _deformation(model, contact_state, self.num_envs, self.batch_size)
+            deformation = _deformation(model, contact_state, self.num_envs, self.batch_size)
+            if envs is not None:  # the other environments keep theirs
+                fresh = deformation.numpy()
+                fresh[keep] = self.tangential_deformation_state.numpy()[keep]
+                deformation.assign(wp.array(fresh, dtype=self.scalar, device=self.device))
+            new.tangential_deformation_state = deformation
         new.valid_state = self.valid_state
         return new
 
@@ -357,7 +362,7 @@ JaxSimModelData = Data
 
 def _deformation(model, contact_state: dict | None, num_envs: int | None, N: int) -> wp.array:
     """The tangential deformation state (N, nc_all, 3) of JaxSim's contact_state (None: zero)."""
-    rows = (len(model.kin_dyn_parameters.contact_parameters.body), 3)
+    rows = (len(model.kin_dyn_structure().contact_parameters.body), 3)
     if contact_state is None:
         return arrays.zeros(rows, N, model.scalar, model.device)
     if not isinstance(contact_state, dict) or set(contact_state) - {"tangential_deformation"}:
@@ -375,9 +380,12 @@ def _normalised(quaternion) -> np.ndarray:
 
 
 def _clone(array: wp.array | None) -> wp.array | None:
+    """A copy of a per-environment array in the device's layout (warpdyn.arrays: environment-fastest on GPUs,
+    which wp.clone, making a contiguous array, would lose)."""
     if array is None:
         return None
-    copy = wp.clone(array, requires_grad=array.requires_grad)
+    copy = arrays.empty(tuple(array.shape[1:]), array.shape[0], array.dtype, array.device, requires_grad=array.requires_grad)
+    wp.copy(copy, array)
     return copy
 
 

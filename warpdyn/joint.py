@@ -76,7 +76,7 @@ def random_joint_positions(model, *, joint_names=None, key=None, num_envs: int |
     """Random joint positions (k,) of the named joints (all when None) [rad or m], JaxSim's draw: uniform
     within the model's position limits; a revolute joint whose range spans 2 pi or more is drawn from an
     interval of 2 pi inside its range ([-pi, pi] when that fits); a prismatic joint without limits from
-    [-1, 1] m (JaxSim's draws infinities there). key: see `random_generator`. num_envs: (N, k), one draw
+    [-1, 1] m (JaxSim's draws infinities there), limited on one side only from 2 m beside that limit. key: see `random_generator`. num_envs: (N, k), one draw
     per environment (each within its limits when they are given per environment)."""
     idxs = np.arange(model.dofs()) if joint_names is None else names_to_idxs(model, joint_names=joint_names)
     low, high = position_limits(model, joint_names=joint_names)
@@ -90,5 +90,5 @@ def random_joint_positions(model, *, joint_names=None, key=None, num_envs: int |
     low, high = np.where(inside, -np.pi, low), np.where(inside, np.pi, high)
     low = np.where(full & ~inside & (high < np.pi), high - 2 * np.pi, low)
     high = np.where(full & ~inside & (low > -np.pi), low + 2 * np.pi, high)
-    low, high = np.where(np.isfinite(low), low, -1.0), np.where(np.isfinite(high), high, 1.0)
+    low, high = np.where(np.isfinite(low), low, np.where(np.isfinite(high), high - 2.0, -1.0)), np.where(np.isfinite(high), high, np.where(np.isfinite(low), low + 2.0, 1.0))
     return random_generator(key).uniform(low, high)

@@ -228,15 +228,16 @@ class Rotation:
     @staticmethod
     def log_vee(R) -> np.ndarray:
         """The rotation vector (..., 3) of rotation matrices R (..., 3, 3): axis times angle in [0, pi], the
-        logarithm of SO(3) (the inverse of `from_axis_angle`). Near pi the axis comes from R + R^T
-        (accurate to the rounding of R), elsewhere from the skew part over sin(angle)."""
+        logarithm of SO(3) (the inverse of `from_axis_angle`). The angle is atan2(|vee(R)|, (tr R - 1) / 2),
+        accurate at every angle; near pi the axis comes from R + R^T, elsewhere from the skew part vee(R) =
+        sin(angle) axis over sin(angle)."""
         R = _array(R, "R", (3, 3))
-        cos = np.clip(0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0), -1.0, 1.0)
-        angle = np.arccos(cos)
         skew = Skew.vee(R)  # sin(angle) * axis
-        sin = np.sin(angle)
+        sin = np.linalg.norm(skew, axis=-1)
+        cos = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
+        angle = np.arctan2(sin, cos)
         small = angle < 1e-6
-        scale = np.where(small, 1.0 + angle**2 / 6.0, angle / np.where(small, 1.0, sin))
+        scale = np.where(small, 1.0 + angle**2 / 6.0, angle / np.where(sin > 0.0, sin, 1.0))
         out = scale[..., None] * skew
         near_pi = angle > np.pi - 1e-3
         if np.any(near_pi):
@@ -244,8 +245,9 @@ class Rotation:
             S = 0.5 * (R + np.swapaxes(R, -1, -2)) - cos[..., None, None] * np.eye(3)
             column = np.argmax(np.diagonal(S, axis1=-2, axis2=-1), axis=-1)
             axis = np.take_along_axis(S, column[..., None, None], axis=-1)[..., 0]
-            axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
-            axis *= np.where(np.sum(axis * skew, axis=-1, keepdims=True) < 0.0, -1.0, 1.0)  # the sign of sin * axis
+            norm = np.linalg.norm(axis, axis=-1, keepdims=True)
+            axis = axis / np.where(norm > 0.0, norm, 1.0)  # (rows away from pi, where S may vanish, are not used)
+            axis = axis * np.where(np.sum(axis * skew, axis=-1, keepdims=True) < 0.0, -1.0, 1.0)  # the sign of sin * axis
             out = np.where(near_pi[..., None], angle[..., None] * axis, out)
         return out
 

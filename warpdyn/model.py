@@ -211,18 +211,12 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
 # Kinematics ------------------------------------------------------------------------------------
 
 
-_PARALLEL = """parallel: JaxSim's choice between its sequential and its level-parallel algorithm, which give the same
-    numbers; warpdyn has one (a thread per environment), so the value changes nothing."""
-
-
 def forward_kinematics(model: Model, data, *, parallel: bool | None = None) -> wp.array:
     """W_H_L: the pose of every link in the world, (nL, 4, 4), or (N, nL, 4, 4) for batched data.
 
-    {parallel}"""
+    parallel: JaxSim's choice between its sequential and its level-parallel algorithm, which give the same
+    numbers; warpdyn has one (a thread per environment), so the value changes nothing."""
     return arrays.squeeze_env(kinematics.poses(model, data, link_targets(model)), data.num_envs)
-
-
-forward_kinematics.__doc__ = forward_kinematics.__doc__.format(parallel=_PARALLEL)
 
 
 def joint_transforms(model: Model, joint_positions, base_transform) -> wp.array:
@@ -295,12 +289,11 @@ def forward_dynamics_aba(model: Model, data, *, joint_forces=None, link_forces=N
     """(base acceleration (6,), joint accelerations (n,)) by the articulated-body algorithm.
 
     joint_forces (n,); link_forces (nL, 6) in the data's representation. The base acceleration is the
-    derivative of the base velocity in the data's representation (zero for a fixed base). {parallel}
+    derivative of the base velocity in the data's representation (zero for a fixed base). parallel: JaxSim's
+    choice between its sequential and its level-parallel algorithm, which give the same numbers; warpdyn has
+    one (a thread per environment), so the value changes nothing.
     """
     return dynamics.forward_dynamics_aba(model, data, joint_forces, link_forces)
-
-
-forward_dynamics_aba.__doc__ = forward_dynamics_aba.__doc__.format(parallel=_PARALLEL)
 
 
 def forward_dynamics_crb(model: Model, data, *, joint_forces=None, link_forces=None):
@@ -423,10 +416,10 @@ def kinetic_energy(model: Model, data) -> wp.array:
 
 
 def potential_energy(model: Model, data) -> wp.array:
-    """U = m g z_CoM [J], gravity g = model.gravity along -z (so U grows with height): (N,) or (1,).
+    """U = m |g| z_CoM [J], |g| = -model.gravity (gravity pulls along -z, so U grows with height): (N,) or (1,).
 
-    JaxSim's text computes m z_CoM model.gravity with its model.gravity = -9.81, the opposite sign,
-    with which K + U is not conserved; this follows the physics (and MuJoCo's energy[0])."""
+    JaxSim's text computes m z_CoM model.gravity = -9.81 m z_CoM, the opposite sign, with which K + U is not
+    conserved; this follows the physics (and MuJoCo's energy[0])."""
     return centroidal.energy(model, data, centroidal.sums(model, data), kinetic=False, potential=True)
 
 

@@ -42,7 +42,8 @@ being what step t (from the state t to t + 1) computed at its start:
     joint_torques (T, N, n): the joint forces step t applied (references through friction, limits, clip;
         the joints' springs and dampers; the actuators)
     link_contact_forces (T, N, nL, 6): the contact wrench on each link in the data's representation, as
-        `wd.contact.link_contact_forces` at the state t (for RK4: at the first stage)
+        `wd.contact.link_contact_forces(..., output_vel_repr=data.velocity_representation)[0]` at the state t
+        (for RungeKutta4 and RungeKutta4Fast: at the first stage)
     collidable_point_forces (T, N, nc, 6): each enabled point's wrench, as `wd.contact.collidable_point_forces`
 Records are Warp arrays on the model's device. A `Rollout`'s records, and the final data it returns, are
 its own buffers: the next `run` overwrites them (copy what you keep). `rollout()` makes a new Rollout

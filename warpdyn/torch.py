@@ -170,7 +170,7 @@ def rollout(
             _check_tensor(value, name, torch_dtype, device)
 
     n = model.dofs()
-    nc = len(model.kin_dyn_parameters.contact_parameters.body)
+    nc = len(model.kin_dyn_structure().contact_parameters.body)
     per_env = {
         "base_position": (3,),
         "base_quaternion": (4,),
@@ -376,7 +376,7 @@ def _validate(model, given: dict, parameters: dict) -> None:
             raise ValueError(f"parameters['{name}'] must be positive")
         if name in _NON_NEGATIVE and not bool((value >= 0).all()):
             raise ValueError(f"parameters['{name}'] must be non-negative")
-    if ("K" in parameters or "D" in parameters) and len(model.kin_dyn_parameters.contact_parameters.indices_of_enabled_collidable_points):
+    if ("K" in parameters or "D" in parameters) and len(model.kin_dyn_structure().contact_parameters.indices_of_enabled_collidable_points):
         c = model.contact_params
         K = parameters["K"].detach().cpu().numpy() if "K" in parameters else c.K
         D = parameters["D"].detach().cpu().numpy() if "D" in parameters else c.D

@@ -182,10 +182,7 @@ def terrain_grid_lines(terrain, *, center=(0.0, 0.0), half_extent: float = 2.0, 
 def point_penetration(terrain, points) -> np.ndarray:
     """delta = (h(x, y) - z) n_z(x, y) of points (..., 3) [m]: positive below the terrain (the depth the
     soft contacts use), zero on it, negative above."""
-    p = np.asarray(points, dtype=np.float64)
-    h = np.asarray(terrain.height(p[..., 0], p[..., 1]), dtype=np.float64)
-    n = np.asarray(terrain.normal(p[..., 0], p[..., 1]), dtype=np.float64)
-    return (h - p[..., 2]) * n[..., 2]
+    return terrain.penetration(points)
 
 
 def point_colors(delta, depth_scale: float = 2e-3) -> np.ndarray:
@@ -289,7 +286,7 @@ class RerunRecorder:
         self.link_names = list(model.link_names())
         self._link_paths = [f"{self.root}/robot/links/{name}" for name in _unique_names(self.link_names)]
         self._parent = np.asarray(model.tree.parent)
-        params = model.kin_dyn_parameters.contact_parameters
+        params = model.kin_dyn_structure().contact_parameters
         idx = params.indices_of_enabled_collidable_points
         self._point_link = np.asarray(params.body, dtype=np.int64)[idx]
         self._static_logged = False
@@ -346,7 +343,7 @@ class RerunRecorder:
                 )
             except Exception:  # no trimesh/scipy, or a degenerate hull: the vertices as points
                 return rr.Points3D(vertices.astype(np.float32), radii=self.point_radius / 2, colors=[MESH_COLOR])
-        options = self.model.kin_dyn_parameters.options
+        options = self.model.kin_dyn_structure().options
         source = getattr(self.model.description, "path", None)
         base_dir = pathlib.Path(source).parent if source else None
         path = _contact.resolve_mesh_uri(shape.filename or "", base_dir=base_dir, package_dirs=options.package_dirs, mesh_dirs=options.mesh_dirs)

@@ -278,12 +278,13 @@ def build_tree(
                 lumped_order.append(child)
             queue.append(child)
 
-    # Breadth-first order of the lumped tree.
+    # Breadth-first order of the lumped tree, each kept link's children sorted by name (JaxSim walks the reduced
+    # graph: a kept link reached through lumped links is ordered among its kept parent's children by its name).
     link_names, joints, parent_H_joint = [description.base], [None], [np.eye(4)]
     parents = [-1]
     head = 0
     while head < len(link_names):
-        for joint, H in kept_children[link_names[head]]:
+        for joint, H in sorted(kept_children[link_names[head]], key=lambda child: child[0].child):
             link_names.append(joint.child)
             joints.append(joint)
             parent_H_joint.append(H)

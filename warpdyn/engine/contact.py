@@ -17,15 +17,15 @@ from ..types.contact_models import SoftContacts, register_forces
 from ..types.enums import VelRepr
 from .kinematics import link_poses, targets, velocities
 from .launch import launch
-from .evaluations import contact_evaluation
+from .evaluations import contact_evaluation, deformation_rates
 from .step import plan
 
-__all__ = ["point_targets", "positions", "point_velocities", "link_wrenches", "point_wrenches", "soft_contact_forces", "links_in_contact"]
+__all__ = ["point_targets", "positions", "point_velocities", "link_wrenches", "link_wrenches_and_rates", "point_wrenches", "soft_contact_forces", "links_in_contact"]
 
 
 def point_targets(model):
     """The enabled collidable points as the kernels' Targets (their link, and (L_p_C, identity) in it)."""
-    params = model.kin_dyn_parameters
+    params = model.kin_dyn_structure()
     return model.cached("point targets", lambda: targets(model, params.enabled_link, params.enabled_link_H_point))
 
 
@@ -52,6 +52,11 @@ def point_velocities(model, data) -> wp.array:
 def link_wrenches(model, data, out_repr: int) -> wp.array:
     """(N, nL, 6): the contact wrench on each link in representation `out_repr` (see
     warpdyn.contact.link_contact_forces), zero for links without enabled points."""
+    return link_wrenches_and_rates(model, data, out_repr)[0]
+
+
+def link_wrenches_and_rates(model, data, out_repr: int) -> tuple[wp.array, wp.array]:
+    """((N, nL, 6) `link_wrenches`, m_dot (N, nc_all, 3) the deformation rates) of one contact evaluation."""
     current, ev = contact_evaluation(model, data)
     N, nL = data.batch_size, model.number_of_links()
     out = arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
@@ -65,7 +70,7 @@ def link_wrenches(model, data, out_repr: int) -> wp.array:
             outputs=[out],
             device=model.device,
         )
-    return out
+    return out, deformation_rates(current, ev, N)
 
 
 def point_wrenches(model, data, out_repr: int) -> wp.array:
@@ -81,11 +86,7 @@ def soft_contact_forces(model, data, link_forces=None, joint_force_references=No
     act on the soft law."""
     current, ev = contact_evaluation(model, data)
     W_f_C = _point_wrenches(model, data, int(VelRepr.Inertial), current, ev)
-    if ev is None:
-        m_dot = arrays.output((current.total, 3), data.batch_size, model.scalar, model.device)
-        m_dot.zero_()
-    else:
-        m_dot = ev.m_dot
+    m_dot = deformation_rates(current, ev, data.batch_size)
     return arrays.squeeze_env(W_f_C, data.num_envs), {"m_dot": arrays.squeeze_env(m_dot, data.num_envs)}
 
 

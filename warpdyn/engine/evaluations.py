@@ -85,13 +85,20 @@ def contact_forces(model, data, W_f_ext: wp.array | None = None):
     current, ev = contact_evaluation(model, data, W_f_ext)
     N, s, d = data.batch_size, current.scalar, current.device
     if ev is None:
-        m_dot = arrays.output((current.total, 3), N, s, d)
-        m_dot.zero_()
         W_f_L = W_f_ext
         if W_f_L is None:
             W_f_L = arrays.zeros((current.nL, 6), N, s, d)
-        return arrays.output((0, 6), N, s, d), m_dot, W_f_L
+        return arrays.output((0, 6), N, s, d), deformation_rates(current, ev, N), W_f_L
     return ev.W_f_C, ev.m_dot, ev.W_f_L
+
+
+def deformation_rates(current: Plan, ev: Evaluation | None, N: int) -> wp.array:
+    """m_dot (N, nc_all, 3) [m/s] of a contact evaluation (`contact_evaluation`): zeros without enabled points."""
+    if ev is not None:
+        return ev.m_dot
+    m_dot = arrays.output((current.total, 3), N, current.scalar, current.device)
+    m_dot.zero_()
+    return m_dot
 
 
 def integrate(model, data, integrator, link_forces=None, joint_torques=None):

@@ -80,7 +80,7 @@ def contact_reach(model) -> ContactReach:
 
 
 def _contact_reach(model) -> ContactReach:
-    cp = model.kin_dyn_parameters.contact_parameters
+    cp = model.kin_dyn_structure().contact_parameters
     rows = np.asarray(cp.indices_of_enabled_collidable_points, dtype=np.int64)
     if rows.size == 0:
         return ContactReach(0.0, False, "no enabled collidable points")

@@ -194,7 +194,7 @@ class Plan:
         else:
             self.actuation = actuation_kernel(s, self.with_limits, self.with_friction, self.with_passive, per_joint) if self.n > 0 else None
         self.torque_curve = [s(a.torque_max), s(a.omega_th), s(a.omega_max)]
-        # MuJoCo's joint forces alone (on given torques: warpdyn.engine.step.integrate)
+        # MuJoCo's joint forces alone (on given torques: warpdyn.engine.evaluations.integrate)
         self.mujoco_part = mujoco_kernel(s, self.with_passive, per_joint) if self.n > 0 and (self.with_passive or per_joint > 0) else None
         # MuJoCo's implicit joint damping in the Euler integrators (ABA's d_i + dt damping_i)
         implicit = self.euler and model.implicit_damping
@@ -202,7 +202,7 @@ class Plan:
         # gravity compensation: link forces from the links' poses at each evaluation
         self.gravcomp = nonzero("gravcomp_mass") or gravcomp_grad
         # collidable points: the enabled ones ordered by link (the contact kernel sums them per link)
-        cp = model.kin_dyn_parameters.contact_parameters
+        cp = model.kin_dyn_structure().contact_parameters
         rows = cp.indices_of_enabled_collidable_points
         links = np.asarray(cp.body, dtype=np.int64)[rows]
         order = np.argsort(links, kind="stable")

@@ -223,7 +223,7 @@ class LeggedEnv(gym.vector.VectorEnv):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         if use_graph not in ("auto", True, False):
             raise ValueError(f"use_graph must be 'auto', True or False, got {use_graph!r}")
-        if model.kin_dyn_parameters.enabled_link.shape[0] == 0:
+        if model.kin_dyn_structure().enabled_link.shape[0] == 0:
             raise ValueError(f"LeggedEnv needs collidable points to stand on; '{model.name()}' has none enabled")
         if use_graph is True and not model.device.is_cuda:
             raise ValueError(f"use_graph=True captures torch ops in a CUDA graph; '{model.device}' is not a GPU (use 'auto')")
@@ -323,7 +323,7 @@ class LeggedEnv(gym.vector.VectorEnv):
 
     def _feet(self, model) -> tuple:
         """(foot link names, [torch index tensor of each foot's enabled collidable points])."""
-        link_of_point = np.asarray(model.kin_dyn_parameters.enabled_link.numpy()).reshape(-1)
+        link_of_point = np.asarray(model.kin_dyn_structure().enabled_link.numpy()).reshape(-1)
         links = model.link_names()
         feet = tuple(self.cfg.feet) or tuple(links[i] for i in sorted(set(link_of_point.tolist())))
         points = []

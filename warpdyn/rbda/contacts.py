@@ -35,9 +35,9 @@ def compute_penetration_data(p, v, terrain) -> tuple[np.ndarray, np.ndarray, np.
     """(depth (...), depth rate (...), normal (..., 3)) of points at p (..., 3) [m] moving at v (..., 3)
     [m/s] against `terrain`, JaxSim's: the penetration delta = max(0, (h(x, y) - p_z) n_z) [m] with h and n
     the terrain's height and unit normal below the point, its rate -v.n where delta > 0 (else 0) [m/s], and
-    n. Host NumPy."""
+    n. A FlatTerrain of N heights reads environment e's at p[e]. Host NumPy."""
     P = np.asarray(p.numpy() if isinstance(p, wp.array) else p, dtype=np.float64)
     V = np.asarray(v.numpy() if isinstance(v, wp.array) else v, dtype=np.float64)
     n = terrain.normal(P[..., 0], P[..., 1])
-    delta = np.maximum(0.0, (terrain.height(P[..., 0], P[..., 1]) - P[..., 2]) * n[..., 2])
+    delta = np.maximum(0.0, terrain.penetration(P))
     return delta, np.where(delta > 0.0, -np.sum(V * n, axis=-1), 0.0), n

@@ -94,7 +94,7 @@ class SoftContacts(ContactModel):
     @staticmethod
     def zero_state_variables(model) -> dict[str, np.ndarray]:
         """{"tangential_deformation": zeros (nc_all, 3)}: one row per collidable point, enabled or not."""
-        return {"tangential_deformation": np.zeros((len(model.kin_dyn_parameters.contact_parameters.body), 3))}
+        return {"tangential_deformation": np.zeros((len(model.kin_dyn_structure().contact_parameters.body), 3))}
 
     @staticmethod
     def update_contact_state(old_contact_state: dict) -> dict:
@@ -106,11 +106,14 @@ class SoftContacts(ContactModel):
     def hunt_crossley_contact_model(position, velocity, tangential_deformation, terrain, K, D, mu, p=0.5, q=0.5) -> tuple:
         """(f (..., 3) [N, world axes], m_dot (..., 3) [m/s]): the soft law at points `position` (..., 3) [m]
         moving at `velocity` (..., 3) [m/s] with deformation `tangential_deformation` (..., 3) [m] on `terrain`
-        (a warpdyn.terrain terrain, read at the points), p and q the exponents. A host function (NumPy in and
-        out, float64: the kernels' law, launched on the CPU), for scripts and checks: gradients through the law
-        come from the functions that compute it on a model under a wp.Tape (warpdyn.contact, `step`)."""
+        (a warpdyn.terrain terrain, read at the points), p and q the exponents. K, D and mu: numbers, or arrays
+        that broadcast against the points' leading axes (one value per point, or per environment (N, 1) for
+        points (N, nc, 3)). A FlatTerrain of N heights (one per environment) needs points (N, ..., 3): environment
+        e's are read on its height. A host function (NumPy in and out, float64: the kernels' law, launched on the
+        CPU), for scripts and checks: gradients through the law come from the functions that compute it on a
+        model under a wp.Tape (warpdyn.contact, `step`)."""
         P = _points(position, "position")
-        n, h = terrain.normal(P[..., 0], P[..., 1]), terrain.height(P[..., 0], P[..., 1])
+        n, h = terrain.normal(P[..., 0], P[..., 1]), terrain.height_under(P)
         return _law(P, _points(velocity, "velocity"), _points(tangential_deformation, "tangential_deformation"), h, n, (K, D, mu, p, q))
 
     @staticmethod
@@ -134,8 +137,12 @@ def _points(value, name: str) -> np.ndarray:
 def _law(p, v, m, h, n, numbers: tuple) -> tuple[np.ndarray, np.ndarray]:
     """(f (..., 3), m_dot (..., 3)): kernels/soft_contacts.py's `hunt_crossley` at the points p, velocities v
     and deformations m (..., 3) on terrain heights h (...) and unit normals n (..., 3), launched on the CPU in
-    float64; numbers: (K, D, mu, p, q)."""
-    batch = np.broadcast_shapes(p.shape[:-1], v.shape[:-1], m.shape[:-1], np.shape(h), np.shape(n)[:-1])
+    float64; numbers: (K, D, mu, p, q), K, D and mu broadcast against the points, p and q one number each."""
+    K, D, mu, pe, qe = (np.asarray(x.numpy() if isinstance(x, wp.array) else x, dtype=np.float64) for x in numbers)
+    for name, value in (("p", pe), ("q", qe)):
+        if value.size != 1:
+            raise ValueError(f"the soft law's exponent {name} must be one number, got shape {value.shape}")
+    batch = np.broadcast_shapes(p.shape[:-1], v.shape[:-1], m.shape[:-1], np.shape(h), np.shape(n)[:-1], K.shape, D.shape, mu.shape)
     rows = int(np.prod(batch, dtype=int))
     vec3 = wp.types.vector(3, wp.float64)
 
@@ -143,8 +150,8 @@ def _law(p, v, m, h, n, numbers: tuple) -> tuple[np.ndarray, np.ndarray]:
         host = np.broadcast_to(np.asarray(x, dtype=np.float64), (*batch, *last)).reshape(rows, *last)
         return wp.array(np.ascontiguousarray(host), dtype=vec3 if last else wp.float64, device="cpu")
 
-    K, D, mu, pe, qe = (float(np.asarray(x.numpy() if isinstance(x, wp.array) else x).reshape(-1)[0]) for x in numbers)
     f, m_dot = wp.empty(rows, dtype=vec3, device="cpu"), wp.empty(rows, dtype=vec3, device="cpu")
-    inputs = [flat(p, (3,)), flat(v, (3,)), flat(m, (3,)), flat(h, ()), flat(n, (3,)), K, D, mu, pe, qe]
+    inputs = [flat(p, (3,)), flat(v, (3,)), flat(m, (3,)), flat(h, ()), flat(n, (3,)), flat(K, ()), flat(D, ()), flat(mu, ()),
+              float(pe.reshape(-1)[0]), float(qe.reshape(-1)[0])]
     wp.launch(points_kernel(wp.float64), dim=rows, inputs=inputs, outputs=[f, m_dot], device="cpu")
     return f.numpy().reshape(*batch, 3), m_dot.numpy().reshape(*batch, 3)

@@ -146,7 +146,7 @@ def _check_field(name: str, array: wp.array, shape: tuple, dtype, device) -> Non
 
 def check_contact_state(model, data) -> None:
     """A ValueError when the data's contact state does not hold one row per collidable point of the model."""
-    total = len(model.kin_dyn_parameters.contact_parameters.body)
+    total = len(model.kin_dyn_structure().contact_parameters.body)
     m = data.tangential_deformation_state
     if m is None or m.shape[1] != total:
         got = None if m is None else m.shape[1]

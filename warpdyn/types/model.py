@@ -35,17 +35,15 @@ from .kin_dyn import JointModel, JointParameters, KinDynParameters, LinkParamete
 from .model_constants import joint_motion_terms, quaternion_xyzw, sibling_chains, transforms
 from .model_settings import ModelSettings
 from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter, validate_parameters
-from .settings import ActuationParams, SoftContactsParams
+from .settings import STANDARD_GRAVITY, ActuationParams, SoftContactsParams
 from .terrain import FlatTerrain, HeightfieldTerrain
 
 __all__ = ["Model", "SCALARS", "STANDARD_GRAVITY", "transforms", "quaternion_xyzw"]
 
 SCALARS = {np.dtype(np.float32): wp.float32, np.dtype(np.float64): wp.float64}
-
-STANDARD_GRAVITY = 9.81
-"""JaxSim's standard gravity [m/s^2] (warpdyn.math.STANDARD_GRAVITY): the magnitude of a model's gravity
-unless its description or the builder says otherwise."""
 """The NumPy dtypes a model computes in, and their Warp scalars."""
+
+
 
 
 class _ParameterAttribute:
@@ -488,21 +486,32 @@ class Model(ModelSettings):
         """JaxSim's `kin_dyn_parameters` (host-side, NumPy, warpdyn.types.kin_dyn): `.contact_parameters`
         (body, point, enabled of the collidable points), `.frame_parameters`, `.link_names`, `.parent_array`,
         `.support_body_array_bool`, `.joint_model`, and `.link_parameters` and `.joint_parameters`: a
-        snapshot of the model's parameters now (taken once per model version). Change them through a copy
+        snapshot of the model's parameters now (read from their device arrays at each access, edits in place
+        included). Change them through a copy
         (`kin_dyn_parameters.set_link_mass(...)`) and `model.replace(kin_dyn_parameters=...)`, as in JaxSim,
         or with the setters.
 
         The collidable points are made on first use with the default `warpdyn.contact.CollidablePointsOptions`;
         see `warpdyn.contact.with_collidable_points` for other options or enabled points.
         """
+        return self._kin_dyn_snapshot()
+
+    def kin_dyn_structure(self) -> KinDynParameters:
+        """The model's KinDynParameters without its parameters' snapshot (links, joints, frames, collidable points:
+        what model equality and hashing compare), made once."""
         if self._kin_dyn is None:
             with self._lock:
                 if self._kin_dyn is None:
                     self._kin_dyn = KinDynParameters.build(self)
-        return self.cached("kin_dyn_parameters", self._kin_dyn_snapshot)
+        return self._kin_dyn
 
     def _kin_dyn_snapshot(self) -> KinDynParameters:
-        hosts, nL, n = self._hosts, self.number_of_links(), self.dofs()
+        """The structure with the link and joint parameters as the device arrays hold them now (edits in place
+        included: each is copied to the host)."""
+        hosts = {name: np.asarray(self._values[name].numpy(), dtype=np.float64) for name in (
+            "link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous",
+            "joint_limit_spring", "joint_limit_damper")}
+        nL, n = self.number_of_links(), self.number_of_joints()
         links = LinkParameters.build_from_inertial_parameters(np.arange(nL), hosts["link_mass"], hosts["link_inertia"], hosts["link_com"])
         limits = hosts["position_limits"]
         joints = JointParameters(
@@ -514,16 +523,17 @@ class Model(ModelSettings):
             position_limit_spring=hosts["joint_limit_spring"].copy(),
             position_limit_damper=hosts["joint_limit_damper"].copy(),
         )
-        return dataclasses.replace(self._kin_dyn, joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints)
+        return dataclasses.replace(self.kin_dyn_structure(), joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints)
 
     def apply_kin_dyn_parameters(self, params: KinDynParameters) -> None:
         """Set the link and joint parameters `params` holds (when it has them) and use its collidable points
         (what `replace(kin_dyn_parameters=...)` does). A ValueError when it is another model's structure."""
         if not isinstance(params, KinDynParameters):
             raise TypeError(f"kin_dyn_parameters must be a KinDynParameters, got {type(params).__name__}")
-        if params.link_names != self.link_names() or params != self.kin_dyn_parameters:
+        if params.link_names != self.link_names() or params != self.kin_dyn_structure():
             raise ValueError(f"kin_dyn_parameters describe links {list(params.link_names)[:4]}..., not model '{self.name()}''s structure")
-        self._kin_dyn = dataclasses.replace(params, joint_model=None, link_parameters=None, joint_parameters=None)
+        # its collidable points, on this model's device and in its scalar (params may be another model's)
+        self._kin_dyn = dataclasses.replace(params.with_enabled(self, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
         links, joints = params.link_parameters, params.joint_parameters
         if links is not None:
             self.set_link_parameters(mass=links.mass, com=links.center_of_mass, inertia=LinkParameters.inertia_tensor(links))
@@ -540,7 +550,7 @@ class Model(ModelSettings):
     def with_kin_dyn_parameters(self, params: KinDynParameters) -> Model:
         """A model like this one (sharing its device constants and parameters) with other collidable points."""
         new = self.copy()
-        new._kin_dyn = dataclasses.replace(params, joint_model=None, link_parameters=None, joint_parameters=None)
+        new._kin_dyn = dataclasses.replace(params.with_enabled(new, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
         return new
 
     def snapshot_state(self) -> dict:

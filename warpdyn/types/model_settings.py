@@ -188,10 +188,10 @@ class ModelSettings:
             return NotImplemented
         if self is other:
             return True
-        return (self.model_name, self.time_step) == (other.model_name, other.time_step) and self.kin_dyn_parameters == other.kin_dyn_parameters
+        return (self.model_name, self.time_step) == (other.model_name, other.time_step) and self.kin_dyn_structure() == other.kin_dyn_structure()
 
     def __hash__(self) -> int:
         """The hash of the name and the kinematic structure (what does not change over a model's life; equal
         models have equal hashes)."""
-        return hash((self.model_name, self.kin_dyn_parameters))
+        return hash((self.model_name, self.kin_dyn_structure()))
 

@@ -9,7 +9,7 @@ import warp as wp
 
 from .. import arrays
 
-__all__ = ["ContactsParams", "SoftContactsParams", "ActuationParams", "host_values", "check_contact_value", "CONTACT_UNITS", "MAX_STIFFNESS", "MAX_DAMPING"]
+__all__ = ["ContactsParams", "SoftContactsParams", "ActuationParams", "STANDARD_GRAVITY", "host_values", "check_contact_value", "CONTACT_UNITS", "MAX_STIFFNESS", "MAX_DAMPING"]
 
 
 def host_values(value, name: str = "value") -> np.ndarray:
@@ -22,6 +22,10 @@ def host_values(value, name: str = "value") -> np.ndarray:
         raise TypeError(f"{name} must be a number or an array of numbers, got {value!r}")
     return arrays.host_numbers(value, name)
 
+
+STANDARD_GRAVITY = 9.81
+"""JaxSim's standard gravity [m/s^2] (warpdyn.math.STANDARD_GRAVITY): the magnitude of a model's gravity
+unless its description or the builder says otherwise, and the gravity of JaxSim's contact-parameter estimate."""
 
 CONTACT_UNITS = {"K": "N/m^(1+p)", "D": "N s/m^(1+q)", "mu": "", "p": "", "q": ""}
 """The units of SoftContactsParams' fields."""
@@ -79,7 +83,7 @@ class ContactsParams:
         *,
         stiffness=None,
         damping=None,
-        standard_gravity: float = 9.81,
+        standard_gravity: float = STANDARD_GRAVITY,
         static_friction_coefficient: float = 0.5,
         max_penetration=0.001,
         number_of_active_collidable_points_steady_state: int = 1,

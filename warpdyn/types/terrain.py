@@ -62,6 +62,14 @@ def _key(value):
     return (host.shape, host.tobytes())
 
 
+def _frozen(host: np.ndarray) -> np.ndarray:
+    """A read-only float64 copy of host values (a terrain keeps its own: editing the caller's array changes
+    nothing). A Warp array, a differentiable parameter the step reads in place, is kept as it is."""
+    copy = np.array(host, dtype=np.float64)
+    copy.setflags(write=False)
+    return copy
+
+
 class Terrain:
     """JaxSim's base class of terrains: `height(x, y)` [m] and `normal(x, y)`, the unit normal by central
     differences of the height with step `delta` [m] (the subclasses give theirs exactly). Terrains are
@@ -91,10 +99,31 @@ class Terrain:
         """The terrain of environment env: this one (shared by all) unless it has per-environment values."""
         return self
 
+    def environments(self) -> int:
+        """How many environments' values the terrain holds: 1 when it is shared."""
+        return 1
+
+    def height_under(self, points) -> np.ndarray:
+        """h(x, y) (...) [m] under points (..., 3). A terrain of N per-environment values reads environment e's
+        under points[e] (the points need a leading axis of N). Host NumPy."""
+        P = np.asarray(points, dtype=np.float64)
+        count = self.environments()
+        if count == 1:
+            return self.height(P[..., 0], P[..., 1])
+        if P.ndim < 2 or P.shape[0] != count:
+            raise ValueError(f"the terrain has {count} heights (one per environment): the points need shape ({count}, ..., 3), got {P.shape}")
+        return np.stack([self.height(P[e, ..., 0], P[e, ..., 1], env=e) for e in range(count)])
+
+    def penetration(self, points) -> np.ndarray:
+        """delta = (h(x, y) - z) n_z(x, y) of points (..., 3) [m] (h: `height_under`): the depth the soft contacts
+        use where it is positive (below the terrain), zero on it, negative above. Host NumPy."""
+        P = np.asarray(points, dtype=np.float64)
+        return (self.height_under(P) - P[..., 2]) * self.normal(P[..., 0], P[..., 1])[..., 2]
+
 
 class FlatTerrain(Terrain):
-    """The plane z = height [m]: a number, or one height per environment (N,) (NumPy or Warp array), kept as
-    `elevation`."""
+    """The plane z = height [m]: a number, or one height per environment (N,) (a sequence or NumPy array, kept
+    as a read-only copy, or a Warp array, kept as it is: a parameter the step reads in place), as `elevation`."""
 
     kind = FLAT
 
@@ -102,7 +131,7 @@ class FlatTerrain(Terrain):
         h = host_values(height, "FlatTerrain.height")
         if h.ndim > 1 or h.size == 0 or not np.all(np.isfinite(h)):
             raise ValueError(f"FlatTerrain.height must be a finite number or (N,) array, got {height!r}")
-        self._set(elevation=height if isinstance(height, (wp.array, np.ndarray)) else float(h))
+        self._set(elevation=height if isinstance(height, wp.array) else float(h) if h.ndim == 0 else _frozen(h))
 
     @staticmethod
     def build(height=0.0) -> FlatTerrain:
@@ -134,6 +163,9 @@ class FlatTerrain(Terrain):
     def for_env(self, env: int) -> FlatTerrain:
         """The terrain of environment env alone (its height a number)."""
         return self if np.ndim(self.elevation) == 0 else FlatTerrain(self.height_of(env))
+
+    def environments(self) -> int:
+        return int(np.atleast_1d(host_values(self.elevation)).size)
 
     def plane(self) -> tuple[np.ndarray, float]:
         """(unit normal, height at the origin) of environment 0."""
@@ -211,7 +243,7 @@ class HeightfieldTerrain(Terrain):
             raise ValueError(f"HeightfieldTerrain.heights has non-finite values, first at {tuple(bad[0].tolist())}: {h[tuple(bad[0])]}")
         if min(_pair("spacing", spacing)) <= 0.0:
             raise ValueError(f"HeightfieldTerrain.spacing must be two finite positive numbers [m], got {spacing!r}")
-        self._set(spacing=_pair("spacing", spacing), origin=_pair("origin", origin), heights=heights if isinstance(heights, wp.array) else h)
+        self._set(spacing=_pair("spacing", spacing), origin=_pair("origin", origin), heights=heights if isinstance(heights, wp.array) else _frozen(h))
 
     def __repr__(self) -> str:
         return f"HeightfieldTerrain(heights=<{tuple(self.heights.shape)} grid>, origin={self.origin}, spacing={self.spacing})"
