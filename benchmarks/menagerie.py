@@ -31,7 +31,10 @@ stand-in, so the comparison still holds, but the robot is not quite Menagerie's 
 from that mesh changes); such rows say how many meshes were stood in. Without the flag they are reported as not
 compiling.
 
-Warp compiles each kernel once per model size; --jobs N spreads the entry points over N processes.
+Warp compiles each kernel once per model size; --jobs N spreads the entry points over N processes. The
+warpdyn measured is the one `import warpdyn` finds (its commit is in the report's header): to measure a commit
+while the working tree is being edited, run from a clean checkout of it with PYTHONPATH at that checkout, which
+the worker processes inherit.
 """
 
 from __future__ import annotations
