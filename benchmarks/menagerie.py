@@ -103,15 +103,17 @@ def meshes(xml: pathlib.Path) -> list[pathlib.Path]:
     return [xml.parent / mesh.compiler.meshdir / mesh.file for mesh in spec.meshes if mesh.file and not os.path.isabs(mesh.file)]
 
 
+def parsed_meshes(xml: pathlib.Path) -> list[pathlib.Path]:
+    """meshes(xml), none for a fragment that does not parse alone (the files including it name its meshes)."""
+    try:
+        return meshes(xml)
+    except ValueError:
+        return []
+
+
 def missing_meshes(robot_dir: pathlib.Path) -> set[pathlib.Path]:
     """The missing mesh files that the top-level XML files of robot_dir name."""
-    missing = set()
-    for xml in robot_dir.glob("*.xml"):
-        try:
-            missing.update(mesh for mesh in meshes(xml) if not mesh.exists())
-        except ValueError:  # a fragment that does not parse alone
-            continue
-    return missing
+    return {mesh for xml in robot_dir.glob("*.xml") for mesh in parsed_meshes(xml) if not mesh.exists()}
 
 
 def stand_in_mirror(robot_dir: pathlib.Path, missing: set[pathlib.Path], into: pathlib.Path) -> pathlib.Path:
@@ -181,10 +183,10 @@ def candidates(menagerie: pathlib.Path, stand_in: bool, scratch: pathlib.Path) -
             c = Candidate(xml, mirror / xml.name, includes=tuple(sorted(_included(xml, names))))
             try:
                 m = mujoco.MjModel.from_xml_path(str(c.compile_path))
-                c.stand_ins = len({mesh for f in (xml.name, *c.includes) for mesh in meshes(robot_dir / f) if mesh in missing})
             except ValueError as error:  # a fragment, or a missing file
                 c.error = str(error).strip().splitlines()[0]
             else:
+                c.stand_ins = len({mesh for f in (xml.name, *c.includes) for mesh in parsed_meshes(robot_dir / f) if mesh in missing})
                 c.signature = (m.nq, m.nv, m.nu, m.na)
                 c.dynamics = _dynamics(m)
             found.append(c)
