@@ -28,6 +28,7 @@ import warp as wp
 from common import seed_model
 from warpdyn.engine import fused_layout
 from warpdyn.engine import step as engine_step
+from warpdyn.engine import warp_private
 from warpdyn.kernels import aba, crba, rnea
 
 
@@ -49,7 +50,7 @@ def kernels(dtype: str) -> dict:
 
 def compile_report(kernel, arch: int, ptxas: str, nvdisasm: str | None, folder: pathlib.Path) -> tuple:
     """(registers, stack bytes, spill store bytes, spill load bytes, SASS instructions or None) of the kernel's forward entry."""
-    wp.compile_aot_module(kernel.module, arch=arch, module_dir=str(folder), use_ptx=True)
+    wp.compile_aot_module(warp_private.kernel_module(kernel), arch=arch, module_dir=str(folder), use_ptx=True)
     ptx = next(folder.glob("*.ptx"))
     clean = folder / "module.ptx"
     clean.write_bytes(ptx.read_bytes().rstrip(b"\0"))  # Warp's PTX ends in a NUL, which ptxas refuses

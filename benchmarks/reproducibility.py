@@ -28,6 +28,8 @@ import warp as wp
 import warpdyn as wd
 from common import header, init_warp, seed_model
 from warpdyn import VelRepr
+from warpdyn.engine import warp_private
+from warpdyn.kernels.aba import kernels as aba_kernels
 
 PARAMETERS = ("link_mass", "friction_viscous", "K", "terrain_height")
 RECORD = ("joint_positions", "base_velocity", "tangential_deformation", "joint_torques", "link_contact_forces")
@@ -115,8 +117,8 @@ def run_to_run(device, N: int, T: int, storage: str) -> None:
 def arrays_of(x) -> list:
     if isinstance(x, wp.array):
         return [x]
-    cls = getattr(x, "_cls", None)
-    return [a for name in cls.vars for a in arrays_of(getattr(x, name))] if cls is not None else []
+    fields = warp_private.struct_fields(x)
+    return [a for name in fields for a in arrays_of(getattr(x, name))] if fields is not None else []
 
 
 def _step_tape(model, data, device):
@@ -125,7 +127,7 @@ def _step_tape(model, data, device):
     with tape:
         tau = wp.array(5.0 * rng.normal(size=(1, model.dofs())), dtype=wp.float64, requires_grad=True, device=device)
         wd.model.step(model, data, joint_force_references=tau)
-    return tape, next(launch for launch in tape.launches if isinstance(launch, list) and "aba" in launch[0].key)
+    return tape, next(launch for launch in warp_private.tape_kernel_launches(tape) if launch.kernel is aba_kernels(wp.float64).aba)
 
 
 def aba_replays(device) -> None:

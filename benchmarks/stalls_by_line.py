@@ -29,6 +29,7 @@ import tempfile
 
 import warp as wp
 from registers import kernels
+from warpdyn.engine import warp_private
 
 KERNEL = "fused step, transforms rebuilt, records in shared memory (blocks of 64)"
 SOURCE = pathlib.Path(__file__).resolve().parent.parent / "kernels" / "fused_step.py"
@@ -44,7 +45,7 @@ def lines_of_instructions(dtype: str, arch: int, ptxas: str, nvdisasm: str) -> l
     kernel = kernels(dtype)[KERNEL]
     with tempfile.TemporaryDirectory(prefix="warpdyn-stalls-") as name:
         folder = pathlib.Path(name)
-        wp.compile_aot_module(kernel.module, arch=arch, module_dir=str(folder), use_ptx=True)
+        wp.compile_aot_module(warp_private.kernel_module(kernel), arch=arch, module_dir=str(folder), use_ptx=True)
         clean = folder / "module.ptx"
         clean.write_bytes(next(folder.glob("*.sm*.ptx")).read_bytes().rstrip(b"\0"))  # Warp's PTX ends in a NUL
         cubin = folder / "module.cubin"

@@ -50,6 +50,7 @@ compensation, a step is warpdyn.engine.step's launch list, whose numbers these e
 
 import warp as wp
 
+from ..engine import warp_private
 from .aba import inertia_funcs
 from .actuation import joint_force
 from .bundles import bundles
@@ -82,8 +83,7 @@ def unfilled(scalar, *shape: int) -> str:
     numbers nothing has written. Warp's constructors write zeros first, which a record that each pass writes before
     a pass reads it does not need: in float64 on a GPU, the 78 zeros of c (local memory) stalled the start of a step
     (benchmarks/RESULTS.md, round 15). The union's other member is the one its constructor sets."""
-    cpp_scalar = "wp::float32" if scalar == wp.float32 else "wp::float64"
-    cpp = f"wp::vec_t<{shape[0]}, {cpp_scalar}>" if len(shape) == 1 else f"wp::mat_t<{shape[0]}, {shape[1]}, {cpp_scalar}>"
+    cpp = warp_private.native_name(wp.types.vector(shape[0], scalar) if len(shape) == 1 else wp.types.matrix(shape, scalar))
     return f"""
     union Unfilled {{ {cpp} value; unsigned char none; CUDA_CALLABLE Unfilled() : none(0) {{}} }} unfilled;
     return unfilled.value;"""

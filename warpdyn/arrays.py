@@ -18,6 +18,7 @@ import numpy as np
 import warp as wp
 
 from . import config
+from .engine import warp_private
 
 capture_lock = threading.Lock()
 """Held while a graph is captured (warpdyn.engine.launch.capture): Warp captures one graph at a time, and a
@@ -136,7 +137,7 @@ def strided_view(array: wp.array, shape: tuple, strides: tuple) -> wp.array:
     view = wp.array(ptr=array.ptr, dtype=array.dtype, shape=tuple(shape), strides=tuple(strides), device=array.device)
     if array.grad is not None:
         view.grad = wp.array(ptr=array.grad.ptr, dtype=array.dtype, shape=tuple(shape), strides=tuple(strides), device=array.device)
-    view._ref = array  # the memory's owner (Warp's own views keep theirs the same way)
+    warp_private.keep_owner(view, array)  # the memory's owner, as Warp's own views keep theirs
     return view
 
 
@@ -265,6 +266,6 @@ def input_array(shape: tuple, num_envs: int, dtype, device, name: str) -> InputA
     """A zero `InputArray` of logical shape (num_envs, *shape), named `name` in its errors."""
     owner = zeros(shape, num_envs, dtype, device)
     array = InputArray(ptr=owner.ptr, dtype=dtype, shape=owner.shape, strides=owner.strides, device=owner.device)
-    array._ref = owner  # the memory's owner (Warp's own views keep theirs the same way)
+    warp_private.keep_owner(array, owner)  # the memory's owner, as Warp's own views keep theirs
     array.name = name
     return array

@@ -26,7 +26,6 @@ from .description import NotModelledWarning, UnphysicalInertiaWarning
 from .description.model import ActuatorDescription
 from .engine.kinematics import link_targets
 from .data import Data
-from .engine.warp_private import tape_known
 from .math import Quaternion
 from .types.enums import IntegratorType, VelRepr, output_repr
 from .types.model import Model
@@ -193,8 +192,6 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
     with a zero limit spring has its limit off: its gradient is 0 there).
     """
     names = (names,) if isinstance(names, str) else tuple(names)
-    if deterministic and not tape_known():
-        raise RuntimeError("deterministic=True needs to know which wp.Tape records, which this Warp version does not say")
     if deterministic and "terrain_height" in names and isinstance(model.terrain, HeightfieldTerrain):
         raise ValueError(
             "terrain_height with deterministic=True: a HeightfieldTerrain's heights get the adjoints of the cells "

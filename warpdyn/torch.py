@@ -54,6 +54,7 @@ import warp as wp
 from warpdyn import model as _model
 from warpdyn import simulation as _simulation
 from warpdyn.data import Data
+from warpdyn.engine import warp_private
 from warpdyn.model import VelRepr
 
 __all__ = ["rollout", "torch_device", "STATE_INPUTS"]
@@ -353,7 +354,7 @@ def _model_parameters(model, parameters: dict, N: int) -> dict:
         return {}
     arrays = _model.parameters_requiring_grad(model, names=tuple(parameters))
     for name, tensor in parameters.items():
-        expected = tuple(arrays[name].shape) + tuple(getattr(arrays[name].dtype, "_shape_", ()))
+        expected = tuple(arrays[name].shape) + warp_private.item_shape(arrays[name].dtype)
         if tuple(tensor.shape) != expected:
             hint = ""
             if name in ("K", "D", "mu"):

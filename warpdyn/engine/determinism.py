@@ -27,7 +27,7 @@ import warp as wp
 from ..kernels.env_rows import kernels as env_rows_kernels
 from ..types.parameters import MODEL_ARRAYS
 from .loading import ensure_loaded
-from .warp_private import recording_tape
+from . import warp_private
 
 __all__ = ["mark", "unmark", "is_marked", "any_marked", "rows_per_environment"]
 
@@ -77,20 +77,20 @@ def rows_per_environment(inputs, dim, device) -> list:
     """`inputs` of a launch over `dim` with each marked shared parameter (and each bundle holding one) replaced
     by its copy of one row per environment, when a tape records and the launch has more than one
     environment; otherwise `inputs` unchanged."""
-    tape = recording_tape()
+    tape = warp_private.recording_tape()
     N = int(dim) if np.ndim(dim) == 0 else int(dim[0])
     if tape is None or N < 2:
         return inputs
-    recording = _tapes.get(tape)
-    if recording is None or recording[0] is not tape.launches:
-        recording = _tapes[tape] = (tape.launches, {})
+    recording, launches = _tapes.get(tape), warp_private.tape_recording(tape)
+    if recording is None or recording[0] is not launches:
+        recording = _tapes[tape] = (launches, {})
     return [_replace(value, tape, recording[1], N, device) for value in inputs]
 
 
 def _replace(value, tape, made: dict, N: int, device):
     if isinstance(value, wp.array):
         return _rows(value, tape, made, N, device) if _shared_and_marked(value) else value
-    fields = getattr(getattr(value, "_cls", None), "vars", None)
+    fields = warp_private.struct_fields(value)
     if fields is None:
         return value
     names = [n for n in fields if n in _FIELDS and _shared_and_marked(getattr(value, n))]
@@ -99,8 +99,7 @@ def _replace(value, tape, made: dict, N: int, device):
     key = ("bundle", id(value), N)
     if key in made and made[key][0] is value:
         return made[key][1]
-    copy = value._cls()
-    copy.assign(value)
+    copy = warp_private.struct_copy(value)
     for name in names:
         setattr(copy, name, _rows(getattr(value, name), tape, made, N, device))
     made[key] = (value, copy)
@@ -117,11 +116,11 @@ def _rows(shared: wp.array, tape, made: dict, N: int, device) -> wp.array:
     key = ("rows", shared.ptr, shared.shape, N)
     if key in made and made[key][0] is shared.grad:
         return made[key][1]
-    scalar = getattr(shared.dtype, "_wp_scalar_type_", shared.dtype)
+    scalar = warp_private.scalar_type(shared.dtype)
     if not (shared.is_contiguous and shared.grad.is_contiguous):
         raise ValueError(f"deterministic gradients need a contiguous parameter, got strides {shared.strides}")
     rows = wp.empty((N, *shared.shape[1:]), dtype=shared.dtype, device=device, requires_grad=True)
-    count = shared.size * getattr(shared.dtype, "_length_", 1)
+    count = shared.size * wp.types.type_size(shared.dtype)
     K = env_rows_kernels(scalar)
     flat_shared = _flat(shared, (count,), scalar)
     flat_rows, flat_rows_adjoint = _flat(rows, (N, count), scalar), _flat(rows.grad, (N, count), scalar)

@@ -54,31 +54,31 @@ _twins: dict = {}
 
 
 def for_launch(kernel, adjoint: bool = False):
-    """The kernel a launch of `kernel` runs: `kernel` itself for its adjoint or while a wp.Tape records (also
-    when this Warp version does not say whether one does), else its forward-only twin: the same code without
-    the backward pass Warp generates, with the kernel's own options (register cap, launch bounds), in a module
-    of its own, which compiles faster (benchmarks/cold_start.py). A launch that no tape records never runs a
-    backward pass; the forward code is the same, and so are the numbers. Differentiating compiles the full
-    kernels too."""
-    if adjoint or not warp_private.tape_known() or warp_private.recording_tape() is not None:
+    """The kernel a launch of `kernel` runs: `kernel` itself for its adjoint or while a wp.Tape records, else its
+    forward-only twin: the same code without the backward pass Warp generates, with the kernel's own options
+    (register cap, launch bounds), in a module of its own, which compiles faster (benchmarks/cold_start.py). A
+    launch that no tape records never runs a backward pass; the forward code is the same, and so are the
+    numbers. Differentiating compiles the full kernels too."""
+    if adjoint or warp_private.recording_tape() is not None:
         return kernel
-    if kernel.module.options.get("enable_backward") is False:  # forward-only already: its own twin
+    if wp.get_module_options(warp_private.kernel_module(kernel)).get("enable_backward") is False:  # forward-only already: its own twin
         return kernel
     twin = _twins.get(kernel)
     if twin is None:
         with _lock:
             twin = _twins.get(kernel)
             if twin is None:
-                own = {k: v for k, v in kernel.options.items() if k != "enable_backward"}  # wp.kernel's argument names
+                func, options = warp_private.kernel_source(kernel)
+                own = {k: v for k, v in options.items() if k != "enable_backward"}  # wp.kernel's argument names
                 no_backward = {"enable_backward": False}  # a module option: Warp's module hash ignores the kernel's own
-                twin = _twins[kernel] = wp.kernel(kernel.func, module="unique", module_options=no_backward, **own)
+                twin = _twins[kernel] = wp.kernel(func, module="unique", module_options=no_backward, **own)
     return twin
 
 
 def ensure_loaded(kernel, device, block_dim: int | None = None) -> None:
     """Compile or load `kernel`'s module for `device` (and CUDA block size) before a first launch, with
     warpdyn.config.fuse_fp (fixed by the process's first load: warpdyn.config refuses a change after it)."""
-    key = (kernel.module, str(device), block_dim)
+    key = (warp_private.kernel_module(kernel), str(device), block_dim)
     if key not in _loaded:
         _load({key}, device, block_dim)
 
@@ -92,7 +92,7 @@ def preload(launches, device) -> None:
     wanted: dict = {}
     for item in launches:
         block_dim = block_size(item.block_dim, device)
-        key = (for_launch(item.kernel).module, str(device), block_dim)
+        key = (warp_private.kernel_module(for_launch(item.kernel)), str(device), block_dim)
         if key not in _loaded:
             wanted.setdefault(block_dim, set()).add(key)
     for block_dim, keys in wanted.items():
@@ -111,9 +111,8 @@ def _load(keys: set, device, block_dim: int | None) -> None:
             fuse_fp = config.loaded_fuse_fp
         modules = [key[0] for key in keys]
         for module in modules:
-            if module.options["fuse_fp"] != fuse_fp:
-                module.options["fuse_fp"] = fuse_fp
-                module.mark_modified()
+            if wp.get_module_options(module)["fuse_fp"] != fuse_fp:
+                wp.set_module_options({"fuse_fp": fuse_fp}, module)
         timer = threading.Timer(NOTICE_AFTER, _notice, args=(device,))
         timer.daemon = True
         timer.start()

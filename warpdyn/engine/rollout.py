@@ -16,7 +16,6 @@ from ..kernels.rollout import int_kernels as rollout_int_kernels
 from ..kernels.rollout import kernels as rollout_kernels
 from ..kernels.state import kernels as state_kernels
 from ..types.enums import VelRepr
-from .tape import known as tape_known
 from .tape import suspended
 from .tape import taping as tape_records
 from .kinematics import state_arrays
@@ -535,8 +534,6 @@ class Rollout:
                     "are recomputed in the backward pass, so what a callback launched would not be differentiated in order; "
                     "use storage='trajectory'"
                 )
-        if checkpointed and taping and not tape_known():
-            raise RuntimeError("storage='checkpointed' needs Warp's runtime.tape (Warp 1.19's warp._src.context)")
         s, d, batched = plan.scalar, plan.device, data.num_envs is not None
         given = {"joint_force_references": joint_force_references, "link_forces": link_forces, "ctrl": ctrl}
         layouts, sources = {}, {}

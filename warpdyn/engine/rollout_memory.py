@@ -9,6 +9,7 @@ import warp as wp
 
 from .. import arrays
 from ..types.enums import VelRepr
+from . import warp_private
 from .step import Evaluation, Workspace, state_buffers, step_launches
 
 __all__ = [
@@ -139,9 +140,7 @@ def roots(obj, found: dict, skip: set) -> dict:
     """{id: array}: the allocations (arrays owning their memory) that the Warp arrays in `obj` (an array, a
     list or tuple of them, a step workspace) are views of, except those in `skip` (ids)."""
     if isinstance(obj, wp.array):
-        root = obj
-        while getattr(root, "_ref", None) is not None:
-            root = root._ref
+        root = warp_private.allocation(obj)
         if root.deleter is not None and id(root) not in skip:  # not a view of memory owned elsewhere
             found[id(root)] = root
     elif isinstance(obj, (list, tuple)):

@@ -15,22 +15,14 @@ import weakref
 
 from . import warp_private
 
-__all__ = ["known", "taping", "suspended", "check_thread"]
+__all__ = ["taping", "suspended", "check_thread"]
 
 _owners: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _owners_lock = threading.Lock()
 
 
-def known() -> bool:
-    """Whether this Warp version tells which tape records (needed by `suspended`)."""
-    return warp_private.tape_known()
-
-
 def taping() -> bool:
-    """Whether a wp.Tape is recording (True when this Warp version does not say: callers then take their
-    tape-safe path)."""
-    if not known():
-        return True
+    """Whether a wp.Tape is recording (warp_private.recording_tape; a Warp version that does not say raises)."""
     if warp_private.recording_tape() is None:
         return False
     check_thread()
@@ -40,7 +32,7 @@ def taping() -> bool:
 def check_thread() -> None:
     """A RuntimeError when a wp.Tape records launches of another thread (see the module docstring); the
     first thread that launches under a tape becomes its thread."""
-    tape = warp_private.recording_tape() if known() else None
+    tape = warp_private.recording_tape()
     if tape is None:
         return
     me = threading.current_thread()
@@ -60,8 +52,6 @@ def check_thread() -> None:
 @contextlib.contextmanager
 def suspended():
     """Warp records no launch inside (the recording tape, if any, is set aside and restored after); yields it."""
-    if not known():
-        raise RuntimeError("this Warp version does not say which wp.Tape records (warp._src.context.runtime.tape)")
     tape = warp_private.recording_tape()
     warp_private.set_recording_tape(None)
     try:
