@@ -1,17 +1,22 @@
 """Articulated-body algorithm: forward dynamics, one thread per environment.
 
 Featherstone's ABA in link coordinates, gravity entering as a fictitious base acceleration -a_g:
-1. v_i = iX_lambda v_lambda + S_i qd_i,  c_i = v_i x S_i qd_i.
-2. From the leaves: IA_i = I_i + sum_c cX_i^T Ia_c cX_i,  pA_i = v_i x* I_i v_i - f_ext_i + sum_c cX_i^T pa_c,
-   U_i = IA_i S_i, d_i = S_i^T U_i + armature_i, u_i = tau_i - S_i^T pA_i,
-   Ia_i = IA_i - U_i U_i^T / d_i,  pa_i = pA_i + Ia_i c_i + U_i u_i / d_i.
-   The sums over children are sibling chains (each element written once: tape-safe).
+1. v_i = iX_lambda v_lambda + v_J,i,  c_i = v_i x v_J,i + Sdot_i qd_i (kernels/bundles.py's `velocity_product`).
+2. From the leaves: IA_i = I_i + sum_c cX_i^T Ia_c cX_i,  pA_i = v_i x* I_i v_i - f_ext_i + sum_c cX_i^T pa_c;
+   for each DoF d of link i's joint, the last first (`project_dof`):
+   U_d = IA S_d, d_d = S_d^T U_d + armature_d, u_d = tau_d - S_d^T pA,  IA -= U_d U_d^T / d_d,  pA += U_d u_d / d_d;
+   then Ia_i = IA, pa_i = pA + Ia_i c_i. A joint of several DoFs is so projected one DoF at a time, as a chain of
+   one-DoF joints between massless links in one frame would be (the block projection IA - U D^-1 U^T, D = S^T IA S
+   + diag(armature), by elimination). The sums over children are sibling chains (each element written once:
+   tape-safe).
 3. a'_0 = -IA_0^-1 pA_0 (floating base) or -a_g (fixed base); from the base:
-   a'_i = iX_lambda a'_lambda + c_i,  qdd_i = (u_i - U_i^T a'_i) / d_i,  a'_i += S_i qdd_i.
+   a'_i = iX_lambda a'_lambda + c_i, then for each DoF d, the first first: qdd_d = (u_d - U_d^T a'_i) / d_d,
+   a'_i += S_d qdd_d.
 The base acceleration d/dt B_v_WB = a'_0 + a_g is written in the requested representation.
 
-What one pass hands to the next is one scalar record per link (kernels/scratch.py: coalesced on GPUs);
-what is cheap to recompute from the joint position (iX_lambda, S_i, c_i) is recomputed instead of stored.
+What one pass hands to the next is one scalar record per link and one per DoF (kernels/scratch.py: coalesced on
+GPUs; DoF d's at row d + 1, so that a model whose joints have one DoF each has one row per link); what is cheap
+to recompute from the joint position (iX_lambda, S_i, c_i) is recomputed instead of stored.
 """
 
 import types
@@ -22,11 +27,12 @@ from .bundles import bundles
 from .factory import factory
 from .registers import tuned
 from .scratch import SYM66, scratch
-from .spatial import MIXED, spatial
+from .spatial import BALL, FREE, MIXED, spatial
 
-# Columns of the ABA's per-link scratch record (N, nL, ABA_RECORD[+ TRANSFORM with link forces]).
+# Columns of the ABA's scratch record (N, max(nL, nv + 1), ABA_RECORD[+ TRANSFORM with link forces]): a link's at
+# row i, a DoF's (_UD) at row d + 1.
 _V = 0  # v_i (6): link velocity, link coordinates
-_UD = 6  # U_i / d_i (6), then u_i / d_i (1)
+_UD = 6  # DoF d's U_d / d_d (6), then u_d / d_d (1)
 _IA = 13  # sum over the sibling chain starting at i of iX*_lambda Ia_i lambdaX_i (21: symmetric)
 _PA = _IA + SYM66  # the same chain's sum of iX*_lambda pa_i (6)
 _A = _PA + 6  # a'_i (6)
@@ -81,23 +87,95 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         return sp.force_from(X, sp.force_repr_to_inertial(repr, X, B.link_force(controls, env, i)))
 
     @wp.func
-    def articulated(
-        model: B.Model, controls: B.Controls, env: int, i: int, implicit_dt: scalar, S: sp.vec6, IA: sp.mat66, pA: sp.vec6, c_i: sp.vec6
-    ):
-        """ABA at link i (i >= 1) from its articulated inertia IA and bias force pA (the module docstring's
-        step 2): (U_i / d_i, u_i / d_i, Ia_i, pa_i), with d_i = S_i^T U_i + armature_i + implicit_dt damping_i
-        and u_i with the controls' joint force when given."""
-        U_i = IA * S
-        rotor = B.armature_of(model, env, i - 1) + implicit_dt * B.joint_parameter(model.damping, env, i - 1)
-        d_inv = scalar(1.0) / (wp.dot(S, U_i) + rotor)
-        u_i = -wp.dot(S, pA)
+    def project_dof(model: B.Model, controls: B.Controls, env: int, d: int, implicit_dt: scalar, S: sp.vec6, IA: sp.mat66, pA: sp.vec6):
+        """ABA's projection of DoF d (motion subspace S) out of an articulated inertia IA and bias force pA (the
+        module docstring's step 2): (U_d / d_d, u_d / d_d, IA - U_d U_d^T / d_d, pA + U_d u_d / d_d), with
+        d_d = S^T U_d + armature_d + implicit_dt damping_d and u_d with the controls' joint force when given."""
+        U = IA * S
+        rotor = B.armature_of(model, env, d) + implicit_dt * B.joint_parameter(model.damping, env, d)
+        d_inv = scalar(1.0) / (wp.dot(S, U) + rotor)
+        u = -wp.dot(S, pA)
         if controls.joint_forces.shape[0] > 0:
-            u_i = u_i + controls.joint_forces[env, i - 1]
-        Ud = U_i * d_inv
-        Ia = sc.sym_upper(IA - wp.outer(Ud, U_i))
-        return Ud, u_i * d_inv, Ia, pA + Ia * c_i + U_i * (u_i * d_inv)
+            u = u + controls.joint_forces[env, d]
+        Ud = U * d_inv
+        return Ud, u * d_inv, sc.sym_upper(IA - wp.outer(Ud, U)), pA + U * (u * d_inv)
 
-    return types.SimpleNamespace(inertia_to=inertia_to, external_force=external_force, articulated=articulated)
+    @wp.func
+    def articulated(
+        model: B.Model, controls: B.Controls, env: int, d: int, implicit_dt: scalar, S: sp.vec6, IA: sp.mat66, pA: sp.vec6, c_i: sp.vec6
+    ):
+        """ABA at a link whose joint has the one DoF d (the module docstring's step 2): (U_d / d_d, u_d / d_d,
+        Ia_i, pa_i)."""
+        Ud, ud, Ia, pA_d = project_dof(model, controls, env, d, implicit_dt, S, IA, pA)
+        return Ud, ud, Ia, pA_d + Ia * c_i
+
+    @wp.func
+    def put_dof(s: wp.array3d(dtype=scalar), env: int, d: int, Ud: sp.vec6, ud: scalar):
+        """DoF d's record (U_d / d_d, u_d / d_d), at row d + 1."""
+        sc.put6(s, env, d + 1, _UD, Ud)
+        s[env, d + 1, _UD + 6] = ud
+
+    @wp.func
+    def articulated_joint(
+        model: B.Model, controls: B.Controls, env: int, i: int, implicit_dt: scalar, X: sp.transform, IA: sp.mat66, pA: sp.vec6,
+        c_i: sp.vec6, s: wp.array3d(dtype=scalar),
+    ):
+        """ABA at link i (step 2): (Ia_i, pa_i), its joint's DoFs projected the last first, each DoF's record
+        written to s (`put_dof`); X: the joint's transform."""
+        kind = model.joint_type[i]
+        a = model.v_start[i]
+        if kind == BALL:
+            for k in range(3):
+                d = a + 2 - k
+                Ud, ud, IA, pA = project_dof(model, controls, env, d, implicit_dt, B.dof_motion(model, i, d, X), IA, pA)
+                put_dof(s, env, d, Ud, ud)
+        elif kind == FREE:
+            for k in range(6):
+                d = a + 5 - k
+                Ud, ud, IA, pA = project_dof(model, controls, env, d, implicit_dt, B.dof_motion(model, i, d, X), IA, pA)
+                put_dof(s, env, d, Ud, ud)
+        else:
+            Ud, ud, IA, pA = project_dof(model, controls, env, a, implicit_dt, model.dof_S[a], IA, pA)
+            put_dof(s, env, a, Ud, ud)
+        return IA, pA + IA * c_i
+
+    @wp.func
+    def accelerate_dof(s: wp.array3d(dtype=scalar), env: int, d: int, a_i: sp.vec6):
+        """qdd_d = u_d / d_d - (U_d / d_d)^T a'_i from DoF d's record (step 3)."""
+        return s[env, d + 1, _UD + 6] - wp.dot(sc.get6(s, env, d + 1, _UD), a_i)
+
+    @wp.func
+    def accelerate_joint(
+        model: B.Model, env: int, i: int, X: sp.transform, a_i: sp.vec6, s: wp.array3d(dtype=scalar), qdd: wp.array2d(dtype=scalar)
+    ):
+        """ABA at link i (step 3) from a'_i = iX_lambda a'_lambda + c_i: each DoF's qdd_d, the first first, written
+        to qdd (N, nv); returns a_i = a'_i + S_i qdd_i."""
+        kind = model.joint_type[i]
+        a = model.v_start[i]
+        if kind == BALL:
+            for k in range(3):
+                q_dd = accelerate_dof(s, env, a + k, a_i)
+                qdd[env, a + k] = q_dd
+                a_i = a_i + B.dof_motion(model, i, a + k, X) * q_dd
+        elif kind == FREE:
+            for k in range(6):
+                q_dd = accelerate_dof(s, env, a + k, a_i)
+                qdd[env, a + k] = q_dd
+                a_i = a_i + B.dof_motion(model, i, a + k, X) * q_dd
+        else:
+            q_dd = accelerate_dof(s, env, a, a_i)
+            qdd[env, a] = q_dd
+            a_i = a_i + model.dof_S[a] * q_dd
+        return a_i
+
+    return types.SimpleNamespace(
+        inertia_to=inertia_to,
+        external_force=external_force,
+        project_dof=project_dof,
+        articulated=articulated,
+        articulated_joint=articulated_joint,
+        accelerate_joint=accelerate_joint,
+    )
 
 
 MAX_REGISTERS = {wp.float32: 128, wp.float64: None}
@@ -113,9 +191,8 @@ def kernels(scalar, max_registers):
     sp = spatial(scalar)
     sc = scratch(scalar)
     B = bundles(scalar)
-    inertia_to = inertia_funcs(scalar).inertia_to
-    external_force = inertia_funcs(scalar).external_force
-    articulated = inertia_funcs(scalar).articulated
+    F = inertia_funcs(scalar)
+    inertia_to, external_force = F.inertia_to, F.external_force
 
     @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def aba(
@@ -131,12 +208,12 @@ def kernels(scalar, max_registers):
         joint_accelerations: wp.array2d(dtype=scalar),
     ):
         """base_acceleration (N, 6): d/dt of the base velocity in `repr` (zero for a fixed base);
-        joint_accelerations (N, n).
+        joint_accelerations (N, nv).
 
-        controls: joint forces (N, n) and external link forces (N, nL, 6) in `repr` (either may be absent).
-        The joint-space inertia of joint i is S_i^T IA_i S_i + armature_i + implicit_dt damping_i: with
+        controls: joint forces (N, nv) and external link forces (N, nL, 6) in `repr` (either may be absent).
+        The joint-space inertia of DoF d is S_d^T IA S_d + armature_d + implicit_dt damping_d: with
         implicit_dt = dt this solves (M + dt diag(damping)) nu_dot = f, MuJoCo's implicit damping (0: none).
-        s (N, nL, ABA_RECORD, + 7 with link forces): scratch, columns named at the top of this file.
+        s (N, max(nL, nv + 1), ABA_RECORD, + 7 with link forces): scratch, columns named at the top of this file.
         """
         env = wp.tid()
         nL = model.parent.shape[0]
@@ -149,18 +226,17 @@ def kernels(scalar, max_registers):
             sc.put_transform(s, env, 0, _WHL, W_H_B)
         # 1. velocities, from the base
         for i in range(1, nL):
-            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
-            vJ = B.motion_subspace_of(model, i) * state.joint_velocities[env, i - 1]
+            X = B.joint_transform(model, i, state.joint_positions, env)
+            vJ = B.joint_motion_of(model, i, X, state.joint_velocities, env)
             sc.put6(s, env, i, _V, sp.motion_from(X, sc.get6(s, env, model.parent[i], _V)) + vJ)
             if forces:
                 sc.put_transform(s, env, i, _WHL, sc.get_transform(s, env, model.parent[i], _WHL) * X)
         # 2. articulated inertias and bias forces, from the leaves
         for k in range(nL - 1):
             i = nL - 1 - k
-            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
-            S = B.motion_subspace_of(model, i)
+            X = B.joint_transform(model, i, state.joint_positions, env)
             v_i = sc.get6(s, env, i, _V)
-            c_i = sp.cross_motion(v_i, S * state.joint_velocities[env, i - 1])
+            c_i = B.velocity_product(model, i, v_i, B.joint_motion_of(model, i, X, state.joint_velocities, env))
             I = sc.sym_upper(B.spatial_inertia_of(model, env, i))
             IA = I
             pA = sp.cross_force(v_i, I * v_i)
@@ -169,9 +245,7 @@ def kernels(scalar, max_registers):
             if model.first_child[i] >= 0:
                 IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
                 pA = pA + sc.get6(s, env, model.first_child[i], _PA)
-            Ud, ud, Ia, pa = articulated(model, controls, env, i, implicit_dt, S, IA, pA, c_i)
-            sc.put6(s, env, i, _UD, Ud)
-            s[env, i, _UD + 6] = ud
+            Ia, pa = F.articulated_joint(model, controls, env, i, implicit_dt, X, IA, pA, c_i, s)
             chain_I = inertia_to(X, Ia)
             chain_p = sp.force_to(X, pa)
             if model.next_sibling[i] >= 0:
@@ -193,14 +267,11 @@ def kernels(scalar, max_registers):
             a0 = -sp.solve_spd6(IA0, pA0)
         sc.put6(s, env, 0, _A, a0)
         for i in range(1, nL):
-            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
-            S = B.motion_subspace_of(model, i)
-            c_i = sp.cross_motion(sc.get6(s, env, i, _V), S * state.joint_velocities[env, i - 1])
-            a_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + c_i
-            qdd = s[env, i, _UD + 6] - wp.dot(sc.get6(s, env, i, _UD), a_i)
+            X = B.joint_transform(model, i, state.joint_positions, env)
+            c_i = B.velocity_product(model, i, sc.get6(s, env, i, _V), B.joint_motion_of(model, i, X, state.joint_velocities, env))
+            a_i = F.accelerate_joint(model, env, i, X, sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + c_i, s, joint_accelerations)
             if model.first_child[i] >= 0:
-                sc.put6(s, env, i, _A, a_i + S * qdd)
-            joint_accelerations[env, i - 1] = qdd
+                sc.put6(s, env, i, _A, a_i)
         base = sp.vec6(scalar(0.0))
         if model.floating_base != 0:
             base = sp.base_acceleration_from_body(repr, W_H_B, B_v, a0 + B_a_g)

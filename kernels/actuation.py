@@ -11,6 +11,10 @@ the MJCF actuators.
     tau_actuators = clip(sum over the joint's actuators a of gear_a force_a, joint_actuator_force_range),
     force_a = clip((g0 + g1 L + g2 V) clip(ctrl_a, ctrl_range) + b0 + b1 L + b2 V, force_range),
         L = gear_a s, V = gear_a sdot                                                           (MuJoCo's)
+per DoF d of joint j (one each for a revolute or prismatic joint): friction, damping and the torque-speed clip
+act on each DoF; limits and actuators on one-DoF joints only; a ball or free joint's spring is MuJoCo's,
+-stiffness dif towards its reference (qpos_spring: its initial position) with dif the translation (a free
+joint's first 3 DoFs) and the rotation vector of Q_ref^-1 Q (mju_subQuat; the rotational DoFs).
 A clip passes NaN and +-inf through (a non-finite control or reference makes the state non-finite, which the
 integrator flags), where wp.clamp(NaN, a, b) would give a and an infinite reference would become a bound. Which terms exist is decided when the kernel is built
 (`with_limits`, `with_friction`, `with_passive`, and the most actuators on one joint, whose loop is
@@ -25,6 +29,7 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .spatial import FREE, PRISMATIC, spatial
 
 
 @factory
@@ -92,7 +97,7 @@ def torque_speed_curve(scalar):
         # outputs
         tau_lim: wp.array2d(dtype=scalar),
     ):
-        """tau_lim (N, n): each joint's bound at its velocity; launched over (N, n)."""
+        """tau_lim (N, nv): each DoF's bound at its velocity; launched over (N, nv)."""
         env, j = wp.tid()
         tau_lim[env, j] = torque_limit(torque_max, omega_th, omega_max, state.joint_velocities[env, j])
 
@@ -100,22 +105,52 @@ def torque_speed_curve(scalar):
 
 
 @factory
+def joint_spring(scalar):
+    """The wp.func giving the spring displacement dif of DoF d of joint j (the module docstring): s - springref_j
+    for a one-DoF joint at position s, else the translation or rotation from the joint's reference (positions
+    (N, nq): the state's)."""
+    sp, B = spatial(scalar), bundles(scalar)
+
+    @wp.func
+    def spring_displacement(model: B.Model, env: int, j: int, d: int, s: scalar, positions: wp.array2d(dtype=scalar)):
+        i = j + 1
+        kind = model.joint_type[i]
+        if kind <= PRISMATIC:
+            return s - B.joint_parameter(model.springref, env, j)
+        a = model.q_start[i]
+        k = d - model.v_start[i]
+        if kind == FREE:
+            if k < 3:
+                return positions[env, a + k] - model.qpos_spring[a + k]
+            a = a + 3
+            k = k - 3
+        Q = B.joint_quaternion(positions, env, a)
+        Q_ref = wp.normalize(sp.quat_from_wxyz(model.qpos_spring[a], model.qpos_spring[a + 1], model.qpos_spring[a + 2], model.qpos_spring[a + 3]))
+        return sp.rotation_vector(wp.quat_inverse(Q_ref) * Q)[k]
+
+    return spring_displacement
+
+
+@factory
 def mujoco_terms(scalar, with_passive: bool, per_joint: int):
-    """The wp.func giving MuJoCo's joint forces on joint j at (s, sdot): the passive spring and damper (when
-    with_passive) plus the actuators' forces (when per_joint > 0); the code of an absent term is not compiled."""
+    """The wp.func giving MuJoCo's joint forces on DoF d of joint j at (s, sdot) (s: the joint's first position,
+    positions (N, nq) the state's): the passive spring and damper (when with_passive) plus the actuators' forces
+    (when per_joint > 0, on one-DoF joints); the code of an absent term is not compiled."""
     B = bundles(scalar)
     _, actuator_force = functions(scalar, max(per_joint, 1))
+    spring_displacement = joint_spring(scalar)
     PASSIVE = wp.constant(with_passive)
     ACTUATORS = wp.constant(per_joint > 0)
 
     @wp.func
-    def mujoco_joint_force(model: B.Model, env: int, j: int, s: scalar, sd: scalar, ctrl: wp.array2d(dtype=scalar)):
+    def mujoco_joint_force(model: B.Model, env: int, j: int, d: int, s: scalar, sd: scalar, ctrl: wp.array2d(dtype=scalar), positions: wp.array2d(dtype=scalar)):
         out = scalar(0.0)
         if PASSIVE:
-            spring = B.joint_parameter(model.stiffness, env, j) * (s - B.joint_parameter(model.springref, env, j))
-            out = out - spring - B.joint_parameter(model.damping, env, j) * sd
+            spring = B.joint_parameter(model.stiffness, env, j) * spring_displacement(model, env, j, d, s, positions)
+            out = out - spring - B.joint_parameter(model.damping, env, d) * sd
         if ACTUATORS:
-            out = out + actuator_force(model, env, j, s, sd, ctrl)
+            if model.joint_type[j + 1] <= PRISMATIC:
+                out = out + actuator_force(model, env, j, s, sd, ctrl)
         return out
 
     return mujoco_joint_force
@@ -123,9 +158,10 @@ def mujoco_terms(scalar, with_passive: bool, per_joint: int):
 
 @factory
 def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
-    """The wp.func giving the step's force on joint j [N m or N] at (s, sdot) from its reference tau_ref_j and
-    the actuators' controls ctrl (N, na) (the module docstring's tau); per_joint: the most actuators on one
-    joint (0: no actuator code). The actuation kernel and the fused step (kernels/fused_step.py) call it."""
+    """The wp.func giving the step's force on DoF d of joint j [N m or N] at (s, sdot) (s: the joint's first
+    position, positions (N, nq): the state's) from its reference tau_ref_d and the actuators' controls ctrl
+    (N, na) (the module docstring's tau); per_joint: the most actuators on one joint (0: no actuator code). The
+    actuation kernel and the fused step (kernels/fused_step.py, one-DoF joints: d = j) call it."""
     B = bundles(scalar)
     clip, _ = functions(scalar, max(per_joint, 1))
     torque_limit = torque_speed_curve(scalar).torque_limit
@@ -136,26 +172,28 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
 
     @wp.func
     def resultant_torque(
-        model: B.Model, torque_max: scalar, omega_th: scalar, omega_max: scalar, env: int, j: int, s: scalar, sd: scalar, tau_ref_j: scalar, ctrl: wp.array2d(dtype=scalar)
+        model: B.Model, torque_max: scalar, omega_th: scalar, omega_max: scalar, env: int, j: int, d: int, s: scalar, sd: scalar,
+        tau_ref_d: scalar, ctrl: wp.array2d(dtype=scalar), positions: wp.array2d(dtype=scalar)
     ):
-        total = tau_ref_j
+        total = tau_ref_d
         if FRICTION:
             sign = scalar(0.0)
             if sd > scalar(0.0):
                 sign = scalar(1.0)
             elif sd < scalar(0.0):
                 sign = scalar(-1.0)
-            total = total - (B.joint_parameter(model.friction_static, env, j) * sign + B.joint_parameter(model.friction_viscous, env, j) * sd)
+            total = total - (B.joint_parameter(model.friction_static, env, d) * sign + B.joint_parameter(model.friction_viscous, env, d) * sd)
         if LIMITS:
-            limits = B.position_limits_of(model, env, j)
-            below = wp.min(s - limits[0], scalar(0.0))
-            above = wp.max(s - limits[1], scalar(0.0))
-            spring = -B.joint_parameter(model.joint_limit_spring, env, j) * (below + above)
-            total = total + spring * (scalar(1.0) - B.joint_parameter(model.joint_limit_damper, env, j) * sd)
+            if model.joint_type[j + 1] <= PRISMATIC:
+                limits = B.position_limits_of(model, env, j)
+                below = wp.min(s - limits[0], scalar(0.0))
+                above = wp.max(s - limits[1], scalar(0.0))
+                spring = -B.joint_parameter(model.joint_limit_spring, env, j) * (below + above)
+                total = total + spring * (scalar(1.0) - B.joint_parameter(model.joint_limit_damper, env, j) * sd)
         limit = torque_limit(torque_max, omega_th, omega_max, sd)
         out = clip(total, -limit, limit)
         if MUJOCO:
-            out = out + mujoco_joint_force(model, env, j, s, sd, ctrl)
+            out = out + mujoco_joint_force(model, env, j, d, s, sd, ctrl, positions)
         return out
 
     return resultant_torque
@@ -163,7 +201,7 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
 
 @factory
 def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
-    """The step's joint forces (`joint_force`) as a kernel over (N, n)."""
+    """The step's joint forces (`joint_force`) as a kernel over (N, nv)."""
     B = bundles(scalar)
     resultant_torque = joint_force(scalar, with_limits, with_friction, with_passive, per_joint)
 
@@ -179,12 +217,13 @@ def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = 
         # outputs
         tau: wp.array2d(dtype=scalar),
     ):
-        """tau (N, n) from the references tau_ref (N, n) and the actuators' controls ctrl (N, na); launched over
-        (N, n). The model's parameters are shared or per environment (kernels/bundles.py)."""
-        env, j = wp.tid()
-        s = state.joint_positions[env, j]
-        sd = state.joint_velocities[env, j]
-        tau[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, s, sd, tau_ref[env, j], ctrl)
+        """tau (N, nv) from the references tau_ref (N, nv) and the actuators' controls ctrl (N, na); launched over
+        (N, nv). The model's parameters are shared or per environment (kernels/bundles.py)."""
+        env, d = wp.tid()
+        j = model.dof_joint[d]
+        s = state.joint_positions[env, model.q_start[j + 1]]
+        sd = state.joint_velocities[env, d]
+        tau[env, d] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, d, s, sd, tau_ref[env, d], ctrl, state.joint_positions)
 
     return resultant_torques
 
@@ -206,11 +245,14 @@ def mujoco_kernel(scalar, with_passive: bool, per_joint: int):
         # outputs
         tau: wp.array2d(dtype=scalar),
     ):
-        """tau (N, n) = tau_in (N, n; absent, a zero leading axis: 0) + MuJoCo's joint forces; launched over (N, n)."""
-        env, j = wp.tid()
-        out = mujoco_joint_force(model, env, j, state.joint_positions[env, j], state.joint_velocities[env, j], ctrl)
+        """tau (N, nv) = tau_in (N, nv; absent, a zero leading axis: 0) + MuJoCo's joint forces; launched over
+        (N, nv)."""
+        env, d = wp.tid()
+        j = model.dof_joint[d]
+        s = state.joint_positions[env, model.q_start[j + 1]]
+        out = mujoco_joint_force(model, env, j, d, s, state.joint_velocities[env, d], ctrl, state.joint_positions)
         if tau_in.shape[0] > 0:
-            out = out + tau_in[env, j]
-        tau[env, j] = out
+            out = out + tau_in[env, d]
+        tau[env, d] = out
 
     return mujoco_joint_forces

@@ -125,8 +125,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         sum_m[env, 0] = B.mass_of(model, env, 0)
         sum_mp[env, 0] = B.mass_of(model, env, 0) * c0
         for i in range(1, nL):
-            S = B.motion_subspace_of(model, i)
-            W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + sp.motion_to(W_H_L[env, i], S) * state.joint_velocities[env, i - 1]
+            vJ = B.joint_motion_of(model, i, B.joint_frame_motion(model, i, W_H_L, env), state.joint_velocities, env)
+            W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + sp.motion_to(W_H_L[env, i], vJ)
             c = wp.transform_point(W_H_L[env, i], B.com_of(model, env, i))
             W_p_CL[env, i] = c
             sum_m[env, i] = sum_m[env, i - 1] + B.mass_of(model, env, i)
@@ -156,8 +156,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             sum_h[env, i] = prev_h + sp.stack(p_i, wp.cross(d, p_i) + I_w)
             rotor = scalar(0.0)
             if i > 0:
-                sd = state.joint_velocities[env, i - 1]
-                rotor = B.armature_of(model, env, i - 1) * sd * sd
+                rotor = B.armature_energy(model, env, i, state.joint_velocities)
             sum_K[env, i] = prev_K + scalar(0.5) * (wp.dot(v_c, p_i) + wp.dot(w, I_w) + rotor)
         G_I[env] = sum_I[env, nL - 1]
         G_h[env] = sum_h[env, nL - 1]
@@ -278,14 +277,14 @@ def kernels(scalar) -> types.SimpleNamespace:
         # outputs
         J: wp.array3d(dtype=scalar),
     ):
-        """J (N, 6, 6 + n): the total momentum Jacobian in frame `frame`, or (average != 0) the average
+        """J (N, 6, 6 + nv): the total momentum Jacobian in frame `frame`, or (average != 0) the average
         velocity Jacobian; columns act on ν in `input_repr`.
 
         Composite inertias C_i (link i and its descendants) without accumulating in place: with
         first_child(i) the smallest-index child and next_sibling(i) the next larger-index sibling (-1 if
         none), T_i = C_i + T_next_sibling(i) sums C over i and its later siblings, so
         C_i = M_i + T_first_child(i); both indices exceed i, so a sweep from the last link down reads only
-        elements already written. Column 6 + j is C_{j+1} G[W]_S_j (joint j moves link j + 1); base
+        elements already written. Column 6 + d is C_L G[W]_S_d (L: the link DoF d's joint moves); base
         column c is C_0 G[W]_X_W W_v(e_c), e_c the unit base velocity in input_repr.
         """
         env = wp.tid()
@@ -333,14 +332,15 @@ def kernels(scalar) -> types.SimpleNamespace:
             col = output_column(average, G_H_F, m, I_G, inertia_apply(m0, h0, I0, G_v))
             for r in range(6):
                 J[env, r, c] = col[r]
-        for j in range(nL - 1):
-            L = j + 1
+        for L in range(1, nL):
             W_H_j = W_H_L[env, L]
             G_H_j = sp.transform(wp.transform_get_translation(W_H_j) - p_G, wp.transform_get_rotation(W_H_j))
-            G_S = sp.motion_to(G_H_j, B.motion_subspace_of(model, L))
-            col = output_column(average, G_H_F, m, I_G, inertia_apply(C_m[env, L], C_h[env, L], C_I[env, L], G_S))
-            for r in range(6):
-                J[env, r, 6 + j] = col[r]
+            X_L = B.joint_frame_motion(model, L, W_H_L, env)
+            for dof in range(model.v_start[L], model.v_start[L + 1]):
+                G_S = sp.motion_to(G_H_j, B.dof_motion(model, L, dof, X_L))
+                col = output_column(average, G_H_F, m, I_G, inertia_apply(C_m[env, L], C_h[env, L], C_I[env, L], G_S))
+                for r in range(6):
+                    J[env, r, 6 + dof] = col[r]
 
     @wp.kernel(module="unique")
     def com_bias_acceleration(

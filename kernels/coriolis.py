@@ -14,20 +14,21 @@ B_i = 1/2 ((v x*) I + (I v) x̄* - I (v x)) gives the Christoffel-consistent C; 
 JaxSim's instead, so that the result is JaxSim's C, another valid factorisation.) Everything is in base
 coordinates (as in crba.py: composite quantities add without transforms, and float32 does not lose digits
 to the base's distance from the world origin):
-- the columns of the Body-input Jacobian are u_c = e_c for the base (c < 6) and the joint axes
-  S_j = B_X_{L_j} S_j (L_j = link j + 1), and each link's velocity of the world is v_L = B_v_WB +
-  sum over its supporting joints of S_j sdot_j, all in B coordinates;
+- the columns of the Body-input Jacobian are u_c = e_c for the base (c < 6) and the DoFs' motion subspaces
+  S_j = B_X_{L_j} S_j (L_j: the link DoF j's joint moves), and each link's velocity of the world is v_L =
+  B_v_WB + sum over its supporting DoFs of S_j sdot_j, all in B coordinates;
 - JaxSim's per-link term, moved to B coordinates, is u_a^T ((v_L x*) I_L u_b + I_L udot_b), where udot is
   the world-frame time derivative of a column expressed in B coordinates: udot_c = v_B x e_c (base),
-  Sdot_j = v_{L_j} x S_j (joints), and I_L is the link's inertia in B coordinates. (The body-frame
+  Sdot_j = v_{L_j} x S_j + B_X_{L_j} S̊_j (DoFs; S̊_j the apparent derivative of a free joint's translational
+  columns, kernels/bundles.py's `dof_motion_rate`, 0 otherwise), and I_L is the link's inertia in B coordinates. (The body-frame
   derivative is L_Jdot = L_X_W (udot - v_L x u); its -v_L x u part cancels JaxSim's M_L (v_L x) term.)
 - column a acts on the links of its subtree (the base columns on all), so entry (a, b) sums over the
   subtree of the deeper of a and b (zero unless one supports the other), with the composites
       Ic_i = sum_{L in subtree(i)} I_L,    Bc_i = sum_{L in subtree(i)} (v_L x*) I_L;
-  C_ab = u_a . (Bc_d u_b + Ic_d udot_b), d the deeper column. Hence, per joint column i,
-      F_i = Ic_i S_i,   f_i = Bc_i S_i + Ic_i Sdot_i,   g_i = Bc_i^T S_i,
-  and, j, k joints:  C_kj = S_k . f_j  (k supports j: j is the deeper),
-                     C_kj = g_k . S_j + F_k . Sdot_j  (j strictly supports k),
+  C_ab = u_a . (Bc_d u_b + Ic_d udot_b), d the deeper column. Hence, per DoF column i (of link l),
+      F_i = Ic_l S_i,   f_i = Bc_l S_i + Ic_l Sdot_i,   g_i = Bc_l^T S_i,
+  and, j, k DoFs:  C_kj = S_k . f_j  (k's joint supports j's link: j is the deeper, or the same joint),
+                   C_kj = g_k . S_j + F_k . Sdot_j  (j's joint strictly supports k's link),
   C_B base block = Bc_0 + Ic_0 (v_B x), base row of joint k = g_k - v_B x* F_k, base column = f_j.
 - The representation change touches only the base rows and columns: Tdot_b = -(w x) T_b with
   w = B_v_WB (Inertial), [0; B_omega] (Mixed), 0 (Body), and the base columns of M_B are [Ic_0; F_k^T],
@@ -38,7 +39,8 @@ Fixed bases are treated as floating bases at rest (the base velocity is zero), c
 warpdyn's M, h and g, which keep the base rows (see warpdyn._coriolis for how this differs from JaxSim).
 
 Two launches: `coriolis_links` (one thread per environment: the recursions over links, the base rows
-and columns) and `coriolis_joints` (one thread per (environment, joint row): the joint block).
+and columns) and `coriolis_joints` (one thread per (environment, DoF row): the joint block). Per-DoF records
+are at row d + 1.
 Tape discipline (kernels/__init__.py): every scratch and output element is written once; the sums over
 children are sibling chains as in crba.py; every local assigned in a dynamic loop has a name of its own.
 """
@@ -82,7 +84,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         B_v_L: wp.array2d(dtype=sp.vec6),
         acc_I: wp.array2d(dtype=sp.mat66),
         acc_B: wp.array2d(dtype=sp.mat66),
-        # outputs (per link, read by coriolis_joints)
+        # outputs (per DoF d at row d + 1, read by coriolis_joints)
         B_S: wp.array2d(dtype=sp.vec6),
         B_Sdot: wp.array2d(dtype=sp.vec6),
         F: wp.array2d(dtype=sp.vec6),
@@ -91,8 +93,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         # outputs
         C: wp.array3d(dtype=scalar),
     ):
-        """C (N, 6 + n, 6 + n): the base rows and columns, in `repr`; per link i (N, nL), entries 0 unused:
-        B_S_i, B_Sdot_i = v_i x S_i, F_i = Ic_i S_i, f_i = Bc_i S_i + Ic_i Sdot_i, g_i = Bc_i^T S_i."""
+        """C (N, 6 + nv, 6 + nv): the base rows and columns, in `repr`; per DoF d (N, nv + 1) at row d + 1, row 0
+        unused: B_S_d, B_Sdot_d, F_d = Ic S_d, f_d = Bc S_d + Ic Sdot_d, g_d = Bc^T S_d (the module docstring).
+        B_H_L, B_v_L, acc_I, acc_B (N, nL): per link."""
         env = wp.tid()
         nL = model.parent.shape[0]
         W_H_B = B.base_pose(state, env)
@@ -108,14 +111,16 @@ def kernels(scalar) -> types.SimpleNamespace:
         g[env, 0] = zero6
         # Forward pass: poses, joint axes and world-relative velocities in base coordinates.
         for i in range(1, nL):
-            X_i = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            X_i = B.joint_transform(model, i, state.joint_positions, env)
             B_H_i = B_H_L[env, model.parent[i]] * X_i
-            S_i = sp.motion_to(B_H_i, B.motion_subspace_of(model, i))
-            v_i = B_v_L[env, model.parent[i]] + S_i * state.joint_velocities[env, i - 1]
+            vJ = B.joint_motion_of(model, i, X_i, state.joint_velocities, env)
+            v_i = B_v_L[env, model.parent[i]] + sp.motion_to(B_H_i, vJ)
             B_H_L[env, i] = B_H_i
-            B_S[env, i] = S_i
             B_v_L[env, i] = v_i
-            B_Sdot[env, i] = sp.cross_motion(v_i, S_i)
+            for d in range(model.v_start[i], model.v_start[i + 1]):
+                S_d = sp.motion_to(B_H_i, B.dof_motion(model, i, d, X_i))
+                B_S[env, d + 1] = S_d
+                B_Sdot[env, d + 1] = sp.cross_motion(v_i, S_d) + sp.motion_to(B_H_i, B.dof_motion_rate(model, i, d, X_i, vJ))
         # Backward pass: composites Ic, Bc by sibling chains; per joint F, f, g and the base row and column.
         for k in range(nL - 1):
             l = nL - 1 - k
@@ -125,13 +130,19 @@ def kernels(scalar) -> types.SimpleNamespace:
             if model.first_child[l] >= 0:
                 Ic_l = Ic_l + acc_I[env, model.first_child[l]]
                 Bc_l = Bc_l + acc_B[env, model.first_child[l]]
-            S_l = B_S[env, l]
-            F_l = Ic_l * S_l
-            f_l = Bc_l * S_l + Ic_l * B_Sdot[env, l]
-            g_l = wp.transpose(Bc_l) * S_l
-            F[env, l] = F_l
-            f[env, l] = f_l
-            g[env, l] = g_l
+            for d in range(model.v_start[l], model.v_start[l + 1]):
+                S_d = B_S[env, d + 1]
+                F_d = Ic_l * S_d
+                f_d = Bc_l * S_d + Ic_l * B_Sdot[env, d + 1]
+                g_d = wp.transpose(Bc_l) * S_d
+                F[env, d + 1] = F_d
+                f[env, d + 1] = f_d
+                g[env, d + 1] = g_d
+                column = sp.base_force_from_body(repr, W_H_B, f_d)
+                row = sp.base_force_from_body(repr, W_H_B, g_d - sp.cross_force(v_rel, F_d))
+                for r in range(6):
+                    C[env, r, 6 + d] = column[r]
+                    C[env, 6 + d, r] = row[r]
             chain_I = Ic_l
             chain_B = Bc_l
             if model.next_sibling[l] >= 0:
@@ -139,11 +150,6 @@ def kernels(scalar) -> types.SimpleNamespace:
                 chain_B = chain_B + acc_B[env, model.next_sibling[l]]
             acc_I[env, l] = chain_I
             acc_B[env, l] = chain_B
-            column = sp.base_force_from_body(repr, W_H_B, f_l)
-            row = sp.base_force_from_body(repr, W_H_B, g_l - sp.cross_force(v_rel, F_l))
-            for r in range(6):
-                C[env, r, 5 + l] = column[r]
-                C[env, 5 + l, r] = row[r]
         # The base block.
         I_0 = B.spatial_inertia_of(model, env, 0)
         Ic_0 = I_0
@@ -169,17 +175,19 @@ def kernels(scalar) -> types.SimpleNamespace:
         # outputs
         C: wp.array3d(dtype=scalar),
     ):
-        """C[:, 6 + k, 6:] (the joint block, row k), launched over (N, n); model.support[L, j] != 0 when joint j
-        moves link L (joint j is link j + 1's)."""
+        """C[:, 6 + k, 6:] (the joint block, row k), launched over (N, nv); model.support[L, J] != 0 when joint J
+        moves link L (joint J is link J + 1's; DoF d's joint is model.dof_joint[d])."""
         env, k = wp.tid()
+        K = model.dof_joint[k]
         S_k = B_S[env, k + 1]
         F_k = F[env, k + 1]
         g_k = g[env, k + 1]
-        for j in range(model.support.shape[1]):
+        for j in range(model.dof_joint.shape[0]):
+            J = model.dof_joint[j]
             value = scalar(0.0)
-            if model.support[j + 1, k] != 0:
+            if model.support[J + 1, K] != 0:
                 value = wp.dot(S_k, f[env, j + 1])
-            elif model.support[k + 1, j] != 0:
+            elif model.support[K + 1, J] != 0:
                 value = wp.dot(g_k, B_S[env, j + 1]) + wp.dot(F_k, B_Sdot[env, j + 1])
             C[env, 6 + k, 6 + j] = value
 

@@ -3,13 +3,13 @@
 Everything is expressed in base coordinates, so that composite inertias add without transforms and
 every entry is one dot product (no quantity carried along a loop: tape-safe):
     B_Ic_i = B_I_i + sum_children B_Ic_c   (a sibling chain, each element written once),
-    F_i = B_Ic_i B_S_i,   M_ij = B_S_j . F_i for j an ancestor of i (or i itself), listed per model,
-    M_bb = B_Ic_0,   M_bi = F_i.
+    F_d = B_Ic_i B_S_d for each DoF d of link i's joint,   M_kd = B_S_d . F_k for DoF d's joint supporting
+    DoF k's link (or the same joint), listed per model,   M_bb = B_Ic_0,   M_bd = F_d.
 A sum of rigid-body inertias in one frame is a rigid-body inertia: B_Ic is kept as its mass m, first
 moment h = m c and rotational inertia about the base origin I_O (10 numbers, not a 6x6 matrix).
 The body-base matrix M_B is then written in the requested representation, M = T^T M_B T, with
 T = blockdiag(T_base, 1) the map from the generalized velocity in that representation to the body one.
-Scratch is one scalar record per link (kernels/scratch.py).
+Scratch is one scalar record per link (row i) and per DoF (row d + 1) (kernels/scratch.py, kernels/aba.py).
 """
 
 import types
@@ -22,10 +22,10 @@ from .registers import tuned
 from .scratch import scratch
 from .spatial import BODY, INERTIAL, spatial
 
-# Columns of the CRBA's per-link scratch record (N, nL, CRBA_RECORD).
+# Columns of the CRBA's scratch record (N, max(nL, nv + 1), CRBA_RECORD): a link's at row i, a DoF's at row d + 1.
 _BH = 0  # B_H_L (7): link pose in the base
-_BS = 7  # B_S_i (6): the joint's motion subspace, base coordinates
-_F = 13  # F_i (6)
+_BS = 7  # B_S_d (6): DoF d's motion subspace, base coordinates
+_F = 13  # F_d (6)
 _IC = 19  # the sibling chain's composite inertia: m (1), h (3), I_O (6: xx, xy, xz, yy, yz, zz)
 CRBA_RECORD = _IC + 10
 """Scratch numbers per link."""
@@ -64,24 +64,25 @@ def kernels(scalar, max_registers):
         # outputs
         M: wp.array3d(dtype=scalar),
     ):
-        """M (N, 6 + n, 6 + n): the mass matrix for the generalized velocity in `repr`.
+        """M (N, 6 + nv, 6 + nv): the mass matrix for the generalized velocity in `repr`.
 
-        The joint block is filled by the model's joint pairs: M_kj = B_S_j . F_k for (model.pair_k,
-        model.pair_j), plus the joint's armature on the diagonal, zero for (model.zero_k, model.zero_j).
-        s (N, nL, CRBA_RECORD): scratch, columns named at the top of this file.
+        The joint block is filled by the model's DoF pairs: M_kj = B_S_j . F_k for (model.pair_k,
+        model.pair_j), plus the DoF's armature on the diagonal, zero for (model.zero_k, model.zero_j).
+        s (N, max(nL, nv + 1), CRBA_RECORD): scratch, columns named at the top of this file.
         """
         env = wp.tid()
         nL = model.parent.shape[0]
-        n = nL - 1
+        nv = model.dof_S.shape[0]
         sc.put_transform(s, env, 0, _BH, sp.transform(sp.vec3(scalar(0.0)), sp.quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0))))
         # link poses and motion subspaces in the base, from the base
         for i in range(1, nL):
-            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            X = B.joint_transform(model, i, state.joint_positions, env)
             B_H_i = sc.get_transform(s, env, model.parent[i], _BH) * X
             sc.put_transform(s, env, i, _BH, B_H_i)
-            sc.put6(s, env, i, _BS, sp.motion_to(B_H_i, B.motion_subspace_of(model, i)))
-        # composite inertias and F_i, from the leaves
-        for k in range(n):
+            for d in range(model.v_start[i], model.v_start[i + 1]):
+                sc.put6(s, env, d + 1, _BS, sp.motion_to(B_H_i, B.dof_motion(model, i, d, X)))
+        # composite inertias and F_d, from the leaves
+        for k in range(nL - 1):
             i = nL - 1 - k
             B_H_i = sc.get_transform(s, env, i, _BH)
             R = wp.quat_to_matrix(wp.transform_get_rotation(B_H_i))
@@ -93,8 +94,9 @@ def kernels(scalar, max_registers):
                 m = m + s[env, model.first_child[i], _IC]
                 h = h + get_h(s, env, model.first_child[i])
                 I_O = I_O + get_I_O(s, env, model.first_child[i])
-            S = sc.get6(s, env, i, _BS)
-            sc.put6(s, env, i, _F, sp.stack(m * sp.lin(S) - wp.cross(h, sp.ang(S)), wp.cross(h, sp.lin(S)) + I_O * sp.ang(S)))
+            for d in range(model.v_start[i], model.v_start[i + 1]):
+                S = sc.get6(s, env, d + 1, _BS)
+                sc.put6(s, env, d + 1, _F, sp.stack(m * sp.lin(S) - wp.cross(h, sp.ang(S)), wp.cross(h, sp.lin(S)) + I_O * sp.ang(S)))
             if model.next_sibling[i] >= 0:
                 m = m + s[env, model.next_sibling[i], _IC]
                 h = h + get_h(s, env, model.next_sibling[i])
@@ -136,12 +138,12 @@ def kernels(scalar, max_registers):
         for r in range(6):
             for c in range(6):
                 M[env, r, c] = Mbb[r, c]
-        for k in range(n):
+        for k in range(nv):
             col = sp.base_force_from_body(repr, W_H_B, sc.get6(s, env, k + 1, _F))
             for r in range(6):
                 M[env, r, 6 + k] = col[r]
                 M[env, 6 + k, r] = col[r]
-        # joint block: M_kj = M_jk = B_S_j . F_k for each supporting pair, zero between branches
+        # joint block: M_kj = M_jk = B_S_j . F_k for each supporting DoF pair, zero between branches
         for p in range(model.pair_k.shape[0]):
             k = model.pair_k[p]
             j = model.pair_j[p]

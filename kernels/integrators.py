@@ -1,12 +1,17 @@
 """Integrators of the state, as JaxSim's (which integrate in the Inertial representation).
 
-State x = (W_p_B, W_Q_B (w, x, y, z), s, W_v_WB (Inertial), sdot, m); the data stores the base velocity
-Mixed, [W_pdot_B; W_omega], converted here at each end. Its derivative:
-    W_pdot_B = v + omega x W_p_B,  W_Qdot_B = 1/2 (0, omega) (x) Q,  sdot,  W_vdot_WB,  sddot,  mdot.
+State x = (W_p_B, W_Q_B (w, x, y, z), s, W_v_WB (Inertial), sdot, m) with s (nq) the joints' positions and
+sdot (nv) their velocities; the data stores the base velocity Mixed, [W_pdot_B; W_omega], converted here at
+each end. Its derivative:
+    W_pdot_B = v + omega x W_p_B,  W_Qdot_B = 1/2 (0, omega) (x) Q,  sdot (as position rates),  W_vdot_WB,
+    sddot,  mdot,
+where a joint's position rate is its velocity (revolute, prismatic), 1/2 Q (x) (0, omega) for a ball joint
+(omega in child axes) and (v, 1/2 Q (x) (0, omega)) for a free one (`joint_position_rate`).
 Semi-implicit Euler (JaxSim's default): velocities first, then positions with the new velocities,
     nu+ = nu + dt nu_dot;  p+ = p + dt (v+ + omega+ x p);  Q+ = normalise(Q + dt 1/2 (0, omega+) (x) Q);
-    s+ = s + dt sdot+;  m+ = m + dt mdot.
-RK4: the classic four stages, contacts evaluated at each, the quaternion normalised at each stage.
+    s+ = s + dt sdot+ (a ball or free joint's quaternion rotated exactly, Q+ = Q (x) exp(dt omega+ / 2), as
+    MuJoCo's mj_integratePos);  m+ = m + dt mdot.
+RK4: the classic four stages, contacts evaluated at each, the quaternions normalised at each stage.
 Semi-implicit Euler on SO(3) (MuJoCo's Euler): the base's Mixed velocity integrated and its orientation
 advanced by the exact rotation dt omega+ (see `so3_base_step`); the joints as above.
 
@@ -21,7 +26,7 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
-from .spatial import spatial
+from .spatial import BALL, FREE, spatial
 
 
 @factory
@@ -36,6 +41,139 @@ def kernels(scalar):
         qv = sp.vec3(Q[1], Q[2], Q[3])
         r = scalar(0.5) * (Q[0] * omega + wp.cross(omega, qv))
         return quat4(scalar(-0.5) * wp.dot(omega, qv), r[0], r[1], r[2])
+
+    @wp.func
+    def rotation_step(Q: quat4, omega: sp.vec3, dt: scalar):
+        """exp(dt omega / 2) as (cos h, sin(h) omega / |omega|), h = dt |omega| / 2 (a series below h^2 = 1e-8):
+        the exact rotation by dt omega (w, x, y, z)."""
+        h2 = scalar(0.25) * dt * dt * wp.dot(omega, omega)
+        cos_h = scalar(1.0) - scalar(0.5) * h2 + h2 * h2 / scalar(24.0)
+        k = scalar(0.5) * dt * (scalar(1.0) - h2 / scalar(6.0) + h2 * h2 / scalar(120.0))
+        if h2 > scalar(1.0e-8):
+            h = wp.sqrt(h2)
+            cos_h = wp.cos(h)
+            k = wp.sin(h) * scalar(0.5) * dt / h
+        e = k * omega
+        return quat4(cos_h, e[0], e[1], e[2])
+
+    @wp.func
+    def quaternion_product(a: quat4, b: quat4):
+        """a (x) b, both (w, x, y, z)."""
+        av = sp.vec3(a[1], a[2], a[3])
+        bv = sp.vec3(b[1], b[2], b[3])
+        r = a[0] * bv + b[0] * av + wp.cross(av, bv)
+        return quat4(a[0] * b[0] - wp.dot(av, bv), r[0], r[1], r[2])
+
+    @wp.func
+    def read4(a: wp.array2d(dtype=scalar), env: int, offset: int):
+        return quat4(a[env, offset], a[env, offset + 1], a[env, offset + 2], a[env, offset + 3])
+
+    @wp.func
+    def joint_euler_step(
+        model: B.Model, i: int, env: int, dt: scalar, x: B.State, nu_dot: wp.array2d(dtype=scalar), write: bool, y: B.State
+    ):
+        """Link i's joint stepped by semi-implicit Euler (the module docstring), from x with the accelerations
+        nu_dot[env, 6 + d]: written to y when `write`; returns 0, or NaN when a new value is not finite (the
+        health check's). Per joint kind, its loops of fixed length."""
+        kind = model.joint_type[i]
+        a = model.q_start[i]
+        d = model.v_start[i]
+        nonfinite = scalar(0.0)
+        if kind == BALL or kind == FREE:
+            r = 0  # the quaternion's first position, its rotation's first DoF
+            if kind == FREE:
+                r = 3
+                for k in range(3):
+                    v_next = x.joint_velocities[env, d + k] + dt * nu_dot[env, 6 + d + k]
+                    p_next = x.joint_positions[env, a + k] + dt * v_next
+                    nonfinite = poison(poison(nonfinite, v_next), p_next)
+                    if write:
+                        y.joint_velocities[env, d + k] = v_next
+                        y.joint_positions[env, a + k] = p_next
+            b = d + r  # the rotation's first DoF
+            omega = read3(x.joint_velocities, env, b) + dt * read3(nu_dot, env, 6 + b)
+            for k in range(3):
+                nonfinite = poison(nonfinite, omega[k])
+                if write:
+                    y.joint_velocities[env, b + k] = omega[k]
+            Q = read4(x.joint_positions, env, a + r)
+            Q_next = quaternion_product(Q / wp.length(Q), rotation_step(Q, omega, dt))
+            Q_next = Q_next / wp.length(Q_next)
+            for k in range(4):
+                nonfinite = poison(nonfinite, Q_next[k])
+                if write:
+                    y.joint_positions[env, a + r + k] = Q_next[k]
+        else:
+            sd_next = x.joint_velocities[env, d] + dt * nu_dot[env, 6 + d]
+            s_next = x.joint_positions[env, a] + dt * sd_next
+            nonfinite = poison(poison(nonfinite, sd_next), s_next)
+            if write:
+                y.joint_velocities[env, d] = sd_next
+                y.joint_positions[env, a] = s_next
+        return nonfinite
+
+    @wp.func
+    def joint_position_rate(model: B.Model, i: int, env: int, x: B.State, k: wp.array2d(dtype=scalar), at: int):
+        """Link i's joint's position rate (the module docstring) at x, written to k[env, at + q] for its
+        positions q."""
+        kind = model.joint_type[i]
+        a = model.q_start[i]
+        d = model.v_start[i]
+        if kind == BALL or kind == FREE:
+            r = 0
+            if kind == FREE:
+                r = 3
+                for c in range(3):
+                    k[env, at + a + c] = x.joint_velocities[env, d + c]
+            Q = read4(x.joint_positions, env, a + r)
+            omega = sp.vec3(x.joint_velocities[env, d + r], x.joint_velocities[env, d + r + 1], x.joint_velocities[env, d + r + 2])
+            rate = scalar(0.5) * quaternion_product(Q / wp.length(Q), quat4(scalar(0.0), omega[0], omega[1], omega[2]))
+            for c in range(4):
+                k[env, at + a + r + c] = rate[c]
+        else:
+            k[env, at + a] = x.joint_velocities[env, d]
+
+    @wp.func
+    def slope_sum(k1: wp.array2d(dtype=scalar), k2: wp.array2d(dtype=scalar), k3: wp.array2d(dtype=scalar), k4: wp.array2d(dtype=scalar),
+                  env: int, c: int, rk4: bool):
+        """Entry c of k1 + 2 (k2 + k3) + k4 (rk4), else of k1 alone."""
+        if rk4:
+            return k1[env, c] + scalar(2.0) * (k2[env, c] + k3[env, c]) + k4[env, c]
+        return k1[env, c]
+
+    @wp.func
+    def combine_positions(
+        model: B.Model, i: int, env: int, x: wp.array2d(dtype=scalar), k1: wp.array2d(dtype=scalar), k2: wp.array2d(dtype=scalar),
+        k3: wp.array2d(dtype=scalar), k4: wp.array2d(dtype=scalar), w: scalar, rk4: bool, out: wp.array2d(dtype=scalar),
+    ):
+        """Link i's joint's positions x + w (k1 + 2 (k2 + k3) + k4) (rk4: RK4's combination), or x + w k1 (a stage),
+        of the slopes' position rates at 7 + q, its quaternion, if any, normalised, written once to out (N, nq);
+        returns 0, or NaN when a value is not finite (the health check's)."""
+        kind = model.joint_type[i]
+        a = model.q_start[i]
+        nonfinite = scalar(0.0)
+        if kind == BALL or kind == FREE:
+            r = 0
+            if kind == FREE:
+                r = 3
+                for c in range(3):
+                    value = x[env, a + c] + w * slope_sum(k1, k2, k3, k4, env, 7 + a + c, rk4)
+                    nonfinite = poison(nonfinite, value)
+                    out[env, a + c] = value
+            b = a + r
+            Q = read4(x, env, b)
+            step = quat4(slope_sum(k1, k2, k3, k4, env, 7 + b, rk4), slope_sum(k1, k2, k3, k4, env, 8 + b, rk4),
+                         slope_sum(k1, k2, k3, k4, env, 9 + b, rk4), slope_sum(k1, k2, k3, k4, env, 10 + b, rk4))
+            Q = Q / wp.length(Q) + w * step
+            Q = Q / wp.length(Q)
+            for c in range(4):
+                nonfinite = poison(nonfinite, Q[c])
+                out[env, b + c] = Q[c]
+        else:
+            value = x[env, a] + w * slope_sum(k1, k2, k3, k4, env, 7 + a, rk4)
+            nonfinite = poison(nonfinite, value)
+            out[env, a] = value
+        return nonfinite
 
     @wp.func
     def finite3(v: sp.vec3):
@@ -57,8 +195,9 @@ def kernels(scalar):
             y.base_velocity[env, 3 + a] = x.base_velocity[env, 3 + a]
         for a in range(4):
             y.base_quaternion[env, a] = x.base_quaternion[env, a]
-        for j in range(x.joint_positions.shape[1]):
-            y.joint_positions[env, j] = x.joint_positions[env, j]
+        for q in range(x.joint_positions.shape[1]):
+            y.joint_positions[env, q] = x.joint_positions[env, q]
+        for j in range(x.joint_velocities.shape[1]):
             y.joint_velocities[env, j] = x.joint_velocities[env, j]
         for c in range(x.tangential_deformation.shape[1]):
             for a in range(3):
@@ -93,18 +232,7 @@ def kernels(scalar):
         Q (x) exp(dt B_omega+ / 2) with B_omega+ = R^T omega+). Returns (p+, pdot+, omega+, Q+, 1)."""
         pdot_next = pdot + dt * (vdot + wp.cross(omega_dot, p) + wp.cross(omega, pdot))
         omega_next = omega + dt * omega_dot
-        # exp(dt omega+ / 2) = (cos h, sin(h) omega+ / |omega+|), h = dt |omega+| / 2 (series below 1e-4)
-        h2 = scalar(0.25) * dt * dt * wp.dot(omega_next, omega_next)
-        cos_h = scalar(1.0) - scalar(0.5) * h2 + h2 * h2 / scalar(24.0)
-        k = scalar(0.5) * dt * (scalar(1.0) - h2 / scalar(6.0) + h2 * h2 / scalar(120.0))
-        if h2 > scalar(1.0e-8):
-            h = wp.sqrt(h2)
-            cos_h = wp.cos(h)
-            k = wp.sin(h) * scalar(0.5) * dt / h
-        e = k * omega_next
-        qv = sp.vec3(Q[1], Q[2], Q[3])
-        r = cos_h * qv + Q[0] * e + wp.cross(e, qv)
-        Q_next = quat4(cos_h * Q[0] - wp.dot(e, qv), r[0], r[1], r[2])
+        Q_next = quaternion_product(rotation_step(Q, omega_next, dt), Q)
         return p + dt * pdot_next, pdot_next, omega_next, Q_next / wp.length(Q_next), scalar(1.0)
 
     @wp.func
@@ -153,6 +281,7 @@ def kernels(scalar):
 
         @wp.kernel(module="unique")
         def semi_implicit_euler(
+            model: B.Model,
             dt: scalar,
             quaternion_tolerance: scalar,
             x: B.State,
@@ -162,26 +291,23 @@ def kernels(scalar):
             # outputs: the state at t + dt
             y: B.State,
         ):
-            """One semi-implicit Euler step from x to y; nu_dot (N, 6 + n) is [W_vdot_WB (Inertial); sddot]. The
+            """One semi-implicit Euler step from x to y; nu_dot (N, 6 + nv) is [W_vdot_WB (Inertial); sddot]. The
             quaternion tolerance bounds |Q+| - 1 before normalising (JaxSim's), |Q| - 1 of the state read (SO3)."""
             env = wp.tid()
             p_next, pdot_next, omega_next, Q_next, ok = euler_base(SO3, dt, quaternion_tolerance, x, env, read3(nu_dot, env, 0), read3(nu_dot, env, 3))
-            n = x.joint_positions.shape[1]
+            nL = model.parent.shape[0]
             m = x.tangential_deformation
             nonfinite = scalar(0.0)
-            for j in range(n):
-                sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
-                nonfinite = poison(poison(nonfinite, sd_next), x.joint_positions[env, j] + dt * sd_next)
+            for i in range(1, nL):
+                nonfinite = nonfinite + joint_euler_step(model, i, env, dt, x, nu_dot, False, y)
             for c in range(m.shape[1]):
                 for a in range(3):
                     nonfinite = poison(nonfinite, m[env, c, a] + dt * m_dot[env, c, a])
             ok = ok and wp.isfinite(nonfinite)
             if ok:
                 write_base(env, y, p_next, pdot_next, omega_next, Q_next)
-                for j in range(n):
-                    sd_next = x.joint_velocities[env, j] + dt * nu_dot[env, 6 + j]
-                    y.joint_velocities[env, j] = sd_next
-                    y.joint_positions[env, j] = x.joint_positions[env, j] + dt * sd_next
+                for i in range(1, nL):
+                    joint_euler_step(model, i, env, dt, x, nu_dot, True, y)
                 for c in range(m.shape[1]):
                     for a in range(3):
                         y.tangential_deformation[env, c, a] = m[env, c, a] + dt * m_dot[env, c, a]
@@ -196,6 +322,7 @@ def kernels(scalar):
 
     @wp.kernel(module="unique")
     def slope(
+        model: B.Model,
         x: B.State,
         # its accelerations
         base_acceleration: wp.array2d(dtype=scalar),
@@ -204,54 +331,61 @@ def kernels(scalar):
         # outputs
         k: wp.array2d(dtype=scalar),
     ):
-        """k (N, 13 + 2n + 3 nc) = d/dt (p, Q, s, v (Inertial), sdot, m) at the stage x, in that order."""
+        """k (N, 13 + nq + nv + 3 nc) = d/dt (p, Q, s, v (Inertial), sdot, m) at the stage x, in that order (s's
+        rate: `joint_position_rate`)."""
         env = wp.tid()
-        n = x.joint_positions.shape[1]
+        nq = x.joint_positions.shape[1]
+        nv = x.joint_velocities.shape[1]
         Q = quaternion_of(x, env)
         Qdot = quaternion_rate(Q / wp.length(Q), read3(x.base_velocity, env, 3))
         for a in range(3):
             k[env, a] = x.base_velocity[env, a]
-            k[env, 7 + n + a] = base_acceleration[env, a]
-            k[env, 10 + n + a] = base_acceleration[env, 3 + a]
+            k[env, 7 + nq + a] = base_acceleration[env, a]
+            k[env, 10 + nq + a] = base_acceleration[env, 3 + a]
         for a in range(4):
             k[env, 3 + a] = Qdot[a]
-        for j in range(n):
-            k[env, 7 + j] = x.joint_velocities[env, j]
-            k[env, 13 + n + j] = joint_accelerations[env, j]
+        for i in range(1, model.parent.shape[0]):
+            joint_position_rate(model, i, env, x, k, 7)
+        for j in range(nv):
+            k[env, 13 + nq + j] = joint_accelerations[env, j]
         for c in range(x.tangential_deformation.shape[1]):
             for a in range(3):
-                k[env, 13 + 2 * n + 3 * c + a] = m_dot[env, c, a]
+                k[env, 13 + nq + nv + 3 * c + a] = m_dot[env, c, a]
 
     @wp.kernel(module="unique")
     def rk4_stage(
+        model: B.Model,
         h: scalar,
         x: B.State,
         k: wp.array2d(dtype=scalar),
-        # outputs: the stage x + h k, quaternion normalised, base velocity Mixed (its valid is not written)
+        # outputs: the stage x + h k, quaternions normalised, base velocity Mixed (its valid is not written)
         stage: B.State,
     ):
         env = wp.tid()
-        n = x.joint_positions.shape[1]
+        nq = x.joint_positions.shape[1]
+        nv = x.joint_velocities.shape[1]
         p = read3(x.base_position, env, 0)
         omega = read3(x.base_velocity, env, 3)
         v = read3(x.base_velocity, env, 0) - wp.cross(omega, p)
         p_h = p + h * read3(k, env, 0)
-        v_h = v + h * read3(k, env, 7 + n)
-        omega_h = omega + h * read3(k, env, 10 + n)
+        v_h = v + h * read3(k, env, 7 + nq)
+        omega_h = omega + h * read3(k, env, 10 + nq)
         Q = quaternion_of(x, env)
         Q_h = Q / wp.length(Q) + h * quat4(k[env, 3], k[env, 4], k[env, 5], k[env, 6])
         Q_h = Q_h / wp.length(Q_h)
         write_base(env, stage, p_h, v_h + wp.cross(omega_h, p_h), omega_h, Q_h)
-        for j in range(n):
-            stage.joint_positions[env, j] = x.joint_positions[env, j] + h * k[env, 7 + j]
-            stage.joint_velocities[env, j] = x.joint_velocities[env, j] + h * k[env, 13 + n + j]
+        for i in range(1, model.parent.shape[0]):
+            combine_positions(model, i, env, x.joint_positions, k, k, k, k, h, False, stage.joint_positions)
+        for j in range(nv):
+            stage.joint_velocities[env, j] = x.joint_velocities[env, j] + h * k[env, 13 + nq + j]
         m = x.tangential_deformation
         for c in range(m.shape[1]):
             for a in range(3):
-                stage.tangential_deformation[env, c, a] = m[env, c, a] + h * k[env, 13 + 2 * n + 3 * c + a]
+                stage.tangential_deformation[env, c, a] = m[env, c, a] + h * k[env, 13 + nq + nv + 3 * c + a]
 
     @wp.kernel(module="unique")
     def rk4_combine(
+        model: B.Model,
         dt: scalar,
         quaternion_tolerance: scalar,
         x: B.State,
@@ -263,18 +397,19 @@ def kernels(scalar):
         # outputs: the state at t + dt
         y: B.State,
     ):
-        """y = x + dt (k1 + 2 k2 + 2 k3 + k4) / 6, quaternion normalised; health as in semi_implicit_euler."""
+        """y = x + dt (k1 + 2 k2 + 2 k3 + k4) / 6, quaternions normalised; health as in semi_implicit_euler."""
         env = wp.tid()
-        n = x.joint_positions.shape[1]
+        nq = x.joint_positions.shape[1]
+        nv = x.joint_velocities.shape[1]
         m = x.tangential_deformation
         w = dt / scalar(6.0)
         p = read3(x.base_position, env, 0)
         omega = read3(x.base_velocity, env, 3)
         v = read3(x.base_velocity, env, 0) - wp.cross(omega, p)
         p_next = p + w * (read3(k1, env, 0) + scalar(2.0) * (read3(k2, env, 0) + read3(k3, env, 0)) + read3(k4, env, 0))
-        v_next = v + w * (read3(k1, env, 7 + n) + scalar(2.0) * (read3(k2, env, 7 + n) + read3(k3, env, 7 + n)) + read3(k4, env, 7 + n))
+        v_next = v + w * (read3(k1, env, 7 + nq) + scalar(2.0) * (read3(k2, env, 7 + nq) + read3(k3, env, 7 + nq)) + read3(k4, env, 7 + nq))
         omega_next = omega + w * (
-            read3(k1, env, 10 + n) + scalar(2.0) * (read3(k2, env, 10 + n) + read3(k3, env, 10 + n)) + read3(k4, env, 10 + n)
+            read3(k1, env, 10 + nq) + scalar(2.0) * (read3(k2, env, 10 + nq) + read3(k3, env, 10 + nq)) + read3(k4, env, 10 + nq)
         )
         Q = quaternion_of(x, env)
         dQ = quat4(
@@ -290,33 +425,34 @@ def kernels(scalar):
         ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
         ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm)
         nonfinite = scalar(0.0)
-        for j in range(n):
-            nonfinite = poison(nonfinite, k1[env, 7 + j] + k2[env, 7 + j] + k3[env, 7 + j] + k4[env, 7 + j])
-            nonfinite = poison(nonfinite, k1[env, 13 + n + j] + k2[env, 13 + n + j] + k3[env, 13 + n + j] + k4[env, 13 + n + j])
+        for q in range(nq):
+            nonfinite = poison(nonfinite, k1[env, 7 + q] + k2[env, 7 + q] + k3[env, 7 + q] + k4[env, 7 + q])
+        for j in range(nv):
+            nonfinite = poison(nonfinite, k1[env, 13 + nq + j] + k2[env, 13 + nq + j] + k3[env, 13 + nq + j] + k4[env, 13 + nq + j])
         for c in range(3 * m.shape[1]):
-            i = 13 + 2 * n + c
+            i = 13 + nq + nv + c
             nonfinite = poison(nonfinite, k1[env, i] + k2[env, i] + k3[env, i] + k4[env, i])
         ok = ok and wp.isfinite(nonfinite)
         if ok:
             write_base(env, y, p_next, pdot_next, omega_next, Q_next)
-            for j in range(n):
-                i = 7 + j
-                y.joint_positions[env, j] = x.joint_positions[env, j] + w * (k1[env, i] + scalar(2.0) * (k2[env, i] + k3[env, i]) + k4[env, i])
-                i2 = 13 + n + j
+            for L in range(1, model.parent.shape[0]):
+                combine_positions(model, L, env, x.joint_positions, k1, k2, k3, k4, w, True, y.joint_positions)
+            for j in range(nv):
+                i2 = 13 + nq + j
                 y.joint_velocities[env, j] = x.joint_velocities[env, j] + w * (
                     k1[env, i2] + scalar(2.0) * (k2[env, i2] + k3[env, i2]) + k4[env, i2]
                 )
             for c in range(m.shape[1]):
                 for a in range(3):
-                    i3 = 13 + 2 * n + 3 * c + a
+                    i3 = 13 + nq + nv + 3 * c + a
                     y.tangential_deformation[env, c, a] = m[env, c, a] + w * (k1[env, i3] + scalar(2.0) * (k2[env, i3] + k3[env, i3]) + k4[env, i3])
             y.valid[env] = 1
         else:
             keep_state(env, x, y)
 
-    def state_size(n: int, nc: int) -> int:
-        """The length of x = (p, Q, s, v, sdot, m): 3 + 4 + n + 6 + n + 3 nc."""
-        return 13 + 2 * n + 3 * nc
+    def state_size(nq: int, nv: int, nc: int) -> int:
+        """The length of x = (p, Q, s, v, sdot, m): 3 + 4 + nq + 6 + nv + 3 nc."""
+        return 13 + nq + nv + 3 * nc
 
     return types.SimpleNamespace(
         quaternion_rate=quaternion_rate,

@@ -2,24 +2,25 @@
 
 Notation as in kernels/jacobians.py: a target F is a frame at link_H_target on link L. The Jacobian with
 input representation I and output representation O is
-    J = O_X_W · [u_c],    u_c = W_X_A e_c (c < 6, base columns),    u_{6+j} = W_X_{L_j} S_j κ_j (joints),
-where κ_j = support[L, j], L_j = link j + 1 (the child of joint j), and A is the frame in which the input
+    J = O_X_W · [u_c],    u_c = W_X_A e_c (c < 6, base columns),    u_{6+d} = W_X_{L_d} S_d κ_d (DoFs),
+where κ_d = 1 when DoF d's joint supports L (else 0), L_d the link that joint moves, and A is the frame in which the input
 representation expresses the base velocity: W (Inertial), B (Body) or B[W] (Mixed); likewise O_X_W maps an
 Inertial velocity of F to representation O, whose frame is W (Inertial), F (Body) or F[W] (Mixed).
 
 Every frame C moving with Inertial velocity W_v_WC has d/dt W_X_C = (W_v_WC ×) W_X_C and
 d/dt C_X_W = -C_X_W (W_v_WC ×). Hence, column by column (u̇_c = W_v_WA × u_c for the base columns,
-u̇_{6+j} = W_v_{W L_j} × u_{6+j} for the joint columns: S_j is constant in L_j),
-    J̇ e_c = O_X_W ((W_v_WC_c − W_v_WO) × u_c),    C_c = A for c < 6, L_j for c = 6 + j,
+u̇_{6+d} = W_v_{W L_d} × u_{6+d} + W_X_{L_d} S̊_d for the DoF columns, S̊_d the apparent derivative of S_d in
+L_d: 0 but for a free joint's translations, kernels/bundles.py's `dof_motion_rate`),
+    J̇ e_c = O_X_W ((W_v_WC_c − W_v_WO) × u_c [+ W_X_{L_d} S̊_d]),    C_c = A for c < 6, L_d for c = 6 + d,
 with the Inertial velocities of the representation frames (`repr_frame_velocity`):
     W (Inertial): 0;    B or F (Body): the body's W_v;    B[W] or F[W] (Mixed): [W_ṗ_origin; 0].
 The time derivative is along the motion of the state: the base velocity and the joint velocities.
 
 Bias accelerations J̇ν: summing the columns against ν (in the input representation), with
 Σ_c u_c ν_c = W_v_WL,
-    J̇ν = O_X_W (W_v_WA × W_v_WB + W_a_L − W_v_WO × W_v_WL),    W_a_L = Σ_{j supports L} W_v_{W L_j} × u_j ṡ_j,
-where W_a_L follows the tree in `link_bias_recursion`: W_a_i = W_a_λ(i) + W_v_Wλ(i) × (W_X_i S_i ṡ_i)
-(W_v_Wi × u = W_v_Wλ(i) × u, as u × u = 0), W_a_0 = 0.
+    J̇ν = O_X_W (W_v_WA × W_v_WB + W_a_L − W_v_WO × W_v_WL),    W_a_L = Σ_{d supports L} u̇_d ṡ_d,
+where W_a_L follows the tree in `link_bias_recursion`: W_a_i = W_a_λ(i) + W_v_Wλ(i) × (W_X_i v_J,i) + W_X_i Ṡ_i ṡ_i
+(W_v_Wi × u = W_v_Wλ(i) × u, as u × u = 0; Ṡ_i ṡ_i: `joint_motion_rate`), W_a_0 = 0.
 
 Each output element is written once per launch; per-link arrays are written before children read them.
 Tape gradients: a name assigned in a dynamic loop must not also be assigned before it (e.g. in an unrolled
@@ -68,10 +69,11 @@ def kernels(scalar) -> types.SimpleNamespace:
         W_v_WL[env, 0] = sp.repr_to_inertial(MIXED, W_H_L[env, 0], B.base_velocity_mixed(state, env))
         W_a_L[env, 0] = sp.vec6(scalar(0.0))
         for i in range(1, model.parent.shape[0]):
-            S = B.motion_subspace_of(model, i)
-            u = sp.motion_to(W_H_L[env, i], S) * state.joint_velocities[env, i - 1]
+            vJ = B.joint_motion_of(model, i, B.joint_frame_motion(model, i, W_H_L, env), state.joint_velocities, env)
+            u = sp.motion_to(W_H_L[env, i], vJ)
             W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + u
-            W_a_L[env, i] = W_a_L[env, model.parent[i]] + sp.cross_motion(W_v_WL[env, model.parent[i]], u)
+            rate = sp.motion_to(W_H_L[env, i], B.joint_motion_rate(model, i, vJ))
+            W_a_L[env, i] = W_a_L[env, model.parent[i]] + sp.cross_motion(W_v_WL[env, model.parent[i]], u) + rate
 
     @wp.kernel(module="unique")
     def jacobian_derivatives(
@@ -85,7 +87,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         # outputs
         Jdot: wp.array4d(dtype=scalar),
     ):
-        """Jdot (N, T, 6, 6 + n): d/dt of the Jacobian of target t (kernels/jacobians.py), launched over (N, T)."""
+        """Jdot (N, T, 6, 6 + nv): d/dt of the Jacobian of target t (kernels/jacobians.py), launched over (N, T)."""
         env, t = wp.tid()
         L = targets.link[t]
         W_H_F = W_H_L[env, L] * targets.link_H_target[t]
@@ -101,14 +103,21 @@ def kernels(scalar) -> types.SimpleNamespace:
                 Jdot[env, t, r, c] = col[r]
         # Fresh names in the dynamic loop: a name assigned there that also exists outside it (as `u` and `col`
         # of the unrolled loop above) becomes loop-carried in Warp's codegen, and its adjoint goes wrong.
-        for j in range(model.support.shape[1]):
-            col_j = sp.vec6(scalar(0.0))
-            if model.support[L, j] != 0:
-                S_j = B.motion_subspace_of(model, j + 1)
-                u_j = sp.motion_to(W_H_L[env, j + 1], S_j)
-                col_j = sp.inertial_to_repr(output_repr, W_H_F, sp.cross_motion(W_v_WL[env, j + 1] - v_O, u_j))
-            for r in range(6):
-                Jdot[env, t, r, 6 + j] = col_j[r]
+        for i in range(1, model.parent.shape[0]):  # link i's joint, joint i - 1
+            moves = model.support[L, i - 1] != 0
+            X_i = wp.transform_identity(dtype=scalar)
+            vJ_i = sp.vec6(scalar(0.0))
+            if moves:
+                X_i = B.joint_frame_motion(model, i, W_H_L, env)
+                vJ_i = sp.motion_from(W_H_L[env, i], W_v_WL[env, i] - W_v_WL[env, model.parent[i]])
+            for d in range(model.v_start[i], model.v_start[i + 1]):
+                col_d = sp.vec6(scalar(0.0))
+                if moves:
+                    u_d = sp.motion_to(W_H_L[env, i], B.dof_motion(model, i, d, X_i))
+                    rate_d = sp.motion_to(W_H_L[env, i], B.dof_motion_rate(model, i, d, X_i, vJ_i))
+                    col_d = sp.inertial_to_repr(output_repr, W_H_F, sp.cross_motion(W_v_WL[env, i] - v_O, u_d) + rate_d)
+                for r in range(6):
+                    Jdot[env, t, r, 6 + d] = col_d[r]
 
     @wp.kernel(module="unique")
     def bias_accelerations(

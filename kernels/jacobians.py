@@ -2,7 +2,7 @@
 
 For a frame F on link L, in the Inertial representation of both the input and the output,
     W_v_WF = W_v_WB + sum_{j in path(L)} W_X_{L_j} S_j sdot_j,
-so the Jacobian is [I_6 | W_X_{L_j} S_j where joint j supports L, else 0]. Input and output
+so the Jacobian is [I_6 | W_X_{L_j} S_d for each DoF d of joint j where joint j supports L, else 0]. Input and output
 representations are applied to its columns: the base columns are the unit vectors of the input
 representation mapped to Inertial; every column is then mapped to the output representation of F.
 """
@@ -31,7 +31,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         # outputs
         J: wp.array4d(dtype=scalar),
     ):
-        """J (N, T, 6, 6 + n): the Jacobian of target t, launched over (N, T); W_H_L (N, nL) the link poses."""
+        """J (N, T, 6, 6 + nv): the Jacobian of target t, launched over (N, T); W_H_L (N, nL) the link poses."""
         env, t = wp.tid()
         L = targets.link[t]
         W_H_F = W_H_L[env, L] * targets.link_H_target[t]
@@ -42,12 +42,16 @@ def kernels(scalar) -> types.SimpleNamespace:
             col = sp.inertial_to_repr(output_repr, W_H_F, sp.repr_to_inertial(input_repr, W_H_B, e))
             for r in range(6):
                 J[env, t, r, c] = col[r]
-        for j in range(model.support.shape[1]):
-            col_j = sp.vec6(scalar(0.0))
-            if model.support[L, j] != 0:
-                S = B.motion_subspace_of(model, j + 1)
-                col_j = sp.inertial_to_repr(output_repr, W_H_F, sp.motion_to(W_H_L[env, j + 1], S))
-            for r in range(6):
-                J[env, t, r, 6 + j] = col_j[r]
+        for i in range(1, model.parent.shape[0]):  # link i's joint, joint i - 1
+            moves = model.support[L, i - 1] != 0
+            X = wp.transform_identity(dtype=scalar)
+            if moves:
+                X = B.joint_frame_motion(model, i, W_H_L, env)
+            for d in range(model.v_start[i], model.v_start[i + 1]):
+                col_d = sp.vec6(scalar(0.0))
+                if moves:
+                    col_d = sp.inertial_to_repr(output_repr, W_H_F, sp.motion_to(W_H_L[env, i], B.dof_motion(model, i, d, X)))
+                for r in range(6):
+                    J[env, t, r, 6 + d] = col_d[r]
 
     return types.SimpleNamespace(jacobians=jacobians)

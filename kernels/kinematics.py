@@ -32,7 +32,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         parent_H_link[env, 0] = W_H_B
         W_H_L[env, 0] = W_H_B
         for i in range(1, model.parent.shape[0]):
-            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
+            X = B.joint_transform(model, i, state.joint_positions, env)
             parent_H_link[env, i] = X
             W_H_L[env, i] = W_H_L[env, model.parent[i]] * X
 

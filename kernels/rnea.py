@@ -1,8 +1,10 @@
 """Recursive Newton-Euler: inverse dynamics, bias and gravity forces, one thread per environment.
 
 Featherstone's RNEA in link coordinates, gravity entering as a fictitious base acceleration -a_g:
-    v_i = iX_lambda v_lambda + S_i qd_i,   a_i = iX_lambda a_lambda + S_i qdd_i + v_i x S_i qd_i,
-    f_i = I_i a_i + v_i x* I_i v_i - f_ext_i + sum_children lambdaX*_c f_c,   tau_i = S_i^T f_i + armature_i qdd_i.
+    v_i = iX_lambda v_lambda + v_J,i,   a_i = iX_lambda a_lambda + S_i qdd_i + c_i,
+    f_i = I_i a_i + v_i x* I_i v_i - f_ext_i + sum_children lambdaX*_c f_c,   tau_d = S_d^T f_i + armature_d qdd_d
+for each DoF d of link i's joint (v_J,i = S_i qd_i and c_i = v_i x v_J,i + Sdot_i qd_i: kernels/bundles.py's
+`joint_motion_of` and `velocity_product`).
 The sum over children is a sibling chain, so that every element is written once (tape-safe):
     acc_c = lambdaX*_c f_c + acc_{next sibling of c},   and a link adds acc_{first child}.
 The base acceleration and the base wrench are converted from and to the requested representation.
@@ -56,9 +58,9 @@ def kernels(scalar, max_registers):
         f_B: wp.array2d(dtype=scalar),
         tau: wp.array2d(dtype=scalar),
     ):
-        """f_B (N, 6), tau (N, n): the generalized forces that produce the given accelerations.
+        """f_B (N, 6), tau (N, nv): the generalized forces that produce the given accelerations.
 
-        base_acceleration (N, 6): the derivative of the base velocity in `repr`; joint_accelerations (N, n);
+        base_acceleration (N, 6): the derivative of the base velocity in `repr`; joint_accelerations (N, nv);
         controls.link_forces (N, nL, 6): external link forces in `repr` (its joint forces are not read).
         with_velocity and with_gravity scale the velocities and gravity (0 or 1). f_B is the base wrench as
         the generalized force dual to the base velocity in `repr`. s (N, nL, RNEA_RECORD, + 7 with link forces): scratch, columns named
@@ -80,13 +82,12 @@ def kernels(scalar, max_registers):
             sc.put_transform(s, env, 0, _WHL, W_H_B)
         # velocities and accelerations, from the base
         for i in range(1, nL):
-            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
-            S = B.motion_subspace_of(model, i)
-            vJ = S * (state.joint_velocities[env, i - 1] * with_velocity)
+            X = B.joint_transform(model, i, state.joint_positions, env)
+            vJ = B.joint_motion_of(model, i, X, state.joint_velocities, env) * with_velocity
             v_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _V)) + vJ
-            a_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + sp.cross_motion(v_i, vJ)
+            a_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + B.velocity_product(model, i, v_i, vJ)
             if joint_accelerations.shape[0] > 0:
-                a_i = a_i + S * joint_accelerations[env, i - 1]
+                a_i = a_i + B.joint_motion_of(model, i, X, joint_accelerations, env)
             sc.put6(s, env, i, _V, v_i)
             sc.put6(s, env, i, _A, a_i)
             if forces:
@@ -94,8 +95,7 @@ def kernels(scalar, max_registers):
         # forces, from the leaves
         for k in range(nL - 1):
             i = nL - 1 - k
-            X = B.joint_transform(model, i, state.joint_positions[env, i - 1])
-            S = B.motion_subspace_of(model, i)
+            X = B.joint_transform(model, i, state.joint_positions, env)
             I = B.spatial_inertia_of(model, env, i)
             v_i = sc.get6(s, env, i, _V)
             f_i = I * sc.get6(s, env, i, _A) + sp.cross_force(v_i, I * v_i)
@@ -103,10 +103,11 @@ def kernels(scalar, max_registers):
                 f_i = f_i - external_force(controls, repr, s, _WHL, env, i)
             if model.first_child[i] >= 0:
                 f_i = f_i + sc.get6(s, env, model.first_child[i], _ACC)
-            rotor = scalar(0.0)
-            if joint_accelerations.shape[0] > 0:
-                rotor = B.armature_of(model, env, i - 1) * joint_accelerations[env, i - 1]
-            tau[env, i - 1] = wp.dot(S, f_i) + rotor
+            for d in range(model.v_start[i], model.v_start[i + 1]):
+                rotor = scalar(0.0)
+                if joint_accelerations.shape[0] > 0:
+                    rotor = B.armature_of(model, env, d) * joint_accelerations[env, d]
+                tau[env, d] = wp.dot(B.dof_motion(model, i, d, X), f_i) + rotor
             up = sp.force_to(X, f_i)
             if model.next_sibling[i] >= 0:
                 up = up + sc.get6(s, env, model.next_sibling[i], _ACC)

@@ -23,6 +23,10 @@ INERTIAL = 3
 
 REVOLUTE = 1
 PRISMATIC = 2
+BALL = 3
+FREE = 4
+"""Joint kinds (warpdyn.description.tree's JOINT_*): a ball joint has 4 positions (a quaternion) and 3 velocities,
+a free joint 7 (a position and a quaternion) and 6; revolute and prismatic joints 1 each."""
 
 
 @factory
@@ -267,6 +271,19 @@ def spatial(scalar) -> types.SimpleNamespace:
         return stack(x1, x2)
 
     @wp.func
+    def rotation_vector(q: quat):
+        """The rotation vector (axis times angle, angle in (-pi, pi]) of a unit quaternion q, MuJoCo's
+        mju_quat2Vel: the shorter of the two rotations q and -q stand for."""
+        v = vec3(q[0], q[1], q[2])
+        sin_half = wp.length(v)
+        if sin_half < scalar(1e-12):  # angle ~ 2 |v|: the limit of angle / sin_half
+            return scalar(2.0) * v * wp.sign(q[3])
+        angle = scalar(2.0) * wp.atan2(sin_half, q[3])
+        if angle > scalar(3.141592653589793):
+            angle = angle - scalar(6.283185307179586)
+        return v * (angle / sin_half)
+
+    @wp.func
     def mixed_frame(W_H_F: transform):
         """F[W]: the frame at F's origin with the world's orientation."""
         return transform(wp.transform_get_translation(W_H_F), quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0)))
@@ -290,6 +307,7 @@ def spatial(scalar) -> types.SimpleNamespace:
         return W_f
 
     return types.SimpleNamespace(
+        rotation_vector=rotation_vector,
         scalar=scalar,
         vec3=vec3,
         vec4=vec4,

@@ -1,7 +1,7 @@
 """Link velocities by forward recursion, one thread per environment.
 
-In the Inertial representation velocities add along the tree: W_v_Wi = W_v_Wlambda(i) + W_X_i S_i sdot_i,
-starting from the base velocity. Targets (links or frames on links) are then written in the output
+In the Inertial representation velocities add along the tree: W_v_Wi = W_v_Wlambda(i) + W_X_i v_J,i with
+v_J,i = S_i(q) sdot_i the joint's velocity in link coordinates, starting from the base velocity. Targets (links or frames on links) are then written in the output
 representation.
 """
 
@@ -37,8 +37,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         env = wp.tid()
         W_v_WL[env, 0] = sp.repr_to_inertial(MIXED, W_H_L[env, 0], B.base_velocity_mixed(state, env))
         for i in range(1, model.parent.shape[0]):
-            S = B.motion_subspace_of(model, i)
-            W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + sp.motion_to(W_H_L[env, i], S) * state.joint_velocities[env, i - 1]
+            vJ = B.joint_motion_of(model, i, B.joint_frame_motion(model, i, W_H_L, env), state.joint_velocities, env)
+            W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + sp.motion_to(W_H_L[env, i], vJ)
         for t in range(targets.link.shape[0]):
             L = targets.link[t]
             out = sp.inertial_to_repr(output_repr, W_H_L[env, L] * targets.link_H_target[t], W_v_WL[env, L])

@@ -3,14 +3,16 @@ MuJoCo's qpos0 and at random states. benchmarks/menagerie.py runs it over MuJoCo
 tests/test_menagerie_fixtures.py over the fixtures derived from it; both import it from here, so the state
 mapping lives in one place.
 
-MuJoCo's coordinates to warpdyn's: `mujoco_to_warpdyn_state` is the only code that knows both (update it, and
-nothing else, when the engine gains ball joints, free joints inside a scene and several trees). Today a
-warpdyn model is one tree: a floating base (MuJoCo's lone free joint) or a fixed one, then one-degree-of-freedom
-joints, matched to MuJoCo's by name (an unnamed MuJoCo joint j is warpdyn's "joint{j}"). Hinge and slide
-positions are MuJoCo's qpos (warpdyn folds `ref` into the joint's origin). warpdyn's generalized velocity is
-Mixed: the base's [W_pdot_B; W_omega_WB], then the joints; MuJoCo's free joint has the world linear velocity
-of the body origin and the angular velocity in the body frame. So qvel = T nu with T = blockdiag(I, R^T) on the
-base and a permutation on the joints, and (T is invertible; d(R^T w)/dt = R^T dw/dt):
+MuJoCo's coordinates to warpdyn's: `mujoco_to_warpdyn_state` is the only code that knows both. A warpdyn
+model has a base, floating (MuJoCo's lone free joint) or fixed (a scene of several trees: the world), then its
+joints, matched to MuJoCo's by name (an unnamed MuJoCo joint j is warpdyn's "joint{j}") and of the same kind:
+hinge and slide positions are MuJoCo's qpos (warpdyn folds `ref` into the joint's origin); a ball joint's
+quaternion and angular velocity (child axes) and a scene's free joint's position, quaternion, world linear
+velocity and body angular velocity are MuJoCo's own numbers (`wd.joint.position_slice`, `velocity_slice`).
+warpdyn's generalized velocity is Mixed: the base's [W_pdot_B; W_omega_WB], then the joints; MuJoCo's free
+joint has the world linear velocity of the body origin and the angular velocity in the body frame. So qvel =
+T nu with T = blockdiag(I, R^T) on the base and a permutation on the joints, and (T is invertible;
+d(R^T w)/dt = R^T dw/dt):
     M = T^T M_mj T,    f = T^T f_mj (any generalized force),    nu_dot = T^-1 qacc.
 For a fixed base only warpdyn's joint coordinates are compared (its base block is not a degree of freedom).
 
@@ -95,12 +97,22 @@ def mujoco_to_warpdyn_state(model, mj: mujoco.MjModel, qpos, qvel) -> WarpdynSta
     (the module docstring says how). Every MuJoCo dof must be one of warpdyn's: a KeyError or ValueError
     names the one that is not."""
     joint_names = model.joint_names()
-    n = len(joint_names)
+    n = model.dofs()
     joints = [_mujoco_id(mj, mujoco.mjtObj.mjOBJ_JOINT, name, "joint") for name in joint_names]
-    if any(int(mj.jnt_type[j]) not in (mujoco.mjtJoint.mjJNT_HINGE.value, mujoco.mjtJoint.mjJNT_SLIDE.value) for j in joints):
-        raise ValueError("a warpdyn joint is not a MuJoCo hinge or slide")
-    qpos_adr, dof_adr = mj.jnt_qposadr[joints], mj.jnt_dofadr[joints]
-    kwargs = dict(joint_positions=np.asarray(qpos)[qpos_adr], joint_velocities=np.asarray(qvel)[dof_adr])
+    Joint = mujoco.mjtJoint
+    kinds = {Joint.mjJNT_HINGE.value: 1, Joint.mjJNT_SLIDE.value: 2, Joint.mjJNT_BALL.value: 3, Joint.mjJNT_FREE.value: 4}
+    for name, j, kind in zip(joint_names, joints, model.tree.joint_type[1:]):
+        if kinds.get(int(mj.jnt_type[j])) != int(kind):
+            raise ValueError(f"warpdyn's joint '{name}' (kind {int(kind)}) is not of the kind of MuJoCo's (mjtJoint {int(mj.jnt_type[j])})")
+    positions, velocities = np.zeros(model.number_of_joint_coordinates()), np.zeros(n)
+    dof_adr = np.zeros(n, dtype=int)  # MuJoCo's dof of each of warpdyn's
+    for k, j in enumerate(joints):
+        q, v = wd.joint.position_slice(model, joint_index=k), wd.joint.velocity_slice(model, joint_index=k)
+        a, d = int(mj.jnt_qposadr[j]), int(mj.jnt_dofadr[j])
+        positions[q] = np.asarray(qpos)[a : a + q.stop - q.start]
+        velocities[v] = np.asarray(qvel)[d : d + v.stop - v.start]
+        dof_adr[v] = np.arange(d, d + v.stop - v.start)
+    kwargs = dict(joint_positions=positions, joint_velocities=velocities)
     columns = list(dof_adr)
     if model.floating_base():
         body = _mujoco_id(mj, mujoco.mjtObj.mjOBJ_BODY, model.base_link(), "body")

@@ -4,10 +4,9 @@ in issue 35 (ball joints inside Cassie's tree; a free cube beside a fixed Panda,
 and damping on its free joint).
 
 `compare_with_mujoco(path, dtype)` is warpdyn against MuJoCo on any MJCF file (tests/mjcf_compare.py, whose
-state mapping benchmarks/menagerie.py shares): the engine's tests call it with asserting tolerances once
-warpdyn has ball joints, several trees and free-joint armature (cassie.xml and mjx_single_cube.xml are refused
-today, rby1a_1.2.xml loads without its free joint's armature and damping). The one asserting comparison here is
-the part warpdyn already models: RB-Y1 without its free joint's armature and damping.
+state mapping benchmarks/menagerie.py shares). Cassie and the cube scene are compared in
+tests/test_joint_kinds.py (ball joints, several trees); here RB-Y1, whose floating base's free joint carries
+armature and damping.
 """
 
 import pathlib

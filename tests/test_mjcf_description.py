@@ -527,15 +527,19 @@ def test_drone_is_a_floating_base_without_joints():
     np.testing.assert_array_equal(tree.link_com[0], m.body_ipos[1])
 
 
-def test_one_robot():
-    """Several free bodies, or a free body beside jointed world children (GRAVCOMP's balloon next to its
-    arm), are ValueErrors naming them; bodies welded to the world beside a free body are dropped as static
-    scenery and listed in the warning; ball joints stay refused, naming the joint."""
+def test_scenes_of_several_trees():
+    """Several free bodies, or a free body beside jointed world children (GRAVCOMP's balloon next to its arm),
+    make a scene: the world is the fixed base and each free body hangs from it by a free joint starting at the
+    body's pose (MuJoCo's qpos0); a free body beside bodies welded to the world is a floating base, the welded
+    bodies dropped as static scenery and listed in the warning; a ball joint is a joint of its own. Reference:
+    the fixtures' XML (their bodies, joints and poses)."""
     two = mm.DRONE.replace("</worldbody>", '<body name="drone2" pos="2 0 1"><freejoint name="r2"/><geom size="0.1"/></body></worldbody>')
-    with pytest.raises(ValueError, match=r"2 free bodies \['drone', 'drone2'\]"):
-        load(two)
-    with pytest.raises(ValueError, match=r"free body 'balloon'.*jointed bodies \['gl1'\]"):
-        load(mm.GRAVCOMP)
+    scene = load(two)
+    assert scene.fixed_base and scene.base == "world"
+    assert {(j.name, j.type, j.parent, j.child) for j in scene.joints} == {("drone_root", "free", "world", "drone"), ("r2", "free", "world", "drone2")}
+    np.testing.assert_allclose([j.initial_position for j in scene.joints if j.name == "r2"][0], [2.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0])
+    arm_and_balloon = load(mm.GRAVCOMP)
+    assert arm_and_balloon.base == "world" and {j.type for j in arm_and_balloon.joints} == {"free", "revolute"}
     scenery = mm.FLOATING_HUMANOID.replace(
         "</worldbody>", '<body name="stairs" pos="2 0 0"><geom type="box" size="1 1 0.1"/><body name="step" pos="0 0 0.2"/></body></worldbody>'
     )
@@ -543,8 +547,8 @@ def test_one_robot():
         description = load(scenery)
     assert not description.fixed_base and description.base == "pelvis"
     assert build_tree(description).link_names == build_tree(_load(mm.FLOATING_HUMANOID)).link_names
-    with pytest.raises(ValueError, match=r"joint 'ball' has type 'ball'"):
-        load(mm.BALL)
+    ball = load(mm.BALL)
+    assert [(j.name, j.type) for j in ball.joints] == [("ball", "ball"), ("ball_hinge", "revolute")]
 
 
 # ------------------------------------------------------------------------------------ options

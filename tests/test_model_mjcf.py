@@ -171,7 +171,8 @@ def test_joint_transforms_at_extreme_positions(dtype):
     H = wd.model.forward_kinematics(model, data).numpy()
     kinds = {1: "revolute", 2: "prismatic"}
     for e, q in enumerate(cases):
-        expected = [np.eye(4)]  # the base at the origin (Data.build)
+        expected = [np.eye(4)]
+        expected[0][:3, 3] = [0.1, 0.2, 0.3]  # the free body's pose, where Data.build starts it (MuJoCo's qpos0)
         for i in range(1, tree.number_of_links):
             motion = wd.description.joint_motion(kinds[tree.joint_type[i]], tree.joint_axis[i], tree.joint_pivot[i], q[i - 1])
             expected.append(expected[tree.parent[i]] @ tree.parent_H_joint[i] @ motion)

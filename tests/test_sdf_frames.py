@@ -387,8 +387,6 @@ def test_include_through_sdf_path_with_overrides_and_merge(tmp_path, monkeypatch
 
 LINK = f'<link name="a">{INERTIAL}</link><link name="b">{INERTIAL}</link>'
 REFUSED = [
-    (sdf(f'<model name="m">{LINK}<joint name="sph" type="ball"><parent>a</parent><child>b</child></joint></model>'),
-     r"joint 'sph' has type 'ball'"),
     (sdf(f'<model name="m">{LINK}<joint name="u" type="universal"><parent>a</parent><child>b</child></joint></model>'),
      r"joint 'u' has type 'universal'"),
     (sdf(f'<world name="w"><model name="one">{LINK}</model><model name="two">{LINK}</model></world>'),

@@ -26,11 +26,12 @@ from .engine import warp_private
 from .types.data_checks import check_contact_state, check_data, check_state
 from .types.enums import VelRepr
 from .common import ModelDataWithVelocityRepresentation
-from .joint import random_generator, random_joint_positions
+from .joint import position_slice, random_generator, random_joint_positions, velocity_slice
 from .math import Quaternion, Rotation
+from .description.tree import JOINT_BALL, JOINT_FREE
 from .types.model import quaternion_xyzw
 
-__all__ = ["Data", "JaxSimModelData", "random_model_data"]
+__all__ = ["Data", "JaxSimModelData", "random_model_data", "keyframe"]
 
 _STATE_FIELDS = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities")
 _NO_GRADS = (None,) * len(_STATE_FIELDS)  # Data.requires_grad: no state array has a .grad
@@ -75,15 +76,17 @@ class Data(ModelDataWithVelocityRepresentation):
         Each argument is shared by all environments (JaxSim's shape) or given per environment (leading
         axis N); defaults are zero, with the identity quaternion (w, x, y, z) = (1, 0, 0, 0), except the
         base pose, which defaults to where the description welds a fixed base or places a floating one
-        (`description.initial_world_H_base`: an SDF model's pose). Base
-        velocities are read in `velocity_representation`. contact_state: JaxSim's, {"tangential_deformation":
+        (`description.initial_world_H_base`: an SDF model's pose, an MJCF free body's), and the joint
+        positions (nq,), which default to the description's initial positions (MuJoCo's qpos0: an MJCF
+        joint's `ref`, a free body's pose; an SDF joint's `<initial_position>`; else 0 and identity
+        quaternions). joint_velocities: (nv,). Base velocities are read in `velocity_representation`. contact_state: JaxSim's, {"tangential_deformation":
         (nc_all, 3) or (N, nc_all, 3) [m]} (default zero). NumPy-like inputs are checked on the host
         (finite; unit quaternion within 1e-6 when `validate`); Warp arrays are copied on the device,
         and checked on the host (a synchronisation) only when `validate` is set.
         """
         num_envs = arrays.num_envs_argument(num_envs)
         velocity_representation = VelRepr(velocity_representation)
-        s, d, n = model.scalar, model.device, model.dofs()
+        s, d, n, nq = model.scalar, model.device, model.dofs(), model.number_of_joint_coordinates()
         N = 1 if num_envs is None else int(num_envs)
 
         def state(value, name, shape, default=None):
@@ -97,14 +100,12 @@ class Data(ModelDataWithVelocityRepresentation):
         if placed is not None:
             default_position, default_quaternion = placed[:3, 3], _quaternion_wxyz(placed[:3, :3])
         quaternion = state(base_quaternion, "base_quaternion", (4,), default_quaternion)
+        positions = state(joint_positions, "joint_positions", (nq,), model.tree.qpos0)
         if validate:
-            norms = np.linalg.norm(quaternion.numpy(), axis=-1)
-            bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-6)
-            if bad.size:
-                raise ValueError(
-                    f"base_quaternion must be a unit quaternion (w, x, y, z): environment(s) {bad[:10].tolist()} "
-                    f"have norm {norms[bad[:10]].tolist()}"
-                )
+            _check_unit(quaternion.numpy(), "base_quaternion")
+            host = positions.numpy() if len(model.joint_quaternions()) else None
+            for start, name in zip(model.joint_quaternions(), _quaternion_joints(model)):
+                _check_unit(host[:, start : start + 4], f"joint_positions of joint '{name}' (its quaternion at {start}:{start + 4})")
         position = state(base_position, "base_position", (3,), default_position)
         linear = state(base_linear_velocity, "base_linear_velocity", (3,))
         angular = state(base_angular_velocity, "base_angular_velocity", (3,))
@@ -114,7 +115,7 @@ class Data(ModelDataWithVelocityRepresentation):
         data = Data(
             base_position_state=position,
             base_quaternion_state=quaternion,
-            joint_positions_state=state(joint_positions, "joint_positions", (n,)),
+            joint_positions_state=positions,
             base_velocity_state=velocity,
             joint_velocities_state=state(joint_velocities, "joint_velocities", (n,)),
             velocity_representation=velocity_representation,
@@ -171,12 +172,12 @@ class Data(ModelDataWithVelocityRepresentation):
 
     @property
     def joint_positions(self) -> wp.array:
-        """s: (n,) or (N, n) [rad or m]; a view of the state."""
+        """s: (nq,) or (N, nq) [rad or m; a ball or free joint's quaternion (w, x, y, z)]; a view of the state."""
         return self._out(self.joint_positions_state)
 
     @property
     def joint_velocities(self) -> wp.array:
-        """sdot: (n,) or (N, n) [rad/s or m/s]; a view of the state."""
+        """sdot: (nv,) or (N, nv) [rad/s or m/s]; a view of the state."""
         return self._out(self.joint_velocities_state)
 
     @property
@@ -303,6 +304,11 @@ class Data(ModelDataWithVelocityRepresentation):
         check_data(model, self)
         if base_quaternion is not None:
             base_quaternion = _normalised(base_quaternion)
+        if joint_positions is not None and len(model.joint_quaternions()):
+            joint_positions = arrays.host_numbers(joint_positions.numpy() if isinstance(joint_positions, wp.array) else joint_positions, "joint_positions").copy()
+            for start, name in zip(model.joint_quaternions(), _quaternion_joints(model)):
+                if joint_positions.shape[-1] > start + 3:
+                    joint_positions[..., start : start + 4] = _normalised(joint_positions[..., start : start + 4], f"joint_positions of joint '{name}'")
         if envs is not None:
             arrays.env_mask(envs, self.batch_size)  # checked before any work
         current_base = self.base_velocity.numpy().reshape(self.batch_size, 6)
@@ -360,6 +366,34 @@ JaxSimModelData = Data
 """JaxSim's name of the data class."""
 
 
+def keyframe(model, name: str, *, velocity_representation: VelRepr = VelRepr.Mixed, num_envs: int | None = None) -> Data:
+    """Data at the description's keyframe `name` (MJCF `<key>`; `model.keyframe_names()`), in every environment:
+    MuJoCo's qpos and qvel mapped by joint name, the floating base's free joint to the base (its angular
+    velocity, in the body's axes in MuJoCo's qvel, converted), a ball or free joint's numbers as they are.
+    Joints a reduction locked keep their locked positions (the keyframe's are not read); a ValueError names an
+    unknown keyframe."""
+    frames = {k.name: k for k in model.description.keyframes}
+    if name not in frames:
+        raise ValueError(f"model '{model.name()}' has no keyframe '{name}'; its keyframes: {list(frames)}")
+    key = frames[name]
+    kwargs: dict = {}
+    positions = np.array(model.tree.qpos0, dtype=np.float64)
+    velocities = np.zeros(model.dofs())
+    index = {joint: k for k, joint in enumerate(model.joint_names())}
+    for joint, kind, qposadr, dofadr in model.description.mujoco_joints:
+        nq, nv = {"free": (7, 6), "ball": (4, 3)}.get(kind, (1, 1))
+        q, v = key.qpos[qposadr : qposadr + nq], key.qvel[dofadr : dofadr + nv]
+        if joint in index:
+            positions[position_slice(model, joint_index=index[joint])] = q
+            velocities[velocity_slice(model, joint_index=index[joint])] = v
+        elif kind == "free" and model.floating_base():  # the base's own: MuJoCo's angular velocity is in body axes
+            Q = q[3:] / np.linalg.norm(q[3:])
+            kwargs.update(base_position=q[:3], base_quaternion=Q, base_linear_velocity=v[:3], base_angular_velocity=Quaternion.to_dcm(Q) @ v[3:])
+    data = Data.build(model, joint_positions=positions, joint_velocities=velocities, velocity_representation=VelRepr.Mixed, num_envs=num_envs, **kwargs)
+    data.velocity_representation = VelRepr(velocity_representation)
+    return data
+
+
 def _deformation(model, contact_state: dict | None, num_envs: int | None, N: int) -> wp.array:
     """The tangential deformation state (N, nc_all, 3) of JaxSim's contact_state (None: zero)."""
     rows = (len(model.kin_dyn_structure().contact_parameters.body), 3)
@@ -370,13 +404,27 @@ def _deformation(model, contact_state: dict | None, num_envs: int | None, N: int
     return states.state_array(contact_state.get("tangential_deformation"), "contact_state['tangential_deformation']", rows, num_envs, model.scalar, model.device)
 
 
-def _normalised(quaternion) -> np.ndarray:
+def _normalised(quaternion, name: str = "base_quaternion") -> np.ndarray:
     """A quaternion (4,) or (N, 4) divided by its norm (JaxSim's replace); a zero or non-finite one is refused."""
-    host = arrays.host_numbers(quaternion.numpy() if isinstance(quaternion, wp.array) else quaternion, "base_quaternion")
+    host = arrays.host_numbers(quaternion.numpy() if isinstance(quaternion, wp.array) else quaternion, name)
     norm = np.linalg.norm(host, axis=-1, keepdims=True)
     if host.shape[-1:] != (4,) or not np.all(np.isfinite(host)) or np.any(norm == 0.0):
-        raise ValueError(f"base_quaternion must be finite, non-zero (w, x, y, z) quaternions (normalised here), got {host.tolist()!r:.200}")
+        raise ValueError(f"{name} must be finite, non-zero (w, x, y, z) quaternions (normalised here), got {host.tolist()!r:.200}")
     return host / norm
+
+
+def _check_unit(quaternions: np.ndarray, name: str) -> None:
+    """A ValueError naming `name` and the environments whose quaternions (N, 4) are not of unit norm (1e-6)."""
+    norms = np.linalg.norm(quaternions, axis=-1)
+    bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-6)
+    if bad.size:
+        raise ValueError(f"{name} must be a unit quaternion (w, x, y, z): environment(s) {bad[:10].tolist()} have norm {norms[bad[:10]].tolist()}")
+
+
+def _quaternion_joints(model) -> list[str]:
+    """The names of the ball and free joints, in the order of `model.joint_quaternions()`."""
+    kinds = model.tree.joint_type[1:]
+    return [name for name, kind in zip(model.joint_names(), kinds) if kind in (JOINT_BALL, JOINT_FREE)]
 
 
 def _clone(array: wp.array | None) -> wp.array | None:
@@ -437,12 +485,13 @@ def random_model_data(
     intrinsic). Joint positions: within the model's position limits (`wd.joint.random_joint_positions`,
     per environment when the limits are), or within `joint_pos_bounds`. The base pose and velocity are
     drawn for floating-base models only: a welded base stays where the model welds it (JaxSim also draws a
-    welded base's pose); base velocities are in `velocity_representation` (default Mixed).
+    welded base's pose); base velocities are in `velocity_representation` (default Mixed). Ball and free
+    joints: `wd.joint.random_joint_positions` (joint_pos_bounds bound the one-DoF joints' positions).
     """
     num_envs = arrays.num_envs_argument(num_envs)
     rng = random_generator(key)
     N = 1 if num_envs is None else num_envs
-    n = model.dofs()
+    n, nq = model.dofs(), model.number_of_joint_coordinates()
     velocity_representation = VelRepr.Mixed if velocity_representation is None else VelRepr(velocity_representation)
 
     def uniform(bounds, shape):
@@ -457,10 +506,16 @@ def random_model_data(
         kwargs["base_linear_velocity"] = uniform(base_vel_lin_bounds, (N, 3))
         kwargs["base_angular_velocity"] = uniform(base_vel_ang_bounds, (N, 3))
     if n > 0:
-        if joint_pos_bounds is None:
-            kwargs["joint_positions"] = random_joint_positions(model, key=rng, num_envs=N)
-        else:
-            kwargs["joint_positions"] = uniform(joint_pos_bounds, (N, n))
+        kwargs["joint_positions"] = random_joint_positions(model, key=rng, num_envs=N)
+        if joint_pos_bounds is not None:  # the bounds replace the limits of one-DoF joints (quaternions stay random)
+            one_dof = np.ones(nq, dtype=bool)
+            for start in model.joint_quaternions():
+                one_dof[start : start + 4] = False
+            for i, kind in enumerate(model.tree.joint_type):
+                if kind == JOINT_FREE:
+                    one_dof[model.tree.q_start[i] : model.tree.q_start[i] + 3] = False
+            drawn = uniform(joint_pos_bounds, (N, int(one_dof.sum())))
+            kwargs["joint_positions"][:, one_dof] = drawn
         kwargs["joint_velocities"] = uniform(joint_vel_bounds, (N, n))
     if num_envs is None:
         kwargs = {k: v[0] for k, v in kwargs.items()}

@@ -217,16 +217,17 @@ def forward_kinematics(model: Model, data, *, parallel: bool | None = None) -> w
 
 
 def joint_transforms(model: Model, joint_positions, base_transform) -> wp.array:
-    """i_X_λ(i): the motion adjoint from each link's parent to the link at `joint_positions` (n,) [rad or m],
-    (1 + n, 6, 6), row 0 B_X_W of `base_transform` W_H_B (4, 4); (N, 1 + n, 6, 6) for (N, n) and (N, 4, 4).
+    """i_X_λ(i): the motion adjoint from each link's parent to the link at `joint_positions` (nq,) [rad or m],
+    (1 + nj, 6, 6), row 0 B_X_W of `base_transform` W_H_B (4, 4); (N, 1 + nj, 6, 6) for (N, nq) and (N, 4, 4).
     JaxSim's. The links' poses in their parents as (4, 4) matrices: `relative_link_transforms`."""
     q = arrays.host_numbers(joint_positions.numpy() if isinstance(joint_positions, wp.array) else joint_positions, "joint_positions")
     H = arrays.host_numbers(base_transform.numpy() if isinstance(base_transform, wp.array) else base_transform, "base_transform")
     batched = q.ndim == 2 or H.ndim == 3
     N = q.shape[0] if q.ndim == 2 else H.shape[0] if H.ndim == 3 else None
-    if H.shape[-2:] != (4, 4) or q.shape[-1:] != (model.dofs(),) or q.ndim > 2 or H.ndim > 3:
+    nq = model.number_of_joint_coordinates()
+    if H.shape[-2:] != (4, 4) or q.shape[-1:] != (nq,) or q.ndim > 2 or H.ndim > 3:
         raise ValueError(
-            f"joint_transforms: joint_positions ({model.dofs()},) or (N, {model.dofs()}) and base_transform (4, 4) or "
+            f"joint_transforms: joint_positions ({nq},) or (N, {nq}) and base_transform (4, 4) or "
             f"(N, 4, 4), got {q.shape} and {H.shape}"
         )
     data = Data.build(
@@ -241,9 +242,9 @@ def joint_transforms(model: Model, joint_positions, base_transform) -> wp.array:
 
 
 def relative_link_transforms(model: Model, data) -> wp.array:
-    """λ(i)_H_i: the pose of each joint's child link in its parent link, (n, 4, 4), or (N, n, 4, 4) batched
+    """λ(i)_H_i: the pose of each joint's child link in its parent link, (nj, 4, 4), or (N, nj, 4, 4) batched
     (what warpdyn's `joint_transforms` returned before it took JaxSim's meaning)."""
-    if model.dofs() == 0:
+    if model.number_of_joints() == 0:
         shape = (0, 4, 4) if data.num_envs is None else (data.batch_size, 0, 4, 4)
         return wp.empty(shape, dtype=model.scalar, device=model.device)
     parent_H_link, _ = kinematics.link_poses(model, data)

@@ -37,11 +37,13 @@ def system_acceleration(model, data: Data, *, link_forces=None, joint_torques=No
     return base, joints, rates
 
 
-def system_position_dynamics(data: Data, baumgarte_quaternion_regularization: float = 1.0) -> tuple[wp.array, wp.array, wp.array]:
-    """(W_pdot_B (3,) [m/s], W_Qdot_B (4,), sdot (n,)): the derivatives of the base position, of the base
+def system_position_dynamics(data: Data, baumgarte_quaternion_regularization: float = 1.0, *, model=None) -> tuple[wp.array, wp.array, wp.array]:
+    """(W_pdot_B (3,) [m/s], W_Qdot_B (4,), sdot (nq,)): the derivatives of the base position, of the base
     quaternion (w, x, y, z), normalised first, with JaxSim's Baumgarte term K |omega| (1 - |Q|) pulling its
-    norm to 1 (K = `baumgarte_quaternion_regularization`), and of the joint positions. Leading (N,) for
-    batched data. Computed on the host (NumPy), returned on the data's device."""
+    norm to 1 (K = `baumgarte_quaternion_regularization`), and of the joint positions: the joint velocities,
+    but a ball joint's quaternion rate 1/2 Q (x) (0, omega) (omega in child axes) and a free joint's (v, that
+    rate), for which warpdyn's `model` keyword is needed (the data alone does not say where they are). Leading
+    (N,) for batched data. Computed on the host (NumPy), returned on the data's device."""
     v = np.asarray(data.base_velocity_state.numpy()).reshape(data.batch_size, 6)  # stored Mixed: [W_pdot_B; W_omega_WB]
     Q = np.asarray(data.base_quaternion_state.numpy()).reshape(data.batch_size, 4)
     Q = Q / np.linalg.norm(Q, axis=-1, keepdims=True)
@@ -49,7 +51,29 @@ def system_position_dynamics(data: Data, baumgarte_quaternion_regularization: fl
     out = (v[:, :3], Q_dot)
     device, scalar = data.device, data.scalar
     p_dot, q_dot = (arrays.squeeze_env(wp.array(x, dtype=scalar, device=device), data.num_envs) for x in out)
-    return p_dot, q_dot, data.joint_velocities
+    if data.joint_positions_state.shape[1] == data.joint_velocities_state.shape[1]:
+        return p_dot, q_dot, data.joint_velocities
+    if model is None:
+        raise ValueError("system_position_dynamics: the data has ball or free joints (more joint positions than velocities): pass model=")
+    s_dot = _joint_position_rates(model, data.joint_positions_state.numpy(), data.joint_velocities_state.numpy())
+    return p_dot, q_dot, arrays.squeeze_env(wp.array(s_dot, dtype=scalar, device=device), data.num_envs)
+
+
+def _joint_position_rates(model, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(N, nq): the joints' position rates (kernels/integrators.py's joint_position_rate) at positions q (N, nq)
+    and velocities v (N, nv), host NumPy."""
+    tree = model.tree
+    out = np.zeros_like(q)
+    for i in range(1, tree.number_of_links):
+        a, b, d = int(tree.q_start[i]), int(tree.q_start[i + 1]), int(tree.v_start[i])
+        if b - a == 1:
+            out[:, a] = v[:, d]
+            continue
+        r = 3 if b - a == 7 else 0
+        out[:, a : a + r] = v[:, d : d + r]
+        Q = q[:, a + r : b] / np.linalg.norm(q[:, a + r : b], axis=-1, keepdims=True)
+        out[:, a + r : b] = Quaternion.derivative(Q, v[:, d + r : d + r + 3], omega_in_body_fixed=True, K=0.0)
+    return out
 
 
 def system_dynamics(model, data: Data, *, link_forces=None, joint_torques=None, baumgarte_quaternion_regularization: float = 1.0) -> dict:
@@ -59,7 +83,7 @@ def system_dynamics(model, data: Data, *, link_forces=None, joint_torques=None, 
     with the data in the Inertial representation: link_forces (nL, 6) are read as Inertial forces."""
     with data.switch_velocity_representation(VelRepr.Inertial):
         base, joints, rates = system_acceleration(model, data, link_forces=link_forces, joint_torques=joint_torques)
-        p_dot, q_dot, s_dot = system_position_dynamics(data, baumgarte_quaternion_regularization)
+        p_dot, q_dot, s_dot = system_position_dynamics(data, baumgarte_quaternion_regularization, model=model)
     linear, angular = (base[0:3], base[3:6]) if base.ndim == 1 else (base[:, 0:3], base[:, 3:6])
     return dict(
         base_position=p_dot,

@@ -108,7 +108,7 @@ def rollout(
     the identity quaternion, or the welded pose of a fixed base). Each is shared by all environments (the
     per-environment shape below) or given per environment (a leading axis N):
         base_position (3,) W_p_B [m]; base_quaternion (4,) W_Q_B as (w, x, y, z), unit norm;
-        joint_positions (n,) s [rad or m], in the model's joint order;
+        joint_positions (nq,) s [rad or m; a ball or free joint's quaternion (w, x, y, z)], in the model's joint order;
         base_velocity (6,) [linear; angular] of the base in `velocity_representation` [m/s, rad/s]
             (kept Mixed inside; the conversion is on the tape, so its gradient is in this representation);
         joint_velocities (n,) sdot [rad/s or m/s];
@@ -170,12 +170,12 @@ def rollout(
         if value is not None:
             _check_tensor(value, name, torch_dtype, device)
 
-    n = model.dofs()
+    n, nq = model.dofs(), model.number_of_joint_coordinates()
     nc = len(model.kin_dyn_structure().contact_parameters.body)
     per_env = {
         "base_position": (3,),
         "base_quaternion": (4,),
-        "joint_positions": (n,),
+        "joint_positions": (nq,),
         "base_velocity": (6,),
         "joint_velocities": (n,),
         "tangential_deformation": (nc, 3),
@@ -187,7 +187,7 @@ def rollout(
         if value is not None:
             accepted = [shape] + ([(N, *shape)] if num_envs is not None else [])
             if tuple(value.shape) not in accepted:
-                raise ValueError(f"{name} has shape {tuple(value.shape)}; accepted: {accepted} (n = {n} joints, nc_all = {nc} points)")
+                raise ValueError(f"{name} has shape {tuple(value.shape)}; accepted: {accepted} (nq = {nq} joint positions, nv = {n} joint velocities, nc_all = {nc} points)")
 
     marked = _model_parameters(model, parameters, N)
     if validate:

@@ -509,20 +509,20 @@ class RerunRecorder:
 
     def log_trajectory(self, times, base_position, base_quaternion, joint_positions, point_forces=None, *, force_axes: str = "world") -> None:
         """Log F frames of one environment from host arrays: times (F,) [s], base_position (F, 3),
-        base_quaternion (F, 4) (w, x, y, z), joint_positions (F, n), point_forces (F, nc, 3) (the enabled
+        base_quaternion (F, 4) (w, x, y, z), joint_positions (F, nq), point_forces (F, nc, 3) (the enabled
         points' forces [N] in world axes, or with force_axes="link" in the axes of each point's link: the
         linear part of `collidable_point_forces` in the Body representation) or None. FK and point
         positions for all frames run as one batch of F environments."""
 
         self._check_open()
         times = np.asarray(times, dtype=np.float64).reshape(-1)
-        F, n = len(times), self.model.dofs()
+        F, nq = len(times), self.model.number_of_joint_coordinates()
         if F == 0:
             return
         base_position = np.asarray(base_position, dtype=np.float64).reshape(F, 3)
         q = np.asarray(base_quaternion, dtype=np.float64).reshape(F, 4)
         q = q / np.linalg.norm(q, axis=1, keepdims=True)
-        s = np.asarray(joint_positions, dtype=np.float64).reshape(F, n)
+        s = np.asarray(joint_positions, dtype=np.float64).reshape(F, nq)
         frames = _data.Data.build(
             self.model, base_position=base_position, base_quaternion=q, joint_positions=s, num_envs=F, validate=False
         )

@@ -9,11 +9,16 @@ What is read, and how MuJoCo's structure maps onto warpdyn's one-joint-per-link 
   "{body}/{j(k-1)}" followed by the body itself. j1 carries the body's pos/quat as its origin; j2..jk have
   an identity origin and their own anchor (pivot) and axis, written in the body frame as moved by the
   joints before them, which is how MuJoCo applies a body's joints (mj_kinematics1).
-- Hinge/slide: q = MuJoCo's qpos (`ref` is folded into the origin). Ball joints are refused.
-- The world body: one free-jointed child is a floating base; one welded child is a fixed base welded at its
-  pose; otherwise the base is the fixed link "world", into which the bodies welded to the world are lumped.
-  Several free bodies, or a free body beside jointed world children, are refused (one robot). Bodies
-  welded to the world beside a free body are static scenery: dropped (and listed in the warning).
+- Hinge/slide: q = MuJoCo's qpos (`ref` is folded into the origin); ball: q = MuJoCo's quaternion, about the
+  joint's `pos`. Each joint starts at MuJoCo's qpos0 (`initial_position`).
+- The world body: one free-jointed child, beside bodies welded to the world with no joints below them (static
+  scenery, dropped and listed in the warning), is a floating base (starting at the body's pose, MuJoCo's
+  qpos0); one welded child is a fixed base welded at its pose; otherwise (a scene: several trees) the base is
+  the fixed link "world", into which the bodies welded to the world are lumped, and each free body hangs from
+  it by a "free" joint starting at the body's pose. A free joint's armature, damping, frictionloss and
+  stiffness are read where it is a joint of the scene; a floating base has none yet (listed in the warning).
+- Keyframes (`<key>`): by name, in MuJoCo's qpos/qvel layout (`ModelDescription.keyframes`,
+  `mujoco_joints`).
 - Actuators with a joint transmission on a hinge/slide joint and no activation dynamics become
   `ActuatorDescription`s; the others are dropped and listed in the warning.
 - `<option>`: gravity (along -z only), timestep, integrator, disable flags.
@@ -30,6 +35,7 @@ from .model import (
     ActuatorDescription,
     CollisionShape,
     JointDescription,
+    Keyframe,
     LinkDescription,
     ModelDescription,
     finish_tree,
@@ -54,7 +60,7 @@ JOINT_LIMITS = "joint limits (MuJoCo: limit constraints; warpdyn has only its li
 FRICTIONLOSS = "frictionloss (MuJoCo: a friction constraint; warpdyn applies it as JaxSim's static friction)"
 POLYNOMIAL = "polynomial joint stiffness/damping (only the linear coefficient is kept)"
 SPRING_YIELD = "joint spring yield (plasticity)"
-FREE_JOINT_PARAMETERS = "free-joint armature/damping/stiffness/frictionloss (the floating base has none)"
+FREE_JOINT_PARAMETERS = "armature/damping/stiffness/frictionloss of a floating base's free joint (a floating base has none yet)"
 EQUALITY = "equality constraints"
 TENDONS = "tendons (their springs, dampers, armature, limits and actuators)"
 MUSCLES = "muscles (dropped)"
@@ -74,6 +80,10 @@ CONTACT_EXCLUDES = "contact excludes"
 GEOMS = "collision geoms of unsupported types (ellipsoid, plane/hfield on bodies, sdf)"
 WORLD_GEOMS = "colliding geoms on the world body other than planes (static obstacles; warpdyn has its terrain)"
 STATIC_BODIES = "bodies welded to the world beside the free body (static scenery, dropped)"
+SCENE_BODIES = (
+    "colliding bodies welded to the world in a scene (lumped into the world: warpdyn's contacts are collidable points "
+    "against its terrain, so nothing collides with them)"
+)
 MOCAP = "mocap bodies (kept welded at their initial pose)"
 FLEX = "flexes"
 SKINS = "skins"
@@ -128,28 +138,20 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
             links.append(link)
             joints.append(JointDescription(name=f"{parent}_to_{name}", type="fixed", parent=parent, child=name, origin=origin))
             continue
-        jtypes = [int(m.jnt_type[adr + k]) for k in range(njnt)]
-        if jtypes[0] == mujoco.mjtJoint.mjJNT_FREE:  # the compiler makes it the body's only joint, on a world child
+        if int(m.jnt_type[adr]) == mujoco.mjtJoint.mjJNT_FREE:  # the compiler makes it the body's only joint, on a world child
             jname = joint_name(adr)
             if parent != "world":
                 raise ValueError(f"{where}: joint '{jname}' has type 'free' inside the tree (body '{name}')")
-            _free_joint_parameters(m, adr, jname, note)
             links.append(link)
-            joints.append(JointDescription(name=jname, type="floating", parent="world", child=name, origin=origin))
+            joints.append(_joint(m, adr, jname, "world", name, np.eye(4), note, mujoco))
             continue
-        for k, jtype in enumerate(jtypes):
-            if jtype == mujoco.mjtJoint.mjJNT_BALL:
-                raise ValueError(
-                    f"{where}: joint '{joint_name(adr + k)}' has type 'ball' (spherical), which warpdyn does not support "
-                    "inside the tree"
-                )
         chain_parent, chain_origin = parent, origin
         for k in range(njnt):
             jname = joint_name(adr + k)
             child = name if k == njnt - 1 else f"{name}/{jname}"
             if k < njnt - 1:
                 links.append(LinkDescription(name=child))  # massless: the body as moved by joints j1..jk
-            joints.append(_hinge_or_slide(m, adr + k, jname, chain_parent, child, chain_origin, note, mujoco))
+            joints.append(_joint(m, adr + k, jname, chain_parent, child, chain_origin, note, mujoco))
             chain_parent, chain_origin = child, np.eye(4)
         links.append(link)
 
@@ -161,7 +163,7 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
             "'{body}/{joint}': rename the body or joint that clashes)"
         )
 
-    links, joints = _one_robot(links, joints, where, note)
+    links, joints = _world_children(m, links, joints, where, note, mujoco)
     for g in range(m.ngeom):  # the world body's own geoms
         if int(m.geom_bodyid[g]) == 0 and not (m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0):
             kind = int(m.geom_type[g])
@@ -173,14 +175,33 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
 
     world_link = LinkDescription(name="world")
     model_name = root.get("model") or (pathlib.Path(path).stem if path else "model")
+    floating = [j for j in joints if j.type == "floating"]
     description = finish_tree(model_name, [world_link, *links], joints, "mjcf", where)
+    if floating:  # a lone free body: the floating base starts at the body's pose (MuJoCo's qpos0)
+        q0 = floating[0].initial_position
+        description.initial_world_H_base = homogeneous(quaternion_wxyz_to_matrix(q0[3:]), q0[:3])
     description.actuators = actuators
     description.gravity = gravity
     description.time_step = time_step
     description.integrator = integrator
     description.disabled = disabled
     description.not_modelled = {kind: notes[kind] for kind in _KIND_ORDER if kind in notes}
+    description.mujoco_joints = [(joint_name(j), _JOINT_TYPES[int(m.jnt_type[j])], int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])) for j in range(m.njnt)]
+    description.keyframes = [
+        Keyframe(
+            name=mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_KEY, k) or f"key{k}",
+            qpos=np.array(m.key_qpos[k], dtype=np.float64),
+            qvel=np.array(m.key_qvel[k], dtype=np.float64),
+            ctrl=np.array(m.key_ctrl[k], dtype=np.float64),
+            time=float(m.key_time[k]),
+        )
+        for k in range(m.nkey)
+    ]
     return description
+
+
+_JOINT_TYPES = {0: "free", 1: "ball", 2: "slide", 3: "hinge"}
+"""MuJoCo's mjtJoint values by their XML names."""
 
 
 _KIND_ORDER = (
@@ -206,6 +227,7 @@ _KIND_ORDER = (
     GEOMS,
     WORLD_GEOMS,
     STATIC_BODIES,
+    SCENE_BODIES,
     MOCAP,
     FLEX,
     SKINS,
@@ -260,17 +282,28 @@ def _actuator_share(m, field: str, j: int, mujoco) -> float:
     return total
 
 
-def _hinge_or_slide(m, j, jname, parent, child, origin, note, mujoco) -> JointDescription:
-    kind = "revolute" if int(m.jnt_type[j]) == mujoco.mjtJoint.mjJNT_HINGE else "prismatic"
+def _joint(m, j, jname, parent, child, origin, note, mujoco) -> JointDescription:
+    """MuJoCo's joint j as a JointDescription: hinge (revolute), slide (prismatic), ball, or free (a free body of a
+    scene: its origin the identity, its initial position the body's pose). A ball or free joint's per-DoF
+    parameters are its first DoF's (MJCF gives one value per joint)."""
+    Joint = mujoco.mjtJoint
+    kind = {int(Joint.mjJNT_HINGE): "revolute", int(Joint.mjJNT_SLIDE): "prismatic", int(Joint.mjJNT_BALL): "ball",
+            int(Joint.mjJNT_FREE): "free"}[int(m.jnt_type[j])]
     axis = np.array(m.jnt_axis[j], dtype=np.float64)
-    pivot = np.array(m.jnt_pos[j], dtype=np.float64)
+    pivot = np.zeros(3) if kind == "free" else np.array(m.jnt_pos[j], dtype=np.float64)
     qposadr, dof = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])
-    qpos0 = float(m.qpos0[qposadr])
-    if qpos0 != 0.0:  # MuJoCo moves the joint by qpos - qpos0: fold -qpos0 into the origin, so that q = qpos
-        origin = origin @ joint_motion(kind, axis, pivot, -qpos0)
     joint = JointDescription(name=jname, type=kind, parent=parent, child=child, origin=origin, axis=axis, pivot=pivot)
-    if m.jnt_limited[j]:
-        joint.lower, joint.upper = (float(v) for v in m.jnt_range[j])
+    nq = joint.coordinates
+    joint.initial_position = np.array(m.qpos0[qposadr : qposadr + nq], dtype=np.float64)
+    if kind in ("revolute", "prismatic"):
+        qpos0 = float(m.qpos0[qposadr])
+        if qpos0 != 0.0:  # MuJoCo moves the joint by qpos - qpos0: fold -qpos0 into the origin, so that q = qpos
+            joint.origin = origin @ joint_motion(kind, axis, pivot, -qpos0)
+        if m.jnt_limited[j]:
+            joint.lower, joint.upper = (float(v) for v in m.jnt_range[j])
+            note(JOINT_LIMITS, jname)
+        joint.springref = float(m.qpos_spring[qposadr])
+    elif m.jnt_limited[j]:
         note(JOINT_LIMITS, jname)
     joint.damping = 0.0  # JaxSim's viscous friction: MuJoCo's damping is passive_damping
     joint.friction = float(m.dof_frictionloss[dof])
@@ -279,7 +312,6 @@ def _hinge_or_slide(m, j, jname, parent, child, origin, note, mujoco) -> JointDe
     joint.armature = float(m.dof_armature[dof]) + _actuator_share(m, "actuator_armature", j, mujoco)
     joint.passive_damping = float(m.dof_damping[dof]) + _actuator_share(m, "actuator_damping", j, mujoco)
     joint.stiffness = float(m.jnt_stiffness[j])
-    joint.springref = float(m.qpos_spring[qposadr])
     if hasattr(m, "jnt_actfrclimited") and m.jnt_actfrclimited[j]:
         joint.actuator_force_range = np.array(m.jnt_actfrcrange[j], dtype=np.float64)
     if hasattr(m, "jnt_actgravcomp"):
@@ -295,31 +327,15 @@ def _hinge_or_slide(m, j, jname, parent, child, origin, note, mujoco) -> JointDe
     return joint
 
 
-def _free_joint_parameters(m, j, jname, note) -> None:
-    dof = int(m.jnt_dofadr[j])
-    dofs = slice(dof, dof + 6)
-    if (
-        np.any(m.dof_armature[dofs] != 0.0)
-        or np.any(m.dof_damping[dofs] != 0.0)
-        or np.any(m.dof_frictionloss[dofs] != 0.0)
-        or m.jnt_stiffness[j] != 0.0
-    ):
-        note(FREE_JOINT_PARAMETERS, jname)
-
-
-def _one_robot(links, joints, where, note):
-    """The world's children as one robot (see the module docstring): refuses several free bodies, or a free
-    body beside jointed world children; drops bodies welded to the world beside a free body."""
+def _world_children(m, links, joints, where, note, mujoco):
+    """The world's children (see the module docstring). One free body beside bodies welded to the world (with no
+    joints below them) is a robot in static scenery: the floating base (its joint "floating", noting its free
+    joint's parameters that a floating base does not have), the scenery dropped and noted. Otherwise a scene:
+    the world is the base, bodies welded to it are lumped into it (the colliding ones noted), free bodies hang
+    from it by their free joints."""
     world_joints = [j for j in joints if j.parent == "world"]
     if not world_joints:
-        raise ValueError(f"{where}: the world body has no child body: there is no robot")
-    free = [j for j in world_joints if j.type == "floating"]
-    if len(free) > 1:
-        raise ValueError(
-            f"{where}: warpdyn simulates one robot, but the world has {len(free)} free bodies {[j.child for j in free]}"
-        )
-    if not free or len(world_joints) == 1:
-        return links, joints
+        raise ValueError(f"{where}: the world body has no child body: there is nothing to simulate")
     children: dict[str, list] = {}
     for joint in joints:
         children.setdefault(joint.parent, []).append(joint)
@@ -330,21 +346,32 @@ def _one_robot(links, joints, where, note):
             out += subtree(joint.child)
         return out
 
-    others = [j for j in world_joints if j is not free[0]]
-    jointed = [
-        j.child for j in others if j.type != "fixed" or any(k.type != "fixed" for l in subtree(j.child) for k in children.get(l, []))
+    free = [j for j in world_joints if j.type == "free"]
+    static = [
+        j for j in world_joints
+        if j.type == "fixed" and all(k.type == "fixed" for l in subtree(j.child) for k in children.get(l, []))
     ]
-    if jointed:
-        raise ValueError(
-            f"{where}: warpdyn simulates one robot, but the world has the free body '{free[0].child}' and also the "
-            f"jointed bodies {jointed}"
-        )
-    others = [j.child for j in others]
-    dropped = [l for c in others for l in subtree(c)]
-    for name in dropped:
-        note(STATIC_BODIES, name)
-    dropped = set(dropped)
-    return [l for l in links if l.name not in dropped], [j for j in joints if j.child not in dropped]
+    if len(free) == 1 and len(free) + len(static) == len(world_joints):
+        joint = free[0]
+        if joint.armature != 0.0 or joint.passive_damping != 0.0 or joint.friction != 0.0 or joint.stiffness != 0.0:
+            note(FREE_JOINT_PARAMETERS, joint.name)
+        dropped = {l for j in static for l in subtree(j.child)}
+        for name in sorted(dropped, key=[link.name for link in links].index):
+            note(STATIC_BODIES, name)
+        floating = JointDescription(name=joint.name, type="floating", parent="world", child=joint.child, origin=np.eye(4),
+                                    initial_position=joint.initial_position)
+        kept = [floating if k is joint else k for k in joints if k.child not in dropped]
+        return [l for l in links if l.name not in dropped], kept
+    if len(world_joints) > 1:
+        for j in static:
+            for name in subtree(j.child):
+                b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+                if b >= 0 and any(
+                    not (m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0)
+                    for g in range(int(m.body_geomadr[b]), int(m.body_geomadr[b]) + int(m.body_geomnum[b]))
+                ):
+                    note(SCENE_BODIES, name)
+    return links, joints
 
 
 def _actuators(m, joint_name, note, mujoco) -> list[ActuatorDescription]:

@@ -10,11 +10,17 @@ Joint convention (every format): the pose of the child link in the parent link a
     parent_H_child(q) = origin @ M(q),
 
 where `origin` is the joint frame in the parent link at q = 0 and M(q) is, in the child frame, a rotation
-by q about `axis` through the point `pivot` (revolute) or a translation by q along `axis` (prismatic).
+by q about `axis` through the point `pivot` (revolute), a translation by q along `axis` (prismatic), a
+rotation by the unit quaternion q = (w, x, y, z) about `pivot` (ball: 4 positions, 3 velocities, the
+child's angular velocity relative to the parent in child axes), or the pose q = (x, y, z, w, x, y, z) of
+the child in the joint frame (free: 7 positions, 6 velocities, MuJoCo's: the child origin's linear
+velocity relative to the parent in the joint frame's axes, then its angular velocity in child axes).
 URDF joints have pivot 0; MJCF joints have their `pos` as pivot; SDF joints have the joint frame's origin
 in the child link as pivot. For MJCF hinge and slide joints q is
 MuJoCo's qpos: the loader folds MuJoCo's `ref` (qpos0) into `origin`, so that q = qpos everywhere (springs,
-actuator lengths and limits included, which MuJoCo also writes in qpos units).
+actuator lengths and limits included, which MuJoCo also writes in qpos units). A joint's `initial_position`
+is where `Data.build` starts it (MuJoCo's qpos0: `ref`, the identity quaternion of a ball joint, a free
+body's pose); keyframes (MJCF `<key>`) are kept by name in MuJoCo's qpos/qvel layout.
 
 Elements a description holds that warpdyn does not model are collected, by kind, in
 `ModelDescription.not_modelled` and reported by `load` in one `NotModelledWarning`.
@@ -37,8 +43,12 @@ __all__ = [
     "FrameDescription",
     "LinkDescription",
     "JointDescription",
+    "Keyframe",
     "ModelDescription",
     "MOVABLE_JOINT_TYPES",
+    "JOINT_COORDINATES",
+    "JOINT_DOFS",
+    "identity_position",
     "finish_tree",
     "homogeneous",
     "joint_motion",
@@ -47,6 +57,22 @@ __all__ = [
 ]
 
 MOVABLE_JOINT_TYPES = ("revolute", "continuous", "prismatic")
+
+JOINT_COORDINATES = {"revolute": 1, "prismatic": 1, "ball": 4, "free": 7}
+"""The number of positions of each movable joint type (MuJoCo's nq of a joint)."""
+
+JOINT_DOFS = {"revolute": 1, "prismatic": 1, "ball": 3, "free": 6}
+"""The number of velocities (degrees of freedom) of each movable joint type (MuJoCo's nv of a joint)."""
+
+
+def identity_position(kind: str) -> np.ndarray:
+    """The position at which a joint of type `kind` adds no motion: 0, the identity quaternion (ball), the
+    identity pose (free)."""
+    if kind == "ball":
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    if kind == "free":
+        return np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    return np.zeros(1)
 
 
 class NotModelledWarning(UserWarning):
@@ -121,8 +147,9 @@ class LinkDescription:
 class JointDescription:
     """A joint between two links (see the module docstring for the convention).
 
-    type: "revolute", "prismatic" or "fixed" ("continuous" is read as a revolute without limits); the
-    MJCF root's free joint is "floating" (only between `world` and the base, removed by `finish_tree`).
+    type: "revolute", "prismatic", "ball", "free" or "fixed" ("continuous" is read as a revolute without
+    limits); a floating base's joint is "floating" (only between `world` and the base, removed by
+    `finish_tree`): a "free" joint is a free body of a scene with several trees (its parent the world).
     origin: (4, 4) joint frame in the parent link at q = 0. axis: (3,) unit vector in the child frame.
     pivot: (3,) point of the rotation axis in the child frame [m].
     lower, upper: position limits [rad or m] (+-inf: none). MuJoCo treats them as constraints; warpdyn
@@ -146,6 +173,10 @@ class JointDescription:
       `actuatorfrclimited`, else (-inf, inf).
     actuator_gravcomp: MJCF `actuatorgravcomp`: the gravity compensation on this joint is part of the
       actuator force (clamped by actuator_force_range) instead of a passive force.
+    A ball or free joint's damping, friction, passive_damping and armature apply to each of its degrees of
+    freedom alike (MJCF gives one value per joint); its stiffness pulls it back to its initial position (MuJoCo's
+    qpos_spring), its limits, effort and velocity limits are not read (none: +-inf).
+    initial_position: (nq,) where `Data.build` starts the joint (MuJoCo's qpos0); None: `identity_position`.
     """
 
     name: str
@@ -167,6 +198,36 @@ class JointDescription:
     springref: float = 0.0
     actuator_force_range: np.ndarray = field(default_factory=lambda: np.array([-np.inf, np.inf]))
     actuator_gravcomp: bool = False
+    initial_position: np.ndarray | None = None
+
+    @property
+    def coordinates(self) -> int:
+        """The joint's number of positions (1, 4 for a ball joint, 7 for a free one; 0 when fixed)."""
+        return JOINT_COORDINATES.get(self.type, 0)
+
+    @property
+    def dofs(self) -> int:
+        """The joint's number of velocities (1, 3 for a ball joint, 6 for a free one; 0 when fixed)."""
+        return JOINT_DOFS.get(self.type, 0)
+
+    def start_position(self) -> np.ndarray:
+        """(nq,) the joint's initial position (`initial_position`, else `identity_position`)."""
+        if self.initial_position is None:
+            return identity_position(self.type)
+        return np.asarray(self.initial_position, dtype=np.float64).reshape(self.coordinates)
+
+
+@dataclass
+class Keyframe:
+    """A named state of the description (MJCF `<key>`), in MuJoCo's layout: qpos (nq,) and qvel (nv,) over
+    MuJoCo's joints (`joints`, the names in MuJoCo's joint order, each with its (qposadr, dofadr)), ctrl (nu,)
+    over the description's actuators, time [s]."""
+
+    name: str
+    qpos: np.ndarray
+    qvel: np.ndarray
+    ctrl: np.ndarray
+    time: float = 0.0
 
 
 @dataclass
@@ -240,6 +301,9 @@ class ModelDescription:
     NotModelledWarning).
     frames: explicit frames attached to links (`FrameDescription`; SDF `<frame>`s, in the file's order).
     URDF and MJCF have none: their frames are the links that fixed joints weld (`build_tree`).
+    keyframes: MJCF `<key>`s (`Keyframe`) in the file's order; mujoco_joints: (name, type, qposadr, dofadr) of
+    MuJoCo's joints in MuJoCo's order (the layout of a keyframe's qpos and qvel; the floating base's free joint
+    included, named as in the file); empty for URDF and SDF.
     """
 
     name: str
@@ -258,6 +322,8 @@ class ModelDescription:
     not_modelled: dict[str, list[str]] = field(default_factory=dict)
     frames: list[FrameDescription] = field(default_factory=list)
     initial_world_H_base: np.ndarray | None = None
+    keyframes: list[Keyframe] = field(default_factory=list)
+    mujoco_joints: list[tuple[str, str, int, int]] = field(default_factory=list)
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:
@@ -331,22 +397,35 @@ def finish_tree(name, links, joints, source, where) -> ModelDescription:
             links = [link for link in links if link.name != "world"]
         else:
             fixed_base = True
+    joints = [_free_inside(j) if j.type == "floating" else j for j in joints]
     for joint in joints:
-        if joint.type not in ("revolute", "prismatic", "fixed"):
+        if joint.type not in ("revolute", "prismatic", "ball", "free", "fixed"):
             raise ValueError(
                 f"{where}: joint '{joint.name}' has type '{joint.type}', which warpdyn does not support inside the tree "
-                "(supported: revolute, continuous, prismatic, fixed)"
+                "(supported: revolute, continuous, prismatic, ball, free, fixed)"
             )
     return ModelDescription(name, links, joints, base, fixed_base, world_H_base, source)
 
 
-def joint_motion(kind: str, axis: np.ndarray, pivot: np.ndarray, q: float) -> np.ndarray:
-    """M(q) of the module docstring, as a (4, 4) transform."""
+def _free_inside(joint: JointDescription) -> JointDescription:
+    """A floating joint that is not a floating base's (URDF's "floating" between two links) as a free joint."""
+    return JointDescription(name=joint.name, type="free", parent=joint.parent, child=joint.child, origin=joint.origin)
+
+
+def joint_motion(kind: str, axis: np.ndarray, pivot: np.ndarray, q) -> np.ndarray:
+    """M(q) of the module docstring, as a (4, 4) transform: q a number (revolute, prismatic), a unit
+    quaternion (w, x, y, z) (ball) or a pose (x, y, z, w, x, y, z) (free)."""
     if kind == "prismatic":
-        return homogeneous(np.eye(3), axis * q)
+        return homogeneous(np.eye(3), axis * float(np.reshape(q, -1)[0]))
     if kind == "revolute":
-        R = axis_angle_to_matrix(axis, q)
+        R = axis_angle_to_matrix(axis, float(np.reshape(q, -1)[0]))
         return homogeneous(R, pivot - R @ pivot)
+    if kind == "ball":
+        R = quaternion_wxyz_to_matrix(np.reshape(q, 4))
+        return homogeneous(R, pivot - R @ pivot)
+    if kind == "free":
+        q = np.reshape(q, 7)
+        return homogeneous(quaternion_wxyz_to_matrix(q[3:]), q[:3])
     return np.eye(4)
 
 

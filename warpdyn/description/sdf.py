@@ -8,7 +8,8 @@ The base: a floating model's base is the root of its joints' tree; `initial_worl
 the world (its `<world>`'s placement, its own `<pose>`). A `<static>` model, or a fixed joint from
 `world`, welds the base (`world_H_base`); movable joints from `world` make the world the fixed base.
 
-Joints: revolute, continuous (a revolute without position limits), prismatic and fixed. Limits of
+Joints: revolute, continuous (a revolute without position limits), prismatic, ball (about the joint frame's
+origin) and fixed; `<axis><initial_position>` is where `Data.build` starts the joint. Limits of
 +-1e16 or beyond (the <= 1.10 defaults) are none; lower > upper is read as unlimited, as ODE (Gazebo
 classic's engine) ignores inverted stops, and named in the warning; a negative effort or velocity limit
 is none (the spec: "not enforced"). `<dynamics>`: damping -> JointDescription.damping (JaxSim's viscous
@@ -72,7 +73,6 @@ LIMIT_STOPS = (
 )
 INVERTED_LIMITS = "joint limits with lower > upper (read as unlimited: ODE, Gazebo classic's engine, ignores inverted stops)"
 MIMIC = "mimic joints (kept as independent joints: their <mimic> coupling is ignored)"
-INITIAL_POSITIONS = "joint <initial_position>s (Data.build's joint_positions sets the initial state)"
 STATIC_JOINTS = (
     "movable joints of a static model (Gazebo moves no link of a static model; warpdyn welds its base to the world "
     "and keeps its joints)"
@@ -109,7 +109,7 @@ OTHER_VERSION = "elements of other SDFormat versions (ignored in this file's ver
 OTHER = "other elements (not read)"
 
 _KIND_ORDER = (
-    SENSORS, PLUGINS, JOINT_PHYSICS, LIMIT_STOPS, INVERTED_LIMITS, MIMIC, INITIAL_POSITIONS, STATIC_JOINTS, DEFAULT_INERTIAL,
+    SENSORS, PLUGINS, JOINT_PHYSICS, LIMIT_STOPS, INVERTED_LIMITS, MIMIC, STATIC_JOINTS, DEFAULT_INERTIAL,
     FLUID_ADDED_MASS, SURFACES, GEOMETRIES, SUBMESHES, LINK_GRAVITY, SELF_COLLISION, KINEMATIC, VELOCITY_DECAY, WIND, LIGHTS,
     ACTORS, EMITTERS, WORLD_SETTINGS, WORLD_FRAMES, LEGACY_FRAMES, OTHER_VERSION, OTHER,
 )  # fmt: skip
@@ -496,24 +496,25 @@ class _Reader(FrameGraph):
     def joint_description(self, node: Node, parent: Node, child: Node) -> JointDescription:
         element, where, name = node.element, node.where, node.name
         kind = element.get("type", "")
-        if kind == "ball":
-            raise ValueError(
-                f"{where}: joint '{name}' has type 'ball' (spherical), which warpdyn does not support yet (a later change adds "
-                "ball joints)"
-            )
         if kind in _REFUSED_JOINTS:
             raise ValueError(f"{where}: joint '{name}' has type '{kind}' ({_REFUSED_JOINTS[kind]}), which warpdyn does not support")
-        if kind not in ("revolute", "continuous", "prismatic", "fixed"):
+        if kind not in ("revolute", "continuous", "prismatic", "ball", "fixed"):
             raise ValueError(
-                f"{where}: joint '{name}' has type '{kind}': expected revolute, continuous, prismatic or fixed (ball, universal, "
+                f"{where}: joint '{name}' has type '{kind}': expected revolute, continuous, prismatic, ball or fixed (universal, "
                 "revolute2, screw and gearbox are refused)"
             )
         parent_name = "world" if parent is self.world else parent.name
         origin = self.transform(parent, child)
-        joint = JointDescription(name=name, type="fixed" if kind == "fixed" else ("prismatic" if kind == "prismatic" else "revolute"),
+        joint = JointDescription(name=name, type=kind if kind in ("fixed", "prismatic", "ball") else "revolute",
                                  parent=parent_name, child=child.name, origin=origin)
         self.others(element, "joint", name, where, read=("pose", "parent", "child", "axis", "axis2"))
         if kind == "fixed":
+            return joint
+        if kind == "ball":  # about the joint frame's origin; an axis means nothing to it
+            joint.pivot = np.array(self.transform(child, node)[:3, 3], dtype=np.float64)
+            for tag in ("axis", "axis2"):
+                if element.find(tag) is not None:
+                    self.note(OTHER, f"joint '{name}' <{tag}> (a ball joint has no axis)")
             return joint
         axis = element.find("axis")
         C_H_J = self.transform(child, node)
@@ -582,7 +583,7 @@ class _Reader(FrameGraph):
             if child.tag == "mimic":
                 self.note(MIMIC, name)
             elif child.tag == "initial_position":
-                self.note(INITIAL_POSITIONS, name)
+                joint.initial_position = np.array([number(child, f"joint '{name}' <axis><initial_position>", where, 0.0)])
             elif child.tag not in ("xyz", "limit", "dynamics", "use_parent_model_frame"):
                 self.note(OTHER, f"joint '{name}' <axis><{child.tag}>")
 

@@ -4,7 +4,10 @@ Orders (documented once, used everywhere):
 - Links: breadth-first from the base over the lumped tree, the children of a link sorted by name, as
   JaxSim orders them (so that the order does not depend on the order of the description's elements, and
   JaxSim's indices are warpdyn's). So parent index < child index, and link 0 is the base.
-- Joints: joint i is the joint whose child is link i + 1, so joints follow the link order.
+- Joints: joint i is the joint whose child is link i + 1, so joints follow the link order. Each joint has
+  its own positions and velocities (`KinematicTree.q_start`, `v_start`: MuJoCo's qposadr and dofadr): one
+  of each for a revolute or prismatic joint, 4 and 3 for a ball joint, 7 and 6 for a free one, in joint
+  order.
 - Frames: every lumped link and the description's explicit frames (`ModelDescription.frames`, SDF
   `<frame>`s), sorted by name, as JaxSim, each on the kept link that its link is lumped into.
 - Collision shapes (and so collidable points): by link in the description's order of the links, each
@@ -29,6 +32,10 @@ from .model import CollisionShape, ModelDescription, NotModelledWarning, caller_
 
 JOINT_REVOLUTE = 1
 JOINT_PRISMATIC = 2
+JOINT_BALL = 3
+JOINT_FREE = 4
+JOINT_KINDS = {"revolute": JOINT_REVOLUTE, "prismatic": JOINT_PRISMATIC, "ball": JOINT_BALL, "free": JOINT_FREE}
+"""The joint kinds by description type; the kernels' codes (kernels/spatial.py)."""
 
 
 @dataclass
@@ -52,20 +59,27 @@ class TreeActuator:
 
 @dataclass
 class KinematicTree:
-    """Host-side (NumPy, float64) constants of a lumped tree with nL links, n joints and nF frames.
+    """Host-side (NumPy, float64) constants of a lumped tree with nL links, nj joints, nq joint positions,
+    nv joint velocities (degrees of freedom) and nF frames.
 
-    Joint arrays (n,) follow the tree's joint order; [a or b] reads "a for a revolute, b for a prismatic
-    joint"; q is warpdyn's joint position (= MuJoCo's qpos for MJCF). URDF gives 0 (False, +-inf) for every
-    MuJoCo-only quantity.
-    - damping: JaxSim's viscous friction, -damping * qdot [N m s/rad or N s/m] (URDF `<dynamics damping>`;
-      0 for MJCF). friction: static friction [N m or N] (URDF `<dynamics friction>`, MJCF frictionloss).
-    - passive_damping: MuJoCo's damper, -passive_damping * qdot [N m s/rad or N s/m], dof_damping plus
-      gear^2 * actuator damping (MuJoCo's Euler integrates it implicitly unless "eulerdamp" or "damper" is
-      in ModelDescription.disabled).
-    - armature: added to the diagonal entry of the joint in the mass matrix [kg m^2 or kg] (dof_armature
-      plus gear^2 * actuator armature).
-    - stiffness, springref: spring -stiffness * (q - springref) [N m/rad or N/m; rad or m]; springref is
-      in q units (MuJoCo's qpos_spring; independent of MuJoCo's `ref`, which the origin absorbs).
+    Joint arrays (nj,) follow the tree's joint order, DoF arrays (nv,) the joints' velocities (a ball or free
+    joint's value repeated over its DoFs), position arrays (nq,) their positions; [a or b] reads "a for a
+    revolute, b for a prismatic joint" (a ball or free joint's rotational DoFs are revolute, its translational
+    ones prismatic); q is warpdyn's joint position (= MuJoCo's qpos for MJCF). URDF gives 0 (False, +-inf)
+    for every MuJoCo-only quantity. Limits, effort and velocity limits of ball and free joints are +-inf.
+    - q_start, v_start (nL + 1,) int: link i's joint has positions q_start[i]:q_start[i + 1] and velocities
+      v_start[i]:v_start[i + 1] (none for the base: q_start[0] = q_start[1] = 0).
+    - qpos0 (nq,): where each joint starts (`JointDescription.start_position`, MuJoCo's qpos0).
+    - per DoF: damping: JaxSim's viscous friction, -damping * qdot [N m s/rad or N s/m] (URDF `<dynamics
+      damping>`; 0 for MJCF). friction: static friction [N m or N] (URDF `<dynamics friction>`, MJCF
+      frictionloss). passive_damping: MuJoCo's damper, -passive_damping * qdot [N m s/rad or N s/m],
+      dof_damping plus gear^2 * actuator damping (MuJoCo's Euler integrates it implicitly unless
+      "eulerdamp" or "damper" is in ModelDescription.disabled). armature: added to the DoF's diagonal entry
+      of the mass matrix [kg m^2 or kg] (dof_armature plus gear^2 * actuator armature).
+    - per joint: stiffness, springref: spring -stiffness * (q - springref) [N m/rad or N/m; rad or m];
+      springref is in q units (MuJoCo's qpos_spring; independent of MuJoCo's `ref`, which the origin
+      absorbs). A ball or free joint's spring pulls it towards qpos0 (MuJoCo's qpos_spring there); its
+      springref is 0.
     - actuator_force_range (n, 2): clamp of the summed actuator torque on the joint (gear * force summed
       over its actuators, plus its gravity compensation when actuator_gravcomp) [N m or N]; +-inf: none.
     - actuator_gravcomp (n,) bool: the joint's share of gravity compensation goes into the actuator torque
@@ -83,7 +97,7 @@ class KinematicTree:
     joint_names: list[str]
     frame_names: list[str]
     parent: np.ndarray  # (nL,) int: parent link index, -1 for the base
-    joint_type: np.ndarray  # (nL,) int: JOINT_REVOLUTE / JOINT_PRISMATIC, 0 for the base
+    joint_type: np.ndarray  # (nL,) int: JOINT_REVOLUTE / PRISMATIC / BALL / FREE, 0 for the base
     parent_H_joint: np.ndarray  # (nL, 4, 4): joint frame in the parent link at q = 0
     joint_axis: np.ndarray  # (nL, 3): joint axis in the link frame
     joint_pivot: np.ndarray  # (nL, 3): point of a revolute axis in the link frame [m]
@@ -92,35 +106,43 @@ class KinematicTree:
     link_inertia: np.ndarray  # (nL, 3, 3): rotational inertia about the CoM, link axes [kg m^2]
     frame_parent: np.ndarray  # (nF,) int: parent link index
     link_H_frame: np.ndarray  # (nF, 4, 4)
-    position_limits: np.ndarray  # (n, 2): lower, upper [rad or m]; +-inf where unlimited
-    effort_limits: np.ndarray  # (n,) [N m or N]
-    velocity_limits: np.ndarray  # (n,) [rad/s or m/s]
-    damping: np.ndarray  # (n,) viscous friction from the description (URDF; 0 for MJCF)
-    friction: np.ndarray  # (n,) static friction from the description
+    position_limits: np.ndarray  # (nj, 2): lower, upper [rad or m]; +-inf where unlimited
+    effort_limits: np.ndarray  # (nj,) [N m or N]
+    velocity_limits: np.ndarray  # (nj,) [rad/s or m/s]
+    damping: np.ndarray  # (nv,) viscous friction from the description (URDF; 0 for MJCF)
+    friction: np.ndarray  # (nv,) static friction from the description
     collisions: list[list[CollisionShape]]  # per link, shapes in the link frame
     shape_order: list[tuple[int, int]] = field(default_factory=list)  # (link, k) of collisions[link][k], in the description's order
     locked_joints: dict[str, float] = field(default_factory=dict)
-    armature: np.ndarray = None  # (n,) [kg m^2 or kg]
-    passive_damping: np.ndarray = None  # (n,) MuJoCo's damper [N m s/rad or N s/m]
-    stiffness: np.ndarray = None  # (n,) [N m/rad or N/m]
-    springref: np.ndarray = None  # (n,) [rad or m], in q units
-    actuator_force_range: np.ndarray = None  # (n, 2) [N m or N]
-    actuator_gravcomp: np.ndarray = None  # (n,) bool
+    armature: np.ndarray = None  # (nv,) [kg m^2 or kg]
+    passive_damping: np.ndarray = None  # (nv,) MuJoCo's damper [N m s/rad or N s/m]
+    stiffness: np.ndarray = None  # (nj,) [N m/rad or N/m]
+    springref: np.ndarray = None  # (nj,) [rad or m], in q units
+    actuator_force_range: np.ndarray = None  # (nj, 2) [N m or N]
+    actuator_gravcomp: np.ndarray = None  # (nj,) bool
     gravcomp_mass: np.ndarray = None  # (nL,) [kg]
     gravcomp_com: np.ndarray = None  # (nL, 3) [m], link frame
     actuators: list[TreeActuator] = field(default_factory=list)
+    q_start: np.ndarray = None  # (nL + 1,) int
+    v_start: np.ndarray = None  # (nL + 1,) int
+    qpos0: np.ndarray = None  # (nq,)
 
     def __post_init__(self):
-        n, nL = len(self.joint_names), len(self.link_names)
+        nj, nL = len(self.joint_names), len(self.link_names)
+        if self.q_start is None:  # one position and one velocity per joint
+            self.q_start = np.concatenate([[0], np.arange(nL)]).astype(np.int32)
+            self.v_start = self.q_start.copy()
+        nv, nq = int(self.v_start[-1]), int(self.q_start[-1])
         defaults = {
-            "armature": np.zeros(n),
-            "passive_damping": np.zeros(n),
-            "stiffness": np.zeros(n),
-            "springref": np.zeros(n),
-            "actuator_force_range": np.tile([-np.inf, np.inf], (n, 1)).reshape(n, 2),
-            "actuator_gravcomp": np.zeros(n, dtype=bool),
+            "armature": np.zeros(nv),
+            "passive_damping": np.zeros(nv),
+            "stiffness": np.zeros(nj),
+            "springref": np.zeros(nj),
+            "actuator_force_range": np.tile([-np.inf, np.inf], (nj, 1)).reshape(nj, 2),
+            "actuator_gravcomp": np.zeros(nj, dtype=bool),
             "gravcomp_mass": np.zeros(nL),
             "gravcomp_com": np.zeros((nL, 3)),
+            "qpos0": np.zeros(nq),
         }
         for name, value in defaults.items():
             if getattr(self, name) is None:
@@ -131,12 +153,40 @@ class KinematicTree:
         return len(self.link_names)
 
     @property
-    def dofs(self) -> int:
+    def number_of_joints(self) -> int:
+        """nj: the joints (one per link but the base)."""
         return len(self.joint_names)
 
+    @property
+    def dofs(self) -> int:
+        """nv: the joints' velocities (degrees of freedom)."""
+        return int(self.v_start[-1])
+
+    @property
+    def coordinates(self) -> int:
+        """nq: the joints' positions."""
+        return int(self.q_start[-1])
+
+    @property
+    def one_dof_joints(self) -> bool:
+        """Whether every joint has one position and one velocity (no ball or free joint)."""
+        return self.coordinates == self.dofs == self.number_of_joints
+
+    def dof_joint(self) -> np.ndarray:
+        """(nv,) int32: the joint of each DoF."""
+        return np.repeat(np.arange(self.number_of_joints, dtype=np.int32), np.diff(self.v_start[1:]))
+
+    def dof_kind(self) -> np.ndarray:
+        """(nv,) int32: JOINT_REVOLUTE for a rotational DoF, JOINT_PRISMATIC for a translational one (a ball
+        joint's 3 rotational, a free joint's 3 translational then 3 rotational)."""
+        kinds = []
+        for kind in self.joint_type[1:]:
+            kinds += {JOINT_BALL: [JOINT_REVOLUTE] * 3, JOINT_FREE: [JOINT_PRISMATIC] * 3 + [JOINT_REVOLUTE] * 3}.get(int(kind), [int(kind)])
+        return np.array(kinds, dtype=np.int32)
+
     def support(self) -> np.ndarray:
-        """(nL, n) int32: 1 where joint j lies on the path from the base to link L."""
-        support = np.zeros((self.number_of_links, self.dofs), dtype=np.int32)
+        """(nL, nj) int32: 1 where joint j lies on the path from the base to link L."""
+        support = np.zeros((self.number_of_links, self.number_of_joints), dtype=np.int32)
         for link in range(1, self.number_of_links):
             support[link] = support[self.parent[link]]
             support[link, link - 1] = 1
@@ -162,14 +212,25 @@ def _combine(bodies):
     return total, com, 0.5 * (inertia + inertia.T)
 
 
-def _locked_position(name: str, value) -> float:
-    """A locked joint's position as a float, or a ValueError naming the joint."""
+def _locked_position(joint, value) -> np.ndarray:
+    """A locked joint's position (nq,) (a number for a revolute or prismatic joint, a quaternion (w, x, y, z)
+    for a ball joint, normalised, a pose (x, y, z, w, x, y, z) for a free one), or an error naming the joint."""
+    name, nq = joint.name, joint.coordinates
+    what = {1: "a number [rad or m]", 4: "a unit quaternion (w, x, y, z)", 7: "a pose (x, y, z, w, x, y, z)"}[nq]
     try:
-        position = float(value)
+        position = np.asarray(value, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
-        raise TypeError(f"locked_joint_positions['{name}'] must be a number [rad or m], got {value!r}") from None
-    if not np.isfinite(position):
-        raise ValueError(f"locked_joint_positions['{name}'] is {position}: a locked position must be finite [rad or m]")
+        raise TypeError(f"locked_joint_positions['{name}'] must be {what}, got {value!r}") from None
+    if position.size != nq:
+        raise ValueError(f"locked_joint_positions['{name}'] must be {what} ({nq} numbers), got {position.size}")
+    if not np.all(np.isfinite(position)):
+        shown = position[0] if nq == 1 else position.tolist()
+        raise ValueError(f"locked_joint_positions['{name}'] is {shown}: a locked position must be finite")
+    if nq > 1:
+        norm = np.linalg.norm(position[-4:])
+        if norm < 1e-12:
+            raise ValueError(f"locked_joint_positions['{name}'] has a zero quaternion {position[-4:].tolist()}")
+        position[-4:] /= norm
     return position
 
 
@@ -188,18 +249,23 @@ def _check_moving_mass(description: ModelDescription, link_names, joints, parent
         if has_child[i]:
             continue
         joint = joints[i - 1]
+        r = com[i] - joint.pivot  # from the joint's pivot to the centre of mass
+        about_pivot = inertia[i] + mass[i] * (r @ r * np.eye(3) - np.outer(r, r))
         if joint.type == "prismatic":
             about_axis = mass[i]
-        else:
+        elif joint.type == "revolute":
             axis = joint.axis / np.linalg.norm(joint.axis)
-            r = com[i] - joint.pivot
-            r = r - (r @ axis) * axis  # from the axis to the centre of mass
-            about_axis = axis @ inertia[i] @ axis + mass[i] * (r @ r)
+            about_axis = axis @ about_pivot @ axis
+        elif joint.type == "ball":
+            about_axis = np.linalg.eigvalsh(0.5 * (about_pivot + about_pivot.T))[0]
+        else:
+            about_axis = min(mass[i], np.linalg.eigvalsh(0.5 * (inertia[i] + inertia[i].T))[0])
         if about_axis <= 1e-12 * scale:
+            axes = {"revolute": "its axis", "prismatic": "its axis", "ball": "every axis through its pivot"}.get(joint.type, "every axis (or no mass)")
             raise ValueError(
                 f"{where}: link '{link_names[i]}' ends the chain of {joint.type} joint '{joint.name}' but has no inertia about "
-                f"its axis (mass {mass[i]:g} kg): the joint's acceleration is undefined; give the link a mass and inertia, "
-                "or make the joint fixed"
+                f"{axes} (mass {mass[i]:g} kg): the joint's acceleration is undefined; give the link a mass and inertia, or "
+                "make the joint fixed"
             )
 
 
@@ -244,13 +310,14 @@ def build_tree(
                 f"considered_joints names joints that model '{description.name}' does not have as movable joints: {unknown}"
             )
         considered = set(considered_joints)
-    locked = {name: 0.0 for name in movable if name not in considered}
+    by_name = {j.name: j for j in description.joints}
+    locked = {name: by_name[name].start_position() for name in movable if name not in considered}
     if locked_joint_positions is not None and not isinstance(locked_joint_positions, dict):
         raise TypeError(f"locked_joint_positions must be a dict {{joint name: position}}, got {type(locked_joint_positions).__name__}")
     for name, value in (locked_joint_positions or {}).items():
         if name not in locked:
             raise ValueError(f"locked_joint_positions names joint '{name}', which is not a locked joint of the model")
-        locked[name] = _locked_position(name, value)
+        locked[name] = _locked_position(by_name[name], value)
 
     children: dict[str, list] = {}
     for joint in sorted(description.joints, key=lambda j: j.child):
@@ -272,7 +339,7 @@ def build_tree(
                 kept_children[child] = []
                 kept_children[kept_of[link]].append((joint, kept_H_link[link] @ joint.origin))
             else:
-                value = locked.get(joint.name, 0.0)
+                value = locked.get(joint.name, 0.0)  # a fixed joint's is not read
                 kept_of[child] = kept_of[link]
                 kept_H_link[child] = kept_H_link[link] @ joint.origin @ joint_motion(joint.type, joint.axis, joint.pivot, value)
                 lumped_order.append(child)
@@ -342,7 +409,15 @@ def build_tree(
 
     movable_joints = joints[1:]
     _check_moving_mass(description, link_names, movable_joints, parents, mass, com, inertia)
-    n = len(movable_joints)
+    nj = len(movable_joints)
+    q_start = np.concatenate([[0, 0], np.cumsum([j.coordinates for j in movable_joints])]).astype(np.int32)
+    v_start = np.concatenate([[0, 0], np.cumsum([j.dofs for j in movable_joints])]).astype(np.int32)
+    nv = int(v_start[-1])
+
+    def per_dof(values) -> np.ndarray:
+        return np.repeat(np.asarray(values, dtype=np.float64).reshape(nj), [j.dofs for j in movable_joints]).reshape(nv)
+
+    one_dof = [j.type in ("revolute", "prismatic") for j in movable_joints]
     joint_index = {j.name: i for i, j in enumerate(movable_joints)}
     actuators, dropped = [], []
     for actuator in description.actuators:
@@ -357,9 +432,7 @@ def build_tree(
             NotModelledWarning,
             stacklevel=caller_stacklevel(),
         )
-    joint_type = np.array(
-        [0] + [JOINT_REVOLUTE if j.type == "revolute" else JOINT_PRISMATIC for j in movable_joints], dtype=np.int32
-    )
+    joint_type = np.array([0] + [JOINT_KINDS[j.type] for j in movable_joints], dtype=np.int32)
     axis = np.array([[0.0, 0.0, 1.0]] + [j.axis for j in movable_joints]).reshape(nL, 3)
     pivot = np.array([[0.0, 0.0, 0.0]] + [j.pivot for j in movable_joints]).reshape(nL, 3)
 
@@ -377,21 +450,24 @@ def build_tree(
         link_inertia=inertia,
         frame_parent=np.array(frame_parent, dtype=np.int32),
         link_H_frame=np.array(link_H_frame).reshape(len(frame_names), 4, 4),
-        position_limits=np.array([[j.lower, j.upper] for j in movable_joints]).reshape(len(movable_joints), 2),
-        effort_limits=np.array([j.effort for j in movable_joints]),
-        velocity_limits=np.array([j.velocity for j in movable_joints]),
-        damping=np.array([j.damping for j in movable_joints]),
-        friction=np.array([j.friction for j in movable_joints]),
+        position_limits=np.array([[j.lower, j.upper] if one else [-np.inf, np.inf] for j, one in zip(movable_joints, one_dof)]).reshape(nj, 2),
+        effort_limits=np.array([j.effort if one else np.inf for j, one in zip(movable_joints, one_dof)]).reshape(nj),
+        velocity_limits=np.array([j.velocity if one else np.inf for j, one in zip(movable_joints, one_dof)]).reshape(nj),
+        damping=per_dof([j.damping for j in movable_joints]),
+        friction=per_dof([j.friction for j in movable_joints]),
         collisions=collisions,
         shape_order=shape_order,
         locked_joints=locked,
-        armature=np.array([j.armature for j in movable_joints], dtype=np.float64).reshape(n),
-        passive_damping=np.array([j.passive_damping for j in movable_joints], dtype=np.float64).reshape(n),
-        stiffness=np.array([j.stiffness for j in movable_joints], dtype=np.float64).reshape(n),
-        springref=np.array([j.springref for j in movable_joints], dtype=np.float64).reshape(n),
-        actuator_force_range=np.array([j.actuator_force_range for j in movable_joints], dtype=np.float64).reshape(n, 2),
-        actuator_gravcomp=np.array([j.actuator_gravcomp for j in movable_joints], dtype=bool).reshape(n),
+        armature=per_dof([j.armature for j in movable_joints]),
+        passive_damping=per_dof([j.passive_damping for j in movable_joints]),
+        stiffness=np.array([j.stiffness for j in movable_joints], dtype=np.float64).reshape(nj),
+        springref=np.array([j.springref if one else 0.0 for j, one in zip(movable_joints, one_dof)], dtype=np.float64).reshape(nj),
+        actuator_force_range=np.array([j.actuator_force_range for j in movable_joints], dtype=np.float64).reshape(nj, 2),
+        actuator_gravcomp=np.array([j.actuator_gravcomp for j in movable_joints], dtype=bool).reshape(nj),
         gravcomp_mass=gravcomp_mass,
         gravcomp_com=gravcomp_com,
         actuators=actuators,
+        q_start=q_start,
+        v_start=v_start,
+        qpos0=np.concatenate([np.zeros(0)] + [j.start_position() for j in movable_joints]),
     )

@@ -31,14 +31,12 @@ def _build_model_bundle(model):
     bundle = bundles(model.scalar).Model()
     bundle.parent = model.parent
     bundle.joint_type = model.joint_type
-    for name in ("joint_Q0", "joint_Q1", "joint_t0", "joint_t1", "joint_t2", "joint_S"):
+    for name in ("q_start", "v_start", "joint_Q0", "joint_Q1", "joint_t0", "joint_t1", "joint_t2", "dof_S", "dof_joint", "qpos_spring"):
         setattr(bundle, name, getattr(model, name))
     bundle.first_child = model.first_child
     bundle.next_sibling = model.next_sibling
     bundle.support = model.support
-    support = model.tree.support()[1:] != 0  # (n, n): [k, j] joint j moves link k + 1
-    k, j = np.nonzero(support)
-    zero_k, zero_j = np.nonzero(~(support | support.T))
+    k, j, zero_k, zero_j = _dof_pairs(model.tree)
     for name, values in (("pair_k", k), ("pair_j", j), ("zero_k", zero_k), ("zero_j", zero_j)):
         setattr(bundle, name, wp.array(values.astype(np.int32), dtype=int, device=model.device))
     bundle.actuator_joint = model.actuator_joint
@@ -50,6 +48,19 @@ def _build_model_bundle(model):
     for name in _PARAMETERS:
         setattr(bundle, name, _rows(model, name, per_env))
     return bundle
+
+
+def _dof_pairs(tree) -> tuple[np.ndarray, ...]:
+    """(pair_k, pair_j, zero_k, zero_j): the DoF pairs (k, j) whose joint J supports DoF k's link (J moves it), once
+    per pair within one joint (j <= k), and the pairs where neither joint moves the other's link (kernels/bundles.py)."""
+    support = tree.support()[1:] != 0  # (nj, nj): [K, J] joint J moves link K + 1
+    joint = tree.dof_joint()
+    dof_support = support[joint[:, None], joint[None, :]]  # (nv, nv): [k, j] DoF j's joint moves DoF k's link
+    same = joint[:, None] == joint[None, :]
+    below = np.arange(len(joint))[None, :] <= np.arange(len(joint))[:, None]
+    k, j = np.nonzero(dof_support & (below | ~same))
+    zero_k, zero_j = np.nonzero(~(dof_support | dof_support.T))
+    return k, j, zero_k, zero_j
 
 
 def model_bundle(model):

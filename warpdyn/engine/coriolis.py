@@ -33,7 +33,7 @@ __all__ = ["coriolis_matrix"]
 
 
 def coriolis_matrix(model, data) -> wp.array:
-    """C(q, nu): (N, 6 + n, 6 + n), in the data's representation.
+    """C(q, nu): (N, 6 + nv, 6 + nv), in the data's representation.
 
     Rows are generalized forces dual to nu (base rows: the base wrench in the representation's frame,
     [N; N m]), columns act on nu (base: the base velocity in the data's representation); C nu = h - g.
@@ -45,7 +45,7 @@ def coriolis_matrix(model, data) -> wp.array:
     transform = wp.types.transformation(s)
     vec6 = wp.types.vector(6, s)
     mat66 = wp.types.matrix((6, 6), s)
-    per_link = [arrays.empty((nL,), N, vec6, d, rg) for _ in range(5)]  # S, Sdot, F, f, g
+    per_dof = [arrays.empty((n + 1,), N, vec6, d, rg) for _ in range(5)]  # S, Sdot, F, f, g at rows d + 1
     C = arrays.output((6 + n, 6 + n), N, s, d, rg)
     k = coriolis_kernels(s)
     bundle = model_bundle(model)
@@ -59,9 +59,9 @@ def coriolis_matrix(model, data) -> wp.array:
         k.coriolis_links,
         dim=N,
         inputs=[bundle, state_of(model, data), int(data.velocity_representation), *scratch],
-        outputs=[*per_link, C],
+        outputs=[*per_dof, C],
         device=d,
     )
     if n > 0:
-        launch(k.coriolis_joints, dim=(N, n), inputs=[bundle, *per_link], outputs=[C], device=d)
+        launch(k.coriolis_joints, dim=(N, n), inputs=[bundle, *per_dof], outputs=[C], device=d)
     return C

@@ -85,7 +85,8 @@ def _workspace(model, data) -> _Workspace:
 
 
 def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, grad: bool, taping: bool, ws: _Workspace) -> None:
-    """Launch the kernel `name` over N environments: inputs, then the scratch (N, nL, width), then outputs.
+    """Launch the kernel `name` over N environments: inputs, then the scratch (N, model.scratch_rows(), width), then
+    outputs.
 
     Under a tape: fresh scratch (with gradients when `grad`) and a plain launch. Otherwise the workspace's
     recorded launch for this kernel, re-packing only the arguments that are not the ones it holds.
@@ -93,12 +94,12 @@ def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, g
     device = model.device
     block_dim, registers = config.cuda_launch.get(name, (None, "tuned")) if device.is_cuda else (None, "tuned")
     if taping:
-        scratch = arrays.empty((model.number_of_links(), width), N, model.scalar, device, grad)
+        scratch = arrays.empty((model.scratch_rows(), width), N, model.scalar, device, grad)
         launch(_KERNELS[name](model.scalar, registers), N, [*inputs, scratch], outputs, device=device, block_dim=block_dim)
         return
     entry = ws.launches.get((name, width, registers))
     if entry is None:
-        scratch = arrays.empty((model.number_of_links(), width), N, model.scalar, device)
+        scratch = arrays.empty((model.scratch_rows(), width), N, model.scalar, device)
         entry = ws.launches[(name, width, registers)] = (_KERNELS[name](model.scalar, registers), scratch, Recorded())
     kernel, scratch, recorded = entry
     recorded.run([Launch(kernel, N, [*inputs, scratch], outputs, block_dim)], device)

@@ -168,7 +168,8 @@ class Plan:
         s, d = model.scalar, model.device
         B = bundles(s)
         self.scalar, self.device = s, d
-        self.n, self.nL = model.dofs(), model.number_of_links()
+        self.n, self.nq, self.nL = model.dofs(), model.number_of_joint_coordinates(), model.number_of_links()
+        self.rows = model.scratch_rows()  # of a scratch with a record per link and per DoF (kernels/aba.py)
         self.integrator = IntegratorType(model.integrator)
         self.dt = s(model.time_step)
         self.quaternion_tolerance = s(model.quaternion_tolerance)
@@ -240,10 +241,11 @@ class Plan:
         self.no_targets = targets(model, model.all_links[:0], model.identity_offsets[:0])
         self.integrators = integrator_kernels(s)
         # the fused Euler step (kernels/fused_step.py) by whether it keeps the joint transforms and its lanes, for
-        # steps without gradients; not with gravity compensation. Its walk's groups (the base's subtrees by their
-        # links and points) are its lanes for few environments on a GPU (fused_layout.fused_lanes).
+        # steps without gradients; not with gravity compensation, nor for joints of several DoFs. Its walk's groups
+        # (the base's subtrees by their links and points) are its lanes for few environments on a GPU
+        # (fused_layout.fused_lanes).
         self.fused = None
-        if self.euler and not self.gravcomp:
+        if self.euler and not self.gravcomp and model.tree.one_dof_joints:
             walk = fused_layout.fused_walk(model.tree.parent, fused_layout.MAX_LANES, 1 + points_per_link)
             self.walk = wp.array(walk.walk, dtype=wp.vec3i, device=d)
             self.walk_starts = wp.array(walk.starts, dtype=wp.int32, device=d)
@@ -338,7 +340,7 @@ class Evaluation:
         if not aba:  # contact results only (warpdyn.engine.contact)
             return
         link_forces = plan.contacts or plan.gravcomp or forces
-        self.aba_scratch = arrays.empty((nL, ABA_RECORD + (TRANSFORM if link_forces else 0)), N, s, d, grad)
+        self.aba_scratch = arrays.empty((plan.rows, ABA_RECORD + (TRANSFORM if link_forces else 0)), N, s, d, grad)
         if plan.stage_forces:
             self.tau = out((n,))  # this stage's joint forces
         # nu_dot (N, 6 + n) = [W_vdot_WB (Inertial); sddot]: the semi-implicit Euler's (given), or this stage's
@@ -373,7 +375,7 @@ class Workspace:
             self.evals = [Evaluation(plan, N, grad, forces, self.nu_dot)]
         else:
             self.evals = [Evaluation(plan, N, grad, forces, None) for _ in range(4)]
-            size = plan.integrators.state_size(n, plan.total)
+            size = plan.integrators.state_size(plan.nq, n, plan.total)
             self.slopes = [arrays.output((size,), N, s, d, grad) for _ in range(4)]
             self.stages = [state_buffers(plan, N, grad)[:6] for _ in range(3)]
 
@@ -384,7 +386,7 @@ def state_buffers(plan: Plan, N: int, grad: bool) -> list:
     return [
         arrays.output((3,), N, s, d, grad),
         arrays.output((4,), N, s, d, grad),
-        arrays.output((n,), N, s, d, grad),
+        arrays.output((plan.nq,), N, s, d, grad),
         arrays.output((6,), N, s, d, grad),
         arrays.output((n,), N, s, d, grad),
         arrays.output((plan.total, 3), N, s, d, grad),
@@ -559,7 +561,7 @@ def step_launches(
     launches += evaluate(plan, ev, X, tau, f_ext, poses_done)
     if plan.euler:
         euler = K.semi_implicit_euler_so3 if plan.integrator == IntegratorType.SemiImplicitEulerSO3 else K.semi_implicit_euler
-        launches.append(Launch(euler, N, [plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
+        launches.append(Launch(euler, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
         launches.append(parameter_check(plan, X, Y, N))
         return launches
     stage = X
@@ -574,11 +576,11 @@ def step_launches(
                 launches.append(Launch(plan.stage_actuation, (N, plan.n), [plan.model, stage, held, u], [tau_stage]))
             launches += evaluate(plan, ev, stage, tau_stage, f_ext, False, held=first if fast else None)
         m_dot = first.m_dot if fast and plan.contacts else ev.m_dot
-        launches.append(Launch(K.slope, N, [stage, ev.base_acceleration, ev.joint_accelerations, m_dot], [ws.slopes[i]]))
+        launches.append(Launch(K.slope, N, [plan.model, stage, ev.base_acceleration, ev.joint_accelerations, m_dot], [ws.slopes[i]]))
         if c is not None:
             stage = state_bundle(s, [*ws.stages[i], x[6]])
-            launches.append(Launch(K.rk4_stage, N, [s(c * float(plan.dt)), X, ws.slopes[i]], [stage]))
-    launches.append(Launch(K.rk4_combine, N, [plan.dt, plan.quaternion_tolerance, X, *ws.slopes], [Y]))
+            launches.append(Launch(K.rk4_stage, N, [plan.model, s(c * float(plan.dt)), X, ws.slopes[i]], [stage]))
+    launches.append(Launch(K.rk4_combine, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, *ws.slopes], [Y]))
     launches.append(parameter_check(plan, X, Y, N))
     return launches
 

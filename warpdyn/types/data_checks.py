@@ -20,7 +20,7 @@ _STATE_ARRAYS = (
     ("base_velocity_state", 6),
     ("joint_velocities_state", None),
 )
-"""The state arrays every computation reads, and their per-environment length (None: the joints, n)."""
+"""The state arrays every computation reads, and their per-environment length (None: the joints', nq or nv)."""
 
 
 def check_data(model, data, parameters: bool = False) -> list:
@@ -44,8 +44,14 @@ def check_data(model, data, parameters: bool = False) -> list:
     _check_types(data)
     if data.scalar != model.scalar:
         raise TypeError(f"data is in {data.dtype.name} but the model computes in {model.dtype.name}")
-    if data.joint_positions_state.shape[1] != model.dofs():
-        raise ValueError(f"data has {data.joint_positions_state.shape[1]} joints but the model has {model.dofs()}")
+    nq, nv = model.number_of_joint_coordinates(), model.dofs()
+    for name, expected in (("joint_positions_state", nq), ("joint_velocities_state", nv)):
+        shape = tuple(getattr(data, name).shape)
+        if shape[1:] != (expected,):
+            raise ValueError(
+                f"data.{name} has shape {shape}, expected ({shape[0]}, {expected}): model '{model.name()}' has {nq} joint "
+                f"positions and {nv} joint velocities"
+            )
     if data.device is not model.device and str(data.device) != str(model.device):
         raise ValueError(f"data is on device '{data.device}' but the model is on '{model.device}'")
     _check_shapes(data)
@@ -105,9 +111,10 @@ def _check_types(data) -> None:
 
 def _check_shapes(data) -> None:
     position = data.base_position_state
-    N, n, scalar, device = position.shape[0], data.joint_positions_state.shape[1], position.dtype, position.device
+    N, scalar, device = position.shape[0], position.dtype, position.device
     for name, item in _STATE_ARRAYS:
-        _check_field(name, getattr(data, name), (N, n if item is None else item), scalar, device)
+        array = getattr(data, name)
+        _check_field(name, array, (N, array.shape[1] if item is None else item), scalar, device)
     deformation = data.tangential_deformation_state
     if deformation is not None:
         if not isinstance(deformation, wp.array) or deformation.ndim != 3:

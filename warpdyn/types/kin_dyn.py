@@ -205,7 +205,7 @@ class JointModel:
         return JointModel(
             lambda_H_pre=pre,
             suc_H_i=suc,
-            joint_dofs=(base_dofs, *([1] * (nL - 1))),
+            joint_dofs=(base_dofs, *(int(tree.v_start[i + 1] - tree.v_start[i]) for i in range(1, nL))),
             joint_names=("world_to_base", *tree.joint_names),
             joint_types=(0, *(int(t) for t in tree.joint_type[1:])),
             joint_axis=np.asarray(tree.joint_axis[1:], dtype=np.float64).reshape(nL - 1, 3),
@@ -326,6 +326,7 @@ class KinDynParameters:
         base: zeros). A revolute axis a through the pivot d: [d x a; a] (JaxSim's joints have no pivot: [0; a])."""
         tree = self.joint_model
         nL = len(self.link_names)
+        _one_dof_only(tree, "motion_subspaces")
         S = np.zeros((nL, 6, 1))
         for i in range(1, nL):
             a = tree.joint_axis[i - 1]
@@ -372,6 +373,7 @@ class KinDynParameters:
         """i_X_lambda(i) (nL, 6, 6): the motion adjoint from each link's parent to the link at `joint_positions`
         (n,) [rad or m]; row 0: B_X_W of `base_transform` W_H_B (4, 4). JaxSim's."""
         jm = self.joint_model
+        _one_dof_only(jm, "joint_transforms")
         s = np.asarray(joint_positions, dtype=np.float64).reshape(-1)
         if s.shape != (self.number_of_joints(),):
             raise ValueError(f"joint_positions has {s.size} values, the model {self.number_of_joints()} joints")
@@ -436,6 +438,14 @@ class KinDynParameters:
         return dataclasses.replace(
             self, contact_parameters=contact, enabled_link=link, enabled_link_H_point=link_H_point, enabled_point=L_p_C
         )
+
+
+def _one_dof_only(joint_model: JointModel, what: str) -> None:
+    """A NotImplementedError naming the first ball or free joint: JaxSim's host helpers have one-DoF joints only
+    (warpdyn.model.joint_transforms and the kernels take every joint)."""
+    for name, dofs in zip(joint_model.joint_names[1:], joint_model.joint_dofs[1:]):
+        if dofs != 1:
+            raise NotImplementedError(f"KinDynParameters.{what} is JaxSim's, for one-DoF joints; joint '{name}' has {dofs} (use warpdyn.model.joint_transforms)")
 
 
 def _contact_parameters(body: np.ndarray, point: np.ndarray, enabled) -> ContactParameters:

@@ -1,7 +1,9 @@
 """The model: a robot's constants and parameters on a Warp device, in one scalar type.
 
 Link order: breadth-first from the base, siblings by name, as JaxSim (parent index < child index). Joint i
-moves link i + 1. Frames: sorted by name, as JaxSim.
+moves link i + 1; its positions and velocities are at q_start[i + 1] and v_start[i + 1] of the joint arrays
+(one each for a revolute or prismatic joint, 4 and 3 for a ball joint, 7 and 6 for a free one: nq joint
+positions, nv joint velocities). Frames: sorted by name, as JaxSim.
 Frame indices follow the link indices: frame k has index number_of_links() + k (as in JaxSim).
 
 Changes and caches. Everything the engine derives from a model (kernel bundles, a step's plan, recorded
@@ -33,6 +35,7 @@ from .contact_models import SoftContacts
 from .enums import IntegratorType
 from .kin_dyn import JointModel, JointParameters, KinDynParameters, LinkParameters
 from .model_constants import joint_motion_terms, quaternion_xyzw, sibling_chains, transforms
+from .model_queries import ModelQueries
 from .model_settings import ModelSettings
 from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter, validate_parameters
 from .settings import STANDARD_GRAVITY, ActuationParams, SoftContactsParams
@@ -51,7 +54,7 @@ class _ParameterAttribute:
 
     def __init__(self, parameter: Parameter):
         self.name = parameter.name
-        count = {"link": "nL", "joint": "n", "actuator": "na"}[parameter.group]
+        count = {"link": "nL", "joint": "nj", "dof": "nv", "actuator": "na"}[parameter.element]
         self.__doc__ = f"{parameter.description} [{parameter.unit}]: ({count}{''.join(f', {k}' for k in parameter.item)}), or with a leading N when given per environment."
 
     def __get__(self, model, owner=None):
@@ -60,14 +63,16 @@ class _ParameterAttribute:
         return model._values[self.name]
 
 
-class Model(ModelSettings):
+class Model(ModelSettings, ModelQueries):
     """A robot's constants on a Warp device, in one scalar type (float32 or float64).
 
     Build it with `warpdyn.model.Model.build_from_model_description`. The host-side tree (`model.tree`,
     NumPy float64) holds the description's constants; the Warp arrays below are what kernels read:
-    parent (nL,) int, joint_type (nL,) int, the joints as the kernels move them (from the tree's parent_H_joint,
-    joint_axis and joint_pivot: joint_Q0, joint_Q1 (nL,) quaternion, joint_t0, joint_t1, joint_t2 (nL,) vec3,
-    joint_S (nL,) vec6: `joint_motion_terms`), support (nL, n) int, frame_parent (nF,) int,
+    parent (nL,) int, joint_type (nL,) int, q_start and v_start (nL + 1,) int (where each link's joint has its
+    positions and velocities), the joints as the kernels move them (from the tree's parent_H_joint, joint_axis and
+    joint_pivot: joint_Q0, joint_Q1 (nL,) quaternion, joint_t0, joint_t1, joint_t2 (nL,) vec3, and the motion
+    subspace dof_S (nv,) vec6: `joint_motion_terms`), dof_joint (nv,) int (each DoF's joint), qpos_spring (nq,)
+    (the ball and free joints' spring references: their initial positions), support (nL, nj) int, frame_parent (nF,) int,
     link_H_frame (nF,) transform, first_child and next_sibling (nL,) int (-1 for none: the sibling chains
     that backward passes sum over).
 
@@ -117,8 +122,12 @@ class Model(ModelSettings):
         quat, vec6 = wp.types.quaternion(s), wp.types.vector(6, s)
         self.joint_Q0, self.joint_Q1 = (wp.array(terms[k], dtype=quat, device=d) for k in ("Q0", "Q1"))
         self.joint_t0, self.joint_t1, self.joint_t2 = (wp.array(terms[k], dtype=vec3, device=d) for k in ("t0", "t1", "t2"))
-        self.joint_S = wp.array(terms["S"], dtype=vec6, device=d)
-        self.support = wp.array(tree.support().reshape(tree.number_of_links, tree.dofs), dtype=int, device=d)
+        self.dof_S = wp.array(terms["S"], dtype=vec6, device=d)
+        self.dof_joint = wp.array(tree.dof_joint(), dtype=int, device=d)
+        self.qpos_spring = wp.array(tree.qpos0, dtype=s, device=d)
+        self.q_start = wp.array(tree.q_start, dtype=int, device=d)
+        self.v_start = wp.array(tree.v_start, dtype=int, device=d)
+        self.support = wp.array(tree.support().reshape(tree.number_of_links, tree.number_of_joints), dtype=int, device=d)
         self.frame_parent = wp.array(tree.frame_parent, dtype=int, device=d)
         self.link_H_frame = transforms(tree.link_H_frame, s, d)
         first_child, next_sibling = sibling_chains(tree.parent)
@@ -148,7 +157,7 @@ class Model(ModelSettings):
         d = self.device
         joint_of = np.array([a.joint for a in tree.actuators], dtype=np.int32)
         order = np.argsort(joint_of, kind="stable").astype(np.int32)
-        start = np.searchsorted(joint_of[order], np.arange(tree.dofs + 1)).astype(np.int32)
+        start = np.searchsorted(joint_of[order], np.arange(tree.number_of_joints + 1)).astype(np.int32)
         self.actuator_joint = wp.array(joint_of, dtype=int, device=d)
         self.joint_actuator = wp.array(order, dtype=int, device=d)
         self.joint_actuator_start = wp.array(start, dtype=int, device=d)
@@ -330,16 +339,18 @@ class Model(ModelSettings):
     def set_joint_parameters(self, **values) -> None:
         """Set joint parameters of `step` (keywords below; one not given keeps its value).
 
-        position_limits (n, 2) [rad or m]: (lower, upper), inf where a joint is unlimited. limit_spring
-        [N m/rad or N/m] and limit_damper [s/rad or s/m]: the limit spring-damper of JaxSim (off where the
-        spring is 0); friction_static [N m or N] and friction_viscous [N m s/rad or N s/m]: JaxSim's joint
-        friction; armature [kg m^2 or kg]: added to the joint's diagonal entry of the mass matrix; damping
-        [N m s/rad or N s/m], stiffness [N m/rad or N/m] and springref [rad or m]: MuJoCo's passive joint
-        force -damping sdot - stiffness (s - springref); actuator_force_range (n, 2) [N m or N]: the clamp of
-        the summed actuator force on the joint. Each (n,) (or (n, 2)), shared by all environments, or with a
-        leading axis of N environments, one row per environment (see `set_link_parameters`). Each value
-        given makes a new Warp array (`model.joint_limit_spring`, ...; their names in
-        warpdyn.types.parameters).
+        Per joint (nj,): position_limits (nj, 2) [rad or m]: (lower, upper), inf where a joint is unlimited;
+        limit_spring [N m/rad or N/m] and limit_damper [s/rad or s/m]: the limit spring-damper of JaxSim (off
+        where the spring is 0); stiffness [N m/rad or N/m] and springref [rad or m]: MuJoCo's joint spring
+        -stiffness (s - springref) (a ball or free joint's pulls towards its initial position);
+        actuator_force_range (nj, 2) [N m or N]: the clamp of the summed actuator force on the joint. Per DoF
+        (nv,): friction_static [N m or N] and friction_viscous [N m s/rad or N s/m]: JaxSim's joint friction;
+        armature [kg m^2 or kg]: added to the DoF's diagonal entry of the mass matrix; damping [N m s/rad or
+        N s/m]: MuJoCo's damper -damping sdot. (nj = nv without ball and free joints.) Each shared by all
+        environments, or with a leading axis of N environments, one row per environment (see
+        `set_link_parameters`). Each value given makes a new Warp array (`model.joint_limit_spring`, ...;
+        their names in warpdyn.types.parameters). Limits and limit springs of ball and free joints are not
+        read.
         """
         self._set_group(JOINT_PARAMETERS, values, "set_joint_parameters")
 
@@ -363,7 +374,8 @@ class Model(ModelSettings):
     def _store(self, parameter: Parameter, value, checked: bool) -> None:
         """Store a link or joint parameter given shared (count, *item) or per environment (N, count, *item)."""
         name = parameter.name
-        count = {"link": self.tree.number_of_links, "joint": self.tree.dofs, "actuator": len(self.tree.actuators)}[parameter.group]
+        count = {"link": self.tree.number_of_links, "joint": self.tree.number_of_joints, "dof": self.tree.dofs,
+                 "actuator": len(self.tree.actuators)}[parameter.element]
         host = np.array(arrays.host_numbers(value.numpy() if isinstance(value, wp.array) else value, name))  # a copy, the table's own
         shared = (count, *parameter.item)
         if checked and parameter.check is not None and host.shape[-len(shared) :] == shared:
@@ -608,51 +620,6 @@ class Model(ModelSettings):
         carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "implicit_damping")
         reduced.apply_settings(**{name: getattr(self, name) for name in carried}, built_from=self.built_from)
         return reduced
-
-    # Queries, with JaxSim's names ----------------------------------------------------------------
-
-    def __repr__(self) -> str:
-        return (
-            f"Model(name={self.model_name!r}, links={self.number_of_links()}, joints={self.number_of_joints()}, "
-            f"floating_base={self.floating_base()}, dtype={self.dtype.name}, device='{self.device}')"
-        )
-
-    def name(self) -> str:
-        return self.model_name
-
-    def number_of_links(self) -> int:
-        return self.tree.number_of_links
-
-    def number_of_joints(self) -> int:
-        return self.tree.dofs
-
-    def number_of_frames(self) -> int:
-        return len(self.tree.frame_names)
-
-    def dofs(self) -> int:
-        return self.tree.dofs
-
-    def link_names(self) -> tuple[str, ...]:
-        return tuple(self.tree.link_names)
-
-    def joint_names(self) -> tuple[str, ...]:
-        return tuple(self.tree.joint_names)
-
-    def frame_names(self) -> tuple[str, ...]:
-        return tuple(self.tree.frame_names)
-
-    def number_of_actuators(self) -> int:
-        return len(self.tree.actuators)
-
-    def actuator_names(self) -> tuple[str, ...]:
-        """The MJCF actuators on kept joints, in the description's order (their ctrl order)."""
-        return tuple(a.name for a in self.tree.actuators)
-
-    def floating_base(self) -> bool:
-        return not self.description.fixed_base
-
-    def base_link(self) -> str:
-        return self.tree.link_names[0]
 
 
 for _parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS):

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..description.tree import JOINT_PRISMATIC, JOINT_REVOLUTE, KinematicTree
+from ..description.tree import JOINT_BALL, JOINT_FREE, JOINT_PRISMATIC, JOINT_REVOLUTE, KinematicTree
 
 __all__ = ["transforms", "quaternion_xyzw", "joint_motion_terms", "sibling_chains"]
 
@@ -41,16 +41,22 @@ def quaternion_xyzw(R: np.ndarray) -> np.ndarray:
 
 def joint_motion_terms(tree: KinematicTree) -> dict[str, np.ndarray]:
     """Each link's joint as the kernels move it (kernels/bundles.py's Model): link i in its parent at joint
-    position q, X_tree M(q) (warpdyn.description's joint_motion), is (t0 + alpha t1 + beta t2, c Q0 + s Q1) with
-    the joint's coefficients (c, s, alpha, beta) (kernels/spatial.py's joint_coefficients), and S its motion
-    subspace. With X_tree = (p, A):
-    - revolute, unit axis a through the pivot d (Rodrigues' formula, d_perp = d - (a.d) a): Q0 = A,
-      Q1 = A (a, 0), t0 = p + A d_perp, t1 = -A d_perp, t2 = -A (a x d), S = [d x a; a];
-    - prismatic along a: Q0 = A, Q1 = 0, t0 = p, t1 = A a, t2 = 0, S = [a; 0];
+    position q, X_tree M(q) (warpdyn.description's joint_motion), and the joint's motion subspace, one column
+    per DoF (link coordinates). With X_tree = (p, A):
+    - revolute, unit axis a through the pivot d (Rodrigues' formula, d_perp = d - (a.d) a): X_tree M(q) =
+      (t0 + alpha t1 + beta t2, c Q0 + s Q1) with the coefficients (c, s, alpha, beta) of kernels/spatial.py's
+      joint_coefficients, Q0 = A, Q1 = A (a, 0), t0 = p + A d_perp, t1 = -A d_perp, t2 = -A (a x d); S = [d x a; a];
+    - prismatic along a: the same form, Q0 = A, Q1 = 0, t0 = p, t1 = A a, t2 = 0; S = [a; 0];
+    - ball about the pivot d, q the quaternion Q: X_tree M(q) = (t0 - (A Q) t1, A Q) with Q0 = A, t0 = p + A d,
+      t1 = d; S = [d x e_k; e_k] for k = x, y, z (the child's angular velocity, child axes);
+    - free, q = (r, Q): X_tree M(q) = (t0 + A r, A Q) with Q0 = A, t0 = p; S = [Q^T e_k; 0] (MuJoCo's linear
+      velocity, in the joint frame's axes: the kernels rotate e_k, stored here, by Q^T) then [0; e_k];
     - the base: Q0 = A, t0 = p, the others 0.
-    (nL, 4) quaternions (x, y, z, w), (nL, 3) and (nL, 6) arrays, float64."""
+    Returns per link (nL, 4) quaternions (x, y, z, w) Q0, Q1 and (nL, 3) arrays t0, t1, t2; per DoF (nv, 6) S;
+    float64."""
     nL = tree.number_of_links
-    terms = {name: np.zeros((nL, size)) for name, size in (("Q0", 4), ("Q1", 4), ("t0", 3), ("t1", 3), ("t2", 3), ("S", 6))}
+    terms = {name: np.zeros((nL, size)) for name, size in (("Q0", 4), ("Q1", 4), ("t0", 3), ("t1", 3), ("t2", 3))}
+    S = []
     for i in range(nL):
         H = np.asarray(tree.parent_H_joint[i], dtype=np.float64)
         R, p = H[:3, :3], H[:3, 3]
@@ -58,16 +64,24 @@ def joint_motion_terms(tree: KinematicTree) -> dict[str, np.ndarray]:
         a, d = np.asarray(tree.joint_axis[i], dtype=np.float64), np.asarray(tree.joint_pivot[i], dtype=np.float64)
         terms["Q0"][i] = A
         terms["t0"][i] = p
-        if tree.joint_type[i] == JOINT_REVOLUTE:
+        kind = tree.joint_type[i]
+        if kind == JOINT_REVOLUTE:
             d_perp = d - (a @ d) * a
             terms["Q1"][i] = [*(A[3] * a + np.cross(A[:3], a)), -A[:3] @ a]  # A (a, 0), (x, y, z, w)
             terms["t0"][i] = p + R @ d_perp
             terms["t1"][i] = -R @ d_perp
             terms["t2"][i] = -R @ np.cross(a, d)
-            terms["S"][i] = [*np.cross(d, a), *a]
-        elif tree.joint_type[i] == JOINT_PRISMATIC:
+            S.append([*np.cross(d, a), *a])
+        elif kind == JOINT_PRISMATIC:
             terms["t1"][i] = R @ a
-            terms["S"][i] = [*a, 0.0, 0.0, 0.0]
+            S.append([*a, 0.0, 0.0, 0.0])
+        elif kind == JOINT_BALL:
+            terms["t0"][i] = p + R @ d
+            terms["t1"][i] = d
+            S += [[*np.cross(d, e), *e] for e in np.eye(3)]
+        elif kind == JOINT_FREE:
+            S += [[*e, 0.0, 0.0, 0.0] for e in np.eye(3)] + [[0.0, 0.0, 0.0, *e] for e in np.eye(3)]
+    terms["S"] = np.array(S, dtype=np.float64).reshape(len(S), 6)
     return terms
 
 

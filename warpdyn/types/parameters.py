@@ -9,7 +9,8 @@ kernels' model bundle (kernels/bundles.py, filled by warpdyn.engine.bundles) and
 Groups and where the values live:
 - "link": one value per link (nL), on the model (`model.link_mass`, ...), a Warp array (nL, *item) shared
   by all environments or (N, nL, *item), one row per environment;
-- "joint": one value per joint (n), on the model likewise;
+- "joint": one value per joint (nj) or per joint DoF (nv: friction, armature, damping; `Parameter.per`), on the
+  model likewise (a model without ball or free joints has nj = nv);
 - "actuator": one value per actuator (na, the MJCF actuators on kept joints), on the model likewise;
 - "contact": the soft-contact K, D, mu in `model.contact_params` (a number, NumPy (N,) or a Warp array);
 - "terrain": a FlatTerrain's height ((1,) or (N,)) or a HeightfieldTerrain's heights (nx, ny).
@@ -99,7 +100,8 @@ class Parameter:
     """A model parameter.
 
     name: its name (the model attribute, the key of `parameters_requiring_grad`); group: "link", "joint",
-    "contact" or "terrain" (module docstring); item: the shape of one link's or joint's value; keyword:
+    "actuator", "contact" or "terrain" (module docstring); per: what one value belongs to, "link", "joint",
+    "dof" (a joint's degree of freedom) or "actuator" (default: the group); item: the shape of one value; keyword:
     its argument name in the group's setter; unit and description: for docs and errors; check: raises a
     ValueError naming the parameter for values that are not physical; default: the value a model starts
     with, from its description (a function of the lumped tree), for link and joint parameters.
@@ -113,6 +115,12 @@ class Parameter:
     description: str = ""
     check: Callable[[str, np.ndarray], None] | None = check_finite
     default: Callable | None = None
+    per: str = ""
+
+    @property
+    def element(self) -> str:
+        """What one value belongs to: "link", "joint", "dof" or "actuator"."""
+        return self.per or self.group
 
 
 LINK_PARAMETERS = (
@@ -141,29 +149,29 @@ JOINT_PARAMETERS = (
     ),
     Parameter(
         "joint_limit_spring", "joint", (), "limit_spring", "N m/rad or N/m", "stiffness of the joint-limit spring (0: off)",
-        check_non_negative, lambda tree: np.zeros(tree.dofs),
+        check_non_negative, lambda tree: np.zeros(tree.number_of_joints),
     ),
     Parameter(
         "joint_limit_damper", "joint", (), "limit_damper", "s/rad or s/m", "damping of the joint-limit spring",
-        check_non_negative, lambda tree: np.zeros(tree.dofs),
+        check_non_negative, lambda tree: np.zeros(tree.number_of_joints),
     ),
     Parameter(
         "friction_static", "joint", (), "friction_static", "N m or N", "static (Coulomb) joint friction",
-        check_non_negative, lambda tree: tree.friction,
+        check_non_negative, lambda tree: tree.friction, "dof",
     ),
     Parameter(
         "friction_viscous", "joint", (), "friction_viscous", "N m s/rad or N s/m",
-        "viscous joint friction, JaxSim's (URDF <dynamics damping>)", check_non_negative, lambda tree: tree.damping,
+        "viscous joint friction, JaxSim's (URDF <dynamics damping>)", check_non_negative, lambda tree: tree.damping, "dof",
     ),
     Parameter(
         "armature", "joint", (), "armature", "kg m^2 or kg",
-        "armature (reflected rotor inertia), added to the joint's diagonal entry of the mass matrix (MJCF)",
-        check_non_negative, lambda tree: tree.armature,
+        "armature (reflected rotor inertia), added to the DoF's diagonal entry of the mass matrix (MJCF)",
+        check_non_negative, lambda tree: tree.armature, "dof",
     ),
     Parameter(
         "damping", "joint", (), "damping", "N m s/rad or N s/m",
         "MuJoCo's joint damper, -damping * sdot, implicit in the semi-implicit Euler when model.implicit_damping (MJCF)",
-        check_non_negative, lambda tree: tree.passive_damping,
+        check_non_negative, lambda tree: tree.passive_damping, "dof",
     ),
     Parameter(
         "stiffness", "joint", (), "stiffness", "N m/rad or N/m", "joint spring, -stiffness * (s - springref) (MJCF)",
@@ -259,7 +267,7 @@ def validate_parameters(model) -> None:
     included. A fixed base's own mass, centre of mass and inertia are not checked: no dynamics reads them (a
     gradient check may probe a massless fixed base's mass below 0). Copies each array to the host (a
     synchronisation with the device)."""
-    names = {"link": model.link_names(), "joint": model.joint_names(), "actuator": model.actuator_names()}
+    names = {"link": model.link_names(), "joint": model.joint_names(), "dof": model.dof_names(), "actuator": model.actuator_names()}
     per_env = model.per_environment_parameters()
     for name in MODEL_ARRAYS:
         parameter = REGISTRY[name]
@@ -273,7 +281,9 @@ def validate_parameters(model) -> None:
         env, k = at if name in per_env else (None, at[0])
         value = host[at]
         shown = f"{float(value):g}" if value.ndim == 0 else str(np.round(value, 6).tolist())
-        where = f"{parameter.group} '{names[parameter.group][k]}'" + (f" in environment {env}" if env is not None else "")
+        element = names[parameter.element][k]
+        label = "DoF" if parameter.element == "dof" and ":" in element else "joint" if parameter.element == "dof" else parameter.element
+        where = f"{label} '{element}'" + (f" in environment {env}" if env is not None else "")
         detail = ""
         if parameter.check is check_inertia and np.isfinite(value).all():
             detail = f"; principal moments {np.round(np.linalg.eigvalsh(0.5 * (value + value.T)), 9).tolist()}"

@@ -1,0 +1,92 @@
+"""A model's queries with JaxSim's names (`name`, `number_of_links`, `dofs`, `link_names`, ...) and warpdyn's
+about its joints' positions and velocities, read from its lumped tree (`self.tree`,
+warpdyn.description.tree.KinematicTree) and description."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..description.tree import JOINT_BALL, JOINT_FREE
+
+__all__ = ["ModelQueries"]
+
+
+class ModelQueries:
+    """The queries of warpdyn.types.model.Model (a mixin: the model holds `tree`, `description`, `model_name`)."""
+
+    def __repr__(self) -> str:
+        return (
+            f"Model(name={self.model_name!r}, links={self.number_of_links()}, joints={self.number_of_joints()}, "
+            f"floating_base={self.floating_base()}, dtype={self.dtype.name}, device='{self.device}')"
+        )
+
+    def name(self) -> str:
+        return self.model_name
+
+    def number_of_links(self) -> int:
+        return self.tree.number_of_links
+
+    def number_of_joints(self) -> int:
+        """nj: the joints (one per link but the base)."""
+        return self.tree.number_of_joints
+
+    def number_of_frames(self) -> int:
+        return len(self.tree.frame_names)
+
+    def dofs(self) -> int:
+        """nv: the joints' degrees of freedom, the length of `joint_velocities` (JaxSim's dofs; a ball joint has
+        3, a free joint 6)."""
+        return self.tree.dofs
+
+    def number_of_joint_coordinates(self) -> int:
+        """nq: the joints' positions, the length of `joint_positions` (a ball joint has 4, a free joint 7; equal
+        to `dofs()` without them)."""
+        return self.tree.coordinates
+
+    def joint_quaternions(self) -> np.ndarray:
+        """(k,) int: where each ball or free joint's unit quaternion (w, x, y, z) starts in `joint_positions`
+        (4 numbers from there)."""
+        tree = self.tree
+        starts = [int(tree.q_start[i]) + (3 if kind == JOINT_FREE else 0) for i, kind in enumerate(tree.joint_type) if kind in (JOINT_BALL, JOINT_FREE)]
+        return np.array(starts, dtype=np.int64)
+
+    def scratch_rows(self) -> int:
+        """The rows of a kernel's per-environment scratch that holds a record per link (row i) and per DoF (row
+        d + 1): max(nL, nv + 1), nL for a model whose joints have one DoF each."""
+        return max(self.number_of_links(), self.dofs() + 1)
+
+    def dof_names(self) -> tuple[str, ...]:
+        """A name per DoF (nv,): a revolute or prismatic joint's own name; "{joint}:rx", ":ry", ":rz" for a ball
+        joint's rotations about its child's axes; "{joint}:x", ":y", ":z", ":rx", ":ry", ":rz" for a free
+        joint's."""
+        names = []
+        for name, kind in zip(self.tree.joint_names, self.tree.joint_type[1:]):
+            suffixes = {JOINT_BALL: ("rx", "ry", "rz"), JOINT_FREE: ("x", "y", "z", "rx", "ry", "rz")}.get(int(kind))
+            names += [name] if suffixes is None else [f"{name}:{k}" for k in suffixes]
+        return tuple(names)
+
+    def link_names(self) -> tuple[str, ...]:
+        return tuple(self.tree.link_names)
+
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(self.tree.joint_names)
+
+    def frame_names(self) -> tuple[str, ...]:
+        return tuple(self.tree.frame_names)
+
+    def number_of_actuators(self) -> int:
+        return len(self.tree.actuators)
+
+    def actuator_names(self) -> tuple[str, ...]:
+        """The MJCF actuators on kept joints, in the description's order (their ctrl order)."""
+        return tuple(a.name for a in self.tree.actuators)
+
+    def floating_base(self) -> bool:
+        return not self.description.fixed_base
+
+    def base_link(self) -> str:
+        return self.tree.link_names[0]
+
+    def keyframe_names(self) -> tuple[str, ...]:
+        """The description's keyframes (MJCF `<key>`), in its order: `warpdyn.data.keyframe(model, name)`."""
+        return tuple(k.name for k in self.description.keyframes)
