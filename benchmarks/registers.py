@@ -42,9 +42,9 @@ def kernels(dtype: str) -> dict:
         "fused step, transforms kept": plan.fused(True, 1),
         "fused step, transforms rebuilt": plan.fused(False, 1),
         "fused step, transforms rebuilt, records in shared memory (blocks of 64)": plan.fused(False, 1, *fused_layout.shared_records(gpu_plan, 1, 64)),
-        "ABA": aba.kernels(s).aba,
-        "RNEA": rnea.kernels(s).rnea,
-        "CRBA": crba.kernels(s).crba,
+        "ABA": aba.kernels(s, "tuned", False).aba,
+        "RNEA": rnea.kernels(s, "tuned", False).rnea,
+        "CRBA": crba.kernels(s, "tuned", False).crba,
     }
 
 

@@ -127,7 +127,7 @@ def _step_tape(model, data, device):
     with tape:
         tau = wp.array(5.0 * rng.normal(size=(1, model.dofs())), dtype=wp.float64, requires_grad=True, device=device)
         wd.model.step(model, data, joint_force_references=tau)
-    return tape, next(launch for launch in warp_private.tape_kernel_launches(tape) if launch.kernel is aba_kernels(wp.float64).aba)
+    return tape, next(launch for launch in warp_private.tape_kernel_launches(tape) if launch.kernel is aba_kernels(wp.float64, "tuned", False).aba)
 
 
 def aba_replays(device) -> None:

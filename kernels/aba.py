@@ -25,6 +25,7 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .joints import joints
 from .registers import tuned
 from .scratch import SYM66, scratch
 from .spatial import BALL, FREE, MIXED, spatial
@@ -109,6 +110,32 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         Ud, ud, Ia, pA_d = project_dof(model, controls, env, d, implicit_dt, S, IA, pA)
         return Ud, ud, Ia, pA_d + Ia * c_i
 
+    return types.SimpleNamespace(
+        inertia_to=inertia_to,
+        external_force=external_force,
+        project_dof=project_dof,
+        articulated=articulated,
+    )
+
+
+MAX_REGISTERS = {wp.float32: 128, wp.float64: None}
+"""Register cap per thread on CUDA by scalar, measured on an H200 at N = 65536 (benchmarks/results/dynamics_h200_run2.md):
+in float32 the compiler's 168 registers allow 8 or 12 warps per multiprocessor, two waves for 65536 threads;
+128 registers (light spills) allow 16 warps, one wave: kernel 0.147 -> 0.113 ms. In float64 a cap spills
+heavily (0.21 -> 0.31 ms at 128)."""
+
+
+@tuned(MAX_REGISTERS)
+def kernels(scalar, max_registers, multi_dof: bool):
+    """ABA (forward dynamics) in `scalar`, its registers per thread capped on CUDA by `max_registers` (kernels/registers.py),
+    for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
+    sp = spatial(scalar)
+    sc = scratch(scalar)
+    B = bundles(scalar)
+    jm = joints(scalar, multi_dof)
+    F = inertia_funcs(scalar)
+    inertia_to, external_force, project_dof = F.inertia_to, F.external_force, F.project_dof
+
     @wp.func
     def put_dof(s: wp.array3d(dtype=scalar), env: int, d: int, Ud: sp.vec6, ud: scalar):
         """DoF d's record (U_d / d_d, u_d / d_d), at row d + 1."""
@@ -120,24 +147,27 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         model: B.Model, controls: B.Controls, env: int, i: int, implicit_dt: scalar, X: sp.transform, IA: sp.mat66, pA: sp.vec6,
         c_i: sp.vec6, s: wp.array3d(dtype=scalar),
     ):
-        """ABA at link i (step 2): (Ia_i, pa_i), its joint's DoFs projected the last first, each DoF's record
-        written to s (`put_dof`); X: the joint's transform."""
-        kind = model.joint_type[i]
-        a = model.v_start[i]
-        if kind == BALL:
-            for k in range(3):
-                d = a + 2 - k
-                Ud, ud, IA, pA = project_dof(model, controls, env, d, implicit_dt, B.dof_motion(model, i, d, X), IA, pA)
-                put_dof(s, env, d, Ud, ud)
-        elif kind == FREE:
-            for k in range(6):
-                d = a + 5 - k
-                Ud, ud, IA, pA = project_dof(model, controls, env, d, implicit_dt, B.dof_motion(model, i, d, X), IA, pA)
-                put_dof(s, env, d, Ud, ud)
-        else:
-            Ud, ud, IA, pA = project_dof(model, controls, env, a, implicit_dt, model.dof_S[a], IA, pA)
-            put_dof(s, env, a, Ud, ud)
-        return IA, pA + IA * c_i
+        """ABA at link i (step 2): (Ia_i, pa_i), its joint's DoFs projected the last first (a ball joint's 3, a
+        free joint's 6: loops of fixed length), each DoF's record written to s (`put_dof`); X: the joint's
+        transform."""
+        a = jm.dof_address(model, i)
+        if wp.static(multi_dof):
+            kind = model.joint_type[i]
+            if kind == BALL:
+                for k in range(3):
+                    d = a + 2 - k
+                    Ud, ud, IA, pA = project_dof(model, controls, env, d, implicit_dt, jm.dof_motion(model, i, d, X), IA, pA)
+                    put_dof(s, env, d, Ud, ud)
+                return IA, pA + IA * c_i
+            if kind == FREE:
+                for k in range(6):
+                    d = a + 5 - k
+                    Ud, ud, IA, pA = project_dof(model, controls, env, d, implicit_dt, jm.dof_motion(model, i, d, X), IA, pA)
+                    put_dof(s, env, d, Ud, ud)
+                return IA, pA + IA * c_i
+        Ud, ud, Ia, pa = project_dof(model, controls, env, a, implicit_dt, model.dof_S[a], IA, pA)
+        put_dof(s, env, a, Ud, ud)
+        return Ia, pa + Ia * c_i
 
     @wp.func
     def accelerate_dof(s: wp.array3d(dtype=scalar), env: int, d: int, a_i: sp.vec6):
@@ -150,49 +180,24 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
     ):
         """ABA at link i (step 3) from a'_i = iX_lambda a'_lambda + c_i: each DoF's qdd_d, the first first, written
         to qdd (N, nv); returns a_i = a'_i + S_i qdd_i."""
-        kind = model.joint_type[i]
-        a = model.v_start[i]
-        if kind == BALL:
-            for k in range(3):
-                q_dd = accelerate_dof(s, env, a + k, a_i)
-                qdd[env, a + k] = q_dd
-                a_i = a_i + B.dof_motion(model, i, a + k, X) * q_dd
-        elif kind == FREE:
-            for k in range(6):
-                q_dd = accelerate_dof(s, env, a + k, a_i)
-                qdd[env, a + k] = q_dd
-                a_i = a_i + B.dof_motion(model, i, a + k, X) * q_dd
-        else:
-            q_dd = accelerate_dof(s, env, a, a_i)
-            qdd[env, a] = q_dd
-            a_i = a_i + model.dof_S[a] * q_dd
-        return a_i
-
-    return types.SimpleNamespace(
-        inertia_to=inertia_to,
-        external_force=external_force,
-        project_dof=project_dof,
-        articulated=articulated,
-        articulated_joint=articulated_joint,
-        accelerate_joint=accelerate_joint,
-    )
-
-
-MAX_REGISTERS = {wp.float32: 128, wp.float64: None}
-"""Register cap per thread on CUDA by scalar, measured on an H200 at N = 65536 (benchmarks/results/dynamics_h200_run2.md):
-in float32 the compiler's 168 registers allow 8 or 12 warps per multiprocessor, two waves for 65536 threads;
-128 registers (light spills) allow 16 warps, one wave: kernel 0.147 -> 0.113 ms. In float64 a cap spills
-heavily (0.21 -> 0.31 ms at 128)."""
-
-
-@tuned(MAX_REGISTERS)
-def kernels(scalar, max_registers):
-    """ABA (forward dynamics) in `scalar`, its registers per thread capped on CUDA by `max_registers` (kernels/registers.py)."""
-    sp = spatial(scalar)
-    sc = scratch(scalar)
-    B = bundles(scalar)
-    F = inertia_funcs(scalar)
-    inertia_to, external_force = F.inertia_to, F.external_force
+        a = jm.dof_address(model, i)
+        if wp.static(multi_dof):
+            kind = model.joint_type[i]
+            if kind == BALL:
+                for k in range(3):
+                    q_dd = accelerate_dof(s, env, a + k, a_i)
+                    qdd[env, a + k] = q_dd
+                    a_i = a_i + jm.dof_motion(model, i, a + k, X) * q_dd
+                return a_i
+            if kind == FREE:
+                for k in range(6):
+                    q_dd = accelerate_dof(s, env, a + k, a_i)
+                    qdd[env, a + k] = q_dd
+                    a_i = a_i + jm.dof_motion(model, i, a + k, X) * q_dd
+                return a_i
+        q_dd = accelerate_dof(s, env, a, a_i)
+        qdd[env, a] = q_dd
+        return a_i + model.dof_S[a] * q_dd
 
     @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def aba(
@@ -226,17 +231,17 @@ def kernels(scalar, max_registers):
             sc.put_transform(s, env, 0, _WHL, W_H_B)
         # 1. velocities, from the base
         for i in range(1, nL):
-            X = B.joint_transform(model, i, state.joint_positions, env)
-            vJ = B.joint_motion_of(model, i, X, state.joint_velocities, env)
+            X = jm.joint_transform(model, i, state.joint_positions, env)
+            vJ = jm.joint_motion_of(model, i, X, state.joint_velocities, env)
             sc.put6(s, env, i, _V, sp.motion_from(X, sc.get6(s, env, model.parent[i], _V)) + vJ)
             if forces:
                 sc.put_transform(s, env, i, _WHL, sc.get_transform(s, env, model.parent[i], _WHL) * X)
         # 2. articulated inertias and bias forces, from the leaves
         for k in range(nL - 1):
             i = nL - 1 - k
-            X = B.joint_transform(model, i, state.joint_positions, env)
+            X = jm.joint_transform(model, i, state.joint_positions, env)
             v_i = sc.get6(s, env, i, _V)
-            c_i = B.velocity_product(model, i, v_i, B.joint_motion_of(model, i, X, state.joint_velocities, env))
+            c_i = jm.velocity_product(model, i, v_i, jm.joint_motion_of(model, i, X, state.joint_velocities, env))
             I = sc.sym_upper(B.spatial_inertia_of(model, env, i))
             IA = I
             pA = sp.cross_force(v_i, I * v_i)
@@ -245,7 +250,7 @@ def kernels(scalar, max_registers):
             if model.first_child[i] >= 0:
                 IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
                 pA = pA + sc.get6(s, env, model.first_child[i], _PA)
-            Ia, pa = F.articulated_joint(model, controls, env, i, implicit_dt, X, IA, pA, c_i, s)
+            Ia, pa = articulated_joint(model, controls, env, i, implicit_dt, X, IA, pA, c_i, s)
             chain_I = inertia_to(X, Ia)
             chain_p = sp.force_to(X, pa)
             if model.next_sibling[i] >= 0:
@@ -267,9 +272,9 @@ def kernels(scalar, max_registers):
             a0 = -sp.solve_spd6(IA0, pA0)
         sc.put6(s, env, 0, _A, a0)
         for i in range(1, nL):
-            X = B.joint_transform(model, i, state.joint_positions, env)
-            c_i = B.velocity_product(model, i, sc.get6(s, env, i, _V), B.joint_motion_of(model, i, X, state.joint_velocities, env))
-            a_i = F.accelerate_joint(model, env, i, X, sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + c_i, s, joint_accelerations)
+            X = jm.joint_transform(model, i, state.joint_positions, env)
+            c_i = jm.velocity_product(model, i, sc.get6(s, env, i, _V), jm.joint_motion_of(model, i, X, state.joint_velocities, env))
+            a_i = accelerate_joint(model, env, i, X, sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + c_i, s, joint_accelerations)
             if model.first_child[i] >= 0:
                 sc.put6(s, env, i, _A, a_i)
         base = sp.vec6(scalar(0.0))

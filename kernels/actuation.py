@@ -29,6 +29,7 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .joints import joints
 from .spatial import FREE, PRISMATIC, spatial
 
 
@@ -105,14 +106,16 @@ def torque_speed_curve(scalar):
 
 
 @factory
-def joint_spring(scalar):
+def joint_spring(scalar, multi_dof: bool):
     """The wp.func giving the spring displacement dif of DoF d of joint j (the module docstring): s - springref_j
     for a one-DoF joint at position s, else the translation or rotation from the joint's reference (positions
-    (N, nq): the state's)."""
-    sp, B = spatial(scalar), bundles(scalar)
+    (N, nq): the state's); multi_dof: a model with ball or free joints (kernels/joints.py)."""
+    sp, B, jm = spatial(scalar), bundles(scalar), joints(scalar, multi_dof)
 
     @wp.func
     def spring_displacement(model: B.Model, env: int, j: int, d: int, s: scalar, positions: wp.array2d(dtype=scalar)):
+        if wp.static(not multi_dof):
+            return s - B.joint_parameter(model.springref, env, j)
         i = j + 1
         kind = model.joint_type[i]
         if kind <= PRISMATIC:
@@ -124,7 +127,7 @@ def joint_spring(scalar):
                 return positions[env, a + k] - model.qpos_spring[a + k]
             a = a + 3
             k = k - 3
-        Q = B.joint_quaternion(positions, env, a)
+        Q = jm.joint_quaternion(positions, env, a)
         Q_ref = wp.normalize(sp.quat_from_wxyz(model.qpos_spring[a], model.qpos_spring[a + 1], model.qpos_spring[a + 2], model.qpos_spring[a + 3]))
         return sp.rotation_vector(wp.quat_inverse(Q_ref) * Q)[k]
 
@@ -132,13 +135,13 @@ def joint_spring(scalar):
 
 
 @factory
-def mujoco_terms(scalar, with_passive: bool, per_joint: int):
+def mujoco_terms(scalar, with_passive: bool, per_joint: int, multi_dof: bool):
     """The wp.func giving MuJoCo's joint forces on DoF d of joint j at (s, sdot) (s: the joint's first position,
     positions (N, nq) the state's): the passive spring and damper (when with_passive) plus the actuators' forces
     (when per_joint > 0, on one-DoF joints); the code of an absent term is not compiled."""
     B = bundles(scalar)
     _, actuator_force = functions(scalar, max(per_joint, 1))
-    spring_displacement = joint_spring(scalar)
+    spring_displacement = joint_spring(scalar, multi_dof)
     PASSIVE = wp.constant(with_passive)
     ACTUATORS = wp.constant(per_joint > 0)
 
@@ -149,7 +152,7 @@ def mujoco_terms(scalar, with_passive: bool, per_joint: int):
             spring = B.joint_parameter(model.stiffness, env, j) * spring_displacement(model, env, j, d, s, positions)
             out = out - spring - B.joint_parameter(model.damping, env, d) * sd
         if ACTUATORS:
-            if model.joint_type[j + 1] <= PRISMATIC:
+            if wp.static(not multi_dof) or model.joint_type[j + 1] <= PRISMATIC:
                 out = out + actuator_force(model, env, j, s, sd, ctrl)
         return out
 
@@ -157,15 +160,16 @@ def mujoco_terms(scalar, with_passive: bool, per_joint: int):
 
 
 @factory
-def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
+def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0, multi_dof: bool = False):
     """The wp.func giving the step's force on DoF d of joint j [N m or N] at (s, sdot) (s: the joint's first
     position, positions (N, nq): the state's) from its reference tau_ref_d and the actuators' controls ctrl
     (N, na) (the module docstring's tau); per_joint: the most actuators on one joint (0: no actuator code). The
-    actuation kernel and the fused step (kernels/fused_step.py, one-DoF joints: d = j) call it."""
+    actuation kernel and the fused step (kernels/fused_step.py, one-DoF joints: d = j) call it; multi_dof: a
+    model with ball or free joints (kernels/joints.py)."""
     B = bundles(scalar)
     clip, _ = functions(scalar, max(per_joint, 1))
     torque_limit = torque_speed_curve(scalar).torque_limit
-    mujoco_joint_force = mujoco_terms(scalar, with_passive, per_joint)
+    mujoco_joint_force = mujoco_terms(scalar, with_passive, per_joint, multi_dof)
     LIMITS = wp.constant(with_limits)
     FRICTION = wp.constant(with_friction)
     MUJOCO = wp.constant(with_passive or per_joint > 0)
@@ -184,7 +188,7 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
                 sign = scalar(-1.0)
             total = total - (B.joint_parameter(model.friction_static, env, d) * sign + B.joint_parameter(model.friction_viscous, env, d) * sd)
         if LIMITS:
-            if model.joint_type[j + 1] <= PRISMATIC:
+            if wp.static(not multi_dof) or model.joint_type[j + 1] <= PRISMATIC:
                 limits = B.position_limits_of(model, env, j)
                 below = wp.min(s - limits[0], scalar(0.0))
                 above = wp.max(s - limits[1], scalar(0.0))
@@ -200,10 +204,11 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
 
 
 @factory
-def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0):
+def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0, multi_dof: bool = False):
     """The step's joint forces (`joint_force`) as a kernel over (N, nv)."""
     B = bundles(scalar)
-    resultant_torque = joint_force(scalar, with_limits, with_friction, with_passive, per_joint)
+    jm = joints(scalar, multi_dof)
+    resultant_torque = joint_force(scalar, with_limits, with_friction, with_passive, per_joint, multi_dof)
 
     @wp.kernel(module="unique")
     def resultant_torques(
@@ -220,8 +225,8 @@ def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = 
         """tau (N, nv) from the references tau_ref (N, nv) and the actuators' controls ctrl (N, na); launched over
         (N, nv). The model's parameters are shared or per environment (kernels/bundles.py)."""
         env, d = wp.tid()
-        j = model.dof_joint[d]
-        s = state.joint_positions[env, model.q_start[j + 1]]
+        j = jm.joint_of_dof(model, d)
+        s = state.joint_positions[env, jm.position_address(model, j + 1)]
         sd = state.joint_velocities[env, d]
         tau[env, d] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, d, s, sd, tau_ref[env, d], ctrl, state.joint_positions)
 
@@ -229,12 +234,13 @@ def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = 
 
 
 @factory
-def mujoco_kernel(scalar, with_passive: bool, per_joint: int):
+def mujoco_kernel(scalar, with_passive: bool, per_joint: int, multi_dof: bool):
     """tau = tau_in + MuJoCo's joint forces at the state (see `mujoco_terms`): what RK4 evaluates at each stage
     on the JaxSim part held from the step's start, and, with tau_in absent, MuJoCo's qfrc_actuator
     (with_passive False) or the joints' part of qfrc_passive (per_joint 0)."""
     B = bundles(scalar)
-    mujoco_joint_force = mujoco_terms(scalar, with_passive, per_joint)
+    jm = joints(scalar, multi_dof)
+    mujoco_joint_force = mujoco_terms(scalar, with_passive, per_joint, multi_dof)
 
     @wp.kernel(module="unique")
     def mujoco_joint_forces(
@@ -248,8 +254,8 @@ def mujoco_kernel(scalar, with_passive: bool, per_joint: int):
         """tau (N, nv) = tau_in (N, nv; absent, a zero leading axis: 0) + MuJoCo's joint forces; launched over
         (N, nv)."""
         env, d = wp.tid()
-        j = model.dof_joint[d]
-        s = state.joint_positions[env, model.q_start[j + 1]]
+        j = jm.joint_of_dof(model, d)
+        s = state.joint_positions[env, jm.position_address(model, j + 1)]
         out = mujoco_joint_force(model, env, j, d, s, state.joint_velocities[env, d], ctrl, state.joint_positions)
         if tau_in.shape[0] > 0:
             out = out + tau_in[env, d]

@@ -8,7 +8,7 @@ field of `Model` (and its entry in warpdyn.types.parameters), read by the kernel
 Shapes: N environments, nL links (link 0 the base; joint i moves link i + 1), nj = nL - 1 joints with nq
 positions and nv velocities (DoFs) in all, nc_all collidable points. Link i's joint has its positions at
 q_start[i]:q_start[i + 1] of the state's joint positions and its velocities (and forces, and per-DoF
-parameters) at v_start[i]:v_start[i + 1]: kernels address joints through them (`joint_transform`, `dof_motion`).
+parameters) at v_start[i]:v_start[i + 1]: kernels address joints through them (kernels/joints.py).
 Model parameters are (P, nL), (P, nj) or (P, nv) with P = 1 (shared by the environments) or N (one row per
 environment): kernels read row min(env, P - 1) (`link_parameter`, `joint_parameter`).
 Absent inputs are arrays with a zero leading axis, which kernels test with `.shape[0] > 0` (Warp's tape
@@ -20,7 +20,7 @@ import types
 import warp as wp
 
 from .factory import factory
-from .spatial import BALL, FREE, spatial
+from .spatial import spatial
 
 
 @factory
@@ -39,15 +39,14 @@ def bundles(scalar) -> types.SimpleNamespace:
         joint_type: wp.array(dtype=int)  # (nL,) spatial.REVOLUTE, PRISMATIC, BALL or FREE (0 for the base)
         q_start: wp.array(dtype=int)  # (nL + 1,) link i's joint positions are q_start[i]:q_start[i + 1]
         v_start: wp.array(dtype=int)  # (nL + 1,) its velocities (DoFs) v_start[i]:v_start[i + 1]
-        # link i in its parent at joint position q (warpdyn.types.model_constants' joint_motion_terms): a revolute
-        # or prismatic joint's (t0 + alpha t1 + beta t2, c Q0 + s Q1) with its coefficients (c, s, alpha, beta)
-        # (spatial.joint_coefficients); a ball joint's (t0 - (Q0 Q) t1, Q0 Q); a free joint's (t0 + Q0 r, Q0 Q)
+        # link i in its parent at joint position q (kernels/joints.py; warpdyn.types.model_constants'
+        # joint_motion_terms)
         joint_Q0: wp.array(dtype=sp.quat)  # (nL,)
         joint_Q1: wp.array(dtype=sp.quat)  # (nL,)
         joint_t0: wp.array(dtype=sp.vec3)  # (nL,) [m]
         joint_t1: wp.array(dtype=sp.vec3)  # (nL,) [m, or 1 for a prismatic joint]
         joint_t2: wp.array(dtype=sp.vec3)  # (nL,) [m]
-        dof_S: wp.array(dtype=sp.vec6)  # (nv,) each DoF's motion subspace column, link frame (`dof_motion`)
+        dof_S: wp.array(dtype=sp.vec6)  # (nv,) each DoF's motion subspace column, link frame (joints.dof_motion)
         dof_joint: wp.array(dtype=int)  # (nv,) the joint of each DoF (joint j moves link j + 1)
         qpos_spring: wp.array(dtype=scalar)  # (nq,) a ball or free joint's spring reference (its initial position)
         first_child: wp.array(dtype=int)  # (nL,) smallest-index child, -1 for none
@@ -206,122 +205,6 @@ def bundles(scalar) -> types.SimpleNamespace:
         return sp.inertia_times(mass_of(model, env, i), com_of(model, env, i), inertia_of(model, env, i), v)
 
     @wp.func
-    def joint_terms_of(model: Model, i: int):
-        """Link i's joint: (its type, Q0, Q1, t0, t1, t2), the terms that move its link (i >= 1)."""
-        return model.joint_type[i], model.joint_Q0[i], model.joint_Q1[i], model.joint_t0[i], model.joint_t1[i], model.joint_t2[i]
-
-    @wp.func
-    def transform_of_terms(k: sp.vec4, Q0: sp.quat, Q1: sp.quat, t0: sp.vec3, t1: sp.vec3, t2: sp.vec3):
-        """(t0 + alpha t1 + beta t2, c Q0 + s Q1): a link in its parent from its joint's terms and coefficients
-        k = (c, s, alpha, beta) (spatial.joint_coefficients)."""
-        return sp.transform(t0 + k[2] * t1 + k[3] * t2, k[0] * Q0 + k[1] * Q1)
-
-    @wp.func
-    def joint_transform_from(joint_type: int, Q0: sp.quat, Q1: sp.quat, t0: sp.vec3, t1: sp.vec3, t2: sp.vec3, q: scalar):
-        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at joint position q, from its joint's terms
-        loaded earlier (`joint_terms_of`)."""
-        return transform_of_terms(sp.joint_coefficients(joint_type, q), Q0, Q1, t0, t1, t2)
-
-    @wp.func
-    def joint_quaternion(positions: wp.array2d(dtype=scalar), env: int, a: int):
-        """The unit quaternion at positions[env, a:a + 4] (w, x, y, z), normalised (as MuJoCo's kinematics)."""
-        return wp.normalize(sp.quat_from_wxyz(positions[env, a], positions[env, a + 1], positions[env, a + 2], positions[env, a + 3]))
-
-    @wp.func
-    def joint_transform(model: Model, i: int, positions: wp.array2d(dtype=scalar), env: int):
-        """lambda(i)_H_i = X_tree[i] M_i(q): link i in its parent at its joint's positions q in `positions`
-        (N, nq) (i >= 1). A revolute or prismatic joint's terms are loaded once its coefficients are computed:
-        fewer registers live across the sine and cosine (RNEA in float64 spilled 372 instead of 300 bytes with
-        them loaded first: benchmarks/registers.py)."""
-        kind = model.joint_type[i]
-        a = model.q_start[i]
-        if kind == BALL:
-            Q = model.joint_Q0[i] * joint_quaternion(positions, env, a)
-            return sp.transform(model.joint_t0[i] - wp.quat_rotate(Q, model.joint_t1[i]), Q)
-        if kind == FREE:
-            Q0 = model.joint_Q0[i]
-            r = sp.vec3(positions[env, a], positions[env, a + 1], positions[env, a + 2])
-            return sp.transform(model.joint_t0[i] + wp.quat_rotate(Q0, r), Q0 * joint_quaternion(positions, env, a + 3))
-        k = sp.joint_coefficients(kind, positions[env, a])
-        return transform_of_terms(k, model.joint_Q0[i], model.joint_Q1[i], model.joint_t0[i], model.joint_t1[i], model.joint_t2[i])
-
-    @wp.func
-    def dof_motion(model: Model, i: int, d: int, X: sp.transform):
-        """S_d: the motion subspace column of DoF d of link i's joint, link coordinates, with X = lambda(i)_H_i
-        the joint's transform (`joint_transform`). Constant (model.dof_S) but for a free joint's translations,
-        MuJoCo's linear velocity in the joint frame's axes: [Q^T e_k; 0] with Q the joint's own rotation."""
-        S = model.dof_S[d]
-        if model.joint_type[i] == FREE and d - model.v_start[i] < 3:
-            Q = wp.quat_inverse(model.joint_Q0[i]) * wp.transform_get_rotation(X)
-            return sp.stack(wp.quat_rotate_inv(Q, sp.lin(S)), sp.vec3(scalar(0.0)))
-        return S
-
-    @wp.func
-    def joint_frame_motion(model: Model, i: int, W_H_L: wp.array2d(dtype=sp.transform), env: int):
-        """What `dof_motion` needs of link i's joint transform, from the link poses W_H_L (N, nL): lambda(i)_H_i
-        for a free joint, the identity otherwise (which no other joint's motion subspace reads)."""
-        if model.joint_type[i] == FREE:
-            return wp.transform_inverse(W_H_L[env, model.parent[i]]) * W_H_L[env, i]
-        return wp.transform_identity(dtype=scalar)
-
-    @wp.func
-    def joint_motion_of(model: Model, i: int, X: sp.transform, values: wp.array2d(dtype=scalar), env: int):
-        """S_i(q) values[env, v_start[i]:v_start[i + 1]]: the motion of link i relative to its parent, link
-        coordinates, for the DoF values of its joint in `values` (N, nv) (velocities: v_J; accelerations: S qdd);
-        X: the joint's transform. Written per joint kind, its loops of fixed length (unrolled: nothing is carried
-        across a dynamic loop, which Warp's adjoints do not allow)."""
-        kind = model.joint_type[i]
-        a = model.v_start[i]
-        if kind == BALL:
-            w = sp.vec3(values[env, a], values[env, a + 1], values[env, a + 2])
-            return sp.stack(wp.cross(model.joint_t1[i], w), w)  # a rotation about the pivot t1 (child frame)
-        if kind == FREE:
-            Q = wp.quat_inverse(model.joint_Q0[i]) * wp.transform_get_rotation(X)
-            v = sp.vec3(values[env, a], values[env, a + 1], values[env, a + 2])
-            return sp.stack(wp.quat_rotate_inv(Q, v), sp.vec3(values[env, a + 3], values[env, a + 4], values[env, a + 5]))
-        return model.dof_S[a] * values[env, a]
-
-    @wp.func
-    def dof_motion_rate(model: Model, i: int, d: int, X: sp.transform, vJ: sp.vec6):
-        """The time derivative of `dof_motion` in link coordinates (Featherstone's apparent derivative): 0 but for
-        a free joint's translations, [-omega x S_lin; 0] with omega = ang(v_J) (vJ: the joint's velocity)."""
-        if model.joint_type[i] == FREE and d - model.v_start[i] < 3:
-            return sp.stack(-wp.cross(sp.ang(vJ), sp.lin(dof_motion(model, i, d, X))), sp.vec3(scalar(0.0)))
-        return sp.vec6(scalar(0.0))
-
-    @wp.func
-    def armature_energy(model: Model, env: int, i: int, velocities: wp.array2d(dtype=scalar)):
-        """sum over DoFs d of link i's joint of armature_d qdot_d^2 [J] (twice the rotors' kinetic energy),
-        velocities (N, nv); per joint kind, its loops of fixed length (`joint_motion_of`)."""
-        kind = model.joint_type[i]
-        a = model.v_start[i]
-        total = scalar(0.0)
-        if kind == BALL:
-            for k in range(3):
-                total = total + armature_of(model, env, a + k) * velocities[env, a + k] * velocities[env, a + k]
-        elif kind == FREE:
-            for k in range(6):
-                total = total + armature_of(model, env, a + k) * velocities[env, a + k] * velocities[env, a + k]
-        else:
-            total = armature_of(model, env, a) * velocities[env, a] * velocities[env, a]
-        return total
-
-    @wp.func
-    def joint_motion_rate(model: Model, i: int, vJ: sp.vec6):
-        """Sdot qdot of link i's joint (the apparent derivative of its motion subspace times its velocities, link
-        coordinates; vJ: `joint_motion_of` its velocities): 0 but for a free joint, whose translational columns
-        turn with the link, [v_lin x omega; 0] with (v_lin, omega) = v_J (the sum of `dof_motion_rate`)."""
-        if model.joint_type[i] == FREE:
-            return sp.stack(wp.cross(sp.lin(vJ), sp.ang(vJ)), sp.vec3(scalar(0.0)))
-        return sp.vec6(scalar(0.0))
-
-    @wp.func
-    def velocity_product(model: Model, i: int, v: sp.vec6, vJ: sp.vec6):
-        """c_i = v_i x v_J + Sdot qdot: link i's acceleration from its joint's velocity alone (v: the link's
-        velocity, vJ: `joint_motion_of` its velocities; link coordinates; `joint_motion_rate`)."""
-        return sp.cross_motion(v, vJ) + joint_motion_rate(model, i, vJ)
-
-    @wp.func
     def base_pose_of(base_position: wp.array2d(dtype=scalar), base_quaternion: wp.array2d(dtype=scalar), env: int):
         """W_H_B from a base position (N, 3) and quaternion (N, 4) (w, x, y, z)."""
         p = sp.vec3(base_position[env, 0], base_position[env, 1], base_position[env, 2])
@@ -364,17 +247,6 @@ def bundles(scalar) -> types.SimpleNamespace:
         inertia_of=inertia_of,
         spatial_inertia_of=spatial_inertia_of,
         spatial_inertia_times=spatial_inertia_times,
-        joint_terms_of=joint_terms_of,
-        joint_transform_from=joint_transform_from,
-        joint_quaternion=joint_quaternion,
-        joint_transform=joint_transform,
-        dof_motion=dof_motion,
-        dof_motion_rate=dof_motion_rate,
-        joint_frame_motion=joint_frame_motion,
-        joint_motion_of=joint_motion_of,
-        joint_motion_rate=joint_motion_rate,
-        armature_energy=armature_energy,
-        velocity_product=velocity_product,
         base_pose_of=base_pose_of,
         base_pose=base_pose,
         base_velocity_mixed=base_velocity_mixed,

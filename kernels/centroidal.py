@@ -30,6 +30,7 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .joints import joints
 from .spatial import BODY, INERTIAL, MIXED, spatial
 
 FRAME_GW = 4
@@ -37,9 +38,11 @@ FRAME_GB = 5
 
 
 @factory
-def kernels(scalar) -> types.SimpleNamespace:
+def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
+    """The kernels in `scalar` for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp = spatial(scalar)
     B = bundles(scalar)
+    jm = joints(scalar, multi_dof)
 
     @wp.func
     def unit_quat():
@@ -125,7 +128,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         sum_m[env, 0] = B.mass_of(model, env, 0)
         sum_mp[env, 0] = B.mass_of(model, env, 0) * c0
         for i in range(1, nL):
-            vJ = B.joint_motion_of(model, i, B.joint_frame_motion(model, i, W_H_L, env), state.joint_velocities, env)
+            vJ = jm.joint_motion_of(model, i, jm.joint_frame_motion(model, i, W_H_L, env), state.joint_velocities, env)
             W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + sp.motion_to(W_H_L[env, i], vJ)
             c = wp.transform_point(W_H_L[env, i], B.com_of(model, env, i))
             W_p_CL[env, i] = c
@@ -156,7 +159,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             sum_h[env, i] = prev_h + sp.stack(p_i, wp.cross(d, p_i) + I_w)
             rotor = scalar(0.0)
             if i > 0:
-                rotor = B.armature_energy(model, env, i, state.joint_velocities)
+                rotor = jm.armature_energy(model, env, i, state.joint_velocities)
             sum_K[env, i] = prev_K + scalar(0.5) * (wp.dot(v_c, p_i) + wp.dot(w, I_w) + rotor)
         G_I[env] = sum_I[env, nL - 1]
         G_h[env] = sum_h[env, nL - 1]
@@ -335,12 +338,14 @@ def kernels(scalar) -> types.SimpleNamespace:
         for L in range(1, nL):
             W_H_j = W_H_L[env, L]
             G_H_j = sp.transform(wp.transform_get_translation(W_H_j) - p_G, wp.transform_get_rotation(W_H_j))
-            X_L = B.joint_frame_motion(model, L, W_H_L, env)
-            for dof in range(model.v_start[L], model.v_start[L + 1]):
-                G_S = sp.motion_to(G_H_j, B.dof_motion(model, L, dof, X_L))
-                col = output_column(average, G_H_F, m, I_G, inertia_apply(C_m[env, L], C_h[env, L], C_I[env, L], G_S))
-                for r in range(6):
-                    J[env, r, 6 + dof] = col[r]
+            X_L = jm.joint_frame_motion(model, L, W_H_L, env)
+            for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
+                if k_dof < jm.dof_count(model, L):
+                    dof = jm.dof_address(model, L) + k_dof
+                    G_S = sp.motion_to(G_H_j, jm.dof_motion(model, L, dof, X_L))
+                    col = output_column(average, G_H_F, m, I_G, inertia_apply(C_m[env, L], C_h[env, L], C_I[env, L], G_S))
+                    for r in range(6):
+                        J[env, r, 6 + dof] = col[r]
 
     @wp.kernel(module="unique")
     def com_bias_acceleration(

@@ -51,13 +51,16 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .joints import joints
 from .spatial import INERTIAL, MIXED, spatial
 
 
 @factory
-def kernels(scalar) -> types.SimpleNamespace:
+def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
+    """The kernels in `scalar` for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp = spatial(scalar)
     B = bundles(scalar)
+    jm = joints(scalar, multi_dof)
 
     @wp.func
     def base_inertia(B_H_L: sp.transform, mass: scalar, com: sp.vec3, inertia: sp.mat33):
@@ -111,16 +114,18 @@ def kernels(scalar) -> types.SimpleNamespace:
         g[env, 0] = zero6
         # Forward pass: poses, joint axes and world-relative velocities in base coordinates.
         for i in range(1, nL):
-            X_i = B.joint_transform(model, i, state.joint_positions, env)
+            X_i = jm.joint_transform(model, i, state.joint_positions, env)
             B_H_i = B_H_L[env, model.parent[i]] * X_i
-            vJ = B.joint_motion_of(model, i, X_i, state.joint_velocities, env)
+            vJ = jm.joint_motion_of(model, i, X_i, state.joint_velocities, env)
             v_i = B_v_L[env, model.parent[i]] + sp.motion_to(B_H_i, vJ)
             B_H_L[env, i] = B_H_i
             B_v_L[env, i] = v_i
-            for d in range(model.v_start[i], model.v_start[i + 1]):
-                S_d = sp.motion_to(B_H_i, B.dof_motion(model, i, d, X_i))
-                B_S[env, d + 1] = S_d
-                B_Sdot[env, d + 1] = sp.cross_motion(v_i, S_d) + sp.motion_to(B_H_i, B.dof_motion_rate(model, i, d, X_i, vJ))
+            for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
+                if k_dof < jm.dof_count(model, i):
+                    d = jm.dof_address(model, i) + k_dof
+                    S_d = sp.motion_to(B_H_i, jm.dof_motion(model, i, d, X_i))
+                    B_S[env, d + 1] = S_d
+                    B_Sdot[env, d + 1] = sp.cross_motion(v_i, S_d) + sp.motion_to(B_H_i, jm.dof_motion_rate(model, i, d, X_i, vJ))
         # Backward pass: composites Ic, Bc by sibling chains; per joint F, f, g and the base row and column.
         for k in range(nL - 1):
             l = nL - 1 - k
@@ -130,19 +135,21 @@ def kernels(scalar) -> types.SimpleNamespace:
             if model.first_child[l] >= 0:
                 Ic_l = Ic_l + acc_I[env, model.first_child[l]]
                 Bc_l = Bc_l + acc_B[env, model.first_child[l]]
-            for d in range(model.v_start[l], model.v_start[l + 1]):
-                S_d = B_S[env, d + 1]
-                F_d = Ic_l * S_d
-                f_d = Bc_l * S_d + Ic_l * B_Sdot[env, d + 1]
-                g_d = wp.transpose(Bc_l) * S_d
-                F[env, d + 1] = F_d
-                f[env, d + 1] = f_d
-                g[env, d + 1] = g_d
-                column = sp.base_force_from_body(repr, W_H_B, f_d)
-                row = sp.base_force_from_body(repr, W_H_B, g_d - sp.cross_force(v_rel, F_d))
-                for r in range(6):
-                    C[env, r, 6 + d] = column[r]
-                    C[env, 6 + d, r] = row[r]
+            for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
+                if k_dof < jm.dof_count(model, l):
+                    d = jm.dof_address(model, l) + k_dof
+                    S_d = B_S[env, d + 1]
+                    F_d = Ic_l * S_d
+                    f_d = Bc_l * S_d + Ic_l * B_Sdot[env, d + 1]
+                    g_d = wp.transpose(Bc_l) * S_d
+                    F[env, d + 1] = F_d
+                    f[env, d + 1] = f_d
+                    g[env, d + 1] = g_d
+                    column = sp.base_force_from_body(repr, W_H_B, f_d)
+                    row = sp.base_force_from_body(repr, W_H_B, g_d - sp.cross_force(v_rel, F_d))
+                    for r in range(6):
+                        C[env, r, 6 + d] = column[r]
+                        C[env, 6 + d, r] = row[r]
             chain_I = Ic_l
             chain_B = Bc_l
             if model.next_sibling[l] >= 0:

@@ -18,6 +18,7 @@ import warp as wp
 
 from .aba import inertia_funcs
 from .bundles import bundles
+from .joints import joints
 from .registers import tuned
 from .scratch import scratch
 from .spatial import BODY, INERTIAL, spatial
@@ -37,9 +38,11 @@ CRBA by under 5% (benchmarks/results/dynamics_h200_run2.md)."""
 
 
 @tuned(MAX_REGISTERS)
-def kernels(scalar, max_registers):
-    """CRBA (the mass matrix) in `scalar`, its registers per thread capped on CUDA by `max_registers` (kernels/registers.py)."""
+def kernels(scalar, max_registers, multi_dof: bool):
+    """CRBA (the mass matrix) in `scalar`, its registers per thread capped on CUDA by `max_registers` (kernels/registers.py),
+    for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp, sc, B = spatial(scalar), scratch(scalar), bundles(scalar)
+    jm = joints(scalar, multi_dof)
     inertia_to = inertia_funcs(scalar).inertia_to
 
     @wp.func
@@ -76,11 +79,13 @@ def kernels(scalar, max_registers):
         sc.put_transform(s, env, 0, _BH, sp.transform(sp.vec3(scalar(0.0)), sp.quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(1.0))))
         # link poses and motion subspaces in the base, from the base
         for i in range(1, nL):
-            X = B.joint_transform(model, i, state.joint_positions, env)
+            X = jm.joint_transform(model, i, state.joint_positions, env)
             B_H_i = sc.get_transform(s, env, model.parent[i], _BH) * X
             sc.put_transform(s, env, i, _BH, B_H_i)
-            for d in range(model.v_start[i], model.v_start[i + 1]):
-                sc.put6(s, env, d + 1, _BS, sp.motion_to(B_H_i, B.dof_motion(model, i, d, X)))
+            for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
+                if k_dof < jm.dof_count(model, i):
+                    d = jm.dof_address(model, i) + k_dof
+                    sc.put6(s, env, d + 1, _BS, sp.motion_to(B_H_i, jm.dof_motion(model, i, d, X)))
         # composite inertias and F_d, from the leaves
         for k in range(nL - 1):
             i = nL - 1 - k
@@ -94,9 +99,11 @@ def kernels(scalar, max_registers):
                 m = m + s[env, model.first_child[i], _IC]
                 h = h + get_h(s, env, model.first_child[i])
                 I_O = I_O + get_I_O(s, env, model.first_child[i])
-            for d in range(model.v_start[i], model.v_start[i + 1]):
-                S = sc.get6(s, env, d + 1, _BS)
-                sc.put6(s, env, d + 1, _F, sp.stack(m * sp.lin(S) - wp.cross(h, sp.ang(S)), wp.cross(h, sp.lin(S)) + I_O * sp.ang(S)))
+            for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
+                if k_dof < jm.dof_count(model, i):
+                    d = jm.dof_address(model, i) + k_dof
+                    S = sc.get6(s, env, d + 1, _BS)
+                    sc.put6(s, env, d + 1, _F, sp.stack(m * sp.lin(S) - wp.cross(h, sp.ang(S)), wp.cross(h, sp.lin(S)) + I_O * sp.ang(S)))
             if model.next_sibling[i] >= 0:
                 m = m + s[env, model.next_sibling[i], _IC]
                 h = h + get_h(s, env, model.next_sibling[i])

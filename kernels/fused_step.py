@@ -42,7 +42,7 @@ its caches than keeping either the transforms or their joints' 4 coefficients; b
 slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not unrolled
 (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
 
-Forward only: the module has no backward pass. Its models' joints have one DoF each (`dof_of`). Under a tape,
+Forward only: the module has no backward pass. Its models' joints have one DoF each (kernels/joints.py's one-DoF functions: Plan chooses it for those alone). Under a tape,
 with gradients, for RK4, with gravity compensation and for joints of several DoFs, a step is
 warpdyn.engine.step's launch list, whose numbers these equal to rounding
 (tests/test_fused_step.py).
@@ -57,16 +57,10 @@ from .actuation import joint_force
 from .bundles import bundles
 from .factory import factory
 from .integrators import kernels as integrator_funcs
+from .joints import joints
 from .scratch import SYM66, TRANSFORM, scratch
 from .soft_contacts import kernels as contact_funcs
 from .spatial import INERTIAL, MIXED, spatial
-
-@wp.func
-def dof_of(i: int):
-    """The DoF, and the position, of link i's joint: i - 1 in the models the fused step serves, whose joints
-    have one DoF each (warpdyn.engine.step's Plan chooses it for those alone); -1 for the base."""
-    return i - 1
-
 
 BASE = wp.constant(-2)
 """In a walk, a link's parent slot when its parent is the base (the first link of a group)."""
@@ -111,7 +105,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     (not shared_c: the bias force then U_i / d_i, and u_i / d_i, C_AT numbers per link; c_i in local memory)."""
     sp = spatial(scalar)
     B = bundles(scalar)
-    I = integrator_funcs(scalar)
+    jm = joints(scalar, False)
+    I = integrator_funcs(scalar, False)
     C = contact_funcs(scalar, terrain_kind)
     inertia_to = inertia_funcs(scalar).inertia_to
     articulated = inertia_funcs(scalar).articulated
@@ -379,12 +374,12 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         sd_n = scalar(0.0)
         ref_n = scalar(0.0)
         if has_joints:
-            j_n = wp.max(dof_of(walk[k_first][0]), 0)
+            j_n = wp.max(jm.dof_address(model, walk[k_first][0]), 0)
             s_n = x.joint_positions[env, j_n]
             sd_n = x.joint_velocities[env, j_n]
             ref_n = tau_ref[env, j_n]
         if wp.static(TERMS_AHEAD):
-            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, walk[k_first][0])
+            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, walk[k_first][0])
         for k in range(first, last):
             i = walk[k][0]
             own = walk[k][1]
@@ -392,7 +387,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             s_i = s_n
             qd_i = sd_n
             ref_i = ref_n
-            j_n = dof_of(walk[wp.min(k + 1, last - 1)][0])
+            j_n = jm.dof_address(model, walk[wp.min(k + 1, last - 1)][0])
             s_n = x.joint_positions[env, j_n]
             sd_n = x.joint_velocities[env, j_n]
             ref_n = tau_ref[env, j_n]
@@ -404,20 +399,20 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 W_H_P = unpack7(slot_H[up])
                 v_P = slot_v[up]
             if wp.static(TERMS_AHEAD):
-                X_i = B.joint_transform_from(jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n, s_i)
-                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, walk[wp.min(k + 1, last - 1)][0])
+                X_i = jm.joint_transform_from(jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n, s_i)
+                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, walk[wp.min(k + 1, last - 1)][0])
             else:
-                jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)  # loaded first, as round 9 measured
-                X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, s_i)
+                jt, Q0, Q1, t0, t1, t2 = jm.joint_terms_of(model, i)  # loaded first, as round 9 measured
+                X_i = jm.joint_transform_from(jt, Q0, Q1, t0, t1, t2, s_i)
             if wp.static(KEEP):
                 X[i] = pack7(X_i)
             W_H_i = W_H_P * X_i
             if W_H_L.shape[0] > 0:
                 W_H_L[env, i] = W_H_i
             if wp.static(ACTUATED):
-                j = dof_of(i)
+                j = jm.dof_address(model, i)
                 controls.joint_forces[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, j, s_i, qd_i, ref_i, ctrl, x.joint_positions)
-            S_qd = model.dof_S[dof_of(i)] * qd_i
+            S_qd = model.dof_S[jm.dof_address(model, i)] * qd_i
             v_i = sp.motion_from(X_i, v_P) + S_qd
             if own >= 0:
                 slot_H[own] = pack7(W_H_i)
@@ -446,9 +441,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:  # the joint's terms and position loaded now, its transform computed after `articulated`
-                jt, Q0, Q1, t0, t1, t2 = B.joint_terms_of(model, i)
-                q_i = x.joint_positions[env, dof_of(i)]
-            S = model.dof_S[dof_of(i)]
+                jt, Q0, Q1, t0, t1, t2 = jm.joint_terms_of(model, i)
+                q_i = x.joint_positions[env, jm.dof_address(model, i)]
+            S = model.dof_S[jm.dof_address(model, i)]
             IA = pack21(B.spatial_inertia_of(model, env, i)) + IA_next  # summed as 21 numbers: symmetric, fewer registers
             if wp.static(SHARED):
                 pA = get6(PER_LINK * i) + pA_next
@@ -461,7 +456,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 c_i = get6(PER_LINK * i + C_AT)
             else:
                 c_i = c[i]
-            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, dof_of(i), implicit_dt, S, unpack21(IA), pA, c_i)
+            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, jm.dof_address(model, i), implicit_dt, S, unpack21(IA), pA, c_i)
             if wp.static(SHARED):
                 put6(PER_LINK * i, Ud_i)
                 shared_record(PER_LINK * i + UD_AT, ud_i, 1)
@@ -469,7 +464,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 pU[i] = Ud_i
                 ud[i] = ud_i
             if wp.static(not KEEP):
-                X_i = B.joint_transform_from(jt, Q0, Q1, t0, t1, t2, q_i)
+                X_i = jm.joint_transform_from(jt, Q0, Q1, t0, t1, t2, q_i)
             IA_next = pack21(inertia_to(X_i, Ia))
             pA_next = sp.force_to(X_i, pa)
             if up == BASE:
@@ -514,10 +509,10 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         if wp.static(KEEP):
             X_n = X[i_n]
         else:
-            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
+            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, i_n)
         S_n = sp.vec6(scalar(0.0))
         if has_joints:  # (a model without joints has no motion subspace to read)
-            S_n = model.dof_S[wp.max(dof_of(i_n), 0)]
+            S_n = model.dof_S[wp.max(jm.dof_address(model, i_n), 0)]
         if wp.static(C_SHARED):
             c_n = get6(PER_LINK * i_n + C_AT)
         else:
@@ -531,8 +526,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         q_n = scalar(0.0)
         qd_n = scalar(0.0)
         if has_joints:
-            q_n = x.joint_positions[env, wp.max(dof_of(i_n), 0)]
-            qd_n = x.joint_velocities[env, wp.max(dof_of(i_n), 0)]
+            q_n = x.joint_positions[env, wp.max(jm.dof_address(model, i_n), 0)]
+            qd_n = x.joint_velocities[env, wp.max(jm.dof_address(model, i_n), 0)]
         for k in range(first, last):
             i = i_n
             own = w_n[1]
@@ -540,7 +535,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             if wp.static(KEEP):
                 X_i = unpack7(X_n)
             else:
-                X_i = B.joint_transform_from(jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n, q_n)
+                X_i = jm.joint_transform_from(jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n, q_n)
             S = S_n
             c_i = c_n
             Ud_i = pU_n
@@ -552,8 +547,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             if wp.static(KEEP):
                 X_n = X[i_n]
             else:
-                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = B.joint_terms_of(model, i_n)
-            S_n = model.dof_S[wp.max(dof_of(i_n), 0)]
+                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, i_n)
+            S_n = model.dof_S[wp.max(jm.dof_address(model, i_n), 0)]
             if wp.static(C_SHARED):
                 c_n = get6(PER_LINK * i_n + C_AT)
             else:
@@ -564,8 +559,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             else:
                 pU_n = pU[i_n]
                 ud_n = ud[i_n]
-            q_n = x.joint_positions[env, dof_of(i_n)]
-            qd_n = x.joint_velocities[env, dof_of(i_n)]
+            q_n = x.joint_positions[env, jm.dof_address(model, i_n)]
+            qd_n = x.joint_velocities[env, jm.dof_address(model, i_n)]
             a_P = a_prev
             if up == BASE:
                 up = base_own
@@ -580,8 +575,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             sd_next = sd_i + dt * qdd
             s_next = s_i + dt * sd_next
             nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)
-            y.joint_velocities[env, dof_of(i)] = sd_next
-            y.joint_positions[env, dof_of(i)] = s_next
+            y.joint_velocities[env, jm.dof_address(model, i)] = sd_next
+            y.joint_positions[env, jm.dof_address(model, i)] = s_next
         if lane == 0:
             for row in range(x.tangential_deformation.shape[1]):
                 if contacts.row_point[row] < 0:  # a disabled point's deformation does not change

@@ -26,13 +26,16 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .joints import joints
 from .spatial import BALL, FREE, spatial
 
 
 @factory
-def kernels(scalar):
+def kernels(scalar, multi_dof: bool):
+    """The integrators in `scalar` for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp = spatial(scalar)
     B = bundles(scalar)
+    jm = joints(scalar, multi_dof)
     quat4 = wp.types.vector(4, scalar)
 
     @wp.func
@@ -76,10 +79,10 @@ def kernels(scalar):
         nu_dot[env, 6 + d]: written to y when `write`; returns 0, or NaN when a new value is not finite (the
         health check's). Per joint kind, its loops of fixed length."""
         kind = model.joint_type[i]
-        a = model.q_start[i]
-        d = model.v_start[i]
+        a = jm.position_address(model, i)
+        d = jm.dof_address(model, i)
         nonfinite = scalar(0.0)
-        if kind == BALL or kind == FREE:
+        if wp.static(multi_dof) and (kind == BALL or kind == FREE):
             r = 0  # the quaternion's first position, its rotation's first DoF
             if kind == FREE:
                 r = 3
@@ -117,9 +120,9 @@ def kernels(scalar):
         """Link i's joint's position rate (the module docstring) at x, written to k[env, at + q] for its
         positions q."""
         kind = model.joint_type[i]
-        a = model.q_start[i]
-        d = model.v_start[i]
-        if kind == BALL or kind == FREE:
+        a = jm.position_address(model, i)
+        d = jm.dof_address(model, i)
+        if wp.static(multi_dof) and (kind == BALL or kind == FREE):
             r = 0
             if kind == FREE:
                 r = 3
@@ -150,9 +153,9 @@ def kernels(scalar):
         of the slopes' position rates at 7 + q, its quaternion, if any, normalised, written once to out (N, nq);
         returns 0, or NaN when a value is not finite (the health check's)."""
         kind = model.joint_type[i]
-        a = model.q_start[i]
+        a = jm.position_address(model, i)
         nonfinite = scalar(0.0)
-        if kind == BALL or kind == FREE:
+        if wp.static(multi_dof) and (kind == BALL or kind == FREE):
             r = 0
             if kind == FREE:
                 r = 3

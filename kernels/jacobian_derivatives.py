@@ -33,13 +33,16 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .joints import joints
 from .spatial import BODY, MIXED, spatial
 
 
 @factory
-def kernels(scalar) -> types.SimpleNamespace:
+def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
+    """The kernels in `scalar` for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp = spatial(scalar)
     B = bundles(scalar)
+    jm = joints(scalar, multi_dof)
 
     @wp.func
     def repr_frame_velocity(repr: int, W_H_F: sp.transform, W_v_WF: sp.vec6):
@@ -69,10 +72,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         W_v_WL[env, 0] = sp.repr_to_inertial(MIXED, W_H_L[env, 0], B.base_velocity_mixed(state, env))
         W_a_L[env, 0] = sp.vec6(scalar(0.0))
         for i in range(1, model.parent.shape[0]):
-            vJ = B.joint_motion_of(model, i, B.joint_frame_motion(model, i, W_H_L, env), state.joint_velocities, env)
+            vJ = jm.joint_motion_of(model, i, jm.joint_frame_motion(model, i, W_H_L, env), state.joint_velocities, env)
             u = sp.motion_to(W_H_L[env, i], vJ)
             W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + u
-            rate = sp.motion_to(W_H_L[env, i], B.joint_motion_rate(model, i, vJ))
+            rate = sp.motion_to(W_H_L[env, i], jm.joint_motion_rate(model, i, vJ))
             W_a_L[env, i] = W_a_L[env, model.parent[i]] + sp.cross_motion(W_v_WL[env, model.parent[i]], u) + rate
 
     @wp.kernel(module="unique")
@@ -108,16 +111,18 @@ def kernels(scalar) -> types.SimpleNamespace:
             X_i = wp.transform_identity(dtype=scalar)
             vJ_i = sp.vec6(scalar(0.0))
             if moves:
-                X_i = B.joint_frame_motion(model, i, W_H_L, env)
+                X_i = jm.joint_frame_motion(model, i, W_H_L, env)
                 vJ_i = sp.motion_from(W_H_L[env, i], W_v_WL[env, i] - W_v_WL[env, model.parent[i]])
-            for d in range(model.v_start[i], model.v_start[i + 1]):
-                col_d = sp.vec6(scalar(0.0))
-                if moves:
-                    u_d = sp.motion_to(W_H_L[env, i], B.dof_motion(model, i, d, X_i))
-                    rate_d = sp.motion_to(W_H_L[env, i], B.dof_motion_rate(model, i, d, X_i, vJ_i))
-                    col_d = sp.inertial_to_repr(output_repr, W_H_F, sp.cross_motion(W_v_WL[env, i] - v_O, u_d) + rate_d)
-                for r in range(6):
-                    Jdot[env, t, r, 6 + d] = col_d[r]
+            for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
+                if k_dof < jm.dof_count(model, i):
+                    d = jm.dof_address(model, i) + k_dof
+                    col_d = sp.vec6(scalar(0.0))
+                    if moves:
+                        u_d = sp.motion_to(W_H_L[env, i], jm.dof_motion(model, i, d, X_i))
+                        rate_d = sp.motion_to(W_H_L[env, i], jm.dof_motion_rate(model, i, d, X_i, vJ_i))
+                        col_d = sp.inertial_to_repr(output_repr, W_H_F, sp.cross_motion(W_v_WL[env, i] - v_O, u_d) + rate_d)
+                    for r in range(6):
+                        Jdot[env, t, r, 6 + d] = col_d[r]
 
     @wp.kernel(module="unique")
     def bias_accelerations(

@@ -13,13 +13,16 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .joints import joints
 from .spatial import spatial
 
 
 @factory
-def kernels(scalar) -> types.SimpleNamespace:
+def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
+    """The kernels in `scalar` for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp = spatial(scalar)
     B = bundles(scalar)
+    jm = joints(scalar, multi_dof)
 
     @wp.kernel(module="unique")
     def jacobians(
@@ -46,12 +49,14 @@ def kernels(scalar) -> types.SimpleNamespace:
             moves = model.support[L, i - 1] != 0
             X = wp.transform_identity(dtype=scalar)
             if moves:
-                X = B.joint_frame_motion(model, i, W_H_L, env)
-            for d in range(model.v_start[i], model.v_start[i + 1]):
-                col_d = sp.vec6(scalar(0.0))
-                if moves:
-                    col_d = sp.inertial_to_repr(output_repr, W_H_F, sp.motion_to(W_H_L[env, i], B.dof_motion(model, i, d, X)))
-                for r in range(6):
-                    J[env, t, r, 6 + d] = col_d[r]
+                X = jm.joint_frame_motion(model, i, W_H_L, env)
+            for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
+                if k_dof < jm.dof_count(model, i):
+                    d = jm.dof_address(model, i) + k_dof
+                    col_d = sp.vec6(scalar(0.0))
+                    if moves:
+                        col_d = sp.inertial_to_repr(output_repr, W_H_F, sp.motion_to(W_H_L[env, i], jm.dof_motion(model, i, d, X)))
+                    for r in range(6):
+                        J[env, t, r, 6 + d] = col_d[r]
 
     return types.SimpleNamespace(jacobians=jacobians)

@@ -10,13 +10,16 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .joints import joints
 from .spatial import spatial
 
 
 @factory
-def kernels(scalar) -> types.SimpleNamespace:
+def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
+    """The kernels in `scalar` for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp = spatial(scalar)
     B = bundles(scalar)
+    jm = joints(scalar, multi_dof)
 
     @wp.kernel(module="unique")
     def forward_kinematics(
@@ -32,7 +35,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         parent_H_link[env, 0] = W_H_B
         W_H_L[env, 0] = W_H_B
         for i in range(1, model.parent.shape[0]):
-            X = B.joint_transform(model, i, state.joint_positions, env)
+            X = jm.joint_transform(model, i, state.joint_positions, env)
             parent_H_link[env, i] = X
             W_H_L[env, i] = W_H_L[env, model.parent[i]] * X
 

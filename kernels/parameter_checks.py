@@ -64,7 +64,7 @@ inertias: warpdyn.description.physical.INERTIA_ATOL (tests/test_faults_inputs.py
 @factory
 def kernels(scalar) -> types.SimpleNamespace:
     B = bundles(scalar)
-    I = integrator_kernels(scalar)
+    I = integrator_kernels(scalar, False)  # its keep_state (no joint structure)
     vec2 = wp.types.vector(2, scalar)
     mat33 = wp.types.matrix((3, 3), scalar)
 

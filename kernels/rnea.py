@@ -17,6 +17,7 @@ import warp as wp
 
 from .aba import inertia_funcs
 from .bundles import bundles
+from .joints import joints
 from .registers import tuned
 from .scratch import scratch
 from .spatial import MIXED, spatial
@@ -36,9 +37,11 @@ float64 218 -> 128 registers: kernel 0.111 -> 0.092 ms; float32 already uses 127
 
 
 @tuned(MAX_REGISTERS)
-def kernels(scalar, max_registers):
-    """RNEA (inverse dynamics, bias and gravity forces) in `scalar`, its registers per thread capped on CUDA by `max_registers` (kernels/registers.py)."""
+def kernels(scalar, max_registers, multi_dof: bool):
+    """RNEA (inverse dynamics, bias and gravity forces) in `scalar`, its registers per thread capped on CUDA by `max_registers` (kernels/registers.py),
+    for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp, sc, B = spatial(scalar), scratch(scalar), bundles(scalar)
+    jm = joints(scalar, multi_dof)
     external_force = inertia_funcs(scalar).external_force
 
     @wp.kernel(module="unique", cuda_max_registers=max_registers)
@@ -82,12 +85,12 @@ def kernels(scalar, max_registers):
             sc.put_transform(s, env, 0, _WHL, W_H_B)
         # velocities and accelerations, from the base
         for i in range(1, nL):
-            X = B.joint_transform(model, i, state.joint_positions, env)
-            vJ = B.joint_motion_of(model, i, X, state.joint_velocities, env) * with_velocity
+            X = jm.joint_transform(model, i, state.joint_positions, env)
+            vJ = jm.joint_motion_of(model, i, X, state.joint_velocities, env) * with_velocity
             v_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _V)) + vJ
-            a_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + B.velocity_product(model, i, v_i, vJ)
+            a_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + jm.velocity_product(model, i, v_i, vJ)
             if joint_accelerations.shape[0] > 0:
-                a_i = a_i + B.joint_motion_of(model, i, X, joint_accelerations, env)
+                a_i = a_i + jm.joint_motion_of(model, i, X, joint_accelerations, env)
             sc.put6(s, env, i, _V, v_i)
             sc.put6(s, env, i, _A, a_i)
             if forces:
@@ -95,7 +98,7 @@ def kernels(scalar, max_registers):
         # forces, from the leaves
         for k in range(nL - 1):
             i = nL - 1 - k
-            X = B.joint_transform(model, i, state.joint_positions, env)
+            X = jm.joint_transform(model, i, state.joint_positions, env)
             I = B.spatial_inertia_of(model, env, i)
             v_i = sc.get6(s, env, i, _V)
             f_i = I * sc.get6(s, env, i, _A) + sp.cross_force(v_i, I * v_i)
@@ -103,11 +106,13 @@ def kernels(scalar, max_registers):
                 f_i = f_i - external_force(controls, repr, s, _WHL, env, i)
             if model.first_child[i] >= 0:
                 f_i = f_i + sc.get6(s, env, model.first_child[i], _ACC)
-            for d in range(model.v_start[i], model.v_start[i + 1]):
-                rotor = scalar(0.0)
-                if joint_accelerations.shape[0] > 0:
-                    rotor = B.armature_of(model, env, d) * joint_accelerations[env, d]
-                tau[env, d] = wp.dot(B.dof_motion(model, i, d, X), f_i) + rotor
+            for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
+                if k_dof < jm.dof_count(model, i):
+                    d = jm.dof_address(model, i) + k_dof
+                    rotor = scalar(0.0)
+                    if joint_accelerations.shape[0] > 0:
+                        rotor = B.armature_of(model, env, d) * joint_accelerations[env, d]
+                    tau[env, d] = wp.dot(jm.dof_motion(model, i, d, X), f_i) + rotor
             up = sp.force_to(X, f_i)
             if model.next_sibling[i] >= 0:
                 up = up + sc.get6(s, env, model.next_sibling[i], _ACC)

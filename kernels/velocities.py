@@ -11,13 +11,16 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
+from .joints import joints
 from .spatial import MIXED, spatial
 
 
 @factory
-def kernels(scalar) -> types.SimpleNamespace:
+def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
+    """The kernels in `scalar` for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp = spatial(scalar)
     B = bundles(scalar)
+    jm = joints(scalar, multi_dof)
 
     @wp.kernel(module="unique")
     def link_velocities(
@@ -37,7 +40,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         env = wp.tid()
         W_v_WL[env, 0] = sp.repr_to_inertial(MIXED, W_H_L[env, 0], B.base_velocity_mixed(state, env))
         for i in range(1, model.parent.shape[0]):
-            vJ = B.joint_motion_of(model, i, B.joint_frame_motion(model, i, W_H_L, env), state.joint_velocities, env)
+            vJ = jm.joint_motion_of(model, i, jm.joint_frame_motion(model, i, W_H_L, env), state.joint_velocities, env)
             W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + sp.motion_to(W_H_L[env, i], vJ)
         for t in range(targets.link.shape[0]):
             L = targets.link[t]

@@ -102,7 +102,7 @@ def test_launches_that_no_tape_records_run_forward_only_twins():
     from warpdyn.engine.loading import for_launch
     from warpdyn.kernels.aba import kernels as aba_kernels
 
-    kernel = aba_kernels(wp.float64).aba
+    kernel = aba_kernels(wp.float64, "tuned", False).aba
     twin = for_launch(kernel)
     assert twin is not kernel and twin is for_launch(kernel) and twin.key == kernel.key
     assert twin.module.options["enable_backward"] is False and kernel.module.options["enable_backward"] is True

@@ -82,7 +82,7 @@ def sums(model, data) -> types.SimpleNamespace:
         arrays.empty((nL,), N, s, d, g),
     ]
     launch(
-        centroidal_kernels(s).centroidal_sums,
+        centroidal_kernels(model.scalar, model.multi_dof()).centroidal_sums,
         dim=N,
         inputs=[model_bundle(model), W_H_L, state_of(model, data)],
         outputs=[out.W_v_WL, *scratch, out.mass, out.W_p_G, out.G_I, out.G_h, out.K],
@@ -95,7 +95,7 @@ def force_in(model, data, S, frame: int) -> wp.array:
     """(N, 6): the momentum in the frame `frame`."""
     out = arrays.output((6,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     launch(
-        centroidal_kernels(model.scalar).force_output,
+        centroidal_kernels(model.scalar, model.multi_dof()).force_output,
         dim=data.batch_size,
         inputs=[state_of(model, data), S.W_p_G, S.G_h, int(frame)],
         outputs=[out],
@@ -108,7 +108,7 @@ def velocity_in(model, data, S, frame: int, rows: int = 6) -> wp.array:
     """(N, rows): the first `rows` entries of the average velocity in the frame `frame`."""
     out = arrays.output((rows,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     launch(
-        centroidal_kernels(model.scalar).velocity_output,
+        centroidal_kernels(model.scalar, model.multi_dof()).velocity_output,
         dim=data.batch_size,
         inputs=[state_of(model, data), S.mass, S.W_p_G, S.G_I, S.G_h, int(frame)],
         outputs=[out],
@@ -121,7 +121,7 @@ def inertia_in(model, data, S, frame: int) -> wp.array:
     """(N, 6, 6): the locked spatial inertia in the frame `frame`."""
     out = arrays.output((6, 6), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     launch(
-        centroidal_kernels(model.scalar).inertia_output,
+        centroidal_kernels(model.scalar, model.multi_dof()).inertia_output,
         dim=data.batch_size,
         inputs=[state_of(model, data), S.mass, S.W_p_G, S.G_I, int(frame)],
         outputs=[out],
@@ -138,7 +138,7 @@ def jacobian_in(model, data, S, frame: int, average: bool) -> wp.array:
     scratch = [arrays.empty((nL,), N, t, d, g) for t in (s, vec3, mat33, s, vec3, mat33)]
     J = arrays.output((6, 6 + model.dofs()), N, s, d, g)
     launch(
-        centroidal_kernels(s).momentum_jacobian,
+        centroidal_kernels(model.scalar, model.multi_dof()).momentum_jacobian,
         dim=N,
         inputs=[
             model_bundle(model),
@@ -159,7 +159,7 @@ def jacobian_in(model, data, S, frame: int, average: bool) -> wp.array:
 def energy(model, data, S, kinetic: bool, potential: bool) -> wp.array:
     out = arrays.output((), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     launch(
-        centroidal_kernels(model.scalar).energy_output,
+        centroidal_kernels(model.scalar, model.multi_dof()).energy_output,
         dim=data.batch_size,
         inputs=[model_bundle(model), S.mass, S.W_p_G, S.K, int(kinetic), int(potential)],
         outputs=[out],
@@ -178,7 +178,7 @@ def link_spatial_inertia_matrices(model) -> wp.array:
     out = wp.empty((P, nL, 6, 6), dtype=model.scalar, device=model.device, requires_grad=model.parameters_require_grad(("link",)))
     if config.fill_outputs_with_nan:
         out.fill_(float("nan"))
-    launch(centroidal_kernels(model.scalar).link_spatial_inertias, dim=(P, nL), inputs=[bundle], outputs=[out], device=model.device)
+    launch(centroidal_kernels(model.scalar, model.multi_dof()).link_spatial_inertias, dim=(P, nL), inputs=[bundle], outputs=[out], device=model.device)
     return out if model.per_environment_parameters().keys() & {"link_mass", "link_com", "link_inertia"} else out[0]
 
 
@@ -189,7 +189,7 @@ def link_com_position(model, data, link: int, in_link_frame: bool) -> wp.array:
     _, W_H_L = link_poses(model, data)
     out = arrays.output((3,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
     launch(
-        centroidal_kernels(model.scalar).link_com_positions,
+        centroidal_kernels(model.scalar, model.multi_dof()).link_com_positions,
         dim=data.batch_size,
         inputs=[model_bundle(model), link, int(in_link_frame), W_H_L],
         outputs=[out],
@@ -201,7 +201,7 @@ def link_com_position(model, data, link: int, in_link_frame: bool) -> wp.array:
 def com_position(model, data, S) -> wp.array:
     """(N, 3): W_p_CoM [m] from the centroidal sums S."""
     out = arrays.output((3,), data.batch_size, model.scalar, model.device, requires_grad(model, data))
-    launch(centroidal_kernels(model.scalar).com_output, dim=data.batch_size, inputs=[S.W_p_G], outputs=[out], device=model.device)
+    launch(centroidal_kernels(model.scalar, model.multi_dof()).com_output, dim=data.batch_size, inputs=[S.W_p_G], outputs=[out], device=model.device)
     return out
 
 
@@ -212,7 +212,7 @@ def com_bias_acceleration(model, data, S, a_body: wp.array) -> wp.array:
     scratch = arrays.empty((nL,), N, wp.types.vector(3, model.scalar), model.device, g)
     out = arrays.output((3,), N, model.scalar, model.device, g)
     launch(
-        centroidal_kernels(model.scalar).com_bias_acceleration,
+        centroidal_kernels(model.scalar, model.multi_dof()).com_bias_acceleration,
         dim=N,
         inputs=[model_bundle(model), S.W_H_L, S.W_v_WL, a_body, S.mass, centroidal_frame(data)],
         outputs=[scratch, out],

@@ -47,7 +47,7 @@ def coriolis_matrix(model, data) -> wp.array:
     mat66 = wp.types.matrix((6, 6), s)
     per_dof = [arrays.empty((n + 1,), N, vec6, d, rg) for _ in range(5)]  # S, Sdot, F, f, g at rows d + 1
     C = arrays.output((6 + n, 6 + n), N, s, d, rg)
-    k = coriolis_kernels(s)
+    k = coriolis_kernels(s, model.multi_dof())
     bundle = model_bundle(model)
     scratch = [
         arrays.empty((nL,), N, transform, d, rg),

@@ -29,7 +29,7 @@ def link_kinematics(model, data) -> tuple[wp.array, wp.array, wp.array]:
     W_v_WL = arrays.empty((nL,), N, vec6, model.device, data.requires_grad)
     W_a_L = arrays.empty((nL,), N, vec6, model.device, data.requires_grad)
     launch(
-        derivative_kernels(model.scalar).link_bias_recursion,
+        derivative_kernels(model.scalar, model.multi_dof()).link_bias_recursion,
         dim=N,
         inputs=[model_bundle(model), W_H_L, state_of(model, data)],
         outputs=[W_v_WL, W_a_L],
@@ -47,7 +47,7 @@ def jacobian_derivatives(model, data, target, output_vel_repr=None) -> wp.array:
     N, T = data.batch_size, target.link.shape[0]
     Jdot = arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, data.requires_grad)
     launch(
-        derivative_kernels(model.scalar).jacobian_derivatives,
+        derivative_kernels(model.scalar, model.multi_dof()).jacobian_derivatives,
         dim=(N, T),
         inputs=[model_bundle(model), target, W_H_L, W_v_WL, int(data.velocity_representation), int(output_vel_repr)],
         outputs=[Jdot],
@@ -65,7 +65,7 @@ def bias_accelerations(model, data, target, output_vel_repr=None) -> wp.array:
     N, T = data.batch_size, target.link.shape[0]
     a = arrays.output((T, 6), N, model.scalar, model.device, data.requires_grad)
     launch(
-        derivative_kernels(model.scalar).bias_accelerations,
+        derivative_kernels(model.scalar, model.multi_dof()).bias_accelerations,
         dim=(N, T),
         inputs=[target, W_H_L, W_v_WL, W_a_L, int(data.velocity_representation), int(output_vel_repr)],
         outputs=[a],

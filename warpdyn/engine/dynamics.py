@@ -59,9 +59,9 @@ __all__ = [
 ]
 
 _KERNELS = {
-    "aba": lambda scalar, registers: aba_kernels(scalar, registers).aba,
-    "rnea": lambda scalar, registers: rnea_kernels(scalar, registers).rnea,
-    "crba": lambda scalar, registers: crba_kernels(scalar, registers).crba,
+    "aba": lambda scalar, registers, multi_dof: aba_kernels(scalar, registers, multi_dof).aba,
+    "rnea": lambda scalar, registers, multi_dof: rnea_kernels(scalar, registers, multi_dof).rnea,
+    "crba": lambda scalar, registers, multi_dof: crba_kernels(scalar, registers, multi_dof).crba,
 }
 
 
@@ -95,12 +95,12 @@ def _launch(model, name: str, N: int, width: int, inputs: list, outputs: list, g
     block_dim, registers = config.cuda_launch.get(name, (None, "tuned")) if device.is_cuda else (None, "tuned")
     if taping:
         scratch = arrays.empty((model.scratch_rows(), width), N, model.scalar, device, grad)
-        launch(_KERNELS[name](model.scalar, registers), N, [*inputs, scratch], outputs, device=device, block_dim=block_dim)
+        launch(_KERNELS[name](model.scalar, registers, model.multi_dof()), N, [*inputs, scratch], outputs, device=device, block_dim=block_dim)
         return
     entry = ws.launches.get((name, width, registers))
     if entry is None:
         scratch = arrays.empty((model.scratch_rows(), width), N, model.scalar, device)
-        entry = ws.launches[(name, width, registers)] = (_KERNELS[name](model.scalar, registers), scratch, Recorded())
+        entry = ws.launches[(name, width, registers)] = (_KERNELS[name](model.scalar, registers, model.multi_dof()), scratch, Recorded())
     kernel, scratch, recorded = entry
     recorded.run([Launch(kernel, N, [*inputs, scratch], outputs, block_dim)], device)
 
@@ -434,7 +434,7 @@ def actuator_forces(model, data, ctrl) -> wp.array:
     grad = requires_grad(model, data, u) or model.parameters_require_grad(("actuator",))
     out = arrays.output((n,), N, model.scalar, model.device, grad)
     if n > 0:
-        kernel = mujoco_kernel(model.scalar, False, model.actuators_per_joint)
+        kernel = mujoco_kernel(model.scalar, False, model.actuators_per_joint, model.multi_dof())
         inputs = [model_bundle(model), state_of(model, data), empty_like_input(model.scalar, model.device, 2), u]
         launch(kernel, dim=(N, n), inputs=inputs, outputs=[out], device=model.device)
     return out
@@ -457,7 +457,7 @@ def passive_forces(model, data) -> wp.array:
     joints = arrays.empty((n,), N, s, d, grad)
     if n > 0:
         empty2 = empty_like_input(s, d, 2)
-        launch(mujoco_kernel(s, True, 0), dim=(N, n), inputs=[bundle, state, empty2, empty2], outputs=[joints], device=d)
+        launch(mujoco_kernel(s, True, 0, model.multi_dof()), dim=(N, n), inputs=[bundle, state, empty2, empty2], outputs=[joints], device=d)
     out = arrays.output((6 + n,), N, s, d, grad)
     launch(state_kernels(s).passive_from_parts, dim=N, inputs=[f_B, tau, joints], outputs=[out], device=d)
     return out

@@ -63,7 +63,7 @@ def link_poses(model, data) -> tuple[wp.array, wp.array]:
     parent_H_link = arrays.empty((nL,), N, transform, model.device, data.requires_grad)
     W_H_L = arrays.empty((nL,), N, transform, model.device, data.requires_grad)
     launch(
-        kinematics_kernels(model.scalar).forward_kinematics,
+        kinematics_kernels(model.scalar, model.multi_dof()).forward_kinematics,
         dim=N,
         inputs=[model_bundle(model), state_of(model, data)],
         outputs=[parent_H_link, W_H_L],
@@ -76,7 +76,7 @@ def homogeneous(model, poses: wp.array, target, requires_grad=False) -> wp.array
     """(N, T, 4, 4) homogeneous matrices of the targets, poses (N, nL) the links' (or their parents')."""
     N, T = poses.shape[0], target.link.shape[0]
     H = arrays.output((T, 4, 4), N, model.scalar, model.device, requires_grad)
-    launch(kinematics_kernels(model.scalar).homogeneous_matrices, dim=(N, T), inputs=[poses, target], outputs=[H], device=model.device)
+    launch(kinematics_kernels(model.scalar, model.multi_dof()).homogeneous_matrices, dim=(N, T), inputs=[poses, target], outputs=[H], device=model.device)
     return H
 
 
@@ -84,7 +84,7 @@ def inverse_adjoints(model, poses: wp.array, requires_grad=False) -> wp.array:
     """(N, K, 6, 6): B_X_A, the motion adjoint of each pose A_H_B in poses (N, K)."""
     N, K = poses.shape
     X = arrays.output((K, 6, 6), N, model.scalar, model.device, requires_grad)
-    launch(kinematics_kernels(model.scalar).inverse_adjoints, dim=(N, K), inputs=[poses], outputs=[X], device=model.device)
+    launch(kinematics_kernels(model.scalar, model.multi_dof()).inverse_adjoints, dim=(N, K), inputs=[poses], outputs=[X], device=model.device)
     return X
 
 
@@ -102,7 +102,7 @@ def jacobians(model, data, target, output_vel_repr) -> wp.array:
     N, T = data.batch_size, target.link.shape[0]
     J = arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, data.requires_grad)
     launch(
-        jacobian_kernels(model.scalar).jacobians,
+        jacobian_kernels(model.scalar, model.multi_dof()).jacobians,
         dim=(N, T),
         inputs=[model_bundle(model), target, W_H_L, int(data.velocity_representation), int(output_vel_repr)],
         outputs=[J],
@@ -119,7 +119,7 @@ def velocities(model, data, target, output_vel_repr) -> wp.array:
     W_v_WL = arrays.empty((model.number_of_links(),), N, wp.types.vector(6, model.scalar), model.device, data.requires_grad)
     v = arrays.output((T, 6), N, model.scalar, model.device, data.requires_grad)
     launch(
-        velocity_kernels(model.scalar).link_velocities,
+        velocity_kernels(model.scalar, model.multi_dof()).link_velocities,
         dim=N,
         inputs=[model_bundle(model), target, W_H_L, state_of(model, data), int(output_vel_repr)],
         outputs=[W_v_WL, v],

@@ -85,7 +85,7 @@ def base_transform(data, requires_grad: bool) -> wp.array:
     N, s, d = data.batch_size, data.scalar, data.device
     out = arrays.output((4, 4), N, s, d, requires_grad)
     launch(
-        kinematics_kernels(s).base_homogeneous_matrix,
+        kinematics_kernels(s, False).base_homogeneous_matrix,  # (no joint moves the base: the one-DoF variant)
         dim=N,
         inputs=[data.base_position_state, data.base_quaternion_state],
         outputs=[out],

@@ -169,6 +169,7 @@ class Plan:
         B = bundles(s)
         self.scalar, self.device = s, d
         self.n, self.nq, self.nL = model.dofs(), model.number_of_joint_coordinates(), model.number_of_links()
+        self.multi_dof = model.multi_dof()  # ball or free joints: the kernels' multi-DoF variants (kernels/joints.py)
         self.rows = model.scratch_rows()  # of a scratch with a record per link and per DoF (kernels/aba.py)
         self.integrator = IntegratorType(model.integrator)
         self.dt = s(model.time_step)
@@ -190,13 +191,13 @@ class Plan:
         # RK4 evaluates MuJoCo's state-dependent joint forces at each stage, on JaxSim's part held from the start
         self.stage_forces = not self.euler and self.n > 0 and (self.with_passive or per_joint > 0)
         if self.stage_forces:
-            self.actuation = actuation_kernel(s, self.with_limits, self.with_friction)
-            self.stage_actuation = mujoco_kernel(s, self.with_passive, per_joint)
+            self.actuation = actuation_kernel(s, self.with_limits, self.with_friction, multi_dof=self.multi_dof)
+            self.stage_actuation = mujoco_kernel(s, self.with_passive, per_joint, self.multi_dof)
         else:
-            self.actuation = actuation_kernel(s, self.with_limits, self.with_friction, self.with_passive, per_joint) if self.n > 0 else None
+            self.actuation = actuation_kernel(s, self.with_limits, self.with_friction, self.with_passive, per_joint, self.multi_dof) if self.n > 0 else None
         self.torque_curve = [s(a.torque_max), s(a.omega_th), s(a.omega_max)]
         # MuJoCo's joint forces alone (on given torques: warpdyn.engine.evaluations.integrate)
-        self.mujoco_part = mujoco_kernel(s, self.with_passive, per_joint) if self.n > 0 and (self.with_passive or per_joint > 0) else None
+        self.mujoco_part = mujoco_kernel(s, self.with_passive, per_joint, self.multi_dof) if self.n > 0 and (self.with_passive or per_joint > 0) else None
         # MuJoCo's implicit joint damping in the Euler integrators (ABA's d_i + dt damping_i)
         implicit = self.euler and model.implicit_damping
         self.implicit_dt = s(model.time_step if implicit else 0.0)
@@ -239,7 +240,7 @@ class Plan:
         self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
         self.terrain = terrain_bundle(model)
         self.no_targets = targets(model, model.all_links[:0], model.identity_offsets[:0])
-        self.integrators = integrator_kernels(s)
+        self.integrators = integrator_kernels(s, self.multi_dof)
         # the fused Euler step (kernels/fused_step.py) by whether it keeps the joint transforms and its lanes, for
         # steps without gradients; not with gravity compensation, nor for joints of several DoFs. Its walk's groups
         # (the base's subtrees by their links and points) are its lanes for few environments on a GPU
@@ -413,7 +414,7 @@ def evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: b
     s = plan.scalar
     launches = []
     if plan.poses and not poses_done:
-        launches.append(Launch(kinematics_kernels(s).forward_kinematics, N, [plan.model, x], [ev.parent_H_link, ev.W_H_L]))
+        launches.append(Launch(kinematics_kernels(s, plan.multi_dof).forward_kinematics, N, [plan.model, x], [ev.parent_H_link, ev.W_H_L]))
     contacts_first = plan.integrator == IntegratorType.RungeKutta4Fast
     if held is not None and plan.contacts:
         f_ext = held.W_f_L
@@ -430,7 +431,7 @@ def evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: b
     if aba:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
         args = [plan.model, x, controls, int(VelRepr.Inertial), plan.implicit_dt, ev.aba_scratch]
-        launches.append(Launch(aba_kernels(s).aba, N, args, [ev.base_acceleration, ev.joint_accelerations]))
+        launches.append(Launch(aba_kernels(s, "tuned", plan.multi_dof).aba, N, args, [ev.base_acceleration, ev.joint_accelerations]))
     return launches
 
 
@@ -439,7 +440,7 @@ def _contacts(plan: Plan, ev: Evaluation, x, f_ext, N: int) -> list:
     point's force and deformation rate (ev.W_f_C, ev.m_dot), and ev.W_f_L = f_ext (None: 0) + each link's."""
     s = plan.scalar
     args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
-    launches = [Launch(velocity_kernels(s).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities])]
+    launches = [Launch(velocity_kernels(s, plan.multi_dof).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities])]
     f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
     order = int(arrays.env_fastest(plan.device))
     rows, links = (plan.total, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)
@@ -541,7 +542,7 @@ def step_launches(
             f_ext = f_user
         else:
             holder = ws.evals[0] if plan.poses else ws
-            launches.append(Launch(kinematics_kernels(s).forward_kinematics, N, [plan.model, X], [holder.parent_H_link, holder.W_H_L]))
+            launches.append(Launch(kinematics_kernels(s, plan.multi_dof).forward_kinematics, N, [plan.model, X], [holder.parent_H_link, holder.W_H_L]))
             poses_done = plan.poses
             launches.append(Launch(force_kernels(s).link_forces_to_inertial, (N, plan.nL), [holder.W_H_L, f_user, repr], [ws.W_f_ext]))
             f_ext = ws.W_f_ext

@@ -55,6 +55,11 @@ class ModelQueries:
         d + 1): max(nL, nv + 1), nL for a model whose joints have one DoF each."""
         return max(self.number_of_links(), self.dofs() + 1)
 
+    def multi_dof(self) -> bool:
+        """Whether a joint has more than one DoF (a ball or free joint): which variant of the kernels moves the
+        joints (kernels/joints.py)."""
+        return not self.tree.one_dof_joints
+
     def dof_names(self) -> tuple[str, ...]:
         """A name per DoF (nv,): a revolute or prismatic joint's own name; "{joint}:rx", ":ry", ":rz" for a ball
         joint's rotations about its child's axes; "{joint}:x", ":y", ":z", ":rx", ":ry", ":rz" for a free
