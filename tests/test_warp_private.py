@@ -369,11 +369,12 @@ def _warp_names() -> set:
     """The attributes with a leading underscore (and __ctype__) that Warp's objects carry in the running Warp:
     an array and a view, a kernel and its module and code generator, a recorded launch and its hooks, a tape, a
     struct and an instance, composite and scalar dtypes and values, a device, the runtime."""
-    a = wp.zeros(3, dtype=wp.float64, device="cpu", requires_grad=True)
-    command = wp.launch(_twice, dim=3, inputs=[a], outputs=[wp.zeros_like(a)], device="cpu", record_cmd=True)
-    p = _pair(1.0, 0.0, "cpu")
+    device = "cpu" if wp.is_cpu_available() else wp.get_device()  # a Warp build without its CPU backend: the GPU
+    a = wp.zeros(3, dtype=wp.float64, device=device, requires_grad=True)
+    command = wp.launch(_twice, dim=3, inputs=[a], outputs=[wp.zeros_like(a)], device=device, record_cmd=True)
+    p = _pair(1.0, 0.0, device)
     objects = [a, a[1:], wp.array, _twice, warp_private.kernel_module(_twice), _twice.adj, command, command.hooks, wp.Tape()]
-    objects += [Pair, p, type(p), wp.vec3d, wp.vec3d(), wp.mat33f, wp.quatd, wp.transformf, wp.float64, wp.get_device("cpu")]
+    objects += [Pair, p, type(p), wp.vec3d, wp.vec3d(), wp.mat33f, wp.quatd, wp.transformf, wp.float64, wp.get_device(device)]
     objects.append(warp_private._context.runtime)
     names = {n for o in objects for n in dir(o) if n.startswith("_") and not n.startswith("__")}
     return names | {"__ctype__"}

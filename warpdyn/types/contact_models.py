@@ -136,22 +136,23 @@ def _points(value, name: str) -> np.ndarray:
 
 def _law(p, v, m, h, n, numbers: tuple) -> tuple[np.ndarray, np.ndarray]:
     """(f (..., 3), m_dot (..., 3)): kernels/soft_contacts.py's `hunt_crossley` at the points p, velocities v
-    and deformations m (..., 3) on terrain heights h (...) and unit normals n (..., 3), launched on the CPU in
-    float64; numbers: (K, D, mu, p, q), K, D and mu broadcast against the points, p and q one number each."""
+    and deformations m (..., 3) on terrain heights h (...) and unit normals n (..., 3), launched on the CPU (the
+    default device where Warp's build has no CPU backend) in float64; numbers: (K, D, mu, p, q), K, D and mu broadcast against the points, p and q one number each."""
     K, D, mu, pe, qe = (np.asarray(x.numpy() if isinstance(x, wp.array) else x, dtype=np.float64) for x in numbers)
     for name, value in (("p", pe), ("q", qe)):
         if value.size != 1:
             raise ValueError(f"the soft law's exponent {name} must be one number, got shape {value.shape}")
+    device = "cpu" if wp.is_cpu_available() else wp.get_device()  # a Warp build without its CPU backend: the default device
     batch = np.broadcast_shapes(p.shape[:-1], v.shape[:-1], m.shape[:-1], np.shape(h), np.shape(n)[:-1], K.shape, D.shape, mu.shape)
     rows = int(np.prod(batch, dtype=int))
     vec3 = wp.types.vector(3, wp.float64)
 
     def flat(x, last: tuple) -> wp.array:
         host = np.broadcast_to(np.asarray(x, dtype=np.float64), (*batch, *last)).reshape(rows, *last)
-        return wp.array(np.ascontiguousarray(host), dtype=vec3 if last else wp.float64, device="cpu")
+        return wp.array(np.ascontiguousarray(host), dtype=vec3 if last else wp.float64, device=device)
 
-    f, m_dot = wp.empty(rows, dtype=vec3, device="cpu"), wp.empty(rows, dtype=vec3, device="cpu")
+    f, m_dot = wp.empty(rows, dtype=vec3, device=device), wp.empty(rows, dtype=vec3, device=device)
     inputs = [flat(p, (3,)), flat(v, (3,)), flat(m, (3,)), flat(h, ()), flat(n, (3,)), flat(K, ()), flat(D, ()), flat(mu, ()),
               float(pe.reshape(-1)[0]), float(qe.reshape(-1)[0])]
-    wp.launch(points_kernel(wp.float64), dim=rows, inputs=inputs, outputs=[f, m_dot], device="cpu")
+    wp.launch(points_kernel(wp.float64), dim=rows, inputs=inputs, outputs=[f, m_dot], device=device)
     return f.numpy().reshape(*batch, 3), m_dot.numpy().reshape(*batch, 3)
