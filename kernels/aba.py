@@ -9,7 +9,8 @@ Featherstone's ABA in link coordinates, gravity entering as a fictitious base ac
    one-DoF joints between massless links in one frame would be (the block projection IA - U D^-1 U^T, D = S^T IA S
    + diag(armature), by elimination). The sums over children are sibling chains (each element written once:
    tape-safe).
-3. a'_0 = -IA_0^-1 pA_0 (floating base) or -a_g (fixed base); from the base:
+3. a'_0 = -IA_0^-1 pA_0 (floating base, its free joint's armature in IA_0 and pA_0: kernels/bundles.py's
+   `base_rotor`) or -a_g (fixed base); from the base:
    a'_i = iX_lambda a'_lambda + c_i, then for each DoF d, the first first: qdd_d = (u_d - U_d^T a'_i) / d_d,
    a'_i += S_d qdd_d.
 The base acceleration d/dt B_v_WB = a'_0 + a_g is written in the requested representation.
@@ -262,8 +263,10 @@ def kernels(scalar, max_registers, multi_dof: bool):
         a0 = -B_a_g
         if model.floating_base != 0:
             I0 = sc.sym_upper(B.spatial_inertia_of(model, env, 0))
-            IA0 = I0
-            pA0 = sp.cross_force(B_v, I0 * B_v)
+            # its free joint's armature (and implicit damper) act on the true acceleration a'_0 + a_g
+            rotor = B.base_rotor(model, env, implicit_dt)
+            IA0 = I0 + rotor * wp.identity(n=6, dtype=scalar)
+            pA0 = sp.cross_force(B_v, I0 * B_v) + B.base_rotor_bias(model, env, B_v, implicit_dt) + rotor * B_a_g
             if forces:
                 pA0 = pA0 - external_force(controls, repr, s, _WHL, env, 0)
             if model.first_child[0] >= 0:

@@ -80,6 +80,11 @@ def bundles(scalar) -> types.SimpleNamespace:
         stiffness: wp.array2d(dtype=scalar)  # [N m/rad or N/m]
         springref: wp.array2d(dtype=scalar)  # [rad or m]
         joint_actuator_force_range: wp.array2d(dtype=vec2)  # [N m or N] clamp of the summed actuator force
+        # a floating base's free joint (P, 1): MuJoCo's armature, damper and spring on its 6 DoFs (MJCF)
+        base_armature: wp.array2d(dtype=scalar)  # [kg or kg m^2]
+        base_damping: wp.array2d(dtype=scalar)  # [N s/m or N m s/rad]
+        base_stiffness: wp.array2d(dtype=scalar)  # [N/m or N m/rad], towards base_reference
+        base_reference: sp.transform  # W_H_B where the base's spring is at rest (the description's base pose)
         # actuator parameters (P, na)
         actuator_gear: wp.array2d(dtype=scalar)
         actuator_gain: wp.array2d(dtype=sp.vec3)  # (g0, g1, g2): gain = g0 + g1 length + g2 velocity
@@ -205,6 +210,32 @@ def bundles(scalar) -> types.SimpleNamespace:
         return sp.inertia_times(mass_of(model, env, i), com_of(model, env, i), inertia_of(model, env, i), v)
 
     @wp.func
+    def base_rotor(model: Model, env: int, implicit_dt: scalar):
+        """What a floating base's free joint adds to the diagonal of its articulated inertia and of the mass
+        matrix (Body or Mixed coordinates, the same: MuJoCo's armature acts on its 6 DoFs alike): armature
+        (+ implicit_dt damping, MuJoCo's implicit damper in the Euler integrators)."""
+        return joint_parameter(model.base_armature, env, 0) + implicit_dt * joint_parameter(model.base_damping, env, 0)
+
+    @wp.func
+    def base_rotor_bias(model: Model, env: int, B_v: sp.vec6, implicit_dt: scalar):
+        """The velocity-product force in body coordinates of `base_rotor` (armature + implicit_dt damping),
+        [r omega x v; 0] (B_v = [v; omega] the base's body twist): MuJoCo's terms multiply the acceleration of its
+        free joint's coordinates (world linear velocity, body angular velocity), whose linear part in body axes
+        is v_dot + omega x v."""
+        r = base_rotor(model, env, implicit_dt)
+        return sp.stack(r * wp.cross(sp.ang(B_v), sp.lin(B_v)), sp.vec3(scalar(0.0)))
+
+    @wp.func
+    def base_passive_wrench(model: Model, env: int, W_H_B: sp.transform, B_v: sp.vec6):
+        """The floating base's free-joint damper and spring as a wrench on the base, body coordinates: -d B_v and
+        MuJoCo's spring -k [R^T (p - p_ref); rotation vector of Q_ref^-1 Q] (base_reference = (p_ref, Q_ref))."""
+        k = joint_parameter(model.base_stiffness, env, 0)
+        Q = wp.transform_get_rotation(W_H_B)
+        dp = wp.transform_get_translation(W_H_B) - wp.transform_get_translation(model.base_reference)
+        rotation = sp.rotation_vector(wp.quat_inverse(wp.transform_get_rotation(model.base_reference)) * Q)
+        return -joint_parameter(model.base_damping, env, 0) * B_v - k * sp.stack(wp.quat_rotate_inv(Q, dp), rotation)
+
+    @wp.func
     def base_pose_of(base_position: wp.array2d(dtype=scalar), base_quaternion: wp.array2d(dtype=scalar), env: int):
         """W_H_B from a base position (N, 3) and quaternion (N, 4) (w, x, y, z)."""
         p = sp.vec3(base_position[env, 0], base_position[env, 1], base_position[env, 2])
@@ -247,6 +278,9 @@ def bundles(scalar) -> types.SimpleNamespace:
         inertia_of=inertia_of,
         spatial_inertia_of=spatial_inertia_of,
         spatial_inertia_times=spatial_inertia_times,
+        base_rotor=base_rotor,
+        base_rotor_bias=base_rotor_bias,
+        base_passive_wrench=base_passive_wrench,
         base_pose_of=base_pose_of,
         base_pose=base_pose,
         base_velocity_mixed=base_velocity_mixed,

@@ -160,6 +160,9 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             rotor = scalar(0.0)
             if i > 0:
                 rotor = jm.armature_energy(model, env, i, state.joint_velocities)
+            else:  # a floating base's free-joint armature on its Mixed velocity (|v|^2 the same in Body)
+                v_B = B.base_velocity_mixed(state, env)
+                rotor = B.base_rotor(model, env, scalar(0.0)) * wp.dot(v_B, v_B)
             sum_K[env, i] = prev_K + scalar(0.5) * (wp.dot(v_c, p_i) + wp.dot(w, I_w) + rotor)
         G_I[env] = sum_I[env, nL - 1]
         G_h[env] = sum_h[env, nL - 1]

@@ -158,7 +158,9 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             acc_I[env, l] = chain_I
             acc_B[env, l] = chain_B
         # The base block.
-        I_0 = B.spatial_inertia_of(model, env, 0)
+        # the base's inertia with its free joint's armature a I (body coordinates), which takes JaxSim's link term as
+        # an inertia does: skew, and (v x*) a v = [a omega x v; 0], the armature's bias (B.base_rotor_bias)
+        I_0 = B.spatial_inertia_of(model, env, 0) + B.base_rotor(model, env, scalar(0.0)) * wp.identity(n=6, dtype=scalar)
         Ic_0 = I_0
         Bc_0 = sp.force_cross_matrix(B_v_B) * I_0
         if model.first_child[0] >= 0:

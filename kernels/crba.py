@@ -118,8 +118,8 @@ def kernels(scalar, max_registers, multi_dof: bool):
             s[env, i, _IC + 7] = I_O[1, 1]
             s[env, i, _IC + 8] = I_O[1, 2]
             s[env, i, _IC + 9] = I_O[2, 2]
-        # base block and base-joint columns
-        Ic0 = B.spatial_inertia_of(model, env, 0)
+        # base block (with a floating base's free-joint armature, B.base_rotor) and base-joint columns
+        Ic0 = B.spatial_inertia_of(model, env, 0) + B.base_rotor(model, env, scalar(0.0)) * wp.identity(n=6, dtype=scalar)
         if model.first_child[0] >= 0:
             fc = model.first_child[0]
             hc = wp.skew(get_h(s, env, fc))

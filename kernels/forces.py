@@ -10,7 +10,7 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
-from .spatial import spatial
+from .spatial import MIXED, spatial
 
 
 @factory
@@ -90,22 +90,28 @@ def kernels(scalar):
             W_f_L[env, L, r] = W_f[r]
 
     @wp.kernel(module="unique")
-    def gravity_compensation(
+    def passive_link_forces(
         model: B.Model,
+        state: B.State,
         W_H_L: wp.array2d(dtype=sp.transform),
         f_in: wp.array3d(dtype=scalar),
         repr: int,
         # outputs
         f_out: wp.array3d(dtype=scalar),
     ):
-        """f_out (N, nL, 6) = f_in + each link's gravity compensation, both in representation `repr` (f_in
-        absent, a zero leading axis: 0), launched over (N, nL). The compensation of link L is the force
-        gravcomp_mass g along +z of the world at gravcomp_com (link frame), MJCF's gravcomp."""
+        """f_out (N, nL, 6) = f_in + the passive forces that act on links, both in representation `repr` (f_in
+        absent, a zero leading axis: 0), launched over (N, nL): each link's gravity compensation, the force
+        gravcomp_mass g along +z of the world at gravcomp_com (link frame), MJCF's gravcomp; and on a floating
+        base its free joint's damper and spring (B.base_passive_wrench, MJCF's)."""
         env, L = wp.tid()
         X = W_H_L[env, L]
         p = wp.transform_point(X, B.vec3_parameter(model.gravcomp_com, env, L))
         F = sp.vec3(scalar(0.0), scalar(0.0), B.link_parameter(model.gravcomp_mass, env, L) * model.gravity)
-        f = sp.inertial_to_force_repr(repr, X, sp.stack(F, wp.cross(p, F)))
+        W_f = sp.stack(F, wp.cross(p, F))
+        if L == 0 and model.floating_base != 0:
+            B_v = sp.motion_from(X, sp.repr_to_inertial(MIXED, X, B.base_velocity_mixed(state, env)))
+            W_f = W_f + sp.force_to(X, B.base_passive_wrench(model, env, X, B_v))
+        f = sp.inertial_to_force_repr(repr, X, W_f)
         for r in range(6):
             before = scalar(0.0)
             if f_in.shape[0] > 0:
@@ -113,7 +119,7 @@ def kernels(scalar):
             f_out[env, L, r] = before + f[r]
 
     return types.SimpleNamespace(
-        gravity_compensation=gravity_compensation,
+        passive_link_forces=passive_link_forces,
         kept_forces=kept_forces,
         add_target_forces=add_target_forces,
         inertial_to_forces=inertial_to_forces,

@@ -8,7 +8,8 @@ of range is flagged (valid = 0) and keeps its state, as the integrators flag a n
 
 Checked (`CHECKED`: every model array whose range is more than finiteness, warpdyn.types.parameters):
 - non-negative and finite: link_mass (but a fixed base's, which no dynamics reads), the joints' limit spring and
-  damper, frictions, armature, damping, stiffness (NaN fails every comparison);
+  damper, frictions, armature, damping, stiffness, the floating base's free-joint armature, damping and
+  stiffness (NaN fails every comparison);
 - (lower, upper) with lower <= upper, no NaN: position_limits, joint_actuator_force_range, actuator_ctrl_range,
   actuator_force_range;
 - link_inertia: a finite diagonal >= -INERTIA_ATOL x the largest diagonal entry of the environment's
@@ -53,6 +54,9 @@ CHECKED = (
     "joint_actuator_force_range",
     "actuator_ctrl_range",
     "actuator_force_range",
+    "base_armature",
+    "base_damping",
+    "base_stiffness",
 )
 """The model arrays the device check reads (those whose registry check is more than finiteness)."""
 
@@ -138,6 +142,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         bad = bad + negative_faults(model.friction_static, env, 0) + negative_faults(model.friction_viscous, env, 0)
         bad = bad + negative_faults(model.armature, env, 0) + negative_faults(model.damping, env, 0)
         bad = bad + negative_faults(model.stiffness, env, 0)
+        bad = bad + negative_faults(model.base_armature, env, 0) + negative_faults(model.base_damping, env, 0)
+        bad = bad + negative_faults(model.base_stiffness, env, 0)
         bad = bad + unordered_faults(model.actuator_ctrl_range, env) + unordered_faults(model.actuator_force_range, env)
         return bad
 

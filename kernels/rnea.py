@@ -118,7 +118,9 @@ def kernels(scalar, max_registers, multi_dof: bool):
                 up = up + sc.get6(s, env, model.next_sibling[i], _ACC)
             sc.put6(s, env, i, _ACC, up)
         I0 = B.spatial_inertia_of(model, env, 0)
-        f_0 = I0 * B_a + sp.cross_force(B_v, I0 * B_v)
+        # a floating base's free-joint armature: on its true acceleration (B_a less the fictitious gravity's)
+        base_rotor = B.base_rotor(model, env, scalar(0.0)) * (B_a + B_a_g) + B.base_rotor_bias(model, env, B_v, scalar(0.0))
+        f_0 = I0 * B_a + sp.cross_force(B_v, I0 * B_v) + base_rotor
         if forces:
             f_0 = f_0 - external_force(controls, repr, s, _WHL, env, 0)
         if model.first_child[0] >= 0:

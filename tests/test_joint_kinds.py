@@ -265,3 +265,81 @@ def test_urdf_floating_and_sdf_ball_joints():
     Q = np.array([0.8, 0.2, -0.4, 0.1]) / np.linalg.norm([0.8, 0.2, -0.4, 0.1])
     M = [wd.model.free_floating_mass_matrix(m, wd.data.Data.build(m, joint_positions=Q)).numpy()[6:, 6:] for m in (a, b)]
     np.testing.assert_allclose(M[0], M[1], atol=1e-12)
+
+
+def _floating_with_free_joint_parameters() -> str:
+    """A floating base (a free body alone) whose free joint carries armature, damping and stiffness, with a
+    hinged arm (MuJoCo's free joint and its <joint type="free"> defaults)."""
+    return """<mujoco model="floating"><option timestep="0.002"/><default><geom contype="0" conaffinity="0"/></default>
+      <worldbody><body name="hull" pos="0.2 -0.1 1.5" euler="0.3 0.1 -0.2">
+        <joint name="root" type="free" armature="0.05" damping="0.8" stiffness="3"/>
+        <inertial pos="0.02 0.01 -0.03" quat="0.9 0.1 0.2 0.3" mass="3" diaginertia="0.05 0.06 0.08"/>
+        <body name="arm" pos="0.2 0 0"><joint name="elbow" axis="0 1 0" armature="0.01" damping="0.1"/>
+          <inertial pos="0.15 0 0" mass="0.5" diaginertia="0.001 0.004 0.004"/></body>
+      </body></worldbody></mujoco>"""
+
+
+def test_a_floating_bases_free_joint_armature_damping_and_stiffness(tmp_path):
+    """A floating base's free-joint armature, damping and spring (MJCF, RB-Y1's kind): M, h, the passive forces
+    and qacc equal MuJoCo's (1e-8, measured ~1e-14), one Euler step too (the damping implicit, as MuJoCo's
+    eulerdamp; 1e-10), and C nu = h - g holds with them in every representation (the armature's velocity
+    product, which its Body coordinates have and Mixed not; 1e-12). Reference: MuJoCo with constraints disabled,
+    the identity."""
+    xml = _floating_with_free_joint_parameters()
+    path = tmp_path / "floating.xml"
+    path.write_text(xml)
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    model = _load(path)
+    assert model.floating_base() and (float(model.base_armature.numpy()[0]), float(model.base_damping.numpy()[0]), float(model.base_stiffness.numpy()[0])) == (0.05, 0.8, 3.0)
+    errors = mjcf_compare.compare_model(model, mj)
+    assert all(errors[name] <= 1e-8 for name in mjcf_compare.QUANTITIES), errors
+    qpos, qvel = mm.random_state(mj, np.random.default_rng(3))
+    state = mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel)
+    stepped = wd.model.step(model, wd.data.Data.build(model, **state.data_kwargs))
+    expected = mjcf_compare.mujoco_to_warpdyn_state(model, mj, *mm.euler_step(mj, qpos, qvel)[:2]).data_kwargs
+    np.testing.assert_allclose(stepped.base_position.numpy(), expected["base_position"], atol=1e-10)
+    np.testing.assert_allclose(stepped.base_velocity.numpy(), np.concatenate([expected["base_linear_velocity"], expected["base_angular_velocity"]]), atol=1e-10)
+    np.testing.assert_allclose(stepped.joint_velocities.numpy(), expected["joint_velocities"], atol=1e-10)
+    for representation in (wd.VelRepr.Body, wd.VelRepr.Mixed, wd.VelRepr.Inertial):
+        data = wd.data.Data.build(model, **state.data_kwargs)
+        with data.switch_velocity_representation(representation):
+            C = wd.model.free_floating_coriolis_matrix(model, data).numpy()
+            h = wd.model.free_floating_bias_forces(model, data).numpy()
+            g = wd.model.free_floating_gravity_forces(model, data).numpy()
+            nu = data.generalized_velocity.numpy()
+        np.testing.assert_allclose(C @ nu, h - g, atol=1e-12 * max(1.0, np.abs(h).max()), err_msg=str(representation))
+
+
+
+def test_gradients_of_the_free_joint_parameters(tmp_path):
+    """d(loss)/d(base_armature, base_damping, base_stiffness) through 5 Euler steps of the floating base with
+    its free joint's parameters equals central differences (float64, relative step 1e-6, rtol 1e-5)."""
+    model = _load(_floating_with_free_joint_parameters())
+    mj = mujoco.MjModel.from_xml_string(_floating_with_free_joint_parameters())
+    qpos, qvel = mm.random_state(mj, np.random.default_rng(5))
+    state = mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs
+    names = ("base_armature", "base_damping", "base_stiffness")
+    params = wd.model.parameters_requiring_grad(model, names=names)
+    weights = np.random.default_rng(6).uniform(-1, 1, 6)
+
+    def rollout():
+        d = wd.data.Data.build(model, **state)
+        for _ in range(5):
+            d = wd.model.step(model, d)
+        return d
+
+    tape = wp.Tape()
+    with tape:
+        final = rollout()
+    tape.backward(grads={final.base_velocity_state: wp.array(weights[None], dtype=wp.float64)})
+    for name in names:
+        value = float(params[name].numpy()[0])
+        h = 1e-6 * value
+
+        def loss_at(v):
+            params[name].assign(np.array([v]))
+            return float(weights @ rollout().base_velocity_state.numpy()[0])
+
+        fd = (loss_at(value + h) - loss_at(value - h)) / (2 * h)
+        params[name].assign(np.array([value]))
+        np.testing.assert_allclose(params[name].grad.numpy()[0], fd, rtol=1e-5, err_msg=name)

@@ -16,7 +16,7 @@ What is read, and how MuJoCo's structure maps onto warpdyn's one-joint-per-link 
   qpos0); one welded child is a fixed base welded at its pose; otherwise (a scene: several trees) the base is
   the fixed link "world", into which the bodies welded to the world are lumped, and each free body hangs from
   it by a "free" joint starting at the body's pose. A free joint's armature, damping, frictionloss and
-  stiffness are read where it is a joint of the scene; a floating base has none yet (listed in the warning).
+  stiffness are read; a floating base's frictionloss is not (listed in the warning).
 - Keyframes (`<key>`): by name, in MuJoCo's qpos/qvel layout (`ModelDescription.keyframes`,
   `mujoco_joints`).
 - Actuators with a joint transmission on a hinge/slide joint and no activation dynamics become
@@ -60,7 +60,7 @@ JOINT_LIMITS = "joint limits (MuJoCo: limit constraints; warpdyn has only its li
 FRICTIONLOSS = "frictionloss (MuJoCo: a friction constraint; warpdyn applies it as JaxSim's static friction)"
 POLYNOMIAL = "polynomial joint stiffness/damping (only the linear coefficient is kept)"
 SPRING_YIELD = "joint spring yield (plasticity)"
-FREE_JOINT_PARAMETERS = "armature/damping/stiffness/frictionloss of a floating base's free joint (a floating base has none yet)"
+FREE_JOINT_PARAMETERS = "frictionloss of a floating base's free joint (a floating base has no static friction)"
 EQUALITY = "equality constraints"
 TENDONS = "tendons (their springs, dampers, armature, limits and actuators)"
 MUSCLES = "muscles (dropped)"
@@ -180,6 +180,7 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
     if floating:  # a lone free body: the floating base starts at the body's pose (MuJoCo's qpos0)
         q0 = floating[0].initial_position
         description.initial_world_H_base = homogeneous(quaternion_wxyz_to_matrix(q0[3:]), q0[:3])
+        description.base_joint = floating[0]
     description.actuators = actuators
     description.gravity = gravity
     description.time_step = time_step
@@ -329,8 +330,8 @@ def _joint(m, j, jname, parent, child, origin, note, mujoco) -> JointDescription
 
 def _world_children(m, links, joints, where, note, mujoco):
     """The world's children (see the module docstring). One free body beside bodies welded to the world (with no
-    joints below them) is a robot in static scenery: the floating base (its joint "floating", noting its free
-    joint's parameters that a floating base does not have), the scenery dropped and noted. Otherwise a scene:
+    joints below them) is a robot in static scenery: the floating base (its joint "floating", with its armature,
+    damping and stiffness; its frictionloss noted), the scenery dropped and noted. Otherwise a scene:
     the world is the base, bodies welded to it are lumped into it (the colliding ones noted), free bodies hang
     from it by their free joints."""
     world_joints = [j for j in joints if j.parent == "world"]
@@ -353,13 +354,14 @@ def _world_children(m, links, joints, where, note, mujoco):
     ]
     if len(free) == 1 and len(free) + len(static) == len(world_joints):
         joint = free[0]
-        if joint.armature != 0.0 or joint.passive_damping != 0.0 or joint.friction != 0.0 or joint.stiffness != 0.0:
+        if joint.friction != 0.0:
             note(FREE_JOINT_PARAMETERS, joint.name)
         dropped = {l for j in static for l in subtree(j.child)}
         for name in sorted(dropped, key=[link.name for link in links].index):
             note(STATIC_BODIES, name)
         floating = JointDescription(name=joint.name, type="floating", parent="world", child=joint.child, origin=np.eye(4),
-                                    initial_position=joint.initial_position)
+                                    initial_position=joint.initial_position, armature=joint.armature,
+                                    passive_damping=joint.passive_damping, stiffness=joint.stiffness)
         kept = [floating if k is joint else k for k in joints if k.child not in dropped]
         return [l for l in links if l.name not in dropped], kept
     if len(world_joints) > 1:

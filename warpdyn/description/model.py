@@ -304,6 +304,8 @@ class ModelDescription:
     keyframes: MJCF `<key>`s (`Keyframe`) in the file's order; mujoco_joints: (name, type, qposadr, dofadr) of
     MuJoCo's joints in MuJoCo's order (the layout of a keyframe's qpos and qvel; the floating base's free joint
     included, named as in the file); empty for URDF and SDF.
+    base_joint: a floating base's free joint (MJCF), for its armature, passive_damping and stiffness (MuJoCo
+    applies them to the base's 6 DoFs: `warpdyn.description.tree.KinematicTree`); None otherwise.
     """
 
     name: str
@@ -324,6 +326,7 @@ class ModelDescription:
     initial_world_H_base: np.ndarray | None = None
     keyframes: list[Keyframe] = field(default_factory=list)
     mujoco_joints: list[tuple[str, str, int, int]] = field(default_factory=list)
+    base_joint: JointDescription | None = None
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:

@@ -70,6 +70,10 @@ class KinematicTree:
     - q_start, v_start (nL + 1,) int: link i's joint has positions q_start[i]:q_start[i + 1] and velocities
       v_start[i]:v_start[i + 1] (none for the base: q_start[0] = q_start[1] = 0).
     - qpos0 (nq,): where each joint starts (`JointDescription.start_position`, MuJoCo's qpos0).
+    - base_armature, base_damping, base_stiffness: a floating base's free-joint parameters (MJCF), MuJoCo's on
+      its 6 DoFs in MuJoCo's coordinates (world linear velocity, body angular velocity): the same numbers in the
+      base's Body and Mixed velocities, which differ by a rotation; the spring pulls the base to the
+      description's pose (`ModelDescription.initial_world_H_base`, MuJoCo's qpos_spring).
     - per DoF: damping: JaxSim's viscous friction, -damping * qdot [N m s/rad or N s/m] (URDF `<dynamics
       damping>`; 0 for MJCF). friction: static friction [N m or N] (URDF `<dynamics friction>`, MJCF
       frictionloss). passive_damping: MuJoCo's damper, -passive_damping * qdot [N m s/rad or N s/m],
@@ -126,6 +130,9 @@ class KinematicTree:
     q_start: np.ndarray = None  # (nL + 1,) int
     v_start: np.ndarray = None  # (nL + 1,) int
     qpos0: np.ndarray = None  # (nq,)
+    base_armature: float = 0.0  # a floating base's free-joint armature [kg or kg m^2] (MJCF; each of its 6 DoFs)
+    base_damping: float = 0.0  # its damper [N s/m or N m s/rad]
+    base_stiffness: float = 0.0  # its spring towards the description's base pose [N/m or N m/rad]
 
     def __post_init__(self):
         nj, nL = len(self.joint_names), len(self.link_names)
@@ -470,4 +477,13 @@ def build_tree(
         q_start=q_start,
         v_start=v_start,
         qpos0=np.concatenate([np.zeros(0)] + [j.start_position() for j in movable_joints]),
+        **_base_joint_parameters(description),
     )
+
+
+def _base_joint_parameters(description: ModelDescription) -> dict:
+    """The floating base's free-joint armature, damping and stiffness (0 for a fixed base or none given)."""
+    joint = description.base_joint
+    if joint is None or description.fixed_base:
+        return {}
+    return {"base_armature": joint.armature, "base_damping": joint.passive_damping, "base_stiffness": joint.stiffness}

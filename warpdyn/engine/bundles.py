@@ -12,6 +12,7 @@ import numpy as np
 import warp as wp
 
 from ..kernels.bundles import bundles
+from ..types.model_constants import quaternion_xyzw
 from ..types.parameters import JOINT_PARAMETERS, LINK_PARAMETERS, MODEL_ARRAYS
 from . import warp_private
 
@@ -44,6 +45,9 @@ def _build_model_bundle(model):
     bundle.joint_actuator_start = model.joint_actuator_start
     bundle.gravity = model.scalar(-model.gravity)  # the kernels' magnitude along -z; model.gravity is JaxSim's z component
     bundle.floating_base = int(model.floating_base())
+    H = model.description.initial_world_H_base if model.floating_base() else None
+    H = np.eye(4) if H is None else np.asarray(H, dtype=np.float64)
+    bundle.base_reference = wp.types.transformation(model.scalar)(*H[:3, 3], *quaternion_xyzw(H[:3, :3]))
     per_env = model.per_environment_parameters()
     for name in _PARAMETERS:
         setattr(bundle, name, _rows(model, name, per_env))

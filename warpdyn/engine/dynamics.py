@@ -442,16 +442,17 @@ def actuator_forces(model, data, ctrl) -> wp.array:
 
 def passive_forces(model, data) -> wp.array:
     """(N, 6 + n): MuJoCo's qfrc_passive in the data's representation: the joints' springs and dampers,
-    -stiffness (s - springref) - damping sdot, and the gravity compensation of the links, J^T f_gc (its base
-    part: the base wrench dual to the base velocity). The compensation comes from RNEA at rest without
-    gravity, with the compensating link forces: -[f_B; tau] = J^T f_gc."""
+    -stiffness (s - springref) - damping sdot, and the passive link forces f (the gravity compensation of the
+    links, a floating base's free-joint damper and spring: kernels/forces.py), J^T f (its base part: the base
+    wrench dual to the base velocity). J^T f comes from RNEA at rest without gravity, with the link forces:
+    -[f_B; tau] = J^T f."""
     check_data(model, data, parameters=True)
     n, nL, N, s, d = model.dofs(), model.number_of_links(), data.batch_size, model.scalar, model.device
     grad = requires_grad(model, data)
     bundle, state = model_bundle(model), state_of(model, data)
     _, W_H_L = link_poses(model, data)
     f_gc = arrays.empty((nL, 6), N, s, d, grad)
-    launch(force_kernels(s).gravity_compensation, dim=(N, nL), inputs=[bundle, W_H_L, empty_like_input(s, d, 3), int(data.velocity_representation)], outputs=[f_gc], device=d)
+    launch(force_kernels(s).passive_link_forces, dim=(N, nL), inputs=[bundle, state, W_H_L, empty_like_input(s, d, 3), int(data.velocity_representation)], outputs=[f_gc], device=d)
     batched = dataclasses.replace(data, num_envs=N)  # RNEA's (N, ...) outputs, whatever the data's shape
     f_B, tau = _rnea(model, batched, None, None, f_gc, with_velocity=False, split=True, with_gravity=False)
     joints = arrays.empty((n,), N, s, d, grad)

@@ -177,7 +177,7 @@ class Plan:
         self.model = model_bundle(model)
         # actuation: the terms whose parameters are nonzero or marked for gradients
         a = model.actuation_params
-        friction_grad, limits_grad, passive_grad, gravcomp_grad = gradient_terms
+        friction_grad, limits_grad, passive_grad, gravcomp_grad, base_grad = gradient_terms
 
         def nonzero(*names):
             return any(bool(np.any(model.parameter_host(name) != 0.0)) for name in names)
@@ -201,8 +201,11 @@ class Plan:
         # MuJoCo's implicit joint damping in the Euler integrators (ABA's d_i + dt damping_i)
         implicit = self.euler and model.implicit_damping
         self.implicit_dt = s(model.time_step if implicit else 0.0)
-        # gravity compensation: link forces from the links' poses at each evaluation
-        self.gravcomp = nonzero("gravcomp_mass") or gravcomp_grad
+        # passive link forces (gravity compensation, a floating base's free-joint damper and spring): link forces
+        # from the links' poses at each evaluation (kernels/forces.py's passive_link_forces); the base's armature
+        # is ABA's
+        self.gravcomp = nonzero("gravcomp_mass", "base_damping", "base_stiffness") or gravcomp_grad or base_grad
+        base_joint = nonzero("base_armature", "base_damping", "base_stiffness") or base_grad
         # collidable points: the enabled ones ordered by link (the contact kernel sums them per link)
         cp = model.kin_dyn_structure().contact_parameters
         rows = cp.indices_of_enabled_collidable_points
@@ -242,11 +245,12 @@ class Plan:
         self.no_targets = targets(model, model.all_links[:0], model.identity_offsets[:0])
         self.integrators = integrator_kernels(s, self.multi_dof)
         # the fused Euler step (kernels/fused_step.py) by whether it keeps the joint transforms and its lanes, for
-        # steps without gradients; not with gravity compensation, nor for joints of several DoFs. Its walk's groups
+        # steps without gradients; not with passive link forces, a floating base's free-joint parameters, nor for
+        # joints of several DoFs. Its walk's groups
         # (the base's subtrees by their links and points) are its lanes for few environments on a GPU
         # (fused_layout.fused_lanes).
         self.fused = None
-        if self.euler and not self.gravcomp and model.tree.one_dof_joints:
+        if self.euler and not self.gravcomp and not base_joint and model.tree.one_dof_joints:
             walk = fused_layout.fused_walk(model.tree.parent, fused_layout.MAX_LANES, 1 + points_per_link)
             self.walk = wp.array(walk.walk, dtype=wp.vec3i, device=d)
             self.walk_starts = wp.array(walk.starts, dtype=wp.int32, device=d)
@@ -299,8 +303,10 @@ _TERMS = (
     ("joint_limit_spring", "joint_limit_damper"),
     ("stiffness", "damping", "springref"),
     ("gravcomp_mass", "gravcomp_com"),
+    ("base_armature", "base_damping", "base_stiffness"),
 )
-"""The parameters of the optional terms of a step (Plan's gradient_terms): friction, limits, passive, gravcomp."""
+"""The parameters of the optional terms of a step (Plan's gradient_terms): friction, limits, passive, gravcomp, the
+floating base's free joint."""
 
 
 def plan(model) -> Plan:
@@ -423,7 +429,7 @@ def evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: b
         f_ext = ev.W_f_L
     if plan.gravcomp and aba:
         f_in = f_ext if f_ext is not None else empty_like_input(s, plan.device, 3)
-        launches.append(Launch(force_kernels(s).gravity_compensation, (N, plan.nL), [plan.model, ev.W_H_L, f_in, int(VelRepr.Inertial)], [ev.W_f_gc]))
+        launches.append(Launch(force_kernels(s).passive_link_forces, (N, plan.nL), [plan.model, x, ev.W_H_L, f_in, int(VelRepr.Inertial)], [ev.W_f_gc]))
         f_ext = ev.W_f_gc
     if plan.contacts and held is None and not contacts_first:
         launches += _contacts(plan, ev, x, f_ext, N)

@@ -54,7 +54,7 @@ class _ParameterAttribute:
 
     def __init__(self, parameter: Parameter):
         self.name = parameter.name
-        count = {"link": "nL", "joint": "nj", "dof": "nv", "actuator": "na"}[parameter.element]
+        count = {"link": "nL", "joint": "nj", "dof": "nv", "actuator": "na", "base": "1"}[parameter.element]
         self.__doc__ = f"{parameter.description} [{parameter.unit}]: ({count}{''.join(f', {k}' for k in parameter.item)}), or with a leading N when given per environment."
 
     def __get__(self, model, owner=None):
@@ -346,7 +346,9 @@ class Model(ModelSettings, ModelQueries):
         actuator_force_range (nj, 2) [N m or N]: the clamp of the summed actuator force on the joint. Per DoF
         (nv,): friction_static [N m or N] and friction_viscous [N m s/rad or N s/m]: JaxSim's joint friction;
         armature [kg m^2 or kg]: added to the DoF's diagonal entry of the mass matrix; damping [N m s/rad or
-        N s/m]: MuJoCo's damper -damping sdot. (nj = nv without ball and free joints.) Each shared by all
+        N s/m]: MuJoCo's damper -damping sdot. (nj = nv without ball and free joints.) Per floating base (1,):
+        base_armature, base_damping, base_stiffness: its free joint's (MJCF, MuJoCo's on its 6 DoFs; the spring
+        pulls towards the description's base pose). Each shared by all
         environments, or with a leading axis of N environments, one row per environment (see
         `set_link_parameters`). Each value given makes a new Warp array (`model.joint_limit_spring`, ...;
         their names in warpdyn.types.parameters). Limits and limit springs of ball and free joints are not
@@ -375,7 +377,7 @@ class Model(ModelSettings, ModelQueries):
         """Store a link or joint parameter given shared (count, *item) or per environment (N, count, *item)."""
         name = parameter.name
         count = {"link": self.tree.number_of_links, "joint": self.tree.number_of_joints, "dof": self.tree.dofs,
-                 "actuator": len(self.tree.actuators)}[parameter.element]
+                 "actuator": len(self.tree.actuators), "base": 1}[parameter.element]
         host = np.array(arrays.host_numbers(value.numpy() if isinstance(value, wp.array) else value, name))  # a copy, the table's own
         shared = (count, *parameter.item)
         if checked and parameter.check is not None and host.shape[-len(shared) :] == shared:

@@ -101,7 +101,8 @@ class Parameter:
 
     name: its name (the model attribute, the key of `parameters_requiring_grad`); group: "link", "joint",
     "actuator", "contact" or "terrain" (module docstring); per: what one value belongs to, "link", "joint",
-    "dof" (a joint's degree of freedom) or "actuator" (default: the group); item: the shape of one value; keyword:
+    "dof" (a joint's degree of freedom), "base" (a floating base's free joint: one value) or "actuator" (default:
+    the group); item: the shape of one value; keyword:
     its argument name in the group's setter; unit and description: for docs and errors; check: raises a
     ValueError naming the parameter for values that are not physical; default: the value a model starts
     with, from its description (a function of the lumped tree), for link and joint parameters.
@@ -186,6 +187,21 @@ JOINT_PARAMETERS = (
         "clamp of the summed actuator force on the joint (MJCF actuatorfrcrange; inf where none)",
         check_limits, lambda tree: tree.actuator_force_range,
     ),
+    Parameter(
+        "base_armature", "joint", (), "base_armature", "kg or kg m^2",
+        "a floating base's free-joint armature, on each of its 6 DoFs (MJCF; MuJoCo's)",
+        check_non_negative, lambda tree: np.array([tree.base_armature]), "base",
+    ),
+    Parameter(
+        "base_damping", "joint", (), "base_damping", "N s/m or N m s/rad",
+        "a floating base's free-joint damper, -damping v on each of its 6 DoFs (MJCF; implicit as the joints')",
+        check_non_negative, lambda tree: np.array([tree.base_damping]), "base",
+    ),
+    Parameter(
+        "base_stiffness", "joint", (), "base_stiffness", "N/m or N m/rad",
+        "a floating base's free-joint spring towards the description's base pose (MJCF; MuJoCo's)",
+        check_non_negative, lambda tree: np.array([tree.base_stiffness]), "base",
+    ),
 )
 
 ACTUATOR_PARAMETERS = (
@@ -267,7 +283,8 @@ def validate_parameters(model) -> None:
     included. A fixed base's own mass, centre of mass and inertia are not checked: no dynamics reads them (a
     gradient check may probe a massless fixed base's mass below 0). Copies each array to the host (a
     synchronisation with the device)."""
-    names = {"link": model.link_names(), "joint": model.joint_names(), "dof": model.dof_names(), "actuator": model.actuator_names()}
+    names = {"link": model.link_names(), "joint": model.joint_names(), "dof": model.dof_names(), "actuator": model.actuator_names(),
+             "base": (model.base_link(),)}
     per_env = model.per_environment_parameters()
     for name in MODEL_ARRAYS:
         parameter = REGISTRY[name]
