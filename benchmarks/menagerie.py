@@ -35,12 +35,18 @@ Warp compiles each kernel once per model size; --jobs N spreads the entry points
 warpdyn measured is the one `import warpdyn` finds (its commit is in the report's header): to measure a commit
 while the working tree is being edited, run from a clean checkout of it with PYTHONPATH at that checkout, which
 the worker processes inherit.
+
+Attribution. Each loaded entry point that does not match is compared again with the force features MuJoCo has
+and warpdyn does not model switched off in a copy of MuJoCo's compiled model (UNMODELLED_FORCES; one at a time,
+then all together; the warpdyn model and the comparison unchanged): the report's last section says which of
+them account for the difference.
 """
 
 from __future__ import annotations
 
 import argparse
 import concurrent.futures
+import copy
 import dataclasses
 import datetime
 import importlib.metadata as md
@@ -53,6 +59,7 @@ import struct
 import subprocess
 import sys
 import tempfile
+import warnings
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -237,6 +244,70 @@ def _compare(args):
     return mjcf_compare.compare_file(path, np.float64, states, seed)
 
 
+UNMODELLED_FORCES = ("dropped actuators", "tendon springs", "fluid forces")
+"""Force features of MuJoCo's that warpdyn does not model (each named in a NotModelledWarning at load) and
+that act with constraints off and ctrl = 0: actuators warpdyn drops (tendon or site transmissions, muscles,
+plugins) whose bias acts at ctrl = 0, tendon stiffness and damping, and fluid forces."""
+
+
+def _present(feature: str, mj, kept_actuators) -> bool:
+    if feature == "dropped actuators":
+        return any(_actuator_name(mj, k) not in kept_actuators for k in range(mj.nu))
+    if feature == "tendon springs":
+        return bool(np.any(mj.tendon_stiffness != 0) or np.any(mj.tendon_damping != 0))
+    return mj.opt.density > 0 or mj.opt.viscosity > 0
+
+
+def _actuator_name(mj, k: int) -> str:
+    import mujoco
+
+    return mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_ACTUATOR, k) or f"actuator{k}"
+
+
+def _switched_off(mj, features, kept_actuators):
+    """A copy of `mj` without `features` (UNMODELLED_FORCES): dropped actuators get zero gain and bias (all
+    actuation disabled when every actuator is dropped, since a plugin actuator computes its own force),
+    tendons zero stiffness and damping, the medium zero density and viscosity."""
+    import mujoco
+
+    m = copy.copy(mj)
+    if "dropped actuators" in features:
+        dropped = [k for k in range(m.nu) if _actuator_name(m, k) not in kept_actuators]
+        if len(dropped) == m.nu:
+            m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_ACTUATION
+        for k in dropped:
+            m.actuator_gaintype[k] = mujoco.mjtGain.mjGAIN_FIXED
+            m.actuator_biastype[k] = mujoco.mjtBias.mjBIAS_NONE
+            m.actuator_gainprm[k] = 0.0
+            m.actuator_biasprm[k] = 0.0
+    if "tendon springs" in features:
+        m.tendon_stiffness[:] = 0.0
+        m.tendon_damping[:] = 0.0
+    if "fluid forces" in features:
+        m.opt.density = 0.0
+        m.opt.viscosity = 0.0
+    return m
+
+
+def _attribute(args):
+    """{"present": the UNMODELLED_FORCES `path` has, each of them and "all": compare_model's errors with it
+    switched off}."""
+    import mujoco
+    import warpdyn as wd
+
+    path, states, seed = args
+    mj = mujoco.MjModel.from_xml_path(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = wd.model.Model.build_from_model_description(path, dtype=np.float64)
+    kept = set(model.actuator_names())
+    present = [f for f in UNMODELLED_FORCES if _present(f, mj, kept)]
+    found = {"present": present}
+    for off in [(f,) for f in present] + ([tuple(present)] if len(present) > 1 else []):
+        found[" + ".join(off)] = mjcf_compare.compare_model(model, _switched_off(mj, off, kept), states, seed)
+    return found
+
+
 def _revision(folder: pathlib.Path) -> str:
     """`git rev-parse HEAD` of the checkout holding `folder`, "+dirty" if its tracked files differ; else unknown."""
     try:
@@ -251,7 +322,7 @@ def _fmt(x: float | None) -> str:
     return "" if x is None else f"{x:.1e}"
 
 
-def report(menagerie, scratch, revision, entries, wrappers, broken, results, tol, states, seed) -> str:
+def report(menagerie, scratch, revision, entries, wrappers, broken, results, attributed, tol, states, seed) -> str:
     import warpdyn
 
     def rel(text: str) -> str:
@@ -292,6 +363,23 @@ def report(menagerie, scratch, revision, entries, wrappers, broken, results, tol
     lines += [f"- {rel(str(p))} wraps {name}" for p, name in sorted(wrappers.items())] or ["none"]
     lines += ["", "## Top-level files MuJoCo does not compile on their own", ""]
     lines += [f"- {rel(str(p))}: {rel(error)}" for p, error in sorted(broken.items())] or ["none"]
+    lines += [
+        "",
+        "## The entry points that differ, with MuJoCo's unmodelled forces switched off",
+        "",
+        "The largest of the M, h and qacc errors with each feature switched off in MuJoCo's model (the module docstring says how); "
+        "a feature the entry point does not have is blank.",
+        "",
+        "| entry point | " + " | ".join(UNMODELLED_FORCES) + " | all of them | accounted for |",
+        "| --- | " + "---: | " * (len(UNMODELLED_FORCES) + 1) + "--- |",
+    ]
+    for path, found in attributed.items():
+        worst = {key: max(e[name] for name in mjcf_compare.MATCHED) for key, e in found.items() if key != "present"}
+        present = found["present"]
+        every = worst.get(" + ".join(present)) if present else None
+        cells = [_fmt(worst.get(f)) if f in present else "" for f in UNMODELLED_FORCES]
+        verdict = "no unmodelled force found" if not present else ("yes" if every <= tol else "no")
+        lines.append(f"| {rel(path)} | " + " | ".join(cells) + f" | {_fmt(every) if len(present) > 1 else ''} | {verdict} |")
     return "\n".join(lines) + "\n"
 
 
@@ -325,7 +413,9 @@ def main(argv=None) -> None:
             for c, r in zip(entries, pool.map(_compare, work)):
                 results.append(r)
                 print(f"{c.path.relative_to(menagerie)}: {'refused' if r.refused else r.errors} {r.seconds:.1f} s", file=sys.stderr, flush=True)
-        text = report(menagerie, scratch, revision, entries, wrappers, broken, results, args.tol, args.states, args.seed)
+            differing = [r.path for r in results if r.refused is None and r.errors and not r.matches(args.tol)]
+            attributed = dict(zip(differing, pool.map(_attribute, [(p, args.states, args.seed) for p in differing])))
+        text = report(menagerie, scratch, revision, entries, wrappers, broken, results, attributed, args.tol, args.states, args.seed)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     if args.output:
