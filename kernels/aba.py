@@ -111,11 +111,55 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         Ud, ud, Ia, pA_d = project_dof(model, controls, env, d, implicit_dt, S, IA, pA)
         return Ud, ud, Ia, pA_d + Ia * c_i
 
+    @wp.func
+    def bias_force(model: B.Model, env: int, i: int, v: sp.vec6, f: sp.vec6):
+        """Link i's own bias force v_i x* I_i v_i - f_i (link coordinates): v its velocity, f the external force
+        on it (step 2's first term of pA_i)."""
+        return sp.cross_force(v, B.spatial_inertia_times(model, env, i, v)) - f
+
+    @wp.func
+    def base_inertia(model: B.Model, env: int, implicit_dt: scalar):
+        """A floating base's own articulated inertia (body coordinates), its children's not yet added: I_0 + r 1,
+        r its free joint's armature (+ implicit_dt damping: B.base_rotor) (step 3)."""
+        return sc.sym_upper(B.spatial_inertia_of(model, env, 0)) + B.base_rotor(model, env, implicit_dt) * wp.identity(n=6, dtype=scalar)
+
+    @wp.func
+    def base_bias_force(model: B.Model, env: int, implicit_dt: scalar, B_v: sp.vec6, B_a_g: sp.vec6, f: sp.vec6):
+        """A floating base's own bias force (body coordinates), its children's not yet added: v x* I_0 v - f plus
+        its rotor's (`base_inertia`) velocity product and r a_g: the rotor acts on the true acceleration a'_0 + a_g
+        (step 3)."""
+        rotor = B.base_rotor(model, env, implicit_dt)
+        return bias_force(model, env, 0, B_v, f) + B.base_rotor_bias(model, env, B_v, implicit_dt) + rotor * B_a_g
+
+    @wp.func
+    def base_acceleration(model: B.Model, IA: sp.mat66, pA: sp.vec6, B_a_g: sp.vec6):
+        """a'_0: -IA_0^-1 pA_0 for a floating base (its whole articulated inertia and bias force), -a_g for a
+        fixed one (step 3)."""
+        if model.floating_base != 0:
+            return -sp.solve_spd6(IA, pA)
+        return -B_a_g
+
+    @wp.func
+    def link_acceleration(X: sp.transform, a_parent: sp.vec6, c_i: sp.vec6):
+        """a'_i before its joint's accelerations: iX_lambda a'_lambda + c_i (step 3)."""
+        return sp.motion_from(X, a_parent) + c_i
+
+    @wp.func
+    def dof_acceleration(Ud: sp.vec6, ud: scalar, a_i: sp.vec6):
+        """qdd_d = u_d / d_d - (U_d / d_d)^T a'_i (step 3), from DoF d's record."""
+        return ud - wp.dot(Ud, a_i)
+
     return types.SimpleNamespace(
         inertia_to=inertia_to,
         external_force=external_force,
         project_dof=project_dof,
         articulated=articulated,
+        bias_force=bias_force,
+        base_inertia=base_inertia,
+        base_bias_force=base_bias_force,
+        base_acceleration=base_acceleration,
+        link_acceleration=link_acceleration,
+        dof_acceleration=dof_acceleration,
     )
 
 
@@ -172,8 +216,8 @@ def kernels(scalar, max_registers, multi_dof: bool):
 
     @wp.func
     def accelerate_dof(s: wp.array3d(dtype=scalar), env: int, d: int, a_i: sp.vec6):
-        """qdd_d = u_d / d_d - (U_d / d_d)^T a'_i from DoF d's record (step 3)."""
-        return s[env, d + 1, _UD + 6] - wp.dot(sc.get6(s, env, d + 1, _UD), a_i)
+        """DoF d's qdd_d (`dof_acceleration`) from its record in s."""
+        return F.dof_acceleration(sc.get6(s, env, d + 1, _UD), s[env, d + 1, _UD + 6], a_i)
 
     @wp.func
     def accelerate_joint(
@@ -226,7 +270,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
         forces = controls.link_forces.shape[0] > 0
         W_H_B = B.base_pose(state, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env)))
-        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
+        B_a_g = B.gravity_in(model, W_H_B)
         sc.put6(s, env, 0, _V, B_v)
         if forces:
             sc.put_transform(s, env, 0, _WHL, W_H_B)
@@ -234,7 +278,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
         for i in range(1, nL):
             X = jm.joint_transform(model, i, state.joint_positions, env)
             vJ = jm.joint_motion_of(model, i, X, state.joint_velocities, env)
-            sc.put6(s, env, i, _V, sp.motion_from(X, sc.get6(s, env, model.parent[i], _V)) + vJ)
+            sc.put6(s, env, i, _V, jm.link_velocity(X, sc.get6(s, env, model.parent[i], _V), vJ))
             if forces:
                 sc.put_transform(s, env, i, _WHL, sc.get_transform(s, env, model.parent[i], _WHL) * X)
         # 2. articulated inertias and bias forces, from the leaves
@@ -243,11 +287,11 @@ def kernels(scalar, max_registers, multi_dof: bool):
             X = jm.joint_transform(model, i, state.joint_positions, env)
             v_i = sc.get6(s, env, i, _V)
             c_i = jm.velocity_product(model, i, v_i, jm.joint_motion_of(model, i, X, state.joint_velocities, env))
-            I = sc.sym_upper(B.spatial_inertia_of(model, env, i))
-            IA = I
-            pA = sp.cross_force(v_i, I * v_i)
+            IA = sc.sym_upper(B.spatial_inertia_of(model, env, i))
+            f_i = sp.vec6(scalar(0.0))
             if forces:
-                pA = pA - external_force(controls, repr, s, _WHL, env, i)
+                f_i = external_force(controls, repr, s, _WHL, env, i)
+            pA = F.bias_force(model, env, i, v_i, f_i)
             if model.first_child[i] >= 0:
                 IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
                 pA = pA + sc.get6(s, env, model.first_child[i], _PA)
@@ -262,22 +306,20 @@ def kernels(scalar, max_registers, multi_dof: bool):
         # 3. accelerations, from the base
         a0 = -B_a_g
         if model.floating_base != 0:
-            I0 = sc.sym_upper(B.spatial_inertia_of(model, env, 0))
-            # its free joint's armature (and implicit damper) act on the true acceleration a'_0 + a_g
-            rotor = B.base_rotor(model, env, implicit_dt)
-            IA0 = I0 + rotor * wp.identity(n=6, dtype=scalar)
-            pA0 = sp.cross_force(B_v, I0 * B_v) + B.base_rotor_bias(model, env, B_v, implicit_dt) + rotor * B_a_g
+            f_0 = sp.vec6(scalar(0.0))
             if forces:
-                pA0 = pA0 - external_force(controls, repr, s, _WHL, env, 0)
+                f_0 = external_force(controls, repr, s, _WHL, env, 0)
+            IA0 = F.base_inertia(model, env, implicit_dt)
+            pA0 = F.base_bias_force(model, env, implicit_dt, B_v, B_a_g, f_0)
             if model.first_child[0] >= 0:
                 IA0 = IA0 + sc.get_sym66(s, env, model.first_child[0], _IA)
                 pA0 = pA0 + sc.get6(s, env, model.first_child[0], _PA)
-            a0 = -sp.solve_spd6(IA0, pA0)
+            a0 = F.base_acceleration(model, IA0, pA0, B_a_g)
         sc.put6(s, env, 0, _A, a0)
         for i in range(1, nL):
             X = jm.joint_transform(model, i, state.joint_positions, env)
             c_i = jm.velocity_product(model, i, sc.get6(s, env, i, _V), jm.joint_motion_of(model, i, X, state.joint_velocities, env))
-            a_i = accelerate_joint(model, env, i, X, sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + c_i, s, joint_accelerations)
+            a_i = accelerate_joint(model, env, i, X, F.link_acceleration(X, sc.get6(s, env, model.parent[i], _A), c_i), s, joint_accelerations)
             if model.first_child[i] >= 0:
                 sc.put6(s, env, i, _A, a_i)
         base = sp.vec6(scalar(0.0))

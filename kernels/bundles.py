@@ -160,6 +160,11 @@ def bundles(scalar) -> types.SimpleNamespace:
         return values[wp.min(env, values.shape[0] - 1), i]
 
     @wp.func
+    def env_parameter(values: wp.array(dtype=scalar), env: int):
+        """Environment env's value of a parameter shared (1,) or per environment (N,) (element min(env, P - 1))."""
+        return values[wp.min(env, values.shape[0] - 1)]
+
+    @wp.func
     def joint_parameter(values: wp.array2d(dtype=scalar), env: int, j: int):
         """Element j's value of a (P, nj) or (P, nv) scalar parameter in environment env (row min(env, P - 1))."""
         return values[wp.min(env, values.shape[0] - 1), j]
@@ -208,6 +213,12 @@ def bundles(scalar) -> types.SimpleNamespace:
     def spatial_inertia_times(model: Model, env: int, i: int, v: sp.vec6):
         """Link i's spatial inertia (`spatial_inertia_of`) times the motion v, without forming it."""
         return sp.inertia_times(mass_of(model, env, i), com_of(model, env, i), inertia_of(model, env, i), v)
+
+    @wp.func
+    def gravity_in(model: Model, W_H_B: sp.transform):
+        """a_g, the acceleration of gravity (0, 0, -g) of the world, as a spatial motion in the coordinates of the
+        base at W_H_B (ABA's and RNEA's fictitious base acceleration is -a_g)."""
+        return sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
 
     @wp.func
     def base_rotor(model: Model, env: int, implicit_dt: scalar):
@@ -268,6 +279,7 @@ def bundles(scalar) -> types.SimpleNamespace:
         Contacts=Contacts,
         vec4=vec4,
         link_parameter=link_parameter,
+        env_parameter=env_parameter,
         joint_parameter=joint_parameter,
         pair_parameter=pair_parameter,
         vec3_parameter=vec3_parameter,
@@ -278,6 +290,7 @@ def bundles(scalar) -> types.SimpleNamespace:
         inertia_of=inertia_of,
         spatial_inertia_of=spatial_inertia_of,
         spatial_inertia_times=spatial_inertia_times,
+        gravity_in=gravity_in,
         base_rotor=base_rotor,
         base_rotor_bias=base_rotor_bias,
         base_passive_wrench=base_passive_wrench,

@@ -89,6 +89,19 @@ def kernels(scalar):
         for r in range(6):
             W_f_L[env, L, r] = W_f[r]
 
+    @wp.func
+    def passive_link_wrench(model: B.Model, env: int, L: int, W_H_L: sp.transform, B_v: sp.vec6):
+        """The passive force on link L at the pose W_H_L, Inertial: its gravity compensation, the force
+        gravcomp_mass g along +z of the world at gravcomp_com (link frame), MJCF's gravcomp; and on a floating
+        base (L = 0) its free joint's damper and spring (B.base_passive_wrench, MJCF's; B_v the base's body
+        velocity, read for L = 0 alone)."""
+        p = wp.transform_point(W_H_L, B.vec3_parameter(model.gravcomp_com, env, L))
+        F = sp.vec3(scalar(0.0), scalar(0.0), B.link_parameter(model.gravcomp_mass, env, L) * model.gravity)
+        W_f = sp.stack(F, wp.cross(p, F))
+        if L == 0 and model.floating_base != 0:
+            W_f = W_f + sp.force_to(W_H_L, B.base_passive_wrench(model, env, W_H_L, B_v))
+        return W_f
+
     @wp.kernel(module="unique")
     def passive_link_forces(
         model: B.Model,
@@ -100,18 +113,13 @@ def kernels(scalar):
         f_out: wp.array3d(dtype=scalar),
     ):
         """f_out (N, nL, 6) = f_in + the passive forces that act on links, both in representation `repr` (f_in
-        absent, a zero leading axis: 0), launched over (N, nL): each link's gravity compensation, the force
-        gravcomp_mass g along +z of the world at gravcomp_com (link frame), MJCF's gravcomp; and on a floating
-        base its free joint's damper and spring (B.base_passive_wrench, MJCF's)."""
+        absent, a zero leading axis: 0), launched over (N, nL): `passive_link_wrench`."""
         env, L = wp.tid()
         X = W_H_L[env, L]
-        p = wp.transform_point(X, B.vec3_parameter(model.gravcomp_com, env, L))
-        F = sp.vec3(scalar(0.0), scalar(0.0), B.link_parameter(model.gravcomp_mass, env, L) * model.gravity)
-        W_f = sp.stack(F, wp.cross(p, F))
-        if L == 0 and model.floating_base != 0:
+        B_v = sp.vec6(scalar(0.0))
+        if L == 0:
             B_v = sp.motion_from(X, sp.repr_to_inertial(MIXED, X, B.base_velocity_mixed(state, env)))
-            W_f = W_f + sp.force_to(X, B.base_passive_wrench(model, env, X, B_v))
-        f = sp.inertial_to_force_repr(repr, X, W_f)
+        f = sp.inertial_to_force_repr(repr, X, passive_link_wrench(model, env, L, X, B_v))
         for r in range(6):
             before = scalar(0.0)
             if f_in.shape[0] > 0:
@@ -119,6 +127,7 @@ def kernels(scalar):
             f_out[env, L, r] = before + f[r]
 
     return types.SimpleNamespace(
+        passive_link_wrench=passive_link_wrench,
         passive_link_forces=passive_link_forces,
         kept_forces=kept_forces,
         add_target_forces=add_target_forces,

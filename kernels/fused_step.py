@@ -5,10 +5,9 @@ joint forces, FK, link velocities, the contact forces of the points and their su
 integrator), from the state x. It walks the tree in depth-first order (`walk`), so that most links follow
 their parent:
 1. from the base: the link poses W_H_i and velocities v_i (link coordinates); the joint forces tau_i
-   (kernels/actuation.py's `joint_force`, written to the controls' joint forces); the external force f_i on
-   each link (the contact forces of its enabled points, kernels/soft_contacts.py's `point_wrench`, plus the given
-   Inertial link force), the tangential deformation integrated, m+ = m + dt m_dot; c_i and the bias
-   force v_i x* I_i v_i - f_i (kernels/aba.py: the same equations);
+   (written to the controls' joint forces); the external force f_i on each link (the contact forces of its
+   enabled points, plus the given Inertial link force and its passive force), the tangential deformation
+   integrated, m+ = m + dt m_dot; c_i and the bias force v_i x* I_i v_i - f_i;
 2. from the leaves: ABA's articulated inertias and bias forces, a link's terms summed into its parent's;
 3. from the base: ABA's accelerations, the joints integrated; then the base (kernels/integrators.py's
    functions) and the health check: a flagged environment keeps its state (rewritten over what 1 and 3
@@ -42,9 +41,19 @@ its caches than keeping either the transforms or their joints' 4 coefficients; b
 slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not unrolled
 (unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
 
-Forward only: the module has no backward pass. Its models' joints have one DoF each (kernels/joints.py's one-DoF functions: Plan chooses it for those alone). Under a tape,
-with gradients, for RK4, with gravity compensation and for joints of several DoFs, a step is
-warpdyn.engine.step's launch list, whose numbers these equal to rounding
+Each formula is a building block the staged kernels use too: the joint forces (kernels/actuation.py's
+`joint_force`), the joint transforms, link velocities and velocity products (kernels/joints.py), the passive
+link forces (kernels/forces.py's `passive_link_wrench`), the per-point contact law (`law_parameters` and
+`contact_at` of warpdyn.engine.contact_stage's `point_law`), ABA's terms (kernels/aba.py's `inertia_funcs`: bias
+forces, the base's articulated inertia and bias force with its free-joint rotor, `articulated`, the
+accelerations) and the integration (kernels/integrators.py's `euler_coordinate`, `euler_rate`,
+`euler_base_from`). What is its own is the order of the work (the walk, the records on the chip, the loads
+ahead), and the sum of a link's contact forces about its origin, in world axes (short lever arms) rather than
+Inertial wrenches about the world's origin.
+
+Forward only: the module has no backward pass. Its models' joints have one DoF each (kernels/joints.py's one-DoF
+functions: warpdyn.engine.step's Plan chooses it for those alone). Under a tape, with gradients, for RK4 and for
+joints of several DoFs, a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding
 (tests/test_fused_step.py).
 """
 
@@ -56,10 +65,10 @@ from .aba import inertia_funcs
 from .actuation import joint_force
 from .bundles import bundles
 from .factory import factory
+from .forces import kernels as force_funcs
 from .integrators import kernels as integrator_funcs
 from .joints import joints
 from .scratch import SYM66, TRANSFORM, scratch
-from .soft_contacts import kernels as contact_funcs
 from .spatial import INERTIAL, MIXED, spatial
 
 BASE = wp.constant(-2)
@@ -92,11 +101,15 @@ def unfilled(scalar, *shape: int) -> str:
 
 
 @factory
-def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, terrain_kind: int | None, keep_joint_transforms: bool, lanes: int = 1, shared_block: int = 0, shared_c: bool = True):
+def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, point_law, terrain_kind: int | None, passive: bool, keep_joint_transforms: bool, lanes: int = 1, shared_block: int = 0, shared_c: bool = True):
     """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
     sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, the joint forces of kernels/actuation.py's
-    `joint_force(scalar, *actuation)` (None: a model without joints), the contacts of kernels/soft_contacts.py's
-    `kernels(scalar, terrain_kind)` (a kind of terrain, or None: any), keeping the joint transforms of pass 1 for
+    `joint_force(scalar, *actuation)` (None: a model without joints), the contacts of the per-point law
+    `point_law(scalar, terrain_kind)` (a kind of terrain, or None: any; warpdyn.engine.contact_stage's
+    `point_law`: kernels/soft_contacts.py's `kernels`, whose `law_parameters`, `contact_at` and
+    `height_parameter` it calls), the links' passive forces (gravity
+    compensation, a floating base's free-joint damper and spring: kernels/forces.py's `passive_link_wrench`) when
+    `passive`, keeping the joint transforms of pass 1 for
     passes 2 and 3 or recomputing them; one thread per environment (lanes 1, launched over N), or `lanes`
     threads per environment, one per group of the walk (launched over (N, lanes) in blocks of `lanes`); the
     links' records in each thread's local memory (shared_block 0), or, for launches in blocks of `shared_block`
@@ -107,9 +120,11 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
     B = bundles(scalar)
     jm = joints(scalar, False)
     I = integrator_funcs(scalar, False)
-    C = contact_funcs(scalar, terrain_kind)
-    inertia_to = inertia_funcs(scalar).inertia_to
-    articulated = inertia_funcs(scalar).articulated
+    C = point_law(scalar, terrain_kind)
+    F = inertia_funcs(scalar)
+    inertia_to, articulated = F.inertia_to, F.articulated
+    passive_link_wrench = force_funcs(scalar).passive_link_wrench
+    PASSIVE = passive
     SO3 = wp.constant(int(so3))
     KEEP = keep_joint_transforms
     PAIRS = scalar == wp.float32  # contact points two at a time (in float64 that spills: RESULTS, round 10)
@@ -178,7 +193,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         return contacts.L_p_C[c], row, sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
 
     @wp.func
-    def point_force(contacts: B.Contacts, terrain: B.Terrain, h0: scalar, K: scalar, D: scalar, mu: scalar, dt: scalar, env: int, c: int, row: int,
+    def point_force(contacts: B.Contacts, terrain: B.Terrain, h0: scalar, law: sp.vec3, dt: scalar, env: int, c: int, row: int,
                     L_p_C: sp.vec3, m: sp.vec3, W_R_L: sp.mat33, W_o_L: sp.vec3, W_v_o: sp.vec3, W_omega: sp.vec3, write: bool,
                     y: B.State, W_f_C: wp.array3d(dtype=scalar)):
         """(f, r, 0 x m+): enabled point c's contact force f [N, world axes], the point from its link's origin r
@@ -187,7 +202,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         When `write`: m+ goes to y's contact-state row `row`, the Inertial wrench to W_f_C unless that is empty."""
         r = W_R_L * L_p_C
         p = W_o_L + r
-        f, m_dot = C.contact_at(contacts, terrain, h0, p, W_v_o + wp.cross(W_omega, r), m, K, D, mu)
+        f, m_dot = C.contact_at(contacts, terrain, h0, law, p, W_v_o + wp.cross(W_omega, r), m)
         bad = scalar(0.0)
         if write:
             if W_f_C.shape[0] > 0:
@@ -195,28 +210,31 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 for a in range(6):
                     W_f_C[env, c, a] = w[a]
             for a in range(3):
-                m_next = m[a] + dt * m_dot[a]
+                m_next = I.euler_rate(m[a], m_dot[a], dt)
                 bad = I.poison(bad, m_next)
                 y.tangential_deformation[env, row, a] = m_next
         return f, r, bad
 
     @wp.func
-    def external_force(contacts: B.Contacts, terrain: B.Terrain, controls: B.Controls, env: int, L: int, W_H_L: sp.transform,
-                       v_L: sp.vec6, h0: scalar, K: scalar, D: scalar, mu: scalar, dt: scalar, x: B.State, y: B.State, W_f_C: wp.array3d(dtype=scalar)):
+    def external_force(model: B.Model, contacts: B.Contacts, terrain: B.Terrain, controls: B.Controls, env: int, L: int, W_H_L: sp.transform,
+                       v_L: sp.vec6, h0: scalar, law: sp.vec3, dt: scalar, x: B.State, y: B.State, W_f_C: wp.array3d(dtype=scalar)):
         """(the external force on link L in its own coordinates, 0 or NaN): the contact forces of its enabled
-        points (at the pose W_H_L, velocity v_L in link coordinates) plus the given Inertial link force if any.
+        points (at the pose W_H_L, velocity v_L in link coordinates) plus the given Inertial link force if any,
+        plus its passive force (kernels/forces.py's `passive_link_wrench`) in a kernel made `passive`.
         Writes each point's m+ = m + dt m_dot into y, and its Inertial wrench into W_f_C unless that is empty;
         the second value is 0 x the sum of the m+, NaN when one is not finite (the health check's). A link
         without points or a given force costs two loads. The points are placed with the link's rotation matrix
         W_R_L, their velocities from the link origin's, their moments summed about the link's origin (not the
         world's: short lever arms, whatever the robot's distance from the origin)."""
         L_f = sp.vec6(scalar(0.0))
+        if wp.static(PASSIVE):
+            L_f = sp.force_from(W_H_L, passive_link_wrench(model, env, L, W_H_L, v_L))
         nonfinite = scalar(0.0)
         count = contacts.link_point_count[L]
         if controls.link_forces.shape[0] == 0 and count == 0:
             return L_f, nonfinite
         if controls.link_forces.shape[0] > 0:
-            L_f = sp.force_from(W_H_L, B.link_force(controls, env, L))
+            L_f = L_f + sp.force_from(W_H_L, B.link_force(controls, env, L))
         if count > 0:
             first = contacts.link_first_point[L]
             last = first + count - 1
@@ -241,8 +259,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                     a_p, a_row, a_m = point_state(contacts, x, env, wp.min(c + 2, last))
                     b_p, b_row, b_m = point_state(contacts, x, env, wp.min(c + 3, last))
                     two = c + 1 <= last  # else the second is the first again: not summed, not written (bad1 is 0)
-                    f0, r0, bad0 = point_force(contacts, terrain, h0, K, D, mu, dt, env, c, row0, p0, m0, W_R_L, W_o_L, W_v_o, W_omega, True, y, W_f_C)
-                    f1, r1, bad1 = point_force(contacts, terrain, h0, K, D, mu, dt, env, c + 1, row1, p1, m1, W_R_L, W_o_L, W_v_o, W_omega, two, y, W_f_C)
+                    f0, r0, bad0 = point_force(contacts, terrain, h0, law, dt, env, c, row0, p0, m0, W_R_L, W_o_L, W_v_o, W_omega, True, y, W_f_C)
+                    f1, r1, bad1 = point_force(contacts, terrain, h0, law, dt, env, c + 1, row1, p1, m1, W_R_L, W_o_L, W_v_o, W_omega, two, y, W_f_C)
                     if not two:
                         f1 = sp.vec3(scalar(0.0))
                     W_f = W_f + f0 + f1
@@ -261,7 +279,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                     next_row = then_row
                     next_m = then_m
                     then_p, then_row, then_m = point_state(contacts, x, env, wp.min(c + 2, last))
-                    f, r, bad = point_force(contacts, terrain, h0, K, D, mu, dt, env, c, row, L_p_C, m, W_R_L, W_o_L, W_v_o, W_omega, True, y, W_f_C)
+                    f, r, bad = point_force(contacts, terrain, h0, law, dt, env, c, row, L_p_C, m, W_R_L, W_o_L, W_v_o, W_omega, True, y, W_f_C)
                     W_f = W_f + f
                     W_tau = W_tau + wp.cross(r, f)
                     nonfinite = nonfinite + bad
@@ -331,9 +349,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         else:
             env, lane = wp.tid()
         nl = model.parent.shape[0]
-        K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
-        D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
-        mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
+        law = C.law_parameters(contacts, env)
         h0 = C.height_parameter(terrain, env)
         W_H_B = B.base_pose(x, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
@@ -350,10 +366,10 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         f_0 = sp.vec6(scalar(0.0))
         nonfinite = scalar(0.0)
         if lane == 0:
-            f_0, nonfinite = external_force(contacts, terrain, controls, env, 0, W_H_B, B_v, h0, K, D, mu, dt, x, y, W_f_C)
+            f_0, nonfinite = external_force(model, contacts, terrain, controls, env, 0, W_H_B, B_v, h0, law, dt, x, y, W_f_C)
             if W_H_L.shape[0] > 0:
                 W_H_L[env, 0] = W_H_B
-        p_0 = sp.cross_force(B_v, B.spatial_inertia_times(model, env, 0, B_v)) - f_0
+        p_0 = F.base_bias_force(model, env, implicit_dt, B_v, B.gravity_in(model, W_H_B), f_0)
         base_own = walk[0][1]
         if base_own >= 0:
             slot_H[base_own] = pack7(W_H_B)
@@ -413,20 +429,20 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 j = jm.dof_address(model, i)
                 controls.joint_forces[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, j, s_i, qd_i, ref_i, ctrl, x.joint_positions)
             S_qd = model.dof_S[jm.dof_address(model, i)] * qd_i
-            v_i = sp.motion_from(X_i, v_P) + S_qd
+            v_i = jm.link_velocity(X_i, v_P, S_qd)
             if own >= 0:
                 slot_H[own] = pack7(W_H_i)
                 slot_v[own] = v_i
-            f_i, bad = external_force(contacts, terrain, controls, env, i, W_H_i, v_i, h0, K, D, mu, dt, x, y, W_f_C)
+            f_i, bad = external_force(model, contacts, terrain, controls, env, i, W_H_i, v_i, h0, law, dt, x, y, W_f_C)
             nonfinite = nonfinite + bad
             if wp.static(C_SHARED):
-                put6(PER_LINK * i + C_AT, sp.cross_motion(v_i, S_qd))
+                put6(PER_LINK * i + C_AT, jm.velocity_product(model, i, v_i, S_qd))
             else:
-                c[i] = sp.cross_motion(v_i, S_qd)
+                c[i] = jm.velocity_product(model, i, v_i, S_qd)
             if wp.static(SHARED):
-                put6(PER_LINK * i, sp.cross_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i)
+                put6(PER_LINK * i, F.bias_force(model, env, i, v_i, f_i))
             else:
-                pU[i] = sp.cross_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i
+                pU[i] = F.bias_force(model, env, i, v_i, f_i)
             W_H_prev = W_H_i
             v_prev = v_i
         # 2. articulated inertias and bias forces, from the leaves; a link's terms summed into its parent's: the
@@ -481,7 +497,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
             IA0 = IA0 + unpack21(slot_IA[base_own])
             pA0 = pA0 + slot_pA[base_own]
         if lane == 0:
-            IA0 = IA0 + B.spatial_inertia_of(model, env, 0)
+            IA0 = IA0 + F.base_inertia(model, env, implicit_dt)
             if base_own < 0:
                 pA0 = pA0 + p_0
         if wp.static(LANES > 1):
@@ -492,11 +508,10 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
         # rewritten below)
         W_H_B = B.base_pose(x, env)  # again, rather than live in registers through passes 1 and 2
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
-        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
-        a0 = -B_a_g
+        B_a_g = B.gravity_in(model, W_H_B)
+        a0 = F.base_acceleration(model, IA0, pA0, B_a_g)
         base = sp.vec6(scalar(0.0))
         if model.floating_base != 0:
-            a0 = -sp.solve_spd6(IA0, pA0)
             base = sp.base_acceleration_from_body(INERTIAL, W_H_B, B_v, a0 + B_a_g)
         if base_own >= 0:
             slot_v[base_own] = a0
@@ -566,14 +581,13 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, t
                 up = base_own
             if up >= 0:
                 a_P = slot_v[up]
-            a_i = sp.motion_from(X_i, a_P) + c_i
-            qdd = ud_i - wp.dot(Ud_i, a_i)
+            a_i = F.link_acceleration(X_i, a_P, c_i)
+            qdd = F.dof_acceleration(Ud_i, ud_i, a_i)
             a_i = a_i + S * qdd
             if own >= 0:
                 slot_v[own] = a_i
             a_prev = a_i
-            sd_next = sd_i + dt * qdd
-            s_next = s_i + dt * sd_next
+            s_next, sd_next = I.euler_coordinate(s_i, sd_i, qdd, dt)
             nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)
             y.joint_velocities[env, jm.dof_address(model, i)] = sd_next
             y.joint_positions[env, jm.dof_address(model, i)] = s_next

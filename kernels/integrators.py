@@ -72,6 +72,18 @@ def kernels(scalar, multi_dof: bool):
         return quat4(a[env, offset], a[env, offset + 1], a[env, offset + 2], a[env, offset + 3])
 
     @wp.func
+    def euler_coordinate(position: scalar, velocity: scalar, acceleration: scalar, dt: scalar):
+        """(position+, velocity+) of one coordinate by semi-implicit Euler: the velocity first, the position with
+        the new velocity."""
+        velocity_next = velocity + dt * acceleration
+        return position + dt * velocity_next, velocity_next
+
+    @wp.func
+    def euler_rate(value: scalar, rate: scalar, dt: scalar):
+        """value + dt rate: a first-order state (the contact deformation) by explicit Euler."""
+        return value + dt * rate
+
+    @wp.func
     def joint_euler_step(
         model: B.Model, i: int, env: int, dt: scalar, x: B.State, nu_dot: wp.array2d(dtype=scalar), write: bool, y: B.State
     ):
@@ -87,8 +99,7 @@ def kernels(scalar, multi_dof: bool):
             if kind == FREE:
                 r = 3
                 for k in range(3):
-                    v_next = x.joint_velocities[env, d + k] + dt * nu_dot[env, 6 + d + k]
-                    p_next = x.joint_positions[env, a + k] + dt * v_next
+                    p_next, v_next = euler_coordinate(x.joint_positions[env, a + k], x.joint_velocities[env, d + k], nu_dot[env, 6 + d + k], dt)
                     nonfinite = poison(poison(nonfinite, v_next), p_next)
                     if write:
                         y.joint_velocities[env, d + k] = v_next
@@ -107,8 +118,7 @@ def kernels(scalar, multi_dof: bool):
                 if write:
                     y.joint_positions[env, a + r + k] = Q_next[k]
         else:
-            sd_next = x.joint_velocities[env, d] + dt * nu_dot[env, 6 + d]
-            s_next = x.joint_positions[env, a] + dt * sd_next
+            s_next, sd_next = euler_coordinate(x.joint_positions[env, a], x.joint_velocities[env, d], nu_dot[env, 6 + d], dt)
             nonfinite = poison(poison(nonfinite, sd_next), s_next)
             if write:
                 y.joint_velocities[env, d] = sd_next
@@ -305,7 +315,7 @@ def kernels(scalar, multi_dof: bool):
                 nonfinite = nonfinite + joint_euler_step(model, i, env, dt, x, nu_dot, False, y)
             for c in range(m.shape[1]):
                 for a in range(3):
-                    nonfinite = poison(nonfinite, m[env, c, a] + dt * m_dot[env, c, a])
+                    nonfinite = poison(nonfinite, euler_rate(m[env, c, a], m_dot[env, c, a], dt))
             ok = ok and wp.isfinite(nonfinite)
             if ok:
                 write_base(env, y, p_next, pdot_next, omega_next, Q_next)
@@ -313,7 +323,7 @@ def kernels(scalar, multi_dof: bool):
                     joint_euler_step(model, i, env, dt, x, nu_dot, True, y)
                 for c in range(m.shape[1]):
                     for a in range(3):
-                        y.tangential_deformation[env, c, a] = m[env, c, a] + dt * m_dot[env, c, a]
+                        y.tangential_deformation[env, c, a] = euler_rate(m[env, c, a], m_dot[env, c, a], dt)
                 y.valid[env] = 1
             else:
                 keep_state(env, x, y)
@@ -460,6 +470,8 @@ def kernels(scalar, multi_dof: bool):
     return types.SimpleNamespace(
         quaternion_rate=quaternion_rate,
         poison=poison,
+        euler_coordinate=euler_coordinate,
+        euler_rate=euler_rate,
         keep_state=keep_state,
         euler_base=euler_base,
         base_state=base_state,

@@ -161,6 +161,12 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         return sp.vec6(scalar(0.0))
 
     @wp.func
+    def link_velocity(X: sp.transform, v_parent: sp.vec6, vJ: sp.vec6):
+        """v_i = iX_lambda v_lambda + v_J,i: link i's velocity (link coordinates) from its parent's and its joint's
+        motion vJ (`joint_motion_of` its velocities); X = lambda(i)_H_i its joint's transform."""
+        return sp.motion_from(X, v_parent) + vJ
+
+    @wp.func
     def velocity_product(model: B.Model, i: int, v: sp.vec6, vJ: sp.vec6):
         """c_i = v_i x v_J + Sdot qdot: link i's acceleration from its joint's velocity alone (v: the link's
         velocity, vJ: `joint_motion_of` its velocities; link coordinates; `joint_motion_rate`)."""
@@ -200,6 +206,7 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         joint_frame_motion=joint_frame_motion,
         joint_motion_of=joint_motion_of,
         joint_motion_rate=joint_motion_rate,
+        link_velocity=link_velocity,
         velocity_product=velocity_product,
         armature_energy=armature_energy,
     )

@@ -151,9 +151,9 @@ def kernels(scalar) -> types.SimpleNamespace:
     def unphysical_contacts(contacts: B.Contacts, terrain: B.Terrain, rate_limit: scalar, reach: scalar, x: B.State, env: int):
         """1 if the environment's K, D or mu is out of range, or if its dt K / D reaches the integrator's limit
         (K / D >= rate_limit) while its points can reach the terrain (reach < 0: always), else 0."""
-        K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
-        D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
-        mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
+        K = B.env_parameter(contacts.K, env)
+        D = B.env_parameter(contacts.D, env)
+        mu = B.env_parameter(contacts.mu, env)
         bad = int(0)
         if not (wp.isfinite(K) and K > scalar(0.0) and wp.isfinite(D) and D > scalar(0.0) and wp.isfinite(mu) and mu >= scalar(0.0)):
             bad = 1

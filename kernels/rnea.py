@@ -42,7 +42,8 @@ def kernels(scalar, max_registers, multi_dof: bool):
     for models with (multi_dof) or without ball and free joints (kernels/joints.py)."""
     sp, sc, B = spatial(scalar), scratch(scalar), bundles(scalar)
     jm = joints(scalar, multi_dof)
-    external_force = inertia_funcs(scalar).external_force
+    F = inertia_funcs(scalar)
+    external_force, link_acceleration, bias_force = F.external_force, F.link_acceleration, F.bias_force
 
     @wp.kernel(module="unique", cuda_max_registers=max_registers)
     def rnea(
@@ -74,7 +75,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
         forces = controls.link_forces.shape[0] > 0
         W_H_B = B.base_pose(state, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env) * with_velocity))
-        B_a_g = sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity * with_gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
+        B_a_g = B.gravity_in(model, W_H_B) * with_gravity
         a_in = sp.vec6(scalar(0.0))
         if base_acceleration.shape[0] > 0:
             a_in = sc.row6(base_acceleration, env, 0)
@@ -87,8 +88,8 @@ def kernels(scalar, max_registers, multi_dof: bool):
         for i in range(1, nL):
             X = jm.joint_transform(model, i, state.joint_positions, env)
             vJ = jm.joint_motion_of(model, i, X, state.joint_velocities, env) * with_velocity
-            v_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _V)) + vJ
-            a_i = sp.motion_from(X, sc.get6(s, env, model.parent[i], _A)) + jm.velocity_product(model, i, v_i, vJ)
+            v_i = jm.link_velocity(X, sc.get6(s, env, model.parent[i], _V), vJ)
+            a_i = link_acceleration(X, sc.get6(s, env, model.parent[i], _A), jm.velocity_product(model, i, v_i, vJ))
             if joint_accelerations.shape[0] > 0:
                 a_i = a_i + jm.joint_motion_of(model, i, X, joint_accelerations, env)
             sc.put6(s, env, i, _V, v_i)
@@ -99,11 +100,10 @@ def kernels(scalar, max_registers, multi_dof: bool):
         for k in range(nL - 1):
             i = nL - 1 - k
             X = jm.joint_transform(model, i, state.joint_positions, env)
-            I = B.spatial_inertia_of(model, env, i)
-            v_i = sc.get6(s, env, i, _V)
-            f_i = I * sc.get6(s, env, i, _A) + sp.cross_force(v_i, I * v_i)
+            f_ext = sp.vec6(scalar(0.0))
             if forces:
-                f_i = f_i - external_force(controls, repr, s, _WHL, env, i)
+                f_ext = external_force(controls, repr, s, _WHL, env, i)
+            f_i = B.spatial_inertia_times(model, env, i, sc.get6(s, env, i, _A)) + bias_force(model, env, i, sc.get6(s, env, i, _V), f_ext)
             if model.first_child[i] >= 0:
                 f_i = f_i + sc.get6(s, env, model.first_child[i], _ACC)
             for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
@@ -117,12 +117,11 @@ def kernels(scalar, max_registers, multi_dof: bool):
             if model.next_sibling[i] >= 0:
                 up = up + sc.get6(s, env, model.next_sibling[i], _ACC)
             sc.put6(s, env, i, _ACC, up)
-        I0 = B.spatial_inertia_of(model, env, 0)
-        # a floating base's free-joint armature: on its true acceleration (B_a less the fictitious gravity's)
-        base_rotor = B.base_rotor(model, env, scalar(0.0)) * (B_a + B_a_g) + B.base_rotor_bias(model, env, B_v, scalar(0.0))
-        f_0 = I0 * B_a + sp.cross_force(B_v, I0 * B_v) + base_rotor
+        f_ext = sp.vec6(scalar(0.0))
         if forces:
-            f_0 = f_0 - external_force(controls, repr, s, _WHL, env, 0)
+            f_ext = external_force(controls, repr, s, _WHL, env, 0)
+        # a floating base's free-joint armature acts on its true acceleration (B_a less the fictitious gravity's)
+        f_0 = F.base_inertia(model, env, scalar(0.0)) * B_a + F.base_bias_force(model, env, scalar(0.0), B_v, B_a_g, f_ext)
         if model.first_child[0] >= 0:
             f_0 = f_0 + sc.get6(s, env, model.first_child[0], _ACC)
         base = sp.base_force_from_body(repr, W_H_B, f_0)

@@ -173,22 +173,27 @@ def kernels(scalar, terrain_kind: int | None = None):
         return along_normal(n, fn) + f_t, m_dot
 
     @wp.func
-    def contact_at(contacts: B.Contacts, terrain: B.Terrain, h0: scalar, p: sp.vec3, v: sp.vec3, m: sp.vec3, K: scalar, D: scalar, mu: scalar):
+    def law_parameters(contacts: B.Contacts, env: int):
+        """The law's parameters in environment env, (K, D, mu) (each shared (1,) or per environment (N,))."""
+        return sp.vec3(B.env_parameter(contacts.K, env), B.env_parameter(contacts.D, env), B.env_parameter(contacts.mu, env))
+
+    @wp.func
+    def contact_at(contacts: B.Contacts, terrain: B.Terrain, h0: scalar, law: sp.vec3, p: sp.vec3, v: sp.vec3, m: sp.vec3):
         """(f, m_dot): the contact force [N, world axes] of a point at p [m, world] with the velocity v [m/s] and
-        the deformation m, and its m_dot; h0 the environment's `height_parameter`."""
+        the deformation m, and its m_dot; h0 the environment's `height_parameter`, law its `law_parameters`."""
         h = terrain_height(terrain, h0, p[0], p[1])
         n = terrain_normal(terrain, p[0], p[1])
-        return hunt_crossley(p, v, m, h, n, K, D, mu, contacts.p, contacts.q)
+        return hunt_crossley(p, v, m, h, n, law[0], law[1], law[2], contacts.p, contacts.q)
 
     @wp.func
     def point_wrench(
-        contacts: B.Contacts, terrain: B.Terrain, h0: scalar, L_p_C: sp.vec3, W_H_L: sp.transform, W_v_WL: sp.vec6, m: sp.vec3, K: scalar, D: scalar, mu: scalar
+        contacts: B.Contacts, terrain: B.Terrain, h0: scalar, law: sp.vec3, L_p_C: sp.vec3, W_H_L: sp.transform, W_v_WL: sp.vec6, m: sp.vec3
     ):
         """(the Inertial wrench [f; p x f] of a point's contact force, its m_dot) for a point at L_p_C on its link,
         at the pose W_H_L with the Inertial velocity W_v_WL, with the deformation m; h0 the environment's
-        `height_parameter`."""
+        `height_parameter`, law its `law_parameters`."""
         p = wp.transform_point(W_H_L, L_p_C)
-        f, m_dot = contact_at(contacts, terrain, h0, p, sp.lin(W_v_WL) + wp.cross(sp.ang(W_v_WL), p), m, K, D, mu)
+        f, m_dot = contact_at(contacts, terrain, h0, law, p, sp.lin(W_v_WL) + wp.cross(sp.ang(W_v_WL), p), m)
         return sp.stack(f, wp.cross(p, f)), m_dot
 
     @wp.kernel(module="unique")
@@ -219,12 +224,10 @@ def kernels(scalar, terrain_kind: int | None = None):
                 for a in range(3):
                     m_dot[env, row, a] = scalar(0.0)
             else:
-                K = contacts.K[wp.min(env, contacts.K.shape[0] - 1)]
-                D = contacts.D[wp.min(env, contacts.D.shape[0] - 1)]
-                mu = contacts.mu[wp.min(env, contacts.mu.shape[0] - 1)]
                 L = contacts.point_link[c]
                 m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-                w, md = point_wrench(contacts, terrain, height_parameter(terrain, env), contacts.L_p_C[c], W_H_L[env, L], W_v_WL[env, L], m_c, K, D, mu)
+                law = law_parameters(contacts, env)
+                w, md = point_wrench(contacts, terrain, height_parameter(terrain, env), law, contacts.L_p_C[c], W_H_L[env, L], W_v_WL[env, L], m_c)
                 for a in range(6):
                     W_f_C[env, c, a] = w[a]
                 for a in range(3):
@@ -266,6 +269,7 @@ def kernels(scalar, terrain_kind: int | None = None):
         terrain_height=terrain_height,
         terrain_normal=terrain_normal,
         hunt_crossley=hunt_crossley,
+        law_parameters=law_parameters,
         contact_at=contact_at,
         point_wrench=point_wrench,
         point_contact_forces=point_contact_forces,

@@ -24,7 +24,7 @@ import warp as wp
 
 import robots
 import warpdyn as wd
-from warpdyn.engine import fused_layout, launch, warp_private
+from warpdyn.engine import contact_stage, fused_layout, launch, warp_private
 from warpdyn.engine import evaluations as engine_evaluations
 from warpdyn.engine import step as engine_step
 from warpdyn.engine.fused_layout import fused_walk
@@ -175,6 +175,29 @@ def test_actuators_armature_implicit_damping_and_per_environment_contact_paramet
 
 
 @pytest.mark.usefixtures("keep", "lanes")
+@pytest.mark.parametrize("implicit", [False, True], ids=["explicit damping", "implicit damping"])
+def test_gravity_compensation_and_the_bases_free_joint_armature_damper_and_spring(monkeypatch, implicit):
+    """The passive link forces (MJCF's gravcomp on some links, per environment; the floating base's free-joint
+    damper and spring) and the base's free-joint armature (+ dt damping when implicit) in the fused kernel equal
+    the launch list's (kernels/forces.py's passive_link_wrench, kernels/aba.py's base terms in both)."""
+    model = _legs(np.float64)
+    N, nL = 16, model.number_of_links()
+    rng = np.random.default_rng(11)
+    gravcomp = np.zeros((N, nL))
+    gravcomp[:, 1::2] = rng.uniform(0.1, 2.0, (N, len(range(1, nL, 2))))
+    model.set_link_parameters(gravcomp_mass=gravcomp, gravcomp_com=rng.uniform(-0.05, 0.05, (N, nL, 3)))
+    model.set_joint_parameters(base_armature=rng.uniform(0.01, 0.5, (N, 1)), base_damping=rng.uniform(0.1, 3.0, (N, 1)), base_stiffness=rng.uniform(1.0, 20.0, (N, 1)))
+    model.implicit_damping = implicit
+    data = _standing(model, N)
+    assert engine_step.plan(model).fused is not None and engine_step.plan(model).gravcomp
+    tau = rng.uniform(-5.0, 5.0, (N, model.dofs()))
+    fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
+    _assert_close(fused, listed, np.float64)
+    without = wd.model.step(_legs(np.float64), data, joint_force_references=tau)
+    assert np.abs(fused.base_velocity.numpy() - without.base_velocity.numpy()).min() > 1e-6, "the terms act in each environment"
+
+
+@pytest.mark.usefixtures("keep", "lanes")
 def test_friction_limit_springs_and_the_torque_speed_curve(monkeypatch):
     """JaxSim's joint forces, computed in the fused kernel, with each term active somewhere in the batch: joints
     beyond their limits, static and viscous friction, references clipped by the torque-speed curve. The
@@ -242,11 +265,11 @@ def test_contacts_made_for_a_terrain_kind_equal_those_for_any_kind(monkeypatch, 
     wrenches, to rounding (the CPU's agree bit for bit; on an H100 the heightfield's differed by 6e-18 relative:
     the compiler contracts the two kernels' products into fused multiply-adds differently), some points in
     contact, others not."""
-    contact_kernels = engine_step.contact_kernels
+    contact_kernels = contact_stage.contact_kernels
     out = []
     for any_kind in (False, True):
         if any_kind:
-            monkeypatch.setattr(engine_step, "contact_kernels", lambda scalar, kind=None: contact_kernels(scalar))
+            monkeypatch.setattr(contact_stage, "contact_kernels", lambda scalar, kind=None: contact_kernels(scalar))
         model = _legs(np.float64)  # its own plan: the launches are built afresh
         model.terrain = TERRAINS[terrain]
         data = _with(_standing(model, 8), m=np.random.default_rng(9).normal(0.0, 2e-3, (8, 32, 3)))
@@ -481,7 +504,7 @@ def test_which_devices_blocks_and_settings_keep_the_records_in_shared_memory(mon
     assert rule(plan(gpu, wp.float32, whole), 1, 64) == (64, True) and rule(plan(gpu, wp.float32, whole + 1), 1, 64) == (64, False)
     assert rule(plan(gpu, wp.float32, without_c), 1, 64) == (64, False) and rule(plan(gpu, wp.float32, without_c + 1), 1, 64) == (0, False)
     with pytest.raises(ValueError, match="one thread per environment, not 2 lanes"):
-        fused_step.kernel(wp.float32, 13, 1, False, None, None, False, 2, 64)
+        fused_step.kernel(wp.float32, 13, 1, False, None, contact_stage.SoftContactStage.point_law, None, False, False, 2, 64)
     monkeypatch.setattr(wd.config, "fused_shared_records", False)
     assert rule(legs32, 1, 64) == (0, False) and rule(legs64, 1, 32) == (0, False)
 

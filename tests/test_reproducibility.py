@@ -20,8 +20,7 @@ import gradcheck
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
-from warpdyn.engine import determinism
-from warpdyn.engine import step as engine_step
+from warpdyn.engine import contact_stage, determinism
 
 N, T = 8, 6
 PARAMETERS = ("link_mass", "friction_viscous", "K", "terrain_height")
@@ -98,7 +97,7 @@ def test_contacts_with_gradients_match_contacts_without(monkeypatch):
     loop: deterministic adjoints), without them (on a GPU; here on any device) a thread per point and per
     link: the same records, bit for bit on the CPU (the same operations per point), to rounding on a GPU
     (another compilation of them)."""
-    monkeypatch.setattr(engine_step, "contacts_per_environment", lambda device, grad: grad)
+    monkeypatch.setattr(contact_stage, "contacts_per_environment", lambda device, grad: grad)
     monkeypatch.setattr(wd.config, "fused_step", False)  # without gradients too: the launch list's contact kernels
     model = _legs(True)
     tau = np.random.default_rng(1).normal(0.0, 5.0, (N, model.dofs()))

@@ -23,7 +23,7 @@ compiled (no limit springs, no friction: an actuation kernel without that code).
 list of launches on given arrays (`step_launches`): nothing allocated, nothing read back, so
 warpdyn.engine.rollout captures many of them in a graph. Launches per semi-implicit Euler step:
 actuation (if joints), [FK, link velocities, the points' contact forces, their sums per link] (if enabled
-points; a thread per point and per link, or per environment: `contacts_per_environment`), [FK if no
+points; a thread per point and per link, or per environment: warpdyn.engine.contact_stage), [FK if no
 contacts, force conversion] (if link forces not Inertial), ABA, integrator, parameter check; without
 gradients, outside a tape (`fused_applies`): [FK, force conversion] (if link forces not Inertial), then one
 kernel for the rest (kernels/fused_step.py, the joint forces included), on one thread per environment or, on a
@@ -65,8 +65,6 @@ from ..kernels.integrators import kernels as integrator_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.parameter_checks import kernels as parameter_check_kernels
 from ..kernels.scratch import TRANSFORM
-from ..kernels.soft_contacts import kernels as contact_kernels
-from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import IntegratorType, VelRepr
 from ..types.data_checks import check_contact_state, check_data, passes_like
 from ..types.parameters import MODEL_ARRAYS, validate_parameters
@@ -76,6 +74,7 @@ from .bundles import controls_bundle, empty_like_input, model_bundle, state_bund
 from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
 from .loading import block_size
+from .contact_stage import per_env, stage_for
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, contact_reach
 
 __all__ = [
@@ -105,22 +104,6 @@ __all__ = [
     "contact_reach",
     "parameter_check",
 ]
-
-def per_env(value, name, scalar, device, owner="SoftContactsParams") -> wp.array:
-    """A parameter shared (1,) or per environment (N,) as the kernels read it: a Warp array is the user's,
-    read in place (its .grad gets the gradient); numbers and NumPy arrays are copied."""
-    if isinstance(value, wp.array):
-        if value.ndim != 1 or value.dtype != scalar or value.device != device:
-            raise ValueError(
-                f"{owner}.{name} as a Warp array must be 1-D with the model's dtype {scalar.__name__} on "
-                f"{device}, got shape {value.shape}, dtype {getattr(value.dtype, '__name__', value.dtype)} on {value.device}"
-            )
-        return value
-    host = np.atleast_1d(np.asarray(value, dtype=np.float64))
-    if host.ndim != 1:
-        raise ValueError(f"{owner}.{name} has shape {host.shape}: give a number or one value per environment (N,)")
-    return wp.array(host, dtype=scalar, device=device)
-
 
 def terrain_bundle(model):
     """The kernels' Terrain bundle of `model.terrain`; its Warp arrays are read in place (their .grad gets
@@ -166,7 +149,6 @@ class Plan:
     def __init__(self, model, gradient_terms: tuple):
         validate_parameters(model)  # the arrays as they are now, in-place edits included (once per model version)
         s, d = model.scalar, model.device
-        B = bundles(s)
         self.scalar, self.device = s, d
         self.n, self.nq, self.nL = model.dofs(), model.number_of_joint_coordinates(), model.number_of_links()
         self.multi_dof = model.multi_dof()  # ball or free joints: the kernels' multi-DoF variants (kernels/joints.py)
@@ -205,66 +187,32 @@ class Plan:
         # from the links' poses at each evaluation (kernels/forces.py's passive_link_forces); the base's armature
         # is ABA's
         self.gravcomp = nonzero("gravcomp_mass", "base_damping", "base_stiffness") or gravcomp_grad or base_grad
-        base_joint = nonzero("base_armature", "base_damping", "base_stiffness") or base_grad
-        # collidable points: the enabled ones ordered by link (the contact kernel sums them per link)
-        cp = model.kin_dyn_structure().contact_parameters
-        rows = cp.indices_of_enabled_collidable_points
-        links = np.asarray(cp.body, dtype=np.int64)[rows]
-        order = np.argsort(links, kind="stable")
-        rows, links = rows[order], links[order]
-        first = np.full(self.nL, -1, dtype=np.int32)
-        for k in range(len(links) - 1, -1, -1):
-            first[links[k]] = k
-        row_point = np.full(len(cp.body), -1, dtype=np.int32)
-        row_point[rows] = np.arange(len(rows), dtype=np.int32)
-        self.total = len(cp.body)
-        self.count = len(rows)
+        # the contact model's stage (warpdyn.engine.contact_stage): its points, parameters and launches
+        stage = self.contact_stage = stage_for(model, self.integrator)
+        self.contact_bundle, self.total, self.count, self.point_out = stage.bundle, stage.total, stage.count, stage.point_out
         self.contacts = self.count > 0
         self.poses = self.contacts or self.gravcomp  # an evaluation runs FK
-        c = model.contact_params
-        # the stability of the deformation, where the points can touch the terrain (contact_reach); the device
-        # check of every step (kernels/parameter_checks.py) asks it again of values written in place
-        reach = contact_reach(model) if self.contacts else ContactReach(0.0, False, "")
-        if reach.may_touch:
-            check_deformation_stability(model.time_step, c.K, c.D, model.integrator, reach.why)
-        self.check_rate = s(DEFORMATION_STABILITY[self.integrator] / model.time_step)
-        self.check_reach = s(reach.reach if np.isfinite(reach.reach) else -1.0)
-        L_p_C = np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3)
-        contacts = self.contact_bundle = B.Contacts()
-        contacts.point_link = wp.array(links.astype(np.int32), dtype=int, device=d)
-        contacts.L_p_C = wp.array(L_p_C, dtype=wp.types.vector(3, s), device=d)
-        contacts.point_row = wp.array(rows.astype(np.int32), dtype=int, device=d)
-        contacts.row_point = wp.array(row_point, dtype=int, device=d)
-        contacts.link_first_point = wp.array(first, dtype=int, device=d)
-        points_per_link = np.bincount(links, minlength=self.nL).astype(np.int32)
-        contacts.link_point_count = wp.array(points_per_link, dtype=int, device=d)
-        contacts.K, contacts.D, contacts.mu = (per_env(getattr(c, k), k, s, d) for k in ("K", "D", "mu"))
-        contacts.p, contacts.q = s(c.p), s(c.q)
-        self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
+        self.check_rate, self.check_reach = stage.check_rate, stage.check_reach
         self.terrain = terrain_bundle(model)
         self.no_targets = targets(model, model.all_links[:0], model.identity_offsets[:0])
         self.integrators = integrator_kernels(s, self.multi_dof)
         # the fused Euler step (kernels/fused_step.py) by whether it keeps the joint transforms and its lanes, for
-        # steps without gradients; not with passive link forces, a floating base's free-joint parameters, nor for
-        # joints of several DoFs. Its walk's groups
-        # (the base's subtrees by their links and points) are its lanes for few environments on a GPU
-        # (fused_layout.fused_lanes).
+        # steps without gradients, of models whose joints have one DoF each. Its walk's groups (the base's
+        # subtrees by their links and points) are its lanes for few environments on a GPU (fused_layout.fused_lanes).
         self.fused = None
-        if self.euler and not self.gravcomp and not base_joint and model.tree.one_dof_joints:
-            walk = fused_layout.fused_walk(model.tree.parent, fused_layout.MAX_LANES, 1 + points_per_link)
+        if self.euler and model.tree.one_dof_joints and stage.point_law is not None:
+            walk = fused_layout.fused_walk(model.tree.parent, fused_layout.MAX_LANES, 1 + stage.points_per_link)
             self.walk = wp.array(walk.walk, dtype=wp.vec3i, device=d)
             self.walk_starts = wp.array(walk.starts, dtype=wp.int32, device=d)
             self.lanes = walk.groups
             so3 = self.integrator == IntegratorType.SemiImplicitEulerSO3
             actuation = (self.with_limits, self.with_friction, self.with_passive, per_joint) if self.n > 0 else None
-            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(walk.slots, 1), so3, actuation, self.terrain.kind)
+            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(walk.slots, 1), so3, actuation, stage.point_law, self.terrain.kind, self.gravcomp)
         self.no_poses = wp.empty((0, 0), dtype=wp.types.transformation(s), device=d)
         self._zeros: dict = {}
 
     def check_envs(self, N: int) -> None:
-        c = self.contact_bundle
-        per_env = (("SoftContactsParams.K", c.K), ("SoftContactsParams.D", c.D), ("SoftContactsParams.mu", c.mu))
-        for name, value in (*per_env, ("the terrain's height", self.terrain.height)):
+        for name, value in (*self.contact_stage.per_env_parameters(), ("the terrain's height", self.terrain.height)):
             if value.shape[0] not in (1, N):
                 raise ValueError(f"{name} has shape {value.shape}: give a number or one value per environment ({N},)")
 
@@ -284,8 +232,8 @@ class Plan:
 
     def parameter_arrays(self) -> list:
         """The model parameters' Warp arrays that the steps read (the bundles' fields)."""
-        model, contacts, terrain = self.model, self.contact_bundle, self.terrain
-        return [getattr(model, name) for name in MODEL_ARRAYS] + [contacts.K, contacts.D, contacts.mu, terrain.height, terrain.heights]
+        parameters = [value for _, value in self.contact_stage.per_env_parameters()]
+        return [getattr(self.model, name) for name in MODEL_ARRAYS] + parameters + [self.terrain.height, self.terrain.heights]
 
 
 def broadcast_envs(row: wp.array, N: int) -> wp.array:
@@ -401,14 +349,6 @@ def state_buffers(plan: Plan, N: int, grad: bool) -> list:
     ]
 
 
-def contacts_per_environment(device, grad: bool) -> bool:
-    """Whether the step's contact kernels run a thread per environment (its points, then its links, in a
-    loop) rather than a thread per point and per link: with gradients (each adjoint of a link's pose,
-    velocity or per-environment parameter then comes from one thread, in a fixed order: deterministic on a
-    GPU) and on the CPU (whose threads run one after another: a loop costs less than a thread per point)."""
-    return grad or not wp.get_device(device).is_cuda
-
-
 def evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: bool = True, held: Evaluation | None = None) -> list:
     """The launches of one derivative evaluation at the state x (a State bundle): FK (if contacts or gravity
     compensation), the gravity compensation and contacts (if any), then ABA (Inertial). f_ext (N, nL, 6)
@@ -425,35 +365,19 @@ def evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: b
     if held is not None and plan.contacts:
         f_ext = held.W_f_L
     if plan.contacts and held is None and contacts_first:
-        launches += _contacts(plan, ev, x, f_ext, N)
+        launches += plan.contact_stage.launches(plan, ev, x, f_ext, N)
         f_ext = ev.W_f_L
     if plan.gravcomp and aba:
         f_in = f_ext if f_ext is not None else empty_like_input(s, plan.device, 3)
         launches.append(Launch(force_kernels(s).passive_link_forces, (N, plan.nL), [plan.model, x, ev.W_H_L, f_in, int(VelRepr.Inertial)], [ev.W_f_gc]))
         f_ext = ev.W_f_gc
     if plan.contacts and held is None and not contacts_first:
-        launches += _contacts(plan, ev, x, f_ext, N)
+        launches += plan.contact_stage.launches(plan, ev, x, f_ext, N)
         f_ext = ev.W_f_L
     if aba:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
         args = [plan.model, x, controls, int(VelRepr.Inertial), plan.implicit_dt, ev.aba_scratch]
         launches.append(Launch(aba_kernels(s, "tuned", plan.multi_dof).aba, N, args, [ev.base_acceleration, ev.joint_accelerations]))
-    return launches
-
-
-def _contacts(plan: Plan, ev: Evaluation, x, f_ext, N: int) -> list:
-    """The launches of the contact forces at the state x (ev's link poses at x): link velocities, each enabled
-    point's force and deformation rate (ev.W_f_C, ev.m_dot), and ev.W_f_L = f_ext (None: 0) + each link's."""
-    s = plan.scalar
-    args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
-    launches = [Launch(velocity_kernels(s, plan.multi_dof).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities])]
-    f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
-    order = int(arrays.env_fastest(plan.device))
-    rows, links = (plan.total, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)
-    args = [plan.contact_bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, order, rows]
-    launches.append(Launch(contact_kernels(s, plan.terrain.kind).point_contact_forces, N * plan.total // rows, args, [ev.W_f_C, ev.m_dot]))
-    args = [plan.contact_bundle, ev.W_f_C, f_in, order, links]
-    launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
     return launches
 
 
@@ -471,7 +395,7 @@ def joint_forces(plan: Plan, X, tau_ref, u, tau, held) -> list:
 
 def fused_applies(plan: Plan, ws: Workspace) -> bool:
     """Whether a step runs as the fused kernel (kernels/fused_step.py) after the joint forces: a semi-implicit
-    Euler step without gravity compensation, outside a tape, on a workspace without gradients, while
+    Euler step of a model whose joints have one DoF each, outside a tape, on a workspace without gradients, while
     warpdyn.config.fused_step is on. Its intermediate results (link poses, contact forces) are then not in
     the workspace."""
     return plan.fused is not None and config.fused_step and not ws.grad and not tape.taping()
