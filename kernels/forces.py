@@ -58,36 +58,25 @@ def kernels(scalar):
             wp.atomic_add(W_f_L, env, L, r, w[r])
 
     @wp.kernel(module="unique")
-    def inertial_to_forces(
+    def convert_link_forces(
         # state
         W_H_L: wp.array2d(dtype=sp.transform),
-        W_f_L: wp.array3d(dtype=scalar),
+        f_in: wp.array3d(dtype=scalar),
         repr: int,
+        to_inertial: int,
         # outputs
-        f_L: wp.array3d(dtype=scalar),
+        f_out: wp.array3d(dtype=scalar),
     ):
-        """f_L (N, nL, 6): the Inertial link forces W_f_L in `repr` (link as the body frame)."""
+        """f_out (N, nL, 6): the link forces f_in (N, nL, 6) given in `repr` made Inertial (to_inertial 1), or
+        given Inertial made `repr` (0); each link its body frame. Launched over (N, nL)."""
         env, L = wp.tid()
-        W_f = sp.vec6(W_f_L[env, L, 0], W_f_L[env, L, 1], W_f_L[env, L, 2], W_f_L[env, L, 3], W_f_L[env, L, 4], W_f_L[env, L, 5])
-        f = sp.inertial_to_force_repr(repr, W_H_L[env, L], W_f)
+        f = sp.vec6(f_in[env, L, 0], f_in[env, L, 1], f_in[env, L, 2], f_in[env, L, 3], f_in[env, L, 4], f_in[env, L, 5])
+        if to_inertial != 0:
+            f = sp.force_repr_to_inertial(repr, W_H_L[env, L], f)
+        else:
+            f = sp.inertial_to_force_repr(repr, W_H_L[env, L], f)
         for r in range(6):
-            f_L[env, L, r] = f[r]
-
-    @wp.kernel(module="unique")
-    def link_forces_to_inertial(
-        # state
-        W_H_L: wp.array2d(dtype=sp.transform),
-        f_L: wp.array3d(dtype=scalar),
-        repr: int,
-        # outputs
-        W_f_L: wp.array3d(dtype=scalar),
-    ):
-        """W_f_L (N, nL, 6): link forces f_L (N, nL, 6) given in `repr` (link as the body frame), Inertial."""
-        env, L = wp.tid()
-        f = sp.vec6(f_L[env, L, 0], f_L[env, L, 1], f_L[env, L, 2], f_L[env, L, 3], f_L[env, L, 4], f_L[env, L, 5])
-        W_f = sp.force_repr_to_inertial(repr, W_H_L[env, L], f)
-        for r in range(6):
-            W_f_L[env, L, r] = W_f[r]
+            f_out[env, L, r] = f[r]
 
     @wp.func
     def passive_link_wrench(model: B.Model, env: int, L: int, W_H_L: sp.transform, B_v: sp.vec6):
@@ -131,6 +120,5 @@ def kernels(scalar):
         passive_link_forces=passive_link_forces,
         kept_forces=kept_forces,
         add_target_forces=add_target_forces,
-        inertial_to_forces=inertial_to_forces,
-        link_forces_to_inertial=link_forces_to_inertial,
+        convert_link_forces=convert_link_forces,
     )

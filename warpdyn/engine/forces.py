@@ -19,9 +19,9 @@ def forces_in(model, data, W_f_L: wp.array, repr: int) -> wp.array:
     _, W_H_L = link_poses(model, data)
     out = arrays.output(W_f_L.shape[1:], W_f_L.shape[0], W_f_L.dtype, W_f_L.device, data.requires_grad)
     launch(
-        force_kernels(W_f_L.dtype).inertial_to_forces,
+        force_kernels(W_f_L.dtype).convert_link_forces,
         dim=(W_f_L.shape[0], W_f_L.shape[1]),
-        inputs=[W_H_L, W_f_L, int(repr)],
+        inputs=[W_H_L, W_f_L, int(repr), 0],
         outputs=[out],
         device=W_f_L.device,
     )

@@ -474,7 +474,7 @@ def step_launches(
             holder = ws.evals[0] if plan.poses else ws
             launches.append(Launch(kinematics_kernels(s, plan.multi_dof).forward_kinematics, N, [plan.model, X], [holder.parent_H_link, holder.W_H_L]))
             poses_done = plan.poses
-            launches.append(Launch(force_kernels(s).link_forces_to_inertial, (N, plan.nL), [holder.W_H_L, f_user, repr], [ws.W_f_ext]))
+            launches.append(Launch(force_kernels(s).convert_link_forces, (N, plan.nL), [holder.W_H_L, f_user, repr, 1], [ws.W_f_ext]))
             f_ext = ws.W_f_ext
     if fused:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
