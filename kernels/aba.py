@@ -112,10 +112,10 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         return Ud, ud, Ia, pA_d + Ia * c_i
 
     @wp.func
-    def bias_force(model: B.Model, env: int, i: int, v: sp.vec6, f: sp.vec6):
-        """Link i's own bias force v_i x* I_i v_i - f_i (link coordinates): v its velocity, f the external force
-        on it (step 2's first term of pA_i)."""
-        return sp.cross_force(v, B.spatial_inertia_times(model, env, i, v)) - f
+    def bias_force(v: sp.vec6, I_v: sp.vec6, f: sp.vec6):
+        """A link's own bias force v_i x* I_i v_i - f_i (link coordinates): v its velocity, I_v its spatial inertia
+        times v, f the external force on it (step 2's first term of pA_i)."""
+        return sp.cross_force(v, I_v) - f
 
     @wp.func
     def base_inertia(model: B.Model, env: int, implicit_dt: scalar):
@@ -129,7 +129,7 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         its rotor's (`base_inertia`) velocity product and r a_g: the rotor acts on the true acceleration a'_0 + a_g
         (step 3)."""
         rotor = B.base_rotor(model, env, implicit_dt)
-        return bias_force(model, env, 0, B_v, f) + B.base_rotor_bias(model, env, B_v, implicit_dt) + rotor * B_a_g
+        return bias_force(B_v, B.spatial_inertia_times(model, env, 0, B_v), f) + B.base_rotor_bias(model, env, B_v, implicit_dt) + rotor * B_a_g
 
     @wp.func
     def base_acceleration(model: B.Model, IA: sp.mat66, pA: sp.vec6, B_a_g: sp.vec6):
@@ -291,7 +291,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
             f_i = sp.vec6(scalar(0.0))
             if forces:
                 f_i = external_force(controls, repr, s, _WHL, env, i)
-            pA = F.bias_force(model, env, i, v_i, f_i)
+            pA = F.bias_force(v_i, IA * v_i, f_i)
             if model.first_child[i] >= 0:
                 IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
                 pA = pA + sc.get6(s, env, model.first_child[i], _PA)

@@ -440,9 +440,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             else:
                 c[i] = jm.velocity_product(model, i, v_i, S_qd)
             if wp.static(SHARED):
-                put6(PER_LINK * i, F.bias_force(model, env, i, v_i, f_i))
+                put6(PER_LINK * i, F.bias_force(v_i, B.spatial_inertia_times(model, env, i, v_i), f_i))
             else:
-                pU[i] = F.bias_force(model, env, i, v_i, f_i)
+                pU[i] = F.bias_force(v_i, B.spatial_inertia_times(model, env, i, v_i), f_i)
             W_H_prev = W_H_i
             v_prev = v_i
         # 2. articulated inertias and bias forces, from the leaves; a link's terms summed into its parent's: the

@@ -103,7 +103,8 @@ def kernels(scalar, max_registers, multi_dof: bool):
             f_ext = sp.vec6(scalar(0.0))
             if forces:
                 f_ext = external_force(controls, repr, s, _WHL, env, i)
-            f_i = B.spatial_inertia_times(model, env, i, sc.get6(s, env, i, _A)) + bias_force(model, env, i, sc.get6(s, env, i, _V), f_ext)
+            v_i = sc.get6(s, env, i, _V)
+            f_i = B.spatial_inertia_times(model, env, i, sc.get6(s, env, i, _A)) + bias_force(v_i, B.spatial_inertia_times(model, env, i, v_i), f_ext)
             if model.first_child[i] >= 0:
                 f_i = f_i + sc.get6(s, env, model.first_child[i], _ACC)
             for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
