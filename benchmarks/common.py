@@ -1,4 +1,5 @@
-"""Shared benchmark helpers: the seed's robot, timing with synchronisation, and the report header."""
+"""Shared benchmark helpers: the seed's robot, timing with synchronisation, the report header and the sizes
+the throughput benchmarks take."""
 
 from __future__ import annotations
 
@@ -67,6 +68,19 @@ def _installed(package: str) -> bool:
 
 def sizes(max_envs: int) -> list[int]:
     return [n for n in (1, 16, 256, 4096, 16384, 65536) if n <= max_envs]
+
+
+def add_size_arguments(parser, max_envs: int | None = 65536, max_envs_help: str | None = None) -> None:
+    """The throughput benchmarks' --device, --max-envs, --sizes (read by chosen_sizes) and --dtypes."""
+    parser.add_argument("--device", default=None)
+    parser.add_argument("--max-envs", type=int, default=max_envs, help=max_envs_help)
+    parser.add_argument("--sizes", default=None, help="comma-separated N (default: 1, 16, 256, ... up to --max-envs)")
+    parser.add_argument("--dtypes", default="float32,float64")
+
+
+def chosen_sizes(args, max_envs: int) -> list[int]:
+    """The N of --sizes, else sizes(max_envs)."""
+    return [int(n) for n in args.sizes.split(",")] if args.sizes else sizes(max_envs)
 
 
 np_dtype = {"float32": np.float32, "float64": np.float64}

@@ -28,7 +28,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import ERGOCUB, EXCLUDED, header, init_warp, median_time, np_dtype, seed_model, sizes
+from common import ERGOCUB, EXCLUDED, add_size_arguments, chosen_sizes, header, init_warp, median_time, np_dtype, seed_model
 
 
 def mujoco_yardstick(repeats: int = 2000) -> list[tuple[str, float]]:
@@ -97,10 +97,7 @@ def kernel_seconds(model, name: str, device, call, data, u, replays: int = 20) -
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--device", default=None)
-    parser.add_argument("--max-envs", type=int, default=65536)
-    parser.add_argument("--sizes", default=None, help="comma-separated N (default: 1, 16, 256, ... up to --max-envs)")
-    parser.add_argument("--dtypes", default="float32,float64")
+    add_size_arguments(parser)
     parser.add_argument("--algorithms", default="ABA,RNEA,CRBA")
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--single", action="store_true", help="also time single-environment calls")
@@ -114,7 +111,7 @@ def main() -> None:
     device = wp.get_device(args.device)
     if args.release_threshold is not None and device.is_cuda:
         wp.set_mempool_release_threshold(device, args.release_threshold)
-    Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else sizes(args.max_envs)
+    Ns = chosen_sizes(args, args.max_envs)
     algorithms = args.algorithms.split(",")
     print(header(device))
     if device.is_cuda:

@@ -37,7 +37,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import header, median_time, np_dtype, seed_model, sizes
+from common import add_size_arguments, chosen_sizes, header, median_time, np_dtype, seed_model
 
 FUSED = {
     "on": (True, None, True),
@@ -134,10 +134,7 @@ def rollout_steps(N: int, device) -> int:
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--device", default=None)
-    parser.add_argument("--max-envs", type=int, default=None, help="default: 65536 on GPUs, 4096 on the CPU")
-    parser.add_argument("--sizes", default=None, help="comma-separated N (default: 1, 16, 256, ... up to --max-envs)")
-    parser.add_argument("--dtypes", default="float32,float64")
+    add_size_arguments(parser, max_envs=None, max_envs_help="default: 65536 on GPUs, 4096 on the CPU")
     parser.add_argument("--robots", default="legs,legs-no-contacts,arm")
     parser.add_argument("--repeats", type=int, default=10)
     parser.add_argument("--no-eager", action="store_true", help="skip the eager rollout column")
@@ -154,8 +151,7 @@ def main() -> None:
         wp.config.log_level = wp.LOG_WARNING
         wp.init()
     device = wp.get_device(args.device)
-    max_envs = args.max_envs or (65536 if device.is_cuda else 4096)
-    Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else sizes(max_envs)
+    Ns = chosen_sizes(args, args.max_envs or (65536 if device.is_cuda else 4096))
     names = args.robots.split(",")
     print(header(device))
     print()

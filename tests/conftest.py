@@ -1,5 +1,6 @@
 """Shared test set-up: Warp quiet, on the device WARPDYN_TEST_DEVICE names (default: the CPU, e.g.
-`WARPDYN_TEST_DEVICE=cuda:0 python -m pytest`); outputs filled with NaN so unwritten entries fail."""
+`WARPDYN_TEST_DEVICE=cuda:0 python -m pytest`); outputs filled with NaN so unwritten entries fail; the
+`dtype` and `layout` fixtures."""
 
 import os
 import sys
@@ -25,4 +26,12 @@ DTYPES = [np.float64, np.float32]
 
 @pytest.fixture(params=DTYPES, ids=lambda d: np.dtype(d).name)
 def dtype(request):
+    return request.param
+
+
+@pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
+def layout(request, monkeypatch):
+    """Both physical layouts of per-environment arrays (warpdyn.arrays): the device's default (env-major
+    on the CPU) and env-fastest (the GPU's), so that a CPU run covers both."""
+    monkeypatch.setattr(warpdyn.config, "env_fastest", request.param)
     return request.param

@@ -24,7 +24,12 @@ import warp as wp
 
 @functools.cache
 def _loss_kernels(scalar):
-    """out[0] += sum w * x over arrays of 2 to 4 dimensions (any strides), in `scalar`."""
+    """out[0] += sum w * x over arrays of 1 to 4 dimensions (any strides), in `scalar`."""
+
+    @wp.kernel(module="unique")
+    def loss1(x: wp.array(dtype=scalar), w: wp.array(dtype=scalar), out: wp.array(dtype=scalar)):
+        i = wp.tid()
+        wp.atomic_add(out, 0, w[i] * x[i])
 
     @wp.kernel(module="unique")
     def loss2(x: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar), out: wp.array(dtype=scalar)):
@@ -41,15 +46,16 @@ def _loss_kernels(scalar):
         i, j, k, l = wp.tid()
         wp.atomic_add(out, 0, w[i, j, k, l] * x[i, j, k, l])
 
-    return {2: loss2, 3: loss3, 4: loss4}
+    return {1: loss1, 2: loss2, 3: loss3, 4: loss4}
 
 
-def weighted_sum(arrays, weights, scalar=wp.float64) -> wp.array:
-    """A new (1,) array (requires_grad) holding sum_k sum(w_k * x_k), as Warp launches a tape records.
-    weights: Warp arrays of the arrays' shapes."""
+def weighted_sum(arrays, weights, scalar=wp.float64, out=None) -> wp.array:
+    """A new (1,) array (requires_grad) holding sum_k sum(w_k * x_k), as Warp launches a tape records; added
+    to `out` instead when given. weights: Warp arrays of the arrays' shapes."""
     kernels = _loss_kernels(scalar)
     device = arrays[0].device
-    out = wp.zeros(1, dtype=scalar, device=device, requires_grad=True)
+    if out is None:
+        out = wp.zeros(1, dtype=scalar, device=device, requires_grad=True)
     for x, w in zip(arrays, weights):
         if x.size:
             wp.launch(kernels[x.ndim], dim=x.shape, inputs=[x, w], outputs=[out], device=device)

@@ -2,11 +2,15 @@
 
 - `random_tree_urdf(seed)`: a random kinematic tree (revolute and prismatic joints with random axes,
   offsets and inertias, some fixed joints to lump, depth up to 30).
-- `pendulum_chain_urdf(n)`: a chain of n revolute links, fixed to the world.
+- `pendulum_chain_urdf(n)`: a chain of n revolute links, fixed to the world; `rod_chain_urdf(masses)`: the
+  same with a mass per rod.
 - `icub_urdf()`: iCubGazeboV2_5 from the icub-models package; `ergocub_urdf()`: the seed's ergoCubSN001.
 - `ERGOCUB_LEG_JOINTS(model)`, `ICUB_LEG_JOINTS(model)`: the joints the seed keeps.
+- `icub_legs_source()`, `ergocub_seed_source()`: (URDF text, considered joints) of the iCub's legs and the
+  seed's ergoCub.
 - `mujoco_model(urdf_text, considered_joints, floating)`: the same robot in MuJoCo, the joints that are not
-  considered made fixed (locked at 0), meshes stripped, with a free joint when floating.
+  considered made fixed (locked at 0), meshes stripped, with a free joint when floating (`mujoco_spec`: its
+  spec; fuse_static=False keeps every URDF link a body).
 - `MujocoState`: sets MuJoCo's qpos/qvel from warpdyn's state, mapping joints by name and converting
   the base velocity (MuJoCo's free joint: world linear velocity of the body origin, body-frame angular).
 - The simulation tests' set-up (tests/test_simulation*.py, tests/test_actuation.py): the integrators `SIE`,
@@ -18,7 +22,8 @@
   `ergocub_full_model`, `ergocub_seed_model`, `ergocub_seed_with_points` (`NO_MESH`), and random states
   for them (`random_state_kwargs`).
 - The model tests' robots by case name (tests/test_model.py, test_model_mjcf.py): `text_of`, `full_model`,
-  `considered_of`, `built`; their random states (`rng_for`, `random_data`); `H_of`, `assert_close`.
+  `considered_of`, `built`, `case_source`; their random states (`rng_for`, `random_data`,
+  `uniform_state_kwargs`); `H_of`, `assert_close`.
 """
 
 from __future__ import annotations
@@ -59,6 +64,23 @@ def icub_urdf() -> str:
 
 def icub_leg_joints(joint_names) -> list[str]:
     return [j for j in joint_names if any(part in j for part in ("hip", "knee", "ankle"))]
+
+
+def movable_joint_names(text: str) -> list[str]:
+    """The names of a description's joints that are not fixed, in its order."""
+    return [j.name for j in wd.description.load(text).joints if j.type != "fixed"]
+
+
+def icub_legs_source() -> tuple[str, tuple[str, ...]]:
+    """(URDF text, considered joints) of the iCub's legs."""
+    text = icub_urdf()
+    return text, tuple(icub_leg_joints(movable_joint_names(text)))
+
+
+def ergocub_seed_source() -> tuple[str, tuple[str, ...]]:
+    """(URDF text, considered joints) of the seed's ergoCub."""
+    text = ergocub_urdf()
+    return text, tuple(seed_joints(movable_joint_names(text)))
 
 
 def _origin(xyz, rpy) -> str:
@@ -113,16 +135,23 @@ def random_tree_urdf(seed: int, num_links: int | None = None, max_depth: int = 3
 
 def pendulum_chain_urdf(n: int = 5, length: float = 0.5, mass: float = 1.0) -> str:
     """n identical rods hanging from a world-fixed base, revolute about y, each with its CoM at mid-length."""
-    I_end = mass * length**2 / 12.0
-    parts = ['<robot name="pendulum_chain">', '<link name="world"/>', '<link name="base"/>']
-    parts.append('<joint name="world_to_base" type="fixed"><parent link="world"/><child link="base"/></joint>')
+    return rod_chain_urdf([mass] * n, length, izz=lambda m: 1e-6, name="pendulum_chain")
+
+
+def rod_chain_urdf(masses, length=0.5, offsets=None, izz=lambda m: m * 1e-4, name="chain") -> str:
+    """A chain of rods hanging from a world-fixed base, hinges about y; rod i has mass masses[i] (CoM at
+    mid-length, rod inertia about x and y, izz(mass) about z: 1e-4 m^2 times its mass by default); joint i
+    sits at offsets[i] along z of its parent (default 0 for the first, -length for the others)."""
+    parts = [f'<robot name="{name}">', '<link name="world"/>', '<link name="base"/>',
+             '<joint name="world_to_base" type="fixed"><parent link="world"/><child link="base"/></joint>']
     parent = "base"
-    for i in range(n):
+    for i, mass in enumerate(masses):
+        I = mass * length**2 / 12.0
+        z = (0.0 if i == 0 else -length) if offsets is None else offsets[i]
         parts.append(
-            f'<link name="rod{i}"><inertial><origin xyz="0 0 {-length / 2}"/><mass value="{mass}"/>'
-            f'<inertia ixx="{I_end}" iyy="{I_end}" izz="1e-6" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+            f'<link name="rod{i}"><inertial><origin xyz="0 0 {-length / 2}"/><mass value="{mass:.17g}"/>'
+            f'<inertia ixx="{I:.17g}" iyy="{I:.17g}" izz="{izz(mass):.17g}" ixy="0" ixz="0" iyz="0"/></inertial></link>'
         )
-        z = 0.0 if i == 0 else -length
         parts.append(
             f'<joint name="hinge{i}" type="continuous"><parent link="{parent}"/><child link="rod{i}"/>'
             f'<origin xyz="0 0 {z}"/><axis xyz="0 1 0"/></joint>'
@@ -132,13 +161,16 @@ def pendulum_chain_urdf(n: int = 5, length: float = 0.5, mass: float = 1.0) -> s
     return "\n".join(parts)
 
 
-def _strip_geometry(urdf_text: str, considered_joints) -> str:
-    """The URDF without visual/collision elements, non-considered movable joints made fixed (at 0)."""
+def _strip_geometry(urdf_text: str, considered_joints, keep_collision=None) -> str:
+    """The URDF without visual elements, nor collision elements (but those for which keep_collision(element)
+    is true, when given), non-considered movable joints made fixed (at 0)."""
     root = ET.fromstring(urdf_text)
     for link in root.findall("link"):
-        for tag in ("visual", "collision"):
-            for element in link.findall(tag):
-                link.remove(element)
+        for visual in link.findall("visual"):
+            link.remove(visual)
+        for collision in link.findall("collision"):
+            if keep_collision is None or not keep_collision(collision):
+                link.remove(collision)
     if considered_joints is not None:
         keep = set(considered_joints)
         for joint in root.findall("joint"):
@@ -149,15 +181,21 @@ def _strip_geometry(urdf_text: str, considered_joints) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
-def mujoco_model(urdf_text: str, considered_joints=None, floating: bool = True):
-    """MuJoCo's model of the robot (fixed links fused, as warpdyn lumps them)."""
+def mujoco_spec(urdf_text: str, considered_joints=None, floating: bool = True, fuse_static: bool = True, keep_collision=None):
+    """MuJoCo's spec of the robot as _strip_geometry leaves it: fixed links fused (as warpdyn lumps them)
+    unless fuse_static is False (then every URDF link is a body), with a free joint when floating."""
     import mujoco
 
-    spec = mujoco.MjSpec.from_string(_strip_geometry(urdf_text, considered_joints))
-    spec.compiler.fusestatic = True
+    spec = mujoco.MjSpec.from_string(_strip_geometry(urdf_text, considered_joints, keep_collision))
+    spec.compiler.fusestatic = fuse_static
     if floating:
         spec.worldbody.first_body().add_freejoint()
-    return spec.compile()
+    return spec
+
+
+def mujoco_model(urdf_text: str, considered_joints=None, floating: bool = True, fuse_static: bool = True, keep_collision=None):
+    """MuJoCo's model of the robot: mujoco_spec's, compiled."""
+    return mujoco_spec(urdf_text, considered_joints, floating, fuse_static, keep_collision).compile()
 
 
 class MujocoState:
@@ -456,6 +494,16 @@ def text_of(case: str) -> str:
     }[kind]()
 
 
+def case_source(case: str) -> tuple[str, tuple[str, ...] | None]:
+    """(URDF text, considered joints or None) by case name: text_of's, but 'icublegs' (the iCub's legs) and
+    'ergocub' reduced to the seed's joints."""
+    if case == "icublegs":
+        return icub_legs_source()
+    if case == "ergocub":
+        return ergocub_seed_source()
+    return text_of(case), None
+
+
 @functools.cache
 def full_model(case: str, dtype=np.float64) -> wd.model.Model:
     return wd.model.Model.build_from_model_description(text_of(case), dtype=dtype)
@@ -473,6 +521,26 @@ def built(case, which, dtype=np.float64) -> wd.model.Model:
 
 def rng_for(*key) -> np.random.Generator:
     return np.random.default_rng(zlib.crc32(repr(key).encode()))
+
+
+def uniform_state_kwargs(model, rng, num_envs=None) -> dict:
+    """Data.build's keyword arguments for a random state: joints in [-2, 2], speeds in [-1, 1]; a floating
+    base in [-1, 1]^3 raised 0.5 in z, any orientation, velocities in [-1, 1]. (N, ...) arrays when num_envs
+    is given."""
+    N = 1 if num_envs is None else num_envs
+    n = model.dofs()
+    kwargs = dict(joint_positions=rng.uniform(-2.0, 2.0, (N, n)), joint_velocities=rng.uniform(-1.0, 1.0, (N, n)))
+    if model.floating_base():
+        q = rng.normal(size=(N, 4))
+        kwargs.update(
+            base_position=rng.uniform(-1.0, 1.0, (N, 3)) + [0.0, 0.0, 0.5],
+            base_quaternion=q / np.linalg.norm(q, axis=1, keepdims=True),
+            base_linear_velocity=rng.uniform(-1.0, 1.0, (N, 3)),
+            base_angular_velocity=rng.uniform(-1.0, 1.0, (N, 3)),
+        )
+    if num_envs is None:
+        kwargs = {k: v[0] for k, v in kwargs.items()}
+    return kwargs
 
 
 def random_data(model, rng):

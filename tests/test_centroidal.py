@@ -27,7 +27,6 @@ amplified by the composed transforms and by inertias about frames metres from th
 from __future__ import annotations
 
 import functools
-import zlib
 
 import mujoco
 import numpy as np
@@ -38,7 +37,7 @@ from scipy.spatial.transform import Rotation
 
 import robots
 import warpdyn as wd
-from robots import motion_transform, rotation_wxyz, skew
+from robots import motion_transform, rng_for, rotation_wxyz, skew, uniform_state_kwargs
 from warpdyn import model as cm
 
 REPRS = (wd.VelRepr.Body, wd.VelRepr.Mixed, wd.VelRepr.Inertial)
@@ -50,34 +49,12 @@ CASES = MUJOCO_CASES + ["randomfixed-100"]
 # ------------------------------------------------------------------------------------ robots
 
 
-@pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
-def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn.arrays): the device's default (env-major
-    on the CPU) and env-fastest (the GPU's), so that a CPU run covers both."""
-    monkeypatch.setattr(wd.config, "env_fastest", request.param)
-    return request.param
-
-
-def _full_joint_names(text: str) -> list[str]:
-    return [j.name for j in wd.description.load(text).joints if j.type != "fixed"]
-
-
 @functools.cache
 def source(case: str):
     kind, _, arg = case.partition("-")
-    if kind == "random":
-        return robots.random_tree_urdf(int(arg)), None
-    if kind == "randomfixed":
-        return robots.random_tree_urdf(int(arg), fixed_base=True), None
     if kind == "small":
         return robots.random_tree_urdf(int(arg), num_links=7), None
-    if kind == "icublegs":
-        text = robots.icub_urdf()
-        return text, tuple(robots.icub_leg_joints(_full_joint_names(text)))
-    if kind == "ergocub":
-        text = robots.ergocub_urdf()
-        return text, tuple(robots.seed_joints(_full_joint_names(text)))
-    raise KeyError(case)
+    return robots.case_source(case)
 
 
 @functools.cache
@@ -95,31 +72,9 @@ def build_mujoco(case: str):
     return mj
 
 
-def rng_for(*key) -> np.random.Generator:
-    return np.random.default_rng(zlib.crc32(repr(key).encode()))
-
-
-def draw(model, rng, num_envs=None) -> dict:
-    """Random state arguments of Data.build (per environment when num_envs is given)."""
-    N = 1 if num_envs is None else num_envs
-    n = model.dofs()
-    kwargs = dict(joint_positions=rng.uniform(-2.0, 2.0, (N, n)), joint_velocities=rng.uniform(-1.0, 1.0, (N, n)))
-    if model.floating_base():
-        q = rng.normal(size=(N, 4))
-        kwargs.update(
-            base_position=rng.uniform(-1.0, 1.0, (N, 3)) + [0.0, 0.0, 0.5],
-            base_quaternion=q / np.linalg.norm(q, axis=1, keepdims=True),
-            base_linear_velocity=rng.uniform(-1.0, 1.0, (N, 3)),
-            base_angular_velocity=rng.uniform(-1.0, 1.0, (N, 3)),
-        )
-    if num_envs is None:
-        kwargs = {k: v[0] for k, v in kwargs.items()}
-    return kwargs
-
-
 def make_data(case, dtype, test, repr=wd.VelRepr.Mixed, num_envs=None, requires_grad=False):
     model = build_model(case, dtype)
-    kwargs = draw(model, rng_for(case, test, np.dtype(dtype).name, int(repr)), num_envs)
+    kwargs = uniform_state_kwargs(model, rng_for(case, test, np.dtype(dtype).name, int(repr)), num_envs)
     data = wd.data.Data.build(
         model, **kwargs, velocity_representation=repr, num_envs=num_envs, requires_grad=requires_grad
     )
@@ -515,7 +470,7 @@ def test_com_bias_acceleration(case, X):
     Reference: central finite differences, step 1e-4 s (truncation ~1e-8 times the third derivative,
     rounding ~1e-12): tolerance 1e-6 relative. float32 vs the float64 result: 1e-4 (module docstring)."""
     model = build_model(case, np.float64)
-    kwargs = draw(model, rng_for(case, "bias", int(X)))
+    kwargs = uniform_state_kwargs(model, rng_for(case, "bias", int(X)))
     data = wd.data.Data.build(model, **kwargs, velocity_representation=X)
     a = host(wd.com.bias_acceleration(model, data))
 
@@ -593,7 +548,7 @@ def test_tape_gradients(name, X, layout):
     case = "small-5"
     model = build_model(case, np.float64)
     rng = rng_for(name, int(X))
-    kwargs = draw(model, rng, num_envs=2)
+    kwargs = uniform_state_kwargs(model, rng, num_envs=2)
     data = wd.data.Data.build(model, **kwargs, velocity_representation=X, num_envs=2, requires_grad=True)
     weights = rng.normal(size=host(f(model, data)).shape)
     grads = tape_gradient(f, model, data, weights)
@@ -620,7 +575,7 @@ def test_kinetic_energy_gradient_per_joint():
     Reference: central differences, step 1e-6 (error ~1e-10): tolerance 1e-6 relative (at least 1)."""
     case = "random-4"
     model = build_model(case, np.float64)
-    kwargs = draw(model, rng_for(case, "ke gradient"), num_envs=1)
+    kwargs = uniform_state_kwargs(model, rng_for(case, "ke gradient"), num_envs=1)
     data = wd.data.Data.build(model, **kwargs, velocity_representation=wd.VelRepr.Mixed, num_envs=1, requires_grad=True)
     grads = tape_gradient(cm.kinetic_energy, model, data, np.ones(1))
     states = [host(a) for a in _state_arrays(data)]

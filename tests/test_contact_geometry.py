@@ -70,25 +70,10 @@ def _shapes_urdf(seed: int, fixed_base: bool = False) -> str:
 def _mujoco_keep_primitives(urdf_text: str, considered, floating: bool):
     """MuJoCo's model of a URDF with every link a body: visuals and mesh collisions removed, primitive
     collisions kept as geoms, joints not considered made fixed."""
-    root = ET.fromstring(urdf_text)
-    for link in root.findall("link"):
-        for visual in link.findall("visual"):
-            link.remove(visual)
-        for collision in link.findall("collision"):
-            if collision.find("geometry/mesh") is not None:
-                link.remove(collision)
-    if considered is not None:
-        keep = set(considered)
-        for joint in root.findall("joint"):
-            if joint.get("type") not in ("fixed", "floating") and joint.get("name") not in keep:
-                joint.set("type", "fixed")
-    for element in root.findall("gazebo") + root.findall("transmission"):
-        root.remove(element)
-    spec = mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"))
-    spec.compiler.fusestatic = False
-    if floating:
-        spec.worldbody.first_body().add_freejoint()
-    return spec.compile()
+    return robots.mujoco_model(
+        urdf_text, considered, floating=floating, fuse_static=False,
+        keep_collision=lambda collision: collision.find("geometry/mesh") is None,
+    )
 
 
 def _mujoco_at(mj, model, state):

@@ -40,18 +40,6 @@ TOL = {np.dtype(np.float64): 1e-10, np.dtype(np.float32): 5e-5}
 FD_TOL = 1e-8
 
 
-def _icub_legs():
-    text = robots.icub_urdf()
-    names = [j.name for j in wd.description.load(text).joints if j.type != "fixed"]
-    return text, robots.icub_leg_joints(names)
-
-
-def _ergocub_seed():
-    text = robots.ergocub_urdf()
-    names = [j.name for j in wd.description.load(text).joints if j.type != "fixed"]
-    return text, robots.seed_joints(names)
-
-
 CASES = {
     **{f"random_{s}": (lambda s=s: (robots.random_tree_urdf(s), None)) for s in range(4)},
     "random_fixed_101": lambda: (robots.random_tree_urdf(101, fixed_base=True), None),
@@ -59,8 +47,8 @@ CASES = {
     "random_deep_chain": lambda: (robots.random_tree_urdf(102, num_links=31, max_depth=30), None),
     "single_link": lambda: (robots.random_tree_urdf(5, num_links=1), None),
     "pendulum_chain": lambda: (robots.pendulum_chain_urdf(6), None),
-    "icub_legs": _icub_legs,
-    "ergocub_seed": _ergocub_seed,
+    "icub_legs": robots.icub_legs_source,
+    "ergocub_seed": robots.ergocub_seed_source,
 }
 IDENTITY_CASES = list(CASES)
 SHORT_CASES = ["random_1", "random_fixed_101", "icub_legs", "ergocub_seed"]
@@ -83,14 +71,6 @@ def _seed(*parts) -> int:
 
 def _scale(*arrays) -> float:
     return max(1.0, *(float(np.abs(a).max()) for a in arrays if a.size))
-
-
-@pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
-def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn.arrays): env-major (the CPU's) and
-    env-fastest (the GPU's), so that a CPU run covers both."""
-    monkeypatch.setattr(wd.config, "env_fastest", request.param)
-    return request.param
 
 
 # ------------------------------------------------------------------------------------ C nu = h - g

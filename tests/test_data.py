@@ -25,12 +25,6 @@ from warpdyn import VelRepr
 REPRS = (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)
 
 
-@pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
-def layout(request, monkeypatch):
-    monkeypatch.setattr(wd.config, "env_fastest", request.param)
-    return request.param
-
-
 @functools.cache
 def _model(name: str, dtype=np.float64) -> wd.model.Model:
     if name == "tree":  # floating base; revolute, prismatic and continuous (unlimited) joints

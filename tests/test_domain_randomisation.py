@@ -14,7 +14,8 @@ import warp as wp
 
 import robots
 import warpdyn as wd
-from test_parameter_gradients import BOX_URDF, _assert_gradients, _contact_rollout_gradients, _finite_differences, _weighted_sum
+from gradcheck import weighted_sum
+from test_parameter_gradients import BOX_URDF, _assert_gradients, _contact_rollout_gradients, _finite_differences
 
 N = 3
 
@@ -134,7 +135,7 @@ def test_per_environment_gradients_through_a_rollout(env_fastest, monkeypatch):
         data = wd.data.Data.build(model, joint_positions=s0, joint_velocities=v0, num_envs=envs)
         final, _ = wd.simulation.rollout(model, data, steps=T, joint_force_references=tau, record=())
         out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-        _weighted_sum([final.joint_positions_state, final.joint_velocities_state], [w, w], out)
+        weighted_sum([final.joint_positions_state, final.joint_velocities_state], [w, w], out=out)
         return out
 
     tape = wp.Tape()
@@ -279,7 +280,7 @@ def test_a_diverging_environment_leaves_the_others_gradients_intact():
         with tape:
             final, rec = wd.simulation.rollout(model, data, steps=T, record=("valid",))
             out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-            _weighted_sum([final.joint_positions_state], [wp.array(w, dtype=wp.float64)], out)
+            weighted_sum([final.joint_positions_state], [wp.array(w, dtype=wp.float64)], out=out)
         tape.backward(out)
         return rec["valid"].numpy(), data.joint_velocities_state.grad.numpy(), params["link_mass"].grad.numpy()
 
@@ -323,7 +324,7 @@ def test_functions_that_do_not_read_the_parameters_take_any_batch_size():
     with tape:
         p = wd.link.com_position(model, data, link_index=4, in_link_frame=False)
         out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-        _weighted_sum([p], [wp.array(np.ones((3, 3)), dtype=wp.float64)], out)
+        weighted_sum([p], [wp.array(np.ones((3, 3)), dtype=wp.float64)], out=out)
     tape.backward(out)
     R = wd.link.transform(model, data, link_index=4).numpy()[:, :3, :3]
     grad = params["link_com"].grad.numpy()

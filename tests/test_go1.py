@@ -151,7 +151,7 @@ def mujoco_errors(dtype, seed: int) -> dict:
     mj = robots.mujoco_model(text, None, floating=True)
     off = mujoco.mjtDisableBit
     mj.opt.disableflags |= off.mjDSBL_CONSTRAINT | off.mjDSBL_DAMPER | off.mjDSBL_SPRING
-    mj_unfused = _mujoco_unfused(text)
+    mj_unfused = robots.mujoco_model(text, None, floating=True, fuse_static=False)
     data = wd.data.random_model_data(model, key=seed, velocity_representation=VelRepr.Mixed)
     state = [robots.host(a) for a in (data.base_position, data.base_quaternion, data.joint_positions, data.base_velocity, data.joint_velocities)]
     st = robots.MujocoState(mj, model.joint_names(), True)
@@ -198,13 +198,6 @@ def mujoco_errors(dtype, seed: int) -> dict:
     feet = [wd.frame.transform(model, data, frame_index=wd.frame.name_to_idx(model, frame_name=f)).numpy() for f in assets.GO1_FOOT_FRAMES]
     record("foot frames", feet, [robots.H_of(*su.body_pose(f)[::-1]) for f in assets.GO1_FOOT_FRAMES])
     return out
-
-
-def _mujoco_unfused(text):
-    spec = mujoco.MjSpec.from_string(robots._strip_geometry(text, None))
-    spec.compiler.fusestatic = False
-    spec.worldbody.first_body().add_freejoint()
-    return spec.compile()
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 import warp as wp
 
+import gradcheck
 import robots
 import warpdyn as wd
 from warpdyn import VelRepr
@@ -29,48 +30,10 @@ RTOL = 1e-6
 FIELDS = ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities")
 
 
-@pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
-def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn.arrays): the device's default (env-major
-    on the CPU) and env-fastest (the GPU's), so that a CPU run covers both."""
-    monkeypatch.setattr(wd.config, "env_fastest", request.param)
-    return request.param
-
-
-@wp.kernel
-def _weighted_sum_1d(x: wp.array(dtype=wp.float64), w: wp.array(dtype=wp.float64), loss: wp.array(dtype=wp.float64)):
-    i = wp.tid()
-    wp.atomic_add(loss, 0, x[i] * w[i])
-
-
-@wp.kernel
-def _weighted_sum_2d(x: wp.array2d(dtype=wp.float64), w: wp.array2d(dtype=wp.float64), loss: wp.array(dtype=wp.float64)):
-    i, j = wp.tid()
-    wp.atomic_add(loss, 0, x[i, j] * w[i, j])
-
-
-@wp.kernel
-def _weighted_sum_3d(x: wp.array3d(dtype=wp.float64), w: wp.array3d(dtype=wp.float64), loss: wp.array(dtype=wp.float64)):
-    i, j, k = wp.tid()
-    wp.atomic_add(loss, 0, x[i, j, k] * w[i, j, k])
-
-
-@wp.kernel
-def _weighted_sum_4d(x: wp.array4d(dtype=wp.float64), w: wp.array4d(dtype=wp.float64), loss: wp.array(dtype=wp.float64)):
-    i, j, k, m = wp.tid()
-    wp.atomic_add(loss, 0, x[i, j, k, m] * w[i, j, k, m])
-
-
-_SUMS = {1: _weighted_sum_1d, 2: _weighted_sum_2d, 3: _weighted_sum_3d, 4: _weighted_sum_4d}
-
-
 def _weighted_sum(x: wp.array, weights: np.ndarray) -> wp.array:
     """loss (1,) = sum(x * weights), launched (so recorded by an active tape)."""
     assert tuple(x.shape) == weights.shape, (x.shape, weights.shape)
-    loss = wp.zeros(1, dtype=wp.float64, device=x.device, requires_grad=True)
-    w = wp.array(weights, dtype=wp.float64, device=x.device)
-    wp.launch(_SUMS[x.ndim], dim=x.shape, inputs=[x, w], outputs=[loss], device=x.device)
-    return loss
+    return gradcheck.weighted_sum([x], [wp.array(weights, dtype=wp.float64, device=x.device)])
 
 
 @functools.cache

@@ -27,14 +27,6 @@ REPRS = (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)
 MODELS = ("tree0", "tree3", "tree7", "fixed2", "fixed9", "icub_legs", "ergocub_seed")
 
 
-@pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
-def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn.arrays): the device's default (env-major
-    on the CPU) and env-fastest (the GPU's), so that a CPU run covers both."""
-    monkeypatch.setattr(wd.config, "env_fastest", request.param)
-    return request.param
-
-
 @functools.cache
 def _description(name: str) -> tuple[str, list[str] | None]:
     """(URDF text, considered joints) of a test robot."""

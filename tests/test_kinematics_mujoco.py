@@ -29,15 +29,13 @@ from __future__ import annotations
 import dataclasses
 import functools
 import xml.etree.ElementTree as ET
-import zlib
 
-import mujoco
 import numpy as np
 import pytest
 
 import robots
 import warpdyn as wd
-from robots import from_mixed, rotation_wxyz, skew, to_mixed
+from robots import from_mixed, rng_for, rotation_wxyz, skew, to_mixed, uniform_state_kwargs
 
 REPRS = (wd.VelRepr.Body, wd.VelRepr.Mixed, wd.VelRepr.Inertial)
 TOL = {np.dtype(np.float64): 1e-10, np.dtype(np.float32): 1e-4}
@@ -59,35 +57,17 @@ def chain_urdf(seed: int, fixed_base: bool = False) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
-def _full_joint_names(text: str) -> list[str]:
-    return [j.name for j in wd.description.load(text).joints if j.type != "fixed"]
-
-
 @functools.cache
 def source(case: str) -> tuple[str, tuple[str, ...] | None]:
     """(URDF text, considered joints or None) of a case."""
     kind, _, arg = case.partition("-")
-    if kind == "random":
-        return robots.random_tree_urdf(int(arg)), None
-    if kind == "randomfixed":
-        return robots.random_tree_urdf(int(arg), fixed_base=True), None
     if kind == "chain":
         return chain_urdf(int(arg)), None
     if kind == "chainfixed":
         return chain_urdf(int(arg), fixed_base=True), None
     if kind == "rigid":  # every joint locked: one rigid floating body, no joints
         return robots.random_tree_urdf(int(arg)), ()
-    if kind == "pendulum":
-        return robots.pendulum_chain_urdf(int(arg)), None
-    if kind == "icub":
-        return robots.icub_urdf(), None
-    if kind == "icublegs":
-        text = robots.icub_urdf()
-        return text, tuple(robots.icub_leg_joints(_full_joint_names(text)))
-    if kind == "ergocub":
-        text = robots.ergocub_urdf()
-        return text, tuple(robots.seed_joints(_full_joint_names(text)))
-    raise KeyError(case)
+    return robots.case_source(case)
 
 
 CASES = (
@@ -96,15 +76,6 @@ CASES = (
     + ["chain-7", "chain-8", "chainfixed-9", "rigid-0", "pendulum-5", "icub", "icublegs", "ergocub"]
 )
 BIG = ("icub", "icublegs", "ergocub")
-
-
-def mujoco_unfused(text: str, considered, floating: bool):
-    """MuJoCo's model of the robot with every URDF link a body (fusestatic off), as robots.mujoco_model."""
-    spec = mujoco.MjSpec.from_string(robots._strip_geometry(text, considered))
-    spec.compiler.fusestatic = False
-    if floating:
-        spec.worldbody.first_body().add_freejoint()
-    return spec.compile()
 
 
 @dataclasses.dataclass
@@ -123,15 +94,11 @@ def build_case(case: str, dtype) -> Case:
     return Case(
         model,
         robots.mujoco_model(text, considered, floating=floating),
-        mujoco_unfused(text, considered, floating),
+        robots.mujoco_model(text, considered, floating=floating, fuse_static=False),
     )
 
 
 # ------------------------------------------------------------------------------------ states and references
-
-
-def rng_for(*key) -> np.random.Generator:
-    return np.random.default_rng(zlib.crc32(repr(key).encode()))
 
 
 @dataclasses.dataclass
@@ -149,24 +116,6 @@ class State:
     @property
     def R(self) -> np.ndarray:
         return rotation_wxyz(self.q)
-
-
-def draw(model, rng, repr, num_envs=None) -> dict:
-    """Random state arguments of Data.build (per environment when num_envs is given)."""
-    N = 1 if num_envs is None else num_envs
-    n = model.dofs()
-    kwargs = dict(joint_positions=rng.uniform(-2.0, 2.0, (N, n)), joint_velocities=rng.uniform(-1.0, 1.0, (N, n)))
-    if model.floating_base():
-        q = rng.normal(size=(N, 4))
-        kwargs.update(
-            base_position=rng.uniform(-1.0, 1.0, (N, 3)) + [0.0, 0.0, 0.5],
-            base_quaternion=q / np.linalg.norm(q, axis=1, keepdims=True),
-            base_linear_velocity=rng.uniform(-1.0, 1.0, (N, 3)),
-            base_angular_velocity=rng.uniform(-1.0, 1.0, (N, 3)),
-        )
-    if num_envs is None:
-        kwargs = {k: v[0] for k, v in kwargs.items()}
-    return kwargs
 
 
 def stored(model, data, kwargs, env=None) -> State:
@@ -252,7 +201,7 @@ def cols(J, floating):
 def setup(case_name, dtype, test, repr=wd.VelRepr.Mixed):
     case = build_case(case_name, dtype)
     model = case.model
-    kwargs = draw(model, rng_for(case_name, test, np.dtype(dtype).name), repr)
+    kwargs = uniform_state_kwargs(model, rng_for(case_name, test, np.dtype(dtype).name))
     data = wd.data.Data.build(model, **kwargs, velocity_representation=repr)
     state = stored(model, data, kwargs)
     return case, model, data, state, Reference(case, state)
@@ -421,7 +370,7 @@ def test_batched_equals_single(case_name, dtype):
     frames = list(range(nL, nL + model.number_of_frames()))
     frames = frames if len(frames) <= 6 else [frames[k] for k in rng.choice(len(frames), 6, replace=False)]
     X = REPRS[int(rng.integers(3))]
-    kwargs = draw(model, rng, X, num_envs=N)
+    kwargs = uniform_state_kwargs(model, rng, num_envs=N)
     batched = wd.data.Data.build(model, **kwargs, velocity_representation=X, num_envs=N)
     singles = [
         wd.data.Data.build(model, **{k: v[e] for k, v in kwargs.items()}, velocity_representation=X) for e in range(N)

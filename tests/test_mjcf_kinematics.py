@@ -168,6 +168,16 @@ def test_ref_moves_the_zero_of_the_joint():
     close(mm.body_poses(m, np.zeros(3))[0][s2], R @ [0.4 - 0.02, 0, 0] + np.array([0, 0, 1]), 1e-12)
 
 
+def _random_xbody_velocity(m, rng):
+    """(q, v, d, vel): a random state of `m`, MuJoCo's data at it and body 1's mj_objectVelocity (mjOBJ_XBODY)."""
+    q, v = mm.random_state(m, rng)
+    d = mm.make_data(m, q, v)
+    mujoco.mj_forward(m, d)
+    vel = np.zeros(6)
+    mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, 1, vel, 0)
+    return q, v, d, vel
+
+
 def test_free_and_ball_velocity_conventions():
     """DRONE's free joint: qvel[0:3] is the world linear velocity of the body origin, qvel[3:6] the
     angular velocity in the body frame (world = xmat @ qvel[3:6]); BALL's qvel[0:3] is the angular
@@ -176,11 +186,7 @@ def test_free_and_ball_velocity_conventions():
     m = mm.load(mm.DRONE)
     rng = np.random.default_rng(17)
     for _ in SEEDS:
-        q, v = mm.random_state(m, rng)
-        d = mm.make_data(m, q, v)
-        mujoco.mj_forward(m, d)
-        vel = np.zeros(6)
-        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, 1, vel, 0)
+        q, v, d, vel = _random_xbody_velocity(m, rng)
         R = d.xmat[1].reshape(3, 3)
         close(vel[:3], R @ v[3:6])
         close(vel[3:], v[:3])
@@ -188,11 +194,7 @@ def test_free_and_ball_velocity_conventions():
         same_rotation(d.xquat[1], q[3:7] / np.linalg.norm(q[3:7]))
     m = mm.load(mm.BALL)
     for _ in SEEDS:
-        q, v = mm.random_state(m, rng)
-        d = mm.make_data(m, q, v)
-        mujoco.mj_forward(m, d)
-        vel = np.zeros(6)
-        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, 1, vel, 0)
+        q, v, d, vel = _random_xbody_velocity(m, rng)
         close(vel[:3], d.xmat[1].reshape(3, 3) @ v[:3])
         # the ball rotates after the body's own quat, about its anchor
         body = quat_to_mat([0.9659258, 0, 0.2588190, 0])

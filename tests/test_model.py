@@ -166,14 +166,6 @@ MODELS = [
 MODEL_IDS = [c if w is None else f"{c}-{w}" for c, w in MODELS]
 
 
-def mujoco_unfused(text: str, considered, floating: bool):
-    spec = mujoco.MjSpec.from_string(robots._strip_geometry(text, considered))
-    spec.compiler.fusestatic = False
-    if floating:
-        spec.worldbody.first_body().add_freejoint()
-    return spec.compile()
-
-
 # ------------------------------------------------------------------------------------ the seed
 
 
@@ -340,7 +332,7 @@ def test_frame_transform_vs_unfused_mujoco(case, which, dtype):
     model = built(case, which, dtype)
     tol = {np.dtype(np.float64): 1e-10, np.dtype(np.float32): 1e-4}[np.dtype(dtype)]
     considered = None if which is None else model.joint_names()
-    mj = mujoco_unfused(text_of(case), considered, model.floating_base())
+    mj = robots.mujoco_model(text_of(case), considered, floating=model.floating_base(), fuse_static=False)
     st = robots.MujocoState(mj, model.joint_names(), model.floating_base())
     data, state = random_data(model, rng_for(case, which, "frames", np.dtype(dtype).name))
     st.set(*state)
@@ -390,7 +382,7 @@ def test_reduce_with_locked_positions_matches_mujoco(case, which, dtype):
     text = text_of(case)
     floating = model.floating_base()
     mj = robots.mujoco_model(text, None, floating=floating)
-    mj_unfused = mujoco_unfused(text, None, floating)
+    mj_unfused = robots.mujoco_model(text, None, floating=floating, fuse_static=False)
     names = list(model.joint_names()) + list(locked)
     data, (p, q, s, v, sd) = random_data(model, rng)
     s_all = np.concatenate([s, list(locked.values())])

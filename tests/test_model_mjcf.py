@@ -23,10 +23,7 @@ Model = wd.model.Model
 
 def mjcf_of(text: str, floating: bool) -> str:
     """The URDF exported to MJCF by MuJoCo (every link a body: fusestatic off; a free joint if floating)."""
-    spec = mujoco.MjSpec.from_string(robots._strip_geometry(text, None))
-    spec.compiler.fusestatic = False
-    if floating:
-        spec.worldbody.first_body().add_freejoint()
+    spec = robots.mujoco_spec(text, None, floating=floating, fuse_static=False)
     spec.compile()
     return spec.to_xml()
 

@@ -21,31 +21,9 @@ import warp as wp
 
 import robots
 import warpdyn as wd
+from gradcheck import weighted_sum
 
 RTOL, ATOL, STEP = 1e-6, 1e-9, 1e-6
-
-
-@functools.cache
-def _loss_kernels():
-    """out += sum w * x over (N, k) and (N, k, l) arrays (any strides)."""
-
-    @wp.kernel
-    def loss2(x: wp.array2d(dtype=wp.float64), w: wp.array2d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
-        i, j = wp.tid()
-        wp.atomic_add(out, 0, w[i, j] * x[i, j])
-
-    @wp.kernel
-    def loss3(x: wp.array3d(dtype=wp.float64), w: wp.array3d(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
-        i, j, k = wp.tid()
-        wp.atomic_add(out, 0, w[i, j, k] * x[i, j, k])
-
-    return loss2, loss3
-
-
-def _weighted_sum(arrays, weights, out) -> None:
-    loss2, loss3 = _loss_kernels()
-    for x, w in zip(arrays, weights):
-        wp.launch(loss2 if x.ndim == 2 else loss3, dim=x.shape, inputs=[x, w], outputs=[out])
 
 
 def _scale(name: str, x: np.ndarray) -> np.ndarray:
@@ -129,7 +107,7 @@ def test_dynamics_gradients_with_respect_to_link_masses_coms_and_inertias():
     tape = wp.Tape()
     with tape:
         loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-        _weighted_sum(_dynamics_outputs(model, data, tau, a), weights, loss)
+        weighted_sum(_dynamics_outputs(model, data, tau, a), weights, out=loss)
     tape.backward(loss)
 
     def f():
@@ -168,7 +146,7 @@ def test_centroidal_energy_and_coriolis_gradients_with_respect_to_mass_parameter
     tape = wp.Tape()
     with tape:
         loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-        _weighted_sum(_centroidal_outputs(model, data), weights, loss)
+        weighted_sum(_centroidal_outputs(model, data), weights, out=loss)
     tape.backward(loss)
 
     def f():
@@ -206,7 +184,7 @@ def test_crb_forward_dynamics_and_mass_matrix_inverse_gradients(fixed):
             data = wd.data.Data.build(model, base_position=state.base_position_state.numpy(), base_quaternion=state.base_quaternion_state.numpy(), joint_positions=s, joint_velocities=v, num_envs=N, requires_grad=True)
             base, joints = solver(model, data, joint_forces=tau)
             loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-            _weighted_sum([base, joints] if not fixed else [joints], w if not fixed else w[1:], loss)
+            weighted_sum([base, joints] if not fixed else [joints], w if not fixed else w[1:], out=loss)
         tape.backward(loss)
         out = {"s": s.grad.numpy().copy(), "v": v.grad.numpy().copy(), "tau": tau.grad.numpy().copy()}
         out.update({k: a.grad.numpy().copy() for k, a in params.items()})
@@ -236,7 +214,7 @@ def test_crb_forward_dynamics_and_mass_matrix_inverse_gradients(fixed):
             )
             f = wd.model.free_floating_mass_matrix_inverse if of_inverse else wd.model.free_floating_mass_matrix
             out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-            _weighted_sum([f(model, data)], [wp.array(weights, dtype=wp.float64)], out)
+            weighted_sum([f(model, data)], [wp.array(weights, dtype=wp.float64)], out=out)
         tape.backward(out)
         grads = {"s": s.grad.numpy().copy(), "link_mass": params["link_mass"].grad.numpy().copy()}
         tape.zero()
@@ -270,7 +248,7 @@ def test_single_environment_data_and_unmarked_parameters():
             M = wd.model.free_floating_mass_matrix(model, d)
             loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
             M1 = M if M.ndim == 3 else wd.arrays.with_env_axis(M)  # (1, k, k): a view, whatever the layout
-            _weighted_sum([M1], [wp.ones((1, *M.shape[-2:]), dtype=wp.float64)], loss)
+            weighted_sum([M1], [wp.ones((1, *M.shape[-2:]), dtype=wp.float64)], out=loss)
         tape.backward(loss)
         grads.append(params["link_mass"].grad.numpy().copy())
         tape.zero()
@@ -375,7 +353,7 @@ def test_reused_rollout_and_step_caches_do_not_bypass_marked_parameters():
             final = wd.model.step(model, final)
             loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
             v = final.joint_velocities_state
-            _weighted_sum([v], [wp.array(np.array([[1.0, -2.0, 0.5]]), dtype=wp.float64)], loss)
+            weighted_sum([v], [wp.array(np.array([[1.0, -2.0, 0.5]]), dtype=wp.float64)], out=loss)
         tape.backward(loss)
         return {k: a.grad.numpy().copy() for k, a in params.items()}
 
@@ -406,7 +384,7 @@ def test_step_gradient_reaches_friction_that_is_zero():
         new = wd.model.step(model, data)
         loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
         v = new.joint_velocities_state
-        _weighted_sum([v], [wp.ones(v.shape, dtype=wp.float64)], loss)
+        weighted_sum([v], [wp.ones(v.shape, dtype=wp.float64)], out=loss)
     tape.backward(loss)
     M = wd.model.free_floating_mass_matrix(model, data).numpy()[6:, 6:]
     expected = -model.time_step * np.linalg.inv(M).sum(axis=0) * v0
@@ -521,7 +499,7 @@ def test_gradient_at_a_contact_onset_is_the_one_sided_derivative_from_outside():
         with tape:
             f = wd.contact.link_contact_forces(model, data)[0]
             out = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-            _weighted_sum([f], [wp.array(np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]), dtype=wp.float64)], out)
+            weighted_sum([f], [wp.array(np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]), dtype=wp.float64)], out=out)
         if grad:
             tape.backward(out)
             return float(out.numpy()[0]), float(data.base_position_state.grad.numpy()[0, 2])

@@ -71,6 +71,21 @@ MASS_PARAMETERS = ("link_mass", "link_com", "link_inertia")
 # ------------------------------------------------------------------------------ a differentiable rollout
 
 
+def _data_of(state: dict, repr_, num_envs, valid) -> wd.data.Data:
+    """Data holding the Warp arrays `state` (by the names of STATE) and the valid flags `valid`."""
+    return wd.data.Data(
+        base_position_state=state["base_position"],
+        base_quaternion_state=state["base_quaternion"],
+        joint_positions_state=state["joint_positions"],
+        base_velocity_state=state["base_velocity"],
+        joint_velocities_state=state["joint_velocities"],
+        velocity_representation=repr_,
+        num_envs=num_envs,
+        tangential_deformation_state=state["tangential_deformation"],
+        valid_state=valid,
+    )
+
+
 class _Problem:
     """A rollout of `steps` steps of `model` from a state given as NumPy arrays (N, ...), the state, the
     controls (tau (T, N, n), forces (T, N, nL, 6); for num_envs=None (T, n), (T, nL, 6)) and the marked
@@ -100,18 +115,7 @@ class _Problem:
         self.weights = weights
 
     def data(self):
-        x = self.state
-        return wd.data.Data(
-            base_position_state=x["base_position"],
-            base_quaternion_state=x["base_quaternion"],
-            joint_positions_state=x["joint_positions"],
-            base_velocity_state=x["base_velocity"],
-            joint_velocities_state=x["joint_velocities"],
-            velocity_representation=self.repr,
-            num_envs=self.num_envs,
-            tangential_deformation_state=x["tangential_deformation"],
-            valid_state=self.valid,
-        )
+        return _data_of(self.state, self.repr, self.num_envs, self.valid)
 
     def records(self, taped: bool) -> dict:
         """Under a tape a fresh rollout (its own buffers, kept for the adjoint); else the reused one."""
@@ -238,6 +242,20 @@ def _numpy_state(data) -> dict:
     }
 
 
+def _limited_joints(model, limits, friction_static, N: int, rng) -> np.ndarray:
+    """Sets the position limits `limits`, random limit springs and dampers, static friction drawn in the range
+    `friction_static` and viscous friction; returns random signs (N, n) for the initial joint state."""
+    n = model.dofs()
+    model.set_joint_parameters(
+        position_limits=limits,
+        limit_spring=rng.uniform(5.0, 15.0, n),
+        limit_damper=rng.uniform(0.05, 0.2, n),
+        friction_static=rng.uniform(*friction_static, n),
+        friction_viscous=rng.uniform(0.1, 0.5, n),
+    )
+    return rng.choice([-1.0, 1.0], size=(N, n))
+
+
 # ------------------------------------------------------------------------------ (a) pendulum chain
 
 
@@ -254,14 +272,7 @@ def test_pendulum_chain_gradients_for_every_input():
     model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(n), dtype=np.float64)
     rng = np.random.default_rng(5)
     limits = np.tile([-0.2, 0.2], (n, 1))
-    model.set_joint_parameters(
-        position_limits=limits,
-        limit_spring=rng.uniform(5.0, 15.0, n),
-        limit_damper=rng.uniform(0.05, 0.2, n),
-        friction_static=rng.uniform(0.1, 0.5, n),
-        friction_viscous=rng.uniform(0.1, 0.5, n),
-    )
-    sign = rng.choice([-1.0, 1.0], size=(N, n))
+    sign = _limited_joints(model, limits, (0.1, 0.5), N, rng)
     state = _numpy_state(wd.data.Data.build(model, num_envs=N))
     state["joint_positions"] = sign * rng.uniform(0.5, 0.8, (N, n))
     state["joint_velocities"] = sign * rng.uniform(3.0, 5.0, (N, n))
@@ -294,14 +305,7 @@ def _icub_in_the_air(integrator, dtype=np.float64) -> tuple:
     rng = np.random.default_rng(7)
     beyond = np.arange(n) % 2 == 0
     limits = np.where(beyond[:, None], [-0.3, 0.3], [-3.0, 3.0])
-    model.set_joint_parameters(
-        position_limits=limits,
-        limit_spring=rng.uniform(5.0, 15.0, n),
-        limit_damper=rng.uniform(0.05, 0.2, n),
-        friction_static=rng.uniform(0.05, 0.2, n),
-        friction_viscous=rng.uniform(0.1, 0.5, n),
-    )
-    sign = rng.choice([-1.0, 1.0], size=(N, n))
+    sign = _limited_joints(model, limits, (0.05, 0.2), N, rng)
     q = rng.normal(size=(N, 4))
     state = {
         "base_position": rng.normal(size=(N, 3)) + [0.0, 0.0, 1.0],
@@ -402,16 +406,8 @@ def _data_at(problem: _Problem, t: int):
     """Data (Mixed) of the reference trajectory's state t, for the contact API."""
     assert problem.repr == VelRepr.Mixed
     arrays = {k: wp.array(problem.reference[k][t], dtype=problem.model.scalar) for k in STATE}
-    return wd.data.Data(
-        base_position_state=arrays["base_position"],
-        base_quaternion_state=arrays["base_quaternion"],
-        joint_positions_state=arrays["joint_positions"],
-        base_velocity_state=arrays["base_velocity"],
-        joint_velocities_state=arrays["joint_velocities"],
-        num_envs=problem.reference["joint_positions"].shape[1],
-        tangential_deformation_state=arrays["tangential_deformation"],
-        valid_state=wp.ones(problem.reference["joint_positions"].shape[1], dtype=wp.int32),
-    )
+    N = problem.reference["joint_positions"].shape[1]
+    return _data_of(arrays, problem.repr, N, wp.ones(N, dtype=wp.int32))
 
 
 def _contact_regime(problem: _Problem, K, D, mu) -> dict:

@@ -31,31 +31,8 @@ import robots
 import warpdyn as wd
 from robots import (
     BODY_INERTIA, BODY_URDF, BOX_HALF, BOX_MASS, BOX_URDF, G, RK4, SIE, build, contact_free, host,
-    jaxsim_resultant_torques, mujoco_rk4, mujoco_state, quat_distance, rollout, wheels_urdf,
+    jaxsim_resultant_torques, mujoco_rk4, mujoco_state, quat_distance, rod_chain_urdf, rollout, wheels_urdf,
 )  # fmt: skip
-
-
-def chain_urdf(masses, length=0.5, offsets=None) -> str:
-    """A chain of rods hanging from a world-fixed base, hinges about y; rod i has mass masses[i] (CoM at
-    mid-length, rod inertia about x and y, 1e-4 m^2 times its mass about z); joint i sits at
-    offsets[i] along z of its parent (default 0 for the first, -length for the others)."""
-    parts = ['<robot name="chain">', '<link name="world"/>', '<link name="base"/>',
-             '<joint name="world_to_base" type="fixed"><parent link="world"/><child link="base"/></joint>']
-    parent = "base"
-    for i, mass in enumerate(masses):
-        I = mass * length**2 / 12.0
-        z = (0.0 if i == 0 else -length) if offsets is None else offsets[i]
-        parts.append(
-            f'<link name="rod{i}"><inertial><origin xyz="0 0 {-length / 2}"/><mass value="{mass:.17g}"/>'
-            f'<inertia ixx="{I:.17g}" iyy="{I:.17g}" izz="{mass * 1e-4:.17g}" ixy="0" ixz="0" iyz="0"/></inertial></link>'
-        )
-        parts.append(
-            f'<joint name="hinge{i}" type="continuous"><parent link="{parent}"/><child link="rod{i}"/>'
-            f'<origin xyz="0 0 {z}"/><axis xyz="0 1 0"/></joint>'
-        )
-        parent = f"rod{i}"
-    parts.append("</robot>")
-    return "\n".join(parts)
 
 
 def chain_vs_mujoco(text, dtype, s0, sdot0, T, dt=1e-3, integrator=RK4):
@@ -244,7 +221,7 @@ def test_joint_speeds_up_to_100_rad_s():
         assert track[:, 1].max() <= 100.0 and track[-1, 1] > 99.9
 
     s0, sdot0 = np.array([1.0, -0.5, 0.3]), np.array([100.0, -100.0, 100.0])
-    _, _, s_err, sdot_err, drift = chain_vs_mujoco(chain_urdf([1.0, 1.0, 1.0]), np.float64, s0, sdot0, 0.1, dt=1e-4)
+    _, _, s_err, sdot_err, drift = chain_vs_mujoco(rod_chain_urdf([1.0, 1.0, 1.0]), np.float64, s0, sdot0, 0.1, dt=1e-4)
     assert s_err < 1e-10 and sdot_err < 1e-9 and drift < 5e-5
 
 
@@ -264,7 +241,7 @@ def test_link_mass_extremes(dtype):
     f64 = dtype == np.float64
 
     def run(masses):
-        model = contact_free(build(chain_urdf(masses), dtype, integrator=RK4))
+        model = contact_free(build(rod_chain_urdf(masses), dtype, integrator=RK4))
         data, _ = rollout(model, wd.data.Data.build(model, joint_positions=s0), 300)
         assert host(data.healthy)[0] == 1
         return np.r_[host(data.joint_positions), host(data.joint_velocities)]
@@ -273,10 +250,10 @@ def test_link_mass_extremes(dtype):
     for scale in (1e-6, 1e3):
         np.testing.assert_allclose(run([scale] * 3), unit, rtol=0, atol=1e-12 if f64 else 5e-5)
     for masses in ([1e3, 1e-3, 1e-3], [1e-3, 1e3, 1e-3]):
-        data, _, s_err, sdot_err, _ = chain_vs_mujoco(chain_urdf(masses), dtype, s0, np.zeros(3), 0.3)
+        data, _, s_err, sdot_err, _ = chain_vs_mujoco(rod_chain_urdf(masses), dtype, s0, np.zeros(3), 0.3)
         assert host(data.healthy)[0] == 1
         assert max(s_err, sdot_err) < (1e-11 if f64 else 5e-5)
-    model = contact_free(build(chain_urdf([1e-3, 1e-3, 1e3]), dtype, integrator=RK4))
+    model = contact_free(build(rod_chain_urdf([1e-3, 1e-3, 1e3]), dtype, integrator=RK4))
     data, _ = rollout(model, wd.data.Data.build(model, joint_positions=s0), 300)
     assert host(data.healthy)[0] == 0
     assert np.all(np.isfinite(host(data.joint_positions))) and np.all(np.isfinite(host(data.joint_velocities)))
@@ -303,7 +280,7 @@ def test_near_singular_coaxial_joints(dtype):
     0.3 s against MuJoCo's RK4: float64 measured 3.2e-10, bound 1e-8; float32 measured 3.1e-3 (eps 6e-8
     times the condition number), bound 2e-2; both stay valid, energy drift below 1e-10 J (float64,
     measured 1e-11) and 2e-5 J (float32, measured 4.8e-6)."""
-    text = chain_urdf([1e-6, 1.0, 1.0], offsets=[0.0, 0.0, -0.5])
+    text = rod_chain_urdf([1e-6, 1.0, 1.0], offsets=[0.0, 0.0, -0.5])
     data, _, s_err, sdot_err, drift = chain_vs_mujoco(text, dtype, np.array([0.3, 0.4, -0.2]), np.array([0.0, 1.0, 0.0]), 0.3)
     assert host(data.healthy)[0] == 1
     f64 = dtype == np.float64
@@ -375,14 +352,6 @@ def test_invalid_simulation_parameters_raise_at_build_time():
 
 # ------------------------------------------------------------------------------------------------
 # Health of a batch
-
-
-@pytest.fixture(params=[None, True], ids=["device_layout", "env_fastest_layout"])
-def layout(request, monkeypatch):
-    """Both physical layouts of per-environment arrays (warpdyn.arrays): the CPU's env-major one and the
-    GPU's env-fastest one, so that a CPU run covers the batched indexing of both."""
-    monkeypatch.setattr(wd.config, "env_fastest", request.param)
-    return request.param
 
 
 def test_a_diverging_environment_is_flagged_frozen_and_reset(dtype, layout):
