@@ -22,7 +22,7 @@ import warp as wp
 import mjcf_fixtures as mf
 import robots
 import warpdyn as wd
-from warpdyn.engine import rollout_memory
+from warpdyn.engine import launch, rollout_memory
 
 ALL_RECORDS = (*wd.simulation.STATE_RECORDS, *wd.simulation.STEP_RECORDS)
 
@@ -93,6 +93,29 @@ def test_graphs_hold_a_bounded_number_of_steps(small_chunks):
         estimates.append(estimate["graph"])
     per_step = rollout_memory.launches_per_step(wd.engine.step.plan(model), int(wd.VelRepr.Mixed), ("joint_positions", "valid"), False, False)
     assert estimates == [steps * per_step * rollout_memory.GRAPH_BYTES_PER_LAUNCH for steps in (6, 5, 4)]
+
+
+def test_a_graph_that_cannot_be_allocated_is_a_memory_error_and_is_captured_again_next_run(monkeypatch):
+    """A capture whose allocation fails (Warp's "Failed to allocate") is a MemoryError naming the launches and
+    their estimated bytes; the rollout keeps no half-made graph, and a later run captures it and equals an
+    eager run."""
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(2), dtype=np.float64)
+    data = wd.data.Data.build(model, num_envs=2, joint_positions=[[0.3, -0.2]] * 2)
+    roll = wd.simulation.Rollout(model, steps=5, record=("joint_positions",), use_graph=True)
+    capture_graph = launch.capture_graph
+
+    def failing(launches, device):
+        raise RuntimeError("Failed to allocate 1048576 bytes on device 'cpu'")
+
+    monkeypatch.setattr(launch, "capture_graph", failing)
+    with pytest.raises(MemoryError, match=r"capturing a graph of \d+ launches needs about .* Failed to allocate"):
+        roll.run(data)
+    assert not roll._config.graphs
+    monkeypatch.setattr(launch, "capture_graph", capture_graph)
+    _, records = roll.run(data)
+    assert roll._config.graphs and all(p.graph is not None for p in roll._config.graphs.values())
+    _, eager = wd.simulation.Rollout(model, steps=5, record=("joint_positions",), use_graph=False).run(data)
+    np.testing.assert_array_equal(records["joint_positions"].numpy(), eager["joint_positions"].numpy())
 
 
 def test_memory_bytes_counts_the_graph_of_unchunked_storages():

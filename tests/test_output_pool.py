@@ -213,7 +213,7 @@ def test_representations_batch_sizes_and_non_finite_states_through_the_pool():
                 expected[r] = fresh.step(model, expected[r])
                 _assert_same(datas[r], expected[r], f"N = {N}, {r.name}, step {t}")
                 assert datas[r].velocity_representation == r
-        assert {key[2] for key in fast_step.steps_of(model, N).launches} == {int(r) for r in datas}
+        assert {key[2] for key in fast_step.steps_of(model, N).programs} == {int(r) for r in datas}
     data = expected = _standing(model, 2)
     tau = np.zeros((2, model.dofs()))
     tau[1, 0] = np.nan  # in a Warp array, a non-finite control flags its environment (NumPy's is refused)

@@ -11,11 +11,11 @@ that a user built, or another pool's) is treated the same way while it is the la
 arrays are kept alive while graphs read them), so stepping one state again and again with new controls is as
 fast. The controls reach those graphs through the pool's fixed input buffers, into which each call copies the
 user's values, checked as before (on the CPU through NumPy; on a GPU on the device, ordered on the stream
-before the replay). A launch list is replayed through `Recorded` for its first CAPTURE_AFTER calls, then
-captured, only while no other thread works on that kind of device (warpdyn.engine.launch.graphs_allowed, as
-for Rollout and Stepper: on a GPU other threads' launches would join the capture and their `array.numpy()`
-copies fail during it, CUDA error 906 on an H100; Warp's CPU capture is process-wide); otherwise it stays a
-recorded replay (benchmarks/latency.py measures both). The
+before the replay). A launch list is a `Program` (warpdyn.engine.launch): replayed from its recording for its
+first CAPTURE_AFTER calls, then captured, only while no other thread works on that kind of device
+(warpdyn.engine.launch.graphs_allowed, as for Rollout and Stepper: on a GPU other threads' launches would join
+the capture and their `array.numpy()` copies fail during it, CUDA error 906 on an H100; Warp's CPU capture is
+process-wide); otherwise it stays a recorded replay (benchmarks/latency.py measures both). The
 result is that of warpdyn.engine.step.step bit for bit: the same kernels on the same numbers.
 
 Fresh arrays, as in warpdyn.engine.step.step, under a wp.Tape or a graph capture, when gradients are needed
@@ -37,7 +37,7 @@ from .. import arrays
 from . import pool, tape
 from .bundles import state_bundle
 from .kinematics import state_arrays
-from .launch import Recorded, capture_graph, graphs_allowed, per_thread, run
+from .launch import Program, per_thread, run
 from .rollout import copy_launch
 from .step import Plan, Workspace, advance, prepare, state_buffers, step_inputs, step_launches, with_state
 from .step import plan as step_plan
@@ -79,14 +79,14 @@ def _shadow(scalar):
 
 CAPTURE_AFTER = 2
 """Calls of one launch list (input state, output set, representation, which controls are given) replayed
-through `Recorded` before it is captured as a graph: a capture costs far more than a replay, so launches that
+from its recording before it is captured as a graph: a capture costs far more than a replay, so launches that
 run once or twice (a few steps of a new model) are not captured."""
 
 
 class _Steps:
     """A thread's pooled steps of a model for N environments: the output pool, the input buffers, the
-    workspaces, the last input state that is not one of the pool's sets (`foreign`), and the graphs or
-    recorded launches from an input state to an output set."""
+    workspaces, the last input state that is not one of the pool's sets (`foreign`), and the programs
+    (warpdyn.engine.launch.Program) from an input state to an output set."""
 
     def __init__(self, plan: Plan, N: int):
         self.N = N
@@ -95,9 +95,7 @@ class _Steps:
         self.plan = plan
         self.workspaces: dict = {}  # link forces given -> Workspace
         # keyed by (input: a set's index or "foreign", output set, representation, which controls are given):
-        self.launches: dict = {}  # -> [the launch list, calls replayed through Recorded]
-        self.recorded: dict = {}  # -> Recorded
-        self.graphs: dict = {}  # -> captured graph
+        self.programs: dict = {}  # -> Program
         self.foreign = None  # (state arrays, (the same as a list, their State bundle))
 
     def step(self, model, data, values: tuple):
@@ -111,30 +109,25 @@ class _Steps:
         y = self.pool.hand_out(out)  # held from here: a step inside this one (a finalizer) cannot take the set
         name, shadow = (source.index, source.shadow) if source is not None else ("foreign", self._foreign(x))
         key = (name, out.index, int(data.velocity_representation), tau is not None, f is not None, u is not None)
-        graph = self.graphs.get(key)
-        if graph is None:
-            entry = self.launches.get(key)
-            if entry is None:
-                entry = self.launches[key] = [self._launches(*shadow, out, tau, f, u, key[2]), 0]
-            if entry[1] < CAPTURE_AFTER or not graphs_allowed(plan.device, "auto", "wd.model.step"):
-                entry[1] += 1
-                recorded = self.recorded.get(key)
-                if recorded is None:
-                    recorded = self.recorded[key] = Recorded()
-                recorded.run(entry[0], plan.device)
-                return with_state(data, y)
-            graph = self.graphs[key] = capture_graph(entry[0], plan.device)
-        wp.capture_launch(graph)
+        program = self.programs.get(key)
+        if program is None:
+            launches = self._launches(*shadow, out, tau, f, u, key[2])
+            program = self.programs[key] = Program(launches, plan.device, "auto", "wd.model.step", CAPTURE_AFTER)
+        program.run()
         return with_state(data, y)
+
+    @property
+    def graphs(self) -> dict:
+        """{key: graph} of the programs that run from a captured graph."""
+        return {key: p.graph for key, p in self.programs.items() if p.graph is not None}
 
     def _foreign(self, x: list) -> tuple:
         """(x, its State bundle) for an input state that is not the pool's: kept (alive, while graphs read its
-        memory) until another such state comes, which drops its launch lists, recorded launches and graphs."""
+        memory) until another such state comes, which drops its programs."""
         held = self.foreign
         if held is None or not all(map(operator.is_, held[0], x)):
-            for table in (self.graphs, self.launches, self.recorded):
-                for key in [k for k in table if k[0] == "foreign"]:
-                    del table[key]
+            for key in [k for k in self.programs if k[0] == "foreign"]:
+                del self.programs[key]
             held = self.foreign = (tuple(x), (x, state_bundle(self.plan.scalar, x)))
         return held[1]
 

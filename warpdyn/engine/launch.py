@@ -1,6 +1,8 @@
 """Kernel launches: every warpdyn launch goes through `launch` (a recorded launch is made by it), singly, as
 a list of `Launch`es (`run`), or replayed from a recording (`Recorded`); graphs are captured by `capture`,
 when `graphs_allowed` (not while another thread works on that kind of device: a capture would take its work).
+A list run again and again is a `Program`, the one mechanism that replays work (`wd.model.step`'s pooled steps,
+a Stepper's substeps, a Rollout's chunks): recorded launches first, then a captured graph.
 
 A kernel's module is loaded first (warpdyn.engine.loading). Under a recording tape, parameters marked
 for deterministic gradients are handed to the launch as one row per environment (warpdyn.engine.determinism).
@@ -158,6 +160,33 @@ def capture_graph(launches, device):
     with capture(device) as captured:
         run(launches, device)
     return captured.graph
+
+
+class Program:
+    """A list of launches (`Launch`es on fixed arrays) run again and again: its first `capture_after` runs, and
+    every run while a capture is not allowed (`graphs_allowed(device, use_graph, what)`), replay the commands
+    recorded at the first (`Recorded`); the next captures it as a graph (Warp's CPU graph on the CPU, a CUDA
+    graph on a GPU: `capture_graph`), which that run and the later ones launch. `graph`: the captured graph, or
+    None. Not thread-safe: one per thread (see `per_thread`)."""
+
+    def __init__(self, launches: list, device, use_graph="auto", what: str = "a replay", capture_after: int = 0):
+        self.launches = launches
+        self.device = wp.get_device(device)
+        self.use_graph, self.what, self.capture_after = use_graph, what, capture_after
+        self.replays = 0  # runs through the recording
+        self.graph = None
+        self._recorded = None
+
+    def run(self) -> None:
+        if self.graph is None and self.replays >= self.capture_after and graphs_allowed(self.device, self.use_graph, self.what):
+            self.graph = capture_graph(self.launches, self.device)
+        if self.graph is not None:
+            wp.capture_launch(self.graph)
+            return
+        self.replays += 1
+        if self._recorded is None:
+            self._recorded = Recorded()
+        self._recorded.run(self.launches, self.device)
 
 
 def per_thread(model, key, build):

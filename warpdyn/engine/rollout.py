@@ -19,7 +19,7 @@ from ..types.enums import VelRepr
 from .tape import suspended
 from .tape import taping as tape_records
 from .kinematics import state_arrays
-from .launch import Launch, capture, graphs_allowed, launch, preload
+from .launch import Launch, Program, graphs_allowed, launch
 from .launch import run as run_launches
 from . import rollout_memory as memory
 from .rollout_memory import GRAPH_BYTES_PER_LAUNCH, STATE_INDEX, check_available, control_shapes, counts, memory_error, nbytes
@@ -193,7 +193,7 @@ class _Config:
         converted = ("valid",) if repr == int(VelRepr.Mixed) else ("valid", "base_velocity")
         self.copied = [name for name in self.state_records if name not in converted]
         self.launched = [name for name in self.state_records if name in converted]
-        self.graphs: dict[tuple, object] = {}
+        self.graphs: dict[tuple, Program] = {}  # its captured chunks of steps
         self.stage: dict[str, wp.array] | None = None  # allocated by the first chunked capture (`_staging`)
         self._scratch_grads = None
         self.runs = 0  # runs of this configuration (a checkpointed backward checks that it is the latest)
@@ -307,20 +307,19 @@ class _Config:
             run_launches(self._stage_copies(first, length, into_stage=False), self.device)
 
     def _replay(self, key: tuple, launches) -> None:
-        """Launch the graph captured under `key`, capturing `launches()` first if there is none."""
-        captured = self.graphs.get(key)
-        if captured is None:
-            recorded = launches()
-            preload(recorded, self.device)
-            try:
-                with capture(self.device) as scope:
-                    run_launches(recorded, self.device)
-            except RuntimeError as error:  # a failed allocation; other errors pass as they are
-                if "alloc" not in str(error).lower():
-                    raise
-                raise memory_error(f"capturing a graph of {len(recorded)} launches", len(recorded) * GRAPH_BYTES_PER_LAUNCH, error) from None
-            captured = self.graphs[key] = scope.graph
-        wp.capture_launch(captured)
+        """Run the graph captured under `key` (a Program of `launches()`, warpdyn.engine.launch, captured at its
+        first run: the caller has checked that graphs are allowed)."""
+        program = self.graphs.get(key)
+        if program is None:
+            program = self.graphs[key] = Program(launches(), self.device, True, "a Rollout")
+        try:
+            program.run()
+        except RuntimeError as error:  # a failed allocation of its capture; other errors pass as they are
+            if program.graph is not None or "alloc" not in str(error).lower():
+                raise
+            del self.graphs[key]
+            n = len(program.launches)
+            raise memory_error(f"capturing a graph of {n} launches", n * GRAPH_BYTES_PER_LAUNCH, error) from None
 
     def _staging(self) -> None:
         """The stage buffers of chunked graphs (see the class docstring), allocated once: a row per step of a

@@ -3,9 +3,9 @@ user sees).
 
 A Stepper owns two state buffers (ping-pong), one step workspace and its controls, all allocated once; step
 k reads buffer k % 2 and writes the other. The launches of `substeps` steps from each buffer are built once
-(`warpdyn.engine.step.step_launches` on those arrays) and captured as a graph (CUDA graph on GPUs, Warp's
-CPU graph on the CPU) or recorded (`wp.launch(record_cmd=True)`): a call replays them, with no allocation,
-no argument packing and no host check. A change of the model (a setter: `model.version`) rebuilds them at
+(`warpdyn.engine.step.step_launches` on those arrays), a Program each (warpdyn.engine.launch: captured as a
+graph, a CUDA graph on GPUs, Warp's CPU graph on the CPU, or replayed from its recording): a call replays them,
+with no allocation, no argument packing and no host check. A change of the model (a setter: `model.version`) rebuilds them at
 the next call. Not differentiable (states are overwritten): refused under a wp.Tape.
 """
 
@@ -19,7 +19,7 @@ from ..kernels.state import kernels as state_kernels
 from ..types.enums import VelRepr
 from . import tape
 from .kinematics import state_arrays
-from .launch import capture, graphs_allowed, launch, preload
+from .launch import Program, launch
 from .launch import run as run_launches
 from .rollout import copy_launch
 from .step import Workspace, prepare, state_buffers, step_launches, with_state
@@ -72,24 +72,10 @@ class Stepper:
             )  # fmt: skip
         return launches
 
-    def _program(self, start: int):
-        """A callable running `substeps` steps from buffer `start`: a graph's replay, or recorded launches."""
-        launches = self._launches(start)
-        preload(launches, self.device)
-        if graphs_allowed(self.device, self.use_graph, "a Stepper"):
-            with capture(self.device) as captured:
-                run_launches(launches, self.device)
-            return lambda: wp.capture_launch(captured.graph)
-        commands = [
-            launch(item.kernel, item.dim, [*item.inputs, *item.outputs], device=self.device, block_dim=item.block_dim, record_cmd=True)
-            for item in launches
-        ]
-
-        def replay():
-            for command in commands:
-                command.launch()
-
-        return replay
+    def _program(self, start: int) -> Program:
+        """The Program (warpdyn.engine.launch) of `substeps` steps from buffer `start`: captured as a graph at its
+        first run where `use_graph` allows, else replayed from its recording."""
+        return Program(self._launches(start), self.device, self.use_graph, "a Stepper")
 
     def step(self):
         """Advance every environment by `substeps` steps of `model.time_step`, in place; returns `data`."""
@@ -102,7 +88,7 @@ class Stepper:
         program = self._programs[self._current]
         if program is None:
             program = self._programs[self._current] = self._program(self._current)
-        program()
+        program.run()
         self.advance_buffers()
         return self._data[self._current]
 
