@@ -112,10 +112,10 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         return Ud, ud, Ia, pA_d + Ia * c_i
 
     @wp.func
-    def bias_force(v: sp.vec6, I_v: sp.vec6, f: sp.vec6):
-        """A link's own bias force v_i x* I_i v_i - f_i (link coordinates): v its velocity, I_v its spatial inertia
-        times v, f the external force on it (step 2's first term of pA_i)."""
-        return sp.cross_force(v, I_v) - f
+    def bias_force(v: sp.vec6, I_v: sp.vec6):
+        """A link's velocity-product force v_i x* I_i v_i (link coordinates): v its velocity, I_v its spatial
+        inertia times v; its own bias force is this less the external force on it (step 2's first terms of pA_i)."""
+        return sp.cross_force(v, I_v)
 
     @wp.func
     def base_inertia(model: B.Model, env: int, implicit_dt: scalar):
@@ -124,12 +124,12 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         return sc.sym_upper(B.spatial_inertia_of(model, env, 0)) + B.base_rotor(model, env, implicit_dt) * wp.identity(n=6, dtype=scalar)
 
     @wp.func
-    def base_bias_force(model: B.Model, env: int, implicit_dt: scalar, B_v: sp.vec6, B_a_g: sp.vec6, f: sp.vec6):
-        """A floating base's own bias force (body coordinates), its children's not yet added: v x* I_0 v - f plus
-        its rotor's (`base_inertia`) velocity product and r a_g: the rotor acts on the true acceleration a'_0 + a_g
-        (step 3)."""
+    def base_bias_force(model: B.Model, env: int, implicit_dt: scalar, B_v: sp.vec6, B_a_g: sp.vec6):
+        """A floating base's own bias force (body coordinates) but the external force on it, its children's not
+        yet added: v x* I_0 v plus its rotor's (`base_inertia`) velocity product and r a_g: the rotor acts on the
+        true acceleration a'_0 + a_g (step 3)."""
         rotor = B.base_rotor(model, env, implicit_dt)
-        return bias_force(B_v, B.spatial_inertia_times(model, env, 0, B_v), f) + B.base_rotor_bias(model, env, B_v, implicit_dt) + rotor * B_a_g
+        return bias_force(B_v, B.spatial_inertia_times(model, env, 0, B_v)) + B.base_rotor_bias(model, env, B_v, implicit_dt) + rotor * B_a_g
 
     @wp.func
     def base_acceleration(model: B.Model, IA: sp.mat66, pA: sp.vec6, B_a_g: sp.vec6):
@@ -288,10 +288,9 @@ def kernels(scalar, max_registers, multi_dof: bool):
             v_i = sc.get6(s, env, i, _V)
             c_i = jm.velocity_product(model, i, v_i, jm.joint_motion_of(model, i, X, state.joint_velocities, env))
             IA = sc.sym_upper(B.spatial_inertia_of(model, env, i))
-            f_i = sp.vec6(scalar(0.0))
+            pA = F.bias_force(v_i, IA * v_i)
             if forces:
-                f_i = external_force(controls, repr, s, _WHL, env, i)
-            pA = F.bias_force(v_i, IA * v_i, f_i)
+                pA = pA - external_force(controls, repr, s, _WHL, env, i)
             if model.first_child[i] >= 0:
                 IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
                 pA = pA + sc.get6(s, env, model.first_child[i], _PA)
@@ -306,11 +305,10 @@ def kernels(scalar, max_registers, multi_dof: bool):
         # 3. accelerations, from the base
         a0 = -B_a_g
         if model.floating_base != 0:
-            f_0 = sp.vec6(scalar(0.0))
-            if forces:
-                f_0 = external_force(controls, repr, s, _WHL, env, 0)
             IA0 = F.base_inertia(model, env, implicit_dt)
-            pA0 = F.base_bias_force(model, env, implicit_dt, B_v, B_a_g, f_0)
+            pA0 = F.base_bias_force(model, env, implicit_dt, B_v, B_a_g)
+            if forces:
+                pA0 = pA0 - external_force(controls, repr, s, _WHL, env, 0)
             if model.first_child[0] >= 0:
                 IA0 = IA0 + sc.get_sym66(s, env, model.first_child[0], _IA)
                 pA0 = pA0 + sc.get6(s, env, model.first_child[0], _PA)

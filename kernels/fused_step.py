@@ -369,7 +369,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             f_0, nonfinite = external_force(model, contacts, terrain, controls, env, 0, W_H_B, B_v, h0, law, dt, x, y, W_f_C)
             if W_H_L.shape[0] > 0:
                 W_H_L[env, 0] = W_H_B
-        p_0 = F.base_bias_force(model, env, implicit_dt, B_v, B.gravity_in(model, W_H_B), f_0)
+        p_0 = F.base_bias_force(model, env, implicit_dt, B_v, B.gravity_in(model, W_H_B)) - f_0
         base_own = walk[0][1]
         if base_own >= 0:
             slot_H[base_own] = pack7(W_H_B)
@@ -440,9 +440,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             else:
                 c[i] = jm.velocity_product(model, i, v_i, S_qd)
             if wp.static(SHARED):
-                put6(PER_LINK * i, F.bias_force(v_i, B.spatial_inertia_times(model, env, i, v_i), f_i))
+                put6(PER_LINK * i, F.bias_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i)
             else:
-                pU[i] = F.bias_force(v_i, B.spatial_inertia_times(model, env, i, v_i), f_i)
+                pU[i] = F.bias_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_i
             W_H_prev = W_H_i
             v_prev = v_i
         # 2. articulated inertias and bias forces, from the leaves; a link's terms summed into its parent's: the

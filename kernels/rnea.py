@@ -104,7 +104,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
             if forces:
                 f_ext = external_force(controls, repr, s, _WHL, env, i)
             v_i = sc.get6(s, env, i, _V)
-            f_i = B.spatial_inertia_times(model, env, i, sc.get6(s, env, i, _A)) + bias_force(v_i, B.spatial_inertia_times(model, env, i, v_i), f_ext)
+            f_i = B.spatial_inertia_times(model, env, i, sc.get6(s, env, i, _A)) + bias_force(v_i, B.spatial_inertia_times(model, env, i, v_i)) - f_ext
             if model.first_child[i] >= 0:
                 f_i = f_i + sc.get6(s, env, model.first_child[i], _ACC)
             for k_dof in range(wp.static(jm.MAX_DOFS)):  # a joint's DoFs (unrolled; one in a model of one-DoF joints)
@@ -122,7 +122,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
         if forces:
             f_ext = external_force(controls, repr, s, _WHL, env, 0)
         # a floating base's free-joint armature acts on its true acceleration (B_a less the fictitious gravity's)
-        f_0 = F.base_inertia(model, env, scalar(0.0)) * B_a + F.base_bias_force(model, env, scalar(0.0), B_v, B_a_g, f_ext)
+        f_0 = F.base_inertia(model, env, scalar(0.0)) * B_a + F.base_bias_force(model, env, scalar(0.0), B_v, B_a_g) - f_ext
         if model.first_child[0] >= 0:
             f_0 = f_0 + sc.get6(s, env, model.first_child[0], _ACC)
         base = sp.base_force_from_body(repr, W_H_B, f_0)
