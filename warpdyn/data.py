@@ -327,8 +327,8 @@ class Data(ModelDataWithVelocityRepresentation):
         for name, value in values.items():
             kwargs[name] = current[name] if value is None else value
         given_in = self.velocity_representation
-        if base_linear_velocity is None and base_position is None and base_quaternion is None:
-            given_in = VelRepr.Mixed  # the base has not moved: its stored (Mixed) velocity, bit for bit
+        if base_linear_velocity is None and base_position is None:
+            given_in = VelRepr.Mixed  # the base's origin has not moved: its stored (Mixed) velocity, bit for bit
             kept = self.base_velocity_state.numpy().reshape(self.batch_size, 6)
             kwargs["base_linear_velocity"] = kept[:, :3]
             kwargs["base_angular_velocity"] = kept[:, 3:]
