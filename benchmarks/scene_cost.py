@@ -1,0 +1,123 @@
+"""What a free object adds to a step: MuJoCo Menagerie's Panda with a free cube beside it, against the Panda and
+the cube alone.
+
+    python benchmarks/scene_cost.py [--device cuda:0] [--sizes 1,4096,32768] [--dtypes float32,float64]
+                                    [--repeats 20]
+
+The scene is tests/models/menagerie/mjx_single_cube.xml (Menagerie's franka_emika_panda, its licence beside it):
+the Panda (9 hinge and slide joints) and a cube on a free joint, two trees of one world. The Panda alone is that
+file without the cube's body, the cube alone without the Panda's; all at a time step of 2 ms (`TIME_STEP`). Each
+row times one `wd.model.step` (median over repeats, after a warm-up, each call from the initial state; joint
+torques 0, the arm's servos' ctrl 0) of:
+- panda: the arm alone (its joints have one DoF each: the fused step, kernels/fused_step.py);
+- panda, staged: the same with warpdyn.config.fused_step off (the launch list every model with a ball or free
+  joint takes);
+- cube: the cube alone (a free joint: the launch list);
+- scene: the Panda and the cube (the launch list).
+`scene / (staged + cube)` says whether the scene costs what its trees cost apart on the same path; `scene /
+panda` what a free object costs a user of the arm, the fused path's gain included. Prints the header (device,
+versions) and a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import warnings
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import warp as wp
+
+import warpdyn as wd
+from common import header, median_time, np_dtype
+
+SCENE = pathlib.Path(__file__).resolve().parents[1] / "tests" / "models" / "menagerie" / "mjx_single_cube.xml"
+ARM_ROOT, OBJECT = "link0", "box"
+TIME_STEP = 0.002
+"""[s]: the scene's 0.005 s is refused with the default soft contacts (dt K / D = 2.5: the fingers' slide joints,
+whose range warpdyn does not enforce, move their collidable points without bound)."""
+
+
+def without(body: str) -> str:
+    """The scene's MJCF without the worldbody's `body` (and without what names it: keyframes, contact pairs, the
+    actuators and sensors of its joints), as text."""
+    root = ET.parse(SCENE).getroot()
+    world = root.find("worldbody")
+    removed = world.find(f"body[@name='{body}']")
+    joints = {j.get("name") for j in removed.iter("joint")} | {j.get("name") for j in removed.iter("freejoint")}
+    world.remove(removed)
+    for section in ("keyframe", "contact", "equality", "tendon"):
+        for element in root.findall(section):
+            root.remove(element)
+    for section in ("actuator", "sensor"):
+        for parent in root.findall(section):
+            for element in list(parent):
+                if element.get("joint") in joints:
+                    parent.remove(element)
+    return ET.tostring(root, encoding="unicode")
+
+
+def load(xml: str, dtype, device) -> wd.model.Model:
+    """The model of `xml` with the time step TIME_STEP."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # what the scene holds that warpdyn does not model (its warnings name it)
+        model = wd.model.Model.build_from_model_description(xml, dtype=dtype, device=device)
+    model.time_step = TIME_STEP
+    return model
+
+
+def step_time(model, N: int, device, repeats: int, fused: bool) -> float:
+    """The median seconds of one `wd.model.step` of N environments, each call from the model's initial state
+    (the same work at every call, whatever a long run would do)."""
+    wd.config.fused_step = fused
+    model.notify_model_changed()  # its plan and recorded launches built again for the setting
+    data = wd.data.Data.build(model, num_envs=N)
+    ctrl = {"ctrl": wp.zeros((N, model.number_of_actuators()), dtype=model.scalar, device=device)} if model.number_of_actuators() else {}
+    out = {}
+
+    def one():
+        out["data"] = wd.model.step(model, data, **ctrl)
+
+    for _ in range(3):
+        one()
+    seconds = median_time(one, device, repeats)
+    if not bool(np.all(out["data"].valid_state.numpy() == 1)):
+        raise RuntimeError(f"{model.name()}: an environment was flagged")
+    return seconds
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--device", default=None)
+    parser.add_argument("--sizes", default=None, help="comma-separated N (default: 1,4096,32768 on a GPU, 1,256,4096 on the CPU)")
+    parser.add_argument("--dtypes", default="float32,float64")
+    parser.add_argument("--repeats", type=int, default=20)
+    args = parser.parse_args()
+    wp.config.quiet = True
+    wp.init()
+    device = wp.get_device(args.device)
+    Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else ([1, 4096, 32768] if device.is_cuda else [1, 256, 4096])
+    print(header(device))
+    print()
+    print("| dtype | N | panda [ms] | panda, staged [ms] | cube [ms] | scene [ms] | scene / (staged + cube) | scene / panda |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    fused_setting = wd.config.fused_step
+    try:
+        for dtype_name in args.dtypes.split(","):
+            dtype = np_dtype[dtype_name]
+            arm, cube = load(without(OBJECT), dtype, device), load(without(ARM_ROOT), dtype, device)
+            scene = load(SCENE.read_text(), dtype, device)
+            for N in Ns:
+                t_arm = step_time(arm, N, device, args.repeats, True)
+                t_staged = step_time(arm, N, device, args.repeats, False)
+                t_cube = step_time(cube, N, device, args.repeats, True)
+                t_scene = step_time(scene, N, device, args.repeats, True)
+                ms = [1e3 * t for t in (t_arm, t_staged, t_cube, t_scene)]
+                print(f"| {dtype_name} | {N} | " + " | ".join(f"{t:.4f}" for t in ms) + f" | {t_scene / (t_staged + t_cube):.2f} | {t_scene / t_arm:.2f} |", flush=True)
+    finally:
+        wd.config.fused_step = fused_setting
+
+
+if __name__ == "__main__":
+    main()
