@@ -378,8 +378,8 @@ def test_inputs_copied_on_the_device():
     data = wd.model.step(model, data, joint_force_references=np.zeros(n), link_forces=np.zeros((nL, 6)))
     expected = fresh.step(model, expected, joint_force_references=np.zeros(n), link_forces=np.zeros((nL, 6)))
     pooled = fast_step.steps_of(model, 3)
-    for k, (buffer, _) in list(pooled.buffers.items()):
-        pooled.buffers[k] = (buffer, None)
+    for k, (buffer, _) in list(pooled.buffers.arrays.items()):
+        pooled.buffers.arrays[k] = (buffer, None)
     rng = np.random.default_rng(6)
     for t in range(8):
         tau = (rng.normal(0, 0.5, n), rng.normal(0, 0.5, (3, n)))[t % 2]

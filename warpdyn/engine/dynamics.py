@@ -22,7 +22,6 @@ Gradients reach the model's link parameters (their .grad) under a tape once they
 
 from __future__ import annotations
 
-import ctypes
 import dataclasses
 
 import numpy as np
@@ -42,6 +41,7 @@ from ..kernels.scratch import TRANSFORM
 from ..kernels.state import kernels as state_kernels
 from ..types.data_checks import check_data
 from . import pool, tape, warp_private
+from .input_buffers import InputBuffers
 from .bundles import controls_bundle, empty_like_input, model_bundle, model_bundle_and_grad
 from .kinematics import link_poses, state_of
 from .launch import Launch, Recorded, launch, per_thread
@@ -67,13 +67,14 @@ _KERNELS = {
 
 class _Workspace:
     """What one thread's dynamics calls on a model keep for data of one batch size and shape (see `_workspace`):
-    the input buffers and their Controls bundles (`buffers`), the output pools by shapes (`pools`), and each
+    the input buffers (`buffers`) and their Controls bundles (`controls`), the output pools by shapes (`pools`), and each
     kernel with its scratch and recorded launch by (kernel name, scratch width, register setting) (`launches`)."""
 
-    __slots__ = ("buffers", "pools", "launches")
+    __slots__ = ("buffers", "controls", "pools", "launches")
 
     def __init__(self, model, N: int):
-        self.buffers = _Buffers(model, N)
+        self.buffers = InputBuffers(model.scalar, model.device, N)
+        self.controls: dict = {}  # (id of joint forces, id of link forces) -> Controls bundle of the buffers
         self.pools: dict = {}
         self.launches: dict = {}
 
@@ -121,7 +122,7 @@ def _input(model, data, value, name: str, per_env: tuple, taping: bool, ws: _Wor
     """None for an absent input, else its (N, *per_env) device array (checked: shape, dtype, device, finite).
 
     On the CPU outside a tape and a graph capture, a value that requires no gradient is copied (after the same
-    checks) into the workspace's buffer for `name` (`_Buffers`): the kernel, launched at once, reads the same
+    checks) into the workspace's buffer for `name` (warpdyn.engine.input_buffers): the kernel, launched at once, reads the same
     numbers, and the launch argument and its Controls bundle stay the same objects from call to call."""
     if value is None:
         return None
@@ -132,46 +133,16 @@ def _input(model, data, value, name: str, per_env: tuple, taping: bool, ws: _Wor
     return arrays.batched_input(value, name, per_env, data.num_envs, model.scalar, device)
 
 
-class _Buffers:
-    """A workspace's CPU buffers (N, *per_env) of the dynamics functions' inputs, one per input name, and the
-    Controls bundles of them (see `_input`, `_controls`)."""
-
-    def __init__(self, model, N: int):
-        self.model, self.N = model, N
-        self.arrays: dict = {}  # name -> (buffer, its NumPy view)
-        self.mine: set = set()  # the ids of the buffers
-        self.controls: dict = {}  # (id of joint forces, id of link forces) -> Controls bundle
-
-    def fill(self, name: str, per_env: tuple, value) -> wp.array:
-        """The buffer of `name` holding `value` (checked: a Warp array of the model's dtype on its device, or
-        a float64 ndarray; per_env or (N, *per_env)): a contiguous Warp array of the buffer's size is copied
-        byte for byte, anything else through NumPy (broadcast over the environments)."""
-        held = self.arrays.get(name)
-        if held is None:
-            buffer = arrays.empty(per_env, self.N, self.model.scalar, self.model.device)
-            held = self.arrays[name] = (buffer, buffer.numpy())
-            self.mine.add(id(buffer))
-        buffer = held[0]
-        if isinstance(value, wp.array):
-            if value.is_contiguous and value.size == buffer.size:
-                ctypes.memmove(buffer.ptr, value.ptr, buffer.capacity)
-                return buffer
-            value = value.numpy()
-        np.copyto(held[1], value)
-        return buffer
-
-
 def _controls(model, ws: _Workspace, joint_forces, link_forces):
     """controls_bundle of the inputs, made once for the workspace's buffers (see `_input`)."""
     if joint_forces is None and link_forces is None:
         return controls_bundle(model.scalar, model.device)
-    buffers = ws.buffers
-    mine = buffers.mine
+    mine = ws.buffers.mine
     if (joint_forces is None or id(joint_forces) in mine) and (link_forces is None or id(link_forces) in mine):
         key = (id(joint_forces), id(link_forces))
-        bundle = buffers.controls.get(key)
+        bundle = ws.controls.get(key)
         if bundle is None:
-            bundle = buffers.controls[key] = controls_bundle(model.scalar, model.device, joint_forces, link_forces)
+            bundle = ws.controls[key] = controls_bundle(model.scalar, model.device, joint_forces, link_forces)
         return bundle
     return controls_bundle(model.scalar, model.device, joint_forces, link_forces)
 

@@ -30,15 +30,14 @@ from __future__ import annotations
 
 import operator
 
-import numpy as np
 import warp as wp
 
 from .. import arrays
 from . import pool, tape
 from .bundles import state_bundle
 from .kinematics import state_arrays
-from .launch import Program, per_thread, run
-from .rollout import copy_launch
+from .input_buffers import InputBuffers
+from .launch import Program, per_thread
 from .step import Plan, Workspace, advance, prepare, state_buffers, step_inputs, step_launches, with_state
 from .step import plan as step_plan
 
@@ -91,7 +90,7 @@ class _Steps:
     def __init__(self, plan: Plan, N: int):
         self.N = N
         self.pool = pool.OutputPool(lambda: state_buffers(plan, N, False), _shadow(plan.scalar))
-        self.buffers: dict = {}  # input index -> (device array (N, ...), its NumPy view on the CPU)
+        self.buffers = InputBuffers(plan.scalar, plan.device, N)  # by input index
         self.plan = plan
         self.workspaces: dict = {}  # link forces given -> Workspace
         # keyed by (input: a set's index or "foreign", output set, representation, which controls are given):
@@ -142,27 +141,11 @@ class _Steps:
         return step_launches(plan, ws, x, y, tau, f, repr, ctrl=u, bundles=(X, Y))
 
     def _input(self, k: int, value, data):
-        """The pool's buffer k holding the user's value (checked as warpdyn.arrays.batched_input checks it), or
+        """The input buffer k holding the user's value (checked as warpdyn.arrays.batched_input checks it), or
         None for an absent input."""
         if value is None:
             return None
         plan = self.plan
         per_env = ((plan.n,), (plan.nL, 6), (plan.na,))[k]
         value = arrays.checked_input(value, _INPUTS[k], per_env, data.num_envs, plan.scalar, plan.device)
-        held = self.buffers.get(k)
-        if held is None:
-            buffer = arrays.empty(per_env, self.N, plan.scalar, plan.device)
-            held = self.buffers[k] = (buffer, buffer.numpy() if plan.device.is_cpu else None)
-        buffer, view = held
-        if view is not None:  # the CPU: a copy through NumPy (a Warp array's view broadcasts as it does)
-            np.copyto(view, value.numpy() if isinstance(value, wp.array) else value)
-            return buffer
-        if not isinstance(value, wp.array):
-            host = np.ascontiguousarray(np.broadcast_to(value, buffer.shape))
-            value = wp.array(host, dtype=plan.scalar, device=plan.device)
-        elif tuple(value.shape) != tuple(buffer.shape):
-            value = arrays.with_env_axis(value, self.N)
-        item = copy_launch(plan.scalar, value, buffer)
-        if item is not None:
-            run([item], plan.device)
-        return buffer
+        return self.buffers.fill(k, per_env, value)
