@@ -16,7 +16,7 @@ What a link hands to the next link of the walk (its pose and velocity, its artic
 acceleration) stays in registers when that link is its child, the first one; a link with more children keeps it in
 a slot for the others (`walk`). The base's slot, when it has one, also holds its pose, velocity and own bias force
 for its children, and pass 3 computes its pose and velocity from x again: live in registers through passes 1 and 2,
-they made float64 spill (benchmarks/RESULTS.md, round 14). The walk comes in groups of the base's subtrees
+they made float64 spill (benchmarks/results/performance_rounds.md, round 14). The walk comes in groups of the base's subtrees
 (warpdyn.engine.fused_layout): one thread walks them all, or `lanes` threads of one block walk a group each, side
 by side (for few environments: a step's chain of dependent operations is shorter), each computing the base alike;
 they sum their terms of the base's articulated inertia and bias force, then their health checks, through a tile.
@@ -24,9 +24,9 @@ What one pass hands to the next per link (the bias force then U_i / d_i, u_i / d
 record) stays on the chip instead of in arrays in global memory, and is read and written once per step: in the
 thread's local memory, or in the block's shared memory (`shared_block`; warpdyn.engine.fused_layout's
 `shared_records`), where the loads of the state, which share the L1 cache with local memory, do not evict it
-(benchmarks/RESULTS.md, round 12). The joint positions, velocities and force references are not kept there: passes
+(benchmarks/results/performance_rounds.md, round 12). The joint positions, velocities and force references are not kept there: passes
 1 and 3 load link k + 1's while link k is computed (pass 2 reads the positions again), so that the local arrays
-fill less of the L1 cache (benchmarks/RESULTS.md, round 10). Likewise what pass 3 needs of a link is loaded while
+fill less of the L1 cache (benchmarks/results/performance_rounds.md, round 10). Likewise what pass 3 needs of a link is loaded while
 the link before it is computed, and so are, in float32, the joint terms in pass 1 (in float64 that spills
 registers: round 13); pass 2 loads a link's joint terms first and computes its joint transform last, so that its
 articulated terms' arithmetic covers the loads and the transform is not live across it (round 14); and the contact
@@ -36,10 +36,10 @@ articulated inertias as their 21 numbers (symmetric: fewer registers than 6x6 su
 loop (a thread per environment or lane: fewer registers; float64 spills less). The joint transforms lambda(i)_H_i
 are either kept from pass 1 (7 numbers more per link; `keep_joint_transforms`) or rebuilt in passes 2 and 3 from
 the joint positions (their sines and cosines again: cheaper on a GPU once the environments' local arrays outgrow
-its caches than keeping either the transforms or their joints' 4 coefficients; benchmarks/RESULTS.md, rounds 8 and
+its caches than keeping either the transforms or their joints' 4 coefficients; benchmarks/results/performance_rounds.md, rounds 8 and
 9). The records are kernels/scratch.py's, as vectors. The local arrays' sizes are the model's numbers of links and
 slots, so one kernel serves the models of those sizes (`kernel`); the passes' loops over links are not unrolled
-(unrolled, a model took tens of seconds to compile on an H100: benchmarks/RESULTS.md, round 3).
+(unrolled, a model took tens of seconds to compile on an H100: benchmarks/results/performance_rounds.md, round 3).
 
 Each formula is a building block the staged kernels use too: the joint forces (kernels/actuation.py's
 `joint_force`), the joint transforms, link velocities and velocity products (kernels/joints.py), the passive
@@ -93,7 +93,7 @@ def unfilled(scalar, *shape: int) -> str:
     """A native snippet that returns a local Warp vector (shape (n,)) or matrix (rows, cols) of `scalar` whose
     numbers nothing has written. Warp's constructors write zeros first, which a record that each pass writes before
     a pass reads it does not need: in float64 on a GPU, the 78 zeros of c (local memory) stalled the start of a step
-    (benchmarks/RESULTS.md, round 15). The union's other member is the one its constructor sets."""
+    (benchmarks/results/performance_rounds.md, round 15). The union's other member is the one its constructor sets."""
     cpp = warp_private.native_name(wp.types.vector(shape[0], scalar) if len(shape) == 1 else wp.types.matrix(shape, scalar))
     return f"""
     union Unfilled {{ {cpp} value; unsigned char none; CUDA_CALLABLE Unfilled() : none(0) {{}} }} unfilled;
@@ -127,8 +127,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
     PASSIVE = passive
     SO3 = wp.constant(int(so3))
     KEEP = keep_joint_transforms
-    PAIRS = scalar == wp.float32  # contact points two at a time (in float64 that spills: RESULTS, round 10)
-    TERMS_AHEAD = scalar == wp.float32  # pass 1 loads link k + 1's joint terms ahead (in float64 that spills: RESULTS, round 13)
+    PAIRS = scalar == wp.float32  # contact points two at a time (in float64 that spills: performance_rounds.md, round 10)
+    TERMS_AHEAD = scalar == wp.float32  # pass 1 loads link k + 1's joint terms ahead (in float64 that spills: performance_rounds.md, round 13)
     ACTUATED = actuation is not None
     resultant_torque = joint_force(scalar, *(actuation or (False, False)))
     LANES = lanes

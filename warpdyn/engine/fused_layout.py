@@ -95,7 +95,7 @@ def keeps_joint_transforms(device, N: int) -> bool:
     """Whether the fused step of N environments keeps the joint transforms of its first pass for the other two
     (kernels/fused_step.py) rather than rebuild them from the joint positions: on the CPU, and on
     a GPU for up to KEEP_JOINT_TRANSFORMS_UP_TO environments, whose local arrays its caches hold. Measured on an
-    H100 (benchmarks/RESULTS.md, round 4): keeping them, the step took 7-11% less time at N = 1, 7% less
+    H100 (benchmarks/results/performance_rounds.md, round 4): keeping them, the step took 7-11% less time at N = 1, 7% less
     (float32) or as long (float64) at 4096, and 7-12% more at 32768 and 131072 (round 5's smaller local arrays
     were not re-measured by a script in the repository)."""
     return device.is_cpu or N <= KEEP_JOINT_TRANSFORMS_UP_TO
@@ -114,7 +114,7 @@ def shared_records(plan, lanes: int, block_dim: int | None) -> tuple:
     `block_dim` threads holds them in SHARED_RECORDS_BYTES, else without c_i when that fits (the legs' 13 links
     in blocks of 64: 42.25 KiB in float32, whole; 45.5 KiB in float64, without c_i). Local memory shares the L1
     cache with the loads of the state, which evict the records; shared memory keeps them (measured on an H100:
-    benchmarks/RESULTS.md, round 12)."""
+    benchmarks/results/performance_rounds.md, round 12)."""
     if not config.fused_shared_records or not plan.device.is_cuda or lanes != 1 or block_dim is None:
         return 0, False
     size = wp.types.type_size_in_bytes(plan.scalar)
@@ -139,7 +139,7 @@ def fused_lanes(plan, N: int) -> int:
     below the base walked side by side: a shorter chain of dependent operations per step, while the blocks of
     a few threads leave most of each warp idle), else 1; on the CPU 1 (Warp runs blocks of threads there
     only with wp.config.enable_cpu_blocks, as fibers of one core). Measured on an H100 with
-    benchmarks/step.py --fused one,groups (benchmarks/RESULTS.md, round 6): the legs' lanes gave the shorter step up to
+    benchmarks/step.py --fused one,groups (benchmarks/results/performance_rounds.md, round 6): the legs' lanes gave the shorter step up to
     768 environments in float32 and 384 in float64."""
     setting = config.fused_lanes
     if setting is None:
