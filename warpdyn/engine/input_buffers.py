@@ -39,7 +39,7 @@ class InputBuffers:
         buffer, view = held
         if view is not None:
             if isinstance(value, wp.array):
-                if value.is_contiguous and buffer.is_contiguous and tuple(value.shape) == tuple(buffer.shape):
+                if value.is_contiguous and buffer.is_contiguous and value.size == buffer.size:  # per_env or (N, *per_env): the same order
                     ctypes.memmove(buffer.ptr, value.ptr, buffer.capacity)
                     return buffer
                 value = value.numpy()
