@@ -150,6 +150,7 @@ class _Config:
         self.storage, self.every, self.grad, self.layouts = storage, every, grad, layouts
         T, s, d = roll.steps, plan.scalar, plan.device
         self.T, self.scalar, self.device = T, s, d
+        self.use_graph = roll.use_graph  # the chunks' Programs capture as the Rollout allows
         kept, between, count = counts(storage, T, every, grad)
         per_env = state_shapes(plan)
         self.slots = self.traj = self.seg = None
@@ -193,7 +194,7 @@ class _Config:
         converted = ("valid",) if repr == int(VelRepr.Mixed) else ("valid", "base_velocity")
         self.copied = [name for name in self.state_records if name not in converted]
         self.launched = [name for name in self.state_records if name in converted]
-        self.graphs: dict[tuple, Program] = {}  # its captured chunks of steps
+        self.graphs: dict[tuple, Program] = {}  # the Programs of its chunks of steps (graphs where captured)
         self.stage: dict[str, wp.array] | None = None  # allocated by the first chunked capture (`_staging`)
         self._scratch_grads = None
         self.runs = 0  # runs of this configuration (a checkpointed backward checks that it is the latest)
@@ -307,11 +308,11 @@ class _Config:
             run_launches(self._stage_copies(first, length, into_stage=False), self.device)
 
     def _replay(self, key: tuple, launches) -> None:
-        """Run the graph captured under `key` (a Program of `launches()`, warpdyn.engine.launch, captured at its
-        first run: the caller has checked that graphs are allowed)."""
+        """Run the Program of `launches()` kept under `key` (warpdyn.engine.launch: captured at its first run where
+        `use_graph` allows, as the caller found it does; else replayed from its recording)."""
         program = self.graphs.get(key)
         if program is None:
-            program = self.graphs[key] = Program(launches(), self.device, True, "a Rollout")
+            program = self.graphs[key] = Program(launches(), self.device, self.use_graph, "a Rollout")
         try:
             program.run()
         except RuntimeError as error:  # a failed allocation of its capture; other errors pass as they are
