@@ -16,7 +16,7 @@ from ..types.model_constants import quaternion_xyzw
 from ..types.parameters import JOINT_PARAMETERS, LINK_PARAMETERS, MODEL_ARRAYS
 from . import warp_private
 
-__all__ = ["model_bundle", "model_bundle_and_grad", "state_bundle", "controls_bundle", "empty_like_input"]
+__all__ = ["model_bundle", "model_bundle_and_grad", "state_bundle", "controls_bundle", "empty_like_input", "per_env"]
 
 _PARAMETERS = MODEL_ARRAYS
 _LINK_AND_JOINT = len(LINK_PARAMETERS) + len(JOINT_PARAMETERS)  # MODEL_ARRAYS lists them first
@@ -126,3 +126,18 @@ def controls_bundle(scalar, device, joint_forces=None, link_forces=None):
     bundle.link_forces = link_forces if link_forces is not None else empty_like_input(scalar, device, 3)
     return bundle
 
+
+def per_env(value, name, scalar, device, owner="SoftContactsParams") -> wp.array:
+    """A parameter shared (1,) or per environment (N,) as the kernels read it: a Warp array is the user's,
+    read in place (its .grad gets the gradient); numbers and NumPy arrays are copied."""
+    if isinstance(value, wp.array):
+        if value.ndim != 1 or value.dtype != scalar or value.device != device:
+            raise ValueError(
+                f"{owner}.{name} as a Warp array must be 1-D with the model's dtype {scalar.__name__} on "
+                f"{device}, got shape {value.shape}, dtype {getattr(value.dtype, '__name__', value.dtype)} on {value.device}"
+            )
+        return value
+    host = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    if host.ndim != 1:
+        raise ValueError(f"{owner}.{name} has shape {host.shape}: give a number or one value per environment (N,)")
+    return wp.array(host, dtype=scalar, device=device)

@@ -31,26 +31,11 @@ from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.contact_models import SoftContacts
 from ..types.enums import VelRepr
+from .bundles import per_env
 from .launch import Launch
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, contact_reach
 
-__all__ = ["ContactStage", "SoftContactStage", "STAGES", "stage_for", "per_env", "contacts_per_environment"]
-
-
-def per_env(value, name, scalar, device, owner="SoftContactsParams") -> wp.array:
-    """A parameter shared (1,) or per environment (N,) as the kernels read it: a Warp array is the user's,
-    read in place (its .grad gets the gradient); numbers and NumPy arrays are copied."""
-    if isinstance(value, wp.array):
-        if value.ndim != 1 or value.dtype != scalar or value.device != device:
-            raise ValueError(
-                f"{owner}.{name} as a Warp array must be 1-D with the model's dtype {scalar.__name__} on "
-                f"{device}, got shape {value.shape}, dtype {getattr(value.dtype, '__name__', value.dtype)} on {value.device}"
-            )
-        return value
-    host = np.atleast_1d(np.asarray(value, dtype=np.float64))
-    if host.ndim != 1:
-        raise ValueError(f"{owner}.{name} has shape {host.shape}: give a number or one value per environment (N,)")
-    return wp.array(host, dtype=scalar, device=device)
+__all__ = ["ContactStage", "SoftContactStage", "STAGES", "stage_for", "contacts_per_environment"]
 
 
 def contacts_per_environment(device, grad: bool) -> bool:

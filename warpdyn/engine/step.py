@@ -70,11 +70,11 @@ from ..types.data_checks import check_contact_state, check_data, passes_like
 from ..types.parameters import MODEL_ARRAYS, validate_parameters
 from ..types.terrain import FlatTerrain, HeightfieldTerrain
 from . import fused_layout, tape
-from .bundles import controls_bundle, empty_like_input, model_bundle, state_bundle
+from .bundles import controls_bundle, empty_like_input, model_bundle, per_env, state_bundle
 from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
 from .loading import block_size
-from .contact_stage import per_env, stage_for
+from .contact_stage import stage_for
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, contact_reach
 
 __all__ = [
