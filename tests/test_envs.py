@@ -281,7 +281,7 @@ def test_graph_replays_equal_eager_steps(policy_dt):
         if kept is not None:  # the previous step's observation is its own tensor (rsl-rl stores it after the step)
             assert torch.equal(kept[0], kept[1]), k
         kept = (a[0], a[0].clone())
-    assert len(graphed._graphs) == (1 if graphed.decimation % 2 == 0 else 2) and not eager._graphs
+    assert graphed._program.captured == (1 if graphed.decimation % 2 == 0 else 2) and not eager._program.captured
 
 
 @pytest.mark.filterwarnings("ignore:.*link 'base'. principal moments:warpdyn.model.UnphysicalInertiaWarning")  # tests/test_go1.py checks it

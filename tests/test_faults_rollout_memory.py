@@ -113,7 +113,7 @@ def test_a_graph_that_cannot_be_allocated_is_a_memory_error_and_is_captured_agai
     assert not roll._config.graphs
     monkeypatch.setattr(launch, "capture_graph", capture_graph)
     _, records = roll.run(data)
-    assert roll._config.graphs and all(p.graph is not None for p in roll._config.graphs.values())
+    assert roll._config.graphs and all(p.replay is not None for p in roll._config.graphs.values())
     _, eager = wd.simulation.Rollout(model, steps=5, record=("joint_positions",), use_graph=False).run(data)
     np.testing.assert_array_equal(records["joint_positions"].numpy(), eager["joint_positions"].numpy())
 

@@ -118,3 +118,70 @@ def test_errors_are_named():
     with pytest.raises(RuntimeError, match="overwrites its states"):
         with wp.Tape():
             stepper.step()
+
+
+@wp.kernel
+def _count(counter: wp.array(dtype=wp.int32)):
+    counter[wp.tid()] += 1
+
+
+def _warp_graph(body):
+    """A caller's capture for a step program: `body` in Warp's graph of the current device (not run); its replay
+    launches the graph and returns what `body` returned."""
+    with wp.ScopedCapture(force_module_load=False) as capture:
+        outputs = body()
+
+    def replay():
+        wp.capture_launch(capture.graph)
+        return outputs
+
+    return replay
+
+
+@pytest.mark.parametrize("substeps", [2, 3], ids=["even", "odd"])
+def test_a_step_program_captures_a_callers_step(substeps):
+    """A caller's step (a launch of its own, then `step()`) as a step program: eager at the first run, then a
+    graph per buffer its steps start from (one for even substeps, two for odd), whose capture runs nothing and
+    whose replays run the whole step once; the states equal a plain Stepper's bit for bit and `data` is the
+    state a run wrote. A setter drops the graphs: the next run is eager, the one after captures again."""
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(3), dtype=np.float64)
+    data = wd.data.Data.build(model, num_envs=2, joint_positions=[[0.3, -0.2, 0.1], [-0.4, 0.2, 0.5]])
+    stepper = wd.simulation.Stepper(model, data, substeps=substeps, use_graph=False)
+    plain = wd.simulation.Stepper(model, data, substeps=substeps)
+    counter = wp.zeros(1, dtype=wp.int32)
+
+    def body():
+        wp.launch(_count, dim=1, inputs=[counter])
+        stepper.step()
+        return counter
+
+    program = stepper.step_program(body, _warp_graph)
+    captured = []
+    for run in range(7):
+        if run == 4:
+            model.set_joint_parameters(damping=np.full(model.dofs(), 0.5))
+        assert program.run() is counter
+        plain.step()
+        _assert_same_state(stepper.data, plain.data, f"run {run}")
+        assert counter.numpy()[0] == run + 1, run
+        captured.append(program.captured)
+    assert captured == ([0, 1, 1, 1, 0, 1, 1] if substeps % 2 == 0 else [0, 1, 2, 2, 0, 1, 2])
+
+
+def test_step_program_errors_are_named():
+    model = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(2), dtype=np.float64)
+    data = wd.data.Data.build(model, num_envs=2)
+    stepper = wd.simulation.Stepper(model, data, use_graph=False)
+    with pytest.raises(ValueError, match="use_graph must be"):
+        stepper.step_program(stepper.step, _warp_graph, use_graph="yes")
+    with pytest.raises(TypeError, match="a callable body and a callable capture"):
+        stepper.step_program(stepper.step, None)
+    with pytest.raises(ValueError, match="build the Stepper with use_graph=False"):
+        wd.simulation.Stepper(model, data).step_program(stepper.step, _warp_graph, what="an env")
+    idle = stepper.step_program(lambda: None, _warp_graph, what="an env")
+    with pytest.raises(RuntimeError, match=r"the body of an env must call its Stepper's step\(\) once; it called it 0 times"):
+        idle.run()
+    eager = stepper.step_program(stepper.step, _warp_graph, use_graph=False)
+    for _ in range(3):
+        assert eager.run() is stepper.data
+    assert eager.captured == 0

@@ -20,9 +20,10 @@ import warp as wp
 from . import config
 from .engine import warp_private
 
-capture_lock = threading.Lock()
-"""Held while a graph is captured (warpdyn.engine.launch.capture): Warp captures one graph at a time, and a
-thread's first allocation or launch on a device waits for a capture in progress (`note_thread`)."""
+capture_lock = threading.RLock()
+"""Held while a graph is captured (warpdyn.engine.launch: `capture`, `Program`): Warp captures one graph at a
+time, and a thread's first allocation or launch on a device waits for a capture in progress (`note_thread`).
+Re-entrant: a capture started inside a caller's capture (torch's) fails in Warp instead of waiting for itself."""
 
 _threads: dict = {}
 """{(device is CUDA, thread ident): thread} of the threads that allocated or launched through warpdyn."""

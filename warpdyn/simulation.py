@@ -130,10 +130,9 @@ from __future__ import annotations
 from .engine.rollout import DEFAULT_RECORD, STATE_RECORDS, STEP_RECORDS, Rollout
 from .engine.step import check_deformation_stability
 from .engine.stepper import Stepper as _Stepper
-from .engine.launch import graphs_allowed as _graphs_allowed
 from .engine.tape import taping
 
-__all__ = ["Rollout", "rollout", "Stepper", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "check_contact_stability", "graphs_allowed", "taping"]
+__all__ = ["Rollout", "rollout", "Stepper", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "check_contact_stability", "taping"]
 
 
 class Stepper(_Stepper):
@@ -157,13 +156,32 @@ class Stepper(_Stepper):
     They are Warp arrays over the Stepper's memory: zero-copy writes (through `wp.to_torch(stepper.ctrl)`,
     `wp.copy`, a kernel) reach the next call as written, unchecked. `set_state(data, envs=None)`
     copies a state in, for every environment or, without a host synchronisation, those an int32 mask (N,)
-    selects (resets). A caller that captures `step()` in a graph of its own calls `advance_buffers()` after
-    each replay (the ping-pong buffers' turn is host state). `contact_wrenches` (N, nc, 6) holds the enabled collidable points' contact wrenches at
+    selects (resets). `contact_wrenches` (N, nc, 6) holds the enabled collidable points' contact wrenches at
     the start of the last step of a call (Inertial: [force; torque about the world origin]). The launches of
     a call are built once, and captured as a graph unless use_graph=False (CUDA graph on GPUs, Warp's CPU
     graph on the CPU); setting a model parameter or setting rebuilds them at the next call, while writing
     into a parameter's array in place does not need to. Not differentiable: use `wd.model.step` or a rollout
     under a wp.Tape. One Stepper serves one thread at a time.
+
+    A caller's step around `step()` (torch ops before and after it: warpdyn.envs) is captured whole
+    by `step_program(body, capture, use_graph="auto", what=...)`, which returns a program whose `run()` runs
+    one such step and returns what `body()` returns:
+
+        program = stepper.step_program(env_step, capture_in_torch_graph)   # env_step() calls stepper.step()
+        outputs = program.run()          # eager at the first run, then the captured graph's replay
+
+    `body()` calls `step()` once (a RuntimeError otherwise). `capture(body)` captures one call of `body` in
+    the caller's kind of graph, without running it (e.g. in torch.cuda.graph, whose memory pool holds the
+    torch ops' allocations; Warp's launches join it through wp.ScopedStream on the capturing stream), and
+    returns a function that replays that graph and returns what a run returns (its outputs are the graph's
+    buffers: copy them there). The program's first run calls `body()`; its next run from each buffer a
+    step starts from (one; both for an odd `substeps`) captures a graph, by the rules of the Stepper's own
+    graphs: one capture at a time, only while no other thread works with warpdyn on that kind of device;
+    use_graph "auto" runs `body()` meanwhile, True raises a RuntimeError naming `what` and those threads,
+    False never captures. A setter's change of the model drops the graphs (the next run calls `body()`,
+    the one after captures again). A replay keeps the buffers' turn: `data` after any run is the state it
+    wrote. The Stepper's launches join the caller's graph, so a program that may capture needs a Stepper
+    built with use_graph=False (a ValueError otherwise).
     """
 
 
@@ -202,14 +220,3 @@ def check_contact_stability(model, *, K=None, D=None) -> None:
     2 for the semi-implicit Euler, 2.785 for RK4; `step` refuses such settings)."""
     c = model.contact_params
     check_deformation_stability(model.time_step, c.K if K is None else K, c.D if D is None else D, model.integrator)
-
-
-def graphs_allowed(device, use_graph="auto", what: str = "a graph capture") -> bool:
-    """Whether `what` may capture a graph of warpdyn's launches on `device` now, by the rule Rollout and Stepper
-    follow: use_graph False never; "auto" or True only while no other live thread works with warpdyn on that
-    kind of device (Warp's CUDA stream is shared by all threads and its CPU capture records every thread's
-    operations). With such a thread, "auto" gives False and True raises a RuntimeError naming the threads.
-    For code that captures its own graphs around warpdyn's launches (warpdyn.envs does): run the work once
-    outside the capture first (kernels load, workspaces are allocated), and point Warp's stream at the
-    capturing one (wp.ScopedStream) so that the launches join it."""
-    return _graphs_allowed(device, use_graph, what)

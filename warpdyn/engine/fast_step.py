@@ -117,8 +117,8 @@ class _Steps:
 
     @property
     def graphs(self) -> dict:
-        """{key: graph} of the programs that run from a captured graph."""
-        return {key: p.graph for key, p in self.programs.items() if p.graph is not None}
+        """{key: the replay of its captured graph} of the programs that run from a captured graph."""
+        return {key: p.replay for key, p in self.programs.items() if p.replay is not None}
 
     def _foreign(self, x: list) -> tuple:
         """(x, its State bundle) for an input state that is not the pool's: kept (alive, while graphs read its

@@ -1,8 +1,9 @@
 """Kernel launches: every warpdyn launch goes through `launch` (a recorded launch is made by it), singly, as
 a list of `Launch`es (`run`), or replayed from a recording (`Recorded`); graphs are captured by `capture`,
 when `graphs_allowed` (not while another thread works on that kind of device: a capture would take its work).
-A list run again and again is a `Program`, the one mechanism that replays work (`wd.model.step`'s pooled steps,
-a Stepper's substeps, a Rollout's chunks): recorded launches first, then a captured graph.
+Work run again and again is a `Program`, the one mechanism that replays work (`wd.model.step`'s pooled steps,
+a Stepper's substeps, a Rollout's chunks, a caller's step around a Stepper: `Stepper.step_program`): eager runs
+(recorded launches) first, then a captured graph (Warp's, or the caller's kind: a torch CUDA graph).
 
 A kernel's module is loaded first (warpdyn.engine.loading). Under a recording tape, parameters marked
 for deterministic gradients are handed to the launch as one row per environment (warpdyn.engine.determinism).
@@ -11,6 +12,7 @@ for deterministic gradients are handed to the launch as one row per environment 
 from __future__ import annotations
 
 import contextlib
+import functools
 import operator
 import threading
 from typing import NamedTuple
@@ -163,30 +165,48 @@ def capture_graph(launches, device):
 
 
 class Program:
-    """A list of launches (`Launch`es on fixed arrays) run again and again: its first `capture_after` runs, and
-    every run while a capture is not allowed (`graphs_allowed(device, use_graph, what)`), replay the commands
-    recorded at the first (`Recorded`); the next captures it as a graph (Warp's CPU graph on the CPU, a CUDA
-    graph on a GPU: `capture_graph`), which that run and the later ones launch. `graph`: the captured graph, or
-    None. Not thread-safe: one per thread (see `per_thread`)."""
+    """Work run again and again, eagerly at first and then as a graph: its first `capture_after` runs, and every
+    run while a capture is not allowed (`graphs_allowed(device, use_graph, what)`), run it eagerly; the next
+    captures it as a graph (under `capture_lock`), which that run and the later ones replay. The work is
+    - a list of `Launch`es on fixed arrays (`capture` None): an eager run replays the commands recorded at the
+      first (`Recorded`), the graph is Warp's (`capture_graph`: Warp's CPU graph on the CPU, a CUDA graph on a
+      GPU); a run returns None;
+    - a Python callable (torch ops around warpdyn's launches): an eager run calls it; `capture(work)` captures
+      one call of it, without running it, in the caller's kind of graph (torch.cuda.graph, whose memory pool
+      holds its ops' allocations), and returns its replay, a function that launches the graph and returns
+      what a run returns.
+    `run()` returns what the work returned. `replay`: the captured graph's replay, or None; `eager_runs`: the
+    runs not replayed. Not thread-safe: one per thread (see `per_thread`)."""
 
-    def __init__(self, launches: list, device, use_graph="auto", what: str = "a replay", capture_after: int = 0):
-        self.launches = launches
+    def __init__(self, work, device, use_graph="auto", what: str = "a replay", capture_after: int = 0, capture=None):
+        if callable(work) != (capture is not None):
+            raise TypeError("a Program of a Python callable needs `capture` (its kind of graph); a Program of Launches takes none")
+        self.work = work
         self.device = wp.get_device(device)
-        self.use_graph, self.what, self.capture_after = use_graph, what, capture_after
-        self.replays = 0  # runs through the recording
-        self.graph = None
+        self.use_graph, self.what, self.capture_after, self.capture = use_graph, what, capture_after, capture
+        self.eager_runs = 0
+        self.replay = None
         self._recorded = None
 
-    def run(self) -> None:
-        if self.graph is None and self.replays >= self.capture_after and graphs_allowed(self.device, self.use_graph, self.what):
-            self.graph = capture_graph(self.launches, self.device)
-        if self.graph is not None:
-            wp.capture_launch(self.graph)
-            return
-        self.replays += 1
+    def run(self):
+        if self.replay is None and self.eager_runs >= self.capture_after and graphs_allowed(self.device, self.use_graph, self.what):
+            self.replay = self._captured()
+        if self.replay is not None:
+            return self.replay()
+        self.eager_runs += 1
+        if self.capture is not None:
+            return self.work()
         if self._recorded is None:
             self._recorded = Recorded()
-        self._recorded.run(self.launches, self.device)
+        self._recorded.run(self.work, self.device)
+        return None
+
+    def _captured(self):
+        """The replay of the work captured as a graph."""
+        if self.capture is None:
+            return functools.partial(wp.capture_launch, capture_graph(self.work, self.device))
+        with capture_lock:
+            return self.capture(self.work)
 
 
 def per_thread(model, key, build):

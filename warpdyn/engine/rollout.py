@@ -316,10 +316,10 @@ class _Config:
         try:
             program.run()
         except RuntimeError as error:  # a failed allocation of its capture; other errors pass as they are
-            if program.graph is not None or "alloc" not in str(error).lower():
+            if program.replay is not None or "alloc" not in str(error).lower():
                 raise
             del self.graphs[key]
-            n = len(program.launches)
+            n = len(program.work)
             raise memory_error(f"capturing a graph of {n} launches", n * GRAPH_BYTES_PER_LAUNCH, error) from None
 
     def _staging(self) -> None:

@@ -7,6 +7,10 @@ k reads buffer k % 2 and writes the other. The launches of `substeps` steps from
 graph, a CUDA graph on GPUs, Warp's CPU graph on the CPU, or replayed from its recording): a call replays them,
 with no allocation, no argument packing and no host check. A change of the model (a setter: `model.version`) rebuilds them at
 the next call. Not differentiable (states are overwritten): refused under a wp.Tape.
+
+A caller's step around `step()` (torch ops: warpdyn.envs) is a `StepProgram` (`Stepper.step_program`): a Program
+per buffer its steps start from, captured in the caller's kind of graph; it keeps the buffers' turn (host
+state, which `step()` advances) across replays, where `step()` does not run.
 """
 
 from __future__ import annotations
@@ -51,6 +55,7 @@ class Stepper:
         self._slots = [state_buffers(plan, N, False) for _ in range(2)]
         self._data = [with_state(data, slot) for slot in self._slots]
         self._current = 0
+        self._calls = 0  # of step(): a StepProgram checks that its body steps once
         self._build(plan)
         self.set_state(data)
 
@@ -89,13 +94,23 @@ class Stepper:
         if program is None:
             program = self._programs[self._current] = self._program(self._current)
         program.run()
-        self.advance_buffers()
+        self._current = (self._current + self.substeps) % 2
+        self._calls += 1
         return self._data[self._current]
 
-    def advance_buffers(self) -> None:
-        """Account for one call's `substeps` steps run by a replay of a graph the caller captured around
-        `step()` (warpdyn.envs): the buffer that call wrote becomes the current one, as `step()` makes it."""
-        self._current = (self._current + self.substeps) % 2
+    def step_program(self, body, capture, use_graph="auto", what: str = "a Stepper.step_program") -> StepProgram:
+        """`body` (a caller's step: work around one call of `step()`) as a StepProgram, captured by `capture` where
+        `use_graph` allows (see warpdyn.simulation.Stepper)."""
+        if use_graph not in ("auto", True, False):
+            raise ValueError(f"use_graph must be 'auto', True or False, got {use_graph!r}")
+        if not callable(body) or not callable(capture):
+            raise TypeError(f"step_program takes a callable body and a callable capture, got {type(body).__name__} and {type(capture).__name__}")
+        if use_graph is not False and self.use_graph is not False:
+            raise ValueError(
+                f"{what} captures this Stepper's steps in the caller's graph (use_graph={use_graph!r}), where they "
+                f"cannot be a graph of their own: build the Stepper with use_graph=False (it has {self.use_graph!r})"
+            )
+        return StepProgram(self, body, capture, use_graph, what)
 
     @property
     def contact_wrenches(self):
@@ -143,3 +158,46 @@ class Stepper:
                 kernel = K.select_rows_3d if b.ndim == 3 else K.select_rows
                 launch(kernel, dim=self.batch_size, inputs=[envs, a, b], outputs=[b], device=self.device)
         launch(K.select_valid, dim=self.batch_size, inputs=[envs, target[6]], outputs=[target[6]], device=self.device)
+
+
+class StepProgram:
+    """A caller's step (`body()`, which calls its Stepper's `step()` once) run again and again (see
+    Stepper.step_program and warpdyn.simulation.Stepper): a Program (warpdyn.engine.launch) for each buffer a
+    step starts from, its body eager at the first run of the StepProgram and captured by `capture` at the next
+    run from that buffer, and dropped when a setter changes the model. After each run the buffers' turn is the
+    one `body`'s step leaves, replayed or not."""
+
+    def __init__(self, stepper: Stepper, body, capture, use_graph, what: str):
+        self._stepper, self._body, self._capture = stepper, body, capture
+        self.use_graph, self.what = use_graph, what
+        self._programs: dict = {}  # start buffer -> Program
+        self._plan = stepper._plan  # the model's plan the Programs' graphs read
+
+    @property
+    def captured(self) -> int:
+        """How many graphs it has captured (at most one per buffer a step starts from)."""
+        return sum(program.replay is not None for program in self._programs.values())
+
+    def run(self):
+        """One step of the caller: `body()` or a replay of its graph; returns what it returns."""
+        stepper = self._stepper
+        current = step_plan(stepper.model)
+        if current is not self._plan:  # a setter changed the model: the graphs read its old arrays
+            self._programs.clear()
+            self._plan = current
+        start = stepper._current
+        program = self._programs.get(start)
+        if program is None:
+            warm = any(p.eager_runs for p in self._programs.values())  # the body ran once outside a capture
+            program = self._programs[start] = Program(self._stepping, stepper.device, self.use_graph, self.what, 0 if warm else 1, self._capture)
+        outputs = program.run()
+        stepper._current = (start + stepper.substeps) % 2
+        return outputs
+
+    def _stepping(self):
+        """`body()`, checked to call the Stepper's `step()` once."""
+        calls = self._stepper._calls
+        outputs = self._body()
+        if self._stepper._calls != calls + 1:
+            raise RuntimeError(f"the body of {self.what} must call its Stepper's step() once; it called it {self._stepper._calls - calls} times")
+        return outputs

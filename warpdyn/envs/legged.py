@@ -279,10 +279,9 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._action_input = torch.zeros(N, na, **f32)
         self._return = torch.zeros(N, **f32)
         self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)  # episodes, return sum, length sum
-        self._graphs: dict = {}
         self._warp_streams: dict = {}
+        self._program = self._step_program()
         self._graph_version, self._graph_cfg = model.version, _snapshot(cfg)
-        self._eager_steps = 0
         self.state = self._state()
         obs_dim = self._observe().shape[1]
         self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
@@ -412,9 +411,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         and take new views of the randomised parameters."""
         if self.model.version == self._graph_version and self.cfg == self._graph_cfg:
             return
-        self._graphs.clear()
+        self._program = self._step_program()
         self._graph_version, self._graph_cfg = self.model.version, _snapshot(self.cfg)
-        self._eager_steps = 0
         self._link_mass = wp.to_torch(self.model.link_mass)
         self._mu = wp.to_torch(self.model.contact_params.mu)
         if tuple(self._link_mass.shape[:1]) != (self.num_envs,) or tuple(self._mu.shape) != (self.num_envs,):
@@ -443,36 +441,36 @@ class LeggedEnv(gym.vector.VectorEnv):
             raise ValueError(f"actions has shape {tuple(actions.shape)}; expected {(self.num_envs, self.actions.shape[1])}")
         self._action_input.copy_(actions)
         self._sync_model()
-        key = id(self.stepper.data)  # which ping-pong buffer the step starts from: one graph for each
-        if key not in self._graphs and self._eager_steps > 0 and self._captures():
-            self._graphs[key] = self._capture()
-        if key in self._graphs:
-            graph, outputs, self.state, self.joint_torques = self._graphs[key]
-            with torch.cuda.device(self.device), self._on_device_stream():  # ordered after Warp's pending work
+        with self._on_device_stream():  # a replay too: ordered after Warp's pending work
+            return self._program.run()
+
+    def _step_program(self):
+        """`_advance` as the Stepper's step program (wd.simulation.Stepper): on a GPU captured whole in a torch
+        CUDA graph as use_graph allows, at the second step; on the CPU eager (the Stepper replays its Warp CPU
+        graph)."""
+        use_graph = self.use_graph if self.device.type == "cuda" else False
+        return self.stepper.step_program(self._advance, self._torch_graph, use_graph, "a LeggedEnv")
+
+    def _torch_graph(self, advance):
+        """Capture one `advance()` in a torch CUDA graph, not run (torch's allocations in the graph's memory pool,
+        the generator's state registered with it); returns its replay, which points `state` and `joint_torques`
+        at the graph's tensors and returns copies of the graph's outputs, as an eager step returns new tensors."""
+        graph = torch.cuda.CUDAGraph()
+        graph.register_generator_state(self._generator)
+        with torch.cuda.device(self.device), torch.cuda.graph(graph), self._on_device_stream(capturing=True):
+            outputs = advance()
+        state, joint_torques = self.state, self.joint_torques
+
+        def replay() -> tuple:
+            with torch.cuda.device(self.device):
                 graph.replay()
-            self.stepper.advance_buffers()
-            obs, reward, terminated, truncated, info = outputs  # the graph's buffers: fresh copies, as an eager step
+            self.state, self.joint_torques = state, joint_torques
+            obs, reward, terminated, truncated, info = outputs
             info = {"final_obs": info["final_obs"].clone(), "_final_obs": info["_final_obs"].clone(), "invalid": info["invalid"].clone(),
                     "log": {name: value.clone() for name, value in info["log"].items()}}  # fmt: skip
             return obs.clone(), reward.clone(), terminated.clone(), truncated.clone(), info
-        with self._on_device_stream():
-            outputs = self._advance()
-        self._eager_steps += 1
-        return outputs
 
-    def _captures(self) -> bool:
-        return self.device.type == "cuda" and wd.simulation.graphs_allowed(self.model.device, self.use_graph, "a LeggedEnv")
-
-    def _capture(self) -> tuple:
-        """(graph, outputs, state, joint_torques) of one `_advance` captured in a CUDA graph (not run)."""
-        graph = torch.cuda.CUDAGraph()
-        graph.register_generator_state(self._generator)
-        start = self.stepper.data
-        with torch.cuda.device(self.device), torch.cuda.graph(graph), self._on_device_stream(capturing=True):
-            outputs = self._advance()
-        if self.stepper.data is not start:  # the capture ran nothing: the turn stays where replays start (odd decimation)
-            self.stepper.advance_buffers()
-        return graph, outputs, self.state, self.joint_torques
+        return replay
 
     def _advance(self) -> tuple:
         """One policy step from the actions in `_action_input`: (obs, reward, terminated, truncated, info)."""
@@ -535,5 +533,5 @@ class LeggedEnv(gym.vector.VectorEnv):
         return {"episodes": int(count), "mean_return": total / count if count else float("nan"), "mean_length": length / count if count else float("nan")}
 
     def close_extras(self, **kwargs) -> None:
-        self._graphs.clear()
+        self._program = None
         self.stepper = None
