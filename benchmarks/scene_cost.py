@@ -10,14 +10,11 @@ file without the cube's body, the cube alone without the Panda's; all at a time 
 row times one `wd.model.step` (median over repeats, after a warm-up, each call from the initial state; joint
 torques 0, the arm's servos' ctrl 0) of:
 - panda: the arm alone (its joints have one DoF each: the fused step, kernels/fused_step.py);
-- panda, staged: the same with warpdyn.config.fused_step off (the launch list every model with a ball or free
-  joint takes);
-- cube, staged: the cube alone with warpdyn.config.fused_step off (alone, a free body is a floating base, which
-  the fused step would serve);
-- scene: the Panda and the cube (the launch list).
-`scene / (staged + cube)` says whether the scene costs what its trees cost apart on the same path; `scene /
-panda` what a free object costs a user of the arm, the fused path's gain included. Prints the header (device,
-versions) and a Markdown table.
+- cube: the cube alone (alone, a free body is a floating base: the fused step);
+- scene: the Panda and the cube (the cube's free joint below the world: the fused step too);
+- scene, staged: the scene with warpdyn.config.fused_step off (the launch list, as under a tape).
+`scene / (panda + cube)` says whether the scene costs what its trees cost apart; `scene / panda` what a free
+object costs a user of the arm. Prints the header (device, versions) and a Markdown table.
 """
 
 from __future__ import annotations
@@ -101,7 +98,7 @@ def main() -> None:
     Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else ([1, 4096, 32768] if device.is_cuda else [1, 256, 4096])
     print(header(device))
     print()
-    print("| dtype | N | panda [ms] | panda, staged [ms] | cube, staged [ms] | scene [ms] | scene / (staged + cube) | scene / panda |")
+    print("| dtype | N | panda [ms] | cube [ms] | scene [ms] | scene, staged [ms] | scene / (panda + cube) | scene / panda |")
     print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     fused_setting = wd.config.fused_step
     try:
@@ -111,11 +108,11 @@ def main() -> None:
             scene = load(SCENE.read_text(), dtype, device)
             for N in Ns:
                 t_arm = step_time(arm, N, device, args.repeats, True)
-                t_staged = step_time(arm, N, device, args.repeats, False)
-                t_cube = step_time(cube, N, device, args.repeats, False)
+                t_cube = step_time(cube, N, device, args.repeats, True)
                 t_scene = step_time(scene, N, device, args.repeats, True)
-                ms = [1e3 * t for t in (t_arm, t_staged, t_cube, t_scene)]
-                print(f"| {dtype_name} | {N} | " + " | ".join(f"{t:.4f}" for t in ms) + f" | {t_scene / (t_staged + t_cube):.2f} | {t_scene / t_arm:.2f} |", flush=True)
+                t_staged = step_time(scene, N, device, args.repeats, False)
+                ms = [1e3 * t for t in (t_arm, t_cube, t_scene, t_staged)]
+                print(f"| {dtype_name} | {N} | " + " | ".join(f"{t:.4f}" for t in ms) + f" | {t_scene / (t_arm + t_cube):.2f} | {t_scene / t_arm:.2f} |", flush=True)
     finally:
         wd.config.fused_step = fused_setting
 

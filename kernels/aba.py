@@ -89,16 +89,26 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         return sp.force_from(X, sp.force_repr_to_inertial(repr, X, B.link_force(controls, env, i)))
 
     @wp.func
+    def dof_rotor(model: B.Model, env: int, d: int, implicit_dt: scalar):
+        """DoF d's own term of its joint-space inertia: armature_d + implicit_dt damping_d (MuJoCo's implicit
+        damping when implicit_dt = dt)."""
+        return B.armature_of(model, env, d) + implicit_dt * B.joint_parameter(model.damping, env, d)
+
+    @wp.func
+    def joint_force_of(controls: B.Controls, env: int, d: int):
+        """The controls' joint force on DoF d, 0 when they hold none."""
+        if controls.joint_forces.shape[0] > 0:
+            return controls.joint_forces[env, d]
+        return scalar(0.0)
+
+    @wp.func
     def project_dof(model: B.Model, controls: B.Controls, env: int, d: int, implicit_dt: scalar, S: sp.vec6, IA: sp.mat66, pA: sp.vec6):
         """ABA's projection of DoF d (motion subspace S) out of an articulated inertia IA and bias force pA (the
         module docstring's step 2): (U_d / d_d, u_d / d_d, IA - U_d U_d^T / d_d, pA + U_d u_d / d_d), with
         d_d = S^T U_d + armature_d + implicit_dt damping_d and u_d with the controls' joint force when given."""
         U = IA * S
-        rotor = B.armature_of(model, env, d) + implicit_dt * B.joint_parameter(model.damping, env, d)
-        d_inv = scalar(1.0) / (wp.dot(S, U) + rotor)
-        u = -wp.dot(S, pA)
-        if controls.joint_forces.shape[0] > 0:
-            u = u + controls.joint_forces[env, d]
+        d_inv = scalar(1.0) / (wp.dot(S, U) + dof_rotor(model, env, d, implicit_dt))
+        u = joint_force_of(controls, env, d) - wp.dot(S, pA)
         Ud = U * d_inv
         return Ud, u * d_inv, sc.sym_upper(IA - wp.outer(Ud, U)), pA + U * (u * d_inv)
 
@@ -110,6 +120,31 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         Ia_i, pa_i)."""
         Ud, ud, Ia, pA_d = project_dof(model, controls, env, d, implicit_dt, S, IA, pA)
         return Ud, ud, Ia, pA_d + Ia * c_i
+
+    @wp.func
+    def free_joint_acceleration(
+        model: B.Model, controls: B.Controls, env: int, d: int, implicit_dt: scalar, R: sp.mat33, IA: sp.mat66, pA: sp.vec6, a_i: sp.vec6
+    ):
+        """(qdd, a'_i + S qdd) at a link whose free joint (DoFs d to d + 5; its motion subspace S = diag(R^T, 1),
+        R its own rotation: kernels/joints.py's `free_joint_rotation`) hangs from a parent of known acceleration
+        (a fixed base), its DoFs solved together: D qdd = tau - S^T (pA + IA a'_i), D = S^T IA S + diag(`dof_rotor`),
+        a'_i = iX_lambda a'_lambda + c_i (`link_acceleration`), by 3x3 blocks (IA = [[K, H], [H^T, L]]:
+        D = [[R K R^T, R H], [H^T R^T, L]] + diag(rotor)). It equals the DoF-by-DoF projection and acceleration
+        of steps 2 and 3 (the block elimination they perform one DoF at a time), for a joint whose parent's terms
+        no one needs (kernels/fused_step.py)."""
+        K = sp.mat33(IA[0, 0], IA[0, 1], IA[0, 2], IA[1, 0], IA[1, 1], IA[1, 2], IA[2, 0], IA[2, 1], IA[2, 2])
+        H = sp.mat33(IA[0, 3], IA[0, 4], IA[0, 5], IA[1, 3], IA[1, 4], IA[1, 5], IA[2, 3], IA[2, 4], IA[2, 5])
+        L = sp.mat33(IA[3, 3], IA[3, 4], IA[3, 5], IA[4, 3], IA[4, 4], IA[4, 5], IA[5, 3], IA[5, 4], IA[5, 5])
+        r_lin = sp.vec3(dof_rotor(model, env, d, implicit_dt), dof_rotor(model, env, d + 1, implicit_dt), dof_rotor(model, env, d + 2, implicit_dt))
+        r_ang = sp.vec3(dof_rotor(model, env, d + 3, implicit_dt), dof_rotor(model, env, d + 4, implicit_dt), dof_rotor(model, env, d + 5, implicit_dt))
+        RH = R * H
+        w = pA + IA * a_i
+        tau_lin = sp.vec3(joint_force_of(controls, env, d), joint_force_of(controls, env, d + 1), joint_force_of(controls, env, d + 2))
+        tau_ang = sp.vec3(joint_force_of(controls, env, d + 3), joint_force_of(controls, env, d + 4), joint_force_of(controls, env, d + 5))
+        x1, x2 = sp.solve_spd6_blocks(
+            R * K * wp.transpose(R) + wp.diag(r_lin), RH, wp.transpose(RH), L + wp.diag(r_ang), tau_lin - R * sp.lin(w), tau_ang - sp.ang(w)
+        )
+        return sp.stack(x1, x2), a_i + sp.stack(wp.transpose(R) * x1, x2)
 
     @wp.func
     def bias_force(v: sp.vec6, I_v: sp.vec6):
@@ -152,8 +187,10 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
     return types.SimpleNamespace(
         inertia_to=inertia_to,
         external_force=external_force,
+        dof_rotor=dof_rotor,
         project_dof=project_dof,
         articulated=articulated,
+        free_joint_acceleration=free_joint_acceleration,
         bias_force=bias_force,
         base_inertia=base_inertia,
         base_bias_force=base_bias_force,

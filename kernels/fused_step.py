@@ -51,10 +51,13 @@ accelerations) and the integration (kernels/integrators.py's `euler_coordinate`,
 ahead), and the sum of a link's contact forces about its origin, in world axes (short lever arms) rather than
 Inertial wrenches about the world's origin.
 
-Forward only: the module has no backward pass. Its models' joints have one DoF each (kernels/joints.py's one-DoF
-functions: warpdyn.engine.step's Plan chooses it for those alone). Under a tape, with gradients, for RK4 and for
-joints of several DoFs, a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding
-(tests/test_fused_step.py).
+Forward only: the module has no backward pass. Its models' joints have one DoF each, or are free joints below a
+fixed base (`free_roots`: a scene's free bodies and floating robots below its world; kernels/joints.py's
+multi-DoF variant, for the joints' addresses). A free joint's parent is then still, so pass 2 solves its six
+DoFs at once when it reaches it (kernels/aba.py's `free_joint_acceleration`: its accelerations go to its
+record's U_i / d_i and c_i for pass 3) and hands nothing to the base. warpdyn.engine.step's Plan chooses it for
+those models alone. Under a tape, with gradients, for RK4 and for ball joints or free joints below a moving link,
+a step is warpdyn.engine.step's launch list, whose numbers these equal to rounding (tests/test_fused_step.py).
 """
 
 
@@ -69,7 +72,7 @@ from .forces import kernels as force_funcs
 from .integrators import kernels as integrator_funcs
 from .joints import joints
 from .scratch import SYM66, TRANSFORM, scratch
-from .spatial import INERTIAL, MIXED, spatial
+from .spatial import FREE, INERTIAL, MIXED, spatial
 
 BASE = wp.constant(-2)
 """In a walk, a link's parent slot when its parent is the base (the first link of a group)."""
@@ -101,7 +104,7 @@ def unfilled(scalar, *shape: int) -> str:
 
 
 @factory
-def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, point_law, terrain_kind: int | None, passive: bool, keep_joint_transforms: bool, lanes: int = 1, shared_block: int = 0, shared_c: bool = True):
+def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, point_law, terrain_kind: int | None, passive: bool, free_roots: bool, keep_joint_transforms: bool, lanes: int = 1, shared_block: int = 0, shared_c: bool = True):
     """The fused step in `scalar` for models of `links` links whose walk has `slots` slots (local arrays of those
     sizes; at least 1), with MuJoCo's base step (so3) or JaxSim's, the joint forces of kernels/actuation.py's
     `joint_force(scalar, *actuation)` (None: a model without joints), the contacts of the per-point law
@@ -109,7 +112,8 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
     `point_law`: kernels/soft_contacts.py's `kernels`, whose `law_parameters`, `contact_at` and
     `height_parameter` it calls), the links' passive forces (gravity
     compensation, a floating base's free-joint damper and spring: kernels/forces.py's `passive_link_wrench`) when
-    `passive`, keeping the joint transforms of pass 1 for
+    `passive`, for models whose joints have one DoF each or (free_roots) are free joints below a fixed base
+    (a scene's free bodies and floating robots: kernels/aba.py's `free_joint_acceleration`), keeping the joint transforms of pass 1 for
     passes 2 and 3 or recomputing them; one thread per environment (lanes 1, launched over N), or `lanes`
     threads per environment, one per group of the walk (launched over (N, lanes) in blocks of `lanes`); the
     links' records in each thread's local memory (shared_block 0), or, for launches in blocks of `shared_block`
@@ -118,8 +122,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
     (not shared_c: the bias force then U_i / d_i, and u_i / d_i, C_AT numbers per link; c_i in local memory)."""
     sp = spatial(scalar)
     B = bundles(scalar)
-    jm = joints(scalar, False)
-    I = integrator_funcs(scalar, False)
+    FREE_ROOTS = free_roots
+    jm = joints(scalar, FREE_ROOTS)
+    I = integrator_funcs(scalar, FREE_ROOTS)
     C = point_law(scalar, terrain_kind)
     F = inertia_funcs(scalar)
     inertia_to, articulated = F.inertia_to, F.articulated
@@ -130,7 +135,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
     PAIRS = scalar == wp.float32  # contact points two at a time (in float64 that spills: performance_rounds.md, round 10)
     TERMS_AHEAD = scalar == wp.float32  # pass 1 loads link k + 1's joint terms ahead (in float64 that spills: performance_rounds.md, round 13)
     ACTUATED = actuation is not None
-    resultant_torque = joint_force(scalar, *(actuation or (False, False)))
+    resultant_torque = joint_force(scalar, *(actuation or (False, False)), multi_dof=FREE_ROOTS)
     LANES = lanes
     base_terms = wp.types.vector(SYM66 + 6, scalar)
     links6 = wp.types.matrix((links, 6), scalar)
@@ -390,8 +395,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
         sd_n = scalar(0.0)
         ref_n = scalar(0.0)
         if has_joints:
-            j_n = wp.max(jm.dof_address(model, walk[k_first][0]), 0)
-            s_n = x.joint_positions[env, j_n]
+            i_n = walk[k_first][0]
+            j_n = wp.max(jm.dof_address(model, i_n), 0)
+            s_n = x.joint_positions[env, wp.max(jm.position_address(model, i_n), 0)]
             sd_n = x.joint_velocities[env, j_n]
             ref_n = tau_ref[env, j_n]
         if wp.static(TERMS_AHEAD):
@@ -403,8 +409,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             s_i = s_n
             qd_i = sd_n
             ref_i = ref_n
-            j_n = jm.dof_address(model, walk[wp.min(k + 1, last - 1)][0])
-            s_n = x.joint_positions[env, j_n]
+            i_n = walk[wp.min(k + 1, last - 1)][0]
+            j_n = jm.dof_address(model, i_n)
+            s_n = x.joint_positions[env, jm.position_address(model, i_n)]
             sd_n = x.joint_velocities[env, j_n]
             ref_n = tau_ref[env, j_n]
             W_H_P = W_H_prev
@@ -420,6 +427,10 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             else:
                 jt, Q0, Q1, t0, t1, t2 = jm.joint_terms_of(model, i)  # loaded first, as round 9 measured
                 X_i = jm.joint_transform_from(jt, Q0, Q1, t0, t1, t2, s_i)
+            if wp.static(FREE_ROOTS):
+                free = model.joint_type[i] == FREE
+                if free:
+                    X_i = jm.joint_transform(model, i, x.joint_positions, env)
             if wp.static(KEEP):
                 X[i] = pack7(X_i)
             W_H_i = W_H_P * X_i
@@ -427,8 +438,18 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
                 W_H_L[env, i] = W_H_i
             if wp.static(ACTUATED):
                 j = jm.dof_address(model, i)
-                controls.joint_forces[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, j, j, s_i, qd_i, ref_i, ctrl, x.joint_positions)
+                controls.joint_forces[env, j] = resultant_torque(model, torque_max, omega_th, omega_max, env, i - 1, j, s_i, qd_i, ref_i, ctrl, x.joint_positions)
+                if wp.static(FREE_ROOTS):
+                    if free:  # its other 5 DoFs
+                        for k in range(1, 6):
+                            controls.joint_forces[env, j + k] = resultant_torque(
+                                model, torque_max, omega_th, omega_max, env, i - 1, j + k, s_i, x.joint_velocities[env, j + k], tau_ref[env, j + k], ctrl,
+                                x.joint_positions,
+                            )  # fmt: skip
             S_qd = model.dof_S[jm.dof_address(model, i)] * qd_i
+            if wp.static(FREE_ROOTS):
+                if free:
+                    S_qd = jm.joint_motion_of(model, i, X_i, x.joint_velocities, env)
             v_i = jm.link_velocity(X_i, v_P, S_qd)
             if own >= 0:
                 slot_H[own] = pack7(W_H_i)
@@ -458,7 +479,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
                 X_i = unpack7(X[i])
             else:  # the joint's terms and position loaded now, its transform computed after `articulated`
                 jt, Q0, Q1, t0, t1, t2 = jm.joint_terms_of(model, i)
-                q_i = x.joint_positions[env, jm.dof_address(model, i)]
+                q_i = x.joint_positions[env, jm.position_address(model, i)]
             S = model.dof_S[jm.dof_address(model, i)]
             IA = pack21(B.spatial_inertia_of(model, env, i)) + IA_next  # summed as 21 numbers: symmetric, fewer registers
             if wp.static(SHARED):
@@ -472,7 +493,27 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
                 c_i = get6(PER_LINK * i + C_AT)
             else:
                 c_i = c[i]
-            Ud_i, ud_i, Ia, pa = articulated(model, controls, env, jm.dof_address(model, i), implicit_dt, S, unpack21(IA), pA, c_i)
+            if wp.static(FREE_ROOTS):
+                if model.joint_type[i] == FREE:  # below the fixed base: its accelerations now, for pass 3 (in U_i / d_i and c_i)
+                    if wp.static(KEEP):
+                        X_f = X_i
+                    else:
+                        X_f = jm.joint_transform(model, i, x.joint_positions, env)
+                    a_f = F.link_acceleration(X_f, -B.gravity_in(model, B.base_pose(x, env)), c_i)
+                    Ud_i, a_f = F.free_joint_acceleration(
+                        model, controls, env, jm.dof_address(model, i), implicit_dt, jm.free_joint_rotation(model, i, X_f), unpack21(IA), pA, a_f
+                    )
+                    ud_i = scalar(0.0)
+                    Ia = sp.mat66(scalar(0.0))  # nothing for the fixed base
+                    pa = sp.vec6(scalar(0.0))
+                    if wp.static(C_SHARED):
+                        put6(PER_LINK * i + C_AT, a_f)
+                    else:
+                        c[i] = a_f
+                else:
+                    Ud_i, ud_i, Ia, pa = articulated(model, controls, env, jm.dof_address(model, i), implicit_dt, S, unpack21(IA), pA, c_i)
+            else:
+                Ud_i, ud_i, Ia, pa = articulated(model, controls, env, jm.dof_address(model, i), implicit_dt, S, unpack21(IA), pA, c_i)
             if wp.static(SHARED):
                 put6(PER_LINK * i, Ud_i)
                 shared_record(PER_LINK * i + UD_AT, ud_i, 1)
@@ -541,7 +582,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
         q_n = scalar(0.0)
         qd_n = scalar(0.0)
         if has_joints:
-            q_n = x.joint_positions[env, wp.max(jm.dof_address(model, i_n), 0)]
+            q_n = x.joint_positions[env, wp.max(jm.position_address(model, i_n), 0)]
             qd_n = x.joint_velocities[env, wp.max(jm.dof_address(model, i_n), 0)]
         for k in range(first, last):
             i = i_n
@@ -574,7 +615,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             else:
                 pU_n = pU[i_n]
                 ud_n = ud[i_n]
-            q_n = x.joint_positions[env, jm.dof_address(model, i_n)]
+            q_n = x.joint_positions[env, jm.position_address(model, i_n)]
             qd_n = x.joint_velocities[env, jm.dof_address(model, i_n)]
             a_P = a_prev
             if up == BASE:
@@ -584,13 +625,20 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             a_i = F.link_acceleration(X_i, a_P, c_i)
             qdd = F.dof_acceleration(Ud_i, ud_i, a_i)
             a_i = a_i + S * qdd
+            one_dof = True
+            if wp.static(FREE_ROOTS):
+                if model.joint_type[i] == FREE:  # its accelerations from pass 2: qdd in U_i / d_i, a_i in c_i
+                    one_dof = False
+                    a_i = c_i
+                    nonfinite = nonfinite + I.rotating_joint_step(FREE, jm.position_address(model, i), jm.dof_address(model, i), env, dt, x, Ud_i, True, y)
             if own >= 0:
                 slot_v[own] = a_i
             a_prev = a_i
-            s_next, sd_next = I.euler_coordinate(s_i, sd_i, qdd, dt)
-            nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)
-            y.joint_velocities[env, jm.dof_address(model, i)] = sd_next
-            y.joint_positions[env, jm.dof_address(model, i)] = s_next
+            if one_dof:
+                s_next, sd_next = I.euler_coordinate(s_i, sd_i, qdd, dt)
+                nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)
+                y.joint_velocities[env, jm.dof_address(model, i)] = sd_next
+                y.joint_positions[env, jm.position_address(model, i)] = s_next
         if lane == 0:
             for row in range(x.tangential_deformation.shape[1]):
                 if contacts.row_point[row] < 0:  # a disabled point's deformation does not change

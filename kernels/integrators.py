@@ -84,6 +84,36 @@ def kernels(scalar, multi_dof: bool):
         return value + dt * rate
 
     @wp.func
+    def rotating_joint_step(kind: int, a: int, d: int, env: int, dt: scalar, x: B.State, acc: sp.vec6, write: bool, y: B.State):
+        """A ball or free joint (its positions from a, its DoFs from d) stepped by semi-implicit Euler (the module
+        docstring) from x with its DoFs' accelerations acc (a ball joint's 3 first, a free joint's 6): written to
+        y when `write`; returns 0, or NaN when a new value is not finite (the health check's)."""
+        nonfinite = scalar(0.0)
+        r = 0  # the quaternion's first position, its rotation's first DoF
+        if kind == FREE:
+            r = 3
+            for k in range(3):
+                p_next, v_next = euler_coordinate(x.joint_positions[env, a + k], x.joint_velocities[env, d + k], acc[k], dt)
+                nonfinite = poison(poison(nonfinite, v_next), p_next)
+                if write:
+                    y.joint_velocities[env, d + k] = v_next
+                    y.joint_positions[env, a + k] = p_next
+        b = d + r  # the rotation's first DoF
+        omega = read3(x.joint_velocities, env, b) + dt * sp.vec3(acc[r], acc[r + 1], acc[r + 2])
+        for k in range(3):
+            nonfinite = poison(nonfinite, omega[k])
+            if write:
+                y.joint_velocities[env, b + k] = omega[k]
+        Q = read4(x.joint_positions, env, a + r)
+        Q_next = quaternion_product(Q / wp.length(Q), rotation_step(Q, omega, dt))
+        Q_next = Q_next / wp.length(Q_next)
+        for k in range(4):
+            nonfinite = poison(nonfinite, Q_next[k])
+            if write:
+                y.joint_positions[env, a + r + k] = Q_next[k]
+        return nonfinite
+
+    @wp.func
     def joint_euler_step(
         model: B.Model, i: int, env: int, dt: scalar, x: B.State, nu_dot: wp.array2d(dtype=scalar), write: bool, y: B.State
     ):
@@ -95,28 +125,11 @@ def kernels(scalar, multi_dof: bool):
         d = jm.dof_address(model, i)
         nonfinite = scalar(0.0)
         if wp.static(multi_dof) and (kind == BALL or kind == FREE):
-            r = 0  # the quaternion's first position, its rotation's first DoF
+            zero = scalar(0.0)
+            acc = sp.vec6(nu_dot[env, 6 + d], nu_dot[env, 7 + d], nu_dot[env, 8 + d], zero, zero, zero)
             if kind == FREE:
-                r = 3
-                for k in range(3):
-                    p_next, v_next = euler_coordinate(x.joint_positions[env, a + k], x.joint_velocities[env, d + k], nu_dot[env, 6 + d + k], dt)
-                    nonfinite = poison(poison(nonfinite, v_next), p_next)
-                    if write:
-                        y.joint_velocities[env, d + k] = v_next
-                        y.joint_positions[env, a + k] = p_next
-            b = d + r  # the rotation's first DoF
-            omega = read3(x.joint_velocities, env, b) + dt * read3(nu_dot, env, 6 + b)
-            for k in range(3):
-                nonfinite = poison(nonfinite, omega[k])
-                if write:
-                    y.joint_velocities[env, b + k] = omega[k]
-            Q = read4(x.joint_positions, env, a + r)
-            Q_next = quaternion_product(Q / wp.length(Q), rotation_step(Q, omega, dt))
-            Q_next = Q_next / wp.length(Q_next)
-            for k in range(4):
-                nonfinite = poison(nonfinite, Q_next[k])
-                if write:
-                    y.joint_positions[env, a + r + k] = Q_next[k]
+                acc = sp.vec6(nu_dot[env, 6 + d], nu_dot[env, 7 + d], nu_dot[env, 8 + d], nu_dot[env, 9 + d], nu_dot[env, 10 + d], nu_dot[env, 11 + d])
+            nonfinite = rotating_joint_step(kind, a, d, env, dt, x, acc, write, y)
         else:
             s_next, sd_next = euler_coordinate(x.joint_positions[env, a], x.joint_velocities[env, d], nu_dot[env, 6 + d], dt)
             nonfinite = poison(poison(nonfinite, sd_next), s_next)
@@ -472,6 +485,7 @@ def kernels(scalar, multi_dof: bool):
         poison=poison,
         euler_coordinate=euler_coordinate,
         euler_rate=euler_rate,
+        rotating_joint_step=rotating_joint_step,
         keep_state=keep_state,
         euler_base=euler_base,
         base_state=base_state,

@@ -104,6 +104,11 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         return transform_of_terms(k, model.joint_Q0[i], model.joint_Q1[i], model.joint_t0[i], model.joint_t1[i], model.joint_t2[i])
 
     @wp.func
+    def free_joint_quaternion(model: B.Model, i: int, X: sp.transform):
+        """The rotation of link i's free joint itself: Q0^-1 times that of its transform X = lambda(i)_H_i."""
+        return wp.quat_inverse(model.joint_Q0[i]) * wp.transform_get_rotation(X)
+
+    @wp.func
     def dof_motion(model: B.Model, i: int, d: int, X: sp.transform):
         """S_d: the motion subspace column of DoF d of link i's joint, link coordinates, with X = lambda(i)_H_i
         the joint's transform. Constant (model.dof_S) but for a free joint's translations: [Q^T e_k; 0] with Q
@@ -111,9 +116,15 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         S = model.dof_S[d]
         if wp.static(MULTI):
             if model.joint_type[i] == FREE and d - model.v_start[i] < 3:
-                Q = wp.quat_inverse(model.joint_Q0[i]) * wp.transform_get_rotation(X)
+                Q = free_joint_quaternion(model, i, X)
                 return sp.stack(wp.quat_rotate_inv(Q, sp.lin(S)), sp.vec3(scalar(0.0)))
         return S
+
+    @wp.func
+    def free_joint_rotation(model: B.Model, i: int, X: sp.transform):
+        """R: the rotation of link i's free joint itself (Q0^-1 times that of its transform X = lambda(i)_H_i),
+        as a matrix: its motion subspace is S_i = diag(R^T, 1) (`dof_motion`)."""
+        return wp.quat_to_matrix(free_joint_quaternion(model, i, X))
 
     @wp.func
     def dof_motion_rate(model: B.Model, i: int, d: int, X: sp.transform, vJ: sp.vec6):
@@ -145,7 +156,7 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
                 w = sp.vec3(values[env, a], values[env, a + 1], values[env, a + 2])
                 return sp.stack(wp.cross(model.joint_t1[i], w), w)  # a rotation about the pivot t1 (child frame)
             if kind == FREE:
-                Q = wp.quat_inverse(model.joint_Q0[i]) * wp.transform_get_rotation(X)
+                Q = free_joint_quaternion(model, i, X)
                 v = sp.vec3(values[env, a], values[env, a + 1], values[env, a + 2])
                 return sp.stack(wp.quat_rotate_inv(Q, v), sp.vec3(values[env, a + 3], values[env, a + 4], values[env, a + 5]))
         return model.dof_S[a] * values[env, a]
@@ -202,6 +213,7 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         joint_quaternion=joint_quaternion,
         joint_transform=joint_transform,
         dof_motion=dof_motion,
+        free_joint_rotation=free_joint_rotation,
         dof_motion_rate=dof_motion_rate,
         joint_frame_motion=joint_frame_motion,
         joint_motion_of=joint_motion_of,

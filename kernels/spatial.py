@@ -258,16 +258,23 @@ def spatial(scalar) -> types.SimpleNamespace:
         return B_f
 
     @wp.func
+    def solve_spd6_blocks(A11: mat33, A12: mat33, A21: mat33, A22: mat33, b1: vec3, b2: vec3):
+        """(x1, x2) with [[A11, A12], [A21, A22]] [x1; x2] = [b1; b2] for a symmetric positive-definite matrix of
+        those 3x3 blocks, by the Schur complement of A11."""
+        A11_inv = wp.inverse(A11)
+        schur = A22 - A21 * A11_inv * A12
+        x2 = wp.inverse(schur) * (b2 - A21 * (A11_inv * b1))
+        x1 = A11_inv * (b1 - A12 * x2)
+        return x1, x2
+
+    @wp.func
     def solve_spd6(A: mat66, b: vec6):
-        """x with A x = b for a symmetric positive-definite A, by 3x3 blocks and the Schur complement."""
+        """x with A x = b for a symmetric positive-definite A, by 3x3 blocks (`solve_spd6_blocks`)."""
         A11 = mat33(A[0, 0], A[0, 1], A[0, 2], A[1, 0], A[1, 1], A[1, 2], A[2, 0], A[2, 1], A[2, 2])
         A12 = mat33(A[0, 3], A[0, 4], A[0, 5], A[1, 3], A[1, 4], A[1, 5], A[2, 3], A[2, 4], A[2, 5])
         A21 = mat33(A[3, 0], A[3, 1], A[3, 2], A[4, 0], A[4, 1], A[4, 2], A[5, 0], A[5, 1], A[5, 2])
         A22 = mat33(A[3, 3], A[3, 4], A[3, 5], A[4, 3], A[4, 4], A[4, 5], A[5, 3], A[5, 4], A[5, 5])
-        A11_inv = wp.inverse(A11)
-        schur = A22 - A21 * A11_inv * A12
-        x2 = wp.inverse(schur) * (ang(b) - A21 * (A11_inv * lin(b)))
-        x1 = A11_inv * (lin(b) - A12 * x2)
+        x1, x2 = solve_spd6_blocks(A11, A12, A21, A22, lin(b), ang(b))
         return stack(x1, x2)
 
     @wp.func
@@ -331,6 +338,7 @@ def spatial(scalar) -> types.SimpleNamespace:
         joint_coefficients=joint_coefficients,
         inertial_to_repr=inertial_to_repr,
         mixed_frame=mixed_frame,
+        solve_spd6_blocks=solve_spd6_blocks,
         solve_spd6=solve_spd6,
         motion_matrix_from=motion_matrix_from,
         blocks=blocks,

@@ -16,7 +16,9 @@ for few environments, run on the CPU here as Warp's blocks of fibers).
 """
 
 import dataclasses
+import pathlib
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -321,6 +323,95 @@ def test_the_whole_ergocub_in_contact(monkeypatch):
     _assert_close(fused, listed, np.float64)
 
 
+# A floating robot (a free base whose hinges branch) and a crate with its free joint's armature, damper and
+# spring: in one world, two free-joint trees below its fixed base, their boxes and spheres near the ground.
+FREE_TREES = """
+<mujoco model="free trees">
+  <option gravity="0 0 -9.81" timestep="0.001"/>
+  <worldbody>
+    <body name="torso" pos="0 0 0.32" euler="0.1 -0.05 0.3">
+      <freejoint name="torso_free"/>
+      <inertial pos="0.01 0 0" mass="4" diaginertia="0.05 0.08 0.1"/>
+      <geom type="box" size="0.2 0.1 0.05"/>
+      <body name="left" pos="0.15 0.12 0">
+        <joint name="left_hip" axis="0 1 0" damping="0.2" armature="0.01"/>
+        <inertial pos="0 0 -0.1" mass="0.6" diaginertia="0.004 0.004 0.001"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.02"/>
+        <body name="left_foot" pos="0 0 -0.2">
+          <joint name="left_knee" axis="0 1 0"/>
+          <inertial pos="0 0 -0.05" mass="0.3" diaginertia="0.001 0.001 0.0005"/>
+          <geom type="sphere" pos="0 0 -0.08" size="0.03"/>
+        </body>
+      </body>
+      <body name="right" pos="0.15 -0.12 0">
+        <joint name="right_hip" axis="0 1 0" damping="0.2"/>
+        <inertial pos="0 0 -0.1" mass="0.6" diaginertia="0.004 0.004 0.001"/>
+        <geom type="sphere" pos="0 0 -0.25" size="0.03"/>
+      </body>
+    </body>
+    <body name="crate" pos="1 0.5 0.09" euler="0.02 -0.01 0.5">
+      <joint name="crate_free" type="free" armature="0.02" damping="0.3" stiffness="2"/>
+      <inertial pos="0.01 0.02 -0.01" mass="2.5" diaginertia="0.03 0.04 0.05"/>
+      <geom type="box" size="0.1 0.15 0.1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _scene(which: str, dtype):
+    """(a scene whose trees hang from its world by free joints, 4 states of it): Menagerie's Panda beside a free
+    cube, or FREE_TREES; random joint velocities about MuJoCo's qpos0, each free body 3 mm lower (the cube
+    and the crate in the ground)."""
+    source = str(pathlib.Path(__file__).parent / "models" / "menagerie" / "mjx_single_cube.xml") if which == "panda_cube" else FREE_TREES
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # what the scenes hold that warpdyn does not model, named in warnings elsewhere
+        model = wd.model.Model.build_from_model_description(source, dtype=dtype)
+    model.time_step = 0.002
+    rng = np.random.default_rng(7)
+    positions = wd.data.Data.build(model, num_envs=4).joint_positions.numpy()
+    for k in range(model.number_of_joints()):
+        at = wd.joint.position_slice(model, joint_index=k)
+        if at.stop - at.start == 7:  # a free joint: 3 mm lower
+            positions[:, at.start + 2] -= 0.003
+    velocities = rng.normal(0.0, 0.5, (4, model.dofs()))
+    return model, wd.data.Data.build(model, num_envs=4, joint_positions=positions, joint_velocities=velocities)
+
+
+@pytest.mark.usefixtures("keep", "lanes")
+@pytest.mark.parametrize("dtype", [np.float64, np.float32], ids=["float64", "float32"])
+@pytest.mark.parametrize("which", ["panda_cube", "free_trees"])
+def test_scenes_whose_trees_hang_from_free_joints(monkeypatch, which, dtype):
+    """A scene's free bodies and floating robots (free joints below its fixed world) take the fused step, their
+    six DoFs solved together (kernels/aba.py's free_joint_acceleration), and equal the launch list's DoF-by-DoF
+    ABA to rounding, over two steps with joint forces on every DoF, contacts and the free joints' armature,
+    damper and spring (MuJoCo's implicit damping)."""
+    model, data = _scene(which, dtype)
+    monkeypatch.setattr(wd.config, "fused_step", True)
+    plan, _ = engine_step.prepare(model, data, health=True)
+    assert plan.fused is not None and plan.count > 0 and model.multi_dof()
+    tau = np.random.default_rng(3).normal(0.0, 1.0, (4, model.dofs()))
+    fused, listed = _both(monkeypatch, model, data, joint_force_references=tau)
+    assert listed.valid_state.numpy().all() and np.abs(listed.tangential_deformation_state.numpy()).max() > 0, "in contact"
+    _assert_close(fused, listed, dtype, which)
+    fused2, listed2 = _both(monkeypatch, model, listed, joint_force_references=tau)
+    _assert_close(fused2, listed2, dtype, f"{which}, second step")
+
+
+def test_which_scenes_take_the_fused_step():
+    """Free joints below the world take it; a ball joint, or a free joint below a floating base (a URDF floating
+    joint), take the launch list."""
+    ball = FREE_TREES.replace('<joint name="right_hip" axis="0 1 0" damping="0.2"/>', '<joint name="right_hip" type="ball"/>')
+    inertia = '<inertial><mass value="1"/><inertia ixx="0.1" iyy="0.2" izz="0.3" ixy="0" ixz="0" iyz="0"/></inertial>'
+    floating = f"""<robot name="r"><link name="base">{inertia}</link><link name="loose">{inertia}</link>
+      <joint name="float" type="floating"><parent link="base"/><child link="loose"/></joint></robot>"""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        models = {name: wd.model.Model.build_from_model_description(xml) for name, xml in (("free roots", FREE_TREES), ("ball", ball), ("below a floating base", floating))}
+    assert models["below a floating base"].floating_base() and models["below a floating base"].multi_dof()
+    assert {name: engine_step.plan(m).fused is not None for name, m in models.items()} == {"free roots": True, "ball": False, "below a floating base": False}
+
+
 def test_the_walk_visits_each_link_after_its_parent_and_hands_over_through_slots():
     """fused_walk on a tree whose base and link 1 branch: depth-first, children in index order; the parent's slot
     only where the parent is not the link just before."""
@@ -504,7 +595,7 @@ def test_which_devices_blocks_and_settings_keep_the_records_in_shared_memory(mon
     assert rule(plan(gpu, wp.float32, whole), 1, 64) == (64, True) and rule(plan(gpu, wp.float32, whole + 1), 1, 64) == (64, False)
     assert rule(plan(gpu, wp.float32, without_c), 1, 64) == (64, False) and rule(plan(gpu, wp.float32, without_c + 1), 1, 64) == (0, False)
     with pytest.raises(ValueError, match="one thread per environment, not 2 lanes"):
-        fused_step.kernel(wp.float32, 13, 1, False, None, contact_stage.SoftContactStage.point_law, None, False, False, 2, 64)
+        fused_step.kernel(wp.float32, 13, 1, False, None, contact_stage.SoftContactStage.point_law, None, False, False, False, 2, 64)
     monkeypatch.setattr(wd.config, "fused_shared_records", False)
     assert rule(legs32, 1, 64) == (0, False) and rule(legs64, 1, 32) == (0, False)
 

@@ -179,6 +179,14 @@ class KinematicTree:
         """Whether every joint has one position and one velocity (no ball or free joint)."""
         return self.coordinates == self.dofs == self.number_of_joints
 
+    @property
+    def free_roots(self) -> bool:
+        """Whether every joint has one position and one velocity but free joints whose parent is the base (a
+        scene's free bodies and floating robots, below its world)."""
+        kinds, parents = np.asarray(self.joint_type[1:]), np.asarray(self.parent[1:])
+        several = (kinds == JOINT_BALL) | (kinds == JOINT_FREE)
+        return bool(np.all(kinds[several] == JOINT_FREE) and np.all(parents[several] == 0))
+
     def dof_joint(self) -> np.ndarray:
         """(nv,) int32: the joint of each DoF."""
         return np.repeat(np.arange(self.number_of_joints, dtype=np.int32), np.diff(self.v_start[1:]))

@@ -197,17 +197,20 @@ class Plan:
         self.no_targets = targets(model, model.all_links[:0], model.identity_offsets[:0])
         self.integrators = integrator_kernels(s, self.multi_dof)
         # the fused Euler step (kernels/fused_step.py) by whether it keeps the joint transforms and its lanes, for
-        # steps without gradients, of models whose joints have one DoF each. Its walk's groups (the base's
-        # subtrees by their links and points) are its lanes for few environments on a GPU (fused_layout.fused_lanes).
+        # steps without gradients, of models whose joints have one DoF each, or are free joints below a fixed base
+        # (a scene's free bodies and floating robots). Its walk's groups (the base's subtrees by their links and
+        # points) are its lanes for few environments on a GPU (fused_layout.fused_lanes).
         self.fused = None
-        if self.euler and model.tree.one_dof_joints and stage.point_law is not None:
+        tree = model.tree
+        free_roots = not tree.one_dof_joints and tree.free_roots and not model.floating_base()
+        if self.euler and (tree.one_dof_joints or free_roots) and stage.point_law is not None:
             walk = fused_layout.fused_walk(model.tree.parent, fused_layout.MAX_LANES, 1 + stage.points_per_link)
             self.walk = wp.array(walk.walk, dtype=wp.vec3i, device=d)
             self.walk_starts = wp.array(walk.starts, dtype=wp.int32, device=d)
             self.lanes = walk.groups
             so3 = self.integrator == IntegratorType.SemiImplicitEulerSO3
             actuation = (self.with_limits, self.with_friction, self.with_passive, per_joint) if self.n > 0 else None
-            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(walk.slots, 1), so3, actuation, stage.point_law, self.terrain.kind, self.gravcomp)
+            self.fused = functools.partial(fused_step_kernel, s, self.nL, max(walk.slots, 1), so3, actuation, stage.point_law, self.terrain.kind, self.gravcomp, free_roots)
         self.no_poses = wp.empty((0, 0), dtype=wp.types.transformation(s), device=d)
         self._zeros: dict = {}
 
@@ -395,7 +398,7 @@ def joint_forces(plan: Plan, X, tau_ref, u, tau, held) -> list:
 
 def fused_applies(plan: Plan, ws: Workspace) -> bool:
     """Whether a step runs as the fused kernel (kernels/fused_step.py) after the joint forces: a semi-implicit
-    Euler step of a model whose joints have one DoF each, outside a tape, on a workspace without gradients, while
+    Euler step of a model whose joints have one DoF each or are free joints below a fixed base, outside a tape, on a workspace without gradients, while
     warpdyn.config.fused_step is on. Its intermediate results (link poses, contact forces) are then not in
     the workspace."""
     return plan.fused is not None and config.fused_step and not ws.grad and not tape.taping()
