@@ -17,12 +17,17 @@ adds a free cube beside the Panda; pal_talos/talos_motor.xml adds motors to talo
 rule's outcome: the entry points, the wrappers and what each wraps, the files that do not compile alone.
 
 The comparison (tests/mjcf_compare.py, shared with the tests: the state mapping is there, in one function):
-MuJoCo with mjDSBL_CONSTRAINT only (warpdyn has no constraint solver; every other term stays in, so
-unmodelled features show up), ctrl = 0, at qpos0 at rest and at `--states` seeded random states (joint
+MuJoCo with mjDSBL_CONSTRAINT only (warpdyn solves no contact, limit or friction constraints, and its equality
+constraints are compared apart: the constrained column; every other term stays in, so unmodelled features show
+up), ctrl = 0, at qpos0 at rest and at `--states` seeded random states (joint
 positions within limits, random quaternions, velocities N(0, 1)). Columns: relative errors (to the largest
 entry of MuJoCo's) of M (armature included), h (qfrc_bias), forces (qfrc_passive + qfrc_actuator at
 ctrl = 0) and qacc; start: how far warpdyn's default state is from MuJoCo's qpos0 (absolute, base position
-[m], quaternion, joint positions). An entry point matches when M, h and qacc are within --tol.
+[m], quaternion, joint positions); constrained, for an entry point with equality constraints warpdyn enforces
+(connect, joint couplings): the relative error of one Euler step's velocity change against mj_step's with
+MuJoCo's equality rows active (its contacts, limits and frictionloss off, damping explicit in both;
+mjcf_compare.constrained_step_error), which an unmodelled force also shows. An entry point matches when M, h and
+qacc are within --tol.
 
 Missing meshes. A Menagerie copy may lack some mesh files (a snapshot without its largest files). With
 --stand-in-missing-meshes, an entry point that names missing meshes is compiled from a temporary mirror of its
@@ -341,8 +346,8 @@ def report(menagerie, scratch, revision, entries, wrappers, broken, results, att
         "",
         f"**{len(loads)} of {len(results)} entry points load; {len(matching)} match MuJoCo's M, h and qacc to {tol:g}.**",
         "",
-        "| entry point | loads | nq | nv | nu | M | h | forces | qacc | start | time [s] |",
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        "| entry point | loads | nq | nv | nu | M | h | forces | qacc | start | constrained | time [s] |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     stand_ins = {str(c.compile_path): c.stand_ins for c in entries}
     for r in results:
@@ -355,7 +360,7 @@ def report(menagerie, scratch, revision, entries, wrappers, broken, results, att
         e = r.errors
         lines.append(
             f"| {name} | {loaded} | {r.nq} | {r.nv} | {r.nu} | {_fmt(e.get('M'))} | {_fmt(e.get('h'))} | {_fmt(e.get('forces'))} "
-            f"| {_fmt(e.get('qacc'))} | {_fmt(e.get('start'))} | {r.seconds:.1f} |"
+            f"| {_fmt(e.get('qacc'))} | {_fmt(e.get('start'))} | {_fmt(e.get('constrained'))} | {r.seconds:.1f} |"
         )
     lines += ["", "## Warnings at load", ""]
     lines += [f"- {rel(r.path)}: {rel(w)}" for r in results for w in r.warnings] or ["none"]

@@ -5,7 +5,8 @@ the cube alone.
                                     [--repeats 20]
 
 The scene is tests/models/menagerie/mjx_single_cube.xml (Menagerie's franka_emika_panda, its licence beside it):
-the Panda (9 hinge and slide joints) and a cube on a free joint, two trees of one world. The Panda alone is that
+the Panda (9 hinge and slide joints) and a cube on a free joint, two trees of one world, all three without the
+fingers' equality constraint (`without`), so that every column measures the trees' step alone. The Panda alone is that
 file without the cube's body, the cube alone without the Panda's; all at a time step of 2 ms (`TIME_STEP`). Each
 row times one `wd.model.step` (median over repeats, after a warm-up, each call from the initial state; joint
 torques 0, the arm's servos' ctrl 0) of:
@@ -37,14 +38,17 @@ TIME_STEP = 0.002
 whose range warpdyn does not enforce, move their collidable points without bound)."""
 
 
-def without(body: str) -> str:
-    """The scene's MJCF without the worldbody's `body` (and without what names it: keyframes, contact pairs, the
-    actuators and sensors of its joints), as text."""
+def without(body: str | None) -> str:
+    """The scene's MJCF without the worldbody's `body` (None: none) and without its keyframes, contact pairs,
+    equality constraints (the fingers' coupling, which takes the launch list: warpdyn.engine.equality) and
+    tendons, and the actuators and sensors of the removed joints, as text."""
     root = ET.parse(SCENE).getroot()
-    world = root.find("worldbody")
-    removed = world.find(f"body[@name='{body}']")
-    joints = {j.get("name") for j in removed.iter("joint")} | {j.get("name") for j in removed.iter("freejoint")}
-    world.remove(removed)
+    joints = set()
+    if body is not None:
+        world = root.find("worldbody")
+        removed = world.find(f"body[@name='{body}']")
+        joints = {j.get("name") for j in removed.iter("joint")} | {j.get("name") for j in removed.iter("freejoint")}
+        world.remove(removed)
     for section in ("keyframe", "contact", "equality", "tendon"):
         for element in root.findall(section):
             root.remove(element)
@@ -105,7 +109,7 @@ def main() -> None:
         for dtype_name in args.dtypes.split(","):
             dtype = np_dtype[dtype_name]
             arm, cube = load(without(OBJECT), dtype, device), load(without(ARM_ROOT), dtype, device)
-            scene = load(SCENE.read_text(), dtype, device)
+            scene = load(without(None), dtype, device)
             for N in Ns:
                 t_arm = step_time(arm, N, device, args.repeats, True)
                 t_cube = step_time(cube, N, device, args.repeats, True)

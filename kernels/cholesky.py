@@ -162,5 +162,5 @@ def kernels(scalar):
         adj_A[env, i, i] = adj_A[env, i, i] - P[env, i, i]
 
     return types.SimpleNamespace(
-        solve=solve, inverse=inverse, solve_adjoint=solve_adjoint, block_product=block_product, inverse_adjoint=inverse_adjoint
+        factor=factor, solve=solve, inverse=inverse, solve_adjoint=solve_adjoint, block_product=block_product, inverse_adjoint=inverse_adjoint
     )

@@ -235,7 +235,40 @@ def compare_model(model, mj: mujoco.MjModel, random_states: int = 3, seed: int =
         for name in QUANTITIES:
             errors[name] = max(errors[name], relative_error(actual[name], expected[name], floor[name]))
     errors["start"] = start_error(model, mj)
+    if model.tree.equalities:
+        errors["constrained"] = constrained_step_error(model, mj, random_states, seed)
     return errors
+
+
+def constrained_step_error(model, mj: mujoco.MjModel, random_states: int = 3, seed: int = 0) -> float:
+    """For a model with equality constraints: the largest relative error of one Euler step's velocity change
+    (dt times the constrained accelerations) against mj_step's with MuJoCo's equality rows active (its contacts,
+    limits and frictionloss disabled, its Euler damping explicit; warpdyn's copy of the model without contact
+    points and static friction, its damping explicit), over compare_model's states."""
+    disable = int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_LIMIT) | int(mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)
+    ref = mjcf_models.reference_model(mj, constraints=True, eulerdamp=False, integrator=mujoco.mjtIntegrator.mjINT_EULER, extra_disable=disable)
+    model = model.copy()
+    model.implicit_damping = False
+    model.set_joint_parameters(friction_static=np.zeros(model.dofs()))
+    points = len(model.kin_dyn_parameters.contact_parameters.body)
+    if points:
+        model = wd.contact.with_collidable_points(model, enabled=[False] * points)
+    error = 0.0
+    for qpos, qvel in states(mj, random_states, seed):
+        d = mjcf_models.make_data(ref, qpos, qvel)
+        mujoco.mj_step(ref, d)
+        before = mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs
+        after = mujoco_to_warpdyn_state(model, mj, d.qpos, d.qvel).data_kwargs
+        stepped = wd.model.step(model, wd.data.Data.build(model, **before))
+        names = ("joint_velocities",) + (("base_linear_velocity", "base_angular_velocity") if model.floating_base() else ())
+        ours = {"joint_velocities": stepped.joint_velocities.numpy()}
+        if model.floating_base():
+            v = stepped.base_velocity.numpy()
+            ours.update(base_linear_velocity=v[:3], base_angular_velocity=v[3:])
+        change = np.concatenate([after[name] - before[name] for name in names])
+        actual = np.concatenate([ours[name] - before[name] for name in names])
+        error = max(error, relative_error(actual, change))
+    return error
 
 
 @dataclasses.dataclass

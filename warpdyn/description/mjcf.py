@@ -33,6 +33,7 @@ import numpy as np
 
 from .model import (
     ActuatorDescription,
+    EqualityDescription,
     CollisionShape,
     JointDescription,
     Keyframe,
@@ -61,7 +62,7 @@ FRICTIONLOSS = "frictionloss (MuJoCo: a friction constraint; warpdyn applies it 
 POLYNOMIAL = "polynomial joint stiffness/damping (only the linear coefficient is kept)"
 SPRING_YIELD = "joint spring yield (plasticity)"
 FREE_JOINT_PARAMETERS = "frictionloss of a floating base's free joint (a floating base has no static friction)"
-EQUALITY = "equality constraints"
+EQUALITY = "equality constraints other than connect and joint, and those inactive at the start (weld, tendon, flex)"
 TENDONS = "tendons (their springs, dampers, armature, limits and actuators)"
 MUSCLES = "muscles (dropped)"
 ACTIVATION = "actuators with activation dynamics (integrator, filter, position timeconst...; dropped)"
@@ -171,6 +172,7 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
                 note(WORLD_GEOMS, f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, g, 'geom')} ({_geom_type_name(kind, mujoco)})")
 
     actuators = _actuators(m, joint_name, note, mujoco)
+    equalities = _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco)
     _constraints_and_others(m, note, name_of, mujoco)
 
     world_link = LinkDescription(name="world")
@@ -182,6 +184,7 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
         description.initial_world_H_base = homogeneous(quaternion_wxyz_to_matrix(q0[3:]), q0[:3])
         description.base_joint = floating[0]
     description.actuators = actuators
+    description.equalities = equalities
     description.gravity = gravity
     description.time_step = time_step
     description.integrator = integrator
@@ -430,10 +433,42 @@ def _actuators(m, joint_name, note, mujoco) -> list[ActuatorDescription]:
     return actuators
 
 
+def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco) -> list[EqualityDescription]:
+    """The connect and joint equality constraints active at the start (MuJoCo's eq_active0), as MuJoCo compiled
+    them; the others are noted as not modelled. None when MuJoCo's constraints or equalities are disabled."""
+    if "constraint" in disabled or "equality" in disabled:
+        return []
+    Eq, Obj = mujoco.mjtEq, mujoco.mjtObj
+    equalities = []
+    for i in range(m.neq):
+        name = name_of(Obj.mjOBJ_EQUALITY, i, "equality")
+        kind, active = int(m.eq_type[i]), bool(m.eq_active0[i])
+        data, o1, o2 = np.array(m.eq_data[i], dtype=np.float64), int(m.eq_obj1id[i]), int(m.eq_obj2id[i])
+        common = dict(name=name, solref=np.array(m.eq_solref[i], dtype=np.float64), solimp=np.array(m.eq_solimp[i], dtype=np.float64))
+        if active and kind == Eq.mjEQ_CONNECT:
+            if int(m.eq_objtype[i]) == Obj.mjOBJ_SITE:  # site semantics: the sites' positions on their bodies
+                b1, b2 = int(m.site_bodyid[o1]), int(m.site_bodyid[o2])
+                anchor1, anchor2 = np.array(m.site_pos[o1], dtype=np.float64), np.array(m.site_pos[o2], dtype=np.float64)
+            else:
+                b1, b2, anchor1, anchor2 = o1, o2, data[0:3], data[3:6]
+            invweight = float(m.body_invweight0[b1, 0] + m.body_invweight0[b2, 0])
+            equalities.append(EqualityDescription(
+                kind="connect", body1=body_name(b1) if b1 else "world", body2=body_name(b2) if b2 else "world",
+                anchor1=anchor1, anchor2=anchor2, invweight=invweight, **common,
+            ))  # fmt: skip
+        elif active and kind == Eq.mjEQ_JOINT:
+            invweight = float(m.dof_invweight0[m.jnt_dofadr[o1]] + (m.dof_invweight0[m.jnt_dofadr[o2]] if o2 >= 0 else 0.0))
+            equalities.append(EqualityDescription(
+                kind="joint", joint1=joint_name(o1), joint2=joint_name(o2) if o2 >= 0 else None, polycoef=data[0:5].copy(),
+                invweight=invweight, **common,
+            ))  # fmt: skip
+        else:
+            note(EQUALITY, name)
+    return equalities
+
+
 def _constraints_and_others(m, note, name_of, mujoco) -> None:
     Obj = mujoco.mjtObj
-    for i in range(m.neq):
-        note(EQUALITY, name_of(Obj.mjOBJ_EQUALITY, i, "equality"))
     for i in range(m.ntendon):
         note(TENDONS, name_of(Obj.mjOBJ_TENDON, i, "tendon"))
     for i in range(m.npair):

@@ -242,6 +242,33 @@ class FrameDescription:
 
 
 @dataclass
+class EqualityDescription:
+    """A MuJoCo equality constraint that warpdyn enforces (MJCF `<equality>`, active at the start), solved as
+    MuJoCo solves it (warpdyn.engine.equality).
+
+    kind "connect": the point `anchor1` (3,) [m] of body `body1` and the point `anchor2` of body `body2` (each
+    in its body's frame; "world" for the world) coincide (3 rows: their difference in world axes);
+    kind "joint": joint1's position q1 follows joint2's q2 (1 row: q1 - q1_0 - sum_k polycoef[k] (q2 - q2_0)^k,
+    q_0 MuJoCo's qpos0; joint2 None: q1 - q1_0 - polycoef[0]).
+    solref (2,), solimp (5,): MuJoCo's softness (eq_solref, eq_solimp); invweight: MuJoCo's approximate inverse
+    inertia of the constraint rows (the two bodies' translational body_invweight0, or the two DoFs'
+    dof_invweight0, summed), its regularisation R = (1 - imp) / imp invweight."""
+
+    name: str
+    kind: str
+    body1: str = "world"
+    body2: str = "world"
+    anchor1: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    anchor2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    joint1: str | None = None
+    joint2: str | None = None
+    polycoef: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    solref: np.ndarray = field(default_factory=lambda: np.array([0.02, 1.0]))
+    solimp: np.ndarray = field(default_factory=lambda: np.array([0.9, 0.95, 0.001, 0.5, 2.0]))
+    invweight: float = 0.0
+
+
+@dataclass
 class ActuatorDescription:
     """A MuJoCo actuator with a joint transmission on a hinge or slide joint and no activation dynamics
     (what warpdyn models; the loader drops the others and lists them in its NotModelledWarning).
@@ -306,6 +333,7 @@ class ModelDescription:
     included, named as in the file); empty for URDF and SDF.
     base_joint: a floating base's free joint (MJCF), for its armature, passive_damping and stiffness (MuJoCo
     applies them to the base's 6 DoFs: `warpdyn.description.tree.KinematicTree`); None otherwise.
+    equalities: the MJCF equality constraints warpdyn enforces (`EqualityDescription`), in MuJoCo's order.
     """
 
     name: str
@@ -327,6 +355,7 @@ class ModelDescription:
     keyframes: list[Keyframe] = field(default_factory=list)
     mujoco_joints: list[tuple[str, str, int, int]] = field(default_factory=list)
     base_joint: JointDescription | None = None
+    equalities: list[EqualityDescription] = field(default_factory=list)
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:

@@ -58,6 +58,26 @@ class TreeActuator:
 
 
 @dataclass
+class TreeEquality:
+    """An equality constraint on the lumped tree (a description's `EqualityDescription`): a connect's anchors
+    p1, p2 [m] in the frames of links link1, link2 (-1: the world); a joint coupling's joints joint1, joint2
+    (tree joint indices; joint2 -1: none); kind, polycoef, solref, solimp, invweight as the description's."""
+
+    name: str
+    kind: str
+    link1: int = -1
+    link2: int = -1
+    p1: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    p2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    joint1: int = -1
+    joint2: int = -1
+    polycoef: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    solref: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    solimp: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    invweight: float = 0.0
+
+
+@dataclass
 class KinematicTree:
     """Host-side (NumPy, float64) constants of a lumped tree with nL links, nj joints, nq joint positions,
     nv joint velocities (degrees of freedom) and nF frames.
@@ -95,6 +115,7 @@ class KinematicTree:
       link frame; 0 where gravcomp_mass is 0). Exact: parallel forces sum to one force at that point.
       It vanishes when "gravity" is disabled, or both "spring" and "damper" are.
     actuators: the description's actuators on kept joints (`TreeActuator`), in the description's order.
+    equalities: the description's equality constraints (`TreeEquality`) whose joints the tree keeps.
     """
 
     link_names: list[str]
@@ -133,6 +154,7 @@ class KinematicTree:
     base_armature: float = 0.0  # a floating base's free-joint armature [kg or kg m^2] (MJCF; each of its 6 DoFs)
     base_damping: float = 0.0  # its damper [N s/m or N m s/rad]
     base_stiffness: float = 0.0  # its spring towards the description's base pose [N/m or N m/rad]
+    equalities: list[TreeEquality] = field(default_factory=list)
 
     def __post_init__(self):
         nj, nL = len(self.joint_names), len(self.link_names)
@@ -485,8 +507,41 @@ def build_tree(
         q_start=q_start,
         v_start=v_start,
         qpos0=np.concatenate([np.zeros(0)] + [j.start_position() for j in movable_joints]),
+        equalities=_equalities(description, kept_of, kept_H_link, index, joint_index),
         **_base_joint_parameters(description),
     )
+
+
+def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict, index: dict, joint_index: dict) -> list[TreeEquality]:
+    """The description's equality constraints on the lumped tree: a connect's anchors moved to the links their
+    bodies are lumped into (a body outside the tree is the world's); a joint coupling whose joint the reduction
+    locks is dropped with a NotModelledWarning."""
+    equalities, dropped = [], []
+
+    def on_link(body: str, anchor) -> tuple[int, np.ndarray]:
+        if body not in kept_of:  # the world of a floating base's description
+            return -1, np.asarray(anchor, dtype=np.float64)
+        H = kept_H_link[body]
+        return index[kept_of[body]], H[:3, :3] @ np.asarray(anchor, dtype=np.float64) + H[:3, 3]
+
+    for eq in description.equalities:
+        common = dict(name=eq.name, kind=eq.kind, solref=np.array(eq.solref, dtype=np.float64), solimp=np.array(eq.solimp, dtype=np.float64),
+                      invweight=float(eq.invweight))  # fmt: skip
+        if eq.kind == "connect":
+            (link1, p1), (link2, p2) = on_link(eq.body1, eq.anchor1), on_link(eq.body2, eq.anchor2)
+            equalities.append(TreeEquality(link1=link1, link2=link2, p1=p1, p2=p2, **common))
+        elif eq.joint1 in joint_index and (eq.joint2 is None or eq.joint2 in joint_index):
+            joint2 = -1 if eq.joint2 is None else joint_index[eq.joint2]
+            equalities.append(TreeEquality(joint1=joint_index[eq.joint1], joint2=joint2, polycoef=np.array(eq.polycoef, dtype=np.float64), **common))
+        else:
+            dropped.append(f"{eq.name} (on {eq.joint1}{'' if eq.joint2 is None else ', ' + eq.joint2})")
+    if dropped:
+        warnings.warn(
+            f"model '{description.name}': equality constraints on joints that the reduction locks are dropped: {dropped}",
+            NotModelledWarning,
+            stacklevel=caller_stacklevel(),
+        )
+    return equalities
 
 
 def _base_joint_parameters(description: ModelDescription) -> dict:

@@ -75,6 +75,7 @@ from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
 from .loading import block_size
 from .contact_stage import stage_for
+from .equality import check_differentiable, equality_plan
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, contact_reach
 
 __all__ = [
@@ -191,7 +192,9 @@ class Plan:
         stage = self.contact_stage = stage_for(model, self.integrator)
         self.contact_bundle, self.total, self.count, self.point_out = stage.bundle, stage.total, stage.count, stage.point_out
         self.contacts = self.count > 0
-        self.poses = self.contacts or self.gravcomp  # an evaluation runs FK
+        # MJCF equality constraints (warpdyn.engine.equality), solved after ABA
+        self.equality = equality_plan(model)
+        self.poses = self.contacts or self.gravcomp or self.equality is not None  # an evaluation runs FK
         self.check_rate, self.check_reach = stage.check_rate, stage.check_reach
         self.terrain = terrain_bundle(model)
         self.no_targets = targets(model, model.all_links[:0], model.identity_offsets[:0])
@@ -203,7 +206,7 @@ class Plan:
         self.fused = None
         tree = model.tree
         free_roots = not tree.one_dof_joints and tree.free_roots and not model.floating_base()
-        if self.euler and (tree.one_dof_joints or free_roots) and stage.point_law is not None:
+        if self.euler and (tree.one_dof_joints or free_roots) and stage.point_law is not None and self.equality is None:
             walk = fused_layout.fused_walk(model.tree.parent, fused_layout.MAX_LANES, 1 + stage.points_per_link)
             self.walk = wp.array(walk.walk, dtype=wp.vec3i, device=d)
             self.walk_starts = wp.array(walk.starts, dtype=wp.int32, device=d)
@@ -305,6 +308,8 @@ class Evaluation:
         self.nu_dot = out((6 + n,)) if nu_dot is None else nu_dot
         self.base_acceleration = self.nu_dot[:, :6]
         self.joint_accelerations = self.nu_dot[:, 6:] if n > 0 else out((0,))
+        # with equality constraints ABA writes the unconstrained accelerations apart (warpdyn.engine.equality)
+        self.equality = plan.equality.buffers(plan, N) if plan.equality is not None else None
 
 
 class Workspace:
@@ -380,7 +385,13 @@ def evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: b
     if aba:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
         args = [plan.model, x, controls, int(VelRepr.Inertial), plan.implicit_dt, ev.aba_scratch]
-        launches.append(Launch(aba_kernels(s, "tuned", plan.multi_dof).aba, N, args, [ev.base_acceleration, ev.joint_accelerations]))
+        outputs = [ev.base_acceleration, ev.joint_accelerations]
+        if ev.equality is not None:
+            free = ev.equality["nu_free"]
+            outputs = [free[:, :6], free[:, 6:] if plan.n > 0 else ev.joint_accelerations]
+        launches.append(Launch(aba_kernels(s, "tuned", plan.multi_dof).aba, N, args, outputs))
+        if ev.equality is not None:
+            launches += plan.equality.launches(plan, ev, x, N)
     return launches
 
 
@@ -455,6 +466,8 @@ def step_launches(
     """
     N = x[0].shape[0]
     s = plan.scalar
+    if ws.grad or tape.taping():
+        check_differentiable(plan)
     X, Y = bundles if bundles is not None else (state_bundle(s, x), state_bundle(s, y))
     tau = ws.tau if tau_out is None else tau_out
     launches = []

@@ -1,0 +1,292 @@
+"""Equality constraints solved as MuJoCo solves them (its soft constraints, equality rows only): one thread per
+environment.
+
+Each constraint e contributes rows (a connect 3, a joint coupling 1) with a position residual r, a Jacobian J
+(rows of the generalized velocity nu, Inertial base) and J̇ν (MuJoCo's Jdot v of a connect: the anchors'
+bias accelerations; 0 for a joint coupling, as in MuJoCo):
+- connect: r = p1 - p2, the anchors in world axes; J = J_p1 - J_p2 (their Mixed linear Jacobians);
+- joint: r = q1 - q1_0 - sum_k c_k (q2 - q2_0)^k, J = e_1 - (sum_k k c_k (q2 - q2_0)^(k-1)) e_2.
+MuJoCo's reference acceleration and regularisation (mj_makeImpedance, mj_referenceConstraint): with solref
+(timeconst, dampratio) (timeconst raised to 2 dt, MuJoCo's refsafe; or direct (-stiffness, -damping)) and the
+impedance imp = solimp's function of |r| (of the 3 rows' norm for a connect),
+    aref = -b J nu - k imp r - J̇ν,   R = max(1e-15, (1 - imp) / imp invweight),
+b = 2 / (dmax timeconst), k = 1 / (dmax^2 timeconst^2 dampratio^2), dmax = solimp[1]. With equality rows only,
+MuJoCo's constrained accelerations minimise a quadratic whose minimiser is
+    f = (J M^-1 J^T + diag(R))^-1 (aref - J a0),   nu_dot = a0 + M^-1 J^T f,
+a0 = M^-1 tau the unconstrained accelerations (its Newton solver reaches it in one step). With MuJoCo's implicit
+joint damping (the Euler step's (M + dt D)), the constraint force is that of the explicit a0 = a0' + dt M^-1 D a0'
+(a0' = (M + dt D)^-1 tau, ABA's), and the step's accelerations are a0' + (M + dt D)^-1 J^T f (mj_Euler's).
+
+The dense factorisations are kernels/cholesky.py's `factor`; forward only (no tape records this kernel).
+"""
+
+import types
+
+import warp as wp
+
+from .bundles import bundles
+from .cholesky import kernels as cholesky_kernels
+from .factory import factory
+from .spatial import MIXED, spatial
+
+CONNECT = wp.constant(0)
+JOINT = wp.constant(1)
+ROWS = {0: 3, 1: 1}
+"""The rows of each kind."""
+
+MIN_VALUE = 1.0e-15
+"""MuJoCo's mjMINVAL, the floor of R."""
+
+MIN_IMPEDANCE = 1.0e-4
+MAX_IMPEDANCE = 0.9999
+"""MuJoCo's mjMINIMP and mjMAXIMP, the range of solimp's impedances."""
+
+
+@factory
+def kernels(scalar) -> types.SimpleNamespace:
+    """The equality-constraint kernel in `scalar`."""
+    sp, B = spatial(scalar), bundles(scalar)
+    factor = cholesky_kernels(scalar).factor
+
+    @wp.struct
+    class Equalities:
+        """E constraints, m rows (warpdyn.engine.equality fills it): kind (E,) CONNECT or JOINT, row (E,) its first
+        row; a connect's targets target (E,) (its anchors p1, p2 are the targets target and target + 1 of the
+        step's Targets), link1, link2 (E,) (-1: the world) and anchors p1, p2 (E,) in their links' frames; a
+        joint coupling's position addresses q1, q2 (E,) (q2 -1: none), DoFs dof1, dof2, references ref1, ref2,
+        polycoef (E, 5); solref (E, 2), solimp (E, 5), invweight (E,)."""
+
+        kind: wp.array(dtype=wp.int32)
+        row: wp.array(dtype=wp.int32)
+        target: wp.array(dtype=wp.int32)
+        link1: wp.array(dtype=wp.int32)
+        link2: wp.array(dtype=wp.int32)
+        p1: wp.array(dtype=sp.vec3)
+        p2: wp.array(dtype=sp.vec3)
+        q1: wp.array(dtype=wp.int32)
+        q2: wp.array(dtype=wp.int32)
+        dof1: wp.array(dtype=wp.int32)
+        dof2: wp.array(dtype=wp.int32)
+        ref1: wp.array(dtype=scalar)
+        ref2: wp.array(dtype=scalar)
+        polycoef: wp.array2d(dtype=scalar)
+        solref: wp.array2d(dtype=scalar)
+        solimp: wp.array2d(dtype=scalar)
+        invweight: wp.array(dtype=scalar)
+
+    @wp.func
+    def power(a: scalar, b: scalar):
+        """a^b, exact for b = 1 and 2 (MuJoCo's `power`)."""
+        if b == scalar(1.0):
+            return a
+        if b == scalar(2.0):
+            return a * a
+        return wp.pow(a, b)
+
+    @wp.func
+    def impedance(eq: Equalities, e: int, distance: scalar):
+        """MuJoCo's getimpedance: imp at the residual's size `distance` (no margin), solimp clamped as in
+        getsolparam."""
+        d0 = wp.clamp(eq.solimp[e, 0], scalar(MIN_IMPEDANCE), scalar(MAX_IMPEDANCE))
+        dmax = wp.clamp(eq.solimp[e, 1], scalar(MIN_IMPEDANCE), scalar(MAX_IMPEDANCE))
+        width = wp.max(eq.solimp[e, 2], scalar(0.0))
+        mid = wp.clamp(eq.solimp[e, 3], scalar(MIN_IMPEDANCE), scalar(MAX_IMPEDANCE))
+        p = wp.max(eq.solimp[e, 4], scalar(1.0))
+        if d0 == dmax or width <= scalar(MIN_VALUE):
+            return scalar(0.5) * (d0 + dmax)
+        x = wp.abs(distance / width)
+        if x >= scalar(1.0):
+            return dmax
+        if x <= scalar(0.0):
+            return d0
+        y = x
+        if p != scalar(1.0):
+            if x <= mid:
+                y = power(x, p) / power(mid, p - scalar(1.0))
+            else:
+                y = scalar(1.0) - power(scalar(1.0) - x, p) / power(scalar(1.0) - mid, p - scalar(1.0))
+        return d0 + y * (dmax - d0)
+
+    @wp.func
+    def reference(eq: Equalities, e: int, dt: scalar, imp: scalar):
+        """(k imp, b): MuJoCo's stiffness times impedance and damping of constraint e's rows (mj_makeImpedance),
+        its timeconst raised to 2 dt (refsafe)."""
+        dmax = wp.clamp(eq.solimp[e, 1], scalar(MIN_IMPEDANCE), scalar(MAX_IMPEDANCE))
+        timeconst = eq.solref[e, 0]
+        ratio = eq.solref[e, 1]
+        k = -timeconst / wp.max(scalar(MIN_VALUE), dmax * dmax)
+        if timeconst > scalar(0.0):
+            timeconst = wp.max(timeconst, scalar(2.0) * dt)
+            k = scalar(1.0) / wp.max(scalar(MIN_VALUE), dmax * dmax * timeconst * timeconst * ratio * ratio)
+        b = -ratio / wp.max(scalar(MIN_VALUE), dmax)
+        if ratio > scalar(0.0):
+            b = scalar(2.0) / wp.max(scalar(MIN_VALUE), dmax * timeconst)
+        return k * imp, b
+
+    @wp.func
+    def substitute(L: wp.array3d(dtype=scalar), env: int, k: int, y: wp.array2d(dtype=scalar), x: wp.array2d(dtype=scalar), at: int):
+        """x[env, at:at + k] = (L L^T)^-1 y[env, 0:k] (L: kernels/cholesky.py's `factor`), y overwritten."""
+        for i in range(k):
+            s = y[env, i]
+            for p in range(i):
+                s = s - L[env, i, p] * y[env, p]
+            y[env, i] = s / L[env, i, i]
+        for r in range(k):
+            i = k - 1 - r
+            s = y[env, i]
+            for p in range(i + 1, k):
+                s = s - L[env, p, i] * x[env, at + p]
+            x[env, at + i] = s / L[env, i, i]
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def equality_accelerations(
+        model: B.Model,
+        eq: Equalities,
+        x: B.State,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        J_t: wp.array4d(dtype=scalar),
+        Jdotnu_t: wp.array3d(dtype=scalar),
+        M: wp.array3d(dtype=scalar),
+        a_free: wp.array2d(dtype=scalar),
+        dt: scalar,
+        implicit_dt: scalar,
+        # scratch: J (N, m, K), L and Mh (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w (N, max(m, K))
+        J: wp.array3d(dtype=scalar),
+        L: wp.array3d(dtype=scalar),
+        Mh: wp.array3d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar),
+        A: wp.array3d(dtype=scalar),
+        LA: wp.array3d(dtype=scalar),
+        y: wp.array2d(dtype=scalar),
+        rhs: wp.array2d(dtype=scalar),
+        w: wp.array2d(dtype=scalar),
+        # outputs
+        nu_dot: wp.array2d(dtype=scalar),
+    ):
+        """nu_dot (N, K = 6 + nv): the constrained accelerations (Inertial base) from ABA's a_free (N, K), the mass
+        matrix M (N, K, K) (Inertial base), the link poses W_H_L (N, nL), the anchors' Jacobians J_t (N, T, 6,
+        K) and J̇ν Jdotnu_t (N, T, 6) (Mixed, ν Inertial): the module docstring. implicit_dt: dt for MuJoCo's
+        implicit joint damping, else 0; dt: the step (refsafe)."""
+        env = wp.tid()
+        K = M.shape[1]
+        off = 6
+        if model.floating_base != 0:
+            off = 0
+        k = K - off
+        m = J.shape[1]
+        W_H_B = B.base_pose(x, env)
+        v_B = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env))
+        # 1. the rows: J, and aref in rhs
+        for r in range(m):
+            for c in range(K):
+                J[env, r, c] = scalar(0.0)
+        for e in range(eq.kind.shape[0]):
+            row = eq.row[e]
+            residual = sp.vec3(scalar(0.0))
+            bias = sp.vec3(scalar(0.0))
+            rows = 1
+            distance = scalar(0.0)
+            if eq.kind[e] == CONNECT:
+                rows = 3
+                t = eq.target[e]
+                P1 = eq.p1[e]
+                if eq.link1[e] >= 0:
+                    P1 = wp.transform_point(W_H_L[env, eq.link1[e]], P1)
+                    for a in range(3):
+                        bias[a] = bias[a] + Jdotnu_t[env, t, a]
+                        for c in range(K):
+                            J[env, row + a, c] = J_t[env, t, a, c]
+                P2 = eq.p2[e]
+                if eq.link2[e] >= 0:
+                    P2 = wp.transform_point(W_H_L[env, eq.link2[e]], P2)
+                    for a in range(3):
+                        bias[a] = bias[a] - Jdotnu_t[env, t + 1, a]
+                        for c in range(K):
+                            J[env, row + a, c] = J[env, row + a, c] - J_t[env, t + 1, a, c]
+                residual = P1 - P2
+                distance = wp.length(residual)
+            else:
+                dif = scalar(0.0)
+                slope = scalar(0.0)
+                if eq.q2[e] >= 0:
+                    dif = x.joint_positions[env, eq.q2[e]] - eq.ref2[e]
+                    c1 = eq.polycoef[e, 1]
+                    c2 = eq.polycoef[e, 2]
+                    c3 = eq.polycoef[e, 3]
+                    c4 = eq.polycoef[e, 4]
+                    slope = c1 + dif * (scalar(2.0) * c2 + dif * (scalar(3.0) * c3 + dif * scalar(4.0) * c4))
+                    J[env, row, 6 + eq.dof2[e]] = -slope
+                value = eq.polycoef[e, 0] + dif * (eq.polycoef[e, 1] + dif * (eq.polycoef[e, 2] + dif * (eq.polycoef[e, 3] + dif * eq.polycoef[e, 4])))
+                residual[0] = x.joint_positions[env, eq.q1[e]] - eq.ref1[e] - value
+                J[env, row, 6 + eq.dof1[e]] = scalar(1.0)
+                distance = wp.abs(residual[0])
+            imp = impedance(eq, e, distance)
+            k_imp, b = reference(eq, e, dt, imp)
+            R = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * eq.invweight[e] / imp)
+            for a in range(rows):
+                velocity = scalar(0.0)
+                for c in range(6):
+                    velocity = velocity + J[env, row + a, c] * v_B[c]
+                for c in range(6, K):
+                    velocity = velocity + J[env, row + a, c] * x.joint_velocities[env, c - 6]
+                rhs[env, row + a] = -b * velocity - k_imp * residual[a] - bias[a]
+                A[env, row + a, row + a] = R  # the diagonal's regularisation, J M^-1 J^T added below
+        # 2. M^-1 J^T (rows of MinvJT) and, with implicit damping, the explicit a0 = a0' + dt M^-1 D a0'
+        factor(M, env, off, L)
+        for r in range(m):
+            for i in range(k):
+                y[env, i] = J[env, r, off + i]
+            substitute(L, env, k, y, w, 0)
+            for i in range(k):
+                MinvJT[env, r, off + i] = w[env, i]
+        for i in range(K):
+            nu_dot[env, i] = a_free[env, i]
+        if implicit_dt > scalar(0.0):
+            for i in range(k):
+                y[env, i] = scalar(0.0)
+                if off + i >= 6:
+                    y[env, i] = B.joint_parameter(model.damping, env, off + i - 6) * a_free[env, off + i]
+            substitute(L, env, k, y, w, 0)
+            for i in range(k):
+                nu_dot[env, off + i] = a_free[env, off + i] + implicit_dt * w[env, i]
+        # 3. A = J M^-1 J^T + diag(R); f = A^-1 (aref - J a0)
+        for r in range(m):
+            s = rhs[env, r]
+            for c in range(off, K):
+                s = s - J[env, r, c] * nu_dot[env, c]
+            rhs[env, r] = s
+            for q in range(r + 1):
+                s = scalar(0.0)
+                for c in range(off, K):
+                    s = s + J[env, r, c] * MinvJT[env, q, c]
+                if q == r:
+                    A[env, r, r] = A[env, r, r] + s
+                else:
+                    A[env, r, q] = s
+                    A[env, q, r] = s
+        factor(A, env, 0, LA)
+        substitute(LA, env, m, rhs, w, 0)  # f in w[0:m]
+        # 4. nu_dot = a0 + M^-1 J^T f, or a0' + (M + dt D)^-1 J^T f with implicit damping
+        if implicit_dt > scalar(0.0):
+            for i in range(k):
+                s = scalar(0.0)
+                for r in range(m):
+                    s = s + J[env, r, off + i] * w[env, r]
+                y[env, i] = s
+            for i in range(K):
+                for j in range(K):
+                    Mh[env, i, j] = M[env, i, j]
+            for i in range(6, K):
+                Mh[env, i, i] = Mh[env, i, i] + implicit_dt * B.joint_parameter(model.damping, env, i - 6)
+            factor(Mh, env, off, L)
+            substitute(L, env, k, y, rhs, 0)
+            for i in range(k):
+                nu_dot[env, off + i] = a_free[env, off + i] + rhs[env, i]
+        else:
+            for i in range(k):
+                s = nu_dot[env, off + i]
+                for r in range(m):
+                    s = s + MinvJT[env, r, off + i] * w[env, r]
+                nu_dot[env, off + i] = s
+
+    return types.SimpleNamespace(Equalities=Equalities, equality_accelerations=equality_accelerations)

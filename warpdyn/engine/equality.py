@@ -1,0 +1,145 @@
+"""Equality constraints in a step: MJCF connect and joint couplings (warpdyn.description.tree's TreeEquality),
+solved as MuJoCo solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0', Inertial
+base) at a state x, with the link poses of its FK, the launches compute the links' velocities and bias terms,
+the connect anchors' Jacobians and J̇ν (Mixed, ν Inertial), the mass matrix (Inertial base) and the constrained
+accelerations into the evaluation's nu_dot. Forward only: a step under a wp.Tape refuses a constrained model
+(`check_differentiable`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .. import arrays
+from ..kernels.crba import CRBA_RECORD
+from ..kernels.crba import kernels as crba_kernels
+from ..kernels.equality import CONNECT, JOINT, ROWS
+from ..kernels.equality import kernels as equality_kernels
+from ..kernels.jacobian_derivatives import kernels as derivative_kernels
+from ..kernels.jacobians import kernels as jacobian_kernels
+from ..types.enums import VelRepr
+from ..types.model_constants import transforms
+from .kinematics import targets
+from .launch import Launch
+
+__all__ = ["EqualityPlan", "equality_plan", "check_differentiable"]
+
+
+class EqualityPlan:
+    """A model's equality constraints as the kernels read them: the Equalities bundle, the connect anchors as
+    Targets (two per connect: anchor 1, anchor 2; a world anchor on link 0, unread), m rows."""
+
+    def __init__(self, model):
+        s, d = model.scalar, model.device
+        tree = model.tree
+        self.count = len(tree.equalities)
+        kinds = [CONNECT if e.kind == "connect" else JOINT for e in tree.equalities]
+        rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
+        self.rows = int(rows[-1])
+        connect = [e for e in tree.equalities if e.kind == "connect"]
+        target_of, t = [], 0
+        for kind in kinds:
+            target_of.append(t)
+            t += 2 if kind == CONNECT else 0
+        links = [max(link, 0) for e in connect for link in (e.link1, e.link2)]
+        offsets = np.tile(np.eye(4), (len(links), 1, 1))
+        offsets[:, :3, 3] = [p for e in connect for p in (e.p1, e.p2)] if connect else np.zeros((0, 3))
+        self.targets = targets(model, wp.array(np.array(links, dtype=int), dtype=int, device=d), transforms(offsets, s, d))
+        self.T = len(links)
+        q_start, v_start = tree.q_start, tree.v_start
+
+        def joint_address(starts, joint):  # joint j moves link j + 1
+            return int(starts[joint + 1]) if joint >= 0 else -1
+
+        K = equality_kernels(s)
+        eq = self.bundle = K.Equalities()
+
+        def ints(values):
+            return wp.array(np.array(values, dtype=np.int32).reshape(-1), dtype=wp.int32, device=d)
+
+        def floats(values, width=None):
+            shape = (self.count,) if width is None else (self.count, width)
+            return wp.array(np.array(values, dtype=np.float64).reshape(shape), dtype=s, device=d)
+
+        E = tree.equalities
+        eq.kind = ints(kinds)
+        eq.row = ints(rows[:-1])
+        eq.target = ints(target_of)
+        eq.link1 = ints([e.link1 for e in E])
+        eq.link2 = ints([e.link2 for e in E])
+        eq.p1 = wp.array(np.array([e.p1 for e in E], dtype=np.float64).reshape(-1, 3), dtype=wp.types.vector(3, s), device=d)
+        eq.p2 = wp.array(np.array([e.p2 for e in E], dtype=np.float64).reshape(-1, 3), dtype=wp.types.vector(3, s), device=d)
+        eq.q1 = ints([joint_address(q_start, e.joint1) for e in E])
+        eq.q2 = ints([joint_address(q_start, e.joint2) for e in E])
+        eq.dof1 = ints([joint_address(v_start, e.joint1) for e in E])
+        eq.dof2 = ints([joint_address(v_start, e.joint2) for e in E])
+        eq.ref1 = floats([tree.qpos0[q_start[e.joint1 + 1]] if e.joint1 >= 0 else 0.0 for e in E])
+        eq.ref2 = floats([tree.qpos0[q_start[e.joint2 + 1]] if e.joint2 >= 0 else 0.0 for e in E])
+        eq.polycoef = floats([e.polycoef for e in E], 5)
+        eq.solref = floats([e.solref for e in E], 2)
+        eq.solimp = floats([e.solimp for e in E], 5)
+        eq.invweight = floats([e.invweight for e in E])
+        multi = model.multi_dof()
+        self.kernel = K.equality_accelerations
+        self.bias = derivative_kernels(s, multi)
+        self.jacobians = jacobian_kernels(s, multi).jacobians
+        self.crba = crba_kernels(s, "tuned", multi).crba
+
+    def buffers(self, plan, N: int) -> dict:
+        """The evaluation's buffers for N environments (none differentiable)."""
+        s, d = plan.scalar, plan.device
+        K, m, nL = 6 + plan.n, self.rows, plan.nL
+        vec6 = wp.types.vector(6, s)
+
+        def empty(shape, dtype=s):
+            return arrays.empty(shape, N, dtype, d)
+
+        width = max(m, K)
+        return {
+            "nu_free": empty((K,)),
+            "W_v_WL": empty((nL,), vec6),
+            "W_a_L": empty((nL,), vec6),
+            "J_t": empty((self.T, 6, K)),
+            "Jdotnu_t": empty((self.T, 6)),
+            "M": empty((K, K)),
+            "crba_scratch": empty((max(nL, plan.n + 1), CRBA_RECORD)),
+            "scratch": [empty((m, K)), empty((K, K)), empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m)), empty((width,)), empty((width,)), empty((width,))],
+        }
+
+    def launches(self, plan, ev, x, N: int) -> list:
+        """After ABA wrote ev.equality["nu_free"] at x (ev.W_H_L: FK at x): the constrained ev.nu_dot."""
+        b = ev.equality
+        inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
+        launches = [
+            Launch(self.bias.link_bias_recursion, N, [plan.model, ev.W_H_L, x], [b["W_v_WL"], b["W_a_L"]]),
+            Launch(self.crba, N, [plan.model, x, inertial, b["crba_scratch"]], [b["M"]]),
+        ]
+        if self.T:
+            launches += [
+                Launch(self.jacobians, (N, self.T), [plan.model, self.targets, ev.W_H_L, inertial, mixed], [b["J_t"]]),
+                Launch(self.bias.bias_accelerations, (N, self.T), [self.targets, ev.W_H_L, b["W_v_WL"], b["W_a_L"], inertial, mixed], [b["Jdotnu_t"]]),
+            ]
+        args = [plan.model, self.bundle, x, ev.W_H_L, b["J_t"], b["Jdotnu_t"], b["M"], b["nu_free"], plan.dt, plan.implicit_dt, *b["scratch"]]
+        launches.append(Launch(self.kernel, N, args, [ev.nu_dot]))
+        return launches
+
+
+def equality_plan(model) -> EqualityPlan | None:
+    """The model's EqualityPlan, None without equality constraints."""
+    if not model.tree.equalities:
+        return None
+    if model.implicit_damping and model.floating_base() and float(np.max(np.abs(model.parameter_host("base_damping")))) != 0.0:
+        raise NotImplementedError(
+            f"model '{model.name()}': equality constraints with MuJoCo's implicit damping of a floating base's free joint "
+            "(base_damping) are not implemented: set model.implicit_damping = False or base_damping to 0"
+        )
+    return EqualityPlan(model)
+
+
+def check_differentiable(plan) -> None:
+    """Refuse a recorded step of a constrained model: kernels/equality.py has no adjoint."""
+    if plan.equality is not None:
+        raise NotImplementedError(
+            f"a step of a model with equality constraints ({plan.equality.count}) under a wp.Tape: their solve has no "
+            "gradient yet; step it outside the tape"
+        )
