@@ -1,15 +1,20 @@
 """Equality constraints solved as MuJoCo solves them (its soft constraints, equality rows only): one thread per
 environment.
 
-Each constraint e contributes rows (a connect 3, a joint coupling 1) with a position residual r, a Jacobian J
-(rows of the generalized velocity nu, Inertial base) and J̇ν (MuJoCo's Jdot v of a connect: the anchors'
-bias accelerations; 0 for a joint coupling, as in MuJoCo):
+Each constraint e contributes rows (a connect 3, a weld 6, a joint coupling 1) with a position residual r, a
+Jacobian J (rows of the generalized velocity nu, Inertial base) and J̇ν (MuJoCo's Jdot v of a connect or weld:
+the anchors' bias accelerations; 0 for a joint coupling, as in MuJoCo):
 - connect: r = p1 - p2, the anchors in world axes; J = J_p1 - J_p2 (their Mixed linear Jacobians);
+- weld: a connect's rows, then MuJoCo's rotation rows: with q0 and q1 the welded frames' world orientations,
+  r = s vec(q1* q0), J = s/2 vec(q1* (J_w1 - J_w2) q0) (J_w: the links' angular Jacobians, world axes; pure
+  quaternions inside), J̇ν = s/2 vec(q1dot* dw q0 + q1* (J̇ν_w1 - J̇ν_w2) q0 + q1* dw q0dot), dw = w1 - w2,
+  qdot = 1/2 w q, s the torquescale;
 - joint: r = q1 - q1_0 - sum_k c_k (q2 - q2_0)^k, J = e_1 - (sum_k k c_k (q2 - q2_0)^(k-1)) e_2.
 MuJoCo's reference acceleration and regularisation (mj_makeImpedance, mj_referenceConstraint): with solref
 (timeconst, dampratio) (timeconst raised to 2 dt, MuJoCo's refsafe; or direct (-stiffness, -damping)) and the
-impedance imp = solimp's function of |r| (of the 3 rows' norm for a connect),
-    aref = -b J nu - k imp r - J̇ν,   R = max(1e-15, (1 - imp) / imp invweight),
+impedance imp = solimp's function of |r| (of the rows' norm for a connect or weld),
+    aref = -b J nu - k imp r - J̇ν,   R = max(1e-15, (1 - imp) / imp invweight) (a weld's rotation rows:
+invweight_rotation),
 b = 2 / (dmax timeconst), k = 1 / (dmax^2 timeconst^2 dampratio^2), dmax = solimp[1]. With equality rows only,
 MuJoCo's constrained accelerations minimise a quadratic whose minimiser is
     f = (J M^-1 J^T + diag(R))^-1 (aref - J a0),   nu_dot = a0 + M^-1 J^T f,
@@ -31,7 +36,8 @@ from .spatial import MIXED, spatial
 
 CONNECT = wp.constant(0)
 JOINT = wp.constant(1)
-ROWS = {0: 3, 1: 1}
+WELD = wp.constant(2)
+ROWS = {0: 3, 1: 1, 2: 6}
 """The rows of each kind."""
 
 MIN_VALUE = 1.0e-15
@@ -50,11 +56,12 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.struct
     class Equalities:
-        """E constraints, m rows (warpdyn.engine.equality fills it): kind (E,) CONNECT or JOINT, row (E,) its first
-        row; a connect's targets target (E,) (its anchors p1, p2 are the targets target and target + 1 of the
-        step's Targets), link1, link2 (E,) (-1: the world) and anchors p1, p2 (E,) in their links' frames; a
-        joint coupling's position addresses q1, q2 (E,) (q2 -1: none), DoFs dof1, dof2, references ref1, ref2,
-        polycoef (E, 5); solref (E, 2), solimp (E, 5), invweight (E,)."""
+        """E constraints, m rows (warpdyn.engine.equality fills it): kind (E,) CONNECT, WELD or JOINT, row (E,) its
+        first row; a connect's or weld's targets target (E,) (its anchors p1, p2 are the targets target and
+        target + 1 of the step's Targets), link1, link2 (E,) (-1: the world) and anchors p1, p2 (E,) in their
+        links' frames; a weld's frames Q1, Q2 (E,) in those links' frames and torquescale (E,); a joint coupling's
+        position addresses q1, q2 (E,) (q2 -1: none), DoFs dof1, dof2, references ref1, ref2, polycoef (E, 5);
+        solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows)."""
 
         kind: wp.array(dtype=wp.int32)
         row: wp.array(dtype=wp.int32)
@@ -63,6 +70,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         link2: wp.array(dtype=wp.int32)
         p1: wp.array(dtype=sp.vec3)
         p2: wp.array(dtype=sp.vec3)
+        Q1: wp.array(dtype=sp.quat)
+        Q2: wp.array(dtype=sp.quat)
+        torquescale: wp.array(dtype=scalar)
         q1: wp.array(dtype=wp.int32)
         q2: wp.array(dtype=wp.int32)
         dof1: wp.array(dtype=wp.int32)
@@ -73,6 +83,34 @@ def kernels(scalar) -> types.SimpleNamespace:
         solref: wp.array2d(dtype=scalar)
         solimp: wp.array2d(dtype=scalar)
         invweight: wp.array(dtype=scalar)
+        invweight_rotation: wp.array(dtype=scalar)
+
+    @wp.func
+    def pure(w: sp.vec3):
+        """The pure quaternion (w, 0)."""
+        return sp.quat(w[0], w[1], w[2], scalar(0.0))
+
+    @wp.func
+    def conjugate(q: sp.quat):
+        return sp.quat(-q[0], -q[1], -q[2], q[3])
+
+    @wp.func
+    def vector_part(q: sp.quat):
+        return sp.vec3(q[0], q[1], q[2])
+
+    @wp.func
+    def frame_of(W_H_L: wp.array2d(dtype=sp.transform), env: int, link: int, Q: sp.quat):
+        """The world orientation of the frame Q on `link` (-1: the world)."""
+        if link >= 0:
+            return wp.transform_get_rotation(W_H_L[env, link]) * Q
+        return Q
+
+    @wp.func
+    def angular_velocity(W_v_WL: wp.array2d(dtype=sp.vec6), env: int, link: int):
+        """A link's angular velocity, world axes (0 for the world)."""
+        if link >= 0:
+            return sp.ang(W_v_WL[env, link])
+        return sp.vec3(scalar(0.0))
 
     @wp.func
     def power(a: scalar, b: scalar):
@@ -144,6 +182,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         eq: Equalities,
         x: B.State,
         W_H_L: wp.array2d(dtype=sp.transform),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
         J_t: wp.array4d(dtype=scalar),
         Jdotnu_t: wp.array3d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
@@ -164,8 +203,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         nu_dot: wp.array2d(dtype=scalar),
     ):
         """nu_dot (N, K = 6 + nv): the constrained accelerations (Inertial base) from ABA's a_free (N, K), the mass
-        matrix M (N, K, K) (Inertial base), the link poses W_H_L (N, nL), the anchors' Jacobians J_t (N, T, 6,
-        K) and J̇ν Jdotnu_t (N, T, 6) (Mixed, ν Inertial): the module docstring. implicit_dt: dt for MuJoCo's
+        matrix M (N, K, K) (Inertial base), the link poses W_H_L and Inertial velocities W_v_WL (N, nL), the
+        anchors' Jacobians J_t (N, T, 6, K) and J̇ν Jdotnu_t (N, T, 6) (Mixed, ν Inertial): the module docstring. implicit_dt: dt for MuJoCo's
         implicit joint damping, else 0; dt: the step (refsafe)."""
         env = wp.tid()
         K = M.shape[1]
@@ -182,48 +221,77 @@ def kernels(scalar) -> types.SimpleNamespace:
                 J[env, r, c] = scalar(0.0)
         for e in range(eq.kind.shape[0]):
             row = eq.row[e]
-            residual = sp.vec3(scalar(0.0))
-            bias = sp.vec3(scalar(0.0))
+            residual = sp.vec6(scalar(0.0))
+            bias = sp.vec6(scalar(0.0))
             rows = 1
             distance = scalar(0.0)
-            if eq.kind[e] == CONNECT:
-                rows = 3
-                t = eq.target[e]
-                P1 = eq.p1[e]
-                if eq.link1[e] >= 0:
-                    P1 = wp.transform_point(W_H_L[env, eq.link1[e]], P1)
-                    for a in range(3):
-                        bias[a] = bias[a] + Jdotnu_t[env, t, a]
-                        for c in range(K):
-                            J[env, row + a, c] = J_t[env, t, a, c]
-                P2 = eq.p2[e]
-                if eq.link2[e] >= 0:
-                    P2 = wp.transform_point(W_H_L[env, eq.link2[e]], P2)
-                    for a in range(3):
-                        bias[a] = bias[a] - Jdotnu_t[env, t + 1, a]
-                        for c in range(K):
-                            J[env, row + a, c] = J[env, row + a, c] - J_t[env, t + 1, a, c]
-                residual = P1 - P2
-                distance = wp.length(residual)
-            else:
+            if eq.kind[e] == JOINT:
                 dif = scalar(0.0)
-                slope = scalar(0.0)
                 if eq.q2[e] >= 0:
                     dif = x.joint_positions[env, eq.q2[e]] - eq.ref2[e]
                     c1 = eq.polycoef[e, 1]
                     c2 = eq.polycoef[e, 2]
                     c3 = eq.polycoef[e, 3]
                     c4 = eq.polycoef[e, 4]
-                    slope = c1 + dif * (scalar(2.0) * c2 + dif * (scalar(3.0) * c3 + dif * scalar(4.0) * c4))
-                    J[env, row, 6 + eq.dof2[e]] = -slope
+                    J[env, row, 6 + eq.dof2[e]] = -(c1 + dif * (scalar(2.0) * c2 + dif * (scalar(3.0) * c3 + dif * scalar(4.0) * c4)))
                 value = eq.polycoef[e, 0] + dif * (eq.polycoef[e, 1] + dif * (eq.polycoef[e, 2] + dif * (eq.polycoef[e, 3] + dif * eq.polycoef[e, 4])))
                 residual[0] = x.joint_positions[env, eq.q1[e]] - eq.ref1[e] - value
                 J[env, row, 6 + eq.dof1[e]] = scalar(1.0)
                 distance = wp.abs(residual[0])
+            else:
+                rows = 3
+                if eq.kind[e] == WELD:
+                    rows = 6
+                t = eq.target[e]
+                link1 = eq.link1[e]
+                link2 = eq.link2[e]
+                P1 = eq.p1[e]
+                if link1 >= 0:
+                    P1 = wp.transform_point(W_H_L[env, link1], P1)
+                P2 = eq.p2[e]
+                if link2 >= 0:
+                    P2 = wp.transform_point(W_H_L[env, link2], P2)
+                translation = P1 - P2
+                distance = wp.length(translation)
+                # the rows' Jacobians and J̇ν: the anchors' (linear), and for a weld the links' (angular)
+                for a in range(rows):
+                    if link1 >= 0:
+                        bias[a] = bias[a] + Jdotnu_t[env, t, a]
+                        for c in range(K):
+                            J[env, row + a, c] = J_t[env, t, a, c]
+                    if link2 >= 0:
+                        bias[a] = bias[a] - Jdotnu_t[env, t + 1, a]
+                        for c in range(K):
+                            J[env, row + a, c] = J[env, row + a, c] - J_t[env, t + 1, a, c]
+                for a in range(3):
+                    residual[a] = translation[a]
+                if eq.kind[e] == WELD:  # MuJoCo's rotation rows, from the angular rows just written
+                    s = eq.torquescale[e]
+                    q0 = frame_of(W_H_L, env, link1, eq.Q1[e])
+                    q1 = conjugate(frame_of(W_H_L, env, link2, eq.Q2[e]))
+                    rotation = s * vector_part(q1 * q0)
+                    w1 = angular_velocity(W_v_WL, env, link1)
+                    w2 = angular_velocity(W_v_WL, env, link2)
+                    dw = w1 - w2
+                    q1dot = conjugate(scalar(0.5) * (pure(w2) * conjugate(q1)))
+                    q0dot = scalar(0.5) * (pure(w1) * q0)
+                    djw = sp.vec3(bias[3], bias[4], bias[5])
+                    rate = scalar(0.5) * s * vector_part(q1dot * pure(dw) * q0 + q1 * pure(djw) * q0 + q1 * pure(dw) * q0dot)
+                    for c in range(K):
+                        column = scalar(0.5) * s * vector_part(q1 * pure(sp.vec3(J[env, row + 3, c], J[env, row + 4, c], J[env, row + 5, c])) * q0)
+                        for a in range(3):
+                            J[env, row + 3 + a, c] = column[a]
+                    for a in range(3):
+                        residual[3 + a] = rotation[a]
+                        bias[3 + a] = rate[a]
+                    distance = wp.sqrt(wp.dot(translation, translation) + wp.dot(rotation, rotation))
             imp = impedance(eq, e, distance)
             k_imp, b = reference(eq, e, dt, imp)
-            R = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * eq.invweight[e] / imp)
             for a in range(rows):
+                invweight = eq.invweight[e]
+                if a >= 3:  # a weld's rotation rows
+                    invweight = eq.invweight_rotation[e]
+                R = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * invweight / imp)
                 velocity = scalar(0.0)
                 for c in range(6):
                     velocity = velocity + J[env, row + a, c] * v_B[c]

@@ -1,4 +1,4 @@
-"""MJCF equality constraints (issue 36): connect and joint couplings solved as MuJoCo solves them
+"""MJCF equality constraints (issue 36): connects, welds and joint couplings solved as MuJoCo solves them
 (warpdyn.engine.equality, kernels/equality.py), against MuJoCo's mj_step with the same constraints active.
 
 Reference: MuJoCo 4's Euler step with its equality rows active and its contacts, limits and frictionloss
@@ -63,6 +63,39 @@ SLIDER_CRANK = """
     </body>
   </worldbody>
   <equality><connect name="pin" body1="rod_end" body2="slider" anchor="0 0 0"/></equality>
+</mujoco>"""
+
+
+# A two-link arm with a free lid welded to its forearm (body semantics, torquescale 0.5: MuJoCo's relpose from the
+# description's poses) and a free tag welded to a site at its tip (site semantics, its own solref).
+WELDS = """
+<mujoco model="welds">
+  <option timestep="0.001" gravity="0 0 -9.81"/>
+  <default><geom contype="0" conaffinity="0" type="capsule" size="0.01"/></default>
+  <worldbody>
+    <body name="upper" pos="0 0 1" euler="0.2 0 0">
+      <joint name="shoulder" axis="0 1 0" damping="0.05"/>
+      <geom fromto="0 0 0 0.3 0 0" mass="0.5"/>
+      <body name="lower" pos="0.3 0 0" euler="0 0.3 0.1">
+        <joint name="elbow" axis="0 1 0"/>
+        <geom fromto="0 0 0 0.25 0 0" mass="0.3"/>
+        <site name="tip" pos="0.25 0 0" euler="0.1 0.2 0.3"/>
+      </body>
+    </body>
+    <body name="lid" pos="0.6 0.05 0.95" euler="0.4 -0.2 0.3">
+      <freejoint/>
+      <geom type="box" size="0.05 0.04 0.02" mass="0.2"/>
+    </body>
+    <body name="tag" pos="0.2 0.4 1.1" euler="0.1 0.1 0.1">
+      <freejoint/>
+      <geom type="box" size="0.02 0.02 0.02" mass="0.1"/>
+      <site name="tag_site" pos="0.01 0 0" euler="0 0.5 0"/>
+    </body>
+  </worldbody>
+  <equality>
+    <weld name="lid_on_arm" body1="lower" body2="lid" torquescale="0.5"/>
+    <weld name="tag_on_tip" site1="tip" site2="tag_site" solref="0.005 1"/>
+  </equality>
 </mujoco>"""
 
 
@@ -136,6 +169,31 @@ def test_a_step_with_equality_constraints_equals_mujocos(name, kinds, own_dampin
             np.testing.assert_allclose(stepped.base_position.numpy(), expected["base_position"], rtol=0, atol=1e-10)
 
 
+def test_welds_step_as_mujocos():
+    """Welds by body (torquescale 0.5, MuJoCo's relpose) and by site (the sites' frames) between an arm and two
+    free bodies: an Euler step from random states equals mj_step's (MuJoCo's implicit damping in both), and 2 s
+    of motion follow MuJoCo's (1e-9)."""
+    mj, model = _mujoco(WELDS), _load(WELDS)
+    assert [(e.kind, e.torquescale) for e in model.tree.equalities] == [("weld", 0.5), ("weld", 1.0)] and model.implicit_damping
+    for seed in range(2):
+        qpos, qvel = mm.random_state(mj, np.random.default_rng(seed), 0.5)
+        before = mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs
+        stepped = wd.model.step(model, wd.data.Data.build(model, **before))
+        expected = mjcf_compare.mujoco_to_warpdyn_state(model, mj, *_step_of(mj, qpos, qvel, True)).data_kwargs
+        change = np.abs(expected["joint_velocities"] - before["joint_velocities"]).max()
+        np.testing.assert_allclose(stepped.joint_velocities.numpy(), expected["joint_velocities"], rtol=0, atol=1e-12 * change)
+        np.testing.assert_allclose(stepped.joint_positions.numpy(), expected["joint_positions"], rtol=0, atol=1e-12)
+    qpos, qvel = mj.qpos0.copy(), np.zeros(mj.nv)
+    stepper = wd.simulation.Stepper(model, wd.data.Data.build(model, **mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs), substeps=100)
+    for _ in range(20):
+        out = stepper.step()
+    d = _mujoco_steps(mj, qpos, qvel, 2000, True)
+    expected = mjcf_compare.mujoco_to_warpdyn_state(model, mj, d.qpos, d.qvel).data_kwargs
+    assert np.abs(expected["joint_positions"] - mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs["joint_positions"]).max() > 0.05, "the arm swung"
+    np.testing.assert_allclose(out.joint_positions.numpy(), expected["joint_positions"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(out.joint_velocities.numpy(), expected["joint_velocities"], rtol=0, atol=1e-9)
+
+
 def _step_of(mj, qpos, qvel, implicit):
     d = _mujoco_steps(mj, qpos, qvel, 1, implicit)
     return d.qpos.copy(), d.qvel.copy()
@@ -190,11 +248,12 @@ def test_a_recorded_step_is_refused_with_equality_constraints():
 
 
 def test_what_is_not_enforced_is_named():
-    """A weld is named in the NotModelledWarning; a joint coupling whose joint a reduction locks is dropped
-    with a warning naming it; the connect and joint couplings are not named (they are enforced)."""
-    weld = FOUR_BAR.replace("</equality>", '<weld name="glue" body1="crank" body2="rocker"/></equality>')
-    with pytest.warns(wd.model.NotModelledWarning, match=r"equality constraints other than connect and joint.*\['glue'\]"):
-        model = wd.model.Model.build_from_model_description(weld)
+    """A tendon equality is named in the NotModelledWarning; a joint coupling whose joint a reduction locks is
+    dropped with a warning naming it; the connect, weld and joint couplings are not named (they are enforced)."""
+    tendon = FOUR_BAR.replace("<equality>", '<tendon><fixed name="span"><joint joint="crank" coef="1"/></fixed></tendon><equality>').replace(
+        "</equality>", '<tendon name="glue" tendon1="span"/></equality>')
+    with pytest.warns(wd.model.NotModelledWarning, match=r"equality constraints other than connect, weld and joint.*\['glue'\]"):
+        model = wd.model.Model.build_from_model_description(tendon)
     assert [e.name for e in model.tree.equalities] == ["loop"]
     coupled = FOUR_BAR.replace("</equality>", '<joint name="couple" joint1="rocker" joint2="crank" polycoef="0 1 0 0 0"/></equality>')
     model = _load(coupled)

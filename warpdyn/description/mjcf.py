@@ -62,7 +62,7 @@ FRICTIONLOSS = "frictionloss (MuJoCo: a friction constraint; warpdyn applies it 
 POLYNOMIAL = "polynomial joint stiffness/damping (only the linear coefficient is kept)"
 SPRING_YIELD = "joint spring yield (plasticity)"
 FREE_JOINT_PARAMETERS = "frictionloss of a floating base's free joint (a floating base has no static friction)"
-EQUALITY = "equality constraints other than connect and joint, and those inactive at the start (weld, tendon, flex)"
+EQUALITY = "equality constraints other than connect, weld and joint, and those inactive at the start (tendon, flex)"
 TENDONS = "tendons (their springs, dampers, armature, limits and actuators)"
 MUSCLES = "muscles (dropped)"
 ACTIVATION = "actuators with activation dynamics (integrator, filter, position timeconst...; dropped)"
@@ -434,7 +434,7 @@ def _actuators(m, joint_name, note, mujoco) -> list[ActuatorDescription]:
 
 
 def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco) -> list[EqualityDescription]:
-    """The connect and joint equality constraints active at the start (MuJoCo's eq_active0), as MuJoCo compiled
+    """The connect, weld and joint equality constraints active at the start (MuJoCo's eq_active0), as MuJoCo compiled
     them; the others are noted as not modelled. None when MuJoCo's constraints or equalities are disabled."""
     if "constraint" in disabled or "equality" in disabled:
         return []
@@ -445,16 +445,21 @@ def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco) -> li
         kind, active = int(m.eq_type[i]), bool(m.eq_active0[i])
         data, o1, o2 = np.array(m.eq_data[i], dtype=np.float64), int(m.eq_obj1id[i]), int(m.eq_obj2id[i])
         common = dict(name=name, solref=np.array(m.eq_solref[i], dtype=np.float64), solimp=np.array(m.eq_solimp[i], dtype=np.float64))
-        if active and kind == Eq.mjEQ_CONNECT:
-            if int(m.eq_objtype[i]) == Obj.mjOBJ_SITE:  # site semantics: the sites' positions on their bodies
+        if active and kind in (Eq.mjEQ_CONNECT, Eq.mjEQ_WELD):
+            weld, identity = kind == Eq.mjEQ_WELD, np.array([1.0, 0.0, 0.0, 0.0])
+            if int(m.eq_objtype[i]) == Obj.mjOBJ_SITE:  # site semantics: the sites' frames on their bodies
                 b1, b2 = int(m.site_bodyid[o1]), int(m.site_bodyid[o2])
                 anchor1, anchor2 = np.array(m.site_pos[o1], dtype=np.float64), np.array(m.site_pos[o2], dtype=np.float64)
+                rot1, rot2 = np.array(m.site_quat[o1], dtype=np.float64), np.array(m.site_quat[o2], dtype=np.float64)
+            elif weld:  # MuJoCo's weld: body1's anchor at data[3:6], body2's at data[0:3], relpose at data[6:10]
+                b1, b2, anchor1, anchor2, rot1, rot2 = o1, o2, data[3:6], data[0:3], data[6:10], identity
             else:
-                b1, b2, anchor1, anchor2 = o1, o2, data[0:3], data[3:6]
-            invweight = float(m.body_invweight0[b1, 0] + m.body_invweight0[b2, 0])
+                b1, b2, anchor1, anchor2, rot1, rot2 = o1, o2, data[0:3], data[3:6], identity, identity
             equalities.append(EqualityDescription(
-                kind="connect", body1=body_name(b1) if b1 else "world", body2=body_name(b2) if b2 else "world",
-                anchor1=anchor1, anchor2=anchor2, invweight=invweight, **common,
+                kind="weld" if weld else "connect", body1=body_name(b1) if b1 else "world", body2=body_name(b2) if b2 else "world",
+                anchor1=anchor1.copy(), anchor2=anchor2.copy(), rot1=rot1.copy(), rot2=rot2.copy(), torquescale=float(data[10]) if weld else 1.0,
+                invweight=float(m.body_invweight0[b1, 0] + m.body_invweight0[b2, 0]),
+                invweight_rotation=float(m.body_invweight0[b1, 1] + m.body_invweight0[b2, 1]), **common,
             ))  # fmt: skip
         elif active and kind == Eq.mjEQ_JOINT:
             invweight = float(m.dof_invweight0[m.jnt_dofadr[o1]] + (m.dof_invweight0[m.jnt_dofadr[o2]] if o2 >= 0 else 0.0))

@@ -248,11 +248,15 @@ class EqualityDescription:
 
     kind "connect": the point `anchor1` (3,) [m] of body `body1` and the point `anchor2` of body `body2` (each
     in its body's frame; "world" for the world) coincide (3 rows: their difference in world axes);
+    kind "weld": as a connect, and the frames body1 (x) rot1 and body2 (x) rot2 (rot1, rot2: unit quaternions
+    (w, x, y, z) in their bodies' frames: MuJoCo's relpose and the identity, or the welded sites' frames) turn
+    alike (3 more rows: torquescale times the vector part of their relative rotation, MuJoCo's);
     kind "joint": joint1's position q1 follows joint2's q2 (1 row: q1 - q1_0 - sum_k polycoef[k] (q2 - q2_0)^k,
     q_0 MuJoCo's qpos0; joint2 None: q1 - q1_0 - polycoef[0]).
     solref (2,), solimp (5,): MuJoCo's softness (eq_solref, eq_solimp); invweight: MuJoCo's approximate inverse
     inertia of the constraint rows (the two bodies' translational body_invweight0, or the two DoFs'
-    dof_invweight0, summed), its regularisation R = (1 - imp) / imp invweight."""
+    dof_invweight0, summed), its regularisation R = (1 - imp) / imp invweight; invweight_rotation: a weld's
+    rotation rows' (the bodies' rotational body_invweight0, summed)."""
 
     name: str
     kind: str
@@ -262,6 +266,10 @@ class EqualityDescription:
     anchor2: np.ndarray = field(default_factory=lambda: np.zeros(3))
     joint1: str | None = None
     joint2: str | None = None
+    rot1: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    rot2: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    torquescale: float = 1.0
+    invweight_rotation: float = 0.0
     polycoef: np.ndarray = field(default_factory=lambda: np.zeros(5))
     solref: np.ndarray = field(default_factory=lambda: np.array([0.02, 1.0]))
     solimp: np.ndarray = field(default_factory=lambda: np.array([0.9, 0.95, 0.001, 0.5, 2.0]))
@@ -381,6 +389,31 @@ def quaternion_wxyz_to_matrix(q) -> np.ndarray:
             [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
         ]
     )
+
+
+def matrix_to_quaternion_wxyz(R) -> np.ndarray:
+    """A unit quaternion (w, x, y, z) of the rotation matrix R (3, 3) (Shepperd's method: the largest of the four
+    squares first; either sign of a quaternion is the same rotation)."""
+    R = np.asarray(R, dtype=np.float64)
+    squares = [1 + np.trace(R), 1 + R[0, 0] - R[1, 1] - R[2, 2], 1 - R[0, 0] + R[1, 1] - R[2, 2], 1 - R[0, 0] - R[1, 1] + R[2, 2]]
+    k = int(np.argmax(squares))
+    s = 2.0 * np.sqrt(squares[k])
+    if k == 0:
+        q = [s / 4, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
+    elif k == 1:
+        q = [(R[2, 1] - R[1, 2]) / s, s / 4, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
+    elif k == 2:
+        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, s / 4, (R[1, 2] + R[2, 1]) / s]
+    else:
+        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, s / 4]
+    q = np.array(q)
+    return q / np.linalg.norm(q)
+
+
+def quaternion_product(a, b) -> np.ndarray:
+    """a (x) b, both (w, x, y, z)."""
+    aw, av, bw, bv = a[0], np.asarray(a[1:], dtype=np.float64), b[0], np.asarray(b[1:], dtype=np.float64)
+    return np.concatenate([[aw * bw - av @ bv], aw * bv + bw * av + np.cross(av, bv)])
 
 
 def finish_tree(name, links, joints, source, where) -> ModelDescription:

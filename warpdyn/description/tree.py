@@ -28,7 +28,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..arrays import names_argument
-from .model import CollisionShape, ModelDescription, NotModelledWarning, caller_stacklevel, joint_motion
+from .model import (
+    CollisionShape,
+    ModelDescription,
+    NotModelledWarning,
+    caller_stacklevel,
+    joint_motion,
+    matrix_to_quaternion_wxyz,
+    quaternion_product,
+)
 
 JOINT_REVOLUTE = 1
 JOINT_PRISMATIC = 2
@@ -59,9 +67,11 @@ class TreeActuator:
 
 @dataclass
 class TreeEquality:
-    """An equality constraint on the lumped tree (a description's `EqualityDescription`): a connect's anchors
-    p1, p2 [m] in the frames of links link1, link2 (-1: the world); a joint coupling's joints joint1, joint2
-    (tree joint indices; joint2 -1: none); kind, polycoef, solref, solimp, invweight as the description's."""
+    """An equality constraint on the lumped tree (a description's `EqualityDescription`): a connect's or weld's
+    anchors p1, p2 [m] in the frames of links link1, link2 (-1: the world), and a weld's frames Q1, Q2 (unit
+    quaternions (w, x, y, z): body (x) rot in those links' frames); a joint coupling's joints joint1, joint2
+    (tree joint indices; joint2 -1: none); kind, polycoef, solref, solimp, torquescale, invweight and
+    invweight_rotation as the description's."""
 
     name: str
     kind: str
@@ -69,6 +79,10 @@ class TreeEquality:
     link2: int = -1
     p1: np.ndarray = field(default_factory=lambda: np.zeros(3))
     p2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    Q1: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    Q2: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    torquescale: float = 1.0
+    invweight_rotation: float = 0.0
     joint1: int = -1
     joint2: int = -1
     polycoef: np.ndarray = field(default_factory=lambda: np.zeros(5))
@@ -518,18 +532,21 @@ def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict,
     locks is dropped with a NotModelledWarning."""
     equalities, dropped = [], []
 
-    def on_link(body: str, anchor) -> tuple[int, np.ndarray]:
+    def on_link(body: str, anchor, rot) -> tuple[int, np.ndarray, np.ndarray]:
+        """(link, the anchor in its frame, the frame body (x) rot in its frame (w, x, y, z))."""
+        rot = np.asarray(rot, dtype=np.float64)
         if body not in kept_of:  # the world of a floating base's description
-            return -1, np.asarray(anchor, dtype=np.float64)
+            return -1, np.asarray(anchor, dtype=np.float64), rot
         H = kept_H_link[body]
-        return index[kept_of[body]], H[:3, :3] @ np.asarray(anchor, dtype=np.float64) + H[:3, 3]
+        return index[kept_of[body]], H[:3, :3] @ np.asarray(anchor, dtype=np.float64) + H[:3, 3], quaternion_product(matrix_to_quaternion_wxyz(H[:3, :3]), rot)
 
     for eq in description.equalities:
         common = dict(name=eq.name, kind=eq.kind, solref=np.array(eq.solref, dtype=np.float64), solimp=np.array(eq.solimp, dtype=np.float64),
                       invweight=float(eq.invweight))  # fmt: skip
-        if eq.kind == "connect":
-            (link1, p1), (link2, p2) = on_link(eq.body1, eq.anchor1), on_link(eq.body2, eq.anchor2)
-            equalities.append(TreeEquality(link1=link1, link2=link2, p1=p1, p2=p2, **common))
+        if eq.kind in ("connect", "weld"):
+            (link1, p1, Q1), (link2, p2, Q2) = on_link(eq.body1, eq.anchor1, eq.rot1), on_link(eq.body2, eq.anchor2, eq.rot2)
+            equalities.append(TreeEquality(link1=link1, link2=link2, p1=p1, p2=p2, Q1=Q1, Q2=Q2, torquescale=eq.torquescale,
+                                           invweight_rotation=eq.invweight_rotation, **common))  # fmt: skip
         elif eq.joint1 in joint_index and (eq.joint2 is None or eq.joint2 in joint_index):
             joint2 = -1 if eq.joint2 is None else joint_index[eq.joint2]
             equalities.append(TreeEquality(joint1=joint_index[eq.joint1], joint2=joint2, polycoef=np.array(eq.polycoef, dtype=np.float64), **common))

@@ -1,4 +1,4 @@
-"""Equality constraints in a step: MJCF connect and joint couplings (warpdyn.description.tree's TreeEquality),
+"""Equality constraints in a step: MJCF connects, welds and joint couplings (warpdyn.description.tree's TreeEquality),
 solved as MuJoCo solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0', Inertial
 base) at a state x, with the link poses of its FK, the launches compute the links' velocities and bias terms,
 the connect anchors' Jacobians and J̇ν (Mixed, ν Inertial), the mass matrix (Inertial base) and the constrained
@@ -13,7 +13,7 @@ import warp as wp
 from .. import arrays
 from ..kernels.crba import CRBA_RECORD
 from ..kernels.crba import kernels as crba_kernels
-from ..kernels.equality import CONNECT, JOINT, ROWS
+from ..kernels.equality import CONNECT, JOINT, ROWS, WELD
 from ..kernels.equality import kernels as equality_kernels
 from ..kernels.jacobian_derivatives import kernels as derivative_kernels
 from ..kernels.jacobians import kernels as jacobian_kernels
@@ -33,14 +33,14 @@ class EqualityPlan:
         s, d = model.scalar, model.device
         tree = model.tree
         self.count = len(tree.equalities)
-        kinds = [CONNECT if e.kind == "connect" else JOINT for e in tree.equalities]
+        kinds = [{"connect": CONNECT, "weld": WELD, "joint": JOINT}[e.kind] for e in tree.equalities]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
-        connect = [e for e in tree.equalities if e.kind == "connect"]
+        connect = [e for e in tree.equalities if e.kind != "joint"]  # connects and welds: two anchors each
         target_of, t = [], 0
         for kind in kinds:
             target_of.append(t)
-            t += 2 if kind == CONNECT else 0
+            t += 0 if kind == JOINT else 2
         links = [max(link, 0) for e in connect for link in (e.link1, e.link2)]
         offsets = np.tile(np.eye(4), (len(links), 1, 1))
         offsets[:, :3, 3] = [p for e in connect for p in (e.p1, e.p2)] if connect else np.zeros((0, 3))
@@ -69,6 +69,11 @@ class EqualityPlan:
         eq.link2 = ints([e.link2 for e in E])
         eq.p1 = wp.array(np.array([e.p1 for e in E], dtype=np.float64).reshape(-1, 3), dtype=wp.types.vector(3, s), device=d)
         eq.p2 = wp.array(np.array([e.p2 for e in E], dtype=np.float64).reshape(-1, 3), dtype=wp.types.vector(3, s), device=d)
+        quat = wp.types.quaternion(s)
+        eq.Q1 = wp.array(np.array([np.roll(e.Q1, -1) for e in E], dtype=np.float64).reshape(-1, 4), dtype=quat, device=d)  # (x, y, z, w)
+        eq.Q2 = wp.array(np.array([np.roll(e.Q2, -1) for e in E], dtype=np.float64).reshape(-1, 4), dtype=quat, device=d)
+        eq.torquescale = floats([e.torquescale for e in E])
+        eq.invweight_rotation = floats([e.invweight_rotation for e in E])
         eq.q1 = ints([joint_address(q_start, e.joint1) for e in E])
         eq.q2 = ints([joint_address(q_start, e.joint2) for e in E])
         eq.dof1 = ints([joint_address(v_start, e.joint1) for e in E])
@@ -119,7 +124,7 @@ class EqualityPlan:
                 Launch(self.jacobians, (N, self.T), [plan.model, self.targets, ev.W_H_L, inertial, mixed], [b["J_t"]]),
                 Launch(self.bias.bias_accelerations, (N, self.T), [self.targets, ev.W_H_L, b["W_v_WL"], b["W_a_L"], inertial, mixed], [b["Jdotnu_t"]]),
             ]
-        args = [plan.model, self.bundle, x, ev.W_H_L, b["J_t"], b["Jdotnu_t"], b["M"], b["nu_free"], plan.dt, plan.implicit_dt, *b["scratch"]]
+        args = [plan.model, self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], b["M"], b["nu_free"], plan.dt, plan.implicit_dt, *b["scratch"]]
         launches.append(Launch(self.kernel, N, args, [ev.nu_dot]))
         return launches
 
