@@ -22,7 +22,8 @@ a0 = M^-1 tau the unconstrained accelerations (its Newton solver reaches it in o
 joint damping (the Euler step's (M + dt D)), the constraint force is that of the explicit a0 = a0' + dt M^-1 D a0'
 (a0' = (M + dt D)^-1 tau, ABA's), and the step's accelerations are a0' + (M + dt D)^-1 J^T f (mj_Euler's).
 
-The dense factorisations are kernels/cholesky.py's `factor`; forward only (no tape records this kernel).
+M is factorised along the tree (Featherstone's LTDL: only the entries its branches fill, `tree_factor`), A densely
+(kernels/cholesky.py's `factor`); forward only (no tape records this kernel).
 """
 
 import types
@@ -61,7 +62,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         target + 1 of the step's Targets), link1, link2 (E,) (-1: the world) and anchors p1, p2 (E,) in their
         links' frames; a weld's frames Q1, Q2 (E,) in those links' frames and torquescale (E,); a joint coupling's
         position addresses q1, q2 (E,) (q2 -1: none), DoFs dof1, dof2, references ref1, ref2, polycoef (E, 5);
-        solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows)."""
+        solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows); dof_parent
+        (K = 6 + nv,): each DoF's parent DoF in the tree (the base's six a chain; -1 at a root), for `tree_factor`."""
 
         kind: wp.array(dtype=wp.int32)
         row: wp.array(dtype=wp.int32)
@@ -84,6 +86,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         solimp: wp.array2d(dtype=scalar)
         invweight: wp.array(dtype=scalar)
         invweight_rotation: wp.array(dtype=scalar)
+        dof_parent: wp.array(dtype=wp.int32)
 
     @wp.func
     def pure(w: sp.vec3):
@@ -176,6 +179,50 @@ def kernels(scalar) -> types.SimpleNamespace:
                 s = s - L[env, p, i] * x[env, at + p]
             x[env, at + i] = s / L[env, i, i]
 
+    @wp.func
+    def tree_factor(model: B.Model, M: wp.array3d(dtype=scalar), env: int, off: int, parent: wp.array(dtype=wp.int32), implicit_dt: scalar,
+                    L: wp.array3d(dtype=scalar)):
+        """L[env] = the LTDL factors of M[env] + implicit_dt diag(joint damping) over DoFs off to K - 1 (Featherstone's
+        RBDA, table 6.3: M = L^T D L, D on L's diagonal, L's unit lower part where a DoF's ancestor is; parent (K,):
+        each DoF's parent DoF, -1 at a root), only the entries the tree's branches can fill."""
+        K = M.shape[1]
+        for k in range(off, K):
+            i = k
+            while i >= 0:
+                L[env, k, i] = M[env, k, i]
+                i = parent[i]
+            if k >= 6:
+                L[env, k, k] = L[env, k, k] + implicit_dt * B.joint_parameter(model.damping, env, k - 6)
+        for kk in range(K - off):
+            k = K - 1 - kk
+            i = parent[k]
+            while i >= 0:
+                a = L[env, k, i] / L[env, k, k]
+                j = i
+                while j >= 0:
+                    L[env, i, j] = L[env, i, j] - a * L[env, k, j]
+                    j = parent[j]
+                L[env, k, i] = a
+                i = parent[i]
+
+    @wp.func
+    def tree_solve(L: wp.array3d(dtype=scalar), env: int, off: int, parent: wp.array(dtype=wp.int32), x: wp.array2d(dtype=scalar)):
+        """x[env, off:K] = M^-1 x[env, off:K] with M's LTDL factors L (`tree_factor`; RBDA, table 6.4)."""
+        K = L.shape[1]
+        for kk in range(K - off):
+            i = K - 1 - kk
+            j = parent[i]
+            while j >= 0:
+                x[env, j] = x[env, j] - L[env, i, j] * x[env, i]
+                j = parent[j]
+        for i in range(off, K):
+            x[env, i] = x[env, i] / L[env, i, i]
+        for i in range(off, K):
+            j = parent[i]
+            while j >= 0:
+                x[env, i] = x[env, i] - L[env, i, j] * x[env, j]
+                j = parent[j]
+
     @wp.kernel(module="unique", enable_backward=False)
     def equality_accelerations(
         model: B.Model,
@@ -189,10 +236,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         a_free: wp.array2d(dtype=scalar),
         dt: scalar,
         implicit_dt: scalar,
-        # scratch: J (N, m, K), L and Mh (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w (N, max(m, K))
+        # scratch: J (N, m, K), L (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w (N, max(m, K))
         J: wp.array3d(dtype=scalar),
         L: wp.array3d(dtype=scalar),
-        Mh: wp.array3d(dtype=scalar),
         MinvJT: wp.array3d(dtype=scalar),
         A: wp.array3d(dtype=scalar),
         LA: wp.array3d(dtype=scalar),
@@ -204,14 +250,14 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """nu_dot (N, K = 6 + nv): the constrained accelerations (Inertial base) from ABA's a_free (N, K), the mass
         matrix M (N, K, K) (Inertial base), the link poses W_H_L and Inertial velocities W_v_WL (N, nL), the
-        anchors' Jacobians J_t (N, T, 6, K) and J̇ν Jdotnu_t (N, T, 6) (Mixed, ν Inertial): the module docstring. implicit_dt: dt for MuJoCo's
-        implicit joint damping, else 0; dt: the step (refsafe)."""
+        anchors' Jacobians J_t (N, T, 6, K) and J̇ν Jdotnu_t (N, T, 6) (Mixed, ν Inertial): the module docstring.
+        implicit_dt: dt for MuJoCo's implicit joint damping, else 0; dt: the step (refsafe). A fixed base's DoFs
+        (the first six) are not solved for."""
         env = wp.tid()
         K = M.shape[1]
         off = 6
         if model.floating_base != 0:
             off = 0
-        k = K - off
         m = J.shape[1]
         W_H_B = B.base_pose(x, env)
         v_B = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env))
@@ -300,23 +346,24 @@ def kernels(scalar) -> types.SimpleNamespace:
                 rhs[env, row + a] = -b * velocity - k_imp * residual[a] - bias[a]
                 A[env, row + a, row + a] = R  # the diagonal's regularisation, J M^-1 J^T added below
         # 2. M^-1 J^T (rows of MinvJT) and, with implicit damping, the explicit a0 = a0' + dt M^-1 D a0'
-        factor(M, env, off, L)
+        parent = eq.dof_parent
+        tree_factor(model, M, env, off, parent, scalar(0.0), L)
         for r in range(m):
-            for i in range(k):
-                y[env, i] = J[env, r, off + i]
-            substitute(L, env, k, y, w, 0)
-            for i in range(k):
-                MinvJT[env, r, off + i] = w[env, i]
+            for i in range(off, K):
+                w[env, i] = J[env, r, i]
+            tree_solve(L, env, off, parent, w)
+            for i in range(off, K):
+                MinvJT[env, r, i] = w[env, i]
         for i in range(K):
             nu_dot[env, i] = a_free[env, i]
         if implicit_dt > scalar(0.0):
-            for i in range(k):
-                y[env, i] = scalar(0.0)
-                if off + i >= 6:
-                    y[env, i] = B.joint_parameter(model.damping, env, off + i - 6) * a_free[env, off + i]
-            substitute(L, env, k, y, w, 0)
-            for i in range(k):
-                nu_dot[env, off + i] = a_free[env, off + i] + implicit_dt * w[env, i]
+            for i in range(off, K):
+                w[env, i] = scalar(0.0)
+                if i >= 6:
+                    w[env, i] = B.joint_parameter(model.damping, env, i - 6) * a_free[env, i]
+            tree_solve(L, env, off, parent, w)
+            for i in range(off, K):
+                nu_dot[env, i] = a_free[env, i] + implicit_dt * w[env, i]
         # 3. A = J M^-1 J^T + diag(R); f = A^-1 (aref - J a0)
         for r in range(m):
             s = rhs[env, r]
@@ -336,25 +383,20 @@ def kernels(scalar) -> types.SimpleNamespace:
         substitute(LA, env, m, rhs, w, 0)  # f in w[0:m]
         # 4. nu_dot = a0 + M^-1 J^T f, or a0' + (M + dt D)^-1 J^T f with implicit damping
         if implicit_dt > scalar(0.0):
-            for i in range(k):
+            for i in range(off, K):
                 s = scalar(0.0)
                 for r in range(m):
-                    s = s + J[env, r, off + i] * w[env, r]
+                    s = s + J[env, r, i] * w[env, r]
                 y[env, i] = s
-            for i in range(K):
-                for j in range(K):
-                    Mh[env, i, j] = M[env, i, j]
-            for i in range(6, K):
-                Mh[env, i, i] = Mh[env, i, i] + implicit_dt * B.joint_parameter(model.damping, env, i - 6)
-            factor(Mh, env, off, L)
-            substitute(L, env, k, y, rhs, 0)
-            for i in range(k):
-                nu_dot[env, off + i] = a_free[env, off + i] + rhs[env, i]
+            tree_factor(model, M, env, off, parent, implicit_dt, L)
+            tree_solve(L, env, off, parent, y)
+            for i in range(off, K):
+                nu_dot[env, i] = a_free[env, i] + y[env, i]
         else:
-            for i in range(k):
-                s = nu_dot[env, off + i]
+            for i in range(off, K):
+                s = nu_dot[env, i]
                 for r in range(m):
-                    s = s + MinvJT[env, r, off + i] * w[env, r]
-                nu_dot[env, off + i] = s
+                    s = s + MinvJT[env, r, i] * w[env, r]
+                nu_dot[env, i] = s
 
     return types.SimpleNamespace(Equalities=Equalities, equality_accelerations=equality_accelerations)

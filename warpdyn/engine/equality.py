@@ -74,6 +74,7 @@ class EqualityPlan:
         eq.Q2 = wp.array(np.array([np.roll(e.Q2, -1) for e in E], dtype=np.float64).reshape(-1, 4), dtype=quat, device=d)
         eq.torquescale = floats([e.torquescale for e in E])
         eq.invweight_rotation = floats([e.invweight_rotation for e in E])
+        eq.dof_parent = ints(dof_parents(tree, model.floating_base()))
         eq.q1 = ints([joint_address(q_start, e.joint1) for e in E])
         eq.q2 = ints([joint_address(q_start, e.joint2) for e in E])
         eq.dof1 = ints([joint_address(v_start, e.joint1) for e in E])
@@ -108,7 +109,7 @@ class EqualityPlan:
             "Jdotnu_t": empty((self.T, 6)),
             "M": empty((K, K)),
             "crba_scratch": empty((max(nL, plan.n + 1), CRBA_RECORD)),
-            "scratch": [empty((m, K)), empty((K, K)), empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m)), empty((width,)), empty((width,)), empty((width,))],
+            "scratch": [empty((m, K)), empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m)), empty((width,)), empty((width,)), empty((width,))],
         }
 
     def launches(self, plan, ev, x, N: int) -> list:
@@ -127,6 +128,22 @@ class EqualityPlan:
         args = [plan.model, self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], b["M"], b["nu_free"], plan.dt, plan.implicit_dt, *b["scratch"]]
         launches.append(Launch(self.kernel, N, args, [ev.nu_dot]))
         return launches
+
+
+def dof_parents(tree, floating: bool) -> np.ndarray:
+    """(6 + nv,) int32: each DoF's parent DoF (the generalized velocity's order, base first): a base DoF the one
+    before it (-1 for the first, and for all six of a fixed base), a joint's first DoF the last DoF of its
+    parent link's joint (of the base: 5, or -1 when the base is fixed), its others the DoF before."""
+    nv = int(tree.v_start[-1])
+    parent = np.full(6 + nv, -1, dtype=np.int32)
+    if floating:
+        parent[1:6] = np.arange(5)
+    for i in range(1, tree.number_of_links):
+        first, last = 6 + int(tree.v_start[i]), 6 + int(tree.v_start[i + 1])
+        p = int(tree.parent[i])
+        parent[first] = (5 if floating else -1) if p == 0 else 6 + int(tree.v_start[p + 1]) - 1
+        parent[first + 1 : last] = np.arange(first, last - 1)
+    return parent
 
 
 def equality_plan(model) -> EqualityPlan | None:
