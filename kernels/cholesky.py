@@ -35,6 +35,22 @@ def kernels(scalar):
                 L[env, i, j] = t / Ljj
                 L[env, j, i] = scalar(0.0)
 
+    @wp.func
+    def substitute(L: wp.array3d(dtype=scalar), env: int, k: int, y: wp.array2d(dtype=scalar), x: wp.array2d(dtype=scalar), at: int):
+        """x[env, at:at + k] = (L L^T)^-1 y[env, 0:k] (L: `factor`'s), by forward then back substitution; y is
+        overwritten."""
+        for i in range(k):
+            s = y[env, i]
+            for p in range(i):
+                s = s - L[env, i, p] * y[env, p]
+            y[env, i] = s / L[env, i, i]
+        for r in range(k):
+            i = k - 1 - r
+            s = y[env, i]
+            for p in range(i + 1, k):
+                s = s - L[env, p, i] * x[env, at + p]
+            x[env, at + i] = s / L[env, i, i]
+
     @wp.kernel(module="unique")
     def solve(
         # inputs
@@ -52,16 +68,8 @@ def kernels(scalar):
         factor(A, env, offset, L)
         k = A.shape[1] - offset
         for i in range(k):
-            s = b[env, offset + i]
-            for p in range(i):
-                s = s - L[env, i, p] * y[env, p]
-            y[env, i] = s / L[env, i, i]
-        for r in range(k):
-            i = k - 1 - r
-            s = y[env, i]
-            for p in range(i + 1, k):
-                s = s - L[env, p, i] * x[env, offset + p]
-            x[env, offset + i] = s / L[env, i, i]
+            y[env, i] = b[env, offset + i]
+        substitute(L, env, k, y, x, offset)
         for i in range(offset):
             x[env, i] = scalar(0.0)
 
@@ -162,5 +170,5 @@ def kernels(scalar):
         adj_A[env, i, i] = adj_A[env, i, i] - P[env, i, i]
 
     return types.SimpleNamespace(
-        factor=factor, solve=solve, inverse=inverse, solve_adjoint=solve_adjoint, block_product=block_product, inverse_adjoint=inverse_adjoint
+        factor=factor, substitute=substitute, solve=solve, inverse=inverse, solve_adjoint=solve_adjoint, block_product=block_product, inverse_adjoint=inverse_adjoint
     )

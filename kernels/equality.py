@@ -23,7 +23,7 @@ joint damping (the Euler step's (M + dt D)), the constraint force is that of the
 (a0' = (M + dt D)^-1 tau, ABA's), and the step's accelerations are a0' + (M + dt D)^-1 J^T f (mj_Euler's).
 
 M is factorised along the tree (Featherstone's LTDL: only the entries its branches fill, `tree_factor`), A densely
-(kernels/cholesky.py's `factor`); forward only (no tape records this kernel).
+(kernels/cholesky.py's `factor` and `substitute`); forward only (no tape records this kernel).
 """
 
 import types
@@ -53,7 +53,7 @@ MAX_IMPEDANCE = 0.9999
 def kernels(scalar) -> types.SimpleNamespace:
     """The equality-constraint kernel in `scalar`."""
     sp, B = spatial(scalar), bundles(scalar)
-    factor = cholesky_kernels(scalar).factor
+    factor, substitute = cholesky_kernels(scalar).factor, cholesky_kernels(scalar).substitute
 
     @wp.struct
     class Equalities:
@@ -163,21 +163,6 @@ def kernels(scalar) -> types.SimpleNamespace:
         if ratio > scalar(0.0):
             b = scalar(2.0) / wp.max(scalar(MIN_VALUE), dmax * timeconst)
         return k * imp, b
-
-    @wp.func
-    def substitute(L: wp.array3d(dtype=scalar), env: int, k: int, y: wp.array2d(dtype=scalar), x: wp.array2d(dtype=scalar), at: int):
-        """x[env, at:at + k] = (L L^T)^-1 y[env, 0:k] (L: kernels/cholesky.py's `factor`), y overwritten."""
-        for i in range(k):
-            s = y[env, i]
-            for p in range(i):
-                s = s - L[env, i, p] * y[env, p]
-            y[env, i] = s / L[env, i, i]
-        for r in range(k):
-            i = k - 1 - r
-            s = y[env, i]
-            for p in range(i + 1, k):
-                s = s - L[env, p, i] * x[env, at + p]
-            x[env, at + i] = s / L[env, i, i]
 
     @wp.func
     def tree_factor(model: B.Model, M: wp.array3d(dtype=scalar), env: int, off: int, parent: wp.array(dtype=wp.int32), implicit_dt: scalar,

@@ -477,12 +477,7 @@ def build_tree(
             actuators.append(TreeActuator(joint=joint_index[actuator.joint], joint_name=actuator.joint, **fields))
         else:
             dropped.append(f"{actuator.name} (on {actuator.joint})")
-    if dropped:
-        warnings.warn(
-            f"model '{description.name}': actuators on joints that the reduction locks are dropped: {dropped}",
-            NotModelledWarning,
-            stacklevel=caller_stacklevel(),
-        )
+    _warn_dropped(description, "actuators", dropped)
     joint_type = np.array([0] + [JOINT_KINDS[j.type] for j in movable_joints], dtype=np.int32)
     axis = np.array([[0.0, 0.0, 1.0]] + [j.axis for j in movable_joints]).reshape(nL, 3)
     pivot = np.array([[0.0, 0.0, 0.0]] + [j.pivot for j in movable_joints]).reshape(nL, 3)
@@ -552,13 +547,18 @@ def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict,
             equalities.append(TreeEquality(joint1=joint_index[eq.joint1], joint2=joint2, polycoef=np.array(eq.polycoef, dtype=np.float64), **common))
         else:
             dropped.append(f"{eq.name} (on {eq.joint1}{'' if eq.joint2 is None else ', ' + eq.joint2})")
+    _warn_dropped(description, "equality constraints", dropped)
+    return equalities
+
+
+def _warn_dropped(description: ModelDescription, what: str, dropped: list[str]) -> None:
+    """A NotModelledWarning naming `what` the reduction dropped with the joints it locks (none: no warning)."""
     if dropped:
         warnings.warn(
-            f"model '{description.name}': equality constraints on joints that the reduction locks are dropped: {dropped}",
+            f"model '{description.name}': {what} on joints that the reduction locks are dropped: {dropped}",
             NotModelledWarning,
             stacklevel=caller_stacklevel(),
         )
-    return equalities
 
 
 def _base_joint_parameters(description: ModelDescription) -> dict:
