@@ -1,7 +1,7 @@
 """Equality constraints solved as MuJoCo solves them (its soft constraints, equality rows only): one thread per
 environment.
 
-Each constraint e contributes rows (a connect 3, a weld 6, a joint coupling 1) with a position residual r, a
+Each constraint e contributes rows (a connect 3, a weld 6, a joint or fixed-tendon coupling 1) with a position residual r, a
 Jacobian J (rows of the generalized velocity nu, Inertial base) and J̇ν (MuJoCo's Jdot v of a connect or weld:
 the anchors' bias accelerations; 0 for a joint coupling, as in MuJoCo):
 - connect: r = p1 - p2, the anchors in world axes; J = J_p1 - J_p2 (their Mixed linear Jacobians);
@@ -9,7 +9,8 @@ the anchors' bias accelerations; 0 for a joint coupling, as in MuJoCo):
   r = s vec(q1* q0), J = s/2 vec(q1* (J_w1 - J_w2) q0) (J_w: the links' angular Jacobians, world axes; pure
   quaternions inside), J̇ν = s/2 vec(q1dot* dw q0 + q1* (J̇ν_w1 - J̇ν_w2) q0 + q1* dw q0dot), dw = w1 - w2,
   qdot = 1/2 w q, s the torquescale;
-- joint: r = q1 - q1_0 - sum_k c_k (q2 - q2_0)^k, J = e_1 - (sum_k k c_k (q2 - q2_0)^(k-1)) e_2.
+- joint (or fixed tendon): r = L1 - L1_0 - sum_k c_k (L2 - L2_0)^k, J = dL1 - (sum_k k c_k (L2 - L2_0)^(k-1)) dL2,
+  L a joint's position, or a fixed tendon's length sum_j coef_j q_j (dL its coefficients on the DoFs).
 MuJoCo's reference acceleration and regularisation (mj_makeImpedance, mj_referenceConstraint): with solref
 (timeconst, dampratio) (timeconst raised to 2 dt, MuJoCo's refsafe; or direct (-stiffness, -damping)) and the
 impedance imp = solimp's function of |r| (of the rows' norm for a connect or weld),
@@ -60,8 +61,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         """E constraints, m rows (warpdyn.engine.equality fills it): kind (E,) CONNECT, WELD or JOINT, row (E,) its
         first row; a connect's or weld's targets target (E,) (its anchors p1, p2 are the targets target and
         target + 1 of the step's Targets), link1, link2 (E,) (-1: the world) and anchors p1, p2 (E,) in their
-        links' frames; a weld's frames Q1, Q2 (E,) in those links' frames and torquescale (E,); a joint coupling's
-        position addresses q1, q2 (E,) (q2 -1: none), DoFs dof1, dof2, references ref1, ref2, polycoef (E, 5);
+        links' frames; a weld's frames Q1, Q2 (E,) in those links' frames and torquescale (E,); a joint or
+        fixed-tendon coupling's lengths L = sum coef q over its terms (term_q, term_dof, term_coef (T,): position
+        address, DoF, coefficient), side 1 its first1 and count1 terms, side 2 its first2 and count2 (0: none),
+        their values at qpos0 ref1, ref2, polycoef (E, 5);
         solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows); dof_parent
         (K = 6 + nv,): each DoF's parent DoF in the tree (the base's six a chain; -1 at a root), for `tree_factor`."""
 
@@ -75,10 +78,13 @@ def kernels(scalar) -> types.SimpleNamespace:
         Q1: wp.array(dtype=sp.quat)
         Q2: wp.array(dtype=sp.quat)
         torquescale: wp.array(dtype=scalar)
-        q1: wp.array(dtype=wp.int32)
-        q2: wp.array(dtype=wp.int32)
-        dof1: wp.array(dtype=wp.int32)
-        dof2: wp.array(dtype=wp.int32)
+        term_q: wp.array(dtype=wp.int32)
+        term_dof: wp.array(dtype=wp.int32)
+        term_coef: wp.array(dtype=scalar)
+        first1: wp.array(dtype=wp.int32)
+        count1: wp.array(dtype=wp.int32)
+        first2: wp.array(dtype=wp.int32)
+        count2: wp.array(dtype=wp.int32)
         ref1: wp.array(dtype=scalar)
         ref2: wp.array(dtype=scalar)
         polycoef: wp.array2d(dtype=scalar)
@@ -114,6 +120,14 @@ def kernels(scalar) -> types.SimpleNamespace:
         if link >= 0:
             return sp.ang(W_v_WL[env, link])
         return sp.vec3(scalar(0.0))
+
+    @wp.func
+    def length_of(eq: Equalities, x: B.State, env: int, first: int, count: int):
+        """A coupling side's length: sum of coef q over its terms (a joint's position, or a fixed tendon's)."""
+        total = scalar(0.0)
+        for k in range(first, first + count):
+            total = total + eq.term_coef[k] * x.joint_positions[env, eq.term_q[k]]
+        return total
 
     @wp.func
     def power(a: scalar, b: scalar):
@@ -258,16 +272,19 @@ def kernels(scalar) -> types.SimpleNamespace:
             distance = scalar(0.0)
             if eq.kind[e] == JOINT:
                 dif = scalar(0.0)
-                if eq.q2[e] >= 0:
-                    dif = x.joint_positions[env, eq.q2[e]] - eq.ref2[e]
+                if eq.count2[e] > 0:
+                    dif = length_of(eq, x, env, eq.first2[e], eq.count2[e]) - eq.ref2[e]
                     c1 = eq.polycoef[e, 1]
                     c2 = eq.polycoef[e, 2]
                     c3 = eq.polycoef[e, 3]
                     c4 = eq.polycoef[e, 4]
-                    J[env, row, 6 + eq.dof2[e]] = -(c1 + dif * (scalar(2.0) * c2 + dif * (scalar(3.0) * c3 + dif * scalar(4.0) * c4)))
+                    slope = c1 + dif * (scalar(2.0) * c2 + dif * (scalar(3.0) * c3 + dif * scalar(4.0) * c4))
+                    for k in range(eq.first2[e], eq.first2[e] + eq.count2[e]):
+                        J[env, row, 6 + eq.term_dof[k]] = J[env, row, 6 + eq.term_dof[k]] - slope * eq.term_coef[k]
                 value = eq.polycoef[e, 0] + dif * (eq.polycoef[e, 1] + dif * (eq.polycoef[e, 2] + dif * (eq.polycoef[e, 3] + dif * eq.polycoef[e, 4])))
-                residual[0] = x.joint_positions[env, eq.q1[e]] - eq.ref1[e] - value
-                J[env, row, 6 + eq.dof1[e]] = scalar(1.0)
+                residual[0] = length_of(eq, x, env, eq.first1[e], eq.count1[e]) - eq.ref1[e] - value
+                for k in range(eq.first1[e], eq.first1[e] + eq.count1[e]):
+                    J[env, row, 6 + eq.term_dof[k]] = J[env, row, 6 + eq.term_dof[k]] + eq.term_coef[k]
                 distance = wp.abs(residual[0])
             else:
                 rows = 3

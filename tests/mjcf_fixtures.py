@@ -570,7 +570,7 @@ ACTUATOR_ARMATURE_DAMPING = """
 """
 
 #: Elements warpdyn does not model (a loader should warn): fluid (density, viscosity), joint limits, frictionloss, a
-#: tendon equality, a fixed tendon with a spring, a muscle, a filtered position servo (activation state), a tendon
+#: connect inactive at the start, a fixed tendon with a spring, a muscle, a filtered position servo (activation state), a tendon
 #: transmission.
 UNSUPPORTED = """
 <mujoco model="unsupported">
@@ -597,7 +597,7 @@ UNSUPPORTED = """
     </body>
   </worldbody>
   <equality>
-    <tendon name="couple" tendon1="t_diff" polycoef="0.1 0 0 0 0"/>
+    <connect name="couple" body1="u3" body2="u1" anchor="0 0 0" active="false"/>
   </equality>
   <tendon>
     <fixed name="t_diff" stiffness="3" damping="0.1">
@@ -618,7 +618,7 @@ UNSUPPORTED_FEATURES = {
     "fluid": "<option density='1.2' viscosity='1.8e-5'>: qfrc_fluid, part of qfrc_passive",
     "joint_limits": "u_j1, u_j2 range: limit constraints",
     "frictionloss": "u_j1 frictionloss=0.1: a friction constraint (mj_instantiateFriction), not a passive force",
-    "equality": "<equality><tendon> on t_diff: an equality constraint warpdyn does not enforce (connect, weld and joint it does)",
+    "equality": "<equality><connect active=false>: an equality constraint off at the start, which warpdyn does not enforce",
     "tendon": "<tendon><fixed t_diff> with stiffness/damping: passive tendon forces",
     "muscle": "<muscle joint=u_j2>: muscle gain/bias and activation dynamics",
     "activation": "<position timeconst=0.05>: dyntype filterexact, one act state",

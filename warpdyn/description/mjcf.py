@@ -62,7 +62,7 @@ FRICTIONLOSS = "frictionloss (MuJoCo: a friction constraint; warpdyn applies it 
 POLYNOMIAL = "polynomial joint stiffness/damping (only the linear coefficient is kept)"
 SPRING_YIELD = "joint spring yield (plasticity)"
 FREE_JOINT_PARAMETERS = "frictionloss of a floating base's free joint (a floating base has no static friction)"
-EQUALITY = "equality constraints other than connect, weld and joint, and those inactive at the start (tendon, flex)"
+EQUALITY = "equality constraints other than connect, weld, joint and fixed-tendon couplings, and those inactive at the start (spatial tendons, flex)"
 TENDONS = "tendons (their springs, dampers, armature, limits and actuators)"
 MUSCLES = "muscles (dropped)"
 ACTIVATION = "actuators with activation dynamics (integrator, filter, position timeconst...; dropped)"
@@ -434,7 +434,7 @@ def _actuators(m, joint_name, note, mujoco) -> list[ActuatorDescription]:
 
 
 def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco) -> list[EqualityDescription]:
-    """The connect, weld and joint equality constraints active at the start (MuJoCo's eq_active0), as MuJoCo compiled
+    """The connect, weld, joint and fixed-tendon equality constraints active at the start (MuJoCo's eq_active0), as MuJoCo compiled
     them; the others are noted as not modelled. None when MuJoCo's constraints or equalities are disabled."""
     if "constraint" in disabled or "equality" in disabled:
         return []
@@ -467,9 +467,19 @@ def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco) -> li
                 kind="joint", joint1=joint_name(o1), joint2=joint_name(o2) if o2 >= 0 else None, polycoef=data[0:5].copy(),
                 invweight=invweight, **common,
             ))  # fmt: skip
+        elif active and kind == Eq.mjEQ_TENDON and all(_fixed_tendon(m, t, mujoco) for t in (o1, o2) if t >= 0):
+            invweight = float(m.tendon_invweight0[o1] + (m.tendon_invweight0[o2] if o2 >= 0 else 0.0))
+            terms = [[(joint_name(int(m.wrap_objid[w])), float(m.wrap_prm[w])) for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t])] if t >= 0 else None
+                     for t in (o1, o2)]  # fmt: skip
+            equalities.append(EqualityDescription(kind="tendon", tendon1=terms[0], tendon2=terms[1], polycoef=data[0:5].copy(), invweight=invweight, **common))
         else:
             note(EQUALITY, name)
     return equalities
+
+
+def _fixed_tendon(m, t: int, mujoco) -> bool:
+    """Whether MuJoCo's tendon t is fixed: a linear combination of joint positions (every wrap a joint)."""
+    return all(int(m.wrap_type[w]) == mujoco.mjtWrap.mjWRAP_JOINT for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]))
 
 
 def _constraints_and_others(m, note, name_of, mujoco) -> None:

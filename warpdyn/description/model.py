@@ -252,7 +252,8 @@ class EqualityDescription:
     (w, x, y, z) in their bodies' frames: MuJoCo's relpose and the identity, or the welded sites' frames) turn
     alike (3 more rows: torquescale times the vector part of their relative rotation, MuJoCo's);
     kind "joint": joint1's position q1 follows joint2's q2 (1 row: q1 - q1_0 - sum_k polycoef[k] (q2 - q2_0)^k,
-    q_0 MuJoCo's qpos0; joint2 None: q1 - q1_0 - polycoef[0]).
+    q_0 MuJoCo's qpos0; joint2 None: q1 - q1_0 - polycoef[0]); kind "tendon": the same of two fixed tendons'
+    lengths L = sum_j coef_j q_j (tendon1, tendon2: their (joint, coef) terms; tendon2 None: none), L_0 at qpos0.
     solref (2,), solimp (5,): MuJoCo's softness (eq_solref, eq_solimp); invweight: MuJoCo's approximate inverse
     inertia of the constraint rows (the two bodies' translational body_invweight0, or the two DoFs'
     dof_invweight0, summed), its regularisation R = (1 - imp) / imp invweight; invweight_rotation: a weld's
@@ -266,6 +267,8 @@ class EqualityDescription:
     anchor2: np.ndarray = field(default_factory=lambda: np.zeros(3))
     joint1: str | None = None
     joint2: str | None = None
+    tendon1: list[tuple[str, float]] | None = None
+    tendon2: list[tuple[str, float]] | None = None
     rot1: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
     rot2: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
     torquescale: float = 1.0

@@ -69,9 +69,10 @@ class TreeActuator:
 class TreeEquality:
     """An equality constraint on the lumped tree (a description's `EqualityDescription`): a connect's or weld's
     anchors p1, p2 [m] in the frames of links link1, link2 (-1: the world), and a weld's frames Q1, Q2 (unit
-    quaternions (w, x, y, z): body (x) rot in those links' frames); a joint coupling's joints joint1, joint2
-    (tree joint indices; joint2 -1: none); kind, polycoef, solref, solimp, torquescale, invweight and
-    invweight_rotation as the description's."""
+    quaternions (w, x, y, z): body (x) rot in those links' frames); a joint or fixed-tendon coupling's lengths as
+    terms1, terms2 ((tree joint index, coef) pairs: one (j, 1) for a joint; terms2 empty: none) and their values
+    at qpos0 ref1, ref2; kind, polycoef, solref, solimp, torquescale, invweight and invweight_rotation as the
+    description's."""
 
     name: str
     kind: str
@@ -83,8 +84,10 @@ class TreeEquality:
     Q2: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
     torquescale: float = 1.0
     invweight_rotation: float = 0.0
-    joint1: int = -1
-    joint2: int = -1
+    terms1: list[tuple[int, float]] = field(default_factory=list)
+    terms2: list[tuple[int, float]] = field(default_factory=list)
+    ref1: float = 0.0
+    ref2: float = 0.0
     polycoef: np.ndarray = field(default_factory=lambda: np.zeros(5))
     solref: np.ndarray = field(default_factory=lambda: np.zeros(2))
     solimp: np.ndarray = field(default_factory=lambda: np.zeros(5))
@@ -478,6 +481,7 @@ def build_tree(
         else:
             dropped.append(f"{actuator.name} (on {actuator.joint})")
     _warn_dropped(description, "actuators", dropped)
+    qpos0 = np.concatenate([np.zeros(0)] + [j.start_position() for j in movable_joints])
     joint_type = np.array([0] + [JOINT_KINDS[j.type] for j in movable_joints], dtype=np.int32)
     axis = np.array([[0.0, 0.0, 1.0]] + [j.axis for j in movable_joints]).reshape(nL, 3)
     pivot = np.array([[0.0, 0.0, 0.0]] + [j.pivot for j in movable_joints]).reshape(nL, 3)
@@ -515,16 +519,16 @@ def build_tree(
         actuators=actuators,
         q_start=q_start,
         v_start=v_start,
-        qpos0=np.concatenate([np.zeros(0)] + [j.start_position() for j in movable_joints]),
-        equalities=_equalities(description, kept_of, kept_H_link, index, joint_index),
+        qpos0=qpos0,
+        equalities=_equalities(description, kept_of, kept_H_link, index, joint_index, qpos0, q_start),
         **_base_joint_parameters(description),
     )
 
 
-def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict, index: dict, joint_index: dict) -> list[TreeEquality]:
-    """The description's equality constraints on the lumped tree: a connect's anchors moved to the links their
-    bodies are lumped into (a body outside the tree is the world's); a joint coupling whose joint the reduction
-    locks is dropped with a NotModelledWarning."""
+def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict, index: dict, joint_index: dict, qpos0, q_start) -> list[TreeEquality]:
+    """The description's equality constraints on the lumped tree: a connect's or weld's anchors moved to the links
+    their bodies are lumped into (a body outside the tree is the world's); a joint or tendon coupling whose joint
+    the reduction locks is dropped with a NotModelledWarning."""
     equalities, dropped = [], []
 
     def on_link(body: str, anchor, rot) -> tuple[int, np.ndarray, np.ndarray]:
@@ -542,11 +546,15 @@ def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict,
             (link1, p1, Q1), (link2, p2, Q2) = on_link(eq.body1, eq.anchor1, eq.rot1), on_link(eq.body2, eq.anchor2, eq.rot2)
             equalities.append(TreeEquality(link1=link1, link2=link2, p1=p1, p2=p2, Q1=Q1, Q2=Q2, torquescale=eq.torquescale,
                                            invweight_rotation=eq.invweight_rotation, **common))  # fmt: skip
-        elif eq.joint1 in joint_index and (eq.joint2 is None or eq.joint2 in joint_index):
-            joint2 = -1 if eq.joint2 is None else joint_index[eq.joint2]
-            equalities.append(TreeEquality(joint1=joint_index[eq.joint1], joint2=joint2, polycoef=np.array(eq.polycoef, dtype=np.float64), **common))
-        else:
-            dropped.append(f"{eq.name} (on {eq.joint1}{'' if eq.joint2 is None else ', ' + eq.joint2})")
+        else:  # a joint or fixed-tendon coupling: lengths of (joint, coef) terms
+            sides = [[(eq.joint1, 1.0)], [(eq.joint2, 1.0)] if eq.joint2 is not None else []] if eq.kind == "joint" else [eq.tendon1, eq.tendon2 or []]
+            joints = [name for side in sides for name, _ in side]
+            if any(name not in joint_index for name in joints):
+                dropped.append(f"{eq.name} (on {', '.join(joints)})")
+                continue
+            terms = [[(joint_index[name], float(coef)) for name, coef in side] for side in sides]
+            refs = [sum(coef * qpos0[q_start[j + 1]] for j, coef in side) for side in terms]
+            equalities.append(TreeEquality(terms1=terms[0], terms2=terms[1], ref1=float(refs[0]), ref2=float(refs[1]), polycoef=np.array(eq.polycoef, dtype=np.float64), **common))
     _warn_dropped(description, "equality constraints", dropped)
     return equalities
 

@@ -1,4 +1,4 @@
-"""Equality constraints in a step: MJCF connects, welds and joint couplings (warpdyn.description.tree's TreeEquality),
+"""Equality constraints in a step: MJCF connects, welds, and joint and fixed-tendon couplings (warpdyn.description.tree's TreeEquality),
 solved as MuJoCo solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0', Inertial
 base) at a state x, with the link poses of its FK, the launches compute the links' velocities and bias terms,
 the connect anchors' Jacobians and J̇ν (Mixed, ν Inertial), the mass matrix (Inertial base) and the constrained
@@ -33,10 +33,10 @@ class EqualityPlan:
         s, d = model.scalar, model.device
         tree = model.tree
         self.count = len(tree.equalities)
-        kinds = [{"connect": CONNECT, "weld": WELD, "joint": JOINT}[e.kind] for e in tree.equalities]
+        kinds = [{"connect": CONNECT, "weld": WELD, "joint": JOINT, "tendon": JOINT}[e.kind] for e in tree.equalities]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
-        connect = [e for e in tree.equalities if e.kind != "joint"]  # connects and welds: two anchors each
+        connect = [e for e in tree.equalities if e.kind in ("connect", "weld")]  # two anchors each
         target_of, t = [], 0
         for kind in kinds:
             target_of.append(t)
@@ -46,11 +46,7 @@ class EqualityPlan:
         offsets[:, :3, 3] = [p for e in connect for p in (e.p1, e.p2)] if connect else np.zeros((0, 3))
         self.targets = targets(model, wp.array(np.array(links, dtype=int), dtype=int, device=d), transforms(offsets, s, d))
         self.T = len(links)
-        q_start, v_start = tree.q_start, tree.v_start
-
-        def joint_address(starts, joint):  # joint j moves link j + 1
-            return int(starts[joint + 1]) if joint >= 0 else -1
-
+        q_start, v_start = tree.q_start, tree.v_start  # joint j moves link j + 1
         K = equality_kernels(s)
         eq = self.bundle = K.Equalities()
 
@@ -75,12 +71,19 @@ class EqualityPlan:
         eq.torquescale = floats([e.torquescale for e in E])
         eq.invweight_rotation = floats([e.invweight_rotation for e in E])
         eq.dof_parent = ints(dof_parents(tree, model.floating_base()))
-        eq.q1 = ints([joint_address(q_start, e.joint1) for e in E])
-        eq.q2 = ints([joint_address(q_start, e.joint2) for e in E])
-        eq.dof1 = ints([joint_address(v_start, e.joint1) for e in E])
-        eq.dof2 = ints([joint_address(v_start, e.joint2) for e in E])
-        eq.ref1 = floats([tree.qpos0[q_start[e.joint1 + 1]] if e.joint1 >= 0 else 0.0 for e in E])
-        eq.ref2 = floats([tree.qpos0[q_start[e.joint2 + 1]] if e.joint2 >= 0 else 0.0 for e in E])
+        # a coupling's lengths: its terms (position address, DoF, coefficient), side 1 then side 2 of each
+        terms, first1, count1, first2, count2 = [], [], [], [], []
+        for e in E:
+            for side, first, count in ((e.terms1, first1, count1), (e.terms2, first2, count2)):
+                first.append(len(terms))
+                count.append(len(side))
+                terms += [(int(q_start[j + 1]), int(v_start[j + 1]), coef) for j, coef in side]
+        eq.term_q = ints([t[0] for t in terms])
+        eq.term_dof = ints([t[1] for t in terms])
+        eq.term_coef = wp.array(np.array([t[2] for t in terms], dtype=np.float64), dtype=s, device=d)
+        eq.first1, eq.count1, eq.first2, eq.count2 = ints(first1), ints(count1), ints(first2), ints(count2)
+        eq.ref1 = floats([e.ref1 for e in E])
+        eq.ref2 = floats([e.ref2 for e in E])
         eq.polycoef = floats([e.polycoef for e in E], 5)
         eq.solref = floats([e.solref for e in E], 2)
         eq.solimp = floats([e.solimp for e in E], 5)
