@@ -24,7 +24,7 @@ positions within limits, random quaternions, velocities N(0, 1)). Columns: relat
 entry of MuJoCo's) of M (armature included), h (qfrc_bias), forces (qfrc_passive + qfrc_actuator at
 ctrl = 0) and qacc; start: how far warpdyn's default state is from MuJoCo's qpos0 (absolute, base position
 [m], quaternion, joint positions); constrained, for an entry point with equality constraints warpdyn enforces
-(connect, joint couplings): the relative error of one Euler step's velocity change against mj_step's with
+(connects, welds, joint and fixed-tendon couplings): the relative error of one Euler step's velocity change against mj_step's with
 MuJoCo's equality rows active (its contacts, limits and frictionloss off, damping explicit in both;
 mjcf_compare.constrained_step_error), which an unmodelled force also shows. An entry point matches when M, h and
 qacc are within --tol.

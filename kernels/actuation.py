@@ -164,8 +164,8 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
     """The wp.func giving the step's force on DoF d of joint j [N m or N] at (s, sdot) (s: the joint's first
     position, positions (N, nq): the state's) from its reference tau_ref_d and the actuators' controls ctrl
     (N, na) (the module docstring's tau); per_joint: the most actuators on one joint (0: no actuator code). The
-    actuation kernel and the fused step (kernels/fused_step.py, one-DoF joints: d = j) call it; multi_dof: a
-    model with ball or free joints (kernels/joints.py)."""
+    actuation kernel and the fused step (kernels/fused_step.py: for each DoF d of link i's joint, j = i - 1) call
+    it; multi_dof: a model with ball or free joints (kernels/joints.py)."""
     B = bundles(scalar)
     clip, _ = functions(scalar, max(per_joint, 1))
     torque_limit = torque_speed_curve(scalar).torque_limit

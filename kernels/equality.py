@@ -1,6 +1,7 @@
 """Equality constraints solved as MuJoCo solves them (its soft constraints, equality rows only): one thread per
 environment.
 
+MuJoCo >= 3.10's semantics (its Jdot v correction of connects and welds: older versions leave it out).
 Each constraint e contributes rows (a connect 3, a weld 6, a joint or fixed-tendon coupling 1) with a position residual r, a
 Jacobian J (rows of the generalized velocity nu, Inertial base) and J̇ν (MuJoCo's Jdot v of a connect or weld:
 the anchors' bias accelerations; 0 for a joint coupling, as in MuJoCo):
@@ -12,7 +13,8 @@ the anchors' bias accelerations; 0 for a joint coupling, as in MuJoCo):
 - joint (or fixed tendon): r = L1 - L1_0 - sum_k c_k (L2 - L2_0)^k, J = dL1 - (sum_k k c_k (L2 - L2_0)^(k-1)) dL2,
   L a joint's position, or a fixed tendon's length sum_j coef_j q_j (dL its coefficients on the DoFs).
 MuJoCo's reference acceleration and regularisation (mj_makeImpedance, mj_referenceConstraint): with solref
-(timeconst, dampratio) (timeconst raised to 2 dt, MuJoCo's refsafe; or direct (-stiffness, -damping)) and the
+(timeconst, dampratio) (timeconst raised to 2 dt, MuJoCo's refsafe, unless disabled; or direct (-stiffness,
+-damping)) and the
 impedance imp = solimp's function of |r| (of the rows' norm for a connect or weld),
     aref = -b J nu - k imp r - J̇ν,   R = max(1e-15, (1 - imp) / imp invweight) (a weld's rotation rows:
 invweight_rotation),
@@ -163,15 +165,16 @@ def kernels(scalar) -> types.SimpleNamespace:
         return d0 + y * (dmax - d0)
 
     @wp.func
-    def reference(eq: Equalities, e: int, dt: scalar, imp: scalar):
+    def reference(eq: Equalities, e: int, dt: scalar, refsafe: int, imp: scalar):
         """(k imp, b): MuJoCo's stiffness times impedance and damping of constraint e's rows (mj_makeImpedance),
-        its timeconst raised to 2 dt (refsafe)."""
+        its timeconst raised to 2 dt when refsafe."""
         dmax = wp.clamp(eq.solimp[e, 1], scalar(MIN_IMPEDANCE), scalar(MAX_IMPEDANCE))
         timeconst = eq.solref[e, 0]
         ratio = eq.solref[e, 1]
         k = -timeconst / wp.max(scalar(MIN_VALUE), dmax * dmax)
         if timeconst > scalar(0.0):
-            timeconst = wp.max(timeconst, scalar(2.0) * dt)
+            if refsafe != 0:
+                timeconst = wp.max(timeconst, scalar(2.0) * dt)
             k = scalar(1.0) / wp.max(scalar(MIN_VALUE), dmax * dmax * timeconst * timeconst * ratio * ratio)
         b = -ratio / wp.max(scalar(MIN_VALUE), dmax)
         if ratio > scalar(0.0):
@@ -235,6 +238,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         a_free: wp.array2d(dtype=scalar),
         dt: scalar,
         implicit_dt: scalar,
+        refsafe: int,
         # scratch: J (N, m, K), L (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w (N, max(m, K))
         J: wp.array3d(dtype=scalar),
         L: wp.array3d(dtype=scalar),
@@ -250,7 +254,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         """nu_dot (N, K = 6 + nv): the constrained accelerations (Inertial base) from ABA's a_free (N, K), the mass
         matrix M (N, K, K) (Inertial base), the link poses W_H_L and Inertial velocities W_v_WL (N, nL), the
         anchors' Jacobians J_t (N, T, 6, K) and J̇ν Jdotnu_t (N, T, 6) (Mixed, ν Inertial): the module docstring.
-        implicit_dt: dt for MuJoCo's implicit joint damping, else 0; dt: the step (refsafe). A fixed base's DoFs
+        implicit_dt: dt for MuJoCo's implicit joint damping, else 0; dt: the step; refsafe: MuJoCo's time constant
+        raised to 2 dt (0: as given, MuJoCo's refsafe flag disabled). A fixed base's DoFs
         (the first six) are not solved for."""
         env = wp.tid()
         K = M.shape[1]
@@ -334,7 +339,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                         bias[3 + a] = rate[a]
                     distance = wp.sqrt(wp.dot(translation, translation) + wp.dot(rotation, rotation))
             imp = impedance(eq, e, distance)
-            k_imp, b = reference(eq, e, dt, imp)
+            k_imp, b = reference(eq, e, dt, refsafe, imp)
             for a in range(rows):
                 invweight = eq.invweight[e]
                 if a >= 3:  # a weld's rotation rows

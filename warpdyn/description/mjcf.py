@@ -27,21 +27,24 @@ What is read, and how MuJoCo's structure maps onto warpdyn's one-joint-per-link 
 from __future__ import annotations
 
 import pathlib
+import warnings
 import xml.etree.ElementTree as ET
 
 import numpy as np
 
 from .model import (
     ActuatorDescription,
-    EqualityDescription,
     CollisionShape,
+    EqualityDescription,
     JointDescription,
     Keyframe,
     LinkDescription,
     ModelDescription,
+    caller_stacklevel,
     finish_tree,
     homogeneous,
     joint_motion,
+    quaternion_product,
     quaternion_wxyz_to_matrix,
 )
 
@@ -439,12 +442,18 @@ def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco) -> li
     if "constraint" in disabled or "equality" in disabled:
         return []
     Eq, Obj = mujoco.mjtEq, mujoco.mjtObj
+    poses = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, poses)  # at qpos0: where bodies welded to the world are
     equalities = []
     for i in range(m.neq):
         name = name_of(Obj.mjOBJ_EQUALITY, i, "equality")
         kind, active = int(m.eq_type[i]), bool(m.eq_active0[i])
         data, o1, o2 = np.array(m.eq_data[i], dtype=np.float64), int(m.eq_obj1id[i]), int(m.eq_obj2id[i])
-        common = dict(name=name, solref=np.array(m.eq_solref[i], dtype=np.float64), solimp=np.array(m.eq_solimp[i], dtype=np.float64))
+        solref = np.array(m.eq_solref[i], dtype=np.float64)
+        if (solref[0] > 0) != (solref[1] > 0):  # MuJoCo's getsolparam: a mixed format is replaced by the default
+            warnings.warn(f"{name}: solref {solref.tolist()} mixes MuJoCo's standard and direct formats; MuJoCo replaces it with its default [0.02, 1], as warpdyn does", stacklevel=caller_stacklevel())
+            solref = np.array([0.02, 1.0])
+        common = dict(name=name, solref=solref, solimp=np.array(m.eq_solimp[i], dtype=np.float64))
         if active and kind in (Eq.mjEQ_CONNECT, Eq.mjEQ_WELD):
             weld, identity = kind == Eq.mjEQ_WELD, np.array([1.0, 0.0, 0.0, 0.0])
             if int(m.eq_objtype[i]) == Obj.mjOBJ_SITE:  # site semantics: the sites' frames on their bodies
@@ -455,9 +464,11 @@ def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco) -> li
                 b1, b2, anchor1, anchor2, rot1, rot2 = o1, o2, data[3:6], data[0:3], data[6:10], identity
             else:
                 b1, b2, anchor1, anchor2, rot1, rot2 = o1, o2, data[0:3], data[3:6], identity, identity
+            # a body welded to the world (the world, static scenery) is the world: its anchor and frame in world axes
+            (name1, anchor1, rot1), (name2, anchor2, rot2) = (_on_world(m, b, anchor, rot, body_name, poses) for b, anchor, rot in ((b1, anchor1, rot1), (b2, anchor2, rot2)))
             equalities.append(EqualityDescription(
-                kind="weld" if weld else "connect", body1=body_name(b1) if b1 else "world", body2=body_name(b2) if b2 else "world",
-                anchor1=anchor1.copy(), anchor2=anchor2.copy(), rot1=rot1.copy(), rot2=rot2.copy(), torquescale=float(data[10]) if weld else 1.0,
+                kind="weld" if weld else "connect", body1=name1, body2=name2,
+                anchor1=anchor1, anchor2=anchor2, rot1=rot1, rot2=rot2, torquescale=float(data[10]) if weld else 1.0,
                 invweight=float(m.body_invweight0[b1, 0] + m.body_invweight0[b2, 0]),
                 invweight_rotation=float(m.body_invweight0[b1, 1] + m.body_invweight0[b2, 1]), **common,
             ))  # fmt: skip
@@ -475,6 +486,17 @@ def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco) -> li
         else:
             note(EQUALITY, name)
     return equalities
+
+
+def _on_world(m, b: int, anchor, rot, body_name, poses) -> tuple:
+    """(the body's name, the anchor, the frame (w, x, y, z)), in world axes and named "world" for a body welded to
+    the world (MuJoCo's body_weldid 0: the world, static scenery, which a floating base's description drops), at
+    its pose `poses` (an MjData after mj_kinematics at qpos0)."""
+    anchor, rot = np.asarray(anchor, dtype=np.float64).copy(), np.asarray(rot, dtype=np.float64).copy()
+    if int(m.body_weldid[b]) != 0:
+        return body_name(b), anchor, rot
+    R = np.asarray(poses.xmat[b], dtype=np.float64).reshape(3, 3)
+    return "world", R @ anchor + np.asarray(poses.xpos[b], dtype=np.float64), quaternion_product(np.asarray(poses.xquat[b], dtype=np.float64), rot)
 
 
 def _fixed_tendon(m, t: int, mujoco) -> bool:

@@ -1,9 +1,10 @@
-"""Equality constraints in a step: MJCF connects, welds, and joint and fixed-tendon couplings (warpdyn.description.tree's TreeEquality),
-solved as MuJoCo solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0', Inertial
-base) at a state x, with the link poses of its FK, the launches compute the links' velocities and bias terms,
-the connect anchors' Jacobians and J̇ν (Mixed, ν Inertial), the mass matrix (Inertial base) and the constrained
-accelerations into the evaluation's nu_dot. Forward only: a step under a wp.Tape refuses a constrained model
-(`check_differentiable`)."""
+"""Equality constraints in a step: MJCF connects, welds, and joint and fixed-tendon couplings (warpdyn.description.tree's
+TreeEquality), solved as MuJoCo solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
+Inertial base) at a state x, with the link poses of its FK, the launches compute the mass matrix (Inertial base),
+for connects and welds the links' velocities and bias terms and their anchors' Jacobians and J̇ν (Mixed, ν
+Inertial), and the constrained accelerations into the evaluation's nu_dot. Forward only: a recorded step of a
+constrained model is refused (`check_steppable`).
+"""
 
 from __future__ import annotations
 
@@ -22,28 +23,34 @@ from ..types.model_constants import transforms
 from .kinematics import targets
 from .launch import Launch
 
-__all__ = ["EqualityPlan", "equality_plan", "check_differentiable"]
+__all__ = ["EqualityPlan", "equality_plan", "check_steppable"]
 
 
 class EqualityPlan:
-    """A model's equality constraints as the kernels read them: the Equalities bundle, the connect anchors as
-    Targets (two per connect: anchor 1, anchor 2; a world anchor on link 0, unread), m rows."""
+    """A model's equality constraints as the kernels read them: the Equalities bundle, the anchors of connects and
+    welds as Targets (two each: anchor 1, anchor 2; a world anchor on link 0, unread), m rows; refsafe: MuJoCo's
+    time constant raised to 2 dt (unless the description disables "refsafe"); implicit_base_damper: whether a
+    step is refused (`check_steppable`)."""
 
     def __init__(self, model):
         s, d = model.scalar, model.device
         tree = model.tree
-        self.count = len(tree.equalities)
+        self.count, self.model_name = len(tree.equalities), model.name()
+        self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
+        self.implicit_base_damper = bool(
+            model.implicit_damping and model.floating_base() and float(np.max(np.abs(model.parameter_host("base_damping")))) != 0.0
+        )
         kinds = [{"connect": CONNECT, "weld": WELD, "joint": JOINT, "tendon": JOINT}[e.kind] for e in tree.equalities]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
-        connect = [e for e in tree.equalities if e.kind in ("connect", "weld")]  # two anchors each
+        anchored = [e for e in tree.equalities if e.kind in ("connect", "weld")]  # two anchors each
         target_of, t = [], 0
         for kind in kinds:
             target_of.append(t)
             t += 0 if kind == JOINT else 2
-        links = [max(link, 0) for e in connect for link in (e.link1, e.link2)]
+        links = [max(link, 0) for e in anchored for link in (e.link1, e.link2)]
         offsets = np.tile(np.eye(4), (len(links), 1, 1))
-        offsets[:, :3, 3] = [p for e in connect for p in (e.p1, e.p2)] if connect else np.zeros((0, 3))
+        offsets[:, :3, 3] = [p for e in anchored for p in (e.p1, e.p2)] if anchored else np.zeros((0, 3))
         self.targets = targets(model, wp.array(np.array(links, dtype=int), dtype=int, device=d), transforms(offsets, s, d))
         self.T = len(links)
         q_start, v_start = tree.q_start, tree.v_start  # joint j moves link j + 1
@@ -119,16 +126,14 @@ class EqualityPlan:
         """After ABA wrote ev.equality["nu_free"] at x (ev.W_H_L: FK at x): the constrained ev.nu_dot."""
         b = ev.equality
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
-        launches = [
-            Launch(self.bias.link_bias_recursion, N, [plan.model, ev.W_H_L, x], [b["W_v_WL"], b["W_a_L"]]),
-            Launch(self.crba, N, [plan.model, x, inertial, b["crba_scratch"]], [b["M"]]),
-        ]
-        if self.T:
+        launches = [Launch(self.crba, N, [plan.model, x, inertial, b["crba_scratch"]], [b["M"]])]
+        if self.T:  # the anchors of connects and welds
             launches += [
+                Launch(self.bias.link_bias_recursion, N, [plan.model, ev.W_H_L, x], [b["W_v_WL"], b["W_a_L"]]),
                 Launch(self.jacobians, (N, self.T), [plan.model, self.targets, ev.W_H_L, inertial, mixed], [b["J_t"]]),
                 Launch(self.bias.bias_accelerations, (N, self.T), [self.targets, ev.W_H_L, b["W_v_WL"], b["W_a_L"], inertial, mixed], [b["Jdotnu_t"]]),
             ]
-        args = [plan.model, self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], b["M"], b["nu_free"], plan.dt, plan.implicit_dt, *b["scratch"]]
+        args = [plan.model, self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], b["M"], b["nu_free"], plan.dt, plan.implicit_dt, self.refsafe, *b["scratch"]]
         launches.append(Launch(self.kernel, N, args, [ev.nu_dot]))
         return launches
 
@@ -153,17 +158,21 @@ def equality_plan(model) -> EqualityPlan | None:
     """The model's EqualityPlan, None without equality constraints."""
     if not model.tree.equalities:
         return None
-    if model.implicit_damping and model.floating_base() and float(np.max(np.abs(model.parameter_host("base_damping")))) != 0.0:
-        raise NotImplementedError(
-            f"model '{model.name()}': equality constraints with MuJoCo's implicit damping of a floating base's free joint "
-            "(base_damping) are not implemented: set model.implicit_damping = False or base_damping to 0"
-        )
     return EqualityPlan(model)
 
 
-def check_differentiable(plan) -> None:
-    """Refuse a recorded step of a constrained model: kernels/equality.py has no adjoint."""
-    if plan.equality is not None:
+def check_steppable(plan, recorded: bool) -> None:
+    """Refuse a step that the constraints' solve does not model: recorded (kernels/equality.py has no adjoint), or
+    with MuJoCo's implicit damper on a floating base's free joint (it acts in MuJoCo's free-joint coordinates,
+    which the Inertial-base solve does not model). Queries that do not step (contact forces, joint torques) pass."""
+    if plan.equality is None:
+        return
+    if plan.equality.implicit_base_damper:
+        raise NotImplementedError(
+            f"model '{plan.equality.model_name}': a step with equality constraints and MuJoCo's implicit damping of a floating "
+            "base's free joint (base_damping) is not implemented: set model.implicit_damping = False or base_damping to 0"
+        )
+    if recorded:
         raise NotImplementedError(
             f"a step of a model with equality constraints ({plan.equality.count}) under a wp.Tape: their solve has no "
             "gradient yet; step it outside the tape"

@@ -75,7 +75,7 @@ from .kinematics import state_arrays, targets
 from .launch import Launch, Recorded, per_thread, run
 from .loading import block_size
 from .contact_stage import stage_for
-from .equality import check_differentiable, equality_plan
+from .equality import check_steppable, equality_plan
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, contact_reach
 
 __all__ = [
@@ -275,7 +275,7 @@ def plan(model) -> Plan:
 class Evaluation:
     """Buffers of one evaluation of the state derivative (one per stage of RK4)."""
 
-    def __init__(self, plan: Plan, N: int, grad: bool, forces: bool, nu_dot: wp.array | None, aba: bool = True):
+    def __init__(self, plan: Plan, N: int, grad: bool, forces: bool, nu_dot: wp.array | None, aba: bool = True, equality: dict | None = None):
         s, d = plan.scalar, plan.device
         nL, n = plan.nL, plan.n
         self.grad = grad
@@ -308,8 +308,11 @@ class Evaluation:
         self.nu_dot = out((6 + n,)) if nu_dot is None else nu_dot
         self.base_acceleration = self.nu_dot[:, :6]
         self.joint_accelerations = self.nu_dot[:, 6:] if n > 0 else out((0,))
-        # with equality constraints ABA writes the unconstrained accelerations apart (warpdyn.engine.equality)
-        self.equality = plan.equality.buffers(plan, N) if plan.equality is not None else None
+        # with equality constraints ABA writes the unconstrained accelerations apart (warpdyn.engine.equality); the
+        # solve's buffers (`equality`: shared by RK4's stages, which run one after the other)
+        self.equality = None
+        if plan.equality is not None:
+            self.equality = equality if equality is not None else plan.equality.buffers(plan, N)
 
 
 class Workspace:
@@ -337,7 +340,8 @@ class Workspace:
             self.nu_dot = arrays.output((6 + n,), N, s, d, grad)
             self.evals = [Evaluation(plan, N, grad, forces, self.nu_dot)]
         else:
-            self.evals = [Evaluation(plan, N, grad, forces, None) for _ in range(4)]
+            shared = plan.equality.buffers(plan, N) if plan.equality is not None else None
+            self.evals = [Evaluation(plan, N, grad, forces, None, equality=shared) for _ in range(4)]
             size = plan.integrators.state_size(plan.nq, n, plan.total)
             self.slopes = [arrays.output((size,), N, s, d, grad) for _ in range(4)]
             self.stages = [state_buffers(plan, N, grad)[:6] for _ in range(3)]
@@ -466,8 +470,7 @@ def step_launches(
     """
     N = x[0].shape[0]
     s = plan.scalar
-    if ws.grad or tape.taping():
-        check_differentiable(plan)
+    check_steppable(plan, ws.grad or tape.taping())
     X, Y = bundles if bundles is not None else (state_bundle(s, x), state_bundle(s, y))
     tau = ws.tau if tau_out is None else tau_out
     launches = []
