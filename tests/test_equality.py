@@ -22,11 +22,22 @@ import warpdyn as wd
 MENAGERIE = pathlib.Path(__file__).parent / "models" / "menagerie"
 UNMODELLED = int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_LIMIT) | int(mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)
 
-FOUR_BAR = """
-<mujoco model="four-bar">
+
+def _mjcf(name: str, bodies: str, equality: str, tendons: str = "") -> str:
+    """An MJCF of the world's `bodies` and `equality` constraints (and `tendons`): 1 ms steps, gravity, capsules
+    that collide with nothing."""
+    return f"""
+<mujoco model="{name}">
   <option timestep="0.001" gravity="0 0 -9.81"/>
   <default><geom contype="0" conaffinity="0" type="capsule" size="0.01"/></default>
-  <worldbody>
+  <worldbody>{bodies}</worldbody>{tendons}
+  <equality>{equality}</equality>
+</mujoco>"""
+
+
+FOUR_BAR = _mjcf(
+    "four-bar",
+    """
     <body name="crank">
       <joint name="crank" axis="0 1 0" damping="0.002"/>
       <geom fromto="0 0 0 0.1 0 0" mass="0.1"/>
@@ -39,15 +50,13 @@ FOUR_BAR = """
       <joint name="rocker" axis="0 1 0"/>
       <geom fromto="0 0 0 0.1 0 0.1" mass="0.1"/>
     </body>
-  </worldbody>
-  <equality><connect name="loop" body1="coupler" body2="rocker" anchor="0.3 0 0.1"/></equality>
-</mujoco>"""
+  """,
+    """<connect name="loop" body1="coupler" body2="rocker" anchor="0.3 0 0.1"/>""",
+)
 
-SLIDER_CRANK = """
-<mujoco model="slider-crank">
-  <option timestep="0.001" gravity="0 0 -9.81"/>
-  <default><geom contype="0" conaffinity="0" type="capsule" size="0.01"/></default>
-  <worldbody>
+SLIDER_CRANK = _mjcf(
+    "slider-crank",
+    """
     <body name="crank">
       <joint name="crank" axis="0 1 0"/>
       <geom fromto="0 0 0 0.0707107 0 0.0707107" mass="0.2"/>
@@ -61,18 +70,16 @@ SLIDER_CRANK = """
       <joint name="slide" type="slide" axis="1 0 0" damping="0.5"/>
       <geom type="box" size="0.02 0.02 0.02" mass="0.3"/>
     </body>
-  </worldbody>
-  <equality><connect name="pin" body1="rod_end" body2="slider" anchor="0 0 0"/></equality>
-</mujoco>"""
+  """,
+    """<connect name="pin" body1="rod_end" body2="slider" anchor="0 0 0"/>""",
+)
 
 
 # A two-link arm with a free lid welded to its forearm (body semantics, torquescale 0.5: MuJoCo's relpose from the
 # description's poses) and a free tag welded to a site at its tip (site semantics, its own solref).
-WELDS = """
-<mujoco model="welds">
-  <option timestep="0.001" gravity="0 0 -9.81"/>
-  <default><geom contype="0" conaffinity="0" type="capsule" size="0.01"/></default>
-  <worldbody>
+WELDS = _mjcf(
+    "welds",
+    """
     <body name="upper" pos="0 0 1" euler="0.2 0 0">
       <joint name="shoulder" axis="0 1 0" damping="0.05"/>
       <geom fromto="0 0 0 0.3 0 0" mass="0.5"/>
@@ -91,12 +98,12 @@ WELDS = """
       <geom type="box" size="0.02 0.02 0.02" mass="0.1"/>
       <site name="tag_site" pos="0.01 0 0" euler="0 0.5 0"/>
     </body>
-  </worldbody>
-  <equality>
+  """,
+    """
     <weld name="lid_on_arm" body1="lower" body2="lid" torquescale="0.5"/>
     <weld name="tag_on_tip" site1="tip" site2="tag_site" solref="0.005 1"/>
-  </equality>
-</mujoco>"""
+  """,
+)
 
 
 def _load(source, dtype=np.float64) -> wd.model.Model:
@@ -217,26 +224,24 @@ def _step_of(mj, qpos, qvel, implicit):
 
 # Two pendulums whose fixed tendons (a sum, a difference of joint angles) are coupled by a cubic, and a third
 # joint held by a tendon of its own against a constant.
-TENDONS = """
-<mujoco model="tendon couplings">
-  <option timestep="0.001" gravity="0 0 -9.81"/>
-  <default><geom contype="0" conaffinity="0" type="capsule" size="0.01"/></default>
-  <worldbody>
+TENDONS = _mjcf(
+    "tendon couplings",
+    """
     <body name="a" pos="0 0 1"><joint name="a1" axis="0 1 0" damping="0.02"/><geom fromto="0 0 0 0.2 0 0" mass="0.3"/>
       <body name="a_tip" pos="0.2 0 0"><joint name="a2" axis="0 1 0"/><geom fromto="0 0 0 0.15 0 0" mass="0.2"/></body></body>
     <body name="b" pos="0.5 0 1"><joint name="b1" axis="0 1 0"/><geom fromto="0 0 0 0.2 0 0" mass="0.4"/></body>
     <body name="c" pos="1 0 1"><joint name="c1" type="slide" axis="0 0 1"/><geom type="box" size="0.02 0.02 0.02" mass="0.5"/></body>
-  </worldbody>
-  <tendon>
+  """,
+    """
+    <tendon name="couple" tendon1="sum_a" tendon2="twist_b" polycoef="0.05 0.7 0.1 0.02 0"/>
+    <tendon name="hold" tendon1="lift_c" polycoef="0.01 0 0 0 0" solref="0.01 1"/>
+  """,
+    """<tendon>
     <fixed name="sum_a"><joint joint="a1" coef="1"/><joint joint="a2" coef="0.5"/></fixed>
     <fixed name="twist_b"><joint joint="b1" coef="-2"/></fixed>
     <fixed name="lift_c"><joint joint="c1" coef="3"/></fixed>
-  </tendon>
-  <equality>
-    <tendon name="couple" tendon1="sum_a" tendon2="twist_b" polycoef="0.05 0.7 0.1 0.02 0"/>
-    <tendon name="hold" tendon1="lift_c" polycoef="0.01 0 0 0 0" solref="0.01 1"/>
-  </equality>
-</mujoco>"""
+  </tendon>""",
+)
 
 
 def test_fixed_tendon_couplings_step_as_mujocos():
