@@ -381,7 +381,7 @@ def _scene(which: str, dtype):
 
 
 @pytest.mark.usefixtures("keep", "lanes")
-@pytest.mark.parametrize(("which", "dtype"), [("panda_cube", np.float64), ("panda_cube", np.float32), ("free_trees", np.float64)], ids=["panda_cube-float64", "panda_cube-float32", "free_trees-float64"])
+@pytest.mark.parametrize(("which", "dtype"), [("panda_cube", np.float64), ("free_trees", np.float64), ("free_trees", np.float32)], ids=["panda_cube-float64", "free_trees-float64", "free_trees-float32"])
 def test_scenes_whose_trees_hang_from_free_joints(monkeypatch, which, dtype):
     """A scene's free bodies and floating robots (free joints below its fixed world) take the fused step, their
     six DoFs solved together (kernels/aba.py's free_joint_acceleration), and equal the launch list's DoF-by-DoF
