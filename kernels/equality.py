@@ -23,7 +23,9 @@ MuJoCo's constrained accelerations minimise a quadratic whose minimiser is
     f = (J M^-1 J^T + diag(R))^-1 (aref - J a0),   nu_dot = a0 + M^-1 J^T f,
 a0 = M^-1 tau the unconstrained accelerations (its Newton solver reaches it in one step). With MuJoCo's implicit
 joint damping (the Euler step's (M + dt D)), the constraint force is that of the explicit a0 = a0' + dt M^-1 D a0'
-(a0' = (M + dt D)^-1 tau, ABA's), and the step's accelerations are a0' + (M + dt D)^-1 J^T f (mj_Euler's).
+(a0' = (M + dt D)^-1 tau, ABA's), and the step's accelerations are a0' + (M + dt D)^-1 J^T f (mj_Euler's); a
+floating base's damper d acts on MuJoCo's free-joint coordinates T nu, so D's base block is d T^T T and its
+force d T^T (T a0' + T_dot nu) (`base_coordinates`).
 
 M is factorised along the tree (Featherstone's LTDL: only the entries its branches fill, `tree_factor`), A densely
 (kernels/cholesky.py's `factor` and `substitute`); forward only (no tape records this kernel).
@@ -182,16 +184,35 @@ def kernels(scalar) -> types.SimpleNamespace:
         return k * imp, b
 
     @wp.func
+    def base_coordinates(x: B.State, env: int):
+        """T (6 x 6): the Inertial base velocity [v; w] to MuJoCo's free-joint coordinates [p_dot; R^T w] (world
+        linear velocity of the base's origin, body angular velocity), p and R the base's pose."""
+        W_H_B = B.base_pose(x, env)
+        p = wp.transform_get_translation(W_H_B)
+        Rt = wp.transpose(wp.quat_to_matrix(wp.transform_get_rotation(W_H_B)))
+        P = wp.skew(p)
+        T = sp.mat66(scalar(0.0))
+        for r in range(3):
+            T[r, r] = scalar(1.0)
+            for c in range(3):
+                T[r, 3 + c] = -P[r, c]
+                T[3 + r, 3 + c] = Rt[r, c]
+        return T
+
+    @wp.func
     def tree_factor(model: B.Model, M: wp.array3d(dtype=scalar), env: int, off: int, parent: wp.array(dtype=wp.int32), implicit_dt: scalar,
-                    L: wp.array3d(dtype=scalar)):
-        """L[env] = the LTDL factors of M[env] + implicit_dt diag(joint damping) over DoFs off to K - 1 (Featherstone's
-        RBDA, table 6.3: M = L^T D L, D on L's diagonal, L's unit lower part where a DoF's ancestor is; parent (K,):
-        each DoF's parent DoF, -1 at a root), only the entries the tree's branches can fill."""
+                    base_damper: sp.mat66, L: wp.array3d(dtype=scalar)):
+        """L[env] = the LTDL factors of M[env] + implicit_dt D over DoFs off to K - 1, D the joints' damping on the
+        diagonal and the base's block `base_damper` (Featherstone's RBDA, table 6.3: M = L^T D L, D on L's diagonal,
+        L's unit lower part where a DoF's ancestor is; parent (K,): each DoF's parent DoF, -1 at a root), only the
+        entries the tree's branches can fill (a floating base's six DoFs are a chain: its block is whole)."""
         K = M.shape[1]
         for k in range(off, K):
             i = k
             while i >= 0:
                 L[env, k, i] = M[env, k, i]
+                if k < 6:
+                    L[env, k, i] = L[env, k, i] + implicit_dt * base_damper[k, i]
                 i = parent[i]
             if k >= 6:
                 L[env, k, k] = L[env, k, k] + implicit_dt * B.joint_parameter(model.damping, env, k - 6)
@@ -352,9 +373,19 @@ def kernels(scalar) -> types.SimpleNamespace:
                     velocity = velocity + J[env, row + a, c] * x.joint_velocities[env, c - 6]
                 rhs[env, row + a] = -b * velocity - k_imp * residual[a] - bias[a]
                 A[env, row + a, row + a] = R  # the diagonal's regularisation, J M^-1 J^T added below
-        # 2. M^-1 J^T (rows of MinvJT) and, with implicit damping, the explicit a0 = a0' + dt M^-1 D a0'
+        # 2. M^-1 J^T (rows of MinvJT) and, with implicit damping, the explicit a0 = a0' + dt M^-1 D a0': a floating
+        # base's damper d acts on MuJoCo's free-joint coordinates T nu (`base_coordinates`), D's base block d T^T T,
+        # its force d T^T (T a0' + T_dot nu), T_dot nu = [w x p_dot; 0]
         parent = eq.dof_parent
-        tree_factor(model, M, env, off, parent, scalar(0.0), L)
+        no_damper = sp.mat66(scalar(0.0))
+        base_damper = sp.mat66(scalar(0.0))
+        T = sp.mat66(scalar(0.0))
+        d_base = scalar(0.0)
+        if model.floating_base != 0:
+            d_base = B.joint_parameter(model.base_damping, env, 0)
+            T = base_coordinates(x, env)
+            base_damper = d_base * (wp.transpose(T) * T)
+        tree_factor(model, M, env, off, parent, scalar(0.0), no_damper, L)
         for r in range(m):
             for i in range(off, K):
                 w[env, i] = J[env, r, i]
@@ -368,6 +399,13 @@ def kernels(scalar) -> types.SimpleNamespace:
                 w[env, i] = scalar(0.0)
                 if i >= 6:
                     w[env, i] = B.joint_parameter(model.damping, env, i - 6) * a_free[env, i]
+            if d_base != scalar(0.0):
+                v_mixed = B.base_velocity_mixed(x, env)
+                rate = wp.cross(sp.ang(v_mixed), sp.lin(v_mixed))
+                a_base = sp.vec6(a_free[env, 0], a_free[env, 1], a_free[env, 2], a_free[env, 3], a_free[env, 4], a_free[env, 5])
+                force = d_base * (wp.transpose(T) * (T * a_base + sp.stack(rate, sp.vec3(scalar(0.0)))))
+                for i in range(6):
+                    w[env, i] = force[i]
             tree_solve(L, env, off, parent, w)
             for i in range(off, K):
                 nu_dot[env, i] = a_free[env, i] + implicit_dt * w[env, i]
@@ -395,7 +433,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 for r in range(m):
                     s = s + J[env, r, i] * w[env, r]
                 y[env, i] = s
-            tree_factor(model, M, env, off, parent, implicit_dt, L)
+            tree_factor(model, M, env, off, parent, implicit_dt, base_damper, L)
             tree_solve(L, env, off, parent, y)
             for i in range(off, K):
                 nu_dot[env, i] = a_free[env, i] + y[env, i]

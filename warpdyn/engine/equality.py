@@ -29,17 +29,13 @@ __all__ = ["EqualityPlan", "equality_plan", "check_steppable"]
 class EqualityPlan:
     """A model's equality constraints as the kernels read them: the Equalities bundle, the anchors of connects and
     welds as Targets (two each: anchor 1, anchor 2; a world anchor on link 0, unread), m rows; refsafe: MuJoCo's
-    time constant raised to 2 dt (unless the description disables "refsafe"); implicit_base_damper: whether a
-    step is refused (`check_steppable`)."""
+    time constant raised to 2 dt (unless the description disables "refsafe")."""
 
     def __init__(self, model):
         s, d = model.scalar, model.device
         tree = model.tree
         self.count, self.model_name = len(tree.equalities), model.name()
         self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
-        self.implicit_base_damper = bool(
-            model.implicit_damping and model.floating_base() and float(np.max(np.abs(model.parameter_host("base_damping")))) != 0.0
-        )
         kinds = [{"connect": CONNECT, "weld": WELD, "joint": JOINT, "tendon": JOINT}[e.kind] for e in tree.equalities]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
@@ -162,16 +158,10 @@ def equality_plan(model) -> EqualityPlan | None:
 
 
 def check_steppable(plan, recorded: bool) -> None:
-    """Refuse a step that the constraints' solve does not model: recorded (kernels/equality.py has no adjoint), or
-    with MuJoCo's implicit damper on a floating base's free joint (it acts in MuJoCo's free-joint coordinates,
-    which the Inertial-base solve does not model). Queries that do not step (contact forces, joint torques) pass."""
+    """Refuse a recorded step of a constrained model (kernels/equality.py has no adjoint); queries that do not step
+    (contact forces, joint torques) pass."""
     if plan.equality is None:
         return
-    if plan.equality.implicit_base_damper:
-        raise NotImplementedError(
-            f"model '{plan.equality.model_name}': a step with equality constraints and MuJoCo's implicit damping of a floating "
-            "base's free joint (base_damping) is not implemented: set model.implicit_damping = False or base_damping to 0"
-        )
     if recorded:
         raise NotImplementedError(
             f"a step of a model with equality constraints ({plan.equality.count}) under a wp.Tape: their solve has no "
