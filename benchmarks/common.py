@@ -3,6 +3,7 @@ the throughput benchmarks take."""
 
 from __future__ import annotations
 
+import argparse
 import os
 import pathlib
 import platform
@@ -81,6 +82,23 @@ def add_size_arguments(parser, max_envs: int | None = 65536, max_envs_help: str 
 def chosen_sizes(args, max_envs: int) -> list[int]:
     """The N of --sizes, else sizes(max_envs)."""
     return [int(n) for n in args.sizes.split(",")] if args.sizes else sizes(max_envs)
+
+
+def side_by_side_setup(repeats: int) -> tuple:
+    """(args, device, Ns) of a side-by-side cost script (scene_cost.py, constraint_cost.py): --device, --sizes
+    (default 1, 4096, 32768 on a GPU, 1, 256, 4096 on the CPU), --dtypes, --repeats (default `repeats`); Warp
+    initialised quietly on that device."""
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--device", default=None)
+    parser.add_argument("--sizes", default=None, help="comma-separated N (default: 1,4096,32768 on a GPU, 1,256,4096 on the CPU)")
+    parser.add_argument("--dtypes", default="float32,float64")
+    parser.add_argument("--repeats", type=int, default=repeats)
+    args = parser.parse_args()
+    wp.config.quiet = True
+    wp.init()
+    device = wp.get_device(args.device)
+    Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else ([1, 4096, 32768] if device.is_cuda else [1, 256, 4096])
+    return args, device, Ns
 
 
 np_dtype = {"float32": np.float32, "float64": np.float64}

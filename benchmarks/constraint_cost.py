@@ -14,16 +14,14 @@ header (device, versions) and a Markdown table.
 
 from __future__ import annotations
 
-import argparse
 import pathlib
 import re
 import warnings
 
 import numpy as np
-import warp as wp
 
 import warpdyn as wd
-from common import header, median_time, np_dtype
+from common import header, median_time, np_dtype, side_by_side_setup
 
 CASSIE = pathlib.Path(__file__).resolve().parents[1] / "tests" / "models" / "menagerie" / "cassie.xml"
 SUBSTEPS = 10
@@ -50,16 +48,7 @@ def step_time(model, N: int, device, repeats: int) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--device", default=None)
-    parser.add_argument("--sizes", default=None, help="comma-separated N (default: 1,4096,32768 on a GPU, 1,256,4096 on the CPU)")
-    parser.add_argument("--dtypes", default="float32,float64")
-    parser.add_argument("--repeats", type=int, default=10)
-    args = parser.parse_args()
-    wp.config.quiet = True
-    wp.init()
-    device = wp.get_device(args.device)
-    Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else ([1, 4096, 32768] if device.is_cuda else [1, 256, 4096])
+    args, device, Ns = side_by_side_setup(repeats=10)
     text = CASSIE.read_text()
     free = re.sub(r"<equality>.*?</equality>", "", text, flags=re.S)
     print(header(device))

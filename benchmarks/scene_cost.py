@@ -20,7 +20,6 @@ object costs a user of the arm. Prints the header (device, versions) and a Markd
 
 from __future__ import annotations
 
-import argparse
 import pathlib
 import warnings
 import xml.etree.ElementTree as ET
@@ -29,7 +28,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import header, median_time, np_dtype
+from common import header, median_time, np_dtype, side_by_side_setup
 
 SCENE = pathlib.Path(__file__).resolve().parents[1] / "tests" / "models" / "menagerie" / "mjx_single_cube.xml"
 ARM_ROOT, OBJECT = "link0", "box"
@@ -90,16 +89,7 @@ def step_time(model, N: int, device, repeats: int, fused: bool) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--device", default=None)
-    parser.add_argument("--sizes", default=None, help="comma-separated N (default: 1,4096,32768 on a GPU, 1,256,4096 on the CPU)")
-    parser.add_argument("--dtypes", default="float32,float64")
-    parser.add_argument("--repeats", type=int, default=20)
-    args = parser.parse_args()
-    wp.config.quiet = True
-    wp.init()
-    device = wp.get_device(args.device)
-    Ns = [int(n) for n in args.sizes.split(",")] if args.sizes else ([1, 4096, 32768] if device.is_cuda else [1, 256, 4096])
+    args, device, Ns = side_by_side_setup(repeats=20)
     print(header(device))
     print()
     print("| dtype | N | panda [ms] | cube [ms] | scene [ms] | scene, staged [ms] | scene / (panda + cube) | scene / panda |")
