@@ -104,10 +104,6 @@ def kernels(scalar) -> types.SimpleNamespace:
         return sp.quat(w[0], w[1], w[2], scalar(0.0))
 
     @wp.func
-    def conjugate(q: sp.quat):
-        return sp.quat(-q[0], -q[1], -q[2], q[3])
-
-    @wp.func
     def vector_part(q: sp.quat):
         return sp.vec3(q[0], q[1], q[2])
 
@@ -186,17 +182,18 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.func
     def base_coordinates(x: B.State, env: int):
         """T (6 x 6): the Inertial base velocity [v; w] to MuJoCo's free-joint coordinates [p_dot; R^T w] (world
-        linear velocity of the base's origin, body angular velocity), p and R the base's pose."""
+        linear velocity of the base's origin, body angular velocity): its Mixed velocity (spatial's
+        `inertial_to_repr`), the angular part in the base's axes."""
         W_H_B = B.base_pose(x, env)
-        p = wp.transform_get_translation(W_H_B)
-        Rt = wp.transpose(wp.quat_to_matrix(wp.transform_get_rotation(W_H_B)))
-        P = wp.skew(p)
+        Q = wp.transform_get_rotation(W_H_B)
         T = sp.mat66(scalar(0.0))
-        for r in range(3):
-            T[r, r] = scalar(1.0)
-            for c in range(3):
-                T[r, 3 + c] = -P[r, c]
-                T[3 + r, 3 + c] = Rt[r, c]
+        for c in range(6):
+            unit = sp.vec6(scalar(0.0))
+            unit[c] = scalar(1.0)
+            mixed = sp.inertial_to_repr(MIXED, W_H_B, unit)
+            column = sp.stack(sp.lin(mixed), wp.quat_rotate_inv(Q, sp.ang(mixed)))
+            for r in range(6):
+                T[r, c] = column[r]
         return T
 
     @wp.func
@@ -342,12 +339,12 @@ def kernels(scalar) -> types.SimpleNamespace:
                 if eq.kind[e] == WELD:  # MuJoCo's rotation rows, from the angular rows just written
                     s = eq.torquescale[e]
                     q0 = frame_of(W_H_L, env, link1, eq.Q1[e])
-                    q1 = conjugate(frame_of(W_H_L, env, link2, eq.Q2[e]))
+                    q1 = wp.quat_inverse(frame_of(W_H_L, env, link2, eq.Q2[e]))
                     rotation = s * vector_part(q1 * q0)
                     w1 = angular_velocity(W_v_WL, env, link1)
                     w2 = angular_velocity(W_v_WL, env, link2)
                     dw = w1 - w2
-                    q1dot = conjugate(scalar(0.5) * (pure(w2) * conjugate(q1)))
+                    q1dot = wp.quat_inverse(scalar(0.5) * (pure(w2) * wp.quat_inverse(q1)))
                     q0dot = scalar(0.5) * (pure(w1) * q0)
                     djw = sp.vec3(bias[3], bias[4], bias[5])
                     rate = scalar(0.5) * s * vector_part(q1dot * pure(dw) * q0 + q1 * pure(djw) * q0 + q1 * pure(dw) * q0dot)
