@@ -41,7 +41,7 @@ from .factory import factory
 from .spatial import MIXED, spatial
 
 CONNECT = wp.constant(0)
-JOINT = wp.constant(1)
+COUPLING = wp.constant(1)  # a joint or fixed-tendon coupling
 WELD = wp.constant(2)
 ROWS = {0: 3, 1: 1, 2: 6}
 """The rows of each kind."""
@@ -62,7 +62,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.struct
     class Equalities:
-        """E constraints, m rows (warpdyn.engine.equality fills it): kind (E,) CONNECT, WELD or JOINT, row (E,) its
+        """E constraints, m rows (warpdyn.engine.equality fills it): kind (E,) CONNECT, WELD or COUPLING, row (E,) its
         first row; a connect's or weld's targets target (E,) (its anchors p1, p2 are the targets target and
         target + 1 of the step's Targets), link1, link2 (E,) (-1: the world) and anchors p1, p2 (E,) in their
         links' frames; a weld's frames Q1, Q2 (E,) in those links' frames and torquescale (E,); a joint or
@@ -293,7 +293,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             bias = sp.vec6(scalar(0.0))
             rows = 1
             distance = scalar(0.0)
-            if eq.kind[e] == JOINT:
+            if eq.kind[e] == COUPLING:
                 dif = scalar(0.0)
                 if eq.count2[e] > 0:
                     dif = length_of(eq, x, env, eq.first2[e], eq.count2[e]) - eq.ref2[e]

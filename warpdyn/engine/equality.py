@@ -14,7 +14,7 @@ import warp as wp
 from .. import arrays
 from ..kernels.crba import CRBA_RECORD
 from ..kernels.crba import kernels as crba_kernels
-from ..kernels.equality import CONNECT, JOINT, ROWS, WELD
+from ..kernels.equality import CONNECT, COUPLING, ROWS, WELD
 from ..kernels.equality import kernels as equality_kernels
 from ..kernels.jacobian_derivatives import kernels as derivative_kernels
 from ..kernels.jacobians import kernels as jacobian_kernels
@@ -36,14 +36,14 @@ class EqualityPlan:
         tree = model.tree
         self.count, self.model_name = len(tree.equalities), model.name()
         self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
-        kinds = [{"connect": CONNECT, "weld": WELD, "joint": JOINT, "tendon": JOINT}[e.kind] for e in tree.equalities]
+        kinds = [{"connect": CONNECT, "weld": WELD, "joint": COUPLING, "tendon": COUPLING}[e.kind] for e in tree.equalities]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
         anchored = [e for e in tree.equalities if e.kind in ("connect", "weld")]  # two anchors each
         target_of, t = [], 0
         for kind in kinds:
             target_of.append(t)
-            t += 0 if kind == JOINT else 2
+            t += 0 if kind == COUPLING else 2
         links = [max(link, 0) for e in anchored for link in (e.link1, e.link2)]
         offsets = np.tile(np.eye(4), (len(links), 1, 1))
         offsets[:, :3, 3] = [p for e in anchored for p in (e.p1, e.p2)] if anchored else np.zeros((0, 3))
