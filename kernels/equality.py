@@ -1,24 +1,22 @@
 """Equality constraints solved as MuJoCo solves them (its soft constraints, equality rows only): one thread per
 environment.
 
-MuJoCo >= 3.10's semantics (its Jdot v correction of connects and welds: older versions leave it out).
-Each constraint e contributes rows (a connect 3, a weld 6, a joint or fixed-tendon coupling 1) with a position residual r, a
-Jacobian J (rows of the generalized velocity nu, Inertial base) and J̇ν (MuJoCo's Jdot v of a connect or weld:
-the anchors' bias accelerations; 0 for a joint coupling, as in MuJoCo):
+MuJoCo >= 3.10's semantics (its Jdot v correction of connects and welds: older versions leave it out). Each
+constraint e contributes rows (a connect 3, a weld 6, a joint or fixed-tendon coupling 1) with a position residual
+r, a Jacobian J (rows of the generalized velocity nu, Inertial base) and J̇ν (MuJoCo's Jdot v of a connect or
+weld: the anchors' bias accelerations; 0 for a coupling, as in MuJoCo):
 - connect: r = p1 - p2, the anchors in world axes; J = J_p1 - J_p2 (their Mixed linear Jacobians);
 - weld: a connect's rows, then MuJoCo's rotation rows: with q0 and q1 the welded frames' world orientations,
   r = s vec(q1* q0), J = s/2 vec(q1* (J_w1 - J_w2) q0) (J_w: the links' angular Jacobians, world axes; pure
   quaternions inside), J̇ν = s/2 vec(q1dot* dw q0 + q1* (J̇ν_w1 - J̇ν_w2) q0 + q1* dw q0dot), dw = w1 - w2,
   qdot = 1/2 w q, s the torquescale;
-- joint (or fixed tendon): r = L1 - L1_0 - sum_k c_k (L2 - L2_0)^k, J = dL1 - (sum_k k c_k (L2 - L2_0)^(k-1)) dL2,
-  L a joint's position, or a fixed tendon's length sum_j coef_j q_j (dL its coefficients on the DoFs).
+- coupling: r = L1 - L1_0 - sum_k c_k (L2 - L2_0)^k, J = dL1 - (sum_k k c_k (L2 - L2_0)^(k-1)) dL2, L a joint's
+  position or a fixed tendon's length sum_j coef_j q_j (dL its coefficients on the DoFs).
 MuJoCo's reference acceleration and regularisation (mj_makeImpedance, mj_referenceConstraint): with solref
 (timeconst, dampratio) (timeconst raised to 2 dt, MuJoCo's refsafe, unless disabled; or direct (-stiffness,
--damping)) and the
-impedance imp = solimp's function of |r| (of the rows' norm for a connect or weld),
-    aref = -b J nu - k imp r - J̇ν,   R = max(1e-15, (1 - imp) / imp invweight) (a weld's rotation rows:
-invweight_rotation),
-b = 2 / (dmax timeconst), k = 1 / (dmax^2 timeconst^2 dampratio^2), dmax = solimp[1]. With equality rows only,
+-damping)) and the impedance imp = solimp's function of |r| (of the rows' norm for a connect or weld),
+    aref = -b J nu - k imp r - J̇ν,   R = max(1e-15, (1 - imp) / imp invweight)
+(a weld's rotation rows: invweight_rotation), b = 2 / (dmax timeconst), k = 1 / (dmax^2 timeconst^2 dampratio^2), dmax = solimp[1]. With equality rows only,
 MuJoCo's constrained accelerations minimise a quadratic whose minimiser is
     f = (J M^-1 J^T + diag(R))^-1 (aref - J a0),   nu_dot = a0 + M^-1 J^T f,
 a0 = M^-1 tau the unconstrained accelerations (its Newton solver reaches it in one step). With MuJoCo's implicit
