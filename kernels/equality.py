@@ -16,8 +16,8 @@ MuJoCo's reference acceleration and regularisation (mj_makeImpedance, mj_referen
 (timeconst, dampratio) (timeconst raised to 2 dt, MuJoCo's refsafe, unless disabled; or direct (-stiffness,
 -damping)) and the impedance imp = solimp's function of |r| (of the rows' norm for a connect or weld),
     aref = -b J nu - k imp r - J̇ν,   R = max(1e-15, (1 - imp) / imp invweight)
-(a weld's rotation rows: invweight_rotation), b = 2 / (dmax timeconst), k = 1 / (dmax^2 timeconst^2 dampratio^2), dmax = solimp[1]. With equality rows only,
-MuJoCo's constrained accelerations minimise a quadratic whose minimiser is
+(a weld's rotation rows: invweight_rotation), b = 2 / (dmax timeconst), k = 1 / (dmax^2 timeconst^2 dampratio^2),
+dmax = solimp[1]. With equality rows only, MuJoCo's constrained accelerations minimise a quadratic whose minimiser is
     f = (J M^-1 J^T + diag(R))^-1 (aref - J a0),   nu_dot = a0 + M^-1 J^T f,
 a0 = M^-1 tau the unconstrained accelerations (its Newton solver reaches it in one step). With MuJoCo's implicit
 joint damping (the Euler step's (M + dt D)), the constraint force is that of the explicit a0 = a0' + dt M^-1 D a0'
