@@ -19,37 +19,48 @@ from .factory import factory
 @factory
 def kernels(scalar):
     @wp.func
-    def factor(A: wp.array3d(dtype=scalar), env: int, offset: int, L: wp.array3d(dtype=scalar)):
-        """L (lower, k x k) with L L^T = A[offset:, offset:]."""
-        k = A.shape[1] - offset
+    def factor(A: wp.array3d(dtype=scalar), env: int, offset: int, k: int, drop: scalar, L: wp.array3d(dtype=scalar)):
+        """L (lower, k x k) with L L^T = A[offset:offset + k, offset:offset + k]. drop < 0: A positive definite. drop
+        >= 0: A positive semi-definite; a pivot at most drop times its diagonal entry (a row that depends on the
+        ones before it) is dropped: its column of L is 0, which `substitute` reads as an unknown set to 0."""
         for j in range(k):
             s = A[env, offset + j, offset + j]
             for p in range(j):
                 s = s - L[env, j, p] * L[env, j, p]
-            Ljj = wp.sqrt(s)
-            L[env, j, j] = Ljj
+            L[env, j, j] = scalar(0.0)
+            if drop < scalar(0.0) or s > drop * A[env, offset + j, offset + j]:
+                Ljj = wp.sqrt(s)
+                L[env, j, j] = Ljj
+                for i in range(j + 1, k):
+                    t = A[env, offset + i, offset + j]
+                    for p in range(j):
+                        t = t - L[env, i, p] * L[env, j, p]
+                    L[env, i, j] = t / Ljj
+            else:
+                for i in range(j + 1, k):
+                    L[env, i, j] = scalar(0.0)
             for i in range(j + 1, k):
-                t = A[env, offset + i, offset + j]
-                for p in range(j):
-                    t = t - L[env, i, p] * L[env, j, p]
-                L[env, i, j] = t / Ljj
                 L[env, j, i] = scalar(0.0)
 
     @wp.func
     def substitute(L: wp.array3d(dtype=scalar), env: int, k: int, y: wp.array2d(dtype=scalar), x: wp.array2d(dtype=scalar), at: int):
         """x[env, at:at + k] = (L L^T)^-1 y[env, 0:k] (L: `factor`'s), by forward then back substitution; y is
-        overwritten."""
+        overwritten. An unknown whose pivot `factor` dropped is 0."""
         for i in range(k):
             s = y[env, i]
             for p in range(i):
                 s = s - L[env, i, p] * y[env, p]
-            y[env, i] = s / L[env, i, i]
+            y[env, i] = scalar(0.0)
+            if L[env, i, i] != scalar(0.0):
+                y[env, i] = s / L[env, i, i]
         for r in range(k):
             i = k - 1 - r
             s = y[env, i]
             for p in range(i + 1, k):
                 s = s - L[env, p, i] * x[env, at + p]
-            x[env, at + i] = s / L[env, i, i]
+            x[env, at + i] = scalar(0.0)
+            if L[env, i, i] != scalar(0.0):
+                x[env, at + i] = s / L[env, i, i]
 
     @wp.kernel(module="unique")
     def solve(
@@ -65,7 +76,7 @@ def kernels(scalar):
     ):
         """x (N, K): zeros in [:offset], and A[offset:, offset:]^-1 b[offset:] after (A (N, K, K), b (N, K))."""
         env = wp.tid()
-        factor(A, env, offset, L)
+        factor(A, env, offset, A.shape[1] - offset, scalar(-1.0), L)
         k = A.shape[1] - offset
         for i in range(k):
             y[env, i] = b[env, offset + i]
@@ -86,7 +97,7 @@ def kernels(scalar):
     ):
         """X (N, K, K): A[offset:, offset:]^-1 in the trailing block, zeros elsewhere."""
         env = wp.tid()
-        factor(A, env, offset, L)
+        factor(A, env, offset, A.shape[1] - offset, scalar(-1.0), L)
         K = A.shape[1]
         k = K - offset
         for c in range(k):

@@ -419,7 +419,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 else:
                     A[env, r, q] = s
                     A[env, q, r] = s
-        factor(A, env, 0, LA)
+        factor(A, env, 0, m, scalar(-1.0), LA)
         substitute(LA, env, m, rhs, w, 0)  # f in w[0:m]
         # 4. nu_dot = a0 + M^-1 J^T f, or a0' + (M + dt D)^-1 J^T f with implicit damping
         if implicit_dt > scalar(0.0):
@@ -439,4 +439,4 @@ def kernels(scalar) -> types.SimpleNamespace:
                     s = s + MinvJT[env, r, i] * w[env, r]
                 nu_dot[env, i] = s
 
-    return types.SimpleNamespace(Equalities=Equalities, equality_accelerations=equality_accelerations)
+    return types.SimpleNamespace(Equalities=Equalities, equality_accelerations=equality_accelerations, tree_factor=tree_factor, tree_solve=tree_solve)
