@@ -65,8 +65,8 @@ def test_every_jaxsim_name_has_one_row_with_a_status():
     assert not extra, f"rows for names JaxSim 0.9.0 does not have: {extra}"
 
 
-def _api_tests() -> set[str]:
-    tree = ast.parse((ROOT / "tests" / "test_jaxsim_api.py").read_text())
+def _api_tests(file: str = "test_jaxsim_api.py") -> set[str]:
+    tree = ast.parse((ROOT / "tests" / file).read_text())
     return {node.name for node in tree.body if isinstance(node, ast.FunctionDef) and node.name.startswith("test_")}
 
 
@@ -92,7 +92,7 @@ def test_same_and_alias_rows_name_existing_tests_and_objects():
                 problems.append(f"{name}: {status} without a reason")
             continue
         kind, _, what = test.partition(":")
-        known = {"api": api_tests, "parity": parity, "math": math}.get(kind, set())
+        known = {"api": api_tests, "parity": parity, "math": math, "contacts": _api_tests("test_contact_models.py")}.get(kind, set())
         if what not in known:
             problems.append(f"{name}: its test '{test}' does not exist")
         target = warpdyn_name.strip("`") if warpdyn_name.startswith("`") and warpdyn_name.strip("`").startswith("wd.") else None

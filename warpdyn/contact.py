@@ -117,14 +117,6 @@ def in_contact(model, data, *, link_names=None) -> wp.array:
     return arrays.squeeze_env(contact.links_in_contact(model, data, indices), data.num_envs)
 
 
-def _check_ignored_inputs(model, data, link_forces, joint_force_references) -> None:
-    """Soft contacts do not depend on these (JaxSim passes them to contact models that do): shapes checked."""
-    if link_forces is not None:
-        arrays.batched_input(link_forces, "link_forces", (model.number_of_links(), 6), data.num_envs, model.scalar, model.device)
-    if joint_force_references is not None:
-        arrays.batched_input(joint_force_references, "joint_force_references", (model.dofs(),), data.num_envs, model.scalar, model.device)
-
-
 def link_contact_forces(
     model, data, *, link_forces=None, joint_force_references=None, joint_torques=None, output_vel_repr=VelRepr.Inertial
 ) -> tuple[wp.array, dict]:
@@ -138,15 +130,15 @@ def link_contact_forces(
     - Body: L_X*_W W_f_L, force and torque at the link origin in link axes.
     The point forces are the contact model's (`model.contact_model`, `model.contact_params`, `model.terrain`)
     at the data's state, the ones a step starting there applies. Links without enabled points get zeros.
-    link_forces, joint_force_references (alias joint_torques, JaxSim's name): the other forces acting, which
-    JaxSim's rigid models use and the soft law does not (checked, then unused).
+    link_forces (in the data's representation), joint_force_references (alias joint_torques, JaxSim's name): the
+    other forces acting, which JaxSim's rigid models read and the soft law does not (checked, then unused).
     """
     if joint_torques is not None:
         if joint_force_references is not None:
             raise ValueError("give joint_force_references or joint_torques (the same argument), not both")
         joint_force_references = joint_torques
-    _check_ignored_inputs(model, data, link_forces, joint_force_references)
-    out, m_dot = contact.link_wrenches_and_rates(model, data, int(output_repr(data, output_vel_repr)))
+    W_f_ext, tau = contact.other_forces(model, data, link_forces, joint_force_references)
+    out, m_dot = contact.link_wrenches_and_rates(model, data, int(output_repr(data, output_vel_repr)), W_f_ext, tau)
     return arrays.squeeze_env(out, data.num_envs), {"m_dot": arrays.squeeze_env(m_dot, data.num_envs)}
 
 
@@ -164,14 +156,14 @@ def link_forces_from_contact_forces(model, *, contact_forces) -> wp.array:
 
 
 def collidable_point_forces(model, data, *, link_forces=None, joint_force_references=None, output_vel_repr=None) -> wp.array:
-    """The soft-contact wrench on each enabled point: (nc, 6) or (N, nc, 6), as old JaxSim's
+    """The contact wrench on each enabled point (`model.contact_model`'s): (nc, 6) or (N, nc, 6), as old JaxSim's
     `collidable_point_forces`, for the contact frame C = (W_p_C, [L]) in `output_vel_repr` (default: the
     data's): Inertial [f; W_p_C x f]; Mixed [f; 0] (f the force in world axes [N], what the contact model
     computes); Body [L_R_W f; 0]. Summed over a link's points (Inertial), they give `link_contact_forces`.
-    link_forces, joint_force_references: accepted as JaxSim does; soft contacts do not depend on them.
+    link_forces, joint_force_references: as in `link_contact_forces`.
     """
-    _check_ignored_inputs(model, data, link_forces, joint_force_references)
-    out = contact.point_wrenches(model, data, int(output_repr(data, output_vel_repr)))
+    W_f_ext, tau = contact.other_forces(model, data, link_forces, joint_force_references)
+    out = contact.point_wrenches(model, data, int(output_repr(data, output_vel_repr)), W_f_ext, tau)
     return arrays.squeeze_env(out, data.num_envs)
 
 

@@ -16,6 +16,7 @@ from .engine import dynamics, evaluations
 from .engine.forces import forces_in
 from .math import Quaternion
 from .references import References
+from .types.contact_models import SoftContacts
 from .types.enums import VelRepr
 
 __all__ = ["system_acceleration", "system_position_dynamics", "system_dynamics"]
@@ -30,7 +31,10 @@ def system_acceleration(model, data: Data, *, link_forces=None, joint_torques=No
     W_f_user = None
     if link_forces is not None:
         W_f_user = References.build(model, link_forces=link_forces, data=data, velocity_representation=data.velocity_representation).link_forces_state
-    _, m_dot, W_f_L = evaluations.contact_forces(model, data, W_f_user)
+    tau = None
+    if joint_torques is not None and not isinstance(model.contact_model, SoftContacts):  # JaxSim's rigid models read them
+        tau = arrays.batched_input(joint_torques, "joint_torques", (model.dofs(),), data.num_envs, model.scalar, model.device)
+    _, m_dot, W_f_L = evaluations.contact_forces(model, data, W_f_user, tau)
     f_L = W_f_L if data.velocity_representation == VelRepr.Inertial else forces_in(model, data, W_f_L, int(data.velocity_representation))
     base, joints = dynamics.forward_dynamics_aba(model, data, joint_torques, arrays.squeeze_env(f_L, data.num_envs))
     rates = model.contact_model.update_contact_state({"m_dot": arrays.squeeze_env(m_dot, data.num_envs)})

@@ -13,14 +13,16 @@ import warp as wp
 from .. import arrays
 from ..kernels.contact_points import kernels as point_kernels
 from ..kernels.contact_wrenches import kernels as wrench_kernels
-from ..types.contact_models import SoftContacts, register_forces
+from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts, register_forces, register_impact
 from ..types.enums import VelRepr
-from .kinematics import link_poses, targets, velocities
-from .launch import launch
+from .bundles import state_bundle
 from .evaluations import contact_evaluation, deformation_rates
-from .step import plan
+from .forces import forces_inertial
+from .kinematics import link_poses, state_arrays, targets, velocities
+from .launch import launch, run
+from .step import Evaluation, link_force_input, plan, prepare, torque_reference_input
 
-__all__ = ["point_targets", "positions", "point_velocities", "link_wrenches", "link_wrenches_and_rates", "point_wrenches", "soft_contact_forces", "links_in_contact"]
+__all__ = ["point_targets", "positions", "point_velocities", "link_wrenches", "link_wrenches_and_rates", "point_wrenches", "soft_contact_forces", "solved_contact_forces", "rigid_impact", "other_forces", "links_in_contact"]
 
 
 def point_targets(model):
@@ -55,9 +57,24 @@ def link_wrenches(model, data, out_repr: int) -> wp.array:
     return link_wrenches_and_rates(model, data, out_repr)[0]
 
 
-def link_wrenches_and_rates(model, data, out_repr: int) -> tuple[wp.array, wp.array]:
-    """((N, nL, 6) `link_wrenches`, m_dot (N, nc_all, 3) the deformation rates) of one contact evaluation."""
-    current, ev = contact_evaluation(model, data)
+def other_forces(model, data, link_forces, joint_force_references) -> tuple:
+    """(W_f_ext (N, nL, 6) Inertial or None, tau (N, n) or None): the link forces (in the data's representation)
+    and joint forces that act besides the contacts, as a contact evaluation takes them, checked; both None for a
+    contact model that does not read them (the soft law)."""
+    current = plan(model)
+    W_f_ext = link_force_input(current, data, link_forces)
+    tau = torque_reference_input(current, data, joint_force_references) if joint_force_references is not None else None
+    if current.contact_stage.has_state:
+        return None, None
+    if W_f_ext is not None and data.velocity_representation != VelRepr.Inertial:
+        W_f_ext = forces_inertial(model, data, W_f_ext, int(data.velocity_representation))
+    return W_f_ext, tau
+
+
+def link_wrenches_and_rates(model, data, out_repr: int, W_f_ext=None, tau=None) -> tuple[wp.array, wp.array]:
+    """((N, nL, 6) `link_wrenches`, m_dot (N, nc_all, 3) the deformation rates) of one contact evaluation
+    (W_f_ext, tau: `other_forces`)."""
+    current, ev = contact_evaluation(model, data, W_f_ext, tau)
     N, nL = data.batch_size, model.number_of_links()
     out = arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
     if ev is None:
@@ -73,10 +90,10 @@ def link_wrenches_and_rates(model, data, out_repr: int) -> tuple[wp.array, wp.ar
     return out, deformation_rates(current, ev, N)
 
 
-def point_wrenches(model, data, out_repr: int) -> wp.array:
+def point_wrenches(model, data, out_repr: int, W_f_ext=None, tau=None) -> wp.array:
     """(N, nc, 6): each enabled point's contact wrench for C = (W_p_C, [L]) in representation `out_repr`
-    (see warpdyn.contact.collidable_point_forces)."""
-    return _point_wrenches(model, data, out_repr, *contact_evaluation(model, data))
+    (see warpdyn.contact.collidable_point_forces; W_f_ext, tau: `other_forces`)."""
+    return _point_wrenches(model, data, out_repr, *contact_evaluation(model, data, W_f_ext, tau))
 
 
 def soft_contact_forces(model, data, link_forces=None, joint_force_references=None) -> tuple:
@@ -91,6 +108,33 @@ def soft_contact_forces(model, data, link_forces=None, joint_force_references=No
 
 
 register_forces(SoftContacts, soft_contact_forces)
+
+
+def solved_contact_forces(model, data, link_forces=None, joint_force_references=None) -> tuple:
+    """RigidContacts' and RelaxedRigidContacts' compute_contact_forces (warpdyn.types.contact_models): (W_f_C
+    (N, nc, 6), the enabled points' Inertial contact wrenches, {}), with the data's environment axis, the link
+    forces (in the data's representation) and joint forces acting besides the contacts."""
+    W_f_ext, tau = other_forces(model, data, link_forces, joint_force_references)
+    W_f_C = point_wrenches(model, data, int(VelRepr.Inertial), W_f_ext, tau)
+    return arrays.squeeze_env(W_f_C, data.num_envs), {}
+
+
+register_forces(RigidContacts, solved_contact_forces)
+register_forces(RelaxedRigidContacts, solved_contact_forces)
+
+
+def rigid_impact(model, data):
+    """RigidContacts.update_velocity_after_impact: a copy of the data after the impact at its state (the stage's
+    `after_step` on the copy's arrays)."""
+    current, N = prepare(model, data, parameters=False)
+    out = data.copy()
+    if current.contacts:
+        ev = Evaluation(current, N, False, False, None, aba=False)
+        run(current.contact_stage.after_step(current, ev, state_bundle(current.scalar, state_arrays(out)), N), current.device)
+    return out
+
+
+register_impact(RigidContacts, rigid_impact)
 
 
 def _point_wrenches(model, data, out_repr: int, current, ev) -> wp.array:

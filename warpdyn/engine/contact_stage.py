@@ -15,9 +15,12 @@ stage alone (`ContactStage`), chosen from the model's class when the step's plan
 - `point_law`: where the force at a point depends on that point alone, the kernels' per-point law
   (kernels/soft_contacts.py's `law_parameters` and `contact_at`), which the fused step
   (kernels/fused_step.py) calls where the staged kernels do; None: the fused step does not apply.
+- `buffers`: what its launches need beside the evaluation's (per evaluation); `after_step`: launches that end a
+  step (JaxSim's rigid impact); `has_state`: whether it has a contact state whose rate it writes (else m_dot is 0).
 ABA and the integrators read W_f_L and m_dot, nothing else of a contact model. JaxSim's rigid and relaxed-rigid
-models, which solve for an environment's contact forces together from its mass matrix and the points'
-Jacobians, and contacts between bodies are further stages (docs/architecture.md: where a contact law goes).
+models (`RigidContactStage`, `RelaxedRigidContactStage`) solve an environment's contact forces together from its
+mass matrix and the points' Jacobians (kernels/rigid_contacts.py); contacts between bodies are a further stage
+(docs/architecture.md: where a contact law goes).
 """
 
 from __future__ import annotations
@@ -26,16 +29,35 @@ import numpy as np
 import warp as wp
 
 from .. import arrays
+from ..kernels.aba import ABA_RECORD
+from ..kernels.aba import kernels as aba_kernels
 from ..kernels.bundles import bundles
+from ..kernels.crba import CRBA_RECORD
+from ..kernels.crba import kernels as crba_kernels
+from ..kernels.jacobian_derivatives import kernels as derivative_kernels
+from ..kernels.jacobians import kernels as jacobian_kernels
+from ..kernels.kinematics import kernels as kinematics_kernels
+from ..kernels.rigid_contacts import PYRAMID_ROWS
+from ..kernels.scratch import TRANSFORM
+from ..kernels.rigid_contacts import kernels as rigid_kernels
 from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
-from ..types.contact_models import SoftContacts
+from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts
 from ..types.enums import VelRepr
-from .bundles import per_env
+from ..types.model_constants import transforms
+from . import tape
+from .bundles import controls_bundle, per_env
+from .equality import dof_parents
+from .kinematics import targets
 from .launch import Launch
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, contact_reach
 
-__all__ = ["ContactStage", "SoftContactStage", "STAGES", "stage_for", "contacts_per_environment"]
+__all__ = ["ContactStage", "SoftContactStage", "RigidContactStage", "RelaxedRigidContactStage", "STAGES", "stage_for", "contacts_per_environment"]
+
+
+ROUNDING_FLOOR = 100.0
+"""The rigid QP's tolerance is at least this many times the dtype's machine epsilon (float32: 1.2e-5): below it its
+residuals stagnate on rounding."""
 
 
 def contacts_per_environment(device, grad: bool) -> bool:
@@ -52,6 +74,8 @@ class ContactStage:
     state, and each link's first point and count."""
 
     point_law = None
+    has_state = True
+    checked_on_device = False  # whether the step's device check (kernels/parameter_checks.py) reads its K, D and mu
 
     def __init__(self, model, integrator):
         s, d = model.scalar, model.device
@@ -82,9 +106,18 @@ class ContactStage:
         """((name, array), ...): the law's parameters that may have one value per environment."""
         return ()
 
-    def launches(self, plan, ev, x, f_ext, N: int) -> list:
-        """The launches of the contact forces at the state x (the module docstring; ev's link poses at x)."""
+    def buffers(self, plan, N: int) -> dict:
+        """The launches' own buffers for N environments (none)."""
+        return {}
+
+    def launches(self, plan, ev, x, f_ext, tau, N: int) -> list:
+        """The launches of the contact forces at the state x (the module docstring; ev's link poses at x; tau
+        (N, n) the joint forces or None (zero))."""
         raise NotImplementedError(f"{type(self).__name__} computes no contact forces")
+
+    def after_step(self, plan, ev, Y, N: int) -> list:
+        """The launches that end a step at its new state Y (none)."""
+        return []
 
 
 class SoftContactStage(ContactStage):
@@ -92,6 +125,7 @@ class SoftContactStage(ContactStage):
     state, Coulomb's cone): a law at each point (kernels/soft_contacts.py), so the fused step applies."""
 
     point_law = staticmethod(contact_kernels)
+    checked_on_device = True
 
     def __init__(self, model, integrator):
         super().__init__(model, integrator)
@@ -111,7 +145,7 @@ class SoftContactStage(ContactStage):
         c = self.bundle
         return (("SoftContactsParams.K", c.K), ("SoftContactsParams.D", c.D), ("SoftContactsParams.mu", c.mu))
 
-    def launches(self, plan, ev, x, f_ext, N: int) -> list:
+    def launches(self, plan, ev, x, f_ext, tau, N: int) -> list:
         """Link velocities, each enabled point's force and deformation rate (ev.W_f_C, ev.m_dot), and ev.W_f_L =
         f_ext (None: 0) + each link's."""
         s = plan.scalar
@@ -127,7 +161,175 @@ class SoftContactStage(ContactStage):
         return launches
 
 
-STAGES: dict[type, type] = {SoftContacts: SoftContactStage}
+class RigidContactStage(ContactStage):
+    """JaxSim's rigid contacts (kernels/rigid_contacts.py's `rigid_forces`, and its impact after each step): the
+    forces of an environment's points solved together, from ABA's accelerations without them, the mass matrix and
+    the points' Jacobians and J̇ν at the state. mu, K, D: shared (1,) or per environment (N,)."""
+
+    has_state = False
+    law_kernel = "rigid_forces"
+
+    def __init__(self, model, integrator):
+        super().__init__(model, integrator)
+        s, d = model.scalar, model.device
+        c, contact_model = model.contact_params, model.contact_model
+        K = rigid_kernels(s)
+        self.kernels = K
+        self.owner = type(c).__name__
+        self.bundle.mu = per_env(c.mu, "mu", s, d, self.owner)
+        self.bundle.K, self.bundle.D = self.baumgarte(c, s, d)
+        self.bundle.p, self.bundle.q = s(0.5), s(0.5)
+        law = self.law = K.RigidLaw()
+        self.fill_law(law, c, contact_model, s)
+        law.dof_parent = wp.array(dof_parents(model.tree, model.floating_base()), dtype=wp.int32, device=d)
+        # the enabled points, in the stage's order, as targets of the Jacobian kernels
+        params = model.kin_dyn_structure().contact_parameters
+        rows = params.indices_of_enabled_collidable_points
+        order = np.argsort(np.asarray(params.body, dtype=np.int64)[rows], kind="stable")
+        offsets = np.tile(np.eye(4), (len(order), 1, 1))
+        offsets[:, :3, 3] = np.asarray(params.point, dtype=np.float64)[rows][order].reshape(-1, 3)
+        self.targets = targets(model, self.bundle.point_link, transforms(offsets, s, d))
+        multi = model.multi_dof()
+        self.bias = derivative_kernels(s, multi)
+        self.jacobians = jacobian_kernels(s, multi).jacobians
+        self.crba = crba_kernels(s, "tuned", multi).crba
+        self.aba = aba_kernels(s, "tuned", multi).aba
+        self.fk = kinematics_kernels(s, multi).forward_kinematics
+        self.check_rate, self.check_reach = s(0.0), s(-1.0)  # the device check's soft-law terms do not apply
+
+    @staticmethod
+    def baumgarte(c, s, d) -> tuple:
+        return per_env(c.K, "K", s, d, "RigidContactsParams"), per_env(c.D, "D", s, d, "RigidContactsParams")
+
+    @staticmethod
+    def fill_law(law, c, contact_model, s) -> None:
+        """The rigid QP's options in the RigidLaw bundle (the impedance's fields unused)."""
+        for name in ("time_constant", "damping_coefficient", "d_min", "d_max", "width", "midpoint", "power"):
+            setattr(law, name, s(0.0))
+        options = contact_model.solver_options
+        law.eps = s(contact_model.regularization_delassus)
+        law.tol = s(max(options["solver_tol"], ROUNDING_FLOOR * float(np.finfo(np.float32 if s == wp.float32 else np.float64).eps)))
+        law.iterations = int(options["max_iterations"])
+
+    def per_env_parameters(self) -> tuple:
+        c = self.bundle
+        return ((f"{self.owner}.mu", c.mu), (f"{self.owner}.K", c.K), (f"{self.owner}.D", c.D))
+
+    def buffers(self, plan, N: int) -> dict:
+        """The kernel's inputs and scratch for N environments (none differentiable)."""
+        s, d = plan.scalar, plan.device
+        K, P, nL = 6 + plan.n, self.count, plan.nL
+        m, width = 3 * P, max(3 * P, 6 + plan.n)
+        vec6 = wp.types.vector(6, s)
+        transform = wp.types.transformation(s)
+
+        def empty(shape, dtype=s):
+            return arrays.empty(shape, N, dtype, d)
+
+        out = {
+            "a_free": empty((K,)),
+            "no_joints": empty((0,)),
+            "W_a_L": empty((nL,), vec6),
+            "J_t": empty((P, 6, K)),
+            "Jdotnu_t": empty((P, 6)),
+            "M": empty((K, K)),
+            "crba_scratch": empty((max(nL, plan.n + 1), CRBA_RECORD)),
+            "aba_scratch": empty((plan.rows, ABA_RECORD + TRANSFORM)),
+            "active": empty((P,), wp.int32),
+            "J": empty((m, K)),
+            "MinvJT": empty((m, K)),
+            "Lm": empty((K, K)),
+        }
+        out["scratch"] = self.scratch(empty, m, width)
+        if not self.has_state:
+            out["W_H_L_next"] = empty((nL,), transform)
+            out["parent_H_link_next"] = empty((nL,), transform)
+            out["W_v_WL_next"] = empty((nL,), vec6)
+        return out
+
+    def scratch(self, empty, m: int, width: int) -> list:
+        """The QP's scratch: Q, H, LH (m x m); q, x, rd, dx, y (width); s, z, rp, rc, ds, dz, ds_aff, dz_aff (5 P)."""
+        rows = PYRAMID_ROWS * self.count
+        return [empty((m, m)) for _ in range(3)] + [empty((width,)) for _ in range(5)] + [empty((rows,)) for _ in range(8)]
+
+    def launches(self, plan, ev, x, f_ext, tau, N: int) -> list:
+        """At x: the link velocities and bias terms, the points' Jacobians and J̇ν, the mass matrix, ABA's
+        accelerations a_free at tau and f_ext (their own ABA: explicit, MuJoCo's implicit damping aside), the points'
+        forces ev.W_f_C and ev.W_f_L = f_ext (None: 0) + each link's."""
+        if ev.grad or tape.taping():
+            raise NotImplementedError(
+                f"{type(plan.contact_stage).__name__.removesuffix('Stage')}s under a wp.Tape or with gradients: their solve "
+                "(kernels/rigid_contacts.py) has no adjoint yet; use SoftContacts for gradients, or run this outside the tape"
+            )
+        s, b = plan.scalar, ev.contact
+        inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
+        f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
+        controls = controls_bundle(s, plan.device, tau if plan.n > 0 and tau is not None else None, f_in)
+        launches = [
+            Launch(self.bias.link_bias_recursion, N, [plan.model, ev.W_H_L, x], [ev.W_v_WL, b["W_a_L"]]),
+            Launch(self.jacobians, (N, self.count), [plan.model, self.targets, ev.W_H_L, inertial, mixed], [b["J_t"]]),
+            Launch(self.bias.bias_accelerations, (N, self.count), [self.targets, ev.W_H_L, ev.W_v_WL, b["W_a_L"], inertial, mixed], [b["Jdotnu_t"]]),
+            Launch(self.crba, N, [plan.model, x, inertial, b["crba_scratch"]], [b["M"]]),
+            Launch(self.aba, N, [plan.model, x, controls, inertial, s(0.0), b["aba_scratch"]], [b["a_free"][:, :6], b["a_free"][:, 6:] if plan.n > 0 else b["no_joints"]]),
+        ]
+        args = [plan.model, self.bundle, self.law, plan.terrain, ev.W_H_L, ev.W_v_WL, b["J_t"], b["Jdotnu_t"], b["M"], b["a_free"]]
+        args += [b["active"], b["J"], b["MinvJT"], b["Lm"], *b["scratch"]]
+        launches.append(Launch(getattr(self.kernels, self.law_kernel), N, args, [ev.W_f_C]))
+        order = int(arrays.env_fastest(plan.device))
+        links = plan.nL if contacts_per_environment(plan.device, ev.grad) else 1
+        launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, [self.bundle, ev.W_f_C, f_in, order, links], [ev.W_f_L]))
+        return launches
+
+    def after_step(self, plan, ev, Y, N: int) -> list:
+        """JaxSim's impact at the step's new state Y: its velocities replaced in place (`impact_velocities`)."""
+        b = ev.contact
+        inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
+        G, LG = b["scratch"][0], b["scratch"][2]
+        c, lam, w = b["scratch"][3], b["scratch"][4], b["scratch"][5]
+        return [
+            Launch(self.fk, N, [plan.model, Y], [b["parent_H_link_next"], b["W_H_L_next"]]),
+            Launch(self.bias.link_bias_recursion, N, [plan.model, b["W_H_L_next"], Y], [b["W_v_WL_next"], b["W_a_L"]]),
+            Launch(self.jacobians, (N, self.count), [plan.model, self.targets, b["W_H_L_next"], inertial, mixed], [b["J_t"]]),
+            Launch(self.crba, N, [plan.model, Y, inertial, b["crba_scratch"]], [b["M"]]),
+            Launch(
+                self.kernels.impact_velocities,
+                N,
+                [plan.model, self.bundle, self.law, plan.terrain, b["W_H_L_next"], b["W_v_WL_next"], b["J_t"], b["M"], b["active"], b["J"], b["MinvJT"], b["Lm"], G, LG, c, lam, w],
+                [Y],
+            ),
+        ]
+
+
+class RelaxedRigidContactStage(RigidContactStage):
+    """JaxSim's relaxed-rigid contacts (kernels/rigid_contacts.py's `relaxed_rigid_forces`): a linear solve, no
+    impact. mu: shared (1,) or per environment (N,); the impedance's parameters: one number each."""
+
+    has_state = False
+    law_kernel = "relaxed_rigid_forces"
+
+    @staticmethod
+    def baumgarte(c, s, d) -> tuple:
+        zero = wp.zeros(1, dtype=s, device=d)  # JaxSim's relaxed-rigid law reads no K and D
+        return zero, zero
+
+    @staticmethod
+    def fill_law(law, c, contact_model, s) -> None:
+        for name in ("time_constant", "damping_coefficient", "d_min", "d_max", "width", "midpoint", "power"):
+            setattr(law, name, s(float(getattr(c, name))))
+        law.eps, law.tol, law.iterations = s(0.0), s(0.0), 0
+
+    def per_env_parameters(self) -> tuple:
+        return ((f"{self.owner}.mu", self.bundle.mu),)
+
+    def scratch(self, empty, m: int, width: int) -> list:
+        """A, LA (m x m); b, f, w (width)."""
+        return [empty((m, m)) for _ in range(2)] + [empty((width,)) for _ in range(3)]
+
+    def after_step(self, plan, ev, Y, N: int) -> list:
+        return []
+
+
+STAGES: dict[type, type] = {SoftContacts: SoftContactStage, RigidContacts: RigidContactStage, RelaxedRigidContacts: RelaxedRigidContactStage}
 """The stage of each contact model class (`model.contact_model`'s type)."""
 
 
@@ -139,4 +341,9 @@ def stage_for(model, integrator) -> ContactStage:
     if stage is None:
         known = ", ".join(sorted(k.__name__ for k in STAGES))
         raise ValueError(f"model.contact_model is a {kind.__name__}, which warpdyn's step does not simulate (it simulates {known})")
+    if not isinstance(model.contact_params, model.contact_model.parameters_class):
+        raise ValueError(
+            f"model.contact_params is a {type(model.contact_params).__name__}, but model.contact_model ({kind.__name__}) takes "
+            f"{model.contact_model.parameters_class.__name__}"
+        )
     return stage(model, integrator)

@@ -65,24 +65,25 @@ def torque_limits(model, data) -> wp.array:
     return tau_lim
 
 
-def contact_evaluation(model, data, W_f_ext=None) -> tuple[Plan, Evaluation | None]:
+def contact_evaluation(model, data, W_f_ext=None, tau=None) -> tuple[Plan, Evaluation | None]:
     """(plan, ev): ev holds FK, link velocities and the contact kernel's results at the data's state (fresh
-    arrays), None without enabled points. W_f_ext (N, nL, 6) Inertial or None (zero)."""
+    arrays), None without enabled points. W_f_ext (N, nL, 6) Inertial or None (zero); tau (N, n) the joint
+    forces or None (zero): the forces that act besides the contacts, which JaxSim's rigid models read."""
     current, N = prepare(model, data, parameters=False)
     if not current.contacts:
         return current, None
-    grad = data.requires_grad or inputs_require_grad(W_f_ext) or model.parameters_require_grad()
+    grad = data.requires_grad or inputs_require_grad(W_f_ext, tau) or model.parameters_require_grad()
     ev = Evaluation(current, N, grad, W_f_ext is not None, None, aba=False)
     X = state_bundle(current.scalar, state_arrays(data))
-    run(evaluate(current, ev, X, None, W_f_ext, False, aba=False), current.device)
+    run(evaluate(current, ev, X, tau, W_f_ext, False, aba=False), current.device)
     return current, ev
 
 
-def contact_forces(model, data, W_f_ext: wp.array | None = None):
+def contact_forces(model, data, W_f_ext: wp.array | None = None, tau: wp.array | None = None):
     """(W_f_C (N, nc, 6), m_dot (N, nc_all, 3), W_f_L (N, nL, 6)): the Inertial contact wrench of each
     enabled point (ordered by link), the deformation rate of every point, and W_f_ext (Inertial; None: zero)
-    plus the contact wrenches per link."""
-    current, ev = contact_evaluation(model, data, W_f_ext)
+    plus the contact wrenches per link; tau (N, n): the joint forces (None: zero), read by the rigid models."""
+    current, ev = contact_evaluation(model, data, W_f_ext, tau)
     N, s, d = data.batch_size, current.scalar, current.device
     if ev is None:
         W_f_L = W_f_ext

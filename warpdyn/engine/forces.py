@@ -11,20 +11,23 @@ from ..kernels.forces import kernels as force_kernels
 from .kinematics import link_poses, targets
 from .launch import launch
 
-__all__ = ["forces_in", "with_target_forces"]
+__all__ = ["forces_in", "forces_inertial", "with_target_forces"]
 
 
 def forces_in(model, data, W_f_L: wp.array, repr: int) -> wp.array:
     """(N, nL, 6): the Inertial link forces W_f_L in representation `repr` (each link its body frame)."""
+    return _converted(model, data, W_f_L, repr, 0)
+
+
+def forces_inertial(model, data, f_L: wp.array, repr: int) -> wp.array:
+    """(N, nL, 6): the link forces f_L, given in representation `repr`, Inertial."""
+    return _converted(model, data, f_L, repr, 1)
+
+
+def _converted(model, data, f: wp.array, repr: int, to_inertial: int) -> wp.array:
     _, W_H_L = link_poses(model, data)
-    out = arrays.output(W_f_L.shape[1:], W_f_L.shape[0], W_f_L.dtype, W_f_L.device, data.requires_grad)
-    launch(
-        force_kernels(W_f_L.dtype).convert_link_forces,
-        dim=(W_f_L.shape[0], W_f_L.shape[1]),
-        inputs=[W_H_L, W_f_L, int(repr), 0],
-        outputs=[out],
-        device=W_f_L.device,
-    )
+    out = arrays.output(f.shape[1:], f.shape[0], f.dtype, f.device, data.requires_grad)
+    launch(force_kernels(f.dtype).convert_link_forces, dim=(f.shape[0], f.shape[1]), inputs=[W_H_L, f, int(repr), to_inertial], outputs=[out], device=f.device)
     return out
 
 

@@ -294,8 +294,9 @@ class Evaluation:
             self.W_v_WL = out((nL,), vec6)
             self.target_velocities = arrays.empty((0, 6), N, s, d)
             self.W_f_C = out((plan.count, 6))
-            self.m_dot = out((plan.total, 3))
+            self.m_dot = out((plan.total, 3)) if plan.contact_stage.has_state else plan.zeros((plan.total, 3), N)
             self.W_f_L = out((nL, 6))
+            self.contact = plan.contact_stage.buffers(plan, N)  # the contact model's own (warpdyn.engine.contact_stage)
         else:
             self.m_dot = plan.zeros((plan.total, 3), N)
         if not aba:  # contact results only (warpdyn.engine.contact)
@@ -377,14 +378,14 @@ def evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: b
     if held is not None and plan.contacts:
         f_ext = held.W_f_L
     if plan.contacts and held is None and contacts_first:
-        launches += plan.contact_stage.launches(plan, ev, x, f_ext, N)
+        launches += plan.contact_stage.launches(plan, ev, x, f_ext, tau, N)
         f_ext = ev.W_f_L
     if plan.gravcomp and aba:
         f_in = f_ext if f_ext is not None else empty_like_input(s, plan.device, 3)
         launches.append(Launch(force_kernels(s).passive_link_forces, (N, plan.nL), [plan.model, x, ev.W_H_L, f_in, int(VelRepr.Inertial)], [ev.W_f_gc]))
         f_ext = ev.W_f_gc
     if plan.contacts and held is None and not contacts_first:
-        launches += plan.contact_stage.launches(plan, ev, x, f_ext, N)
+        launches += plan.contact_stage.launches(plan, ev, x, f_ext, tau, N)
         f_ext = ev.W_f_L
     if aba:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
@@ -438,7 +439,7 @@ def parameter_check(plan: Plan, X, Y, N: int) -> Launch:
     """The launch that ends every step: environments whose parameters, as their arrays hold them now, are out
     of range (or whose dt K / D is unstable where their points can reach the terrain) get y = x and valid 0
     (kernels/parameter_checks.py): in-place edits, which no host check sees, do not step silently."""
-    args = [plan.model, plan.contact_bundle, plan.terrain, int(plan.contacts), plan.check_rate, plan.check_reach, X]
+    args = [plan.model, plan.contact_bundle, plan.terrain, int(plan.contacts and plan.contact_stage.checked_on_device), plan.check_rate, plan.check_reach, X]
     return Launch(parameter_check_kernels(plan.scalar).keep_unphysical, N, args, [Y])
 
 
@@ -512,6 +513,8 @@ def step_launches(
     if plan.euler:
         euler = K.semi_implicit_euler_so3 if plan.integrator == IntegratorType.SemiImplicitEulerSO3 else K.semi_implicit_euler
         launches.append(Launch(euler, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
+        if plan.contacts:
+            launches += plan.contact_stage.after_step(plan, ev, Y, N)
         launches.append(parameter_check(plan, X, Y, N))
         return launches
     stage = X
@@ -531,6 +534,8 @@ def step_launches(
             stage = state_bundle(s, [*ws.stages[i], x[6]])
             launches.append(Launch(K.rk4_stage, N, [plan.model, s(c * float(plan.dt)), X, ws.slopes[i]], [stage]))
     launches.append(Launch(K.rk4_combine, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, *ws.slopes], [Y]))
+    if plan.contacts:
+        launches += plan.contact_stage.after_step(plan, first, Y, N)
     launches.append(parameter_check(plan, X, Y, N))
     return launches
 

@@ -1,9 +1,10 @@
 """JaxSim's `jaxsim.rbda.contacts`: the contact models and their parameters.
 
 `SoftContacts` (JaxSim's default, the Hunt/Crossley law with a tangential deformation state) is
-`model.contact_model`; `SoftContactsParams` its parameters. `ContactModel` and `ContactsParams` are the
-interfaces they implement. JaxSim's `RigidContacts` and `RelaxedRigidContacts` are not in warpdyn yet
-(docs/porting.md). `MAX_STIFFNESS` and `MAX_DAMPING` bound the estimated parameters
+`model.contact_model`; `SoftContactsParams` its parameters. JaxSim's `RigidContacts` (a QP over friction pyramids
+and an impact after each step) and `RelaxedRigidContacts` (a regularised linear solve), with `RigidContactsParams`
+and `RelaxedRigidContactsParams`, solve an environment's contact forces together. `ContactModel` and
+`ContactsParams` are the interfaces they implement. `MAX_STIFFNESS` and `MAX_DAMPING` bound the estimated parameters
 (`warpdyn.contact.estimate_good_contact_parameters`), as JaxSim's; `compute_penetration_data` is the
 geometry of one point against the terrain.
 """
@@ -13,22 +14,26 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..types.contact_models import ContactModel, SoftContacts
-from ..types.settings import MAX_DAMPING, MAX_STIFFNESS, ContactsParams, SoftContactsParams
+from ..types.contact_models import ContactModel, RelaxedRigidContacts, RigidContacts, SoftContacts
+from ..types.settings import MAX_DAMPING, MAX_STIFFNESS, ContactsParams, RelaxedRigidContactsParams, RigidContactsParams, SoftContactsParams
 
 __all__ = [
     "ContactModel",
     "ContactsParams",
     "SoftContacts",
     "SoftContactsParams",
+    "RigidContacts",
+    "RigidContactsParams",
+    "RelaxedRigidContacts",
+    "RelaxedRigidContactsParams",
     "ContactParamsTypes",
     "MAX_STIFFNESS",
     "MAX_DAMPING",
     "compute_penetration_data",
 ]
 
-ContactParamsTypes = SoftContactsParams
-"""The parameter classes of the contact models warpdyn has (JaxSim's union also names the rigid ones)."""
+ContactParamsTypes = SoftContactsParams | RigidContactsParams | RelaxedRigidContactsParams
+"""The parameter classes of the contact models (JaxSim's union)."""
 
 
 def compute_penetration_data(p, v, terrain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

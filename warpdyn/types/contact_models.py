@@ -6,8 +6,8 @@ what state it adds to the data (`zero_state_variables`: the soft law's tangentia
 collidable point) and how it computes the contact forces. The law itself is written once, in the kernels
 (kernels/soft_contacts.py); the whole-model computation (`compute_contact_forces`: kinematics of the points,
 then the law) is the engine's, which registers it here for each model class (`register_forces`) when
-warpdyn.engine.contact is imported, as `import warpdyn` does. JaxSim's rigid and relaxed-rigid models are not
-in warpdyn yet (docs/porting.md: planned).
+warpdyn.engine.contact is imported, as `import warpdyn` does. JaxSim's rigid (`RigidContacts`) and relaxed-rigid
+(`RelaxedRigidContacts`) models solve an environment's contact forces together (kernels/rigid_contacts.py).
 """
 
 from __future__ import annotations
@@ -18,17 +18,24 @@ import numpy as np
 import warp as wp
 
 from ..kernels.soft_contacts import points_kernel
-from .settings import SoftContactsParams
+from .settings import RelaxedRigidContactsParams, RigidContactsParams, SoftContactsParams
 
-__all__ = ["ContactModel", "SoftContacts", "register_forces"]
+__all__ = ["ContactModel", "SoftContacts", "RigidContacts", "RelaxedRigidContacts", "register_forces", "register_impact"]
 
 _FORCES: dict[type, Callable] = {}
+_IMPACTS: dict[type, Callable] = {}
 
 
 def register_forces(model_class: type, compute: Callable) -> None:
     """Make `compute(model, data, link_forces, joint_force_references)` the whole-model force computation of
     `model_class` (what its `compute_contact_forces` returns): the engine's seam for a contact law."""
     _FORCES[model_class] = compute
+
+
+def register_impact(model_class: type, compute: Callable) -> None:
+    """Make `compute(model, data)` the data after an impact of `model_class` (what its
+    `update_velocity_after_impact` returns): the engine's, as `register_forces`."""
+    _IMPACTS[model_class] = compute
 
 
 class ContactModel:
@@ -125,6 +132,132 @@ class SoftContacts(ContactModel):
         )
         P = _points(position, "position")
         return np.concatenate([f, np.cross(P, f)], axis=-1), m_dot
+
+
+class _SolvedContacts(ContactModel):
+    """A model whose forces are solved together (JaxSim's rigid and relaxed-rigid): its solver options, a dict
+    of known names (`_OPTIONS`: name -> (default, check)), part of its equality and hash."""
+
+    _OPTIONS: dict = {}
+
+    def __init__(self, solver_options: dict | None = None):
+        given = dict(solver_options or {})
+        unknown = sorted(set(given) - set(self._OPTIONS))
+        if unknown:
+            raise TypeError(f"{type(self).__name__}'s solver_options are {sorted(self._OPTIONS)}, got {unknown}")
+        options = {name: default for name, (default, _) in self._OPTIONS.items()}
+        for name, value in given.items():
+            options[name] = self._OPTIONS[name][1](f"{type(self).__name__} solver_options['{name}']", value)
+        self._options = options
+
+    @property
+    def solver_options(self) -> dict:
+        """The solver's options (a copy)."""
+        return dict(self._options)
+
+    def __eq__(self, other) -> bool:
+        return type(self) is type(other) and self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash((type(self).__name__, self._key()))
+
+    def _key(self) -> tuple:
+        return tuple(sorted(self._options.items()))
+
+    @staticmethod
+    def update_contact_state(old_contact_state: dict) -> dict:
+        """{}: the model has no contact state (JaxSim's)."""
+        return {}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(solver_options={self._options})"
+
+
+def _positive(name: str, value) -> float:
+    if isinstance(value, (bool, np.bool_)) or not np.isscalar(value) or not np.isfinite(value) or value <= 0:
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    return float(value)
+
+
+def _count(name: str, value) -> int:
+    if isinstance(value, (bool, np.bool_)) or int(value) != value or value < 1:
+        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    return int(value)
+
+
+class RelaxedRigidContacts(_SolvedContacts):
+    """JaxSim's relaxed-rigid contacts: the points' forces f = -(G + diag(R))^-1 (a - a_ref), G the active points'
+    Delassus matrix, a_ref a MuJoCo-like reference acceleration, R a regularisation (kernels/rigid_contacts.py).
+    Parameters: `RelaxedRigidContactsParams`; no state. JaxSim minimises the same quadratic by L-BFGS (its
+    solver_options tol, maxiter, memory_size, scale_init_precond); warpdyn factorises it: its exact minimiser, so
+    it takes those options (for JaxSim's code) and reads none of them."""
+
+    parameters_class = RelaxedRigidContactsParams
+    _OPTIONS = {
+        "tol": (1e-6, _positive),
+        "maxiter": (50, _count),
+        "memory_size": (10, _count),
+        "scale_init_precond": (False, lambda name, value: bool(value)),
+    }
+
+    @classmethod
+    def build(cls, solver_options: dict | None = None, **kwargs) -> RelaxedRigidContacts:
+        """JaxSim's constructor (its solver options, which the exact solve does not need; other keywords: a
+        TypeError naming them)."""
+        if kwargs:
+            raise TypeError(f"RelaxedRigidContacts.build() takes solver_options, got {sorted(kwargs)}")
+        return cls(solver_options)
+
+
+class RigidContacts(_SolvedContacts):
+    """JaxSim's rigid contacts: the points' forces minimise 1/2 f^T (G + eps I) f + (a - beta)^T f over the friction
+    pyramids (a QP: kernels/rigid_contacts.py), and after each step the velocity jumps to the nearest (in the
+    mass matrix's metric) at which the penetrating points are still (`update_velocity_after_impact`, an impact).
+    Parameters: `RigidContactsParams`; no state. regularization_delassus: eps [m/s^2/N] (JaxSim's 1e-6);
+    solver_options: "solver_tol", the interior point's tolerance on its residuals and complementarity (relative
+    to 1 + max |a - beta|: JaxSim's qpax default is 1e-3, warpdyn's 1e-10, to which it converges in a few more of
+    its at most "max_iterations" (50) iterations; in float32 at least 100 machine epsilons, 1.2e-5, where rounding
+    stops the iterations' progress)."""
+
+    parameters_class = RigidContactsParams
+    _OPTIONS = {"solver_tol": (1e-10, _positive), "max_iterations": (50, _count)}
+
+    def __init__(self, regularization_delassus: float = 1e-6, solver_options: dict | None = None):
+        super().__init__(solver_options)
+        self.regularization_delassus = _positive("RigidContacts.regularization_delassus", regularization_delassus)
+
+    @classmethod
+    def build(cls, regularization_delassus: float | None = None, solver_options: dict | None = None, **kwargs) -> RigidContacts:
+        """JaxSim's constructor (other keywords: a TypeError naming them; JaxSim logs and ignores them)."""
+        if kwargs:
+            raise TypeError(f"RigidContacts.build() takes regularization_delassus and solver_options, got {sorted(kwargs)}")
+        return cls(1e-6 if regularization_delassus is None else regularization_delassus, solver_options)
+
+    def _key(self) -> tuple:
+        return (*super()._key(), self.regularization_delassus)
+
+    @staticmethod
+    def compute_impact_velocity(inactive_collidable_points, M, J_WC, generalized_velocity) -> np.ndarray:
+        """JaxSim's host formula of the impact: the velocity nu+ (6 + n,) that solves, in the least-squares sense,
+        [M, -J^T; J, 0] [nu+; lambda] = [M nu; 0] with J the linear rows of the points' Jacobians J_WC (nc, 6, 6 + n)
+        whose `inactive_collidable_points` (nc,) flag is False; M (6 + n, 6 + n), J_WC and generalized_velocity in one
+        representation. Host NumPy (the step's impact is the kernels', `update_velocity_after_impact`)."""
+        inactive = np.asarray(inactive_collidable_points, dtype=bool)
+        M, J, nu = (np.asarray(a.numpy() if isinstance(a, wp.array) else a, dtype=np.float64) for a in (M, J_WC, generalized_velocity))
+        if J.ndim != 3 or J.shape[1] != 6 or J.shape[2] != M.shape[0] or inactive.shape != (J.shape[0],) or nu.shape != (M.shape[0],):
+            raise ValueError(f"compute_impact_velocity takes (nc,), (K, K), (nc, 6, K), (K,); got {inactive.shape}, {M.shape}, {J.shape}, {nu.shape}")
+        rows = np.where(inactive[:, None, None], 0.0, J[:, :3, :]).reshape(-1, M.shape[0])
+        m = rows.shape[0]
+        kkt = np.block([[M, -rows.T], [rows, np.zeros((m, m))]])
+        return np.linalg.lstsq(kkt, np.concatenate([M @ nu, np.zeros(m)]), rcond=None)[0][: M.shape[0]]
+
+    def update_velocity_after_impact(self, model, data):
+        """A copy of the data whose velocities jumped to the nearest (in the mass matrix's metric) at which every
+        point below the terrain is still (JaxSim's; `step` applies it after each step)."""
+        return _IMPACTS[RigidContacts](model, data)
+
+    def __repr__(self) -> str:
+        return f"RigidContacts(regularization_delassus={self.regularization_delassus}, solver_options={self._options})"
 
 
 def _points(value, name: str) -> np.ndarray:

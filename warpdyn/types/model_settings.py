@@ -13,9 +13,9 @@ import contextlib
 
 import numpy as np
 
-from .contact_models import SoftContacts
+from .contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts
 from .enums import IntegratorType
-from .settings import ActuationParams, SoftContactsParams
+from .settings import ActuationParams, RelaxedRigidContactsParams, RigidContactsParams, SoftContactsParams
 from .terrain import FlatTerrain, HeightfieldTerrain, PlaneTerrain
 
 __all__ = ["ModelSettings", "REPLACEABLE"]
@@ -106,11 +106,15 @@ class ModelSettings:
     terrain = _setting("terrain", _instance("terrain", FlatTerrain, PlaneTerrain, HeightfieldTerrain), "The terrain (warpdyn.terrain).")
     contact_model = _setting(
         "contact_model",
-        _instance("contact_model", SoftContacts),
-        "The contact model (warpdyn.rbda.contacts): SoftContacts, JaxSim's default (its rigid and relaxed-rigid "
-        "models are not in warpdyn yet).",
+        _instance("contact_model", SoftContacts, RigidContacts, RelaxedRigidContacts),
+        "The contact model (warpdyn.rbda.contacts): SoftContacts (JaxSim's default), RigidContacts or "
+        "RelaxedRigidContacts; assigning one without contact_params (replace, editable) sets its default parameters.",
     )
-    contact_params = _setting("contact_params", _instance("contact_params", SoftContactsParams), "The contact model's parameters.")
+    contact_params = _setting(
+        "contact_params",
+        _instance("contact_params", SoftContactsParams, RigidContactsParams, RelaxedRigidContactsParams),
+        "The contact model's parameters (the class its `parameters_class` names: a step refuses another).",
+    )
     actuation_params = _setting("actuation_params", _instance("actuation_params", ActuationParams), "The torque-speed curve.")
     implicit_damping = _setting(
         "implicit_damping",

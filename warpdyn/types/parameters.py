@@ -34,7 +34,6 @@ import numpy as np
 
 from ..description.model import caller_stacklevel
 from ..description.physical import UnphysicalInertiaWarning, inertia_faults
-from .settings import check_contact_value
 
 __all__ = [
     "Parameter",
@@ -305,6 +304,4 @@ def validate_parameters(model) -> None:
         if parameter.check is check_inertia and np.isfinite(value).all():
             detail = f"; principal moments {np.round(np.linalg.eigvalsh(0.5 * (value + value.T)), 9).tolist()}"
         raise ValueError(f"{name} of {where} is {shown} [{parameter.unit}]: {_REQUIREMENT[parameter.check]}{detail}")
-    contact = model.contact_params
-    for field in ("K", "D", "mu", "p", "q"):
-        check_contact_value(field, getattr(contact, field))
+    model.contact_params.check()

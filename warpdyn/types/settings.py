@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import warp as wp
 
 from .. import arrays
 
-__all__ = ["ContactsParams", "SoftContactsParams", "ActuationParams", "STANDARD_GRAVITY", "host_values", "check_contact_value", "CONTACT_UNITS", "MAX_STIFFNESS", "MAX_DAMPING"]
+__all__ = ["ContactsParams", "SoftContactsParams", "RigidContactsParams", "RelaxedRigidContactsParams", "ActuationParams", "STANDARD_GRAVITY", "host_values", "check_contact_value", "CONTACT_UNITS", "MAX_STIFFNESS", "MAX_DAMPING"]
 
 
 def host_values(value, name: str = "value") -> np.ndarray:
@@ -111,6 +112,10 @@ class ContactsParams:
         """Whether the parameters are in range (each model's class says)."""
         raise NotImplementedError(f"{type(self).__name__} does not say which of its values are valid")
 
+    def check(self) -> None:
+        """Raise a TypeError or ValueError naming the first field out of range (each model's class says)."""
+        raise NotImplementedError(f"{type(self).__name__} does not say which of its values are valid")
+
 
 def _number_or_array(x: np.ndarray):
     """A float for a 0-d array (a value shared by the environments), the array otherwise."""
@@ -144,6 +149,10 @@ class SoftContactsParams(ContactsParams):
     q: float = 0.5
 
     def __post_init__(self):
+        self.check()
+
+    def check(self) -> None:
+        """`check_contact_value` on each field, as they are now (a Warp array edited in place included)."""
         for name in ("K", "D", "mu", "p", "q"):
             check_contact_value(name, getattr(self, name))
 
@@ -160,6 +169,129 @@ class SoftContactsParams(ContactsParams):
         warpdyn's checks when made are stricter (K, D > 0; all finite)."""
         values = [np.asarray(host_values(getattr(self, name), name)) for name in ("K", "D", "mu", "p", "q")]
         return all(bool(np.all(v >= 0.0)) for v in values)
+
+
+def _checked_field(owner: str, name: str, value, per_env: bool, low: float, low_open: bool, high: float = np.inf, high_open: bool = False, why: str = "") -> None:
+    """A TypeError or ValueError naming `owner.name` and its first value outside [low, high] (an open end
+    excluded), or not finite; per_env: a number or (N,), else a number."""
+    field = f"{owner}.{name}"
+    host = host_values(value, field)
+    if host.ndim > (1 if per_env else 0):
+        raise ValueError(f"{field} must be {'a number or (N,)' if per_env else 'a number'}, got shape {host.shape}")
+    flat = np.atleast_1d(host)
+    bad = ~np.isfinite(flat) | (flat <= low if low_open else flat < low) | (flat >= high if high_open else flat > high)
+    if bad.any():
+        k = int(np.argmax(bad))
+        where = f" (environment {k})" if host.ndim == 1 else ""
+        interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open or not np.isfinite(high) else ']'}"
+        raise ValueError(f"{field} must be finite and in {interval}{': ' + why if why else ''}, got {flat[k]}{where}")
+
+
+@dataclasses.dataclass(frozen=True)
+class RigidContactsParams(ContactsParams):
+    """JaxSim's rigid-contact parameters and defaults (kernels/rigid_contacts.py has the law).
+
+    mu: the friction pyramid's coefficient; K [1/s^2] and D [1/s]: Baumgarte's terms, the reference acceleration
+    (K delta + D delta_dot) n of a penetrating point. Each a number or (N,) (one value per environment), finite and
+    non-negative (JaxSim 0.9.0's valid())."""
+
+    mu: float | np.ndarray = 0.5
+    K: float | np.ndarray = 0.0
+    D: float | np.ndarray = 0.0
+
+    def __post_init__(self):
+        self.check()
+
+    def check(self) -> None:
+        """Each field a number or (N,), finite and non-negative, as they are now."""
+        for name in ("mu", "K", "D"):
+            _checked_field("RigidContactsParams", name, getattr(self, name), True, 0.0, False)
+
+    @classmethod
+    def build(cls, *, mu=0.5, K=0.0, D=0.0, **kwargs) -> RigidContactsParams:
+        """JaxSim's constructor: the parameters, checked; other keywords are a TypeError naming them."""
+        if kwargs:
+            raise TypeError(f"RigidContactsParams.build() takes mu, K and D, got {sorted(kwargs)}")
+        return cls(mu=mu, K=K, D=D)
+
+    def valid(self) -> bool:
+        """JaxSim's check: mu, K, D >= 0."""
+        return all(bool(np.all(host_values(getattr(self, name), name) >= 0.0)) for name in ("mu", "K", "D"))
+
+
+_RELAXED_RANGES = {
+    # name: (per environment, low, low open, high, high open, why)
+    "time_constant": (False, 0.0, True, np.inf, False, "the reference acceleration's stiffness is 1 / (d_max time_constant damping_coefficient)^2 [1/s^2]"),
+    "damping_coefficient": (False, 0.0, True, np.inf, False, "JaxSim's valid() asks > 0"),
+    "d_min": (False, 0.0, False, 1.0, True, "an impedance"),
+    "d_max": (False, 0.0, True, 1.0, True, "an impedance; at 1 the regularisation R = 2 mu^2 (1 - xi) / xi vanishes and redundant contacts make the solve singular"),
+    "width": (False, 0.0, True, np.inf, False, "the impedance is a function of the penetration over width [m]"),
+    "midpoint": (False, 0.0, True, 1.0, True, "the impedance sigmoid's midpoint divides width's [0, 1]"),
+    "power": (False, 0.0, True, np.inf, False, "the impedance sigmoid's exponent"),
+    "mu": (True, 0.0, True, np.inf, False, "the regularisation R = 2 mu^2 (1 - xi) / xi (1 + mu^2) / m vanishes at mu = 0 and redundant contacts (a foot's corners) make the solve singular"),
+    "K": (False, -np.inf, False, np.inf, False, ""),
+    "D": (False, -np.inf, False, np.inf, False, ""),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class RelaxedRigidContactsParams(ContactsParams):
+    """JaxSim's relaxed-rigid parameters and defaults (kernels/rigid_contacts.py has the law): the time constant
+    [s] and damping coefficient of the reference acceleration, the impedance's d_min, d_max, width [m], midpoint
+    and power (MuJoCo's solimp), and mu, the friction coefficient of the regularisation (a number or (N,)).
+    K and D are JaxSim's fields, which its law never reads (its formula overwrites them with the time constant's
+    stiffness and damping): warpdyn keeps them for JaxSim's code and warns when they are given nonzero.
+
+    Checks (stricter than JaxSim's valid(), each saying why): time_constant, damping_coefficient, width and power
+    positive; 0 <= d_min <= d_max < 1; 0 < midpoint < 1; mu > 0."""
+
+    time_constant: float = 0.02
+    damping_coefficient: float = 1.0
+    d_min: float = 0.9
+    d_max: float = 0.95
+    width: float = 0.001
+    midpoint: float = 0.5
+    power: float = 2.0
+    K: float = 0.0
+    D: float = 0.0
+    mu: float | np.ndarray = 0.005
+
+    def __post_init__(self):
+        self.check()
+        unread = [name for name in ("K", "D") if float(getattr(self, name)) != 0.0]
+        if unread:
+            warnings.warn(
+                f"RelaxedRigidContactsParams.{' and '.join(unread)} {'are' if len(unread) > 1 else 'is'} not read: JaxSim 0.9.0's relaxed-rigid "
+                "law (and warpdyn's) takes its stiffness 1 / (d_max time_constant damping_coefficient)^2 and damping 2 / (d_max time_constant) "
+                "from time_constant and damping_coefficient; set those instead",
+                stacklevel=3,
+            )
+
+    def check(self) -> None:
+        """The ranges of the class docstring, as the fields are now; an error names the field, its value and why."""
+        for name, (per_env, low, low_open, high, high_open, why) in _RELAXED_RANGES.items():
+            _checked_field("RelaxedRigidContactsParams", name, getattr(self, name), per_env, low, low_open, high, high_open, why)
+        if float(self.d_min) > float(self.d_max):
+            raise ValueError(f"RelaxedRigidContactsParams needs d_min <= d_max, got d_min {self.d_min}, d_max {self.d_max}")
+
+    @classmethod
+    def build(cls, **kwargs) -> RelaxedRigidContactsParams:
+        """JaxSim's constructor: the given fields (the others at their defaults; None: the default), checked;
+        an unknown keyword is a TypeError naming it."""
+        unknown = sorted(set(kwargs) - set(_RELAXED_RANGES))
+        if unknown:
+            raise TypeError(f"RelaxedRigidContactsParams.build() takes {sorted(_RELAXED_RANGES)}, got {unknown}")
+        return cls(**{k: v for k, v in kwargs.items() if v is not None})
+
+    def valid(self) -> bool:
+        """JaxSim's check: time_constant >= 0, damping_coefficient > 0, 0 <= d_min <= d_max <= 1, width, midpoint,
+        power and mu >= 0."""
+        v = {name: host_values(getattr(self, name), name) for name in _RELAXED_RANGES}
+        return bool(
+            np.all(v["time_constant"] >= 0.0) and np.all(v["damping_coefficient"] > 0.0) and np.all(v["d_min"] >= 0.0) and np.all(v["d_max"] <= 1.0)
+            and np.all(v["d_min"] <= v["d_max"]) and np.all(v["width"] >= 0.0) and np.all(v["midpoint"] >= 0.0) and np.all(v["power"] >= 0.0)
+            and np.all(v["mu"] >= 0.0)
+        )
 
 
 @dataclasses.dataclass(frozen=True)

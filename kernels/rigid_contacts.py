@@ -1,0 +1,497 @@
+"""JaxSim 0.9.0's rigid and relaxed-rigid contacts (jaxsim.rbda.contacts.rigid, .relaxed_rigid): an environment's
+contact forces solved together from its mass matrix and its points' Jacobians, one thread per environment.
+
+The points' rows: an enabled point c at p [m, world] moving at p_dot [m/s] over the terrain (height h, unit normal
+n) penetrates by delta = max(0, (h - p_z) n_z) at the rate delta_dot = -p_dot.n; it is active where delta > 0.
+J_c (3 x K) is its linear Jacobian (Mixed rows, nu Inertial), a_c = J_c a_free + J̇ν_c its acceleration without
+contact forces (a_free: ABA's at the joint forces and the other link forces), G = J M^-1 J^T the active points'
+Delassus matrix. The force f_c (3, world axes) acts at the point; inactive points get none.
+
+- relaxed rigid (`relaxed_rigid_forces`): f = -(G + diag(R))^-1 (a - a_ref), per axis of a point, with
+  pos = -delta n and vel = p_dot: the impedance xi in [d_min, d_max] of |pos| / width (MuJoCo's solimp sigmoid with
+  `midpoint` and `power`; d_max beyond width), a_ref = -(D vel + K xi pos), K = 1 / (d_max tau zeta)^2,
+  D = 2 / (d_max tau) (tau the time constant, zeta the damping coefficient; JaxSim's formula overwrites its
+  parameters K and D, which it therefore never reads), R = 2 mu^2 (1 - xi) / (xi + 1e-12) (1 + mu^2) / m, m the
+  point's link's mass. JaxSim minimises |A f + b|^2 by L-BFGS; here A is factorised: its exact minimiser.
+- rigid (`rigid_forces`): f minimises 1/2 f^T (G + eps I) f + (a - beta)^T f over the friction pyramids
+  |f_x|, |f_y| <= mu f_z, f_z >= 0 (world axes, JaxSim's), beta = (K delta + D delta_dot) n (Baumgarte's terms),
+  solved by a primal-dual interior point (Mehrotra's predictor-corrector) until its residuals and complementarity
+  are below `tol` (JaxSim: qpax, an interior point too).
+- impact (`impact_velocities`, rigid, after each step): nu+ = nu - M^-1 J^T lambda with G lambda = J nu over the
+  points then active, the velocity nearest nu in M's metric at which every active point is still (JaxSim's
+  update_velocity_after_impact, a least-squares KKT solve). G is singular where the active rows outnumber the DoFs
+  they move: kernels/cholesky.py's `factor` drops its dependent rows, so lambda is one of the solutions and nu+ the unique one.
+
+The positive-definite solves (the relaxed-rigid A, the interior point's Newton matrix) drop a pivot that rounding
+made non-positive (float32 on a nearly singular system: four corners of a box on the ground are 12 rows of rank 6,
+regularised by 1e-6): that unknown is then 0, where a NaN would otherwise flag the environment.
+
+Forward only: no tape records these kernels.
+"""
+
+import types
+
+import warp as wp
+
+from .bundles import bundles
+from .cholesky import kernels as cholesky_kernels
+from .equality import kernels as equality_kernels
+from .factory import factory
+from .soft_contacts import kernels as soft_contact_kernels
+from .spatial import MIXED, spatial
+
+REGULARISATION_FLOOR = 1.0e-12
+"""JaxSim's 1e-12 added to the impedance xi in the relaxed-rigid regularisation R's denominator."""
+
+PYRAMID_ROWS = 5
+"""The inequality rows of a point's friction pyramid: f_x - mu f_z, f_y - mu f_z, -f_x - mu f_z, -f_y - mu f_z, -f_z."""
+
+DROPPED_PIVOT = 1.0e-10
+"""The impact's Cholesky (`factor`) drops a pivot below this fraction of its row's diagonal (a dependent row)."""
+
+
+@factory
+def kernels(scalar) -> types.SimpleNamespace:
+    """The rigid and relaxed-rigid contact kernels in `scalar`."""
+    sp, B = spatial(scalar), bundles(scalar)
+    C = cholesky_kernels(scalar)
+    E = equality_kernels(scalar)
+    T = soft_contact_kernels(scalar)
+
+    @wp.struct
+    class RigidLaw:
+        """A rigid model's parameters beside the Contacts bundle's (K, D, mu: Baumgarte's terms and the friction
+        coefficient, shared (1,) or per environment (N,)): the relaxed-rigid impedance (time_constant [s],
+        damping_coefficient, d_min, d_max, width [m], midpoint, power), the rigid QP's regularisation eps [m/s^2/N]
+        of the Delassus diagonal, its tolerance tol and its iteration limit; dof_parent (6 + nv,): the tree's DoF
+        parents (warpdyn.engine.equality.dof_parents)."""
+
+        time_constant: scalar
+        damping_coefficient: scalar
+        d_min: scalar
+        d_max: scalar
+        width: scalar
+        midpoint: scalar
+        power: scalar
+        eps: scalar
+        tol: scalar
+        iterations: int
+        dof_parent: wp.array(dtype=wp.int32)
+
+    @wp.func
+    def penetration(contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), env: int, c: int):
+        """(p, p_dot, n, delta, delta_dot) of enabled point c: its position and velocity [world], the terrain's
+        normal under it, its penetration and rate (0 out of contact; JaxSim's compute_penetration_data)."""
+        L = contacts.point_link[c]
+        p = wp.transform_point(W_H_L[env, L], contacts.L_p_C[c])
+        v = W_v_WL[env, L]
+        p_dot = sp.lin(v) + wp.cross(sp.ang(v), p)
+        h = T.terrain_height(terrain, T.height_parameter(terrain, env), p[0], p[1])
+        n = T.terrain_normal(terrain, p[0], p[1])
+        delta = wp.max(scalar(0.0), (h - p[2]) * n[2])
+        delta_dot = scalar(0.0)
+        if delta > scalar(0.0):
+            delta_dot = -wp.dot(p_dot, n)
+        return p, p_dot, n, delta, delta_dot
+
+    @wp.func
+    def solver_offset(model: B.Model):
+        """The first solved DoF: 0 with a floating base, 6 with a fixed one (its base DoFs do not move)."""
+        if model.floating_base != 0:
+            return 0
+        return 6
+
+    @wp.func
+    def delassus(
+        model: B.Model, law: RigidLaw, M: wp.array3d(dtype=scalar), J: wp.array3d(dtype=scalar), env: int, m: int, Lm: wp.array3d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar), w: wp.array2d(dtype=scalar), G: wp.array3d(dtype=scalar),
+    ):
+        """G[env, :m, :m] = J M^-1 J^T of the rows J[env, :m] and MinvJT[env, :m] = (M^-1 J^T)^T (M's LTDL factors in Lm)."""
+        K = M.shape[1]
+        off = solver_offset(model)
+        E.tree_factor(model, M, env, off, law.dof_parent, scalar(0.0), sp.mat66(scalar(0.0)), Lm)
+        for r in range(m):
+            for i in range(off, K):
+                w[env, i] = J[env, r, i]
+            E.tree_solve(Lm, env, off, law.dof_parent, w)
+            for i in range(off, K):
+                MinvJT[env, r, i] = w[env, i]
+        for r in range(m):
+            for q in range(r + 1):
+                s = scalar(0.0)
+                for c in range(off, K):
+                    s = s + J[env, r, c] * MinvJT[env, q, c]
+                G[env, r, q] = s
+                G[env, q, r] = s
+
+    @wp.func
+    def point_rows(
+        contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6),
+        J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), a_free: wp.array2d(dtype=scalar), env: int,
+        active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=scalar), a: wp.array2d(dtype=scalar),
+    ):
+        """The active points' rows: active[env, :k] their indices, J[env, 3 i + r] the rows of the i-th (K columns),
+        a[env, 3 i + r] = J a_free + J̇ν; returns k."""
+        K = J.shape[2]
+        k = int(0)
+        for c in range(contacts.point_link.shape[0]):
+            p, p_dot, n, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, c)
+            if delta > scalar(0.0):
+                active[env, k] = c
+                for r in range(3):
+                    s = Jdotnu_t[env, c, r]
+                    for i in range(K):
+                        J[env, 3 * k + r, i] = J_t[env, c, r, i]
+                        s = s + J_t[env, c, r, i] * a_free[env, i]
+                    a[env, 3 * k + r] = s
+                k = k + 1
+        return k
+
+    @wp.func
+    def write_forces(
+        contacts: B.Contacts, W_H_L: wp.array2d(dtype=sp.transform), env: int, k: int, active: wp.array2d(dtype=wp.int32),
+        f: wp.array2d(dtype=scalar), W_f_C: wp.array3d(dtype=scalar),
+    ):
+        """W_f_C[env] = the Inertial wrenches [f; p x f] of the active points' forces f[env, 3 i:3 i + 3], 0 elsewhere."""
+        for c in range(W_f_C.shape[1]):
+            for r in range(6):
+                W_f_C[env, c, r] = scalar(0.0)
+        for i in range(k):
+            c = active[env, i]
+            p = wp.transform_point(W_H_L[env, contacts.point_link[c]], contacts.L_p_C[c])
+            force = sp.vec3(f[env, 3 * i], f[env, 3 * i + 1], f[env, 3 * i + 2])
+            wrench = sp.stack(force, wp.cross(p, force))
+            for r in range(6):
+                W_f_C[env, c, r] = wrench[r]
+
+    @wp.func
+    def impedance(law: RigidLaw, distance: scalar):
+        """JaxSim's relaxed-rigid impedance xi of |pos| = distance [m] on one axis."""
+        one = scalar(1.0)
+        x = distance / law.width
+        mid = law.midpoint
+        pw = law.power
+        y = scalar(0.0)
+        if x < mid:
+            y = wp.pow(x, pw) / wp.pow(mid, pw - one)
+        elif x <= one:
+            y = one - wp.pow(one - x, pw) / wp.pow(one - mid, pw - one)
+        xi = wp.clamp(law.d_min + y * (law.d_max - law.d_min), law.d_min, law.d_max)
+        if x > one:
+            xi = law.d_max
+        return xi
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def relaxed_rigid_forces(
+        model: B.Model,
+        contacts: B.Contacts,
+        law: RigidLaw,
+        terrain: B.Terrain,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
+        J_t: wp.array4d(dtype=scalar),
+        Jdotnu_t: wp.array3d(dtype=scalar),
+        M: wp.array3d(dtype=scalar),
+        a_free: wp.array2d(dtype=scalar),
+        # scratch: active (N, P), J and MinvJT (N, 3P, K), Lm (N, K, K), A and LA (N, 3P, 3P), b, f, w (N, max(3P, K))
+        active: wp.array2d(dtype=wp.int32),
+        J: wp.array3d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar),
+        Lm: wp.array3d(dtype=scalar),
+        A: wp.array3d(dtype=scalar),
+        LA: wp.array3d(dtype=scalar),
+        b: wp.array2d(dtype=scalar),
+        f: wp.array2d(dtype=scalar),
+        w: wp.array2d(dtype=scalar),
+        # outputs
+        W_f_C: wp.array3d(dtype=scalar),
+    ):
+        """W_f_C (N, P, 6): the Inertial wrenches of the relaxed-rigid forces (the module docstring) from the link
+        poses and Inertial velocities (N, nL), the points' Jacobians J_t (N, P, 6, K) and J̇ν (N, P, 6) (Mixed, ν
+        Inertial), the mass matrix M (N, K, K) (Inertial base) and ABA's a_free (N, K)."""
+        env = wp.tid()
+        k = point_rows(contacts, terrain, W_H_L, W_v_WL, J_t, Jdotnu_t, a_free, env, active, J, b)
+        m = 3 * k
+        delassus(model, law, M, J, env, m, Lm, MinvJT, w, A)
+        mu = B.env_parameter(contacts.mu, env)
+        stiffness = scalar(1.0) / (law.d_max * law.time_constant * law.damping_coefficient) ** scalar(2.0)
+        damping = scalar(2.0) / (law.d_max * law.time_constant)
+        for i in range(k):
+            c = active[env, i]
+            p, p_dot, n, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, c)
+            mass = B.link_parameter(model.link_mass, env, contacts.point_link[c])
+            for r in range(3):
+                pos = -delta * n[r]
+                xi = impedance(law, wp.abs(pos))
+                a_ref = -(damping * p_dot[r] + stiffness * xi * pos)
+                b[env, 3 * i + r] = -(b[env, 3 * i + r] - a_ref)
+                R = scalar(2.0) * mu * mu * (scalar(1.0) - xi) / (xi + scalar(REGULARISATION_FLOOR)) * (scalar(1.0) + mu * mu) / mass
+                A[env, 3 * i + r, 3 * i + r] = A[env, 3 * i + r, 3 * i + r] + R
+        if m > 0:
+            C.factor(A, env, 0, m, scalar(0.0), LA)
+            C.substitute(LA, env, m, b, f, 0)
+        write_forces(contacts, W_H_L, env, k, active, f, W_f_C)
+
+    @wp.func
+    def pyramid_row(mu: scalar, j: int):
+        """Row j (0..4) of a point's friction pyramid G_c (h = 0): f_x - mu f_z, f_y - mu f_z, -f_x - mu f_z,
+        -f_y - mu f_z, -f_z."""
+        g = sp.vec3(scalar(0.0), scalar(0.0), -mu)
+        if j == 0:
+            g[0] = scalar(1.0)
+        elif j == 1:
+            g[1] = scalar(1.0)
+        elif j == 2:
+            g[0] = scalar(-1.0)
+        elif j == 3:
+            g[1] = scalar(-1.0)
+        else:
+            g[2] = scalar(-1.0)
+        return g
+
+    @wp.func
+    def newton_direction(
+        Q: wp.array3d(dtype=scalar), mu: scalar, env: int, n: int, s: wp.array2d(dtype=scalar), z: wp.array2d(dtype=scalar),
+        rd: wp.array2d(dtype=scalar), rp: wp.array2d(dtype=scalar), rc: wp.array2d(dtype=scalar), H: wp.array3d(dtype=scalar),
+        LH: wp.array3d(dtype=scalar), y: wp.array2d(dtype=scalar), dx: wp.array2d(dtype=scalar), ds: wp.array2d(dtype=scalar),
+        dz: wp.array2d(dtype=scalar),
+    ):
+        """The interior point's Newton step (dx, ds, dz) for the residuals rd = Q x + q + G^T z, rp = G x + s and
+        rc (complementarity, s z - sigma mu_gap + corrections): (Q + G^T S^-1 Z G) dx = -rd + G^T S^-1 (rc - Z rp),
+        ds = -rp - G dx, dz = -S^-1 (rc + Z ds). G is block-diagonal (a pyramid per point), so G^T S^-1 Z G is too."""
+        for r in range(n):
+            for c in range(n):
+                H[env, r, c] = Q[env, r, c]
+            y[env, r] = -rd[env, r]
+        for i in range(n // 3):
+            for j in range(PYRAMID_ROWS):
+                row = PYRAMID_ROWS * i + j
+                g = pyramid_row(mu, j)
+                weight = z[env, row] / s[env, row]
+                extra = (rc[env, row] - z[env, row] * rp[env, row]) / s[env, row]
+                for r in range(3):
+                    y[env, 3 * i + r] = y[env, 3 * i + r] + g[r] * extra
+                    for c in range(3):
+                        H[env, 3 * i + r, 3 * i + c] = H[env, 3 * i + r, 3 * i + c] + weight * g[r] * g[c]
+        C.factor(H, env, 0, n, scalar(0.0), LH)
+        C.substitute(LH, env, n, y, dx, 0)
+        for i in range(n // 3):
+            for j in range(PYRAMID_ROWS):
+                row = PYRAMID_ROWS * i + j
+                g = pyramid_row(mu, j)
+                gdx = g[0] * dx[env, 3 * i] + g[1] * dx[env, 3 * i + 1] + g[2] * dx[env, 3 * i + 2]
+                ds[env, row] = -rp[env, row] - gdx
+                dz[env, row] = -(rc[env, row] + z[env, row] * ds[env, row]) / s[env, row]
+
+    @wp.func
+    def step_to_boundary(env: int, count: int, s: wp.array2d(dtype=scalar), z: wp.array2d(dtype=scalar), ds: wp.array2d(dtype=scalar), dz: wp.array2d(dtype=scalar)):
+        """The largest alpha in (0, 1] with s + alpha ds >= 0 and z + alpha dz >= 0."""
+        alpha = scalar(1.0)
+        for row in range(count):
+            if ds[env, row] < scalar(0.0):
+                alpha = wp.min(alpha, -s[env, row] / ds[env, row])
+            if dz[env, row] < scalar(0.0):
+                alpha = wp.min(alpha, -z[env, row] / dz[env, row])
+        return alpha
+
+    @wp.func
+    def residuals(
+        Q: wp.array3d(dtype=scalar), q: wp.array2d(dtype=scalar), mu: scalar, env: int, n: int, x: wp.array2d(dtype=scalar),
+        s: wp.array2d(dtype=scalar), z: wp.array2d(dtype=scalar), rd: wp.array2d(dtype=scalar), rp: wp.array2d(dtype=scalar),
+    ):
+        """rd = Q x + q + G^T z, rp = G x + s; returns (max |rd|, max |rp|, the mean s z)."""
+        worst_d = scalar(0.0)
+        worst_p = scalar(0.0)
+        gap = scalar(0.0)
+        for r in range(n):
+            t = q[env, r]
+            for c in range(n):
+                t = t + Q[env, r, c] * x[env, c]
+            rd[env, r] = t
+        for i in range(n // 3):
+            for j in range(PYRAMID_ROWS):
+                row = PYRAMID_ROWS * i + j
+                g = pyramid_row(mu, j)
+                for r in range(3):
+                    rd[env, 3 * i + r] = rd[env, 3 * i + r] + g[r] * z[env, row]
+                rp[env, row] = g[0] * x[env, 3 * i] + g[1] * x[env, 3 * i + 1] + g[2] * x[env, 3 * i + 2] + s[env, row]
+                worst_p = wp.max(worst_p, wp.abs(rp[env, row]))
+                gap = gap + s[env, row] * z[env, row]
+        for r in range(n):
+            worst_d = wp.max(worst_d, wp.abs(rd[env, r]))
+        return worst_d, worst_p, gap / scalar(float(PYRAMID_ROWS)) / scalar(n // 3)
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def rigid_forces(
+        model: B.Model,
+        contacts: B.Contacts,
+        law: RigidLaw,
+        terrain: B.Terrain,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
+        J_t: wp.array4d(dtype=scalar),
+        Jdotnu_t: wp.array3d(dtype=scalar),
+        M: wp.array3d(dtype=scalar),
+        a_free: wp.array2d(dtype=scalar),
+        # scratch: active (N, P), J and MinvJT (N, 3P, K), Lm (N, K, K), Q, H and LH (N, 3P, 3P), the vectors
+        # q, x, rd, dx, y (N, max(3P, K)) and s, z, rp, rc, ds, dz, ds_aff, dz_aff (N, 5P)
+        active: wp.array2d(dtype=wp.int32),
+        J: wp.array3d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar),
+        Lm: wp.array3d(dtype=scalar),
+        Q: wp.array3d(dtype=scalar),
+        H: wp.array3d(dtype=scalar),
+        LH: wp.array3d(dtype=scalar),
+        q: wp.array2d(dtype=scalar),
+        x: wp.array2d(dtype=scalar),
+        rd: wp.array2d(dtype=scalar),
+        dx: wp.array2d(dtype=scalar),
+        y: wp.array2d(dtype=scalar),
+        s: wp.array2d(dtype=scalar),
+        z: wp.array2d(dtype=scalar),
+        rp: wp.array2d(dtype=scalar),
+        rc: wp.array2d(dtype=scalar),
+        ds: wp.array2d(dtype=scalar),
+        dz: wp.array2d(dtype=scalar),
+        ds_aff: wp.array2d(dtype=scalar),
+        dz_aff: wp.array2d(dtype=scalar),
+        # outputs
+        W_f_C: wp.array3d(dtype=scalar),
+    ):
+        """W_f_C (N, P, 6): the Inertial wrenches of the rigid forces (the module docstring; inputs as
+        `relaxed_rigid_forces`'). Mehrotra's predictor-corrector from CVXOPT's start (x from (Q + G^T G) x = -q,
+        s = -G x and z = G x shifted to be positive), at most law.iterations iterations, until the residuals and
+        the mean complementarity are below law.tol (relative to 1 + max |q|)."""
+        env = wp.tid()
+        k = point_rows(contacts, terrain, W_H_L, W_v_WL, J_t, Jdotnu_t, a_free, env, active, J, q)
+        n = 3 * k
+        mu = B.env_parameter(contacts.mu, env)
+        if n > 0:
+            delassus(model, law, M, J, env, n, Lm, MinvJT, y, Q)
+            scale = scalar(1.0)
+            for i in range(k):
+                c = active[env, i]
+                p, p_dot, nrm, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, c)
+                beta = (B.env_parameter(contacts.K, env) * delta + B.env_parameter(contacts.D, env) * delta_dot) * nrm
+                for r in range(3):
+                    q[env, 3 * i + r] = q[env, 3 * i + r] - beta[r]
+                    scale = wp.max(scale, wp.abs(q[env, 3 * i + r]))
+                    Q[env, 3 * i + r, 3 * i + r] = Q[env, 3 * i + r, 3 * i + r] + law.eps
+            rows = PYRAMID_ROWS * k
+            # CVXOPT's start: the solve with S = Z = I and rc = rp = 0 is (Q + G^T G) x = -q; then s = -G x, z = G x
+            for row in range(rows):
+                s[env, row] = scalar(1.0)
+                z[env, row] = scalar(1.0)
+                rp[env, row] = scalar(0.0)
+                rc[env, row] = scalar(0.0)
+            for r in range(n):
+                rd[env, r] = q[env, r]
+            newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, x, ds, dz)
+            lowest_s = scalar(0.0)
+            lowest_z = scalar(0.0)
+            for row in range(rows):
+                s[env, row] = ds[env, row]
+                z[env, row] = -ds[env, row]
+                lowest_s = wp.min(lowest_s, s[env, row])
+                lowest_z = wp.min(lowest_z, z[env, row])
+            for row in range(rows):
+                s[env, row] = s[env, row] - lowest_s + scalar(1.0)
+                z[env, row] = z[env, row] - lowest_z + scalar(1.0)
+            for _ in range(law.iterations):
+                worst_d, worst_p, gap = residuals(Q, q, mu, env, n, x, s, z, rd, rp)
+                if (worst_d <= law.tol * scale and worst_p <= law.tol * scale and gap <= law.tol * scale) or not gap > scalar(0.0):
+                    break  # converged, or complementarity exhausted (no step can improve it)
+                # predictor: rc = s z
+                for row in range(rows):
+                    rc[env, row] = s[env, row] * z[env, row]
+                newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, dx, ds_aff, dz_aff)
+                alpha = step_to_boundary(env, rows, s, z, ds_aff, dz_aff)
+                gap_aff = scalar(0.0)
+                for row in range(rows):
+                    gap_aff = gap_aff + (s[env, row] + alpha * ds_aff[env, row]) * (z[env, row] + alpha * dz_aff[env, row])
+                sigma = (gap_aff / scalar(float(rows)) / gap) ** scalar(3.0)
+                # corrector: rc = s z + ds_aff dz_aff - sigma gap
+                for row in range(rows):
+                    rc[env, row] = s[env, row] * z[env, row] + ds_aff[env, row] * dz_aff[env, row] - sigma * gap
+                newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, dx, ds, dz)
+                alpha = wp.min(scalar(1.0), scalar(0.99) * step_to_boundary(env, rows, s, z, ds, dz))
+                for r in range(n):
+                    x[env, r] = x[env, r] + alpha * dx[env, r]
+                for row in range(rows):
+                    s[env, row] = s[env, row] + alpha * ds[env, row]
+                    z[env, row] = z[env, row] + alpha * dz[env, row]
+        write_forces(contacts, W_H_L, env, k, active, x, W_f_C)
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def impact_velocities(
+        model: B.Model,
+        contacts: B.Contacts,
+        law: RigidLaw,
+        terrain: B.Terrain,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
+        J_t: wp.array4d(dtype=scalar),
+        M: wp.array3d(dtype=scalar),
+        # scratch: active (N, P), J and MinvJT (N, 3P, K), Lm (N, K, K), G and LG (N, 3P, 3P), c, lam, w (N, max(3P, K))
+        active: wp.array2d(dtype=wp.int32),
+        J: wp.array3d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar),
+        Lm: wp.array3d(dtype=scalar),
+        G: wp.array3d(dtype=scalar),
+        LG: wp.array3d(dtype=scalar),
+        c: wp.array2d(dtype=scalar),
+        lam: wp.array2d(dtype=scalar),
+        w: wp.array2d(dtype=scalar),
+        # the state, whose velocities are replaced
+        state: B.State,
+    ):
+        """The state's velocities after JaxSim's impact (the module docstring) at its link poses and Inertial
+        velocities (N, nL), the points' Jacobians J_t (N, P, 6, K) (Mixed, ν Inertial) and M (N, K, K) (Inertial
+        base); a fixed base's velocity is left as it is."""
+        env = wp.tid()
+        K = M.shape[1]
+        k = int(0)
+        for p_i in range(contacts.point_link.shape[0]):
+            p, p_dot, n, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, p_i)
+            if delta > scalar(0.0):
+                for r in range(3):
+                    for i in range(K):
+                        J[env, 3 * k + r, i] = J_t[env, p_i, r, i]
+                k = k + 1
+        m = 3 * k
+        if m > 0:
+            off = solver_offset(model)
+            W_H_B = B.base_pose(state, env)
+            nu = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env))
+            delassus(model, law, M, J, env, m, Lm, MinvJT, w, G)
+            for r in range(m):
+                t = scalar(0.0)
+                for i in range(off, K):
+                    v_i = scalar(0.0)
+                    if i < 6:
+                        v_i = nu[i]
+                    else:
+                        v_i = state.joint_velocities[env, i - 6]
+                    t = t + J[env, r, i] * v_i
+                c[env, r] = t
+            C.factor(G, env, 0, m, scalar(DROPPED_PIVOT), LG)
+            C.substitute(LG, env, m, c, lam, 0)
+            for i in range(off, K):
+                t = scalar(0.0)
+                for r in range(m):
+                    t = t + MinvJT[env, r, i] * lam[env, r]
+                w[env, i] = t
+            for i in range(6, K):
+                state.joint_velocities[env, i - 6] = state.joint_velocities[env, i - 6] - w[env, i]
+            if off == 0:
+                nu_plus = nu - sp.vec6(w[env, 0], w[env, 1], w[env, 2], w[env, 3], w[env, 4], w[env, 5])
+                mixed = sp.inertial_to_repr(MIXED, W_H_B, nu_plus)
+                for r in range(6):
+                    state.base_velocity[env, r] = mixed[r]
+
+    return types.SimpleNamespace(
+        RigidLaw=RigidLaw,
+        relaxed_rigid_forces=relaxed_rigid_forces,
+        rigid_forces=rigid_forces,
+        impact_velocities=impact_velocities,
+    )

@@ -1,0 +1,267 @@
+"""JaxSim's rigid and relaxed-rigid contact models (kernels/rigid_contacts.py) against JaxSim 0.9.0
+(tests/jaxsim/contact_models.npz, from tests/jaxsim/generate_contact_models.py), and their parameters' checks.
+
+Tolerances, float64:
+- the relaxed-rigid law is a linear solve, which warpdyn factorises and JaxSim minimises by L-BFGS (asked here for
+  tol 1e-12, 1000 iterations). On the box JaxSim's iterate is converged: forces equal to 1e-10 of their scale, the
+  300 steps' states to 1e-10 (measured 8.7e-12). The hopper's system is ill-conditioned (its feet's many points give a Delassus matrix
+  of low rank, regularised by R ~ 1e-6 / m): JaxSim's iterate is not converged (its residual |A f + b| is checked
+  larger than warpdyn's), the forces differ in G's near-null space (internal forces that cancel in J^T f), so the
+  states differ by rounding that grows over the rollout (measured 1.8e-6 after 300 steps; bound 1e-5).
+- the rigid law is a QP that both solve by an interior point (JaxSim's qpax at solver_tol 1e-10, warpdyn's at its
+  default 1e-10): forces within 1e-8 of their scale (measured 3.5e-11), the states of 300 steps within 1e-8
+  (measured: 1.7e-9 after the hopper's first step and its impact, 1e-10 later; the box 6e-11). JaxSim's own
+  rollout is not the reference there: its impact leaves stale link velocities in its data
+  (tests/jaxsim/generate_contact_models.py), so the reference steps from data rebuilt at each state.
+"""
+
+from __future__ import annotations
+
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+import warp as wp
+
+import warpdyn as wd
+from warpdyn.rbda import contacts
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests" / "jaxsim"))
+
+import cases  # noqa: E402
+from generate_contact_models import CONTACT_CASES, EVERY, STEPS  # noqa: E402
+
+REFERENCE = np.load(ROOT / "tests" / "jaxsim" / "contact_models.npz")
+
+
+def _model(name: str, dtype=wp.float64, **options):
+    case = CONTACT_CASES[name]
+    spec = cases.MODELS[case["model"]]
+    model = wd.model.JaxSimModel.build_from_model_description(ROOT / spec["path"], considered_joints=spec["considered_joints"], dtype=dtype)
+    kind = getattr(contacts, case["contact_model"])
+    return model.replace(contact_model=kind.build(**options), contact_params=kind.parameters_class(**case["params"]))
+
+
+def _data(name: str, model):
+    kwargs = cases.state(CONTACT_CASES[name]["model"], model.joint_names(), model.floating_base())
+    return wd.data.JaxSimModelData.build(model=model, velocity_representation=wd.VelRepr.Inertial, **kwargs)
+
+
+def _state(data) -> np.ndarray:
+    values = (data.base_position, data.base_orientation, data.joint_positions, data.base_velocity, data.joint_velocities)
+    return np.concatenate([np.asarray(v.numpy()).ravel() for v in values])
+
+
+def _forces(name: str, model, data) -> np.ndarray:
+    x = cases.inputs(CONTACT_CASES[name]["model"], model.dofs(), model.number_of_links())
+    forces, aux = model.contact_model.compute_contact_forces(model, data, joint_force_references=x["tau"])
+    assert aux == {}
+    return forces.numpy()
+
+
+@pytest.mark.parametrize("name", ["relaxed_box", "rigid_box", "rigid_hopper"])
+def test_forces_and_rollout_equal_jaxsim(name):
+    model = _model(name)
+    data = _data(name, model)
+    expected = REFERENCE[f"{name}/forces"]
+    forces = _forces(name, model, data)
+    tolerance = 1e-10 if name.startswith("relaxed") else 1e-8
+    np.testing.assert_allclose(forces, expected, rtol=0, atol=tolerance * np.abs(expected).max())
+    states = []
+    for k in range(STEPS + 1):
+        if k % EVERY == 0 or k == 1:
+            states.append(_state(data))
+        if k < STEPS:
+            data = wd.model.step(model, data, joint_force_references=np.zeros(model.dofs()))
+    reference = REFERENCE[f"{name}/states"]
+    np.testing.assert_allclose(states, reference, rtol=0, atol=1e-10 if name.startswith("relaxed") else 1e-8)
+
+
+def _relaxed_rigid_system(model, data, tau) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(A, b, active) of JaxSim's relaxed-rigid law at the data's state on a flat terrain at 0, from warpdyn's public
+    quantities in the Mixed representation (JaxSim's computation, written here in NumPy): its forces minimise
+    |A f + b| over the active points' rows."""
+    c = model.contact_params
+    with data.switch_velocity_representation(wd.VelRepr.Mixed):
+        return _relaxed_rigid_rows(model, data, tau, c)
+
+
+def _relaxed_rigid_rows(model, mixed, tau, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    M = wd.model.free_floating_mass_matrix(model, mixed).numpy()
+    a_free = np.concatenate([a.numpy() for a in wd.model.forward_dynamics_aba(model, mixed, joint_forces=tau)])
+    J = wd.contact.jacobian(model, mixed).numpy()[:, :3]
+    Jdot = wd.contact.jacobian_derivative(model, mixed).numpy()[:, :3]
+    nu = mixed.generalized_velocity.numpy()
+    p, v = (a.numpy() for a in wd.contact.collidable_point_kinematics(model, mixed))
+    active = p[:, 2] < 0.0
+    pos = np.zeros_like(p)
+    pos[:, 2] = p[:, 2]  # -delta n
+    x = np.abs(pos) / c.width
+    y = np.where(x < c.midpoint, x**c.power / c.midpoint ** (c.power - 1), 1 - (1 - x) ** c.power / (1 - c.midpoint) ** (c.power - 1))
+    xi = np.where(x > 1, c.d_max, np.clip(c.d_min + y * (c.d_max - c.d_min), c.d_min, c.d_max))
+    K, D = 1 / (c.d_max * c.time_constant * c.damping_coefficient) ** 2, 2 / (c.d_max * c.time_constant)
+    a_ref = -(D * v + K * xi * pos)
+    links = np.asarray(model.kin_dyn_parameters.contact_parameters.body)[model.kin_dyn_parameters.contact_parameters.indices_of_enabled_collidable_points]
+    mass = model.link_mass.numpy().reshape(-1)[links][:, None]
+    R = 2 * c.mu**2 * (1 - xi) / (xi + 1e-12) * (1 + c.mu**2) / mass
+    Ja = J[active].reshape(-1, M.shape[0])
+    A = Ja @ np.linalg.solve(M, Ja.T) + np.diag(R[active].ravel())
+    b = (np.einsum("cak,k->ca", J, a_free) + np.einsum("cak,k->ca", Jdot, nu) - a_ref)[active].ravel()
+    return A, b, active
+
+
+def test_relaxed_rigid_solves_what_jaxsim_approximates():
+    """The hopper (module docstring): warpdyn's forces minimise JaxSim's objective |A f + b| (its system rebuilt in
+    NumPy from warpdyn's public quantities) to rounding (residual 1e-10 of |b|, measured); JaxSim's L-BFGS iterate
+    leaves 1e-5 of |b| (measured), so the states differ by more than the box's."""
+    name = "relaxed_hopper"
+    model = _model(name)
+    data = _data(name, model)
+    tau = cases.inputs("hopper", model.dofs(), model.number_of_links())["tau"]
+    A, b, active = _relaxed_rigid_system(model, data, tau)
+    ours, theirs = _forces(name, model, data)[active][:, :3].ravel(), REFERENCE[f"{name}/forces"][active][:, :3].ravel()
+    exact = -np.linalg.solve(A, b)
+    np.testing.assert_allclose(ours, exact, rtol=0, atol=1e-8 * np.abs(exact).max())
+    assert np.abs(A @ ours + b).max() < 1e-8 * np.abs(b).max()
+    assert np.abs(A @ theirs + b).max() > 1e-6 * np.abs(b).max()
+    states = []
+    for k in range(STEPS + 1):
+        if k % EVERY == 0 or k == 1:
+            states.append(_state(data))
+        if k < STEPS:
+            data = wd.model.step(model, data, joint_force_references=np.zeros(model.dofs()))
+    np.testing.assert_allclose(states, REFERENCE[f"{name}/states"], rtol=0, atol=1e-5)
+
+
+def test_default_relaxed_solver_options_change_jaxsim_not_warpdyn():
+    """JaxSim's default L-BFGS (50 iterations, tol 1e-6) stops far from the minimiser on the box; warpdyn's exact
+    solve takes the options and ignores them: its forces do not change."""
+    name = "relaxed_box"
+    data = _data(name, _model(name))
+    exact = _forces(name, _model(name), data)
+    loose = _forces(name, _model(name, solver_options={"tol": 1e-6, "maxiter": 50}), data)
+    np.testing.assert_array_equal(exact, loose)
+    assert np.abs(REFERENCE[f"{name}/forces_default"] - REFERENCE[f"{name}/forces"]).max() > 1e-3
+
+
+def test_rigid_impact_stops_the_penetrating_points():
+    """After each step, the points below the terrain are still (JaxSim's impact); the others move."""
+    name = "rigid_box"
+    model = _model(name)
+    data = wd.model.step(model, _data(name, model), joint_force_references=np.zeros(model.dofs()))
+    p, v = (a.numpy() for a in wd.contact.collidable_point_kinematics(model, data))
+    below = p[:, 2] < 0.0
+    assert below.any() and not below.all()
+    np.testing.assert_allclose(v[below], 0.0, atol=1e-12)
+    assert np.abs(v[~below]).max() > 1e-3
+
+
+def test_per_environment_friction_equals_separate_runs():
+    name = "rigid_box"
+    mus = np.array([0.2, 0.9])
+    base = _model(name)
+    batched = base.replace(contact_params=contacts.RigidContactsParams(mu=mus, K=1e4, D=100.0))
+    kwargs = cases.state("box", base.joint_names(), True)
+    data = wd.data.JaxSimModelData.build(model=batched, num_envs=2, velocity_representation=wd.VelRepr.Inertial, **kwargs)
+    for _ in range(5):
+        data = wd.model.step(batched, data)
+    for env, mu in enumerate(mus):
+        single = base.replace(contact_params=contacts.RigidContactsParams(mu=mu, K=1e4, D=100.0))
+        one = wd.data.JaxSimModelData.build(model=single, velocity_representation=wd.VelRepr.Inertial, **kwargs)
+        for _ in range(5):
+            one = wd.model.step(single, one)
+        np.testing.assert_allclose(data.base_velocity.numpy()[env], one.base_velocity.numpy(), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["RigidContacts", "RelaxedRigidContacts"])
+def test_float32_box_comes_to_rest(kind):
+    """A box dropped on the ground in float32 comes to rest on it: finite, no drift, its lowest corner at the
+    ground within the law's sink (relaxed rigid: a few millimetres; rigid: Baumgarte's)."""
+    model = wd.model.JaxSimModel.build_from_model_description(ROOT / "tests" / "jaxsim" / "box.sdf", dtype=wp.float32)
+    model = model.replace(contact_model=getattr(contacts, kind).build())
+    if kind == "RigidContacts":
+        model = model.replace(contact_params=contacts.RigidContactsParams(K=1e4, D=200.0))
+    data = wd.data.JaxSimModelData.build(model=model, base_position=np.array([0.0, 0.0, 0.12]))
+    for _ in range(1500):
+        data = wd.model.step(model, data)
+    assert bool(data.healthy.numpy().all())
+    p = wd.contact.collidable_point_positions(model, data).numpy()
+    assert abs(p[:, 2].min()) < 5e-3
+    assert np.abs(data.base_velocity.numpy()).max() < 1e-2
+
+
+def test_solved_models_refuse_gradients():
+    name = "relaxed_box"
+    model = _model(name)
+    data = _data(name, model)
+    data = wd.data.JaxSimModelData.build(model=model, requires_grad=True, base_position=data.base_position.numpy())
+    with pytest.raises(NotImplementedError, match="no adjoint yet"):
+        with wp.Tape():
+            wd.model.step(model, data)
+
+
+def test_parameters_are_checked_and_named():
+    with pytest.raises(ValueError, match=r"RelaxedRigidContactsParams.mu .*vanishes at mu = 0"):
+        contacts.RelaxedRigidContactsParams(mu=0.0)
+    with pytest.raises(ValueError, match=r"RelaxedRigidContactsParams.d_max"):
+        contacts.RelaxedRigidContactsParams(d_max=1.0)
+    with pytest.raises(ValueError, match=r"d_min <= d_max"):
+        contacts.RelaxedRigidContactsParams(d_min=0.95, d_max=0.9)
+    with pytest.raises(ValueError, match=r"RigidContactsParams.K .*got -1.0"):
+        contacts.RigidContactsParams(K=-1.0)
+    with pytest.raises(ValueError, match=r"environment 1"):
+        contacts.RigidContactsParams(mu=np.array([0.5, np.nan]))
+    with pytest.warns(UserWarning, match=r"RelaxedRigidContactsParams.K is not read"):
+        contacts.RelaxedRigidContactsParams.build(K=1e5)
+    with pytest.raises(TypeError, match=r"solver_options are .*got \['tolerance'\]"):
+        contacts.RigidContacts.build(solver_options={"tolerance": 1e-3})
+    assert contacts.RigidContactsParams().valid() and contacts.RelaxedRigidContactsParams().valid()
+
+
+def test_a_model_and_parameters_of_another_model_are_refused():
+    model = _model("rigid_box")
+    model.contact_params = contacts.SoftContactsParams()
+    with pytest.raises(ValueError, match=r"contact_params is a SoftContactsParams, but model.contact_model \(RigidContacts\) takes RigidContactsParams"):
+        wd.model.step(model, _data("rigid_box", model))
+
+
+def test_replacing_the_model_sets_its_default_parameters():
+    model = wd.model.JaxSimModel.build_from_model_description(ROOT / "tests" / "jaxsim" / "box.sdf")
+    relaxed = model.replace(contact_model=contacts.RelaxedRigidContacts.build())
+    assert relaxed.contact_params == contacts.RelaxedRigidContactsParams()
+    assert contacts.RigidContacts.build(regularization_delassus=1e-5) != contacts.RigidContacts.build()
+
+
+def test_update_velocity_after_impact_is_the_steps_impact():
+    """JaxSim's RigidContacts.update_velocity_after_impact on a state equals the impact that ends a step there:
+    the points below the terrain are still, the positions unchanged, the data given untouched."""
+    name = "rigid_box"
+    model = _model(name)
+    data = _data(name, model)
+    after = model.contact_model.update_velocity_after_impact(model, data)
+    np.testing.assert_array_equal(after.base_position.numpy(), data.base_position.numpy())
+    p, v = (a.numpy() for a in wd.contact.collidable_point_kinematics(model, after))
+    np.testing.assert_allclose(v[p[:, 2] < 0.0], 0.0, atol=1e-12)
+    assert np.abs(wd.contact.collidable_point_velocities(model, data).numpy()[p[:, 2] < 0.0]).max() > 1e-2
+
+
+def test_compute_impact_velocity_is_the_kernels():
+    """JaxSim's host formula (a least-squares KKT solve) gives the step's impact velocity: the kernels' drop of
+    the Delassus matrix's dependent rows picks the same velocity (the box's four corners on the ground: 12 rows of
+    rank 6, a singular system)."""
+    name = "rigid_box"
+    model = _model(name)
+    data = wd.data.JaxSimModelData.build(
+        model=model, velocity_representation=wd.VelRepr.Mixed, base_position=np.array([0.0, 0.0, 0.099]),
+        base_linear_velocity=np.array([0.3, -0.2, -0.5]), base_angular_velocity=np.array([0.1, 0.4, -0.3]),
+    )
+    p = wd.contact.collidable_point_positions(model, data).numpy()
+    assert (p[:, 2] < 0.0).sum() == 4
+    expected = contacts.RigidContacts.compute_impact_velocity(
+        p[:, 2] >= 0.0, wd.model.free_floating_mass_matrix(model, data), wd.contact.jacobian(model, data), data.generalized_velocity
+    )
+    after = model.contact_model.update_velocity_after_impact(model, data)
+    np.testing.assert_allclose(after.generalized_velocity.numpy(), expected, rtol=0, atol=1e-12)
+    assert model.contact_model.update_contact_state({"m_dot": 1}) == {}
