@@ -265,3 +265,24 @@ def test_compute_impact_velocity_is_the_kernels():
     after = model.contact_model.update_velocity_after_impact(model, data)
     np.testing.assert_allclose(after.generalized_velocity.numpy(), expected, rtol=0, atol=1e-12)
     assert model.contact_model.update_contact_state({"m_dot": 1}) == {}
+
+
+def test_unstable_reference_accelerations_are_refused_with_the_stable_step():
+    """The solved models' reference accelerations (relaxed rigid: a_ref; rigid: Baumgarte's K and D) are an
+    oscillator per penetrating point, integrated explicitly: a step beyond its stable dt is refused with that dt in
+    the message; one just below it runs (and stays healthy on the box at rest on the ground)."""
+    box = wd.model.JaxSimModel.build_from_model_description(ROOT / "tests" / "jaxsim" / "box.sdf", dtype=wp.float64)
+    relaxed = box.replace(contact_model=contacts.RelaxedRigidContacts.build(), time_step=0.02)
+    data = wd.data.JaxSimModelData.build(model=relaxed, base_position=np.array([0.0, 0.0, 0.0999]))
+    with pytest.raises(ValueError, match=r"time_constant = 0.02 s.*take time_step < 0.0159 s, or a larger time_constant"):
+        wd.model.step(relaxed, data)
+    relaxed.time_step = 0.015
+    for _ in range(50):
+        data = wd.model.step(relaxed, data)
+    assert bool(data.healthy.numpy().all())
+    rigid = box.replace(contact_model=contacts.RigidContacts.build(), contact_params=contacts.RigidContactsParams(K=1e6, D=0.0), time_step=3e-3)
+    with pytest.raises(ValueError, match=r"RigidContactsParams K = 1e\+06, D = 0.*take time_step < 0.002 s"):
+        wd.model.step(rigid, wd.data.JaxSimModelData.build(model=rigid))
+    rigid.time_step = 2.5e-3
+    rigid.integrator = wd.model.IntegratorType.RungeKutta4
+    wd.model.step(rigid, wd.data.JaxSimModelData.build(model=rigid))  # RK4's region reaches further (2.83 / sqrt(K))

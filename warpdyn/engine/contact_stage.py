@@ -45,12 +45,13 @@ from ..kernels.velocities import kernels as velocity_kernels
 from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts
 from ..types.enums import VelRepr
 from ..types.model_constants import transforms
+from ..types.settings import host_values
 from . import tape
 from .bundles import controls_bundle, per_env
 from .equality import dof_parents
 from .kinematics import targets
 from .launch import Launch
-from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, contact_reach
+from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, check_reference_stability, contact_reach
 
 __all__ = ["ContactStage", "SoftContactStage", "RigidContactStage", "RelaxedRigidContactStage", "STAGES", "stage_for", "contacts_per_environment"]
 
@@ -196,6 +197,17 @@ class RigidContactStage(ContactStage):
         self.aba = aba_kernels(s, "tuned", multi).aba
         self.fk = kinematics_kernels(s, multi).forward_kinematics
         self.check_rate, self.check_reach = s(0.0), s(-1.0)  # the device check's soft-law terms do not apply
+        reach = contact_reach(model) if self.count > 0 else ContactReach(0.0, False, "")
+        if reach.may_touch:
+            self.check_stability(model, c, integrator, reach.why)
+
+    @staticmethod
+    def check_stability(model, c, integrator, why: str) -> None:
+        """Refuse a time step at which Baumgarte's terms (K, D; their largest values over the environments) are
+        unstable (warpdyn.engine.stability's `check_reference_stability`)."""
+        K, D = (float(np.max(host_values(getattr(c, name), f"RigidContactsParams.{name}"))) for name in ("K", "D"))
+        what = f"RigidContactsParams K = {K:g}, D = {D:g}"
+        check_reference_stability(model.time_step, K, D, integrator, what, "smaller K and D (Baumgarte's terms)", why)
 
     @staticmethod
     def baumgarte(c, s, d) -> tuple:
@@ -320,6 +332,16 @@ class RelaxedRigidContactStage(RigidContactStage):
 
     def per_env_parameters(self) -> tuple:
         return ((f"{self.owner}.mu", self.bundle.mu),)
+
+    @staticmethod
+    def check_stability(model, c, integrator, why: str) -> None:
+        """Refuse a time step at which the reference acceleration a_ref (its stiffness 1 / (d_max tau zeta)^2 times
+        the deepest impedance d_max, its damping 2 / (d_max tau)) is unstable: JaxSim's relaxed-rigid law, whose
+        regularisation R only softens it, tends to it where R is small (its default)."""
+        tau, zeta, d_max = float(c.time_constant), float(c.damping_coefficient), float(c.d_max)
+        K, D = d_max / (d_max * tau * zeta) ** 2, 2.0 / (d_max * tau)
+        what = f"RelaxedRigidContactsParams time_constant = {tau:g} s, damping_coefficient = {zeta:g}, d_max = {d_max:g}"
+        check_reference_stability(model.time_step, K, D, integrator, what, "a larger time_constant (MuJoCo's rule: time constant >= 2 time steps)", why)
 
     def scratch(self, empty, m: int, width: int) -> list:
         """A, LA (m x m); b, f, w (width)."""

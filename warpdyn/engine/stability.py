@@ -20,7 +20,7 @@ from ..types.enums import IntegratorType
 from ..types.settings import host_values
 from ..types.terrain import FlatTerrain, HeightfieldTerrain, PlaneTerrain
 
-__all__ = ["DEFORMATION_STABILITY", "check_deformation_stability", "ContactReach", "contact_reach"]
+__all__ = ["DEFORMATION_STABILITY", "check_deformation_stability", "largest_stable_step", "check_reference_stability", "ContactReach", "contact_reach"]
 
 DEFORMATION_STABILITY = {
     IntegratorType.SemiImplicitEuler: 2.0,
@@ -47,6 +47,40 @@ def check_deformation_stability(time_step: float, K, D, integrator, scene: str |
             f"beyond the stability limit {limit} of {integrator.name} for the tangential "
             f"deformation{where}: take time_step < {limit / rate:.3g} s, or a smaller K (a larger D also lowers K/D but makes "
             "the explicit contact damping less stable: docs/simulation.md, 'Speed and accuracy')"
+        )
+
+
+def largest_stable_step(K: float, D: float, integrator) -> float:
+    """The largest dt [s] at which the integrator keeps the oscillator e'' = -D e' - K e stable (K [1/s^2], D [1/s]):
+    semi-implicit Euler while dt^2 K + 2 dt D < 4; RK4 while |R(dt lambda)| <= 1 at the roots lambda of
+    lambda^2 + D lambda + K (R its stability polynomial; bisection); inf when K = D = 0."""
+    if K <= 0.0 and D <= 0.0:
+        return np.inf
+    integrator = IntegratorType(integrator)
+    if integrator in (IntegratorType.SemiImplicitEuler, IntegratorType.SemiImplicitEulerSO3, IntegratorType.RungeKutta4Fast):
+        return float(4.0 / (D + np.sqrt(D * D + 4.0 * K)))  # the positive root of K dt^2 + 2 D dt - 4
+    roots = np.roots([1.0, D, K])
+
+    def stable(dt: float) -> bool:
+        return all(abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24) <= 1.0 for z in dt * roots)
+
+    lo, hi = 0.0, 10.0 / max(D, np.sqrt(K))
+    for _ in range(60):
+        lo, hi = ((lo + hi) / 2, hi) if stable((lo + hi) / 2) else (lo, (lo + hi) / 2)
+    return lo
+
+
+def check_reference_stability(time_step: float, K: float, D: float, integrator, what: str, remedy: str, scene: str | None = None) -> None:
+    """A ValueError when a solved contact model's reference acceleration, e'' = -D e' - K e at a penetrating point
+    (JaxSim's relaxed-rigid a_ref with R -> 0, the rigid model's Baumgarte terms), is unstable at this time step
+    (`largest_stable_step`); `what` names the parameters, `remedy` says how to change them, `scene` why the points
+    can touch the terrain (`ContactReach.why`)."""
+    limit = largest_stable_step(K, D, integrator)
+    if time_step >= limit:
+        where = f" ({scene})" if scene else ""
+        raise ValueError(
+            f"time_step {time_step} s: {what} give the contacts' reference acceleration stiffness {K:.4g} 1/s^2 and damping {D:.4g} 1/s, "
+            f"unstable with {IntegratorType(integrator).name} beyond dt = {limit:.3g} s{where}: take time_step < {limit:.3g} s, or {remedy}"
         )
 
 
