@@ -399,8 +399,12 @@ def kernels(scalar) -> types.SimpleNamespace:
                 z[env, row] = z[env, row] - lowest_z + scalar(1.0)
             for _ in range(law.iterations):
                 worst_d, worst_p, gap = residuals(Q, q, mu, env, n, x, s, z, rd, rp)
-                if (worst_d <= law.tol * scale and worst_p <= law.tol * scale and gap <= law.tol * scale) or not gap > scalar(0.0):
-                    break  # converged, or complementarity exhausted (no step can improve it)
+                converged = worst_d <= law.tol * scale and worst_p <= law.tol * scale and gap <= law.tol * scale
+                # complementarity a thousand times below the tolerance while rounding holds the residuals above it
+                # (float32): further steps would only drive s and z to 0 and their ratios to infinity
+                exhausted = not gap > scalar(1.0e-3) * law.tol * scale
+                if converged or exhausted:
+                    break
                 # predictor: rc = s z
                 for row in range(rows):
                     rc[env, row] = s[env, row] * z[env, row]
@@ -415,6 +419,13 @@ def kernels(scalar) -> types.SimpleNamespace:
                     rc[env, row] = s[env, row] * z[env, row] + ds_aff[env, row] * dz_aff[env, row] - sigma * gap
                 newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, dx, ds, dz)
                 alpha = wp.min(scalar(1.0), scalar(0.99) * step_to_boundary(env, rows, s, z, ds, dz))
+                probe = alpha
+                for r in range(n):
+                    probe = probe + scalar(0.0) * dx[env, r]
+                for row in range(rows):
+                    probe = probe + scalar(0.0) * (ds[env, row] + dz[env, row])
+                if not wp.isfinite(probe):
+                    break  # a direction rounding made non-finite: keep the last iterate
                 for r in range(n):
                     x[env, r] = x[env, r] + alpha * dx[env, r]
                 for row in range(rows):
