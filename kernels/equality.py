@@ -439,4 +439,4 @@ def kernels(scalar) -> types.SimpleNamespace:
                     s = s + MinvJT[env, r, i] * w[env, r]
                 nu_dot[env, i] = s
 
-    return types.SimpleNamespace(Equalities=Equalities, equality_accelerations=equality_accelerations, tree_factor=tree_factor, tree_solve=tree_solve)
+    return types.SimpleNamespace(Equalities=Equalities, equality_accelerations=equality_accelerations)

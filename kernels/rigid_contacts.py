@@ -22,9 +22,15 @@ Delassus matrix. The force f_c (3, world axes) acts at the point; inactive point
   update_velocity_after_impact, a least-squares KKT solve). G is singular where the active rows outnumber the DoFs
   they move: kernels/cholesky.py's `factor` drops its dependent rows, so lambda is one of the solutions and nu+ the unique one.
 
-The positive-definite solves (the relaxed-rigid A, the interior point's Newton matrix) drop a pivot that rounding
-made non-positive (float32 on a nearly singular system: four corners of a box on the ground are 12 rows of rank 6,
-regularised by 1e-6): that unknown is then 0, where a NaN would otherwise flag the environment.
+The linear algebra runs in float64 whatever the model's dtype: the mass matrix and the points' Jacobian rows are
+promoted, M is factorised densely (kernels/cholesky.py), and the Delassus matrix, the solves and the interior
+point are float64; the forces and the impact's velocities are rounded back to the model's dtype. The systems are
+nearly singular (a foot's 16 corners give 48 rows of rank 6, regularised by 1e-6 or by R ~ 1e-6 / m), so that in
+float32 the rounding of G alone moves the large internal forces that cancel in J^T f off G's null space and the
+net generalised force by tens of percent (the legs' landings differed from float64's by centimetres and fell
+over). The factorisations drop a pivot at or below `pivot_drop` of its diagonal (0 for the positive-definite
+solves: a pivot rounding made non-positive; DROPPED_PIVOT for the impact's singular Delassus matrix): that
+unknown is then 0.
 
 Forward only: no tape records these kernels.
 """
@@ -35,7 +41,6 @@ import warp as wp
 
 from .bundles import bundles
 from .cholesky import kernels as cholesky_kernels
-from .equality import kernels as equality_kernels
 from .factory import factory
 from .soft_contacts import kernels as soft_contact_kernels
 from .spatial import MIXED, spatial
@@ -47,15 +52,18 @@ PYRAMID_ROWS = 5
 """The inequality rows of a point's friction pyramid: f_x - mu f_z, f_y - mu f_z, -f_x - mu f_z, -f_y - mu f_z, -f_z."""
 
 DROPPED_PIVOT = 1.0e-10
-"""The impact's Cholesky (`factor`) drops a pivot below this fraction of its row's diagonal (a dependent row)."""
+"""The impact's Cholesky (`factor`) drops a pivot below this fraction of its row's diagonal (a dependent row): above
+the float64 rounding of a pivot that should be 0, below any independent row's (a foot's corners are centimetres
+apart: relative pivots of 1e-2 and more)."""
 
 
 @factory
 def kernels(scalar) -> types.SimpleNamespace:
     """The rigid and relaxed-rigid contact kernels in `scalar`."""
     sp, B = spatial(scalar), bundles(scalar)
-    C = cholesky_kernels(scalar)
-    E = equality_kernels(scalar)
+    f64 = wp.float64
+    vec3d = wp.types.vector(3, f64)
+    C = cholesky_kernels(f64)
     T = soft_contact_kernels(scalar)
 
     @wp.struct
@@ -63,8 +71,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         """A rigid model's parameters beside the Contacts bundle's (K, D, mu: Baumgarte's terms and the friction
         coefficient, shared (1,) or per environment (N,)): the relaxed-rigid impedance (time_constant [s],
         damping_coefficient, d_min, d_max, width [m], midpoint, power), the rigid QP's regularisation eps [m/s^2/N]
-        of the Delassus diagonal, its tolerance tol and its iteration limit; dof_parent (6 + nv,): the tree's DoF
-        parents (warpdyn.engine.equality.dof_parents)."""
+        of the Delassus diagonal, its tolerance tol and its iteration limit."""
 
         time_constant: scalar
         damping_coefficient: scalar
@@ -76,7 +83,6 @@ def kernels(scalar) -> types.SimpleNamespace:
         eps: scalar
         tol: scalar
         iterations: int
-        dof_parent: wp.array(dtype=wp.int32)
 
     @wp.func
     def penetration(contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), env: int, c: int):
@@ -103,22 +109,28 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.func
     def delassus(
-        model: B.Model, law: RigidLaw, M: wp.array3d(dtype=scalar), J: wp.array3d(dtype=scalar), env: int, m: int, Lm: wp.array3d(dtype=scalar),
-        MinvJT: wp.array3d(dtype=scalar), w: wp.array2d(dtype=scalar), G: wp.array3d(dtype=scalar),
+        model: B.Model, M: wp.array3d(dtype=scalar), J: wp.array3d(dtype=f64), env: int, m: int, M64: wp.array3d(dtype=f64),
+        Lm: wp.array3d(dtype=f64), MinvJT: wp.array3d(dtype=f64), y: wp.array2d(dtype=f64), w: wp.array2d(dtype=f64),
+        G: wp.array3d(dtype=f64),
     ):
-        """G[env, :m, :m] = J M^-1 J^T of the rows J[env, :m] and MinvJT[env, :m] = (M^-1 J^T)^T (M's LTDL factors in Lm)."""
+        """G[env, :m, :m] = J M^-1 J^T (float64) of the rows J[env, :m] (K columns) and MinvJT[env, :m] = (M^-1 J^T)^T:
+        M (N, K, K) promoted to M64, its solved block (a fixed base's DoFs aside) factorised densely into Lm."""
         K = M.shape[1]
         off = solver_offset(model)
-        E.tree_factor(model, M, env, off, law.dof_parent, scalar(0.0), sp.mat66(scalar(0.0)), Lm)
+        k = K - off
+        for r in range(off, K):
+            for c in range(off, K):
+                M64[env, r, c] = f64(M[env, r, c])
+        C.factor(M64, env, off, k, f64(-1.0), Lm)
         for r in range(m):
-            for i in range(off, K):
-                w[env, i] = J[env, r, i]
-            E.tree_solve(Lm, env, off, law.dof_parent, w)
-            for i in range(off, K):
-                MinvJT[env, r, i] = w[env, i]
+            for i in range(k):
+                y[env, i] = J[env, r, off + i]
+            C.substitute(Lm, env, k, y, w, 0)
+            for i in range(k):
+                MinvJT[env, r, off + i] = w[env, i]
         for r in range(m):
             for q in range(r + 1):
-                s = scalar(0.0)
+                s = f64(0.0)
                 for c in range(off, K):
                     s = s + J[env, r, c] * MinvJT[env, q, c]
                 G[env, r, q] = s
@@ -128,10 +140,10 @@ def kernels(scalar) -> types.SimpleNamespace:
     def point_rows(
         contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6),
         J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), a_free: wp.array2d(dtype=scalar), env: int,
-        active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=scalar), a: wp.array2d(dtype=scalar),
+        active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=f64), a: wp.array2d(dtype=f64),
     ):
-        """The active points' rows: active[env, :k] their indices, J[env, 3 i + r] the rows of the i-th (K columns),
-        a[env, 3 i + r] = J a_free + J̇ν; returns k."""
+        """The active points' rows (float64): active[env, :k] their indices, J[env, 3 i + r] the rows of the i-th (K
+        columns), a[env, 3 i + r] = J a_free + J̇ν; returns k."""
         K = J.shape[2]
         k = int(0)
         for c in range(contacts.point_link.shape[0]):
@@ -139,10 +151,10 @@ def kernels(scalar) -> types.SimpleNamespace:
             if delta > scalar(0.0):
                 active[env, k] = c
                 for r in range(3):
-                    s = Jdotnu_t[env, c, r]
+                    s = f64(Jdotnu_t[env, c, r])
                     for i in range(K):
-                        J[env, 3 * k + r, i] = J_t[env, c, r, i]
-                        s = s + J_t[env, c, r, i] * a_free[env, i]
+                        J[env, 3 * k + r, i] = f64(J_t[env, c, r, i])
+                        s = s + f64(J_t[env, c, r, i]) * f64(a_free[env, i])
                     a[env, 3 * k + r] = s
                 k = k + 1
         return k
@@ -150,16 +162,17 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.func
     def write_forces(
         contacts: B.Contacts, W_H_L: wp.array2d(dtype=sp.transform), env: int, k: int, active: wp.array2d(dtype=wp.int32),
-        f: wp.array2d(dtype=scalar), W_f_C: wp.array3d(dtype=scalar),
+        f: wp.array2d(dtype=f64), W_f_C: wp.array3d(dtype=scalar),
     ):
-        """W_f_C[env] = the Inertial wrenches [f; p x f] of the active points' forces f[env, 3 i:3 i + 3], 0 elsewhere."""
+        """W_f_C[env] = the Inertial wrenches [f; p x f] of the active points' forces f[env, 3 i:3 i + 3] (float64,
+        rounded to the model's dtype), 0 elsewhere."""
         for c in range(W_f_C.shape[1]):
             for r in range(6):
                 W_f_C[env, c, r] = scalar(0.0)
         for i in range(k):
             c = active[env, i]
             p = wp.transform_point(W_H_L[env, contacts.point_link[c]], contacts.L_p_C[c])
-            force = sp.vec3(f[env, 3 * i], f[env, 3 * i + 1], f[env, 3 * i + 2])
+            force = sp.vec3(scalar(f[env, 3 * i]), scalar(f[env, 3 * i + 1]), scalar(f[env, 3 * i + 2]))
             wrench = sp.stack(force, wp.cross(p, force))
             for r in range(6):
                 W_f_C[env, c, r] = wrench[r]
@@ -193,16 +206,19 @@ def kernels(scalar) -> types.SimpleNamespace:
         Jdotnu_t: wp.array3d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
         a_free: wp.array2d(dtype=scalar),
-        # scratch: active (N, P), J and MinvJT (N, 3P, K), Lm (N, K, K), A and LA (N, 3P, 3P), b, f, w (N, max(3P, K))
+        # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); A and LA (N, 3P, 3P);
+        # b, f, y, w (N, max(3P, K))
         active: wp.array2d(dtype=wp.int32),
-        J: wp.array3d(dtype=scalar),
-        MinvJT: wp.array3d(dtype=scalar),
-        Lm: wp.array3d(dtype=scalar),
-        A: wp.array3d(dtype=scalar),
-        LA: wp.array3d(dtype=scalar),
-        b: wp.array2d(dtype=scalar),
-        f: wp.array2d(dtype=scalar),
-        w: wp.array2d(dtype=scalar),
+        J: wp.array3d(dtype=f64),
+        MinvJT: wp.array3d(dtype=f64),
+        M64: wp.array3d(dtype=f64),
+        Lm: wp.array3d(dtype=f64),
+        A: wp.array3d(dtype=f64),
+        LA: wp.array3d(dtype=f64),
+        b: wp.array2d(dtype=f64),
+        f: wp.array2d(dtype=f64),
+        y: wp.array2d(dtype=f64),
+        w: wp.array2d(dtype=f64),
         # outputs
         W_f_C: wp.array3d(dtype=scalar),
     ):
@@ -212,7 +228,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         env = wp.tid()
         k = point_rows(contacts, terrain, W_H_L, W_v_WL, J_t, Jdotnu_t, a_free, env, active, J, b)
         m = 3 * k
-        delassus(model, law, M, J, env, m, Lm, MinvJT, w, A)
+        delassus(model, M, J, env, m, M64, Lm, MinvJT, y, w, A)
         mu = B.env_parameter(contacts.mu, env)
         stiffness = scalar(1.0) / (law.d_max * law.time_constant * law.damping_coefficient) ** scalar(2.0)
         damping = scalar(2.0) / (law.d_max * law.time_constant)
@@ -224,37 +240,37 @@ def kernels(scalar) -> types.SimpleNamespace:
                 pos = -delta * n[r]
                 xi = impedance(law, wp.abs(pos))
                 a_ref = -(damping * p_dot[r] + stiffness * xi * pos)
-                b[env, 3 * i + r] = -(b[env, 3 * i + r] - a_ref)
+                b[env, 3 * i + r] = -(b[env, 3 * i + r] - f64(a_ref))
                 R = scalar(2.0) * mu * mu * (scalar(1.0) - xi) / (xi + scalar(REGULARISATION_FLOOR)) * (scalar(1.0) + mu * mu) / mass
-                A[env, 3 * i + r, 3 * i + r] = A[env, 3 * i + r, 3 * i + r] + R
+                A[env, 3 * i + r, 3 * i + r] = A[env, 3 * i + r, 3 * i + r] + f64(R)
         if m > 0:
-            C.factor(A, env, 0, m, scalar(0.0), LA)
+            C.factor(A, env, 0, m, f64(0.0), LA)
             C.substitute(LA, env, m, b, f, 0)
         write_forces(contacts, W_H_L, env, k, active, f, W_f_C)
 
     @wp.func
-    def pyramid_row(mu: scalar, j: int):
+    def pyramid_row(mu: f64, j: int):
         """Row j (0..4) of a point's friction pyramid G_c (h = 0): f_x - mu f_z, f_y - mu f_z, -f_x - mu f_z,
         -f_y - mu f_z, -f_z."""
-        g = sp.vec3(scalar(0.0), scalar(0.0), -mu)
+        g = vec3d(f64(0.0), f64(0.0), -mu)
         if j == 0:
-            g[0] = scalar(1.0)
+            g[0] = f64(1.0)
         elif j == 1:
-            g[1] = scalar(1.0)
+            g[1] = f64(1.0)
         elif j == 2:
-            g[0] = scalar(-1.0)
+            g[0] = f64(-1.0)
         elif j == 3:
-            g[1] = scalar(-1.0)
+            g[1] = f64(-1.0)
         else:
-            g[2] = scalar(-1.0)
+            g[2] = f64(-1.0)
         return g
 
     @wp.func
     def newton_direction(
-        Q: wp.array3d(dtype=scalar), mu: scalar, env: int, n: int, s: wp.array2d(dtype=scalar), z: wp.array2d(dtype=scalar),
-        rd: wp.array2d(dtype=scalar), rp: wp.array2d(dtype=scalar), rc: wp.array2d(dtype=scalar), H: wp.array3d(dtype=scalar),
-        LH: wp.array3d(dtype=scalar), y: wp.array2d(dtype=scalar), dx: wp.array2d(dtype=scalar), ds: wp.array2d(dtype=scalar),
-        dz: wp.array2d(dtype=scalar),
+        Q: wp.array3d(dtype=f64), mu: f64, env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64),
+        rd: wp.array2d(dtype=f64), rp: wp.array2d(dtype=f64), rc: wp.array2d(dtype=f64), H: wp.array3d(dtype=f64),
+        LH: wp.array3d(dtype=f64), y: wp.array2d(dtype=f64), dx: wp.array2d(dtype=f64), ds: wp.array2d(dtype=f64),
+        dz: wp.array2d(dtype=f64),
     ):
         """The interior point's Newton step (dx, ds, dz) for the residuals rd = Q x + q + G^T z, rp = G x + s and
         rc (complementarity, s z - sigma mu_gap + corrections): (Q + G^T S^-1 Z G) dx = -rd + G^T S^-1 (rc - Z rp),
@@ -273,7 +289,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                     y[env, 3 * i + r] = y[env, 3 * i + r] + g[r] * extra
                     for c in range(3):
                         H[env, 3 * i + r, 3 * i + c] = H[env, 3 * i + r, 3 * i + c] + weight * g[r] * g[c]
-        C.factor(H, env, 0, n, scalar(0.0), LH)
+        C.factor(H, env, 0, n, f64(0.0), LH)
         C.substitute(LH, env, n, y, dx, 0)
         for i in range(n // 3):
             for j in range(PYRAMID_ROWS):
@@ -284,25 +300,25 @@ def kernels(scalar) -> types.SimpleNamespace:
                 dz[env, row] = -(rc[env, row] + z[env, row] * ds[env, row]) / s[env, row]
 
     @wp.func
-    def step_to_boundary(env: int, count: int, s: wp.array2d(dtype=scalar), z: wp.array2d(dtype=scalar), ds: wp.array2d(dtype=scalar), dz: wp.array2d(dtype=scalar)):
+    def step_to_boundary(env: int, count: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), ds: wp.array2d(dtype=f64), dz: wp.array2d(dtype=f64)):
         """The largest alpha in (0, 1] with s + alpha ds >= 0 and z + alpha dz >= 0."""
-        alpha = scalar(1.0)
+        alpha = f64(1.0)
         for row in range(count):
-            if ds[env, row] < scalar(0.0):
+            if ds[env, row] < f64(0.0):
                 alpha = wp.min(alpha, -s[env, row] / ds[env, row])
-            if dz[env, row] < scalar(0.0):
+            if dz[env, row] < f64(0.0):
                 alpha = wp.min(alpha, -z[env, row] / dz[env, row])
         return alpha
 
     @wp.func
     def residuals(
-        Q: wp.array3d(dtype=scalar), q: wp.array2d(dtype=scalar), mu: scalar, env: int, n: int, x: wp.array2d(dtype=scalar),
-        s: wp.array2d(dtype=scalar), z: wp.array2d(dtype=scalar), rd: wp.array2d(dtype=scalar), rp: wp.array2d(dtype=scalar),
+        Q: wp.array3d(dtype=f64), q: wp.array2d(dtype=f64), mu: f64, env: int, n: int, x: wp.array2d(dtype=f64),
+        s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), rd: wp.array2d(dtype=f64), rp: wp.array2d(dtype=f64),
     ):
         """rd = Q x + q + G^T z, rp = G x + s; returns (max |rd|, max |rp|, the mean s z)."""
-        worst_d = scalar(0.0)
-        worst_p = scalar(0.0)
-        gap = scalar(0.0)
+        worst_d = f64(0.0)
+        worst_p = f64(0.0)
+        gap = f64(0.0)
         for r in range(n):
             t = q[env, r]
             for c in range(n):
@@ -319,7 +335,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 gap = gap + s[env, row] * z[env, row]
         for r in range(n):
             worst_d = wp.max(worst_d, wp.abs(rd[env, r]))
-        return worst_d, worst_p, gap / scalar(float(PYRAMID_ROWS)) / scalar(n // 3)
+        return worst_d, worst_p, gap / f64(float(PYRAMID_ROWS)) / f64(n // 3)
 
     @wp.kernel(module="unique", enable_backward=False)
     def rigid_forces(
@@ -333,28 +349,30 @@ def kernels(scalar) -> types.SimpleNamespace:
         Jdotnu_t: wp.array3d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
         a_free: wp.array2d(dtype=scalar),
-        # scratch: active (N, P), J and MinvJT (N, 3P, K), Lm (N, K, K), Q, H and LH (N, 3P, 3P), the vectors
-        # q, x, rd, dx, y (N, max(3P, K)) and s, z, rp, rc, ds, dz, ds_aff, dz_aff (N, 5P)
+        # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); Q, H and LH (N, 3P, 3P);
+        # the vectors q, x, rd, dx, y, w (N, max(3P, K)) and s, z, rp, rc, ds, dz, ds_aff, dz_aff (N, 5P)
         active: wp.array2d(dtype=wp.int32),
-        J: wp.array3d(dtype=scalar),
-        MinvJT: wp.array3d(dtype=scalar),
-        Lm: wp.array3d(dtype=scalar),
-        Q: wp.array3d(dtype=scalar),
-        H: wp.array3d(dtype=scalar),
-        LH: wp.array3d(dtype=scalar),
-        q: wp.array2d(dtype=scalar),
-        x: wp.array2d(dtype=scalar),
-        rd: wp.array2d(dtype=scalar),
-        dx: wp.array2d(dtype=scalar),
-        y: wp.array2d(dtype=scalar),
-        s: wp.array2d(dtype=scalar),
-        z: wp.array2d(dtype=scalar),
-        rp: wp.array2d(dtype=scalar),
-        rc: wp.array2d(dtype=scalar),
-        ds: wp.array2d(dtype=scalar),
-        dz: wp.array2d(dtype=scalar),
-        ds_aff: wp.array2d(dtype=scalar),
-        dz_aff: wp.array2d(dtype=scalar),
+        J: wp.array3d(dtype=f64),
+        MinvJT: wp.array3d(dtype=f64),
+        M64: wp.array3d(dtype=f64),
+        Lm: wp.array3d(dtype=f64),
+        Q: wp.array3d(dtype=f64),
+        H: wp.array3d(dtype=f64),
+        LH: wp.array3d(dtype=f64),
+        q: wp.array2d(dtype=f64),
+        x: wp.array2d(dtype=f64),
+        rd: wp.array2d(dtype=f64),
+        dx: wp.array2d(dtype=f64),
+        y: wp.array2d(dtype=f64),
+        w: wp.array2d(dtype=f64),
+        s: wp.array2d(dtype=f64),
+        z: wp.array2d(dtype=f64),
+        rp: wp.array2d(dtype=f64),
+        rc: wp.array2d(dtype=f64),
+        ds: wp.array2d(dtype=f64),
+        dz: wp.array2d(dtype=f64),
+        ds_aff: wp.array2d(dtype=f64),
+        dz_aff: wp.array2d(dtype=f64),
         # outputs
         W_f_C: wp.array3d(dtype=scalar),
     ):
@@ -365,44 +383,45 @@ def kernels(scalar) -> types.SimpleNamespace:
         env = wp.tid()
         k = point_rows(contacts, terrain, W_H_L, W_v_WL, J_t, Jdotnu_t, a_free, env, active, J, q)
         n = 3 * k
-        mu = B.env_parameter(contacts.mu, env)
+        mu = f64(B.env_parameter(contacts.mu, env))
+        tol = f64(law.tol)
         if n > 0:
-            delassus(model, law, M, J, env, n, Lm, MinvJT, y, Q)
-            scale = scalar(1.0)
+            delassus(model, M, J, env, n, M64, Lm, MinvJT, y, w, Q)
+            scale = f64(1.0)
             for i in range(k):
                 c = active[env, i]
                 p, p_dot, nrm, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, c)
                 beta = (B.env_parameter(contacts.K, env) * delta + B.env_parameter(contacts.D, env) * delta_dot) * nrm
                 for r in range(3):
-                    q[env, 3 * i + r] = q[env, 3 * i + r] - beta[r]
+                    q[env, 3 * i + r] = q[env, 3 * i + r] - f64(beta[r])
                     scale = wp.max(scale, wp.abs(q[env, 3 * i + r]))
-                    Q[env, 3 * i + r, 3 * i + r] = Q[env, 3 * i + r, 3 * i + r] + law.eps
+                    Q[env, 3 * i + r, 3 * i + r] = Q[env, 3 * i + r, 3 * i + r] + f64(law.eps)
             rows = PYRAMID_ROWS * k
             # CVXOPT's start: the solve with S = Z = I and rc = rp = 0 is (Q + G^T G) x = -q; then s = -G x, z = G x
             for row in range(rows):
-                s[env, row] = scalar(1.0)
-                z[env, row] = scalar(1.0)
-                rp[env, row] = scalar(0.0)
-                rc[env, row] = scalar(0.0)
+                s[env, row] = f64(1.0)
+                z[env, row] = f64(1.0)
+                rp[env, row] = f64(0.0)
+                rc[env, row] = f64(0.0)
             for r in range(n):
                 rd[env, r] = q[env, r]
             newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, x, ds, dz)
-            lowest_s = scalar(0.0)
-            lowest_z = scalar(0.0)
+            lowest_s = f64(0.0)
+            lowest_z = f64(0.0)
             for row in range(rows):
                 s[env, row] = ds[env, row]
                 z[env, row] = -ds[env, row]
                 lowest_s = wp.min(lowest_s, s[env, row])
                 lowest_z = wp.min(lowest_z, z[env, row])
             for row in range(rows):
-                s[env, row] = s[env, row] - lowest_s + scalar(1.0)
-                z[env, row] = z[env, row] - lowest_z + scalar(1.0)
+                s[env, row] = s[env, row] - lowest_s + f64(1.0)
+                z[env, row] = z[env, row] - lowest_z + f64(1.0)
             for _ in range(law.iterations):
                 worst_d, worst_p, gap = residuals(Q, q, mu, env, n, x, s, z, rd, rp)
-                converged = worst_d <= law.tol * scale and worst_p <= law.tol * scale and gap <= law.tol * scale
-                # complementarity a thousand times below the tolerance while rounding holds the residuals above it
-                # (float32): further steps would only drive s and z to 0 and their ratios to infinity
-                exhausted = not gap > scalar(1.0e-3) * law.tol * scale
+                converged = worst_d <= tol * scale and worst_p <= tol * scale and gap <= tol * scale
+                # complementarity a thousand times below the tolerance while rounding holds the residuals above it:
+                # further steps would only drive s and z to 0 and their ratios to infinity
+                exhausted = not gap > f64(1.0e-3) * tol * scale
                 if converged or exhausted:
                     break
                 # predictor: rc = s z
@@ -410,20 +429,20 @@ def kernels(scalar) -> types.SimpleNamespace:
                     rc[env, row] = s[env, row] * z[env, row]
                 newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, dx, ds_aff, dz_aff)
                 alpha = step_to_boundary(env, rows, s, z, ds_aff, dz_aff)
-                gap_aff = scalar(0.0)
+                gap_aff = f64(0.0)
                 for row in range(rows):
                     gap_aff = gap_aff + (s[env, row] + alpha * ds_aff[env, row]) * (z[env, row] + alpha * dz_aff[env, row])
-                sigma = (gap_aff / scalar(float(rows)) / gap) ** scalar(3.0)
+                sigma = (gap_aff / f64(float(rows)) / gap) ** f64(3.0)
                 # corrector: rc = s z + ds_aff dz_aff - sigma gap
                 for row in range(rows):
                     rc[env, row] = s[env, row] * z[env, row] + ds_aff[env, row] * dz_aff[env, row] - sigma * gap
                 newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, dx, ds, dz)
-                alpha = wp.min(scalar(1.0), scalar(0.99) * step_to_boundary(env, rows, s, z, ds, dz))
+                alpha = wp.min(f64(1.0), f64(0.99) * step_to_boundary(env, rows, s, z, ds, dz))
                 probe = alpha
                 for r in range(n):
-                    probe = probe + scalar(0.0) * dx[env, r]
+                    probe = probe + f64(0.0) * dx[env, r]
                 for row in range(rows):
-                    probe = probe + scalar(0.0) * (ds[env, row] + dz[env, row])
+                    probe = probe + f64(0.0) * (ds[env, row] + dz[env, row])
                 if not wp.isfinite(probe):
                     break  # a direction rounding made non-finite: keep the last iterate
                 for r in range(n):
@@ -443,16 +462,19 @@ def kernels(scalar) -> types.SimpleNamespace:
         W_v_WL: wp.array2d(dtype=sp.vec6),
         J_t: wp.array4d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
-        # scratch: active (N, P), J and MinvJT (N, 3P, K), Lm (N, K, K), G and LG (N, 3P, 3P), c, lam, w (N, max(3P, K))
+        # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); G and LG (N, 3P, 3P);
+        # c, lam, y, w (N, max(3P, K))
         active: wp.array2d(dtype=wp.int32),
-        J: wp.array3d(dtype=scalar),
-        MinvJT: wp.array3d(dtype=scalar),
-        Lm: wp.array3d(dtype=scalar),
-        G: wp.array3d(dtype=scalar),
-        LG: wp.array3d(dtype=scalar),
-        c: wp.array2d(dtype=scalar),
-        lam: wp.array2d(dtype=scalar),
-        w: wp.array2d(dtype=scalar),
+        J: wp.array3d(dtype=f64),
+        MinvJT: wp.array3d(dtype=f64),
+        M64: wp.array3d(dtype=f64),
+        Lm: wp.array3d(dtype=f64),
+        G: wp.array3d(dtype=f64),
+        LG: wp.array3d(dtype=f64),
+        c: wp.array2d(dtype=f64),
+        lam: wp.array2d(dtype=f64),
+        y: wp.array2d(dtype=f64),
+        w: wp.array2d(dtype=f64),
         # the state, whose velocities are replaced
         state: B.State,
     ):
@@ -467,35 +489,35 @@ def kernels(scalar) -> types.SimpleNamespace:
             if delta > scalar(0.0):
                 for r in range(3):
                     for i in range(K):
-                        J[env, 3 * k + r, i] = J_t[env, p_i, r, i]
+                        J[env, 3 * k + r, i] = f64(J_t[env, p_i, r, i])
                 k = k + 1
         m = 3 * k
         if m > 0:
             off = solver_offset(model)
             W_H_B = B.base_pose(state, env)
             nu = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env))
-            delassus(model, law, M, J, env, m, Lm, MinvJT, w, G)
+            delassus(model, M, J, env, m, M64, Lm, MinvJT, y, w, G)
             for r in range(m):
-                t = scalar(0.0)
+                t = f64(0.0)
                 for i in range(off, K):
                     v_i = scalar(0.0)
                     if i < 6:
                         v_i = nu[i]
                     else:
                         v_i = state.joint_velocities[env, i - 6]
-                    t = t + J[env, r, i] * v_i
+                    t = t + J[env, r, i] * f64(v_i)
                 c[env, r] = t
-            C.factor(G, env, 0, m, scalar(DROPPED_PIVOT), LG)
+            C.factor(G, env, 0, m, f64(DROPPED_PIVOT), LG)
             C.substitute(LG, env, m, c, lam, 0)
             for i in range(off, K):
-                t = scalar(0.0)
+                t = f64(0.0)
                 for r in range(m):
                     t = t + MinvJT[env, r, i] * lam[env, r]
                 w[env, i] = t
             for i in range(6, K):
-                state.joint_velocities[env, i - 6] = state.joint_velocities[env, i - 6] - w[env, i]
+                state.joint_velocities[env, i - 6] = scalar(f64(state.joint_velocities[env, i - 6]) - w[env, i])
             if off == 0:
-                nu_plus = nu - sp.vec6(w[env, 0], w[env, 1], w[env, 2], w[env, 3], w[env, 4], w[env, 5])
+                nu_plus = nu - sp.vec6(scalar(w[env, 0]), scalar(w[env, 1]), scalar(w[env, 2]), scalar(w[env, 3]), scalar(w[env, 4]), scalar(w[env, 5]))
                 mixed = sp.inertial_to_repr(MIXED, W_H_B, nu_plus)
                 for r in range(6):
                     state.base_velocity[env, r] = mixed[r]

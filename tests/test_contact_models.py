@@ -286,3 +286,39 @@ def test_unstable_reference_accelerations_are_refused_with_the_stable_step():
     rigid.time_step = 2.5e-3
     rigid.integrator = wd.model.IntegratorType.RungeKutta4
     wd.model.step(rigid, wd.data.JaxSimModelData.build(model=rigid))  # RK4's region reaches further (2.83 / sqrt(K))
+
+
+@pytest.mark.parametrize("kind", ["RigidContacts", "RelaxedRigidContacts"])
+def test_legs_land_in_float32_as_in_float64(kind):
+    """The ergoCub legs (32 collidable points, a joint PD as joint-limit springs) dropped from 5 cm, four drops tilted
+    by up to 3 degrees with their joints offset (benchmarks/speed_accuracy.py's scene), 0.4 s: in float32 they stay
+    healthy, stand (base tilt under 10 degrees) at float64's height within 5 mm. (Their trajectories differ by
+    centimetres at the end, as the soft law's do; benchmarks/speed_accuracy.py measures both dtypes against a fine
+    float64 reference: comparable errors. Before the solves ran in float64, a float32 landing fell over.)"""
+    runs = {}
+    for dtype in (wp.float64, wp.float32):
+        full = wd.model.JaxSimModel.build_from_model_description(wd.assets.ergocub_urdf(), dtype=dtype)
+        model = wd.model.reduce(full, considered_joints=wd.assets.ERGOCUB_LEG_JOINTS)
+        n = model.dofs()
+        model.set_joint_parameters(
+            position_limits=np.zeros((n, 2)), limit_spring=np.full(n, 3000.0), limit_damper=np.zeros(n),
+            friction_static=np.zeros(n), friction_viscous=np.full(n, 7.0),
+        )
+        model = model.replace(contact_model=getattr(contacts, kind).build())
+        if dtype == wp.float64:
+            joints = np.random.default_rng(0).uniform(-0.05, 0.05, (4, n))
+            angles = np.radians(np.random.default_rng(1).uniform(-3.0, 3.0, (4, 2))) / 2
+            tilts = np.array([[np.cos(a) * np.cos(b), np.sin(a) * np.cos(b), np.cos(a) * np.sin(b), np.sin(a) * np.sin(b)] for a, b in angles])
+            heights = []
+            for k in range(4):
+                one = wd.data.JaxSimModelData.build(model=model, base_quaternion=tilts[k], joint_positions=joints[k])
+                heights.append(0.05 - float(wd.contact.collidable_point_positions(model, one).numpy()[:, 2].min()))
+            bases = np.column_stack([np.zeros((4, 2)), heights])
+        data = wd.data.JaxSimModelData.build(model=model, num_envs=4, base_position=bases, base_quaternion=tilts, joint_positions=joints)
+        for _ in range(400):
+            data = wd.model.step(model, data)
+        assert bool(data.healthy.numpy().all())
+        Q = data.base_orientation.numpy()
+        runs[dtype] = (data.base_position.numpy()[:, 2], np.degrees(2.0 * np.arccos(np.clip(np.abs(Q[:, 0]), 0.0, 1.0))))
+    np.testing.assert_array_less(runs[wp.float32][1], 10.0)
+    np.testing.assert_allclose(runs[wp.float32][0], runs[wp.float64][0], atol=5e-3)

@@ -48,7 +48,6 @@ from ..types.model_constants import transforms
 from ..types.settings import host_values
 from . import tape
 from .bundles import controls_bundle, per_env
-from .equality import dof_parents
 from .kinematics import targets
 from .launch import Launch
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, check_reference_stability, contact_reach
@@ -182,7 +181,6 @@ class RigidContactStage(ContactStage):
         self.bundle.p, self.bundle.q = s(0.5), s(0.5)
         law = self.law = K.RigidLaw()
         self.fill_law(law, c, contact_model, s)
-        law.dof_parent = wp.array(dof_parents(model.tree, model.floating_base()), dtype=wp.int32, device=d)
         # the enabled points, in the stage's order, as targets of the Jacobian kernels
         params = model.kin_dyn_structure().contact_parameters
         rows = params.indices_of_enabled_collidable_points
@@ -248,9 +246,10 @@ class RigidContactStage(ContactStage):
             "crba_scratch": empty((max(nL, plan.n + 1), CRBA_RECORD)),
             "aba_scratch": empty((plan.rows, ABA_RECORD + TRANSFORM)),
             "active": empty((P,), wp.int32),
-            "J": empty((m, K)),
-            "MinvJT": empty((m, K)),
-            "Lm": empty((K, K)),
+            "J": empty((m, K), wp.float64),
+            "MinvJT": empty((m, K), wp.float64),
+            "M64": empty((K, K), wp.float64),
+            "Lm": empty((K, K), wp.float64),
         }
         out["scratch"] = self.scratch(empty, m, width)
         if not self.has_state:
@@ -260,9 +259,10 @@ class RigidContactStage(ContactStage):
         return out
 
     def scratch(self, empty, m: int, width: int) -> list:
-        """The QP's scratch: Q, H, LH (m x m); q, x, rd, dx, y (width); s, z, rp, rc, ds, dz, ds_aff, dz_aff (5 P)."""
-        rows = PYRAMID_ROWS * self.count
-        return [empty((m, m)) for _ in range(3)] + [empty((width,)) for _ in range(5)] + [empty((rows,)) for _ in range(8)]
+        """The QP's float64 scratch: Q, H, LH (m x m); q, x, rd, dx, y, w (width); s, z, rp, rc, ds, dz, ds_aff, dz_aff
+        (5 P)."""
+        rows, f64 = PYRAMID_ROWS * self.count, wp.float64
+        return [empty((m, m), f64) for _ in range(3)] + [empty((width,), f64) for _ in range(6)] + [empty((rows,), f64) for _ in range(8)]
 
     def launches(self, plan, ev, x, f_ext, tau, N: int) -> list:
         """At x: the link velocities and bias terms, the points' Jacobians and J̇ν, the mass matrix, ABA's
@@ -285,7 +285,7 @@ class RigidContactStage(ContactStage):
             Launch(self.aba, N, [plan.model, x, controls, inertial, s(0.0), b["aba_scratch"]], [b["a_free"][:, :6], b["a_free"][:, 6:] if plan.n > 0 else b["no_joints"]]),
         ]
         args = [plan.model, self.bundle, self.law, plan.terrain, ev.W_H_L, ev.W_v_WL, b["J_t"], b["Jdotnu_t"], b["M"], b["a_free"]]
-        args += [b["active"], b["J"], b["MinvJT"], b["Lm"], *b["scratch"]]
+        args += [b["active"], b["J"], b["MinvJT"], b["M64"], b["Lm"], *b["scratch"]]
         launches.append(Launch(getattr(self.kernels, self.law_kernel), N, args, [ev.W_f_C]))
         order = int(arrays.env_fastest(plan.device))
         links = plan.nL if contacts_per_environment(plan.device, ev.grad) else 1
@@ -297,7 +297,7 @@ class RigidContactStage(ContactStage):
         b = ev.contact
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
         G, LG = b["scratch"][0], b["scratch"][2]
-        c, lam, w = b["scratch"][3], b["scratch"][4], b["scratch"][5]
+        c, lam, y, w = b["scratch"][5:9]
         return [
             Launch(self.fk, N, [plan.model, Y], [b["parent_H_link_next"], b["W_H_L_next"]]),
             Launch(self.bias.link_bias_recursion, N, [plan.model, b["W_H_L_next"], Y], [b["W_v_WL_next"], b["W_a_L"]]),
@@ -306,7 +306,7 @@ class RigidContactStage(ContactStage):
             Launch(
                 self.kernels.impact_velocities,
                 N,
-                [plan.model, self.bundle, self.law, plan.terrain, b["W_H_L_next"], b["W_v_WL_next"], b["J_t"], b["M"], b["active"], b["J"], b["MinvJT"], b["Lm"], G, LG, c, lam, w],
+                [plan.model, self.bundle, self.law, plan.terrain, b["W_H_L_next"], b["W_v_WL_next"], b["J_t"], b["M"], b["active"], b["J"], b["MinvJT"], b["M64"], b["Lm"], G, LG, c, lam, y, w],
                 [Y],
             ),
         ]
@@ -344,8 +344,9 @@ class RelaxedRigidContactStage(RigidContactStage):
         check_reference_stability(model.time_step, K, D, integrator, what, "a larger time_constant (MuJoCo's rule: time constant >= 2 time steps)", why)
 
     def scratch(self, empty, m: int, width: int) -> list:
-        """A, LA (m x m); b, f, w (width)."""
-        return [empty((m, m)) for _ in range(2)] + [empty((width,)) for _ in range(3)]
+        """The solve's float64 scratch: A, LA (m x m); b, f, y, w (width)."""
+        f64 = wp.float64
+        return [empty((m, m), f64) for _ in range(2)] + [empty((width,), f64) for _ in range(4)]
 
     def after_step(self, plan, ev, Y, N: int) -> list:
         return []
