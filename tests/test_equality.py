@@ -205,15 +205,15 @@ def test_welds_step_as_mujocos():
 @pytest.mark.parametrize("dtype", [np.float64, np.float32], ids=["float64", "float32"])
 def test_batched_environments_each_equal_mujocos(dtype):
     """Four environments of Cassie in one step, each from its own random state, each equal to MuJoCo's step from
-    it: 1e-10 of the velocities' size in float64, 1e-4 in float32 (its rounding through the two dense Cholesky
-    factorisations: 5.4e-5 measured)."""
+    it: 1e-10 of the velocities' size in float64, 5e-4 in float32 (the float32 rounding of M, J and J̇ν, some 3e-7,
+    amplified by the constraint solve: 5.4e-5 measured on the CPU, 1.4e-4 on an H200; float64 3e-13 there)."""
     path = MENAGERIE / "cassie.xml"
     mj, reference, model = _mujoco(path), _load(path), _load(path, dtype)
     states = [mm.random_state(mj, np.random.default_rng(seed), 0.5) for seed in range(4)]
     starts = [mjcf_compare.mujoco_to_warpdyn_state(reference, mj, q, v).data_kwargs for q, v in states]
     stepped = wd.model.step(model, wd.data.Data.build(model, num_envs=4, **{k: np.stack([s[k] for s in starts]) for k in starts[0]}))
     expected = np.stack([mjcf_compare.mujoco_to_warpdyn_state(reference, mj, *_step_of(mj, q, v, True)).data_kwargs["joint_velocities"] for q, v in states])
-    tolerance = 1e-10 if dtype == np.float64 else 1e-4
+    tolerance = 1e-10 if dtype == np.float64 else 5e-4
     np.testing.assert_allclose(stepped.joint_velocities.numpy(), expected, rtol=0, atol=tolerance * np.abs(expected).max())
     assert stepped.valid_state.numpy().all()
 
