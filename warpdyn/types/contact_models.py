@@ -216,8 +216,7 @@ class RigidContacts(_SolvedContacts):
     Parameters: `RigidContactsParams`; no state. regularization_delassus: eps [m/s^2/N] (JaxSim's 1e-6);
     solver_options: "solver_tol", the interior point's tolerance on its residuals and complementarity (relative
     to 1 + max |a - beta|: JaxSim's qpax default is 1e-3, warpdyn's 1e-10, to which it converges in a few more of
-    its at most "max_iterations" (50) iterations; in float32 at least 100 machine epsilons, 1.2e-5, where rounding
-    stops the iterations' progress)."""
+    its at most "max_iterations" (50) iterations, in float64 whatever the model's dtype)."""
 
     parameters_class = RigidContactsParams
     _OPTIONS = {"solver_tol": (1e-10, _positive), "max_iterations": (50, _count)}
