@@ -15,8 +15,8 @@ Delassus matrix. The force f_c (3, world axes) acts at the point; inactive point
   point's link's mass. JaxSim minimises |A f + b|^2 by L-BFGS; here A is factorised: its exact minimiser.
 - rigid (`rigid_forces`): f minimises 1/2 f^T (G + eps I) f + (a - beta)^T f over the friction pyramids
   |f_x|, |f_y| <= mu f_z, f_z >= 0 (world axes, JaxSim's), beta = (K delta + D delta_dot) n (Baumgarte's terms),
-  solved by a primal-dual interior point (Mehrotra's predictor-corrector) until its residuals and complementarity
-  are below `tol` (JaxSim: qpax, an interior point too).
+  solved by a primal-dual interior point (Mehrotra's predictor-corrector, one factorisation per iteration) until
+  its residuals and complementarity are below `tol` (JaxSim: qpax, an interior point too).
 - impact (`impact_velocities`, rigid, after each step): nu+ = nu - M^-1 J^T lambda with G lambda = J nu over the
   points then active, the velocity nearest nu in M's metric at which every active point is still (JaxSim's
   update_velocity_after_impact, a least-squares KKT solve). G is singular where the active rows outnumber the DoFs
@@ -266,30 +266,40 @@ def kernels(scalar) -> types.SimpleNamespace:
         return g
 
     @wp.func
-    def newton_direction(
-        Q: wp.array3d(dtype=f64), mu: f64, env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64),
-        rd: wp.array2d(dtype=f64), rp: wp.array2d(dtype=f64), rc: wp.array2d(dtype=f64), H: wp.array3d(dtype=f64),
-        LH: wp.array3d(dtype=f64), y: wp.array2d(dtype=f64), dx: wp.array2d(dtype=f64), ds: wp.array2d(dtype=f64),
-        dz: wp.array2d(dtype=f64),
-    ):
-        """The interior point's Newton step (dx, ds, dz) for the residuals rd = Q x + q + G^T z, rp = G x + s and
-        rc (complementarity, s z - sigma mu_gap + corrections): (Q + G^T S^-1 Z G) dx = -rd + G^T S^-1 (rc - Z rp),
-        ds = -rp - G dx, dz = -S^-1 (rc + Z ds). G is block-diagonal (a pyramid per point), so G^T S^-1 Z G is too."""
+    def newton_matrix(Q: wp.array3d(dtype=f64), mu: f64, env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), H: wp.array3d(dtype=f64), LH: wp.array3d(dtype=f64)):
+        """LH: the Cholesky factor of the interior point's Newton matrix Q + G^T S^-1 Z G at the slacks s and duals z
+        (G block-diagonal, a pyramid per point, so G^T S^-1 Z G is too); Mehrotra's predictor and corrector share it."""
         for r in range(n):
             for c in range(n):
                 H[env, r, c] = Q[env, r, c]
-            y[env, r] = -rd[env, r]
         for i in range(n // 3):
             for j in range(PYRAMID_ROWS):
                 row = PYRAMID_ROWS * i + j
                 g = pyramid_row(mu, j)
                 weight = z[env, row] / s[env, row]
-                extra = (rc[env, row] - z[env, row] * rp[env, row]) / s[env, row]
                 for r in range(3):
-                    y[env, 3 * i + r] = y[env, 3 * i + r] + g[r] * extra
                     for c in range(3):
                         H[env, 3 * i + r, 3 * i + c] = H[env, 3 * i + r, 3 * i + c] + weight * g[r] * g[c]
         C.factor(H, env, 0, n, f64(0.0), LH)
+
+    @wp.func
+    def newton_direction(
+        LH: wp.array3d(dtype=f64), mu: f64, env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64),
+        rd: wp.array2d(dtype=f64), rp: wp.array2d(dtype=f64), rc: wp.array2d(dtype=f64), y: wp.array2d(dtype=f64),
+        dx: wp.array2d(dtype=f64), ds: wp.array2d(dtype=f64), dz: wp.array2d(dtype=f64),
+    ):
+        """The interior point's Newton step (dx, ds, dz) for the residuals rd = Q x + q + G^T z, rp = G x + s and
+        rc (complementarity, s z - sigma mu_gap + corrections), with `newton_matrix`'s LH:
+        (Q + G^T S^-1 Z G) dx = -rd + G^T S^-1 (rc - Z rp), ds = -rp - G dx, dz = -S^-1 (rc + Z ds)."""
+        for r in range(n):
+            y[env, r] = -rd[env, r]
+        for i in range(n // 3):
+            for j in range(PYRAMID_ROWS):
+                row = PYRAMID_ROWS * i + j
+                g = pyramid_row(mu, j)
+                extra = (rc[env, row] - z[env, row] * rp[env, row]) / s[env, row]
+                for r in range(3):
+                    y[env, 3 * i + r] = y[env, 3 * i + r] + g[r] * extra
         C.substitute(LH, env, n, y, dx, 0)
         for i in range(n // 3):
             for j in range(PYRAMID_ROWS):
@@ -405,7 +415,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                 rc[env, row] = f64(0.0)
             for r in range(n):
                 rd[env, r] = q[env, r]
-            newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, x, ds, dz)
+            newton_matrix(Q, mu, env, n, s, z, H, LH)
+            newton_direction(LH, mu, env, n, s, z, rd, rp, rc, y, x, ds, dz)
             lowest_s = f64(0.0)
             lowest_z = f64(0.0)
             for row in range(rows):
@@ -427,7 +438,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                 # predictor: rc = s z
                 for row in range(rows):
                     rc[env, row] = s[env, row] * z[env, row]
-                newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, dx, ds_aff, dz_aff)
+                newton_matrix(Q, mu, env, n, s, z, H, LH)
+                newton_direction(LH, mu, env, n, s, z, rd, rp, rc, y, dx, ds_aff, dz_aff)
                 alpha = step_to_boundary(env, rows, s, z, ds_aff, dz_aff)
                 gap_aff = f64(0.0)
                 for row in range(rows):
@@ -436,7 +448,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 # corrector: rc = s z + ds_aff dz_aff - sigma gap
                 for row in range(rows):
                     rc[env, row] = s[env, row] * z[env, row] + ds_aff[env, row] * dz_aff[env, row] - sigma * gap
-                newton_direction(Q, mu, env, n, s, z, rd, rp, rc, H, LH, y, dx, ds, dz)
+                newton_direction(LH, mu, env, n, s, z, rd, rp, rc, y, dx, ds, dz)
                 alpha = wp.min(f64(1.0), f64(0.99) * step_to_boundary(env, rows, s, z, ds, dz))
                 probe = alpha
                 for r in range(n):
