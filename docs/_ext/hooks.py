@@ -33,7 +33,7 @@ def on_startup(**kwargs) -> None:
 
 # Figures the benchmark scripts write under benchmarks/results/, shown on the pages as assets/<name>: served
 # from where the scripts wrote them, so that the site never holds a stale copy.
-FIGURES = ("speed_accuracy_cpu.png", "speed_accuracy_nvidia_h200.png", "rl_go1_walk_h100.png")
+FIGURES = ("speed_accuracy_cpu.png", "speed_accuracy_nvidia_h200.png", "speed_accuracy_cpu_soft_relaxed_rigid.png", "rl_go1_walk_h100.png")
 
 
 def on_files(files, *, config):
