@@ -54,6 +54,17 @@ def _state(data) -> np.ndarray:
     return np.concatenate([np.asarray(v.numpy()).ravel() for v in values])
 
 
+def _rollout_states(model, data) -> list:
+    """The states of STEPS steps (zero joint forces) at the reference's samples: every EVERY-th and the first step."""
+    states = []
+    for k in range(STEPS + 1):
+        if k % EVERY == 0 or k == 1:
+            states.append(_state(data))
+        if k < STEPS:
+            data = wd.model.step(model, data, joint_force_references=np.zeros(model.dofs()))
+    return states
+
+
 def _forces(name: str, model, data) -> np.ndarray:
     x = cases.inputs(CONTACT_CASES[name]["model"], model.dofs(), model.number_of_links())
     forces, aux = model.contact_model.compute_contact_forces(model, data, joint_force_references=x["tau"])
@@ -69,12 +80,7 @@ def test_forces_and_rollout_equal_jaxsim(name):
     forces = _forces(name, model, data)
     tolerance = 1e-10 if name.startswith("relaxed") else 1e-8
     np.testing.assert_allclose(forces, expected, rtol=0, atol=tolerance * np.abs(expected).max())
-    states = []
-    for k in range(STEPS + 1):
-        if k % EVERY == 0 or k == 1:
-            states.append(_state(data))
-        if k < STEPS:
-            data = wd.model.step(model, data, joint_force_references=np.zeros(model.dofs()))
+    states = _rollout_states(model, data)
     reference = REFERENCE[f"{name}/states"]
     np.testing.assert_allclose(states, reference, rtol=0, atol=1e-10 if name.startswith("relaxed") else 1e-8)
 
@@ -126,12 +132,7 @@ def test_relaxed_rigid_solves_what_jaxsim_approximates():
     np.testing.assert_allclose(ours, exact, rtol=0, atol=1e-8 * np.abs(exact).max())
     assert np.abs(A @ ours + b).max() < 1e-8 * np.abs(b).max()
     assert np.abs(A @ theirs + b).max() > 1e-6 * np.abs(b).max()
-    states = []
-    for k in range(STEPS + 1):
-        if k % EVERY == 0 or k == 1:
-            states.append(_state(data))
-        if k < STEPS:
-            data = wd.model.step(model, data, joint_force_references=np.zeros(model.dofs()))
+    states = _rollout_states(model, data)
     np.testing.assert_allclose(states, REFERENCE[f"{name}/states"], rtol=0, atol=1e-5)
 
 

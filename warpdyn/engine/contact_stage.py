@@ -40,8 +40,8 @@ from ..kernels.jacobian_derivatives import kernels as derivative_kernels
 from ..kernels.jacobians import kernels as jacobian_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.rigid_contacts import PYRAMID_ROWS
-from ..kernels.scratch import TRANSFORM
 from ..kernels.rigid_contacts import kernels as rigid_kernels
+from ..kernels.scratch import TRANSFORM
 from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts
@@ -170,6 +170,7 @@ class RigidContactStage(ContactStage):
 
     has_state = False
     law_kernel = "rigid_forces"
+    impact = True  # `after_step` launches the impact (and `buffers` holds its poses and velocities)
 
     def __init__(self, model, integrator):
         super().__init__(model, integrator)
@@ -269,7 +270,7 @@ class RigidContactStage(ContactStage):
             "Lm": empty((K, K), wp.float64),
         }
         out["scratch"] = self.scratch(empty, m, width)
-        if not self.has_state:
+        if self.impact:
             out["W_H_L_next"] = empty((nL,), transform)
             out["parent_H_link_next"] = empty((nL,), transform)
             out["W_v_WL_next"] = empty((nL,), vec6)
@@ -335,6 +336,7 @@ class RelaxedRigidContactStage(RigidContactStage):
 
     has_state = False
     law_kernel = "relaxed_rigid_forces"
+    impact = False
 
     @staticmethod
     def baumgarte(c, s, d) -> tuple:
