@@ -23,7 +23,8 @@ MODELS = {
     "hopper": dict(path="tests/jaxsim/hopper.sdf", considered_joints=None, height=0.545, link="l_shank", frame="l_foot"),
     "box": dict(path="tests/jaxsim/box.sdf", considered_joints=None, height=0.095, link="box_link", frame=None),
 }
-"""The models: the ergoCub's legs (floating, 12 joints, meshes only: no collidable points in either), a welded
+"""The models: the ergoCub's legs (floating, 12 joints; its feet's four boxes give JaxSim and warpdyn the same 32
+collidable points, above the ground at `height`: tests/jaxsim/generate_contact_models.py lowers them), a welded
 arm (revolute, continuous and prismatic joints, frames, boxes and a sphere), a floating hopper whose sphere
 feet touch the ground, and a floating box whose corners do. height: the base's height in the states, which
 puts the hopper's and the box's lowest points a few millimetres into the ground."""

@@ -1,8 +1,10 @@
-"""JaxSim 0.9.0's rigid and relaxed-rigid contacts on the parity cases' box and hopper (tests/jaxsim/cases.py) into
-tests/jaxsim/contact_models.npz: the contact forces at the cases' state, one step and the states of a 300-step
-rollout (every 50th), float64.
+"""JaxSim 0.9.0's rigid and relaxed-rigid contacts on the parity cases' box, hopper and ergoCub legs
+(tests/jaxsim/cases.py) into tests/jaxsim/contact_models.npz: the contact forces at the cases' state, one step and
+the states of a 300-step rollout (every 50th), float64. The legs' state is the parity cases' lowered until their
+lowest collidable point is 3 mm deep (its base position stored, key `<case>/base_position`).
 
-Run from the repository's root where JaxSim 0.9.0 is installed: `python tests/jaxsim/generate_contact_models.py`.
+Run from the repository's root where JaxSim 0.9.0 is installed: `python tests/jaxsim/generate_contact_models.py
+[CASE ...]` (default: every case; named cases replace theirs in the existing file).
 Each contact model is asked for its answer to the tightest tolerance its solver reaches (the relaxed-rigid
 L-BFGS: tol 1e-12, 1000 iterations; the rigid qpax interior point: solver_tol 1e-10), so that the
 comparison measures the physics and not JaxSim's default tolerances; the relaxed-rigid default's answer
@@ -30,10 +32,14 @@ CONTACT_CASES = {
     "relaxed_hopper": dict(model="hopper", contact_model="RelaxedRigidContacts", options={"tol": 1e-12, "maxiter": 1000}, params={}),
     "rigid_box": dict(model="box", contact_model="RigidContacts", options={"solver_tol": 1e-10}, params={"K": 1e4, "D": 100.0}),
     "rigid_hopper": dict(model="hopper", contact_model="RigidContacts", options={"solver_tol": 1e-10}, params={"K": 1e4, "D": 100.0, "mu": 0.8}),
+    "relaxed_legs": dict(model="legs", contact_model="RelaxedRigidContacts", options={"tol": 1e-12, "maxiter": 1000}, params={}),
+    "rigid_legs": dict(model="legs", contact_model="RigidContacts", options={"solver_tol": 1e-10}, params={"K": 1e4, "D": 100.0}),
 }
 """The cases: a model of cases.MODELS, JaxSim's contact model, its solver options and its parameters."""
 
 STEPS, EVERY = 300, 50
+DEPTH = 0.003
+"""[m] how deep the legs' lowest collidable point starts."""
 
 
 def run(name: str) -> dict:
@@ -53,8 +59,13 @@ def run(name: str) -> dict:
     model = edited
     kwargs = cases.state(case["model"], model.joint_names(), model.floating_base())
     data = js.data.JaxSimModelData.build(model=model, velocity_representation=js.common.VelRepr.Inertial, **kwargs)
-    x = cases.inputs(case["model"], model.dofs(), model.number_of_links())
     out = {}
+    if case["model"] == "legs":  # lowered into contact (the module docstring)
+        low = float(np.min(np.asarray(js.contact.collidable_point_positions(model, data))[:, 2]))
+        kwargs["base_position"] = np.asarray(kwargs["base_position"]) - np.array([0.0, 0.0, low + DEPTH])
+        data = js.data.JaxSimModelData.build(model=model, velocity_representation=js.common.VelRepr.Inertial, **kwargs)
+        out[f"{name}/base_position"] = np.asarray(kwargs["base_position"])
+    x = cases.inputs(case["model"], model.dofs(), model.number_of_links())
     forces, _ = model.contact_model.compute_contact_forces(model, data, joint_force_references=x["tau"])
     out[f"{name}/forces"] = np.asarray(forces)
     if case["contact_model"] == "RelaxedRigidContacts":
@@ -78,15 +89,17 @@ def run(name: str) -> dict:
     return out
 
 
-def main() -> None:
+def main(names: list[str]) -> None:
     import jaxsim
 
-    out = {"jaxsim_version": np.asarray(jaxsim.__version__)}
-    for name in CONTACT_CASES:
-        out.update(run(name))
+    path = ROOT / "tests" / "jaxsim" / "contact_models.npz"
+    out = dict(np.load(path)) if names and path.exists() else {}
+    out["jaxsim_version"] = np.asarray(jaxsim.__version__)
+    for name in names or CONTACT_CASES:
+        out = {k: v for k, v in out.items() if not k.startswith(f"{name}/")} | run(name)
         print(name, flush=True)
-    np.savez_compressed(ROOT / "tests" / "jaxsim" / "contact_models.npz", **out)
+    np.savez_compressed(path, **out)
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])
