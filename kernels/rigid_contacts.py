@@ -20,17 +20,18 @@ Delassus matrix. The force f_c (3, world axes) acts at the point; inactive point
 - impact (`impact_velocities`, rigid, after each step): nu+ = nu - M^-1 J^T lambda with G lambda = J nu over the
   points then active, the velocity nearest nu in M's metric at which every active point is still (JaxSim's
   update_velocity_after_impact, a least-squares KKT solve). G is singular where the active rows outnumber the DoFs
-  they move: kernels/cholesky.py's `factor` drops its dependent rows, so lambda is one of the solutions and nu+ the unique one.
+  they move: kernels/cholesky.py's `factor` drops its dependent rows, so lambda is one of the solutions and nu+
+  the unique one.
 
 The linear algebra runs in float64 whatever the model's dtype: the mass matrix and the points' Jacobian rows are
 promoted, M is factorised densely (kernels/cholesky.py), and the Delassus matrix, the solves and the interior
 point are float64; the forces and the impact's velocities are rounded back to the model's dtype. The systems are
-nearly singular (a foot's 16 corners give 48 rows of rank 6, regularised by 1e-6 or by R ~ 1e-6 / m), so that in
-float32 the rounding of G alone moves the large internal forces that cancel in J^T f off G's null space and the
-net generalised force by tens of percent (the legs' landings differed from float64's by centimetres and fell
-over). The factorisations drop a pivot at or below `pivot_drop` of its diagonal (0 for the positive-definite
-solves: a pivot rounding made non-positive; DROPPED_PIVOT for the impact's singular Delassus matrix): that
-unknown is then 0.
+nearly singular (a foot's 16 corners give 48 rows of rank 6, regularised by 1e-6 or by R ~ 1e-6 / m): solved in
+float32, the impact's dependent rows kept pivots of rounding's size instead of 0, and a float32 landing of the legs
+fell over. The inputs (M, J, J̇ν) keep the model's dtype's rounding, so float32 rigid landings still decide on
+rounding which points stop (the engine's stage warns). The factorisations drop a pivot at or below `drop` times its
+diagonal entry (kernels/cholesky.py's `factor`; 0 for the positive-definite solves: a pivot that rounding made
+non-positive; DROPPED_PIVOT for the impact's singular Delassus matrix): that unknown is then 0.
 
 Forward only: no tape records these kernels.
 """
