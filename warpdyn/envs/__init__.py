@@ -12,6 +12,8 @@ steps, and computes observations, rewards and resets with torch ops on the devic
 synchronisation; on a GPU the whole step replays as one CUDA graph (eager while another warpdyn thread works
 there; on the CPU the simulation steps replay a Warp CPU graph). Its terms (`warpdyn.envs.terms`) are functions of the state that a
 configuration composes. `warpdyn.envs.rsl_rl.RslRlVecEnv` hands it to rsl-rl's PPO (examples/rl_locomotion.py).
+`warpdyn.envs.terrain_generator` tiles rough sub-terrains of graded difficulty into a heightfield and moves
+environments between its levels (Rudin et al.'s curriculum); LeggedEnv does not use it yet.
 """
 
 from . import terms
