@@ -1,0 +1,32 @@
+"""Sensors that read the world around a robot: the height scan (kernels/height_scan.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .. import arrays
+from ..kernels.height_scan import kernels as scan_kernels
+from .launch import launch
+from .step import plan
+
+__all__ = ["height_scan"]
+
+
+def height_scan(model, data, pattern: np.ndarray) -> wp.array:
+    """(N, P) [m]: the height of `model.terrain` under each point of `pattern` (P, 2) [m] in each environment's
+    base yaw frame, around its base (a Warp array on the model's device; gradients reach the base pose and a
+    heightfield's heights under a tape)."""
+    current = plan(model)
+    N, P = data.batch_size, len(pattern)
+    current.check_envs(N)
+    points = wp.array(np.asarray(pattern, dtype=np.float64), dtype=model.scalar, device=model.device)
+    out = arrays.output((P,), N, model.scalar, model.device, data.requires_grad)
+    launch(
+        scan_kernels(model.scalar).height_scan,
+        dim=(N, P),
+        inputs=[current.terrain, data.base_position_state, data.base_quaternion_state, points],
+        outputs=[out],
+        device=model.device,
+    )
+    return out
