@@ -249,6 +249,42 @@ def test_a_setter_or_a_new_configuration_is_taken_up():
     torch.testing.assert_close(reward, torch.full((3,), 2.0 * env.cfg.policy_dt, device=env.device))
 
 
+def test_a_generated_terrain_places_environments_on_their_tiles():
+    """With cfg.terrain the model walks on the generated heightfield and each environment starts on its tile's
+    platform, standing at its height above the tile's centre (a raised pyramid platform included); base heights are
+    observed above the origin; an episode that ended promotes an environment that walked past half a tile, demotes
+    one that walked less than half its command, and moves its origin to its new tile; reset() moves none."""
+    from warpdyn.envs.terrain_generator import TerrainConfig
+
+    terrain = TerrainConfig(levels=3, kinds=("flat", "pyramid_slope_up"), tile_size=4.0, platform=1.0)
+    env = _env(N=4, terrain=terrain, lin_vel_x=(1.0, 1.0), episode_seconds=0.04)
+    assert isinstance(env.model.terrain, wd.terrain.HeightfieldTerrain)
+    env.reset(seed=0)
+    np.testing.assert_array_equal(env.terrain_columns.cpu().numpy(), [0, 1, 0, 1])
+    np.testing.assert_array_equal(env.terrain_levels.cpu().numpy(), 0)  # a fifth of 3 levels: level 0 only
+    origins = env.env_origins.cpu().numpy()
+    np.testing.assert_allclose(origins[:, :2], [[2.0, 2.0], [2.0, 6.0], [2.0, 2.0], [2.0, 6.0]])
+    np.testing.assert_array_equal(origins[:, 2], 0.0)  # level 0: d = 0, flat
+    base = env.state.base_position.cpu().numpy()
+    np.testing.assert_allclose(base[:, :2], origins[:, :2], atol=1e-6)
+    np.testing.assert_allclose(base[:, 2], origins[:, 2] + env.standing_height + 0.02, atol=1e-6)
+    # environment 0 "walked" 3 m, environment 1 stayed: their episodes end at the next step (2 policy steps)
+    env.step(torch.zeros(4, 12, device=env.device))
+    views = env._state_views[id(env.stepper.data)]
+    views["base_position"][0, 0] += 3.0
+    env.step(torch.zeros(4, 12, device=env.device))
+    levels = env.terrain_levels.cpu().numpy()
+    assert levels[0] == 1 and levels[1] == 0  # up past half a tile (2 m); down from 0 stays at 0
+    np.testing.assert_allclose(env.env_origins.cpu().numpy()[0], env.terrain_generator.tile_centre(1, 0))
+    raised = env.terrain_generator.tile_centre(2, 1)
+    assert raised[2] > 0.3  # a level-2 pyramid's platform is raised: an environment there starts above it
+    env.terrain_levels[1], env.env_origins[1] = 2, torch.tensor(raised, dtype=env.env_origins.dtype)
+    env._reset(torch.tensor([False, True, False, False], device=env.device), curriculum=False)
+    np.testing.assert_allclose(env._reset_views["base_position"][1].cpu().numpy(), raised + [0.0, 0.0, env.standing_height + 0.02], atol=1e-6)
+    with pytest.raises(TypeError, match="LeggedEnvConfig.terrain must be a TerrainConfig"):
+        envs.LeggedEnvConfig(terrain="rough")
+
+
 def test_use_graph_true_is_refused_on_the_cpu():
     """Torch ops cannot be captured on the CPU: use_graph=True says so (and "auto" steps eagerly there)."""
     full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device="cpu")
@@ -258,12 +294,16 @@ def test_use_graph_true_is_refused_on_the_cpu():
 
 
 @pytest.mark.skipif(not wp.get_device().is_cuda, reason="CUDA graphs: the tests' device is not a GPU")
-@pytest.mark.parametrize("policy_dt", [0.02, 0.01])  # 10 and 5 simulation steps: an odd count ends on the other buffer
-def test_graph_replays_equal_eager_steps(policy_dt):
-    """use_graph=True captures a whole step (actions, simulation, rewards, resets, randomisation) and its
-    replays give what eager steps give, bitwise, through pushes, time-limit resets and a reset() between
-    replays, in tensors that the next step does not overwrite."""
+@pytest.mark.parametrize("policy_dt, terrain", [(0.02, False), (0.01, False), (0.02, True)])  # 10 and 5 simulation steps: an odd count ends on the other buffer
+def test_graph_replays_equal_eager_steps(policy_dt, terrain):
+    """use_graph=True captures a whole step (actions, simulation, rewards, resets, randomisation, the terrain
+    curriculum) and its replays give what eager steps give, bitwise, through pushes, time-limit resets and a
+    reset() between replays, in tensors that the next step does not overwrite."""
+    from warpdyn.envs.terrain_generator import TerrainConfig
+
     settings = dict(policy_dt=policy_dt, push_velocity=0.5, push_seconds=0.06, episode_seconds=0.1, mass_scale=(0.8, 1.2), friction=(0.4, 1.0), lin_vel_x=(-0.5, 0.5))
+    if terrain:
+        settings["terrain"] = TerrainConfig(levels=3, kinds=("flat", "pyramid_slope_up", "random_rough"), tile_size=4.0, platform=1.0)
     graphed = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=True)
     eager = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=False)
     actions = torch.tensor(np.random.default_rng(0).uniform(-1, 1, (12, 8, 12)), dtype=torch.float32, device=graphed.device)

@@ -30,7 +30,9 @@ def test_grid_shape_and_difficulties():
     assert gen.heights.shape == (5 * 40 + 1, 4 * 40 + 1)
     assert gen.tile_kind == ("flat", "flat", "stairs_up", "stairs_up")
     assert [gen.difficulty(k) for k in range(5)] == [0.0, 0.25, 0.5, 0.75, 1.0]
-    np.testing.assert_allclose(gen.tile_centre(2, 3), [10.0, 14.0, 0.0])
+    # the centre of tile (2, 3), stairs at d = 0.5: on the platform, floor(1.5 / 0.31) = 4 steps of 0.14 m up
+    np.testing.assert_allclose(gen.tile_centre(2, 3), [10.0, 14.0, 4 * 0.14])
+    np.testing.assert_allclose(gen.tile_centre(2, 1), [10.0, 6.0, 0.0])
     assert isinstance(gen.terrain, wd.terrain.HeightfieldTerrain) and gen.terrain.spacing == (0.1, 0.1)
     np.testing.assert_array_equal(_tile(gen, 4, "flat"), 0.0)
 
@@ -99,7 +101,7 @@ def test_curriculum_promotes_demotes_and_wraps():
     cur = TerrainCurriculum(gen, num_envs=6, max_start_level=1, seed=0)
     np.testing.assert_array_equal(cur.levels, 0)
     np.testing.assert_array_equal(cur.columns, [0, 1, 0, 1, 0, 1])
-    np.testing.assert_allclose(cur.origins[:2], [[4.0, 4.0, 0.0], [4.0, 12.0, 0.0]])
+    np.testing.assert_allclose(cur.origins[:2], [[4.0, 4.0, 0.0], [4.0, 12.0, 8 * 0.05]])  # level 0's stairs: 8 steps of 5 cm
     # env 0 walked past half a tile: up; env 1 less than half its command: stays at 0 (the floor); env 2 in between;
     # env 3 not done
     cur.update(np.array([True, True, True, False, False, False]), [5.0, 1.0, 3.0, 9.0, 0.0, 0.0], 4.0)

@@ -17,6 +17,7 @@ from gymnasium.vector.utils import batch_space
 import warpdyn as wd
 
 from . import terms
+from .terrain_generator import TerrainConfig, TerrainCurriculum, TerrainGenerator
 
 __all__ = ["LeggedEnvConfig", "LeggedEnv", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS"]
 
@@ -64,7 +65,12 @@ class LeggedEnvConfig:
     horizontal velocity change of at most `push_velocity` [m/s]. Feet: `feet` names the links whose
     collidable points are the feet (empty: every link with enabled points); a foot is in contact while the
     normal force on its points exceeds `contact_force_threshold` [N]. Domain randomisation at each reset:
-    link masses times U(mass_scale), contact friction U(friction).
+    link masses times U(mass_scale), contact friction U(friction). Terrain: flat ground, or with `terrain` (a
+    `warpdyn.envs.terrain_generator.TerrainConfig`) its generated heightfield, each environment starting at the
+    centre of its tile (`env_origins`, `terrain_levels`); with `terrain_curriculum` an environment whose episode
+    ended goes a level up when it walked farther than half a tile from its origin and down when it walked less
+    than half its commanded distance (Rudin et al.'s rule, on the device); base heights (observed, rewarded,
+    terminated) are taken above the origin's.
     """
 
     time_step: float = 0.002
@@ -96,6 +102,8 @@ class LeggedEnvConfig:
     friction: tuple = (0.5, 0.5)
     observations: tuple = DEFAULT_OBSERVATIONS
     rewards: dict = dataclasses.field(default_factory=lambda: dict(DEFAULT_REWARDS))
+    terrain: TerrainConfig | None = None
+    terrain_curriculum: bool = True
 
     def __post_init__(self):
         self.validate()
@@ -122,6 +130,10 @@ class LeggedEnvConfig:
             if not (isinstance(entry, (tuple, list)) and len(entry) == 2 and callable(entry[0])):
                 raise TypeError(f"LeggedEnvConfig.observations[{k}] must be a pair (term, scale), got {entry!r}")
             _check_field(f"observations[{k}] scale", entry[1], "finite", "")
+        if self.terrain is not None and not isinstance(self.terrain, TerrainConfig):
+            raise TypeError(f"LeggedEnvConfig.terrain must be a TerrainConfig (warpdyn.envs.terrain_generator) or None, got {self.terrain!r}")
+        if not isinstance(self.terrain_curriculum, (bool, np.bool_)):
+            raise TypeError(f"LeggedEnvConfig.terrain_curriculum must be True or False, got {self.terrain_curriculum!r}")
         if not isinstance(self.rewards, dict):
             raise TypeError(f"LeggedEnvConfig.rewards must be a dict {{name: (term, weight)}}, got {self.rewards!r}")
         for key, entry in self.rewards.items():
@@ -235,6 +247,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.num_envs = N = int(num_envs)
         self.decimation = int(round(decimation))
         self.use_graph = use_graph
+        self.terrain_generator = TerrainGenerator(cfg.terrain, seed=seed) if cfg.terrain is not None else None
         self.model = model = self._simulated(model, N)
         self.device = torch.device(wp.device_to_torch(model.device))
         self.torch_dtype = wp.dtype_to_torch(model.scalar)
@@ -261,6 +274,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._link_mass = wp.to_torch(model.link_mass)
         self._mu = wp.to_torch(model.contact_params.mu)
         self._nominal_mass = self._link_mass[0].clone()
+        self._terrain(seed)
         self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
         self._reset_mask_wp = wp.from_torch(self._reset_mask)
         self.feet, self._foot_points = self._feet(model)
@@ -289,10 +303,45 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, N)
         self.action_space = batch_space(self.single_action_space, N)
 
+    def _terrain(self, seed: int) -> None:
+        """The tiles' centres (levels, columns, 3) and each environment's level, column, origin (N, 3) and the
+        height under it (N,): zeros on flat ground."""
+        N, kw = self.num_envs, dict(device=self.device, dtype=self.torch_dtype)
+        gen = self.terrain_generator
+        if gen is None:
+            self.env_origins = torch.zeros(N, 3, **kw)
+            self.terrain_levels = self.terrain_columns = torch.zeros(N, dtype=torch.long, device=self.device)
+        else:
+            centres = gen.tile_centre(np.arange(gen.levels)[:, None], np.arange(gen.columns)[None, :])
+            self._tile_centres = torch.tensor(centres, **kw)
+            start = TerrainCurriculum(gen, N, seed=seed)
+            self.terrain_levels = torch.tensor(start.levels, dtype=torch.long, device=self.device)
+            self.terrain_columns = torch.tensor(start.columns, dtype=torch.long, device=self.device)
+            self.env_origins = self._tile_centres[self.terrain_levels, self.terrain_columns].clone()
+        self.terrain_height = self.env_origins[:, 2]
+
+    def _update_terrain_levels(self, mask: torch.Tensor) -> None:
+        """Rudin et al.'s curriculum for the environments where `mask` (their episode ended): up a level past half
+        a tile from the origin, down under half the commanded distance, a random level past the top; their new
+        origins."""
+        gen = self.terrain_generator
+        position = self._state_views[id(self.stepper.data)]["base_position"]
+        walked = (position[:, :2] - self.env_origins[:, :2]).norm(dim=1)
+        commanded = self.commands[:, :2].norm(dim=1).to(walked.dtype) * self.cfg.episode_seconds
+        up = mask & (walked > gen.config.tile_size / 2.0)
+        down = mask & ~up & (walked < 0.5 * commanded)
+        levels = self.terrain_levels + up.long() - down.long()
+        anywhere = torch.randint(0, gen.levels, levels.shape, generator=self._generator, device=self.device)
+        levels = torch.where(levels >= gen.levels, anywhere, levels).clamp(min=0)
+        self.terrain_levels.copy_(levels)
+        self.env_origins.copy_(torch.where(mask[:, None], self._tile_centres[self.terrain_levels, self.terrain_columns], self.env_origins))
+
     def _simulated(self, model, N: int):
         """A copy of `model` with the task's actuators, damping, contacts and per-environment parameters."""
         cfg = self.cfg
         model = model.copy()
+        if self.terrain_generator is not None:
+            model.terrain = self.terrain_generator.terrain
         if model.number_of_actuators() > 0 and cfg.torque_limit is not None:
             raise ValueError(f"torque_limit clips the servos LeggedEnv adds; '{model.name()}' has actuators of its own: set their force_range")
         if model.number_of_actuators() == 0:
@@ -370,13 +419,18 @@ class LeggedEnv(gym.vector.VectorEnv):
         new = torch.stack([self._uniform(*r, (self.num_envs,)) for r in (cfg.lin_vel_x, cfg.lin_vel_y, cfg.yaw_rate)], dim=1)
         self.commands.copy_(torch.where(mask[:, None], new.to(torch.float32), self.commands))
 
-    def _reset(self, mask: torch.Tensor) -> None:
-        """Reset the environments where `mask` (bool (N,)): a new initial state, parameters and commands."""
+    def _reset(self, mask: torch.Tensor, curriculum: bool = True) -> None:
+        """Reset the environments where `mask` (bool (N,)): a new initial state, parameters and commands; with
+        `curriculum` (episodes that ended, not a `reset()`) and a terrain curriculum, their terrain levels first."""
         cfg, N, n = self.cfg, self.num_envs, self.model.dofs()
+        if curriculum and self.terrain_generator is not None and cfg.terrain_curriculum:
+            self._update_terrain_levels(mask)
         v = self._reset_views
         yaw = self._uniform(-math.pi, math.pi, (N,))
         v["base_quaternion"].copy_(torch.stack([torch.cos(yaw / 2), 0 * yaw, 0 * yaw, torch.sin(yaw / 2)], dim=1))
-        v["base_position"].copy_(torch.stack([0 * yaw, 0 * yaw, 0 * yaw + self.standing_height + 0.02], dim=1))
+        lift = torch.zeros_like(self.env_origins)
+        lift[:, 2] = self.standing_height + 0.02
+        v["base_position"].copy_(self.env_origins + lift)
         v["joint_positions"].copy_(self.default_joint_positions + self._uniform(-cfg.joint_noise, cfg.joint_noise, (N, n)))
         v["base_velocity"].zero_()
         v["joint_velocities"].zero_()
@@ -429,7 +483,7 @@ class LeggedEnv(gym.vector.VectorEnv):
             self._generator.manual_seed(int(seed))
         self._sync_model()
         with self._on_device_stream():
-            self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
+            self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device), curriculum=False)
         self._finished.zero_()
         self.state = self._state()
         return self._observe(), {}
@@ -500,7 +554,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.feet_air_time.masked_fill_(self.feet_contact | self._previous_contact, 0.0)
         self._previous_contact.copy_(self.feet_contact)
         invalid = s.valid == 0
-        fell = (s.base_position[:, 2] < cfg.termination_height * self.standing_height) | (s.projected_gravity[:, 2] > -math.cos(cfg.termination_tilt))
+        fell = (s.base_position[:, 2] - self.terrain_height < cfg.termination_height * self.standing_height) | (s.projected_gravity[:, 2] > -math.cos(cfg.termination_tilt))
         terminated = fell | invalid
         truncated = (self.episode_length_buf >= self.max_episode_length) & ~terminated
         reward = torch.where(invalid, torch.zeros_like(reward), torch.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0))

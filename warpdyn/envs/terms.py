@@ -66,7 +66,8 @@ class State:
 
 
 def base_height(env) -> torch.Tensor:
-    return env.state.base_position[:, 2:3]
+    """The base's height above its environment's origin (the ground, or its terrain tile's centre) [m] (N, 1)."""
+    return (env.state.base_position[:, 2] - env.terrain_height)[:, None]
 
 
 def projected_gravity(env) -> torch.Tensor:
@@ -125,7 +126,7 @@ def upright(env) -> torch.Tensor:
 
 
 def height_error(env) -> torch.Tensor:
-    return (env.state.base_position[:, 2] - env.cfg.base_height_target).square()
+    return (env.state.base_position[:, 2] - env.terrain_height - env.cfg.base_height_target).square()
 
 
 def torque_squared(env) -> torch.Tensor:

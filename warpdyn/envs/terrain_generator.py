@@ -108,10 +108,13 @@ class TerrainGenerator:
         return level / (self.levels - 1) if self.levels > 1 else 0.0
 
     def tile_centre(self, level, column) -> np.ndarray:
-        """(..., 3) [m]: the centre of tiles (level, column) on their platform (arrays broadcast)."""
-        level, column = np.asarray(level, dtype=np.float64), np.asarray(column, dtype=np.float64)
+        """(..., 3) [m]: the centre of tiles (level, column) on their platform, its height the terrain's there
+        (a pyramid's platform is raised or lowered; integer arrays broadcast)."""
+        level, column = np.broadcast_arrays(np.asarray(level, dtype=int), np.asarray(column, dtype=int))
+        n = self.samples
+        height = self.heights[level * n + n // 2, column * n + n // 2]
         size = self.config.tile_size
-        return np.stack(np.broadcast_arrays((level + 0.5) * size, (column + 0.5) * size, np.zeros_like(level + column)), axis=-1)
+        return np.stack([(level + 0.5) * size, (column + 0.5) * size, height], axis=-1)
 
     def tile(self, kind: str, d: float, rng: np.random.Generator) -> np.ndarray:
         """(n + 1, n + 1) [m]: one tile's heights of `kind` at difficulty d (the module docstring), its samples at
@@ -171,7 +174,7 @@ class TerrainCurriculum:
     episode (N,) or one number [m], NumPy): an environment that walked farther than half a
     tile goes one level up (past the top it starts again at a random level), one that walked less than half its
     commanded distance one level down (not below 0). `levels` (N,) and `columns` (N,) int; `origins` (N, 3) [m]
-    the tiles' centres; `mean_level` what a training log shows."""
+    the tiles' centres; `mean_level` what a training log shows. (LeggedEnv runs the same rule on the device.)"""
 
     def __init__(self, generator: TerrainGenerator, num_envs: int, max_start_level: int | None = None, seed=0):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
