@@ -285,6 +285,38 @@ def test_a_generated_terrain_places_environments_on_their_tiles():
         envs.LeggedEnvConfig(terrain="rough")
 
 
+def test_the_height_scan_reads_the_terrain_around_each_base():
+    """cfg.height_scan: after reset and after each step env.height_scan holds the terrain's heights on the grid
+    around each base in its yaw frame (the host terrain's heights at those points), terms.height_scan the base's
+    height above them, less 0.5 m, clipped to [-1, 1]; without the option the term says what to set."""
+    from warpdyn.envs.terrain_generator import TerrainConfig
+
+    terrain = TerrainConfig(levels=2, kinds=("random_rough", "pyramid_slope_down"), tile_size=4.0, platform=1.0)
+    observations = (*envs.DEFAULT_OBSERVATIONS, (envs.terms.height_scan, 1.0))
+    env = _env(N=3, terrain=terrain, height_scan=((0.6, 0.4), 0.2), observations=observations)
+    obs, _ = env.reset(seed=1)
+    assert env.height_scan.shape == (3, 12) and obs.shape[1] == env.single_observation_space.shape[0]
+    for _ in range(2):
+        s = env.state
+        base = s.base_position.cpu().numpy()
+        q = s.base_quaternion.cpu().numpy()
+        yaw = np.arctan2(2 * (q[:, 0] * q[:, 3] + q[:, 1] * q[:, 2]), 1 - 2 * (q[:, 2] ** 2 + q[:, 3] ** 2))
+        pattern = wd.terrain.grid_pattern((0.6, 0.4), 0.2)
+        for e in range(3):
+            R = np.array([[np.cos(yaw[e]), -np.sin(yaw[e])], [np.sin(yaw[e]), np.cos(yaw[e])]])
+            points = base[e, :2] + pattern @ R.T
+            np.testing.assert_allclose(env.height_scan[e].cpu().numpy(), env.model.terrain.height(points[:, 0], points[:, 1]), atol=1e-5)
+        above = (s.base_position[:, 2:3] - env.height_scan - 0.5).clamp(-1.0, 1.0)
+        assert torch.equal(envs.terms.height_scan(env), above)
+        env.step(torch.zeros(3, 12, device=env.device))
+    flat = _env(N=2)
+    flat.reset(seed=0)
+    with pytest.raises(ValueError, match="set LeggedEnvConfig.height_scan"):
+        envs.terms.height_scan(flat)
+    with pytest.raises(TypeError, match="height_scan must be"):
+        envs.LeggedEnvConfig(height_scan=0.1)
+
+
 def test_use_graph_true_is_refused_on_the_cpu():
     """Torch ops cannot be captured on the CPU: use_graph=True says so (and "auto" steps eagerly there)."""
     full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device="cpu")
@@ -297,13 +329,15 @@ def test_use_graph_true_is_refused_on_the_cpu():
 @pytest.mark.parametrize("policy_dt, terrain", [(0.02, False), (0.01, False), (0.02, True)])  # 10 and 5 simulation steps: an odd count ends on the other buffer
 def test_graph_replays_equal_eager_steps(policy_dt, terrain):
     """use_graph=True captures a whole step (actions, simulation, rewards, resets, randomisation, the terrain
-    curriculum) and its replays give what eager steps give, bitwise, through pushes, time-limit resets and a
+    curriculum and the height scan) and its replays give what eager steps give, bitwise, through pushes, time-limit resets and a
     reset() between replays, in tensors that the next step does not overwrite."""
     from warpdyn.envs.terrain_generator import TerrainConfig
 
     settings = dict(policy_dt=policy_dt, push_velocity=0.5, push_seconds=0.06, episode_seconds=0.1, mass_scale=(0.8, 1.2), friction=(0.4, 1.0), lin_vel_x=(-0.5, 0.5))
     if terrain:
         settings["terrain"] = TerrainConfig(levels=3, kinds=("flat", "pyramid_slope_up", "random_rough"), tile_size=4.0, platform=1.0)
+        settings["height_scan"] = ((0.6, 0.4), 0.2)
+        settings["observations"] = (*envs.DEFAULT_OBSERVATIONS, (envs.terms.height_scan, 1.0))
     graphed = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=True)
     eager = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=False)
     actions = torch.tensor(np.random.default_rng(0).uniform(-1, 1, (12, 8, 12)), dtype=torch.float32, device=graphed.device)

@@ -26,12 +26,27 @@ def grid_pattern(size=(1.6, 1.0), resolution: float = 0.1) -> np.ndarray:
     return np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
 
 
-def height_scan(model, data, pattern) -> wp.array:
+def height_scan(model, data, pattern, *, out: wp.array | None = None) -> wp.array:
     """The terrain's height [m] under each point of `pattern` (P, 2) [m, in the base's yaw frame: x forward, y left,
     its heading only] around the base: (P,) or (N, P). A vertical ray cast down onto `model.terrain`, a height
     function, hits it at its height there. What a policy observes is usually the base's height above these (Isaac
-    Lab's height scan): `data.base_position[..., 2:3] - height_scan(...)`."""
-    points = arrays.host_numbers(pattern, "pattern")
-    if points.ndim != 2 or points.shape[1] != 2 or not np.all(np.isfinite(points)):
-        raise ValueError(f"pattern must be finite points (P, 2) [m], got shape {points.shape}")
+    Lab's height scan): `data.base_position[..., 2:3] - height_scan(...)`. pattern: NumPy, or a Warp array (P, 2)
+    of the model's dtype on its device (read in place); out: a Warp array (N, P) of the model's dtype on its device
+    to write into (and return, with the leading axis), for scans inside a captured graph (nothing allocated)."""
+    if isinstance(pattern, wp.array):
+        arrays.check_device_array(pattern, "pattern", model.scalar, model.device)
+        if pattern.ndim != 2 or pattern.shape[1] != 2:
+            raise ValueError(f"pattern must be points (P, 2) [m], got shape {pattern.shape}")
+        points = pattern
+    else:
+        host = arrays.host_numbers(pattern, "pattern")
+        if host.ndim != 2 or host.shape[1] != 2 or not np.all(np.isfinite(host)):
+            raise ValueError(f"pattern must be finite points (P, 2) [m], got shape {host.shape}")
+        points = wp.array(host, dtype=model.scalar, device=model.device)
+    if out is not None:
+        arrays.check_device_array(out, "out", model.scalar, model.device)
+        if tuple(out.shape) != (data.batch_size, points.shape[0]):
+            raise ValueError(f"out must have shape {(data.batch_size, points.shape[0])} (environments, points), got {tuple(out.shape)}")
+        sensors.height_scan(model, data, points, out)
+        return out
     return arrays.squeeze_env(sensors.height_scan(model, data, points), data.num_envs)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
 import warp as wp
 
 from .. import arrays
@@ -13,19 +12,19 @@ from .step import plan
 __all__ = ["height_scan"]
 
 
-def height_scan(model, data, pattern: np.ndarray) -> wp.array:
-    """(N, P) [m]: the height of `model.terrain` under each point of `pattern` (P, 2) [m] in each environment's
-    base yaw frame, around its base (a Warp array on the model's device; gradients reach the base pose and a
-    heightfield's heights under a tape)."""
+def height_scan(model, data, pattern: wp.array, out: wp.array | None = None) -> wp.array:
+    """(N, P) [m]: the height of `model.terrain` under each point of `pattern` (P, 2) [m] (a Warp array of the
+    model's dtype on its device) in each environment's base yaw frame, around its base, into `out` (N, P) when given
+    (else a new array; gradients reach the base pose and a heightfield's heights under a tape)."""
     current = plan(model)
-    N, P = data.batch_size, len(pattern)
+    N, P = data.batch_size, pattern.shape[0]
     current.check_envs(N)
-    points = wp.array(np.asarray(pattern, dtype=np.float64), dtype=model.scalar, device=model.device)
-    out = arrays.output((P,), N, model.scalar, model.device, data.requires_grad)
+    if out is None:
+        out = arrays.output((P,), N, model.scalar, model.device, data.requires_grad)
     launch(
         scan_kernels(model.scalar).height_scan,
         dim=(N, P),
-        inputs=[current.terrain, data.base_position_state, data.base_quaternion_state, points],
+        inputs=[current.terrain, data.base_position_state, data.base_quaternion_state, pattern],
         outputs=[out],
         device=model.device,
     )

@@ -70,7 +70,9 @@ class LeggedEnvConfig:
     centre of its tile (`env_origins`, `terrain_levels`); with `terrain_curriculum` an environment whose episode
     ended goes a level up when it walked farther than half a tile from its origin and down when it walked less
     than half its commanded distance (Rudin et al.'s rule, on the device); base heights (observed, rewarded,
-    terminated) are taken above the origin's.
+    terminated) are taken above the origin's. `height_scan` ((length, width), resolution) [m]: the terrain's height
+    on that grid around each base in its yaw frame after every step (`env.height_scan`, (N, P) [m];
+    `terms.height_scan` observes the base's height above it).
     """
 
     time_step: float = 0.002
@@ -104,6 +106,7 @@ class LeggedEnvConfig:
     rewards: dict = dataclasses.field(default_factory=lambda: dict(DEFAULT_REWARDS))
     terrain: TerrainConfig | None = None
     terrain_curriculum: bool = True
+    height_scan: tuple | None = None  # ((length, width), resolution) [m] of wd.terrain.grid_pattern; None: no scan
 
     def __post_init__(self):
         self.validate()
@@ -132,6 +135,11 @@ class LeggedEnvConfig:
             _check_field(f"observations[{k}] scale", entry[1], "finite", "")
         if self.terrain is not None and not isinstance(self.terrain, TerrainConfig):
             raise TypeError(f"LeggedEnvConfig.terrain must be a TerrainConfig (warpdyn.envs.terrain_generator) or None, got {self.terrain!r}")
+        if self.height_scan is not None:
+            scan = self.height_scan
+            if not (isinstance(scan, (tuple, list)) and len(scan) == 2 and isinstance(scan[0], (tuple, list)) and len(scan[0]) == 2):
+                raise TypeError(f"LeggedEnvConfig.height_scan must be ((length, width), resolution) [m] or None, got {scan!r}")
+            wd.terrain.grid_pattern(scan[0], scan[1])  # its values checked
         if not isinstance(self.terrain_curriculum, (bool, np.bool_)):
             raise TypeError(f"LeggedEnvConfig.terrain_curriculum must be True or False, got {self.terrain_curriculum!r}")
         if not isinstance(self.rewards, dict):
@@ -275,6 +283,12 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._mu = wp.to_torch(model.contact_params.mu)
         self._nominal_mass = self._link_mass[0].clone()
         self._terrain(seed)
+        self._scan_pattern = self._scan = self.height_scan = None
+        if cfg.height_scan is not None:
+            pattern = wd.terrain.grid_pattern(*cfg.height_scan)
+            self._scan_pattern = wp.array(pattern, dtype=model.scalar, device=model.device)
+            self._scan = wp.zeros((N, len(pattern)), dtype=model.scalar, device=model.device)
+            self.height_scan = wp.to_torch(self._scan)
         self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
         self._reset_mask_wp = wp.from_torch(self._reset_mask)
         self.feet, self._foot_points = self._feet(model)
@@ -296,7 +310,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._warp_streams: dict = {}
         self._program = self._step_program()
         self._graph_version, self._graph_cfg = model.version, _snapshot(cfg)
-        self.state = self._state()
+        with self._on_device_stream():  # the height scan's launch ordered with the torch ops
+            self.state = self._state()
         obs_dim = self._observe().shape[1]
         self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
         self.single_action_space = gym.spaces.Box(-cfg.action_clip, cfg.action_clip, (na,), np.float32)
@@ -388,6 +403,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         return {name: wp.to_torch(getattr(data, f"{name}_state")) for name in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "valid")}
 
     def _state(self) -> terms.State:
+        if self._scan is not None:  # on the device, into its buffer: inside a captured step too
+            wd.terrain.height_scan(self.model, self.stepper.data, self._scan_pattern, out=self._scan)
         v = self._state_views[id(self.stepper.data)]
         q = v["base_quaternion"] / v["base_quaternion"].norm(dim=1, keepdim=True)
         down = torch.zeros_like(v["base_position"])
@@ -484,8 +501,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._sync_model()
         with self._on_device_stream():
             self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device), curriculum=False)
+            self.state = self._state()
         self._finished.zero_()
-        self.state = self._state()
         return self._observe(), {}
 
     def step(self, actions):

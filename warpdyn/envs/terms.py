@@ -18,6 +18,7 @@ __all__ = [
     "State",
     "quat_rotate_inverse",
     "base_height",
+    "height_scan",
     "projected_gravity",
     "base_linear_velocity",
     "base_angular_velocity",
@@ -68,6 +69,14 @@ class State:
 def base_height(env) -> torch.Tensor:
     """The base's height above its environment's origin (the ground, or its terrain tile's centre) [m] (N, 1)."""
     return (env.state.base_position[:, 2] - env.terrain_height)[:, None]
+
+
+def height_scan(env) -> torch.Tensor:
+    """The base's height above the terrain at each point of the environment's height scan, less 0.5 m, clipped to
+    [-1, 1] [m] (N, P): Isaac Lab's observation (LeggedEnvConfig.height_scan must be set)."""
+    if env.height_scan is None:
+        raise ValueError("terms.height_scan observes the environment's height scan: set LeggedEnvConfig.height_scan")
+    return (env.state.base_position[:, 2:3] - env.height_scan - 0.5).clamp(-1.0, 1.0)
 
 
 def projected_gravity(env) -> torch.Tensor:
