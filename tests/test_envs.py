@@ -317,6 +317,26 @@ def test_the_height_scan_reads_the_terrain_around_each_base():
         envs.LeggedEnvConfig(height_scan=0.1)
 
 
+def test_undesired_contacts_flag_and_count_their_links():
+    """cfg.undesired_contacts: the named links' contact with the terrain (normal force above the threshold) in
+    env.undesired_contact, counted by terms.undesired_contacts; standing, both feet touch; lifted into the air,
+    neither. A link without collidable points, or one the model lacks, is refused by name."""
+    env = _env(N=2, undesired_contacts=("r_ankle_2", "l_ankle_2"))
+    env.reset(seed=0)
+    for _ in range(10):  # the reset drops the legs from 2 cm
+        env.step(torch.zeros(2, 12, device=env.device))
+    assert env.undesired_contact.shape == (2, 2) and env.undesired_contact.all()
+    assert torch.equal(envs.terms.undesired_contacts(env), torch.full((2,), 2.0, device=env.device))
+    views = env._state_views[id(env.stepper.data)]
+    views["base_position"][:, 2] += 1.0  # in the air: no contact after the next step
+    env.step(torch.zeros(2, 12, device=env.device))
+    assert not env.undesired_contact.any() and (envs.terms.undesired_contacts(env) == 0).all()
+    with pytest.raises(ValueError, match="undesired_contacts: link 'l_upper_leg' has no enabled collidable points"):
+        _env(N=1, undesired_contacts=("l_upper_leg",))
+    with pytest.raises(ValueError, match="undesired_contacts names link 'tail'"):
+        _env(N=1, undesired_contacts=("tail",))
+
+
 def test_use_graph_true_is_refused_on_the_cpu():
     """Torch ops cannot be captured on the CPU: use_graph=True says so (and "auto" steps eagerly there)."""
     full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device="cpu")

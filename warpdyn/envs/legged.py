@@ -64,7 +64,9 @@ class LeggedEnvConfig:
     ranges at each reset and every `command_seconds`. Pushes: every `push_seconds` of each episode, a random
     horizontal velocity change of at most `push_velocity` [m/s]. Feet: `feet` names the links whose
     collidable points are the feet (empty: every link with enabled points); a foot is in contact while the
-    normal force on its points exceeds `contact_force_threshold` [N]. Domain randomisation at each reset:
+    normal force on its points exceeds `contact_force_threshold` [N]; `undesired_contacts` names links (thighs,
+    shanks, the base) whose contact (the same test) `env.undesired_contact` (N, links) flags and
+    `terms.undesired_contacts` counts. Domain randomisation at each reset:
     link masses times U(mass_scale), contact friction U(friction). Terrain: flat ground, or with `terrain` (a
     `warpdyn.envs.terrain_generator.TerrainConfig`) its generated heightfield, each environment starting at the
     centre of its tile (`env_origins`, `terrain_levels`); with `terrain_curriculum` an environment whose episode
@@ -98,6 +100,7 @@ class LeggedEnvConfig:
     push_seconds: float = 8.0
     push_velocity: float = 0.0
     feet: tuple = ()
+    undesired_contacts: tuple = ()  # links whose touching the terrain terms.undesired_contacts penalises
     contact_force_threshold: float = 1.0
     air_time_target: float = 0.5
     mass_scale: tuple = (1.0, 1.0)
@@ -122,8 +125,10 @@ class LeggedEnvConfig:
         decimation = self.policy_dt / self.time_step
         if abs(decimation - round(decimation)) > 1e-6 or round(decimation) < 1:
             raise ValueError(f"LeggedEnvConfig.policy_dt {self.policy_dt} s must be a whole number of time steps of {self.time_step} s")
-        if isinstance(self.feet, str) or not all(isinstance(foot, str) for foot in self.feet):
-            raise TypeError(f"LeggedEnvConfig.feet must be a tuple of link names, got {self.feet!r}")
+        for name in ("feet", "undesired_contacts"):
+            links = getattr(self, name)
+            if isinstance(links, str) or not all(isinstance(link, str) for link in links):
+                raise TypeError(f"LeggedEnvConfig.{name} must be a tuple of link names, got {links!r}")
         default = self.default_joint_positions
         if default is not None and not isinstance(default, dict):
             raise TypeError(f"LeggedEnvConfig.default_joint_positions must be a dict {{joint name: angle [rad]}} or None, got {default!r}")
@@ -292,6 +297,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
         self._reset_mask_wp = wp.from_torch(self._reset_mask)
         self.feet, self._foot_points = self._feet(model)
+        _, self._undesired_points = self._feet(model, cfg.undesired_contacts, "undesired_contacts")
         # buffers
         f32 = dict(device=self.device, dtype=torch.float32)
         nf = len(self.feet)
@@ -303,6 +309,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.feet_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
         self.feet_first_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
         self.feet_air_time = torch.zeros(N, nf, **f32)
+        self.undesired_contact = torch.zeros(N, len(self._undesired_points), dtype=torch.bool, device=self.device)
         self._previous_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
         self._action_input = torch.zeros(N, na, **f32)
         self._return = torch.zeros(N, **f32)
@@ -384,20 +391,23 @@ class LeggedEnv(gym.vector.VectorEnv):
             default[names.index(name)] = value
         return default
 
-    def _feet(self, model) -> tuple:
-        """(foot link names, [torch index tensor of each foot's enabled collidable points])."""
+    def _feet(self, model, names=None, field: str = "feet") -> tuple:
+        """(link names, [torch index tensor of each link's enabled collidable points]) of `names` (None: cfg.feet,
+        or every link with enabled points when that is empty); a ValueError names `field` and a link that the model
+        lacks or that has no enabled points."""
         link_of_point = np.asarray(model.kin_dyn_structure().enabled_link.numpy()).reshape(-1)
         links = model.link_names()
-        feet = tuple(self.cfg.feet) or tuple(links[i] for i in sorted(set(link_of_point.tolist())))
+        if names is None:
+            names = tuple(self.cfg.feet) or tuple(links[i] for i in sorted(set(link_of_point.tolist())))
         points = []
-        for foot in feet:
-            if foot not in links:
-                raise ValueError(f"feet names link '{foot}', which '{model.name()}' does not have (its links: {', '.join(links)})")
-            index = np.flatnonzero(link_of_point == links.index(foot))
+        for link in names:
+            if link not in links:
+                raise ValueError(f"{field} names link '{link}', which '{model.name()}' does not have (its links: {', '.join(links)})")
+            index = np.flatnonzero(link_of_point == links.index(link))
             if index.size == 0:
-                raise ValueError(f"foot '{foot}' has no enabled collidable points: it cannot touch the ground")
+                raise ValueError(f"{field}: link '{link}' has no enabled collidable points: it cannot touch the ground")
             points.append(torch.tensor(index, device=self.device, dtype=torch.long))
-        return feet, points
+        return tuple(names), points
 
     def _views(self, data) -> dict:
         return {name: wp.to_torch(getattr(data, f"{name}_state")) for name in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "valid")}
@@ -588,10 +598,14 @@ class LeggedEnv(gym.vector.VectorEnv):
         return obs, reward, terminated, truncated, info
 
     def _update_feet(self) -> None:
-        """Contact of each foot (normal force above the threshold), its first contact and its air time [s]."""
+        """Contact of each foot (normal force above the threshold), its first contact and its air time [s]; the
+        undesired contacts (the same test)."""
         W_f_C = wp.to_torch(self.stepper.contact_wrenches)
         normal = torch.stack([W_f_C[:, index, 2].sum(dim=1) for index in self._foot_points], dim=1)
         self.feet_contact.copy_(normal > self.cfg.contact_force_threshold)
+        if self._undesired_points:
+            other = torch.stack([W_f_C[:, index, 2].sum(dim=1) for index in self._undesired_points], dim=1)
+            self.undesired_contact.copy_(other > self.cfg.contact_force_threshold)
         touching = self.feet_contact | self._previous_contact
         self.feet_first_contact.copy_((self.feet_air_time > 0) & touching)
         self.feet_air_time += self.cfg.policy_dt

@@ -35,6 +35,7 @@ __all__ = [
     "joint_velocity_squared",
     "vertical_velocity_squared",
     "alive",
+    "undesired_contacts",
     "feet_contact",
     "feet_air_time",
     "angular_velocity_xy_squared",
@@ -164,6 +165,12 @@ def feet_air_time(env) -> torch.Tensor:
     planar velocity above 0.1 m/s is commanded (Rudin et al. 2021): rewards steps of at least that length."""
     steps = ((env.feet_air_time - env.cfg.air_time_target) * env.feet_first_contact).sum(dim=1)
     return steps * (env.commands[:, :2].norm(dim=1) > 0.1)
+
+
+def undesired_contacts(env) -> torch.Tensor:
+    """The number of LeggedEnvConfig.undesired_contacts links touching the terrain (normal force above
+    cfg.contact_force_threshold): Isaac Lab's and Rudin et al.'s penalty on thighs, shanks and base (N,)."""
+    return env.undesired_contact.sum(dim=1).to(torch.float32)
 
 
 def alive(env) -> torch.Tensor:
