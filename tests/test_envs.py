@@ -337,6 +337,32 @@ def test_undesired_contacts_flag_and_count_their_links():
         _env(N=1, undesired_contacts=("tail",))
 
 
+def test_observation_noise_and_action_delay():
+    """An observation entry (term, scale, noise) adds uniform noise of +-noise to its scaled values (here on zero
+    commands: the noise alone, bounded, spread); action_delay k sets the targets from the action given k policy
+    steps before (zero actions first), while env.actions is the newest; a reset empties the history."""
+    observations = ((envs.terms.commands, 1.0, 0.1),)
+    env = _env(N=64, observations=observations, action_delay=2)
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (64, 3) and obs.abs().max() <= 0.1 and obs.abs().mean() > 0.03
+    default = env.default_joint_positions
+    given = [torch.full((64, 12), value, device=env.device) for value in (0.4, -0.2, 0.8)]
+    applied = []
+    for action in given:
+        env.step(action)
+        applied.append(((env._ctrl - default) / env.cfg.action_scale).to(torch.float32))
+        assert torch.equal(env.actions, action)
+    assert torch.allclose(applied[0], torch.zeros_like(applied[0])) and torch.allclose(applied[1], torch.zeros_like(applied[1]))
+    assert torch.allclose(applied[2], given[0], atol=1e-5)  # two steps late
+    env.reset(seed=0)
+    env.step(given[2])
+    assert torch.allclose(((env._ctrl - default) / env.cfg.action_scale).to(torch.float32), torch.zeros(64, 12, device=env.device))
+    with pytest.raises(ValueError, match="action_delay must be an integer >= 0"):
+        envs.LeggedEnvConfig(action_delay=-1)
+    with pytest.raises(ValueError, match=r"observations\[0\] noise must be a finite number >= 0"):
+        envs.LeggedEnvConfig(observations=((envs.terms.commands, 1.0, -0.1),))
+
+
 def test_use_graph_true_is_refused_on_the_cpu():
     """Torch ops cannot be captured on the CPU: use_graph=True says so (and "auto" steps eagerly there)."""
     full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device="cpu")

@@ -74,7 +74,10 @@ class LeggedEnvConfig:
     than half its commanded distance (Rudin et al.'s rule, on the device); base heights (observed, rewarded,
     terminated) are taken above the origin's. `height_scan` ((length, width), resolution) [m]: the terrain's height
     on that grid around each base in its yaw frame after every step (`env.height_scan`, (N, P) [m];
-    `terms.height_scan` observes the base's height above it).
+    `terms.height_scan` observes the base's height above it). Realism: an observation entry (term, scale, noise)
+    adds uniform noise of +-noise to its scaled values at every observation; `action_delay` k applies each action
+    k policy steps after the policy gave it (the targets hold the last ones given k steps ago; zero after a reset),
+    while `env.actions` (what the action terms read) is the newest.
     """
 
     time_step: float = 0.002
@@ -101,6 +104,7 @@ class LeggedEnvConfig:
     push_velocity: float = 0.0
     feet: tuple = ()
     undesired_contacts: tuple = ()  # links whose touching the terrain terms.undesired_contacts penalises
+    action_delay: int = 0  # policy steps between an action and the targets it sets (actuation latency)
     contact_force_threshold: float = 1.0
     air_time_target: float = 0.5
     mass_scale: tuple = (1.0, 1.0)
@@ -125,6 +129,8 @@ class LeggedEnvConfig:
         decimation = self.policy_dt / self.time_step
         if abs(decimation - round(decimation)) > 1e-6 or round(decimation) < 1:
             raise ValueError(f"LeggedEnvConfig.policy_dt {self.policy_dt} s must be a whole number of time steps of {self.time_step} s")
+        if isinstance(self.action_delay, bool) or not isinstance(self.action_delay, (int, np.integer)) or self.action_delay < 0:
+            raise ValueError(f"LeggedEnvConfig.action_delay must be an integer >= 0 [policy steps], got {self.action_delay!r}")
         for name in ("feet", "undesired_contacts"):
             links = getattr(self, name)
             if isinstance(links, str) or not all(isinstance(link, str) for link in links):
@@ -135,9 +141,11 @@ class LeggedEnvConfig:
         for joint, value in (default or {}).items():
             _check_field(f"default_joint_positions[{joint!r}]", value, "finite", "rad")
         for k, entry in enumerate(self.observations):
-            if not (isinstance(entry, (tuple, list)) and len(entry) == 2 and callable(entry[0])):
-                raise TypeError(f"LeggedEnvConfig.observations[{k}] must be a pair (term, scale), got {entry!r}")
+            if not (isinstance(entry, (tuple, list)) and len(entry) in (2, 3) and callable(entry[0])):
+                raise TypeError(f"LeggedEnvConfig.observations[{k}] must be (term, scale) or (term, scale, noise), got {entry!r}")
             _check_field(f"observations[{k}] scale", entry[1], "finite", "")
+            if len(entry) == 3:
+                _check_field(f"observations[{k}] noise", entry[2], "non-negative", "(the scaled term's units)")
         if self.terrain is not None and not isinstance(self.terrain, TerrainConfig):
             raise TypeError(f"LeggedEnvConfig.terrain must be a TerrainConfig (warpdyn.envs.terrain_generator) or None, got {self.terrain!r}")
         if self.height_scan is not None:
@@ -312,6 +320,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.undesired_contact = torch.zeros(N, len(self._undesired_points), dtype=torch.bool, device=self.device)
         self._previous_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
         self._action_input = torch.zeros(N, na, **f32)
+        self._action_history = torch.zeros(cfg.action_delay + 1, N, na, **f32)  # newest first
         self._return = torch.zeros(N, **f32)
         self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)  # episodes, return sum, length sum
         self._warp_streams: dict = {}
@@ -431,7 +440,12 @@ class LeggedEnv(gym.vector.VectorEnv):
         )
 
     def _observe(self) -> torch.Tensor:
-        parts = [(term(self) * scale).reshape(self.num_envs, -1).to(torch.float32) for term, scale in self.cfg.observations]
+        parts = []
+        for entry in self.cfg.observations:
+            value = (entry[0](self) * entry[1]).reshape(self.num_envs, -1).to(torch.float32)
+            if len(entry) == 3 and entry[2] > 0:
+                value = value + self._uniform(-entry[2], entry[2], value.shape).to(torch.float32)
+            parts.append(value)
         return torch.nan_to_num(torch.cat(parts, dim=1), nan=0.0, posinf=0.0, neginf=0.0)
 
     def _uniform(self, low, high, shape) -> torch.Tensor:
@@ -470,6 +484,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         zero = torch.zeros_like(self.actions)
         self.actions.copy_(torch.where(mask[:, None], zero, self.actions))
         self.previous_actions.copy_(torch.where(mask[:, None], zero, self.previous_actions))
+        self._action_history.masked_fill_(mask[None, :, None], 0.0)
         self.feet_air_time.masked_fill_(mask[:, None], 0.0)
         self._previous_contact.masked_fill_(mask[:, None], False)
         self.episode_length_buf.masked_fill_(mask, 0)
@@ -558,7 +573,12 @@ class LeggedEnv(gym.vector.VectorEnv):
         cfg = self.cfg
         self.previous_actions.copy_(self.actions)
         self.actions.copy_(torch.nan_to_num(self._action_input, nan=0.0).clamp(-cfg.action_clip, cfg.action_clip))
-        targets = self.default_joint_positions + cfg.action_scale * self.actions.to(self.torch_dtype)
+        applied = self.actions
+        if cfg.action_delay > 0:  # the history shifts one step; the targets take the action given action_delay steps ago
+            self._action_history.copy_(torch.roll(self._action_history, 1, dims=0))
+            self._action_history[0].copy_(self.actions)
+            applied = self._action_history[cfg.action_delay]
+        targets = self.default_joint_positions + cfg.action_scale * applied.to(self.torch_dtype)
         self._ctrl.copy_(targets)
         if cfg.push_velocity > 0:
             push = (self.episode_length_buf % self._every(cfg.push_seconds) == 0) & (self.episode_length_buf > 0)
