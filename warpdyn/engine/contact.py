@@ -64,7 +64,7 @@ def other_forces(model, data, link_forces, joint_force_references) -> tuple:
     current = plan(model)
     W_f_ext = link_force_input(current, data, link_forces)
     tau = torque_reference_input(current, data, joint_force_references) if joint_force_references is not None else None
-    if current.contact_stage.has_state:
+    if not current.contact_stage.reads_other_forces:
         return None, None
     if W_f_ext is not None and data.velocity_representation != VelRepr.Inertial:
         W_f_ext = forces_inertial(model, data, W_f_ext, int(data.velocity_representation))

@@ -16,7 +16,9 @@ stage alone (`ContactStage`), chosen from the model's class when the step's plan
   (kernels/soft_contacts.py's `law_parameters` and `contact_at`), which the fused step
   (kernels/fused_step.py) calls where the staged kernels do; None: the fused step does not apply.
 - `buffers`: what its launches need beside the evaluation's (per evaluation); `after_step`: launches that end a
-  step (JaxSim's rigid impact); `has_state`: whether it has a contact state whose rate it writes (else m_dot is 0).
+  step (JaxSim's rigid impact); `has_state`: whether it has a contact state whose rate it writes (else m_dot is 0);
+  `reads_other_forces`: whether its forces depend on the joint and link forces acting besides them (JaxSim's
+  rigid models: their free accelerations).
 ABA and the integrators read W_f_L and m_dot, nothing else of a contact model. JaxSim's rigid and relaxed-rigid
 models (`RigidContactStage`, `RelaxedRigidContactStage`) solve an environment's contact forces together from its
 mass matrix and the points' Jacobians (kernels/rigid_contacts.py); contacts between bodies are a further stage
@@ -77,6 +79,7 @@ class ContactStage:
 
     point_law = None
     has_state = True
+    reads_other_forces = False  # whether its forces depend on the joint and link forces acting besides them
     checked_on_device = False  # whether the step's device check (kernels/parameter_checks.py) reads its K, D and mu
 
     def __init__(self, model, integrator):
@@ -169,6 +172,7 @@ class RigidContactStage(ContactStage):
     the points' Jacobians and J̇ν at the state. mu, K, D: shared (1,) or per environment (N,)."""
 
     has_state = False
+    reads_other_forces = True
     law_kernel = "rigid_forces"
     impact = True  # `after_step` launches the impact (and `buffers` holds its poses and velocities)
 
