@@ -3,6 +3,8 @@ the heightfield as a step's terrain, and the curriculum's promotion and demotion
 
 from __future__ import annotations
 
+import pathlib
+
 import numpy as np
 import pytest
 
@@ -88,7 +90,7 @@ def test_the_heightfield_is_a_steps_terrain():
     for x, y in ((6.0, 2.0), (4.5, 2.0), (5.2, 0.9)):
         i, j = round(x / 0.1), round(y / 0.1)
         np.testing.assert_allclose(gen.terrain.height(x, y), gen.heights[i, j], atol=1e-12)
-    model = wd.model.JaxSimModel.build_from_model_description(str(pytest.importorskip("pathlib").Path(__file__).parent / "jaxsim" / "box.sdf"))
+    model = wd.model.JaxSimModel.build_from_model_description(pathlib.Path(__file__).parent / "jaxsim" / "box.sdf")
     model.terrain = gen.terrain
     centre = gen.tile_centre(1, 0)
     data = wd.data.JaxSimModelData.build(model=model, base_position=centre + np.array([0.0, 0.0, 0.1 + gen.heights[60, 20]]))
