@@ -482,6 +482,9 @@ def kernels(scalar, multi_dof: bool):
 
     return types.SimpleNamespace(
         quaternion_rate=quaternion_rate,
+        rotation_step=rotation_step,
+        quaternion_product=quaternion_product,
+        read4=read4,
         poison=poison,
         euler_coordinate=euler_coordinate,
         euler_rate=euler_rate,

@@ -42,6 +42,7 @@ API = {
     "warpdyn.com",
     "warpdyn.contact",
     "warpdyn.simulation",
+    "warpdyn.autodiff",
     "warpdyn.terrain",
     "warpdyn.math",
     "warpdyn.common",

@@ -27,7 +27,7 @@ if _os.environ.get("WARPDYN_VERBOSE", "") in ("", "0") and _wp.config.log_level 
 # model first: it re-exports functions of modules (_centroidal, _dynamics, ...) that import it back.
 from . import model  # isort: skip
 from . import assets, com, contact, data, frame, joint, link, math, references, simulation, terrain, visualization
-from . import actuation_model, common, integrators, kin_dyn_parameters, ode, rbda
+from . import actuation_model, autodiff, common, integrators, kin_dyn_parameters, ode, rbda
 from .types.enums import VelRepr
 
 __all__ = [
@@ -35,6 +35,7 @@ __all__ = [
     "set_verbose",
     "actuation_model",
     "assets",
+    "autodiff",
     "common",
     "integrators",
     "kin_dyn_parameters",

@@ -53,10 +53,11 @@ def state_array(value, name: str, per_env: tuple, num_envs: int | None, scalar, 
     return out
 
 
-def base_velocity_from(position: wp.array, quaternion: wp.array, linear: wp.array, angular: wp.array, repr: int) -> wp.array:
+def base_velocity_from(position: wp.array, quaternion: wp.array, linear: wp.array, angular: wp.array, repr: int,
+                       requires_grad: bool = False) -> wp.array:
     """(N, 6): the stored (Mixed) base velocity from its linear and angular parts (N, 3) given in `repr`."""
     N, s, d = position.shape[0], position.dtype, position.device
-    velocity = arrays.empty((6,), N, s, d)
+    velocity = arrays.empty((6,), N, s, d, requires_grad)
     launch(state_kernels(s).base_velocity_from_repr, dim=N, inputs=[position, quaternion, linear, angular, int(repr)], outputs=[velocity], device=d)
     return velocity
 

@@ -1,0 +1,186 @@
+"""warpdyn.autodiff: a step's A, B and the Jacobians of functions, by one batched backward pass, against central
+finite differences (float64) and MuJoCo's mjd_transitionFD on the same MJCF.
+
+Finite differences here move the state along the tangent of kernels/tangent.py (the base rotation in world axes
+for the Mixed representation, in base axes for Body) and read the new state's tangent the same way. The soft
+contacts' damper, D δ^q δ̇ with q = 1/2, curves sharply 1.5 mm into the ground: there h = 1e-6 is off by 5e-2 of the
+largest entry, h = 1e-7 by 3e-9 (round-off eps |x'| / h stays below that), so h = 1e-7 and the tolerance 1e-7 of the
+largest entry (entries reach ~1e3 with the contacts' stiffness).
+"""
+
+import mujoco
+import numpy as np
+import pytest
+import warp as wp
+
+import mjcf_models
+import warpdyn as wd
+from mjcf_compare import mujoco_to_warpdyn_state
+from mjcf_fixtures import BALL, FLOATING_HUMANOID
+from test_fused_step import FREE_TREES
+
+
+def quat_mul(a, b):
+    w1, v1, w2, v2 = a[0], a[1:], b[0], b[1:]
+    return np.concatenate([[w1 * w2 - v1 @ v2], w1 * v2 + w2 * v1 + np.cross(v1, v2)])
+
+
+def quat_exp(theta):
+    angle = np.linalg.norm(theta)
+    if angle == 0.0:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * theta / angle])
+
+
+def conj(Q):
+    return Q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def legs(contacts: bool):
+    """The ergoCub legs (float64), their lowest point 3 mm into the ground (soft contacts) or in the air."""
+    full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), dtype=np.float64)
+    model = wd.model.reduce(full, considered_joints=wd.assets.ERGOCUB_LEG_JOINTS)
+    if not contacts:
+        model = wd.contact.with_collidable_points(model, enabled_links=())
+    return model
+
+
+def random_state(model, N, repr, rng, height):
+    n = model.dofs()
+    Q = rng.normal(size=(N, 4)) * np.array([0.1, 0.05, 0.05, 0.3]) + np.array([1.0, 0.0, 0.0, 0.0])
+    Q /= np.linalg.norm(Q, axis=1, keepdims=True)
+    data = wd.data.Data.build(model, num_envs=N, base_quaternion=Q, joint_positions=rng.uniform(-0.2, 0.2, (N, n)), velocity_representation=repr)
+    lowest = wd.contact.collidable_point_positions(model, data).numpy()[..., 2].min(axis=1)
+    return data.replace(model, base_position=np.stack([np.zeros(N), np.zeros(N), height - lowest], axis=1), base_linear_velocity=rng.normal(0, 0.1, (N, 3)),
+                        base_angular_velocity=rng.normal(0, 0.3, (N, 3)), joint_velocities=rng.normal(0, 0.5, (N, n)),
+                        contact_state={"tangential_deformation": rng.normal(0, 1e-4, (N, 32, 3))})
+
+
+def host_state(data, e):
+    return [a.numpy()[e] for a in (data.base_position, data.base_quaternion, data.joint_positions, data.base_velocity, data.joint_velocities)]
+
+
+def fd_transition(model, data, e, tau, body_axes, h=1e-7):
+    """(A, B) of environment e by central differences in the tangent of kernels/tangent.py (one-DoF joints)."""
+    p0, Q0, s0, v0, sd0 = host_state(data, e)
+    n = model.dofs()
+    deformation = data.contact_state["tangential_deformation"].numpy()[e]
+
+    def stepped(dx, u):
+        turn = quat_exp(dx[3:6])
+        Q = quat_mul(Q0, turn) if body_axes else quat_mul(turn, Q0)
+        v = v0 + dx[6 + n : 12 + n]
+        one = wd.data.Data.build(model, base_position=p0 + dx[:3], base_quaternion=Q, joint_positions=s0 + dx[6 : 6 + n], base_linear_velocity=v[:3],
+                                 base_angular_velocity=v[3:], joint_velocities=sd0 + dx[12 + n :], velocity_representation=data.velocity_representation,
+                                 contact_state={"tangential_deformation": deformation}, num_envs=1)
+        return host_state(wd.model.step(model, one, joint_force_references=u), 0)
+
+    reference = stepped(np.zeros(2 * (6 + n)), tau)
+
+    def tangent(x):
+        p, Q, s, v, sd = x
+        e = quat_mul(conj(reference[1]), Q) if body_axes else quat_mul(Q, conj(reference[1]))
+        return np.concatenate([p, 2 * e[1:], s, v, sd])
+
+    nx = 2 * (6 + n)
+    A = np.zeros((nx, nx))
+    for k in range(nx):
+        dx = np.zeros(nx)
+        dx[k] = h
+        A[:, k] = (tangent(stepped(dx, tau)) - tangent(stepped(-dx, tau))) / (2 * h)
+    B = np.zeros((nx, n))
+    for k in range(n):
+        du = np.zeros(n)
+        du[k] = h
+        B[:, k] = (tangent(stepped(np.zeros(nx), tau + du)) - tangent(stepped(np.zeros(nx), tau - du))) / (2 * h)
+    return A, B
+
+
+@pytest.mark.parametrize("repr", [wd.VelRepr.Mixed, wd.VelRepr.Body])
+def test_transition_matrices_of_the_legs_in_contact_equal_finite_differences(repr):
+    """The floating-base legs, 3 mm into the soft ground (some points in contact, a deformation state held), in the
+    Mixed and Body representations: A and B of two environments equal central differences."""
+    model = legs(contacts=True)
+    rng = np.random.default_rng(1)
+    N, n = 2, model.dofs()
+    data = random_state(model, N, repr, rng, height=-0.003)
+    assert (wd.contact.collidable_point_positions(model, data).numpy()[..., 2] < 0).sum(axis=1).min() >= 1
+    tau = rng.normal(0, 5.0, (N, n))
+    out = wd.autodiff.transition_matrices(model, data, joint_force_references=tau)
+    A, B = out["A"].numpy(), out["B"].numpy()
+    assert A.shape == (N, 2 * (6 + n), 2 * (6 + n)) and B.shape == (N, 2 * (6 + n), n)
+    for e in range(N):
+        A_fd, B_fd = fd_transition(model, data, e, tau[e], body_axes=repr == wd.VelRepr.Body)
+        assert np.abs(A[e] - A_fd).max() <= 1e-7 * np.abs(A_fd).max(), e
+        assert np.abs(B[e] - B_fd).max() <= 1e-7 * np.abs(B_fd).max(), e
+        assert np.abs(A_fd).max() > 10.0  # the contacts' stiffness is in it
+
+
+def mujoco_transition(mj, qpos, qvel, ctrl):
+    """MuJoCo's (A, B) by centred differences (mjd_transitionFD, eps 1e-6)."""
+    d = mujoco.MjData(mj)
+    d.qpos[:], d.qvel[:], d.ctrl[:] = qpos, qvel, ctrl
+    mujoco.mj_forward(mj, d)
+    A = np.zeros((2 * mj.nv, 2 * mj.nv))
+    B = np.zeros((2 * mj.nv, mj.nu))
+    mujoco.mjd_transitionFD(mj, d, 1e-6, 1, A, B, None, None)
+    return A, B
+
+
+def tangent_map(T, free, data):
+    """MuJoCo's tangent [dq; dv] from warpdyn's (Mixed): T (MuJoCo's dofs from warpdyn's velocities, of
+    mujoco_to_warpdyn_state) with, for a floating base (its free joint's first dof `free`), the rotation's block Rᵀ
+    at data's state and the angular velocity's dependence on the rotation: ω_b = Rᵀ ω_w, so δω_b = Rᵀ δω_w + Rᵀ
+    [ω_w]x δθ_w."""
+    nv, m = T.shape
+    Tx = T.copy()
+    J = np.zeros((2 * nv, 2 * m))
+    if free is not None:
+        R = np.zeros(9)
+        mujoco.mju_quat2Mat(R, data.base_quaternion.numpy())
+        R = R.reshape(3, 3)
+        Tx[free + 3 : free + 6, 3:6] = R.T
+        w = data.base_velocity.numpy()[3:]
+        J[nv + free + 3 : nv + free + 6, 3:6] = R.T @ np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+    J[:nv, :m] = Tx
+    J[nv:, m:] = Tx
+    return J
+
+
+def random_mujoco_state(mj, rng):
+    d = mujoco.MjData(mj)
+    d.qpos[:] = mj.qpos0
+    mujoco.mj_integratePos(mj, d.qpos, rng.normal(0, 0.3, mj.nv), 1.0)
+    return d.qpos.copy(), rng.normal(0, 0.5, mj.nv), rng.uniform(-0.5, 0.5, mj.nu)
+
+
+@pytest.mark.parametrize("name", ["floating humanoid", "ball", "free trees"])
+def test_transition_matrices_equal_mujocos(name):
+    """A and B (with respect to ctrl) equal MuJoCo's mjd_transitionFD on the same MJCF without contacts: a floating
+    humanoid with motors, position and velocity servos (its base's tangent converted: MuJoCo's rotation and angular
+    velocity are in base axes, the Mixed representation's in world axes), a ball joint, and two free trees below the
+    world (free joints' tangents are MuJoCo's). MuJoCo's differences (eps 1e-6) are exact to ~1e-9 of the entries."""
+    xml = {"floating humanoid": FLOATING_HUMANOID, "ball": BALL, "free trees": FREE_TREES}[name]
+    mj = mjcf_models.reference_model(mjcf_models.load(xml), extra_disable=int(mujoco.mjtDisableBit.mjDSBL_CONTACT))
+    model = wd.model.Model.build_from_model_description(xml, dtype=np.float64)
+    model = wd.contact.with_collidable_points(model, enabled_links=())
+    qpos, qvel, ctrl = random_mujoco_state(mj, np.random.default_rng(3))
+    A_mj, B_mj = mujoco_transition(mj, qpos, qvel, ctrl)
+    state = mujoco_to_warpdyn_state(model, mj, qpos, qvel)
+    data = wd.data.Data.build(model, **state.data_kwargs)
+    actuators = [mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in model.actuator_names()]
+    u = np.zeros(model.number_of_actuators())
+    u[:] = ctrl[actuators] if actuators else u
+    out = wd.autodiff.transition_matrices(model, data, control="ctrl", ctrl=u)
+    A, B = out["A"].numpy(), out["B"].numpy()
+    free = None
+    if model.floating_base():
+        free = int(mj.jnt_dofadr[mj.body_jntadr[mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, model.base_link())]])
+    after = wd.model.step(model, data, ctrl=u)
+    J0, J1 = tangent_map(state.T, free, data), tangent_map(state.T, free, after)
+    A_w = J1 @ A @ np.linalg.inv(J0)
+    B_w = J1 @ B
+    B_mj = B_mj[:, actuators] if actuators else B_mj[:, :0]
+    assert np.abs(A_w - A_mj).max() <= 1e-7 * max(1.0, np.abs(A_mj).max()), np.abs(A_w - A_mj).max()
+    assert B.shape == (A.shape[0], model.number_of_actuators()) and B_mj.shape == B_w.shape
+    assert np.abs(B_w - B_mj).max(initial=0.0) <= 1e-7 * max(1.0, np.abs(B_mj).max(initial=0.0))

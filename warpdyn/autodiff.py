@@ -1,0 +1,226 @@
+"""Full Jacobians of warpdyn's computations, by one batched reverse pass.
+
+Warp differentiates in reverse mode: one backward pass gives the gradient of one scalar. For the Jacobian of
+m outputs, warpdyn runs the computation on m copies of each environment at once (N m environments), seeds
+output c in copy c and runs one backward pass: copy c's input gradients are row c of its environment's
+Jacobian. On a GPU, whose width the copies fill, m rows cost about what one does.
+
+- `transition_matrices(model, data, ...)`: a step's A = ∂x'/∂x and B = ∂x'/∂u in the tangent space of the
+  state (MuJoCo's mjd_transitionFD layout), with u the joint force references or the actuators' ctrl.
+- `jacobian(function, model, data, ...)`: the Jacobian of any function of the data (and of per-environment
+  controls) that returns an array with a leading environment axis, with respect to the state's tangent, the
+  controls and model parameters.
+
+The state's tangent x = [dq; dv] (nx = 2 (nb + nv), nb = 6 for a floating base, 0 for a fixed one): dq the base's
+displacement δp [m, world axes] and rotation δθ [rad] (world axes in the Mixed and Inertial representations,
+base axes in Body: the axes of the representation's angular velocity), then the joints' position tangents
+(a ball joint's rotation in its child's axes, a free joint's δp then δθ, as MuJoCo's); dv the base velocity in
+the data's representation, then the joint velocities. The contact deformation state (soft contacts) is held,
+not differentiated. Gradients are those of the staged step under a wp.Tape (docs/differentiation.md for where
+the derivative is one-sided); the solved contact models (RigidContacts, RelaxedRigidContacts) have none yet.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import warp as wp
+
+from . import arrays
+from .data import Data
+from .engine import tangent
+from .model import Model, step
+from .types.enums import VelRepr
+from .types.parameters import REGISTRY
+from .terrain import FlatTerrain
+
+__all__ = ["jacobian", "transition_matrices"]
+
+_CONTROLS = ("joint_force_references", "ctrl", "link_forces")
+_SETTERS = {"link": "set_link_parameters", "joint": "set_joint_parameters", "actuator": "set_actuator_parameters"}
+
+
+def transition_matrices(model: Model, data, *, control: str = "joint_force_references", joint_force_references=None, ctrl=None,
+                        link_forces=None, parameters=()) -> dict:
+    """The linearisation of one `wd.model.step` about `data` and the controls: x' ≈ x'_0 + A dx + B du.
+
+    control: "joint_force_references" (u = τ (nv,)) or "ctrl" (u = the actuators' controls (na,)). The controls
+    and link_forces take `step`'s shapes. parameters: names of model parameters (warpdyn.types.parameters.REGISTRY:
+    link, joint and actuator parameters, the soft contacts' K, D, mu) whose Jacobians ∂x'/∂θ come back too.
+    Returns {"A": (N, nx, nx), "B": (N, nx, nu), name: (N, nx, k) for each parameter (k its numbers per
+    environment, items flattened)}, Warp arrays on the model's device (no N axis for single-environment data);
+    the tangent x as the module docstring says. An environment whose step is flagged (data.healthy) gets NaN.
+    """
+    if control not in ("joint_force_references", "ctrl"):
+        raise ValueError(f"control must be 'joint_force_references' or 'ctrl', got {control!r}")
+    repr = int(VelRepr(data.velocity_representation))
+    copies = tangent.tangent_size(model)
+    given = {"joint_force_references": joint_force_references, "ctrl": ctrl, "link_forces": link_forces}
+    size = model.dofs() if control == "joint_force_references" else model.number_of_actuators()
+    if given[control] is None:
+        given[control] = np.zeros(size)
+
+    def evaluate(model_c, data_c, controls_c):
+        new = step(model_c, data_c, **controls_c)
+        return tangent.state_tangent(model_c, new, repr), new.valid_state
+
+    grads = _differentiate(model, data, copies, evaluate, given, (control,), tuple(parameters))
+    out = {"A": grads.pop("state"), "B": grads.pop(control)}
+    out.update(grads)
+    return {name: arrays.squeeze_env(value, data.num_envs) for name, value in out.items()}
+
+
+def jacobian(function, model: Model, data, *, controls: dict | None = None, wrt=("state",), parameters=()) -> dict:
+    """The Jacobian of y = function(model, data, **controls) by one batched backward pass.
+
+    function: returns a Warp array whose first axis is the environments (warpdyn's functions do, for batched
+    data) and up to two more, m outputs per environment in all; it must record on a wp.Tape (every warpdyn
+    function does). controls: {name: value} passed to it, each (N, k) or (k,) (shared), e.g. joint_forces,
+    joint_force_references, ctrl. wrt: "state" (the tangent x of the module docstring) and names of
+    `controls`; parameters: model parameter names (see `transition_matrices`).
+    Returns {name: (N, m, k)} Warp arrays (no N axis for single-environment data), k = nx for "state".
+    """
+    controls = dict(controls or {})
+    unknown = [name for name in wrt if name != "state" and name not in controls]
+    if unknown:
+        raise ValueError(f"wrt names {unknown} are neither 'state' nor keys of controls {sorted(controls)}")
+    probe = function(model, data, **{k: v for k, v in controls.items()})
+    if not isinstance(probe, wp.array):
+        raise TypeError(f"function must return a Warp array, got {type(probe).__name__}")
+    shape = probe.shape if data.num_envs is None else probe.shape[1:]
+    copies = max(1, math.prod(shape))
+
+    def evaluate(model_c, data_c, controls_c):
+        return tangent.flattened(function(model_c, data_c, **controls_c)), None
+
+    grads = _differentiate(model, data, copies, evaluate, controls, tuple(n for n in wrt if n != "state"), tuple(parameters))
+    if "state" not in wrt:
+        grads.pop("state")
+    return {name: arrays.squeeze_env(value, data.num_envs) for name, value in grads.items()}
+
+
+def _differentiate(model, data, copies: int, evaluate, controls: dict, wrt_controls: tuple, parameters: tuple) -> dict:
+    """{"state": (N, m, nx), each of wrt_controls and parameters: (N, m, k)}: evaluate(model_c, data_c,
+    controls_c) -> (y (N m, m), valid (N m,) or None) run on `copies` = m copies of each environment under a
+    tape, output c seeded in copy c."""
+    N = data.batch_size
+    unknown = [name for name in parameters if name not in REGISTRY or REGISTRY[name].group == "terrain"]
+    if unknown:
+        raise ValueError(f"parameters {unknown} are not model parameters with Jacobians; known: "
+                         f"{[n for n, p in REGISTRY.items() if p.group != 'terrain']}")
+    model_c = _replicated_model(model, N, copies, parameters)
+    marked = model_c.mark_for_gradients(parameters) if parameters else {}
+    kept = _kept_grads(model_c, {id(a) for a in marked.values()})
+    rows = N * copies
+    nx = tangent.tangent_size(model)
+    dx = wp.zeros((rows, nx), dtype=model.scalar, device=model.device, requires_grad=True)
+    controls_c = {name: _replicated_control(model, name, value, N, copies, name in wrt_controls) for name, value in controls.items()
+                  if value is not None}
+    repr = int(VelRepr(data.velocity_representation))
+    with wp.Tape() as tape:
+        state = tangent.moved_state(model, data, repr, copies, dx)
+        data_c = Data(
+            base_position_state=state["base_position"],
+            base_quaternion_state=state["base_quaternion"],
+            joint_positions_state=state["joint_positions"],
+            base_velocity_state=state["base_velocity"],
+            joint_velocities_state=state["joint_velocities"],
+            velocity_representation=data.velocity_representation,
+            num_envs=rows,
+            tangential_deformation_state=None if data.tangential_deformation_state is None else tangent.replicated(_rows(data.tangential_deformation_state), copies).reshape((rows, -1, 3)),
+            valid_state=wp.ones(rows, dtype=wp.int32, device=model.device),
+        )
+        y, valid = evaluate(model_c, data_c, controls_c)
+    if y.shape != (rows, copies):
+        raise ValueError(f"the function's output changed shape between calls: {tuple(y.shape)}, expected ({rows}, {copies})")
+    tangent.seed(y, copies)
+    tape.backward()
+    out = {"state": dx.grad.reshape((N, copies, nx))}  # dx is the tape's leaf: its gradient array is this call's
+    for name in wrt_controls:
+        grad = controls_c[name].grad
+        out[name] = wp.clone(grad).reshape((N, copies, -1))
+    for name, array in marked.items():
+        out[name] = wp.clone(array.grad).reshape((N, copies, -1))
+    _restore(kept)
+    if valid is not None:
+        _poison_flagged(out, valid.numpy().reshape(N, copies).min(axis=1) == 0)
+    return out
+
+
+def _rows(array: wp.array) -> wp.array:
+    """A (N, nc, 3) deformation as (N, 3 nc) for replication (a contiguous copy)."""
+    host = array.numpy()
+    return wp.array(host.reshape(host.shape[0], -1), dtype=array.dtype, device=array.device)
+
+
+def _replicated_control(model, name: str, value, N: int, copies: int, grad: bool) -> wp.array:
+    """A control given shared or per environment, as (N m, k) rows (link forces (N m, nL, 6))."""
+    host = arrays.host_numbers(value.numpy() if isinstance(value, wp.array) else value, name)
+    per_env = host.ndim == (3 if name == "link_forces" else 2)
+    host = host if per_env else np.broadcast_to(host, (N, *host.shape))
+    if host.shape[0] != N:
+        raise ValueError(f"{name} has {host.shape[0]} environments, the data {N}")
+    repeated = np.ascontiguousarray(np.repeat(host, copies, axis=0))
+    return wp.array(repeated, dtype=model.scalar, device=model.device, requires_grad=grad)
+
+
+def _replicated_model(model: Model, N: int, copies: int, parameters: tuple) -> Model:
+    """The model itself when nothing is per environment and no parameter is differentiated; else a copy whose
+    per-environment parameters (and those in `parameters`) hold one row per copy of each environment."""
+    contact = {name for name in ("K", "D", "mu") if _numbers(getattr(model.contact_params, name, None)).size > 1}
+    terrain = model.terrain
+    per_terrain = isinstance(terrain, FlatTerrain) and _numbers(terrain.elevation).size > 1
+    per_env = set(model.per_environment_parameters())
+    if not parameters and not per_env and not contact and not per_terrain:
+        return model
+    copy = model.copy()
+    for name in sorted((per_env | set(parameters)) - {"K", "D", "mu"}):
+        parameter = REGISTRY[name]
+        host = np.asarray(model.parameter(name).numpy(), dtype=np.float64)
+        if name not in per_env:
+            host = np.broadcast_to(host, (N, *host.shape))
+        getattr(copy, _SETTERS[parameter.group])(**{parameter.keyword: np.repeat(host, copies, axis=0)})
+    replaced = {}
+    for name in {"K", "D", "mu"} & (set(parameters) | contact):
+        host = _numbers(getattr(model.contact_params, name))
+        replaced[name] = np.repeat(np.broadcast_to(host, (N,)) if host.size == 1 else host, copies)
+    if replaced:
+        copy.contact_params = dataclasses.replace(copy.contact_params, **replaced)
+    if per_terrain:
+        copy.terrain = FlatTerrain(np.repeat(_numbers(terrain.elevation), copies))
+    return copy
+
+
+def _numbers(value) -> np.ndarray:
+    """A number, NumPy or Warp array (or None: empty) as a flat float64 host array."""
+    if value is None:
+        return np.zeros(0)
+    return np.asarray(value.numpy() if isinstance(value, wp.array) else value, dtype=np.float64).reshape(-1)
+
+
+def _kept_grads(model: Model, mine: set) -> list:
+    """(array, copy of its gradient) for the model's parameters that already require gradients and are not
+    differentiated here: a backward pass adds into them, `_restore` puts them back."""
+    kept = []
+    for name in REGISTRY:
+        value = model.parameter(name)
+        if isinstance(value, wp.array) and value.requires_grad and id(value) not in mine and value.grad is not None:
+            kept.append((value, wp.clone(value.grad)))
+    return kept
+
+
+def _restore(kept: list) -> None:
+    for array, grad in kept:
+        array.grad.assign(grad)
+
+
+def _poison_flagged(out: dict, flagged: np.ndarray) -> None:
+    """NaN in the Jacobians of the environments whose step was flagged."""
+    if not flagged.any():
+        return
+    for name, value in out.items():
+        host = value.numpy()
+        host[flagged] = np.nan
+        value.assign(wp.array(host, dtype=value.dtype, device=value.device))
