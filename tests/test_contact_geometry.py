@@ -485,6 +485,11 @@ def test_enabled_mask_selects_points_and_leaves_the_model_unchanged(dtype):
     assert wd.contact.transforms(none, data).shape == (0, 4, 4)
     assert wd.contact.collidable_point_velocities(none, data).shape == (0, 3)
     assert not wd.contact.in_contact(none, data).numpy().any()
+    pointless = wd.contact.with_collidable_points(none, enabled_links=())  # a model without points: nothing to disable
+    assert len(pointless.kin_dyn_parameters.contact_parameters.enabled) == 32 and not any(pointless.kin_dyn_parameters.contact_parameters.enabled)
+    bare = wd.model.Model.build_from_model_description(robots.random_tree_urdf(3), dtype=dtype)
+    bare = wd.contact.with_collidable_points(wd.contact.with_collidable_points(bare, enabled_links=()), enabled_links=())
+    assert len(bare.kin_dyn_parameters.contact_parameters.body) == 0
     with pytest.raises(ValueError, match="expected \\(32,\\)"):
         wd.contact.with_collidable_points(model, enabled=np.ones(31, dtype=bool))
     with pytest.raises(TypeError, match="boolean"):

@@ -454,6 +454,8 @@ def _contact_parameters(body: np.ndarray, point: np.ndarray, enabled) -> Contact
         mask = np.ones(count, dtype=bool)
     else:
         mask = np.asarray(enabled)
+        if mask.size == 0:
+            mask = mask.astype(bool)  # an empty mask (a model without points) has no dtype of its own
         if mask.dtype != bool:
             raise TypeError(f"enabled must be a boolean mask over all {count} collidable points, got dtype {mask.dtype}")
         if mask.shape != (count,):
