@@ -50,7 +50,7 @@ def random_state(model, N, repr, rng, height):
     Q = rng.normal(size=(N, 4)) * np.array([0.1, 0.05, 0.05, 0.3]) + np.array([1.0, 0.0, 0.0, 0.0])
     Q /= np.linalg.norm(Q, axis=1, keepdims=True)
     data = wd.data.Data.build(model, num_envs=N, base_quaternion=Q, joint_positions=rng.uniform(-0.2, 0.2, (N, n)), velocity_representation=repr)
-    lowest = wd.contact.collidable_point_positions(model, data).numpy()[..., 2].min(axis=1)
+    lowest = wd.contact.collidable_point_positions(model, data).numpy()[..., 2].min(axis=1, initial=0.0)
     return data.replace(model, base_position=np.stack([np.zeros(N), np.zeros(N), height - lowest], axis=1), base_linear_velocity=rng.normal(0, 0.1, (N, 3)),
                         base_angular_velocity=rng.normal(0, 0.3, (N, 3)), joint_velocities=rng.normal(0, 0.5, (N, n)),
                         contact_state={"tangential_deformation": rng.normal(0, 1e-4, (N, 32, 3))})
@@ -184,3 +184,101 @@ def test_transition_matrices_equal_mujocos(name):
     assert np.abs(A_w - A_mj).max() <= 1e-7 * max(1.0, np.abs(A_mj).max()), np.abs(A_w - A_mj).max()
     assert B.shape == (A.shape[0], model.number_of_actuators()) and B_mj.shape == B_w.shape
     assert np.abs(B_w - B_mj).max(initial=0.0) <= 1e-7 * max(1.0, np.abs(B_mj).max(initial=0.0))
+
+
+def test_jacobian_of_forward_dynamics_equals_finite_differences():
+    """∂ν̇/∂(x, τ, link masses) of forward_dynamics_aba for two environments with per-environment masses (the
+    model is replicated per copy): central differences of the function itself (h = 1e-6; no contacts, so the
+    function is smooth: their error, mostly round-off eps |ν̇| / h, stays below 1e-7 of the block's largest entry)."""
+    model = legs(contacts=False)
+    rng = np.random.default_rng(5)
+    N, n, nL = 2, model.dofs(), model.number_of_links()
+    model.set_link_parameters(mass=model.link_mass.numpy() * rng.uniform(0.9, 1.1, (N, nL)))
+    data = random_state(model, N, wd.VelRepr.Mixed, rng, height=0.5)
+    tau = rng.normal(0, 5.0, (N, n))
+
+    def accelerations(model, data, joint_forces):
+        base, joints = wd.model.forward_dynamics_aba(model, data, joint_forces=joint_forces)
+        return joints
+
+    out = wd.autodiff.jacobian(accelerations, model, data, controls={"joint_forces": tau}, wrt=("state", "joint_forces"), parameters=("link_mass",))
+    J_x, J_tau, J_m = (out[k].numpy() for k in ("state", "joint_forces", "link_mass"))
+    assert J_x.shape == (N, n, 2 * (6 + n)) and J_tau.shape == (N, n, n) and J_m.shape == (N, n, nL)
+    h = 1e-6
+    masses = model.link_mass.numpy()
+    p0, Q0, s0, v0, sd0 = (np.array([host_state(data, e)[k] for e in range(N)]) for k in range(5))
+
+    def at(dx=None, dtau=None, dmass=None):
+        dx = np.zeros(2 * (6 + n)) if dx is None else dx
+        Q = np.array([quat_mul(quat_exp(dx[3:6]), Q0[e]) for e in range(N)])
+        v = v0 + dx[6 + n : 12 + n]
+        moved = wd.data.Data.build(model, num_envs=N, base_position=p0 + dx[:3], base_quaternion=Q, joint_positions=s0 + dx[6 : 6 + n],
+                                   base_linear_velocity=v[:, :3], base_angular_velocity=v[:, 3:], joint_velocities=sd0 + dx[12 + n :])
+        varied = model
+        if dmass is not None:
+            varied = model.copy()
+            varied.set_link_parameters(mass=masses + dmass)
+        return accelerations(varied, moved, tau + (0.0 if dtau is None else dtau)).numpy()
+
+    for k in range(2 * (6 + n)):
+        dx = np.zeros(2 * (6 + n))
+        dx[k] = h
+        fd = (at(dx=dx) - at(dx=-dx)) / (2 * h)
+        assert np.abs(J_x[:, :, k] - fd).max() <= 1e-7 * np.abs(J_x).max(), k
+    for k in range(n):
+        du = np.zeros(n)
+        du[k] = h
+        fd = (at(dtau=du) - at(dtau=-du)) / (2 * h)
+        assert np.abs(J_tau[:, :, k] - fd).max() <= 1e-7 * np.abs(J_tau).max(), k
+    for k in range(1, nL):
+        dm = np.zeros((N, nL))
+        dm[:, k] = h
+        fd = (at(dmass=dm) - at(dmass=-dm)) / (2 * h)
+        assert np.abs(J_m[:, :, k] - fd).max() <= 1e-7 * np.abs(J_m).max(), k
+    assert model.per_environment_parameters() == {"link_mass": N} and not model.link_mass.requires_grad  # the user's model untouched
+
+
+def test_a_parameters_gradient_the_user_holds_is_kept():
+    """A parameter the user marked for gradients (with a gradient in it) keeps its gradient through a Jacobian."""
+    model = legs(contacts=False)
+    marked = wd.model.parameters_requiring_grad(model, names=("link_inertia",))["link_inertia"]
+    marked.grad.fill_(0.25)
+    data = wd.data.Data.build(model, num_envs=2, base_position=(0.0, 0.0, 1.0))
+    A = wd.autodiff.transition_matrices(model, data)["A"].numpy()
+    assert np.isfinite(A).all()
+    np.testing.assert_array_equal(marked.grad.numpy(), np.full(marked.shape + (3, 3), 0.25))
+
+
+def test_single_environment_shapes_and_bad_arguments():
+    """Single-environment data gives JaxSim's shapes (no N axis); bad arguments raise naming them."""
+    model = legs(contacts=False)
+    data = wd.data.Data.build(model, base_position=(0.0, 0.0, 1.0))
+    n = model.dofs()
+    out = wd.autodiff.transition_matrices(model, data)
+    assert out["A"].shape == (2 * (6 + n), 2 * (6 + n)) and out["B"].shape == (2 * (6 + n), n)
+    jac = wd.autodiff.jacobian(lambda model, data: wd.model.total_momentum(model, data), model, data)
+    assert jac["state"].shape == (6, 2 * (6 + n))
+    with pytest.raises(ValueError, match="control must be"):
+        wd.autodiff.transition_matrices(model, data, control="tau")
+    with pytest.raises(ValueError, match=r"parameters \['gravity_vector'\] are not model parameters"):
+        wd.autodiff.transition_matrices(model, data, parameters=("gravity_vector",))
+    with pytest.raises(ValueError, match=r"wrt names \['tau'\]"):
+        wd.autodiff.jacobian(lambda model, data: wd.model.total_momentum(model, data), model, data, wrt=("tau",))
+    with pytest.raises(TypeError, match="must return a Warp array"):
+        wd.autodiff.jacobian(lambda model, data: 1.0, model, data)
+
+
+def test_a_flagged_environment_gets_nan_and_the_others_stay_exact():
+    """An environment whose step diverges (joint speeds of 1e200 rad/s overflow) is flagged by the step: its A and B
+    are NaN; the other environment's equal those of a batch without it."""
+    model = legs(contacts=False)
+    n = model.dofs()
+    speeds = np.zeros((2, n))
+    speeds[1] = 1e200
+    data = wd.data.Data.build(model, num_envs=2, base_position=(0.0, 0.0, 1.0), joint_velocities=speeds)
+    out = wd.autodiff.transition_matrices(model, data)
+    alone = wd.autodiff.transition_matrices(model, wd.data.Data.build(model, num_envs=1, base_position=(0.0, 0.0, 1.0)))
+    for name in ("A", "B"):
+        value = out[name].numpy()
+        assert np.isnan(value[1]).all()
+        np.testing.assert_array_equal(value[0], alone[name].numpy()[0])
