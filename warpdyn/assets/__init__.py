@@ -11,6 +11,13 @@
   the URDF's other fixed links lumped away by the converter, without `<frame>`s: its model has 8 frames where
   the URDF's has 146. The model's `<pose>` (0, 0, 0.8) is the default base pose of `Data.build`. Its sensors,
   Gazebo plugins, ODE joint settings and contact surfaces are not modelled (one NotModelledWarning at load).
+- `franka_panda_mjcf()`: the Franka Emika Panda arm without its hand (fixed base, 7 revolute joints, 16.1 kg
+  moving), MuJoCo Menagerie's `franka_emika_panda/panda_nohand.xml` without meshes, geoms and actuators (the
+  file's comment says what was changed and why; Apache-2.0: `LICENSE.panda` beside the file). MuJoCo compiles
+  it alone; warpdyn's M, h, accelerations and step equal MuJoCo's on it (tests/test_panda.py). Its controls are
+  joint torques (`joint_force_references`), within FRANKA_PANDA_TORQUE_LIMITS; the flange is the frame
+  FRANKA_PANDA_FLANGE; the keyframe "home" (`wd.data.keyframe(model, "home")`) is Menagerie's. Loading it
+  warns once, a NotModelledWarning for the joint limits (MuJoCo's limit constraints).
 - `example_robot_data_urdf(robot)`: a URDF of the pip package example-robot-data (Gepetto, LAAS-CNRS;
   BSD-3-Clause; `pip install example-robot-data`, a cmeel wheel that puts the files under
   `<site-packages>/cmeel.prefix/share/example-robot-data/robots/`). Not shipped with warpdyn: found in the
@@ -56,6 +63,9 @@ __all__ = [
     "ergocub_urdf",
     "ergocub_sdf",
     "ERGOCUB_LEG_JOINTS",
+    "franka_panda_mjcf",
+    "FRANKA_PANDA_FLANGE",
+    "FRANKA_PANDA_TORQUE_LIMITS",
     "example_robot_data_urdf",
     "GO1_JOINTS",
     "GO1_FEET",
@@ -93,6 +103,23 @@ def ergocub_sdf() -> pathlib.Path:
     """The path of the shipped ergoCubSN001 SDF (SDFormat 1.9, Gazebo's conversion of the URDF; a file inside
     the installed package)."""
     return _HERE / "ergoCubSN001.sdf"
+
+
+# ------------------------------------------------------------------------------------ the Franka Emika Panda
+
+
+def franka_panda_mjcf() -> pathlib.Path:
+    """The path of the shipped Franka Emika Panda arm, an MJCF file without meshes (a file inside the installed
+    package)."""
+    return _HERE / "franka_panda.xml"
+
+
+FRANKA_PANDA_FLANGE = "attachment"
+"""The Panda's flange: Menagerie's massless body `attachment`, 0.107 m along link7's z and turned 3 pi / 4 about
+it, a frame of link7 in warpdyn's model (at the joints' zero: (0.088, 0, 0.926) m, its z axis down)."""
+
+FRANKA_PANDA_TORQUE_LIMITS = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
+"""The largest joint torque of joints 1 to 7 [N m] (Menagerie's actuator forcerange, Franka's limits)."""
 
 
 # ------------------------------------------------------------------------------------ example-robot-data
