@@ -308,7 +308,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
         forces = controls.link_forces.shape[0] > 0
         W_H_B = B.base_pose(state, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env)))
-        B_a_g = B.gravity_in(model, W_H_B)
+        B_a_g = B.gravity_in(model, env, W_H_B)
         sc.put6(s, env, 0, _V, B_v)
         if forces:
             sc.put_transform(s, env, 0, _WHL, W_H_B)

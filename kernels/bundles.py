@@ -9,7 +9,7 @@ Shapes: N environments, nL links (link 0 the base; joint i moves link i + 1), nj
 positions and nv velocities (DoFs) in all, nc_all collidable points. Link i's joint has its positions at
 q_start[i]:q_start[i + 1] of the state's joint positions and its velocities (and forces, and per-DoF
 parameters) at v_start[i]:v_start[i + 1]: kernels address joints through them (kernels/joints.py).
-Model parameters are (P, nL), (P, nj) or (P, nv) with P = 1 (shared by the environments) or N (one row per
+Model parameters are (P, nL), (P, nj), (P, nv) or (P, 1) with P = 1 (shared by the environments) or N (one row per
 environment): kernels read row min(env, P - 1) (`link_parameter`, `joint_parameter`).
 Absent inputs are arrays with a zero leading axis, which kernels test with `.shape[0] > 0` (Warp's tape
 cannot take a struct holding a null array). The representation codes are spatial.BODY, MIXED, INERTIAL.
@@ -56,7 +56,6 @@ def bundles(scalar) -> types.SimpleNamespace:
         pair_j: wp.array(dtype=int)  # (P,) link (j == k included; within one joint, j <= k)
         zero_k: wp.array(dtype=int)  # (Z,) with zero_j: the DoF pairs where neither joint moves the
         zero_j: wp.array(dtype=int)  # (Z,) other's link (a zero in the mass matrix)
-        gravity: scalar  # [m/s^2] its magnitude, pulling along -z of the world (the model's `gravity` is the z component, -9.81)
         floating_base: int  # 1 floating, 0 welded
         # actuators (na): joint_actuator[k] for k in joint_actuator_start[j] .. joint_actuator_start[j + 1] - 1
         # are joint j's
@@ -67,7 +66,7 @@ def bundles(scalar) -> types.SimpleNamespace:
         link_mass: wp.array2d(dtype=scalar)  # [kg]
         link_com: wp.array2d(dtype=sp.vec3)  # [m, link frame]
         link_inertia: wp.array2d(dtype=sp.mat33)  # [kg m^2, about the CoM, link axes]
-        gravcomp_mass: wp.array2d(dtype=scalar)  # [kg] gravity compensation: a force along +z of the world
+        gravcomp_mass: wp.array2d(dtype=scalar)  # [kg] gravity compensation: the force -gravcomp_mass g
         gravcomp_com: wp.array2d(dtype=sp.vec3)  # [m, link frame] where it acts
         # joint parameters (P, nj), [P, nv] per DoF
         position_limits: wp.array2d(dtype=vec2)  # (lower, upper) [rad or m]
@@ -91,6 +90,8 @@ def bundles(scalar) -> types.SimpleNamespace:
         actuator_bias: wp.array2d(dtype=sp.vec3)  # (b0, b1, b2): bias = b0 + b1 length + b2 velocity
         actuator_ctrl_range: wp.array2d(dtype=vec2)
         actuator_force_range: wp.array2d(dtype=vec2)
+        # the world (P, 1)
+        world_gravity: wp.array2d(dtype=sp.vec3)  # g [m/s^2, world frame]
 
     @wp.struct
     class State:
@@ -215,10 +216,15 @@ def bundles(scalar) -> types.SimpleNamespace:
         return sp.inertia_times(mass_of(model, env, i), com_of(model, env, i), inertia_of(model, env, i), v)
 
     @wp.func
-    def gravity_in(model: Model, W_H_B: sp.transform):
-        """a_g, the acceleration of gravity (0, 0, -g) of the world, as a spatial motion in the coordinates of the
-        base at W_H_B (ABA's and RNEA's fictitious base acceleration is -a_g)."""
-        return sp.motion_from(W_H_B, sp.vec6(scalar(0.0), scalar(0.0), -model.gravity, scalar(0.0), scalar(0.0), scalar(0.0)))
+    def gravity_of(model: Model, env: int):
+        """The world's gravity g [m/s^2, world frame] in environment env."""
+        return vec3_parameter(model.world_gravity, env, 0)
+
+    @wp.func
+    def gravity_in(model: Model, env: int, W_H_B: sp.transform):
+        """a_g, the acceleration of gravity [g; 0] of the world in environment env, as a spatial motion in the
+        coordinates of the base at W_H_B (ABA's and RNEA's fictitious base acceleration is -a_g)."""
+        return sp.motion_from(W_H_B, sp.stack(gravity_of(model, env), sp.vec3(scalar(0.0))))
 
     @wp.func
     def base_rotor(model: Model, env: int, implicit_dt: scalar):
@@ -290,6 +296,7 @@ def bundles(scalar) -> types.SimpleNamespace:
         inertia_of=inertia_of,
         spatial_inertia_of=spatial_inertia_of,
         spatial_inertia_times=spatial_inertia_times,
+        gravity_of=gravity_of,
         gravity_in=gravity_in,
         base_rotor=base_rotor,
         base_rotor_bias=base_rotor_bias,

@@ -240,13 +240,13 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         # outputs
         out: wp.array(dtype=scalar),
     ):
-        """out (N,): K (kinetic), U = m g z_G (potential, gravity g along -z), or their sum [J]."""
+        """out (N,): K (kinetic), U = -m g . W_p_G (potential, g the world's gravity), or their sum [J]."""
         env = wp.tid()
         e = scalar(0.0)
         if kinetic != 0:
             e = K[env]
         if potential != 0:
-            e = e + mass[env] * model.gravity * W_p_G[env][2]
+            e = e - mass[env] * wp.dot(B.gravity_of(model, env), W_p_G[env])
         out[env] = e
 
     @wp.kernel(module="unique")

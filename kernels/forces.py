@@ -81,11 +81,11 @@ def kernels(scalar):
     @wp.func
     def passive_link_wrench(model: B.Model, env: int, L: int, W_H_L: sp.transform, B_v: sp.vec6):
         """The passive force on link L at the pose W_H_L, Inertial: its gravity compensation, the force
-        gravcomp_mass g along +z of the world at gravcomp_com (link frame), MJCF's gravcomp; and on a floating
+        -gravcomp_mass g (g the world's gravity) at gravcomp_com (link frame), MJCF's gravcomp; and on a floating
         base (L = 0) its free joint's damper and spring (B.base_passive_wrench, MJCF's; B_v the base's body
         velocity, read for L = 0 alone)."""
         p = wp.transform_point(W_H_L, B.vec3_parameter(model.gravcomp_com, env, L))
-        F = sp.vec3(scalar(0.0), scalar(0.0), B.link_parameter(model.gravcomp_mass, env, L) * model.gravity)
+        F = -B.link_parameter(model.gravcomp_mass, env, L) * B.gravity_of(model, env)
         W_f = sp.stack(F, wp.cross(p, F))
         if L == 0 and model.floating_base != 0:
             W_f = W_f + sp.force_to(W_H_L, B.base_passive_wrench(model, env, W_H_L, B_v))

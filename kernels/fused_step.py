@@ -374,7 +374,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             f_0, nonfinite = external_force(model, contacts, terrain, controls, env, 0, W_H_B, B_v, h0, law, dt, x, y, W_f_C)
             if W_H_L.shape[0] > 0:
                 W_H_L[env, 0] = W_H_B
-        p_0 = F.base_bias_force(model, env, implicit_dt, B_v, B.gravity_in(model, W_H_B)) - f_0
+        p_0 = F.base_bias_force(model, env, implicit_dt, B_v, B.gravity_in(model, env, W_H_B)) - f_0
         base_own = walk[0][1]
         if base_own >= 0:
             slot_H[base_own] = pack7(W_H_B)
@@ -499,7 +499,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
                         X_f = X_i
                     else:
                         X_f = jm.joint_transform(model, i, x.joint_positions, env)
-                    a_f = F.link_acceleration(X_f, -B.gravity_in(model, B.base_pose(x, env)), c_i)
+                    a_f = F.link_acceleration(X_f, -B.gravity_in(model, env, B.base_pose(x, env)), c_i)
                     Ud_i, a_f = F.free_joint_acceleration(
                         model, controls, env, jm.dof_address(model, i), implicit_dt, jm.free_joint_rotation(model, i, X_f), unpack21(IA), pA, a_f
                     )
@@ -549,7 +549,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
         # rewritten below)
         W_H_B = B.base_pose(x, env)  # again, rather than live in registers through passes 1 and 2
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env)))
-        B_a_g = B.gravity_in(model, W_H_B)
+        B_a_g = B.gravity_in(model, env, W_H_B)
         a0 = F.base_acceleration(model, IA0, pA0, B_a_g)
         base = sp.vec6(scalar(0.0))
         if model.floating_base != 0:

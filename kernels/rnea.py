@@ -75,7 +75,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
         forces = controls.link_forces.shape[0] > 0
         W_H_B = B.base_pose(state, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env) * with_velocity))
-        B_a_g = B.gravity_in(model, W_H_B) * with_gravity
+        B_a_g = B.gravity_in(model, env, W_H_B) * with_gravity
         a_in = sp.vec6(scalar(0.0))
         if base_acceleration.shape[0] > 0:
             a_in = sc.row6(base_acceleration, env, 0)

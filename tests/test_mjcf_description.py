@@ -332,7 +332,7 @@ def _state(m, tree, description, rng):
 
 
 def _gravcomp_torques(tree, H, g):
-    """J_com^T of the forces gravcomp_mass * g along +z of the world at gravcomp_com, per tree joint; for a
+    """J_com^T of the forces -gravcomp_mass * g (g the world's gravity, (3,)) at gravcomp_com, per tree joint; for a
     floating base also MuJoCo's free-joint components (world force, torque about the base origin in the base
     frame)."""
     tau = np.zeros(tree.dofs)
@@ -342,7 +342,7 @@ def _gravcomp_torques(tree, H, g):
         if tree.gravcomp_mass[L] == 0.0:
             continue
         p = H[L][:3, :3] @ tree.gravcomp_com[L] + H[L][:3, 3]
-        f = np.array([0.0, 0.0, tree.gravcomp_mass[L] * g])
+        f = -tree.gravcomp_mass[L] * np.asarray(g)
         for i in np.flatnonzero(support[L]):
             c = i + 1
             axis = H[c][:3, :3] @ tree.joint_axis[c]
@@ -360,7 +360,7 @@ def _gravcomp_torques(tree, H, g):
 def test_gravcomp_lumped_equals_mujoco_qfrc_gravcomp(name):
     """MuJoCo's qfrc_gravcomp (mj_gravcomp: sum_b J_p(b, xipos_b)' gravcomp_b m_b (-opt.gravity), welded
     bodies with their own mass and CoM; all dofs, actuatorgravcomp ones included) equals J^T of the lumped
-    per-link forces (gravcomp_mass |g| at gravcomp_com) at random qpos, for every kept joint and the free
+    per-link forces (-gravcomp_mass g at gravcomp_com) at random qpos, for every kept joint and the free
     base. Tolerance 1e-12 absolute: float64 sums of a few products of O(1) numbers (torques ~ 10 N m)."""
     xml = LOADED[name]
     m = mm.load(xml)
@@ -555,26 +555,27 @@ def test_scenes_of_several_trees():
 
 
 def test_options():
-    """OPTIONS: gravity 3 (|opt.gravity|, along -z), timestep 0.004, integrator Euler, nothing disabled; FLAGS:
-    zero gravity, implicitfast, the disable flags by their XML names; MuJoCo's defaults otherwise (9.81,
+    """OPTIONS: gravity (0, 0, -3) (opt.gravity), timestep 0.004, integrator Euler, nothing disabled; FLAGS:
+    zero gravity, implicitfast, the disable flags by their XML names; MuJoCo's defaults otherwise ((0, 0, -9.81),
     0.002, Euler). Reference: m.opt (0 tolerance)."""
     description = load(mm.OPTIONS)
-    assert (description.gravity, description.time_step, description.integrator) == (3.0, 0.004, "Euler")
+    assert (description.gravity.tolist(), description.time_step, description.integrator) == ([0.0, 0.0, -3.0], 0.004, "Euler")
     assert description.disabled == frozenset()
     description = load(FLAGS)
-    assert (description.gravity, description.time_step, description.integrator) == (0.0, 0.01, "implicitfast")
+    assert (description.gravity.tolist(), description.time_step, description.integrator) == ([0.0, 0.0, 0.0], 0.01, "implicitfast")
     assert description.disabled == {"gravity", "spring", "eulerdamp", "actuation", "clampctrl"}
     description = load(mm.ARMATURE)
     m = mm.load(mm.ARMATURE)
-    assert (description.gravity, description.time_step, description.integrator) == (-m.opt.gravity[2], m.opt.timestep, "Euler")
+    assert (description.gravity.tolist(), description.time_step, description.integrator) == (m.opt.gravity.tolist(), m.opt.timestep, "Euler")
     rk4 = mm.OPTIONS.replace('integrator="Euler"', 'integrator="RK4"')
     assert load(rk4).integrator == "RK4"
     assert load(mm.OPTIONS.replace('integrator="Euler"', 'integrator="implicit"')).integrator == "implicit"
 
 
 @pytest.mark.parametrize("gravity", ["0 0 3", "1 0 -9.81", "0 -0.1 -9.81"])
-def test_gravity_not_along_minus_z_is_refused(gravity):
-    """A gravity with a horizontal or upward component: ValueError naming it (warpdyn's acts along -z)."""
-    with pytest.raises(ValueError, match=r"gravity='.*'> does not point along -z"):
-        load(mm.OPTIONS.replace('gravity="0 0 -3"', f'gravity="{gravity}"'))
+def test_gravity_in_any_direction_is_the_descriptions(gravity):
+    """A gravity with a horizontal or upward component is the description's as written (m.opt.gravity, exact)."""
+    xml = mm.OPTIONS.replace('gravity="0 0 -3"', f'gravity="{gravity}"')
+    np.testing.assert_array_equal(load(xml).gravity, mm.load(xml).opt.gravity)
+    np.testing.assert_array_equal(load(xml).gravity, [float(x) for x in gravity.split()])
 

@@ -257,10 +257,10 @@ def test_single_environment_data_and_unmarked_parameters():
 
 
 @pytest.mark.parametrize(
-    "name", [p.name for p in (*wd.types.parameters.LINK_PARAMETERS, *wd.types.parameters.JOINT_PARAMETERS, *wd.types.parameters.ACTUATOR_PARAMETERS)]
+    "name", [p.name for p in (*wd.types.parameters.LINK_PARAMETERS, *wd.types.parameters.JOINT_PARAMETERS, *wd.types.parameters.ACTUATOR_PARAMETERS, *wd.types.parameters.WORLD_PARAMETERS)]
 )
 def test_each_link_and_joint_parameter_marked_makes_dynamics_outputs_carry_gradients(name):
-    """Marking any link or joint parameter gives the dynamics functions' outputs gradient arrays (they enter
+    """Marking any link, joint or world parameter gives the dynamics functions' outputs gradient arrays (they enter
     ABA, RNEA and CRBA); an actuator parameter does not (the dynamics functions do not read it)."""
     model = robots.build(robots.random_tree_urdf(2, num_links=4), np.float64, is_urdf=True)
     data = wd.data.random_model_data(model, key=1, num_envs=2)
@@ -268,7 +268,7 @@ def test_each_link_and_joint_parameter_marked_makes_dynamics_outputs_carry_gradi
     wd.model.parameters_requiring_grad(model, names=name)
     group = wd.types.parameters.REGISTRY[name].group
     outputs = [*wd.model.forward_dynamics_aba(model, data), wd.model.free_floating_mass_matrix(model, data), *wd.model.inverse_dynamics(model, data)]
-    assert [o.requires_grad for o in outputs] == [group in ("link", "joint")] * len(outputs), group
+    assert [o.requires_grad for o in outputs] == [group in ("link", "joint", "world")] * len(outputs), group
 
 
 # ------------------------------------------------------------------------------ rollouts

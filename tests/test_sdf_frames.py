@@ -286,7 +286,7 @@ def test_placement_frame_canonical_link_and_frames_as_joint_parents():
 def test_world_places_the_model(welded):
     """A <world> places model r at (1, 2, 3) yawed 90 deg; its base 1 m up in it: Data.build's default base pose is
     (1, 2, 4), quaternion (cos 45, 0, 0, sin 45) deg, floating or welded by a fixed joint from `world`. The world's
-    gravity (3.7 along -z) and <physics><max_step_size> become the model's; the <physics> engine is named in the
+    gravity (0, 0, -3.7) and <physics><max_step_size> become the model's; the <physics> engine is named in the
     warning."""
     weld = '<joint name="weld" type="fixed"><parent>world</parent><child>base</child></joint>' if welded else ""
     doc = sdf(f"""<world name="w"><gravity>0 0 -3.7</gravity><physics name="p" type="ode"><max_step_size>0.002</max_step_size>
@@ -299,8 +299,8 @@ def test_world_places_the_model(welded):
     data = wd.data.Data.build(model)
     np.testing.assert_allclose(data.base_position.numpy(), [1, 2, 4], atol=1e-15)
     np.testing.assert_allclose(data.base_quaternion.numpy(), [math.cos(math.pi / 4), 0, 0, math.sin(math.pi / 4)], atol=1e-15)
-    assert model.description.gravity == 3.7 and model.time_step == 0.002
-    assert wd.description.load(sdf(f'<world name="w"><model name="r"><link name="l">{INERTIAL}</link></model></world>')).gravity == 9.8
+    assert model.description.gravity.tolist() == [0, 0, -3.7] and model.gravity == -3.7 and model.time_step == 0.002
+    assert wd.description.load(sdf(f'<world name="w"><model name="r"><link name="l">{INERTIAL}</link></model></world>')).gravity.tolist() == [0, 0, -9.8]
 
 
 def test_static_model_is_welded_and_keeps_its_joints():
@@ -338,7 +338,7 @@ def test_include_from_the_model_directory_beside_the_file():
     tree = model.tree
     assert (tree.damping[elbow], tree.friction[elbow], tree.stiffness[elbow], tree.springref[elbow]) == (0.1, 0.05, 3.0, 0.2)
     np.testing.assert_array_equal(tree.position_limits[elbow], [-2, 2])
-    assert model.description.gravity == 9.81
+    assert model.description.gravity.tolist() == [0, 0, -9.81]
 
 
 def test_include_through_sdf_path_with_overrides_and_merge(tmp_path, monkeypatch):

@@ -162,8 +162,9 @@ def parameters_requiring_grad(model: Model, names=("link_mass", "link_com", "lin
 
     names, any of: "link_mass" (nL,) [kg], "link_com" (nL,) vec3 [m, link frame], "link_inertia" (nL,)
     mat33 [kg m^2, about the CoM] (see Model.set_link_parameters), "friction_static", "friction_viscous",
-    "joint_limit_spring", "joint_limit_damper" (n,) (see Model.set_joint_parameters), each with a leading
-    (N,) when given per environment; the contact parameters "K", "D", "mu" ((1,) or (N,)); "terrain_height":
+    "joint_limit_spring", "joint_limit_damper" (n,) (see Model.set_joint_parameters), "world_gravity" (1,)
+    vec3 [m/s^2, world frame] (see Model.set_gravity), each with a leading (N,) when given per environment;
+    the contact parameters "K", "D", "mu" ((1,) or (N,)); "terrain_height":
     a FlatTerrain's height ((1,) or (N,)) or a HeightfieldTerrain's heights (nx, ny) (a PlaneTerrain has
     none: ValueError). The model's own arrays get requires_grad (their .grad allocated, zero); the contact
     parameters and the terrain's heights, when numbers or NumPy arrays, become Warp arrays with requires_grad
@@ -414,10 +415,10 @@ def kinetic_energy(model: Model, data) -> wp.array:
 
 
 def potential_energy(model: Model, data) -> wp.array:
-    """U = m |g| z_CoM [J], |g| = -model.gravity (gravity pulls along -z, so U grows with height): (N,) or (1,).
+    """U = -m g · W_p_CoM [J], g = model.world_gravity (U grows against gravity; m 9.81 z_CoM by default): (N,) or (1,).
 
     JaxSim's text computes m z_CoM model.gravity = -9.81 m z_CoM, the opposite sign, with which K + U is not
-    conserved; this follows the physics (and MuJoCo's energy[0])."""
+    conserved; this follows the physics (and MuJoCo's energy[0], -Σ_b m_b gravity · x_b)."""
     return centroidal.energy(model, data, centroidal.sums(model, data), kinetic=False, potential=True)
 
 

@@ -362,7 +362,7 @@ def _model_parameters(model, parameters: dict, N: int) -> dict:
             elif name == "terrain_height":
                 hint = f" (for one per environment set model.terrain = FlatTerrain(height=...) with ({N},) first)"
             elif len(tensor.shape) == len(expected) + 1:
-                hint = " (for one row per environment give the model's values per environment first: Model.set_link_parameters or set_joint_parameters)"
+                hint = " (for one row per environment give the model's values per environment first: Model.set_link_parameters, set_joint_parameters or set_gravity)"
             raise ValueError(f"parameters['{name}'] has shape {tuple(tensor.shape)}, the model's {name} {expected}{hint}")
     return arrays
 

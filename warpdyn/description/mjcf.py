@@ -21,7 +21,7 @@ What is read, and how MuJoCo's structure maps onto warpdyn's one-joint-per-link 
   `mujoco_joints`).
 - Actuators with a joint transmission on a hinge/slide joint and no activation dynamics become
   `ActuatorDescription`s; the others are dropped and listed in the warning.
-- `<option>`: gravity (along -z only), timestep, integrator, disable flags.
+- `<option>`: gravity (any direction), timestep, integrator, disable flags.
 """
 
 from __future__ import annotations
@@ -242,13 +242,8 @@ _KIND_ORDER = (
 
 
 def _options(m, where, mujoco):
-    """(gravity magnitude along -z, timestep, integrator name, disabled flag names) of <option>."""
-    g = np.array(m.opt.gravity, dtype=np.float64)
-    if g[0] != 0.0 or g[1] != 0.0 or g[2] > 0.0:
-        raise ValueError(
-            f"{where}: <option gravity='{g[0]:g} {g[1]:g} {g[2]:g}'> does not point along -z: warpdyn's gravity "
-            "acts along -z of the world (rotate the model instead)"
-        )
+    """(gravity vector (3,) [m/s^2, world frame], timestep, integrator name, disabled flag names) of <option>."""
+    g = np.array(m.opt.gravity, dtype=np.float64) + 0.0  # no -0.0
     integrator = None
     for enum_name, value in mujoco.mjtIntegrator.__members__.items():
         if int(value) == int(m.opt.integrator):
@@ -259,7 +254,7 @@ def _options(m, where, mujoco):
         for enum_name, value in mujoco.mjtDisableBit.__members__.items()
         if enum_name != "mjNDISABLE" and flags & int(value)
     )
-    return float(-g[2]) + 0.0, float(m.opt.timestep), integrator, disabled
+    return g, float(m.opt.timestep), integrator, disabled
 
 
 def _actuator_share(m, field: str, j: int, mujoco) -> float:

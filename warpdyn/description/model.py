@@ -328,7 +328,8 @@ class ModelDescription:
 
     MJCF only (URDF: empty, or None):
     actuators: the modelled actuators (see ActuatorDescription) in MuJoCo's order.
-    gravity: |g| [m/s^2] along -z of the world (MuJoCo's opt.gravity, which must point along -z).
+    gravity: (3,) the world's gravity [m/s^2, world frame]: MuJoCo's opt.gravity, SDF's `<world><gravity>`
+    (None: the description says nothing; the model then takes (0, 0, -9.81)).
     time_step: opt.timestep [s]. integrator: MuJoCo's name, "Euler", "RK4", "implicit",
     "implicitfast" (or "discrete" for MuJoCo >= 4).
     disabled: MuJoCo's disable flags that are set, by their XML names (`<option><flag NAME="disable">`),
@@ -356,7 +357,7 @@ class ModelDescription:
     source: str
     path: str | None = None
     actuators: list[ActuatorDescription] = field(default_factory=list)
-    gravity: float | None = None
+    gravity: np.ndarray | None = None
     time_step: float | None = None
     integrator: str | None = None
     disabled: frozenset = frozenset()

@@ -148,7 +148,7 @@ class _Reader(FrameGraph):
         self.frames: list[Node] = []
         self.including: list[str] = [] if path is None else [str(pathlib.Path(path).resolve())]
         self.top_where = where
-        self.gravity: float | None = None
+        self.gravity: np.ndarray | None = None
         self.time_step: float | None = None
 
     def note(self, kind: str, name: str) -> None:
@@ -244,7 +244,7 @@ class _Reader(FrameGraph):
             if physics_gravity:  # SDFormat <= 1.5 keeps gravity in <physics>
                 self.read_gravity(physics_gravity[0], where)
             else:
-                self.gravity = 9.8  # SDFormat's default <gravity> of a world, 0 0 -9.8
+                self.gravity = np.array([0.0, 0.0, -9.8])  # SDFormat's default <gravity> of a world
         if len(tops) != 1:
             raise ValueError(
                 f"{where}: the world holds {len(tops)} models {[m.name for m in tops]}: warpdyn simulates one tree (several "
@@ -254,13 +254,7 @@ class _Reader(FrameGraph):
         return tops[0]
 
     def read_gravity(self, element, where: str) -> None:
-        g = vector(element, 3, "<world><gravity>", where, (0.0, 0.0, -9.8))
-        if g[0] != 0.0 or g[1] != 0.0 or g[2] > 0.0:
-            raise ValueError(
-                f"{where}: <gravity>{text(element)}</gravity> does not point along -z: warpdyn's gravity acts along -z of the "
-                "world (rotate the model instead)"
-            )
-        self.gravity = float(-g[2]) + 0.0
+        self.gravity = vector(element, 3, "<world><gravity>", where, (0.0, 0.0, -9.8)) + 0.0  # no -0.0
 
     def read_physics(self, physics, world, where: str) -> None:
         engines = world.findall("physics")

@@ -13,17 +13,18 @@ import warp as wp
 
 from ..kernels.bundles import bundles
 from ..types.model_constants import quaternion_xyzw
-from ..types.parameters import JOINT_PARAMETERS, LINK_PARAMETERS, MODEL_ARRAYS
+from ..types.parameters import MODEL_ARRAYS, REGISTRY
 from . import warp_private
 
 __all__ = ["model_bundle", "model_bundle_and_grad", "state_bundle", "controls_bundle", "empty_like_input", "per_env"]
 
 _PARAMETERS = MODEL_ARRAYS
-_LINK_AND_JOINT = len(LINK_PARAMETERS) + len(JOINT_PARAMETERS)  # MODEL_ARRAYS lists them first
+_DYNAMICS = tuple(k for k, name in enumerate(_PARAMETERS) if REGISTRY[name].group != "actuator")
+"""The positions in _PARAMETERS of the parameters the dynamics functions read (link, joint, world)."""
 
 
 def _rows(model, name: str, per_env: dict) -> wp.array:
-    """The (P, count) array of a link or joint parameter."""
+    """The (P, count) array of a link, joint, actuator or world parameter."""
     array = getattr(model, name)
     return array if name in per_env else array.reshape((1, *array.shape))
 
@@ -43,7 +44,6 @@ def _build_model_bundle(model):
     bundle.actuator_joint = model.actuator_joint
     bundle.joint_actuator = model.joint_actuator
     bundle.joint_actuator_start = model.joint_actuator_start
-    bundle.gravity = model.scalar(-model.gravity)  # the kernels' magnitude along -z; model.gravity is JaxSim's z component
     bundle.floating_base = int(model.floating_base())
     H = model.description.initial_world_H_base if model.floating_base() else None
     H = np.eye(4) if H is None else np.asarray(H, dtype=np.float64)
@@ -73,14 +73,14 @@ def model_bundle(model):
 
 
 def model_bundle_and_grad(model) -> tuple:
-    """(the model's `bundles(scalar).Model`, whether a link or joint parameter requires gradients), cached per
+    """(the model's `bundles(scalar).Model`, whether a link, joint or world parameter requires gradients), cached per
     model version and per gradient arrays of its parameters (the parameters' arrays listed once per version:
     only a setter, which announces itself, replaces one; their .grad, which marking an array for gradients
     sets, read at each call). An array requires gradients exactly when it has a .grad (Warp's requires_grad
     and grad setters keep the two together)."""
     parameters = model.cached("model bundle arrays", lambda: tuple(getattr(model, name) for name in _PARAMETERS))
     grads = warp_private.grads(parameters)  # the arrays, not their ids: a freed grad's id may come back
-    return model.cached(("model bundle", grads), lambda: (_build_model_bundle(model), any(g is not None for g in grads[:_LINK_AND_JOINT])))
+    return model.cached(("model bundle", grads), lambda: (_build_model_bundle(model), any(grads[k] is not None for k in _DYNAMICS)))
 
 
 def state_bundle(scalar, state: list):

@@ -37,7 +37,7 @@ from .kin_dyn import JointModel, JointParameters, KinDynParameters, LinkParamete
 from .model_constants import joint_motion_terms, quaternion_xyzw, sibling_chains, transforms
 from .model_queries import ModelQueries
 from .model_settings import ModelSettings
-from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, Parameter, validate_parameters
+from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, WORLD_PARAMETERS, Parameter, validate_parameters
 from .settings import STANDARD_GRAVITY, ActuationParams, SoftContactsParams
 from .terrain import FlatTerrain, HeightfieldTerrain
 
@@ -50,11 +50,12 @@ SCALARS = {np.dtype(np.float32): wp.float32, np.dtype(np.float64): wp.float64}
 
 
 class _ParameterAttribute:
-    """`model.<name>`: the Warp array of a link or joint parameter (read-only; set it with the group's setter)."""
+    """`model.<name>`: the Warp array of a link, joint, actuator or world parameter (read-only; set it with its
+    group's setter)."""
 
     def __init__(self, parameter: Parameter):
         self.name = parameter.name
-        count = {"link": "nL", "joint": "nj", "dof": "nv", "actuator": "na", "base": "1"}[parameter.element]
+        count = {"link": "nL", "joint": "nj", "dof": "nv", "actuator": "na", "base": "1", "world": "1"}[parameter.element]
         self.__doc__ = f"{parameter.description} [{parameter.unit}]: ({count}{''.join(f', {k}' for k in parameter.item)}), or with a leading N when given per environment."
 
     def __get__(self, model, owner=None):
@@ -79,11 +80,13 @@ class Model(ModelSettings, ModelQueries):
     Parameters (warpdyn.types.parameters): the links' `link_mass`, `link_com`, `link_inertia`
     (`set_link_parameters`) and the joints' `position_limits`, `joint_limit_spring`, `joint_limit_damper`,
     `friction_static`, `friction_viscous` (`set_joint_parameters`), each shared by all environments or
-    given per environment (domain randomisation; then the model serves data of those N environments only).
+    given per environment (domain randomisation; then the model serves data of those N environments only);
+    the world's gravity `world_gravity` [m/s^2, world frame] (`set_gravity`), (1, 3) shared or (N, 1, 3).
     Settings (warpdyn.types.model_settings, each checked when assigned): `terrain`, `contact_model`,
-    `contact_params`, `actuation_params`, `integrator`, `time_step` [s], `gravity` (JaxSim's: the world's z
-    component [m/s^2], -9.81 by default), `quaternion_tolerance`, `implicit_damping`; JaxSim's `replace`,
-    `editable`, `mutable_context`, `built_from` (what the model was built from), equality and hashing.
+    `contact_params`, `actuation_params`, `integrator`, `time_step` [s], `gravity` (JaxSim's: the z
+    component of `world_gravity` [m/s^2], -9.81 by default), `quaternion_tolerance`, `implicit_damping`;
+    JaxSim's `replace`, `editable`, `mutable_context`, `built_from` (what the model was built from), equality
+    and hashing.
     """
 
     def __init__(
@@ -92,12 +95,13 @@ class Model(ModelSettings, ModelQueries):
         tree: KinematicTree,
         *,
         model_name: str,
-        gravity: float,
+        gravity,
         time_step: float,
         dtype,
         device,
     ):
-        """The model of a lumped `tree` of `description`; gravity: its magnitude [m/s^2], pulling along -z."""
+        """The model of a lumped `tree` of `description`; gravity: the world's gravity W_g [m/s^2, world frame],
+        (3,) shared or (N, 3) per environment (`set_gravity`)."""
         if np.dtype(dtype) not in SCALARS:
             raise TypeError(f"dtype must be np.float32 or np.float64, got {dtype!r}")
         self.description = description
@@ -139,7 +143,7 @@ class Model(ModelSettings, ModelQueries):
         for parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS):
             # the description's inertial values are taken as they are; what a user sets is checked
             self._store(parameter, parameter.default(tree), checked=parameter.group != "link")
-        self.gravity = -float(gravity)
+        self.set_gravity(gravity)
         self.time_step = time_step
         self.terrain = FlatTerrain()
         self.contact_model = SoftContacts()
@@ -194,8 +198,9 @@ class Model(ModelSettings, ModelQueries):
         homogeneous transform W_H_B [m] (default: the description's weld, else the identity; an MJCF free
         joint becomes a weld); False frees a base the description welds. gravity: its magnitude [m/s^2]
         (JaxSim's keyword; `model.gravity` is then -gravity, the world's z component), pulling along -z;
-        gravity and time_step [s] default to the description's (MJCF `<option>`, SDF `<world>`), else 9.81
-        and 0.001. terrain, contact_model, contact_params, actuation_params, integrator: the settings
+        without it the model takes the description's gravity vector (MJCF `<option gravity>`, SDF
+        `<world><gravity>`, any direction), else (0, 0, -9.81): `model.world_gravity`. time_step [s] defaults
+        to the description's, else 0.001. terrain, contact_model, contact_params, actuation_params, integrator: the settings
         (defaults: FlatTerrain, SoftContacts, SoftContactsParams(), ActuationParams(), SemiImplicitEuler or
         MuJoCo's). constraints and parametrized_links: JaxSim's kinematic constraints and hardware
         parametrisation, not in warpdyn yet (anything but None: NotImplementedError). dtype: np.float32 (the
@@ -261,19 +266,20 @@ class Model(ModelSettings, ModelQueries):
             raise TypeError(f"model_description must be a warpdyn ModelDescription (build_from_model_description reads files), got {type(model_description).__name__}")
         tree = build_tree(model_description, considered_joints)
         disabled = model_description.disabled
-        if gravity is None:
-            gravity = 0.0 if "gravity" in disabled else model_description.gravity if model_description.gravity is not None else STANDARD_GRAVITY
+        W_g = np.zeros(3) if "gravity" in disabled else model_description.gravity if model_description.gravity is not None else (0.0, 0.0, -STANDARD_GRAVITY)
         if time_step is None:
             time_step = model_description.time_step if model_description.time_step is not None else 0.001
         model = cls(
             model_description,
             tree,
             model_name=model_name if model_name is not None else model_description.name,
-            gravity=gravity,
+            gravity=W_g,
             time_step=time_step,
             dtype=dtype,
             device=device,
         )
+        if gravity is not None:
+            model.gravity = -float(gravity)  # JaxSim's keyword: the magnitude, along -z
         settings = {"terrain": terrain, "contact_model": contact_model, "contact_params": contact_params, "actuation_params": actuation_params, "integrator": integrator}
         model.apply_settings(**{k: v for k, v in settings.items() if v is not None})
         return model
@@ -323,8 +329,8 @@ class Model(ModelSettings, ModelQueries):
         """Set the links' inertial parameters (keywords below; one not given keeps its value).
 
         mass (nL,) [kg], com (nL, 3) [m, link frame], inertia (nL, 3, 3) [kg m^2, about the CoM, link axes],
-        gravcomp_mass (nL,) [kg] and gravcomp_com (nL, 3) [m, link frame] (gravity compensation: a force
-        gravcomp_mass g along +z of the world at gravcomp_com, MJCF's gravcomp),
+        gravcomp_mass (nL,) [kg] and gravcomp_com (nL, 3) [m, link frame] (gravity compensation: the force
+        -gravcomp_mass W_g at gravcomp_com, W_g the world's gravity, MJCF's gravcomp),
         in the order of `link_names()` (lumped links included), shared by all environments; or with a
         leading axis of N environments, (N, nL), (N, nL, 3), (N, nL, 3, 3): domain randomisation, one
         row per environment, read by every dynamics function, `step` and rollouts. A model with
@@ -363,6 +369,18 @@ class Model(ModelSettings, ModelQueries):
         environments or with a leading axis of N environments (see `set_link_parameters`)."""
         self._set_group(ACTUATOR_PARAMETERS, values, "set_actuator_parameters")
 
+    def set_gravity(self, W_g) -> None:
+        """Set the world's gravity W_g [m/s^2, world frame] (`model.world_gravity`): (3,) shared by all
+        environments, or (N, 3) one per environment (see `set_link_parameters`), finite. JaxSim's
+        `model.gravity = g` sets (0, 0, g) shared. Makes a new Warp array."""
+        name = "world_gravity"
+        host = arrays.host_numbers(W_g.numpy() if isinstance(W_g, wp.array) else W_g, name)
+        if host.shape == (3,) or (host.ndim == 2 and host.shape[1] == 3 and host.shape[0] >= 1):
+            self._store(REGISTRY[name], host.reshape(-1, 1, 3) if host.ndim == 2 else host.reshape(1, 3), checked=True)
+        else:
+            raise ValueError(f"{name} has shape {host.shape}, expected (3,) (shared) or (N, 3) (per environment)")
+        self.notify_model_changed()
+
     def _set_group(self, group: tuple, values: dict, setter: str) -> None:
         by_keyword = {p.keyword: p for p in group}
         unknown = [k for k in values if k not in by_keyword]
@@ -374,10 +392,11 @@ class Model(ModelSettings, ModelQueries):
         self.notify_model_changed()
 
     def _store(self, parameter: Parameter, value, checked: bool) -> None:
-        """Store a link or joint parameter given shared (count, *item) or per environment (N, count, *item)."""
+        """Store a link, joint, actuator or world parameter given shared (count, *item) or per environment (N,
+        count, *item)."""
         name = parameter.name
         count = {"link": self.tree.number_of_links, "joint": self.tree.number_of_joints, "dof": self.tree.dofs,
-                 "actuator": len(self.tree.actuators), "base": 1}[parameter.element]
+                 "actuator": len(self.tree.actuators), "base": 1, "world": 1}[parameter.element]
         host = np.array(arrays.host_numbers(value.numpy() if isinstance(value, wp.array) else value, name))  # a copy, the table's own
         shared = (count, *parameter.item)
         if checked and parameter.check is not None and host.shape[-len(shared) :] == shared:
@@ -420,7 +439,8 @@ class Model(ModelSettings, ModelQueries):
         return self._hosts[name]
 
     def per_environment_parameters(self) -> dict[str, int]:
-        """{name: N} of the link and joint parameters given per environment (empty when all are shared)."""
+        """{name: N} of the link, joint, actuator and world parameters given per environment (empty when all are
+        shared)."""
         return dict(self._per_env)
 
     def parameter(self, name: str):
@@ -435,7 +455,7 @@ class Model(ModelSettings, ModelQueries):
             return terrain.elevation if isinstance(terrain, FlatTerrain) else terrain.heights if isinstance(terrain, HeightfieldTerrain) else None
         return self._values[name]
 
-    def parameters_require_grad(self, groups=("link", "joint", "actuator", "contact", "terrain")) -> bool:
+    def parameters_require_grad(self, groups=("link", "joint", "actuator", "world", "contact", "terrain")) -> bool:
         """Whether a parameter of these groups is a Warp array that requires gradients (attribute reads only).
         The parameters' arrays are listed once per version (a parameter becomes another object only through a
         setter, which announces it); whether each requires gradients is read at every call, since marking an
@@ -618,12 +638,14 @@ class Model(ModelSettings, ModelQueries):
             if name not in considered_joints:
                 locked[name] = value  # build_tree checks it; a kept joint's position locks nothing (JaxSim's)
         tree = build_tree(self.description, considered_joints, locked)
-        reduced = Model(self.description, tree, model_name=self.model_name, gravity=-self.gravity, time_step=self.time_step, dtype=self.dtype, device=self.device)
+        W_g = self.world_gravity.numpy().reshape(-1, 3)
+        gravity = W_g if "world_gravity" in self._per_env else W_g[0]
+        reduced = Model(self.description, tree, model_name=self.model_name, gravity=gravity, time_step=self.time_step, dtype=self.dtype, device=self.device)
         carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "implicit_damping")
         reduced.apply_settings(**{name: getattr(self, name) for name in carried}, built_from=self.built_from)
         return reduced
 
 
-for _parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS):
+for _parameter in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS, *WORLD_PARAMETERS):
     setattr(Model, _parameter.name, _ParameterAttribute(_parameter))
 del _parameter

@@ -90,12 +90,30 @@ REPLACEABLE = (
 class ModelSettings:
     """The settings of a `Model` (its base class) and JaxSim's dataclass methods on them."""
 
-    gravity = _setting(
-        "gravity",
-        lambda v: _number("gravity", v, positive=False),
-        "Gravity's z component in the world [m/s^2], as JaxSim's `model.gravity`: -9.81 by default (gravity "
-        "pulls along -z); `build_from_model_description(gravity=9.81)` takes the magnitude, as JaxSim's.",
-    )
+    @property
+    def gravity(self) -> float:
+        """JaxSim's `model.gravity`: the z component [m/s^2] of the world's gravity `world_gravity` (-9.81 by
+        default); `build_from_model_description(gravity=9.81)` takes the magnitude, as JaxSim's. Assigning g
+        sets `world_gravity` to (0, 0, g), shared by the environments. Reading it is a ValueError when the
+        gravity is given per environment or has a horizontal component (read `model.world_gravity`). The value
+        set (not rounded to the model's dtype), or the array's after an edit in place, read once per model
+        version (after such an edit, `notify_model_changed()`)."""
+        return self.cached("gravity", self._gravity_along_z)
+
+    @gravity.setter
+    def gravity(self, value) -> None:
+        self.set_gravity((0.0, 0.0, _number("gravity", value, positive=False)))
+
+    def _gravity_along_z(self) -> float:
+        if "world_gravity" in self.per_environment_parameters():
+            raise ValueError("model.gravity: the gravity is given per environment (set_gravity); read model.world_gravity, (N, 1, 3)")
+        held = self.world_gravity.numpy().reshape(3)
+        W_g = self.parameter_host("world_gravity").reshape(3)  # as set (float64), unless edited in place since
+        if not np.array_equal(held, W_g.astype(held.dtype)):
+            W_g = held.astype(np.float64)
+        if W_g[0] != 0.0 or W_g[1] != 0.0:
+            raise ValueError(f"model.gravity: the gravity {W_g.tolist()} [m/s^2] does not point along z; read model.world_gravity")
+        return float(W_g[2])
     time_step = _setting("time_step", lambda v: _number("time_step", v, positive=True), "The step's time step [s].")
     quaternion_tolerance = _setting(
         "quaternion_tolerance",

@@ -2,7 +2,7 @@
 
 Every parameter a kernel reads and a user may set, randomise per environment or differentiate is a
 `Parameter` here. The registry drives the model's setters (`Model.set_link_parameters`,
-`Model.set_joint_parameters`), their validation, `warpdyn.model.parameters_requiring_grad` and the torch
+`Model.set_joint_parameters`, `Model.set_gravity`), their validation, `warpdyn.model.parameters_requiring_grad` and the torch
 bridge's `parameters=`. Adding a per-joint parameter is one entry in JOINT_PARAMETERS, a field in the
 kernels' model bundle (kernels/bundles.py, filled by warpdyn.engine.bundles) and the kernels that read it.
 
@@ -12,6 +12,8 @@ Groups and where the values live:
 - "joint": one value per joint (nj) or per joint DoF (nv: friction, armature, damping; `Parameter.per`), on the
   model likewise (a model without ball or free joints has nj = nv);
 - "actuator": one value per actuator (na, the MJCF actuators on kept joints), on the model likewise;
+- "world": one value per model (the world's gravity), on the model likewise: (1, *item) shared, (N, 1, *item)
+  per environment;
 - "contact": the soft-contact K, D, mu in `model.contact_params` (a number, NumPy (N,) or a Warp array);
 - "terrain": a FlatTerrain's height ((1,) or (N,)) or a HeightfieldTerrain's heights (nx, ny).
 
@@ -40,6 +42,7 @@ __all__ = [
     "LINK_PARAMETERS",
     "JOINT_PARAMETERS",
     "ACTUATOR_PARAMETERS",
+    "WORLD_PARAMETERS",
     "CONTACT_PARAMETERS",
     "TERRAIN_PARAMETERS",
     "REGISTRY",
@@ -99,9 +102,9 @@ class Parameter:
     """A model parameter.
 
     name: its name (the model attribute, the key of `parameters_requiring_grad`); group: "link", "joint",
-    "actuator", "contact" or "terrain" (module docstring); per: what one value belongs to, "link", "joint",
-    "dof" (a joint's degree of freedom), "base" (a floating base's free joint: one value) or "actuator" (default:
-    the group); item: the shape of one value; keyword:
+    "actuator", "world", "contact" or "terrain" (module docstring); per: what one value belongs to, "link", "joint",
+    "dof" (a joint's degree of freedom), "base" (a floating base's free joint: one value), "actuator" or "world"
+    (one value) (default: the group); item: the shape of one value; keyword:
     its argument name in the group's setter; unit and description: for docs and errors; check: raises a
     ValueError naming the parameter for values that are not physical; default: the value a model starts
     with, from its description (a function of the lumped tree), for link and joint parameters.
@@ -119,7 +122,7 @@ class Parameter:
 
     @property
     def element(self) -> str:
-        """What one value belongs to: "link", "joint", "dof" or "actuator"."""
+        """What one value belongs to: "link", "joint", "dof", "base", "actuator" or "world"."""
         return self.per or self.group
 
 
@@ -132,8 +135,8 @@ LINK_PARAMETERS = (
     ),
     Parameter(
         "gravcomp_mass", "link", (), "gravcomp_mass", "kg",
-        "gravity compensation: the mass whose weight a force along +z of the world carries (MJCF gravcomp; negative, as "
-        "MuJoCo allows: added weight)",
+        "gravity compensation: the mass m whose weight the force -m g carries, g the world's gravity (MJCF gravcomp; "
+        "negative, as MuJoCo allows: added weight)",
         check_finite, lambda tree: tree.gravcomp_mass,
     ),
     Parameter(
@@ -228,6 +231,14 @@ ACTUATOR_PARAMETERS = (
     ),
 )
 
+WORLD_PARAMETERS = (
+    Parameter(
+        "world_gravity", "world", (3,), "gravity", "m/s^2, world frame",
+        "the acceleration of gravity (MuJoCo's opt.gravity, SDF's <world><gravity>; JaxSim's model.gravity is its z)",
+        check_finite,
+    ),
+)
+
 CONTACT_PARAMETERS = (
     Parameter("K", "contact", (), "K", "N/m^(1+p)", "soft-contact stiffness", check_non_negative),
     Parameter("D", "contact", (), "D", "N s/m^(1+q)", "soft-contact damping", check_non_negative),
@@ -237,12 +248,13 @@ CONTACT_PARAMETERS = (
 TERRAIN_PARAMETERS = (Parameter("terrain_height", "terrain", (), "height", "m", "terrain height", check_finite),)
 
 REGISTRY: dict[str, Parameter] = {
-    p.name: p for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS, *CONTACT_PARAMETERS, *TERRAIN_PARAMETERS)
+    p.name: p
+    for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS, *WORLD_PARAMETERS, *CONTACT_PARAMETERS, *TERRAIN_PARAMETERS)
 }
 """Every model parameter by name."""
 
-MODEL_ARRAYS = tuple(p.name for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS))
-"""The parameters held as the model's own arrays (link, joint and actuator parameters, shared or per environment)."""
+MODEL_ARRAYS = tuple(p.name for p in (*LINK_PARAMETERS, *JOINT_PARAMETERS, *ACTUATOR_PARAMETERS, *WORLD_PARAMETERS))
+"""The parameters held as the model's own arrays (link, joint, actuator and world parameters, shared or per environment)."""
 
 
 def faults(parameter: Parameter, host: np.ndarray) -> np.ndarray:
@@ -277,13 +289,13 @@ _REQUIREMENT = {
 
 def validate_parameters(model) -> None:
     """A ValueError naming the parameter, its link, joint or actuator, its environment (per-environment values)
-    and its value, for the first value of the model's link, joint and actuator arrays, or of its soft-contact
+    and its value, for the first value of the model's link, joint, actuator and world arrays, or of its soft-contact
     K, D, mu, p, q, that is out of range (the setters' checks, `faults`), as the arrays are now: edits in place
     included. A fixed base's own mass, centre of mass and inertia are not checked: no dynamics reads them (a
     gradient check may probe a massless fixed base's mass below 0). Copies each array to the host (a
     synchronisation with the device)."""
     names = {"link": model.link_names(), "joint": model.joint_names(), "dof": model.dof_names(), "actuator": model.actuator_names(),
-             "base": (model.base_link(),)}
+             "base": (model.base_link(),), "world": ("world",)}
     per_env = model.per_environment_parameters()
     for name in MODEL_ARRAYS:
         parameter = REGISTRY[name]
@@ -299,7 +311,7 @@ def validate_parameters(model) -> None:
         shown = f"{float(value):g}" if value.ndim == 0 else str(np.round(value, 6).tolist())
         element = names[parameter.element][k]
         label = "DoF" if parameter.element == "dof" and ":" in element else "joint" if parameter.element == "dof" else parameter.element
-        where = f"{label} '{element}'" + (f" in environment {env}" if env is not None else "")
+        where = ("the world" if parameter.element == "world" else f"{label} '{element}'") + (f" in environment {env}" if env is not None else "")
         detail = ""
         if parameter.check is check_inertia and np.isfinite(value).all():
             detail = f"; principal moments {np.round(np.linalg.eigvalsh(0.5 * (value + value.T)), 9).tolist()}"
