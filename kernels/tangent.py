@@ -120,21 +120,26 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         sdot: wp.array2d(dtype=scalar),
         Q_ref: wp.array2d(dtype=scalar),
         s_ref: wp.array2d(dtype=scalar),
+        copies: int,
+        reference: int,
         nb: int,
         base_axes: int,
         # outputs
         y: wp.array2d(dtype=scalar),
     ):
         """y (N m, nx): the tangent coordinates of each row's state (p, Q, s, base_v (N m, 6), sdot) about the
-        rotations of Q_ref and s_ref (the same state, read without gradients): positions as they are,
-        rotations as `rotation_tangent`. Its derivative is the state's tangent map; its rotation entries are 0.
-        Launched over N m."""
+        rotations of Q_ref and s_ref (read without gradients) at the row itself (reference < 0: its derivative is
+        the state's tangent map, its rotation entries 0) or at copy `reference` of the row's environment (finite
+        differences): positions as they are, rotations as `rotation_tangent`. Launched over N m."""
         row = wp.tid()
+        at = row
+        if reference >= 0:
+            at = (row / copies) * copies + reference
         nv = sdot.shape[1]
         if nb > 0:
             for k in range(3):
                 y[row, k] = p[row, k]
-            turn = rotation_tangent(I.read4(Q, row, 0), I.read4(Q_ref, row, 0), base_axes)
+            turn = rotation_tangent(I.read4(Q, row, 0), I.read4(Q_ref, at, 0), base_axes)
             for k in range(3):
                 y[row, 3 + k] = turn[k]
             for k in range(6):
@@ -149,13 +154,43 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
                     r = 3
                     for k in range(3):
                         y[row, d + k] = s[row, a + k]
-                turn = rotation_tangent(I.read4(s, row, a + r), I.read4(s_ref, row, a + r), 1)
+                turn = rotation_tangent(I.read4(s, row, a + r), I.read4(s_ref, at, a + r), 1)
                 for k in range(3):
                     y[row, d + r + k] = turn[k]
             else:
                 y[row, d] = s[row, a]
         for j in range(nv):
             y[row, nb + nv + nb + j] = sdot[row, j]
+
+    @wp.kernel(module="unique")
+    def perturbations(copies: int, nx: int, h: scalar, u: wp.array2d(dtype=scalar), dx: wp.array2d(dtype=scalar), u_rows: wp.array2d(dtype=scalar)):
+        """The copies of central differences (m = 2 (nx + nu) + 1 per environment): copy 2 k + (0, 1) moves the
+        state's tangent entry k by (+h, -h), copy 2 nx + 2 j + (0, 1) control j of u (N, nu), the last copy
+        nothing. dx (N m, nx) zeroed beforehand; u_rows (N m, nu). Launched over N m."""
+        row = wp.tid()
+        env = row / copies
+        c = row % copies
+        sign = scalar(1.0) - scalar(2.0) * scalar(c % 2)
+        if c < 2 * nx:
+            dx[row, c / 2] = sign * h
+        for j in range(u.shape[1]):
+            u_rows[row, j] = u[env, j]
+        if c >= 2 * nx and c < copies - 1:
+            j = (c - 2 * nx) / 2
+            u_rows[row, j] = u[env, j] + sign * h
+
+    @wp.kernel(module="unique")
+    def central_differences(y: wp.array2d(dtype=scalar), copies: int, nx: int, h: scalar, A: wp.array3d(dtype=scalar), B: wp.array3d(dtype=scalar)):
+        """A (N, nx, nx) and B (N, nx, nu) from the tangents y (N m, nx) of `perturbations`' copies: column k is
+        (y[2 k] - y[2 k + 1]) / 2 h. Launched over (N, nx + nu)."""
+        env, k = wp.tid()
+        plus = env * copies + 2 * k
+        for i in range(nx):
+            d = (y[plus, i] - y[plus + 1, i]) / (scalar(2.0) * h)
+            if k < nx:
+                A[env, i, k] = d
+            else:
+                B[env, i, k - nx] = d
 
     @wp.kernel(module="unique")
     def replicate(src: wp.array2d(dtype=scalar), copies: int, dst: wp.array2d(dtype=scalar)):
@@ -181,4 +216,5 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         row = wp.tid()
         seed[row, row % copies] = scalar(1.0)
 
-    return types.SimpleNamespace(moved_state=moved_state, state_tangent=state_tangent, replicate=replicate, column=column, flatten=flatten, seed_rows=seed_rows)
+    return types.SimpleNamespace(moved_state=moved_state, state_tangent=state_tangent, perturbations=perturbations,
+                                 central_differences=central_differences, replicate=replicate, column=column, flatten=flatten, seed_rows=seed_rows)

@@ -114,6 +114,9 @@ def test_transition_matrices_of_the_legs_in_contact_equal_finite_differences(rep
         assert np.abs(A[e] - A_fd).max() <= 1e-7 * np.abs(A_fd).max(), e
         assert np.abs(B[e] - B_fd).max() <= 1e-7 * np.abs(B_fd).max(), e
         assert np.abs(A_fd).max() > 10.0  # the contacts' stiffness is in it
+    central = wd.autodiff.transition_matrices(model, data, joint_force_references=tau, method="central", h=1e-7)
+    for name, exact in (("A", A), ("B", B)):
+        assert np.abs(central[name].numpy() - exact).max() <= 1e-7 * np.abs(exact).max()
 
 
 def mujoco_transition(mj, qpos, qvel, ctrl):
@@ -154,12 +157,14 @@ def random_mujoco_state(mj, rng):
     return d.qpos.copy(), rng.normal(0, 0.5, mj.nv), rng.uniform(-0.5, 0.5, mj.nu)
 
 
+@pytest.mark.parametrize("method", ["reverse", "central"])
 @pytest.mark.parametrize("name", ["floating humanoid", "ball", "free trees"])
-def test_transition_matrices_equal_mujocos(name):
+def test_transition_matrices_equal_mujocos(name, method):
     """A and B (with respect to ctrl) equal MuJoCo's mjd_transitionFD on the same MJCF without contacts: a floating
     humanoid with motors, position and velocity servos (its base's tangent converted: MuJoCo's rotation and angular
     velocity are in base axes, the Mixed representation's in world axes), a ball joint, and two free trees below the
-    world (free joints' tangents are MuJoCo's). MuJoCo's differences (eps 1e-6) are exact to ~1e-9 of the entries."""
+    world (free joints' tangents are MuJoCo's); by the exact reverse pass and by warpdyn's own central differences.
+    MuJoCo's differences (eps 1e-6) are exact to ~1e-9 of the entries."""
     xml = {"floating humanoid": FLOATING_HUMANOID, "ball": BALL, "free trees": FREE_TREES}[name]
     mj = mjcf_models.reference_model(mjcf_models.load(xml), extra_disable=int(mujoco.mjtDisableBit.mjDSBL_CONTACT))
     model = wd.model.Model.build_from_model_description(xml, dtype=np.float64)
@@ -171,7 +176,7 @@ def test_transition_matrices_equal_mujocos(name):
     actuators = [mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in model.actuator_names()]
     u = np.zeros(model.number_of_actuators())
     u[:] = ctrl[actuators] if actuators else u
-    out = wd.autodiff.transition_matrices(model, data, control="ctrl", ctrl=u)
+    out = wd.autodiff.transition_matrices(model, data, control="ctrl", ctrl=u, method=method)
     A, B = out["A"].numpy(), out["B"].numpy()
     free = None
     if model.floating_base():
@@ -258,6 +263,10 @@ def test_single_environment_shapes_and_bad_arguments():
     assert out["A"].shape == (2 * (6 + n), 2 * (6 + n)) and out["B"].shape == (2 * (6 + n), n)
     jac = wd.autodiff.jacobian(lambda model, data: wd.model.total_momentum(model, data), model, data)
     assert jac["state"].shape == (6, 2 * (6 + n))
+    with pytest.raises(ValueError, match="method must be"):
+        wd.autodiff.transition_matrices(model, data, method="forward")
+    with pytest.raises(ValueError, match="central.*state and the controls only"):
+        wd.autodiff.transition_matrices(model, data, method="central", parameters=("link_mass",))
     with pytest.raises(ValueError, match="control must be"):
         wd.autodiff.transition_matrices(model, data, control="tau")
     with pytest.raises(ValueError, match=r"parameters \['gravity_vector'\] are not model parameters"):
@@ -268,7 +277,8 @@ def test_single_environment_shapes_and_bad_arguments():
         wd.autodiff.jacobian(lambda model, data: 1.0, model, data)
 
 
-def test_a_flagged_environment_gets_nan_and_the_others_stay_exact():
+@pytest.mark.parametrize("method", ["reverse", "central"])
+def test_a_flagged_environment_gets_nan_and_the_others_stay_exact(method):
     """An environment whose step diverges (joint speeds of 1e200 rad/s overflow) is flagged by the step: its A and B
     are NaN; the other environment's equal those of a batch without it."""
     model = legs(contacts=False)
@@ -276,8 +286,8 @@ def test_a_flagged_environment_gets_nan_and_the_others_stay_exact():
     speeds = np.zeros((2, n))
     speeds[1] = 1e200
     data = wd.data.Data.build(model, num_envs=2, base_position=(0.0, 0.0, 1.0), joint_velocities=speeds)
-    out = wd.autodiff.transition_matrices(model, data)
-    alone = wd.autodiff.transition_matrices(model, wd.data.Data.build(model, num_envs=1, base_position=(0.0, 0.0, 1.0)))
+    out = wd.autodiff.transition_matrices(model, data, method=method)
+    alone = wd.autodiff.transition_matrices(model, wd.data.Data.build(model, num_envs=1, base_position=(0.0, 0.0, 1.0)), method=method)
     for name in ("A", "B"):
         value = out[name].numpy()
         assert np.isnan(value[1]).all()

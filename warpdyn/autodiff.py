@@ -43,7 +43,7 @@ _SETTERS = {"link": "set_link_parameters", "joint": "set_joint_parameters", "act
 
 
 def transition_matrices(model: Model, data, *, control: str = "joint_force_references", joint_force_references=None, ctrl=None,
-                        link_forces=None, parameters=()) -> dict:
+                        link_forces=None, parameters=(), method: str = "reverse", h: float = 1e-6) -> dict:
     """The linearisation of one `wd.model.step` about `data` and the controls: x' ≈ x'_0 + A dx + B du.
 
     control: "joint_force_references" (u = τ (nv,)) or "ctrl" (u = the actuators' controls (na,)). The controls
@@ -52,6 +52,11 @@ def transition_matrices(model: Model, data, *, control: str = "joint_force_refer
     Returns {"A": (N, nx, nx), "B": (N, nx, nu), name: (N, nx, k) for each parameter (k its numbers per
     environment, items flattened)}, Warp arrays on the model's device (no N axis for single-environment data);
     the tangent x as the module docstring says. An environment whose step is flagged (data.healthy) gets NaN.
+    method: "reverse" (exact to rounding: one taped step and one backward pass over N nx copies) or "central"
+    (MuJoCo's mjd_transitionFD's scheme: central differences of step h in the tangent, one untaped step over
+    N (2 (nx + nu) + 1) copies, the fused step where it applies; no parameters). Central differences err by about
+    h² times the step's third derivative plus eps |x'| / h: use them in float64 (benchmarks/jacobians.py compares
+    the two methods).
     """
     if control not in ("joint_force_references", "ctrl"):
         raise ValueError(f"control must be 'joint_force_references' or 'ctrl', got {control!r}")
@@ -66,9 +71,16 @@ def transition_matrices(model: Model, data, *, control: str = "joint_force_refer
         new = step(model_c, data_c, **controls_c)
         return tangent.state_tangent(model_c, new, repr), new.valid_state
 
-    grads = _differentiate(model, data, copies, evaluate, given, (control,), tuple(parameters))
-    out = {"A": grads.pop("state"), "B": grads.pop(control)}
-    out.update(grads)
+    if method == "central":
+        if parameters:
+            raise ValueError("method='central' differentiates the state and the controls only: use method='reverse' for parameters")
+        out = _central(model, data, repr, control, given, float(h))
+    elif method == "reverse":
+        grads = _differentiate(model, data, copies, evaluate, given, (control,), tuple(parameters))
+        out = {"A": grads.pop("state"), "B": grads.pop(control)}
+        out.update(grads)
+    else:
+        raise ValueError(f"method must be 'reverse' or 'central', got {method!r}")
     return {name: arrays.squeeze_env(value, data.num_envs) for name, value in out.items()}
 
 
@@ -118,20 +130,8 @@ def _differentiate(model, data, copies: int, evaluate, controls: dict, wrt_contr
     dx = wp.zeros((rows, nx), dtype=model.scalar, device=model.device, requires_grad=True)
     controls_c = {name: _replicated_control(model, name, value, N, copies, name in wrt_controls) for name, value in controls.items()
                   if value is not None}
-    repr = int(VelRepr(data.velocity_representation))
     with wp.Tape() as tape:
-        state = tangent.moved_state(model, data, repr, copies, dx)
-        data_c = Data(
-            base_position_state=state["base_position"],
-            base_quaternion_state=state["base_quaternion"],
-            joint_positions_state=state["joint_positions"],
-            base_velocity_state=state["base_velocity"],
-            joint_velocities_state=state["joint_velocities"],
-            velocity_representation=data.velocity_representation,
-            num_envs=rows,
-            tangential_deformation_state=None if data.tangential_deformation_state is None else tangent.replicated(_rows(data.tangential_deformation_state), copies).reshape((rows, -1, 3)),
-            valid_state=wp.ones(rows, dtype=wp.int32, device=model.device),
-        )
+        data_c = _copies(model, data, copies, dx)
         y, valid = evaluate(model_c, data_c, controls_c)
     if y.shape != (rows, copies):
         raise ValueError(f"the function's output changed shape between calls: {tuple(y.shape)}, expected ({rows}, {copies})")
@@ -147,6 +147,41 @@ def _differentiate(model, data, copies: int, evaluate, controls: dict, wrt_contr
     if valid is not None:
         _poison_flagged(out, valid.numpy().reshape(N, copies).min(axis=1) == 0)
     return out
+
+
+def _central(model, data, repr: int, control: str, controls: dict, h: float) -> dict:
+    """{"A", "B"} by central differences (see `transition_matrices`)."""
+    N = data.batch_size
+    nx = tangent.tangent_size(model)
+    u = _replicated_control(model, control, controls[control], N, 1, False)
+    copies = 2 * (nx + u.shape[1]) + 1
+    dx, u_rows = tangent.perturbed(model, copies, h, u)
+    others = {name: _replicated_control(model, name, value, N, copies, False) for name, value in controls.items() if value is not None and name != control}
+    model_c = _replicated_model(model, N, copies, ())
+    new = step(model_c, _copies(model, data, copies, dx), **others, **{control: u_rows})
+    A, B = tangent.central_differences(tangent.state_tangent(model_c, new, repr, copies, copies - 1), copies, u.shape[1], h)
+    out = {"A": A, "B": B}
+    _poison_flagged(out, new.valid_state.numpy().reshape(N, copies).min(axis=1) == 0)
+    return out
+
+
+def _copies(model, data, copies: int, dx: wp.array) -> Data:
+    """Data of `copies` copies of each environment of `data`, copy c moved by its tangent vector dx[c] (N m, nx):
+    engine.tangent.moved_state, recorded by a tape when dx requires gradients; the contact deformation copied."""
+    rows = data.batch_size * copies
+    state = tangent.moved_state(model, data, int(VelRepr(data.velocity_representation)), copies, dx)
+    deformation = data.tangential_deformation_state
+    return Data(
+        base_position_state=state["base_position"],
+        base_quaternion_state=state["base_quaternion"],
+        joint_positions_state=state["joint_positions"],
+        base_velocity_state=state["base_velocity"],
+        joint_velocities_state=state["joint_velocities"],
+        velocity_representation=data.velocity_representation,
+        num_envs=rows,
+        tangential_deformation_state=None if deformation is None else tangent.replicated(_rows(deformation), copies).reshape((rows, -1, 3)),
+        valid_state=wp.ones(rows, dtype=wp.int32, device=model.device),
+    )
 
 
 def _rows(array: wp.array) -> wp.array:

@@ -16,7 +16,7 @@ from . import state as states
 from .bundles import model_bundle
 from .launch import launch
 
-__all__ = ["base_dofs", "tangent_size", "replicated", "moved_state", "state_tangent", "flattened", "seed"]
+__all__ = ["base_dofs", "tangent_size", "replicated", "moved_state", "state_tangent", "perturbed", "central_differences", "flattened", "seed"]
 
 
 def base_dofs(model) -> int:
@@ -66,9 +66,10 @@ def moved_state(model, data, repr: int, copies: int, dx: wp.array) -> dict:
     return {"base_position": p, "base_quaternion": Q, "joint_positions": joints, "base_velocity": velocity, "joint_velocities": sdot}
 
 
-def state_tangent(model, data, repr: int) -> wp.array:
+def state_tangent(model, data, repr: int, copies: int = 1, reference: int = -1) -> wp.array:
     """y (N, nx): the tangent coordinates of `data`'s state (kernels/tangent.py's `state_tangent`), velocities in
-    `repr`; recorded by a tape, its derivative the state's tangent map."""
+    `repr`, about each row's own rotations (reference -1: recorded by a tape, its derivative the state's tangent
+    map) or about those of copy `reference` of each environment's `copies`."""
     N, s, d = data.batch_size, model.scalar, model.device
     grad = data.base_position_state.requires_grad
     base_v = states.base_velocity_in(data, repr, grad)
@@ -78,11 +79,32 @@ def state_tangent(model, data, repr: int) -> wp.array:
         tangent_kernels(s, model.multi_dof()).state_tangent,
         dim=N,
         inputs=[model_bundle(model), data.base_position_state, data.base_quaternion_state, data.joint_positions_state, base_v,
-                data.joint_velocities_state, Q_ref, s_ref, base_dofs(model), int(repr == 1)],
+                data.joint_velocities_state, Q_ref, s_ref, copies, reference, base_dofs(model), int(repr == 1)],
         outputs=[y],
         device=d,
     )
     return y
+
+
+def perturbed(model, copies: int, h: float, u: wp.array) -> tuple[wp.array, wp.array]:
+    """(dx (N m, nx), u_rows (N m, nu)): the copies of central differences of step h (kernels/tangent.py's
+    `perturbations`), m = 2 (nx + nu) + 1, from the controls u (N, nu)."""
+    N, s, d = u.shape[0], model.scalar, model.device
+    rows = N * copies
+    dx = wp.zeros((rows, tangent_size(model)), dtype=s, device=d)
+    u_rows = arrays.empty((u.shape[1],), rows, s, d)
+    launch(tangent_kernels(s, False).perturbations, dim=rows, inputs=[copies, dx.shape[1], s(h), u], outputs=[dx, u_rows], device=d)
+    return dx, u_rows
+
+
+def central_differences(y: wp.array, copies: int, nu: int, h: float) -> tuple[wp.array, wp.array]:
+    """(A (N, nx, nx), B (N, nx, nu)) from the tangents y (N m, nx) of `perturbed`'s copies."""
+    s, d = y.dtype, y.device
+    N, nx = y.shape[0] // copies, y.shape[1]
+    A = wp.empty((N, nx, nx), dtype=s, device=d)
+    B = wp.empty((N, nx, nu), dtype=s, device=d)
+    launch(tangent_kernels(s, False).central_differences, dim=(N, nx + nu), inputs=[y, copies, nx, s(h)], outputs=[A, B], device=d)
+    return A, B
 
 
 def flattened(value: wp.array) -> wp.array:
