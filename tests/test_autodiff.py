@@ -8,6 +8,8 @@ largest entry, h = 1e-7 by 3e-9 (round-off eps |x'| / h stays below that), so h 
 largest entry (entries reach ~1e3 with the contacts' stiffness).
 """
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
@@ -192,7 +194,7 @@ def test_transition_matrices_equal_mujocos(name, method):
 
 
 def test_jacobian_of_forward_dynamics_equals_finite_differences():
-    """∂ν̇/∂(x, τ, link masses) of forward_dynamics_aba for two environments with per-environment masses (the
+    """∂ν̇/∂(x, τ, link masses, centres of mass) of forward_dynamics_aba for two environments with per-environment masses (the
     model is replicated per copy): central differences of the function itself (h = 1e-6; no contacts, so the
     function is smooth: their error, mostly round-off eps |ν̇| / h, stays below 1e-7 of the block's largest entry)."""
     model = legs(contacts=False)
@@ -206,23 +208,25 @@ def test_jacobian_of_forward_dynamics_equals_finite_differences():
         base, joints = wd.model.forward_dynamics_aba(model, data, joint_forces=joint_forces)
         return joints
 
-    out = wd.autodiff.jacobian(accelerations, model, data, controls={"joint_forces": tau}, wrt=("state", "joint_forces"), parameters=("link_mass",))
-    J_x, J_tau, J_m = (out[k].numpy() for k in ("state", "joint_forces", "link_mass"))
-    assert J_x.shape == (N, n, 2 * (6 + n)) and J_tau.shape == (N, n, n) and J_m.shape == (N, n, nL)
+    out = wd.autodiff.jacobian(accelerations, model, data, controls={"joint_forces": tau}, wrt=("state", "joint_forces"), parameters=("link_mass", "link_com"))
+    J_x, J_tau, J_m, J_c = (out[k].numpy() for k in ("state", "joint_forces", "link_mass", "link_com"))
+    assert J_x.shape == (N, n, 2 * (6 + n)) and J_tau.shape == (N, n, n) and J_m.shape == (N, n, nL) and J_c.shape == (N, n, 3 * nL)
     h = 1e-6
     masses = model.link_mass.numpy()
     p0, Q0, s0, v0, sd0 = (np.array([host_state(data, e)[k] for e in range(N)]) for k in range(5))
 
-    def at(dx=None, dtau=None, dmass=None):
+    coms = model.link_com.numpy()
+
+    def at(dx=None, dtau=None, dmass=None, dcom=None):
         dx = np.zeros(2 * (6 + n)) if dx is None else dx
         Q = np.array([quat_mul(quat_exp(dx[3:6]), Q0[e]) for e in range(N)])
         v = v0 + dx[6 + n : 12 + n]
         moved = wd.data.Data.build(model, num_envs=N, base_position=p0 + dx[:3], base_quaternion=Q, joint_positions=s0 + dx[6 : 6 + n],
                                    base_linear_velocity=v[:, :3], base_angular_velocity=v[:, 3:], joint_velocities=sd0 + dx[12 + n :])
         varied = model
-        if dmass is not None:
+        if dmass is not None or dcom is not None:
             varied = model.copy()
-            varied.set_link_parameters(mass=masses + dmass)
+            varied.set_link_parameters(mass=masses + (0.0 if dmass is None else dmass), com=coms + (0.0 if dcom is None else dcom))
         return accelerations(varied, moved, tau + (0.0 if dtau is None else dtau)).numpy()
 
     for k in range(2 * (6 + n)):
@@ -240,6 +244,11 @@ def test_jacobian_of_forward_dynamics_equals_finite_differences():
         dm[:, k] = h
         fd = (at(dmass=dm) - at(dmass=-dm)) / (2 * h)
         assert np.abs(J_m[:, :, k] - fd).max() <= 1e-7 * np.abs(J_m).max(), k
+    for link, axis in ((3, 1), (7, 0)):
+        dc = np.zeros((nL, 3))
+        dc[link, axis] = h
+        fd = (at(dcom=dc) - at(dcom=-dc)) / (2 * h)
+        assert np.abs(J_c[:, :, 3 * link + axis] - fd).max() <= 1e-7 * np.abs(J_c).max(), (link, axis)
     assert model.per_environment_parameters() == {"link_mass": N} and not model.link_mass.requires_grad  # the user's model untouched
 
 
@@ -292,3 +301,52 @@ def test_a_flagged_environment_gets_nan_and_the_others_stay_exact(method):
         value = out[name].numpy()
         assert np.isnan(value[1]).all()
         np.testing.assert_array_equal(value[0], alone[name].numpy()[0])
+
+
+def test_parameter_jacobians_of_a_step_equal_finite_differences():
+    """∂x'/∂(world_gravity, friction_viscous, K) of a step of the legs in soft contact (gravity per environment,
+    the other two shared: each comes back per environment) equal central differences of the step (h = 1e-6 of
+    each parameter's scale)."""
+    model = legs(contacts=True)
+    rng = np.random.default_rng(7)
+    N, n = 2, model.dofs()
+    model.set_gravity(np.array([[0.3, -0.2, -9.81], [0.0, 0.5, -9.7]]))
+    model.set_joint_parameters(friction_viscous=np.full(n, 0.3))
+    data = random_state(model, N, wd.VelRepr.Mixed, rng, height=-0.002)
+    out = wd.autodiff.transition_matrices(model, data, parameters=("world_gravity", "friction_viscous", "K"))
+    assert out["world_gravity"].shape == (N, 2 * (6 + n), 3) and out["friction_viscous"].shape == (N, 2 * (6 + n), n) and out["K"].shape == (N, 2 * (6 + n), 1)
+
+    def stepped(varied, e):
+        reference = host_state(wd.model.step(model, data), e)
+        x = host_state(wd.model.step(varied, data), e)
+        rotation = quat_mul(x[1], conj(reference[1]))
+        return np.concatenate([x[0], 2 * rotation[1:], x[2], x[3], x[4]])
+
+    gravity = model.world_gravity.numpy().reshape(N, 3)
+    for e in range(N):
+        for k in range(3):
+            columns = []
+            for sign in (1.0, -1.0):
+                varied = model.copy()
+                g = gravity.copy()
+                g[e, k] += sign * 1e-6
+                varied.set_gravity(g)
+                columns.append(stepped(varied, e))
+            fd = (columns[0] - columns[1]) / 2e-6
+            np.testing.assert_allclose(out["world_gravity"].numpy()[e, :, k], fd, rtol=0, atol=1e-7 * np.abs(fd).max())
+        columns = []
+        for sign in (1.0, -1.0):
+            varied = model.copy()
+            varied.set_joint_parameters(friction_viscous=np.full(n, 0.3) + sign * 1e-6 * (np.arange(n) == 4))
+            columns.append(stepped(varied, e))
+        fd = (columns[0] - columns[1]) / 2e-6
+        np.testing.assert_allclose(out["friction_viscous"].numpy()[e, :, 4], fd, rtol=0, atol=1e-7 * np.abs(fd).max())
+        columns = []
+        K = model.contact_params.K
+        for sign in (1.0, -1.0):
+            varied = model.copy()
+            varied.contact_params = dataclasses.replace(model.contact_params, K=K * (1.0 + sign * 1e-6))
+            columns.append(stepped(varied, e))
+        fd = (columns[0] - columns[1]) / (2e-6 * K)
+        np.testing.assert_allclose(out["K"].numpy()[e, :, 0], fd, rtol=0, atol=1e-6 * np.abs(fd).max())
+        assert np.abs(fd).max() > 0.0

@@ -48,7 +48,7 @@ def transition_matrices(model: Model, data, *, control: str = "joint_force_refer
 
     control: "joint_force_references" (u = τ (nv,)) or "ctrl" (u = the actuators' controls (na,)). The controls
     and link_forces take `step`'s shapes. parameters: names of model parameters (warpdyn.types.parameters.REGISTRY:
-    link, joint and actuator parameters, the soft contacts' K, D, mu) whose Jacobians ∂x'/∂θ come back too.
+    link, joint and actuator parameters, world_gravity, the soft contacts' K, D, mu) whose Jacobians ∂x'/∂θ come back too.
     Returns {"A": (N, nx, nx), "B": (N, nx, nu), name: (N, nx, k) for each parameter (k its numbers per
     environment, items flattened)}, Warp arrays on the model's device (no N axis for single-environment data);
     the tangent x as the module docstring says. An environment whose step is flagged (data.healthy) gets NaN.
@@ -139,10 +139,9 @@ def _differentiate(model, data, copies: int, evaluate, controls: dict, wrt_contr
     tape.backward()
     out = {"state": dx.grad.reshape((N, copies, nx))}  # dx is the tape's leaf: its gradient array is this call's
     for name in wrt_controls:
-        grad = controls_c[name].grad
-        out[name] = wp.clone(grad).reshape((N, copies, -1))
+        out[name] = _per_copy(controls_c[name].grad, N, copies, model)
     for name, array in marked.items():
-        out[name] = wp.clone(array.grad).reshape((N, copies, -1))
+        out[name] = _per_copy(array.grad, N, copies, model)
     _restore(kept)
     if valid is not None:
         _poison_flagged(out, valid.numpy().reshape(N, copies).min(axis=1) == 0)
@@ -184,6 +183,12 @@ def _copies(model, data, copies: int, dx: wp.array) -> Data:
     )
 
 
+def _per_copy(grad: wp.array, N: int, copies: int, model) -> wp.array:
+    """A gradient of N m rows (of numbers, vectors or matrices) as (N, m, k) numbers: row c of environment e is
+    copy c's."""
+    return wp.array(grad.numpy().reshape(N, copies, -1), dtype=model.scalar, device=model.device)
+
+
 def _rows(array: wp.array) -> wp.array:
     """A (N, nc, 3) deformation as (N, 3 nc) for replication (a contiguous copy)."""
     host = array.numpy()
@@ -211,12 +216,13 @@ def _replicated_model(model: Model, N: int, copies: int, parameters: tuple) -> M
     if not parameters and not per_env and not contact and not per_terrain:
         return model
     copy = model.copy()
-    for name in sorted((per_env | set(parameters)) - {"K", "D", "mu"}):
-        parameter = REGISTRY[name]
-        host = np.asarray(model.parameter(name).numpy(), dtype=np.float64)
-        if name not in per_env:
-            host = np.broadcast_to(host, (N, *host.shape))
-        getattr(copy, _SETTERS[parameter.group])(**{parameter.keyword: np.repeat(host, copies, axis=0)})
+    names = sorted((per_env | set(parameters)) - {"K", "D", "mu"})
+    hosts = {name: np.asarray(model.parameter(name).numpy(), dtype=np.float64) for name in names}
+    for name in per_env:  # shared first: a model holds one N of environments at a time
+        _set_parameter(copy, name, hosts[name][0])
+    for name in names:
+        host = hosts[name] if name in per_env else np.broadcast_to(hosts[name], (N, *hosts[name].shape))
+        _set_parameter(copy, name, np.repeat(host, copies, axis=0))
     replaced = {}
     for name in {"K", "D", "mu"} & (set(parameters) | contact):
         host = _numbers(getattr(model.contact_params, name))
@@ -226,6 +232,16 @@ def _replicated_model(model: Model, N: int, copies: int, parameters: tuple) -> M
     if per_terrain:
         copy.terrain = FlatTerrain(np.repeat(_numbers(terrain.elevation), copies))
     return copy
+
+
+def _set_parameter(model: Model, name: str, value: np.ndarray) -> None:
+    """Set a link, joint, actuator or world parameter from its registry layout ((count, *item) shared, (N, count,
+    *item) per environment) through its group's setter."""
+    parameter = REGISTRY[name]
+    if parameter.group == "world":
+        model.set_gravity(value.reshape(-1, 3) if value.ndim == 3 else value.reshape(3))
+    else:
+        getattr(model, _SETTERS[parameter.group])(**{parameter.keyword: value})
 
 
 def _numbers(value) -> np.ndarray:
