@@ -10,7 +10,11 @@ initial states) point the right way, and each writes its plot.
   the loss falls to 5e-4 of its start, the largest friction error from 99 % to 3.5 %, the fitted masses' rms
   error from 15 % to 5 %; bounds 1e-2, 10 %, half. Then with noisy measurements (1 s, windows of 20
   steps), which also fits the windows' initial states (gradients with respect to the initial data).
-About 12 s warm for the three runs (plus Warp's compilation the first time).
+- examples/mpc.py: iLQR model-predictive control of the shipped Panda on full Jacobians (wd.autodiff), 40 control
+  steps of 10 ms, a horizon of 20 steps, the plant's masses 10 % off. Measured: the flange's tracking error falls
+  from 120 mm to 1.5 mm at most over the last 10 steps (bound 3 %, 3.6 mm); the first step's iterations lower the
+  plan's cost from 3024 to 787 (bound: below half). A flange Jacobian of the wrong sign leaves 145 mm, A = I 27 mm.
+About 13 s warm for the four runs (plus Warp's compilation the first time).
 """
 
 import importlib.util
@@ -18,6 +22,7 @@ import pathlib
 import sys
 
 import numpy as np
+import warpdyn as wd
 from robots import TEST_DEVICE
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
@@ -98,3 +103,20 @@ def test_system_identification_with_noise_fits_initial_states():
     masses = error[:, result["fitted"] & result["is_mass"]]
     rms = np.sqrt(np.mean(masses**2, axis=1))
     assert rms[-1] < 0.5 * rms[0], rms[[0, -1]]
+
+
+def test_mpc_tracks_the_moving_target(tmp_path):
+    """iLQR on the Panda, its dynamics linearised along the plan by one wd.autodiff.transition_matrices call and the
+    flange's Jacobians by one wd.autodiff.jacobian call per iteration, tracks the target round its circle in closed
+    loop on a plant with 10 % mass errors: the error over the last 10 of 40 control steps is below 3 % of the 120 mm
+    it starts at, and the first step's iterations halve the plan's cost at least (module docstring)."""
+    example = _example("mpc")
+    plot, path = _plot_argument(tmp_path, "mpc")
+    result = example.main(["--steps", "40", "--horizon", "20", "--transient", "0.3", "--device", TEST_DEVICE, "--print-every", "40", *plot])
+    error = result["error"]
+    assert error.shape == (40,) and np.all(np.isfinite(error))
+    assert abs(error[0] - 0.12) < 1e-9  # the arm starts at rest at the circle's centre
+    assert error[-10:].max() < 0.03 * error[0], error
+    assert result["cost"][0] < 0.5 * result["start_cost"][0] and result["iterations"][0] >= 2, result["cost"][:3]
+    assert result["torque"].shape == (40, 7) and np.all(np.abs(result["torque"]) <= np.array(wd.assets.FRANKA_PANDA_TORQUE_LIMITS))
+    _check_plot(path)
