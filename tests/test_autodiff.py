@@ -13,7 +13,6 @@ import dataclasses
 import mujoco
 import numpy as np
 import pytest
-import warp as wp
 
 import mjcf_models
 import warpdyn as wd
