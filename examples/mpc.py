@@ -110,7 +110,7 @@ class Controller:
         return W_H_F[:, :3, 3].reshape(*lead, 3)
 
     def cost(self, x, u, p, p_star, u_ref) -> np.ndarray:
-        """J of module docstring for plans x (..., H + 1, 14), u (..., H, 7) with flange positions p (..., H + 1, 3)."""
+        """J of the module docstring for plans x (..., H + 1, 14), u (..., H, 7) with flange positions p (..., H + 1, 3)."""
         n = self.n
         state = W_P * ((p - p_star) ** 2).sum(-1) + W_Q * ((x[..., :n] - self.q_home) ** 2).sum(-1) + W_V * (x[..., n:] ** 2).sum(-1)
         return state.sum(-1) + W_U * ((u - u_ref) ** 2).sum((-2, -1))
@@ -221,7 +221,7 @@ def parse_args(argv=None):
     parser.add_argument("--dt", type=float, default=0.01, help="control period and the model's step [s] (default 0.01)")
     parser.add_argument("--horizon", type=int, default=30, help="the plan's steps H (default 30)")
     parser.add_argument("--iterations", type=int, default=3, help="iLQR iterations per control step at most (default 3)")
-    parser.add_argument("--tolerance", type=float, default=1e-2, help="stop iterating after a relative decrease of J below this (default 1e-2)")
+    parser.add_argument("--tolerance", type=float, default=1e-2, help="stop after a relative decrease of J below this (default 1e-2)")
     parser.add_argument("--radius", type=float, default=0.12, help="the circle's radius [m] (default 0.12)")
     parser.add_argument("--period", type=float, default=3.0, help="one turn of the target [s] (default 3)")
     parser.add_argument("--mass-error", type=float, default=0.1, help="the plant's masses off by up to this fraction (default 0.1)")
@@ -262,7 +262,9 @@ def main(argv=None) -> dict:
     print(f"target: a circle of {args.radius * 100:g} cm about {np.round(centre, 4)} m (plane x = {centre[0]:.3f} m), "
           f"{args.period:g} s a turn; MPC: H = {args.horizon} steps of {args.dt * 1e3:g} ms, {args.iterations} iLQR iterations at most")
     print(f"{'t [s]':>6} {'error [mm]':>11} {'cost':>10} {'(start)':>10} {'iter':>5} {'solve [ms]':>11} {'max|tau| [N m]':>15}")
-    history = {k: [] for k in ("time", "error", "position", "target", "torque", "joint_positions", "joint_velocities", "cost", "start_cost", "iterations", "solve_time")}
+    names = ("time", "error", "position", "target", "torque", "joint_positions", "joint_velocities", "cost", "start_cost", "iterations",
+             "solve_time")
+    history = {name: [] for name in names}
     for i in range(args.steps):
         t = i * args.dt
         p = controller.positions(x[None])[0]
