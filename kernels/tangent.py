@@ -199,6 +199,12 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         dst[row, k] = src[row / copies, k]
 
     @wp.kernel(module="unique")
+    def replicate_3d(src: wp.array3d(dtype=scalar), copies: int, dst: wp.array3d(dtype=scalar)):
+        """dst[row, a, b] = src[row / copies, a, b]; launched over dst."""
+        row, a, b = wp.tid()
+        dst[row, a, b] = src[row / copies, a, b]
+
+    @wp.kernel(module="unique")
     def column(x: wp.array(dtype=scalar), y: wp.array2d(dtype=scalar)):
         """y[row, 0] = x[row], launched over x."""
         row = wp.tid()
@@ -217,4 +223,4 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         seed[row, row % copies] = scalar(1.0)
 
     return types.SimpleNamespace(moved_state=moved_state, state_tangent=state_tangent, perturbations=perturbations,
-                                 central_differences=central_differences, replicate=replicate, column=column, flatten=flatten, seed_rows=seed_rows)
+                                 central_differences=central_differences, replicate=replicate, replicate_3d=replicate_3d, column=column, flatten=flatten, seed_rows=seed_rows)

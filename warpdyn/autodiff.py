@@ -178,7 +178,7 @@ def _copies(model, data, copies: int, dx: wp.array) -> Data:
         joint_velocities_state=state["joint_velocities"],
         velocity_representation=data.velocity_representation,
         num_envs=rows,
-        tangential_deformation_state=None if deformation is None else tangent.replicated(_rows(deformation), copies).reshape((rows, -1, 3)),
+        tangential_deformation_state=None if deformation is None else tangent.replicated(deformation, copies),
         valid_state=wp.ones(rows, dtype=wp.int32, device=model.device),
     )
 
@@ -187,12 +187,6 @@ def _per_copy(grad: wp.array, N: int, copies: int, model) -> wp.array:
     """A gradient of N m rows (of numbers, vectors or matrices) as (N, m, k) numbers: row c of environment e is
     copy c's."""
     return wp.array(grad.numpy().reshape(N, copies, -1), dtype=model.scalar, device=model.device)
-
-
-def _rows(array: wp.array) -> wp.array:
-    """A (N, nc, 3) deformation as (N, 3 nc) for replication (a contiguous copy)."""
-    host = array.numpy()
-    return wp.array(host.reshape(host.shape[0], -1), dtype=array.dtype, device=array.device)
 
 
 def _replicated_control(model, name: str, value, N: int, copies: int, grad: bool) -> wp.array:

@@ -29,15 +29,15 @@ def tangent_size(model) -> int:
     return 2 * (base_dofs(model) + model.dofs())
 
 
-def replicated(value: wp.array, copies: int, requires_grad: bool = False) -> wp.array:
-    """(N m, k): the rows of `value` (N, k), or (N,) as (N, 1), each repeated `copies` times, as a new array
-    (a leaf of a tape when `requires_grad`: nothing is recorded)."""
-    source = value.reshape((value.shape[0], 1)) if value.ndim == 1 and value.is_contiguous else value
-    if source.ndim != 2:
-        raise ValueError(f"replicated: expected an array of one or two axes, got shape {tuple(value.shape)}")
-    N, k = source.shape
-    out = arrays.empty((k,), N * copies, value.dtype, value.device, requires_grad=requires_grad)
-    launch(tangent_kernels(value.dtype, False).replicate, dim=out.shape, inputs=[source, copies], outputs=[out], device=value.device)
+def replicated(value: wp.array, copies: int) -> wp.array:
+    """(N m, ...): the environments of `value` (N, ...) of two or three axes, each repeated `copies` times, in the
+    device's layout of per-environment arrays (warpdyn.arrays)."""
+    if value.ndim not in (2, 3):
+        raise ValueError(f"replicated: expected an array of two or three axes, got shape {tuple(value.shape)}")
+    out = arrays.empty(value.shape[1:], value.shape[0] * copies, value.dtype, value.device)
+    kernels = tangent_kernels(value.dtype, False)
+    kernel = kernels.replicate if value.ndim == 2 else kernels.replicate_3d
+    launch(kernel, dim=out.shape, inputs=[value, copies], outputs=[out], device=value.device)
     return out
 
 
