@@ -272,10 +272,11 @@ def test_torch_bridge_takes_world_gravity():
     """warpdyn.torch.rollout's parameters={"world_gravity": (1, 3) tensor}: its gradient is the tape's (1e-12)."""
     model, mj = _load(FLOATING), mm.load(FLOATING)
     state = _states(model, mj, 1, seed=9)
-    g = torch.tensor([TILTED], dtype=torch.float64, requires_grad=True)
-    q0 = torch.tensor(state["joint_positions"][0])
+    on = dict(dtype=torch.float64, device=wdt.torch_device(model))  # the model's device: a GPU where there is one
+    g = torch.tensor([TILTED], **on, requires_grad=True)
+    q0 = torch.tensor(state["joint_positions"][0], **on)
     rec = wdt.rollout(model, steps=3, joint_positions=q0, parameters={"world_gravity": g}, record=("base_velocity",))
-    w = torch.tensor(np.random.default_rng(1).normal(size=tuple(rec["base_velocity"].shape)))
+    w = torch.tensor(np.random.default_rng(1).normal(size=tuple(rec["base_velocity"].shape)), **on)
     (rec["base_velocity"] * w).sum().backward()
     reference = model.copy()
     array = wd.model.parameters_requiring_grad(reference, names="world_gravity")["world_gravity"]
@@ -283,10 +284,10 @@ def test_torch_bridge_takes_world_gravity():
     tape = wp.Tape()
     with tape:
         _, out = wd.simulation.rollout(reference, wd.data.Data.build(reference, joint_positions=state["joint_positions"][0]), steps=3, record=("base_velocity",))
-        loss = weighted_sum([out["base_velocity"]], [wp.array(w.numpy().reshape(out["base_velocity"].shape), dtype=wp.float64)])
+        loss = weighted_sum([out["base_velocity"]], [wp.array(w.cpu().numpy().reshape(out["base_velocity"].shape), dtype=wp.float64, device=model.device)])
     tape.backward(loss)
-    np.testing.assert_allclose(g.grad.numpy(), array.grad.numpy().reshape(1, 3), rtol=1e-12, atol=1e-14)
-    assert np.abs(g.grad.numpy()).max() > 1e-3
+    np.testing.assert_allclose(g.grad.cpu().numpy(), array.grad.numpy().reshape(1, 3), rtol=1e-12, atol=1e-14)
+    assert np.abs(g.grad.cpu().numpy()).max() > 1e-3
 
 
 # ------------------------------------------------------------------------------ JaxSim's model.gravity
