@@ -350,3 +350,39 @@ def test_parameter_jacobians_of_a_step_equal_finite_differences():
         fd = (columns[0] - columns[1]) / (2e-6 * K)
         np.testing.assert_allclose(out["K"].numpy()[e, :, 0], fd, rtol=0, atol=1e-6 * np.abs(fd).max())
         assert np.abs(fd).max() > 0.0
+
+
+def test_the_linearisation_of_a_rollout_is_the_product_of_its_steps():
+    """steps = 5 (a taped rollout) in the air: ∂x_5/∂x_0 = A_4 A_3 A_2 A_1 A_0 and ∂x_5/∂u_t = A_4 .. A_t+1 B_t for
+    per-step torques, with each (A_t, B_t) one step's linearisation at x_t (the chain rule, to rounding); for a
+    torque held over the steps B is their sum, and central differences give the same to 1e-7."""
+    model = legs(contacts=False)
+    rng = np.random.default_rng(11)
+    N, n, T = 2, model.dofs(), 5
+    data = random_state(model, N, wd.VelRepr.Mixed, rng, height=0.5)
+    tau = rng.normal(0.0, 5.0, (T, N, n))
+    whole = wd.autodiff.transition_matrices(model, data, joint_force_references=tau, steps=T)
+    A_T, B_T = whole["A"].numpy(), whole["B"].numpy()
+    assert B_T.shape == (N, 2 * (6 + n), T, n)
+    A_chain = np.broadcast_to(np.eye(2 * (6 + n)), A_T.shape).copy()
+    B_each, x = [], data
+    for t in range(T):
+        one = wd.autodiff.transition_matrices(model, x, joint_force_references=tau[t])
+        A_t, B_t = one["A"].numpy(), one["B"].numpy()
+        B_each = [A_t @ B for B in B_each] + [B_t]
+        A_chain = A_t @ A_chain
+        x = wd.model.step(model, x, joint_force_references=tau[t])
+    np.testing.assert_allclose(A_T, A_chain, rtol=0, atol=1e-10 * np.abs(A_chain).max())
+    for t in range(T):
+        np.testing.assert_allclose(B_T[:, :, t], B_each[t], rtol=0, atol=1e-10 * np.abs(B_each[t]).max())
+    held = wd.autodiff.transition_matrices(model, data, joint_force_references=tau[0], steps=T)
+    held_chain = sum(wd.autodiff.transition_matrices(model, data, joint_force_references=np.broadcast_to(tau[0], (T, N, n)), steps=T)["B"].numpy()[:, :, t] for t in range(T))
+    np.testing.assert_allclose(held["B"].numpy(), held_chain, rtol=0, atol=1e-10 * np.abs(held_chain).max())
+    central = wd.autodiff.transition_matrices(model, data, joint_force_references=tau[0], steps=T, method="central")
+    for name in ("A", "B"):
+        exact = held[name].numpy()
+        assert np.abs(central[name].numpy() - exact).max() <= 1e-7 * np.abs(exact).max(), name
+    with pytest.raises(ValueError, match="per-step controls need method='reverse'"):
+        wd.autodiff.transition_matrices(model, data, joint_force_references=tau, steps=T, method="central")
+    with pytest.raises(ValueError, match="steps must be a positive integer"):
+        wd.autodiff.transition_matrices(model, data, steps=0)

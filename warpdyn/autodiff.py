@@ -32,22 +32,24 @@ from . import arrays
 from .data import Data
 from .engine import tangent
 from .model import Model, step
+from .simulation import rollout
 from .types.enums import VelRepr
 from .types.parameters import REGISTRY
 from .terrain import FlatTerrain
 
 __all__ = ["jacobian", "transition_matrices"]
 
-_CONTROLS = ("joint_force_references", "ctrl", "link_forces")
 _SETTERS = {"link": "set_link_parameters", "joint": "set_joint_parameters", "actuator": "set_actuator_parameters"}
 
 
 def transition_matrices(model: Model, data, *, control: str = "joint_force_references", joint_force_references=None, ctrl=None,
-                        link_forces=None, parameters=(), method: str = "reverse", h: float = 1e-6) -> dict:
+                        link_forces=None, parameters=(), method: str = "reverse", h: float = 1e-6, steps: int = 1) -> dict:
     """The linearisation of one `wd.model.step` about `data` and the controls: x' ≈ x'_0 + A dx + B du.
 
     control: "joint_force_references" (u = τ (nv,)) or "ctrl" (u = the actuators' controls (na,)). The controls
-    and link_forces take `step`'s shapes. parameters: names of model parameters (warpdyn.types.parameters.REGISTRY:
+    and link_forces take `step`'s shapes. steps: linearise `steps` steps (`wd.simulation.rollout`) instead: A =
+    ∂x_T/∂x_0, and B = ∂x_T/∂u for a control held over them, or ∂x_T/∂(u_0 .. u_T-1) (N, nx, T, nu) for one
+    given per step as (T, N, nu) (N = 1 for single-environment data; the reverse method only). parameters: names of model parameters (warpdyn.types.parameters.REGISTRY:
     link, joint and actuator parameters, world_gravity, the soft contacts' K, D, mu) whose Jacobians ∂x'/∂θ come back too.
     Returns {"A": (N, nx, nx), "B": (N, nx, nu), name: (N, nx, k) for each parameter (k its numbers per
     environment, items flattened)}, Warp arrays on the model's device (no N axis for single-environment data);
@@ -67,14 +69,19 @@ def transition_matrices(model: Model, data, *, control: str = "joint_force_refer
     if given[control] is None:
         given[control] = np.zeros(size)
 
+    if int(steps) != steps or steps < 1:
+        raise ValueError(f"steps must be a positive integer, got {steps!r}")
+
     def evaluate(model_c, data_c, controls_c):
-        new = step(model_c, data_c, **controls_c)
+        new = _advanced(model_c, data_c, int(steps), controls_c)
         return tangent.state_tangent(model_c, new, repr), new.valid_state
 
     if method == "central":
         if parameters:
             raise ValueError("method='central' differentiates the state and the controls only: use method='reverse' for parameters")
-        out = _central(model, data, repr, control, given, float(h))
+        if np.ndim(_host(given[control], control)) == 3:
+            raise ValueError(f"method='central' takes a {control} held over the steps ((nu,) or (N, nu)); per-step controls need method='reverse'")
+        out = _central(model, data, repr, control, given, float(h), int(steps))
     elif method == "reverse":
         grads = _differentiate(model, data, copies, evaluate, given, (control,), tuple(parameters))
         out = {"A": grads.pop("state"), "B": grads.pop(control)}
@@ -139,7 +146,8 @@ def _differentiate(model, data, copies: int, evaluate, controls: dict, wrt_contr
     tape.backward()
     out = {"state": dx.grad.reshape((N, copies, nx))}  # dx is the tape's leaf: its gradient array is this call's
     for name in wrt_controls:
-        out[name] = _per_copy(controls_c[name].grad, N, copies, model)
+        array = controls_c[name]
+        out[name] = _per_copy(array.grad, N, copies, model, per_step=array.ndim == (4 if name == "link_forces" else 3))
     for name, array in marked.items():
         out[name] = _per_copy(array.grad, N, copies, model)
     _restore(kept)
@@ -148,7 +156,14 @@ def _differentiate(model, data, copies: int, evaluate, controls: dict, wrt_contr
     return out
 
 
-def _central(model, data, repr: int, control: str, controls: dict, h: float) -> dict:
+def _advanced(model, data, steps: int, controls: dict) -> Data:
+    """The data after `steps` steps with the controls (held, or per step as (T, N, ...))."""
+    if steps == 1 and all(_host(value, name).ndim < (4 if name == "link_forces" else 3) for name, value in controls.items()):
+        return step(model, data, **controls)
+    return rollout(model, data, steps=steps, record=(), **controls)[0]
+
+
+def _central(model, data, repr: int, control: str, controls: dict, h: float, steps: int) -> dict:
     """{"A", "B"} by central differences (see `transition_matrices`)."""
     N = data.batch_size
     nx = tangent.tangent_size(model)
@@ -157,7 +172,7 @@ def _central(model, data, repr: int, control: str, controls: dict, h: float) -> 
     dx, u_rows = tangent.perturbed(model, copies, h, u)
     others = {name: _replicated_control(model, name, value, N, copies, False) for name, value in controls.items() if value is not None and name != control}
     model_c = _replicated_model(model, N, copies, ())
-    new = step(model_c, _copies(model, data, copies, dx), **others, **{control: u_rows})
+    new = _advanced(model_c, _copies(model, data, copies, dx), steps, {**others, control: u_rows})
     A, B = tangent.central_differences(tangent.state_tangent(model_c, new, repr, copies, copies - 1), copies, u.shape[1], h)
     out = {"A": A, "B": B}
     _poison_flagged(out, new.valid_state.numpy().reshape(N, copies).min(axis=1) == 0)
@@ -183,20 +198,31 @@ def _copies(model, data, copies: int, dx: wp.array) -> Data:
     )
 
 
-def _per_copy(grad: wp.array, N: int, copies: int, model) -> wp.array:
+def _per_copy(grad: wp.array, N: int, copies: int, model, per_step: bool = False) -> wp.array:
     """A gradient of N m rows (of numbers, vectors or matrices) as (N, m, k) numbers: row c of environment e is
-    copy c's."""
-    return wp.array(grad.numpy().reshape(N, copies, -1), dtype=model.scalar, device=model.device)
+    copy c's; per step ((T, N m, k) rows): (N, m, T, k)."""
+    host = grad.numpy()
+    if per_step:
+        host = host.reshape(host.shape[0], N, copies, -1).transpose(1, 2, 0, 3)
+    return wp.array(np.ascontiguousarray(host.reshape(N, copies, *host.shape[2:]) if per_step else host.reshape(N, copies, -1)), dtype=model.scalar, device=model.device)
+
+
+def _host(value, name: str) -> np.ndarray:
+    return arrays.host_numbers(value.numpy() if isinstance(value, wp.array) else value, name)
 
 
 def _replicated_control(model, name: str, value, N: int, copies: int, grad: bool) -> wp.array:
-    """A control given shared or per environment, as (N m, k) rows (link forces (N m, nL, 6))."""
-    host = arrays.host_numbers(value.numpy() if isinstance(value, wp.array) else value, name)
-    per_env = host.ndim == (3 if name == "link_forces" else 2)
-    host = host if per_env else np.broadcast_to(host, (N, *host.shape))
-    if host.shape[0] != N:
-        raise ValueError(f"{name} has {host.shape[0]} environments, the data {N}")
-    repeated = np.ascontiguousarray(np.repeat(host, copies, axis=0))
+    """A control given shared, per environment or per step and environment (T, N, ...), as rows of N m
+    environments ((N m, k), (N m, nL, 6) for link forces, (T, N m, ...) per step)."""
+    host = _host(value, name)
+    item = 2 if name == "link_forces" else 1
+    per_step = host.ndim == item + 2
+    if not per_step:
+        host = host if host.ndim == item + 1 else np.broadcast_to(host, (N, *host.shape))
+    axis = 1 if per_step else 0
+    if host.shape[axis] != N:
+        raise ValueError(f"{name} has {host.shape[axis]} environments (shape {host.shape}), the data {N}")
+    repeated = np.ascontiguousarray(np.repeat(host, copies, axis=axis))
     return wp.array(repeated, dtype=model.scalar, device=model.device, requires_grad=grad)
 
 
