@@ -386,3 +386,17 @@ def test_the_linearisation_of_a_rollout_is_the_product_of_its_steps():
         wd.autodiff.transition_matrices(model, data, joint_force_references=tau, steps=T, method="central")
     with pytest.raises(ValueError, match="steps must be a positive integer"):
         wd.autodiff.transition_matrices(model, data, steps=0)
+
+
+def test_an_environment_flagged_before_gets_nan():
+    """An environment the data already flags (a diverged state frozen by an earlier step) gets NaN from both
+    functions; the other's Jacobians stay finite."""
+    model = legs(contacts=False)
+    n = model.dofs()
+    speeds = np.zeros((2, n))
+    speeds[0] = 1e200
+    data = wd.model.step(model, wd.data.Data.build(model, num_envs=2, base_position=(0.0, 0.0, 1.0), joint_velocities=speeds))
+    assert data.healthy.numpy().tolist() == [0, 1]
+    for out in (wd.autodiff.transition_matrices(model, data), wd.autodiff.jacobian(lambda model, data: wd.model.total_momentum(model, data), model, data)):
+        for value in out.values():
+            assert np.isnan(value.numpy()[0]).all() and np.isfinite(value.numpy()[1]).all()

@@ -47,13 +47,15 @@ def transition_matrices(model: Model, data, *, control: str = "joint_force_refer
     """The linearisation of one `wd.model.step` about `data` and the controls: x' ≈ x'_0 + A dx + B du.
 
     control: "joint_force_references" (u = τ (nv,)) or "ctrl" (u = the actuators' controls (na,)). The controls
-    and link_forces take `step`'s shapes. steps: linearise `steps` steps (`wd.simulation.rollout`) instead: A =
-    ∂x_T/∂x_0, and B = ∂x_T/∂u for a control held over them, or ∂x_T/∂(u_0 .. u_T-1) (N, nx, T, nu) for one
-    given per step as (T, N, nu) (N = 1 for single-environment data; the reverse method only). parameters: names of model parameters (warpdyn.types.parameters.REGISTRY:
-    link, joint and actuator parameters, world_gravity, the soft contacts' K, D, mu) whose Jacobians ∂x'/∂θ come back too.
+    and link_forces take `step`'s shapes. steps: linearise `steps` steps (`wd.simulation.rollout`) instead:
+    A = ∂x_T/∂x_0, and B = ∂x_T/∂u for a control held over them, or ∂x_T/∂(u_0 .. u_T-1) (N, nx, T, nu) for one
+    given per step as (T, N, nu) (N = 1 for single-environment data; the reverse method only). parameters: names
+    of model parameters (warpdyn.types.parameters.REGISTRY: link, joint and actuator parameters, world_gravity,
+    the soft contacts' K, D, mu) whose Jacobians ∂x'/∂θ come back too.
     Returns {"A": (N, nx, nx), "B": (N, nx, nu), name: (N, nx, k) for each parameter (k its numbers per
     environment, items flattened)}, Warp arrays on the model's device (no N axis for single-environment data);
-    the tangent x as the module docstring says. An environment whose step is flagged (data.healthy) gets NaN.
+    the tangent x as the module docstring says. An environment flagged before (data.healthy) or by the steps
+    gets NaN.
     method: "reverse" (exact to rounding: one taped step and one backward pass over N nx copies) or "central"
     (MuJoCo's mjd_transitionFD's scheme: central differences of step h in the tangent, one untaped step over
     N (2 (nx + nu) + 1) copies, the fused step where it applies; no parameters). Central differences err by about
@@ -99,13 +101,14 @@ def jacobian(function, model: Model, data, *, controls: dict | None = None, wrt=
     function does). controls: {name: value} passed to it, each (N, k) or (k,) (shared), e.g. joint_forces,
     joint_force_references, ctrl. wrt: "state" (the tangent x of the module docstring) and names of
     `controls`; parameters: model parameter names (see `transition_matrices`).
-    Returns {name: (N, m, k)} Warp arrays (no N axis for single-environment data), k = nx for "state".
+    Returns {name: (N, m, k)} Warp arrays (no N axis for single-environment data), k = nx for "state"; an
+    environment flagged in `data` (data.healthy) gets NaN.
     """
     controls = dict(controls or {})
     unknown = [name for name in wrt if name != "state" and name not in controls]
     if unknown:
         raise ValueError(f"wrt names {unknown} are neither 'state' nor keys of controls {sorted(controls)}")
-    probe = function(model, data, **{k: v for k, v in controls.items()})
+    probe = function(model, data, **controls)
     if not isinstance(probe, wp.array):
         raise TypeError(f"function must return a Warp array, got {type(probe).__name__}")
     shape = probe.shape if data.num_envs is None else probe.shape[1:]
@@ -151,8 +154,7 @@ def _differentiate(model, data, copies: int, evaluate, controls: dict, wrt_contr
     for name, array in marked.items():
         out[name] = _per_copy(array.grad, N, copies, model)
     _restore(kept)
-    if valid is not None:
-        _poison_flagged(out, valid.numpy().reshape(N, copies).min(axis=1) == 0)
+    _poison_flagged(out, data, None if valid is None else valid.numpy().reshape(N, copies).min(axis=1) == 0)
     return out
 
 
@@ -175,7 +177,7 @@ def _central(model, data, repr: int, control: str, controls: dict, h: float, ste
     new = _advanced(model_c, _copies(model, data, copies, dx), steps, {**others, control: u_rows})
     A, B = tangent.central_differences(tangent.state_tangent(model_c, new, repr, copies, copies - 1), copies, u.shape[1], h)
     out = {"A": A, "B": B}
-    _poison_flagged(out, new.valid_state.numpy().reshape(N, copies).min(axis=1) == 0)
+    _poison_flagged(out, data, new.valid_state.numpy().reshape(N, copies).min(axis=1) == 0)
     return out
 
 
@@ -204,7 +206,9 @@ def _per_copy(grad: wp.array, N: int, copies: int, model, per_step: bool = False
     host = grad.numpy()
     if per_step:
         host = host.reshape(host.shape[0], N, copies, -1).transpose(1, 2, 0, 3)
-    return wp.array(np.ascontiguousarray(host.reshape(N, copies, *host.shape[2:]) if per_step else host.reshape(N, copies, -1)), dtype=model.scalar, device=model.device)
+    else:
+        host = host.reshape(N, copies, -1)
+    return wp.array(np.ascontiguousarray(host), dtype=model.scalar, device=model.device)
 
 
 def _host(value, name: str) -> np.ndarray:
@@ -287,8 +291,10 @@ def _restore(kept: list) -> None:
         array.grad.assign(grad)
 
 
-def _poison_flagged(out: dict, flagged: np.ndarray) -> None:
-    """NaN in the Jacobians of the environments whose step was flagged."""
+def _poison_flagged(out: dict, data, flagged: np.ndarray | None) -> None:
+    """NaN in the Jacobians of the environments flagged in `data` or by the evaluation (`flagged`, (N,) bool)."""
+    before = data.valid_state.numpy() == 0 if data.valid_state is not None else np.zeros(data.batch_size, dtype=bool)
+    flagged = before if flagged is None else before | flagged
     if not flagged.any():
         return
     for name, value in out.items():
