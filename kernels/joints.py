@@ -25,7 +25,7 @@ import warp as wp
 
 from .bundles import bundles
 from .factory import factory
-from .spatial import BALL, FREE, spatial
+from .spatial import BALL, FREE, PRISMATIC, REVOLUTE, spatial
 
 
 @factory
@@ -201,7 +201,58 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
                     total = total + B.armature_of(model, env, a + k) * velocities[env, a + k] * velocities[env, a + k]
         return total
 
+    @wp.kernel(module="unique")
+    def joint_terms_from_origins(
+        joint_type: wp.array(dtype=int),
+        position: wp.array2d(dtype=scalar),
+        rotation: wp.array2d(dtype=scalar),
+        axis: wp.array(dtype=sp.vec3),
+        pivot: wp.array(dtype=sp.vec3),
+        # outputs
+        Q0: wp.array(dtype=sp.quat),
+        Q1: wp.array(dtype=sp.quat),
+        t0: wp.array(dtype=sp.vec3),
+        t1: wp.array(dtype=sp.vec3),
+        t2: wp.array(dtype=sp.vec3),
+    ):
+        """Link j + 1's joint terms (kernels/bundles.py's Model) from joint j's frame in the parent link, X_tree
+        = (p, A): position p = position[j] [m] and rotation A = rotation[j] (w, x, y, z), normalised here (both
+        (nj, 3) and (nj, 4)), with the joint's axis a and pivot d
+        (child frame): warpdyn.types.model_constants.joint_motion_terms' formulas (tests/test_joint_origins.py
+        holds the two equal), revolute: Q0 = A, Q1 = A (a, 0), t0 = p + A d_perp, t1 = -A d_perp, t2 = -A (a x d),
+        d_perp = d - (a.d) a; prismatic: t1 = A a; ball: t0 = p + A d, t1 = d; free and the base: Q0 = A, t0 = p.
+        Launched over nj: the base's terms (link 0) are not written."""
+        j = wp.tid()
+        i = j + 1
+        A = wp.normalize(sp.quat_from_wxyz(rotation[j, 0], rotation[j, 1], rotation[j, 2], rotation[j, 3]))
+        p = sp.vec3(position[j, 0], position[j, 1], position[j, 2])
+        a = axis[i]
+        d = pivot[i]
+        zero = sp.vec3(scalar(0.0))
+        kind = joint_type[i]
+        q1 = sp.quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(0.0))
+        o0 = p
+        o1 = zero
+        o2 = zero
+        if kind == REVOLUTE:
+            d_perp = d - wp.dot(a, d) * a
+            q1 = A * sp.quat(a[0], a[1], a[2], scalar(0.0))
+            o0 = p + wp.quat_rotate(A, d_perp)
+            o1 = -wp.quat_rotate(A, d_perp)
+            o2 = -wp.quat_rotate(A, wp.cross(a, d))
+        elif kind == PRISMATIC:
+            o1 = wp.quat_rotate(A, a)
+        elif kind == BALL:
+            o0 = p + wp.quat_rotate(A, d)
+            o1 = d
+        Q0[i] = A
+        Q1[i] = q1
+        t0[i] = o0
+        t1[i] = o1
+        t2[i] = o2
+
     return types.SimpleNamespace(
+        joint_terms_from_origins=joint_terms_from_origins,
         MULTI=MULTI,
         MAX_DOFS=MAX_DOFS,
         position_address=position_address,

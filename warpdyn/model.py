@@ -16,11 +16,14 @@ velocity representation (JaxSim's convention).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import warp as wp
 
 from . import arrays
 from .engine import centroidal, coriolis, derivatives, determinism, dynamics, kinematics
+from .engine import joint_origins as origins
 from .engine import fast_step as stepping
 from .description import NotModelledWarning, UnphysicalInertiaWarning
 from .description.model import ActuatorDescription
@@ -46,6 +49,8 @@ __all__ = [
     "PARAMETERS",
     "VelRepr",
     "reduce",
+    "joint_origins",
+    "with_joint_origins",
     "add_actuators",
     "total_mass",
     "parameters_requiring_grad",
@@ -96,6 +101,55 @@ def reduce(model: Model, considered_joints, locked_joint_positions: dict | None 
     links): values set on `model` with the setters are not carried over, set them on the result.
     """
     return model.reduced(considered_joints, locked_joint_positions)
+
+
+def joint_origins(model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """(positions (nj, 3) [m], rotations (nj, 4) (w, x, y, z)): each joint's frame in its parent link at zero
+    position (URDF's joint <origin>; JaxSim's λ_H_pre less a revolute joint's pivot), host float64, in joint order."""
+    return origins.origins_of(model.tree)
+
+
+def with_joint_origins(model: Model, *, positions=None, rotations=None) -> Model:
+    """A model whose joints sit at other frames in their parent links: link lengths and mounting angles as
+    kinematic parameters, differentiable.
+
+    positions (nj, 3) [m] and rotations (nj, 4) (w, x, y, z; normalised, as a joint moves) of each joint's frame
+    in its parent link, as `joint_origins` returns them (None: the model's); NumPy arrays or Warp arrays of the
+    model's scalar (a Warp array that requires gradients gets them: called under a wp.Tape, every function and
+    step of the returned model carries gradients back to it, through the kernels' joint terms). Shared by the
+    environments. The returned model shares the rest with `model` (`Model.copy`), its host tree holds the new
+    joint frames; the joints' axes and pivots (child frame) do not move. Collidable points and frames stay on
+    their links.
+    """
+    nj = model.number_of_joints()
+    current = origins.origins_of(model.tree)
+    given, hosts = {}, {}
+    for name, value, width, default in (("positions", positions, 3, current[0]), ("rotations", rotations, 4, current[1])):
+        if value is None:
+            value = default
+        if isinstance(value, wp.array):
+            arrays.check_device_array(value, name, model.scalar, model.device)
+            host = value.numpy().astype(np.float64)
+        else:
+            host = arrays.host_numbers(value, name)
+        if host.shape != (nj, width):
+            raise ValueError(f"{name} has shape {host.shape}, expected ({nj}, {width}) (one row per joint, shared by the environments)")
+        given[name] = value if isinstance(value, wp.array) else wp.array(host, dtype=model.scalar, device=model.device)
+        hosts[name] = host
+    position_host, rotation_host = hosts["positions"], hosts["rotations"]
+    norms = np.linalg.norm(rotation_host, axis=1)
+    for name, host, bad in (("positions", position_host, ~np.isfinite(position_host).all(axis=1)),
+                            ("rotations", rotation_host, ~np.isfinite(norms) | (norms < 1e-9))):
+        if bad.any():
+            j = int(np.argmax(bad))
+            raise ValueError(f"with_joint_origins: {name} of joint '{model.joint_names()[j]}' is {host[j].tolist()}: positions must be "
+                             "finite, rotations non-zero finite quaternions (w, x, y, z)")
+    terms = origins.joint_terms(model, given["positions"], given["rotations"])
+    H = np.array(model.tree.parent_H_joint, dtype=np.float64)
+    H[1:, :3, :3] = Quaternion.to_dcm(rotation_host).reshape(-1, 3, 3)
+    H[1:, :3, 3] = position_host
+    tree = dataclasses.replace(model.tree, parent_H_joint=H)
+    return model.with_joint_terms(terms, tree)
 
 
 def add_actuators(model: Model, kind: str, *, joints=None, kp=None, kv=None, gear=1.0, ctrl_range=None, force_range=None, names=None) -> Model:

@@ -12,15 +12,17 @@ import numpy as np
 import warp as wp
 
 from ..kernels.bundles import bundles
-from ..types.model_constants import quaternion_xyzw
+from ..types.model_constants import JOINT_TERMS, quaternion_xyzw
 from ..types.parameters import MODEL_ARRAYS, REGISTRY
 from . import warp_private
 
 __all__ = ["model_bundle", "model_bundle_and_grad", "state_bundle", "controls_bundle", "empty_like_input", "per_env"]
 
 _PARAMETERS = MODEL_ARRAYS
-_DYNAMICS = tuple(k for k, name in enumerate(_PARAMETERS) if REGISTRY[name].group != "actuator")
-"""The positions in _PARAMETERS of the parameters the dynamics functions read (link, joint, world)."""
+_DYNAMICS = tuple(k for k, name in enumerate(_PARAMETERS) if REGISTRY[name].group != "actuator") + tuple(
+    len(_PARAMETERS) + k for k in range(len(JOINT_TERMS)))
+"""The positions in _PARAMETERS + JOINT_TERMS of the arrays the dynamics functions read (link, joint and world
+parameters, the joint terms: wd.model.with_joint_origins makes them differentiable)."""
 
 
 def _rows(model, name: str, per_env: dict) -> wp.array:
@@ -78,7 +80,7 @@ def model_bundle_and_grad(model) -> tuple:
     only a setter, which announces itself, replaces one; their .grad, which marking an array for gradients
     sets, read at each call). An array requires gradients exactly when it has a .grad (Warp's requires_grad
     and grad setters keep the two together)."""
-    parameters = model.cached("model bundle arrays", lambda: tuple(getattr(model, name) for name in _PARAMETERS))
+    parameters = model.cached("model bundle arrays", lambda: tuple(getattr(model, name) for name in (*_PARAMETERS, *JOINT_TERMS)))
     grads = warp_private.grads(parameters)  # the arrays, not their ids: a freed grad's id may come back
     return model.cached(("model bundle", grads), lambda: (_build_model_bundle(model), any(grads[k] is not None for k in _DYNAMICS)))
 

@@ -34,7 +34,7 @@ from ..description.tree import KinematicTree, build_tree
 from .contact_models import SoftContacts
 from .enums import IntegratorType
 from .kin_dyn import JointModel, JointParameters, KinDynParameters, LinkParameters
-from .model_constants import joint_motion_terms, quaternion_xyzw, sibling_chains, transforms
+from .model_constants import JOINT_TERMS, joint_motion_terms, quaternion_xyzw, sibling_chains, transforms
 from .model_queries import ModelQueries
 from .model_settings import ModelSettings
 from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, WORLD_PARAMETERS, Parameter, validate_parameters
@@ -467,7 +467,18 @@ class Model(ModelSettings, ModelQueries):
 
     def _parameter_arrays(self, groups) -> tuple:
         values = (self.parameter(name) for name, parameter in REGISTRY.items() if parameter.group in groups)
-        return tuple(value for value in values if isinstance(value, wp.array))
+        terms = tuple(getattr(self, name) for name in JOINT_TERMS) if "joint" in groups else ()  # wd.model.with_joint_origins'
+        return tuple(value for value in values if isinstance(value, wp.array)) + terms
+
+    def with_joint_terms(self, terms: dict, tree: KinematicTree) -> Model:
+        """A copy (see `copy`) whose kernels move the links by `terms` ({name: (nL,) array} of JOINT_TERMS, kept as
+        given: a tape that computed them carries gradients back through them) and whose host tree is `tree`
+        (its parent_H_joint the same joint frames)."""
+        new = self.copy()
+        new.tree = tree
+        for name in JOINT_TERMS:
+            setattr(new, name, terms[name])
+        return new
 
     def mark_for_gradients(self, names) -> dict:
         """See warpdyn.model.parameters_requiring_grad: {name: Warp array requiring gradients}."""

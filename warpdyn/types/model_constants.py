@@ -39,6 +39,10 @@ def quaternion_xyzw(R: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
+JOINT_TERMS = ("joint_Q0", "joint_Q1", "joint_t0", "joint_t1", "joint_t2")
+"""The Model's arrays of joint terms (`joint_motion_terms`'s Q0, Q1, t0, t1, t2; kernels/bundles.py's Model)."""
+
+
 def joint_motion_terms(tree: KinematicTree) -> dict[str, np.ndarray]:
     """Each link's joint as the kernels move it (kernels/bundles.py's Model): link i in its parent at joint
     position q, X_tree M(q) (warpdyn.description's joint_motion), and the joint's motion subspace, one column
