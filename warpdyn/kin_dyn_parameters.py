@@ -4,10 +4,23 @@
 model's), the joint model, the tree's arrays, the collidable points and the frames. Change parameters as in
 JaxSim, through copies applied with `model.replace(kin_dyn_parameters=...)`, or with the model's setters
 (`Model.set_link_parameters`, `set_joint_parameters`), which also take one row per environment. JaxSim's
-hardware parametrisation (`HwLinkMetadata`, `ScalingFactors`, `LinkParametrizableShape`) and kinematic
-constraints (`ConstraintMap`, `ConstraintType`) are not in warpdyn yet (docs/porting.md).
+hardware parametrisation: `HwLinkMetadata` (`hw_link_metadata(model)`), `ScalingFactors` and
+`LinkParametrizableShape` here, `wd.model.update_hw_parameters` (boxes, cylinders and spheres; not meshes).
+JaxSim's kinematic constraints (`ConstraintMap`, `ConstraintType`) are not in warpdyn yet (docs/porting.md).
 """
 
+from .types.hardware import HwLinkMetadata, LinkParametrizableShape, ScalingFactors, hw_link_metadata
 from .types.kin_dyn import ContactParameters, FrameParameters, JointModel, JointParameters, KinDynParameters, LinkParameters
 
-__all__ = ["KinDynParameters", "LinkParameters", "JointParameters", "ContactParameters", "FrameParameters", "JointModel"]
+__all__ = [
+    "KinDynParameters",
+    "LinkParameters",
+    "JointParameters",
+    "ContactParameters",
+    "FrameParameters",
+    "JointModel",
+    "HwLinkMetadata",
+    "LinkParametrizableShape",
+    "ScalingFactors",
+    "hw_link_metadata",
+]

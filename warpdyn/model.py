@@ -23,6 +23,7 @@ import warp as wp
 
 from . import arrays
 from .engine import centroidal, coriolis, derivatives, determinism, dynamics, kinematics
+from .engine import hardware
 from .engine import joint_origins as origins
 from .engine import fast_step as stepping
 from .description import NotModelledWarning, UnphysicalInertiaWarning
@@ -31,6 +32,7 @@ from .engine.kinematics import link_targets
 from .data import Data
 from .math import Quaternion
 from .types.enums import IntegratorType, VelRepr, output_repr
+from .types.hardware import ScalingFactors, hw_link_metadata
 from .types.model import Model
 from .types.parameters import REGISTRY
 from .types.settings import ActuationParams, SoftContactsParams
@@ -51,6 +53,7 @@ __all__ = [
     "reduce",
     "joint_origins",
     "with_joint_origins",
+    "update_hw_parameters",
     "add_actuators",
     "total_mass",
     "parameters_requiring_grad",
@@ -150,6 +153,42 @@ def with_joint_origins(model: Model, *, positions=None, rotations=None) -> Model
     H[1:, :3, 3] = position_host
     tree = dataclasses.replace(model.tree, parent_H_joint=H)
     return model.with_joint_terms(terms, tree)
+
+
+def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model:
+    """JaxSim's hardware parametrisation: a model whose parametrised links (warpdyn.types.hardware: a box, cylinder
+    or sphere visual) have their shapes scaled by scaling_factors.dims (nL, 3) and their densities by
+    scaling_factors.density (nL,), with the masses, centres of mass and inertias JaxSim derives from them (the
+    shape's inertia in the link's inertial axes, the centre of mass scaled) and the joints below them moved as
+    JaxSim moves them (each child joint's offset from the centre of mass scaled); the others keep theirs (JaxSim
+    gives them mass 0). Warp arrays of the model's scalar that require gradients get them when this is called
+    under a wp.Tape (kernels/hardware.py); the links' collidable points do not move (JaxSim scales them).
+    Shared by the environments: a ValueError when the model's link parameters are per environment."""
+    per_env = {"link_mass", "link_com", "link_inertia"} & set(model.per_environment_parameters())
+    if per_env:
+        raise ValueError(f"update_hw_parameters: {sorted(per_env)} are given per environment; the hardware parametrisation is shared")
+    if not isinstance(scaling_factors, ScalingFactors):
+        raise TypeError(f"scaling_factors must be a wd.kin_dyn_parameters.ScalingFactors, got {type(scaling_factors).__name__}")
+    nL = model.number_of_links()
+    given = {}
+    for name, value, shape in (("dims", scaling_factors.dims, (nL, 3)), ("density", scaling_factors.density, (nL,))):
+        if isinstance(value, wp.array):
+            arrays.check_device_array(value, f"scaling_factors.{name}", model.scalar, model.device)
+            host = value.numpy()
+        else:
+            host = arrays.host_numbers(value, f"scaling_factors.{name}")
+            value = wp.array(host, dtype=model.scalar, device=model.device)
+        if host.shape != shape:
+            raise ValueError(f"scaling_factors.{name} has shape {host.shape}, expected {shape} (one row per link, in link_names() order)")
+        bad = ~np.isfinite(host) | (host <= 0.0)
+        if bad.any():
+            link = model.link_names()[int(np.argwhere(bad)[0][0])]
+            raise ValueError(f"scaling_factors.{name} of link '{link}' is {host[np.argwhere(bad)[0][0]].tolist()}: factors must be positive and finite")
+        given[name] = value
+    metadata = model.cached("hw link metadata", lambda: hw_link_metadata(model))
+    out = hardware.hw_parameters(model, metadata, given["dims"], given["density"])
+    moved = with_joint_origins(model, positions=out["positions"], rotations=origins.origins_of(model.tree)[1]) if model.number_of_joints() else model
+    return moved.with_parameter_arrays({name: out[name] for name in ("link_mass", "link_com", "link_inertia")})
 
 
 def add_actuators(model: Model, kind: str, *, joints=None, kp=None, kv=None, gear=1.0, ctrl_range=None, force_range=None, names=None) -> Model:

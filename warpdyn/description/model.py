@@ -130,6 +130,10 @@ class LinkDescription:
     """A rigid link: mass [kg], centre of mass `com` (3,) [m] and rotational inertia `inertia` (3, 3)
     [kg m^2] about the centre of mass, both in the link frame.
 
+    visuals: the link's visual shapes (URDF and SDF; primitives with their sizes, meshes by file): not physics, but
+    what JaxSim's hardware parametrisation scales (warpdyn.kin_dyn_parameters.HwLinkMetadata). inertial_rotation:
+    (3, 3) the axes of the inertial frame in the link (URDF's <inertial><origin rpy>, SDF's inertial pose).
+
     gravcomp: MuJoCo's `body_gravcomp` (MJCF `<body gravcomp>`; URDF 0): a force gravcomp * mass * |g|
     along +z of the world applied at the centre of mass, that cancels (1), halves (0.5) or exceeds (> 1,
     buoyancy) the link's weight. Massless links (MJCF multi-joint intermediates) have mass 0.
@@ -141,6 +145,8 @@ class LinkDescription:
     inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     collisions: list[CollisionShape] = field(default_factory=list)
     gravcomp: float = 0.0
+    visuals: list[CollisionShape] = field(default_factory=list)
+    inertial_rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
 
 
 @dataclass

@@ -20,17 +20,8 @@ into the link frame; SDFormat's defaults (1 kg, diag(1, 1, 1) kg m^2) where it s
 warning. Collisions: box, sphere, cylinder, capsule, mesh (uri, scale; a relative mesh path of an included
 file made absolute against that file's directory); other geometries are named in the warning.
 
-Differences from JaxSim 0.9.0 (its rod parser, src/jaxsim/parsers/rod/parser.py), which reads damping as
-viscous and friction as static friction like warpdyn, but:
-- reads `<limit><stiffness>`/`<dissipation>` as its joint-limit spring and damper; warpdyn names them in
-  the warning and keeps its limit springs off (`model.set_joint_parameters(limit_spring=...,
-  limit_damper=...)`; note that warpdyn's limit damper, as JaxSim's, multiplies the spring torque);
-- ignores `<spring_stiffness>`/`<spring_reference>`, which warpdyn applies as its joint spring;
-- ignores `expressed_in` and requires URDF-like poses (a link relative to its parent joint, a joint
-  relative to its parent link), refusing others; warpdyn resolves any `relative_to`;
-- drops links of zero mass (warpdyn keeps them, as the URDF reader does) and keeps frames only when
-  attached directly to a link;
-- stores the model's `<pose>` but starts the base at the origin; warpdyn's `Data.build` starts it there.
+Differences from JaxSim 0.9.0's rod parser: docs/formats_sdf.md, "Compared with JaxSim 0.9.0". Visuals: their box, sphere,
+cylinder and capsule primitives, for JaxSim's hardware parametrisation (nothing else of them is read or noted).
 """
 
 from __future__ import annotations
@@ -436,12 +427,39 @@ class _Reader(FrameGraph):
         link.mass = mass
         link.com = np.array(H[:3, 3], dtype=np.float64)
         link.inertia = H[:3, :3] @ I @ H[:3, :3].T
+        link.inertial_rotation = np.array(H[:3, :3], dtype=np.float64)
+        for child in element.findall("visual"):
+            shape = self.visual(child, node)
+            if shape is not None:
+                link.visuals.append(shape)
         for child in element.findall("collision"):
             shape = self.collision(child, node)
             if shape is not None:
                 link.collisions.append(shape)
         self.others(element, "link", name, where, read=("inertial", "pose", "visual", "collision"))  # visuals: not physics
         return link
+
+    def visual(self, element, link: Node) -> CollisionShape | None:
+        """A <visual>'s primitive in the link frame (the module docstring), None for any other geometry."""
+        label = f"{link.name}/{element.get('name', 'visual')}"
+        H, relative_to = self.pose_of(element, link.where, f"visual '{label}'")
+        if relative_to:
+            H = self.transform(link, self.lookup(link.scope, relative_to, f"visual '{label}' <pose relative_to>")) @ H
+        geometry = element.find("geometry")
+        shape = None if geometry is None or not len(geometry) else geometry[0]
+        return None if shape is None else self.primitive(shape, H, f"visual '{label}' <{shape.tag}>", link.where)
+
+    @staticmethod
+    def primitive(shape, H: np.ndarray, what: str, where: str) -> CollisionShape | None:
+        """A box, sphere, cylinder or capsule geometry element as a shape at H (SDFormat's defaults); None else."""
+        if shape.tag == "box":
+            return CollisionShape("box", H, size=vector(shape.find("size"), 3, f"{what}<size>", where, (1.0, 1.0, 1.0)))
+        if shape.tag == "sphere":
+            return CollisionShape("sphere", H, radius=number(shape.find("radius"), f"{what}<radius>", where, 1.0))
+        if shape.tag in ("cylinder", "capsule"):
+            radius = number(shape.find("radius"), f"{what}<radius>", where, 1.0 if shape.tag == "cylinder" else 0.5)
+            return CollisionShape(shape.tag, H, radius=radius, length=number(shape.find("length"), f"{what}<length>", where, 1.0))
+        return None
 
     def collision(self, element, link: Node) -> CollisionShape | None:
         where, scope = link.where, link.scope
@@ -459,15 +477,8 @@ class _Reader(FrameGraph):
             return None
         shape = shapes[0]
         kind, what = shape.tag, f"collision '{label}' <{shape.tag}>"
-        if kind == "box":
-            size = vector(shape.find("size"), 3, f"{what}<size>", where, (1.0, 1.0, 1.0))
-            return CollisionShape("box", H, size=size)
-        if kind == "sphere":
-            return CollisionShape("sphere", H, radius=number(shape.find("radius"), f"{what}<radius>", where, 1.0))
-        if kind in ("cylinder", "capsule"):
-            radius = number(shape.find("radius"), f"{what}<radius>", where, 1.0 if kind == "cylinder" else 0.5)
-            length = number(shape.find("length"), f"{what}<length>", where, 1.0)
-            return CollisionShape(kind, H, radius=radius, length=length)
+        if kind in ("box", "sphere", "cylinder", "capsule"):
+            return self.primitive(shape, H, what, where)
         if kind == "mesh":
             uri = text(shape.find("uri"))
             if not uri:

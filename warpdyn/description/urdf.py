@@ -48,6 +48,11 @@ def load_urdf(document: bytes, where: str) -> ModelDescription:
             description.mass = float(link.inertial.mass or 0.0)
             description.com = np.asarray(origin[:3, 3], dtype=np.float64)
             description.inertia = origin[:3, :3] @ inertia @ origin[:3, :3].T
+            description.inertial_rotation = np.asarray(origin[:3, :3], dtype=np.float64)
+        for visual in link.visuals:
+            shape = _urdf_collision_shape(visual)
+            if shape is not None:
+                description.visuals.append(shape)
         for collision in link.collisions:
             shape = _urdf_collision_shape(collision)
             if shape is not None:

@@ -470,6 +470,21 @@ class Model(ModelSettings, ModelQueries):
         terms = tuple(getattr(self, name) for name in JOINT_TERMS) if "joint" in groups else ()  # wd.model.with_joint_origins'
         return tuple(value for value in values if isinstance(value, wp.array)) + terms
 
+    def with_parameter_arrays(self, values: dict) -> Model:
+        """A copy (see `copy`) whose link, joint or actuator parameters `values` ({name: Warp array in the shared
+        layout (count,) of the parameter's element dtype}) are those arrays, kept as given (a tape that computed
+        them carries gradients back through them), checked on the host as the setters check."""
+        new = self.copy()
+        for name, array in values.items():
+            parameter = REGISTRY[name]
+            host = np.asarray(array.numpy(), dtype=np.float64)
+            if parameter.check is not None:
+                parameter.check(name, host)
+            new._values[name], new._hosts[name] = array, host
+            new._per_env.pop(name, None)
+        new.notify_model_changed()
+        return new
+
     def with_joint_terms(self, terms: dict, tree: KinematicTree) -> Model:
         """A copy (see `copy`) whose kernels move the links by `terms` ({name: (nL,) array} of JOINT_TERMS, kept as
         given: a tape that computed them carries gradients back through them) and whose host tree is `tree`

@@ -1,0 +1,112 @@
+"""JaxSim's hardware parametrisation on the device: links' masses, centres of mass and inertias from their
+scaled shapes and densities, and the joint origins the scaled links move (warpdyn.types.hardware for the
+metadata; JaxSim 0.9.0's `update_hw_parameters` and `HwLinkMetadata.compute_mass_and_inertia`). A tape records
+both kernels, so gradients reach the scaling factors from every function of the updated model.
+"""
+
+import types
+
+import warp as wp
+
+from .factory import factory
+from .spatial import spatial
+
+BOX, CYLINDER, SPHERE = 0, 1, 2
+"""warpdyn.types.hardware.LinkParametrizableShape's codes (-1: unsupported)."""
+
+
+@factory
+def kernels(scalar) -> types.SimpleNamespace:
+    sp = spatial(scalar)
+
+    @wp.func
+    def scale_vector(kind: int, dims: wp.array2d(dtype=scalar), i: int):
+        """The factors of link i's frame coordinates: a box's (d0, d1, d2), a cylinder's (d0, d0, d1) (radius in x
+        and y, length along z), a sphere's (d0, d0, d0)."""
+        if kind == CYLINDER:
+            return sp.vec3(dims[i, 0], dims[i, 0], dims[i, 1])
+        if kind == SPHERE:
+            return sp.vec3(dims[i, 0], dims[i, 0], dims[i, 0])
+        return sp.vec3(dims[i, 0], dims[i, 1], dims[i, 2])
+
+    @wp.kernel(module="unique")
+    def link_parameters(
+        shape: wp.array(dtype=int),
+        geometry: wp.array(dtype=sp.vec3),
+        density: wp.array(dtype=scalar),
+        L_R_G: wp.array(dtype=sp.mat33),
+        L_p_G: wp.array(dtype=sp.vec3),
+        dims: wp.array2d(dtype=scalar),
+        density_scale: wp.array(dtype=scalar),
+        mass_in: wp.array(dtype=scalar),
+        com_in: wp.array(dtype=sp.vec3),
+        inertia_in: wp.array(dtype=sp.mat33),
+        # outputs
+        mass: wp.array(dtype=scalar),
+        com: wp.array(dtype=sp.vec3),
+        inertia: wp.array(dtype=sp.mat33),
+    ):
+        """Link i's mass [kg], centre of mass [m, link frame] and inertia about it [kg m^2, link axes] from its shape's
+        geometry scaled by dims[i] (elementwise, (nL, 3)) and its density scaled by density_scale[i]: a box's
+        m = rho lx ly lz, I = m/12 diag(ly^2 + lz^2, lx^2 + lz^2, lx^2 + ly^2); a cylinder's m = rho pi r^2 l,
+        I = diag(m (3 r^2 + l^2)/12, m (3 r^2 + l^2)/12, m r^2/2); a sphere's m = rho 4/3 pi r^3, I = 2/5 m r^2,
+        in the inertial frame's axes, rotated to the link's (L_R_G I L_R_G^T); the centre of mass L_p_G scaled by
+        the shape's scale vector. An unsupported link (shape -1) keeps mass_in, com_in, inertia_in. Launched
+        over nL."""
+        i = wp.tid()
+        kind = shape[i]
+        if kind < 0:
+            mass[i] = mass_in[i]
+            com[i] = com_in[i]
+            inertia[i] = inertia_in[i]
+            return
+        g0 = geometry[i][0] * dims[i, 0]
+        g1 = geometry[i][1] * dims[i, 1]
+        g2 = geometry[i][2] * dims[i, 2]
+        rho = density[i] * density_scale[i]
+        pi = scalar(3.141592653589793)
+        m = scalar(0.0)
+        I = sp.mat33(scalar(0.0))
+        if kind == BOX:
+            m = rho * g0 * g1 * g2
+            I = wp.diag(sp.vec3(g1 * g1 + g2 * g2, g0 * g0 + g2 * g2, g0 * g0 + g1 * g1)) * (m / scalar(12.0))
+        elif kind == CYLINDER:
+            m = rho * pi * g0 * g0 * g1
+            side = m * (scalar(3.0) * g0 * g0 + g1 * g1) / scalar(12.0)
+            I = wp.diag(sp.vec3(side, side, m * g0 * g0 / scalar(2.0)))
+        else:
+            m = rho * scalar(4.0) / scalar(3.0) * pi * g0 * g0 * g0
+            I = wp.identity(n=3, dtype=scalar) * (scalar(2.0) / scalar(5.0) * m * g0 * g0)
+        R = L_R_G[i]
+        mass[i] = m
+        com[i] = wp.cw_mul(scale_vector(kind, dims, i), L_p_G[i])
+        inertia[i] = R * I * wp.transpose(R)
+
+    @wp.kernel(module="unique")
+    def joint_positions(
+        joint_parent: wp.array(dtype=int),
+        shape: wp.array(dtype=int),
+        L_R_G: wp.array(dtype=sp.mat33),
+        L_p_G: wp.array(dtype=sp.vec3),
+        L_p_pre: wp.array(dtype=sp.vec3),
+        dims: wp.array2d(dtype=scalar),
+        # outputs
+        positions: wp.array2d(dtype=scalar),
+    ):
+        """Joint j's origin in its parent link L [m] after L's scaling: its offset from L's centre of mass, in the
+        inertial frame's axes, scaled by L's scale vector, added to the scaled centre of mass (JaxSim's
+        L_H_pre = L_H̄_G G_H̄_pre); unchanged below an unsupported link. The joint's rotation does not change.
+        positions (nj, 3); launched over nj."""
+        j = wp.tid()
+        L = joint_parent[j]
+        p = L_p_pre[j]
+        kind = shape[L]
+        if kind >= 0:
+            s = scale_vector(kind, dims, L)
+            R = L_R_G[L]
+            G_p = wp.transpose(R) * (p - L_p_G[L])
+            p = R * wp.cw_mul(s, G_p) + wp.cw_mul(s, L_p_G[L])
+        for k in range(3):
+            positions[j, k] = p[k]
+
+    return types.SimpleNamespace(link_parameters=link_parameters, joint_positions=joint_positions)

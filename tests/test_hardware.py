@@ -1,0 +1,131 @@
+"""JaxSim's hardware parametrisation (issue 38, item 1): `wd.model.update_hw_parameters` with
+`wd.kin_dyn_parameters.ScalingFactors`, against JaxSim 0.9.0 on tests/jaxsim/hw_leg.sdf (a floating leg whose links
+carry a box, a cylinder with turned inertial axes, a box and a sphere; tests/jaxsim/hardware.npz from
+tests/jaxsim/generate_hardware.py), float64:
+- the links' masses, centres of mass and inertias and the joints' origins after scaling equal JaxSim's (1e-13);
+- jax.grad of sum(W * M(q)) with respect to the dims and density factors, through update_hw_parameters, equals the
+  tape's gradient through warpdyn's (1e-10 of its size);
+- unit factors give back the description's masses; gradients through a rollout equal central differences.
+"""
+
+import pathlib
+
+import numpy as np
+import pytest
+import warp as wp
+
+import warpdyn as wd
+from gradcheck import weighted_sum
+
+ROOT = pathlib.Path(__file__).resolve().parent
+REFERENCE = np.load(ROOT / "jaxsim" / "hardware.npz")
+
+
+def leg(dtype=np.float64):
+    return wd.model.Model.build_from_model_description((ROOT / "jaxsim" / "hw_leg.sdf").read_text(), dtype=dtype)
+
+
+def test_metadata_and_unit_factors_keep_the_masses():
+    """Every link of the leg is parametrised (box, cylinder, box, sphere); unit factors keep each mass, put the
+    centre of mass where the inertial frame is and the shape's inertia in its axes, and move no joint."""
+    model = leg()
+    metadata = wd.kin_dyn_parameters.hw_link_metadata(model)
+    shapes = wd.kin_dyn_parameters.LinkParametrizableShape
+    assert metadata.link_shape.tolist() == [shapes.Box, shapes.Cylinder, shapes.Box, shapes.Sphere]
+    nL = model.number_of_links()
+    unit = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((nL, 3)), density=np.ones(nL)))
+    np.testing.assert_allclose(unit.link_mass.numpy(), model.link_mass.numpy(), rtol=1e-14)
+    np.testing.assert_allclose(unit.link_com.numpy(), model.link_com.numpy(), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(wd.model.joint_origins(unit)[0], wd.model.joint_origins(model)[0], rtol=0, atol=1e-15)
+    box = model.link_mass.numpy()[0] / 12.0 * np.diag([0.25**2 + 0.1**2, 0.3**2 + 0.1**2, 0.3**2 + 0.25**2])
+    np.testing.assert_allclose(unit.link_inertia.numpy()[0], box, rtol=1e-14)
+
+
+def test_scaled_links_equal_jaxsims():
+    """The reference's factors: masses, centres of mass, inertias (link axes) and joint origins equal JaxSim's."""
+    model = leg()
+    assert tuple(REFERENCE["link_names"]) == model.link_names() and tuple(REFERENCE["joint_names"]) == model.joint_names()
+    factors = wd.kin_dyn_parameters.ScalingFactors(dims=REFERENCE["dims"], density=REFERENCE["density"])
+    updated = wd.model.update_hw_parameters(model, factors)
+    np.testing.assert_allclose(updated.link_mass.numpy(), REFERENCE["mass"], rtol=1e-13)
+    np.testing.assert_allclose(updated.link_com.numpy(), REFERENCE["com"], rtol=0, atol=1e-14)
+    np.testing.assert_allclose(updated.link_inertia.numpy(), REFERENCE["inertia"], rtol=0, atol=1e-14)
+    positions, rotations = wd.model.joint_origins(updated)
+    np.testing.assert_allclose(positions, REFERENCE["L_H_pre"][:, :3, 3], rtol=0, atol=1e-14)
+    np.testing.assert_allclose(wd.math.Quaternion.to_dcm(rotations), REFERENCE["L_H_pre"][:, :3, :3], rtol=0, atol=1e-14)
+    assert np.abs(positions - wd.model.joint_origins(model)[0]).max() > 0.01  # the scaling moved the joints
+
+
+def test_gradients_through_the_mass_matrix_equal_jaxsims():
+    """The tape's gradient of sum(W * M(q)) (Mixed) with respect to the dims and density factors, through
+    update_hw_parameters, equals JaxSim's jax.grad of the same function."""
+    model = leg()
+    dims = wp.array(REFERENCE["dims"], dtype=wp.float64, requires_grad=True)
+    density = wp.array(REFERENCE["density"], dtype=wp.float64, requires_grad=True)
+    data = wd.data.Data.build(model, base_position=REFERENCE["base_position"], base_quaternion=REFERENCE["base_quaternion"],
+                              joint_positions=REFERENCE["joint_positions"])
+    with wp.Tape() as tape:
+        updated = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=density))
+        M = wd.model.free_floating_mass_matrix(updated, data)
+        loss = weighted_sum([M], [wp.array(REFERENCE["W"], dtype=wp.float64)])
+    assert abs(float(loss.numpy()[0]) - float(REFERENCE["f"])) <= 1e-12 * abs(float(REFERENCE["f"]))
+    tape.backward(loss)
+    np.testing.assert_allclose(dims.grad.numpy(), REFERENCE["grad_dims"], rtol=0, atol=1e-10 * np.abs(REFERENCE["grad_dims"]).max())
+    np.testing.assert_allclose(density.grad.numpy(), REFERENCE["grad_density"], rtol=0, atol=1e-10 * np.abs(REFERENCE["grad_density"]).max())
+
+
+@wp.kernel
+def final_height(p: wp.array3d(dtype=wp.float64), loss: wp.array(dtype=wp.float64)):
+    env = wp.tid()
+    wp.atomic_add(loss, 0, p[p.shape[0] - 1, env, 2])
+
+
+def test_gradients_through_a_rollout_equal_finite_differences():
+    """The leg dropped 2 mm onto the ground on its foot sphere, 40 steps: the gradient of the final base height with
+    respect to the shank's length factor and the thigh's density factor equals central differences (measured 1.2e-6
+    of it: the differences' round-off over 40 steps in contact, eps |z| / h ~ 1e-10 a step; bound 1e-5 + 1e-9)."""
+    model = leg()
+    nL = model.number_of_links()
+    posture = np.array([[0.3, -0.6, 0.0], [0.1, -0.2, 0.01]])
+    lowest = wd.contact.collidable_point_positions(model, wd.data.Data.build(model, num_envs=2, joint_positions=posture)).numpy()[..., 2].min(axis=1)
+    data = wd.data.Data.build(model, num_envs=2, base_position=np.stack([np.zeros(2), np.zeros(2), 0.002 - lowest], axis=1), joint_positions=posture)
+    dims_host, density_host = np.ones((nL, 3)), np.ones(nL)
+    dims = wp.array(dims_host, dtype=wp.float64, requires_grad=True)
+    density = wp.array(density_host, dtype=wp.float64, requires_grad=True)
+    loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+    with wp.Tape() as tape:
+        updated = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=density))
+        _, rec = wd.simulation.rollout(updated, data, steps=40, record=("base_position",))
+        wp.launch(final_height, dim=2, inputs=[rec["base_position"]], outputs=[loss])
+    tape.backward(loss)
+
+    def height(d, r):
+        moved = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=d, density=r))
+        return wd.simulation.rollout(moved, data, steps=40, record=("base_position",))[1]["base_position"].numpy()[-1, :, 2].sum()
+
+    h = 1e-6
+    shank = model.link_names().index("shank")
+    plus, minus = dims_host.copy(), dims_host.copy()
+    plus[shank, 2] += h
+    minus[shank, 2] -= h
+    fd = (height(plus, density_host) - height(minus, density_host)) / (2 * h)
+    assert abs(dims.grad.numpy()[shank, 2] - fd) <= 1e-5 * abs(fd) + 1e-9 and abs(fd) > 1e-4, (dims.grad.numpy()[shank, 2], fd)
+    thigh = model.link_names().index("thigh")
+    plus, minus = density_host.copy(), density_host.copy()
+    plus[thigh] += h
+    minus[thigh] -= h
+    fd = (height(dims_host, plus) - height(dims_host, minus)) / (2 * h)
+    assert abs(density.grad.numpy()[thigh] - fd) <= 1e-5 * abs(fd) + 1e-9 and abs(fd) > 1e-6, (density.grad.numpy()[thigh], fd)
+
+
+def test_bad_factors_raise_naming_the_link():
+    model = leg()
+    nL = model.number_of_links()
+    with pytest.raises(ValueError, match=r"scaling_factors.dims has shape \(3, 3\), expected \(4, 3\)"):
+        wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((3, 3)), density=np.ones(nL)))
+    bad = np.ones(nL)
+    bad[2] = -1.0
+    with pytest.raises(ValueError, match="scaling_factors.density of link 'shank' is -1.0"):
+        wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((nL, 3)), density=bad))
+    with pytest.raises(TypeError, match="ScalingFactors"):
+        wd.model.update_hw_parameters(model, (np.ones((nL, 3)), np.ones(nL)))

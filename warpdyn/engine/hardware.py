@@ -1,0 +1,52 @@
+"""The launches of JaxSim's hardware parametrisation (kernels/hardware.py): a model's link parameters and joint
+origins from scaling factors, recorded by a tape."""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from ..kernels.hardware import kernels as hardware_kernels
+from .launch import launch
+
+__all__ = ["hw_parameters"]
+
+
+def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
+    """{"link_mass" (nL,), "link_com" (nL,) vec3, "link_inertia" (nL,) mat33, "positions" (nj, 3)}: the
+    model's shared link parameters and joint origins after scaling its links' geometry by dims (nL, 3) and their
+    densities by density (nL,) (warpdyn.types.hardware's metadata); outputs require gradients when an input does."""
+    s, d = model.scalar, model.device
+    vec3, mat33 = wp.types.vector(3, s), wp.types.matrix((3, 3), s)
+    grad = dims.requires_grad or density.requires_grad
+    nL, nj = model.number_of_links(), model.number_of_joints()
+
+    def constant(values, dtype):
+        return wp.array(np.ascontiguousarray(values, dtype=np.float64), dtype=dtype, device=d)
+
+    shape = wp.array(metadata.link_shape, dtype=int, device=d)
+    L_R_G, L_p_G = constant(metadata.L_H_G[:, :3, :3], mat33), constant(metadata.L_H_G[:, :3, 3], vec3)
+    out = {
+        "link_mass": wp.zeros(nL, dtype=s, device=d, requires_grad=grad),
+        "link_com": wp.zeros(nL, dtype=vec3, device=d, requires_grad=grad),
+        "link_inertia": wp.zeros(nL, dtype=mat33, device=d, requires_grad=grad),
+        "positions": wp.zeros((nj, 3), dtype=s, device=d, requires_grad=grad),
+    }
+    kernels = hardware_kernels(s)
+    launch(
+        kernels.link_parameters,
+        dim=nL,
+        inputs=[shape, constant(metadata.geometry, vec3), constant(metadata.density, s), L_R_G, L_p_G, dims, density,
+                model.link_mass, model.link_com, model.link_inertia],
+        outputs=[out["link_mass"], out["link_com"], out["link_inertia"]],
+        device=d,
+    )
+    if nj:
+        launch(
+            kernels.joint_positions,
+            dim=nj,
+            inputs=[wp.array(metadata.joint_parent, dtype=int, device=d), shape, L_R_G, L_p_G, constant(metadata.L_H_pre[:, :3, 3], vec3), dims],
+            outputs=[out["positions"]],
+            device=d,
+        )
+    return out

@@ -1,0 +1,99 @@
+"""JaxSim's hardware parametrisation, host side: each link's parametrisable shape, its nominal geometry and
+density, and the frames the scaling moves (JaxSim 0.9.0's `HwLinkMetadata`, `ScalingFactors`,
+`LinkParametrizableShape`; the device side is kernels/hardware.py, the function warpdyn.model.update_hw_parameters).
+
+A link is parametrised by its first visual that is a box, a cylinder or a sphere (JaxSim's rule; meshes, which
+JaxSim scales from their volumetric moments, are not supported here: such links keep their parameters), when the
+link's frame is its joint's frame (always for warpdyn's trees). Its density is the link's (lumped) mass over the
+visual's volume; L_H_G is its inertial frame (the centre of mass and the inertial axes the description gave).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import ClassVar
+
+import numpy as np
+
+__all__ = ["LinkParametrizableShape", "HwLinkMetadata", "ScalingFactors", "hw_link_metadata", "shape_volume"]
+
+
+@dataclasses.dataclass(frozen=True)
+class LinkParametrizableShape:
+    """JaxSim's shape codes."""
+
+    Unsupported: ClassVar[int] = -1
+    Box: ClassVar[int] = 0
+    Cylinder: ClassVar[int] = 1
+    Sphere: ClassVar[int] = 2
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class HwLinkMetadata:
+    """Per link (nL): link_shape (nL,) int (LinkParametrizableShape), geometry (nL, 3) (box: the full extents
+    [lx, ly, lz]; cylinder: [r, l, 0]; sphere: [r, 0, 0]) [m], density (nL,) [kg/m^3], L_H_G (nL, 4, 4) the
+    inertial frame in the link; per joint (nj): L_H_pre (nj, 4, 4), the joint's frame in its parent link (JaxSim's
+    λ_H_pre), and joint_parent (nj,) int, that parent link. float64, host."""
+
+    link_shape: np.ndarray
+    geometry: np.ndarray
+    density: np.ndarray
+    L_H_G: np.ndarray
+    L_H_pre: np.ndarray
+    joint_parent: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ScalingFactors:
+    """JaxSim's scaling factors: dims (nL, 3), the factors of each link's geometry (box: [lx, ly, lz]; cylinder:
+    [r, l, -]; sphere: [r, -, -]), and density (nL,), the factors of each link's density; NumPy arrays or Warp
+    arrays of the model's scalar (which carry gradients when they require them)."""
+
+    dims: object
+    density: object
+
+
+def shape_volume(shape: int, geometry: np.ndarray) -> float:
+    """The volume [m^3] of a box (full extents), cylinder (r, l) or sphere (r)."""
+    if shape == LinkParametrizableShape.Box:
+        return float(np.prod(geometry))
+    if shape == LinkParametrizableShape.Cylinder:
+        return float(np.pi * geometry[0] ** 2 * geometry[1])
+    if shape == LinkParametrizableShape.Sphere:
+        return float(4.0 / 3.0 * np.pi * geometry[0] ** 3)
+    raise ValueError(f"shape code {shape} has no volume")
+
+
+def hw_link_metadata(model) -> HwLinkMetadata:
+    """The model's HwLinkMetadata (see the module docstring), from its description and its tree."""
+    tree, description = model.tree, model.description
+    by_name = {link.name: link for link in description.links}
+    nL, nj = tree.number_of_links, tree.number_of_joints
+    shape = np.full(nL, LinkParametrizableShape.Unsupported, dtype=np.int32)
+    geometry, density = np.zeros((nL, 3)), np.zeros(nL)
+    L_H_G = np.tile(np.eye(4), (nL, 1, 1))
+    for i, name in enumerate(tree.link_names):
+        link = by_name.get(name)
+        if link is None:
+            continue
+        visual = next((v for v in link.visuals if v.kind in ("box", "cylinder", "sphere")), None)
+        L_H_G[i, :3, :3] = link.inertial_rotation
+        L_H_G[i, :3, 3] = link.com
+        if visual is None:
+            continue
+        if visual.kind == "box":
+            shape[i], geometry[i] = LinkParametrizableShape.Box, np.asarray(visual.size, dtype=np.float64)
+        elif visual.kind == "cylinder":
+            shape[i], geometry[i] = LinkParametrizableShape.Cylinder, (visual.radius, visual.length, 0.0)
+        else:
+            shape[i], geometry[i] = LinkParametrizableShape.Sphere, (visual.radius, 0.0, 0.0)
+        volume = shape_volume(int(shape[i]), geometry[i])
+        density[i] = float(tree.link_mass[i]) / volume if volume > 0.0 else 0.0
+    return HwLinkMetadata(
+        link_shape=shape,
+        geometry=geometry,
+        density=density,
+        L_H_G=L_H_G,
+        L_H_pre=np.asarray(tree.parent_H_joint, dtype=np.float64)[1:].reshape(nj, 4, 4),
+        joint_parent=np.asarray(tree.parent, dtype=np.int32)[1:],
+    )
