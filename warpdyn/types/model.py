@@ -31,6 +31,7 @@ from .. import arrays
 from ..description import ModelDescription, load
 from ..description.collidable import warn_without_points
 from ..description.tree import KinematicTree, build_tree
+from ..description.urdf_writer import write_urdf
 from .contact_models import SoftContacts
 from .enums import IntegratorType
 from .kin_dyn import JointModel, JointParameters, KinDynParameters, LinkParameters
@@ -484,6 +485,22 @@ class Model(ModelSettings, ModelQueries):
             new._per_env.pop(name, None)
         new.notify_model_changed()
         return new
+
+    def export_updated_model(self) -> str:
+        """JaxSim's export: the model as URDF text with its current parameters (link masses, centres of mass and
+        inertias, joint origins, limits and friction, as the device arrays hold them now: after
+        `wd.model.update_hw_parameters` or `with_joint_origins`, their results), its collision shapes and frames;
+        it loads back to the same model (the lumped tree: locked joints stay locked, as fixed links). A ValueError
+        for per-environment parameters and for what URDF cannot hold (warpdyn.description.urdf_writer)."""
+        names = ("link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous")
+        per_env = sorted(set(names) & set(self._per_env))
+        if per_env:
+            raise ValueError(f"export_updated_model: {per_env} are given per environment; a URDF holds one model")
+        host = {name: np.asarray(self._values[name].numpy(), dtype=np.float64) for name in names}
+        welded = None if self.floating_base() else np.asarray(self.description.world_H_base, dtype=np.float64)
+        shapes = [(link.name, link.collisions) for link in self.description.links]
+        return write_urdf(self.name(), self.tree, shapes, host["link_mass"], host["link_com"], host["link_inertia"], host["position_limits"],
+                          host["friction_static"], host["friction_viscous"], welded)
 
     def with_joint_terms(self, terms: dict, tree: KinematicTree) -> Model:
         """A copy (see `copy`) whose kernels move the links by `terms` ({name: (nL,) array} of JOINT_TERMS, kept as

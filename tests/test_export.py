@@ -1,0 +1,80 @@
+"""`Model.export_updated_model` (JaxSim's name; issue 38): a model as URDF text with its current parameters, which
+loads back to the same model: the same links, joints and frames, parameters, mass matrix, collidable points (in
+their order) and frame poses, in float64 to rounding (1e-15 relative). Covers the ergoCub (whole and its legs,
+welded and floating), a model whose parameters and joint origins were changed (JaxSim's hardware parametrisation
+on tests/jaxsim/hw_leg.sdf, an SDF model exported as URDF), and what URDF cannot hold.
+"""
+
+import pathlib
+import warnings
+
+import numpy as np
+import pytest
+
+import warpdyn as wd
+from mjcf_fixtures import BALL
+
+ROOT = pathlib.Path(__file__).resolve().parent
+
+
+def assert_same_model(model, back):
+    assert back.link_names() == model.link_names() and back.joint_names() == model.joint_names()
+    assert sorted(back.frame_names()) == sorted(model.frame_names()) and back.floating_base() == model.floating_base()
+    for name in ("link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous"):
+        np.testing.assert_allclose(getattr(back, name).numpy(), getattr(model, name).numpy(), rtol=1e-15, atol=1e-15, err_msg=name)
+    np.testing.assert_allclose(wd.model.joint_origins(back)[0], wd.model.joint_origins(model)[0], rtol=0, atol=1e-15)
+    data = wd.data.random_model_data(model, key=3, num_envs=2)
+    M = wd.model.free_floating_mass_matrix(model, data).numpy()
+    np.testing.assert_allclose(wd.model.free_floating_mass_matrix(back, data).numpy(), M, rtol=0, atol=1e-15 * np.abs(M).max())
+    np.testing.assert_allclose(wd.contact.collidable_point_positions(back, data).numpy(), wd.contact.collidable_point_positions(model, data).numpy(),
+                               rtol=0, atol=1e-14)
+    for frame in model.frame_names()[:: max(1, len(model.frame_names()) // 10)]:
+        ours = wd.frame.transform(model, data, frame_index=wd.frame.name_to_idx(model, frame_name=frame)).numpy()
+        theirs = wd.frame.transform(back, data, frame_index=wd.frame.name_to_idx(back, frame_name=frame)).numpy()
+        np.testing.assert_allclose(theirs, ours, rtol=0, atol=1e-14, err_msg=frame)
+
+
+def load(text: str):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the ergoCub's meshes and its frames' zero masses, as when it was loaded
+        return wd.model.Model.build_from_model_description(text, dtype=np.float64)
+
+
+@pytest.mark.parametrize("which", ["whole", "legs", "welded leg"])
+def test_the_ergocub_round_trips(which):
+    """The shipped ergoCub (its 146 frames, 32 collidable points of its foot boxes), its legs (locked joints lumped)
+    and one leg welded 1 m above the ground."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if which == "welded leg":
+            W_H_B = np.eye(4)
+            W_H_B[2, 3] = 1.0
+            full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), fixed_base=True, base_pose=W_H_B, dtype=np.float64)
+        else:
+            full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), dtype=np.float64)
+    joints = {"whole": None, "legs": wd.assets.ERGOCUB_LEG_JOINTS, "welded leg": ("r_hip_pitch", "r_hip_roll", "r_hip_yaw", "r_knee")}[which]
+    model = full if joints is None else wd.model.reduce(full, considered_joints=list(joints))
+    assert_same_model(model, load(model.export_updated_model()))
+
+
+def test_updated_parameters_and_origins_round_trip():
+    """After update_hw_parameters (masses, inertias and joint origins changed on the device) and a joint friction set
+    with a setter, the exported URDF holds the new values: its model equals the updated one."""
+    model = wd.model.Model.build_from_model_description((ROOT / "jaxsim" / "hw_leg.sdf").read_text(), dtype=np.float64)
+    nL = model.number_of_links()
+    rng = np.random.default_rng(1)
+    updated = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=rng.uniform(0.8, 1.3, (nL, 3)), density=rng.uniform(0.7, 1.5, nL)))
+    updated.set_joint_parameters(friction_viscous=np.array([0.1, 0.2, 0.3]))
+    back = load(updated.export_updated_model())
+    assert np.abs(back.link_mass.numpy() - model.link_mass.numpy()).max() > 0.1  # the update is in the text
+    assert_same_model(updated, back)
+
+
+def test_what_urdf_cannot_hold_is_refused():
+    ball = wd.model.Model.build_from_model_description(BALL, dtype=np.float64)
+    with pytest.raises(ValueError, match="joint 'ball' is a ball or free joint"):
+        ball.export_updated_model()
+    model = wd.model.Model.build_from_model_description((ROOT / "jaxsim" / "hw_leg.sdf").read_text(), dtype=np.float64)
+    model.set_link_parameters(mass=np.ones((2, model.number_of_links())))
+    with pytest.raises(ValueError, match=r"\['link_mass'\] are given per environment"):
+        model.export_updated_model()
