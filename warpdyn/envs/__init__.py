@@ -13,10 +13,12 @@ synchronisation; on a GPU the whole step replays as one CUDA graph (eager while 
 there; on the CPU the simulation steps replay a Warp CPU graph). Its terms (`warpdyn.envs.terms`) are functions of the state that a
 configuration composes. `warpdyn.envs.rsl_rl.RslRlVecEnv` hands it to rsl-rl's PPO (examples/rl_locomotion.py).
 `warpdyn.envs.terrain_generator` tiles rough sub-terrains of graded difficulty into a heightfield and moves
-environments between its levels (Rudin et al.'s curriculum); LeggedEnv does not use it yet.
+environments between its levels (Rudin et al.'s curriculum; LeggedEnvConfig.terrain). `warpdyn.envs.sensors` puts an
+IMU on the base (`ImuConfig`).
 """
 
 from . import terms
 from .legged import DEFAULT_OBSERVATIONS, DEFAULT_REWARDS, LeggedEnv, LeggedEnvConfig
+from .sensors import ImuConfig
 
-__all__ = ["LeggedEnv", "LeggedEnvConfig", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS", "terms"]
+__all__ = ["LeggedEnv", "LeggedEnvConfig", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS", "ImuConfig", "terms"]

@@ -17,6 +17,7 @@ from gymnasium.vector.utils import batch_space
 import warpdyn as wd
 
 from . import terms
+from .sensors import Imu, ImuConfig
 from .terrain_generator import TerrainConfig, TerrainCurriculum, TerrainGenerator
 
 __all__ = ["LeggedEnvConfig", "LeggedEnv", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS"]
@@ -77,7 +78,9 @@ class LeggedEnvConfig:
     `terms.height_scan` observes the base's height above it). Realism: an observation entry (term, scale, noise)
     adds uniform noise of +-noise to its scaled values at every observation; `action_delay` k applies each action
     k policy steps after the policy gave it (the targets hold the last ones given k steps ago; zero after a reset),
-    while `env.actions` (what the action terms read) is the newest.
+    while `env.actions` (what the action terms read) is the newest. `imu` (a `warpdyn.envs.sensors.ImuConfig`): an IMU
+    on the base (`env.imu`; terms.imu_linear_acceleration, terms.imu_angular_velocity). `stumble_ratio`: a foot
+    stumbles when its horizontal contact force exceeds this times its vertical one (terms.stumbling).
     """
 
     time_step: float = 0.002
@@ -114,6 +117,8 @@ class LeggedEnvConfig:
     terrain: TerrainConfig | None = None
     terrain_curriculum: bool = True
     height_scan: tuple | None = None  # ((length, width), resolution) [m] of wd.terrain.grid_pattern; None: no scan
+    imu: ImuConfig | None = None
+    stumble_ratio: float = 5.0
 
     def __post_init__(self):
         self.validate()
@@ -153,6 +158,8 @@ class LeggedEnvConfig:
             if not (isinstance(scan, (tuple, list)) and len(scan) == 2 and isinstance(scan[0], (tuple, list)) and len(scan[0]) == 2):
                 raise TypeError(f"LeggedEnvConfig.height_scan must be ((length, width), resolution) [m] or None, got {scan!r}")
             wd.terrain.grid_pattern(scan[0], scan[1])  # its values checked
+        if self.imu is not None and not isinstance(self.imu, ImuConfig):
+            raise TypeError(f"LeggedEnvConfig.imu must be an ImuConfig (warpdyn.envs.sensors) or None, got {self.imu!r}")
         if not isinstance(self.terrain_curriculum, (bool, np.bool_)):
             raise TypeError(f"LeggedEnvConfig.terrain_curriculum must be True or False, got {self.terrain_curriculum!r}")
         if not isinstance(self.rewards, dict):
@@ -189,6 +196,7 @@ _FIELD_CHECKS = {
     "air_time_target": ("non-negative", "s"),
     "mass_scale": ("positive range", ""),
     "friction": ("non-negative range", ""),
+    "stumble_ratio": ("positive", ""),
 }
 """LeggedEnvConfig's numeric fields: (what each must be, its unit)."""
 
@@ -302,6 +310,9 @@ class LeggedEnv(gym.vector.VectorEnv):
             self._scan_pattern = wp.array(pattern, dtype=model.scalar, device=model.device)
             self._scan = wp.zeros((N, len(pattern)), dtype=model.scalar, device=model.device)
             self.height_scan = wp.to_torch(self._scan)
+        self._base_point = wp.zeros((1, 2), dtype=model.scalar, device=model.device)  # the terrain under the base: a scan of one point
+        self._below = wp.zeros((N, 1), dtype=model.scalar, device=model.device)
+        self.terrain_below_base = wp.to_torch(self._below)[:, 0]
         self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
         self._reset_mask_wp = wp.from_torch(self._reset_mask)
         self.feet, self._foot_points = self._feet(model)
@@ -317,6 +328,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.feet_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
         self.feet_first_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
         self.feet_air_time = torch.zeros(N, nf, **f32)
+        self.feet_contact_forces = torch.zeros(N, nf, 3, device=self.device, dtype=self.torch_dtype)
+        self.imu = None if cfg.imu is None else Imu(cfg.imu, N, cfg.time_step, self._generator, self.device, self.torch_dtype)
         self.undesired_contact = torch.zeros(N, len(self._undesired_points), dtype=torch.bool, device=self.device)
         self._previous_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
         self._action_input = torch.zeros(N, na, **f32)
@@ -422,8 +435,10 @@ class LeggedEnv(gym.vector.VectorEnv):
         return {name: wp.to_torch(getattr(data, f"{name}_state")) for name in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities", "valid")}
 
     def _state(self) -> terms.State:
+        """The state's views and the terrain's heights under (terrain_below_base) and around (height_scan) the bases."""
         if self._scan is not None:  # on the device, into its buffer: inside a captured step too
             wd.terrain.height_scan(self.model, self.stepper.data, self._scan_pattern, out=self._scan)
+        wd.terrain.height_scan(self.model, self.stepper.data, self._base_point, out=self._below)
         v = self._state_views[id(self.stepper.data)]
         q = v["base_quaternion"] / v["base_quaternion"].norm(dim=1, keepdim=True)
         down = torch.zeros_like(v["base_position"])
@@ -485,6 +500,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.actions.copy_(torch.where(mask[:, None], zero, self.actions))
         self.previous_actions.copy_(torch.where(mask[:, None], zero, self.previous_actions))
         self._action_history.masked_fill_(mask[None, :, None], 0.0)
+        if self.imu is not None:
+            self.imu.reset(mask)
         self.feet_air_time.masked_fill_(mask[:, None], 0.0)
         self._previous_contact.masked_fill_(mask[:, None], False)
         self.episode_length_buf.masked_fill_(mask, 0)
@@ -525,8 +542,10 @@ class LeggedEnv(gym.vector.VectorEnv):
             self._generator.manual_seed(int(seed))
         self._sync_model()
         with self._on_device_stream():
-            self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device), curriculum=False)
+            everywhere = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
+            self._reset(everywhere, curriculum=False)
             self.state = self._state()
+            self._sense(everywhere)
         self._finished.zero_()
         return self._observe(), {}
 
@@ -587,6 +606,7 @@ class LeggedEnv(gym.vector.VectorEnv):
             velocity[:, :2] += torch.where(push[:, None], kick, torch.zeros_like(kick))
         self.stepper.step()
         self.state = s = self._state()
+        self._sense()
         servo = cfg.kp * (targets - s.joint_positions)  # the position actuator's force, clipped at torque_limit
         if cfg.torque_limit is not None:
             servo = servo.clamp(-cfg.torque_limit, cfg.torque_limit)
@@ -613,16 +633,26 @@ class LeggedEnv(gym.vector.VectorEnv):
         resample = (self.episode_length_buf % self._every(cfg.command_seconds) == 0) & ~done
         self._resample_commands(resample)
         self.state = self._state()
+        self._sense(done)
         obs = self._observe()
         info = {"final_obs": final, "_final_obs": done, "invalid": invalid, "log": log}
         return obs, reward, terminated, truncated, info
 
+    def _sense(self, at_rest=None) -> None:
+        """The IMU's readings (cfg.imu) at the current state, from the base's acceleration over the last simulation
+        step (the two state buffers: warpdyn.envs.sensors); at rest (zero acceleration) where `at_rest` (reset)."""
+        if self.imu is not None:
+            now = self.stepper.data
+            before = now if at_rest is not None else next(data for data in self.stepper.buffers if data is not now)
+            velocity = [self._state_views[id(data)]["base_velocity"] for data in (now, before)]
+            self.imu.read(self.state.base_quaternion, *velocity, wp.to_torch(self.model.world_gravity).reshape(-1, 3), at_rest)
+
     def _update_feet(self) -> None:
-        """Contact of each foot (normal force above the threshold), its first contact and its air time [s]; the
-        undesired contacts (the same test)."""
+        """Contact of each foot (normal force above the threshold), its first contact and its air time [s], each
+        foot's contact force (its points' sum, world axes [N]); the undesired contacts (the same test)."""
         W_f_C = wp.to_torch(self.stepper.contact_wrenches)
-        normal = torch.stack([W_f_C[:, index, 2].sum(dim=1) for index in self._foot_points], dim=1)
-        self.feet_contact.copy_(normal > self.cfg.contact_force_threshold)
+        self.feet_contact_forces.copy_(torch.stack([W_f_C[:, index, :3].sum(dim=1) for index in self._foot_points], dim=1))
+        self.feet_contact.copy_(self.feet_contact_forces[..., 2] > self.cfg.contact_force_threshold)
         if self._undesired_points:
             other = torch.stack([W_f_C[:, index, 2].sum(dim=1) for index in self._undesired_points], dim=1)
             self.undesired_contact.copy_(other > self.cfg.contact_force_threshold)

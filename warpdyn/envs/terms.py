@@ -2,7 +2,8 @@
 each returning a torch tensor (N,) or (N, k) on the environment's device, computed with torch ops (no host
 synchronisation). A term reads `env.state` (`State`: the base and joint state, with the base velocities
 in the base frame and gravity projected into it), `env.actions`, `env.previous_actions`, `env.commands`,
-the feet's `env.feet_contact`, `env.feet_first_contact` and `env.feet_air_time` (N, feet), and
+the feet's `env.feet_contact`, `env.feet_first_contact` and `env.feet_air_time` (N, feet) and contact forces
+`env.feet_contact_forces` (N, feet, 3) [N], `env.terrain_below_base` (N,) [m], `env.imu` (the IMU's readings), and
 `env.joint_torques` (what the environment's own servos and dampers apply: kp (target - s) clipped at
 cfg.torque_limit, minus kd sdot); a task composes them with weights
 (`LeggedEnvConfig.rewards`, `.observations`).
@@ -16,8 +17,12 @@ import torch
 
 __all__ = [
     "State",
+    "quat_rotate",
     "quat_rotate_inverse",
     "base_height",
+    "height_above_terrain",
+    "imu_linear_acceleration",
+    "imu_angular_velocity",
     "height_scan",
     "projected_gravity",
     "base_linear_velocity",
@@ -36,10 +41,18 @@ __all__ = [
     "vertical_velocity_squared",
     "alive",
     "undesired_contacts",
+    "stumbling",
+    "height_above_terrain_error",
     "feet_contact",
     "feet_air_time",
     "angular_velocity_xy_squared",
 ]
+
+
+def quat_rotate(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    """R(q) v for unit quaternions q (N, 4) as (w, x, y, z) and vectors v (N, 3)."""
+    w, u = q[:, :1], q[:, 1:]
+    return v * (2.0 * w * w - 1.0) + 2.0 * w * torch.cross(u, v, dim=1) + 2.0 * u * (u * v).sum(dim=1, keepdim=True)
 
 
 def quat_rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
@@ -78,6 +91,29 @@ def height_scan(env) -> torch.Tensor:
     if env.height_scan is None:
         raise ValueError("terms.height_scan observes the environment's height scan: set LeggedEnvConfig.height_scan")
     return (env.state.base_position[:, 2:3] - env.height_scan - 0.5).clamp(-1.0, 1.0)
+
+
+def height_above_terrain(env) -> torch.Tensor:
+    """The base's height above the terrain right under its origin [m] (N, 1): base z - h(base x, base y)
+    (`env.terrain_below_base`), on any terrain (flat ground, a generated or a given heightfield)."""
+    return (env.state.base_position[:, 2] - env.terrain_below_base)[:, None]
+
+
+def imu_linear_acceleration(env) -> torch.Tensor:
+    """The IMU's accelerometer: specific force (acceleration less gravity) in its axes [m/s^2] (N, 3), with its
+    bias and noise (LeggedEnvConfig.imu, warpdyn.envs.sensors); +|g| up at rest."""
+    return _imu(env).linear_acceleration
+
+
+def imu_angular_velocity(env) -> torch.Tensor:
+    """The IMU's gyroscope: angular velocity in its axes [rad/s] (N, 3), with its bias and noise."""
+    return _imu(env).angular_velocity
+
+
+def _imu(env):
+    if env.imu is None:
+        raise ValueError("the IMU terms read the environment's IMU: set LeggedEnvConfig.imu (a warpdyn.envs.sensors.ImuConfig)")
+    return env.imu
 
 
 def projected_gravity(env) -> torch.Tensor:
@@ -136,7 +172,16 @@ def upright(env) -> torch.Tensor:
 
 
 def height_error(env) -> torch.Tensor:
+    """(base height above the environment's origin - cfg.base_height_target)^2 [m^2]: flat ground's."""
     return (env.state.base_position[:, 2] - env.terrain_height - env.cfg.base_height_target).square()
+
+
+def height_above_terrain_error(env) -> torch.Tensor:
+    """(base height above the terrain right under it - cfg.base_height_target)^2 [m^2] (N,): Rudin et al.'s
+    `base_height` penalty on rough terrain. The terrain under the base's origin, not legged_gym's mean over its
+    height scan: exact for any terrain, no scan needed; the mean over a 1.6 x 1.0 m grid mixes in the ground the
+    feet stand on, and ahead of them (on stairs, the next steps)."""
+    return (env.state.base_position[:, 2] - env.terrain_below_base - env.cfg.base_height_target).square()
 
 
 def torque_squared(env) -> torch.Tensor:
@@ -171,6 +216,14 @@ def undesired_contacts(env) -> torch.Tensor:
     """The number of LeggedEnvConfig.undesired_contacts links touching the terrain (normal force above
     cfg.contact_force_threshold): Isaac Lab's and Rudin et al.'s penalty on thighs, shanks and base (N,)."""
     return env.undesired_contact.sum(dim=1).to(torch.float32)
+
+
+def stumbling(env) -> torch.Tensor:
+    """1 where a foot's horizontal contact force exceeds cfg.stumble_ratio (5: legged_gym's) times its vertical
+    one, else 0 (N,): the foot hits a vertical face (a stair's riser, an obstacle's side), Rudin et al.'s penalty.
+    Each foot's force is the sum over its points (`env.feet_contact_forces`, world axes)."""
+    force = env.feet_contact_forces
+    return (force[..., :2].norm(dim=-1) > env.cfg.stumble_ratio * force[..., 2].abs()).any(dim=1).to(torch.float32)
 
 
 def alive(env) -> torch.Tensor:

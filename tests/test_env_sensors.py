@@ -1,0 +1,228 @@
+"""warpdyn.envs's rough-terrain sensing (issue 39): the IMU (warpdyn.envs.sensors) at rest, in free fall, at an
+offset, its noise and bias; the stumbling and height-above-terrain terms. A box robot on four corners settles to rest
+(the IMU tests); the ergoCub legs walk into stairs and terrain. Few environments, few steps, on the tests' device."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+import warp as wp
+
+import warpdyn as wd
+import warpdyn.envs as envs
+from warpdyn.envs.sensors import ImuConfig
+from warpdyn.envs.terrain_generator import TerrainConfig
+
+BOX = """<robot name="box">
+  <link name="base">
+    <inertial><mass value="4.0"/><inertia ixx="0.033" ixy="0" ixz="0" iyy="0.057" iyz="0" izz="0.083"/></inertial>
+    <collision><geometry><box size="0.4 0.3 0.1"/></geometry></collision>
+  </link>
+  <link name="tail">
+    <inertial><origin xyz="0.05 0 0"/><mass value="0.2"/><inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial>
+  </link>
+  <joint name="tail_joint" type="revolute"><parent link="base"/><child link="tail"/><origin xyz="0.2 0 0.05"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="10" velocity="10"/></joint>
+</robot>"""
+"""A 4 kg box (its 8 corners its collidable points) with a servoed tail: it rests still on four corners."""
+
+BOX_SETTINGS = dict(joint_noise=0.0, kp=5.0, kd=0.5, contact_damping=5000.0, friction=(1.0, 1.0))
+"""Contact damping that settles the box within 0.4 s; friction that holds it on a 0.2 slope."""
+
+
+def _box(N, terrain=None, seed=0, **cfg):
+    model = wd.model.Model.build_from_model_description(BOX)
+    if terrain is not None:
+        model.terrain = terrain
+    return envs.LeggedEnv(model, num_envs=N, cfg=envs.LeggedEnvConfig(**{**BOX_SETTINGS, **cfg}), seed=seed)
+
+
+def _legs(dtype=np.float32):
+    full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), dtype=dtype)
+    return wd.model.reduce(full, wd.assets.ERGOCUB_LEG_JOINTS)
+
+
+def _rotate_inverse(q, v):
+    """R(q)^T v, q (N, 4) (w, x, y, z) or (4,), v (N, 3): torch."""
+    q = torch.as_tensor(q, dtype=v.dtype).expand(v.shape[0], 4)
+    return envs.terms.quat_rotate_inverse(q, v)
+
+
+def _zero(env):
+    return torch.zeros(env.num_envs, env.single_action_space.shape[0], device=env.device)
+
+
+def test_the_imu_reads_minus_gravity_at_rest_on_a_slope():
+    """At rest on a 0.2 slope (tilted, at a random yaw), an IMU mounted rolled by 0.6 rad reads R_BI^T R_WB^T (0, 0, +g)
+    [m/s^2] to 1e-3 and no rotation; its noise-free and noisy readings agree without noise or bias; the terms read it."""
+    x = np.arange(41) * 0.1 - 2.0
+    slope = wd.terrain.HeightfieldTerrain(np.tile(0.2 * x[:, None], (1, 41)), origin=(-2.0, -2.0), spacing=(0.1, 0.1))
+    mount = (math.cos(0.3), math.sin(0.3), 0.0, 0.0)
+    env = _box(3, slope, imu=ImuConfig(rotation=mount))
+    env.reset(seed=0)
+    for _ in range(30):
+        env.step(_zero(env))
+    s = env.state
+    assert float(s.projected_gravity[:, :2].norm(dim=1).min()) > 0.15  # tilted by the slope
+    up = torch.tensor([[0.0, 0.0, 9.81]], dtype=env.torch_dtype).expand(3, 3)
+    expected = _rotate_inverse(mount, _rotate_inverse(s.base_quaternion, up))
+    torch.testing.assert_close(env.imu.linear_acceleration, expected, atol=1e-3, rtol=0)
+    torch.testing.assert_close(env.imu.angular_velocity, torch.zeros_like(expected), atol=1e-3, rtol=0)
+    assert torch.equal(env.imu.linear_acceleration, env.imu.true_linear_acceleration)
+    assert torch.equal(envs.terms.imu_linear_acceleration(env), env.imu.linear_acceleration)
+    assert torch.equal(envs.terms.imu_angular_velocity(env), env.imu.angular_velocity)
+
+
+def test_the_imu_reads_zero_in_free_fall_under_the_models_gravity():
+    """Dropped from 1 m, the accelerometer reads 0 under the model's world_gravity, whatever it is (here one per
+    environment, one tilted); the gyroscope reads the base's angular velocity in its axes. Reset, before any step,
+    the sensor is at rest: -g in its axes."""
+    env = _box(3, imu=ImuConfig())
+    gravity = np.array([[0.0, 0.0, -9.81], [1.0, -2.0, -8.0], [0.0, 0.0, -3.0]])
+    env.model.set_gravity(gravity)
+    env.reset(seed=0)
+    g = torch.tensor(gravity, dtype=env.torch_dtype)
+    torch.testing.assert_close(env.imu.linear_acceleration, _rotate_inverse(env.state.base_quaternion, -g), atol=1e-5, rtol=0)
+    views = env._state_views[id(env.stepper.data)]
+    views["base_position"][:, 2] += 1.0
+    env.step(_zero(env))
+    assert float(env.state.base_linear_velocity.norm(dim=1).min()) > 0.05  # falling
+    torch.testing.assert_close(env.imu.linear_acceleration, torch.zeros(3, 3, dtype=env.torch_dtype), atol=1e-3, rtol=0)
+    views["base_velocity"][:, 3:] = torch.tensor([0.5, -1.0, 2.0])
+    env.step(_zero(env))
+    torch.testing.assert_close(env.imu.angular_velocity, env.state.base_angular_velocity, atol=1e-6, rtol=0)
+    assert float(env.imu.angular_velocity.norm(dim=1).min()) > 1.0
+
+
+def test_an_offset_imu_reads_its_own_points_acceleration():
+    """An IMU 0.15 m off the base origin on a box spinning in free fall reads its point's acceleration less gravity:
+    the finite difference of that point's velocity over the last simulation step, v_I = pdot_B + omega x R r (the
+    two state buffers), to O(dt omega^3 r); the centripetal part alone is omega^2 r = 1.35 m/s^2."""
+    offset = (0.1, -0.1, 0.05)
+    env = _box(2, imu=ImuConfig(offset=offset))
+    env.reset(seed=0)
+    views = env._state_views[id(env.stepper.data)]
+    views["base_position"][:, 2] += 1.0
+    views["base_velocity"][:, 3:] = torch.tensor([0.0, 0.0, 3.0])
+    env.step(_zero(env))
+    now, before = (env._state_views[id(env.stepper.data)], next(env._state_views[id(d)] for d in env.stepper.buffers if d is not env.stepper.data))
+    r = torch.tensor([offset], dtype=env.torch_dtype).expand(2, 3)
+
+    def point_velocity(v):
+        q = v["base_quaternion"] / v["base_quaternion"].norm(dim=1, keepdim=True)
+        return v["base_velocity"][:, :3] + torch.cross(v["base_velocity"][:, 3:], envs.terms.quat_rotate(q, r), dim=1)
+
+    acceleration = (point_velocity(now) - point_velocity(before)) / env.cfg.time_step
+    g = torch.tensor([[0.0, 0.0, -9.81]], dtype=env.torch_dtype)
+    expected = _rotate_inverse(env.state.base_quaternion, acceleration - g)
+    assert float(expected.norm(dim=1).min()) > 1.0  # not free fall's zero
+    torch.testing.assert_close(env.imu.linear_acceleration, expected, atol=0.03, rtol=0)
+
+
+def test_imu_noise_and_bias_statistics():
+    """White noise N(0, sigma^2) per reading and a bias per environment drawn at each reset (Gaussian here, uniform
+    below): their sample means and standard deviations over environments, axes and steps (resets) match the
+    configuration within 5 standard errors; the bias holds over an episode and is redrawn at a reset, for the
+    environments reset alone; a seed repeats everything, another seed differs."""
+    imu = ImuConfig(accelerometer_noise=0.2, gyroscope_noise=0.05, accelerometer_bias=0.3, gyroscope_bias=0.1)
+    N, steps = 64, 6
+    env = _box(N, imu=imu, episode_seconds=1.0)
+    biases, noise = [], []
+    for seed in range(4):
+        env.reset(seed=seed)
+        biases.append((env.imu.accelerometer_bias.clone(), env.imu.gyroscope_bias.clone()))
+    for _ in range(steps):
+        env.step(_zero(env))
+        noise.append((env.imu.linear_acceleration - env.imu.true_linear_acceleration - env.imu.accelerometer_bias,
+                      env.imu.angular_velocity - env.imu.true_angular_velocity - env.imu.gyroscope_bias))  # fmt: skip
+    for k, (sigma_noise, sigma_bias) in enumerate(((0.2, 0.3), (0.05, 0.1))):
+        for samples, sigma in ((torch.cat([n[k] for n in noise]), sigma_noise), (torch.cat([b[k] for b in biases]), sigma_bias)):
+            n = samples.numel()
+            assert abs(float(samples.mean())) < 5 * sigma / math.sqrt(n), (k, float(samples.mean()))
+            assert abs(float(samples.std()) / sigma - 1.0) < 5 / math.sqrt(2 * n), (k, float(samples.std()))
+    held = env.imu.gyroscope_bias.clone()
+    assert torch.equal(held, biases[-1][1])  # the same over the episode's steps
+    env.episode_length_buf[:2] = env.max_episode_length - 1  # environments 0 and 1 end at the next step
+    env.step(_zero(env))
+    assert not torch.equal(env.imu.gyroscope_bias[:2], held[:2]) and torch.equal(env.imu.gyroscope_bias[2:], held[2:])
+    uniform = _box(N, imu=ImuConfig(accelerometer_bias=0.3, bias_distribution="uniform"))
+    uniform.reset(seed=0)
+    b = uniform.imu.accelerometer_bias
+    assert float(b.abs().max()) <= 0.3 and abs(float(b.std()) / (0.3 / math.sqrt(3)) - 1.0) < 5 / math.sqrt(2 * b.numel())
+
+    def readings(seed):
+        e = _box(4, imu=imu, seed=seed)
+        e.reset(seed=seed)
+        out = []
+        for _ in range(3):
+            e.step(_zero(e))
+            out.append(e.imu.linear_acceleration.clone())
+        return torch.stack(out)
+
+    assert torch.equal(readings(1), readings(1)) and not torch.allclose(readings(1), readings(2))
+    with pytest.raises(ValueError, match="ImuConfig.gyroscope_noise must be a finite number >= 0"):
+        ImuConfig(gyroscope_noise=-1.0)
+    with pytest.raises(ValueError, match="bias_distribution must be one of"):
+        ImuConfig(bias_distribution="laplace")
+    with pytest.raises(ValueError, match="set LeggedEnvConfig.imu"):
+        envs.terms.imu_angular_velocity(_box(1))
+
+
+def test_stumbling_fires_for_a_foot_pushed_into_a_stair():
+    """The ergoCub legs hovering 1 cm above a generated staircase (0.23 m steps sampled every 0.02 m: a riser is a
+    slope of 11.5), pushed at 1 m/s so that their toes hit a riser: the feet's horizontal contact force exceeds 5 times
+    their vertical one and terms.stumbling reads 1; the environment landing and standing on its platform reads 0 at every step.
+    Friction on a riser (mostly vertical on a steep face) bounds that ratio by about 1 / mu: the pushed environment's
+    friction is 0.05."""
+    terrain = TerrainConfig(levels=2, kinds=("stairs_up",), tile_size=4.0, platform=1.0, resolution=0.02)
+    env = envs.LeggedEnv(_legs(), num_envs=2, cfg=envs.LeggedEnvConfig(terrain=terrain, joint_noise=0.0), seed=0)
+    env.reset(seed=0)
+    n = env.terrain_generator.samples
+    row = env.terrain_generator.heights[n : 2 * n + 1, n // 2]  # level 1 (d = 1: 0.23 m steps), along x at the tile's centre line
+    riser = 4.0 + 0.02 * np.flatnonzero(np.diff(row) > 0.2)[0]  # where the first step up begins
+    views = env._state_views[id(env.stepper.data)]
+    toe = float(wd.contact.collidable_point_positions(env.model, wd.data.Data.build(env.model)).numpy()[:, 0].max())  # the feet's front edge, ahead of the base
+    views["base_position"][0] = torch.tensor([riser - 0.005 - toe, 2.0, env.standing_height + 0.01])
+    views["base_quaternion"][0] = torch.tensor([1.0, 0.0, 0.0, 0.0])
+    views["base_velocity"][0] = torch.tensor([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    mu = wp.to_torch(env.model.contact_params.mu)
+    mu[0], mu[1] = 0.05, 0.8
+    env.step(_zero(env))
+    force = env.feet_contact_forces[0]
+    assert bool((force[:, :2].norm(dim=1) > 5.0 * force[:, 2]).all()) and float(force[:, 0].max()) < -100.0  # pushed back
+    assert envs.terms.stumbling(env).tolist() == [1.0, 0.0]
+    landed = 0
+    for _ in range(10):
+        env.step(_zero(env))
+        assert float(envs.terms.stumbling(env)[1]) == 0.0
+        landed += int(env.feet_contact[1].all())
+    assert landed >= 3  # the feet carried the robot (it lands from 2 cm and bounces)
+
+
+def test_the_height_above_the_terrain_under_the_base():
+    """On a heightfield of a slope and a 0.3 m step, terms.height_above_terrain is the base's z less the terrain's
+    height right under its origin, h(x, y) (analytic), wherever the base is, and height_above_terrain_error is
+    (that - base_height_target)^2; terms.base_height stays the height above the environment's origin."""
+    x, y = np.arange(61) * 0.1 - 3.0, np.arange(61) * 0.1 - 3.0
+    X, Y = np.meshgrid(x, y, indexing="ij")
+
+    def h(px, py):
+        return 0.1 * px - 0.05 * py + 0.3 * (py > 1.05)
+
+    terrain = wd.terrain.HeightfieldTerrain(h(X, Y), origin=(-3.0, -3.0), spacing=(0.1, 0.1))
+    model = _legs()
+    model.terrain = terrain
+    env = envs.LeggedEnv(model, num_envs=4, cfg=envs.LeggedEnvConfig(joint_noise=0.0, base_height_target=0.7), seed=0)
+    env.reset(seed=0)
+    places = np.array([[0.3, 0.4], [1.2, 1.5], [-0.7, 2.0], [0.55, -0.8]])
+    views = env._state_views[id(env.stepper.data)]
+    views["base_position"].copy_(torch.tensor(np.c_[places, h(*places.T) + env.standing_height + 0.05]))
+    env.step(_zero(env))
+    base = env.state.base_position.cpu().numpy()
+    above = base[:, 2] - h(base[:, 0], base[:, 1])
+    np.testing.assert_allclose(envs.terms.height_above_terrain(env)[:, 0].cpu().numpy(), above, atol=1e-5)
+    np.testing.assert_allclose(envs.terms.height_above_terrain_error(env).cpu().numpy(), (above - 0.7) ** 2, atol=1e-5)
+    np.testing.assert_allclose(envs.terms.base_height(env)[:, 0].cpu().numpy(), base[:, 2], atol=1e-6)
+    assert np.ptp(base[:, 2]) > 0.3  # the bases stand at different heights, above different ground
+
