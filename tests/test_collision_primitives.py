@@ -1,0 +1,253 @@
+"""kernels/collision_primitives.py against MuJoCo's mj_collision: for each pair of primitive geoms, a few hundred
+poses (random ones, and touching, deeply penetrating, within the margin, beyond it, and the degenerate ones: a box
+face or a capsule flat on a plane, parallel capsules, concentric spheres, a sphere's center inside a box) in a
+two-geom MJCF (geom1 on a mocap body, geom2 on a free body, so that MuJoCo collides them), posed through mocap_pos,
+mocap_quat and qpos,, the same world poses (MuJoCo's geom_xpos, geom_xmat) given to the `collide` kernel.
+
+The contacts must be MuJoCo's: the same count, and, matched as sets by position, the same positions, contact
+frames (the normal from geom1 to geom2 and the two tangents) and distances: to 1e-10 in float64 (the formulas are
+MuJoCo's, closed-form; what is left is rounding, ~1e-15 on these O(1) scales), to FLOAT32_TOL in float32 (below).
+"""
+
+import functools
+
+import mujoco
+import numpy as np
+import pytest
+import scipy.optimize
+import warp as wp
+
+from warpdyn.kernels import collision_primitives as cp
+
+FLOAT64_TOL = 1e-10
+FLOAT32_TOL = 2e-5
+FLOAT32_EPS = 6e-8
+FLOAT32_GROWTH = 100.0
+FLOAT32_POINTS = 1e-6
+"""float32: a contact takes tens of operations on lengths of order 1 m, each rounded to 6e-8 relative: 2e-5 m (or
+unit) leaves a margin over that. Where the contact is ill-conditioned (a normal from two nearly coincident points,
+the tangent of a capsule standing on a plane) rounding is amplified; how much, the float64 arithmetic on the inputs
+moved at random by float32's rounding (FLOAT32_EPS relative) measures, one rounding per input amplified as float32
+amplifies its own: float32's tens of roundings are allowed FLOAT32_GROWTH times that. A normal drawn between two
+points s apart (sphere-like contacts: MuJoCo's mjraw_SphereSphere) that float32 computes separately, each to
+~1e-7 m, is allowed FLOAT32_POINTS / s more: exact arithmetic on moved inputs keeps that direction (the common
+perpendicular of two capsules' axes) where float32's rounding of each point does not."""
+
+TYPES = {"plane": cp.PLANE, "sphere": cp.SPHERE, "capsule": cp.CAPSULE, "ellipsoid": cp.ELLIPSOID, "cylinder": cp.CYLINDER, "box": cp.BOX}
+SIZES = {"plane": (0.0, 0.0, 1.0), "sphere": (0.3,), "capsule": (0.1, 0.3), "ellipsoid": (0.3, 0.2, 0.1), "cylinder": (0.2, 0.15), "box": (0.2, 0.3, 0.1)}
+SIZES2 = {"sphere": (0.2,), "capsule": (0.15, 0.4), "box": (0.25, 0.15, 0.2)}  # geom2's sizes where the types are the same
+MARGINS = ((0.0, 0.0), (0.06, 0.04))  # (margin, gap) of the pair, half on each geom
+N_RANDOM = 150
+
+
+def _quat(axis, angle):
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    return np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * axis])
+
+
+def _mul(q1, q2):
+    out = np.empty(4)
+    mujoco.mju_mulQuat(out, np.asarray(q1, float), np.asarray(q2, float))
+    return out
+
+
+def _rot(q):
+    out = np.empty(9)
+    mujoco.mju_quat2Mat(out, np.asarray(q, float))
+    return out.reshape(3, 3)
+
+
+def _rbound(name, size):
+    return {"plane": 0.0, "sphere": size[0], "capsule": size[0] + size[1], "ellipsoid": max(size), "cylinder": np.hypot(size[0], size[1]), "box": np.linalg.norm(size)}[name]
+
+
+IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
+X90 = _quat([1, 0, 0], np.pi / 2)
+
+
+def _special(name1, name2, size1, size2, margin):
+    """(geom2's position in geom1's frame, its quaternion relative to geom1's) of the pair's constructed poses."""
+    r1, r2 = size1[0], size2[0]
+    cases = []
+    if name1 == "plane":
+        top = {"sphere": r2, "capsule": r2 + size2[1], "ellipsoid": size2[2], "cylinder": size2[1], "box": size2[2]}[name2]
+        flat = {"capsule": (X90, r2), "cylinder": (X90, r2), "box": (_quat([0, 0, 1], 0.7), size2[2]), "ellipsoid": (_quat([0, 0, 1], 0.3), size2[2])}
+        for q, h in [(IDENTITY, top), flat.get(name2, (IDENTITY, top)), (_quat([1, 0, 0], np.pi), top)]:
+            for dh in (0.0, -0.01, -0.1, 0.5 * margin, margin + 0.01):
+                cases.append(((0.3, -0.2, h + dh), q))
+        if name2 == "box":  # on an edge, on a corner
+            cases += [((0.0, 0.0, np.hypot(size2[1], size2[2]) - 0.01), _quat([1, 0, 0], np.arctan2(size2[1], size2[2])))]
+            cases += [((0.0, 0.0, 0.05), _quat([1, 1, 0], 0.9))]
+        if name2 == "cylinder":  # tilted a little, the rim's lowest point first
+            cases += [((0.0, 0.0, size2[1] - 0.02), _quat([1, 0, 0], 0.05))]
+        return cases
+    if name1 == name2 == "sphere":
+        cases += [((0.0, 0.0, 0.0), _quat([1, 0, 0], 0.4)), ((0.0, 0.0, 0.0), IDENTITY), ((0.0, 0.0, 0.0), _quat([0, 0, 1], 1.0))]
+        cases += [((r1 + r2 + d, 0.0, 0.0), IDENTITY) for d in (0.0, -0.2, 0.5 * margin, margin + 0.01)]
+        return cases
+    if name1 == "sphere" and name2 == "capsule":  # the center on the capsule's axis (inside, at an end), beside it
+        cases += [((0.0, 0.0, z), _quat([1, 0, 0], 0.3)) for z in (0.0, 0.1)]
+        cases += [((0.0, 0.0, size2[1] + r1 + r2 + d), IDENTITY) for d in (-0.05, 0.0, 0.5 * margin)]
+        cases += [((r1 + r2 + d, 0.0, 0.1), IDENTITY) for d in (0.0, -0.1, 0.5 * margin)]
+        return [((-x, -y, -z), q) for (x, y, z), q in cases]  # the capsule relative to the sphere
+    if name1 == "sphere" and name2 == "cylinder":  # the center inside near the side, near a cap, on the axis, at the rim
+        cases += [((0.15, 0.0, 0.0), IDENTITY), ((0.05, 0.0, 0.12), IDENTITY), ((0.0, 0.0, 0.1), IDENTITY)]
+        cases += [((0.0, 0.0, size2[1] + r1 + d), IDENTITY) for d in (0.0, -0.05, 0.5 * margin)]
+        cases += [((r2 + 0.1, 0.0, size2[1] + 0.1), IDENTITY), ((r2 + r1 - 0.02, 0.0, 0.0), IDENTITY)]
+        return [((-x, -y, -z), q) for (x, y, z), q in cases]
+    if name1 == "sphere" and name2 == "box":  # the center inside the box, near each face; on a face; at an edge
+        for axis in range(3):
+            for sign in (-1, 1):
+                c = np.zeros(3)
+                c[axis] = sign * 0.8 * size2[axis]
+                cases.append((tuple(c), IDENTITY))
+        cases += [((size2[0], 0.05, 0.0), IDENTITY), ((0.0, 0.0, 0.0), IDENTITY)]
+        cases += [((size2[0] + r1 * 0.5 + d, size2[1] + r1 * 0.5, 0.0), IDENTITY) for d in (0.0, 0.5 * margin)]
+        return [((-x, -y, -z), q) for (x, y, z), q in cases]
+    if name1 == name2 == "capsule":  # parallel (segment 1 inside 2, overlapping, apart), antiparallel, collinear, crossing
+        for q in (IDENTITY, _quat([1, 0, 0], np.pi), _quat([0, 1, 0], 5e-5), _quat([0, 1, 0], np.pi - 5e-5)):
+            for x, z in ((r1 + r2 - 0.02, 0.05), (r1 + r2 - 0.01, 0.5), (r1 + r2 + 0.5 * margin, -0.4), (0.1, 0.8), (0.0, 0.75), (0.2, -0.9)):
+                cases.append(((x, 0.0, z), q))
+        cases += [((0.0, 0.0, size1[1] + size2[1] + r1 + r2 - 0.01), IDENTITY), ((0.0, 0.0, 0.0), IDENTITY)]
+        cases += [((0.0, r1 + r2 - 0.05, 0.0), X90), ((0.0, 0.0, 0.0), X90)]
+        return cases
+    raise KeyError((name1, name2))
+
+
+
+@functools.cache
+def _reference(name1, name2, margin, gap, seed=0):
+    """The poses (world positions (n, 2, 3), rotations (n, 2, 3, 3)), the sizes (2, 3), the pair's margin + gap,
+    and MuJoCo's contacts per pose: [(pos (k, 3), frame (k, 3, 3), dist (k,))]."""
+    size1 = SIZES[name1]
+    size2 = SIZES2.get(name2, SIZES[name2]) if name1 == name2 else SIZES[name2]
+    size1, size2 = (s + (0.0,) * (3 - len(s)) for s in (size1, size2))
+    xml = f"""<mujoco><option gravity="0 0 0"/><worldbody>
+      <body mocap="true"><geom type="{name1}" size="{' '.join(map(str, SIZES[name1]))}" margin="{margin / 2}" gap="{gap / 2}"/></body>
+      <body><freejoint/><geom type="{name2}" size="{' '.join(map(str, size2))}" margin="{margin / 2}" gap="{gap / 2}"/></body>
+    </worldbody></mujoco>"""
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(seed)
+    poses = _special(name1, name2, size1, size2, margin + gap)
+    reach = _rbound(name1, size1) + _rbound(name2, size2) + margin + gap
+    for _ in range(N_RANDOM):
+        q = rng.normal(size=4)
+        if name1 == "plane":
+            p = (rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-reach, reach + 0.05))
+        else:
+            u = rng.normal(size=3)
+            p = tuple(u / np.linalg.norm(u) * rng.uniform(0.0, reach + 0.05))
+        poses.append((p, q / np.linalg.norm(q)))
+    xpos, xmat, contacts = [], [], []
+    for p_local, q_local in poses:
+        q1 = rng.normal(size=4)
+        q1 /= np.linalg.norm(q1)
+        p1 = rng.uniform(-1, 1, size=3)
+        d.mocap_pos[0] = p1
+        d.mocap_quat[0] = q1
+        d.qpos[:3] = p1 + _rot(q1) @ np.asarray(p_local)
+        d.qpos[3:7] = _mul(q1, q_local)
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_collision(m, d)
+        con = d.contact[: d.ncon]
+        assert all(tuple(c.geom) == (0, 1) for c in con)  # geom1 = the mocap body's, in MuJoCo's order
+        xpos.append(d.geom_xpos.copy())
+        xmat.append(d.geom_xmat.reshape(2, 3, 3).copy())
+        contacts.append((np.array([c.pos for c in con]).reshape(-1, 3), np.array([c.frame for c in con]).reshape(-1, 3, 3), np.array([c.dist for c in con])))
+    return np.array(xpos), np.array(xmat), np.array([size1, size2]), margin + gap, contacts
+
+
+def _collide(name1, name2, xpos, xmat, sizes, margin, dtype):
+    """The kernel's contacts per pose: count (n,), positions (n, MAX, 3), frames (n, MAX, 3, 3), dists (n, MAX)."""
+    K = cp.kernels(wp.float64 if dtype == np.float64 else wp.float32)
+    n = len(xpos)
+
+    def arr(a, t):
+        return wp.array(np.ascontiguousarray(a, dtype=dtype), dtype=t)
+
+    count = wp.full(n, -2, dtype=int)
+    pos = wp.array(np.full((n, cp.MAX_CONTACTS, 3), np.nan, dtype), dtype=K.vec3)
+    frame = wp.array(np.full((n, cp.MAX_CONTACTS, 3, 3), np.nan, dtype), dtype=K.mat33)
+    dist = wp.array(np.full((n, cp.MAX_CONTACTS), np.nan, dtype), dtype=K.scalar)
+    size = np.broadcast_to(sizes, (n, 2, 3))
+    wp.launch(
+        K.collide,
+        n,
+        inputs=[TYPES[name1], TYPES[name2], arr(xpos[:, 0], K.vec3), arr(xmat[:, 0], K.mat33), arr(size[:, 0], K.vec3), arr(xpos[:, 1], K.vec3), arr(xmat[:, 1], K.mat33), arr(size[:, 1], K.vec3), arr(np.full(n, margin), K.scalar)],
+        outputs=[count, pos, frame, dist],
+    )
+    return count.numpy(), pos.numpy(), frame.numpy(), dist.numpy()
+
+
+def _compare(ref, mine, margin, band):
+    """Max |error| of position, frame and dist over MuJoCo's contacts `ref` and the kernel's `mine` (each (pos,
+    frame, dist)) paired by position (an optimal assignment: duplicates pair up), and the number of contacts left
+    unpaired; None where one of those is not on the margin's edge (|dist - margin| <= band: exactly touching, which
+    the last bit's rounding decides)."""
+    cost = np.linalg.norm(ref[0][:, None] - mine[0][None], axis=-1)
+    rows, cols = scipy.optimize.linear_sum_assignment(cost)
+    unpaired = np.concatenate([np.delete(ref[2], rows), np.delete(mine[2], cols)])
+    if np.any(np.abs(unpaired - margin) > band):
+        return None
+    return np.array([np.abs(a[rows] - b[cols]).max(initial=0.0) for a, b in zip(ref, mine)]), len(unpaired)
+
+
+def _separation(pair, sizes, dist):
+    """The least distance (m) between the two points a contact's normal is drawn between: dist plus the radii of
+    the spheres and capsules of the pair (their segments' points, a box's point nearest a sphere); inf where the
+    normal is a plane's."""
+    if pair[0] == "plane" or len(dist) == 0:
+        return np.inf
+    radii = sum(size[0] for name, size in zip(pair, sizes) if name in ("sphere", "capsule"))
+    return max(np.min(dist) + radii, 1e-12)
+
+
+def _contacts(out, i):
+    count, pos, frame, dist = out
+    return pos[i, : count[i]], frame[i, : count[i]], dist[i, : count[i]]
+
+
+PAIRS = [
+    ("plane", "sphere"),
+    ("plane", "capsule"),
+    ("plane", "box"),
+    ("plane", "cylinder"),
+    ("plane", "ellipsoid"),
+    ("sphere", "sphere"),
+    ("sphere", "capsule"),
+    ("sphere", "cylinder"),
+    ("sphere", "box"),
+    ("capsule", "capsule"),
+]
+
+
+@pytest.mark.parametrize("margin, gap", MARGINS, ids=["no_margin", "margin"])
+@pytest.mark.parametrize("pair", PAIRS, ids=lambda p: "-".join(p))
+def test_pair_equals_mujoco(pair, margin, gap, dtype):
+    """Each pose's contacts equal MuJoCo's: their count (but for contacts exactly on the margin's edge), then the
+    position, frame and dist of the contacts paired by position, within FLOAT64_TOL, or in float32 within
+    FLOAT32_TOL + FLOAT32_GROWTH times what moving the inputs by float32's rounding alone changes (float64 arithmetic
+    on them); float32 skips the poses where that alone changes the count (a branch of MuJoCo's on its edge)."""
+    xpos, xmat, sizes, total, contacts = _reference(*pair, margin, gap)
+    assert sum(len(c[2]) for c in contacts) > len(contacts) // 3  # the poses touch often enough to test something
+    out = _collide(*pair, xpos, xmat, sizes, total, dtype)
+    if dtype == np.float32:
+        rng = np.random.default_rng(1)
+        moved_inputs = [a * (1.0 + FLOAT32_EPS * rng.standard_normal(np.shape(a))) for a in (xpos, xmat, sizes, total)]
+        near = _collide(*pair, *moved_inputs, np.float64)
+    worst, edge, skipped = np.zeros(3), 0, 0
+    for i, ref in enumerate(contacts):
+        tol, band = np.full(3, FLOAT64_TOL), 1e-12
+        if dtype == np.float32:
+            moved = _compare(ref, _contacts(near, i), total, FLOAT32_TOL)
+            if moved is None:
+                skipped += 1
+                continue
+            tol, band = FLOAT32_TOL + FLOAT32_GROWTH * moved[0] + FLOAT32_POINTS / _separation(pair, sizes, ref[2]), FLOAT32_TOL
+        compared = _compare(ref, _contacts(out, i), total, band)
+        assert compared is not None, (i, ref, _contacts(out, i))
+        assert np.all(compared[0] <= tol), (i, compared[0], tol, ref, _contacts(out, i))
+        worst, edge = np.maximum(worst, compared[0]), edge + compared[1]
+    print("-".join(pair), np.dtype(dtype).name, f"margin + gap {total}: max |pos|, |frame|, |dist| errors", worst, "contacts on the edge", edge, "skipped", skipped)
+    assert skipped <= len(contacts) // 20
