@@ -1,6 +1,7 @@
-"""warpdyn.envs's rough-terrain sensing (issue 39): the IMU (warpdyn.envs.sensors) at rest, in free fall, at an
-offset, its noise and bias; the stumbling and height-above-terrain terms. A box robot on four corners settles to rest
-(the IMU tests); the ergoCub legs walk into stairs and terrain. Few environments, few steps, on the tests' device."""
+"""warpdyn.envs's rough-terrain sensing and actuation (issue 39): the IMU (warpdyn.envs.sensors) at rest, in free fall,
+at an offset, its noise and bias; the stumbling and height-above-terrain terms; the "torque" and ActuatorNet actuators
+(warpdyn.envs.actuators). A box robot on four corners settles to rest (the IMU tests); the ergoCub legs walk into
+stairs and terrain. Few environments, few steps, on the tests' device."""
 
 import math
 
@@ -11,6 +12,7 @@ import warp as wp
 
 import warpdyn as wd
 import warpdyn.envs as envs
+from warpdyn.envs.actuators import ActuatorNet
 from warpdyn.envs.sensors import ImuConfig
 from warpdyn.envs.terrain_generator import TerrainConfig
 
@@ -226,3 +228,116 @@ def test_the_height_above_the_terrain_under_the_base():
     np.testing.assert_allclose(envs.terms.base_height(env)[:, 0].cpu().numpy(), base[:, 2], atol=1e-6)
     assert np.ptp(base[:, 2]) > 0.3  # the bases stand at different heights, above different ground
 
+
+class PD(torch.nn.Module):
+    """kp * error - kd * velocity from an ActuatorNet's input (N, n, 2 history): the newest of each."""
+
+    def __init__(self, kp, kd, history=1):
+        super().__init__()
+        self.kp, self.kd, self.history, self.inputs = kp, kd, history, []
+
+    def forward(self, x):
+        self.inputs.append(x.clone())
+        return self.kp * x[..., 0] - self.kd * x[..., self.history]
+
+
+def test_an_actuator_net_of_the_pd_law_follows_the_built_in_servo():
+    """An ActuatorNet computing kp (target - s) - kd sdot at every simulation step gives the built-in servo's trajectory
+    to rounding (float64, 8 policy steps of random actions from a perturbed posture). The built-in servo's damper is
+    implicit (model.implicit_damping), the network's torque explicit: the reference takes its damper explicit too,
+    with a kd that the explicit step keeps stable."""
+    kp, kd, N = 100.0, 1.0, 3
+    servo = envs.LeggedEnv(_legs(np.float64), num_envs=N, cfg=envs.LeggedEnvConfig(kp=kp, kd=kd), seed=1)
+    servo.model.implicit_damping = False
+    net = PD(kp, kd)
+    actuated = envs.LeggedEnv(_legs(np.float64), num_envs=N, cfg=envs.LeggedEnvConfig(actuator=ActuatorNet(net)), seed=1)
+    assert actuated.stepper.substeps == 1 and actuated.single_action_space.shape == (12,)
+    servo.reset(seed=1)
+    actuated.reset(seed=1)
+    actions = torch.tensor(np.random.default_rng(0).uniform(-1, 1, (8, N, 12)), dtype=torch.float32)
+    for a in actions:
+        servo.step(a)
+        actuated.step(a)
+    assert len(net.inputs) == 8 * actuated.decimation
+    for name in ("joint_positions", "joint_velocities", "base_position", "base_linear_velocity"):
+        torch.testing.assert_close(getattr(actuated.state, name), getattr(servo.state, name), atol=1e-10, rtol=0)
+    assert float(servo.state.joint_velocities.abs().max()) > 0.5  # it moved
+
+
+def test_the_actuator_history_shifts_each_simulation_step_and_resets_per_environment():
+    """history 4, 3 simulation steps per action: each call's input holds the position errors and velocities of the
+    steps before it, newest first (zeros before the episode's first step); the newest is target - s and sdot at the
+    state that step starts from; a reset empties an environment's history alone; torque_limit clips the torques."""
+    H = 4
+    net = PD(50.0, 0.5, history=H)
+    env = envs.LeggedEnv(_legs(), num_envs=2, cfg=envs.LeggedEnvConfig(actuator=ActuatorNet(net, history=H), policy_dt=0.006, torque_limit=10.0), seed=0)
+    env.reset(seed=0)
+    action = torch.full((2, 12), 0.8)
+    for _ in range(2):
+        env.step(action)
+    x = net.inputs
+    assert len(x) == 6 and x[0].shape == (2, 12, 2 * H)
+    for k in range(6):
+        for j in range(H):
+            older = x[k - j][..., [0, H]] if k >= j else torch.zeros(2, 12, 2)
+            assert torch.equal(x[k][..., [j, H + j]], older), (k, j)
+    previous = next(env._state_views[id(d)] for d in env.stepper.buffers if d is not env.stepper.data)  # where the last step began
+    targets = env.default_joint_positions + 0.25 * action
+    torch.testing.assert_close(x[-1][..., 0], targets - previous["joint_positions"], atol=1e-6, rtol=0)
+    torch.testing.assert_close(x[-1][..., H], previous["joint_velocities"], atol=0, rtol=0)
+    assert float(env.joint_torques.abs().max()) == 10.0 and torch.equal(env.joint_torques, env.actuation.torques)
+    env.episode_length_buf[0] = env.max_episode_length - 1  # environment 0's episode ends at the next step
+    env.step(action)
+    assert not env.actuation.position_errors[0].any() and not env.actuation.velocities[0].any() and env.actuation.velocities[1].any()
+    env.step(action)
+    first = x[-3]  # environment 0's first step of its new episode
+    assert not first[0][:, [1, 2, 3, H + 1, H + 2, H + 3]].any() and first[1][:, [1, 2, 3]].any()
+
+
+def test_a_bad_actuator_network_or_configuration_is_refused_by_name():
+    """A network whose output is not (N, n) or (N, n, 1) torques raises a ValueError naming it and the shapes; a
+    history below 1, an unknown actuator, and a model with actuators of its own are refused."""
+
+    class Wide(torch.nn.Module):
+        def forward(self, x):
+            return x
+
+    env = envs.LeggedEnv(_legs(), num_envs=2, cfg=envs.LeggedEnvConfig(actuator=ActuatorNet(Wide(), history=2)), seed=0)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"network Wide returned shape \(2, 12, 4\) from its input \(2, 12, 4\).*\(2, 12\) or \(2, 12, 1\)"):
+        env.step(_zero(env))
+
+    def scalar_torque(x):
+        return 1.0
+
+    env = envs.LeggedEnv(_legs(), num_envs=2, cfg=envs.LeggedEnvConfig(actuator=ActuatorNet(scalar_torque)), seed=0)
+    with pytest.raises(ValueError, match="network .*scalar_torque returned float"):
+        env.step(_zero(env))
+    with pytest.raises(ValueError, match="ActuatorNet.history must be an integer >= 1"):
+        ActuatorNet(Wide(), history=0)
+    with pytest.raises(TypeError, match="ActuatorNet.network must be a torch callable"):
+        ActuatorNet("mlp.pt")
+    with pytest.raises(ValueError, match="actuator must be 'pd', 'torque' or an ActuatorNet"):
+        envs.LeggedEnvConfig(actuator="servo")
+    actuated = wd.model.add_actuators(_legs(), "position", kp=100.0)
+    with pytest.raises(ValueError, match="has actuators of its own"):
+        envs.LeggedEnv(actuated, num_envs=2, cfg=envs.LeggedEnvConfig(actuator="torque"))
+
+
+def test_torque_actions_are_held_over_the_policy_step():
+    """actuator="torque": one env.step is `decimation` wd.model.step calls with joint torques action_scale * clip(action)
+    clipped at torque_limit (bitwise), on joints without damping; env.joint_torques holds them."""
+    env = envs.LeggedEnv(_legs(), num_envs=2, cfg=envs.LeggedEnvConfig(actuator="torque", action_scale=10.0, torque_limit=30.0), seed=0)
+    env.reset(seed=3)
+    assert env.model.number_of_actuators() == 0 and not env.model.damping.numpy().any()
+    start = wd.data.Data.build(env.model, num_envs=2, base_position=env.stepper.data.base_position.numpy(),
+                               base_quaternion=env.stepper.data.base_quaternion.numpy(), joint_positions=env.stepper.data.joint_positions.numpy())  # fmt: skip
+    actions = torch.tensor(np.random.default_rng(0).uniform(-6, 6, (2, 12)), dtype=torch.float32)
+    env.step(actions)
+    torques = (10.0 * actions.clamp(-5, 5)).clamp(-30.0, 30.0).numpy().astype(np.float32)
+    expected = start
+    for _ in range(env.decimation):
+        expected = wd.model.step(env.model, expected, joint_force_references=torques)
+    np.testing.assert_array_equal(env.stepper.data.joint_positions.numpy(), expected.joint_positions.numpy())
+    np.testing.assert_array_equal(env.stepper.data.base_position.numpy(), expected.base_position.numpy())
+    np.testing.assert_array_equal(env.joint_torques.numpy(), torques)

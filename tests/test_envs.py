@@ -350,13 +350,13 @@ def test_observation_noise_and_action_delay():
     applied = []
     for action in given:
         env.step(action)
-        applied.append(((env._ctrl - default) / env.cfg.action_scale).to(torch.float32))
+        applied.append(((wp.to_torch(env.stepper.ctrl) - default) / env.cfg.action_scale).to(torch.float32))
         assert torch.equal(env.actions, action)
     assert torch.allclose(applied[0], torch.zeros_like(applied[0])) and torch.allclose(applied[1], torch.zeros_like(applied[1]))
     assert torch.allclose(applied[2], given[0], atol=1e-5)  # two steps late
     env.reset(seed=0)
     env.step(given[2])
-    assert torch.allclose(((env._ctrl - default) / env.cfg.action_scale).to(torch.float32), torch.zeros(64, 12, device=env.device))
+    assert torch.allclose(((wp.to_torch(env.stepper.ctrl) - default) / env.cfg.action_scale).to(torch.float32), torch.zeros(64, 12, device=env.device))
     with pytest.raises(ValueError, match="action_delay must be an integer >= 0"):
         envs.LeggedEnvConfig(action_delay=-1)
     with pytest.raises(ValueError, match=r"observations\[0\] noise must be a finite number >= 0"):
@@ -372,11 +372,15 @@ def test_use_graph_true_is_refused_on_the_cpu():
 
 
 @pytest.mark.skipif(not wp.get_device().is_cuda, reason="CUDA graphs: the tests' device is not a GPU")
-@pytest.mark.parametrize("policy_dt, terrain", [(0.02, False), (0.01, False), (0.02, True)])  # 10 and 5 simulation steps: an odd count ends on the other buffer
-def test_graph_replays_equal_eager_steps(policy_dt, terrain):
+@pytest.mark.parametrize("policy_dt, terrain, sensors", [(0.02, False, False), (0.01, False, False), (0.02, True, False), (0.02, True, True)])  # 10 and 5 simulation steps: an odd count ends on the other buffer
+def test_graph_replays_equal_eager_steps(policy_dt, terrain, sensors):
     """use_graph=True captures a whole step (actions, simulation, rewards, resets, randomisation, the terrain
-    curriculum and the height scan) and its replays give what eager steps give, bitwise, through pushes, time-limit resets and a
-    reset() between replays, in tensors that the next step does not overwrite."""
+    curriculum and the height scan; with `sensors` the IMU's noise and biases, an ActuatorNet's torch network at each
+    simulation step on two Steppers, stumbling and the height above the terrain) and its replays give what eager steps
+    give, bitwise, through pushes, time-limit resets and a reset() between replays, in tensors that the next step does
+    not overwrite."""
+    from warpdyn.envs.actuators import ActuatorNet
+    from warpdyn.envs.sensors import ImuConfig
     from warpdyn.envs.terrain_generator import TerrainConfig
 
     settings = dict(policy_dt=policy_dt, push_velocity=0.5, push_seconds=0.06, episode_seconds=0.1, mass_scale=(0.8, 1.2), friction=(0.4, 1.0), lin_vel_x=(-0.5, 0.5))
@@ -384,6 +388,14 @@ def test_graph_replays_equal_eager_steps(policy_dt, terrain):
         settings["terrain"] = TerrainConfig(levels=3, kinds=("flat", "pyramid_slope_up", "random_rough"), tile_size=4.0, platform=1.0)
         settings["height_scan"] = ((0.6, 0.4), 0.2)
         settings["observations"] = (*envs.DEFAULT_OBSERVATIONS, (envs.terms.height_scan, 1.0))
+    if sensors:
+        torch.manual_seed(0)
+        net = torch.nn.Sequential(torch.nn.Linear(6, 16), torch.nn.Softsign(), torch.nn.Linear(16, 1)).to(wp.device_to_torch(wp.get_device()))
+        settings["imu"] = ImuConfig(offset=(0.05, 0.0, 0.1), accelerometer_noise=0.1, gyroscope_noise=0.01, accelerometer_bias=0.2, gyroscope_bias=0.05)
+        settings["actuator"] = ActuatorNet(net, history=3)
+        terms = envs.terms
+        settings["observations"] += ((terms.imu_linear_acceleration, 0.1), (terms.imu_angular_velocity, 0.25), (terms.height_above_terrain, 1.0))
+        settings["rewards"] = {**envs.DEFAULT_REWARDS, "stumbling": (terms.stumbling, -1.0), "base_height": (terms.height_above_terrain_error, -10.0)}
     graphed = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=True)
     eager = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=False)
     actions = torch.tensor(np.random.default_rng(0).uniform(-1, 1, (12, 8, 12)), dtype=torch.float32, device=graphed.device)
@@ -401,7 +413,7 @@ def test_graph_replays_equal_eager_steps(policy_dt, terrain):
         if kept is not None:  # the previous step's observation is its own tensor (rsl-rl stores it after the step)
             assert torch.equal(kept[0], kept[1]), k
         kept = (a[0], a[0].clone())
-    assert graphed._program.captured == (1 if graphed.decimation % 2 == 0 else 2) and not eager._program.captured
+    assert graphed._program.captured == (1 if graphed.stepper.substeps % 2 == 0 else 2) and not eager._program.captured
 
 
 @pytest.mark.filterwarnings("ignore:.*link 'base'. principal moments:warpdyn.model.UnphysicalInertiaWarning")  # tests/test_go1.py checks it

@@ -17,6 +17,7 @@ from gymnasium.vector.utils import batch_space
 import warpdyn as wd
 
 from . import terms
+from .actuators import Actuation, ActuatorNet
 from .sensors import Imu, ImuConfig
 from .terrain_generator import TerrainConfig, TerrainCurriculum, TerrainGenerator
 
@@ -80,7 +81,10 @@ class LeggedEnvConfig:
     k policy steps after the policy gave it (the targets hold the last ones given k steps ago; zero after a reset),
     while `env.actions` (what the action terms read) is the newest. `imu` (a `warpdyn.envs.sensors.ImuConfig`): an IMU
     on the base (`env.imu`; terms.imu_linear_acceleration, terms.imu_angular_velocity). `stumble_ratio`: a foot
-    stumbles when its horizontal contact force exceeds this times its vertical one (terms.stumbling).
+    stumbles when its horizontal contact force exceeds this times its vertical one (terms.stumbling). `actuator`:
+    "pd" (the servo above), "torque" (torques action_scale * action [N m], clipped at torque_limit) or a
+    `warpdyn.envs.actuators.ActuatorNet` (a torch network from the joints' error and velocity history to torques,
+    at every simulation step); these two leave the joints without damping and ignore kp and kd.
     """
 
     time_step: float = 0.002
@@ -119,6 +123,7 @@ class LeggedEnvConfig:
     height_scan: tuple | None = None  # ((length, width), resolution) [m] of wd.terrain.grid_pattern; None: no scan
     imu: ImuConfig | None = None
     stumble_ratio: float = 5.0
+    actuator: str | ActuatorNet = "pd"
 
     def __post_init__(self):
         self.validate()
@@ -160,6 +165,8 @@ class LeggedEnvConfig:
             wd.terrain.grid_pattern(scan[0], scan[1])  # its values checked
         if self.imu is not None and not isinstance(self.imu, ImuConfig):
             raise TypeError(f"LeggedEnvConfig.imu must be an ImuConfig (warpdyn.envs.sensors) or None, got {self.imu!r}")
+        if not (isinstance(self.actuator, ActuatorNet) or (isinstance(self.actuator, str) and self.actuator in ("pd", "torque"))):
+            raise ValueError(f"LeggedEnvConfig.actuator must be 'pd', 'torque' or an ActuatorNet (warpdyn.envs.actuators), got {self.actuator!r}")
         if not isinstance(self.terrain_curriculum, (bool, np.bool_)):
             raise TypeError(f"LeggedEnvConfig.terrain_curriculum must be True or False, got {self.terrain_curriculum!r}")
         if not isinstance(self.rewards, dict):
@@ -283,7 +290,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.max_episode_length = int(math.ceil(cfg.episode_seconds / cfg.policy_dt))
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(seed)
-        n, na = model.dofs(), model.number_of_actuators()
+        n = model.dofs()
+        na = model.number_of_actuators() if cfg.actuator == "pd" else n
         default = self._default_joint_positions(model)
         self.default_joint_positions = torch.tensor(default, device=self.device, dtype=self.torch_dtype)
         # the standing pose: the default posture with its lowest collidable point on the ground
@@ -295,11 +303,12 @@ class LeggedEnv(gym.vector.VectorEnv):
         # the state the resets copy from, and the Stepper (on a GPU its launches join the env's graph)
         self._reset_data = wd.data.Data.build(model, num_envs=N, base_position=(0.0, 0.0, self.standing_height), joint_positions=default)
         stepper_graph = False if model.device.is_cuda else (use_graph and "auto")
-        self.stepper = wd.simulation.Stepper(model, self._reset_data, substeps=self.decimation, use_graph=stepper_graph)
+        substeps = 1 if isinstance(cfg.actuator, ActuatorNet) else self.decimation  # the network's steps: warpdyn.envs.actuators
+        self.stepper = wd.simulation.Stepper(model, self._reset_data, substeps=substeps, use_graph=stepper_graph)
+        self.actuation = Actuation(cfg.actuator, self.stepper, self._reset_data, self.decimation, self.default_joint_positions, cfg.torque_limit, stepper_graph)
         # torch views, made once (outside torch.inference_mode: they are written inside it)
         self._reset_views = self._views(self._reset_data)
         self._state_views = {id(d): self._views(d) for d in self.stepper.buffers}
-        self._ctrl = wp.to_torch(self.stepper.ctrl)
         self._link_mass = wp.to_torch(model.link_mass)
         self._mu = wp.to_torch(model.contact_params.mu)
         self._nominal_mass = self._link_mass[0].clone()
@@ -386,9 +395,13 @@ class LeggedEnv(gym.vector.VectorEnv):
         model = model.copy()
         if self.terrain_generator is not None:
             model.terrain = self.terrain_generator.terrain
-        if model.number_of_actuators() > 0 and cfg.torque_limit is not None:
+        if model.number_of_actuators() > 0 and cfg.torque_limit is not None and cfg.actuator == "pd":
             raise ValueError(f"torque_limit clips the servos LeggedEnv adds; '{model.name()}' has actuators of its own: set their force_range")
-        if model.number_of_actuators() == 0:
+        if cfg.actuator != "pd":
+            if model.number_of_actuators() > 0:
+                raise ValueError(f"actuator={cfg.actuator!r} drives the joints by joint torques; '{model.name()}' has actuators of its own")
+            model.set_joint_parameters(damping=np.zeros(model.dofs()))
+        elif model.number_of_actuators() == 0:
             limit = None if cfg.torque_limit is None else (-cfg.torque_limit, cfg.torque_limit)
             model = wd.model.add_actuators(model, "position", kp=cfg.kp, force_range=limit)
             model.set_joint_parameters(damping=np.full(model.dofs(), cfg.kd))
@@ -500,6 +513,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.actions.copy_(torch.where(mask[:, None], zero, self.actions))
         self.previous_actions.copy_(torch.where(mask[:, None], zero, self.previous_actions))
         self._action_history.masked_fill_(mask[None, :, None], 0.0)
+        self.actuation.reset(mask)
         if self.imu is not None:
             self.imu.reset(mask)
         self.feet_air_time.masked_fill_(mask[:, None], 0.0)
@@ -597,20 +611,16 @@ class LeggedEnv(gym.vector.VectorEnv):
             self._action_history.copy_(torch.roll(self._action_history, 1, dims=0))
             self._action_history[0].copy_(self.actions)
             applied = self._action_history[cfg.action_delay]
-        targets = self.default_joint_positions + cfg.action_scale * applied.to(self.torch_dtype)
-        self._ctrl.copy_(targets)
+        command = cfg.action_scale * applied.to(self.torch_dtype)  # the targets' offsets from the default posture, or torques
         if cfg.push_velocity > 0:
             push = (self.episode_length_buf % self._every(cfg.push_seconds) == 0) & (self.episode_length_buf > 0)
             velocity = self._state_views[id(self.stepper.data)]["base_velocity"]
             kick = self._uniform(-cfg.push_velocity, cfg.push_velocity, (self.num_envs, 2))
             velocity[:, :2] += torch.where(push[:, None], kick, torch.zeros_like(kick))
-        self.stepper.step()
+        self.actuation.step(command)
         self.state = s = self._state()
         self._sense()
-        servo = cfg.kp * (targets - s.joint_positions)  # the position actuator's force, clipped at torque_limit
-        if cfg.torque_limit is not None:
-            servo = servo.clamp(-cfg.torque_limit, cfg.torque_limit)
-        self.joint_torques = servo - cfg.kd * s.joint_velocities  # and the joint's damper
+        self.joint_torques = self.actuation.joint_torques(s, cfg.kp, cfg.kd)
         self._update_feet()
         self.episode_length_buf += 1
         log, reward = {}, torch.zeros(self.num_envs, device=self.device, dtype=torch.float32)
