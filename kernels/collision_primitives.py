@@ -38,10 +38,10 @@ MAX_CONTACTS = 4
 
 MINVAL = 1e-15  # MuJoCo's mjMINVAL
 PARALLEL_SQ = {wp.float64: MINVAL * MINVAL, wp.float32: 1e-12}
-"""sin^2 of the angle under which plane-cylinder takes a cylinder's caps as parallel to the plane: MuJoCo's
-mjMINVAL^2 in float64; in float32 rounding leaves sin ~ 1e-7 of an exactly flat cylinder, whose rim point would
-then follow the rounding instead of the cylinder's x axis (MuJoCo too makes some thresholds depend on its
-precision: box-box's mjBOXBOX_*)."""
+"""sin^2 of the angle under which plane-cylinder takes a cylinder's caps as parallel to the plane and its rim point
+along the cylinder's x axis: MuJoCo's mjMINVAL^2 in float64; in float32 rounding leaves sin ~ 1e-7 of an exactly
+flat cylinder, whose rim point would then follow the rounding (MuJoCo too makes some thresholds depend on its
+precision: box-box's mjBOXBOX_*). The rim point's depth is off by at most 2 r 1e-6 for it."""
 CONCENTRIC = {wp.float64: MINVAL, wp.float32: 1e-6}
 """The distance (m) under which sphere-sphere takes two centers as one and its normal from the spheres' frames:
 MuJoCo's mjMINVAL in float64; in float32, rounding leaves ~1e-7 m between points that are one (the nearest points
@@ -89,6 +89,15 @@ def kernels(scalar) -> types.SimpleNamespace:
                 y = vec3(scalar(0.0), scalar(1.0), scalar(0.0))
         y = unit(y - x * wp.dot(x, y))
         return wp.matrix_from_rows(x, y, wp.cross(x, y))
+
+    @wp.func
+    def gram(ma: scalar, mb: scalar, mc: scalar, a: vec3, b: vec3):
+        """ma mc - mb^2 = |a x b|^2 for ma = a.a, mb = -a.b, mc = b.b, the determinant of the nearest points of two
+        segments: MuJoCo's product form in float64; in float32 the cross product's, as the product form cancels to
+        noise of 1e-7 ma mc, from which nearly parallel segments would be solved (and parallel ones not seen)."""
+        if wp.static(scalar == wp.float32):
+            return wp.length_sq(wp.cross(a, b))
+        return ma * mc - mb * mb
 
     # --- planes (MuJoCo's mjc_Plane*) ------------------------------------------------------------------------
 
@@ -147,7 +156,10 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.func
     def plane_cylinder(pos1: vec3, R1: mat33, pos2: vec3, R2: mat33, size2: vec3, margin: scalar):
         """Plane-cylinder, MuJoCo's mjc_PlaneCylinder: the deepest point of the rim of the cap nearer the plane, the
-        same point of the other cap, and two more points of the nearer rim a third of a turn away; at most 4."""
+        same point of the other cap, and two more points of the nearer rim a third of a turn away; at most 4. In
+        float32 the direction of the deepest rim point is taken in the cylinder's frame: MuJoCo's world-frame
+        difference leaves rounding of 1e-7 along the normal, which, for a cylinder within 1e-3 rad of standing
+        flat, moves the rim point's depth by more than 1e-5 m."""
         normal = axis_of(R1, 2)
         axis = axis_of(R2, 2)
         prjaxis = wp.dot(normal, axis)
@@ -156,6 +168,9 @@ def kernels(scalar) -> types.SimpleNamespace:
             prjaxis = -prjaxis
         dist0 = wp.dot(pos2 - pos1, normal)
         vec = axis * prjaxis - normal  # -normal without its component along the axis
+        if wp.static(scalar == wp.float32):  # that component dropped in the cylinder's frame, exactly
+            local = wp.transpose(R2) * normal
+            vec = -(R2 * vec3(local[0], local[1], scalar(0.0)))
         len_sqr = wp.dot(vec, vec)
         if len_sqr >= scalar(wp.static(PARALLEL_SQ[scalar])):
             vec = vec * (size2[0] / wp.sqrt(len_sqr))
@@ -276,7 +291,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         mc = wp.dot(axis2, axis2)
         u = -wp.dot(axis1, dif)
         v = wp.dot(axis2, dif)
-        det = ma * mc - mb * mb
+        det = gram(ma, mb, mc, axis1, axis2)
         one = scalar(1.0)
         P = mat23()
         N = mat23()
@@ -354,6 +369,170 @@ def kernels(scalar) -> types.SimpleNamespace:
             local = clamped * scalar(0.5) + (center + direction * r1) * scalar(0.5)
             normal = R2 * direction
         return 1, R2 * local + pos2, normal, dist - r1
+
+    @wp.func
+    def capsule_box_nearest(pos: vec3, halfaxis: vec3, length: scalar, size: vec3, bestdist: scalar):
+        """The capsule's segment (center pos and half axis, box frame) against the box (half-sizes `size`) as
+        mjraw_CapsuleBox searches it, bestdist its squared-distance bound: an end of the segment nearest a face or
+        the segment against each of the 12 edges. Returns (the segment's nearest point in [-1, 1], the edge's in
+        [-1, 1], the kind: -3 or -1 the end -1 or 1 nearest a face, 3 * segment clamp + edge clamp (0..8, 1 a
+        middle, 0 and 2 the ends) for an edge, -4 none; the face's axis (-1: the end inside the box), the nearest
+        corner's bits, the edge's axis)."""
+        seg = scalar(0.0)
+        box = scalar(0.0)
+        kind = int(-4)
+        face = int(-1)
+        corner_bits = int(0)
+        edge = int(0)
+        for k in range(2):
+            end = pos + halfaxis * scalar(2 * k - 1)
+            clamped = vec3(wp.clamp(end[0], -size[0], size[0]), wp.clamp(end[1], -size[1], size[1]), wp.clamp(end[2], -size[2], size[2]))
+            outside = int(0)
+            axis = int(-1)
+            for j in range(3):
+                if end[j] < -size[j] or end[j] > size[j]:
+                    outside += 1
+                    axis = j
+            dist = wp.length_sq(clamped - end)
+            if outside <= 1 and dist < bestdist:
+                bestdist = dist
+                seg = scalar(2 * k - 1)
+                kind = 2 * k - 3
+                face = axis
+        for index in range(24):  # edge along axis j through corner i (bit j clear); 24 > Warp's unrolling
+            j = index // 8
+            i = index % 8
+            corner = vec3(wp.where((i & 1) != 0, size[0], -size[0]), wp.where((i & 2) != 0, size[1], -size[1]), wp.where((i & 4) != 0, size[2], -size[2]))
+            corner[j] = scalar(0.0)
+            dif = corner - pos
+            ma = size[j] * size[j]
+            mb = -size[j] * halfaxis[j]
+            mc = length * length
+            u = -size[j] * dif[j]
+            v = wp.dot(halfaxis, dif)
+            half_edge = vec3(scalar(0.0))
+            half_edge[j] = size[j]
+            det = gram(ma, mb, mc, half_edge, halfaxis)
+            if (i & (1 << j)) == 0 and wp.abs(det) >= scalar(MINVAL):
+                idet = scalar(1.0) / det
+                x1 = (mc * u - mb * v) * idet
+                x2 = (ma * v - mb * u) * idet
+                s1 = int(1)
+                s2 = int(1)
+                if x1 > scalar(1.0):
+                    x1 = scalar(1.0)
+                    s1 = 2
+                    x2 = (v - mb) * (scalar(1.0) / mc)
+                elif x1 < scalar(-1.0):
+                    x1 = scalar(-1.0)
+                    s1 = 0
+                    x2 = (v + mb) * (scalar(1.0) / mc)
+                if x2 > scalar(1.0) or x2 < scalar(-1.0):
+                    sign = wp.where(x2 > scalar(1.0), scalar(1.0), scalar(-1.0))
+                    x2 = sign
+                    s2 = wp.where(x2 > scalar(0.0), 2, 0)
+                    x1 = (u - sign * mb) * (scalar(1.0) / ma)
+                    s1 = wp.where(x1 > scalar(1.0), 2, wp.where(x1 < scalar(-1.0), 0, s1))
+                    x1 = wp.clamp(x1, scalar(-1.0), scalar(1.0))
+                d = dif + halfaxis * (-x2)
+                d[j] = d[j] + size[j] * x1
+                dist = wp.dot(d, d)
+                if dist < bestdist - scalar(MINVAL):
+                    bestdist = dist
+                    seg = x2
+                    box = x1
+                    kind = s1 * 3 + s2
+                    corner_bits = i + (1 << j) * (kind // 6)
+                    edge = j
+        return seg, box, kind, face, corner_bits, edge
+
+    @wp.func
+    def capsule_box_second(pos: vec3, axis: vec3, halfaxis: vec3, size: vec3, seg: scalar, box: scalar, kind: int,
+                           face: int, corner_bits: int, edge: int):
+        """Where mjraw_CapsuleBox puts its second sphere, as an offset along the segment from the nearest point
+        (in units of the half axis; < -3: none): the farthest point of the segment still over the box face or edge
+        that the nearest point lies on, for a segment lying along it."""
+        axisdir = wp.where(halfaxis[0] > scalar(0.0), 1, 0) + wp.where(halfaxis[1] > scalar(0.0), 2, 0) + wp.where(halfaxis[2] > scalar(0.0), 4, 0)
+        one = scalar(1.0)
+        two = scalar(2.0)
+        if kind >= 0 and kind // 3 != 1:  # the nearest point is a corner of the box
+            c1 = axisdir ^ corner_bits
+            if c1 == 0 or c1 == 7:  # pointing to or away from the corner
+                return scalar(-4.0)
+            mul = one
+            de = one - seg
+            dp = one + seg
+            if c1 == 3 or c1 == 5 or c1 == 6:
+                mul = -one
+                c1 = 7 - c1
+                de = one + seg
+                dp = one - seg
+            ax = wp.where(c1 == 1, 0, wp.where(c1 == 2, 1, 2))
+            ax1 = (ax + 1) % 3
+            ax2 = (ax + 2) % 3
+            if axis[ax] * axis[ax] > scalar(0.5):  # along the edge
+                return wp.min(de, two * size[ax] / wp.abs(halfaxis[ax])) * mul
+            second = wp.min(wp.min(dp, two * size[ax1] / wp.abs(halfaxis[ax1])), two * size[ax2] / wp.abs(halfaxis[ax2]))
+            return second * -mul  # along a face
+        if kind >= 0:  # the nearest point is inside an edge of the box
+            c1 = (axisdir ^ corner_bits) & (7 - (1 << edge))
+            if c1 != 1 and c1 != 2 and c1 != 4:  # a T, not a cross: no second point
+                return scalar(-4.0)
+            ax1 = (edge + 1) % 3
+            if wp.abs(axis[ax1]) > wp.abs(axis[(edge + 2) % 3]):
+                ax1 = (edge + 2) % 3
+            ax2 = 3 - edge - ax1
+            mul = -one
+            second = one + seg
+            if (c1 & (1 << ax2)) != 0:
+                mul = one
+                second = one - seg
+            second = wp.min(second, two * size[ax2] / wp.abs(halfaxis[ax2]))
+            e2 = one + box
+            if ((axisdir & (1 << edge)) != 0) == ((c1 & (1 << ax2)) != 0):
+                e2 = one - box
+            return wp.min(second, size[edge] * e2 / wp.abs(halfaxis[edge])) * mul
+        if face == -1:  # an end inside the box
+            return scalar(-4.0)
+        mul = wp.where(kind == -3, one, -one)
+        other = pos + halfaxis * (-mul)
+        second = two
+        for i in range(3):
+            if i != face:
+                for k in range(2):
+                    e1 = (wp.where(k == 0, size[i], -size[i]) - other[i]) / halfaxis[i] * mul
+                    if e1 > scalar(0.0) and e1 < second:
+                        second = e1
+        return second * mul
+
+    @wp.func
+    def capsule_box(pos1: vec3, R1: mat33, size1: vec3, pos2: vec3, R2: mat33, size2: vec3, margin: scalar):
+        """Capsule-box, MuJoCo's mjraw_CapsuleBox: a sphere of the capsule's radius at the segment's point nearest
+        the box (sphere-box), and where the segment lies along a face or an edge, a second one at the farthest point
+        of the segment still over it; at most 2 contacts."""
+        pos = wp.transpose(R2) * (pos1 - pos2)
+        axis = wp.transpose(R2) * axis_of(R1, 2)
+        halfaxis = axis * size1[1]
+        bound = margin + scalar(2.0) * (size1[0] + size1[1] + size2[0] + size2[1] + size2[2])
+        seg, box, kind, face, corner_bits, edge = capsule_box_nearest(pos, halfaxis, size1[1], size2, bound)
+        P = mat23()
+        N = mat23()
+        D = vec2()
+        if kind == -4:
+            return 0, P, N, D
+        second = capsule_box_second(pos, axis, halfaxis, size2, seg, box, kind, face, corner_bits, edge)
+        n, p, nrm, d = sphere_box(R2 * (pos + halfaxis * seg) + pos2, R1, size1[0], pos2, R2, size2, margin)
+        P[0] = p
+        N[0] = nrm
+        D[0] = d
+        if second > scalar(-3.0):
+            m, p, nrm, d = sphere_box(R2 * (pos + halfaxis * (second + seg)) + pos2, R1, size1[0], pos2, R2, size2, margin)
+            if m > 0:
+                P[n] = p
+                N[n] = nrm
+                D[n] = d
+                n += 1
+        return n, P, N, D
 
     # --- MuJoCo's bounding-sphere filter and the batch kernel ----------------------------------------------------
 
@@ -465,6 +644,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         elif type1 == SPHERE and type2 == BOX:
             n, p, nrm, d = sphere_box(p1, m1, s1[0], p2, m2, s2, e)
             store_one(i, n, p, nrm, d, position, frame, dist)
+        elif type1 == CAPSULE and type2 == BOX:
+            n, P2, N2, D2 = capsule_box(p1, m1, s1, p2, m2, s2, e)
+            store(i, n, P2, N2, D2, vec3(scalar(0.0)), position, frame, dist)
         elif type1 == CAPSULE and type2 == CAPSULE:
             n, P2, N2, D2 = capsule_capsule(p1, m1, s1, p2, m2, s2, e)
             store(i, n, P2, N2, D2, vec3(scalar(0.0)), position, frame, dist)
@@ -489,5 +671,6 @@ def kernels(scalar) -> types.SimpleNamespace:
         bounding_radius=bounding_radius,
         may_touch=may_touch,
         sphere_box=sphere_box,
+        capsule_box=capsule_box,
         collide=collide,
     )

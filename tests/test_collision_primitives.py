@@ -15,20 +15,24 @@ import mujoco
 import numpy as np
 import pytest
 import scipy.optimize
+import scipy.spatial.transform
 import warp as wp
 
 from warpdyn.kernels import collision_primitives as cp
 
 FLOAT64_TOL = 1e-10
 FLOAT32_TOL = 2e-5
-FLOAT32_EPS = 6e-8
-FLOAT32_GROWTH = 100.0
+FLOAT32_MOVE = 1e-6
+FLOAT32_DRAWS = 16
+FLOAT32_GROWTH = 10.0
 FLOAT32_POINTS = 1e-6
 """float32: a contact takes tens of operations on lengths of order 1 m, each rounded to 6e-8 relative: 2e-5 m (or
 unit) leaves a margin over that. Where the contact is ill-conditioned (a normal from two nearly coincident points,
-the tangent of a capsule standing on a plane) rounding is amplified; how much, the float64 arithmetic on the inputs
-moved at random by float32's rounding (FLOAT32_EPS relative) measures, one rounding per input amplified as float32
-amplifies its own: float32's tens of roundings are allowed FLOAT32_GROWTH times that. A normal drawn between two
+the tangent of a capsule standing on a plane) rounding is amplified; how much, float64 arithmetic on inputs moved at
+random by FLOAT32_MOVE (`_moved`; float32's rounding of tens of operations) measures
+(FLOAT32_DRAWS draws, the largest change): float32 is allowed FLOAT32_GROWTH times that. A pose where such a move
+changes the contacts' count (a branch of MuJoCo's on its edge: a capsule exactly along a box's face, whose
+second contact MuJoCo decides by the sign of rounding noise) is compared in float64 only. A normal drawn between two
 points s apart (sphere-like contacts: MuJoCo's mjraw_SphereSphere) that float32 computes separately, each to
 ~1e-7 m, is allowed FLOAT32_POINTS / s more: exact arithmetic on moved inputs keeps that direction (the common
 perpendicular of two capsules' axes) where float32's rounding of each point does not."""
@@ -55,6 +59,12 @@ def _rot(q):
     out = np.empty(9)
     mujoco.mju_quat2Mat(out, np.asarray(q, float))
     return out.reshape(3, 3)
+
+
+def _inverse(p, q):
+    """The pose (position, quaternion) of frame A in frame B from B's (p, q) in A."""
+    q_inv = np.array([q[0], -q[1], -q[2], -q[3]])
+    return tuple(-(_rot(q).T @ np.asarray(p, float))), q_inv
 
 
 def _rbound(name, size):
@@ -111,6 +121,15 @@ def _special(name1, name2, size1, size2, margin):
         cases += [((0.0, 0.0, size1[1] + size2[1] + r1 + r2 - 0.01), IDENTITY), ((0.0, 0.0, 0.0), IDENTITY)]
         cases += [((0.0, r1 + r2 - 0.05, 0.0), X90), ((0.0, 0.0, 0.0), X90)]
         return cases
+    if name1 == "capsule" and name2 == "box":  # the capsule in the box's frame: along a face, an edge, across an edge, standing, inside
+        sx, sy, sz = size2
+        along_x, along_y = _quat([0, 1, 0], np.pi / 2), _quat([1, 0, 0], np.pi / 2)
+        for d in (-0.02, 0.0, 0.5 * margin):
+            cases += [((0.05, 0.02, sz + r1 + d), along_x), ((sx, 0.1, sz + r1 + d), along_x), ((0.0, sy + r1 + d, sz + r1 + d), along_x)]
+        cases += [((0.05, 0.0, sz + r1 - 0.01), _quat([0, 1, 0], np.pi / 2 + 0.2)), ((0.0, sy + 0.07, sz + 0.07), along_x)]
+        cases += [((sx + 0.05, 0.0, sz + 0.05), _mul(_quat([0, 0, 1], 0.5), along_y)), ((0.0, 0.0, sz + size1[1] + r1 - 0.02), IDENTITY)]
+        cases += [((0.0, 0.0, sz), IDENTITY), ((sx + 0.2, sy + 0.2, sz + 0.2), _quat([1, -1, 0], 0.96)), ((0.0, 0.0, 0.0), along_x)]
+        return [_inverse(p, q) for p, q in cases]  # the box relative to the capsule
     raise KeyError((name1, name2))
 
 
@@ -203,6 +222,26 @@ def _separation(pair, sizes, dist):
     return max(np.min(dist) + radii, 1e-12)
 
 
+def _moved(rng, xpos, xmat, sizes, margin):
+    """The inputs moved at random by FLOAT32_MOVE: positions, sizes and margin by that (relative, absolute below
+    1), each rotation by a rotation of that angle (so that it stays one)."""
+    def move(a):
+        return a + FLOAT32_MOVE * np.maximum(np.abs(a), 1.0) * rng.standard_normal(np.shape(a))
+
+    turn = scipy.spatial.transform.Rotation.from_rotvec(FLOAT32_MOVE * rng.standard_normal((xmat.shape[0] * 2, 3))).as_matrix()
+    return move(xpos), xmat @ turn.reshape(xmat.shape), move(sizes), move(margin)
+
+
+def _noise_decided(pair, xmat):
+    """Per pose, whether MuJoCo decides its contacts by the sign of rounding noise: a capsule parallel to a face of
+    a box (a component of its axis in the box's frame below 1e-12; mjraw_CapsuleBox's axisdir bits, which float32,
+    computing exact zeros there, sets otherwise)."""
+    if pair != ("capsule", "box"):
+        return np.zeros(len(xmat), bool)
+    axis = np.einsum("nji,nj->ni", xmat[:, 1], xmat[:, 0, :, 2])
+    return np.any(np.abs(axis) < 1e-12, axis=1)
+
+
 def _contacts(out, i):
     count, pos, frame, dist = out
     return pos[i, : count[i]], frame[i, : count[i]], dist[i, : count[i]]
@@ -219,6 +258,7 @@ PAIRS = [
     ("sphere", "cylinder"),
     ("sphere", "box"),
     ("capsule", "capsule"),
+    ("capsule", "box"),
 ]
 
 
@@ -227,27 +267,28 @@ PAIRS = [
 def test_pair_equals_mujoco(pair, margin, gap, dtype):
     """Each pose's contacts equal MuJoCo's: their count (but for contacts exactly on the margin's edge), then the
     position, frame and dist of the contacts paired by position, within FLOAT64_TOL, or in float32 within
-    FLOAT32_TOL + FLOAT32_GROWTH times what moving the inputs by float32's rounding alone changes (float64 arithmetic
-    on them); float32 skips the poses where that alone changes the count (a branch of MuJoCo's on its edge)."""
+    the tolerance the module's docstring derives; float32 skips the poses where moving the inputs changes the count
+    (a branch of MuJoCo's on its edge) and those whose contacts MuJoCo decides by rounding noise (`_noise_decided`)."""
     xpos, xmat, sizes, total, contacts = _reference(*pair, margin, gap)
     assert sum(len(c[2]) for c in contacts) > len(contacts) // 3  # the poses touch often enough to test something
     out = _collide(*pair, xpos, xmat, sizes, total, dtype)
     if dtype == np.float32:
         rng = np.random.default_rng(1)
-        moved_inputs = [a * (1.0 + FLOAT32_EPS * rng.standard_normal(np.shape(a))) for a in (xpos, xmat, sizes, total)]
-        near = _collide(*pair, *moved_inputs, np.float64)
+        moved = [_collide(*pair, *_moved(rng, xpos, xmat, sizes, total), np.float64) for _ in range(FLOAT32_DRAWS)]
     worst, edge, skipped = np.zeros(3), 0, 0
+    noisy = _noise_decided(pair, xmat)
     for i, ref in enumerate(contacts):
         tol, band = np.full(3, FLOAT64_TOL), 1e-12
         if dtype == np.float32:
-            moved = _compare(ref, _contacts(near, i), total, FLOAT32_TOL)
-            if moved is None:
+            shifts = [_compare(ref, _contacts(out_moved, i), total, FLOAT32_TOL) for out_moved in moved]
+            if noisy[i] or any(shift is None for shift in shifts):
                 skipped += 1
                 continue
-            tol, band = FLOAT32_TOL + FLOAT32_GROWTH * moved[0] + FLOAT32_POINTS / _separation(pair, sizes, ref[2]), FLOAT32_TOL
+            shift = np.max([shift[0] for shift in shifts], axis=0)
+            tol, band = FLOAT32_TOL + FLOAT32_GROWTH * shift + FLOAT32_POINTS / _separation(pair, sizes, ref[2]), FLOAT32_TOL
         compared = _compare(ref, _contacts(out, i), total, band)
         assert compared is not None, (i, ref, _contacts(out, i))
         assert np.all(compared[0] <= tol), (i, compared[0], tol, ref, _contacts(out, i))
         worst, edge = np.maximum(worst, compared[0]), edge + compared[1]
     print("-".join(pair), np.dtype(dtype).name, f"margin + gap {total}: max |pos|, |frame|, |dist| errors", worst, "contacts on the edge", edge, "skipped", skipped)
-    assert skipped <= len(contacts) // 20
+    assert skipped - noisy.sum() <= len(contacts) // 20
