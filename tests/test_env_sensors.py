@@ -47,7 +47,7 @@ def _legs(dtype=np.float32):
 
 def _rotate_inverse(q, v):
     """R(q)^T v, q (N, 4) (w, x, y, z) or (4,), v (N, 3): torch."""
-    q = torch.as_tensor(q, dtype=v.dtype).expand(v.shape[0], 4)
+    q = torch.as_tensor(q, dtype=v.dtype, device=v.device).expand(v.shape[0], 4)
     return envs.terms.quat_rotate_inverse(q, v)
 
 
@@ -67,7 +67,7 @@ def test_the_imu_reads_minus_gravity_at_rest_on_a_slope():
         env.step(_zero(env))
     s = env.state
     assert float(s.projected_gravity[:, :2].norm(dim=1).min()) > 0.15  # tilted by the slope
-    up = torch.tensor([[0.0, 0.0, 9.81]], dtype=env.torch_dtype).expand(3, 3)
+    up = torch.tensor([[0.0, 0.0, 9.81]], dtype=env.torch_dtype, device=env.device).expand(3, 3)
     expected = _rotate_inverse(mount, _rotate_inverse(s.base_quaternion, up))
     torch.testing.assert_close(env.imu.linear_acceleration, expected, atol=1e-3, rtol=0)
     torch.testing.assert_close(env.imu.angular_velocity, torch.zeros_like(expected), atol=1e-3, rtol=0)
@@ -84,14 +84,14 @@ def test_the_imu_reads_zero_in_free_fall_under_the_models_gravity():
     gravity = np.array([[0.0, 0.0, -9.81], [1.0, -2.0, -8.0], [0.0, 0.0, -3.0]])
     env.model.set_gravity(gravity)
     env.reset(seed=0)
-    g = torch.tensor(gravity, dtype=env.torch_dtype)
+    g = torch.tensor(gravity, dtype=env.torch_dtype, device=env.device)
     torch.testing.assert_close(env.imu.linear_acceleration, _rotate_inverse(env.state.base_quaternion, -g), atol=1e-5, rtol=0)
     views = env._state_views[id(env.stepper.data)]
     views["base_position"][:, 2] += 1.0
     env.step(_zero(env))
     assert float(env.state.base_linear_velocity.norm(dim=1).min()) > 0.05  # falling
-    torch.testing.assert_close(env.imu.linear_acceleration, torch.zeros(3, 3, dtype=env.torch_dtype), atol=1e-3, rtol=0)
-    views["base_velocity"][:, 3:] = torch.tensor([0.5, -1.0, 2.0])
+    torch.testing.assert_close(env.imu.linear_acceleration, torch.zeros_like(g), atol=1e-3, rtol=0)
+    views["base_velocity"][:, 3:] = torch.tensor([0.5, -1.0, 2.0], device=env.device)
     env.step(_zero(env))
     torch.testing.assert_close(env.imu.angular_velocity, env.state.base_angular_velocity, atol=1e-6, rtol=0)
     assert float(env.imu.angular_velocity.norm(dim=1).min()) > 1.0
@@ -106,17 +106,17 @@ def test_an_offset_imu_reads_its_own_points_acceleration():
     env.reset(seed=0)
     views = env._state_views[id(env.stepper.data)]
     views["base_position"][:, 2] += 1.0
-    views["base_velocity"][:, 3:] = torch.tensor([0.0, 0.0, 3.0])
+    views["base_velocity"][:, 3:] = torch.tensor([0.0, 0.0, 3.0], device=env.device)
     env.step(_zero(env))
     now, before = (env._state_views[id(env.stepper.data)], next(env._state_views[id(d)] for d in env.stepper.buffers if d is not env.stepper.data))
-    r = torch.tensor([offset], dtype=env.torch_dtype).expand(2, 3)
+    r = torch.tensor([offset], dtype=env.torch_dtype, device=env.device).expand(2, 3)
 
     def point_velocity(v):
         q = v["base_quaternion"] / v["base_quaternion"].norm(dim=1, keepdim=True)
         return v["base_velocity"][:, :3] + torch.cross(v["base_velocity"][:, 3:], envs.terms.quat_rotate(q, r), dim=1)
 
     acceleration = (point_velocity(now) - point_velocity(before)) / env.cfg.time_step
-    g = torch.tensor([[0.0, 0.0, -9.81]], dtype=env.torch_dtype)
+    g = torch.tensor([[0.0, 0.0, -9.81]], dtype=env.torch_dtype, device=env.device)
     expected = _rotate_inverse(env.state.base_quaternion, acceleration - g)
     assert float(expected.norm(dim=1).min()) > 1.0  # not free fall's zero
     torch.testing.assert_close(env.imu.linear_acceleration, expected, atol=0.03, rtol=0)
@@ -185,9 +185,9 @@ def test_stumbling_fires_for_a_foot_pushed_into_a_stair():
     riser = 4.0 + 0.02 * np.flatnonzero(np.diff(row) > 0.2)[0]  # where the first step up begins
     views = env._state_views[id(env.stepper.data)]
     toe = float(wd.contact.collidable_point_positions(env.model, wd.data.Data.build(env.model)).numpy()[:, 0].max())  # the feet's front edge, ahead of the base
-    views["base_position"][0] = torch.tensor([riser - 0.005 - toe, 2.0, env.standing_height + 0.01])
-    views["base_quaternion"][0] = torch.tensor([1.0, 0.0, 0.0, 0.0])
-    views["base_velocity"][0] = torch.tensor([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    views["base_position"][0] = torch.tensor([riser - 0.005 - toe, 2.0, env.standing_height + 0.01], device=env.device)
+    views["base_quaternion"][0] = torch.tensor([1.0, 0.0, 0.0, 0.0], device=env.device)
+    views["base_velocity"][0] = torch.tensor([1.0, 0.0, 0.0, 0.0, 0.0, 0.0], device=env.device)
     mu = wp.to_torch(env.model.contact_params.mu)
     mu[0], mu[1] = 0.05, 0.8
     env.step(_zero(env))
@@ -219,7 +219,7 @@ def test_the_height_above_the_terrain_under_the_base():
     env.reset(seed=0)
     places = np.array([[0.3, 0.4], [1.2, 1.5], [-0.7, 2.0], [0.55, -0.8]])
     views = env._state_views[id(env.stepper.data)]
-    views["base_position"].copy_(torch.tensor(np.c_[places, h(*places.T) + env.standing_height + 0.05]))
+    views["base_position"].copy_(torch.tensor(np.c_[places, h(*places.T) + env.standing_height + 0.05], device=env.device))
     env.step(_zero(env))
     base = env.state.base_position.cpu().numpy()
     above = base[:, 2] - h(base[:, 0], base[:, 1])
@@ -272,14 +272,14 @@ def test_the_actuator_history_shifts_each_simulation_step_and_resets_per_environ
     net = PD(50.0, 0.5, history=H)
     env = envs.LeggedEnv(_legs(), num_envs=2, cfg=envs.LeggedEnvConfig(actuator=ActuatorNet(net, history=H), policy_dt=0.006, torque_limit=10.0), seed=0)
     env.reset(seed=0)
-    action = torch.full((2, 12), 0.8)
+    action = torch.full((2, 12), 0.8, device=env.device)
     for _ in range(2):
         env.step(action)
     x = net.inputs
     assert len(x) == 6 and x[0].shape == (2, 12, 2 * H)
     for k in range(6):
         for j in range(H):
-            older = x[k - j][..., [0, H]] if k >= j else torch.zeros(2, 12, 2)
+            older = x[k - j][..., [0, H]] if k >= j else torch.zeros(2, 12, 2, device=env.device)
             assert torch.equal(x[k][..., [j, H + j]], older), (k, j)
     previous = next(env._state_views[id(d)] for d in env.stepper.buffers if d is not env.stepper.data)  # where the last step began
     targets = env.default_joint_positions + 0.25 * action
@@ -340,4 +340,4 @@ def test_torque_actions_are_held_over_the_policy_step():
         expected = wd.model.step(env.model, expected, joint_force_references=torques)
     np.testing.assert_array_equal(env.stepper.data.joint_positions.numpy(), expected.joint_positions.numpy())
     np.testing.assert_array_equal(env.stepper.data.base_position.numpy(), expected.base_position.numpy())
-    np.testing.assert_array_equal(env.joint_torques.numpy(), torques)
+    np.testing.assert_array_equal(env.joint_torques.cpu().numpy(), torques)

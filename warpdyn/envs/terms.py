@@ -5,7 +5,8 @@ in the base frame and gravity projected into it), `env.actions`, `env.previous_a
 the feet's `env.feet_contact`, `env.feet_first_contact` and `env.feet_air_time` (N, feet) and contact forces
 `env.feet_contact_forces` (N, feet, 3) [N], `env.terrain_below_base` (N,) [m], `env.imu` (the IMU's readings), and
 `env.joint_torques` (what the environment's own servos and dampers apply: kp (target - s) clipped at
-cfg.torque_limit, minus kd sdot); a task composes them with weights
+cfg.torque_limit, minus kd sdot; with cfg.actuator "torque" or an ActuatorNet, the torques of the last simulation
+step); a task composes them with weights
 (`LeggedEnvConfig.rewards`, `.observations`).
 """
 
