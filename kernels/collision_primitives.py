@@ -13,12 +13,16 @@ MuJoCo's conventions, kept so that the results compare with its d.contact direct
   the capsule's axis for plane-capsule contacts, MuJoCo's only tangent, and is chosen from the normal otherwise).
 - dist (m): the signed distance between the surfaces along the normal, negative when they penetrate. pos (m, world):
   the point midway between the two surfaces (MuJoCo's mjContact.pos).
-- margin (m): what MuJoCo passes its collision functions, the pair's margin + gap (the sum of both geoms'
-  geom_margin + geom_gap, or an explicit pair's). A contact is reported when dist <= margin; MuJoCo keeps those with
-  dist >= margin - gap in d.contact but excludes them from the constraints.
-- A pair's function returns (count, positions, normals, dists) with a fixed size: MuJoCo's maximum for the pair (1
-  for a sphere, 2 for plane-capsule and capsule-capsule, 4 for plane-box and plane-cylinder); contacts 0 .. count-1
-  are valid, in MuJoCo's order. Single-contact pairs return a vec3 position and normal and a scalar dist.
+- margin (m): what MuJoCo passes its collision functions, the pair's margin + gap (the sums of both geoms'
+  geom_margin and geom_gap, or an explicit pair's). A contact is reported when dist <= margin + gap; MuJoCo keeps
+  those with dist >= margin in d.contact (includemargin = margin) but excludes them from the constraints.
+- A pair's function returns (count, positions, normals, dists) with a fixed size: the most contacts the pair gives
+  (1 with a sphere or an ellipsoid, 2 for plane-capsule, capsule-capsule and capsule-box, 4 for plane-box and
+  plane-cylinder); contacts 0 .. count-1 are valid, in MuJoCo's order. Single-contact pairs return a vec3 position
+  and normal and a scalar dist. MuJoCo calls them only for pairs whose bounding spheres meet (`may_touch`).
+Pairs: plane with sphere, capsule, box, cylinder, ellipsoid; sphere with sphere, capsule, cylinder, box; capsule with
+capsule, box. Not here: box-box (MuJoCo's mjc_BoxBox), and the pairs MuJoCo collides with its general convex
+solver (mjc_Convex: capsule-cylinder, ellipsoids and cylinders with anything but a plane, meshes).
 The thresholds are MuJoCo's (mjMINVAL = 1e-15, as in its single-precision build too), but for PARALLEL_SQ and
 CONCENTRIC in float32 and the capsule-capsule parallel test (see their docstrings).
 """
@@ -64,9 +68,16 @@ def kernels(scalar) -> types.SimpleNamespace:
         return vec3(R[0, j], R[1, j], R[2, j])
 
     @wp.func
+    def root(x: scalar):
+        """sqrt(x) for x >= 0, its adjoint 0 rather than NaN at 0 (where the values using it do not depend on x)."""
+        if x > scalar(0.0):
+            return wp.sqrt(x)
+        return scalar(0.0)
+
+    @wp.func
     def normalize(v: vec3):
         """(v / |v|, |v|); (1, 0, 0) where |v| < mjMINVAL: MuJoCo's mju_normalize3."""
-        norm = wp.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        norm = root(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
         if norm < scalar(MINVAL):
             return vec3(scalar(1.0), scalar(0.0), scalar(0.0)), norm
         return v * (scalar(1.0) / norm), norm
@@ -231,7 +242,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         min_dist = margin + r1 + r2
         if cdist_sqr > min_dist * min_dist:
             return 0, vec3(scalar(0.0)), vec3(scalar(0.0)), scalar(0.0)
-        dist = wp.sqrt(cdist_sqr) - r1 - r2
+        dist = root(cdist_sqr) - r1 - r2
         normal, length = normalize(pos2 - pos1)
         if length < scalar(wp.static(CONCENTRIC[scalar])):
             normal = unit(wp.cross(axis_of(R1, 2), axis_of(R2, 2)))
@@ -261,7 +272,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         side = wp.abs(x) < height
         cap = p_proj_sqr < radius * radius
         if side and cap:  # the center is inside the cylinder
-            if height - wp.abs(x) < radius - wp.sqrt(p_proj_sqr):
+            if height - wp.abs(x) < radius - root(p_proj_sqr):
                 side = False
             else:
                 cap = False
@@ -371,19 +382,76 @@ def kernels(scalar) -> types.SimpleNamespace:
         return 1, R2 * local + pos2, normal, dist - r1
 
     @wp.func
+    def edge_segment(pos: vec3, halfaxis: vec3, length: scalar, size: vec3, j: int, i: int):
+        """The nearest points of the capsule's segment (center pos, half axis, half-length `length`, box frame) and
+        the box's edge along axis j through corner i (bit j clear) as mjraw_CapsuleBox solves them: (the edge's
+        point x1 and the segment's x2 in [-1, 1], their clamps s1, s2: 0 the low end, 1 inside, 2 the high end, the
+        squared distance, whether they are not parallel)."""
+        one = scalar(1.0)
+        zero = scalar(0.0)
+        corner = vec3(  # the edge's center
+            wp.where(j == 0, zero, wp.where((i & 1) != 0, size[0], -size[0])),
+            wp.where(j == 1, zero, wp.where((i & 2) != 0, size[1], -size[1])),
+            wp.where(j == 2, zero, wp.where((i & 4) != 0, size[2], -size[2])),
+        )
+        half_edge = vec3(wp.where(j == 0, size[0], zero), wp.where(j == 1, size[1], zero), wp.where(j == 2, size[2], zero))
+        dif = corner - pos
+        ma = size[j] * size[j]
+        mb = -size[j] * halfaxis[j]
+        mc = length * length
+        u = -size[j] * dif[j]
+        v = wp.dot(halfaxis, dif)
+        det = gram(ma, mb, mc, half_edge, halfaxis)
+        if wp.abs(det) < scalar(MINVAL):
+            return scalar(0.0), scalar(0.0), 1, 1, scalar(0.0), False
+        idet = one / det
+        x1 = (mc * u - mb * v) * idet
+        x2 = (ma * v - mb * u) * idet
+        s1 = int(1)
+        s2 = int(1)
+        if x1 > one:
+            x1 = one
+            s1 = 2
+            x2 = (v - mb) * (one / mc)
+        elif x1 < -one:
+            x1 = -one
+            s1 = 0
+            x2 = (v + mb) * (one / mc)
+        if x2 > one or x2 < -one:
+            sign = wp.where(x2 > one, one, -one)
+            x2 = sign
+            s2 = wp.where(x2 > scalar(0.0), 2, 0)
+            x1 = (u - sign * mb) * (one / ma)
+            s1 = wp.where(x1 > one, 2, wp.where(x1 < -one, 0, s1))
+            x1 = wp.clamp(x1, -one, one)
+        d = dif + halfaxis * (-x2) + half_edge * x1
+        return x1, x2, s1, s2, wp.dot(d, d), True
+
+    @wp.func
+    def nearest_edge(pos: vec3, halfaxis: vec3, length: scalar, size: vec3, bestdist: scalar):
+        """The index 8 j + i of the box's edge (along axis j through corner i) nearest the capsule's segment, nearer
+        than sqrt(bestdist) - mjMINVAL, or -1 (mjraw_CapsuleBox's search, the first of equals)."""
+        best = int(-1)
+        for index in range(24):  # 24: not unrolled
+            if (index % 8 & (1 << index // 8)) == 0:
+                x1, x2, s1, s2, dist, solved = edge_segment(pos, halfaxis, length, size, index // 8, index % 8)
+                if solved and dist < bestdist - scalar(MINVAL):
+                    bestdist = dist
+                    best = index
+        return best
+
+    @wp.func
     def capsule_box_nearest(pos: vec3, halfaxis: vec3, length: scalar, size: vec3, bestdist: scalar):
         """The capsule's segment (center pos and half axis, box frame) against the box (half-sizes `size`) as
         mjraw_CapsuleBox searches it, bestdist its squared-distance bound: an end of the segment nearest a face or
         the segment against each of the 12 edges. Returns (the segment's nearest point in [-1, 1], the edge's in
-        [-1, 1], the kind: -3 or -1 the end -1 or 1 nearest a face, 3 * segment clamp + edge clamp (0..8, 1 a
-        middle, 0 and 2 the ends) for an edge, -4 none; the face's axis (-1: the end inside the box), the nearest
-        corner's bits, the edge's axis)."""
+        [-1, 1], the kind: -3 or -1 the end -1 or 1 nearest a face, 3 s1 + s2 (`edge_segment`) for an edge, -4 none;
+        the face's axis (-1: the end inside the box), the nearest corner's bits, the edge's axis). The edges' loop
+        keeps the best edge's index only, and solves that edge again under other names: Warp's adjoint of a dynamic loop
+        reads a name used after it as carried."""
         seg = scalar(0.0)
-        box = scalar(0.0)
         kind = int(-4)
         face = int(-1)
-        corner_bits = int(0)
-        edge = int(0)
         for k in range(2):
             end = pos + halfaxis * scalar(2 * k - 1)
             clamped = vec3(wp.clamp(end[0], -size[0], size[0]), wp.clamp(end[1], -size[1], size[1]), wp.clamp(end[2], -size[2], size[2]))
@@ -393,58 +461,29 @@ def kernels(scalar) -> types.SimpleNamespace:
                 if end[j] < -size[j] or end[j] > size[j]:
                     outside += 1
                     axis = j
-            dist = wp.length_sq(clamped - end)
-            if outside <= 1 and dist < bestdist:
-                bestdist = dist
+            end_dist = wp.length_sq(clamped - end)
+            if outside <= 1 and end_dist < bestdist:
+                bestdist = end_dist
                 seg = scalar(2 * k - 1)
                 kind = 2 * k - 3
                 face = axis
-        for index in range(24):  # edge along axis j through corner i (bit j clear); 24 > Warp's unrolling
-            j = index // 8
-            i = index % 8
-            corner = vec3(wp.where((i & 1) != 0, size[0], -size[0]), wp.where((i & 2) != 0, size[1], -size[1]), wp.where((i & 4) != 0, size[2], -size[2]))
-            corner[j] = scalar(0.0)
-            dif = corner - pos
-            ma = size[j] * size[j]
-            mb = -size[j] * halfaxis[j]
-            mc = length * length
-            u = -size[j] * dif[j]
-            v = wp.dot(halfaxis, dif)
-            half_edge = vec3(scalar(0.0))
-            half_edge[j] = size[j]
-            det = gram(ma, mb, mc, half_edge, halfaxis)
-            if (i & (1 << j)) == 0 and wp.abs(det) >= scalar(MINVAL):
-                idet = scalar(1.0) / det
-                x1 = (mc * u - mb * v) * idet
-                x2 = (ma * v - mb * u) * idet
-                s1 = int(1)
-                s2 = int(1)
-                if x1 > scalar(1.0):
-                    x1 = scalar(1.0)
-                    s1 = 2
-                    x2 = (v - mb) * (scalar(1.0) / mc)
-                elif x1 < scalar(-1.0):
-                    x1 = scalar(-1.0)
-                    s1 = 0
-                    x2 = (v + mb) * (scalar(1.0) / mc)
-                if x2 > scalar(1.0) or x2 < scalar(-1.0):
-                    sign = wp.where(x2 > scalar(1.0), scalar(1.0), scalar(-1.0))
-                    x2 = sign
-                    s2 = wp.where(x2 > scalar(0.0), 2, 0)
-                    x1 = (u - sign * mb) * (scalar(1.0) / ma)
-                    s1 = wp.where(x1 > scalar(1.0), 2, wp.where(x1 < scalar(-1.0), 0, s1))
-                    x1 = wp.clamp(x1, scalar(-1.0), scalar(1.0))
-                d = dif + halfaxis * (-x2)
-                d[j] = d[j] + size[j] * x1
-                dist = wp.dot(d, d)
-                if dist < bestdist - scalar(MINVAL):
-                    bestdist = dist
-                    seg = x2
-                    box = x1
-                    kind = s1 * 3 + s2
-                    corner_bits = i + (1 << j) * (kind // 6)
-                    edge = j
-        return seg, box, kind, face, corner_bits, edge
+        best = nearest_edge(pos, halfaxis, length, size, bestdist)
+        if best < 0:
+            return seg, scalar(0.0), kind, face, 0, 0
+        axis_j = best // 8
+        box_x, seg_x, box_clamp, seg_clamp, nearest, found = edge_segment(pos, halfaxis, length, size, axis_j, best % 8)
+        kind = box_clamp * 3 + seg_clamp
+        return seg_x, box_x, kind, face, best % 8 + (1 << axis_j) * (kind // 6), axis_j
+
+    @wp.func
+    def shorter(x: scalar, num: scalar, h: scalar):
+        """min(x, num / |h|) as mjraw_CapsuleBox takes it (`if (e1 < secondpos) secondpos = e1`, num >= 0); x where
+        h is 0, without the division (num / 0 is no less than x), whose adjoint would be NaN."""
+        if h != scalar(0.0):
+            e = num / wp.abs(h)
+            if e < x:
+                return e
+        return x
 
     @wp.func
     def capsule_box_second(pos: vec3, axis: vec3, halfaxis: vec3, size: vec3, seg: scalar, box: scalar, kind: int,
@@ -471,9 +510,8 @@ def kernels(scalar) -> types.SimpleNamespace:
             ax1 = (ax + 1) % 3
             ax2 = (ax + 2) % 3
             if axis[ax] * axis[ax] > scalar(0.5):  # along the edge
-                return wp.min(de, two * size[ax] / wp.abs(halfaxis[ax])) * mul
-            second = wp.min(wp.min(dp, two * size[ax1] / wp.abs(halfaxis[ax1])), two * size[ax2] / wp.abs(halfaxis[ax2]))
-            return second * -mul  # along a face
+                return shorter(de, two * size[ax], halfaxis[ax]) * mul
+            return shorter(shorter(dp, two * size[ax1], halfaxis[ax1]), two * size[ax2], halfaxis[ax2]) * -mul  # along a face
         if kind >= 0:  # the nearest point is inside an edge of the box
             c1 = (axisdir ^ corner_bits) & (7 - (1 << edge))
             if c1 != 1 and c1 != 2 and c1 != 4:  # a T, not a cross: no second point
@@ -487,18 +525,18 @@ def kernels(scalar) -> types.SimpleNamespace:
             if (c1 & (1 << ax2)) != 0:
                 mul = one
                 second = one - seg
-            second = wp.min(second, two * size[ax2] / wp.abs(halfaxis[ax2]))
+            second = shorter(second, two * size[ax2], halfaxis[ax2])
             e2 = one + box
             if ((axisdir & (1 << edge)) != 0) == ((c1 & (1 << ax2)) != 0):
                 e2 = one - box
-            return wp.min(second, size[edge] * e2 / wp.abs(halfaxis[edge])) * mul
+            return shorter(second, size[edge] * e2, halfaxis[edge]) * mul
         if face == -1:  # an end inside the box
             return scalar(-4.0)
         mul = wp.where(kind == -3, one, -one)
         other = pos + halfaxis * (-mul)
         second = two
         for i in range(3):
-            if i != face:
+            if i != face and halfaxis[i] != scalar(0.0):  # (MuJoCo's e1 is then infinite or NaN: no change)
                 for k in range(2):
                     e1 = (wp.where(k == 0, size[i], -size[i]) - other[i]) / halfaxis[i] * mul
                     if e1 > scalar(0.0) and e1 < second:
@@ -588,21 +626,13 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def collide(
-        type1: int,
-        type2: int,
-        pos1: wp.array(dtype=vec3),
-        R1: wp.array(dtype=mat33),
-        size1: wp.array(dtype=vec3),
-        pos2: wp.array(dtype=vec3),
-        R2: wp.array(dtype=mat33),
-        size2: wp.array(dtype=vec3),
+        type1: int, type2: int,
+        pos1: wp.array(dtype=vec3), R1: wp.array(dtype=mat33), size1: wp.array(dtype=vec3),
+        pos2: wp.array(dtype=vec3), R2: wp.array(dtype=mat33), size2: wp.array(dtype=vec3),
         margin: wp.array(dtype=scalar),
         # outputs
-        count: wp.array(dtype=int),
-        position: wp.array2d(dtype=vec3),
-        frame: wp.array2d(dtype=mat33),
-        dist: wp.array2d(dtype=scalar),
-    ):
+        count: wp.array(dtype=int), position: wp.array2d(dtype=vec3), frame: wp.array2d(dtype=mat33), dist: wp.array2d(dtype=scalar),
+    ):  # fmt: skip
         """One pair of geoms of types (type1, type2) per thread i, in MuJoCo's order (type1 <= type2): count[i]
         contacts, their positions (N, MAX_CONTACTS) vec3 [m, world], MuJoCo's contact frames (rows: the normal
         from geom1 to geom2, two tangents) and distances [m]; the poses, sizes and margins as the pairs' functions
@@ -644,33 +674,19 @@ def kernels(scalar) -> types.SimpleNamespace:
         elif type1 == SPHERE and type2 == BOX:
             n, p, nrm, d = sphere_box(p1, m1, s1[0], p2, m2, s2, e)
             store_one(i, n, p, nrm, d, position, frame, dist)
-        elif type1 == CAPSULE and type2 == BOX:
-            n, P2, N2, D2 = capsule_box(p1, m1, s1, p2, m2, s2, e)
-            store(i, n, P2, N2, D2, vec3(scalar(0.0)), position, frame, dist)
         elif type1 == CAPSULE and type2 == CAPSULE:
             n, P2, N2, D2 = capsule_capsule(p1, m1, s1, p2, m2, s2, e)
+            store(i, n, P2, N2, D2, vec3(scalar(0.0)), position, frame, dist)
+        elif type1 == CAPSULE and type2 == BOX:
+            n, P2, N2, D2 = capsule_box(p1, m1, s1, p2, m2, s2, e)
             store(i, n, P2, N2, D2, vec3(scalar(0.0)), position, frame, dist)
         if n > 0 and not may_touch(type1, p1, m1, s1, type2, p2, s2, e):
             n = 0
         count[i] = n
 
     return types.SimpleNamespace(
-        scalar=scalar,
-        vec3=vec3,
-        mat33=mat33,
-        contact_frame=contact_frame,
-        plane_sphere=plane_sphere,
-        plane_capsule=plane_capsule,
-        plane_box=plane_box,
-        plane_cylinder=plane_cylinder,
-        plane_ellipsoid=plane_ellipsoid,
-        sphere_sphere=sphere_sphere,
-        sphere_capsule=sphere_capsule,
-        sphere_cylinder=sphere_cylinder,
-        capsule_capsule=capsule_capsule,
-        bounding_radius=bounding_radius,
-        may_touch=may_touch,
-        sphere_box=sphere_box,
-        capsule_box=capsule_box,
-        collide=collide,
-    )
+        scalar=scalar, vec3=vec3, mat33=mat33, contact_frame=contact_frame, bounding_radius=bounding_radius, may_touch=may_touch,
+        plane_sphere=plane_sphere, plane_capsule=plane_capsule, plane_box=plane_box, plane_cylinder=plane_cylinder, plane_ellipsoid=plane_ellipsoid,
+        sphere_sphere=sphere_sphere, sphere_capsule=sphere_capsule, sphere_cylinder=sphere_cylinder, sphere_box=sphere_box,
+        capsule_capsule=capsule_capsule, capsule_box=capsule_box, collide=collide,
+    )  # fmt: skip

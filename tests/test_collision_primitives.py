@@ -1,14 +1,18 @@
-"""kernels/collision_primitives.py against MuJoCo's mj_collision: for each pair of primitive geoms, a few hundred
-poses (random ones, and touching, deeply penetrating, within the margin, beyond it, and the degenerate ones: a box
-face or a capsule flat on a plane, parallel capsules, concentric spheres, a sphere's center inside a box) in a
-two-geom MJCF (geom1 on a mocap body, geom2 on a free body, so that MuJoCo collides them), posed through mocap_pos,
-mocap_quat and qpos,, the same world poses (MuJoCo's geom_xpos, geom_xmat) given to the `collide` kernel.
+"""kernels/collision_primitives.py against MuJoCo's mj_collision: for each pair of primitive geoms and two margins
+(0, and margin 0.06 + gap 0.04), ~165 poses (150 random ones, and constructed ones: touching, deeply penetrating,
+within the margin, beyond it, and the degenerate ones: a box face, a capsule or a cylinder flat on a plane, parallel
+and collinear capsules, concentric spheres, a sphere's center inside a box or a cylinder, a capsule along a box's
+face or edge) in a two-geom MJCF (geom1 on a mocap body, geom2 on a free body, so that MuJoCo collides them), posed
+through mocap_pos, mocap_quat and qpos; MuJoCo's world poses (geom_xpos, geom_xmat) go to the `collide` kernel.
 
-The contacts must be MuJoCo's: the same count, and, matched as sets by position, the same positions, contact
-frames (the normal from geom1 to geom2 and the two tangents) and distances: to 1e-10 in float64 (the formulas are
-MuJoCo's, closed-form; what is left is rounding, ~1e-15 on these O(1) scales), to FLOAT32_TOL in float32 (below).
+The contacts must be MuJoCo's: the same count (but for contacts exactly on the margin's edge, whose last bit decides
+them), and, paired by position, the same positions, contact frames (the normal from geom1 to geom2 and the two
+tangents) and distances: to 1e-10 in float64 (the formulas are MuJoCo's, closed-form; what is left is rounding,
+~1e-15 on these O(1) scales, amplified where a normal is drawn between nearly coincident points), and in float32 to
+the tolerance below.
 """
 
+import contextlib
 import functools
 
 import mujoco
@@ -29,13 +33,13 @@ FLOAT32_POINTS = 1e-6
 """float32: a contact takes tens of operations on lengths of order 1 m, each rounded to 6e-8 relative: 2e-5 m (or
 unit) leaves a margin over that. Where the contact is ill-conditioned (a normal from two nearly coincident points,
 the tangent of a capsule standing on a plane) rounding is amplified; how much, float64 arithmetic on inputs moved at
-random by FLOAT32_MOVE (`_moved`; float32's rounding of tens of operations) measures
-(FLOAT32_DRAWS draws, the largest change): float32 is allowed FLOAT32_GROWTH times that. A pose where such a move
-changes the contacts' count (a branch of MuJoCo's on its edge: a capsule exactly along a box's face, whose
-second contact MuJoCo decides by the sign of rounding noise) is compared in float64 only. A normal drawn between two
-points s apart (sphere-like contacts: MuJoCo's mjraw_SphereSphere) that float32 computes separately, each to
-~1e-7 m, is allowed FLOAT32_POINTS / s more: exact arithmetic on moved inputs keeps that direction (the common
-perpendicular of two capsules' axes) where float32's rounding of each point does not."""
+random by FLOAT32_MOVE (`_moved`: float32's rounding over tens of operations) measures (FLOAT32_DRAWS draws, the
+largest change), and float32 is allowed FLOAT32_GROWTH times that. A normal drawn between two points s apart
+(MuJoCo's mjraw_SphereSphere) that float32 computes separately, each to ~1e-7 m, is allowed FLOAT32_POINTS / s more:
+exact arithmetic on moved inputs keeps that direction (the common perpendicular of two capsules' axes) where
+float32's rounding of each point does not. Poses where such moves change the count (a branch of MuJoCo's on its
+edge), and those whose contacts MuJoCo decides by the sign of rounding noise (`_noise_decided`), are compared in
+float64 only."""
 
 TYPES = {"plane": cp.PLANE, "sphere": cp.SPHERE, "capsule": cp.CAPSULE, "ellipsoid": cp.ELLIPSOID, "cylinder": cp.CYLINDER, "box": cp.BOX}
 SIZES = {"plane": (0.0, 0.0, 1.0), "sphere": (0.3,), "capsule": (0.1, 0.3), "ellipsoid": (0.3, 0.2, 0.1), "cylinder": (0.2, 0.15), "box": (0.2, 0.3, 0.1)}
@@ -267,15 +271,14 @@ PAIRS = [
 def test_pair_equals_mujoco(pair, margin, gap, dtype):
     """Each pose's contacts equal MuJoCo's: their count (but for contacts exactly on the margin's edge), then the
     position, frame and dist of the contacts paired by position, within FLOAT64_TOL, or in float32 within
-    the tolerance the module's docstring derives; float32 skips the poses where moving the inputs changes the count
-    (a branch of MuJoCo's on its edge) and those whose contacts MuJoCo decides by rounding noise (`_noise_decided`)."""
+    the tolerance FLOAT32_TOL's docstring derives, on all but the poses it leaves to float64."""
     xpos, xmat, sizes, total, contacts = _reference(*pair, margin, gap)
     assert sum(len(c[2]) for c in contacts) > len(contacts) // 3  # the poses touch often enough to test something
     out = _collide(*pair, xpos, xmat, sizes, total, dtype)
     if dtype == np.float32:
         rng = np.random.default_rng(1)
         moved = [_collide(*pair, *_moved(rng, xpos, xmat, sizes, total), np.float64) for _ in range(FLOAT32_DRAWS)]
-    worst, edge, skipped = np.zeros(3), 0, 0
+    worst, plain, edge, skipped = np.zeros(3), np.zeros(3), 0, 0
     noisy = _noise_decided(pair, xmat)
     for i, ref in enumerate(contacts):
         tol, band = np.full(3, FLOAT64_TOL), 1e-12
@@ -290,5 +293,60 @@ def test_pair_equals_mujoco(pair, margin, gap, dtype):
         assert compared is not None, (i, ref, _contacts(out, i))
         assert np.all(compared[0] <= tol), (i, compared[0], tol, ref, _contacts(out, i))
         worst, edge = np.maximum(worst, compared[0]), edge + compared[1]
-    print("-".join(pair), np.dtype(dtype).name, f"margin + gap {total}: max |pos|, |frame|, |dist| errors", worst, "contacts on the edge", edge, "skipped", skipped)
+        if dtype == np.float64 or (np.all(shift <= 10 * FLOAT32_MOVE) and _separation(pair, sizes, ref[2]) >= 0.01):
+            plain = np.maximum(plain, compared[0])  # well conditioned: moved 10 times the inputs at most
+    print("-".join(pair), np.dtype(dtype).name, f"margin + gap {total}: max |pos|, |frame|, |dist| errors {worst}, {plain} where well conditioned; {edge} contacts on the edge, {skipped} poses skipped")
     assert skipped - noisy.sum() <= len(contacts) // 20
+
+
+def test_pairs_without_a_function_have_no_count():
+    """`collide` gives count -1 for a pair of types it has no function for (box-box, capsule-cylinder), whatever the
+    poses: the caller cannot read them as no contact."""
+    poses = np.zeros((1, 2, 3)), np.broadcast_to(np.eye(3), (1, 2, 3, 3)), np.array([[0.1, 0.2, 0.3], [0.1, 0.2, 0.3]])
+    for pair in (("box", "box"), ("capsule", "cylinder")):
+        assert _collide(*pair, *poses, 0.0, np.float64)[0].tolist() == [-1]
+
+
+@pytest.mark.parametrize("pair", PAIRS, ids=lambda p: "-".join(p))
+def test_tape_gradient_equals_finite_differences(pair):
+    """float64: wp.Tape's gradient of L = sum over contacts of dist + w1.pos + w2.normal (w1, w2 random) with
+    respect to both poses, along a random direction (positions moved, rotations turned), equals the central
+    difference at steps 1e-6 and 2e-6 on the random poses where those two agree to 1e-6 (no branch of MuJoCo's
+    crossed, no kink) and keep the count: to 1e-6 (the differences' truncation and rounding, ~1e-9 here)."""
+    xpos, xmat, sizes, total, contacts = _reference(*pair, 0.06, 0.04)
+    xpos, xmat = xpos[-N_RANDOM:], xmat[-N_RANDOM:]
+    K = cp.kernels(wp.float64)
+    n = len(xpos)
+    rng = np.random.default_rng(2)
+    w1, w2 = rng.standard_normal((2, n, cp.MAX_CONTACTS, 3))
+    direction_pos, direction_rot = rng.standard_normal((2, n, 2, 3))
+
+    def loss(xpos, xmat, tape=None):
+        inputs = [wp.array(np.ascontiguousarray(a), dtype=t, requires_grad=True) for a, t in ((xpos[:, 0], K.vec3), (xmat[:, 0], K.mat33), (xpos[:, 1], K.vec3), (xmat[:, 1], K.mat33))]
+        size = [wp.array(np.broadcast_to(s, (n, 3)).copy(), dtype=K.vec3) for s in sizes]
+        count = wp.zeros(n, dtype=int)
+        pos, frame, dist = (wp.zeros((n, cp.MAX_CONTACTS), dtype=t, requires_grad=True) for t in (K.vec3, K.mat33, wp.float64))
+        with tape or contextlib.nullcontext():
+            wp.launch(K.collide, n, inputs=[TYPES[pair[0]], TYPES[pair[1]], inputs[0], inputs[1], size[0], inputs[2], inputs[3], size[1], wp.full(n, total, dtype=wp.float64)], outputs=[count, pos, frame, dist])
+        valid = np.arange(cp.MAX_CONTACTS)[None] < count.numpy()[:, None]
+        value = np.where(valid, dist.numpy() + np.sum(w1 * pos.numpy(), -1) + np.sum(w2 * frame.numpy()[..., 0, :], -1), 0.0).sum(1)
+        if tape is not None:
+            seed_frame = np.zeros((n, cp.MAX_CONTACTS, 3, 3))
+            seed_frame[..., 0, :] = w2 * valid[..., None]
+            tape.backward(grads={dist: wp.array(valid * 1.0, dtype=wp.float64), pos: wp.array(w1 * valid[..., None], dtype=K.vec3), frame: wp.array(seed_frame, dtype=K.mat33)})
+        return value, count.numpy(), [a.grad.numpy() if tape is not None else None for a in inputs]
+
+    def moved(h):
+        turn = scipy.spatial.transform.Rotation.from_rotvec(h * direction_rot.reshape(-1, 3)).as_matrix().reshape(n, 2, 3, 3)
+        return xpos + h * direction_pos, xmat @ turn
+
+    value, count, (g_p1, g_R1, g_p2, g_R2) = loss(xpos, xmat, wp.Tape())
+    skew = np.cross(np.eye(3)[None, None, :, None, :], direction_rot[:, :, None, None, :])[..., 0, :]  # skew(d) rows
+    along = (np.sum(g_p1 * direction_pos[:, 0], -1) + np.sum(g_p2 * direction_pos[:, 1], -1)
+             + np.sum(g_R1 * (xmat[:, 0] @ skew[:, 0]), (-2, -1)) + np.sum(g_R2 * (xmat[:, 1] @ skew[:, 1]), (-2, -1)))  # fmt: skip
+    steps = {h: loss(*moved(h), None)[:2] for h in (1e-6, -1e-6, 2e-6, -2e-6)}
+    fd1 = (steps[1e-6][0] - steps[-1e-6][0]) / 2e-6
+    fd2 = (steps[2e-6][0] - steps[-2e-6][0]) / 4e-6
+    smooth = (np.abs(fd1 - fd2) < 1e-6) & np.all([c == count for _, c in steps.values()], axis=0) & (count > 0)
+    assert smooth.sum() > n // 3
+    np.testing.assert_allclose(along[smooth], fd1[smooth], atol=1e-6)
