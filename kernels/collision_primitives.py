@@ -293,7 +293,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         points, at most 2 contacts. Axes within 1e-4 rad of parallel (|axis1 x axis2| < 1e-4 |axis1| |axis2|, the
         threshold MuJoCo 4.0.0 shows) give a contact at each end of the segments' overlap along axis 1, the lower
         end first: the end of whichever segment bounds the overlap there against its nearest point of the other
-        (both ends the same pair where the segments do not overlap)."""
+        (both ends the same pair where the segments do not overlap). That parallel case is MuJoCo 4.0.0's as measured
+        (its source is newer than the 3.12 one at hand, which tries the ends x1 = +-1 first, det < mjMINVAL)."""
         axis1 = axis_of(R1, 2) * size1[1]
         axis2 = axis_of(R2, 2) * size2[1]
         dif = pos1 - pos2
