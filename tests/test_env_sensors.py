@@ -245,12 +245,14 @@ def test_an_actuator_net_of_the_pd_law_follows_the_built_in_servo():
     """An ActuatorNet computing kp (target - s) - kd sdot at every simulation step gives the built-in servo's trajectory
     to rounding (float64, 8 policy steps of random actions from a perturbed posture). The built-in servo's damper is
     implicit (model.implicit_damping), the network's torque explicit: the reference takes its damper explicit too,
-    with a kd that the explicit step keeps stable."""
+    with a kd that the explicit step keeps stable. Eager (use_graph=False) here and below: the network records its
+    inputs in Python, which a replayed CUDA graph does not run (tests/test_envs.py's graph test covers the network
+    inside the graph)."""
     kp, kd, N = 100.0, 1.0, 3
-    servo = envs.LeggedEnv(_legs(np.float64), num_envs=N, cfg=envs.LeggedEnvConfig(kp=kp, kd=kd), seed=1)
+    servo = envs.LeggedEnv(_legs(np.float64), num_envs=N, cfg=envs.LeggedEnvConfig(kp=kp, kd=kd), seed=1, use_graph=False)
     servo.model.implicit_damping = False
     net = PD(kp, kd)
-    actuated = envs.LeggedEnv(_legs(np.float64), num_envs=N, cfg=envs.LeggedEnvConfig(actuator=ActuatorNet(net)), seed=1)
+    actuated = envs.LeggedEnv(_legs(np.float64), num_envs=N, cfg=envs.LeggedEnvConfig(actuator=ActuatorNet(net)), seed=1, use_graph=False)
     assert actuated.stepper.substeps == 1 and actuated.single_action_space.shape == (12,)
     servo.reset(seed=1)
     actuated.reset(seed=1)
@@ -270,7 +272,8 @@ def test_the_actuator_history_shifts_each_simulation_step_and_resets_per_environ
     state that step starts from; a reset empties an environment's history alone; torque_limit clips the torques."""
     H = 4
     net = PD(50.0, 0.5, history=H)
-    env = envs.LeggedEnv(_legs(), num_envs=2, cfg=envs.LeggedEnvConfig(actuator=ActuatorNet(net, history=H), policy_dt=0.006, torque_limit=10.0), seed=0)
+    env = envs.LeggedEnv(_legs(), num_envs=2, cfg=envs.LeggedEnvConfig(actuator=ActuatorNet(net, history=H), policy_dt=0.006, torque_limit=10.0), seed=0,
+                         use_graph=False)
     env.reset(seed=0)
     action = torch.full((2, 12), 0.8, device=env.device)
     for _ in range(2):
