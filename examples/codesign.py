@@ -2,8 +2,8 @@
 must bring its sole to a point it cannot reach, and the optimiser may lengthen the thigh and the shank
 (`wd.model.with_joint_origins`: the knee's and the ankle's joint origins scaled) as well as choose the torques.
 
-    python examples/codesign.py                      # 120 iterations of each run -> codesign.png
-    python examples/codesign.py --iterations 60 --plot ''
+    python examples/codesign.py --plot codesign.png   # 120 iterations of each run (the plot needs matplotlib)
+    python examples/codesign.py --iterations 60
 
 The leg: the six right-leg joints kept (the others locked at 0), no contacts, viscous joint friction from the
 URDF, semi-implicit Euler, T = `--steps` 150 steps of 2 ms (0.3 s), starting at rest hanging straight down. The
@@ -33,7 +33,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import Adam
+from common import Adam, pyplot
 
 LEG_JOINTS = ("r_hip_pitch", "r_hip_roll", "r_hip_yaw", "r_knee", "r_ankle_pitch", "r_ankle_roll")
 SCALED = ("r_knee", "r_ankle_pitch")  # their origins: the thigh's and the shank's offsets
@@ -144,7 +144,7 @@ def parse_args(argv=None):
     parser.add_argument("--lr", type=float, default=2.0, help="Adam's initial learning rate for the torques [N m] (default 2)")
     parser.add_argument("--lr-scale", type=float, default=0.01, help="Adam's initial learning rate for the scales (default 0.01)")
     parser.add_argument("--print-every", type=int, default=20, help="print every k-th iteration (default 20)")
-    parser.add_argument("--plot", default="codesign.png", help="PNG to write ('' for none)")
+    parser.add_argument("--plot", default="", help="PNG to write (default: none; needs matplotlib: pip install -e '.[examples]')")
     parser.add_argument("--seed", type=int, default=0)
     return parser.parse_args(argv)
 
@@ -165,10 +165,7 @@ def main(argv=None) -> dict:
 
 
 def plot(runs: dict, path: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, axes = plt.subplots(1, 3, figsize=(14, 4))
     for name, run in runs.items():

@@ -1,4 +1,4 @@
-"""What the differentiable-simulation examples share: the iCub with a welded base, Adam, the default device.
+"""What the differentiable-simulation examples share: the iCub with a welded base, Adam, matplotlib, the default device.
 
 Not an example: `trajectory_optimisation.py` and `system_identification.py` import it (examples/ is on
 sys.path when one of them runs as a script).
@@ -37,6 +37,18 @@ class Adam:
         m_hat = self.m / (1.0 - self.beta1**self.k)
         v_hat = self.v / (1.0 - self.beta2**self.k)
         return x - lr * m_hat / (np.sqrt(v_hat) + self.eps)
+
+
+def pyplot():
+    """matplotlib.pyplot on its file backend (Agg); a SystemExit naming the extra when matplotlib is missing."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise SystemExit("the plot needs matplotlib: pip install -e \".[examples]\" (or pass --plot '' for none)") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def default_device() -> str:

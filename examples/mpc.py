@@ -61,7 +61,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import default_device
+from common import default_device, pyplot
 
 STEP_SIZES = (1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125)  # the line search's candidates, one batched rollout
 W_P, W_Q, W_V, W_U = 1e4, 1.0, 3.0, 1e-3  # the cost's weights (module docstring)
@@ -305,10 +305,7 @@ def main(argv=None) -> dict:
 
 
 def plot(result: dict, path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, axes = plt.subplots(2, 2, figsize=(12, 8))
     ax = axes[0, 0]
