@@ -1,7 +1,7 @@
 """Model-predictive control of the Franka Emika Panda: iLQR on warpdyn's full Jacobians makes the arm's flange
 track a target that runs round a vertical circle in front of the robot, in closed loop.
 
-    pip install -e ".[examples]"                  # matplotlib, for --plot
+    pip install -e ".[examples]"                  # mujoco (the Panda's MJCF is read through it), matplotlib for --plot
     python examples/mpc.py                        # 4 s of control: prints the tracking error
     python examples/mpc.py --steps 700 --mass-error 0.3 --plot mpc.png
 
