@@ -22,7 +22,7 @@ group is initialised here (nccl on GPUs, gloo on the CPU) and the PPO built with
 `PPO.construct_algorithm` and its `multi_gpu` configuration: rsl-rl's OnPolicyRunner would initialise NCCL
 itself and accepts only `cuda:<LOCAL_RANK>`.
 
-Environments (`warpdyn.envs.LeggedEnv`, settings in ROBOTS): flat ground, soft contacts K = 1e5, the policy at
+Environments (`warpdyn.envs.LeggedEnv`, the robots warpdyn.envs.robots' presets, the tasks' settings in TASKS): flat ground, soft contacts K = 1e5, the policy at
 50 Hz, actions = joint targets around a default posture (0.25 rad per unit) for a position servo per joint
 with implicit joint damping; episodes of 20 s, ended by a fall; each reset draws a yaw, joint offsets (0.1
 rad), link masses (x 0.9..1.1) and friction. ergoCub legs: 12 joints, the 32 corners of the foot boxes, kp
@@ -68,52 +68,32 @@ ERGOCUB_WALK_REWARDS = dict(
     feet_air_time=(envs.terms.feet_air_time, 1.0),
     angular_velocity_xy=(envs.terms.angular_velocity_xy_squared, -0.05),
 )
-GO1_REWARDS = {  # Rudin et al. (2021)'s flat-ground terms and weights, with warpdyn's height and tilt terms
-    "track_linear_velocity": (envs.terms.track_linear_velocity, 1.0),
-    "track_angular_velocity": (envs.terms.track_angular_velocity, 0.5),
-    "vertical_velocity": (envs.terms.vertical_velocity_squared, -2.0),
-    "angular_velocity_xy": (envs.terms.angular_velocity_xy_squared, -0.05),
-    "upright": (envs.terms.upright, -1.0),
-    "height_error": (envs.terms.height_error, -10.0),
-    "torque": (envs.terms.torque_squared, -2e-4),
-    "action_rate": (envs.terms.action_rate, -0.01),
-    "feet_air_time": (envs.terms.feet_air_time, 1.0),
-}
-
-ROBOTS = {
+ROBOTS = {"ergocub": envs.robots.ergocub_legs, "go1": envs.robots.go1}
+"""The robots (warpdyn.envs.robots' presets: their description, feet, posture, gains and common settings)."""
+TASKS = {
     "ergocub": dict(
-        common=dict(mass_scale=(0.9, 1.1), friction=(0.5, 1.0)),
         stand=dict(push_velocity=0.5, push_seconds=4.0),
         walk=dict(lin_vel_x=(0.0, 0.5), push_velocity=0.2, air_time_target=0.4, rewards=ERGOCUB_WALK_REWARDS),
     ),
     "go1": dict(
-        common=dict(
-            kp=20.0, kd=0.5, torque_limit=23.7, default_joint_positions=dict(wd.assets.GO1_STANDING_POSE),
-            base_height_target=0.30, mass_scale=(0.9, 1.1), friction=(0.5, 1.25), rewards=GO1_REWARDS,
-        ),  # fmt: skip
         stand=dict(push_velocity=0.5, push_seconds=4.0),
         walk=dict(lin_vel_x=(-1.0, 1.0), lin_vel_y=(-0.5, 0.5), yaw_rate=(-1.0, 1.0), push_velocity=0.5, push_seconds=8.0),
     ),
 }
-"""Per robot, the LeggedEnvConfig settings of both tasks ("common") and of each task."""
-TASKS = ("stand", "walk")
+"""Per robot, the LeggedEnvConfig settings of each task, over the preset's."""
 
 
 def robot_model(robot: str, device) -> wd.model.Model:
-    """The ergoCub legs (shipped) or the Go1 of example-robot-data with its four foot spheres as contacts."""
-    if robot == "ergocub":
-        full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device=device)
-        return wd.model.reduce(full, wd.assets.ERGOCUB_LEG_JOINTS)
-    go1 = wd.model.Model.build_from_model_description(wd.assets.example_robot_data_urdf("go1"), device=device)
-    go1 = wd.contact.with_collidable_points(go1, options=wd.contact.CollidablePointsOptions(shapes=("sphere",), sphere_points=20))
-    point = go1.kin_dyn_parameters.contact_parameters.point
-    return wd.contact.with_collidable_points(go1, enabled=point[:, 2] < wd.assets.GO1_FOOT_CENTRE[2])  # the lower half of each foot
+    """The preset's model: the ergoCub legs (shipped) or the Go1 of example-robot-data with the lower halves of its
+    four foot spheres as contacts."""
+    return ROBOTS[robot]().model(device=device)
 
 
 def make_env(task: str, num_envs: int, device, seed: int, robot: str = "ergocub", **overrides) -> envs.LeggedEnv:
-    """`robot`'s LeggedEnv for `task` (ROBOTS' settings, then `overrides`)."""
-    settings = {**ROBOTS[robot]["common"], **ROBOTS[robot][task], **overrides}
-    return envs.LeggedEnv(robot_model(robot, device), num_envs=num_envs, cfg=envs.LeggedEnvConfig(**settings), seed=seed)
+    """`robot`'s LeggedEnv for `task` (the preset's settings, the task's, then `overrides`)."""
+    preset = ROBOTS[robot]()
+    model = preset.model(device=device)
+    return envs.LeggedEnv(model, num_envs=num_envs, cfg=preset.config(model, **{**TASKS[robot][task], **overrides}), seed=seed)
 
 
 def train_config(iterations: int) -> dict:
@@ -324,7 +304,7 @@ def main(argv=None) -> None:
         epilog="On K GPUs: torchrun --standalone --nproc_per_node K examples/rl_locomotion.py ... (rank r on cuda:<LOCAL_RANK>)",
     )
     parser.add_argument("--robot", choices=sorted(ROBOTS), default="ergocub", help="ergocub: the shipped legs; go1: example-robot-data's")
-    parser.add_argument("--task", choices=TASKS, default="stand")
+    parser.add_argument("--task", choices=("stand", "walk"), default="stand")
     parser.add_argument(
         "--device", default=None,
         help="Warp device (default: a GPU if there is one); under torchrun 'cuda' or none gives rank r cuda:<LOCAL_RANK>, "

@@ -14,12 +14,14 @@ there; on the CPU the simulation steps replay a Warp CPU graph). Its terms (`war
 configuration composes. `warpdyn.envs.rsl_rl.RslRlVecEnv` hands it to rsl-rl's PPO (examples/rl_locomotion.py).
 `warpdyn.envs.terrain_generator` tiles rough sub-terrains of graded difficulty into a heightfield and moves
 environments between its levels (Rudin et al.'s curriculum; LeggedEnvConfig.terrain). `warpdyn.envs.sensors` puts an
-IMU on the base (`ImuConfig`); `warpdyn.envs.actuators` turns actions into torques ("torque", `ActuatorNet`).
+IMU on the base (`ImuConfig`); `warpdyn.envs.actuators` turns actions into torques ("torque", `ActuatorNet`);
+`warpdyn.envs.robots` sets a legged robot up from its description and a few names (`LeggedRobot`, the presets).
 """
 
-from . import terms
+from . import robots, terms
 from .actuators import ActuatorNet
 from .legged import DEFAULT_OBSERVATIONS, DEFAULT_REWARDS, LeggedEnv, LeggedEnvConfig
+from .robots import LeggedRobot
 from .sensors import ImuConfig
 
-__all__ = ["LeggedEnv", "LeggedEnvConfig", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS", "ImuConfig", "ActuatorNet", "terms"]
+__all__ = ["LeggedEnv", "LeggedEnvConfig", "LeggedRobot", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS", "ImuConfig", "ActuatorNet", "terms", "robots"]

@@ -294,14 +294,17 @@ class LeggedEnv(gym.vector.VectorEnv):
         na = model.number_of_actuators() if cfg.actuator == "pd" else n
         default = self._default_joint_positions(model)
         self.default_joint_positions = torch.tensor(default, device=self.device, dtype=self.torch_dtype)
-        # the standing pose: the default posture with its lowest collidable point on the ground
-        posture = wd.data.Data.build(model, joint_positions=default)
+        # the standing pose: the default posture, the base upright, its lowest collidable point on the ground (the base
+        # at the world's origin here, wherever the description places it: an MJCF free body's or an SDF model's pose)
+        upright = dict(base_position=(0.0, 0.0, 0.0), base_quaternion=(1.0, 0.0, 0.0, 0.0))
+        posture = wd.data.Data.build(model, joint_positions=default, **upright)
         lowest = float(wd.contact.collidable_point_positions(model, posture).numpy()[..., 2].min())
         self.standing_height = -lowest
         if cfg.base_height_target is None:
             cfg = self.cfg = dataclasses.replace(cfg, base_height_target=self.standing_height)
         # the state the resets copy from, and the Stepper (on a GPU its launches join the env's graph)
-        self._reset_data = wd.data.Data.build(model, num_envs=N, base_position=(0.0, 0.0, self.standing_height), joint_positions=default)
+        self._reset_data = wd.data.Data.build(model, num_envs=N, base_position=(0.0, 0.0, self.standing_height), base_quaternion=upright["base_quaternion"],
+                                              joint_positions=default)
         stepper_graph = False if model.device.is_cuda else (use_graph and "auto")
         substeps = 1 if isinstance(cfg.actuator, ActuatorNet) else self.decimation  # the network's steps: warpdyn.envs.actuators
         self.stepper = wd.simulation.Stepper(model, self._reset_data, substeps=substeps, use_graph=stepper_graph)
