@@ -37,33 +37,33 @@ def kernels(scalar) -> types.SimpleNamespace:
         L_R_G: wp.array(dtype=sp.mat33),
         L_p_G: wp.array(dtype=sp.vec3),
         dims: wp.array2d(dtype=scalar),
-        density_scale: wp.array(dtype=scalar),
+        density_scale: wp.array2d(dtype=scalar),
         mass_in: wp.array(dtype=scalar),
         com_in: wp.array(dtype=sp.vec3),
         inertia_in: wp.array(dtype=sp.mat33),
         # outputs
-        mass: wp.array(dtype=scalar),
-        com: wp.array(dtype=sp.vec3),
-        inertia: wp.array(dtype=sp.mat33),
+        mass: wp.array2d(dtype=scalar),
+        com: wp.array2d(dtype=sp.vec3),
+        inertia: wp.array2d(dtype=sp.mat33),
     ):
         """Link i's mass [kg], centre of mass [m, link frame] and inertia about it [kg m^2, link axes] from its shape's
         geometry scaled by dims[i] (elementwise, (nL, 3)) and its density scaled by density_scale[i]: a box's
         m = rho lx ly lz, I = m/12 diag(ly^2 + lz^2, lx^2 + lz^2, lx^2 + ly^2); a cylinder's m = rho pi r^2 l,
         I = diag(m (3 r^2 + l^2)/12, m (3 r^2 + l^2)/12, m r^2/2); a sphere's m = rho 4/3 pi r^3, I = 2/5 m r^2,
         in the inertial frame's axes, rotated to the link's (L_R_G I L_R_G^T); the centre of mass L_p_G scaled by
-        the shape's scale vector. An unsupported link (shape -1) keeps mass_in, com_in, inertia_in. Launched
-        over nL."""
-        i = wp.tid()
+        the shape's scale vector; row e of density_scale (P, nL) and of the outputs (P, nL) is environment e's (P = 1:
+        shared). An unsupported link (shape -1) keeps mass_in, com_in, inertia_in. Launched over (P, nL)."""
+        e, i = wp.tid()
         kind = shape[i]
         if kind < 0:
-            mass[i] = mass_in[i]
-            com[i] = com_in[i]
-            inertia[i] = inertia_in[i]
+            mass[e, i] = mass_in[i]
+            com[e, i] = com_in[i]
+            inertia[e, i] = inertia_in[i]
             return
         g0 = geometry[i][0] * dims[i, 0]
         g1 = geometry[i][1] * dims[i, 1]
         g2 = geometry[i][2] * dims[i, 2]
-        rho = density[i] * density_scale[i]
+        rho = density[i] * density_scale[e, i]
         pi = scalar(3.141592653589793)
         m = scalar(0.0)
         I = sp.mat33(scalar(0.0))
@@ -78,9 +78,9 @@ def kernels(scalar) -> types.SimpleNamespace:
             m = rho * scalar(4.0) / scalar(3.0) * pi * g0 * g0 * g0
             I = wp.identity(n=3, dtype=scalar) * (scalar(2.0) / scalar(5.0) * m * g0 * g0)
         R = L_R_G[i]
-        mass[i] = m
-        com[i] = wp.cw_mul(scale_vector(kind, dims, i), L_p_G[i])
-        inertia[i] = R * I * wp.transpose(R)
+        mass[e, i] = m
+        com[e, i] = wp.cw_mul(scale_vector(kind, dims, i), L_p_G[i])
+        inertia[e, i] = R * I * wp.transpose(R)
 
     @wp.kernel(module="unique")
     def joint_positions(

@@ -118,6 +118,33 @@ def test_gradients_through_a_rollout_equal_finite_differences():
     assert abs(density.grad.numpy()[thigh] - fd) <= 1e-5 * abs(fd) + 1e-9 and abs(fd) > 1e-6, (density.grad.numpy()[thigh], fd)
 
 
+def test_per_environment_densities_randomise_the_links():
+    """density factors (N, nL): environment e's masses, centres of mass and inertias are those of the shared update
+    with its row, and a step of the N environments equals N steps of those models; the tape's gradient of the
+    environments' mass sums comes back per environment, equal to the volumes' densities (d m / d factor = m0)."""
+    model = leg()
+    nL, N = model.number_of_links(), 3
+    rng = np.random.default_rng(2)
+    dims, density = rng.uniform(0.9, 1.2, (nL, 3)), rng.uniform(0.7, 1.5, (N, nL))
+    randomised = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=density))
+    assert randomised.per_environment_parameters() == {"link_mass": N, "link_com": N, "link_inertia": N}
+    data = wd.data.Data.build(randomised, num_envs=N, base_position=(0.0, 0.0, 1.0), joint_positions=rng.uniform(-0.3, 0.3, (N, 3)))
+    stepped = wd.model.step(randomised, data).joint_velocities.numpy()
+    for e in range(N):
+        alone = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=density[e]))
+        for name in ("link_mass", "link_com", "link_inertia"):
+            np.testing.assert_allclose(getattr(randomised, name).numpy()[e], getattr(alone, name).numpy(), rtol=1e-15, atol=0, err_msg=name)
+        one = wd.data.Data.build(alone, num_envs=1, base_position=(0.0, 0.0, 1.0), joint_positions=data.joint_positions.numpy()[e])
+        np.testing.assert_allclose(stepped[e], wd.model.step(alone, one).joint_velocities.numpy()[0], rtol=0, atol=1e-12)
+    factors = wp.array(density, dtype=wp.float64, requires_grad=True)
+    with wp.Tape() as tape:
+        updated = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=factors))
+        total = weighted_sum([updated.link_mass], [wp.array(np.ones((N, nL)), dtype=wp.float64)])
+    tape.backward(total)
+    unit = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=np.ones(nL))).link_mass.numpy()
+    np.testing.assert_allclose(factors.grad.numpy(), np.broadcast_to(unit, (N, nL)), rtol=1e-14)
+
+
 def test_bad_factors_raise_naming_the_link():
     model = leg()
     nL = model.number_of_links()
@@ -126,6 +153,10 @@ def test_bad_factors_raise_naming_the_link():
     bad = np.ones(nL)
     bad[2] = -1.0
     with pytest.raises(ValueError, match="scaling_factors.density of link 'shank' is -1.0"):
+        wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((nL, 3)), density=bad))
+    bad = np.ones((2, nL))
+    bad[1, 3] = np.inf
+    with pytest.raises(ValueError, match="scaling_factors.density of link 'foot' in environment 1 is inf"):
         wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((nL, 3)), density=bad))
     with pytest.raises(TypeError, match="ScalingFactors"):
         wd.model.update_hw_parameters(model, (np.ones((nL, 3)), np.ones(nL)))

@@ -158,33 +158,38 @@ def with_joint_origins(model: Model, *, positions=None, rotations=None) -> Model
 def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model:
     """JaxSim's hardware parametrisation: a model whose parametrised links (warpdyn.types.hardware: a box, cylinder
     or sphere visual) have their shapes scaled by scaling_factors.dims (nL, 3) and their densities by
-    scaling_factors.density (nL,), with the masses, centres of mass and inertias JaxSim derives from them (the
+    scaling_factors.density (nL,), or (N, nL): one row per environment (domain randomisation of the links' masses and
+    inertias; the shapes, which move joints, stay shared), with the masses, centres of mass and inertias JaxSim derives from them (the
     shape's inertia in the link's inertial axes, the centre of mass scaled) and the joints below them moved as
     JaxSim moves them (each child joint's offset from the centre of mass scaled); the others keep theirs (JaxSim
     gives them mass 0). Warp arrays of the model's scalar that require gradients get them when this is called
     under a wp.Tape (kernels/hardware.py); the links' collidable points do not move (JaxSim scales them).
-    Shared by the environments: a ValueError when the model's link parameters are per environment."""
+    A ValueError when the model's own link parameters are per environment."""
     per_env = {"link_mass", "link_com", "link_inertia"} & set(model.per_environment_parameters())
     if per_env:
-        raise ValueError(f"update_hw_parameters: {sorted(per_env)} are given per environment; the hardware parametrisation is shared")
+        raise ValueError(f"update_hw_parameters: {sorted(per_env)} are given per environment; the hardware parametrisation sets them")
     if not isinstance(scaling_factors, ScalingFactors):
         raise TypeError(f"scaling_factors must be a wd.kin_dyn_parameters.ScalingFactors, got {type(scaling_factors).__name__}")
     nL = model.number_of_links()
     given = {}
-    for name, value, shape in (("dims", scaling_factors.dims, (nL, 3)), ("density", scaling_factors.density, (nL,))):
+    for name, value, shapes in (("dims", scaling_factors.dims, ((nL, 3),)), ("density", scaling_factors.density, ((nL,), "(N, nL)"))):
         if isinstance(value, wp.array):
             arrays.check_device_array(value, f"scaling_factors.{name}", model.scalar, model.device)
             host = value.numpy()
         else:
             host = arrays.host_numbers(value, f"scaling_factors.{name}")
             value = wp.array(host, dtype=model.scalar, device=model.device)
-        if host.shape != shape:
-            raise ValueError(f"scaling_factors.{name} has shape {host.shape}, expected {shape} (one row per link, in link_names() order)")
+        per_env = name == "density" and host.ndim == 2 and host.shape[1] == nL and host.shape[0] >= 1
+        if host.shape != shapes[0] and not per_env:
+            expected = " or ".join(str(k) for k in shapes)
+            raise ValueError(f"scaling_factors.{name} has shape {host.shape}, expected {expected} (one entry per link, in link_names() order)")
         bad = ~np.isfinite(host) | (host <= 0.0)
         if bad.any():
-            link = model.link_names()[int(np.argwhere(bad)[0][0])]
-            raise ValueError(f"scaling_factors.{name} of link '{link}' is {host[np.argwhere(bad)[0][0]].tolist()}: factors must be positive and finite")
-        given[name] = value
+            at = np.argwhere(bad)[0]
+            link = model.link_names()[int(at[1] if per_env else at[0])]
+            where = f" in environment {int(at[0])}" if per_env else ""
+            raise ValueError(f"scaling_factors.{name} of link '{link}'{where} is {host[tuple(at[:2]) if per_env else at[0]].tolist()}: factors must be positive and finite")
+        given[name] = value.reshape((1, nL)) if name == "density" and not per_env else value
     metadata = model.cached("hw link metadata", lambda: hw_link_metadata(model))
     out = hardware.hw_parameters(model, metadata, given["dims"], given["density"])
     moved = with_joint_origins(model, positions=out["positions"], rotations=origins.origins_of(model.tree)[1]) if model.number_of_joints() else model

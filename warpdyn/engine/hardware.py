@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from .. import arrays
 from ..kernels.hardware import kernels as hardware_kernels
 from .launch import launch
 
@@ -13,9 +14,10 @@ __all__ = ["hw_parameters"]
 
 
 def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
-    """{"link_mass" (nL,), "link_com" (nL,) vec3, "link_inertia" (nL,) mat33, "positions" (nj, 3)}: the
-    model's shared link parameters and joint origins after scaling its links' geometry by dims (nL, 3) and their
-    densities by density (nL,) (warpdyn.types.hardware's metadata); outputs require gradients when an input does."""
+    """{"link_mass" (P, nL), "link_com" (P, nL) vec3, "link_inertia" (P, nL) mat33, "positions" (nj, 3)}: the
+    model's link parameters and joint origins after scaling its links' geometry by dims (nL, 3) and their densities
+    by density (P, nL) (P = 1 shared, or one row per environment; warpdyn.types.hardware's metadata); the link
+    parameters in the device's layout of per-environment arrays; outputs require gradients when an input does."""
     s, d = model.scalar, model.device
     vec3, mat33 = wp.types.vector(3, s), wp.types.matrix((3, 3), s)
     grad = dims.requires_grad or density.requires_grad
@@ -26,16 +28,17 @@ def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
 
     shape = wp.array(metadata.link_shape, dtype=int, device=d)
     L_R_G, L_p_G = constant(metadata.L_H_G[:, :3, :3], mat33), constant(metadata.L_H_G[:, :3, 3], vec3)
+    P = density.shape[0]
     out = {
-        "link_mass": wp.zeros(nL, dtype=s, device=d, requires_grad=grad),
-        "link_com": wp.zeros(nL, dtype=vec3, device=d, requires_grad=grad),
-        "link_inertia": wp.zeros(nL, dtype=mat33, device=d, requires_grad=grad),
+        "link_mass": arrays.empty((nL,), P, s, d, grad),
+        "link_com": arrays.empty((nL,), P, vec3, d, grad),
+        "link_inertia": arrays.empty((nL,), P, mat33, d, grad),
         "positions": wp.zeros((nj, 3), dtype=s, device=d, requires_grad=grad),
     }
     kernels = hardware_kernels(s)
     launch(
         kernels.link_parameters,
-        dim=nL,
+        dim=(P, nL),
         inputs=[shape, constant(metadata.geometry, vec3), constant(metadata.density, s), L_R_G, L_p_G, dims, density,
                 model.link_mass, model.link_com, model.link_inertia],
         outputs=[out["link_mass"], out["link_com"], out["link_inertia"]],

@@ -472,17 +472,26 @@ class Model(ModelSettings, ModelQueries):
         return tuple(value for value in values if isinstance(value, wp.array)) + terms
 
     def with_parameter_arrays(self, values: dict) -> Model:
-        """A copy (see `copy`) whose link, joint or actuator parameters `values` ({name: Warp array in the shared
-        layout (count,) of the parameter's element dtype}) are those arrays, kept as given (a tape that computed
-        them carries gradients back through them), checked on the host as the setters check."""
+        """A copy (see `copy`) whose link, joint or actuator parameters `values` ({name: Warp array of the
+        parameter's element dtype, (count,) shared or (N, count) per environment (a (1, count) one is taken as
+        shared)}) are those arrays, kept as given (a tape that computed them carries gradients back through them),
+        checked on the host as the setters check; one N per model, as the setters require."""
         new = self.copy()
         for name, array in values.items():
             parameter = REGISTRY[name]
+            if array.ndim == 2 and array.shape[0] == 1:
+                array = array[0]
             host = np.asarray(array.numpy(), dtype=np.float64)
             if parameter.check is not None:
                 parameter.check(name, host)
             new._values[name], new._hosts[name] = array, host
-            new._per_env.pop(name, None)
+            if array.ndim == 2:
+                others = {k: v for k, v in new._per_env.items() if k != name and v != array.shape[0]}
+                if others:
+                    raise ValueError(f"{name} is given for {array.shape[0]} environments but {others} for other numbers: one N per model")
+                new._per_env[name] = array.shape[0]
+            else:
+                new._per_env.pop(name, None)
         new.notify_model_changed()
         return new
 
