@@ -1,16 +1,23 @@
 """warpdyn.envs.robots: `LeggedRobot` sets a legged robot up from its description and a few names; the presets
 equal what examples/rl_locomotion.py built by hand before them (the same contact points, feet and settings); a robot
-not among them is set up by docs/rl.md's "Your own robot" block, which this file runs as written, and stands."""
+not among them is set up by docs/rl.md's "Your own robot" block, which this file runs as written, and stands. The
+shipped ANYmal C (warpdyn/assets/anymal_c.xml, from MuJoCo Menagerie) loads with the warning its comment names, its
+dynamics equal MuJoCo's (measured: M 6e-16, h 5e-16, qacc 4e-15 relative, tests/mjcf_compare.py), and its preset
+stands on the lower halves of its foot spheres."""
 
 import pathlib
 import re
+import warnings
 
+import mujoco
 import numpy as np
 import pytest
 import torch
 
+import mjcf_compare
 import warpdyn as wd
 import warpdyn.envs as envs
+from warpdyn.description.mjcf import CONTACT_EXCLUDES, JOINT_LIMITS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -67,3 +74,66 @@ def test_bad_robots_are_refused_by_name():
         envs.LeggedRobot(description=robot.description, feet=("l_ankle_2",), joints=robot.joints, contact_shapes=("sphere",)).model(device="cpu")
     with pytest.raises(ValueError, match="keyframe"):
         envs.LeggedRobot(description=robot.description, feet=robot.feet, joints=robot.joints, posture="stand").config()
+
+
+ANYMAL_C_JOINTS = tuple(f"{leg}_{joint}" for leg in ("LF", "RF", "LH", "RH") for joint in ("HAA", "HFE", "KFE"))  # MuJoCo's order
+
+
+def test_mujoco_compiles_the_shipped_anymal_c_alone_and_warpdyn_names_what_it_does_not_model():
+    """No mesh, texture, material, light or actuator, no frictionloss; Menagerie's 44 collision primitives (29 cylinders,
+    11 boxes, 4 foot spheres) and its keyframe "standing". warpdyn (float64) warns once: the 12 joints' limits and the 4
+    contact excludes, nothing else; 13 links (the base, 4 hips, thighs, shanks), the feet spheres on the shanks."""
+    m = mujoco.MjModel.from_xml_path(str(wd.assets.anymal_c_mjcf()))
+    assert (m.nq, m.nv, m.nu, m.nmesh, m.ntex, m.nmat, m.nlight) == (19, 18, 0, 0, 0, 0, 0)
+    assert [m.joint(j).name for j in range(1, m.njnt)] == list(ANYMAL_C_JOINTS)
+    kinds = [mujoco.mjtGeom(int(t)).name for t in m.geom_type]
+    assert [kinds.count(k) for k in ("mjGEOM_SPHERE", "mjGEOM_CYLINDER", "mjGEOM_BOX")] == [4, 29, 11] and m.ngeom == 44
+    np.testing.assert_array_equal(m.dof_frictionloss, 0.0)
+    np.testing.assert_array_equal(m.dof_damping[6:], 1.0)
+    assert m.key("standing").qpos[2] == 0.56 and m.body_subtreemass[1] == pytest.approx(44.96518)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = wd.model.Model.build_from_model_description(wd.assets.anymal_c_mjcf(), dtype=np.float64, device="cpu")
+    assert [w.category for w in caught] == [wd.model.NotModelledWarning], [str(w.message) for w in caught]
+    listed = str(caught[0].message).split(" holds elements that warpdyn does not model: ")[1]
+    excludes = [f"base/{leg}_THIGH" for leg in ("LF", "RF", "LH", "RH")]
+    assert listed == f"{JOINT_LIMITS}: {list(ANYMAL_C_JOINTS)}; {CONTACT_EXCLUDES}: {excludes}"
+    assert model.floating_base() and model.number_of_links() == 13 and set(model.joint_names()) == set(ANYMAL_C_JOINTS)
+    spheres = {model.link_names()[link] for link, shapes in enumerate(model.tree.collisions) for s in shapes if s.kind == "sphere"}
+    assert spheres == set(wd.assets.ANYMAL_C_FEET)
+
+
+def test_the_shipped_anymal_c_equals_mujoco():
+    """M, h (qfrc_bias), passive forces and qacc at qpos0 and 5 random states, float64, relative to 1e-10
+    (mjcf_compare.compare_model, MuJoCo's constraints disabled), and warpdyn starts at MuJoCo's qpos0."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        model = wd.model.Model.build_from_model_description(wd.assets.anymal_c_mjcf(), dtype=np.float64, device="cpu")
+    errors = mjcf_compare.compare_model(model, mujoco.MjModel.from_xml_path(str(wd.assets.anymal_c_mjcf())), random_states=5, seed=3)
+    assert all(errors[name] < 1e-10 for name in ("M", "h", "forces", "qacc")), errors
+    assert errors["start"] == 0.0
+
+
+@pytest.mark.filterwarnings("ignore::warpdyn.model.NotModelledWarning")  # the joint limits and contact excludes, tested above
+def test_the_anymal_c_preset_stands_on_its_foot_spheres():
+    """Its contacts are the lower halves of the four foot spheres (9 of each sphere's 20 points, below its centre
+    in the shank frame) and nothing else; its posture is the keyframe's, its standing height the keyframe's base
+    height less the feet's 1.2 mm clearance (to the lowest point's 0.5 mm); with zero actions it stays standing for 1 s."""
+    robot = envs.robots.anymal_c()
+    env = robot.env(num_envs=8, device="cpu")
+    cp = env.model.kin_dyn_parameters.contact_parameters
+    links = env.model.link_names()
+    feet = [links[b] in robot.feet for b in cp.body]
+    assert all(feet) and len(feet) == 4 * 20  # sphere points only, on the feet
+    assert list(cp.enabled) == [p[2] < -0.31547 for p in np.asarray(cp.point)]
+    assert [sum(e for b, e in zip(cp.body, cp.enabled) if links[b] == foot) for foot in robot.feet] == [9, 9, 9, 9]
+    assert env.cfg.default_joint_positions["LF_HFE"] == pytest.approx(np.pi / 6) and env.cfg.default_joint_positions["RH_KFE"] == pytest.approx(np.pi / 4)
+    assert (env.cfg.kp, env.cfg.kd, env.cfg.torque_limit) == (80.0, 2.0, 80.0)
+    assert env.standing_height == pytest.approx(0.56 - 0.0012254, abs=1e-3) and env.cfg.base_height_target == env.standing_height
+    actions = torch.zeros(env.num_envs, env.single_action_space.shape[0], device=env.device)
+    ended = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
+    for _ in range(int(1.0 / env.cfg.policy_dt)):
+        _, _, terminated, _, _ = env.step(actions)
+        ended |= terminated
+    assert not ended.any()
+    assert float(env.state.base_position[:, 2].min()) > 0.5 * env.standing_height

@@ -18,6 +18,14 @@
   joint torques (`joint_force_references`), within FRANKA_PANDA_TORQUE_LIMITS; the flange is the frame
   FRANKA_PANDA_FLANGE; the keyframe "home" (`wd.data.keyframe(model, "home")`) is Menagerie's. Loading it
   warns once, a NotModelledWarning for the joint limits (MuJoCo's limit constraints).
+- `anymal_c_mjcf()`: ANYbotics' ANYmal C quadruped (floating base, 12 revolute joints, 44.97 kg), MuJoCo
+  Menagerie's `anybotics_anymal_c/anymal_c.xml` without meshes, textures, materials, visual geoms, actuators
+  and frictionloss, with the keyframe "standing" of Menagerie's anymal_c_mjx.xml (the file's comment says what
+  was changed and why; BSD-3-Clause, ANYbotics AG: `LICENSE.anymal_c` beside the file). MuJoCo compiles it
+  alone; warpdyn's M and accelerations equal MuJoCo's on it (tests/test_env_robots.py). Its collision
+  primitives are kept: the four 0.03 m foot spheres (ANYMAL_C_FEET's, the contacts of `envs.robots.anymal_c()`)
+  and the boxes and cylinders of the base and legs. Loading it warns once, a NotModelledWarning for the joint
+  limits and the contact excludes (base/thighs) that MuJoCo has.
 - `example_robot_data_urdf(robot)`: a URDF of the pip package example-robot-data (Gepetto, LAAS-CNRS;
   BSD-3-Clause; `pip install example-robot-data`, a cmeel wheel that puts the files under
   `<site-packages>/cmeel.prefix/share/example-robot-data/robots/`). Not shipped with warpdyn: found in the
@@ -66,6 +74,9 @@ __all__ = [
     "franka_panda_mjcf",
     "FRANKA_PANDA_FLANGE",
     "FRANKA_PANDA_TORQUE_LIMITS",
+    "anymal_c_mjcf",
+    "ANYMAL_C_FEET",
+    "ANYMAL_C_TORQUE_LIMIT",
     "example_robot_data_urdf",
     "GO1_JOINTS",
     "GO1_FEET",
@@ -120,6 +131,24 @@ it, a frame of link7 in warpdyn's model (at the joints' zero: (0.088, 0, 0.926) 
 
 FRANKA_PANDA_TORQUE_LIMITS = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 """The largest joint torque of joints 1 to 7 [N m] (Menagerie's actuator forcerange, Franka's limits)."""
+
+
+# ------------------------------------------------------------------------------------ ANYbotics' ANYmal C
+
+
+def anymal_c_mjcf() -> pathlib.Path:
+    """The path of the shipped ANYmal C, an MJCF file without meshes or actuators (a file inside the installed
+    package)."""
+    return _HERE / "anymal_c.xml"
+
+
+ANYMAL_C_FEET = ("LF_SHANK", "RF_SHANK", "LH_SHANK", "RH_SHANK")
+"""The links that carry the foot spheres: the shanks, Menagerie's last bodies (each sphere, radius 0.03 m, is
+centred at (0.01305, +-0.08795, -0.31547) m in its shank's frame, whose -z runs down the shank)."""
+
+ANYMAL_C_TORQUE_LIMIT = 80.0
+"""The largest joint torque [N m] of every joint: Menagerie's actuator forcerange (its README: roughly the
+ANYdrive's specification)."""
 
 
 # ------------------------------------------------------------------------------------ example-robot-data

@@ -1,5 +1,6 @@
 """Legged robots for `LeggedEnv`, set up from a description and a few names (issue 39): `LeggedRobot`, and the
-presets `ergocub_legs()` (shipped) and `go1()` (the pip package example-robot-data's Unitree Go1).
+presets `ergocub_legs()` (shipped), `go1()` (the pip package example-robot-data's Unitree Go1) and `anymal_c()`
+(ANYbotics' ANYmal C, shipped from MuJoCo Menagerie).
 
     robot = LeggedRobot(description="my_quadruped.urdf", feet=("FL_foot", "FR_foot", "RL_foot", "RR_foot"),
                         posture={"FL_knee": -1.4, ...}, settings=dict(kp=25.0, kd=0.6, base_height_target=0.3))
@@ -21,7 +22,7 @@ import warpdyn as wd
 from . import terms
 from .legged import LeggedEnv, LeggedEnvConfig
 
-__all__ = ["LeggedRobot", "ergocub_legs", "go1", "GO1_REWARDS"]
+__all__ = ["LeggedRobot", "ergocub_legs", "go1", "anymal_c", "GO1_REWARDS"]
 
 GO1_REWARDS = {  # Rudin et al. (2021)'s flat-ground terms and weights, with warpdyn's height and tilt terms
     "track_linear_velocity": (terms.track_linear_velocity, 1.0),
@@ -34,7 +35,7 @@ GO1_REWARDS = {  # Rudin et al. (2021)'s flat-ground terms and weights, with war
     "action_rate": (terms.action_rate, -0.01),
     "feet_air_time": (terms.feet_air_time, 1.0),
 }
-"""The Go1 preset's rewards."""
+"""The Go1 and ANYmal C presets' rewards."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -130,5 +131,23 @@ def go1() -> LeggedRobot:
         sphere_points=20,
         lower_half=True,
         settings=dict(kp=20.0, kd=0.5, torque_limit=23.7, base_height_target=0.30, mass_scale=(0.9, 1.1), friction=(0.5, 1.25),
+                      rewards=GO1_REWARDS),
+    )
+
+
+def anymal_c() -> LeggedRobot:
+    """The shipped ANYmal C (MuJoCo Menagerie's, wd.assets.anymal_c_mjcf()): the lower halves of its four foot
+    spheres (20 points each) as contacts, Menagerie's keyframe "standing", legged_gym's ANYmal C gains (its
+    anymal_c_rough_config's PD drive: stiffness 80 N m/rad, damping 2 N m s/rad on every joint; legged_gym
+    itself drives the ANYmal C with an actuator network by default), Menagerie's torque limit (80 N m), the
+    standing height as the height target, Rudin et al.'s flat-ground rewards."""
+    return LeggedRobot(
+        description=wd.assets.anymal_c_mjcf,
+        feet=tuple(wd.assets.ANYMAL_C_FEET),
+        posture="standing",
+        contact_shapes=("sphere",),
+        sphere_points=20,
+        lower_half=True,
+        settings=dict(kp=80.0, kd=2.0, torque_limit=wd.assets.ANYMAL_C_TORQUE_LIMIT, mass_scale=(0.9, 1.1), friction=(0.5, 1.25),
                       rewards=GO1_REWARDS),
     )
