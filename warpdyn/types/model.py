@@ -472,10 +472,9 @@ class Model(ModelSettings, ModelQueries):
         return tuple(value for value in values if isinstance(value, wp.array)) + terms
 
     def with_parameter_arrays(self, values: dict) -> Model:
-        """A copy (see `copy`) whose link, joint or actuator parameters `values` ({name: Warp array of the
-        parameter's element dtype, (count,) shared or (N, count) per environment (a (1, count) one is taken as
-        shared)}) are those arrays, kept as given (a tape that computed them carries gradients back through them),
-        checked on the host as the setters check; one N per model, as the setters require."""
+        """A copy (see `copy`) whose parameters `values` ({name: Warp array, (count,) shared, (N, count) per environment,
+        (1, count) shared}) are those arrays, kept as given (a tape that made them carries gradients through them),
+        checked as the setters check."""
         new = self.copy()
         for name, array in values.items():
             parameter = REGISTRY[name]
@@ -496,11 +495,9 @@ class Model(ModelSettings, ModelQueries):
         return new
 
     def export_updated_model(self) -> str:
-        """JaxSim's export: the model as URDF text with its current parameters (link masses, centres of mass and
-        inertias, joint origins, limits and friction, as the device arrays hold them now: after
-        `wd.model.update_hw_parameters` or `with_joint_origins`, their results), its collision shapes and frames;
-        it loads back to the same model (the lumped tree: locked joints stay locked, as fixed links). A ValueError
-        for per-environment parameters and for what URDF cannot hold (warpdyn.description.urdf_writer)."""
+        """JaxSim's export: URDF text of the lumped tree with its current parameters, joint origins, collision shapes
+        and frames, which loads back to the same model; a ValueError for per-environment parameters and for what
+        URDF cannot hold (warpdyn.description.urdf_writer)."""
         names = ("link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous")
         per_env = sorted(set(names) & set(self._per_env))
         if per_env:
