@@ -6,7 +6,10 @@ vertex within the margin a contact, at most 8; for an edge axis one contact betw
 The conventions are kernels/collision_primitives.py's (poses, sizes, margin + gap, the normal from geom1 to geom2,
 dist, pos midway between the surfaces, MuJoCo's contact frame and bounding-sphere filter, reused from there). MuJoCo
 orders the contacts of a face manifold as the clipped polygon's vertices; all of a pair's contacts share its normal
-and have no tangent. The thresholds are MuJoCo's mjBOXBOX_* of its build of the same precision.
+and have no tangent. The thresholds are MuJoCo's mjBOXBOX_* of its build of the same precision. Where two of
+MuJoCo's candidates tie to the last bit (two faces equally deep, an incident face equally opposed to two of the
+reference's), its strict comparisons choose by rounding, here as in MuJoCo, whose products round differently (Warp's
+compiled code fuses multiply-adds): coincident boxes may take either box's face, its normal opposite.
 """
 
 import types
@@ -18,7 +21,9 @@ from .collision_primitives import BOX, MINVAL
 from .factory import factory
 
 MAX_CONTACTS = 8
-"""The most contacts of a box pair: the incident face, a 4-gon, clipped by the reference face's 4 sides."""
+"""The most contacts of a box pair: the incident face, a 4-gon, clipped by the reference face's 4 sides, has at most 8
+vertices. MuJoCo would keep up to CLIP_CAPACITY, which needs rounding to part two of them by more than the
+deduplication radius (DUPEPS); the first 8 are kept."""
 
 CLIP_CAPACITY = 12
 """MuJoCo's mjBOXBOX_MAXVERT: the vertices a clipped polygon may hold, rounding's near-duplicates of its at most 8

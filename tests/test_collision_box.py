@@ -257,8 +257,9 @@ def test_tape_gradient_equals_finite_differences():
     to both poses, along a random direction (positions moved, rotations turned), equals the central difference at
     steps 1e-6 and 2e-6 on the poses where those two agree to 1e-6, the one-sided differences at 1e-6 to 1e-4 (a
     kink, a corner exactly on the other face's side, averages two slopes the same at both steps) and the count is
-    kept (no branch of MuJoCo's crossed: the same axis, reference face and clipped polygon): to 1e-6 (the
-    differences' truncation). Those poses include face manifolds of several contacts and single edge contacts."""
+    kept (no branch of MuJoCo's crossed: the same axis, reference face and clipped polygon): to 1e-7 (the
+    differences' truncation, 1.4e-9 seen on gradients up to 30). Those poses (159 of 277) include face manifolds of
+    several contacts and single edge contacts."""
     xpos, xmat, sizes, total, contacts = _reference("different", 0.06, 0.04)
     K = cb.kernels(wp.float64)
     n = len(xpos)
@@ -293,4 +294,4 @@ def test_tape_gradient_equals_finite_differences():
     kink = np.abs(steps[1e-6][0] + steps[-1e-6][0] - 2.0 * value) / 1e-6  # one-sided differences' gap
     smooth = (np.abs(fd1 - fd2) < 1e-6) & (kink < 1e-4) & np.all([c == count for _, c in steps.values()], axis=0) & (count > 0)
     assert smooth.sum() > n // 4 and np.sum(smooth & _edge_contact(xmat, contacts)) >= 10 and np.sum(smooth & (count >= 4)) >= 10
-    np.testing.assert_allclose(along[smooth], fd1[smooth], atol=1e-6)
+    np.testing.assert_allclose(along[smooth], fd1[smooth], atol=1e-7)
