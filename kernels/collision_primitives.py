@@ -21,7 +21,7 @@ MuJoCo's conventions, kept so that the results compare with its d.contact direct
   plane-cylinder); contacts 0 .. count-1 are valid, in MuJoCo's order. Single-contact pairs return a vec3 position
   and normal and a scalar dist. MuJoCo calls them only for pairs whose bounding spheres meet (`may_touch`).
 Pairs: plane with sphere, capsule, box, cylinder, ellipsoid; sphere with sphere, capsule, cylinder, box; capsule with
-capsule, box. Not here: box-box (MuJoCo's mjc_BoxBox), and the pairs MuJoCo collides with its general convex
+capsule, box. Box-box (MuJoCo's mjc_BoxBox, up to 8 contacts) is kernels/collision_box.py's; not here: the pairs MuJoCo collides with its general convex
 solver (mjc_Convex: capsule-cylinder, ellipsoids and cylinders with anything but a plane, meshes).
 The thresholds are MuJoCo's (mjMINVAL = 1e-15, as in its single-precision build too), but for PARALLEL_SQ and
 CONCENTRIC in float32 and the capsule-capsule parallel test (see their docstrings).
