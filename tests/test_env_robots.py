@@ -3,7 +3,8 @@ equal what examples/rl_locomotion.py built by hand before them (the same contact
 not among them is set up by docs/rl.md's "Your own robot" block, which this file runs as written, and stands. The
 shipped ANYmal C (warpdyn/assets/anymal_c.xml, from MuJoCo Menagerie) loads with the warning its comment names, its
 dynamics equal MuJoCo's (measured: M 6e-16, h 5e-16, qacc 4e-15 relative, tests/mjcf_compare.py), and its preset
-stands on the lower halves of its foot spheres."""
+stands on the lower halves of its foot spheres; so do the shipped Go2's (warpdyn/assets/go2.xml: M 6e-16, h 6e-16,
+qacc 2e-15 relative)."""
 
 import pathlib
 import re
@@ -130,6 +131,69 @@ def test_the_anymal_c_preset_stands_on_its_foot_spheres():
     assert env.cfg.default_joint_positions["LF_HFE"] == pytest.approx(np.pi / 6) and env.cfg.default_joint_positions["RH_KFE"] == pytest.approx(np.pi / 4)
     assert (env.cfg.kp, env.cfg.kd, env.cfg.torque_limit) == (80.0, 2.0, 80.0)
     assert env.standing_height == pytest.approx(0.56 - 0.0012254, abs=1e-3) and env.cfg.base_height_target == env.standing_height
+    actions = torch.zeros(env.num_envs, env.single_action_space.shape[0], device=env.device)
+    ended = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
+    for _ in range(int(1.0 / env.cfg.policy_dt)):
+        _, _, terminated, _, _ = env.step(actions)
+        ended |= terminated
+    assert not ended.any()
+    assert float(env.state.base_position[:, 2].min()) > 0.5 * env.standing_height
+
+
+GO2_JOINTS = tuple(f"{leg}_{joint}_joint" for leg in ("FL", "FR", "RL", "RR") for joint in ("hip", "thigh", "calf"))  # MuJoCo's order
+
+
+def test_mujoco_compiles_the_shipped_go2_alone_and_warpdyn_names_what_it_does_not_model():
+    """No mesh, material, light or actuator, no frictionloss; Menagerie's 23 collision primitives (5 spheres: the
+    base's and the feet's; 13 cylinders, 5 boxes), its damping and armature, and its keyframe "home". warpdyn
+    (float64) warns once: the 12 joints' limits, nothing else; 13 links, the foot spheres on the calves."""
+    m = mujoco.MjModel.from_xml_path(str(wd.assets.go2_mjcf()))
+    assert (m.nq, m.nv, m.nu, m.nmesh, m.ntex, m.nmat, m.nlight) == (19, 18, 0, 0, 0, 0, 0)
+    assert [m.joint(j).name for j in range(1, m.njnt)] == list(GO2_JOINTS)
+    kinds = [mujoco.mjtGeom(int(t)).name for t in m.geom_type]
+    assert [kinds.count(k) for k in ("mjGEOM_SPHERE", "mjGEOM_CYLINDER", "mjGEOM_BOX")] == [5, 13, 5] and m.ngeom == 23
+    np.testing.assert_array_equal(m.dof_frictionloss, 0.0)
+    np.testing.assert_array_equal(m.dof_damping[6:], 2.0)
+    np.testing.assert_array_equal(m.dof_armature[6:], 0.01)
+    assert m.key("home").qpos[2] == 0.27 and m.body_subtreemass[1] == pytest.approx(15.206408)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = wd.model.Model.build_from_model_description(wd.assets.go2_mjcf(), dtype=np.float64, device="cpu")
+    assert [w.category for w in caught] == [wd.model.NotModelledWarning], [str(w.message) for w in caught]
+    listed = str(caught[0].message).split(" holds elements that warpdyn does not model: ")[1]
+    assert listed == f"{JOINT_LIMITS}: {list(GO2_JOINTS)}"
+    assert model.floating_base() and model.number_of_links() == 13 and set(model.joint_names()) == set(GO2_JOINTS)
+    spheres = {model.link_names()[link] for link, shapes in enumerate(model.tree.collisions) for s in shapes if s.kind == "sphere"}
+    assert spheres == {"base", *wd.assets.GO2_FEET}
+
+
+def test_the_shipped_go2_equals_mujoco():
+    """M, h (qfrc_bias), passive forces (damping) and qacc (armature in M) at qpos0 and 5 random states, float64,
+    relative to 1e-10 (mjcf_compare.compare_model, MuJoCo's constraints disabled); warpdyn starts at MuJoCo's qpos0."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        model = wd.model.Model.build_from_model_description(wd.assets.go2_mjcf(), dtype=np.float64, device="cpu")
+    errors = mjcf_compare.compare_model(model, mujoco.MjModel.from_xml_path(str(wd.assets.go2_mjcf())), random_states=5, seed=3)
+    assert all(errors[name] < 1e-10 for name in ("M", "h", "forces", "qacc")), errors
+    assert errors["start"] == 0.0
+
+
+@pytest.mark.filterwarnings("ignore::warpdyn.model.NotModelledWarning")  # the joint limits, tested above
+def test_the_go2_preset_stands_on_its_foot_spheres():
+    """Its contacts are the lower halves of the four foot spheres (9 of each sphere's 20 points, below its centre
+    in the calf frame) and nothing else (the base's sphere has points, all disabled); its posture and gains are
+    unitree_rl_gym's; with zero actions it stays standing for 1 s."""
+    robot = envs.robots.go2()
+    env = robot.env(num_envs=8, device="cpu")
+    cp = env.model.kin_dyn_parameters.contact_parameters
+    links = env.model.link_names()
+    on_feet = np.array([links[b] in robot.feet for b in cp.body])
+    assert on_feet.sum() == 4 * 20 and len(on_feet) == 5 * 20  # sphere points only: the feet's and the base's
+    assert list(cp.enabled) == list(on_feet & (np.asarray(cp.point)[:, 2] < -0.213))
+    assert [sum(e for b, e in zip(cp.body, cp.enabled) if links[b] == foot) for foot in robot.feet] == [9, 9, 9, 9]
+    assert env.cfg.default_joint_positions == pytest.approx(wd.assets.GO2_STANDING_POSE)
+    assert (env.cfg.kp, env.cfg.kd, env.cfg.torque_limit) == (20.0, 0.5, 23.7)
+    assert env.standing_height == pytest.approx(0.3227, abs=1e-3) and env.cfg.base_height_target == env.standing_height
     actions = torch.zeros(env.num_envs, env.single_action_space.shape[0], device=env.device)
     ended = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
     for _ in range(int(1.0 / env.cfg.policy_dt)):

@@ -26,6 +26,13 @@
   primitives are kept: the four 0.03 m foot spheres (ANYMAL_C_FEET's, the contacts of `envs.robots.anymal_c()`)
   and the boxes and cylinders of the base and legs. Loading it warns once, a NotModelledWarning for the joint
   limits and the contact excludes (base/thighs) that MuJoCo has.
+- `go2_mjcf()`: Unitree's Go2 quadruped (floating base, 12 revolute joints, 15.21 kg), MuJoCo Menagerie's
+  `unitree_go2/go2.xml` without meshes, materials, visual geoms, motors and frictionloss, with Menagerie's
+  keyframe "home" (the file's comment says what was changed and why; BSD-3-Clause, Unitree Robotics:
+  `LICENSE.go2` beside the file). MuJoCo compiles it alone; warpdyn's M and accelerations equal MuJoCo's on it
+  (tests/test_env_robots.py). Its collision primitives are kept: the four 0.022 m foot spheres (GO2_FEET's, the
+  contacts of `envs.robots.go2()`) and the boxes, cylinders and sphere of the base and legs. Loading it warns
+  once, a NotModelledWarning for the joint limits that MuJoCo has.
 - `example_robot_data_urdf(robot)`: a URDF of the pip package example-robot-data (Gepetto, LAAS-CNRS;
   BSD-3-Clause; `pip install example-robot-data`, a cmeel wheel that puts the files under
   `<site-packages>/cmeel.prefix/share/example-robot-data/robots/`). Not shipped with warpdyn: found in the
@@ -77,6 +84,10 @@ __all__ = [
     "anymal_c_mjcf",
     "ANYMAL_C_FEET",
     "ANYMAL_C_TORQUE_LIMIT",
+    "go2_mjcf",
+    "GO2_FEET",
+    "GO2_TORQUE_LIMIT",
+    "GO2_STANDING_POSE",
     "example_robot_data_urdf",
     "GO1_JOINTS",
     "GO1_FEET",
@@ -149,6 +160,34 @@ centred at (0.01305, +-0.08795, -0.31547) m in its shank's frame, whose -z runs 
 ANYMAL_C_TORQUE_LIMIT = 80.0
 """The largest joint torque [N m] of every joint: Menagerie's actuator forcerange (its README: roughly the
 ANYdrive's specification)."""
+
+
+# ------------------------------------------------------------------------------------ Unitree's Go2
+
+
+def go2_mjcf() -> pathlib.Path:
+    """The path of the shipped Go2, an MJCF file without meshes or motors (a file inside the installed package)."""
+    return _HERE / "go2.xml"
+
+
+GO2_FEET = ("FL_calf", "FR_calf", "RL_calf", "RR_calf")
+"""The links that carry the foot spheres: the calves, Menagerie's last bodies (each sphere, radius 0.022 m, is
+centred at (-0.002, 0, -0.213) m in its calf's frame, whose -z runs down the calf)."""
+
+GO2_TORQUE_LIMIT = 23.7
+"""The largest joint torque [N m] that every joint gives: Menagerie's motor ctrlrange (torques, gear 1) is
++-23.7 N m on the hip and thigh joints and +-45.43 N m on the knees (the calf joints); one limit for all
+joints (LeggedEnvConfig.torque_limit is one number) is the smaller, which clips the knees at about half theirs."""
+
+GO2_STANDING_POSE = {
+    **{f"{leg}_hip_joint": 0.1 if leg[1] == "L" else -0.1 for leg in ("FL", "FR", "RL", "RR")},
+    **{f"{leg}_thigh_joint": 0.8 if leg[0] == "F" else 1.0 for leg in ("FL", "FR", "RL", "RR")},
+    **{f"{leg}_calf_joint": -1.5 for leg in ("FL", "FR", "RL", "RR")},
+}
+"""A standing posture [rad]: unitree_rl_gym's Go2 default joint angles (GO2RoughCfg.init_state in
+legged_gym/envs/go2/go2_config.py of github.com/unitreerobotics/unitree_rl_gym), the posture its gains (kp 20,
+kd 0.5) hold. Menagerie's keyframe "home" (thighs 0.9, knees -1.8) bends the knees further: with those gains the
+Go2 sinks on them by 0.5 rad and falls within 0.5 s."""
 
 
 # ------------------------------------------------------------------------------------ example-robot-data

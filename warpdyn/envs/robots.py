@@ -1,6 +1,6 @@
 """Legged robots for `LeggedEnv`, set up from a description and a few names (issue 39): `LeggedRobot`, and the
-presets `ergocub_legs()` (shipped), `go1()` (the pip package example-robot-data's Unitree Go1) and `anymal_c()`
-(ANYbotics' ANYmal C, shipped from MuJoCo Menagerie).
+presets `ergocub_legs()` (shipped), `go1()` (the pip package example-robot-data's Unitree Go1), `anymal_c()`
+(ANYbotics' ANYmal C, shipped from MuJoCo Menagerie) and `go2()` (Unitree's Go2, shipped from MuJoCo Menagerie).
 
     robot = LeggedRobot(description="my_quadruped.urdf", feet=("FL_foot", "FR_foot", "RL_foot", "RR_foot"),
                         posture={"FL_knee": -1.4, ...}, settings=dict(kp=25.0, kd=0.6, base_height_target=0.3))
@@ -22,7 +22,7 @@ import warpdyn as wd
 from . import terms
 from .legged import LeggedEnv, LeggedEnvConfig
 
-__all__ = ["LeggedRobot", "ergocub_legs", "go1", "anymal_c", "GO1_REWARDS"]
+__all__ = ["LeggedRobot", "ergocub_legs", "go1", "anymal_c", "go2", "GO1_REWARDS"]
 
 GO1_REWARDS = {  # Rudin et al. (2021)'s flat-ground terms and weights, with warpdyn's height and tilt terms
     "track_linear_velocity": (terms.track_linear_velocity, 1.0),
@@ -35,7 +35,7 @@ GO1_REWARDS = {  # Rudin et al. (2021)'s flat-ground terms and weights, with war
     "action_rate": (terms.action_rate, -0.01),
     "feet_air_time": (terms.feet_air_time, 1.0),
 }
-"""The Go1 and ANYmal C presets' rewards."""
+"""The Go1, ANYmal C and Go2 presets' rewards."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -149,5 +149,25 @@ def anymal_c() -> LeggedRobot:
         sphere_points=20,
         lower_half=True,
         settings=dict(kp=80.0, kd=2.0, torque_limit=wd.assets.ANYMAL_C_TORQUE_LIMIT, mass_scale=(0.9, 1.1), friction=(0.5, 1.25),
+                      rewards=GO1_REWARDS),
+    )
+
+
+def go2() -> LeggedRobot:
+    """The shipped Go2 (MuJoCo Menagerie's, wd.assets.go2_mjcf()): the lower halves of its four foot spheres (20
+    points each) as contacts, unitree_rl_gym's Go2 posture and gains (GO2RoughCfg in
+    legged_gym/envs/go2/go2_config.py of github.com/unitreerobotics/unitree_rl_gym: its default joint angles,
+    GO2_STANDING_POSE, and its PD drive, stiffness 20 N m/rad and damping 0.5 N m s/rad on every joint; on
+    Menagerie's keyframe "home", whose knees bend further, these gains let the Go2 sink and fall),
+    GO2_TORQUE_LIMIT (23.7 N m, the hips' and thighs' motor range, which every joint gives), the standing height
+    as the height target, Rudin et al.'s flat-ground rewards."""
+    return LeggedRobot(
+        description=wd.assets.go2_mjcf,
+        feet=tuple(wd.assets.GO2_FEET),
+        posture=dict(wd.assets.GO2_STANDING_POSE),
+        contact_shapes=("sphere",),
+        sphere_points=20,
+        lower_half=True,
+        settings=dict(kp=20.0, kd=0.5, torque_limit=wd.assets.GO2_TORQUE_LIMIT, mass_scale=(0.9, 1.1), friction=(0.5, 1.25),
                       rewards=GO1_REWARDS),
     )
