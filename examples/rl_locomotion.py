@@ -5,6 +5,7 @@ ergoCub legs (shipped) or the Unitree Go1 quadruped (from the pip package exampl
     python examples/rl_locomotion.py --robot ergocub --task stand --iterations 300 --out runs/stand   # a GPU: N = 4096
     python examples/rl_locomotion.py --robot go1 --task walk --max-minutes 4 --evaluate 0.5 --out runs/go1
     python examples/rl_locomotion.py --robot go1 --task walk --replay runs/go1/policy.pt --out runs/go1   # a recording
+    python examples/rl_locomotion.py --robot anymal_c --task walk --max-minutes 2 --evaluate 1.0 --out runs/anymal   # also go2
 
 On K GPUs of one host (data parallel, torch.distributed with NCCL):
 
@@ -68,7 +69,7 @@ ERGOCUB_WALK_REWARDS = dict(
     feet_air_time=(envs.terms.feet_air_time, 1.0),
     angular_velocity_xy=(envs.terms.angular_velocity_xy_squared, -0.05),
 )
-ROBOTS = {"ergocub": envs.robots.ergocub_legs, "go1": envs.robots.go1}
+ROBOTS = {"ergocub": envs.robots.ergocub_legs, "go1": envs.robots.go1, "anymal_c": envs.robots.anymal_c, "go2": envs.robots.go2}
 """The robots (warpdyn.envs.robots' presets: their description, feet, posture, gains and common settings)."""
 TASKS = {
     "ergocub": dict(
@@ -80,12 +81,13 @@ TASKS = {
         walk=dict(lin_vel_x=(-1.0, 1.0), lin_vel_y=(-0.5, 0.5), yaw_rate=(-1.0, 1.0), push_velocity=0.5, push_seconds=8.0),
     ),
 }
+TASKS["go2"] = TASKS["anymal_c"] = TASKS["go1"]  # the quadrupeds share Rudin et al.'s flat-ground tasks
 """Per robot, the LeggedEnvConfig settings of each task, over the preset's."""
 
 
 def robot_model(robot: str, device) -> wd.model.Model:
-    """The preset's model: the ergoCub legs (shipped) or the Go1 of example-robot-data with the lower halves of its
-    four foot spheres as contacts."""
+    """The preset's model (warpdyn.envs.robots): the ergoCub legs, the ANYmal C and the Go2 (shipped), or the Go1 of
+    example-robot-data; the quadrupeds with the lower halves of their four foot spheres as contacts."""
     return ROBOTS[robot]().model(device=device)
 
 
@@ -303,7 +305,7 @@ def main(argv=None) -> None:
         description=__doc__.split("\n\n")[0],
         epilog="On K GPUs: torchrun --standalone --nproc_per_node K examples/rl_locomotion.py ... (rank r on cuda:<LOCAL_RANK>)",
     )
-    parser.add_argument("--robot", choices=sorted(ROBOTS), default="ergocub", help="ergocub: the shipped legs; go1: example-robot-data's")
+    parser.add_argument("--robot", choices=sorted(ROBOTS), default="ergocub", help="ergocub: the shipped legs; anymal_c, go2: shipped from MuJoCo Menagerie; go1: example-robot-data's")
     parser.add_argument("--task", choices=("stand", "walk"), default="stand")
     parser.add_argument(
         "--device", default=None,
