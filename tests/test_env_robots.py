@@ -192,7 +192,10 @@ def test_the_go2_preset_stands_on_its_foot_spheres():
     assert list(cp.enabled) == list(on_feet & (np.asarray(cp.point)[:, 2] < -0.213))
     assert [sum(e for b, e in zip(cp.body, cp.enabled) if links[b] == foot) for foot in robot.feet] == [9, 9, 9, 9]
     assert env.cfg.default_joint_positions == pytest.approx(wd.assets.GO2_STANDING_POSE)
-    assert (env.cfg.kp, env.cfg.kd, env.cfg.torque_limit) == (20.0, 0.5, 23.7)
+    assert (env.cfg.kp, env.cfg.kd, env.cfg.torque_limit) == (20.0, 0.5, wd.assets.GO2_TORQUE_LIMITS)
+    servo_range = env.model.actuator_force_range.numpy()[:, 1]  # the servos LeggedEnv added, one per joint, in joint order
+    np.testing.assert_allclose(servo_range, [wd.assets.GO2_TORQUE_LIMITS[j] for j in env.model.joint_names()], rtol=1e-6)
+    assert sorted(set(np.round(servo_range, 2))) == [23.7, 45.43]
     assert env.standing_height == pytest.approx(0.3227, abs=1e-3) and env.cfg.base_height_target == env.standing_height
     actions = torch.zeros(env.num_envs, env.single_action_space.shape[0], device=env.device)
     ended = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
@@ -201,3 +204,19 @@ def test_the_go2_preset_stands_on_its_foot_spheres():
         ended |= terminated
     assert not ended.any()
     assert float(env.state.base_position[:, 2].min()) > 0.5 * env.standing_height
+
+
+def test_per_joint_torque_limits_clip_each_joint():
+    """torque_limit {joint: N m}: under "torque" actions the named joint's torque is clipped at its limit, the others
+    not; an unknown joint and a non-positive limit are refused by name."""
+    legs = envs.robots.ergocub_legs()
+    names = legs.model(device="cpu").joint_names()
+    env = legs.env(num_envs=2, device="cpu", actuator="torque", action_scale=20.0, torque_limit={names[3]: 5.0})
+    env.reset(seed=0)
+    env.step(torch.ones(2, len(names)))
+    torques = env.joint_torques
+    assert torch.all(torques[:, 3] == 5.0) and torch.all(torques[:, [0, 1, 2, 4]] == 20.0)
+    with pytest.raises(ValueError, match=r"torque_limit names joints \['knee'\]"):
+        legs.env(num_envs=2, device="cpu", torque_limit={"knee": 5.0})
+    with pytest.raises(ValueError, match="torque_limit must be a positive finite number"):
+        envs.LeggedEnvConfig(torque_limit={names[0]: -1.0})

@@ -86,7 +86,7 @@ __all__ = [
     "ANYMAL_C_TORQUE_LIMIT",
     "go2_mjcf",
     "GO2_FEET",
-    "GO2_TORQUE_LIMIT",
+    "GO2_TORQUE_LIMITS",
     "GO2_STANDING_POSE",
     "example_robot_data_urdf",
     "GO1_JOINTS",
@@ -174,10 +174,9 @@ GO2_FEET = ("FL_calf", "FR_calf", "RL_calf", "RR_calf")
 """The links that carry the foot spheres: the calves, Menagerie's last bodies (each sphere, radius 0.022 m, is
 centred at (-0.002, 0, -0.213) m in its calf's frame, whose -z runs down the calf)."""
 
-GO2_TORQUE_LIMIT = 23.7
-"""The largest joint torque [N m] that every joint gives: Menagerie's motor ctrlrange (torques, gear 1) is
-+-23.7 N m on the hip and thigh joints and +-45.43 N m on the knees (the calf joints); one limit for all
-joints (LeggedEnvConfig.torque_limit is one number) is the smaller, which clips the knees at about half theirs."""
+GO2_TORQUE_LIMITS = {f"{leg}_{joint}_joint": (45.43 if joint == "calf" else 23.7) for leg in ("FL", "FR", "RL", "RR") for joint in ("hip", "thigh", "calf")}
+"""Each joint's largest torque [N m]: Menagerie's motor ctrlrange (torques, gear 1), +-23.7 N m on the hip and thigh
+joints and +-45.43 N m on the knees (the calf joints); LeggedEnvConfig.torque_limit takes the dict."""
 
 GO2_STANDING_POSE = {
     **{f"{leg}_hip_joint": 0.1 if leg[1] == "L" else -0.1 for leg in ("FL", "FR", "RL", "RR")},

@@ -62,7 +62,7 @@ class Actuation:
     ActuatorNet); with an ActuatorNet, `position_errors` and `velocities` (N, n, history) [rad, rad/s], the network's
     input history, newest first."""
 
-    def __init__(self, mode, stepper, reset_data, decimation: int, default: torch.Tensor, torque_limit, use_graph):
+    def __init__(self, mode, stepper, reset_data, decimation: int, default: torch.Tensor, torque_limit: torch.Tensor | None, use_graph):
         self.mode, self.decimation, self.torque_limit = mode, int(decimation), torque_limit
         self.stepper, self.default, self._ctrl = stepper, default, wp.to_torch(stepper.ctrl)
         N, n = stepper.batch_size, default.shape[0]
@@ -142,3 +142,17 @@ class Actuation:
         if isinstance(self.mode, ActuatorNet):
             self.position_errors.masked_fill_(mask[:, None, None], 0.0)
             self.velocities.masked_fill_(mask[:, None, None], 0.0)
+
+
+def torque_limits(limit, model) -> np.ndarray | None:
+    """(n,) [N m] per joint of LeggedEnvConfig.torque_limit (a number, or {joint: N m} with inf where a joint is not
+    named), None for none; a ValueError names a joint the model lacks."""
+    if limit is None:
+        return None
+    names = model.joint_names()
+    if not isinstance(limit, dict):
+        return np.full(len(names), float(limit))
+    unknown = sorted(set(limit) - set(names))
+    if unknown:
+        raise ValueError(f"LeggedEnvConfig.torque_limit names joints {unknown} that '{model.name()}' does not have (its joints: {', '.join(names)})")
+    return np.array([float(limit.get(name, np.inf)) for name in names])

@@ -17,7 +17,7 @@ from gymnasium.vector.utils import batch_space
 import warpdyn as wd
 
 from . import terms
-from .actuators import Actuation, ActuatorNet
+from .actuators import Actuation, ActuatorNet, torque_limits
 from .sensors import Imu, ImuConfig
 from .terrain_generator import TerrainConfig, TerrainCurriculum, TerrainGenerator
 
@@ -59,7 +59,8 @@ class LeggedEnvConfig:
     default + action_scale * clip(action, +-action_clip), followed by a position actuator per joint (kp)
     and the joint damper (kd) (a model that has actuators keeps its own and takes the targets as ctrl).
     `default_joint_positions` {joint: rad} is the posture the targets are taken around and resets start from
-    (joints not named: 0); `torque_limit` [N m] clips each servo's force (None: no clip). Episodes:
+    (joints not named: 0); `torque_limit` [N m] clips each servo's force, one number for every joint or {joint: N m}
+    (joints not named: no clip; None: none). Episodes:
     `episode_seconds` (then truncated); terminated when the base falls below `termination_height` x its
     standing height, tilts beyond `termination_tilt` [rad], or its state stops being finite (the health
     flag: reset and reported in info["invalid"]). Commands (vx, vy, yaw rate) drawn uniformly from the
@@ -93,7 +94,7 @@ class LeggedEnvConfig:
     contact_damping: float | None = None
     kp: float = 300.0
     kd: float = 5.0
-    torque_limit: float | None = None
+    torque_limit: float | dict | None = None
     default_joint_positions: dict | None = None
     action_scale: float = 0.25
     action_clip: float = 5.0
@@ -145,6 +146,10 @@ class LeggedEnvConfig:
             links = getattr(self, name)
             if isinstance(links, str) or not all(isinstance(link, str) for link in links):
                 raise TypeError(f"LeggedEnvConfig.{name} must be a tuple of link names, got {links!r}")
+        limit = self.torque_limit
+        limits = limit.values() if isinstance(limit, dict) else () if limit is None else (limit,)
+        if (isinstance(limit, dict) and not all(isinstance(k, str) for k in limit)) or not all(_is_number(v) and math.isfinite(v) and v > 0 for v in limits):
+            raise ValueError(f"LeggedEnvConfig.torque_limit must be a positive finite number [N m], {{joint name: N m}} or None, got {limit!r}")
         default = self.default_joint_positions
         if default is not None and not isinstance(default, dict):
             raise TypeError(f"LeggedEnvConfig.default_joint_positions must be a dict {{joint name: angle [rad]}} or None, got {default!r}")
@@ -184,7 +189,6 @@ _FIELD_CHECKS = {
     "contact_damping": ("positive or None", "N s/m^1.5"),
     "kp": ("non-negative", "N m/rad"),
     "kd": ("non-negative", "N m s/rad"),
-    "torque_limit": ("positive or None", "N m"),
     "action_scale": ("positive", "rad"),
     "action_clip": ("positive", ""),
     "episode_seconds": ("positive", "s"),
@@ -308,7 +312,9 @@ class LeggedEnv(gym.vector.VectorEnv):
         stepper_graph = False if model.device.is_cuda else (use_graph and "auto")
         substeps = 1 if isinstance(cfg.actuator, ActuatorNet) else self.decimation  # the network's steps: warpdyn.envs.actuators
         self.stepper = wd.simulation.Stepper(model, self._reset_data, substeps=substeps, use_graph=stepper_graph)
-        self.actuation = Actuation(cfg.actuator, self.stepper, self._reset_data, self.decimation, self.default_joint_positions, cfg.torque_limit, stepper_graph)
+        limits = torque_limits(cfg.torque_limit, model)
+        limits = None if limits is None else torch.tensor(limits, device=self.device, dtype=self.torch_dtype)
+        self.actuation = Actuation(cfg.actuator, self.stepper, self._reset_data, self.decimation, self.default_joint_positions, limits, stepper_graph)
         # torch views, made once (outside torch.inference_mode: they are written inside it)
         self._reset_views = self._views(self._reset_data)
         self._state_views = {id(d): self._views(d) for d in self.stepper.buffers}
@@ -405,7 +411,8 @@ class LeggedEnv(gym.vector.VectorEnv):
                 raise ValueError(f"actuator={cfg.actuator!r} drives the joints by joint torques; '{model.name()}' has actuators of its own")
             model.set_joint_parameters(damping=np.zeros(model.dofs()))
         elif model.number_of_actuators() == 0:
-            limit = None if cfg.torque_limit is None else (-cfg.torque_limit, cfg.torque_limit)
+            limits = torque_limits(cfg.torque_limit, model)
+            limit = None if limits is None else np.stack([-limits, limits], axis=1)
             model = wd.model.add_actuators(model, "position", kp=cfg.kp, force_range=limit)
             model.set_joint_parameters(damping=np.full(model.dofs(), cfg.kd))
         model.integrator = wd.model.IntegratorType.SemiImplicitEuler

@@ -159,7 +159,7 @@ def go2() -> LeggedRobot:
     legged_gym/envs/go2/go2_config.py of github.com/unitreerobotics/unitree_rl_gym: its default joint angles,
     GO2_STANDING_POSE, and its PD drive, stiffness 20 N m/rad and damping 0.5 N m s/rad on every joint; on
     Menagerie's keyframe "home", whose knees bend further, these gains let the Go2 sink and fall),
-    GO2_TORQUE_LIMIT (23.7 N m, the hips' and thighs' motor range, which every joint gives), the standing height
+    GO2_TORQUE_LIMITS (Menagerie's motor ranges: 23.7 N m on the hips and thighs, 45.43 N m on the knees), the standing height
     as the height target, Rudin et al.'s flat-ground rewards."""
     return LeggedRobot(
         description=wd.assets.go2_mjcf,
@@ -168,6 +168,6 @@ def go2() -> LeggedRobot:
         contact_shapes=("sphere",),
         sphere_points=20,
         lower_half=True,
-        settings=dict(kp=20.0, kd=0.5, torque_limit=wd.assets.GO2_TORQUE_LIMIT, mass_scale=(0.9, 1.1), friction=(0.5, 1.25),
+        settings=dict(kp=20.0, kd=0.5, torque_limit=dict(wd.assets.GO2_TORQUE_LIMITS), mass_scale=(0.9, 1.1), friction=(0.5, 1.25),
                       rewards=GO1_REWARDS),
     )
