@@ -379,7 +379,7 @@ def test_soft_contact_parameters_that_are_not_numbers(value):
         ("action_clip", 0.0, r"LeggedEnvConfig.action_clip must be a positive finite number"),
         ("episode_seconds", float("nan"), r"LeggedEnvConfig.episode_seconds must be a positive finite number \[s\], got nan"),
         ("joint_noise", -0.1, r"LeggedEnvConfig.joint_noise must be a finite number >= 0"),
-        ("torque_limit", 0.0, r"LeggedEnvConfig.torque_limit must be a positive finite number \[N m\] or None, got 0.0"),
+        ("torque_limit", 0.0, r"LeggedEnvConfig.torque_limit must be a positive finite number \[N m\], \{joint name: N m\} or None, got 0.0"),
         ("mass_scale", (-1.0, 1.0), r"LeggedEnvConfig.mass_scale must be a range \(low, high\) of finite numbers with 0 < low <= high, got \(-1.0, 1.0\)"),
         ("mass_scale", (1.2, 0.8), r"LeggedEnvConfig.mass_scale must be a range"),
         ("friction", (-0.1, 0.5), r"LeggedEnvConfig.friction must be a range \(low, high\) of finite numbers with 0 <= low <= high"),
