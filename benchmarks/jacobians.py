@@ -17,7 +17,7 @@ implicit damping; the URDF has no damping, so the same); per environment a rando
 - JaxSim 0.9: `jax.jit(jax.vmap(jax.jacfwd(f, argnums=(0, 1))))` with f(x, τ) the next state of `js.model.step` as one
   vector (base position, quaternion, joints, base velocity (Inertial) and joint velocities: 37 inputs, 43 with the
   quaternion counted in), so its Jacobians are in JaxSim's coordinates, not the tangent: what a JaxSim user gets.
-Each is timed as benchmarks/compare.py times (the first call apart, the median of --repeats after a warm-up). The
+Each is timed by benchmarks/compare.py's timed_runs (the first call apart, the median of --repeats after a warm-up). The
 table gives per N the time of one call and the time per environment; a library missing or failing says why.
 JaxSim and MuJoCo here run on the CPU whatever --device says (MuJoCo has no GPU path for this; JaxSim on a GPU needs
 jax[cuda] on the device machine); their rows say where they ran.
@@ -32,37 +32,17 @@ os.environ.setdefault("XLA_PYTHON_CLIENT_PREALLOCATE", "false")
 
 import argparse
 import pathlib
-import statistics
 import sys
-import time
 import warnings
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import header, init_warp  # noqa: E402
+from compare import timed_runs  # noqa: E402
 from compare_scene import mujoco_spec, strip_urdf, urdf_to_sdf  # noqa: E402
 
 DT = 1e-3
-
-
-def timed(run, sync, repeats: int, min_seconds: float = 0.5) -> tuple[float, float]:
-    """(seconds of the first call, median seconds of the timed calls after one warm-up)."""
-    sync()
-    start = time.perf_counter()
-    run()
-    sync()
-    first = time.perf_counter() - start
-    run()
-    sync()
-    times = []
-    while len(times) < repeats or (sum(times) < min_seconds and len(times) < 100):
-        sync()
-        start = time.perf_counter()
-        run()
-        sync()
-        times.append(time.perf_counter() - start)
-    return first, statistics.median(times)
 
 
 def states(N: int, n: int, seed: int = 0) -> dict:
@@ -93,7 +73,7 @@ def run_warpdyn(args, N: int, joints, method: str = "reverse") -> tuple:
     def run():
         out["AB"] = wd.autodiff.transition_matrices(model, data, joint_force_references=tau, method=method)
 
-    first, median = timed(run, lambda: wp.synchronize_device(model.device), args.repeats)
+    first, median = timed_runs(run, lambda: wp.synchronize_device(model.device), args.repeats)
     finite = bool(np.isfinite(out["AB"]["A"].numpy()).all())
     return first, median, f"{wp.get_device(args.device).name}, {args.dtype}, A and B finite: {finite}"
 
@@ -124,7 +104,7 @@ def run_mujoco(args, N: int, joints) -> tuple:
         for d in datas:
             mujoco.mjd_transitionFD(m, d, 1e-6, 1, A, B, None, None)
 
-    first, median = timed(run, lambda: None, args.repeats)
+    first, median = timed_runs(run, lambda: None, args.repeats)
     return first, median, f"CPU, one thread, float64, mujoco {mujoco.__version__}; B over qfrc_applied is not MuJoCo's (it has no actuators here): A only"
 
 
@@ -165,7 +145,7 @@ def run_jaxsim(args, N: int, joints) -> tuple:
         def run():
             out["J"] = jac(v0, tau)
 
-        first, median = timed(run, lambda: jax.block_until_ready(out.get("J")), args.repeats)
+        first, median = timed_runs(run, lambda: jax.block_until_ready(out.get("J")), args.repeats)
     finite = bool(np.isfinite(np.asarray(out["J"][0])).all())
     return first, median, f"CPU, jax {jax.__version__}, {args.dtype}, jaxsim {jaxsim.__version__}, Jacobians finite: {finite}"
 
