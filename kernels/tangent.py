@@ -205,6 +205,21 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         dst[row, a, b] = src[row / copies, a, b]
 
     @wp.kernel(module="unique")
+    def poison_flagged(valid_rows: wp.array(dtype=wp.int32), copies: int, data_valid: wp.array(dtype=wp.int32), out: wp.array2d(dtype=scalar)):
+        """out[e, k] = NaN where environment e was flagged in the data (data_valid (N,) 0) or any of its copies by
+        the evaluation (valid_rows (N m,) 0); an empty array flags nothing. Launched over out (N, K)."""
+        e, k = wp.tid()
+        flagged = False
+        if data_valid.shape[0] > 0:
+            flagged = data_valid[e] == 0
+        if valid_rows.shape[0] > 0:
+            for c in range(copies):
+                if valid_rows[e * copies + c] == 0:
+                    flagged = True
+        if flagged:
+            out[e, k] = scalar(wp.nan)
+
+    @wp.kernel(module="unique")
     def column(x: wp.array(dtype=scalar), y: wp.array2d(dtype=scalar)):
         """y[row, 0] = x[row], launched over x."""
         row = wp.tid()
@@ -223,4 +238,4 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         seed[row, row % copies] = scalar(1.0)
 
     return types.SimpleNamespace(moved_state=moved_state, state_tangent=state_tangent, perturbations=perturbations,
-                                 central_differences=central_differences, replicate=replicate, replicate_3d=replicate_3d, column=column, flatten=flatten, seed_rows=seed_rows)
+                                 central_differences=central_differences, replicate=replicate, replicate_3d=replicate_3d, poison_flagged=poison_flagged, column=column, flatten=flatten, seed_rows=seed_rows)

@@ -13,6 +13,7 @@ import dataclasses
 import mujoco
 import numpy as np
 import pytest
+import warp as wp
 
 import mjcf_models
 import warpdyn as wd
@@ -400,3 +401,19 @@ def test_an_environment_flagged_before_gets_nan():
     for out in (wd.autodiff.transition_matrices(model, data), wd.autodiff.jacobian(lambda model, data: wd.model.total_momentum(model, data), model, data)):
         for value in out.values():
             assert np.isnan(value.numpy()[0]).all() and np.isfinite(value.numpy()[1]).all()
+
+
+def test_warp_controls_are_replicated_on_the_device_with_the_same_result():
+    """Controls given as Warp arrays (per environment (N, n), shared (n,)) are replicated on the device; A and B equal
+    those of the same controls given as NumPy arrays (to the bit), by both methods."""
+    model = legs(contacts=False)
+    rng = np.random.default_rng(4)
+    N, n = 2, model.dofs()
+    data = random_state(model, N, wd.VelRepr.Mixed, rng, height=0.5)
+    tau = rng.normal(0.0, 5.0, (N, n))
+    for method in ("reverse", "central"):
+        for given in (tau, tau[0]):
+            host = wd.autodiff.transition_matrices(model, data, joint_force_references=given, method=method)
+            device = wd.autodiff.transition_matrices(model, data, joint_force_references=wp.array(given, dtype=wp.float64), method=method)
+            for name in ("A", "B"):
+                np.testing.assert_array_equal(device[name].numpy(), host[name].numpy())

@@ -154,7 +154,7 @@ def _differentiate(model, data, copies: int, evaluate, controls: dict, wrt_contr
     for name, array in marked.items():
         out[name] = _per_copy(array.grad, N, copies, model)
     _restore(kept)
-    _poison_flagged(out, data, None if valid is None else valid.numpy().reshape(N, copies).min(axis=1) == 0)
+    tangent.poison_flagged(out.values(), valid, copies, data.valid_state)
     return out
 
 
@@ -176,9 +176,8 @@ def _central(model, data, repr: int, control: str, controls: dict, h: float, ste
     model_c = _replicated_model(model, N, copies, ())
     new = _advanced(model_c, _copies(model, data, copies, dx), steps, {**others, control: u_rows})
     A, B = tangent.central_differences(tangent.state_tangent(model_c, new, repr, copies, copies - 1), copies, u.shape[1], h)
-    out = {"A": A, "B": B}
-    _poison_flagged(out, data, new.valid_state.numpy().reshape(N, copies).min(axis=1) == 0)
-    return out
+    tangent.poison_flagged((A, B), new.valid_state, copies, data.valid_state)
+    return {"A": A, "B": B}
 
 
 def _copies(model, data, copies: int, dx: wp.array) -> Data:
@@ -203,6 +202,8 @@ def _copies(model, data, copies: int, dx: wp.array) -> Data:
 def _per_copy(grad: wp.array, N: int, copies: int, model, per_step: bool = False) -> wp.array:
     """A gradient of N m rows (of numbers, vectors or matrices) as (N, m, k) numbers: row c of environment e is
     copy c's; per step ((T, N m, k) rows): (N, m, T, k)."""
+    if not per_step and grad.dtype == model.scalar and grad.is_contiguous:
+        return grad.reshape((N, copies, -1))  # rows of numbers: a view, no copy
     host = grad.numpy()
     if per_step:
         host = host.reshape(host.shape[0], N, copies, -1).transpose(1, 2, 0, 3)
@@ -217,9 +218,17 @@ def _host(value, name: str) -> np.ndarray:
 
 def _replicated_control(model, name: str, value, N: int, copies: int, grad: bool) -> wp.array:
     """A control given shared, per environment or per step and environment (T, N, ...), as rows of N m
-    environments ((N m, k), (N m, nL, 6) for link forces, (T, N m, ...) per step)."""
-    host = _host(value, name)
+    environments ((N m, k), (N m, nL, 6) for link forces, (T, N m, ...) per step), row-major; a Warp array of the
+    model's scalar on its device, shared or per environment, replicated there (no host copy)."""
     item = 2 if name == "link_forces" else 1
+    if isinstance(value, wp.array) and value.dtype == model.scalar and str(value.device) == str(model.device) and value.ndim in (item, item + 1):
+        rows = value.reshape((1, *value.shape)) if value.ndim == item else value
+        if rows.shape[0] not in (1, N):
+            raise ValueError(f"{name} has {rows.shape[0]} environments (shape {tuple(value.shape)}), the data {N}")
+        out = tangent.replicated(rows, copies * (N if rows.shape[0] == 1 else 1), contiguous=True)
+        out.requires_grad = grad
+        return out
+    host = _host(value, name)
     per_step = host.ndim == item + 2
     if not per_step:
         host = host if host.ndim == item + 1 else np.broadcast_to(host, (N, *host.shape))
@@ -289,15 +298,3 @@ def _kept_grads(model: Model, mine: set) -> list:
 def _restore(kept: list) -> None:
     for array, grad in kept:
         array.grad.assign(grad)
-
-
-def _poison_flagged(out: dict, data, flagged: np.ndarray | None) -> None:
-    """NaN in the Jacobians of the environments flagged in `data` or by the evaluation (`flagged`, (N,) bool)."""
-    before = data.valid_state.numpy() == 0 if data.valid_state is not None else np.zeros(data.batch_size, dtype=bool)
-    flagged = before if flagged is None else before | flagged
-    if not flagged.any():
-        return
-    for name, value in out.items():
-        host = value.numpy()
-        host[flagged] = np.nan
-        value.assign(wp.array(host, dtype=value.dtype, device=value.device))

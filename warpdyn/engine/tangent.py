@@ -16,7 +16,7 @@ from . import state as states
 from .bundles import model_bundle
 from .launch import launch
 
-__all__ = ["base_dofs", "tangent_size", "replicated", "moved_state", "state_tangent", "perturbed", "central_differences", "flattened", "seed"]
+__all__ = ["base_dofs", "tangent_size", "replicated", "moved_state", "state_tangent", "perturbed", "central_differences", "poison_flagged", "flattened", "seed"]
 
 
 def base_dofs(model) -> int:
@@ -29,12 +29,16 @@ def tangent_size(model) -> int:
     return 2 * (base_dofs(model) + model.dofs())
 
 
-def replicated(value: wp.array, copies: int) -> wp.array:
+def replicated(value: wp.array, copies: int, contiguous: bool = False) -> wp.array:
     """(N m, ...): the environments of `value` (N, ...) of two or three axes, each repeated `copies` times, in the
-    device's layout of per-environment arrays (warpdyn.arrays)."""
+    device's layout of per-environment arrays (warpdyn.arrays), or row-major when `contiguous`."""
     if value.ndim not in (2, 3):
         raise ValueError(f"replicated: expected an array of two or three axes, got shape {tuple(value.shape)}")
-    out = arrays.empty(value.shape[1:], value.shape[0] * copies, value.dtype, value.device)
+    rows = value.shape[0] * copies
+    if contiguous:
+        out = wp.empty((rows, *value.shape[1:]), dtype=value.dtype, device=value.device)
+    else:
+        out = arrays.empty(value.shape[1:], rows, value.dtype, value.device)
     kernels = tangent_kernels(value.dtype, False)
     kernel = kernels.replicate if value.ndim == 2 else kernels.replicate_3d
     launch(kernel, dim=out.shape, inputs=[value, copies], outputs=[out], device=value.device)
@@ -105,6 +109,16 @@ def central_differences(y: wp.array, copies: int, nu: int, h: float) -> tuple[wp
     B = wp.empty((N, nx, nu), dtype=s, device=d)
     launch(tangent_kernels(s, False).central_differences, dim=(N, nx + nu), inputs=[y, copies, nx, s(h)], outputs=[A, B], device=d)
     return A, B
+
+
+def poison_flagged(outputs, valid_rows: wp.array | None, copies: int, data_valid: wp.array | None) -> None:
+    """NaN in each output (N, ...), contiguous, for the environments flagged in the data (data_valid (N,)) or in any
+    of their copies by the evaluation (valid_rows (N m,)); on the device, without a synchronisation."""
+    for out in outputs:
+        rows = out.reshape((out.shape[0], -1))
+        none = wp.empty(0, dtype=wp.int32, device=out.device)
+        launch(tangent_kernels(out.dtype, False).poison_flagged, dim=rows.shape,
+               inputs=[none if valid_rows is None else valid_rows, copies, none if data_valid is None else data_valid], outputs=[rows], device=out.device)
 
 
 def flattened(value: wp.array) -> wp.array:
