@@ -22,12 +22,7 @@ def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
     vec3, mat33 = wp.types.vector(3, s), wp.types.matrix((3, 3), s)
     grad = dims.requires_grad or density.requires_grad
     nL, nj = model.number_of_links(), model.number_of_joints()
-
-    def constant(values, dtype):
-        return wp.array(np.ascontiguousarray(values, dtype=np.float64), dtype=dtype, device=d)
-
-    shape = wp.array(metadata.link_shape, dtype=int, device=d)
-    L_R_G, L_p_G = constant(metadata.L_H_G[:, :3, :3], mat33), constant(metadata.L_H_G[:, :3, 3], vec3)
+    shape, geometry, rho, L_R_G, L_p_G, parent, L_p_pre = model.cached("hw parameter constants", lambda: _constants(model, metadata))
     P = density.shape[0]
     out = {
         "link_mass": arrays.empty((nL,), P, s, d, grad),
@@ -39,7 +34,7 @@ def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
     launch(
         kernels.link_parameters,
         dim=(P, nL),
-        inputs=[shape, constant(metadata.geometry, vec3), constant(metadata.density, s), L_R_G, L_p_G, dims, density,
+        inputs=[shape, geometry, rho, L_R_G, L_p_G, dims, density,
                 model.link_mass, model.link_com, model.link_inertia],
         outputs=[out["link_mass"], out["link_com"], out["link_inertia"]],
         device=d,
@@ -48,8 +43,28 @@ def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
         launch(
             kernels.joint_positions,
             dim=nj,
-            inputs=[wp.array(metadata.joint_parent, dtype=int, device=d), shape, L_R_G, L_p_G, constant(metadata.L_H_pre[:, :3, 3], vec3), dims],
+            inputs=[parent, shape, L_R_G, L_p_G, L_p_pre, dims],
             outputs=[out["positions"]],
             device=d,
         )
     return out
+
+
+def _constants(model, metadata) -> tuple:
+    """The metadata on the device, once per model version: shape, geometry, density, L_R_G, L_p_G (per link), the
+    joints' parents and L_p_pre (per joint)."""
+    s, d = model.scalar, model.device
+    vec3, mat33 = wp.types.vector(3, s), wp.types.matrix((3, 3), s)
+
+    def constant(values, dtype):
+        return wp.array(np.ascontiguousarray(values, dtype=np.float64), dtype=dtype, device=d)
+
+    return (
+        wp.array(metadata.link_shape, dtype=int, device=d),
+        constant(metadata.geometry, vec3),
+        constant(metadata.density, s),
+        constant(metadata.L_H_G[:, :3, :3], mat33),
+        constant(metadata.L_H_G[:, :3, 3], vec3),
+        wp.array(metadata.joint_parent, dtype=int, device=d),
+        constant(metadata.L_H_pre[:, :3, 3], vec3),
+    )
