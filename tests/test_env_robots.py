@@ -44,6 +44,17 @@ def test_the_presets_give_the_hand_built_models():
     assert cfg.kp == 20.0 and set(cfg.feet) == set(wd.assets.GO1_FEET) and cfg.feet == tuple(n for n in go1.link_names() if n in cfg.feet) and cfg.default_joint_positions == dict(wd.assets.GO1_STANDING_POSE)
 
 
+def assert_stands(env, seconds: float = 1.0) -> None:
+    """With zero actions for `seconds`, no episode of `env` ends and every base stays above half its standing height."""
+    actions = torch.zeros(env.num_envs, env.single_action_space.shape[0], device=env.device)
+    ended = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
+    for _ in range(int(seconds / env.cfg.policy_dt)):
+        _, _, terminated, _, _ = env.step(actions)
+        ended |= terminated
+    assert not ended.any()
+    assert float(env.state.base_position[:, 2].min()) > 0.5 * env.standing_height
+
+
 def test_your_own_robot_block_of_the_docs_runs_and_stands():
     """docs/rl.md's block, run as written: the quadruped's feet carry its only contact points (the lower halves of its
     spheres), its posture is the keyframe's, and with zero actions it stays standing for 1 s (no episode ends)."""
@@ -58,12 +69,7 @@ def test_your_own_robot_block_of_the_docs_runs_and_stands():
     lower = [links[b] in robot.feet and p[2] < -0.2 for b, p in zip(cp.body, np.asarray(cp.point))]  # below each sphere's centre
     assert list(cp.enabled) == lower and 0 < sum(lower) < sum(links[b] in robot.feet for b in cp.body)
     assert env.cfg.default_joint_positions["fl_knee"] == pytest.approx(-1.4) and set(env.cfg.feet) == set(robot.feet)
-    actions = torch.zeros(env.num_envs, env.single_action_space.shape[0], device=env.device)
-    ended = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
-    for _ in range(int(1.0 / env.cfg.policy_dt)):
-        _, _, terminated, _, _ = env.step(actions)
-        ended |= terminated
-    assert not ended.any()
+    assert_stands(env)
     assert float(env.state.base_position[:, 2].min()) > 0.2
 
 
@@ -104,13 +110,14 @@ def test_mujoco_compiles_the_shipped_anymal_c_alone_and_warpdyn_names_what_it_do
     assert spheres == set(wd.assets.ANYMAL_C_FEET)
 
 
-def test_the_shipped_anymal_c_equals_mujoco():
-    """M, h (qfrc_bias), passive forces and qacc at qpos0 and 5 random states, float64, relative to 1e-10
-    (mjcf_compare.compare_model, MuJoCo's constraints disabled), and warpdyn starts at MuJoCo's qpos0."""
+@pytest.mark.parametrize("asset", [wd.assets.anymal_c_mjcf, wd.assets.go2_mjcf], ids=["anymal_c", "go2"])
+def test_the_shipped_quadrupeds_equal_mujoco(asset):
+    """M, h (qfrc_bias), passive forces (damping) and qacc (armature in M) at qpos0 and 5 random states, float64,
+    relative to 1e-10 (mjcf_compare.compare_model, MuJoCo's constraints disabled); warpdyn starts at MuJoCo's qpos0."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
-        model = wd.model.Model.build_from_model_description(wd.assets.anymal_c_mjcf(), dtype=np.float64, device="cpu")
-    errors = mjcf_compare.compare_model(model, mujoco.MjModel.from_xml_path(str(wd.assets.anymal_c_mjcf())), random_states=5, seed=3)
+        model = wd.model.Model.build_from_model_description(asset(), dtype=np.float64, device="cpu")
+    errors = mjcf_compare.compare_model(model, mujoco.MjModel.from_xml_path(str(asset())), random_states=5, seed=3)
     assert all(errors[name] < 1e-10 for name in ("M", "h", "forces", "qacc")), errors
     assert errors["start"] == 0.0
 
@@ -131,13 +138,7 @@ def test_the_anymal_c_preset_stands_on_its_foot_spheres():
     assert env.cfg.default_joint_positions["LF_HFE"] == pytest.approx(np.pi / 6) and env.cfg.default_joint_positions["RH_KFE"] == pytest.approx(np.pi / 4)
     assert (env.cfg.kp, env.cfg.kd, env.cfg.torque_limit) == (80.0, 2.0, 80.0)
     assert env.standing_height == pytest.approx(0.56 - 0.0012254, abs=1e-3) and env.cfg.base_height_target == env.standing_height
-    actions = torch.zeros(env.num_envs, env.single_action_space.shape[0], device=env.device)
-    ended = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
-    for _ in range(int(1.0 / env.cfg.policy_dt)):
-        _, _, terminated, _, _ = env.step(actions)
-        ended |= terminated
-    assert not ended.any()
-    assert float(env.state.base_position[:, 2].min()) > 0.5 * env.standing_height
+    assert_stands(env)
 
 
 GO2_JOINTS = tuple(f"{leg}_{joint}_joint" for leg in ("FL", "FR", "RL", "RR") for joint in ("hip", "thigh", "calf"))  # MuJoCo's order
@@ -167,17 +168,6 @@ def test_mujoco_compiles_the_shipped_go2_alone_and_warpdyn_names_what_it_does_no
     assert spheres == {"base", *wd.assets.GO2_FEET}
 
 
-def test_the_shipped_go2_equals_mujoco():
-    """M, h (qfrc_bias), passive forces (damping) and qacc (armature in M) at qpos0 and 5 random states, float64,
-    relative to 1e-10 (mjcf_compare.compare_model, MuJoCo's constraints disabled); warpdyn starts at MuJoCo's qpos0."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
-        model = wd.model.Model.build_from_model_description(wd.assets.go2_mjcf(), dtype=np.float64, device="cpu")
-    errors = mjcf_compare.compare_model(model, mujoco.MjModel.from_xml_path(str(wd.assets.go2_mjcf())), random_states=5, seed=3)
-    assert all(errors[name] < 1e-10 for name in ("M", "h", "forces", "qacc")), errors
-    assert errors["start"] == 0.0
-
-
 @pytest.mark.filterwarnings("ignore::warpdyn.model.NotModelledWarning")  # the joint limits, tested above
 def test_the_go2_preset_stands_on_its_foot_spheres():
     """Its contacts are the lower halves of the four foot spheres (9 of each sphere's 20 points, below its centre
@@ -197,13 +187,7 @@ def test_the_go2_preset_stands_on_its_foot_spheres():
     np.testing.assert_allclose(servo_range, [wd.assets.GO2_TORQUE_LIMITS[j] for j in env.model.joint_names()], rtol=1e-6)
     assert sorted(set(np.round(servo_range, 2))) == [23.7, 45.43]
     assert env.standing_height == pytest.approx(0.3227, abs=1e-3) and env.cfg.base_height_target == env.standing_height
-    actions = torch.zeros(env.num_envs, env.single_action_space.shape[0], device=env.device)
-    ended = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
-    for _ in range(int(1.0 / env.cfg.policy_dt)):
-        _, _, terminated, _, _ = env.step(actions)
-        ended |= terminated
-    assert not ended.any()
-    assert float(env.state.base_position[:, 2].min()) > 0.5 * env.standing_height
+    assert_stands(env)
 
 
 def test_per_joint_torque_limits_clip_each_joint():
