@@ -27,16 +27,16 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 def test_the_presets_give_the_hand_built_models():
     """The Go1 preset's contacts are the lower halves of its foot spheres (20 points each), as the example chose them
     by the foot centre's height (wd.assets.GO1_FOOT_CENTRE); the ergoCub's are its foot boxes' corners, the default."""
-    go1 = envs.robots.go1().model(device="cpu")
-    hand = wd.model.Model.build_from_model_description(wd.assets.example_robot_data_urdf("go1"), device="cpu")
+    go1 = envs.robots.go1().model()
+    hand = wd.model.Model.build_from_model_description(wd.assets.example_robot_data_urdf("go1"))
     hand = wd.contact.with_collidable_points(hand, options=wd.contact.CollidablePointsOptions(shapes=("sphere",), sphere_points=20))
     point = hand.kin_dyn_parameters.contact_parameters.point
     hand = wd.contact.with_collidable_points(hand, enabled=point[:, 2] < wd.assets.GO1_FOOT_CENTRE[2])
     assert go1.kin_dyn_parameters.contact_parameters.enabled == hand.kin_dyn_parameters.contact_parameters.enabled
     assert sum(go1.kin_dyn_parameters.contact_parameters.enabled) == 36
     legs = envs.robots.ergocub_legs()
-    model = legs.model(device="cpu")
-    full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), device="cpu")
+    model = legs.model()
+    full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf())
     default = wd.model.reduce(full, wd.assets.ERGOCUB_LEG_JOINTS)
     np.testing.assert_array_equal(np.asarray(model.kin_dyn_parameters.contact_parameters.point), np.asarray(default.kin_dyn_parameters.contact_parameters.point))
     assert all(model.kin_dyn_parameters.contact_parameters.enabled) and len(model.kin_dyn_parameters.contact_parameters.body) == 32
@@ -76,9 +76,9 @@ def test_your_own_robot_block_of_the_docs_runs_and_stands():
 def test_bad_robots_are_refused_by_name():
     robot = envs.robots.ergocub_legs()
     with pytest.raises(ValueError, match=r"feet \['l_foot'\] are not links"):
-        envs.LeggedRobot(description=robot.description, feet=("l_foot",), joints=robot.joints).model(device="cpu")
+        envs.LeggedRobot(description=robot.description, feet=("l_foot",), joints=robot.joints).model()
     with pytest.raises(ValueError, match=r"feet \['l_ankle_2'\] have no collision shape of the kinds \['sphere'\]"):
-        envs.LeggedRobot(description=robot.description, feet=("l_ankle_2",), joints=robot.joints, contact_shapes=("sphere",)).model(device="cpu")
+        envs.LeggedRobot(description=robot.description, feet=("l_ankle_2",), joints=robot.joints, contact_shapes=("sphere",)).model()
     with pytest.raises(ValueError, match="keyframe"):
         envs.LeggedRobot(description=robot.description, feet=robot.feet, joints=robot.joints, posture="stand").config()
 
@@ -100,7 +100,7 @@ def test_mujoco_compiles_the_shipped_anymal_c_alone_and_warpdyn_names_what_it_do
     assert m.key("standing").qpos[2] == 0.56 and m.body_subtreemass[1] == pytest.approx(44.96518)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = wd.model.Model.build_from_model_description(wd.assets.anymal_c_mjcf(), dtype=np.float64, device="cpu")
+        model = wd.model.Model.build_from_model_description(wd.assets.anymal_c_mjcf(), dtype=np.float64)
     assert [w.category for w in caught] == [wd.model.NotModelledWarning], [str(w.message) for w in caught]
     listed = str(caught[0].message).split(" holds elements that warpdyn does not model: ")[1]
     excludes = [f"base/{leg}_THIGH" for leg in ("LF", "RF", "LH", "RH")]
@@ -116,7 +116,7 @@ def test_the_shipped_quadrupeds_equal_mujoco(asset):
     relative to 1e-10 (mjcf_compare.compare_model, MuJoCo's constraints disabled); warpdyn starts at MuJoCo's qpos0."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
-        model = wd.model.Model.build_from_model_description(asset(), dtype=np.float64, device="cpu")
+        model = wd.model.Model.build_from_model_description(asset(), dtype=np.float64)
     errors = mjcf_compare.compare_model(model, mujoco.MjModel.from_xml_path(str(asset())), random_states=5, seed=3)
     assert all(errors[name] < 1e-10 for name in ("M", "h", "forces", "qacc")), errors
     assert errors["start"] == 0.0
@@ -128,7 +128,7 @@ def test_the_anymal_c_preset_stands_on_its_foot_spheres():
     in the shank frame) and nothing else; its posture is the keyframe's, its standing height the keyframe's base
     height less the feet's 1.2 mm clearance (to the lowest point's 0.5 mm); with zero actions it stays standing for 1 s."""
     robot = envs.robots.anymal_c()
-    env = robot.env(num_envs=8, device="cpu")
+    env = robot.env(num_envs=8)
     cp = env.model.kin_dyn_parameters.contact_parameters
     links = env.model.link_names()
     feet = [links[b] in robot.feet for b in cp.body]
@@ -159,7 +159,7 @@ def test_mujoco_compiles_the_shipped_go2_alone_and_warpdyn_names_what_it_does_no
     assert m.key("home").qpos[2] == 0.27 and m.body_subtreemass[1] == pytest.approx(15.206408)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = wd.model.Model.build_from_model_description(wd.assets.go2_mjcf(), dtype=np.float64, device="cpu")
+        model = wd.model.Model.build_from_model_description(wd.assets.go2_mjcf(), dtype=np.float64)
     assert [w.category for w in caught] == [wd.model.NotModelledWarning], [str(w.message) for w in caught]
     listed = str(caught[0].message).split(" holds elements that warpdyn does not model: ")[1]
     assert listed == f"{JOINT_LIMITS}: {list(GO2_JOINTS)}"
@@ -174,7 +174,7 @@ def test_the_go2_preset_stands_on_its_foot_spheres():
     in the calf frame) and nothing else (the base's sphere has points, all disabled); its posture and gains are
     unitree_rl_gym's; with zero actions it stays standing for 1 s."""
     robot = envs.robots.go2()
-    env = robot.env(num_envs=8, device="cpu")
+    env = robot.env(num_envs=8)
     cp = env.model.kin_dyn_parameters.contact_parameters
     links = env.model.link_names()
     on_feet = np.array([links[b] in robot.feet for b in cp.body])
@@ -194,13 +194,13 @@ def test_per_joint_torque_limits_clip_each_joint():
     """torque_limit {joint: N m}: under "torque" actions the named joint's torque is clipped at its limit, the others
     not; an unknown joint and a non-positive limit are refused by name."""
     legs = envs.robots.ergocub_legs()
-    names = legs.model(device="cpu").joint_names()
-    env = legs.env(num_envs=2, device="cpu", actuator="torque", action_scale=20.0, torque_limit={names[3]: 5.0})
+    names = legs.model().joint_names()
+    env = legs.env(num_envs=2, actuator="torque", action_scale=20.0, torque_limit={names[3]: 5.0})
     env.reset(seed=0)
     env.step(torch.ones(2, len(names)))
     torques = env.joint_torques
     assert torch.all(torques[:, 3] == 5.0) and torch.all(torques[:, [0, 1, 2, 4]] == 20.0)
     with pytest.raises(ValueError, match=r"torque_limit names joints \['knee'\]"):
-        legs.env(num_envs=2, device="cpu", torque_limit={"knee": 5.0})
+        legs.env(num_envs=2, torque_limit={"knee": 5.0})
     with pytest.raises(ValueError, match="torque_limit must be a positive finite number"):
         envs.LeggedEnvConfig(torque_limit={names[0]: -1.0})
