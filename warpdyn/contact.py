@@ -14,6 +14,7 @@ a leading environment axis N for batched data.
 from __future__ import annotations
 
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 import warp as wp
@@ -21,9 +22,10 @@ import warp as wp
 from . import arrays, com
 from .data import Data
 from .description.collidable import CollidablePointsOptions, NoCollidablePointsWarning, UnresolvedMeshWarning, resolve_mesh_uri
-from .engine import contact, derivatives, kinematics
+from .engine import collisions, contact, derivatives, kinematics
 from .types import names
 from .types.enums import VelRepr, output_repr
+from .types.geoms import GeomPairs
 from .types.kin_dyn import ContactParameters, FrameParameters, KinDynParameters
 from .types.settings import STANDARD_GRAVITY, SoftContactsParams
 
@@ -48,6 +50,9 @@ __all__ = [
     "transforms",
     "jacobian",
     "jacobian_derivative",
+    "GeomContacts",
+    "geom_pairs",
+    "geom_contacts",
 ]
 
 
@@ -188,6 +193,39 @@ def jacobian_derivative(model, data, *, output_vel_repr=None) -> wp.array:
     """The time derivatives of `jacobian(...)`: (nc, 6, 6 + n) or (N, nc, 6, 6 + n), same representations."""
     Jdot = derivatives.jacobian_derivatives(model, data, contact.point_targets(model), output_vel_repr)
     return arrays.squeeze_env(Jdot, data.num_envs)
+
+
+def geom_pairs(model) -> GeomPairs:
+    """The pairs of geoms on the model's links that may collide, as MuJoCo's mj_collision decides them before it
+    looks at poses (warpdyn.description.collision_pairs: its body, weld and bit-mask filters, `<exclude>`, explicit
+    `<pair>`s), fixed when the model is built: `GeomPairs` (warpdyn.types.geoms) with the geoms' names, links,
+    types, sizes, margins, friction and each pair's contact slots. MJCF only; empty for URDF and SDF."""
+    return collisions.geom_pairs(model)
+
+
+class GeomContacts(NamedTuple):
+    """The contacts of a model's geom pairs at a state (`geom_contacts`), MuJoCo's d.contact for those pairs.
+
+    count: (nP,) or (N, nP) int, each pair's contacts; position: (C, 3) or (N, C, 3) [m, world], the point midway
+    between the surfaces; frame: (C, 3, 3) or (N, C, 3, 3), MuJoCo's contact frame, its rows the normal (from geom1
+    to geom2) and two tangents; distance: (C,) or (N, C) [m], between the surfaces along the normal, negative when
+    they penetrate. Pair i's contacts are slots first[i] .. first[i] + count[i] - 1 (`geom_pairs(model).first`); the
+    slots past a pair's count hold position 0, frame 0 and distance +inf."""
+
+    count: wp.array
+    position: wp.array
+    frame: wp.array
+    distance: wp.array
+
+
+def geom_contacts(model, data) -> GeomContacts:
+    """The contacts between the model's geom pairs at the data's state, as MuJoCo's narrow phase finds them
+    (`GeomContacts`): sphere, capsule and box pairs and sphere-cylinder (a pair of other types is not in
+    `geom_pairs`; the loader names it in a NotModelledWarning). A contact is reported where the surfaces are
+    nearer than the pair's margin + gap, as MuJoCo reports it. Contacts between bodies exert no force in a step yet."""
+    count, position, frame, dist = collisions.geom_contacts(model, data)
+    n = data.num_envs
+    return GeomContacts(*(arrays.squeeze_env(a, n) for a in (count, position, frame, dist)))
 
 
 def estimate_good_contact_parameters(

@@ -48,6 +48,8 @@ from .model import (
     quaternion_wxyz_to_matrix,
 )
 
+from .collision_pairs import mujoco_geom_pairs
+
 __all__ = ["load_mjcf"]
 
 _INTEGRATORS = {
@@ -87,6 +89,10 @@ STATIC_BODIES = "bodies welded to the world beside the free body (static scenery
 SCENE_BODIES = (
     "colliding bodies welded to the world in a scene (lumped into the world: warpdyn's contacts are collidable points "
     "against its terrain, so nothing collides with them)"
+)
+UNCOLLIDED_PAIRS = (
+    "pairs of geoms on bodies that MuJoCo collides with its convex solver or that no shape represents (warpdyn's "
+    "narrow phase does not collide them)"
 )
 MOCAP = "mocap bodies (kept welded at their initial pose)"
 FLEX = "flexes"
@@ -188,6 +194,9 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
         description.base_joint = floating[0]
     description.actuators = actuators
     description.equalities = equalities
+    description.geom_pairs, uncollided = mujoco_geom_pairs(m, mujoco, lambda g: name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"))
+    for pair in uncollided:
+        note(UNCOLLIDED_PAIRS, pair)
     description.gravity = gravity
     description.time_step = time_step
     description.integrator = integrator
@@ -231,6 +240,7 @@ _KIND_ORDER = (
     ACTUATOR_GRAVCOMP,
     CONTACT_PAIRS,
     CONTACT_EXCLUDES,
+    UNCOLLIDED_PAIRS,
     GEOMS,
     WORLD_GEOMS,
     STATIC_BODIES,
@@ -536,19 +546,24 @@ def _mjcf_collisions(m, b: int, link: LinkDescription, mujoco, note, name_of) ->
         H = homogeneous(quaternion_wxyz_to_matrix(m.geom_quat[g]), m.geom_pos[g])
         size = np.array(m.geom_size[g], dtype=np.float64)
         kind = int(m.geom_type[g])
+        geom = dict(
+            geom=g, name=mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "", contype=int(m.geom_contype[g]),
+            conaffinity=int(m.geom_conaffinity[g]), margin=float(m.geom_margin[g]), gap=float(m.geom_gap[g]),
+            friction=tuple(float(f) for f in m.geom_friction[g]), condim=int(m.geom_condim[g]), priority=int(m.geom_priority[g]),
+        )  # fmt: skip
         if kind == mujoco.mjtGeom.mjGEOM_BOX:
-            link.collisions.append(CollisionShape("box", H, size=2.0 * size))
+            link.collisions.append(CollisionShape("box", H, size=2.0 * size, **geom))
         elif kind == mujoco.mjtGeom.mjGEOM_SPHERE:
-            link.collisions.append(CollisionShape("sphere", H, radius=float(size[0])))
+            link.collisions.append(CollisionShape("sphere", H, radius=float(size[0]), **geom))
         elif kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
-            link.collisions.append(CollisionShape("cylinder", H, radius=float(size[0]), length=2.0 * float(size[1])))
+            link.collisions.append(CollisionShape("cylinder", H, radius=float(size[0]), length=2.0 * float(size[1]), **geom))
         elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
-            link.collisions.append(CollisionShape("capsule", H, radius=float(size[0]), length=2.0 * float(size[1])))
+            link.collisions.append(CollisionShape("capsule", H, radius=float(size[0]), length=2.0 * float(size[1]), **geom))
         elif kind == mujoco.mjtGeom.mjGEOM_MESH:
             mesh = int(m.geom_dataid[g])
             start, count = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
             vertices = np.array(m.mesh_vert[start : start + count], dtype=np.float64)
-            link.collisions.append(CollisionShape("mesh", H, vertices=vertices, scale=np.ones(3)))
+            link.collisions.append(CollisionShape("mesh", H, vertices=vertices, scale=np.ones(3), **geom))
         else:
             geom = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g} of '{link.name}'"
             note(GEOMS, f"{geom} ({_geom_type_name(kind, mujoco)})")

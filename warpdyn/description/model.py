@@ -40,6 +40,7 @@ __all__ = [
     "NotModelledWarning",
     "warn_not_modelled",
     "CollisionShape",
+    "GeomPair",
     "FrameDescription",
     "LinkDescription",
     "JointDescription",
@@ -113,6 +114,9 @@ class CollisionShape:
     kind: "box" (size: full extents (3,)), "sphere" (radius), "cylinder" (radius, length along z),
     "capsule" (radius, length of the cylindrical part along z), "mesh" (filename, scale (3,)).
     link_H_shape: (4, 4) pose of the shape in its link frame.
+    MJCF geoms also carry what MuJoCo's collision filter and contact parameters read (`GeomPair`): geom (the
+    geom's id in MuJoCo's compiled model; -1 for URDF and SDF shapes), name, contype and conaffinity (bit masks),
+    margin and gap [m], friction (sliding, torsional, rolling), condim, priority.
     """
 
     kind: str
@@ -123,6 +127,32 @@ class CollisionShape:
     filename: str | None = None
     scale: np.ndarray | None = None
     vertices: np.ndarray | None = None
+    geom: int = -1
+    name: str = ""
+    contype: int = 1
+    conaffinity: int = 1
+    margin: float = 0.0
+    gap: float = 0.0
+    friction: tuple = (1.0, 0.005, 0.0001)
+    condim: int = 3
+    priority: int = 0
+
+
+@dataclass
+class GeomPair:
+    """A pair of geoms that may collide, as MuJoCo's mj_collision decides it before looking at poses (its filters by
+    body, weld, bit mask and `<exclude>`; an explicit `<pair>` always), ordered as MuJoCo orders it (geom1's type <=
+    geom2's). geom1, geom2: MuJoCo's geom ids (`CollisionShape.geom`); margin, gap [m]: the pair's (the sums of the
+    geoms', or the `<pair>`'s); friction (5,): the contact's (sliding twice, torsional, rolling twice: the geoms'
+    by priority or maximum, or the `<pair>`'s); condim; explicit: from a `<pair>`."""
+
+    geom1: int
+    geom2: int
+    margin: float
+    gap: float
+    friction: tuple
+    condim: int
+    explicit: bool = False
 
 
 @dataclass
@@ -352,6 +382,8 @@ class ModelDescription:
     base_joint: a floating base's free joint (MJCF), for its armature, passive_damping and stiffness (MuJoCo
     applies them to the base's 6 DoFs: `warpdyn.description.tree.KinematicTree`); None otherwise.
     equalities: the MJCF equality constraints warpdyn enforces (`EqualityDescription`), in MuJoCo's order.
+    geom_pairs: the pairs of geoms on bodies that MuJoCo may collide (`GeomPair`, warpdyn.description.collision_pairs),
+    in MuJoCo's order, those of geom types warpdyn's narrow phase collides; empty for URDF and SDF.
     """
 
     name: str
@@ -374,6 +406,7 @@ class ModelDescription:
     mujoco_joints: list[tuple[str, str, int, int]] = field(default_factory=list)
     base_joint: JointDescription | None = None
     equalities: list[EqualityDescription] = field(default_factory=list)
+    geom_pairs: list[GeomPair] = field(default_factory=list)
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:

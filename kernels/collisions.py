@@ -1,0 +1,101 @@
+"""Contacts between the geoms of a model's pairs (warpdyn.types.geoms): each pair's geoms placed by their links' world
+poses, then MuJoCo's narrow phase for their types (kernels/collision_primitives.py, kernels/collision_box.py), one
+thread per (environment, pair), each pair writing its fixed slots.
+
+A slot holds a contact's position [m, world], MuJoCo's contact frame (rows: the normal from geom1 to geom2, two
+tangents) and the distance between the surfaces [m] (negative: penetration), as MuJoCo's d.contact; a pair's slots
+past its count hold position 0, frame 0 and distance +inf.
+"""
+
+import types
+
+import warp as wp
+
+from . import collision_box, collision_primitives
+from .collision_primitives import BOX, CAPSULE, CYLINDER, SPHERE
+from .factory import factory
+from .spatial import spatial
+
+
+@factory
+def kernels(scalar) -> types.SimpleNamespace:
+    """The kernel `geom_contacts` in `scalar` (wp.float32 or wp.float64)."""
+    prim = collision_primitives.kernels(scalar)
+    box = collision_box.kernels(scalar)
+    sp = spatial(scalar)
+    vec3, mat33 = prim.vec3, prim.mat33
+    vec2 = wp.types.vector(2, scalar)
+    mat23 = wp.types.matrix((2, 3), scalar)
+
+    @wp.func
+    def put(env: int, slot: int, p: vec3, frame_: mat33, d: scalar,
+            position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar)):  # fmt: skip
+        """Writes one slot."""
+        for r in range(3):
+            position[env, slot, r] = p[r]
+            for c in range(3):
+                frame[env, slot, r, c] = frame_[r, c]
+        dist[env, slot] = d
+
+    @wp.kernel(module="unique")
+    def geom_contacts(
+        link1: wp.array(dtype=int), link2: wp.array(dtype=int), type1: wp.array(dtype=int), type2: wp.array(dtype=int),
+        link_H_geom1: wp.array(dtype=sp.transform), link_H_geom2: wp.array(dtype=sp.transform),
+        size1: wp.array(dtype=vec3), size2: wp.array(dtype=vec3), margin: wp.array(dtype=scalar),
+        first: wp.array(dtype=int), slots: wp.array(dtype=int),
+        W_H_L: wp.array2d(dtype=sp.transform),
+        # outputs
+        count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar),
+    ):  # fmt: skip
+        """Launched over (N, nP): pair i's contacts in environment env (the module docstring), count (N, nP),
+        position (N, C, 3), frame (N, C, 3, 3), dist (N, C); margin: the pair's margin + gap [m]."""
+        env, i = wp.tid()
+        X1 = W_H_L[env, link1[i]] * link_H_geom1[i]
+        X2 = W_H_L[env, link2[i]] * link_H_geom2[i]
+        p1 = wp.transform_get_translation(X1)
+        p2 = wp.transform_get_translation(X2)
+        R1 = wp.quat_to_matrix(wp.transform_get_rotation(X1))
+        R2 = wp.quat_to_matrix(wp.transform_get_rotation(X2))
+        t1, t2, s1, s2, e = type1[i], type2[i], size1[i], size2[i], margin[i]
+        base = first[i]
+        zero = vec3(scalar(0.0))
+        n = int(0)
+        if prim.may_touch(t1, p1, R1, s1, t2, p2, s2, e):
+            if t1 == SPHERE:
+                m1 = int(0)
+                p = vec3()
+                normal = vec3()
+                d = scalar(0.0)
+                if t2 == SPHERE:
+                    m1, p, normal, d = prim.sphere_sphere(p1, R1, s1[0], p2, R2, s2[0], e)
+                elif t2 == CAPSULE:
+                    m1, p, normal, d = prim.sphere_capsule(p1, R1, s1[0], p2, R2, s2, e)
+                elif t2 == CYLINDER:
+                    m1, p, normal, d = prim.sphere_cylinder(p1, R1, s1[0], p2, R2, s2, e)
+                else:
+                    m1, p, normal, d = prim.sphere_box(p1, R1, s1[0], p2, R2, s2, e)
+                if m1 > 0:
+                    put(env, base, p, prim.contact_frame(normal, zero), d, position, frame, dist)
+                n = m1
+            elif t1 == CAPSULE:
+                m2 = int(0)
+                P2 = mat23()
+                N2 = mat23()
+                D2 = vec2()
+                if t2 == CAPSULE:
+                    m2, P2, N2, D2 = prim.capsule_capsule(p1, R1, s1, p2, R2, s2, e)
+                else:
+                    m2, P2, N2, D2 = prim.capsule_box(p1, R1, s1, p2, R2, s2, e)
+                for k in range(m2):
+                    put(env, base + k, P2[k], prim.contact_frame(N2[k], zero), D2[k], position, frame, dist)
+                n = m2
+            elif t1 == BOX and t2 == BOX:
+                m8, P8, N8, D8 = box.box_box(p1, R1, s1, p2, R2, s2, e)
+                for k in range(m8):
+                    put(env, base + k, P8[k], prim.contact_frame(N8[k], zero), D8[k], position, frame, dist)
+                n = m8
+        count[env, i] = n
+        for k in range(n, slots[i]):
+            put(env, base + k, zero, mat33(scalar(0.0)), scalar(wp.inf), position, frame, dist)
+
+    return types.SimpleNamespace(geom_contacts=geom_contacts)

@@ -1,0 +1,105 @@
+"""The geom pairs of a model: the description's `GeomPair`s (warpdyn.description.collision_pairs) on the lumped
+tree's links, with what the narrow phase reads (kernels/collisions.py), fixed when the model is built so that a
+step's collision work has one size.
+
+Each pair has slots for the most contacts its types give (1 with a sphere, 2 for capsule-capsule and capsule-box,
+8 for box-box: kernels/collision_primitives.py, kernels/collision_box.py), consecutive, pair after pair.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["GeomPairs", "geom_pairs", "MUJOCO_TYPES", "SLOTS"]
+
+MUJOCO_TYPES = {"sphere": 2, "capsule": 3, "cylinder": 5, "box": 6}
+"""A collision shape's kind -> MuJoCo's mjtGeom value (the narrow phase's type)."""
+
+SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8}
+"""(type1, type2) -> the most contacts of such a pair."""
+
+
+@dataclass(frozen=True)
+class GeomPairs:
+    """The nP geom pairs of a model, in the description's order (host NumPy).
+
+    names: (geom1, geom2) names; link1, link2 (nP,) int: the lumped links that carry them; type1, type2 (nP,) int:
+    MuJoCo's geom types (type1 <= type2); link_H_geom1, link_H_geom2 (nP, 4, 4): the geoms' poses in their links;
+    size1, size2 (nP, 3) [m]: MuJoCo's geom_size (a sphere's radius; a capsule's or cylinder's radius and half
+    length; a box's half sizes); margin, gap (nP,) [m]; friction (nP, 5); condim (nP,) int; first (nP,) int: each
+    pair's first slot; slots (nP,) int: its number of slots; contacts: the slots of all pairs.
+    """
+
+    names: tuple
+    link1: np.ndarray
+    link2: np.ndarray
+    type1: np.ndarray
+    type2: np.ndarray
+    link_H_geom1: np.ndarray
+    link_H_geom2: np.ndarray
+    size1: np.ndarray
+    size2: np.ndarray
+    margin: np.ndarray
+    gap: np.ndarray
+    friction: np.ndarray
+    condim: np.ndarray
+    first: np.ndarray
+    slots: np.ndarray
+
+    @property
+    def contacts(self) -> int:
+        return int(self.slots.sum())
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+
+def _mujoco_size(shape) -> np.ndarray:
+    """MuJoCo's geom_size of a collision shape."""
+    if shape.kind == "box":
+        return 0.5 * np.asarray(shape.size, dtype=np.float64)
+    if shape.kind == "sphere":
+        return np.array([shape.radius, 0.0, 0.0])
+    return np.array([shape.radius, 0.5 * shape.length, 0.0])
+
+
+def geom_pairs(model) -> GeomPairs:
+    """The model's geom pairs (cached per model version). A pair whose two geoms a reduced model lumps into one link
+    is dropped (MuJoCo does not collide geoms welded together)."""
+    return model.cached("geom pairs", lambda: _build(model.tree, model.description.geom_pairs))
+
+
+def _build(tree, pairs) -> GeomPairs:
+    where = {shape.geom: (link, shape) for link, shapes in enumerate(tree.collisions) for shape in shapes if shape.geom >= 0}
+    rows = []
+    for pair in pairs:
+        (l1, s1), (l2, s2) = where[pair.geom1], where[pair.geom2]
+        if l1 != l2:
+            rows.append((pair, l1, s1, l2, s2))
+    t1 = np.array([MUJOCO_TYPES[s1.kind] for _, _, s1, _, _ in rows], dtype=np.int32)
+    t2 = np.array([MUJOCO_TYPES[s2.kind] for _, _, _, _, s2 in rows], dtype=np.int32)
+    slots = np.array([SLOTS[(a, b)] for a, b in zip(t1, t2)], dtype=np.int32)
+    first = np.concatenate([[0], np.cumsum(slots)[:-1]]).astype(np.int32) if len(rows) else np.zeros(0, dtype=np.int32)
+
+    def stack(values, shape):
+        return np.array(values, dtype=np.float64).reshape((len(rows), *shape))
+
+    return GeomPairs(
+        names=tuple((s1.name, s2.name) for _, _, s1, _, s2 in rows),
+        link1=np.array([r[1] for r in rows], dtype=np.int32),
+        link2=np.array([r[3] for r in rows], dtype=np.int32),
+        type1=t1,
+        type2=t2,
+        link_H_geom1=stack([r[2].link_H_shape for r in rows], (4, 4)),
+        link_H_geom2=stack([r[4].link_H_shape for r in rows], (4, 4)),
+        size1=stack([_mujoco_size(r[2]) for r in rows], (3,)),
+        size2=stack([_mujoco_size(r[4]) for r in rows], (3,)),
+        margin=stack([r[0].margin for r in rows], ()),
+        gap=stack([r[0].gap for r in rows], ()),
+        friction=stack([r[0].friction for r in rows], (5,)),
+        condim=np.array([r[0].condim for r in rows], dtype=np.int32),
+        first=first,
+        slots=slots,
+    )
