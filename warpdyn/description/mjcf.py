@@ -547,7 +547,7 @@ def _mjcf_collisions(m, b: int, link: LinkDescription, mujoco, note, name_of) ->
         size = np.array(m.geom_size[g], dtype=np.float64)
         kind = int(m.geom_type[g])
         geom = dict(
-            geom=g, name=mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or "", contype=int(m.geom_contype[g]),
+            geom=g, name=name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"), contype=int(m.geom_contype[g]),
             conaffinity=int(m.geom_conaffinity[g]), margin=float(m.geom_margin[g]), gap=float(m.geom_gap[g]),
             friction=tuple(float(f) for f in m.geom_friction[g]), condim=int(m.geom_condim[g]), priority=int(m.geom_priority[g]),
         )  # fmt: skip

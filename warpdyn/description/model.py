@@ -115,7 +115,7 @@ class CollisionShape:
     "capsule" (radius, length of the cylindrical part along z), "mesh" (filename, scale (3,)).
     link_H_shape: (4, 4) pose of the shape in its link frame.
     MJCF geoms also carry what MuJoCo's collision filter and contact parameters read (`GeomPair`): geom (the
-    geom's id in MuJoCo's compiled model; -1 for URDF and SDF shapes), name, contype and conaffinity (bit masks),
+    geom's id in MuJoCo's compiled model; -1 for URDF and SDF shapes), name (an unnamed geom g's "geom{g}"), contype and conaffinity (bit masks),
     margin and gap [m], friction (sliding, torsional, rolling), condim, priority.
     """
 

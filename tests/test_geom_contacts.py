@@ -1,0 +1,260 @@
+"""wd.contact.geom_pairs and geom_contacts against MuJoCo's mj_collision: the pairs of geoms on bodies that MuJoCo may
+collide (its filters by body, weld, parent weld, bit masks, <exclude>, and its explicit <pair>s) and, at random
+states, their contacts (count, positions, contact frames, distances) as MuJoCo's d.contact holds them.
+
+The pair list is compared with the pairs MuJoCo reports contacts for when every geom is made a sphere and every margin
+100 m: each pair its filters let through then reaches its narrow phase, which reports every pair of spheres nearer
+than its margin. The
+models: SCENE (written to exercise each filter), and the shipped Menagerie fixtures Cassie (self-collision among its
+legs' capsules and spheres) and RB-Y1 (2255 pairs of its meshes' bounding boxes, four <exclude>s).
+
+Contacts are compared pair by pair, in MuJoCo's order within a pair: to 1e-10 in float64 (the narrow phase is
+MuJoCo's arithmetic; tests/test_collision_primitives.py and test_collision_box.py hold each pair function to MuJoCo
+over many more poses, float32 included); what this adds is the geoms' world poses from warpdyn's link poses, the
+dispatch by type, the pair slots and the bounding-sphere filter.
+"""
+
+import copy
+import pathlib
+import warnings
+
+import mujoco
+import numpy as np
+import pytest
+import warp as wp
+
+import warpdyn as wd
+from mjcf_compare import mujoco_to_warpdyn_state
+from mjcf_models import random_state
+from warpdyn.description.collision_pairs import COLLIDED_TYPES
+
+MENAGERIE = pathlib.Path(__file__).parent / "models" / "menagerie"
+
+SCENE = """<mujoco model="filters">
+  <default><geom friction="0.8 0.01 0.001"/></default>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="shelf" pos="1 0 0.2"><geom name="shelf_box" type="box" size="0.2 0.2 0.02"/></body>
+    <body name="arm" pos="0 0 0.5"><freejoint/>
+      <geom name="arm_sphere" type="sphere" size="0.08"/>
+      <geom name="arm_box" type="box" size="0.05 0.05 0.1" pos="0 0 0.1" contype="2" conaffinity="0"/>
+      <body name="forearm" pos="0 0 0.2"><joint name="elbow" axis="0 1 0"/>
+        <geom name="forearm_capsule" type="capsule" size="0.04 0.1" pos="0 0 0.1"/>
+        <body name="wrist_plate" pos="0 0 0.2"><geom name="plate" type="box" size="0.06 0.06 0.01" priority="1" friction="0.3 0.02 0.002"/></body>
+        <body name="hand" pos="0 0 0.2"><joint name="wrist" axis="1 0 0"/>
+          <geom name="hand_sphere" type="sphere" size="0.05" pos="0 0 0.05" margin="0.01" gap="0.005"/>
+        </body>
+      </body>
+    </body>
+    <body name="crate" pos="0.1 0 0.6"><freejoint/>
+      <geom name="crate_box" type="box" size="0.1 0.1 0.1" condim="4"/>
+      <geom name="crate_cylinder" type="cylinder" size="0.05 0.1" pos="0 0 0.15"/>
+      <geom name="crate_ghost" type="sphere" size="0.05" contype="0" conaffinity="0"/>
+    </body>
+    <body name="ball" pos="0 0.1 0.7"><freejoint/>
+      <geom name="ball_sphere" type="sphere" size="0.07" conaffinity="3"/>
+      <geom name="ball_cylinder" type="cylinder" size="0.03 0.05"/>
+    </body>
+    <body name="pin" pos="0.05 -0.1 0.6"><freejoint/><geom name="pin_capsule" type="capsule" size="0.03 0.12"/></body>
+  </worldbody>
+  <contact>
+    <exclude body1="crate" body2="pin"/>
+    <pair geom1="arm_sphere" geom2="forearm_capsule" margin="0.02" gap="0.01" friction="0.5 0.4 0.03 0.002 0.001" condim="6"/>
+  </contact>
+</mujoco>"""
+"""Each filter once: arm_box collides only with geoms whose conaffinity has bit 2 (ball_sphere); forearm is arm's child
+(parent weld: no pairs) but for the explicit <pair>; wrist_plate is welded to forearm (one link); hand is forearm's
+child (none) but collides with arm (its grandparent); crate_ghost collides with nothing; crate and pin are excluded;
+shelf is welded to the world (warpdyn lumps it into the world); ball_cylinder with crate_cylinder and crate_box is
+MuJoCo's convex solver's (named in the loader's warning, not collided); plate's priority gives its friction."""
+
+
+def _model(xml_or_path, dtype=np.float64):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        return wd.model.Model.build_from_model_description(xml_or_path, dtype=dtype)
+
+
+def _mujoco(xml_or_path) -> mujoco.MjModel:
+    if isinstance(xml_or_path, pathlib.Path):
+        return mujoco.MjModel.from_xml_path(str(xml_or_path))
+    return mujoco.MjModel.from_xml_string(xml_or_path)
+
+
+CASES = {"scene": SCENE, "cassie": MENAGERIE / "cassie.xml", "rby1": MENAGERIE / "rby1a_1.2.xml"}
+
+
+def _geom_name(m, g: int) -> str:
+    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"  # the loader's name of an unnamed geom
+
+
+def _body_contacts(m, d, types=None) -> dict:
+    """{(geom1, geom2): [(pos, frame, dist), ...]} of MuJoCo's contacts between geoms on moving bodies whose types
+    (`types`, default m.geom_type) warpdyn's narrow phase collides, in MuJoCo's order; the names in that order of
+    types."""
+    types = m.geom_type if types is None else types
+    out = {}
+    for c in d.contact[: d.ncon]:
+        g1, g2 = int(c.geom[0]), int(c.geom[1])
+        if 0 in (int(m.body_weldid[m.geom_bodyid[g1]]), int(m.body_weldid[m.geom_bodyid[g2]])):
+            continue
+        if int(types[g1]) > int(types[g2]):
+            g1, g2 = g2, g1
+        if (int(types[g1]), int(types[g2])) not in COLLIDED_TYPES:
+            continue
+        key = (_geom_name(m, g1), _geom_name(m, g2))
+        out.setdefault(key, []).append((np.array(c.pos), np.array(c.frame).reshape(3, 3), float(c.dist)))
+    return out
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_pairs_are_those_mujoco_collides(case):
+    """The pairs (names, in MuJoCo's geom order) are exactly those MuJoCo collides when every margin is 100 m, at
+    qpos0 and two random states."""
+    model, m = _model(CASES[case]), _mujoco(CASES[case])
+    ours = set(wd.contact.geom_pairs(model).names)
+    wide = copy.deepcopy(m)
+    wide.geom_type[:] = mujoco.mjtGeom.mjGEOM_SPHERE  # sphere-sphere reports every pair within its margin
+    wide.geom_margin[:] = 100.0
+    wide.pair_margin[:] = 100.0
+    wide.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MIDPHASE)  # its trees' boxes are the geoms' own, without margins
+    d = mujoco.MjData(wide)
+    rng = np.random.default_rng(0)
+    for qpos in (wide.qpos0, random_state(wide, rng)[0], random_state(wide, rng)[0]):
+        d.qpos[:] = qpos
+        mujoco.mj_forward(wide, d)
+        assert set(_body_contacts(wide, d, types=m.geom_type)) == ours
+    assert len(ours) == {"scene": len(SCENE_PAIRS), "cassie": 49, "rby1": 2255}[case]
+
+
+SCENE_PAIRS = (
+    ("arm_sphere", "forearm_capsule"),  # the <pair>
+    ("arm_sphere", "hand_sphere"), ("arm_sphere", "crate_box"), ("arm_sphere", "crate_cylinder"), ("arm_sphere", "ball_sphere"),
+    ("arm_sphere", "ball_cylinder"), ("ball_sphere", "arm_box"), ("arm_sphere", "pin_capsule"),
+    ("forearm_capsule", "crate_box"), ("ball_sphere", "forearm_capsule"), ("forearm_capsule", "pin_capsule"),
+    ("plate", "crate_box"), ("ball_sphere", "plate"), ("pin_capsule", "plate"),
+    ("hand_sphere", "crate_box"), ("hand_sphere", "crate_cylinder"), ("hand_sphere", "ball_sphere"), ("hand_sphere", "ball_cylinder"),
+    ("hand_sphere", "pin_capsule"),
+    ("ball_sphere", "crate_box"), ("ball_sphere", "crate_cylinder"), ("ball_sphere", "pin_capsule"),
+)  # fmt: skip
+"""SCENE's pairs by its docstring's rules, in warpdyn's order (explicit pairs, then by body pair), each (geom1, geom2)
+in MuJoCo's order: geom1's type <= geom2's, else geom1 on the body of lower id."""
+
+
+def test_the_scenes_filters_and_parameters():
+    """SCENE's pairs one by one (its docstring), with MuJoCo's parameters: margin and gap the sums (the <pair>'s own),
+    friction by priority or maximum, condim the maximum; the convex solver's pairs named in the loader's warning."""
+    with pytest.warns(wd.model.NotModelledWarning, match=r"crate_box/ball_cylinder \(cylinder-box\)") as caught:
+        model = wd.model.Model.build_from_model_description(SCENE, dtype=np.float64)
+    message = " ".join(str(w.message) for w in caught)
+    for uncollided in ("forearm_capsule/crate_cylinder (capsule-cylinder)", "plate/ball_cylinder (cylinder-box)",
+                       "crate_cylinder/ball_cylinder (cylinder-cylinder)", "ball_cylinder/pin_capsule (capsule-cylinder)"):  # fmt: skip
+        assert uncollided in message
+    pairs = wd.contact.geom_pairs(model)
+    assert pairs.names == SCENE_PAIRS
+    row = {names: k for k, names in enumerate(pairs.names)}
+    explicit = row[("arm_sphere", "forearm_capsule")]
+    assert pairs.margin[explicit] == 0.02 and pairs.gap[explicit] == 0.01 and pairs.condim[explicit] == 6
+    np.testing.assert_array_equal(pairs.friction[explicit], [0.5, 0.4, 0.03, 0.002, 0.001])
+    hand = row[("arm_sphere", "hand_sphere")]
+    assert pairs.margin[hand] == 0.01 and pairs.gap[hand] == 0.005 and pairs.slots[hand] == 1
+    box = row[("arm_sphere", "crate_box")]
+    assert pairs.condim[box] == 4 and pairs.margin[box] == 0.0
+    np.testing.assert_array_equal(pairs.friction[box], [0.8, 0.8, 0.01, 0.001, 0.001])
+    np.testing.assert_array_equal(pairs.friction[row[("plate", "crate_box")]], [0.3, 0.3, 0.02, 0.002, 0.002])  # priority 1
+    assert pairs.slots[row[("plate", "crate_box")]] == 8 and pairs.slots[row[("pin_capsule", "plate")]] == 2
+    links = model.link_names()
+    assert links[pairs.link1[row[("plate", "crate_box")]]] == "forearm"  # the welded plate is lumped into forearm
+    assert list(pairs.first) == list(np.concatenate([[0], np.cumsum(pairs.slots)[:-1]])) and pairs.contacts == int(pairs.slots.sum())
+
+
+def _compare(model, m, qpos, tol: float) -> int:
+    """Our contacts at MuJoCo's qpos against d.contact; the number of contacts compared."""
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_forward(m, d)
+    expected = _body_contacts(m, d)
+    state = mujoco_to_warpdyn_state(model, m, qpos, np.zeros(m.nv))
+    contacts = wd.contact.geom_contacts(model, wd.data.Data.build(model, **state.data_kwargs))
+    pairs = wd.contact.geom_pairs(model)
+    count, position, frame, dist = (a.numpy() for a in contacts)
+    compared = 0
+    for k, names in enumerate(pairs.names):
+        theirs = expected.get(names, [])
+        assert count[k] == len(theirs), (names, count[k], len(theirs))
+        for j, (pos, F, dd) in enumerate(theirs):
+            s = pairs.first[k] + j
+            np.testing.assert_allclose(position[s], pos, atol=tol, err_msg=str(names))
+            np.testing.assert_allclose(frame[s], F, atol=tol, err_msg=str(names))
+            np.testing.assert_allclose(dist[s], dd, atol=tol, err_msg=str(names))
+            compared += 1
+        unused = slice(pairs.first[k] + count[k], pairs.first[k] + pairs.slots[k])
+        assert np.all(np.isinf(dist[unused])) and not np.any(position[unused]) and not np.any(frame[unused])
+    return compared
+
+
+def _crowded(m, rng):
+    """A random state of SCENE with its free bodies crowded about one point, their orientations random."""
+    qpos, _ = random_state(m, rng)
+    for name in ("arm", "crate", "ball", "pin"):
+        adr = int(m.jnt_qposadr[m.body_jntadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)]])
+        qpos[adr : adr + 3] = [0.0, 0.0, 0.6] + rng.uniform(-0.12, 0.12, 3)
+    return qpos
+
+
+def _touching(m, rng, count: int):
+    """`count` random states (mjcf_models.random_state) at which MuJoCo finds contacts between moving bodies (Cassie's
+    legs touch at about 1 in 40)."""
+    d = mujoco.MjData(m)
+    for _ in range(2000):
+        qpos = random_state(m, rng)[0]
+        d.qpos[:] = qpos
+        mujoco.mj_forward(m, d)
+        if _body_contacts(m, d):
+            yield qpos
+            count -= 1
+            if count == 0:
+                return
+    raise AssertionError("too few random states with contacts")
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_contacts_equal_mujocos(case):
+    """At random states with contacts (SCENE's bodies crowded so that most pairs touch) each pair's contacts are
+    MuJoCo's, and its unused slots hold (0, 0, +inf)."""
+    model, m = _model(CASES[case]), _mujoco(CASES[case])
+    rng = np.random.default_rng(1)
+    states = [_crowded(m, rng) for _ in range(12)] if case == "scene" else list(_touching(m, rng, 4))
+    compared = sum(_compare(model, m, qpos, 1e-10) for qpos in states)
+    assert compared >= {"scene": 60, "cassie": 8, "rby1": 20}[case]
+
+
+def test_batched_and_both_layouts(layout):
+    """Three environments at different states equal each state alone, in both array layouts; float32 within 2e-5 m of
+    float64 where the counts agree (the narrow phase's float32 is tested against MuJoCo in its own files)."""
+    model, model32, m = _model(SCENE), _model(SCENE, np.float32), _mujoco(SCENE)
+    rng = np.random.default_rng(2)
+    states = [mujoco_to_warpdyn_state(model, m, _crowded(m, rng), np.zeros(m.nv)).data_kwargs for _ in range(3)]
+    batched = {name: np.stack([s[name] for s in states]) for name in states[0]}
+    together = [a.numpy() for a in wd.contact.geom_contacts(model, wd.data.Data.build(model, num_envs=3, **batched))]
+    alone = [[a.numpy() for a in wd.contact.geom_contacts(model, wd.data.Data.build(model, **s))] for s in states]
+    for n in range(3):
+        for a, b in zip(together, alone[n]):
+            np.testing.assert_array_equal(a[n], b)
+    single = [a.numpy() for a in wd.contact.geom_contacts(model32, wd.data.Data.build(model32, num_envs=3, **batched))]
+    assert np.mean(single[0] == together[0]) > 0.9
+    pairs = wd.contact.geom_pairs(model)
+    for n in range(3):
+        for k in np.flatnonzero(single[0][n] == together[0][n]):
+            s = slice(pairs.first[k], pairs.first[k] + together[0][n, k])
+            np.testing.assert_allclose(single[1][n, s], together[1][n, s], atol=2e-5)
+            np.testing.assert_allclose(single[3][n, s], together[3][n, s], atol=2e-5)
+
+
+def test_urdf_has_no_geom_pairs():
+    """URDF and SDF carry no collision filter: no pairs (an opt-in self-collision is not built yet), and the query
+    returns empty arrays."""
+    model = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf())
+    assert len(wd.contact.geom_pairs(model)) == 0
+    contacts = wd.contact.geom_contacts(model, wd.data.Data.build(model))
+    assert contacts.count.shape == (0,) and contacts.distance.shape == (0,)
