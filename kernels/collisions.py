@@ -11,7 +11,8 @@ import types
 
 import warp as wp
 
-from . import collision_box, collision_primitives
+from . import collision_box, collision_primitives, soft_contacts
+from .bundles import bundles
 from .collision_primitives import BOX, CAPSULE, CYLINDER, SPHERE
 from .factory import factory
 from .spatial import spatial
@@ -19,10 +20,12 @@ from .spatial import spatial
 
 @factory
 def kernels(scalar) -> types.SimpleNamespace:
-    """The kernel `geom_contacts` in `scalar` (wp.float32 or wp.float64)."""
+    """The kernels `geom_contacts` and `geom_contact_wrenches` in `scalar` (wp.float32 or wp.float64)."""
     prim = collision_primitives.kernels(scalar)
     box = collision_box.kernels(scalar)
+    law = soft_contacts.kernels(scalar)
     sp = spatial(scalar)
+    B = bundles(scalar)
     vec3, mat33 = prim.vec3, prim.mat33
     vec2 = wp.types.vector(2, scalar)
     mat23 = wp.types.matrix((2, 3), scalar)
@@ -98,4 +101,37 @@ def kernels(scalar) -> types.SimpleNamespace:
         for k in range(n, slots[i]):
             put(env, base + k, zero, mat33(scalar(0.0)), scalar(wp.inf), position, frame, dist)
 
-    return types.SimpleNamespace(geom_contacts=geom_contacts)
+    @wp.kernel(module="unique")
+    def geom_contact_wrenches(
+        contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar), first: wp.array(dtype=int),
+        count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
+        # in and out
+        W_f_L: wp.array3d(dtype=scalar),
+    ):  # fmt: skip
+        """Launched over N, after `geom_contacts` at the same state: each contact's soft-law force (JaxSim's
+        Hunt/Crossley, kernels/soft_contacts.py's `hunt_crossley_at_depth`, at the depth -dist along the contact's
+        normal, with the velocity of geom2's point relative to geom1's, no deformation state, the pair's mu) added to
+        W_f_L (N, nL, 6), Inertial: [f; p x f] on geom2's link, its opposite on geom1's. One thread walks an
+        environment's pairs in order (no atomics: the sums are deterministic)."""
+        env = wp.tid()
+        K = B.env_parameter(contacts.K, env)
+        D = B.env_parameter(contacts.D, env)
+        zero = vec3(scalar(0.0))
+        for i in range(link1.shape[0]):
+            a, b = link1[i], link2[i]
+            for k in range(count[env, i]):
+                slot = first[i] + k
+                p = vec3(position[env, slot, 0], position[env, slot, 1], position[env, slot, 2])
+                n = vec3(frame[env, slot, 0, 0], frame[env, slot, 0, 1], frame[env, slot, 0, 2])
+                va, vb = W_v_WL[env, a], W_v_WL[env, b]
+                v = sp.lin(vb) + wp.cross(sp.ang(vb), p) - sp.lin(va) - wp.cross(sp.ang(va), p)
+                f, m_dot = law.hunt_crossley_at_depth(-dist[env, slot], v, zero, n, K, D, mu[i], contacts.p, contacts.q)
+                torque = wp.cross(p, f)
+                for r in range(3):
+                    W_f_L[env, b, r] = W_f_L[env, b, r] + f[r]
+                    W_f_L[env, b, 3 + r] = W_f_L[env, b, 3 + r] + torque[r]
+                    W_f_L[env, a, r] = W_f_L[env, a, r] - f[r]
+                    W_f_L[env, a, 3 + r] = W_f_L[env, a, 3 + r] - torque[r]
+
+    return types.SimpleNamespace(geom_contacts=geom_contacts, geom_contact_wrenches=geom_contact_wrenches)

@@ -132,13 +132,11 @@ def kernels(scalar, terrain_kind: int | None = None):
         return wp.pow(x, e)
 
     @wp.func
-    def hunt_crossley(
-        p: sp.vec3, v: sp.vec3, m: sp.vec3, h: scalar, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar
-    ):
-        """(f (3,), m_dot (3,)): the contact force [N, world axes] and the deformation rate [m/s]."""
+    def hunt_crossley_at_depth(depth: scalar, v: sp.vec3, m: sp.vec3, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar):
+        """(f (3,), m_dot (3,)): the law at a penetration `depth` [m] along the unit normal n (the force pushes
+        along +n), v the velocity [m/s] of the pushed surface relative to the other."""
         zero = scalar(0.0)
         eps = scalar(EPSILON)
-        depth = (h - p[2]) * n[2]
         delta = wp.max(zero, depth)
         delta_dot = zero
         # (delta + eps)^p and ^q only in contact: out of it every term they scale is 0 or replaced below
@@ -171,6 +169,14 @@ def kernels(scalar, terrain_kind: int | None = None):
         if depth != depth:  # noqa: PLR0124 (NaN test) a NaN height (written in place): a NaN force, which the step flags
             f_t = sp.vec3(depth)
         return along_normal(n, fn) + f_t, m_dot
+
+    @wp.func
+    def hunt_crossley(
+        p: sp.vec3, v: sp.vec3, m: sp.vec3, h: scalar, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar
+    ):
+        """(f (3,), m_dot (3,)): the contact force [N, world axes] and the deformation rate [m/s] of a point at p
+        on a terrain of height h and normal n there."""
+        return hunt_crossley_at_depth((h - p[2]) * n[2], v, m, n, K, D, mu, pe, qe)
 
     @wp.func
     def law_parameters(contacts: B.Contacts, env: int):
@@ -269,6 +275,7 @@ def kernels(scalar, terrain_kind: int | None = None):
         terrain_height=terrain_height,
         terrain_normal=terrain_normal,
         hunt_crossley=hunt_crossley,
+        hunt_crossley_at_depth=hunt_crossley_at_depth,
         law_parameters=law_parameters,
         contact_at=contact_at,
         point_wrench=point_wrench,

@@ -48,8 +48,8 @@ def test_unsupported_gives_one_warning_naming_everything():
 
 
 def test_more_unsupported_elements_are_listed():
-    """Contact pairs and excludes, an ellipsoid on a body, a plane on a static body beside the free one (dropped
-    as scenery), a non-plane geom on the world, a geom fluid shape, polynomial damping, a body-transmission and an
+    """An ellipsoid on a body, a plane on a static body beside the free one (dropped as scenery), a non-plane geom on
+    the world, a geom fluid shape, polynomial damping, a body-transmission and an
     integrator actuator: each named in one warning; a world plane (the floor), sensors and the free joint's
     damping (the floating base's, modelled) are not."""
     xml = """<mujoco model="more"><compiler angle="radian"/>
@@ -76,7 +76,7 @@ def test_more_unsupported_elements_are_listed():
         description = load(xml)
     assert len(caught) == 1 and caught[0].category is NotModelledWarning
     message = str(caught[0].message)
-    for name in ("touch", "no_self", "egg (ellipsoid)", "wall (plane)", "shelf", "rock (box)", "base (fluidshape)", "elbow", "glue", "iv"):
+    for name in ("egg (ellipsoid)", "wall (plane)", "shelf", "rock (box)", "base (fluidshape)", "elbow", "glue", "iv"):
         assert f"'{name}'" in message, name
     assert "'root'" not in message  # the floating base's free-joint damping is modelled
     assert "floor" not in message and "jointpos" not in message and "'ok'" not in message

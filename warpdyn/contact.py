@@ -130,7 +130,8 @@ def link_contact_forces(
     law (0 for disabled points), at the data's state (one contact evaluation). f_L in `output_vel_repr` for the link frame L (default
     Inertial, as JaxSim's, whatever the data's representation):
     - Inertial: W_f_L = sum over L's enabled points C of [f_C; W_p_C x f_C] (torque about the world origin),
-      what `step` adds to the link's external force;
+      plus, where model.geom_contacts is set, the wrenches of L's geom pairs' contacts (`geom_contacts`), what
+      `step` adds to the link's external force;
     - Mixed: the same force with its torque about the link origin, world axes: [f; tau_W - W_p_L x f];
     - Body: L_X*_W W_f_L, force and torque at the link origin in link axes.
     The point forces are the contact model's (`model.contact_model`, `model.contact_params`, `model.terrain`)
@@ -222,7 +223,8 @@ def geom_contacts(model, data) -> GeomContacts:
     """The contacts between the model's geom pairs at the data's state, as MuJoCo's narrow phase finds them
     (`GeomContacts`): sphere, capsule and box pairs and sphere-cylinder (a pair of other types is not in
     `geom_pairs`; the loader names it in a NotModelledWarning). A contact is reported where the surfaces are
-    nearer than the pair's margin + gap, as MuJoCo reports it. Contacts between bodies exert no force in a step yet."""
+    nearer than the pair's margin + gap, as MuJoCo reports it. They act in a step where model.geom_contacts is set
+    (the soft law at each contact that penetrates)."""
     count, position, frame, dist = collisions.geom_contacts(model, data)
     n = data.num_envs
     return GeomContacts(*(arrays.squeeze_env(a, n) for a in (count, position, frame, dist)))

@@ -25,7 +25,8 @@
   alone; warpdyn's M and accelerations equal MuJoCo's on it (tests/test_env_robots.py). Its collision
   primitives are kept: the four 0.03 m foot spheres (ANYMAL_C_FEET's, the contacts of `envs.robots.anymal_c()`)
   and the boxes and cylinders of the base and legs. Loading it warns once, a NotModelledWarning for the joint
-  limits and the contact excludes (base/thighs) that MuJoCo has.
+  limits, the contacts between bodies (off unless model.geom_contacts) and the pairs of cylinders warpdyn does not
+  collide.
 - `go2_mjcf()`: Unitree's Go2 quadruped (floating base, 12 revolute joints, 15.21 kg), MuJoCo Menagerie's
   `unitree_go2/go2.xml` without meshes, materials, visual geoms, motors and frictionloss, with Menagerie's
   keyframe "home" (the file's comment says what was changed and why; BSD-3-Clause, Unitree Robotics:

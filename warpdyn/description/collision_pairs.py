@@ -70,28 +70,29 @@ def _masks_exclude(contype1: int, conaffinity1: int, contype2: int, conaffinity2
 
 def mujoco_geom_pairs(m, mujoco, geom_name) -> tuple[list[GeomPair], list[str]]:
     """(pairs, uncollided) of MuJoCo's model m: the pairs of geoms on moving bodies that MuJoCo may collide (the module
-    docstring), explicit `<pair>`s first in their order, then by body pair and geom; and the names
-    "geom1/geom2 (type1-type2)" of those whose types warpdyn's narrow phase does not collide (COLLIDED_TYPES).
-    geom_name(g): a geom's name for messages."""
+    docstring), explicit `<pair>`s first in their order, then by body pair and geom; and those that warpdyn's narrow
+    phase does not collide, {"type1-type2": ["geom1/geom2", ...]} (types outside COLLIDED_TYPES; "without shape": a
+    `<pair>` of a geom whose contype and conaffinity are 0, for which the loader keeps no shape). geom_name(g): a
+    geom's name for messages."""
     filterparent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
     type_name = {int(v): k.removeprefix("mjGEOM_").lower() for k, v in mujoco.mjtGeom.__members__.items()}
     moving = [int(m.body_weldid[m.geom_bodyid[g]]) != 0 for g in range(m.ngeom)]
     shaped = [bool(m.geom_contype[g] or m.geom_conaffinity[g]) for g in range(m.ngeom)]  # the loader's shapes
-    pairs, uncollided = [], []
+    pairs, uncollided = [], {}
 
     def keep(g1: int, g2: int, pair: GeomPair) -> None:
         types = (int(m.geom_type[pair.geom1]), int(m.geom_type[pair.geom2]))
         if types in COLLIDED_TYPES:
             pairs.append(pair)
         else:
-            uncollided.append(f"{geom_name(g1)}/{geom_name(g2)} ({type_name[types[0]]}-{type_name[types[1]]})")
+            uncollided.setdefault(f"{type_name[types[0]]}-{type_name[types[1]]}", []).append(f"{geom_name(g1)}/{geom_name(g2)}")
 
     explicit = set()
     for k in range(m.npair):
         g1, g2 = int(m.pair_geom1[k]), int(m.pair_geom2[k])
         explicit.add(frozenset((g1, g2)))
         if not (shaped[g1] and shaped[g2]):
-            uncollided.append(f"{geom_name(g1)}/{geom_name(g2)} (a <pair> of a geom with contype = conaffinity = 0)")
+            uncollided.setdefault("without shape", []).append(f"{geom_name(g1)}/{geom_name(g2)}")
         elif moving[g1] and moving[g2]:
             o1, o2 = _ordered(m, g1, g2)
             friction = tuple(float(f) for f in m.pair_friction[k])

@@ -81,8 +81,6 @@ ACTUATOR_GRAVCOMP = (
     "actuatorgravcomp (warpdyn applies the joint's gravity compensation as a passive force: its actuatorfrcrange "
     "does not clamp it, and it is kept in a model without actuators)"
 )
-CONTACT_PAIRS = "contact pairs"
-CONTACT_EXCLUDES = "contact excludes"
 GEOMS = "collision geoms of unsupported types (ellipsoid, plane/hfield on bodies, sdf)"
 WORLD_GEOMS = "colliding geoms on the world body other than planes (static obstacles; warpdyn has its terrain)"
 STATIC_BODIES = "bodies welded to the world beside the free body (static scenery, dropped)"
@@ -90,9 +88,10 @@ SCENE_BODIES = (
     "colliding bodies welded to the world in a scene (lumped into the world: warpdyn's contacts are collidable points "
     "against its terrain, so nothing collides with them)"
 )
-UNCOLLIDED_PAIRS = (
-    "pairs of geoms on bodies that MuJoCo collides with its convex solver or that no shape represents (warpdyn's "
-    "narrow phase does not collide them)"
+UNCOLLIDED_PAIRS = "pairs of geoms on bodies that warpdyn's narrow phase does not collide (MuJoCo's convex solver's)"
+BODY_CONTACTS = (
+    "contacts between bodies, off by default (model.geom_contacts = True makes the soft law act on them; "
+    "wd.contact.geom_contacts finds them)"
 )
 MOCAP = "mocap bodies (kept welded at their initial pose)"
 FLEX = "flexes"
@@ -195,8 +194,10 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
     description.actuators = actuators
     description.equalities = equalities
     description.geom_pairs, uncollided = mujoco_geom_pairs(m, mujoco, lambda g: name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"))
-    for pair in uncollided:
-        note(UNCOLLIDED_PAIRS, pair)
+    if description.geom_pairs:
+        note(BODY_CONTACTS, f"{len(description.geom_pairs)} geom pairs")
+    for kinds, names in sorted(uncollided.items()):
+        note(UNCOLLIDED_PAIRS, f"{len(names)} {kinds} (e.g. {names[0]})")
     description.gravity = gravity
     description.time_step = time_step
     description.integrator = integrator
@@ -238,8 +239,7 @@ _KIND_ORDER = (
     DISABLED_GROUP,
     ACTUATOR_POLYNOMIAL,
     ACTUATOR_GRAVCOMP,
-    CONTACT_PAIRS,
-    CONTACT_EXCLUDES,
+    BODY_CONTACTS,
     UNCOLLIDED_PAIRS,
     GEOMS,
     WORLD_GEOMS,
@@ -513,15 +513,6 @@ def _constraints_and_others(m, note, name_of, mujoco) -> None:
     Obj = mujoco.mjtObj
     for i in range(m.ntendon):
         note(TENDONS, name_of(Obj.mjOBJ_TENDON, i, "tendon"))
-    for i in range(m.npair):
-        note(CONTACT_PAIRS, name_of(Obj.mjOBJ_PAIR, i, "pair"))
-    for i in range(m.nexclude):
-        name = mujoco.mj_id2name(m, Obj.mjOBJ_EXCLUDE, i)
-        if not name:
-            signature = int(m.exclude_signature[i])
-            b1, b2 = signature >> 16, signature & 0xFFFF
-            name = f"{name_of(Obj.mjOBJ_BODY, b1, 'body')}/{name_of(Obj.mjOBJ_BODY, b2, 'body')}"
-        note(CONTACT_EXCLUDES, name)
     for i in range(m.nflex):
         note(FLEX, name_of(Obj.mjOBJ_FLEX, i, "flex"))
     for i in range(m.nskin):

@@ -1,5 +1,7 @@
-"""Contacts between geoms: the model's geom pairs (warpdyn.types.geoms) on the device, and one launch of
-kernels/collisions.py at a state's link poses. Results have a leading N axis.
+"""Contacts between geoms: the model's geom pairs (warpdyn.types.geoms) on the device, their contacts at a state
+(kernels/collisions.py's `geom_contacts`) and, in a step where model.geom_contacts is set, their soft-law wrenches
+added to the links' (`geom_contact_wrenches`, launched by the soft contact stage: warpdyn.engine.contact_stage).
+Results have a leading N axis.
 """
 
 from __future__ import annotations
@@ -11,19 +13,20 @@ from ..kernels.collisions import kernels as collision_kernels
 from ..types.geoms import geom_pairs
 from ..types.model_constants import transforms
 from .kinematics import link_poses
-from .launch import launch
+from .launch import Launch, run
 
-__all__ = ["geom_pairs", "pair_arrays", "geom_contacts"]
+__all__ = ["geom_pairs", "pair_arrays", "contact_buffers", "contact_launch", "force_launches", "geom_contacts"]
 
 
 def pair_arrays(model) -> dict:
-    """The geom pairs' device arrays as kernels/collisions.py's `geom_contacts` takes them (cached per model
-    version)."""
+    """The geom pairs' device arrays as kernels/collisions.py takes them, with "scalar", "pairs" (nP) and "contacts"
+    (C, their slots) (cached per model version)."""
 
     def build():
         pairs, s, d = geom_pairs(model), model.scalar, model.device
         vec3 = wp.types.vector(3, s)
         return dict(
+            scalar=s, device=d, pairs=len(pairs), contacts=pairs.contacts,
             link1=wp.array(pairs.link1, dtype=int, device=d),
             link2=wp.array(pairs.link2, dtype=int, device=d),
             type1=wp.array(pairs.type1, dtype=int, device=d),
@@ -33,32 +36,46 @@ def pair_arrays(model) -> dict:
             size1=wp.array(pairs.size1, dtype=vec3, device=d),
             size2=wp.array(pairs.size2, dtype=vec3, device=d),
             margin=wp.array(pairs.margin + pairs.gap, dtype=s, device=d),
+            mu=wp.array(pairs.friction[:, 0], dtype=s, device=d),
             first=wp.array(pairs.first, dtype=int, device=d),
             slots=wp.array(pairs.slots, dtype=int, device=d),
-        )
+        )  # fmt: skip
 
     return model.cached("geom pair arrays", build)
+
+
+def contact_buffers(a: dict, N: int) -> dict:
+    """The contacts' arrays for N environments: count (N, nP) int, position (N, C, 3), frame (N, C, 3, 3), dist (N, C)."""
+    s, d = a["scalar"], a["device"]
+    return dict(
+        count=arrays.empty((a["pairs"],), N, int, d),
+        position=arrays.output((a["contacts"], 3), N, s, d),
+        frame=arrays.output((a["contacts"], 3, 3), N, s, d),
+        dist=arrays.output((a["contacts"],), N, s, d),
+    )
+
+
+def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
+    """The launch of the pairs' contacts at the link poses W_H_L (N, nL) into the buffers b (`contact_buffers`)."""
+    inputs = [a[k] for k in ("link1", "link2", "type1", "type2", "link_H_geom1", "link_H_geom2", "size1", "size2", "margin", "first", "slots")]
+    outputs = [b[k] for k in ("count", "position", "frame", "dist")]
+    return Launch(collision_kernels(a["scalar"]).geom_contacts, (N, a["pairs"]), [*inputs, W_H_L], outputs)
+
+
+def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, b: dict, W_f_L: wp.array, N: int) -> list:
+    """The pairs' contacts at (W_H_L, W_v_WL (N, nL) Inertial) and their wrenches added to W_f_L (N, nL, 6), with the
+    soft law's K, D, p, q of `contacts_bundle` (the kernels' Contacts)."""
+    contacts = [b[k] for k in ("count", "position", "frame", "dist")]
+    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], *contacts, W_v_WL]
+    return [contact_launch(a, W_H_L, b, N), Launch(collision_kernels(a["scalar"]).geom_contact_wrenches, N, inputs, [W_f_L])]
 
 
 def geom_contacts(model, data) -> tuple[wp.array, wp.array, wp.array, wp.array]:
     """(count (N, nP) int, position (N, C, 3) [m], frame (N, C, 3, 3), dist (N, C) [m]) of the model's geom pairs
     at the data's state (kernels/collisions.py)."""
-    pairs = geom_pairs(model)
-    N, nP, C = data.batch_size, len(pairs), pairs.contacts
-    s, d = model.scalar, model.device
-    count = arrays.empty((nP,), N, int, d)
-    position = arrays.output((C, 3), N, s, d)
-    frame = arrays.output((C, 3, 3), N, s, d)
-    dist = arrays.output((C,), N, s, d)
-    if nP:
+    a = pair_arrays(model)
+    b = contact_buffers(a, data.batch_size)
+    if a["pairs"]:
         _, W_H_L = link_poses(model, data)
-        a = pair_arrays(model)
-        launch(
-            collision_kernels(s).geom_contacts,
-            dim=(N, nP),
-            inputs=[a["link1"], a["link2"], a["type1"], a["type2"], a["link_H_geom1"], a["link_H_geom2"], a["size1"], a["size2"],
-                    a["margin"], a["first"], a["slots"], W_H_L],
-            outputs=[count, position, frame, dist],
-            device=d,
-        )  # fmt: skip
-    return count, position, frame, dist
+        run([contact_launch(a, W_H_L, b, data.batch_size)], model.device)
+    return b["count"], b["position"], b["frame"], b["dist"]

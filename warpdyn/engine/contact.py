@@ -17,7 +17,7 @@ from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftCont
 from ..types.enums import VelRepr
 from .bundles import state_bundle
 from .evaluations import contact_evaluation, deformation_rates
-from .forces import forces_inertial
+from .forces import forces_in, forces_inertial
 from .kinematics import link_poses, state_arrays, targets, velocities
 from .launch import launch, run
 from .step import Evaluation, link_force_input, plan, prepare, torque_reference_input
@@ -76,6 +76,8 @@ def link_wrenches_and_rates(model, data, out_repr: int, W_f_ext=None, tau=None) 
     (W_f_ext, tau: `other_forces`)."""
     current, ev = contact_evaluation(model, data, W_f_ext, tau)
     N, nL = data.batch_size, model.number_of_links()
+    if ev is not None and current.contact_stage.pairs:  # the soft stage's W_f_L: its points' and geom pairs' wrenches
+        return forces_in(model, data, ev.W_f_L, out_repr), deformation_rates(current, ev, N)
     out = arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
     if ev is None:
         out.zero_()

@@ -50,7 +50,7 @@ from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftCont
 from ..types.enums import VelRepr
 from ..types.model_constants import transforms
 from ..types.settings import host_values
-from . import tape
+from . import collisions, tape
 from .bundles import controls_bundle, per_env
 from .kinematics import targets
 from .launch import Launch
@@ -106,6 +106,9 @@ class ContactStage:
         c.row_point = wp.array(row_point, dtype=int, device=d)
         c.link_first_point = wp.array(first, dtype=int, device=d)
         c.link_point_count = wp.array(self.points_per_link, dtype=int, device=d)
+        # the geom pairs whose contacts act (model.geom_contacts; warpdyn.engine.collisions)
+        self.pair_arrays = collisions.pair_arrays(model) if model.geom_contacts else None
+        self.pairs = self.pair_arrays["pairs"] if model.geom_contacts else 0
 
     def per_env_parameters(self) -> tuple:
         """((name, array), ...): the law's parameters that may have one value per environment."""
@@ -150,9 +153,13 @@ class SoftContactStage(ContactStage):
         c = self.bundle
         return (("SoftContactsParams.K", c.K), ("SoftContactsParams.D", c.D), ("SoftContactsParams.mu", c.mu))
 
+    def buffers(self, plan, N: int) -> dict:
+        """The geom pairs' contacts (count, position, frame, dist: warpdyn.engine.collisions) where they act."""
+        return collisions.contact_buffers(self.pair_arrays, N) if self.pairs else {}
+
     def launches(self, plan, ev, x, f_ext, tau, N: int) -> list:
         """Link velocities, each enabled point's force and deformation rate (ev.W_f_C, ev.m_dot), and ev.W_f_L =
-        f_ext (None: 0) + each link's."""
+        f_ext (None: 0) + each link's; then, where geom contacts act, those of the geom pairs added to ev.W_f_L."""
         s = plan.scalar
         args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
         launches = [Launch(velocity_kernels(s, plan.multi_dof).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities])]
@@ -163,6 +170,13 @@ class SoftContactStage(ContactStage):
         launches.append(Launch(contact_kernels(s, plan.terrain.kind).point_contact_forces, N * self.total // rows, args, [ev.W_f_C, ev.m_dot]))
         args = [self.bundle, ev.W_f_C, f_in, order, links]
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
+        if self.pairs:
+            if ev.grad or tape.taping():
+                raise NotImplementedError(
+                    "geom contacts (model.geom_contacts) under a wp.Tape or with gradients: their narrow phase's adjoint is not "
+                    "checked yet; set model.geom_contacts = False for gradients of the terrain's contacts"
+                )
+            launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, ev.contact, ev.W_f_L, N)
         return launches
 
 
@@ -178,6 +192,11 @@ class RigidContactStage(ContactStage):
 
     def __init__(self, model, integrator):
         super().__init__(model, integrator)
+        if self.pairs:
+            raise NotImplementedError(
+                f"model '{model.name()}': geom contacts (model.geom_contacts) take the soft law only; with {type(model.contact_model).__name__} "
+                "set model.geom_contacts = False"
+            )
         s, d = model.scalar, model.device
         c, contact_model = model.contact_params, model.contact_model
         K = rigid_kernels(s)

@@ -191,7 +191,7 @@ class Plan:
         # the contact model's stage (warpdyn.engine.contact_stage): its points, parameters and launches
         stage = self.contact_stage = stage_for(model, self.integrator)
         self.contact_bundle, self.total, self.count, self.point_out = stage.bundle, stage.total, stage.count, stage.point_out
-        self.contacts = self.count > 0
+        self.contacts = self.count > 0 or stage.pairs > 0
         # MJCF equality constraints (warpdyn.engine.equality), solved after ABA
         self.equality = equality_plan(model)
         self.poses = self.contacts or self.gravcomp or self.equality is not None  # an evaluation runs FK
@@ -206,7 +206,7 @@ class Plan:
         self.fused = None
         tree = model.tree
         free_roots = not tree.one_dof_joints and tree.free_roots and not model.floating_base()
-        if self.euler and (tree.one_dof_joints or free_roots) and stage.point_law is not None and self.equality is None:
+        if self.euler and (tree.one_dof_joints or free_roots) and stage.point_law is not None and self.equality is None and not stage.pairs:
             walk = fused_layout.fused_walk(model.tree.parent, fused_layout.MAX_LANES, 1 + stage.points_per_link)
             self.walk = wp.array(walk.walk, dtype=wp.vec3i, device=d)
             self.walk_starts = wp.array(walk.starts, dtype=wp.int32, device=d)

@@ -81,6 +81,7 @@ REPLACEABLE = (
     "integrator",
     "quaternion_tolerance",
     "implicit_damping",
+    "geom_contacts",
     "kin_dyn_parameters",
     "built_from",
 )
@@ -140,6 +141,16 @@ class ModelSettings:
         "Whether the Euler integrators (SemiImplicitEuler, SemiImplicitEulerSO3) integrate the joints' `damping` "
         "implicitly, as MuJoCo's Euler, (M + dt diag(damping)) ν̇ = f; RK4 integrates it explicitly, as MuJoCo's. MJCF models start with "
         "MuJoCo's choice (its eulerdamp flag), URDF models with False.",
+    )
+
+    geom_contacts = _setting(
+        "geom_contacts",
+        _instance("geom_contacts", bool),
+        "Whether the contacts of the model's geom pairs (wd.contact.geom_pairs: MJCF bodies' geoms, MuJoCo's pairs) act "
+        "in a step: the soft law (SoftContactsParams' K, D, p, q) at each contact, the pair's sliding friction as mu, "
+        "no tangential deformation state (its friction below the Coulomb limit is viscous). False by default: robots' "
+        "self-collision pairs cost a step its fused kernel and are off in most locomotion training; True for scenes whose "
+        "bodies touch each other. SoftContacts only.",
     )
 
     def _follow_mujoco(self, integrator: str, disabled: frozenset) -> None:

@@ -1,0 +1,148 @@
+"""Contacts between bodies in a step (model.geom_contacts): the soft law at each contact of the geom pairs
+(kernels/collisions.py's `geom_contact_wrenches`), checked by hand on one contact, by the conservation of momentum
+in free flight, and by scenes of free objects coming to rest where MuJoCo's do.
+
+MuJoCo's contacts are soft constraints (solref 0.02 s, solimp 0.9-0.95), warpdyn's the soft law (K = 1e6 N/m^1.5,
+D = 2000, p = q = 0.5: a resting body of m kg on n contacts sinks about (m g / n / K)^(2/3), 0.1 mm for 1 kg on 4),
+and the floor is warpdyn's terrain under the geoms' collidable points (MuJoCo: a plane geom). Resting positions are
+held to REST_TOL: the two laws' sinks and the collidable points' (a box's 8 corners, a sphere's points on its surface)
+against MuJoCo's plane contacts differ by fractions of a millimetre.
+"""
+
+import warnings
+
+import mujoco
+import numpy as np
+import pytest
+
+import warpdyn as wd
+
+REST_TOL = 1.5e-3  # m
+
+SCENES = {
+    "a stack of boxes": """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
+      <body name="bottom" pos="0 0 0.102"><freejoint/><geom type="box" size=".1 .1 .1" mass="2"/></body>
+      <body name="middle" pos="0.03 0.02 0.256" euler="0 0 20"><freejoint/><geom type="box" size=".06 .05 .05" mass="1"/></body>
+      <body name="top" pos="0.02 0.03 0.340" euler="0 0 -35"><freejoint/><geom type="box" size=".03 .04 .03" mass="0.5"/></body>
+    </worldbody></mujoco>""",
+    "a ball on a box": """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
+      <body name="box" pos="0 0 0.052"><freejoint/><geom type="box" size=".2 .2 .05" mass="2"/></body>
+      <body name="ball" pos="0 0 0.156"><freejoint/><geom type="sphere" size=".05" mass="0.5"/></body>
+    </worldbody></mujoco>""",
+    "crossed capsules": """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
+      <body name="rack" pos="0 0 0.022"><freejoint/>
+        <geom type="box" size=".2 .2 .02" mass="2"/>
+        <geom type="capsule" size=".03 .2" pos="0 -0.1 0.05" euler="0 90 0" mass="0.5"/>
+        <geom type="capsule" size=".03 .2" pos="0 0.1 0.05" euler="0 90 0" mass="0.5"/>
+      </body>
+      <body name="log" pos="0 0 0.134" euler="90 0 0"><freejoint/><geom type="capsule" size=".03 .15" mass="0.5"/></body>
+    </worldbody></mujoco>""",
+}
+"""Free objects placed a few millimetres above where they come to rest: boxes on boxes, turned about the vertical; a
+ball on a box; a capsule across the two capsule rails of a rack. (Dropped from higher, light bodies on several contacts need a smaller
+time step: the soft law's damping is explicit, D (delta + eps)^q per contact on the body's mass.)"""
+
+
+def _model(xml, dtype=np.float64):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        model = wd.model.Model.build_from_model_description(xml, dtype=dtype)
+    model.geom_contacts = True
+    return model
+
+
+def _positions(model, data) -> dict:
+    W_H_L = wd.model.forward_kinematics(model, data).numpy()
+    return {name: W_H_L[k, :3, 3] for k, name in enumerate(model.link_names()) if name != "world"}
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_scenes_come_to_rest_where_mujocos_do(scene):
+    """After 1.5 s (1 ms steps), each body's position is MuJoCo's within REST_TOL, and it has stopped (every velocity
+    below 1e-3 m/s or rad/s)."""
+    xml = SCENES[scene]
+    model = _model(xml)
+    data = wd.data.Data.build(model)
+    for _ in range(1500):
+        data = wd.model.step(model, data)
+    assert float(np.abs(data.generalized_velocity.numpy()).max()) < 1e-3
+    mj = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(mj)
+    for _ in range(1500):
+        mujoco.mj_step(mj, d)
+    for name, position in _positions(model, data).items():
+        expected = d.xpos[mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, name)]
+        np.testing.assert_allclose(position, expected, atol=REST_TOL, err_msg=name)
+
+
+TWO_SPHERES = """<mujoco><option gravity="0 0 0"/><worldbody>
+  <body name="a" pos="0 0 1"><freejoint/><geom name="ga" type="sphere" size=".1" mass="1" friction="0.7"/></body>
+  <body name="b" pos="0.15 0.05 1.02"><freejoint/><geom name="gb" type="sphere" size=".08" mass="0.5" friction="0.4"/></body>
+</worldbody></mujoco>"""
+
+
+def test_one_contact_is_the_soft_law_by_hand():
+    """Two interpenetrating spheres moving apart sideways: the wrench on each is the Hunt/Crossley force at the depth
+    -dist along MuJoCo's normal with the relative velocity of the contact point, its tangential part capped at the
+    pair's mu (the larger sliding friction, 0.7) times the normal force, equal and opposite on the two links."""
+    model = _model(TWO_SPHERES)
+    qpos = np.array([0, 0, 1, 1, 0, 0, 0, 0.15, 0.05, 1.02, 1, 0, 0, 0], dtype=np.float64)
+    v_a, w_a, v_b, w_b = np.array([0.1, -0.2, 0.3]), np.array([1.0, 0.5, -2.0]), np.array([-0.4, 0.6, 0.1]), np.array([0.3, -1.0, 0.2])
+    data = wd.data.Data.build(model, joint_positions=qpos, joint_velocities=np.concatenate([v_a, w_a, v_b, w_b]))
+    W_f = wd.contact.link_contact_forces(model, data, output_vel_repr=wd.VelRepr.Inertial)[0].numpy()
+    contact = wd.contact.geom_contacts(model, data)
+    assert list(contact.count.numpy()) == [1]
+    p, n, dist = contact.position.numpy()[0], contact.frame.numpy()[0, 0], float(contact.distance.numpy()[0])
+    c_a, c_b = np.array([0, 0, 1.0]), np.array([0.15, 0.05, 1.02])
+    assert dist == pytest.approx(np.linalg.norm(c_b - c_a) - 0.18, abs=1e-15)
+    v = (v_b + np.cross(w_b, p - c_b)) - (v_a + np.cross(w_a, p - c_a))
+    K, D, p_e = 1e6, 2000.0, 0.5
+    delta = -dist
+    fn = max(0.0, K * (delta + 2.220446049250313e-16) ** p_e * delta - D * (delta + 2.220446049250313e-16) ** p_e * (v @ n))
+    v_t = v - (v @ n) * n
+    f_t = -D * (delta + 2.220446049250313e-16) ** p_e * v_t
+    if np.linalg.norm(f_t) > 0.7 * fn:
+        f_t *= 0.7 * fn / np.linalg.norm(f_t)
+    f = fn * n + f_t
+    links = model.link_names()
+    np.testing.assert_allclose(W_f[links.index("b")], np.concatenate([f, np.cross(p, f)]), rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(W_f[links.index("a")], -W_f[links.index("b")], rtol=0, atol=0)
+
+
+def test_momentum_is_conserved_in_free_flight():
+    """Without gravity or terrain, two spheres thrown at each other (and spinning) keep their total linear and angular
+    momentum about the origin through the collision: the contact wrenches are equal and opposite at one point (float64,
+    1e-10 relative over 400 steps of semi-implicit Euler, whose momentum update is exact for internal forces)."""
+    model = _model(TWO_SPHERES)
+    qpos = np.array([-0.3, 0, 1, 1, 0, 0, 0, 0.3, 0.04, 1.02, 1, 0, 0, 0], dtype=np.float64)
+    velocity = np.array([1.0, 0, 0, 0, 2.0, 0, -1.5, 0, 0, 0, 0, 3.0])
+    data = wd.data.Data.build(model, joint_positions=qpos, joint_velocities=velocity)
+
+    def momentum(data):  # [linear; angular about the world's origin] (the base frame of a scene is the world)
+        return wd.model.total_momentum(model, data).numpy()
+
+    before = momentum(data)
+    touched = False
+    for _ in range(400):
+        data = wd.model.step(model, data)
+        touched = touched or bool(wd.contact.geom_contacts(model, data).count.numpy().sum())
+    assert touched
+    np.testing.assert_allclose(momentum(data), before, rtol=1e-10, atol=1e-10)
+
+
+def test_off_by_default_and_soft_law_only():
+    """model.geom_contacts is False unless set (the spheres then pass through each other); the solved contact models
+    refuse it, naming the setting."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        model = wd.model.Model.build_from_model_description(TWO_SPHERES, dtype=np.float64)
+    assert model.geom_contacts is False
+    data = wd.data.Data.build(model, joint_positions=np.array([0, 0, 1, 1, 0, 0, 0, 0.15, 0.05, 1.02, 1, 0, 0, 0.0]))
+    np.testing.assert_array_equal(wd.contact.link_contact_forces(model, data)[0].numpy(), 0.0)
+    model.geom_contacts = True
+    assert np.abs(wd.contact.link_contact_forces(model, data)[0].numpy()).max() > 1.0
+    with pytest.raises(TypeError, match="geom_contacts"):
+        model.geom_contacts = 1
+    rigid = model.replace(contact_model=wd.rbda.contacts.RelaxedRigidContacts())
+    with pytest.raises(NotImplementedError, match=r"geom_contacts.*soft law only"):
+        wd.model.step(rigid, wd.data.Data.build(rigid))
