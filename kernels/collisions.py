@@ -128,10 +128,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                 v = sp.lin(vb) + wp.cross(sp.ang(vb), p) - sp.lin(va) - wp.cross(sp.ang(va), p)
                 f, m_dot = law.hunt_crossley_at_depth(-dist[env, slot], v, zero, n, K, D, mu[i], contacts.p, contacts.q)
                 torque = wp.cross(p, f)
-                for r in range(3):
-                    W_f_L[env, b, r] = W_f_L[env, b, r] + f[r]
-                    W_f_L[env, b, 3 + r] = W_f_L[env, b, 3 + r] + torque[r]
-                    W_f_L[env, a, r] = W_f_L[env, a, r] - f[r]
-                    W_f_L[env, a, 3 + r] = W_f_L[env, a, 3 + r] - torque[r]
+                for r in range(3):  # += is Warp's atomic add (one thread: in order), whose adjoint is right
+                    W_f_L[env, b, r] += f[r]
+                    W_f_L[env, b, 3 + r] += torque[r]
+                    W_f_L[env, a, r] -= f[r]
+                    W_f_L[env, a, 3 + r] -= torque[r]
 
     return types.SimpleNamespace(geom_contacts=geom_contacts, geom_contact_wrenches=geom_contact_wrenches)

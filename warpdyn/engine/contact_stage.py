@@ -114,8 +114,8 @@ class ContactStage:
         """((name, array), ...): the law's parameters that may have one value per environment."""
         return ()
 
-    def buffers(self, plan, N: int) -> dict:
-        """The launches' own buffers for N environments (none)."""
+    def buffers(self, plan, N: int, grad: bool = False) -> dict:
+        """The launches' own buffers for N environments (none); grad: whether a tape differentiates through them."""
         return {}
 
     def launches(self, plan, ev, x, f_ext, tau, N: int) -> list:
@@ -153,9 +153,9 @@ class SoftContactStage(ContactStage):
         c = self.bundle
         return (("SoftContactsParams.K", c.K), ("SoftContactsParams.D", c.D), ("SoftContactsParams.mu", c.mu))
 
-    def buffers(self, plan, N: int) -> dict:
+    def buffers(self, plan, N: int, grad: bool = False) -> dict:
         """The geom pairs' contacts (count, position, frame, dist: warpdyn.engine.collisions) where they act."""
-        return collisions.contact_buffers(self.pair_arrays, N) if self.pairs else {}
+        return collisions.contact_buffers(self.pair_arrays, N, grad) if self.pairs else {}
 
     def launches(self, plan, ev, x, f_ext, tau, N: int) -> list:
         """Link velocities, each enabled point's force and deformation rate (ev.W_f_C, ev.m_dot), and ev.W_f_L =
@@ -171,10 +171,11 @@ class SoftContactStage(ContactStage):
         args = [self.bundle, ev.W_f_C, f_in, order, links]
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
         if self.pairs:
-            if ev.grad or tape.taping():
+            if (ev.grad or tape.taping()) and self.pair_arrays["box_box"]:
                 raise NotImplementedError(
-                    "geom contacts (model.geom_contacts) under a wp.Tape or with gradients: their narrow phase's adjoint is not "
-                    "checked yet; set model.geom_contacts = False for gradients of the terrain's contacts"
+                    f"geom contacts (model.geom_contacts) under a wp.Tape or with gradients: the model has {self.pair_arrays['box_box']} "
+                    "box-box pairs, whose face manifold (kernels/collision_box.py's clipping) has no correct adjoint yet; the other "
+                    "pairs are differentiable. Set model.geom_contacts = False, or replace the boxes' geoms"
                 )
             launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, ev.contact, ev.W_f_L, N)
         return launches
@@ -266,7 +267,7 @@ class RigidContactStage(ContactStage):
         c = self.bundle
         return ((f"{self.owner}.mu", c.mu), (f"{self.owner}.K", c.K), (f"{self.owner}.D", c.D))
 
-    def buffers(self, plan, N: int) -> dict:
+    def buffers(self, plan, N: int, grad: bool = False) -> dict:
         """The kernel's inputs and scratch for N environments (none differentiable)."""
         s, d = plan.scalar, plan.device
         K, P, nL = 6 + plan.n, self.count, plan.nL

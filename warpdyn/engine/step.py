@@ -296,7 +296,7 @@ class Evaluation:
             self.W_f_C = out((plan.count, 6))
             self.m_dot = out((plan.total, 3)) if plan.contact_stage.has_state else plan.zeros((plan.total, 3), N)
             self.W_f_L = out((nL, 6))
-            self.contact = plan.contact_stage.buffers(plan, N)  # the contact model's own (warpdyn.engine.contact_stage)
+            self.contact = plan.contact_stage.buffers(plan, N, grad)  # the contact model's own (warpdyn.engine.contact_stage)
         else:
             self.m_dot = plan.zeros((plan.total, 3), N)
         if not aba:  # contact results only (warpdyn.engine.contact)
