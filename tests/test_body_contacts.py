@@ -155,26 +155,26 @@ MIXED = """<mujoco><option timestep="0.001"/><worldbody>
   <body name="across" pos="-0.05 0.05 1.135" euler="0 91 80"><freejoint/><geom type="capsule" size=".03 .1" mass="0.5"/></body>
   <body name="can" pos="0.1 -0.1 1.12" euler="20 0 0"><freejoint/><geom type="cylinder" size=".03 .05" mass="0.5"/></body>
   <body name="pebble" pos="0.1 -0.1 1.2"><freejoint/><geom type="sphere" size=".03" mass="0.5"/></body>
+  <body name="brick" pos="-0.1 -0.1 1.083" euler="2 -1.5 20"><freejoint/><geom type="box" size=".05 .04 .04" mass="0.5"/></body>
 </worldbody></mujoco>"""
-"""Bodies in the air, touching: sphere-box, capsule-box (lying flat: two contacts), capsule-capsule, sphere-cylinder."""
+"""Bodies in the air, touching: sphere-box, capsule-box (lying flat: two contacts), capsule-capsule, sphere-cylinder,
+box-box (a brick tilted on the slab: a clipped face manifold of 4 contacts)."""
 
 
 def test_a_steps_jacobians_through_body_contacts_equal_central_differences():
     """wd.autodiff's reverse A and B (one taped step, its adjoint through the narrow phase and the law) equal
     MuJoCo-style central differences (h = 1e-7) to 1e-7 of the largest entry (the differences' own error: the law's
-    curvature, delta^1.5, over h; 1.2e-8 measured), for the pairs other than box-box;
-    box-box pairs are refused under a tape, naming them (their face manifold's adjoint is not right yet)."""
+    curvature, delta^1.5, over h; 1.2e-8 measured). Box-box faces exactly parallel are not differentiable: which box's
+    face is the reference flips with rounding (MuJoCo's tie), and the contacts of the two choices have different
+    derivatives; the brick here is tilted."""
     model = _model(MIXED)
     data = wd.data.Data.build(model, joint_velocities=np.random.default_rng(0).normal(size=model.dofs()) * 0.3)
     count = wd.contact.geom_contacts(model, data).count.numpy()
     names = wd.contact.geom_pairs(model).names
     touching = {names[k]: int(count[k]) for k in np.flatnonzero(count)}
-    assert len(touching) >= 4 and max(touching.values()) == 2, touching
+    assert len(touching) >= 5 and max(touching.values()) == 4, touching
     reverse = wd.autodiff.transition_matrices(model, data, method="reverse")
     central = wd.autodiff.transition_matrices(model, data, method="central", h=1e-7)
     for name in ("A", "B"):
         r, c = reverse[name].numpy(), central[name].numpy()
         assert np.abs(r - c).max() < 1e-7 * np.abs(c).max(), (name, np.abs(r - c).max(), np.abs(c).max())
-    boxes = _model(SCENES["a stack of boxes"])
-    with pytest.raises(NotImplementedError, match="3 box-box pairs"):
-        wd.autodiff.transition_matrices(boxes, wd.data.Data.build(boxes), method="reverse")

@@ -10,7 +10,7 @@ import warp as wp
 
 from .. import arrays
 from ..kernels.collisions import kernels as collision_kernels
-from ..types.geoms import MUJOCO_TYPES, geom_pairs
+from ..types.geoms import geom_pairs
 from ..types.model_constants import transforms
 from .kinematics import link_poses
 from .launch import Launch, run
@@ -19,14 +19,14 @@ __all__ = ["geom_pairs", "pair_arrays", "contact_buffers", "contact_launch", "fo
 
 
 def pair_arrays(model) -> dict:
-    """The geom pairs' device arrays as kernels/collisions.py takes them, with "scalar", "pairs" (nP), "contacts"
-    (C, their slots) and "box_box" (the number of box-box pairs) (cached per model version)."""
+    """The geom pairs' device arrays as kernels/collisions.py takes them, with "scalar", "pairs" (nP) and "contacts"
+    (C, their slots) (cached per model version)."""
 
     def build():
         pairs, s, d = geom_pairs(model), model.scalar, model.device
         vec3 = wp.types.vector(3, s)
         return dict(
-            scalar=s, device=d, pairs=len(pairs), contacts=pairs.contacts, box_box=int(((pairs.type1 == MUJOCO_TYPES["box"]) & (pairs.type2 == MUJOCO_TYPES["box"])).sum()),
+            scalar=s, device=d, pairs=len(pairs), contacts=pairs.contacts,
             link1=wp.array(pairs.link1, dtype=int, device=d),
             link2=wp.array(pairs.link2, dtype=int, device=d),
             type1=wp.array(pairs.type1, dtype=int, device=d),

@@ -171,12 +171,6 @@ class SoftContactStage(ContactStage):
         args = [self.bundle, ev.W_f_C, f_in, order, links]
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
         if self.pairs:
-            if (ev.grad or tape.taping()) and self.pair_arrays["box_box"]:
-                raise NotImplementedError(
-                    f"geom contacts (model.geom_contacts) under a wp.Tape or with gradients: the model has {self.pair_arrays['box_box']} "
-                    "box-box pairs, whose face manifold (kernels/collision_box.py's clipping) has no correct adjoint yet; the other "
-                    "pairs are differentiable. Set model.geom_contacts = False, or replace the boxes' geoms"
-                )
             launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, ev.contact, ev.W_f_L, N)
         return launches
 
