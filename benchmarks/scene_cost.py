@@ -13,7 +13,9 @@ torques 0, the arm's servos' ctrl 0) of:
 - panda: the arm alone (its joints have one DoF each: the fused step, kernels/fused_step.py);
 - cube: the cube alone (alone, a free body is a floating base: the fused step);
 - scene: the Panda and the cube (the cube's free joint below the world: the fused step too);
-- scene, staged: the scene with warpdyn.config.fused_step off (the launch list, as under a tape).
+- scene, staged: the scene with warpdyn.config.fused_step off (the launch list, as under a tape);
+- scene, body contacts: the scene with model.geom_contacts set (its two geom pairs, the finger pads' boxes against the
+  cube, collided and their soft-law wrenches added: the staged step, as a model with body contacts takes).
 `scene / (panda + cube)` says whether the scene costs what its trees cost apart; `scene / panda` what a free
 object costs a user of the arm. Prints the header (device, versions) and a Markdown table.
 """
@@ -92,20 +94,23 @@ def main() -> None:
     args, device, Ns = side_by_side_setup(repeats=20)
     print(header(device))
     print()
-    print("| dtype | N | panda [ms] | cube [ms] | scene [ms] | scene, staged [ms] | scene / (panda + cube) | scene / panda |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    print("| dtype | N | panda [ms] | cube [ms] | scene [ms] | scene, staged [ms] | scene, body contacts [ms] | scene / (panda + cube) | scene / panda |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     fused_setting = wd.config.fused_step
     try:
         for dtype_name in args.dtypes.split(","):
             dtype = np_dtype[dtype_name]
             arm, cube = load(without(OBJECT), dtype, device), load(without(ARM_ROOT), dtype, device)
             scene = load(without(None), dtype, device)
+            touching = load(without(None), dtype, device)
+            touching.geom_contacts = True
             for N in Ns:
                 t_arm = step_time(arm, N, device, args.repeats, True)
                 t_cube = step_time(cube, N, device, args.repeats, True)
                 t_scene = step_time(scene, N, device, args.repeats, True)
                 t_staged = step_time(scene, N, device, args.repeats, False)
-                ms = [1e3 * t for t in (t_arm, t_cube, t_scene, t_staged)]
+                t_touching = step_time(touching, N, device, args.repeats, True)
+                ms = [1e3 * t for t in (t_arm, t_cube, t_scene, t_staged, t_touching)]
                 print(f"| {dtype_name} | {N} | " + " | ".join(f"{t:.4f}" for t in ms) + f" | {t_scene / (t_arm + t_cube):.2f} | {t_scene / t_arm:.2f} |", flush=True)
     finally:
         wd.config.fused_step = fused_setting
