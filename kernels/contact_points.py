@@ -45,4 +45,16 @@ def kernels(scalar) -> types.SimpleNamespace:
         for r in range(3):
             out[env, c, r] = v[env, c, r]
 
-    return types.SimpleNamespace(point_positions=point_positions, linear_part=linear_part)
+    @wp.kernel(module="unique")
+    def gather_points(
+        rows: wp.array(dtype=int),
+        points: wp.array(dtype=sp.vec3),
+        # outputs
+        L_p_C: wp.array(dtype=sp.vec3),
+    ):
+        """L_p_C[k] = points[rows[k]]: the enabled points (the contact kernels' order) of all the points' positions
+        [m, link frames], launched over the enabled points."""
+        k = wp.tid()
+        L_p_C[k] = points[rows[k]]
+
+    return types.SimpleNamespace(point_positions=point_positions, linear_part=linear_part, gather_points=gather_points)

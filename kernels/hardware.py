@@ -109,4 +109,32 @@ def kernels(scalar) -> types.SimpleNamespace:
         for k in range(3):
             positions[j, k] = p[k]
 
-    return types.SimpleNamespace(link_parameters=link_parameters, joint_positions=joint_positions)
+    @wp.kernel(module="unique")
+    def collidable_points(
+        body: wp.array(dtype=int),
+        point: wp.array(dtype=sp.vec3),
+        shape: wp.array(dtype=int),
+        dims: wp.array2d(dtype=scalar),
+        com_in: wp.array(dtype=sp.vec3),
+        com: wp.array2d(dtype=sp.vec3),
+        # outputs
+        points: wp.array(dtype=sp.vec3),
+    ):
+        """Collidable point c's position L_p_C [m, link frame] after its link L's scaling, JaxSim's
+        `HwLinkMetadata.compute_contact_points`: its offset from L's centre of mass before (com_in) scaled in the link's
+        axes, a sphere's by d0, a box's by (d0, d1, d2), a cylinder's not at all, then added to the centre of mass
+        after (com, row 0); unchanged on an unsupported link. Launched over all the points."""
+        c = wp.tid()
+        L = body[c]
+        kind = shape[L]
+        p = point[c]
+        if kind >= 0:
+            offset = p - com_in[L]
+            if kind == SPHERE:
+                offset = offset * dims[L, 0]
+            elif kind == BOX:
+                offset = wp.cw_mul(offset, sp.vec3(dims[L, 0], dims[L, 1], dims[L, 2]))
+            p = offset + com[0, L]
+        points[c] = p
+
+    return types.SimpleNamespace(link_parameters=link_parameters, joint_positions=joint_positions, collidable_points=collidable_points)

@@ -42,7 +42,8 @@ def test_metadata_and_unit_factors_keep_the_masses():
 
 
 def test_scaled_links_equal_jaxsims():
-    """The reference's factors: masses, centres of mass, inertias (link axes) and joint origins equal JaxSim's."""
+    """The reference's factors: masses, centres of mass, inertias (link axes), joint origins and the collidable points
+    (the foot sphere's 50, moved up to 1 cm) equal JaxSim's; a step reads the moved points."""
     model = leg()
     assert tuple(REFERENCE["link_names"]) == model.link_names() and tuple(REFERENCE["joint_names"]) == model.joint_names()
     factors = wd.kin_dyn_parameters.ScalingFactors(dims=REFERENCE["dims"], density=REFERENCE["density"])
@@ -54,6 +55,14 @@ def test_scaled_links_equal_jaxsims():
     np.testing.assert_allclose(positions, REFERENCE["L_H_pre"][:, :3, 3], rtol=0, atol=1e-14)
     np.testing.assert_allclose(wd.math.Quaternion.to_dcm(rotations), REFERENCE["L_H_pre"][:, :3, :3], rtol=0, atol=1e-14)
     assert np.abs(positions - wd.model.joint_origins(model)[0]).max() > 0.01  # the scaling moved the joints
+    np.testing.assert_allclose(model.kin_dyn_parameters.contact_parameters.point, REFERENCE["points_before"], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(updated.kin_dyn_parameters.contact_parameters.point, REFERENCE["points"], rtol=0, atol=1e-14)
+    data = wd.data.Data.build(updated)
+    W_H_L = wd.model.forward_kinematics(updated, data).numpy()
+    foot = REFERENCE["points"]  # all on the foot link
+    body = np.asarray(updated.kin_dyn_parameters.contact_parameters.body)
+    expected = np.einsum("kij,kj->ki", W_H_L[body, :3, :3], foot) + W_H_L[body, :3, 3]
+    np.testing.assert_allclose(wd.contact.collidable_point_positions(updated, data).numpy(), expected, rtol=0, atol=1e-14)
 
 
 def test_gradients_through_the_mass_matrix_equal_jaxsims():
@@ -82,8 +91,9 @@ def final_height(p: wp.array3d(dtype=wp.float64), loss: wp.array(dtype=wp.float6
 
 def test_gradients_through_a_rollout_equal_finite_differences():
     """The leg dropped 2 mm onto the ground on its foot sphere, 40 steps: the gradient of the final base height with
-    respect to the shank's length factor and the thigh's density factor equals central differences (measured 1.2e-6
-    of it: the differences' round-off over 40 steps in contact, eps |z| / h ~ 1e-10 a step; bound 1e-5 + 1e-9)."""
+    respect to the shank's length factor, the thigh's density factor and the foot sphere's radius factor (which moves
+    the collidable points) equals central differences (measured 1.2e-6 of it: the differences' round-off over 40 steps
+    in contact, eps |z| / h ~ 1e-10 a step; bound 1e-5 + 1e-9)."""
     model = leg()
     nL = model.number_of_links()
     posture = np.array([[0.3, -0.6, 0.0], [0.1, -0.2, 0.01]])
@@ -116,6 +126,12 @@ def test_gradients_through_a_rollout_equal_finite_differences():
     minus[thigh] -= h
     fd = (height(dims_host, plus) - height(dims_host, minus)) / (2 * h)
     assert abs(density.grad.numpy()[thigh] - fd) <= 1e-5 * abs(fd) + 1e-9 and abs(fd) > 1e-6, (density.grad.numpy()[thigh], fd)
+    foot = model.link_names().index("foot")
+    plus, minus = dims_host.copy(), dims_host.copy()
+    plus[foot, 0] += h
+    minus[foot, 0] -= h
+    fd = (height(plus, density_host) - height(minus, density_host)) / (2 * h)
+    assert abs(dims.grad.numpy()[foot, 0] - fd) <= 1e-5 * abs(fd) + 1e-9 and abs(fd) > 1e-5, (dims.grad.numpy()[foot, 0], fd)
 
 
 def test_per_environment_densities_randomise_the_links():

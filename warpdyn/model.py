@@ -163,7 +163,9 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
     shape's inertia in the link's inertial axes, the centre of mass scaled) and the joints below them moved as
     JaxSim moves them (each child joint's offset from the centre of mass scaled); the others keep theirs (JaxSim
     gives them mass 0). Warp arrays of the model's scalar that require gradients get them when this is called
-    under a wp.Tape (kernels/hardware.py); the links' collidable points do not move (JaxSim scales them).
+    under a wp.Tape (kernels/hardware.py). The collidable points move as JaxSim moves them (their offsets from the
+    centres of mass scaled in the link axes: a sphere's by its radius factor, a box's by its three; a cylinder's not),
+    and a step reads them from the kernel's output, so that gradients reach the factors through the contacts too.
     A ValueError when the model's own link parameters are per environment."""
     per_env = {"link_mass", "link_com", "link_inertia"} & set(model.per_environment_parameters())
     if per_env:
@@ -193,7 +195,12 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
     metadata = model.cached("hw link metadata", lambda: hw_link_metadata(model))
     out = hardware.hw_parameters(model, metadata, given["dims"], given["density"])
     moved = with_joint_origins(model, positions=out["positions"], rotations=origins.origins_of(model.tree)[1]) if model.number_of_joints() else model
-    return moved.with_parameter_arrays({name: out[name] for name in ("link_mass", "link_com", "link_inertia")})
+    moved = moved.with_parameter_arrays({name: out[name] for name in ("link_mass", "link_com", "link_inertia")})
+    points = out["points"]
+    if points.shape[0] == 0:
+        return moved
+    params = moved.kin_dyn_structure().with_points(moved, points.numpy().astype(np.float64))
+    return moved.with_kin_dyn_parameters(params, point_array=points)
 
 
 def add_actuators(model: Model, kind: str, *, joints=None, kp=None, kv=None, gear=1.0, ctrl_range=None, force_range=None, names=None) -> Model:

@@ -1,5 +1,5 @@
 """JaxSim 0.9.0's hardware parametrisation of tests/jaxsim/hw_leg.sdf into tests/jaxsim/hardware.npz, float64:
-the link masses, centres of mass, inertias (link axes) and joint origins (λ_H_pre) after `update_hw_parameters`
+the link masses, centres of mass, inertias (link axes), joint origins (λ_H_pre) and collidable points after `update_hw_parameters`
 with the scaling factors stored beside them, and jax.grad, with respect to the dims and density factors, of
 f = sum(W * M(q)) (the free-floating mass matrix, Mixed, at the stored state, weighted by the stored W) through
 update_hw_parameters.
@@ -53,6 +53,8 @@ def main() -> None:
         com=np.asarray(links.center_of_mass),
         inertia=np.asarray(jax.vmap(js.kin_dyn_parameters.LinkParameters.inertia_tensor)(links)),
         L_H_pre=np.asarray(updated.kin_dyn_parameters.joint_model.λ_H_pre[1:]),
+        points=np.asarray(updated.kin_dyn_parameters.contact_parameters.point),
+        points_before=np.asarray(model.kin_dyn_parameters.contact_parameters.point),
         joint_positions=q,
         base_position=np.array([0.1, -0.2, 0.8]),
         base_quaternion=base_quaternion,

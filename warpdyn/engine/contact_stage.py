@@ -44,6 +44,7 @@ from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.rigid_contacts import PYRAMID_ROWS
 from ..kernels.rigid_contacts import kernels as rigid_kernels
 from ..kernels.scratch import TRANSFORM
+from ..kernels.contact_points import kernels as point_kernels
 from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts
@@ -101,7 +102,11 @@ class ContactStage:
         self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
         c = self.bundle = bundles(s).Contacts()
         c.point_link = wp.array(links.astype(np.int32), dtype=int, device=d)
-        c.L_p_C = wp.array(np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3), dtype=wp.types.vector(3, s), device=d)
+        # a model whose points a kernel computed (warpdyn.model.update_hw_parameters) under a tape: the soft stage
+        # gathers them at each evaluation (`launches`), so that gradients reach them
+        grad_points = model.collidable_point_array is not None and model.collidable_point_array.requires_grad
+        self.point_array = model.collidable_point_array if grad_points else None
+        c.L_p_C = wp.array(np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3), dtype=wp.types.vector(3, s), device=d, requires_grad=grad_points)
         c.point_row = wp.array(rows.astype(np.int32), dtype=int, device=d)
         c.row_point = wp.array(row_point, dtype=int, device=d)
         c.link_first_point = wp.array(first, dtype=int, device=d)
@@ -163,6 +168,8 @@ class SoftContactStage(ContactStage):
         s = plan.scalar
         args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
         launches = [Launch(velocity_kernels(s, plan.multi_dof).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities])]
+        if self.point_array is not None and self.count:
+            launches.append(Launch(point_kernels(s).gather_points, self.count, [self.bundle.point_row, self.point_array], [self.bundle.L_p_C]))
         f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
         order = int(arrays.env_fastest(plan.device))
         rows, links = (self.total, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)

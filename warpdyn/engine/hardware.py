@@ -14,10 +14,11 @@ __all__ = ["hw_parameters"]
 
 
 def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
-    """{"link_mass" (P, nL), "link_com" (P, nL) vec3, "link_inertia" (P, nL) mat33, "positions" (nj, 3)}: the
-    model's link parameters and joint origins after scaling its links' geometry by dims (nL, 3) and their densities
-    by density (P, nL) (P = 1 shared, or one row per environment; warpdyn.types.hardware's metadata); the link
-    parameters in the device's layout of per-environment arrays; outputs require gradients when an input does."""
+    """{"link_mass" (P, nL), "link_com" (P, nL) vec3, "link_inertia" (P, nL) mat33, "positions" (nj, 3), "points"
+    (nc_all,) vec3}: the model's link parameters, joint origins and collidable points (every one, in the link frame)
+    after scaling its links' geometry by dims (nL, 3) and their densities by density (P, nL) (P = 1 shared, or one row
+    per environment; warpdyn.types.hardware's metadata); the link parameters in the device's layout of
+    per-environment arrays; outputs require gradients when an input does."""
     s, d = model.scalar, model.device
     vec3, mat33 = wp.types.vector(3, s), wp.types.matrix((3, 3), s)
     grad = dims.requires_grad or density.requires_grad
@@ -39,6 +40,10 @@ def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
         outputs=[out["link_mass"], out["link_com"], out["link_inertia"]],
         device=d,
     )
+    body, point = model.cached("hw points", lambda: _points(model))
+    out["points"] = wp.empty(body.shape[0], dtype=vec3, device=d, requires_grad=grad)
+    if body.shape[0]:
+        launch(kernels.collidable_points, dim=body.shape[0], inputs=[body, point, shape, dims, model.link_com, out["link_com"]], outputs=[out["points"]], device=d)
     if nj:
         launch(
             kernels.joint_positions,
@@ -48,6 +53,14 @@ def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
             device=d,
         )
     return out
+
+
+def _points(model) -> tuple:
+    """(body (nc_all,) int, L_p_C (nc_all,) vec3): every collidable point's link and position, on the device."""
+    contact = model.kin_dyn_structure().contact_parameters
+    vec3 = wp.types.vector(3, model.scalar)
+    body = wp.array(np.asarray(contact.body, dtype=np.int32), dtype=int, device=model.device)
+    return body, wp.array(np.asarray(contact.point, dtype=np.float64).reshape(-1, 3), dtype=vec3, device=model.device)
 
 
 def _constants(model, metadata) -> tuple:

@@ -431,6 +431,12 @@ class KinDynParameters:
             enabled_point=L_p_C,
         )
 
+    def with_points(self, model, point: np.ndarray) -> KinDynParameters:
+        """The same parameters with the points at `point` (nc_all, 3) [m, link frames]."""
+        contact = _contact_parameters(np.asarray(self.contact_parameters.body, dtype=np.int64), point, self.contact_parameters.enabled)
+        link, link_H_point, L_p_C = _device_targets(contact, model.scalar, model.device)
+        return dataclasses.replace(self, contact_parameters=contact, enabled_link=link, enabled_link_H_point=link_H_point, enabled_point=L_p_C)
+
     def with_enabled(self, model, enabled) -> KinDynParameters:
         """The same parameters with another enabled mask (over all points)."""
         contact = _contact_parameters(np.asarray(self.contact_parameters.body, dtype=np.int64), self.contact_parameters.point, enabled)

@@ -117,7 +117,7 @@ class Model(ModelSettings, ModelQueries):
         self._values: dict[str, wp.array] = {}
         self._hosts: dict[str, np.ndarray] = {}
         self._per_env: dict[str, int] = {}
-        self._kin_dyn: KinDynParameters | None = None
+        self._kin_dyn, self.collidable_point_array = None, None  # KinDynParameters; a device array of the points (with_kin_dyn_parameters)
         self.built_from = None
         s, d = self.scalar, self.device
         vec3 = wp.types.vector(3, s)
@@ -629,10 +629,11 @@ class Model(ModelSettings, ModelQueries):
             )
         self.notify_model_changed()
 
-    def with_kin_dyn_parameters(self, params: KinDynParameters) -> Model:
-        """A model like this one (sharing its device constants and parameters) with other collidable points."""
+    def with_kin_dyn_parameters(self, params: KinDynParameters, point_array: wp.array | None = None) -> Model:
+        """A model like this one (sharing its device constants and parameters) with other collidable points; point_array
+        (nc_all,) vec3: their positions as a kernel computed them, which a step reads (a tape's gradients reach it)."""
         new = self.copy()
-        new._kin_dyn = dataclasses.replace(params.with_enabled(new, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
+        new.collidable_point_array, new._kin_dyn = point_array, dataclasses.replace(params.with_enabled(new, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
         return new
 
     def snapshot_state(self) -> dict:
