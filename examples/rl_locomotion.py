@@ -325,6 +325,7 @@ def main(argv=None) -> None:
     parser.add_argument("--out", default="runs/locomotion")
     parser.add_argument("--replay", default=None, help="a policy.pt to record instead of training (one process)")
     args = parser.parse_args(argv)
+    started = time.perf_counter()  # the phases' times below count from here (after the imports)
     world, rank, local_rank = torchrun_ranks()
     if world > 1 and args.replay:
         parser.error("--replay runs in one process: python examples/rl_locomotion.py --replay ..., not torchrun")
@@ -356,14 +357,19 @@ def main(argv=None) -> None:
         if rank == 0:
             print(f"{args.robot} {args.task}: {where}, {env.single_observation_space.shape[0]} observations, "
                   f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps")  # fmt: skip
+        phases = {"environment": time.perf_counter() - started}
         history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes)
+        phases["training"] = time.perf_counter() - started - sum(phases.values())
         if rank == 0:
             plot(history, out / "rewards.png", f"{args.robot}, {args.task}: {where}")
+            phases["plot"] = time.perf_counter() - started - sum(phases.values())
             if args.evaluate is not None:
                 result = evaluate(args.robot, args.task, out / "policy.pt", device, args.seed + 1000, args.evaluate)
+                phases["evaluation"] = time.perf_counter() - started - sum(phases.values())
                 print(f"evaluation: commanded {args.evaluate:g} m/s straight ahead, {result['environments']} environments, 5 s: "
                       f"forward speed {result['speed']:.3f} m/s (std over environments {result['spread']:.3f}), "
                       f"{result['falls']} ended early", flush=True)  # fmt: skip
+            print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
     finally:
         if world > 1:
             torch.distributed.destroy_process_group()
