@@ -51,10 +51,15 @@ def kernels(scalar) -> types.SimpleNamespace:
         count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar),
     ):  # fmt: skip
         """Launched over (N, nP): pair i's contacts in environment env (the module docstring), count (N, nP),
-        position (N, C, 3), frame (N, C, 3, 3), dist (N, C); margin: the pair's margin + gap [m]."""
+        position (N, C, 3), frame (N, C, 3, 3), dist (N, C); margin: the pair's margin + gap [m]; a link -1 is the
+        world (its geom's pose given in it)."""
         env, i = wp.tid()
-        X1 = W_H_L[env, link1[i]] * link_H_geom1[i]
-        X2 = W_H_L[env, link2[i]] * link_H_geom2[i]
+        X1 = link_H_geom1[i]
+        if link1[i] >= 0:
+            X1 = W_H_L[env, link1[i]] * X1
+        X2 = link_H_geom2[i]
+        if link2[i] >= 0:
+            X2 = W_H_L[env, link2[i]] * X2
         p1 = wp.transform_get_translation(X1)
         p2 = wp.transform_get_translation(X2)
         R1 = wp.quat_to_matrix(wp.transform_get_rotation(X1))
@@ -112,8 +117,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         """Launched over N, after `geom_contacts` at the same state: each contact's soft-law force (JaxSim's
         Hunt/Crossley, kernels/soft_contacts.py's `hunt_crossley_at_depth`, at the depth -dist along the contact's
         normal, with the velocity of geom2's point relative to geom1's, no deformation state, the pair's mu) added to
-        W_f_L (N, nL, 6), Inertial: [f; p x f] on geom2's link, its opposite on geom1's. One thread walks an
-        environment's pairs in order (no atomics: the sums are deterministic)."""
+        W_f_L (N, nL, 6), Inertial: [f; p x f] on geom2's link, its opposite on geom1's (none on the world, link -1).
+        One thread walks an environment's pairs in order (the sums are deterministic)."""
         env = wp.tid()
         K = B.env_parameter(contacts.K, env)
         D = B.env_parameter(contacts.D, env)
@@ -124,14 +129,19 @@ def kernels(scalar) -> types.SimpleNamespace:
                 slot = first[i] + k
                 p = vec3(position[env, slot, 0], position[env, slot, 1], position[env, slot, 2])
                 n = vec3(frame[env, slot, 0, 0], frame[env, slot, 0, 1], frame[env, slot, 0, 2])
-                va, vb = W_v_WL[env, a], W_v_WL[env, b]
-                v = sp.lin(vb) + wp.cross(sp.ang(vb), p) - sp.lin(va) - wp.cross(sp.ang(va), p)
+                v = zero  # the velocity of geom2's point relative to geom1's (the world's is 0)
+                if b >= 0:
+                    v = v + sp.lin(W_v_WL[env, b]) + wp.cross(sp.ang(W_v_WL[env, b]), p)
+                if a >= 0:
+                    v = v - sp.lin(W_v_WL[env, a]) - wp.cross(sp.ang(W_v_WL[env, a]), p)
                 f, m_dot = law.hunt_crossley_at_depth(-dist[env, slot], v, zero, n, K, D, mu[i], contacts.p, contacts.q)
                 torque = wp.cross(p, f)
                 for r in range(3):  # += is Warp's atomic add (one thread: in order), whose adjoint is right
-                    W_f_L[env, b, r] += f[r]
-                    W_f_L[env, b, 3 + r] += torque[r]
-                    W_f_L[env, a, r] -= f[r]
-                    W_f_L[env, a, 3 + r] -= torque[r]
+                    if b >= 0:
+                        W_f_L[env, b, r] += f[r]
+                        W_f_L[env, b, 3 + r] += torque[r]
+                    if a >= 0:
+                        W_f_L[env, a, r] -= f[r]
+                        W_f_L[env, a, 3 + r] -= torque[r]
 
     return types.SimpleNamespace(geom_contacts=geom_contacts, geom_contact_wrenches=geom_contact_wrenches)

@@ -64,8 +64,9 @@ SCENE = """<mujoco model="filters">
 """Each filter once: arm_box collides only with geoms whose conaffinity has bit 2 (ball_sphere); forearm is arm's child
 (parent weld: no pairs) but for the explicit <pair>; wrist_plate is welded to forearm (one link); hand is forearm's
 child (none) but collides with arm (its grandparent); crate_ghost collides with nothing; crate and pin are excluded;
-shelf is welded to the world (warpdyn lumps it into the world); ball_cylinder with crate_cylinder and crate_box is
-MuJoCo's convex solver's (named in the loader's warning, not collided); plate's priority gives its friction."""
+shelf is welded to the world (its box does not move, and collides with every moving body, the floor aside: the floor
+is the terrain); ball_cylinder with crate_cylinder and crate_box is MuJoCo's convex solver's (named in the loader's
+warning, not collided); plate's priority gives its friction."""
 
 
 def _model(xml_or_path, dtype=np.float64):
@@ -88,14 +89,15 @@ def _geom_name(m, g: int) -> str:
 
 
 def _body_contacts(m, d, types=None) -> dict:
-    """{(geom1, geom2): [(pos, frame, dist), ...]} of MuJoCo's contacts between geoms on moving bodies whose types
-    (`types`, default m.geom_type) warpdyn's narrow phase collides, in MuJoCo's order; the names in that order of
-    types."""
+    """{(geom1, geom2): [(pos, frame, dist), ...]} of MuJoCo's contacts between geoms whose types (`types`, default
+    m.geom_type) warpdyn's narrow phase collides, but the ground's (planes on the world: warpdyn's terrain), in
+    MuJoCo's order; the names in that order of types."""
     types = m.geom_type if types is None else types
+    ground = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD))
     out = {}
     for c in d.contact[: d.ncon]:
         g1, g2 = int(c.geom[0]), int(c.geom[1])
-        if 0 in (int(m.body_weldid[m.geom_bodyid[g1]]), int(m.body_weldid[m.geom_bodyid[g2]])):
+        if any(int(types[g]) in ground and int(m.body_weldid[m.geom_bodyid[g]]) == 0 for g in (g1, g2)):
             continue
         if int(types[g1]) > int(types[g2]):
             g1, g2 = g2, g1
@@ -128,6 +130,8 @@ def test_pairs_are_those_mujoco_collides(case):
 
 SCENE_PAIRS = (
     ("arm_sphere", "forearm_capsule"),  # the <pair>
+    ("arm_sphere", "shelf_box"), ("forearm_capsule", "shelf_box"), ("shelf_box", "plate"), ("hand_sphere", "shelf_box"),
+    ("shelf_box", "crate_box"), ("ball_sphere", "shelf_box"), ("pin_capsule", "shelf_box"),  # the shelf, welded to the world
     ("arm_sphere", "hand_sphere"), ("arm_sphere", "crate_box"), ("arm_sphere", "crate_cylinder"), ("arm_sphere", "ball_sphere"),
     ("arm_sphere", "ball_cylinder"), ("ball_sphere", "arm_box"), ("arm_sphere", "pin_capsule"),
     ("forearm_capsule", "crate_box"), ("ball_sphere", "forearm_capsule"), ("forearm_capsule", "pin_capsule"),
@@ -143,10 +147,10 @@ in MuJoCo's order: geom1's type <= geom2's, else geom1 on the body of lower id."
 def test_the_scenes_filters_and_parameters():
     """SCENE's pairs one by one (its docstring), with MuJoCo's parameters: margin and gap the sums (the <pair>'s own),
     friction by priority or maximum, condim the maximum; the convex solver's pairs named in the loader's warning."""
-    with pytest.warns(wd.model.NotModelledWarning, match=r"\['22 geom pairs'\]") as caught:
+    with pytest.warns(wd.model.NotModelledWarning, match=r"\['29 geom pairs'\]") as caught:
         model = wd.model.Model.build_from_model_description(SCENE, dtype=np.float64)
     message = " ".join(str(w.message) for w in caught)
-    for uncollided in ("3 capsule-cylinder (e.g. forearm_capsule/crate_cylinder)", "3 cylinder-box (e.g. plate/crate_cylinder)",
+    for uncollided in ("3 capsule-cylinder (e.g. forearm_capsule/crate_cylinder)", "5 cylinder-box (e.g. shelf_box/crate_cylinder)",
                        "1 cylinder-cylinder (e.g. crate_cylinder/ball_cylinder)"):  # fmt: skip
         assert uncollided in message
     pairs = wd.contact.geom_pairs(model)
@@ -164,6 +168,10 @@ def test_the_scenes_filters_and_parameters():
     assert pairs.slots[row[("plate", "crate_box")]] == 8 and pairs.slots[row[("pin_capsule", "plate")]] == 2
     links = model.link_names()
     assert links[pairs.link1[row[("plate", "crate_box")]]] == "forearm"  # the welded plate is lumped into forearm
+    shelf = row[("arm_sphere", "shelf_box")]
+    assert pairs.link2[shelf] == -1 and pairs.link_H_geom2[shelf][2, 3] == pytest.approx(0.2)  # the world's, in the world
+    moving = {links[k] for k in np.concatenate([pairs.link1, pairs.link2]) if k >= 0}
+    assert moving == {"arm", "forearm", "hand", "crate", "ball", "pin"}
     assert list(pairs.first) == list(np.concatenate([[0], np.cumsum(pairs.slots)[:-1]])) and pairs.contacts == int(pairs.slots.sum())
 
 

@@ -48,10 +48,9 @@ def test_unsupported_gives_one_warning_naming_everything():
 
 
 def test_more_unsupported_elements_are_listed():
-    """An ellipsoid on a body, a plane on a static body beside the free one (dropped as scenery), a non-plane geom on
-    the world, a geom fluid shape, polynomial damping, a body-transmission and an
+    """An ellipsoid on a body, a plane on a static body beside the free one (dropped as scenery), a geom fluid shape, polynomial damping, a body-transmission and an
     integrator actuator: each named in one warning; a world plane (the floor), sensors and the free joint's
-    damping (the floating base's, modelled) are not."""
+    damping (the floating base's, modelled) and a box on the world (a geom that does not move: modelled) are not."""
     xml = """<mujoco model="more"><compiler angle="radian"/>
       <worldbody>
         <geom name="floor" type="plane" size="5 5 0.1"/>
@@ -76,8 +75,10 @@ def test_more_unsupported_elements_are_listed():
         description = load(xml)
     assert len(caught) == 1 and caught[0].category is NotModelledWarning
     message = str(caught[0].message)
-    for name in ("egg (ellipsoid)", "wall (plane)", "shelf", "rock (box)", "base (fluidshape)", "elbow", "glue", "iv"):
+    for name in ("egg (ellipsoid)", "wall (plane)", "shelf", "base (fluidshape)", "elbow", "glue", "iv"):
         assert f"'{name}'" in message, name
+    assert "rock (box)" not in message and [g.name for g in description.world_geoms] == ["rock"]
+    assert "'1 ellipsoid-box (e.g. rock/egg)'" in message  # the <pair> touch: an ellipsoid, which nothing collides
     assert "'root'" not in message  # the floating base's free-joint damping is modelled
     assert "floor" not in message and "jointpos" not in message and "'ok'" not in message
     assert [a.name for a in description.actuators] == ["ok"]

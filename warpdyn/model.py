@@ -32,7 +32,7 @@ from .engine.kinematics import link_targets
 from .data import Data
 from .math import Quaternion
 from .types.enums import IntegratorType, VelRepr, output_repr
-from .types.hardware import ScalingFactors, hw_link_metadata
+from .types.hardware import ScalingFactors, hw_link_metadata, scaled_collisions
 from .types.model import Model
 from .types.parameters import REGISTRY
 from .types.settings import ActuationParams, SoftContactsParams
@@ -165,7 +165,8 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
     gives them mass 0). Warp arrays of the model's scalar that require gradients get them when this is called
     under a wp.Tape (kernels/hardware.py). The collidable points move as JaxSim moves them (their offsets from the
     centres of mass scaled in the link axes: a sphere's by its radius factor, a box's by its three; a cylinder's not),
-    and a step reads them from the kernel's output, so that gradients reach the factors through the contacts too.
+    and a step reads them from the kernel's output, so that gradients reach the factors through the contacts too; the
+    description's collision shapes are scaled as JaxSim's export scales them (what `export_updated_model` writes).
     A ValueError when the model's own link parameters are per environment."""
     per_env = {"link_mass", "link_com", "link_inertia"} & set(model.per_environment_parameters())
     if per_env:
@@ -200,7 +201,9 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
     if points.shape[0] == 0:
         return moved
     params = moved.kin_dyn_structure().with_points(moved, points.numpy().astype(np.float64))
-    return moved.with_kin_dyn_parameters(params, point_array=points)
+    moved = moved.with_kin_dyn_parameters(params, point_array=points)
+    moved.description = scaled_collisions(model.description, model.link_names(), metadata, given["dims"].numpy().astype(np.float64))
+    return moved
 
 
 def add_actuators(model: Model, kind: str, *, joints=None, kp=None, kv=None, gear=1.0, ctrl_range=None, force_range=None, names=None) -> Model:

@@ -14,8 +14,8 @@ MuJoCo's rules, kept:
 - explicit `<pair>`s collide whatever the filters, with their own margin, gap, friction and condim;
 - parameters: margin and gap the sums of the geoms' (a `<pair>`'s own); friction and condim those of the geom of
   higher priority, else the maximum of each; friction unpacked to 5 (sliding twice, torsional, rolling twice).
-Pairs with a geom on the world or on a body welded to it are not warpdyn's (its ground is the terrain; the loader
-lumps such bodies into the world and says so).
+Geoms that do not move (on the world body or on bodies welded to it: ModelDescription.world_geoms) collide with the
+moving ones as MuJoCo's do, planes and heightfields aside: warpdyn's ground is its terrain.
 """
 
 from __future__ import annotations
@@ -69,14 +69,15 @@ def _masks_exclude(contype1: int, conaffinity1: int, contype2: int, conaffinity2
 
 
 def mujoco_geom_pairs(m, mujoco, geom_name) -> tuple[list[GeomPair], list[str]]:
-    """(pairs, uncollided) of MuJoCo's model m: the pairs of geoms on moving bodies that MuJoCo may collide (the module
-    docstring), explicit `<pair>`s first in their order, then by body pair and geom; and those that warpdyn's narrow
+    """(pairs, uncollided) of MuJoCo's model m: the pairs of geoms that MuJoCo may collide (the module docstring; the
+    ground's planes and heightfields aside), explicit `<pair>`s first in their order, then by body pair and geom; and those that warpdyn's narrow
     phase does not collide, {"type1-type2": ["geom1/geom2", ...]} (types outside COLLIDED_TYPES; "without shape": a
     `<pair>` of a geom whose contype and conaffinity are 0, for which the loader keeps no shape). geom_name(g): a
     geom's name for messages."""
     filterparent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
     type_name = {int(v): k.removeprefix("mjGEOM_").lower() for k, v in mujoco.mjtGeom.__members__.items()}
-    moving = [int(m.body_weldid[m.geom_bodyid[g]]) != 0 for g in range(m.ngeom)]
+    ground = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD))
+    terrain = [int(m.geom_type[g]) in ground and int(m.body_weldid[m.geom_bodyid[g]]) == 0 for g in range(m.ngeom)]
     shaped = [bool(m.geom_contype[g] or m.geom_conaffinity[g]) for g in range(m.ngeom)]  # the loader's shapes
     pairs, uncollided = [], {}
 
@@ -93,17 +94,17 @@ def mujoco_geom_pairs(m, mujoco, geom_name) -> tuple[list[GeomPair], list[str]]:
         explicit.add(frozenset((g1, g2)))
         if not (shaped[g1] and shaped[g2]):
             uncollided.setdefault("without shape", []).append(f"{geom_name(g1)}/{geom_name(g2)}")
-        elif moving[g1] and moving[g2]:
+        elif not (terrain[g1] or terrain[g2]):
             o1, o2 = _ordered(m, g1, g2)
             friction = tuple(float(f) for f in m.pair_friction[k])
             keep(g1, g2, GeomPair(o1, o2, float(m.pair_margin[k]), float(m.pair_gap[k]), friction, int(m.pair_dim[k]), explicit=True))
 
     excluded = {int(s) for s in m.exclude_signature}
-    for b1 in range(1, m.nbody):
-        if not (m.body_contype[b1] or m.body_conaffinity[b1]) or int(m.body_weldid[b1]) == 0:
+    for b1 in range(m.nbody):
+        if not (m.body_contype[b1] or m.body_conaffinity[b1]):
             continue
         for b2 in range(b1 + 1, m.nbody):
-            if not (m.body_contype[b2] or m.body_conaffinity[b2]) or int(m.body_weldid[b2]) == 0:
+            if not (m.body_contype[b2] or m.body_conaffinity[b2]):
                 continue
             if _weld_filtered(m, b1, b2, filterparent) or (b1 << 16) + b2 in excluded:
                 continue
@@ -111,7 +112,7 @@ def mujoco_geom_pairs(m, mujoco, geom_name) -> tuple[list[GeomPair], list[str]]:
                 continue
             for g1 in range(int(m.body_geomadr[b1]), int(m.body_geomadr[b1]) + int(m.body_geomnum[b1])):
                 for g2 in range(int(m.body_geomadr[b2]), int(m.body_geomadr[b2]) + int(m.body_geomnum[b2])):
-                    if frozenset((g1, g2)) in explicit or _masks_exclude(
+                    if terrain[g1] or terrain[g2] or frozenset((g1, g2)) in explicit or _masks_exclude(
                         int(m.geom_contype[g1]), int(m.geom_conaffinity[g1]), int(m.geom_contype[g2]), int(m.geom_conaffinity[g2])
                     ):
                         continue

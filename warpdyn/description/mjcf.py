@@ -82,12 +82,7 @@ ACTUATOR_GRAVCOMP = (
     "does not clamp it, and it is kept in a model without actuators)"
 )
 GEOMS = "collision geoms of unsupported types (ellipsoid, plane/hfield on bodies, sdf)"
-WORLD_GEOMS = "colliding geoms on the world body other than planes (static obstacles; warpdyn has its terrain)"
-STATIC_BODIES = "bodies welded to the world beside the free body (static scenery, dropped)"
-SCENE_BODIES = (
-    "colliding bodies welded to the world in a scene (lumped into the world: warpdyn's contacts are collidable points "
-    "against its terrain, so nothing collides with them)"
-)
+STATIC_BODIES = "bodies welded to the world beside the free body (static scenery: not links; their geoms are the world's)"
 UNCOLLIDED_PAIRS = "pairs of geoms on bodies that warpdyn's narrow phase does not collide (MuJoCo's convex solver's)"
 BODY_CONTACTS = (
     "contacts between bodies, off by default (model.geom_contacts = True makes the soft law act on them; "
@@ -173,11 +168,6 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
         )
 
     links, joints = _world_children(m, links, joints, where, note, mujoco)
-    for g in range(m.ngeom):  # the world body's own geoms
-        if int(m.geom_bodyid[g]) == 0 and not (m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0):
-            kind = int(m.geom_type[g])
-            if kind != mujoco.mjtGeom.mjGEOM_PLANE:
-                note(WORLD_GEOMS, f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, g, 'geom')} ({_geom_type_name(kind, mujoco)})")
 
     actuators = _actuators(m, joint_name, note, mujoco)
     equalities = _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco)
@@ -193,6 +183,7 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
         description.base_joint = floating[0]
     description.actuators = actuators
     description.equalities = equalities
+    description.world_geoms = _world_geoms(m, mujoco, note, name_of)
     description.geom_pairs, uncollided = mujoco_geom_pairs(m, mujoco, lambda g: name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"))
     if description.geom_pairs:
         note(BODY_CONTACTS, f"{len(description.geom_pairs)} geom pairs")
@@ -242,9 +233,7 @@ _KIND_ORDER = (
     BODY_CONTACTS,
     UNCOLLIDED_PAIRS,
     GEOMS,
-    WORLD_GEOMS,
     STATIC_BODIES,
-    SCENE_BODIES,
     MOCAP,
     FLEX,
     SKINS,
@@ -342,9 +331,9 @@ def _joint(m, j, jname, parent, child, origin, note, mujoco) -> JointDescription
 def _world_children(m, links, joints, where, note, mujoco):
     """The world's children (see the module docstring). One free body beside bodies welded to the world (with no
     joints below them) is a robot in static scenery: the floating base (its joint "floating", with its armature,
-    damping and stiffness; its frictionloss noted), the scenery dropped and noted. Otherwise a scene:
-    the world is the base, bodies welded to it are lumped into it (the colliding ones noted), free bodies hang
-    from it by their free joints."""
+    damping and stiffness; its frictionloss noted), the scenery's bodies dropped and noted (their geoms are the
+    world's: `_world_geoms`). Otherwise a scene: the world is the base, bodies welded to it are lumped into it, free
+    bodies hang from it by their free joints."""
     world_joints = [j for j in joints if j.parent == "world"]
     if not world_joints:
         raise ValueError(f"{where}: the world body has no child body: there is nothing to simulate")
@@ -375,15 +364,6 @@ def _world_children(m, links, joints, where, note, mujoco):
                                     passive_damping=joint.passive_damping, stiffness=joint.stiffness)
         kept = [floating if k is joint else k for k in joints if k.child not in dropped]
         return [l for l in links if l.name not in dropped], kept
-    if len(world_joints) > 1:
-        for j in static:
-            for name in subtree(j.child):
-                b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
-                if b >= 0 and any(
-                    not (m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0)
-                    for g in range(int(m.body_geomadr[b]), int(m.body_geomadr[b]) + int(m.body_geomnum[b]))
-                ):
-                    note(SCENE_BODIES, name)
     return links, joints
 
 
@@ -535,26 +515,54 @@ def _mjcf_collisions(m, b: int, link: LinkDescription, mujoco, note, name_of) ->
         if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
             continue
         H = homogeneous(quaternion_wxyz_to_matrix(m.geom_quat[g]), m.geom_pos[g])
-        size = np.array(m.geom_size[g], dtype=np.float64)
-        kind = int(m.geom_type[g])
-        geom = dict(
-            geom=g, name=name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"), contype=int(m.geom_contype[g]),
-            conaffinity=int(m.geom_conaffinity[g]), margin=float(m.geom_margin[g]), gap=float(m.geom_gap[g]),
-            friction=tuple(float(f) for f in m.geom_friction[g]), condim=int(m.geom_condim[g]), priority=int(m.geom_priority[g]),
-        )  # fmt: skip
-        if kind == mujoco.mjtGeom.mjGEOM_BOX:
-            link.collisions.append(CollisionShape("box", H, size=2.0 * size, **geom))
-        elif kind == mujoco.mjtGeom.mjGEOM_SPHERE:
-            link.collisions.append(CollisionShape("sphere", H, radius=float(size[0]), **geom))
-        elif kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
-            link.collisions.append(CollisionShape("cylinder", H, radius=float(size[0]), length=2.0 * float(size[1]), **geom))
-        elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
-            link.collisions.append(CollisionShape("capsule", H, radius=float(size[0]), length=2.0 * float(size[1]), **geom))
-        elif kind == mujoco.mjtGeom.mjGEOM_MESH:
-            mesh = int(m.geom_dataid[g])
-            start, count = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
-            vertices = np.array(m.mesh_vert[start : start + count], dtype=np.float64)
-            link.collisions.append(CollisionShape("mesh", H, vertices=vertices, scale=np.ones(3), **geom))
+        shape = _shape(m, g, H, mujoco, name_of)
+        if shape is not None:
+            link.collisions.append(shape)
         else:
             geom = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g} of '{link.name}'"
-            note(GEOMS, f"{geom} ({_geom_type_name(kind, mujoco)})")
+            note(GEOMS, f"{geom} ({_geom_type_name(int(m.geom_type[g]), mujoco)})")
+
+
+def _world_geoms(m, mujoco, note, name_of) -> list[CollisionShape]:
+    """The colliding geoms that do not move (body_weldid 0: the world body's and those of bodies welded to it), posed
+    in the world as MuJoCo places them (geom_xpos, geom_xmat at qpos0); planes and heightfields are the terrain's."""
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    out = []
+    for g in range(m.ngeom):
+        kind = int(m.geom_type[g])
+        if int(m.body_weldid[m.geom_bodyid[g]]) != 0 or (m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0):
+            continue
+        if kind in (mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_HFIELD):
+            continue
+        shape = _shape(m, g, homogeneous(np.array(d.geom_xmat[g], dtype=np.float64).reshape(3, 3), d.geom_xpos[g]), mujoco, name_of)
+        if shape is not None:
+            out.append(shape)
+        elif int(m.geom_bodyid[g]) == 0:  # a welded body's are noted with its link's
+            note(GEOMS, f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, g, 'geom')} of the world ({_geom_type_name(kind, mujoco)})")
+    return out
+
+
+def _shape(m, g: int, H: np.ndarray, mujoco, name_of) -> CollisionShape | None:
+    """Geom g as a CollisionShape at the pose H (its body's frame, or the world's), with MuJoCo's collision
+    attributes; None for a kind warpdyn does not represent (plane, ellipsoid, heightfield, sdf)."""
+    size = np.array(m.geom_size[g], dtype=np.float64)
+    kind = int(m.geom_type[g])
+    geom = dict(
+        geom=g, name=name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"), contype=int(m.geom_contype[g]),
+        conaffinity=int(m.geom_conaffinity[g]), margin=float(m.geom_margin[g]), gap=float(m.geom_gap[g]),
+        friction=tuple(float(f) for f in m.geom_friction[g]), condim=int(m.geom_condim[g]), priority=int(m.geom_priority[g]),
+    )  # fmt: skip
+    Geom = mujoco.mjtGeom
+    if kind == Geom.mjGEOM_BOX:
+        return CollisionShape("box", H, size=2.0 * size, **geom)
+    if kind == Geom.mjGEOM_SPHERE:
+        return CollisionShape("sphere", H, radius=float(size[0]), **geom)
+    if kind in (Geom.mjGEOM_CYLINDER, Geom.mjGEOM_CAPSULE):
+        return CollisionShape("cylinder" if kind == Geom.mjGEOM_CYLINDER else "capsule", H, radius=float(size[0]), length=2.0 * float(size[1]), **geom)
+    if kind == Geom.mjGEOM_MESH:
+        mesh = int(m.geom_dataid[g])
+        start, count = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
+        vertices = np.array(m.mesh_vert[start : start + count], dtype=np.float64)
+        return CollisionShape("mesh", H, vertices=vertices, scale=np.ones(3), **geom)
+    return None

@@ -25,8 +25,9 @@ SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6
 class GeomPairs:
     """The nP geom pairs of a model, in the description's order (host NumPy).
 
-    names: (geom1, geom2) names; link1, link2 (nP,) int: the lumped links that carry them; type1, type2 (nP,) int:
-    MuJoCo's geom types (type1 <= type2); link_H_geom1, link_H_geom2 (nP, 4, 4): the geoms' poses in their links;
+    names: (geom1, geom2) names; link1, link2 (nP,) int: the lumped links that carry them, -1 for a geom that does not
+    move (the description's world_geoms); type1, type2 (nP,) int: MuJoCo's geom types (type1 <= type2); link_H_geom1,
+    link_H_geom2 (nP, 4, 4): the geoms' poses in their links (in the world for link -1);
     size1, size2 (nP, 3) [m]: MuJoCo's geom_size (a sphere's radius; a capsule's or cylinder's radius and half
     length; a box's half sizes); margin, gap (nP,) [m]; friction (nP, 5); condim (nP,) int; first (nP,) int: each
     pair's first slot; slots (nP,) int: its number of slots; contacts: the slots of all pairs.
@@ -68,11 +69,12 @@ def _mujoco_size(shape) -> np.ndarray:
 def geom_pairs(model) -> GeomPairs:
     """The model's geom pairs (cached per model version). A pair whose two geoms a reduced model lumps into one link
     is dropped (MuJoCo does not collide geoms welded together)."""
-    return model.cached("geom pairs", lambda: _build(model.tree, model.description.geom_pairs))
+    return model.cached("geom pairs", lambda: _build(model.tree, model.description.geom_pairs, model.description.world_geoms))
 
 
-def _build(tree, pairs) -> GeomPairs:
+def _build(tree, pairs, world_geoms) -> GeomPairs:
     where = {shape.geom: (link, shape) for link, shapes in enumerate(tree.collisions) for shape in shapes if shape.geom >= 0}
+    where.update({shape.geom: (-1, shape) for shape in world_geoms})  # they do not move, whichever link carries them
     rows = []
     for pair in pairs:
         (l1, s1), (l2, s2) = where[pair.geom1], where[pair.geom2]

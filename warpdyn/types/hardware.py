@@ -15,7 +15,7 @@ from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["LinkParametrizableShape", "HwLinkMetadata", "ScalingFactors", "hw_link_metadata", "shape_volume"]
+__all__ = ["LinkParametrizableShape", "HwLinkMetadata", "ScalingFactors", "hw_link_metadata", "shape_volume", "scale_vector", "scaled_collisions"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,3 +97,41 @@ def hw_link_metadata(model) -> HwLinkMetadata:
         L_H_pre=np.asarray(tree.parent_H_joint, dtype=np.float64)[1:].reshape(nj, 4, 4),
         joint_parent=np.asarray(tree.parent, dtype=np.int32)[1:],
     )
+
+
+def scale_vector(shape: int, dims: np.ndarray) -> np.ndarray:
+    """The factors of a parametrised link's frame coordinates (kernels/hardware.py's `scale_vector`): a box's
+    (d0, d1, d2), a cylinder's (d0, d0, d1), a sphere's (d0, d0, d0)."""
+    if shape == LinkParametrizableShape.Cylinder:
+        return np.array([dims[0], dims[0], dims[1]])
+    if shape == LinkParametrizableShape.Sphere:
+        return np.full(3, dims[0])
+    return np.asarray(dims, dtype=np.float64)[:3].copy()
+
+
+def scaled_collisions(description, link_names, metadata: HwLinkMetadata, dims: np.ndarray):
+    """The description with the collision shapes of each parametrised link (a description link named as the lumped
+    link it is) scaled as JaxSim's export scales them by the link's scale vector s: a box's extents by s, a sphere's
+    radius by s0, a cylinder's radius by s0 and length by s2, each pose's translation by s. The collidable points of
+    the shapes written so are the ones update_hw_parameters moves (but a cylinder's, which JaxSim's points keep;
+    shapes of links lumped into a parametrised one keep theirs)."""
+    factors = {name: scale_vector(int(shape), dims[i]) for i, (name, shape) in enumerate(zip(link_names, metadata.link_shape)) if shape >= 0}
+    links = []
+    for link in description.links:
+        s = factors.get(link.name)
+        if s is not None:
+            shapes = []
+            for shape in link.collisions:
+                H = np.array(shape.link_H_shape, dtype=np.float64)
+                H[:3, 3] *= s
+                changes = {"link_H_shape": H}
+                if shape.kind == "box":
+                    changes["size"] = np.asarray(shape.size, dtype=np.float64) * s
+                elif shape.kind in ("sphere", "cylinder", "capsule"):
+                    changes["radius"] = shape.radius * s[0]
+                    if shape.kind != "sphere":
+                        changes["length"] = shape.length * s[2]
+                shapes.append(dataclasses.replace(shape, **changes))
+            link = dataclasses.replace(link, collisions=shapes)
+        links.append(link)
+    return dataclasses.replace(description, links=links)
