@@ -265,3 +265,65 @@ def test_urdf_has_no_geom_pairs():
     assert len(wd.contact.geom_pairs(model)) == 0
     contacts = wd.contact.geom_contacts(model, wd.data.Data.build(model))
     assert contacts.count.shape == (0,) and contacts.distance.shape == (0,)
+
+
+ARM_URDF = pathlib.Path(__file__).parent / "models" / "self_collision_arm.urdf"
+"""A fixed-base URDF arm: boxes and spheres on its base, upper arm, lower arm (with a tip welded to it by a fixed
+joint) and a finger; MuJoCo compiles it as it is (fixed joints fused: the base into the world, the tip into the lower
+arm)."""
+
+
+def _urdf_names(m) -> dict:
+    """MuJoCo's geom g -> "{link}/{k}" (k its place among its body's geoms; the world body is the URDF's base)."""
+    out = {}
+    for g in range(m.ngeom):
+        b = int(m.geom_bodyid[g])
+        out[g] = f"{'base' if b == 0 else mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)}/{g - int(m.body_geomadr[b])}"
+    return out
+
+
+def test_urdf_self_collision_is_mujocos():
+    """wd.contact.with_self_collision on a URDF: its pairs are those MuJoCo collides on the same URDF (every geom made a
+    sphere, margins 100 m: the base collides with its child, a fixed base being welded to the world; a link never with
+    its parent otherwise), and at random states where the arm folds onto itself its contacts are MuJoCo's to 1e-10;
+    `exclude` drops a link pair; an MJCF is refused."""
+    model = wd.contact.with_self_collision(_model(ARM_URDF))
+    pairs = wd.contact.geom_pairs(model)
+    m = mujoco.MjModel.from_xml_path(str(ARM_URDF))
+    names = _urdf_names(m)
+    wide = copy.deepcopy(m)
+    wide.geom_type[:] = mujoco.mjtGeom.mjGEOM_SPHERE
+    wide.geom_margin[:] = 100.0
+    wide.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MIDPHASE)
+    d = mujoco.MjData(wide)
+    mujoco.mj_forward(wide, d)
+    theirs = {frozenset((names[int(c.geom[0])], names[int(c.geom[1])])) for c in d.contact[: d.ncon]}
+    assert {frozenset(p) for p in pairs.names} == theirs and len(theirs) == 7
+    rng = np.random.default_rng(3)
+    compared = 0
+    for qpos in _touching(m, rng, 4):
+        d = mujoco.MjData(m)
+        d.qpos[:] = qpos
+        mujoco.mj_forward(m, d)
+        expected = {}
+        for c in d.contact[: d.ncon]:
+            expected.setdefault(frozenset((names[int(c.geom[0])], names[int(c.geom[1])])), []).append(c)
+        data = wd.data.Data.build(model, joint_positions=qpos)
+        count, position, frame, dist = (a.numpy() for a in wd.contact.geom_contacts(model, data))
+        for k, pair in enumerate(pairs.names):
+            cs = expected.get(frozenset(pair), [])
+            assert count[k] == len(cs), pair
+            for j, c in enumerate(cs):
+                s = pairs.first[k] + j
+                sign = 1.0 if names[int(c.geom[0])] == pair[0] else -1.0  # MuJoCo's order of the pair's geoms
+                np.testing.assert_allclose(position[s], c.pos, atol=1e-10)
+                np.testing.assert_allclose(frame[s][0], sign * c.frame[:3], atol=1e-10)
+                np.testing.assert_allclose(dist[s], c.dist, atol=1e-10)
+                compared += 1
+    assert compared >= 4
+    fewer = wd.contact.with_self_collision(_model(ARM_URDF), exclude=[("base", "upper")])
+    assert len(wd.contact.geom_pairs(fewer)) == 5 and all("upper" not in a + b or "base" not in a + b for a, b in wd.contact.geom_pairs(fewer).names)
+    with pytest.raises(ValueError, match="is MJCF"):
+        wd.contact.with_self_collision(_model(SCENE))
+    with pytest.raises(ValueError, match="exclude names links"):
+        wd.contact.with_self_collision(_model(ARM_URDF), exclude=[("base", "hand")])

@@ -21,10 +21,12 @@ import warp as wp
 
 from . import arrays, com
 from .data import Data
+from .description import NotModelledWarning
 from .description.collidable import CollidablePointsOptions, NoCollidablePointsWarning, UnresolvedMeshWarning, resolve_mesh_uri
 from .engine import collisions, contact, derivatives, kinematics
 from .types import names
 from .types.enums import VelRepr, output_repr
+from .types import geoms as geom_types
 from .types.geoms import GeomPairs
 from .types.kin_dyn import ContactParameters, FrameParameters, KinDynParameters
 from .types.settings import STANDARD_GRAVITY, SoftContactsParams
@@ -53,6 +55,7 @@ __all__ = [
     "GeomContacts",
     "geom_pairs",
     "geom_contacts",
+    "with_self_collision",
 ]
 
 
@@ -217,6 +220,20 @@ class GeomContacts(NamedTuple):
     position: wp.array
     frame: wp.array
     distance: wp.array
+
+
+def with_self_collision(model, *, exclude=()):
+    """A model like a URDF or SDF `model` whose links' collision shapes collide with each other, as MuJoCo collides
+    those of the same URDF (warpdyn.types.geoms.self_collision): every pair of shapes on two links but a link and its
+    parent (unless the parent is a fixed base) and the link-name pairs in `exclude`; `geom_pairs` lists them. They act
+    in a step where model.geom_contacts is set. Pairs of types the narrow phase does not collide (meshes, cylinders
+    with anything but a sphere) are counted in a NotModelledWarning. An MJCF model's pairs are MuJoCo's: a ValueError."""
+    new, uncollided = geom_types.self_collision(model, exclude)
+    if uncollided:
+        counts = ", ".join(f"{n} {kinds}" for kinds, n in sorted(uncollided.items()))
+        warnings.warn(f"model '{model.name()}': shape pairs that warpdyn's narrow phase does not collide (MuJoCo's convex solver's): {counts}",
+                      NotModelledWarning, stacklevel=2)  # fmt: skip
+    return new
 
 
 def geom_contacts(model, data) -> GeomContacts:

@@ -8,11 +8,15 @@ Each pair has slots for the most contacts its types give (1 with a sphere, 2 for
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["GeomPairs", "geom_pairs", "MUJOCO_TYPES", "SLOTS"]
+from ..description.collision_pairs import COLLIDED_TYPES
+from ..description.model import GeomPair
+
+__all__ = ["GeomPairs", "geom_pairs", "self_collision", "MUJOCO_TYPES", "SLOTS"]
 
 MUJOCO_TYPES = {"sphere": 2, "capsule": 3, "cylinder": 5, "box": 6}
 """A collision shape's kind -> MuJoCo's mjtGeom value (the narrow phase's type)."""
@@ -105,3 +109,50 @@ def _build(tree, pairs, world_geoms) -> GeomPairs:
         first=first,
         slots=slots,
     )
+
+
+def self_collision(model, exclude=()) -> tuple:
+    """(model, uncollided): a copy of a URDF or SDF model whose links' collision shapes collide with each other as
+    MuJoCo collides those of the same URDF (every geom's contype and conaffinity 1, fixed joints fused): every pair of
+    shapes on two links, but a link and its parent (MuJoCo's filterparent; not where the parent is a fixed base, which
+    MuJoCo welds to the world) and the link pairs of `exclude` ((name, name), ...); MuJoCo's default friction, no
+    margin. Its shapes are numbered (`CollisionShape.geom`, link after link) and named "{link}/{k}" where unnamed.
+    uncollided: {"type1-type2": count} of the pairs whose types the narrow phase does not collide."""
+    if model.description.source == "mjcf":
+        raise ValueError(f"model '{model.name()}' is MJCF: its geom pairs are MuJoCo's (edit contype, conaffinity, <exclude> and <pair> in the file)")
+    tree, names = model.tree, model.link_names()
+    excluded = set()
+    for pair in exclude:
+        if isinstance(pair, str) or len(pair) != 2:
+            raise ValueError(f"exclude takes pairs of link names, got {pair!r}")
+        a, b = (names.index(n) if n in names else None for n in pair)
+        if a is None or b is None:
+            raise ValueError(f"exclude names links {list(pair)}; the model's links: {names}")
+        excluded.add(frozenset((a, b)))
+    numbered, shapes = [], []
+    for link, links_shapes in enumerate(tree.collisions):
+        row = []
+        for k, shape in enumerate(links_shapes):
+            shape = dataclasses.replace(shape, geom=len(shapes), name=shape.name or f"{names[link]}/{k}")
+            row.append(shape)
+            shapes.append((link, shape))
+        numbered.append(row)
+    fixed_base = not model.floating_base()
+    pairs, uncollided = [], {}
+    default = (1.0, 1.0, 0.005, 0.0001, 0.0001)  # MuJoCo's geom friction (sliding, torsional, rolling) unpacked to 5
+    for i, (a, s1) in enumerate(shapes):
+        for b, s2 in shapes[i + 1 :]:
+            parent = tree.parent[b] == a or tree.parent[a] == b
+            if a == b or frozenset((a, b)) in excluded or (parent and not (fixed_base and 0 in (a, b))):
+                continue
+            t1, t2 = MUJOCO_TYPES.get(s1.kind, 99), MUJOCO_TYPES.get(s2.kind, 99)
+            g1, g2 = (s2, s1) if t1 > t2 else (s1, s2)
+            if (min(t1, t2), max(t1, t2)) in COLLIDED_TYPES:
+                pairs.append(GeomPair(g1.geom, g2.geom, 0.0, 0.0, default, 3))
+            else:
+                key = f"{g1.kind}-{g2.kind}"
+                uncollided[key] = uncollided.get(key, 0) + 1
+    new = model.copy()
+    new.tree = dataclasses.replace(tree, collisions=numbered)
+    new.description = dataclasses.replace(model.description, geom_pairs=pairs, world_geoms=[])
+    return new, uncollided
