@@ -65,7 +65,8 @@ def test_more_unsupported_elements_are_listed():
           </body>
         </body>
       </worldbody>
-      <contact><pair name="touch" geom1="egg" geom2="rock"/><exclude name="no_self" body1="base" body2="arm"/></contact>
+      <contact><pair name="touch" geom1="egg" geom2="rock"/><pair name="grip" geom1="floor" geom2="g_arm" friction="2"/>
+        <exclude name="no_self" body1="base" body2="arm"/></contact>
       <actuator><adhesion name="glue" body="arm" ctrlrange="0 1"/><intvelocity name="iv" joint="elbow" actrange="-1 1"/>
         <motor name="ok" joint="elbow"/></actuator>
       <sensor><jointpos joint="elbow"/></sensor>
@@ -79,8 +80,9 @@ def test_more_unsupported_elements_are_listed():
         assert f"'{name}'" in message, name
     assert "rock (box)" not in message and [g.name for g in description.world_geoms] == ["rock"]
     assert "'1 ellipsoid-box (e.g. rock/egg)'" in message  # the <pair> touch: an ellipsoid, which nothing collides
+    assert "'1 with the ground (e.g. floor/g_arm)'" in message  # the <pair> grip: the terrain's law, not its friction
     assert "'root'" not in message  # the floating base's free-joint damping is modelled
-    assert "floor" not in message and "jointpos" not in message and "'ok'" not in message
+    assert "'floor" not in message and "jointpos" not in message and "'ok'" not in message
     assert [a.name for a in description.actuators] == ["ok"]
 
 

@@ -68,12 +68,13 @@ def _masks_exclude(contype1: int, conaffinity1: int, contype2: int, conaffinity2
     return not (contype1 & conaffinity2) and not (contype2 & conaffinity1)
 
 
-def mujoco_geom_pairs(m, mujoco, geom_name) -> tuple[list[GeomPair], list[str]]:
+def mujoco_geom_pairs(m, mujoco, geom_name) -> tuple[list[GeomPair], dict[str, list[str]]]:
     """(pairs, uncollided) of MuJoCo's model m: the pairs of geoms that MuJoCo may collide (the module docstring; the
-    ground's planes and heightfields aside), explicit `<pair>`s first in their order, then by body pair and geom; and those that warpdyn's narrow
-    phase does not collide, {"type1-type2": ["geom1/geom2", ...]} (types outside COLLIDED_TYPES; "without shape": a
-    `<pair>` of a geom whose contype and conaffinity are 0, for which the loader keeps no shape). geom_name(g): a
-    geom's name for messages."""
+    ground's planes and heightfields aside), explicit `<pair>`s first in their order, then by body pair and geom; and
+    those that warpdyn's narrow phase does not collide, {"type1-type2": ["geom1/geom2", ...]} (types outside
+    COLLIDED_TYPES; "without shape": a `<pair>` of a geom whose contype and conaffinity are 0, for which the loader
+    keeps no shape; "with the ground": a `<pair>` of a floor plane, whose contacts are the terrain's, with its law and
+    parameters). geom_name(g): a geom's name for messages."""
     filterparent = not (int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
     type_name = {int(v): k.removeprefix("mjGEOM_").lower() for k, v in mujoco.mjtGeom.__members__.items()}
     ground = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD))
@@ -94,7 +95,9 @@ def mujoco_geom_pairs(m, mujoco, geom_name) -> tuple[list[GeomPair], list[str]]:
         explicit.add(frozenset((g1, g2)))
         if not (shaped[g1] and shaped[g2]):
             uncollided.setdefault("without shape", []).append(f"{geom_name(g1)}/{geom_name(g2)}")
-        elif not (terrain[g1] or terrain[g2]):
+        elif terrain[g1] or terrain[g2]:
+            uncollided.setdefault("with the ground", []).append(f"{geom_name(g1)}/{geom_name(g2)}")
+        else:
             o1, o2 = _ordered(m, g1, g2)
             friction = tuple(float(f) for f in m.pair_friction[k])
             keep(g1, g2, GeomPair(o1, o2, float(m.pair_margin[k]), float(m.pair_gap[k]), friction, int(m.pair_dim[k]), explicit=True))

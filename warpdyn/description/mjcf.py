@@ -83,7 +83,10 @@ ACTUATOR_GRAVCOMP = (
 )
 GEOMS = "collision geoms of unsupported types (ellipsoid, plane/hfield on bodies, sdf)"
 STATIC_BODIES = "bodies welded to the world beside the free body (static scenery: not links; their geoms are the world's)"
-UNCOLLIDED_PAIRS = "pairs of geoms on bodies that warpdyn's narrow phase does not collide (MuJoCo's convex solver's)"
+UNCOLLIDED_PAIRS = (
+    "pairs of geoms that warpdyn's narrow phase does not collide (MuJoCo's convex solver's; <pair>s of a geom without "
+    "a shape, or with the ground, whose contacts are the terrain's law's)"
+)
 BODY_CONTACTS = (
     "contacts between bodies, off by default (model.geom_contacts = True makes the soft law act on them; "
     "wd.contact.geom_contacts finds them)"
