@@ -12,11 +12,15 @@ What is read, and how MuJoCo's structure maps onto warpdyn's one-joint-per-link 
 - Hinge/slide: q = MuJoCo's qpos (`ref` is folded into the origin); ball: q = MuJoCo's quaternion, about the
   joint's `pos`. Each joint starts at MuJoCo's qpos0 (`initial_position`).
 - The world body: one free-jointed child, beside bodies welded to the world with no joints below them (static
-  scenery, dropped and listed in the warning), is a floating base (starting at the body's pose, MuJoCo's
+  scenery: the bodies dropped and listed in the warning, their geoms the world's), is a floating base (starting at the body's pose, MuJoCo's
   qpos0); one welded child is a fixed base welded at its pose; otherwise (a scene: several trees) the base is
   the fixed link "world", into which the bodies welded to the world are lumped, and each free body hangs from
   it by a "free" joint starting at the body's pose. A free joint's armature, damping, frictionloss and
   stiffness are read; a floating base's frictionloss is not (listed in the warning).
+- Collisions: the geoms of moving bodies are their links' collision shapes; those that do not move (the world
+  body's, welded bodies') are `world_geoms`, posed in the world (planes and heightfields: the terrain); MuJoCo's
+  pair filter (contype/conaffinity, welds, `<exclude>`, `<pair>`) gives `geom_pairs`
+  (warpdyn.description.collision_pairs).
 - Keyframes (`<key>`): by name, in MuJoCo's qpos/qvel layout (`ModelDescription.keyframes`,
   `mujoco_joints`).
 - Actuators with a joint transmission on a hinge/slide joint and no activation dynamics become
@@ -32,6 +36,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from .collision_pairs import mujoco_geom_pairs
 from .model import (
     ActuatorDescription,
     CollisionShape,
@@ -47,8 +52,6 @@ from .model import (
     quaternion_product,
     quaternion_wxyz_to_matrix,
 )
-
-from .collision_pairs import mujoco_geom_pairs
 
 __all__ = ["load_mjcf"]
 
