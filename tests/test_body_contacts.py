@@ -32,6 +32,10 @@ SCENES = {
       <body name="cube" pos="0.05 -0.03 0.4705" euler="0 0 30"><freejoint/><geom type="box" size=".05 .05 .05" mass="1"/></body>
       <body name="can" pos="0.82 0.02 0.3525" euler="0 0 10"><freejoint/><geom type="capsule" size=".03 .1" euler="0 90 0" mass="0.5"/></body>
     </worldbody></mujoco>""",
+    "a free ball on static scenery": """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
+      <body name="step" pos="0 0 0.1"><geom type="box" size=".3 .3 .1"/></body>
+      <body name="ball" pos="0.05 0.02 0.2505"><freejoint/><geom type="sphere" size=".05" mass="1"/></body>
+    </worldbody></mujoco>""",
     "a ball on a box": """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
       <body name="box" pos="0 0 0.052"><freejoint/><geom type="box" size=".2 .2 .05" mass="2"/></body>
       <body name="ball" pos="0 0 0.156"><freejoint/><geom type="sphere" size=".05" mass="0.5"/></body>
@@ -46,7 +50,8 @@ SCENES = {
     </worldbody></mujoco>""",
 }
 """Free objects placed a few millimetres above where they come to rest: boxes on boxes, turned about the vertical; a
-cube on a table (a box of the world body) and a capsule on a shelf (a body welded to the world); a ball on a box; a
+cube on a table (a box of the world body) and a capsule on a shelf (a body welded to the world); a lone free ball (a
+floating base) on a step of static scenery (dropped as a body, its box the world's); a ball on a box; a
 capsule across the two capsule rails of a rack. (Dropped from higher, light bodies on several contacts need a smaller
 time step: the soft law's damping is explicit, D (delta + eps)^q per contact on the body's mass.)"""
 
