@@ -219,3 +219,15 @@ def test_a_pusher_moves_a_box_as_in_mujoco():
     box = _positions(model, data)["box"]
     np.testing.assert_allclose(box, d.xpos[mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, "box")], atol=REST_TOL)
     assert box[0] > 0.37 and float(np.abs(data.generalized_velocity.numpy()).max()) < 1e-3
+
+
+def test_condim_1_is_frictionless():
+    """A pair whose condim is 1 (MuJoCo: frictionless) gets no tangential force: the two spheres' wrench, moving
+    sideways against each other, lies along the contact normal."""
+    model = _model(TWO_SPHERES.replace('friction="0.7"', 'friction="0.7" condim="1"').replace('friction="0.4"', 'friction="0.4" condim="1"'))
+    assert wd.contact.geom_pairs(model).condim.tolist() == [1]
+    qpos = np.array([0, 0, 1, 1, 0, 0, 0, 0.15, 0.05, 1.02, 1, 0, 0, 0], dtype=np.float64)
+    data = wd.data.Data.build(model, joint_positions=qpos, joint_velocities=np.array([0.0, 0.5, 0, 0, 0, 0, 0, -0.5, 0, 0, 0, 0]))
+    f = wd.contact.link_contact_forces(model, data, output_vel_repr=wd.VelRepr.Inertial)[0].numpy()[model.link_names().index("b"), :3]
+    n = wd.contact.geom_contacts(model, data).frame.numpy()[0, 0]
+    assert np.linalg.norm(f) > 1.0 and np.linalg.norm(f - (f @ n) * n) < 1e-9 * np.linalg.norm(f)

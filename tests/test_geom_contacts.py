@@ -153,6 +153,7 @@ def test_the_scenes_filters_and_parameters():
     for uncollided in ("3 capsule-cylinder (e.g. forearm_capsule/crate_cylinder)", "5 cylinder-box (e.g. shelf_box/crate_cylinder)",
                        "1 cylinder-cylinder (e.g. crate_cylinder/ball_cylinder)"):  # fmt: skip
         assert uncollided in message
+    assert "'6 geom pairs (e.g. arm_sphere/forearm_capsule, condim 6)'" in message  # torsion and rolling: named (not the plate's: priority)
     pairs = wd.contact.geom_pairs(model)
     assert pairs.names == SCENE_PAIRS
     row = {names: k for k, names in enumerate(pairs.names)}

@@ -94,6 +94,7 @@ BODY_CONTACTS = (
     "contacts between bodies, off by default (model.geom_contacts = True makes the soft law act on them; "
     "wd.contact.geom_contacts finds them)"
 )
+TORSION = "torsional and rolling friction of geom pairs with condim 4 or 6 (their sliding friction acts)"
 MOCAP = "mocap bodies (kept welded at their initial pose)"
 FLEX = "flexes"
 SKINS = "skins"
@@ -193,6 +194,10 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
     description.geom_pairs, uncollided = mujoco_geom_pairs(m, mujoco, lambda g: name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"))
     if description.geom_pairs:
         note(BODY_CONTACTS, f"{len(description.geom_pairs)} geom pairs")
+    rolling = [p for p in description.geom_pairs if p.condim > 3]
+    if rolling:
+        example = f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, rolling[0].geom1, 'geom')}/{name_of(mujoco.mjtObj.mjOBJ_GEOM, rolling[0].geom2, 'geom')}"
+        note(TORSION, f"{len(rolling)} geom pairs (e.g. {example}, condim {rolling[0].condim})")
     for kinds, names in sorted(uncollided.items()):
         note(UNCOLLIDED_PAIRS, f"{len(names)} {kinds} (e.g. {names[0]})")
     description.gravity = gravity
@@ -238,6 +243,7 @@ _KIND_ORDER = (
     ACTUATOR_GRAVCOMP,
     BODY_CONTACTS,
     UNCOLLIDED_PAIRS,
+    TORSION,
     GEOMS,
     STATIC_BODIES,
     MOCAP,

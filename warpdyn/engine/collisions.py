@@ -6,6 +6,7 @@ Results have a leading N axis.
 
 from __future__ import annotations
 
+import numpy as np
 import warp as wp
 
 from .. import arrays
@@ -36,7 +37,7 @@ def pair_arrays(model) -> dict:
             size1=wp.array(pairs.size1, dtype=vec3, device=d),
             size2=wp.array(pairs.size2, dtype=vec3, device=d),
             margin=wp.array(pairs.margin + pairs.gap, dtype=s, device=d),
-            mu=wp.array(pairs.friction[:, 0], dtype=s, device=d),
+            mu=wp.array(np.where(pairs.condim > 1, pairs.friction[:, 0], 0.0), dtype=s, device=d),  # condim 1: frictionless
             first=wp.array(pairs.first, dtype=int, device=d),
             slots=wp.array(pairs.slots, dtype=int, device=d),
         )  # fmt: skip
