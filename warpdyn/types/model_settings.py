@@ -146,10 +146,10 @@ class ModelSettings:
     geom_contacts = _setting(
         "geom_contacts",
         _instance("geom_contacts", bool),
-        "Whether the contacts of the model's geom pairs (wd.contact.geom_pairs: MJCF bodies' geoms, MuJoCo's pairs) act "
-        "in a step: the soft law (SoftContactsParams' K, D, p, q) at each contact, the pair's sliding friction as mu (0 "
-        "for condim 1), "
-        "no tangential deformation state (its friction below the Coulomb limit is viscous). False by default: robots' "
+        "Whether the contacts of the model's geom pairs (wd.contact.geom_pairs: an MJCF's, as MuJoCo pairs them; a URDF's "
+        "with wd.contact.with_self_collision) act in a step: the soft law (SoftContactsParams' K, D, p, q) at each "
+        "contact, the pair's sliding friction as mu (0 for condim 1), no tangential deformation state (its friction "
+        "below the Coulomb limit is viscous). False by default: robots' "
         "self-collision pairs cost a step its fused kernel and are off in most locomotion training; True for scenes whose "
         "bodies touch each other. SoftContacts only.",
     )
