@@ -174,7 +174,7 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
     if not isinstance(scaling_factors, ScalingFactors):
         raise TypeError(f"scaling_factors must be a wd.kin_dyn_parameters.ScalingFactors, got {type(scaling_factors).__name__}")
     nL = model.number_of_links()
-    given = {}
+    given, hosts = {}, {}  # the factors on the device, and as checked on the host
     for name, value, shapes in (("dims", scaling_factors.dims, ((nL, 3),)), ("density", scaling_factors.density, ((nL,), "(N, nL)"))):
         if isinstance(value, wp.array):
             arrays.check_device_array(value, f"scaling_factors.{name}", model.scalar, model.device)
@@ -193,6 +193,7 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
             where = f" in environment {int(at[0])}" if per_env else ""
             raise ValueError(f"scaling_factors.{name} of link '{link}'{where} is {host[tuple(at[:2]) if per_env else at[0]].tolist()}: factors must be positive and finite")
         given[name] = value.reshape((1, nL)) if name == "density" and not per_env else value
+        hosts[name] = np.asarray(host, dtype=np.float64)
     metadata = model.cached("hw link metadata", lambda: hw_link_metadata(model))
     out = hardware.hw_parameters(model, metadata, given["dims"], given["density"])
     moved = with_joint_origins(model, positions=out["positions"], rotations=origins.origins_of(model.tree)[1]) if model.number_of_joints() else model
@@ -200,9 +201,9 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
     points = out["points"]
     if points.shape[0] == 0:
         return moved
-    params = moved.kin_dyn_structure().with_points(moved, points.numpy().astype(np.float64))
+    params = moved.kin_dyn_structure().with_points(moved, points.numpy().astype(np.float64))  # the host's copy: queries, export
     moved = moved.with_kin_dyn_parameters(params, point_array=points)
-    moved.description = scaled_collisions(model.description, model.link_names(), metadata, given["dims"].numpy().astype(np.float64))
+    moved.description = scaled_collisions(model.description, model.link_names(), metadata, hosts["dims"])
     return moved
 
 
