@@ -14,7 +14,6 @@ normal is compared up to its sign; the constructed poses are otherwise generic (
 no axis equally opposed to two faces), as such ties flip with a different order of the same products (FMA).
 """
 
-import contextlib
 import functools
 
 import mujoco
@@ -25,6 +24,7 @@ import scipy.spatial.transform
 import warp as wp
 
 from warpdyn.kernels import collision_box as cb
+from gradcheck import contact_gradient_check
 
 Rotation = scipy.spatial.transform.Rotation
 
@@ -263,35 +263,15 @@ def test_tape_gradient_equals_finite_differences():
     xpos, xmat, sizes, total, contacts = _reference("different", 0.06, 0.04)
     K = cb.kernels(wp.float64)
     n = len(xpos)
-    rng = np.random.default_rng(2)
-    w1, w2 = rng.standard_normal((2, n, cb.MAX_CONTACTS, 3))
-    direction_pos, direction_rot = rng.standard_normal((2, n, 2, 3))
 
-    def loss(xpos, xmat, tape=None):
+    def run(xpos, xmat):
         inputs = _arrays(K, xpos, xmat, sizes, total, np.float64, requires_grad=True)
         count, pos, frame, dist = _outputs(K, n, np.float64, requires_grad=True)
-        with tape or contextlib.nullcontext():
-            wp.launch(K.collide, n, inputs=inputs, outputs=[count, pos, frame, dist])
-        valid = np.arange(cb.MAX_CONTACTS)[None] < count.numpy()[:, None]
-        value = np.where(valid, dist.numpy() + np.sum(w1 * pos.numpy(), -1) + np.sum(w2 * frame.numpy()[..., 0, :], -1), 0.0).sum(1)
-        if tape is not None:
-            seed_frame = np.zeros((n, cb.MAX_CONTACTS, 3, 3))
-            seed_frame[..., 0, :] = w2 * valid[..., None]
-            tape.backward(grads={dist: wp.array(valid * 1.0, dtype=wp.float64), pos: wp.array(w1 * valid[..., None], dtype=K.vec3), frame: wp.array(seed_frame, dtype=K.mat33)})
-        return value, count.numpy(), [inputs[k].grad.numpy() if tape is not None else None for k in (0, 1, 3, 4)]
+        wp.launch(K.collide, n, inputs=inputs, outputs=[count, pos, frame, dist])
+        return [inputs[k] for k in (0, 1, 3, 4)], count, pos, frame, dist
 
-    def moved(h):
-        turn = Rotation.from_rotvec(h * direction_rot.reshape(-1, 3)).as_matrix().reshape(n, 2, 3, 3)
-        return xpos + h * direction_pos, xmat @ turn
-
-    value, count, (g_p1, g_R1, g_p2, g_R2) = loss(xpos, xmat, wp.Tape())
-    skew = np.cross(np.eye(3)[None, None, :, None, :], direction_rot[:, :, None, None, :])[..., 0, :]  # skew(d) rows
-    along = (np.sum(g_p1 * direction_pos[:, 0], -1) + np.sum(g_p2 * direction_pos[:, 1], -1)
-             + np.sum(g_R1 * (xmat[:, 0] @ skew[:, 0]), (-2, -1)) + np.sum(g_R2 * (xmat[:, 1] @ skew[:, 1]), (-2, -1)))  # fmt: skip
-    steps = {h: loss(*moved(h), None)[:2] for h in (1e-6, -1e-6, 2e-6, -2e-6)}
-    fd1 = (steps[1e-6][0] - steps[-1e-6][0]) / 2e-6
-    fd2 = (steps[2e-6][0] - steps[-2e-6][0]) / 4e-6
-    kink = np.abs(steps[1e-6][0] + steps[-1e-6][0] - 2.0 * value) / 1e-6  # one-sided differences' gap
-    smooth = (np.abs(fd1 - fd2) < 1e-6) & (kink < 1e-4) & np.all([c == count for _, c in steps.values()], axis=0) & (count > 0)
+    c = contact_gradient_check(run, xpos, xmat, cb.MAX_CONTACTS, K.vec3, K.mat33)
+    count = c["count"]
+    smooth = (np.abs(c["fd1"] - c["fd2"]) < 1e-6) & (c["kink"] < 1e-4) & c["steps_keep_count"] & (count > 0)
     assert smooth.sum() > n // 4 and np.sum(smooth & _edge_contact(xmat, contacts)) >= 10 and np.sum(smooth & (count >= 4)) >= 10
-    np.testing.assert_allclose(along[smooth], fd1[smooth], atol=1e-7)
+    np.testing.assert_allclose(c["along"][smooth], c["fd1"][smooth], atol=1e-7)

@@ -12,7 +12,6 @@ tangents) and distances: to 1e-10 in float64 (the formulas are MuJoCo's, closed-
 the tolerance below.
 """
 
-import contextlib
 import functools
 
 import mujoco
@@ -23,6 +22,7 @@ import scipy.spatial.transform
 import warp as wp
 
 from warpdyn.kernels import collision_primitives as cp
+from gradcheck import contact_gradient_check
 
 FLOAT64_TOL = 1e-10
 FLOAT32_TOL = 2e-5
@@ -318,36 +318,16 @@ def test_tape_gradient_equals_finite_differences(pair):
     xpos, xmat = xpos[-N_RANDOM:], xmat[-N_RANDOM:]
     K = cp.kernels(wp.float64)
     n = len(xpos)
-    rng = np.random.default_rng(2)
-    w1, w2 = rng.standard_normal((2, n, cp.MAX_CONTACTS, 3))
-    direction_pos, direction_rot = rng.standard_normal((2, n, 2, 3))
 
-    def loss(xpos, xmat, tape=None):
+    def run(xpos, xmat):
         inputs = [wp.array(np.ascontiguousarray(a), dtype=t, requires_grad=True) for a, t in ((xpos[:, 0], K.vec3), (xmat[:, 0], K.mat33), (xpos[:, 1], K.vec3), (xmat[:, 1], K.mat33))]
         size = [wp.array(np.broadcast_to(s, (n, 3)).copy(), dtype=K.vec3) for s in sizes]
         count = wp.zeros(n, dtype=int)
         pos, frame, dist = (wp.zeros((n, cp.MAX_CONTACTS), dtype=t, requires_grad=True) for t in (K.vec3, K.mat33, wp.float64))
-        with tape or contextlib.nullcontext():
-            wp.launch(K.collide, n, inputs=[TYPES[pair[0]], TYPES[pair[1]], inputs[0], inputs[1], size[0], inputs[2], inputs[3], size[1], wp.full(n, total, dtype=wp.float64)], outputs=[count, pos, frame, dist])
-        valid = np.arange(cp.MAX_CONTACTS)[None] < count.numpy()[:, None]
-        value = np.where(valid, dist.numpy() + np.sum(w1 * pos.numpy(), -1) + np.sum(w2 * frame.numpy()[..., 0, :], -1), 0.0).sum(1)
-        if tape is not None:
-            seed_frame = np.zeros((n, cp.MAX_CONTACTS, 3, 3))
-            seed_frame[..., 0, :] = w2 * valid[..., None]
-            tape.backward(grads={dist: wp.array(valid * 1.0, dtype=wp.float64), pos: wp.array(w1 * valid[..., None], dtype=K.vec3), frame: wp.array(seed_frame, dtype=K.mat33)})
-        return value, count.numpy(), [a.grad.numpy() if tape is not None else None for a in inputs]
+        wp.launch(K.collide, n, inputs=[TYPES[pair[0]], TYPES[pair[1]], inputs[0], inputs[1], size[0], inputs[2], inputs[3], size[1], wp.full(n, total, dtype=wp.float64)], outputs=[count, pos, frame, dist])
+        return inputs, count, pos, frame, dist
 
-    def moved(h):
-        turn = scipy.spatial.transform.Rotation.from_rotvec(h * direction_rot.reshape(-1, 3)).as_matrix().reshape(n, 2, 3, 3)
-        return xpos + h * direction_pos, xmat @ turn
-
-    value, count, (g_p1, g_R1, g_p2, g_R2) = loss(xpos, xmat, wp.Tape())
-    skew = np.cross(np.eye(3)[None, None, :, None, :], direction_rot[:, :, None, None, :])[..., 0, :]  # skew(d) rows
-    along = (np.sum(g_p1 * direction_pos[:, 0], -1) + np.sum(g_p2 * direction_pos[:, 1], -1)
-             + np.sum(g_R1 * (xmat[:, 0] @ skew[:, 0]), (-2, -1)) + np.sum(g_R2 * (xmat[:, 1] @ skew[:, 1]), (-2, -1)))  # fmt: skip
-    steps = {h: loss(*moved(h), None)[:2] for h in (1e-6, -1e-6, 2e-6, -2e-6)}
-    fd1 = (steps[1e-6][0] - steps[-1e-6][0]) / 2e-6
-    fd2 = (steps[2e-6][0] - steps[-2e-6][0]) / 4e-6
-    smooth = (np.abs(fd1 - fd2) < 1e-6) & np.all([c == count for _, c in steps.values()], axis=0) & (count > 0)
+    c = contact_gradient_check(run, xpos, xmat, cp.MAX_CONTACTS, K.vec3, K.mat33)
+    smooth = (np.abs(c["fd1"] - c["fd2"]) < 1e-6) & c["steps_keep_count"] & (c["count"] > 0)
     assert smooth.sum() > n // 3
-    np.testing.assert_allclose(along[smooth], fd1[smooth], atol=1e-6)
+    np.testing.assert_allclose(c["along"][smooth], c["fd1"][smooth], atol=1e-6)
