@@ -24,6 +24,7 @@ import scipy.spatial.transform
 import warp as wp
 
 from warpdyn.kernels import collision_box as cb
+from collision_reference import posed_contacts
 from gradcheck import contact_gradient_check
 
 Rotation = scipy.spatial.transform.Rotation
@@ -98,7 +99,6 @@ def _reference(sizes, margin, gap, seed=0):
       <body><freejoint/><geom type="box" size="{' '.join(map(str, size2))}" margin="{margin / 2}" gap="{gap / 2}"/></body>
     </worldbody></mujoco>"""
     m = mujoco.MjModel.from_xml_string(xml)
-    d = mujoco.MjData(m)
     rng = np.random.default_rng(seed)
     poses = _special(size1, size2, margin + gap)
     reach = np.linalg.norm(size1) + np.linalg.norm(size2) + margin + gap
@@ -106,25 +106,8 @@ def _reference(sizes, margin, gap, seed=0):
         q = rng.normal(size=4)
         u = rng.normal(size=3)
         poses.append((tuple(u / np.linalg.norm(u) * rng.uniform(0.0, reach + 0.05)), q / np.linalg.norm(q)))
-    xpos, xmat, contacts = [], [], []
-    for p_local, q_local in poses:
-        q1 = rng.normal(size=4)
-        q1 /= np.linalg.norm(q1)
-        p1 = rng.uniform(-1, 1, size=3)
-        R1 = np.empty(9)
-        mujoco.mju_quat2Mat(R1, q1)
-        d.mocap_pos[0] = p1
-        d.mocap_quat[0] = q1
-        d.qpos[:3] = p1 + R1.reshape(3, 3) @ np.asarray(p_local)
-        mujoco.mju_mulQuat(d.qpos[3:7], q1, q_local)
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_collision(m, d)
-        con = d.contact[: d.ncon]
-        assert all(tuple(c.geom) == (0, 1) for c in con)  # geom1 = the mocap body's, in MuJoCo's order
-        xpos.append(d.geom_xpos.copy())
-        xmat.append(d.geom_xmat.reshape(2, 3, 3).copy())
-        contacts.append((np.array([c.pos for c in con]).reshape(-1, 3), np.array([c.frame for c in con]).reshape(-1, 3, 3), np.array([c.dist for c in con])))
-    return np.array(xpos), np.array(xmat), np.array([size1, size2]), margin + gap, contacts
+    xpos, xmat, contacts = posed_contacts(m, rng, poses)
+    return xpos, xmat, np.array([size1, size2]), margin + gap, contacts
 
 
 def _arrays(K, xpos, xmat, sizes, margin, dtype, requires_grad=False):
