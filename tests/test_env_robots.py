@@ -86,12 +86,21 @@ def test_bad_robots_are_refused_by_name():
 ANYMAL_C_JOINTS = tuple(f"{leg}_{joint}" for leg in ("LF", "RF", "LH", "RH") for joint in ("HAA", "HFE", "KFE"))  # MuJoCo's order
 
 
+def _one_warning(path) -> tuple:
+    """(the float64 model of `path`, what its one warning lists): loading it warns once, a NotModelledWarning."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = wd.model.Model.build_from_model_description(path, dtype=np.float64)
+    assert [w.category for w in caught] == [wd.model.NotModelledWarning], [str(w.message) for w in caught]
+    return model, str(caught[0].message).split(" holds elements that warpdyn does not model: ")[1]
+
+
 def test_mujoco_compiles_the_shipped_anymal_c_alone_and_warpdyn_names_what_it_does_not_model():
     """No mesh, texture, material, light or actuator, no frictionloss; Menagerie's 44 collision primitives (29 cylinders,
     11 boxes, 4 foot spheres) and its keyframe "standing". warpdyn (float64) warns once: the 12 joints' limits,
     the contacts between bodies (178 pairs, off), the 414 pairs with a cylinder it does not collide and the feet pairs'
-    torsional and rolling friction (condim 6), nothing else; 13
-    links (the base, 4 hips, thighs, shanks), the feet spheres on the shanks."""
+    torsional and rolling friction (condim 6), nothing else; 13 links (the base, 4 hips, thighs, shanks), the feet
+    spheres on the shanks."""
     m = mujoco.MjModel.from_xml_path(str(wd.assets.anymal_c_mjcf()))
     assert (m.nq, m.nv, m.nu, m.nmesh, m.ntex, m.nmat, m.nlight) == (19, 18, 0, 0, 0, 0, 0)
     assert [m.joint(j).name for j in range(1, m.njnt)] == list(ANYMAL_C_JOINTS)
@@ -100,11 +109,7 @@ def test_mujoco_compiles_the_shipped_anymal_c_alone_and_warpdyn_names_what_it_do
     np.testing.assert_array_equal(m.dof_frictionloss, 0.0)
     np.testing.assert_array_equal(m.dof_damping[6:], 1.0)
     assert m.key("standing").qpos[2] == 0.56 and m.body_subtreemass[1] == pytest.approx(44.96518)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        model = wd.model.Model.build_from_model_description(wd.assets.anymal_c_mjcf(), dtype=np.float64)
-    assert [w.category for w in caught] == [wd.model.NotModelledWarning], [str(w.message) for w in caught]
-    listed = str(caught[0].message).split(" holds elements that warpdyn does not model: ")[1]
+    model, listed = _one_warning(wd.assets.anymal_c_mjcf())
     uncollided = ["184 cylinder-box (e.g. geom0/geom16)", "230 cylinder-cylinder (e.g. geom1/geom16)"]
     torsion = ["142 geom pairs (e.g. geom19/geom0, condim 6)"]  # the feet's condim 6
     assert listed == f"{JOINT_LIMITS}: {list(ANYMAL_C_JOINTS)}; {BODY_CONTACTS}: ['178 geom pairs']; {UNCOLLIDED_PAIRS}: {uncollided}; {TORSION}: {torsion}"
@@ -151,7 +156,8 @@ def test_mujoco_compiles_the_shipped_go2_alone_and_warpdyn_names_what_it_does_no
     """No mesh, material, light or actuator, no frictionloss; Menagerie's 23 collision primitives (5 spheres: the
     base's and the feet's; 13 cylinders, 5 boxes), its damping and armature, and its keyframe "home". warpdyn
     (float64) warns once: the 12 joints' limits, the contacts between bodies (92 pairs, off), the 118 pairs with a
-    cylinder it does not collide and the feet pairs' torsional and rolling friction (condim 6), nothing else; 13 links, the foot spheres on the calves."""
+    cylinder it does not collide and the feet pairs' torsional and rolling friction (condim 6), nothing else; 13 links,
+    the foot spheres on the calves."""
     m = mujoco.MjModel.from_xml_path(str(wd.assets.go2_mjcf()))
     assert (m.nq, m.nv, m.nu, m.nmesh, m.ntex, m.nmat, m.nlight) == (19, 18, 0, 0, 0, 0, 0)
     assert [m.joint(j).name for j in range(1, m.njnt)] == list(GO2_JOINTS)
@@ -161,11 +167,7 @@ def test_mujoco_compiles_the_shipped_go2_alone_and_warpdyn_names_what_it_does_no
     np.testing.assert_array_equal(m.dof_damping[6:], 2.0)
     np.testing.assert_array_equal(m.dof_armature[6:], 0.01)
     assert m.key("home").qpos[2] == 0.27 and m.body_subtreemass[1] == pytest.approx(15.206408)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        model = wd.model.Model.build_from_model_description(wd.assets.go2_mjcf(), dtype=np.float64)
-    assert [w.category for w in caught] == [wd.model.NotModelledWarning], [str(w.message) for w in caught]
-    listed = str(caught[0].message).split(" holds elements that warpdyn does not model: ")[1]
+    model, listed = _one_warning(wd.assets.go2_mjcf())
     uncollided = ["48 cylinder-box (e.g. geom1/geom4)", "70 cylinder-cylinder (e.g. geom1/geom5)"]
     torsion = ["70 geom pairs (e.g. FL/geom0, condim 6)"]  # the feet's condim 6
     assert listed == f"{JOINT_LIMITS}: {list(GO2_JOINTS)}; {BODY_CONTACTS}: ['92 geom pairs']; {UNCOLLIDED_PAIRS}: {uncollided}; {TORSION}: {torsion}"
