@@ -33,6 +33,7 @@ from typing import Any
 import warp as wp
 
 from .factory import factory
+from .spatial import spatial
 
 PLANE, SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = 0, 2, 3, 4, 5, 6
 """MuJoCo's mjtGeom values of the primitive geoms."""
@@ -55,11 +56,9 @@ of two crossing capsules), whose direction is noise."""
 @factory
 def kernels(scalar) -> types.SimpleNamespace:
     """The pairs' functions and the batch kernel `collide` in `scalar` (wp.float32 or wp.float64)."""
-    vec2 = wp.types.vector(2, scalar)
-    vec3 = wp.types.vector(3, scalar)
-    vec4 = wp.types.vector(4, scalar)
+    sp = spatial(scalar)
+    vec2, vec3, vec4, mat33 = wp.types.vector(2, scalar), sp.vec3, sp.vec4, sp.mat33
     mat23 = wp.types.matrix((2, 3), scalar)
-    mat33 = wp.types.matrix((3, 3), scalar)
     mat43 = wp.types.matrix((4, 3), scalar)
 
     @wp.func
@@ -686,7 +685,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         count[i] = n
 
     return types.SimpleNamespace(
-        scalar=scalar, vec3=vec3, mat33=mat33, contact_frame=contact_frame, bounding_radius=bounding_radius, may_touch=may_touch,
+        scalar=scalar, vec2=vec2, vec3=vec3, mat23=mat23, mat33=mat33, contact_frame=contact_frame, bounding_radius=bounding_radius, may_touch=may_touch,
         plane_sphere=plane_sphere, plane_capsule=plane_capsule, plane_box=plane_box, plane_cylinder=plane_cylinder, plane_ellipsoid=plane_ellipsoid,
         sphere_sphere=sphere_sphere, sphere_capsule=sphere_capsule, sphere_cylinder=sphere_cylinder, sphere_box=sphere_box,
         capsule_capsule=capsule_capsule, capsule_box=capsule_box, collide=collide,

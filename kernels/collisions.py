@@ -26,9 +26,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     law = soft_contacts.kernels(scalar)
     sp = spatial(scalar)
     B = bundles(scalar)
-    vec3, mat33 = prim.vec3, prim.mat33
-    vec2 = wp.types.vector(2, scalar)
-    mat23 = wp.types.matrix((2, 3), scalar)
+    vec2, vec3, mat23, mat33 = prim.vec2, prim.vec3, prim.mat23, prim.mat33
 
     @wp.func
     def put(env: int, slot: int, p: vec3, frame_: mat33, d: scalar,
