@@ -40,12 +40,12 @@ SCALED = ("r_knee", "r_ankle_pitch")  # their origins: the thigh's and the shank
 SOLE = "r_sole"
 
 
-def build_model(time_step: float) -> wd.model.Model:
-    """The right leg, welded 1 m above the ground, float64, CPU, without collidable points."""
+def build_model(time_step: float, device: str) -> wd.model.Model:
+    """The right leg, welded 1 m above the ground, float64, without collidable points."""
     W_H_B = np.eye(4)
     W_H_B[2, 3] = 1.0
     full = wd.model.Model.build_from_model_description(
-        wd.assets.ergocub_urdf(), fixed_base=True, base_pose=W_H_B, dtype=np.float64, device="cpu", time_step=time_step
+        wd.assets.ergocub_urdf(), fixed_base=True, base_pose=W_H_B, dtype=np.float64, device=device, time_step=time_step
     )
     model = wd.model.reduce(full, considered_joints=list(LEG_JOINTS))
     return wd.contact.with_collidable_points(model, enabled_links=())
@@ -144,6 +144,7 @@ def parse_args(argv=None):
     parser.add_argument("--lr", type=float, default=2.0, help="Adam's initial learning rate for the torques [N m] (default 2)")
     parser.add_argument("--lr-scale", type=float, default=0.01, help="Adam's initial learning rate for the scales (default 0.01)")
     parser.add_argument("--print-every", type=int, default=20, help="print every k-th iteration (default 20)")
+    parser.add_argument("--device", default="cpu", help="Warp device (default cpu: one environment is launch-bound on a GPU)")
     parser.add_argument("--plot", default="", help="PNG to write (default: none; needs matplotlib: pip install -e '.[examples]')")
     parser.add_argument("--seed", type=int, default=0)
     return parser.parse_args(argv)
@@ -153,8 +154,9 @@ def main(argv=None) -> dict:
     args = parse_args(argv)
     wp.config.quiet = True
     started = time.perf_counter()
-    model = build_model(args.time_step)
-    runs = {"torques": optimise(model, args, codesign=False), "co-design": optimise(model, args, codesign=True)}
+    with wp.ScopedDevice(args.device):  # the arrays of the loss and Adam live with the model
+        model = build_model(args.time_step, args.device)
+        runs = {"torques": optimise(model, args, codesign=False), "co-design": optimise(model, args, codesign=True)}
     for name, run in runs.items():
         s = run["scales"][-1]
         print(f"{name}: sole {1e3 * run['distance'][-1]:.1f} mm from the target, loss {run['loss'][-1]:.4f}, thigh x{s[0]:.3f}, shank x{s[1]:.3f}")

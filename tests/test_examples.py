@@ -133,7 +133,7 @@ def test_codesign_lengthens_the_bones_to_reach():
     wd.model.with_joint_origins) ends nearer the out-of-reach target than the torques alone, with longer bones
     (module docstring)."""
     example = _example("codesign")
-    runs = example.main(["--iterations", "20", "--steps", "60", "--print-every", "20", "--plot", ""])
+    runs = example.main(["--iterations", "20", "--steps", "60", "--device", TEST_DEVICE, "--print-every", "20", "--plot", ""])
     torques, codesign = runs["torques"], runs["co-design"]
     assert np.all(torques["scales"] == 1.0)
     assert codesign["distance"][-1] < 0.6 * torques["distance"][-1], (codesign["distance"][-1], torques["distance"][-1])
