@@ -40,12 +40,13 @@ def bundles(scalar) -> types.SimpleNamespace:
         q_start: wp.array(dtype=int)  # (nL + 1,) link i's joint positions are q_start[i]:q_start[i + 1]
         v_start: wp.array(dtype=int)  # (nL + 1,) its velocities (DoFs) v_start[i]:v_start[i + 1]
         # link i in its parent at joint position q (kernels/joints.py; warpdyn.types.model_constants'
-        # joint_motion_terms)
-        joint_Q0: wp.array(dtype=sp.quat)  # (nL,)
-        joint_Q1: wp.array(dtype=sp.quat)  # (nL,)
-        joint_t0: wp.array(dtype=sp.vec3)  # (nL,) [m]
-        joint_t1: wp.array(dtype=sp.vec3)  # (nL,) [m, or 1 for a prismatic joint]
-        joint_t2: wp.array(dtype=sp.vec3)  # (nL,) [m]
+        # joint_motion_terms), (P, nL): P = 1 shared, P = N per environment (wd.model.with_joint_origins), read at
+        # row min(env, P - 1); a free joint's are the same in every row
+        joint_Q0: wp.array2d(dtype=sp.quat)
+        joint_Q1: wp.array2d(dtype=sp.quat)
+        joint_t0: wp.array2d(dtype=sp.vec3)  # [m]
+        joint_t1: wp.array2d(dtype=sp.vec3)  # [m, or 1 for a prismatic joint]
+        joint_t2: wp.array2d(dtype=sp.vec3)  # [m]
         dof_S: wp.array(dtype=sp.vec6)  # (nv,) each DoF's motion subspace column, link frame (joints.dof_motion)
         dof_joint: wp.array(dtype=int)  # (nv,) the joint of each DoF (joint j moves link j + 1)
         qpos_spring: wp.array(dtype=scalar)  # (nq,) a ball or free joint's spring reference (its initial position)

@@ -401,7 +401,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             sd_n = x.joint_velocities[env, j_n]
             ref_n = tau_ref[env, j_n]
         if wp.static(TERMS_AHEAD):
-            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, walk[k_first][0])
+            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, env, walk[k_first][0])
         for k in range(first, last):
             i = walk[k][0]
             own = walk[k][1]
@@ -423,9 +423,9 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
                 v_P = slot_v[up]
             if wp.static(TERMS_AHEAD):
                 X_i = jm.joint_transform_from(jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n, s_i)
-                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, walk[wp.min(k + 1, last - 1)][0])
+                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, env, walk[wp.min(k + 1, last - 1)][0])
             else:
-                jt, Q0, Q1, t0, t1, t2 = jm.joint_terms_of(model, i)  # loaded first, as round 9 measured
+                jt, Q0, Q1, t0, t1, t2 = jm.joint_terms_of(model, env, i)  # loaded first, as round 9 measured
                 X_i = jm.joint_transform_from(jt, Q0, Q1, t0, t1, t2, s_i)
             if wp.static(FREE_ROOTS):
                 free = model.joint_type[i] == FREE
@@ -478,7 +478,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             if wp.static(KEEP):
                 X_i = unpack7(X[i])
             else:  # the joint's terms and position loaded now, its transform computed after `articulated`
-                jt, Q0, Q1, t0, t1, t2 = jm.joint_terms_of(model, i)
+                jt, Q0, Q1, t0, t1, t2 = jm.joint_terms_of(model, env, i)
                 q_i = x.joint_positions[env, jm.position_address(model, i)]
             S = model.dof_S[jm.dof_address(model, i)]
             IA = pack21(B.spatial_inertia_of(model, env, i)) + IA_next  # summed as 21 numbers: symmetric, fewer registers
@@ -565,7 +565,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
         if wp.static(KEEP):
             X_n = X[i_n]
         else:
-            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, i_n)
+            jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, env, i_n)
         S_n = sp.vec6(scalar(0.0))
         if has_joints:  # (a model without joints has no motion subspace to read)
             S_n = model.dof_S[wp.max(jm.dof_address(model, i_n), 0)]
@@ -603,7 +603,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
             if wp.static(KEEP):
                 X_n = X[i_n]
             else:
-                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, i_n)
+                jt_n, Q0_n, Q1_n, t0_n, t1_n, t2_n = jm.joint_terms_of(model, env, i_n)
             S_n = model.dof_S[wp.max(jm.dof_address(model, i_n), 0)]
             if wp.static(C_SHARED):
                 c_n = get6(PER_LINK * i_n + C_AT)

@@ -64,9 +64,16 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         return d
 
     @wp.func
-    def joint_terms_of(model: B.Model, i: int):
-        """Link i's one-DoF joint: (its type, Q0, Q1, t0, t1, t2), the terms that move its link (i >= 1)."""
-        return model.joint_type[i], model.joint_Q0[i], model.joint_Q1[i], model.joint_t0[i], model.joint_t1[i], model.joint_t2[i]
+    def terms_row(model: B.Model, env: int):
+        """The row of the joint terms (P, nL) that environment env reads: min(env, P - 1)."""
+        return wp.min(env, model.joint_Q0.shape[0] - 1)
+
+    @wp.func
+    def joint_terms_of(model: B.Model, env: int, i: int):
+        """Link i's one-DoF joint in environment env: (its type, Q0, Q1, t0, t1, t2), the terms that move its link
+        (i >= 1)."""
+        r = terms_row(model, env)
+        return model.joint_type[i], model.joint_Q0[r, i], model.joint_Q1[r, i], model.joint_t0[r, i], model.joint_t1[r, i], model.joint_t2[r, i]
 
     @wp.func
     def transform_of_terms(k: sp.vec4, Q0: sp.quat, Q1: sp.quat, t0: sp.vec3, t1: sp.vec3, t2: sp.vec3):
@@ -92,21 +99,23 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         first: benchmarks/registers.py)."""
         kind = model.joint_type[i]
         a = position_address(model, i)
+        r = terms_row(model, env)
         if wp.static(MULTI):
             if kind == BALL:
-                Q = model.joint_Q0[i] * joint_quaternion(positions, env, a)
-                return sp.transform(model.joint_t0[i] - wp.quat_rotate(Q, model.joint_t1[i]), Q)
+                Q = model.joint_Q0[r, i] * joint_quaternion(positions, env, a)
+                return sp.transform(model.joint_t0[r, i] - wp.quat_rotate(Q, model.joint_t1[r, i]), Q)
             if kind == FREE:
-                Q0 = model.joint_Q0[i]
-                r = sp.vec3(positions[env, a], positions[env, a + 1], positions[env, a + 2])
-                return sp.transform(model.joint_t0[i] + wp.quat_rotate(Q0, r), Q0 * joint_quaternion(positions, env, a + 3))
+                Q0 = model.joint_Q0[r, i]
+                p = sp.vec3(positions[env, a], positions[env, a + 1], positions[env, a + 2])
+                return sp.transform(model.joint_t0[r, i] + wp.quat_rotate(Q0, p), Q0 * joint_quaternion(positions, env, a + 3))
         k = sp.joint_coefficients(kind, positions[env, a])
-        return transform_of_terms(k, model.joint_Q0[i], model.joint_Q1[i], model.joint_t0[i], model.joint_t1[i], model.joint_t2[i])
+        return transform_of_terms(k, model.joint_Q0[r, i], model.joint_Q1[r, i], model.joint_t0[r, i], model.joint_t1[r, i], model.joint_t2[r, i])
 
     @wp.func
     def free_joint_quaternion(model: B.Model, i: int, X: sp.transform):
-        """The rotation of link i's free joint itself: Q0^-1 times that of its transform X = lambda(i)_H_i."""
-        return wp.quat_inverse(model.joint_Q0[i]) * wp.transform_get_rotation(X)
+        """The rotation of link i's free joint itself: Q0^-1 times that of its transform X = lambda(i)_H_i (a free
+        joint's Q0 is the same in every row of the terms)."""
+        return wp.quat_inverse(model.joint_Q0[0, i]) * wp.transform_get_rotation(X)
 
     @wp.func
     def dof_motion(model: B.Model, i: int, d: int, X: sp.transform):
@@ -154,7 +163,7 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
             kind = model.joint_type[i]
             if kind == BALL:
                 w = sp.vec3(values[env, a], values[env, a + 1], values[env, a + 2])
-                return sp.stack(wp.cross(model.joint_t1[i], w), w)  # a rotation about the pivot t1 (child frame)
+                return sp.stack(wp.cross(model.joint_t1[terms_row(model, env), i], w), w)  # a rotation about the pivot t1 (child frame)
             if kind == FREE:
                 Q = free_joint_quaternion(model, i, X)
                 v = sp.vec3(values[env, a], values[env, a + 1], values[env, a + 2])
@@ -204,28 +213,30 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
     @wp.kernel(module="unique")
     def joint_terms_from_origins(
         joint_type: wp.array(dtype=int),
-        position: wp.array2d(dtype=scalar),
-        rotation: wp.array2d(dtype=scalar),
+        position: wp.array3d(dtype=scalar),
+        rotation: wp.array3d(dtype=scalar),
         axis: wp.array(dtype=sp.vec3),
         pivot: wp.array(dtype=sp.vec3),
         # outputs
-        Q0: wp.array(dtype=sp.quat),
-        Q1: wp.array(dtype=sp.quat),
-        t0: wp.array(dtype=sp.vec3),
-        t1: wp.array(dtype=sp.vec3),
-        t2: wp.array(dtype=sp.vec3),
+        Q0: wp.array2d(dtype=sp.quat),
+        Q1: wp.array2d(dtype=sp.quat),
+        t0: wp.array2d(dtype=sp.vec3),
+        t1: wp.array2d(dtype=sp.vec3),
+        t2: wp.array2d(dtype=sp.vec3),
     ):
-        """Link j + 1's joint terms (kernels/bundles.py's Model) from joint j's frame in the parent link, X_tree
-        = (p, A): position p = position[j] [m] and rotation A = rotation[j] (w, x, y, z), normalised here (both
-        (nj, 3) and (nj, 4)), with the joint's axis a and pivot d
+        """Link j + 1's joint terms in row r (kernels/bundles.py's Model, (P, nL)) from joint j's frame in the parent
+        link, X_tree = (p, A): position p = position[r, j] [m] and rotation A = rotation[r, j] (w, x, y, z),
+        normalised here (both (P or 1, nj, 3) and (P or 1, nj, 4): row min(r, rows - 1)), with the joint's axis a and pivot d
         (child frame): warpdyn.types.model_constants.joint_motion_terms' formulas (tests/test_joint_origins.py
         holds the two equal), revolute: Q0 = A, Q1 = A (a, 0), t0 = p + A d_perp, t1 = -A d_perp, t2 = -A (a x d),
         d_perp = d - (a.d) a; prismatic: t1 = A a; ball: t0 = p + A d, t1 = d; free and the base: Q0 = A, t0 = p.
-        Launched over nj: the base's terms (link 0) are not written."""
-        j = wp.tid()
+        Launched over (P, nj): the base's terms (link 0) are not written."""
+        r, j = wp.tid()
         i = j + 1
-        A = wp.normalize(sp.quat_from_wxyz(rotation[j, 0], rotation[j, 1], rotation[j, 2], rotation[j, 3]))
-        p = sp.vec3(position[j, 0], position[j, 1], position[j, 2])
+        rr = wp.min(r, rotation.shape[0] - 1)
+        rp = wp.min(r, position.shape[0] - 1)
+        A = wp.normalize(sp.quat_from_wxyz(rotation[rr, j, 0], rotation[rr, j, 1], rotation[rr, j, 2], rotation[rr, j, 3]))
+        p = sp.vec3(position[rp, j, 0], position[rp, j, 1], position[rp, j, 2])
         a = axis[i]
         d = pivot[i]
         zero = sp.vec3(scalar(0.0))
@@ -245,11 +256,11 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         elif kind == BALL:
             o0 = p + wp.quat_rotate(A, d)
             o1 = d
-        Q0[i] = A
-        Q1[i] = q1
-        t0[i] = o0
-        t1[i] = o1
-        t2[i] = o2
+        Q0[r, i] = A
+        Q1[r, i] = q1
+        t0[r, i] = o0
+        t1[r, i] = o1
+        t2[r, i] = o2
 
     return types.SimpleNamespace(
         joint_terms_from_origins=joint_terms_from_origins,

@@ -172,3 +172,7 @@ def test_bad_factors_raise_naming_the_link():
         wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((nL, 3)), density=bad))
     with pytest.raises(TypeError, match="ScalingFactors"):
         wd.model.update_hw_parameters(model, (np.ones((nL, 3)), np.ones(nL)))
+    positions = wd.model.joint_origins(model)[0]
+    per_env = wd.model.with_joint_origins(model, positions=np.stack([positions, 1.1 * positions]))
+    with pytest.raises(ValueError, match=r"update_hw_parameters: \['joint_origins'\] are given per environment"):
+        wd.model.update_hw_parameters(per_env, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((nL, 3)), density=np.ones(nL)))

@@ -9,6 +9,7 @@
 - Bad input raises naming the argument and the joint.
 """
 
+import contextlib
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -140,3 +141,117 @@ def test_bad_origins_raise_naming_the_joint():
         wd.model.with_joint_origins(model, positions=bad)
     with pytest.raises(TypeError):
         wd.model.with_joint_origins(model, positions=wp.array(positions, dtype=wp.float32))
+
+
+def moved_origins(model, seed: int, N: int) -> tuple[np.ndarray, np.ndarray]:
+    """(N, nj, 3) and (N, nj, 4): the model's joint origins moved by up to 3 cm and turned by up to 0.1 rad per
+    environment (a free joint's kept: its origin is one for all environments)."""
+    positions, rotations = wd.model.joint_origins(model)
+    rng = np.random.default_rng(seed)
+    P = positions + rng.uniform(-0.03, 0.03, (N, *positions.shape))
+    R = rotations + rng.uniform(-0.05, 0.05, (N, *rotations.shape))
+    free = np.asarray(model.tree.joint_type)[1:] == wd.description.tree.JOINT_FREE
+    P[:, free], R[:, free] = positions[free], rotations[free]
+    return P, R / np.linalg.norm(R, axis=2, keepdims=True)
+
+
+@pytest.mark.parametrize("source", ["random tree", "ball", "free trees"])
+def test_origins_per_environment_equal_one_shared_model_each(source):
+    """Origins given for 3 environments: every environment's link poses, mass matrix, forward dynamics, inverse
+    dynamics and step equal those of the model whose shared origins are that environment's (float64, 1e-12 of
+    each quantity's largest entry; revolute, prismatic, ball and free joints, a floating base)."""
+    if source == "random tree":
+        model = wd.model.Model.build_from_model_description(robots.random_tree_urdf(5, 10), dtype=np.float64)
+    else:
+        with pytest.warns(wd.description.NotModelledWarning) if source == "free trees" else contextlib.nullcontext():
+            model = wd.model.Model.build_from_model_description({"ball": BALL, "free trees": FREE_TREES}[source], dtype=np.float64)
+    P, R = moved_origins(model, 7, 3)
+    per_env = wd.model.with_joint_origins(model, positions=P, rotations=R)
+    assert per_env.per_environment_parameters() == {"joint_origins": 3}
+    np.testing.assert_array_equal(wd.model.joint_origins(per_env)[0], P)
+    data = wd.data.random_model_data(model, key=3, num_envs=3)
+    tau = wp.array(np.random.default_rng(4).normal(size=(3, model.dofs())), dtype=wp.float64)
+    quantities = {
+        "link poses": lambda m: wd.model.forward_kinematics(m, data),
+        "mass matrix": lambda m: wd.model.free_floating_mass_matrix(m, data),
+        "forward dynamics": lambda m: wd.model.forward_dynamics_aba(m, data, joint_forces=tau)[1],
+        "inverse dynamics": lambda m: wd.model.inverse_dynamics(m, data)[1],
+        "step": lambda m: wd.model.step(m, data, joint_force_references=tau).joint_velocities,
+    }
+    for name, compute in quantities.items():
+        batched = compute(per_env).numpy()
+        for env in range(3):
+            shared = compute(wd.model.with_joint_origins(model, positions=P[env], rotations=R[env])).numpy()[env]
+            np.testing.assert_allclose(batched[env], shared, rtol=0, atol=1e-12 * max(np.abs(shared).max(), 1.0), err_msg=f"{name}, environment {env}")
+        assert np.abs(batched[1] - batched[0]).max() > 1e-6 or name == "step" and model.dofs() == 0, name  # the origins matter
+
+
+def test_origins_per_environment_in_the_fused_step_and_gradients():
+    """The legs dropped onto soft ground with their knees' and ankles' origins per environment (2 environments):
+    a 30-step rollout (the fused step) equals each environment's shared-origin rollout to 1e-12, and the gradient of
+    the final base heights with respect to the per-environment origins equals central differences (h = 1e-7: the
+    feet's contacts begin within the rollout, and h = 1e-6 is 1.7e-5 off for the ankle, as for shared origins)."""
+    model = legs()
+    P, R = moved_origins(model, 11, 2)
+    zero = wd.data.Data.build(model, num_envs=2)
+    lowest = wd.contact.collidable_point_positions(model, zero).numpy()[..., 2].min()
+    data = wd.data.Data.build(model, num_envs=2, base_position=(0.0, 0.0, -lowest + 0.03))
+    positions = wp.array(P, dtype=wp.float64, requires_grad=True)
+    loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+    with wp.Tape() as tape:
+        moved = wd.model.with_joint_origins(model, positions=positions, rotations=R)
+        _, rec = wd.simulation.rollout(moved, data, steps=30, record=("base_position",))
+        wp.launch(final_height, dim=2, inputs=[rec["base_position"]], outputs=[loss])
+    tape.backward(loss)
+    heights = rec["base_position"].numpy()[:, :, 2]
+    for env in range(2):
+        _, alone = wd.simulation.rollout(wd.model.with_joint_origins(model, positions=P[env], rotations=R[env]), data, steps=30, record=("base_position",))
+        np.testing.assert_allclose(heights[:, env], alone["base_position"].numpy()[:, env, 2], rtol=0, atol=1e-12)
+    assert abs(heights[-1, 1] - heights[-1, 0]) > 1e-5
+
+    def final(p):
+        _, out = wd.simulation.rollout(wd.model.with_joint_origins(model, positions=p, rotations=R), data, steps=30, record=("base_position",))
+        return out["base_position"].numpy()[-1, :, 2].sum()
+
+    knee, ankle = model.joint_names().index("l_knee"), model.joint_names().index("r_ankle_pitch")
+    for index in ((0, knee, 2), (1, knee, 2), (1, ankle, 0)):
+        plus, minus = P.copy(), P.copy()
+        plus[index] += 1e-7
+        minus[index] -= 1e-7
+        fd = (final(plus) - final(minus)) / 2e-7
+        assert abs(positions.grad.numpy()[index] - fd) <= 1e-6 * abs(fd) + 1e-9 and abs(fd) > 1e-6, (index, positions.grad.numpy()[index], fd)
+
+
+def test_origins_per_environment_refusals():
+    """Per-environment origins name what does not fit: another N than the other per-environment parameters, a
+    free joint whose origin differs between environments, data of another N, export and the hardware
+    parametrisation (which set one model's origins)."""
+    model = legs()
+    P, R = moved_origins(model, 2, 3)
+    with pytest.raises(ValueError, match=r"positions are given for 3 environments, rotations for 2"):
+        wd.model.with_joint_origins(model, positions=P, rotations=R[:2])
+    with pytest.raises(ValueError, match=r"expected \(12, 3\) \(one row per joint, shared by the environments\) or \(N, 12, 3\)"):
+        wd.model.with_joint_origins(model, positions=P[:, :-1])
+    bad = P.copy()
+    bad[2, 5, 0] = np.inf
+    with pytest.raises(ValueError, match=f"positions of joint '{model.joint_names()[5]}' in environment 2 is"):
+        wd.model.with_joint_origins(model, positions=bad)
+    heavy = model.copy()
+    heavy.set_link_parameters(mass=np.tile(heavy.link_mass.numpy(), (2, 1)))
+    with pytest.raises(ValueError, match=r"joint origins are given for 3 environments but \{'link_mass': 2\}"):
+        wd.model.with_joint_origins(heavy, positions=P)
+    per_env = wd.model.with_joint_origins(model, positions=P)
+    np.testing.assert_array_equal(wd.model.joint_origins(per_env)[1], np.broadcast_to(wd.model.joint_origins(model)[1], (3, 12, 4)))
+    with pytest.raises(ValueError, match=r"parameters \{'joint_origins': 3\} are given per environment, but the data has 2 environments"):
+        wd.model.step(per_env, wd.data.Data.build(model, num_envs=2))
+    with pytest.raises(ValueError, match=r"\{'joint_origins': 3\} are given per environment, but the data has 1 environments"):
+        wd.model.forward_kinematics(per_env, wd.data.Data.build(model))
+    with pytest.raises(ValueError, match=r"export_updated_model: \['joint_origins'\] are given per environment"):
+        per_env.export_updated_model()
+    with pytest.warns(wd.description.NotModelledWarning):
+        trees = wd.model.Model.build_from_model_description(FREE_TREES, dtype=np.float64)
+    Pf, Rf = moved_origins(trees, 3, 2)
+    crate = trees.joint_names().index("crate_free")
+    Pf[1, crate, 0] += 0.1
+    with pytest.raises(ValueError, match="the free joint 'crate_free' has other origins in other environments"):
+        wd.model.with_joint_origins(trees, positions=Pf, rotations=Rf)

@@ -28,6 +28,7 @@ from .engine import joint_origins as origins
 from .engine import fast_step as stepping
 from .description import NotModelledWarning, UnphysicalInertiaWarning
 from .description.model import ActuatorDescription
+from .description.tree import JOINT_FREE
 from .engine.kinematics import link_targets
 from .data import Data
 from .math import Quaternion
@@ -108,24 +109,30 @@ def reduce(model: Model, considered_joints, locked_joint_positions: dict | None 
 
 def joint_origins(model: Model) -> tuple[np.ndarray, np.ndarray]:
     """(positions (nj, 3) [m], rotations (nj, 4) (w, x, y, z)): each joint's frame in its parent link at zero
-    position (URDF's joint <origin>; JaxSim's λ_H_pre less a revolute joint's pivot), host float64, in joint order."""
+    position (URDF's joint <origin>; JaxSim's λ_H_pre less a revolute joint's pivot), host float64, in joint order;
+    (N, nj, 3) and (N, nj, 4) where `with_joint_origins` gave them per environment."""
+    if model.joint_origins_per_env is not None:
+        return tuple(host.copy() for host in model.joint_origins_per_env)
     return origins.origins_of(model.tree)
 
 
 def with_joint_origins(model: Model, *, positions=None, rotations=None) -> Model:
     """A model whose joints sit at other frames in their parent links: link lengths and mounting angles as
-    kinematic parameters, differentiable.
+    kinematic parameters, differentiable, shared by the environments or per environment.
 
-    positions (nj, 3) [m] and rotations (nj, 4) (w, x, y, z; normalised, as a joint moves) of each joint's frame
-    in its parent link, as `joint_origins` returns them (None: the model's); NumPy arrays or Warp arrays of the
-    model's scalar (a Warp array that requires gradients gets them: called under a wp.Tape, every function and
-    step of the returned model carries gradients back to it, through the kernels' joint terms). Shared by the
-    environments. The returned model shares the rest with `model` (`Model.copy`), its host tree holds the new
-    joint frames; the joints' axes and pivots (child frame) do not move. Collidable points and frames stay on
-    their links.
+    positions (nj, 3) or (N, nj, 3) [m] and rotations (nj, 4) or (N, nj, 4) (w, x, y, z; normalised, as a joint
+    moves) of each joint's frame in its parent link, as `joint_origins` returns them (None: the model's); NumPy
+    arrays or Warp arrays of the model's scalar (a Warp array that requires gradients gets them: called under a
+    wp.Tape, every function and step of the returned model carries gradients back to it, through the kernels'
+    joint terms). Given for N environments (one of the two may be shared), the model serves data of N
+    environments, as per-environment parameters do; a free joint's origin (the frame its pose is measured from)
+    is the same in every environment. The returned model shares the rest with `model` (`Model.copy`); its host
+    tree holds environment 0's joint frames (what `export_updated_model`, `reduce` and the step's stability
+    estimate read: export refuses per-environment origins); the joints' axes and pivots (child frame) do not move.
+    Collidable points and frames stay on their links.
     """
     nj = model.number_of_joints()
-    current = origins.origins_of(model.tree)
+    current = joint_origins(model)
     given, hosts = {}, {}
     for name, value, width, default in (("positions", positions, 3, current[0]), ("rotations", rotations, 4, current[1])):
         if value is None:
@@ -135,24 +142,38 @@ def with_joint_origins(model: Model, *, positions=None, rotations=None) -> Model
             host = value.numpy().astype(np.float64)
         else:
             host = arrays.host_numbers(value, name)
-        if host.shape != (nj, width):
-            raise ValueError(f"{name} has shape {host.shape}, expected ({nj}, {width}) (one row per joint, shared by the environments)")
-        given[name] = value if isinstance(value, wp.array) else wp.array(host, dtype=model.scalar, device=model.device)
-        hosts[name] = host
-    position_host, rotation_host = hosts["positions"], hosts["rotations"]
-    norms = np.linalg.norm(rotation_host, axis=1)
-    for name, host, bad in (("positions", position_host, ~np.isfinite(position_host).all(axis=1)),
+        if host.shape[-2:] != (nj, width) or host.ndim not in (2, 3) or host.shape[0] == 0:
+            raise ValueError(f"{name} has shape {host.shape}, expected ({nj}, {width}) (one row per joint, shared by the environments) "
+                             f"or (N, {nj}, {width}) (per environment)")
+        if isinstance(value, wp.array):
+            given[name] = value if host.ndim == 3 else value.reshape((1, nj, width))
+        else:
+            given[name] = wp.array(host.reshape((-1, nj, width)), dtype=model.scalar, device=model.device)
+        hosts[name] = host.reshape((-1, nj, width))
+    counts = {len(host) for host in hosts.values()} - {1}
+    if len(counts) > 1:
+        raise ValueError(f"with_joint_origins: positions are given for {len(hosts['positions'])} environments, rotations for "
+                         f"{len(hosts['rotations'])}: one N (or one of them shared)")
+    N = max(len(host) for host in hosts.values())
+    position_host, rotation_host = (np.broadcast_to(hosts[k], (N, *hosts[k].shape[1:])) for k in ("positions", "rotations"))
+    norms = np.linalg.norm(rotation_host, axis=2)
+    for name, host, bad in (("positions", position_host, ~np.isfinite(position_host).all(axis=2)),
                             ("rotations", rotation_host, ~np.isfinite(norms) | (norms < 1e-9))):
         if bad.any():
-            j = int(np.argmax(bad))
-            raise ValueError(f"with_joint_origins: {name} of joint '{model.joint_names()[j]}' is {host[j].tolist()}: positions must be "
+            env, j = np.argwhere(bad)[0]
+            where = f" in environment {env}" if N > 1 else ""
+            raise ValueError(f"with_joint_origins: {name} of joint '{model.joint_names()[j]}'{where} is {host[env, j].tolist()}: positions must be "
                              "finite, rotations non-zero finite quaternions (w, x, y, z)")
-    terms = origins.joint_terms(model, given["positions"], given["rotations"])
+    for j in np.flatnonzero(np.asarray(model.tree.joint_type)[1:] == JOINT_FREE):
+        if N > 1 and (np.ptp(position_host[:, j], axis=0).max() > 0 or np.ptp(rotation_host[:, j], axis=0).max() > 0):
+            raise ValueError(f"with_joint_origins: the free joint '{model.joint_names()[j]}' has other origins in other environments; "
+                             "a free joint's origin is the frame its pose is measured from, one for all environments")
+    terms = origins.joint_terms(model, given["positions"], given["rotations"], N)
     H = np.array(model.tree.parent_H_joint, dtype=np.float64)
-    H[1:, :3, :3] = Quaternion.to_dcm(rotation_host).reshape(-1, 3, 3)
-    H[1:, :3, 3] = position_host
+    H[1:, :3, :3] = Quaternion.to_dcm(rotation_host[0]).reshape(-1, 3, 3)
+    H[1:, :3, 3] = position_host[0]
     tree = dataclasses.replace(model.tree, parent_H_joint=H)
-    return model.with_joint_terms(terms, tree)
+    return model.with_joint_terms(terms, tree, (position_host.copy(), rotation_host.copy()) if N > 1 else None)
 
 
 def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model:
@@ -168,7 +189,7 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
     and a step reads them from the kernel's output, so that gradients reach the factors through the contacts too; the
     description's collision shapes are scaled as JaxSim's export scales them (what `export_updated_model` writes).
     A ValueError when the model's own link parameters are per environment."""
-    per_env = {"link_mass", "link_com", "link_inertia"} & set(model.per_environment_parameters())
+    per_env = {"link_mass", "link_com", "link_inertia", "joint_origins"} & set(model.per_environment_parameters())
     if per_env:
         raise ValueError(f"update_hw_parameters: {sorted(per_env)} are given per environment; the hardware parametrisation sets them")
     if not isinstance(scaling_factors, ScalingFactors):

@@ -2,8 +2,8 @@
 the kernels' joint terms are computed on the device (kernels/joints.py's `joint_terms_from_origins`), recorded by
 a wp.Tape so that gradients reach the origins through every function that moves a link.
 
-The origins of joints 0 .. nj - 1 (joint j moves link j + 1) are shared by the environments; the base's terms
-(link 0) are kept.
+The origins of joints 0 .. nj - 1 (joint j moves link j + 1) are shared by the environments or given per
+environment; the base's terms (link 0) are kept.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from .. import arrays
 from ..kernels.joints import joints as joint_kernels
 from ..types.model_constants import JOINT_TERMS, quaternion_xyzw
 from .launch import launch
@@ -26,20 +27,27 @@ def origins_of(tree) -> tuple[np.ndarray, np.ndarray]:
     return H[:, :3, 3].copy(), np.concatenate([xyzw[:, 3:], xyzw[:, :3]], axis=1)
 
 
-def joint_terms(model, positions: wp.array, rotations: wp.array) -> dict:
-    """{name: (nL,) array} of JOINT_TERMS from the joints' positions (nj, 3) and rotations (nj, 4) (w, x, y, z)
-    in the model's scalar, the base's (link 0) the model's: one launch (a tape records it; the outputs require
-    gradients when an input does)."""
+def joint_terms(model, positions: wp.array, rotations: wp.array, P: int) -> dict:
+    """{name: (P, nL) array} of JOINT_TERMS from the joints' positions (1 or P, nj, 3) and rotations (1 or P, nj, 4)
+    (w, x, y, z) in the model's scalar, P = 1 (shared) or N (per environment, environment-fastest on a GPU as the
+    other per-environment parameters), the base's terms (link 0) the model's: one launch (a tape records it; the
+    outputs require gradients when an input does)."""
     d, tree = model.device, model.tree
     grad = positions.requires_grad or rotations.requires_grad
-    out = {name: wp.clone(getattr(model, name), requires_grad=grad) for name in JOINT_TERMS}
+    nL = tree.number_of_links
+    out = {}
+    for name in JOINT_TERMS:
+        current = getattr(model, name)
+        first = current.numpy()[:1]  # (1, nL, 4 or 3): row 0, of which the launch keeps link 0's
+        out[name] = arrays.empty((nL,), P, current.dtype, d, requires_grad=grad)
+        out[name].assign(wp.array(np.broadcast_to(first, (P, *first.shape[1:])), dtype=current.dtype, device=d))
     vec3 = wp.types.vector(3, model.scalar)
     axis = wp.array(np.asarray(tree.joint_axis, dtype=np.float64), dtype=vec3, device=d)
     pivot = wp.array(np.asarray(tree.joint_pivot, dtype=np.float64), dtype=vec3, device=d)
     if tree.number_of_joints:
         launch(
             joint_kernels(model.scalar, model.multi_dof()).joint_terms_from_origins,
-            dim=tree.number_of_joints,
+            dim=(P, tree.number_of_joints),
             inputs=[model.joint_type, positions, rotations, axis, pivot],
             outputs=[out[name] for name in JOINT_TERMS],
             device=d,

@@ -27,7 +27,8 @@ def check_data(model, data, parameters: bool = False) -> list:
     """Errors naming what does not match between the data and the model, before any kernel reads the data:
     data of another dtype, model or device, then each state array (`check_state`). Attribute reads only:
     no device synchronisation. parameters: the caller reads the link or joint parameters, which, given per
-    environment, need data of those N environments. Returns the data's `state_arrays`: the list the checks
+    environment, need data of those N environments (per-environment joint origins always do: kinematics read
+    them). Returns the data's `state_arrays`: the list the checks
     remember while those arrays stay (the same list object from call to call, which callers may key on)."""
     memo = getattr(data, "__dict__", None)
     passed = memo.get("_checked") if memo is not None else None
@@ -56,11 +57,10 @@ def check_data(model, data, parameters: bool = False) -> list:
         raise ValueError(f"data is on device '{data.device}' but the model is on '{model.device}'")
     _check_shapes(data)
     N = data.base_position_state.shape[0]
-    if parameters and any(count != N for count in model.per_environment_parameters().values()):
-        raise ValueError(
-            f"the model's parameters {model.per_environment_parameters()} are given per environment, "
-            f"but the data has {N} environments"
-        )
+    per_env = model.per_environment_parameters()
+    read = per_env if parameters else {k: v for k, v in per_env.items() if k == "joint_origins"}  # kinematics read the origins
+    if any(count != N for count in read.values()):
+        raise ValueError(f"the model's parameters {per_env} are given per environment, but the data has {N} environments")
     arrays = state_arrays(data)
     if memo is not None:
         memo["_checked"] = (weakref.ref(model), model.version, parameters, data.num_envs, arrays)

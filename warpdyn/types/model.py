@@ -31,7 +31,6 @@ from .. import arrays
 from ..description import ModelDescription, load
 from ..description.collidable import warn_without_points
 from ..description.tree import KinematicTree, build_tree
-from ..description.urdf_writer import write_urdf
 from .contact_models import SoftContacts
 from .enums import IntegratorType
 from .kin_dyn import JointModel, JointParameters, KinDynParameters, LinkParameters
@@ -72,7 +71,7 @@ class Model(ModelSettings, ModelQueries):
     NumPy float64) holds the description's constants; the Warp arrays below are what kernels read:
     parent (nL,) int, joint_type (nL,) int, q_start and v_start (nL + 1,) int (where each link's joint has its
     positions and velocities), the joints as the kernels move them (from the tree's parent_H_joint, joint_axis and
-    joint_pivot: joint_Q0, joint_Q1 (nL,) quaternion, joint_t0, joint_t1, joint_t2 (nL,) vec3, and the motion
+    joint_pivot: joint_Q0, joint_Q1 (P, nL) quaternion, joint_t0, joint_t1, joint_t2 (P, nL) vec3, P = 1 or N, and the motion
     subspace dof_S (nv,) vec6: `joint_motion_terms`), dof_joint (nv,) int (each DoF's joint), qpos_spring (nq,)
     (the ball and free joints' spring references: their initial positions), support (nL, nj) int, frame_parent (nF,) int,
     link_H_frame (nF,) transform, first_child and next_sibling (nL,) int (-1 for none: the sibling chains
@@ -118,6 +117,7 @@ class Model(ModelSettings, ModelQueries):
         self._hosts: dict[str, np.ndarray] = {}
         self._per_env: dict[str, int] = {}
         self._kin_dyn, self.collidable_point_array = None, None  # KinDynParameters; a device array of the points (with_kin_dyn_parameters)
+        self.joint_origins_per_env = None  # (positions (N, nj, 3), rotations (N, nj, 4)) after per-environment wd.model.with_joint_origins
         self.built_from = None
         s, d = self.scalar, self.device
         vec3 = wp.types.vector(3, s)
@@ -125,8 +125,8 @@ class Model(ModelSettings, ModelQueries):
         self.joint_type = wp.array(tree.joint_type, dtype=int, device=d)
         terms = joint_motion_terms(tree)
         quat, vec6 = wp.types.quaternion(s), wp.types.vector(6, s)
-        self.joint_Q0, self.joint_Q1 = (wp.array(terms[k], dtype=quat, device=d) for k in ("Q0", "Q1"))
-        self.joint_t0, self.joint_t1, self.joint_t2 = (wp.array(terms[k], dtype=vec3, device=d) for k in ("t0", "t1", "t2"))
+        self.joint_Q0, self.joint_Q1 = (wp.array(terms[k][None], dtype=quat, device=d) for k in ("Q0", "Q1"))  # (1, nL): shared
+        self.joint_t0, self.joint_t1, self.joint_t2 = (wp.array(terms[k][None], dtype=vec3, device=d) for k in ("t0", "t1", "t2"))
         self.dof_S = wp.array(terms["S"], dtype=vec6, device=d)
         self.dof_joint = wp.array(tree.dof_joint(), dtype=int, device=d)
         self.qpos_spring = wp.array(tree.qpos0, dtype=s, device=d)
@@ -493,28 +493,22 @@ class Model(ModelSettings, ModelQueries):
         new.notify_model_changed()
         return new
 
-    def export_updated_model(self) -> str:
-        """JaxSim's export: URDF text of the lumped tree with its current parameters, joint origins, collision shapes
-        and frames, which loads back to the same model; a ValueError for per-environment parameters and for what
-        URDF cannot hold (warpdyn.description.urdf_writer)."""
-        names = ("link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous")
-        per_env = sorted(set(names) & set(self._per_env))
-        if per_env:
-            raise ValueError(f"export_updated_model: {per_env} are given per environment; a URDF holds one model")
-        host = {name: np.asarray(self._values[name].numpy(), dtype=np.float64) for name in names}
-        welded = None if self.floating_base() else np.asarray(self.description.world_H_base, dtype=np.float64)
-        shapes = [(link.name, link.collisions) for link in self.description.links]
-        return write_urdf(self.name(), self.tree, shapes, host["link_mass"], host["link_com"], host["link_inertia"], host["position_limits"],
-                          host["friction_static"], host["friction_viscous"], welded)
-
-    def with_joint_terms(self, terms: dict, tree: KinematicTree) -> Model:
-        """A copy (see `copy`) whose kernels move the links by `terms` ({name: (nL,) array} of JOINT_TERMS, kept as
-        given: a tape that computed them carries gradients back through them) and whose host tree is `tree`
-        (its parent_H_joint the same joint frames)."""
+    def with_joint_terms(self, terms: dict, tree: KinematicTree, origins_per_env: tuple | None = None) -> Model:
+        """A copy (see `copy`) whose kernels move the links by `terms` ({name: (P, nL) array} of JOINT_TERMS, kept as
+        given: a tape that computed them carries gradients back through them) and whose host tree is `tree` (its
+        parent_H_joint environment 0's joint frames); origins_per_env: (positions (N, nj, 3), rotations (N, nj, 4))
+        host float64 when the terms are per environment (P = N), else None."""
         new = self.copy()
-        new.tree = tree
+        new.tree, new.joint_origins_per_env = tree, origins_per_env
         for name in JOINT_TERMS:
             setattr(new, name, terms[name])
+        new._per_env.pop("joint_origins", None)
+        if origins_per_env is not None:
+            N = len(origins_per_env[0])
+            others = {k: v for k, v in new._per_env.items() if v != N}
+            if others:
+                raise ValueError(f"joint origins are given for {N} environments but {others} for other numbers: one N per model")
+            new._per_env["joint_origins"] = N
         return new
 
     def mark_for_gradients(self, names) -> dict:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..description.tree import JOINT_BALL, JOINT_FREE
+from ..description.urdf_writer import write_urdf
 
 __all__ = ["ModelQueries"]
 
@@ -95,3 +96,17 @@ class ModelQueries:
     def keyframe_names(self) -> tuple[str, ...]:
         """The description's keyframes (MJCF `<key>`), in its order: `warpdyn.data.keyframe(model, name)`."""
         return tuple(k.name for k in self.description.keyframes)
+
+    def export_updated_model(self) -> str:
+        """JaxSim's export: URDF text of the lumped tree with its current parameters, joint origins, collision shapes
+        and frames, which loads back to the same model; a ValueError for per-environment parameters and for what
+        URDF cannot hold (warpdyn.description.urdf_writer)."""
+        names = ("link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous")
+        per_env = sorted(set((*names, "joint_origins")) & set(self.per_environment_parameters()))
+        if per_env:
+            raise ValueError(f"export_updated_model: {per_env} are given per environment; a URDF holds one model")
+        host = {name: np.asarray(self.parameter(name).numpy(), dtype=np.float64) for name in names}
+        welded = None if self.floating_base() else np.asarray(self.description.world_H_base, dtype=np.float64)
+        shapes = [(link.name, link.collisions) for link in self.description.links]
+        return write_urdf(self.name(), self.tree, shapes, host["link_mass"], host["link_com"], host["link_inertia"], host["position_limits"],
+                          host["friction_static"], host["friction_viscous"], welded)
