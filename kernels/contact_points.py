@@ -29,7 +29,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """W_p_C (N, nc, 3) [m]: the origins of the targets (the collidable points), launched over (N, nc)."""
         env, c = wp.tid()
-        p = wp.transform_get_translation(W_H_L[env, targets.link[c]] * targets.link_H_target[c])
+        p = wp.transform_get_translation(W_H_L[env, targets.link[c]] * B.target_pose(targets, env, c))
         for r in range(3):
             W_p_C[env, c, r] = p[r]
 
@@ -48,13 +48,13 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.kernel(module="unique")
     def gather_points(
         rows: wp.array(dtype=int),
-        points: wp.array(dtype=sp.vec3),
+        points: wp.array2d(dtype=sp.vec3),
         # outputs
-        L_p_C: wp.array(dtype=sp.vec3),
+        L_p_C: wp.array2d(dtype=sp.vec3),
     ):
-        """L_p_C[k] = points[rows[k]]: the enabled points (the contact kernels' order) of all the points' positions
-        [m, link frames], launched over the enabled points."""
-        k = wp.tid()
-        L_p_C[k] = points[rows[k]]
+        """L_p_C[e, k] = points[e, rows[k]]: the enabled points (the contact kernels' order) of all the points'
+        positions [m, link frames] (P, nc_all), row e environment e's, launched over (P, enabled points)."""
+        e, k = wp.tid()
+        L_p_C[e, k] = points[e, rows[k]]
 
     return types.SimpleNamespace(point_positions=point_positions, linear_part=linear_part, gather_points=gather_points)

@@ -53,7 +53,7 @@ def kernels(scalar):
             forces[env, t, 0], forces[env, t, 1], forces[env, t, 2],
             forces[env, t, 3], forces[env, t, 4], forces[env, t, 5],
         )
-        w = sp.force_repr_to_inertial(repr, W_H_L[env, L] * targets.link_H_target[t], f)
+        w = sp.force_repr_to_inertial(repr, W_H_L[env, L] * B.target_pose(targets, env, t), f)
         for r in range(6):
             wp.atomic_add(W_f_L, env, L, r, w[r])
 

@@ -20,14 +20,15 @@ def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
 
     @wp.func
-    def scale_vector(kind: int, dims: wp.array2d(dtype=scalar), i: int):
-        """The factors of link i's frame coordinates: a box's (d0, d1, d2), a cylinder's (d0, d0, d1) (radius in x
-        and y, length along z), a sphere's (d0, d0, d0)."""
+    def scale_vector(kind: int, dims: wp.array3d(dtype=scalar), e: int, i: int):
+        """The factors of link i's frame coordinates in environment e (row min(e, P - 1) of dims (P, nL, 3)): a box's
+        (d0, d1, d2), a cylinder's (d0, d0, d1) (radius in x and y, length along z), a sphere's (d0, d0, d0)."""
+        r = wp.min(e, dims.shape[0] - 1)
         if kind == CYLINDER:
-            return sp.vec3(dims[i, 0], dims[i, 0], dims[i, 1])
+            return sp.vec3(dims[r, i, 0], dims[r, i, 0], dims[r, i, 1])
         if kind == SPHERE:
-            return sp.vec3(dims[i, 0], dims[i, 0], dims[i, 0])
-        return sp.vec3(dims[i, 0], dims[i, 1], dims[i, 2])
+            return sp.vec3(dims[r, i, 0], dims[r, i, 0], dims[r, i, 0])
+        return sp.vec3(dims[r, i, 0], dims[r, i, 1], dims[r, i, 2])
 
     @wp.kernel(module="unique")
     def link_parameters(
@@ -36,7 +37,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         density: wp.array(dtype=scalar),
         L_R_G: wp.array(dtype=sp.mat33),
         L_p_G: wp.array(dtype=sp.vec3),
-        dims: wp.array2d(dtype=scalar),
+        dims: wp.array3d(dtype=scalar),
         density_scale: wp.array2d(dtype=scalar),
         mass_in: wp.array(dtype=scalar),
         com_in: wp.array(dtype=sp.vec3),
@@ -47,12 +48,13 @@ def kernels(scalar) -> types.SimpleNamespace:
         inertia: wp.array2d(dtype=sp.mat33),
     ):
         """Link i's mass [kg], centre of mass [m, link frame] and inertia about it [kg m^2, link axes] from its shape's
-        geometry scaled by dims[i] (elementwise, (nL, 3)) and its density scaled by density_scale[i]: a box's
+        geometry scaled by dims[., i] (elementwise) and its density scaled by density_scale[., i]: a box's
         m = rho lx ly lz, I = m/12 diag(ly^2 + lz^2, lx^2 + lz^2, lx^2 + ly^2); a cylinder's m = rho pi r^2 l,
         I = diag(m (3 r^2 + l^2)/12, m (3 r^2 + l^2)/12, m r^2/2); a sphere's m = rho 4/3 pi r^3, I = 2/5 m r^2,
         in the inertial frame's axes, rotated to the link's (L_R_G I L_R_G^T); the centre of mass L_p_G scaled by
-        the shape's scale vector; row e of density_scale (P, nL) and of the outputs (P, nL) is environment e's (P = 1:
-        shared). An unsupported link (shape -1) keeps mass_in, com_in, inertia_in. Launched over (P, nL)."""
+        the shape's scale vector; environment e reads row min(e, rows - 1) of dims (1 or P, nL, 3) and of
+        density_scale (1 or P, nL) and writes row e of the outputs (P, nL) (P = 1: shared). An unsupported link
+        (shape -1) keeps mass_in, com_in, inertia_in. Launched over (P, nL)."""
         e, i = wp.tid()
         kind = shape[i]
         if kind < 0:
@@ -60,10 +62,11 @@ def kernels(scalar) -> types.SimpleNamespace:
             com[e, i] = com_in[i]
             inertia[e, i] = inertia_in[i]
             return
-        g0 = geometry[i][0] * dims[i, 0]
-        g1 = geometry[i][1] * dims[i, 1]
-        g2 = geometry[i][2] * dims[i, 2]
-        rho = density[i] * density_scale[e, i]
+        d = wp.min(e, dims.shape[0] - 1)
+        g0 = geometry[i][0] * dims[d, i, 0]
+        g1 = geometry[i][1] * dims[d, i, 1]
+        g2 = geometry[i][2] * dims[d, i, 2]
+        rho = density[i] * density_scale[wp.min(e, density_scale.shape[0] - 1), i]
         pi = scalar(3.141592653589793)
         m = scalar(0.0)
         I = sp.mat33(scalar(0.0))
@@ -79,7 +82,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             I = wp.identity(n=3, dtype=scalar) * (scalar(2.0) / scalar(5.0) * m * g0 * g0)
         R = L_R_G[i]
         mass[e, i] = m
-        com[e, i] = wp.cw_mul(scale_vector(kind, dims, i), L_p_G[i])
+        com[e, i] = wp.cw_mul(scale_vector(kind, dims, e, i), L_p_G[i])
         inertia[e, i] = R * I * wp.transpose(R)
 
     @wp.kernel(module="unique")
@@ -89,52 +92,53 @@ def kernels(scalar) -> types.SimpleNamespace:
         L_R_G: wp.array(dtype=sp.mat33),
         L_p_G: wp.array(dtype=sp.vec3),
         L_p_pre: wp.array(dtype=sp.vec3),
-        dims: wp.array2d(dtype=scalar),
+        dims: wp.array3d(dtype=scalar),
         # outputs
-        positions: wp.array2d(dtype=scalar),
+        positions: wp.array3d(dtype=scalar),
     ):
         """Joint j's origin in its parent link L [m] after L's scaling: its offset from L's centre of mass, in the
         inertial frame's axes, scaled by L's scale vector, added to the scaled centre of mass (JaxSim's
         L_H_pre = L_H̄_G G_H̄_pre); unchanged below an unsupported link. The joint's rotation does not change.
-        positions (nj, 3); launched over nj."""
-        j = wp.tid()
+        positions (Pd, nj, 3), row e environment e's (Pd: the rows of dims); launched over (Pd, nj)."""
+        e, j = wp.tid()
         L = joint_parent[j]
         p = L_p_pre[j]
         kind = shape[L]
         if kind >= 0:
-            s = scale_vector(kind, dims, L)
+            s = scale_vector(kind, dims, e, L)
             R = L_R_G[L]
             G_p = wp.transpose(R) * (p - L_p_G[L])
             p = R * wp.cw_mul(s, G_p) + wp.cw_mul(s, L_p_G[L])
         for k in range(3):
-            positions[j, k] = p[k]
+            positions[e, j, k] = p[k]
 
     @wp.kernel(module="unique")
     def collidable_points(
         body: wp.array(dtype=int),
         point: wp.array(dtype=sp.vec3),
         shape: wp.array(dtype=int),
-        dims: wp.array2d(dtype=scalar),
+        dims: wp.array3d(dtype=scalar),
         com_in: wp.array(dtype=sp.vec3),
         com: wp.array2d(dtype=sp.vec3),
         # outputs
-        points: wp.array(dtype=sp.vec3),
+        points: wp.array2d(dtype=sp.vec3),
     ):
         """Collidable point c's position L_p_C [m, link frame] after its link L's scaling, JaxSim's
         `HwLinkMetadata.compute_contact_points`: its offset from L's centre of mass before (com_in) scaled in the link's
         axes, a sphere's by d0, a box's by (d0, d1, d2), a cylinder's not at all, then added to the centre of mass
-        after (com, row 0); unchanged on an unsupported link. Launched over all the points."""
-        c = wp.tid()
+        after (com (P, nL): the density does not move it); unchanged on an unsupported link. points (Pd, nc_all), row e
+        environment e's (Pd: the rows of dims); launched over (Pd, nc_all)."""
+        e, c = wp.tid()
         L = body[c]
         kind = shape[L]
         p = point[c]
         if kind >= 0:
             offset = p - com_in[L]
             if kind == SPHERE:
-                offset = offset * dims[L, 0]
+                offset = offset * scale_vector(kind, dims, e, L)[0]
             elif kind == BOX:
-                offset = wp.cw_mul(offset, sp.vec3(dims[L, 0], dims[L, 1], dims[L, 2]))
-            p = offset + com[0, L]
-        points[c] = p
+                offset = wp.cw_mul(offset, scale_vector(kind, dims, e, L))
+            p = offset + com[e, L]
+        points[e, c] = p
 
     return types.SimpleNamespace(link_parameters=link_parameters, joint_positions=joint_positions, collidable_points=collidable_points)

@@ -93,7 +93,7 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         """Jdot (N, T, 6, 6 + nv): d/dt of the Jacobian of target t (kernels/jacobians.py), launched over (N, T)."""
         env, t = wp.tid()
         L = targets.link[t]
-        W_H_F = W_H_L[env, L] * targets.link_H_target[t]
+        W_H_F = W_H_L[env, L] * B.target_pose(targets, env, t)
         W_H_B = W_H_L[env, 0]
         v_O = repr_frame_velocity(output_repr, W_H_F, W_v_WL[env, L])
         v_A = repr_frame_velocity(input_repr, W_H_B, W_v_WL[env, 0])
@@ -139,7 +139,7 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         """a (N, T, 6): J̇ν of target t in output_repr, ν in input_repr; launched over (N, T)."""
         env, t = wp.tid()
         L = targets.link[t]
-        W_H_F = W_H_L[env, L] * targets.link_H_target[t]
+        W_H_F = W_H_L[env, L] * B.target_pose(targets, env, t)
         W_v_WB = W_v_WL[env, 0]
         v_L = W_v_WL[env, L]
         v_O = repr_frame_velocity(output_repr, W_H_F, v_L)

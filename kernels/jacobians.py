@@ -37,7 +37,7 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         """J (N, T, 6, 6 + nv): the Jacobian of target t, launched over (N, T); W_H_L (N, nL) the link poses."""
         env, t = wp.tid()
         L = targets.link[t]
-        W_H_F = W_H_L[env, L] * targets.link_H_target[t]
+        W_H_F = W_H_L[env, L] * B.target_pose(targets, env, t)
         W_H_B = W_H_L[env, 0]
         for c in range(6):
             e = sp.vec6(scalar(0.0))

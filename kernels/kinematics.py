@@ -48,7 +48,7 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
     ):
         """H (N, T, 4, 4): the homogeneous matrix of poses[env, targets.link[t]] * targets.link_H_target[t]."""
         env, t = wp.tid()
-        M = sp.homogeneous(poses[env, targets.link[t]] * targets.link_H_target[t])
+        M = sp.homogeneous(poses[env, targets.link[t]] * B.target_pose(targets, env, t))
         for r in range(4):
             for c in range(4):
                 H[env, t, r, c] = M[r, c]

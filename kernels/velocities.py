@@ -44,7 +44,7 @@ def kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             W_v_WL[env, i] = W_v_WL[env, model.parent[i]] + sp.motion_to(W_H_L[env, i], vJ)
         for t in range(targets.link.shape[0]):
             L = targets.link[t]
-            out = sp.inertial_to_repr(output_repr, W_H_L[env, L] * targets.link_H_target[t], W_v_WL[env, L])
+            out = sp.inertial_to_repr(output_repr, W_H_L[env, L] * B.target_pose(targets, env, t), W_v_WL[env, L])
             for r in range(6):
                 v[env, t, r] = out[r]
 

@@ -157,6 +157,54 @@ def test_per_environment_densities_randomise_the_links():
     np.testing.assert_allclose(factors.grad.numpy(), np.broadcast_to(unit, (N, nL)), rtol=1e-14)
 
 
+def test_per_environment_shapes_randomise_lengths_and_contacts():
+    """dims factors (N, nL, 3), the leg dropped 2 mm onto the ground, 40 steps: environment e's link parameters, joint
+    origins, collidable points and rollout equal those of the shared update with its row (1e-12), and the gradient of
+    the final heights with respect to environment e's shank length and foot radius equals central differences (as in
+    the shared case: 1e-5 relative)."""
+    model = leg()
+    nL, N = model.number_of_links(), 3
+    rng = np.random.default_rng(5)
+    dims_host = rng.uniform(0.85, 1.2, (N, nL, 3))
+    posture = rng.uniform(-0.3, 0.3, (N, 3))
+    lowest = wd.contact.collidable_point_positions(model, wd.data.Data.build(model, num_envs=N, joint_positions=posture)).numpy()[..., 2].min(axis=1)
+    data = wd.data.Data.build(model, num_envs=N, base_position=np.stack([np.zeros(N), np.zeros(N), 0.002 - lowest], axis=1), joint_positions=posture)
+    dims = wp.array(dims_host, dtype=wp.float64, requires_grad=True)
+    loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+    with wp.Tape() as tape:
+        randomised = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=np.ones(nL)))
+        _, rec = wd.simulation.rollout(randomised, data, steps=40, record=("base_position",))
+        wp.launch(final_height, dim=N, inputs=[rec["base_position"]], outputs=[loss])
+    tape.backward(loss)
+    assert randomised.per_environment_parameters() == {"link_mass": N, "link_com": N, "link_inertia": N, "joint_origins": N}
+    points = wd.contact.collidable_point_positions(randomised, data).numpy()
+    heights = rec["base_position"].numpy()[:, :, 2]
+
+    def alone(row):
+        return wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=row, density=np.ones(nL)))
+
+    for e in range(N):
+        shared = alone(dims_host[e])
+        for name in ("link_mass", "link_com", "link_inertia"):
+            np.testing.assert_allclose(getattr(randomised, name).numpy()[e], getattr(shared, name).numpy(), rtol=1e-15, atol=0, err_msg=name)
+        np.testing.assert_allclose(wd.model.joint_origins(randomised)[0][e], wd.model.joint_origins(shared)[0], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(points[e], wd.contact.collidable_point_positions(shared, data).numpy()[e], rtol=0, atol=1e-14)
+        _, out = wd.simulation.rollout(shared, data, steps=40, record=("base_position",))
+        np.testing.assert_allclose(heights[:, e], out["base_position"].numpy()[:, e, 2], rtol=0, atol=1e-12)
+    assert np.ptp(heights[-1]) > 1e-3  # the environments differ
+
+    def final(d):
+        moved = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=d, density=np.ones(nL)))
+        return wd.simulation.rollout(moved, data, steps=40, record=("base_position",))[1]["base_position"].numpy()[-1, :, 2].sum()
+
+    for at in ((1, model.link_names().index("foot"), 0), (2, model.link_names().index("shank"), 2)):
+        plus, minus = dims_host.copy(), dims_host.copy()
+        plus[at] += 1e-6
+        minus[at] -= 1e-6
+        fd = (final(plus) - final(minus)) / 2e-6
+        assert abs(dims.grad.numpy()[at] - fd) <= 1e-5 * abs(fd) + 1e-9 and abs(fd) > 1e-5, (at, dims.grad.numpy()[at], fd)
+
+
 def test_bad_factors_raise_naming_the_link():
     model = leg()
     nL = model.number_of_links()
@@ -176,3 +224,37 @@ def test_bad_factors_raise_naming_the_link():
     per_env = wd.model.with_joint_origins(model, positions=np.stack([positions, 1.1 * positions]))
     with pytest.raises(ValueError, match=r"update_hw_parameters: \['joint_origins'\] are given per environment"):
         wd.model.update_hw_parameters(per_env, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((nL, 3)), density=np.ones(nL)))
+    with pytest.raises(ValueError, match=r"dims are given for 3 environments, density for 2: one N"):
+        wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((3, nL, 3)), density=np.ones((2, nL))))
+    colliding = model.copy()
+    colliding.geom_contacts = True
+    with pytest.raises(ValueError, match=r"shapes per environment, but the model's geom pairs collide"):
+        wd.model.update_hw_parameters(colliding, wd.kin_dyn_parameters.ScalingFactors(dims=np.ones((2, nL, 3)), density=np.ones(nL)))
+
+
+LUMPED = """<robot name="lumped">
+  <link name="body">
+    <inertial><mass value="2"/><inertia ixx="0.02" iyy="0.02" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><geometry><box size="0.2 0.2 0.2"/></geometry></visual>
+    <collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision>
+  </link>
+  <link name="pad">
+    <collision><origin xyz="0 0 -0.1"/><geometry><sphere radius="0.03"/></geometry></collision>
+  </link>
+  <joint name="pad_weld" type="fixed"><parent link="body"/><child link="pad"/><origin xyz="0.05 0 0"/></joint>
+  <link name="arm">
+    <inertial><mass value="0.5"/><inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><geometry><sphere radius="0.05"/></geometry></visual>
+  </link>
+  <joint name="hinge" type="revolute"><parent link="body"/><child link="arm"/><origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="10" velocity="5"/></joint>
+</robot>"""
+
+
+def test_lumped_members_shapes_are_named_when_their_link_is_scaled():
+    """A sphere on a link fused into a parametrised box: update_hw_parameters names it (its collidable points move
+    with the box's scaling, its shape in the description, which export writes, does not)."""
+    model = wd.model.Model.build_from_model_description(LUMPED, dtype=np.float64)
+    nL = model.number_of_links()
+    with pytest.warns(wd.description.NotModelledWarning, match=r"lumped into parametrised links, 'pad' \(in 'body'\)"):
+        wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.full((nL, 3), 1.1), density=np.ones(nL)))

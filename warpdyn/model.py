@@ -17,6 +17,7 @@ velocity representation (JaxSim's convention).
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import warp as wp
@@ -179,52 +180,69 @@ def with_joint_origins(model: Model, *, positions=None, rotations=None) -> Model
 def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model:
     """JaxSim's hardware parametrisation: a model whose parametrised links (warpdyn.types.hardware: a box, cylinder
     or sphere visual) have their shapes scaled by scaling_factors.dims (nL, 3) and their densities by
-    scaling_factors.density (nL,), or (N, nL): one row per environment (domain randomisation of the links' masses and
-    inertias; the shapes, which move joints, stay shared), with the masses, centres of mass and inertias JaxSim derives from them (the
-    shape's inertia in the link's inertial axes, the centre of mass scaled) and the joints below them moved as
-    JaxSim moves them (each child joint's offset from the centre of mass scaled); the others keep theirs (JaxSim
-    gives them mass 0). Warp arrays of the model's scalar that require gradients get them when this is called
-    under a wp.Tape (kernels/hardware.py). The collidable points move as JaxSim moves them (their offsets from the
-    centres of mass scaled in the link axes: a sphere's by its radius factor, a box's by its three; a cylinder's not),
-    and a step reads them from the kernel's output, so that gradients reach the factors through the contacts too; the
-    description's collision shapes are scaled as JaxSim's export scales them (what `export_updated_model` writes).
-    A ValueError when the model's own link parameters are per environment."""
+    scaling_factors.density (nL,), or either per environment, (N, nL, 3) and (N, nL) (domain randomisation of the
+    links' sizes and masses), with the masses, centres of mass and inertias JaxSim derives from them (the shape's
+    inertia in the link's inertial axes, the centre of mass scaled) and the joints below them moved as JaxSim moves
+    them (each child joint's offset from the centre of mass scaled); the others keep theirs (JaxSim gives them mass
+    0). Warp arrays of the model's scalar that require gradients get them when this is called under a wp.Tape
+    (kernels/hardware.py). The collidable points move as JaxSim moves them (their offsets from the centres of mass
+    scaled in the link axes: a sphere's by its radius factor, a box's by its three; a cylinder's not), and a step
+    reads them from the kernel's output, so that gradients reach the factors through the contacts too; the
+    description's collision shapes are scaled as JaxSim's export scales them (what `export_updated_model` writes;
+    environment 0's when the shapes are per environment, which export refuses). A ValueError when the model's own
+    link parameters or joint origins are per environment, and for per-environment shapes where the model's geom
+    pairs collide (model.geom_contacts: their shapes are one for all environments)."""
     per_env = {"link_mass", "link_com", "link_inertia", "joint_origins"} & set(model.per_environment_parameters())
     if per_env:
         raise ValueError(f"update_hw_parameters: {sorted(per_env)} are given per environment; the hardware parametrisation sets them")
     if not isinstance(scaling_factors, ScalingFactors):
         raise TypeError(f"scaling_factors must be a wd.kin_dyn_parameters.ScalingFactors, got {type(scaling_factors).__name__}")
     nL = model.number_of_links()
-    given, hosts = {}, {}  # the factors on the device, and as checked on the host
-    for name, value, shapes in (("dims", scaling_factors.dims, ((nL, 3),)), ("density", scaling_factors.density, ((nL,), "(N, nL)"))):
+    given, hosts = {}, {}  # the factors on the device as (1 or N, nL, ...), and as checked on the host
+    for name, value, item in (("dims", scaling_factors.dims, (3,)), ("density", scaling_factors.density, ())):
         if isinstance(value, wp.array):
             arrays.check_device_array(value, f"scaling_factors.{name}", model.scalar, model.device)
             host = value.numpy()
         else:
             host = arrays.host_numbers(value, f"scaling_factors.{name}")
             value = wp.array(host, dtype=model.scalar, device=model.device)
-        per_env = name == "density" and host.ndim == 2 and host.shape[1] == nL and host.shape[0] >= 1
-        if host.shape != shapes[0] and not per_env:
-            expected = " or ".join(str(k) for k in shapes)
-            raise ValueError(f"scaling_factors.{name} has shape {host.shape}, expected {expected} (one entry per link, in link_names() order)")
+        per_env = host.ndim == 2 + len(item) and host.shape[0] >= 1
+        if host.shape[-1 - len(item):] != (nL, *item) or host.ndim not in (1 + len(item), 2 + len(item)) or host.size == 0:
+            shared = (nL, *item)
+            raise ValueError(f"scaling_factors.{name} has shape {host.shape}, expected {shared} or (N, {', '.join(map(str, shared))}) "
+                             "(one entry per link, in link_names() order; shared or per environment)")
         bad = ~np.isfinite(host) | (host <= 0.0)
         if bad.any():
-            at = np.argwhere(bad)[0]
-            link = model.link_names()[int(at[1] if per_env else at[0])]
-            where = f" in environment {int(at[0])}" if per_env else ""
-            raise ValueError(f"scaling_factors.{name} of link '{link}'{where} is {host[tuple(at[:2]) if per_env else at[0]].tolist()}: factors must be positive and finite")
-        given[name] = value.reshape((1, nL)) if name == "density" and not per_env else value
-        hosts[name] = np.asarray(host, dtype=np.float64)
+            at = tuple(int(k) for k in np.argwhere(bad)[0])
+            link = model.link_names()[at[1] if per_env else at[0]]
+            where = f" in environment {at[0]}" if per_env else ""
+            entry = host[at[:2]] if per_env else host[at[:1]]
+            raise ValueError(f"scaling_factors.{name} of link '{link}'{where} is {np.asarray(entry).tolist()}: factors must be positive and finite")
+        given[name] = value if per_env else value.reshape((1, nL, *item))
+        hosts[name] = np.asarray(host, dtype=np.float64).reshape((-1, nL, *item))
+    counts = {len(host) for host in hosts.values()} - {1}
+    if len(counts) > 1:
+        raise ValueError(f"update_hw_parameters: dims are given for {len(hosts['dims'])} environments, density for {len(hosts['density'])}: one N")
+    if len(hosts["dims"]) > 1 and model.geom_contacts:
+        raise ValueError("update_hw_parameters: shapes per environment, but the model's geom pairs collide (model.geom_contacts) with one "
+                         "shape for all environments; scale the shapes shared, or switch geom_contacts off")
     metadata = model.cached("hw link metadata", lambda: hw_link_metadata(model))
     out = hardware.hw_parameters(model, metadata, given["dims"], given["density"])
     moved = with_joint_origins(model, positions=out["positions"], rotations=origins.origins_of(model.tree)[1]) if model.number_of_joints() else model
     moved = moved.with_parameter_arrays({name: out[name] for name in ("link_mass", "link_com", "link_inertia")})
     points = out["points"]
-    if points.shape[0] == 0:
+    if points.shape[1] == 0:
         return moved
-    params = moved.kin_dyn_structure().with_points(moved, points.numpy().astype(np.float64))  # the host's copy: queries, export
+    params = moved.kin_dyn_structure().with_points(moved, points.numpy()[0].astype(np.float64))  # the host's copy: queries, export
     moved = moved.with_kin_dyn_parameters(params, point_array=points)
-    moved.description = scaled_collisions(model.description, model.link_names(), metadata, hosts["dims"])
+    moved.description = scaled_collisions(model.description, model.link_names(), metadata, hosts["dims"][0])
+    shaped = {link.name for link in model.description.links if link.collisions}
+    members = [f"'{name}' (in '{model.link_names()[L]}')" for name, L in zip(model.tree.frame_names, model.tree.frame_parent)
+               if name in shaped and metadata.link_shape[L] >= 0]
+    if members:
+        warnings.warn(f"update_hw_parameters: the collision shapes of links lumped into parametrised links, {', '.join(members)}, keep their "
+                      "size and place in the description (what export_updated_model writes), while their collidable points move with the "
+                      "link's scaling as JaxSim moves them", NotModelledWarning, stacklevel=2)
     return moved
 
 

@@ -57,7 +57,7 @@ from .kinematics import targets
 from .launch import Launch
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, check_reference_stability, contact_reach
 
-__all__ = ["ContactStage", "SoftContactStage", "RigidContactStage", "RelaxedRigidContactStage", "STAGES", "stage_for", "contacts_per_environment"]
+__all__ = ["model_points", "ContactStage", "SoftContactStage", "RigidContactStage", "RelaxedRigidContactStage", "STAGES", "stage_for", "contacts_per_environment"]
 
 
 ROUNDING_FLOOR = 100.0
@@ -71,6 +71,15 @@ def contacts_per_environment(device, grad: bool) -> bool:
     velocity or per-environment parameter then comes from one thread, in a fixed order: deterministic on a
     GPU) and on the CPU (whose threads run one after another: a loop costs less than a thread per point)."""
     return grad or not wp.get_device(device).is_cuda
+
+
+def model_points(model) -> np.ndarray:
+    """(P, nc_all, 3) [m, link frames]: every collidable point, P = 1 but where warpdyn.model.update_hw_parameters
+    scaled the links per environment (the kernel's point array, one row per environment)."""
+    array = model.collidable_point_array
+    if array is not None and array.shape[0] > 1:
+        return array.numpy().astype(np.float64)
+    return np.asarray(model.kin_dyn_structure().contact_parameters.point, dtype=np.float64).reshape(1, -1, 3)
 
 
 class ContactStage:
@@ -106,7 +115,7 @@ class ContactStage:
         # gathers them at each evaluation (`launches`), so that gradients reach them
         grad_points = model.collidable_point_array is not None and model.collidable_point_array.requires_grad
         self.point_array = model.collidable_point_array if grad_points else None
-        c.L_p_C = wp.array(np.asarray(cp.point, dtype=np.float64)[rows].reshape(-1, 3), dtype=wp.types.vector(3, s), device=d, requires_grad=grad_points)
+        c.L_p_C = wp.array(model_points(model)[:, rows], dtype=wp.types.vector(3, s), device=d, requires_grad=grad_points)  # (P, nc)
         c.point_row = wp.array(rows.astype(np.int32), dtype=int, device=d)
         c.row_point = wp.array(row_point, dtype=int, device=d)
         c.link_first_point = wp.array(first, dtype=int, device=d)
@@ -169,7 +178,7 @@ class SoftContactStage(ContactStage):
         args = [plan.model, plan.no_targets, ev.W_H_L, x, int(VelRepr.Inertial)]
         launches = [Launch(velocity_kernels(s, plan.multi_dof).link_velocities, N, args, [ev.W_v_WL, ev.target_velocities])]
         if self.point_array is not None and self.count:
-            launches.append(Launch(point_kernels(s).gather_points, self.count, [self.bundle.point_row, self.point_array], [self.bundle.L_p_C]))
+            launches.append(Launch(point_kernels(s).gather_points, self.bundle.L_p_C.shape, [self.bundle.point_row, self.point_array], [self.bundle.L_p_C]))
         f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
         order = int(arrays.env_fastest(plan.device))
         rows, links = (self.total, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)
@@ -213,9 +222,10 @@ class RigidContactStage(ContactStage):
         params = model.kin_dyn_structure().contact_parameters
         rows = params.indices_of_enabled_collidable_points
         order = np.argsort(np.asarray(params.body, dtype=np.int64)[rows], kind="stable")
-        offsets = np.tile(np.eye(4), (len(order), 1, 1))
-        offsets[:, :3, 3] = np.asarray(params.point, dtype=np.float64)[rows][order].reshape(-1, 3)
-        self.targets = targets(model, self.bundle.point_link, transforms(offsets, s, d))
+        points = model_points(model)[:, rows[order]]  # (P, nc, 3)
+        offsets = np.tile(np.eye(4), (*points.shape[:2], 1, 1))
+        offsets[..., :3, 3] = points
+        self.targets = targets(model, self.bundle.point_link, transforms(offsets, s, d).reshape(points.shape[:2]))
         multi = model.multi_dof()
         self.bias = derivative_kernels(s, multi)
         self.jacobians = jacobian_kernels(s, multi).jacobians

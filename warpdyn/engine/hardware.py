@@ -14,22 +14,22 @@ __all__ = ["hw_parameters"]
 
 
 def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
-    """{"link_mass" (P, nL), "link_com" (P, nL) vec3, "link_inertia" (P, nL) mat33, "positions" (nj, 3), "points"
-    (nc_all,) vec3}: the model's link parameters, joint origins and collidable points (every one, in the link frame)
-    after scaling its links' geometry by dims (nL, 3) and their densities by density (P, nL) (P = 1 shared, or one row
-    per environment; warpdyn.types.hardware's metadata); the link parameters in the device's layout of
-    per-environment arrays; outputs require gradients when an input does."""
+    """{"link_mass" (P, nL), "link_com" (P, nL) vec3, "link_inertia" (P, nL) mat33, "positions" (Pd, nj, 3), "points"
+    (Pd, nc_all) vec3}: the model's link parameters, joint origins and collidable points (every one, in the link
+    frame) after scaling its links' geometry by dims (Pd, nL, 3) and their densities by density (1 or P, nL)
+    (Pd, P: 1 shared, or one row per environment; P the larger; warpdyn.types.hardware's metadata); the link
+    parameters in the device's layout of per-environment arrays; outputs require gradients when an input does."""
     s, d = model.scalar, model.device
     vec3, mat33 = wp.types.vector(3, s), wp.types.matrix((3, 3), s)
     grad = dims.requires_grad or density.requires_grad
     nL, nj = model.number_of_links(), model.number_of_joints()
     shape, geometry, rho, L_R_G, L_p_G, parent, L_p_pre = model.cached("hw parameter constants", lambda: _constants(model, metadata))
-    P = density.shape[0]
+    P, Pd = max(dims.shape[0], density.shape[0]), dims.shape[0]  # the origins and points follow the shapes only
     out = {
         "link_mass": arrays.empty((nL,), P, s, d, grad),
         "link_com": arrays.empty((nL,), P, vec3, d, grad),
         "link_inertia": arrays.empty((nL,), P, mat33, d, grad),
-        "positions": wp.zeros((nj, 3), dtype=s, device=d, requires_grad=grad),
+        "positions": wp.zeros((Pd, nj, 3), dtype=s, device=d, requires_grad=grad),
     }
     kernels = hardware_kernels(s)
     launch(
@@ -41,13 +41,13 @@ def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
         device=d,
     )
     body, point = model.cached("hw points", lambda: _points(model))
-    out["points"] = wp.empty(body.shape[0], dtype=vec3, device=d, requires_grad=grad)
+    out["points"] = wp.empty((Pd, body.shape[0]), dtype=vec3, device=d, requires_grad=grad)
     if body.shape[0]:
-        launch(kernels.collidable_points, dim=body.shape[0], inputs=[body, point, shape, dims, model.link_com, out["link_com"]], outputs=[out["points"]], device=d)
+        launch(kernels.collidable_points, dim=(Pd, body.shape[0]), inputs=[body, point, shape, dims, model.link_com, out["link_com"]], outputs=[out["points"]], device=d)
     if nj:
         launch(
             kernels.joint_positions,
-            dim=nj,
+            dim=(Pd, nj),
             inputs=[parent, shape, L_R_G, L_p_G, L_p_pre, dims],
             outputs=[out["positions"]],
             device=d,

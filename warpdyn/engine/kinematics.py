@@ -43,10 +43,11 @@ def state_of(model, data, checked: list | None = None):
 
 
 def targets(model, link: wp.array, link_H_target: wp.array):
-    """The kernels' Targets bundle: (T,) link indices and (T,) transforms on the model's device."""
+    """The kernels' Targets bundle: (T,) link indices and (T,) transforms (shared) or (P, T) (one row per
+    environment) on the model's device."""
     bundle = bundles(model.scalar).Targets()
     bundle.link = link
-    bundle.link_H_target = link_H_target
+    bundle.link_H_target = link_H_target if link_H_target.ndim == 2 else link_H_target.reshape((1, link_H_target.shape[0]))
     return bundle
 
 

@@ -610,6 +610,7 @@ class Model(ModelSettings, ModelQueries):
             raise ValueError(f"kin_dyn_parameters describe links {list(params.link_names)[:4]}..., not model '{self.name()}''s structure")
         # its collidable points, on this model's device and in its scalar (params may be another model's)
         self._kin_dyn = dataclasses.replace(params.with_enabled(self, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
+        self.collidable_point_array = None  # the points are params' now, not a kernel's
         links, joints = params.link_parameters, params.joint_parameters
         if links is not None:
             self.set_link_parameters(mass=links.mass, com=links.center_of_mass, inertia=LinkParameters.inertia_tensor(links))
@@ -625,7 +626,8 @@ class Model(ModelSettings, ModelQueries):
 
     def with_kin_dyn_parameters(self, params: KinDynParameters, point_array: wp.array | None = None) -> Model:
         """A model like this one (sharing its device constants and parameters) with other collidable points; point_array
-        (nc_all,) vec3: their positions as a kernel computed them, which a step reads (a tape's gradients reach it)."""
+        (P, nc_all) vec3: their positions as a kernel computed them, P = 1 or one row per environment (params holds
+        row 0's), which a step reads (a tape's gradients reach it)."""
         new = self.copy()
         new.collidable_point_array, new._kin_dyn = point_array, dataclasses.replace(params.with_enabled(new, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
         return new
