@@ -329,7 +329,9 @@ def test_legs_land_and_stand(kind):
     """The ergoCub legs (32 collidable points, a joint PD as joint-limit springs) dropped from 5 cm, four drops tilted
     by up to 3 degrees with their joints offset (benchmarks/speed_accuracy.py's scene), 0.4 s: in float64 they stay
     healthy and stand (base tilt under 30 degrees: leaning, measured up to 12, not fallen); so do the relaxed-rigid
-    ones in float32, at float64's height within 5 mm. Rigid contacts in float32 stay healthy but may tip (one drop
+    ones in float32: the two that rest upright at float64's height within 0.5 mm (measured 4 um), the two that lean
+    within 1 cm (how far they lean is float32's rounding's: 3.8 and 9.2 degrees on the CPU against float64's 4.5 and
+    11.6, 2.9 mm of height; 5.3 mm on an H200). Rigid contacts in float32 stay healthy but may tip (one drop
     leant 28 degrees on an H200, 7 on the CPU: `step` warns), so only their health is asserted. (With the impact
     keeping its Delassus matrix's dependent rows, a float32 rigid landing is flagged.)"""
     runs = {}
@@ -362,4 +364,7 @@ def test_legs_land_and_stand(kind):
     np.testing.assert_array_less(runs[wp.float64][1], 30.0)
     if kind == "RelaxedRigidContacts":
         np.testing.assert_array_less(runs[wp.float32][1], 30.0)
-        np.testing.assert_allclose(runs[wp.float32][0], runs[wp.float64][0], atol=5e-3)
+        upright = runs[wp.float64][1] < 3.0  # two drops come to rest upright (1.9 degrees), two lean (4.5 and 11.6)
+        assert upright.sum() == 2, runs[wp.float64][1]
+        np.testing.assert_allclose(runs[wp.float32][0][upright], runs[wp.float64][0][upright], atol=5e-4)
+        np.testing.assert_allclose(runs[wp.float32][0], runs[wp.float64][0], atol=1e-2)
