@@ -142,4 +142,25 @@ def kernels(scalar) -> types.SimpleNamespace:
                         W_f_L[env, a, r] -= f[r]
                         W_f_L[env, a, 3 + r] -= torque[r]
 
-    return types.SimpleNamespace(geom_contacts=geom_contacts, geom_contact_wrenches=geom_contact_wrenches)
+    @wp.kernel(module="unique")
+    def links_touching(
+        link1: wp.array(dtype=int), link2: wp.array(dtype=int), first: wp.array(dtype=int),
+        count: wp.array2d(dtype=int), dist: wp.array2d(dtype=scalar), asked: wp.array(dtype=int),
+        # in and out
+        touching: wp.array2d(dtype=wp.bool),
+    ):  # fmt: skip
+        """Launched over N, after `geom_contacts`: touching[env, asked[L]] = True for each link L (asked[L] >= 0) of a
+        pair with a contact at dist <= 0 (surfaces touching or penetrating; the world, link -1, is never asked)."""
+        env = wp.tid()
+        for i in range(link1.shape[0]):
+            touches = int(0)
+            for k in range(count[env, i]):
+                if dist[env, first[i] + k] <= scalar(0.0):
+                    touches = 1
+            if touches != 0:
+                if link1[i] >= 0 and asked[link1[i]] >= 0:
+                    touching[env, asked[link1[i]]] = True
+                if link2[i] >= 0 and asked[link2[i]] >= 0:
+                    touching[env, asked[link2[i]]] = True
+
+    return types.SimpleNamespace(geom_contacts=geom_contacts, geom_contact_wrenches=geom_contact_wrenches, links_touching=links_touching)

@@ -231,3 +231,41 @@ def test_condim_1_is_frictionless():
     f = wd.contact.link_contact_forces(model, data, output_vel_repr=wd.VelRepr.Inertial)[0].numpy()[model.link_names().index("b"), :3]
     n = wd.contact.geom_contacts(model, data).frame.numpy()[0, 0]
     assert np.linalg.norm(f) > 1.0 and np.linalg.norm(f - (f @ n) * n) < 1e-9 * np.linalg.norm(f)
+
+
+def test_in_contact_reads_the_bodies_touching_as_mujoco():
+    """wd.contact.in_contact with model.geom_contacts: a body is in contact where MuJoCo has a contact involving it at
+    dist <= 0 (the other boxes or the floor: warpdyn's terrain under the boxes' corner points), over 40 random poses
+    of the stack of boxes (positions within a few centimetres of each other, any orientation); without
+    geom_contacts only the floor counts."""
+    xml = SCENES["a stack of boxes"]
+    model = _model(xml)
+    mj = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(mj)
+    rng = np.random.default_rng(8)
+    names = model.link_names()
+    qpos = np.zeros((40, mj.nq))
+    for k in range(3):
+        qpos[:, 7 * k : 7 * k + 3] = np.array([0.0, 0.0, 0.1 + 0.09 * k]) + rng.uniform(-0.05, 0.05, (40, 3))
+        quaternion = rng.normal(size=(40, 4))
+        qpos[:, 7 * k + 3 : 7 * k + 7] = quaternion / np.linalg.norm(quaternion, axis=1, keepdims=True)
+    data = wd.data.Data.build(model, num_envs=40, joint_positions=qpos)
+    touching = wd.contact.in_contact(model, data).numpy()
+    terrain_only = wd.contact.in_contact(model.replace(geom_contacts=False), data).numpy()
+    seen = np.zeros(3, dtype=int)
+    for env in range(40):
+        d.qpos[:] = qpos[env]
+        mujoco.mj_forward(mj, d)
+        bodies, floor = set(), set()
+        for c in d.contact[: d.ncon]:
+            if c.dist <= 0.0:
+                pair = {int(mj.geom_bodyid[c.geom1]), int(mj.geom_bodyid[c.geom2])}
+                bodies |= pair
+                if 0 in pair:
+                    floor |= pair
+        for body in (1, 2, 3):
+            name = mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_BODY, body)
+            assert touching[env, names.index(name)] == (body in bodies), (env, name)
+            assert terrain_only[env, names.index(name)] == (body in floor), (env, name)
+        seen += [(body in bodies) and (body not in floor) for body in (1, 2, 3)]
+    assert seen.min() > 0  # each box touches another box, off the floor, in some pose

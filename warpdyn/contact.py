@@ -109,13 +109,16 @@ def collidable_point_kinematics(model, data) -> tuple[wp.array, wp.array]:
 
 
 def in_contact(model, data, *, link_names=None) -> wp.array:
-    """Whether each link touches the terrain (`model.terrain`): any of its enabled points at or below it.
+    """Whether each link touches the terrain (`model.terrain`): any of its enabled points at or below it; and, where
+    model.geom_contacts is set, whether it touches another body: a contact of one of its geom pairs (`geom_contacts`)
+    at dist <= 0 (the surfaces touching or penetrating; Isaac Lab's ContactSensor and MuJoCo's touch sensor read the
+    same contacts' forces, `link_contact_forces`).
 
     JaxSim's test: a point C is below when W_p_C.z <= h(W_p_C.x, W_p_C.y), the terrain's height above the
     point's (x, y) (equality counts). The contact force uses the depth delta = (h - z) n_z instead and acts
     only for delta > 0 strictly, so a point exactly on the terrain is "in contact" with zero force.
-    link_names: the links asked about (default: all, in the model's order); a link without enabled points
-    is never in contact. (nL,) or (N, nL) bool, or (k,) / (N, k) for k given names.
+    link_names: the links asked about (default: all, in the model's order); a link without enabled points or
+    acting geom pairs is never in contact. (nL,) or (N, nL) bool, or (k,) / (N, k) for k given names.
     """
     indices = None
     if link_names is not None:

@@ -16,7 +16,7 @@ from ..types.model_constants import transforms
 from .kinematics import link_poses
 from .launch import Launch, run
 
-__all__ = ["geom_pairs", "pair_arrays", "contact_buffers", "contact_launch", "force_launches", "geom_contacts"]
+__all__ = ["geom_pairs", "pair_arrays", "contact_buffers", "contact_launch", "force_launches", "geom_contacts", "mark_links_touching"]
 
 
 def pair_arrays(model) -> dict:
@@ -81,3 +81,16 @@ def geom_contacts(model, data) -> tuple[wp.array, wp.array, wp.array, wp.array]:
         _, W_H_L = link_poses(model, data)
         run([contact_launch(a, W_H_L, b, data.batch_size)], model.device)
     return b["count"], b["position"], b["frame"], b["dist"]
+
+
+def mark_links_touching(model, data, links: np.ndarray, touching: wp.array) -> None:
+    """Set touching[env, k] (N, K) bool where link links[k] (host indices) is in a geom pair whose contact at the
+    data's state has dist <= 0 (`geom_contacts`); the other entries are kept."""
+    a = pair_arrays(model)
+    if not a["pairs"]:
+        return
+    count, _, _, dist = geom_contacts(model, data)
+    asked = np.full(model.number_of_links(), -1, dtype=np.int32)
+    asked[np.asarray(links, dtype=np.int64)] = np.arange(len(links), dtype=np.int32)
+    inputs = [a["link1"], a["link2"], a["first"], count, dist, wp.array(asked, dtype=int, device=model.device)]
+    run([Launch(collision_kernels(a["scalar"]).links_touching, data.batch_size, inputs, [touching])], model.device)

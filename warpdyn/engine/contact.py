@@ -16,6 +16,7 @@ from ..kernels.contact_wrenches import kernels as wrench_kernels
 from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts, register_forces, register_impact
 from ..types.enums import VelRepr
 from ..types.model_constants import transforms
+from . import collisions
 from .bundles import state_bundle
 from .contact_stage import model_points
 from .evaluations import contact_evaluation, deformation_rates
@@ -167,11 +168,12 @@ def _point_wrenches(model, data, out_repr: int, current, ev) -> wp.array:
 
 def links_in_contact(model, data, link_indices) -> wp.array:
     """(N, K) bool: whether each of the links `link_indices` (None: all) has an enabled point at or below the
-    terrain (see warpdyn.contact.in_contact)."""
+    terrain or, where model.geom_contacts is set, a geom pair's contact at dist <= 0 (see warpdyn.contact.in_contact)."""
+    indices = np.arange(model.number_of_links()) if link_indices is None else np.asarray(link_indices, dtype=np.int32)
     if link_indices is None:
         links = model.all_links
     else:
-        links = wp.array(np.asarray(link_indices, dtype=np.int32), dtype=int, device=model.device)
+        links = wp.array(indices.astype(np.int32), dtype=int, device=model.device)
     W_p_C = positions(model, data)
     current = plan(model)
     N, K = data.batch_size, links.shape[0]
@@ -184,4 +186,6 @@ def links_in_contact(model, data, link_indices) -> wp.array:
         outputs=[out],
         device=model.device,
     )
+    if model.geom_contacts:
+        collisions.mark_links_touching(model, data, indices, out)
     return out
