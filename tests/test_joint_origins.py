@@ -90,28 +90,37 @@ def final_height(p: wp.array3d(dtype=wp.float64), loss: wp.array(dtype=wp.float6
     wp.atomic_add(loss, 0, p[p.shape[0] - 1, env, 2])
 
 
+def dropped_legs(model, drop: float, joint_positions=None):
+    """Two environments of the legs with their lowest collidable point `drop` [m] above the ground."""
+    lowest = wd.contact.collidable_point_positions(model, wd.data.Data.build(model, num_envs=2)).numpy()[..., 2].min()
+    return wd.data.Data.build(model, num_envs=2, base_position=(0.0, 0.0, -lowest + drop), joint_positions=joint_positions)
+
+
+def landing(model, data, positions, rotations) -> np.ndarray:
+    """The base heights (31, 2) of a 30-step rollout with the given joint origins; where they are Warp arrays that
+    require gradients, those of the final heights' sum are taken (tape.backward)."""
+    loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+    with wp.Tape() as tape:
+        moved = wd.model.with_joint_origins(model, positions=positions, rotations=rotations)
+        _, rec = wd.simulation.rollout(moved, data, steps=30, record=("base_position",))
+        wp.launch(final_height, dim=2, inputs=[rec["base_position"]], outputs=[loss])
+    tape.backward(loss)
+    return rec["base_position"].numpy()[:, :, 2]
+
+
 def test_gradients_reach_the_origins_through_a_rollout():
     """The legs dropped 2 cm onto soft ground, 30 steps: the gradient of the final base heights with respect to the
     knee's and ankle's origins (positions and rotation quaternions) equals central differences (h = 1e-6: 1e-6
     relative)."""
     model = legs()
     positions, rotations = wd.model.joint_origins(model)
-    zero = wd.data.Data.build(model, num_envs=2)
-    lowest = wd.contact.collidable_point_positions(model, zero).numpy()[..., 2].min()
-    rng = np.random.default_rng(3)
-    data = wd.data.Data.build(model, num_envs=2, base_position=(0.0, 0.0, -lowest + 0.02), joint_positions=rng.uniform(-0.1, 0.1, (2, model.dofs())))
+    data = dropped_legs(model, 0.02, np.random.default_rng(3).uniform(-0.1, 0.1, (2, model.dofs())))
     P = wp.array(positions, dtype=wp.float64, requires_grad=True)
     R = wp.array(rotations, dtype=wp.float64, requires_grad=True)
-    loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-    with wp.Tape() as tape:
-        moved = wd.model.with_joint_origins(model, positions=P, rotations=R)
-        _, rec = wd.simulation.rollout(moved, data, steps=30, record=("base_position",))
-        wp.launch(final_height, dim=2, inputs=[rec["base_position"]], outputs=[loss])
-    tape.backward(loss)
+    landing(model, data, P, R)
 
     def height(p, r):
-        _, out = wd.simulation.rollout(wd.model.with_joint_origins(model, positions=p, rotations=r), data, steps=30, record=("base_position",))
-        return out["base_position"].numpy()[-1, :, 2].sum()
+        return landing(model, data, p, r)[-1].sum()
 
     knee = model.joint_names().index("l_knee")
     ankle = model.joint_names().index("r_ankle_pitch")
@@ -193,32 +202,20 @@ def test_origins_per_environment_in_the_fused_step_and_gradients():
     feet's contacts begin within the rollout, and h = 1e-6 is 1.7e-5 off for the ankle, as for shared origins)."""
     model = legs()
     P, R = moved_origins(model, 11, 2)
-    zero = wd.data.Data.build(model, num_envs=2)
-    lowest = wd.contact.collidable_point_positions(model, zero).numpy()[..., 2].min()
-    data = wd.data.Data.build(model, num_envs=2, base_position=(0.0, 0.0, -lowest + 0.03))
+    data = dropped_legs(model, 0.03)
     positions = wp.array(P, dtype=wp.float64, requires_grad=True)
-    loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
-    with wp.Tape() as tape:
-        moved = wd.model.with_joint_origins(model, positions=positions, rotations=R)
-        _, rec = wd.simulation.rollout(moved, data, steps=30, record=("base_position",))
-        wp.launch(final_height, dim=2, inputs=[rec["base_position"]], outputs=[loss])
-    tape.backward(loss)
-    heights = rec["base_position"].numpy()[:, :, 2]
+    heights = landing(model, data, positions, R)
     for env in range(2):
-        _, alone = wd.simulation.rollout(wd.model.with_joint_origins(model, positions=P[env], rotations=R[env]), data, steps=30, record=("base_position",))
-        np.testing.assert_allclose(heights[:, env], alone["base_position"].numpy()[:, env, 2], rtol=0, atol=1e-12)
+        alone = landing(model, data, P[env], R[env])
+        np.testing.assert_allclose(heights[:, env], alone[:, env], rtol=0, atol=1e-12)
     assert abs(heights[-1, 1] - heights[-1, 0]) > 1e-5
-
-    def final(p):
-        _, out = wd.simulation.rollout(wd.model.with_joint_origins(model, positions=p, rotations=R), data, steps=30, record=("base_position",))
-        return out["base_position"].numpy()[-1, :, 2].sum()
 
     knee, ankle = model.joint_names().index("l_knee"), model.joint_names().index("r_ankle_pitch")
     for index in ((0, knee, 2), (1, knee, 2), (1, ankle, 0)):
         plus, minus = P.copy(), P.copy()
         plus[index] += 1e-7
         minus[index] -= 1e-7
-        fd = (final(plus) - final(minus)) / 2e-7
+        fd = (landing(model, data, plus, R)[-1].sum() - landing(model, data, minus, R)[-1].sum()) / 2e-7
         assert abs(positions.grad.numpy()[index] - fd) <= 1e-6 * abs(fd) + 1e-9 and abs(fd) > 1e-6, (index, positions.grad.numpy()[index], fd)
 
 
