@@ -258,3 +258,23 @@ def test_lumped_members_shapes_are_named_when_their_link_is_scaled():
     nL = model.number_of_links()
     with pytest.warns(wd.description.NotModelledWarning, match=r"lumped into parametrised links, 'pad' \(in 'body'\)"):
         wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.full((nL, 3), 1.1), density=np.ones(nL)))
+
+
+def test_enabling_points_keeps_the_scaled_points_per_environment():
+    """with_collidable_points after per-environment shapes: a new enabled mask keeps each environment's moved points
+    (the foot's alone enabled: its positions equal the scaled model's), new options are refused (they would make the
+    points from environment 0's shapes)."""
+    model = leg()
+    nL = model.number_of_links()
+    dims = np.ones((2, nL, 3))
+    dims[1] *= 1.2
+    scaled = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=np.ones(nL)))
+    data = wd.data.Data.build(scaled, num_envs=2)
+    feet = wd.contact.with_collidable_points(scaled, enabled_links=("foot",))
+    body = np.asarray(scaled.kin_dyn_structure().contact_parameters.body)
+    on_foot = body[body >= 0] == model.link_names().index("foot")
+    all_points = wd.contact.collidable_point_positions(scaled, data).numpy()
+    np.testing.assert_allclose(wd.contact.collidable_point_positions(feet, data).numpy(), all_points[:, on_foot], rtol=0, atol=1e-15)
+    assert np.abs(all_points[1] - all_points[0]).max() > 0.01
+    with pytest.raises(ValueError, match="the model's points are per environment"):
+        wd.contact.with_collidable_points(scaled, options=wd.contact.CollidablePointsOptions())

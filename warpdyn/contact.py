@@ -65,7 +65,8 @@ def with_collidable_points(model, *, options: CollidablePointsOptions | None = N
     options: how shapes become points (`CollidablePointsOptions`); None keeps the model's.
     enabled: a boolean mask over all the points (after `options` are applied), or
     enabled_links: link names whose points are enabled, the others disabled.
-    With neither, every point is enabled. `model` itself is left unchanged.
+    With neither, every point is enabled. `model` itself is left unchanged. Points that update_hw_parameters
+    moved (per environment, or carrying gradients to the scaling factors) stay theirs when only the mask changes.
 
     Example (JaxSim's behaviour: no mesh points; only the feet in contact):
         model = wd.contact.with_collidable_points(
@@ -76,6 +77,11 @@ def with_collidable_points(model, *, options: CollidablePointsOptions | None = N
         raise ValueError("give either enabled (a mask over the points) or enabled_links (link names), not both")
     if options is not None and not isinstance(options, CollidablePointsOptions):
         raise TypeError(f"options must be a CollidablePointsOptions, got {type(options).__name__}")
+    kernel_points = model.collidable_point_array  # update_hw_parameters' points: kept where only the mask changes
+    if options is not None and kernel_points is not None and kernel_points.shape[0] > 1:
+        raise ValueError("with_collidable_points: the model's points are per environment (update_hw_parameters with per-environment "
+                         "shapes) and options would make them again from the description's shapes, which are environment 0's; "
+                         "choose the points' options before scaling the shapes")
     params = model.kin_dyn_structure() if options is None else KinDynParameters.build(model, options)
     if enabled_links is not None:
         if isinstance(enabled_links, str):
@@ -86,7 +92,7 @@ def with_collidable_points(model, *, options: CollidablePointsOptions | None = N
         enabled = np.ones(len(params.contact_parameters.body), dtype=bool)
     if enabled is not None:
         params = params.with_enabled(model, enabled)
-    return model.with_kin_dyn_parameters(params)
+    return model.with_kin_dyn_parameters(params, point_array=kernel_points if options is None else None)
 
 
 def collidable_point_positions(model, data) -> wp.array:
