@@ -1,18 +1,24 @@
-"""`Model.export_updated_model` (JaxSim's name; issue 38): a model as URDF text with its current parameters, which
-loads back to the same model: the same links, joints and frames, parameters, mass matrix, collidable points (in
+"""`Model.export_updated_model` (JaxSim's name; issue 38): a model as URDF (or MJCF) text with its current parameters,
+which loads back to the same model: the same links, joints and frames, parameters, mass matrix, collidable points (in
 their order) and frame poses, in float64 to rounding (1e-15 relative). Covers the ergoCub (whole and its legs,
 welded and floating), a model whose parameters and joint origins were changed (JaxSim's hardware parametrisation
-on tests/jaxsim/hw_leg.sdf, an SDF model exported as URDF), and what URDF cannot hold.
+on tests/jaxsim/hw_leg.sdf, an SDF model exported as URDF), and what URDF cannot hold. The MJCF export (ball joints,
+armature, MuJoCo's damper, springs, actuators) on a random tree, the ball fixture, the shipped Panda and the scaled
+leg, with MuJoCo's own mass matrix and bias forces of the text against warpdyn's where the base is welded.
 """
 
 import pathlib
 import warnings
 
+import mujoco
 import numpy as np
 import pytest
 
+import robots
 import warpdyn as wd
 from mjcf_fixtures import BALL
+from mjcf_models import full_mass_matrix
+from test_fused_step import FREE_TREES
 
 ROOT = pathlib.Path(__file__).resolve().parent
 
@@ -78,3 +84,74 @@ def test_what_urdf_cannot_hold_is_refused():
     model.set_link_parameters(mass=np.ones((2, model.number_of_links())))
     with pytest.raises(ValueError, match=r"\['link_mass'\] are given per environment"):
         model.export_updated_model()
+
+
+MJCF_JOINT_PARAMETERS = ("position_limits", "friction_static", "armature", "stiffness", "joint_actuator_force_range")
+
+
+def mjcf_source(which: str):
+    """The models the MJCF export is checked on: a random tree (floating base, revolute, prismatic, fixed joints
+    lumped), the ball-joint fixture, the shipped Panda (MJCF: its mesh geoms' vertices, 8 position actuators, armature,
+    damping) and the hardware-scaled SDF leg with joint frictions set (viscous friction: URDF's, written as MuJoCo's
+    damper)."""
+    if which == "random tree":
+        return load(robots.random_tree_urdf(6, 12))
+    if which == "ball":
+        return load(BALL)
+    if which == "panda":
+        return load(wd.assets.franka_panda_mjcf())
+    model = load((ROOT / "jaxsim" / "hw_leg.sdf").read_text())
+    nL = model.number_of_links()
+    updated = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.full((nL, 3), 1.2), density=np.ones(nL)))
+    updated.set_joint_parameters(friction_viscous=np.array([0.1, 0.2, 0.3]), friction_static=np.array([0.5, 0.0, 0.2]))
+    return updated
+
+
+@pytest.mark.parametrize("which", ["random tree", "ball", "panda", "scaled leg"])
+def test_the_mjcf_export_round_trips_and_mujoco_reads_it(which):
+    """export_updated_model(format="mjcf") loads back to the same model (links, joints, frames, link and joint
+    parameters, actuators, joint origins, mass matrix, bias forces, collidable points as sets; the
+    viscous friction comes back as MuJoCo's damper, the same torque), and MuJoCo's own M and bias forces of the text
+    equal warpdyn's at random states (float64, 1e-12 of the largest entry)."""
+    model = mjcf_source(which)
+    text = model.export_updated_model(format="mjcf")
+    back = load(text)
+    assert back.link_names() == model.link_names() and back.joint_names() == model.joint_names()
+    assert sorted(back.frame_names()) == sorted(model.frame_names()) and back.floating_base() == model.floating_base()
+    for name in ("link_mass", "link_com", "link_inertia", *MJCF_JOINT_PARAMETERS):
+        np.testing.assert_allclose(back.parameter(name).numpy(), model.parameter(name).numpy(), rtol=1e-15, atol=1e-15, err_msg=name)
+    np.testing.assert_allclose(back.damping.numpy(), model.damping.numpy() + model.friction_viscous.numpy(), rtol=1e-15, atol=0)
+    assert back.actuator_names() == model.actuator_names()
+    for name in ("actuator_gear", "actuator_gain", "actuator_bias", "actuator_ctrl_range", "actuator_force_range") if model.actuator_names() else ():
+        np.testing.assert_allclose(back.parameter(name).numpy(), model.parameter(name).numpy(), rtol=1e-15, atol=0, err_msg=name)
+    np.testing.assert_allclose(wd.model.joint_origins(back)[0], wd.model.joint_origins(model)[0], rtol=0, atol=1e-15)
+    data = wd.data.random_model_data(model, key=4, num_envs=3)
+    for quantity in (wd.model.free_floating_mass_matrix, wd.model.free_floating_bias_forces):
+        ours, theirs = quantity(model, data).numpy(), quantity(back, data).numpy()
+        np.testing.assert_allclose(theirs, ours, rtol=0, atol=1e-12 * np.abs(ours).max(), err_msg=quantity.__name__)
+    points = [np.sort(wd.contact.collidable_point_positions(m, data).numpy().reshape(-1, 3), axis=0) for m in (model, back)]
+    np.testing.assert_allclose(points[1], points[0], rtol=0, atol=1e-13)
+    if model.floating_base():
+        return  # MuJoCo's free-joint velocities are another representation: the round trip above holds the dynamics
+    mj = mujoco.MjModel.from_xml_string(text)
+    d = mujoco.MjData(mj)
+    s, sd = data.joint_positions.numpy(), data.joint_velocities.numpy()
+    M, h = wd.model.free_floating_mass_matrix(model, data).numpy(), wd.model.free_floating_bias_forces(model, data).numpy()
+    for env in range(3):
+        d.qpos[:], d.qvel[:] = s[env], sd[env]
+        mujoco.mj_forward(mj, d)
+        np.testing.assert_allclose(full_mass_matrix(mj, d), M[env, 6:, 6:], rtol=0, atol=1e-12 * np.abs(M).max())
+        np.testing.assert_allclose(d.qfrc_bias, h[env, 6:], rtol=0, atol=1e-12 * np.abs(h).max())
+
+
+def test_what_the_mjcf_export_cannot_hold_is_refused():
+    with pytest.warns(wd.description.NotModelledWarning):
+        trees = wd.model.Model.build_from_model_description(FREE_TREES, dtype=np.float64)
+    with pytest.raises(ValueError, match="joint 'crate_free' is a free joint below the base"):
+        trees.export_updated_model(format="mjcf")
+    model = mjcf_source("random tree")
+    with pytest.raises(ValueError, match="format must be 'urdf' or 'mjcf', got 'sdf'"):
+        model.export_updated_model(format="sdf")
+    model.set_gravity(np.tile([0.0, 0.0, -9.81], (2, 1)))
+    with pytest.raises(ValueError, match=r"\['world_gravity'\] are given per environment; a MJCF file holds one model"):
+        model.export_updated_model(format="mjcf")

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..description.tree import JOINT_BALL, JOINT_FREE
+from ..description.mjcf_writer import write_mjcf
 from ..description.urdf_writer import write_urdf
 
 __all__ = ["ModelQueries"]
@@ -97,16 +98,25 @@ class ModelQueries:
         """The description's keyframes (MJCF `<key>`), in its order: `warpdyn.data.keyframe(model, name)`."""
         return tuple(k.name for k in self.description.keyframes)
 
-    def export_updated_model(self) -> str:
-        """JaxSim's export: URDF text of the lumped tree with its current parameters, joint origins, collision shapes
-        and frames, which loads back to the same model; a ValueError for per-environment parameters and for what
-        URDF cannot hold (warpdyn.description.urdf_writer)."""
+    def export_updated_model(self, format: str = "urdf") -> str:
+        """JaxSim's export: the text of the lumped tree with its current parameters, joint origins, collision shapes and
+        frames, which loads back to the same model: URDF (JaxSim's; warpdyn.description.urdf_writer) or, with
+        format="mjcf", MJCF (warpdyn.description.mjcf_writer: ball joints, armature, MuJoCo's damper and springs
+        too, for MuJoCo). A ValueError for per-environment parameters and for what the format cannot hold."""
+        if format not in ("urdf", "mjcf"):
+            raise ValueError(f"export_updated_model: format must be 'urdf' or 'mjcf', got {format!r}")
         names = ("link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous")
-        per_env = sorted(set((*names, "joint_origins")) & set(self.per_environment_parameters()))
+        if format == "mjcf":
+            names += ("armature", "damping", "stiffness", "springref", "joint_actuator_force_range")
+            names += ("actuator_gear", "actuator_gain", "actuator_bias", "actuator_ctrl_range", "actuator_force_range") if self.tree.actuators else ()
+        per_env = sorted(set((*names, "joint_origins", "world_gravity" if format == "mjcf" else "")) & set(self.per_environment_parameters()))
         if per_env:
-            raise ValueError(f"export_updated_model: {per_env} are given per environment; a URDF holds one model")
+            raise ValueError(f"export_updated_model: {per_env} are given per environment; a {format.upper()} file holds one model")
         host = {name: np.asarray(self.parameter(name).numpy(), dtype=np.float64) for name in names}
         welded = None if self.floating_base() else np.asarray(self.description.world_H_base, dtype=np.float64)
         shapes = [(link.name, link.collisions) for link in self.description.links]
+        if format == "mjcf":
+            gravity = np.asarray(self.world_gravity.numpy(), dtype=np.float64).reshape(-1, 3)[0]
+            return write_mjcf(self.name(), self.tree, shapes, host, welded, self.description.initial_world_H_base, self.time_step, gravity)
         return write_urdf(self.name(), self.tree, shapes, host["link_mass"], host["link_com"], host["link_inertia"], host["position_limits"],
                           host["friction_static"], host["friction_viscous"], welded)

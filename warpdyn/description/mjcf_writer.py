@@ -1,0 +1,167 @@
+"""A lumped tree written as MJCF (host NumPy): `Model.export_updated_model(format="mjcf")`, the model with its current
+parameters for MuJoCo (or warpdyn) to load.
+
+Each link is a body at its joint's frame in its parent (`pos`, `quat`), with an `inertial` (its current mass, centre
+of mass and full inertia about it, link axes: `inertiafromgeom="false"`, so geoms add nothing) and its joint: a hinge
+or slide through the joint's pivot along its axis, with its position limits (`range`), static friction
+(`frictionloss`), the clamp of its actuators' force (`actuatorfrcrange`), armature, MuJoCo's damper plus the description's viscous friction (`damping`: the same torque
+-b qdot, which warpdyn reads back as MuJoCo's damper), spring (`stiffness`, `springref`); a ball joint at its pivot;
+a floating base's `freejoint`. Actuators are MuJoCo's `general` ones with their current affine gain and bias, gear,
+control and force ranges (warpdyn's actuator law is that affine subset). Frames (lumped links and explicit frames) are massless bodies welded where they are;
+collision shapes are geoms in the body of the link (or frame) that carries them, with their collision filter and
+contact parameters; the base hangs from the world at world_H_base when welded, and starts at the initial pose when
+floating; a mesh is an asset with its vertices inline (an MJCF's) or its file as the description names it (a URDF's
+package:// needs resolving before MuJoCo reads it). What MJCF cannot say here raises a ValueError naming it: a free
+joint below the base (a body in a scene of several trees), a mesh with neither vertices nor a file.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from .model import CollisionShape, matrix_to_quaternion_wxyz
+from .tree import JOINT_BALL, JOINT_FREE, JOINT_REVOLUTE, KinematicTree
+
+__all__ = ["write_mjcf"]
+
+
+def _numbers(values) -> str:
+    return " ".join(f"{float(v):.17g}" for v in np.ravel(values))
+
+
+def _pose(element: ET.Element, H: np.ndarray) -> None:
+    element.set("pos", _numbers(H[:3, 3]))
+    element.set("quat", _numbers(matrix_to_quaternion_wxyz(H[:3, :3])))
+
+
+def _mesh_asset(asset: ET.Element, shape: CollisionShape, name: str) -> None:
+    """A mesh asset: its vertices inline where the description holds them (an MJCF's, which MuJoCo loaded), else its
+    file as the description names it."""
+    mesh = ET.SubElement(asset, "mesh", name=name)
+    if shape.vertices is not None:
+        mesh.set("vertex", _numbers(np.asarray(shape.vertices, dtype=np.float64)))
+    else:
+        mesh.set("file", str(shape.filename))
+    if shape.scale is not None:
+        mesh.set("scale", _numbers(shape.scale))
+
+
+def _geom(body: ET.Element, shape: CollisionShape, owner: str, asset: ET.Element) -> None:
+    geom = ET.SubElement(body, "geom")
+    if shape.name:
+        geom.set("name", shape.name)
+    _pose(geom, np.asarray(shape.link_H_shape, dtype=np.float64))
+    if shape.kind == "box":
+        geom.set("type", "box")
+        geom.set("size", _numbers(0.5 * np.asarray(shape.size, dtype=np.float64)))
+    elif shape.kind == "sphere":
+        geom.set("type", "sphere")
+        geom.set("size", _numbers([shape.radius]))
+    elif shape.kind in ("cylinder", "capsule"):
+        geom.set("type", shape.kind)
+        geom.set("size", _numbers([shape.radius, 0.5 * shape.length]))
+    elif shape.kind == "mesh" and (shape.filename or shape.vertices is not None):
+        name = f"{owner}_mesh{len(asset)}"
+        _mesh_asset(asset, shape, name)
+        geom.set("type", "mesh")
+        geom.set("mesh", name)
+    else:
+        raise ValueError(f"link '{owner}' has a {shape.kind} collision with neither vertices nor a file: MJCF cannot hold it")
+    geom.set("contype", str(shape.contype))
+    geom.set("conaffinity", str(shape.conaffinity))
+    geom.set("condim", str(shape.condim))
+    geom.set("friction", _numbers(shape.friction))
+    if shape.margin or shape.gap:
+        geom.set("margin", _numbers([shape.margin + shape.gap]))
+        geom.set("gap", _numbers([shape.gap]))
+    if shape.priority:
+        geom.set("priority", str(shape.priority))
+
+
+def write_mjcf(name: str, tree: KinematicTree, shapes: list, parameters: dict, world_H_base: np.ndarray | None,
+               initial_world_H_base: np.ndarray | None, time_step: float, gravity: np.ndarray) -> str:  # fmt: skip
+    """The MJCF text of `tree` with its current parameters (the module docstring). parameters: host float64 arrays
+    link_mass (nL,) [kg], link_com (nL, 3) [m, link frame], link_inertia (nL, 3, 3) [kg m^2, about the CoM, link
+    axes], position_limits (nj, 2), friction_static, friction_viscous, armature, damping (nv,), stiffness,
+    springref (nj,), joint_actuator_force_range (nj, 2), actuator_gear, actuator_gain (na, 3), actuator_bias (na, 3), actuator_ctrl_range (na, 2),
+    actuator_force_range (na, 2) (infinite: unlimited); shapes: the description's (link name, its collision shapes in its own frame), each link a link
+    of the tree or a frame; world_H_base (4, 4) welds the base, None leaves it floating (at initial_world_H_base,
+    identity for None); time_step [s] and gravity (3,) [m/s^2] go to `option`."""
+    mujoco = ET.Element("mujoco", model=name)
+    ET.SubElement(mujoco, "compiler", angle="radian", inertiafromgeom="false", autolimits="true")
+    ET.SubElement(mujoco, "option", timestep=f"{time_step:.17g}", gravity=_numbers(gravity))
+    asset = ET.SubElement(mujoco, "asset")
+    world = ET.SubElement(mujoco, "worldbody")
+    bodies: dict[str, ET.Element] = {}
+    v_start, kinds = np.asarray(tree.v_start), np.asarray(tree.joint_type)
+    for i, link_name in enumerate(tree.link_names):
+        kind = int(kinds[i])
+        if i == 0 and link_name == "world" and world_H_base is not None:  # an MJCF's world body: its children are the worldbody's
+            if np.any(np.asarray(world_H_base) != np.eye(4)) or float(parameters["link_mass"][0]) != 0.0:
+                raise ValueError("the base is called 'world' but is not MuJoCo's world (it is moved or has a mass): MJCF reserves the name")
+            bodies[link_name] = world
+            continue
+        if i == 0:
+            body = ET.SubElement(world, "body", name=link_name)
+            base = world_H_base if world_H_base is not None else initial_world_H_base
+            _pose(body, np.eye(4) if base is None else np.asarray(base, dtype=np.float64))
+            if world_H_base is None:
+                ET.SubElement(body, "freejoint", name=f"{link_name}_free")
+        else:
+            if kind == JOINT_FREE:
+                raise ValueError(f"joint '{tree.joint_names[i - 1]}' is a free joint below the base (a body of a scene of several trees): "
+                                 "the MJCF export writes one tree")
+            body = ET.SubElement(bodies[tree.link_names[int(tree.parent[i])]], "body", name=link_name)
+            _pose(body, np.asarray(tree.parent_H_joint[i], dtype=np.float64))
+        bodies[link_name] = body
+        mass = float(parameters["link_mass"][i])
+        if mass > 0.0:
+            I = parameters["link_inertia"][i]
+            ET.SubElement(body, "inertial", pos=_numbers(parameters["link_com"][i]), mass=f"{mass:.17g}",
+                          fullinertia=_numbers([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
+        if i == 0:
+            continue
+        j, d = i - 1, int(v_start[i])
+        joint = ET.SubElement(body, "joint", name=tree.joint_names[j], pos=_numbers(tree.joint_pivot[i]))
+        if kind == JOINT_BALL:
+            joint.set("type", "ball")
+        else:
+            joint.set("type", "hinge" if kind == JOINT_REVOLUTE else "slide")  # the one-DoF kinds: revolute, prismatic
+            joint.set("axis", _numbers(tree.joint_axis[i]))
+            lower, upper = parameters["position_limits"][j]
+            if np.isfinite(lower) or np.isfinite(upper):
+                joint.set("range", _numbers([lower, upper]))
+            joint.set("springref", f"{float(parameters['springref'][j]):.17g}")
+        joint.set("stiffness", f"{float(parameters['stiffness'][j]):.17g}")
+        joint.set("frictionloss", f"{float(parameters['friction_static'][d]):.17g}")
+        joint.set("armature", f"{float(parameters['armature'][d]):.17g}")
+        joint.set("damping", f"{float(parameters['damping'][d] + parameters['friction_viscous'][d]):.17g}")
+        if np.all(np.isfinite(parameters["joint_actuator_force_range"][j])):
+            joint.set("actuatorfrcrange", _numbers(parameters["joint_actuator_force_range"][j]))
+    for k, frame_name in enumerate(tree.frame_names):
+        body = ET.SubElement(bodies[tree.link_names[int(tree.frame_parent[k])]], "body", name=frame_name)
+        _pose(body, np.asarray(tree.link_H_frame[k], dtype=np.float64))
+        bodies[frame_name] = body
+    lost = [link_name for link_name, own in shapes if own and link_name not in bodies]
+    if lost:
+        raise ValueError(f"links {lost} carry collision shapes but are neither links nor frames of the model")
+    for link_name, own in shapes:
+        for shape in own:
+            _geom(bodies[link_name], shape, link_name, asset)
+    if not len(asset):
+        mujoco.remove(asset)
+    if tree.actuators:
+        actuators = ET.SubElement(mujoco, "actuator")
+        for k, act in enumerate(tree.actuators):
+            ctrl, force = parameters["actuator_ctrl_range"][k], parameters["actuator_force_range"][k]
+            general = ET.SubElement(actuators, "general", name=act.name, joint=act.joint_name, gear=f"{float(parameters['actuator_gear'][k]):.17g}",
+                                    gaintype="affine", gainprm=_numbers(parameters["actuator_gain"][k]),
+                                    biastype="affine", biasprm=_numbers(parameters["actuator_bias"][k]))
+            if np.all(np.isfinite(ctrl)):
+                general.set("ctrlrange", _numbers(ctrl))
+            if np.all(np.isfinite(force)):
+                general.set("forcerange", _numbers(force))
+    ET.indent(mujoco)
+    return ET.tostring(mujoco, encoding="unicode")
