@@ -11,7 +11,7 @@ import warp as wp
 from .factory import factory
 from .spatial import spatial
 
-BOX, CYLINDER, SPHERE = 0, 1, 2
+BOX, CYLINDER, SPHERE, CAPSULE = 0, 1, 2, 3
 """warpdyn.types.hardware.LinkParametrizableShape's codes (-1: unsupported)."""
 
 
@@ -22,9 +22,10 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.func
     def scale_vector(kind: int, dims: wp.array3d(dtype=scalar), e: int, i: int):
         """The factors of link i's frame coordinates in environment e (row min(e, P - 1) of dims (P, nL, 3)): a box's
-        (d0, d1, d2), a cylinder's (d0, d0, d1) (radius in x and y, length along z), a sphere's (d0, d0, d0)."""
+        (d0, d1, d2), a cylinder's and a capsule's (d0, d0, d1) (radius in x and y, length along z), a sphere's
+        (d0, d0, d0)."""
         r = wp.min(e, dims.shape[0] - 1)
-        if kind == CYLINDER:
+        if kind == CYLINDER or kind == CAPSULE:
             return sp.vec3(dims[r, i, 0], dims[r, i, 0], dims[r, i, 1])
         if kind == SPHERE:
             return sp.vec3(dims[r, i, 0], dims[r, i, 0], dims[r, i, 0])
@@ -50,7 +51,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         """Link i's mass [kg], centre of mass [m, link frame] and inertia about it [kg m^2, link axes] from its shape's
         geometry scaled by dims[., i] (elementwise) and its density scaled by density_scale[., i]: a box's
         m = rho lx ly lz, I = m/12 diag(ly^2 + lz^2, lx^2 + lz^2, lx^2 + ly^2); a cylinder's m = rho pi r^2 l,
-        I = diag(m (3 r^2 + l^2)/12, m (3 r^2 + l^2)/12, m r^2/2); a sphere's m = rho 4/3 pi r^3, I = 2/5 m r^2,
+        I = diag(m (3 r^2 + l^2)/12, m (3 r^2 + l^2)/12, m r^2/2); a sphere's m = rho 4/3 pi r^3, I = 2/5 m r^2; a
+        capsule's (MuJoCo's: a cylinder of mass mc = rho pi r^2 l and two half-spheres of total mass ms = rho 4/3 pi
+        r^3 about their centres l/2 + 3 r/8 away) Izz = mc r^2/2 + 2/5 ms r^2, Ixx = Iyy = mc (r^2/4 + l^2/12) +
+        ms (2/5 r^2 + l^2/4 + 3/8 l r),
         in the inertial frame's axes, rotated to the link's (L_R_G I L_R_G^T); the centre of mass L_p_G scaled by
         the shape's scale vector; environment e reads row min(e, rows - 1) of dims (1 or P, nL, 3) and of
         density_scale (1 or P, nL) and writes row e of the outputs (P, nL) (P = 1: shared). An unsupported link
@@ -77,6 +81,13 @@ def kernels(scalar) -> types.SimpleNamespace:
             m = rho * pi * g0 * g0 * g1
             side = m * (scalar(3.0) * g0 * g0 + g1 * g1) / scalar(12.0)
             I = wp.diag(sp.vec3(side, side, m * g0 * g0 / scalar(2.0)))
+        elif kind == CAPSULE:
+            mc = rho * pi * g0 * g0 * g1
+            ms = rho * scalar(4.0) / scalar(3.0) * pi * g0 * g0 * g0
+            m = mc + ms
+            side = mc * (g0 * g0 / scalar(4.0) + g1 * g1 / scalar(12.0))
+            side = side + ms * (scalar(0.4) * g0 * g0 + g1 * g1 / scalar(4.0) + scalar(0.375) * g1 * g0)
+            I = wp.diag(sp.vec3(side, side, mc * g0 * g0 / scalar(2.0) + scalar(0.4) * ms * g0 * g0))
         else:
             m = rho * scalar(4.0) / scalar(3.0) * pi * g0 * g0 * g0
             I = wp.identity(n=3, dtype=scalar) * (scalar(2.0) / scalar(5.0) * m * g0 * g0)
@@ -117,6 +128,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         body: wp.array(dtype=int),
         point: wp.array(dtype=sp.vec3),
         shape: wp.array(dtype=int),
+        geometry: wp.array(dtype=sp.vec3),
+        L_R_G: wp.array(dtype=sp.mat33),
         dims: wp.array3d(dtype=scalar),
         com_in: wp.array(dtype=sp.vec3),
         com: wp.array2d(dtype=sp.vec3),
@@ -125,7 +138,9 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):
         """Collidable point c's position L_p_C [m, link frame] after its link L's scaling, JaxSim's
         `HwLinkMetadata.compute_contact_points`: its offset from L's centre of mass before (com_in) scaled in the link's
-        axes, a sphere's by d0, a box's by (d0, d1, d2), a cylinder's not at all, then added to the centre of mass
+        axes, a sphere's by d0, a box's by (d0, d1, d2), a cylinder's not at all, a capsule's (warpdyn's; in its axes,
+        the inertial frame's) onto the scaled capsule: across the axis by d0, along it by d1 on the cylinder and, beyond
+        its end l/2, by d0 on the caps; then added to the centre of mass
         after (com (P, nL): the density does not move it); unchanged on an unsupported link. points (Pd, nc_all), row e
         environment e's (Pd: the rows of dims); launched over (Pd, nc_all)."""
         e, c = wp.tid()
@@ -138,6 +153,14 @@ def kernels(scalar) -> types.SimpleNamespace:
                 offset = offset * scale_vector(kind, dims, e, L)[0]
             elif kind == BOX:
                 offset = wp.cw_mul(offset, scale_vector(kind, dims, e, L))
+            elif kind == CAPSULE:
+                s = scale_vector(kind, dims, e, L)
+                G = wp.transpose(L_R_G[L]) * offset
+                half = scalar(0.5) * geometry[L][1]
+                z = G[2] * s[2]
+                if wp.abs(G[2]) > half:
+                    z = wp.sign(G[2]) * (half * s[2] + (wp.abs(G[2]) - half) * s[0])
+                offset = L_R_G[L] * sp.vec3(G[0] * s[0], G[1] * s[0], z)
             p = offset + com[e, L]
         points[e, c] = p
 

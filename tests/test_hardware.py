@@ -10,6 +10,7 @@ tests/jaxsim/generate_hardware.py), float64:
 
 import pathlib
 
+import mujoco
 import numpy as np
 import pytest
 import warp as wp
@@ -19,6 +20,10 @@ from gradcheck import weighted_sum
 
 ROOT = pathlib.Path(__file__).resolve().parent
 REFERENCE = np.load(ROOT / "jaxsim" / "hardware.npz")
+
+
+def load(text: str, dtype=np.float64):
+    return wd.model.Model.build_from_model_description(text, dtype=dtype)
 
 
 def leg(dtype=np.float64):
@@ -278,3 +283,68 @@ def test_enabling_points_keeps_the_scaled_points_per_environment():
     assert np.abs(all_points[1] - all_points[0]).max() > 0.01
     with pytest.raises(ValueError, match="the model's points are per environment"):
         wd.contact.with_collidable_points(scaled, options=wd.contact.CollidablePointsOptions())
+
+
+CAPSULE_LEG = """<sdf version="1.9"><model name="capsule_leg">
+  <link name="torso">
+    <inertial><mass>3.0</mass><inertia><ixx>0.03</ixx><iyy>0.03</iyy><izz>0.03</izz><ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>
+    <visual name="torso_box"><geometry><box><size>0.2 0.2 0.1</size></box></geometry></visual>
+  </link>
+  <joint name="hip" type="revolute"><pose relative_to="torso">0 0 -0.05 0 0 0</pose><parent>torso</parent><child>shin</child>
+    <axis><xyz>0 1 0</xyz><limit><lower>-1</lower><upper>1</upper></limit></axis></joint>
+  <link name="shin">
+    <pose relative_to="hip">0 0 0 0 0 0</pose>
+    <inertial><pose>0 0 -0.15 0 0 0</pose><mass>0.9</mass>
+      <inertia><ixx>0.008</ixx><iyy>0.008</iyy><izz>0.0004</izz><ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>
+    <visual name="shin_capsule"><pose>0 0 -0.15 0 0 0</pose><geometry><capsule><radius>0.03</radius><length>0.24</length></capsule></geometry></visual>
+    <collision name="shin_capsule"><pose>0 0 -0.15 0 0 0</pose><geometry><capsule><radius>0.03</radius><length>0.24</length></capsule></geometry></collision>
+  </link>
+</model></sdf>"""
+
+
+def test_a_capsule_is_parametrised_as_mujoco_weighs_it():
+    """A capsule visual (warpdyn's addition: JaxSim parametrises boxes, cylinders and spheres): its density is the
+    link's mass over the capsule's volume, and scaled by (radius 1.3, length 0.8) its mass and inertia equal those
+    MuJoCo computes for a capsule geom of the scaled size and that density (1e-12), its collidable points lie where
+    the scaled collision shape's are (the model exported as MJCF: 1e-12) and the gradient of a landing's final height with
+    respect to the radius factor equals central differences."""
+    model = load(CAPSULE_LEG)
+    metadata = wd.kin_dyn_parameters.hw_link_metadata(model)
+    shin = model.link_names().index("shin")
+    assert metadata.link_shape[shin] == wd.kin_dyn_parameters.LinkParametrizableShape.Capsule
+    r, l = 0.03, 0.24
+    np.testing.assert_allclose(metadata.density[shin], 0.9 / (np.pi * r * r * l + 4.0 / 3.0 * np.pi * r**3), rtol=1e-15)
+    nL = model.number_of_links()
+    dims = np.ones((nL, 3))
+    dims[shin, :2] = (1.3, 0.8)
+    scaled = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=np.ones(nL)))
+    mj = mujoco.MjModel.from_xml_string(f"""<mujoco><compiler inertiafromgeom="true"/><worldbody><body><freejoint/>
+        <geom type="capsule" size="{1.3 * r!r} {0.4 * l!r}" density="{float(metadata.density[shin])!r}"/></body></worldbody></mujoco>""")
+    np.testing.assert_allclose(scaled.link_mass.numpy()[shin], mj.body_mass[1], rtol=1e-12)
+    np.testing.assert_allclose(np.diag(scaled.link_inertia.numpy()[shin]), mj.body_inertia[1], rtol=1e-12)
+    data = wd.data.random_model_data(model, key=2, num_envs=2)
+    exported = load(scaled.export_updated_model(format="mjcf"))
+    points = [np.sort(wd.contact.collidable_point_positions(m, data).numpy().reshape(-1, 3), axis=0) for m in (scaled, exported)]
+    np.testing.assert_allclose(points[0], points[1], rtol=0, atol=1e-12)
+
+    tilted = wd.data.Data.build(model, num_envs=1, joint_positions=[[0.3]])
+    lowest = wd.contact.collidable_point_positions(model, tilted).numpy()[..., 2].min()
+    drop = wd.data.Data.build(model, num_envs=1, base_position=(0.0, 0.0, 0.002 - lowest), joint_positions=[[0.3]])
+
+    def final(d):
+        moved = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=d, density=np.ones(nL)))
+        return wd.simulation.rollout(moved, drop, steps=40, record=("base_position",))[1]["base_position"].numpy()[-1, 0, 2]
+
+    unit = np.ones((nL, 3))  # the drop is the unscaled model's: 2 mm above the ground
+    factors = wp.array(unit, dtype=wp.float64, requires_grad=True)
+    loss = wp.zeros(1, dtype=wp.float64, requires_grad=True)
+    with wp.Tape() as tape:
+        moved = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=factors, density=np.ones(nL)))
+        _, rec = wd.simulation.rollout(moved, drop, steps=40, record=("base_position",))
+        wp.launch(final_height, dim=1, inputs=[rec["base_position"]], outputs=[loss])
+    tape.backward(loss)
+    plus, minus = unit.copy(), unit.copy()
+    plus[shin, 0] += 1e-6
+    minus[shin, 0] -= 1e-6
+    fd = (final(plus) - final(minus)) / 2e-6
+    assert abs(factors.grad.numpy()[shin, 0] - fd) <= 1e-5 * abs(fd) + 1e-9 and abs(fd) > 1e-4, (factors.grad.numpy()[shin, 0], fd)

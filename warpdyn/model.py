@@ -178,8 +178,8 @@ def with_joint_origins(model: Model, *, positions=None, rotations=None) -> Model
 
 
 def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model:
-    """JaxSim's hardware parametrisation: a model whose parametrised links (warpdyn.types.hardware: a box, cylinder
-    or sphere visual) have their shapes scaled by scaling_factors.dims (nL, 3) and their densities by
+    """JaxSim's hardware parametrisation: a model whose parametrised links (warpdyn.types.hardware: a box, cylinder,
+    sphere or capsule visual) have their shapes scaled by scaling_factors.dims (nL, 3) and their densities by
     scaling_factors.density (nL,), or either per environment, (N, nL, 3) and (N, nL) (domain randomisation of the
     links' sizes and masses), with the masses, centres of mass and inertias JaxSim derives from them (the shape's
     inertia in the link's inertial axes, the centre of mass scaled) and the joints below them moved as JaxSim moves

@@ -43,7 +43,7 @@ def hw_parameters(model, metadata, dims: wp.array, density: wp.array) -> dict:
     body, point = model.cached("hw points", lambda: _points(model))
     out["points"] = wp.empty((Pd, body.shape[0]), dtype=vec3, device=d, requires_grad=grad)
     if body.shape[0]:
-        launch(kernels.collidable_points, dim=(Pd, body.shape[0]), inputs=[body, point, shape, dims, model.link_com, out["link_com"]], outputs=[out["points"]], device=d)
+        launch(kernels.collidable_points, dim=(Pd, body.shape[0]), inputs=[body, point, shape, geometry, L_R_G, dims, model.link_com, out["link_com"]], outputs=[out["points"]], device=d)
     if nj:
         launch(
             kernels.joint_positions,

@@ -2,7 +2,8 @@
 density, and the frames the scaling moves (JaxSim 0.9.0's `HwLinkMetadata`, `ScalingFactors`,
 `LinkParametrizableShape`; the device side is kernels/hardware.py, the function warpdyn.model.update_hw_parameters).
 
-A link is parametrised by its first visual that is a box, a cylinder or a sphere (JaxSim's rule; meshes, which
+A link is parametrised by its first visual that is a box, a cylinder or a sphere (JaxSim's rule; warpdyn also takes
+a capsule, an SDF visual, which JaxSim does not parametrise; meshes, which
 JaxSim scales from their volumetric moments, are not supported here: such links keep their parameters), when the
 link's frame is its joint's frame (always for warpdyn's trees). Its density is the link's (lumped) mass over the
 visual's volume; L_H_G is its inertial frame (the centre of mass and the inertial axes the description gave).
@@ -20,18 +21,19 @@ __all__ = ["LinkParametrizableShape", "HwLinkMetadata", "ScalingFactors", "hw_li
 
 @dataclasses.dataclass(frozen=True)
 class LinkParametrizableShape:
-    """JaxSim's shape codes."""
+    """JaxSim's shape codes, and a capsule."""
 
     Unsupported: ClassVar[int] = -1
     Box: ClassVar[int] = 0
     Cylinder: ClassVar[int] = 1
     Sphere: ClassVar[int] = 2
+    Capsule: ClassVar[int] = 3  # warpdyn's (JaxSim 0.9.0 has none): an SDF capsule visual
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class HwLinkMetadata:
     """Per link (nL): link_shape (nL,) int (LinkParametrizableShape), geometry (nL, 3) (box: the full extents
-    [lx, ly, lz]; cylinder: [r, l, 0]; sphere: [r, 0, 0]) [m], density (nL,) [kg/m^3], L_H_G (nL, 4, 4) the
+    [lx, ly, lz]; cylinder and capsule: [r, l, 0], l the cylinder's (part's) length; sphere: [r, 0, 0]) [m], density (nL,) [kg/m^3], L_H_G (nL, 4, 4) the
     inertial frame in the link; per joint (nj): L_H_pre (nj, 4, 4), the joint's frame in its parent link (JaxSim's
     λ_H_pre), and joint_parent (nj,) int, that parent link. float64, host."""
 
@@ -45,22 +47,24 @@ class HwLinkMetadata:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class ScalingFactors:
-    """JaxSim's scaling factors: dims (nL, 3), the factors of each link's geometry (box: [lx, ly, lz]; cylinder:
-    [r, l, -]; sphere: [r, -, -]), and density (nL,), the factors of each link's density; NumPy arrays or Warp
-    arrays of the model's scalar (which carry gradients when they require them)."""
+    """JaxSim's scaling factors: dims (nL, 3) or (N, nL, 3), the factors of each link's geometry (box: [lx, ly, lz];
+    cylinder and capsule: [r, l, -]; sphere: [r, -, -]), and density (nL,) or (N, nL), the factors of each link's
+    density; NumPy arrays or Warp arrays of the model's scalar (which carry gradients when they require them)."""
 
     dims: object
     density: object
 
 
 def shape_volume(shape: int, geometry: np.ndarray) -> float:
-    """The volume [m^3] of a box (full extents), cylinder (r, l) or sphere (r)."""
+    """The volume [m^3] of a box (full extents), cylinder (r, l), sphere (r) or capsule (r, l: its cylinder's)."""
     if shape == LinkParametrizableShape.Box:
         return float(np.prod(geometry))
     if shape == LinkParametrizableShape.Cylinder:
         return float(np.pi * geometry[0] ** 2 * geometry[1])
     if shape == LinkParametrizableShape.Sphere:
         return float(4.0 / 3.0 * np.pi * geometry[0] ** 3)
+    if shape == LinkParametrizableShape.Capsule:
+        return float(np.pi * geometry[0] ** 2 * geometry[1] + 4.0 / 3.0 * np.pi * geometry[0] ** 3)
     raise ValueError(f"shape code {shape} has no volume")
 
 
@@ -76,15 +80,16 @@ def hw_link_metadata(model) -> HwLinkMetadata:
         link = by_name.get(name)
         if link is None:
             continue
-        visual = next((v for v in link.visuals if v.kind in ("box", "cylinder", "sphere")), None)
+        visual = next((v for v in link.visuals if v.kind in ("box", "cylinder", "sphere", "capsule")), None)
         L_H_G[i, :3, :3] = link.inertial_rotation
         L_H_G[i, :3, 3] = link.com
         if visual is None:
             continue
         if visual.kind == "box":
             shape[i], geometry[i] = LinkParametrizableShape.Box, np.asarray(visual.size, dtype=np.float64)
-        elif visual.kind == "cylinder":
-            shape[i], geometry[i] = LinkParametrizableShape.Cylinder, (visual.radius, visual.length, 0.0)
+        elif visual.kind in ("cylinder", "capsule"):
+            code = LinkParametrizableShape.Cylinder if visual.kind == "cylinder" else LinkParametrizableShape.Capsule
+            shape[i], geometry[i] = code, (visual.radius, visual.length, 0.0)
         else:
             shape[i], geometry[i] = LinkParametrizableShape.Sphere, (visual.radius, 0.0, 0.0)
         volume = shape_volume(int(shape[i]), geometry[i])
@@ -101,8 +106,8 @@ def hw_link_metadata(model) -> HwLinkMetadata:
 
 def scale_vector(shape: int, dims: np.ndarray) -> np.ndarray:
     """The factors of a parametrised link's frame coordinates (kernels/hardware.py's `scale_vector`): a box's
-    (d0, d1, d2), a cylinder's (d0, d0, d1), a sphere's (d0, d0, d0)."""
-    if shape == LinkParametrizableShape.Cylinder:
+    (d0, d1, d2), a cylinder's and a capsule's (d0, d0, d1), a sphere's (d0, d0, d0)."""
+    if shape in (LinkParametrizableShape.Cylinder, LinkParametrizableShape.Capsule):
         return np.array([dims[0], dims[0], dims[1]])
     if shape == LinkParametrizableShape.Sphere:
         return np.full(3, dims[0])
