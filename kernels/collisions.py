@@ -109,6 +109,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar), first: wp.array(dtype=int),
         count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar),
         W_v_WL: wp.array2d(dtype=sp.vec6),
+        rate: scalar, mass: wp.array2d(dtype=scalar), guarded: wp.array(dtype=int), damping: wp.array2d(dtype=scalar),
         # in and out
         W_f_L: wp.array3d(dtype=scalar),
     ):  # fmt: skip
@@ -116,15 +117,26 @@ def kernels(scalar) -> types.SimpleNamespace:
         Hunt/Crossley, kernels/soft_contacts.py's `hunt_crossley_at_depth`, at the depth -dist along the contact's
         normal, with the velocity of geom2's point relative to geom1's, no deformation state, the pair's mu) added to
         W_f_L (N, nL, 6), Inertial: [f; p x f] on geom2's link, its opposite on geom1's (none on the world, link -1).
-        One thread walks an environment's pairs in order (the sums are deterministic)."""
+        One thread walks an environment's pairs in order (the sums are deterministic).
+        The explicit damper's stability: a free body (guarded[L] != 0) on contacts whose damper coefficients sum to
+        c (damping (N, nL), scratch; the law damps the contact point's velocity isotropically below the Coulomb
+        limit) has its translation decay at rate c / m per step, unstable beyond the integrator's limit: where
+        c / m > rate (its limit / dt; m its mass, (P, nL) rows) the link's wrench is NaN, which the step flags."""
         env = wp.tid()
         K = B.env_parameter(contacts.K, env)
         D = B.env_parameter(contacts.D, env)
         zero = vec3(scalar(0.0))
+        for L in range(guarded.shape[0]):
+            damping[env, L] = scalar(0.0)
         for i in range(link1.shape[0]):
             a, b = link1[i], link2[i]
             for k in range(count[env, i]):
                 slot = first[i] + k
+                c = law.damper_coefficient(-dist[env, slot], D, contacts.q)
+                if a >= 0:
+                    damping[env, a] = damping[env, a] + c
+                if b >= 0:
+                    damping[env, b] = damping[env, b] + c
                 p = vec3(position[env, slot, 0], position[env, slot, 1], position[env, slot, 2])
                 n = vec3(frame[env, slot, 0, 0], frame[env, slot, 0, 1], frame[env, slot, 0, 2])
                 v = zero  # the velocity of geom2's point relative to geom1's (the world's is 0)
@@ -141,6 +153,9 @@ def kernels(scalar) -> types.SimpleNamespace:
                     if a >= 0:
                         W_f_L[env, a, r] -= f[r]
                         W_f_L[env, a, 3 + r] -= torque[r]
+        for L in range(guarded.shape[0]):
+            if guarded[L] != 0 and damping[env, L] > rate * mass[wp.min(env, mass.shape[0] - 1), L]:
+                W_f_L[env, L, 0] = scalar(wp.nan)
 
     @wp.kernel(module="unique")
     def links_touching(

@@ -132,6 +132,14 @@ def kernels(scalar, terrain_kind: int | None = None):
         return wp.pow(x, e)
 
     @wp.func
+    def damper_coefficient(depth: scalar, D: scalar, qe: scalar):
+        """D (delta + eps)^q [N s/m] at a penetration `depth` [m] (0 out of contact): the law's damping of the normal
+        and, below the Coulomb limit, the tangential velocity (`hunt_crossley_at_depth`), isotropic."""
+        if depth > scalar(0.0):
+            return D * power(depth + scalar(EPSILON), qe)
+        return scalar(0.0)
+
+    @wp.func
     def hunt_crossley_at_depth(depth: scalar, v: sp.vec3, m: sp.vec3, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar):
         """(f (3,), m_dot (3,)): the law at a penetration `depth` [m] along the unit normal n (the force pushes
         along +n), v the velocity [m/s] of the pushed surface relative to the other."""
@@ -276,6 +284,7 @@ def kernels(scalar, terrain_kind: int | None = None):
         terrain_normal=terrain_normal,
         hunt_crossley=hunt_crossley,
         hunt_crossley_at_depth=hunt_crossley_at_depth,
+        damper_coefficient=damper_coefficient,
         law_parameters=law_parameters,
         contact_at=contact_at,
         point_wrench=point_wrench,

@@ -269,3 +269,59 @@ def test_in_contact_reads_the_bodies_touching_as_mujoco():
             assert terrain_only[env, names.index(name)] == (body in floor), (env, name)
         seen += [(body in bodies) and (body not in floor) for body in (1, 2, 3)]
     assert seen.min() > 0  # each box touches another box, off the floor, in some pose
+
+
+PINCH = """<mujoco><option timestep="0.001"/>
+<worldbody><geom type="plane" size="5 5 .1"/>
+  <body name="carrier" pos="0 0 0.03">
+    <joint name="lift" type="slide" axis="0 0 1" damping="100"/>
+    <inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>
+    <body name="left" pos="0 0.06 0"><joint name="left_slide" type="slide" axis="0 -1 0" damping="20"/>
+      <geom type="box" size=".02 .01 .025" mass="0.2" friction="1"/></body>
+    <body name="right" pos="0 -0.06 0"><joint name="right_slide" type="slide" axis="0 1 0" damping="20"/>
+      <geom type="box" size=".02 .01 .025" mass="0.2" friction="1"/></body>
+  </body>
+  <body name="cube" pos="0 0 0.0255"><freejoint/><geom type="box" size=".025 .025 .025" mass="0.1" friction="1"/></body>
+</worldbody>
+<contact><exclude body1="carrier" body2="left"/><exclude body1="carrier" body2="right"/><exclude body1="left" body2="right"/></contact>
+<actuator><position joint="lift" kp="3000" kv="200"/><position joint="left_slide" kp="400"/><position joint="right_slide" kp="400"/></actuator>
+</mujoco>"""
+"""Two box fingers on slides squeeze a 0.1 kg cube (7.5 N each at the target) and a position-controlled carrier lifts
+them 15 cm: a light body on 16 contacts."""
+
+
+def _pinch(dt: float, squeeze: np.ndarray, seconds: float):
+    """The pinch scene at time step dt, environment e squeezing to squeeze[e] [m]: (the final data, the cube's and
+    the left finger's heights (steps, N) after the lift began)."""
+    model = _model(PINCH.replace('timestep="0.001"', f'timestep="{dt}"'))
+    N = len(squeeze)
+    data = wd.data.Data.build(model, num_envs=N)
+    cube, left = model.link_names().index("cube"), model.link_names().index("left")
+    heights = []
+    for k in range(int(round(seconds / dt))):
+        t = k * dt
+        lift = 0.0 if t < 0.5 else min(0.15, 0.3 * (t - 0.5))
+        ctrl = np.stack([np.full(N, lift), np.where(t > 0.2, squeeze, 0.0), np.where(t > 0.2, squeeze, 0.0)], axis=1)
+        data = wd.model.step(model, data, ctrl=ctrl)
+        if t >= 1.1:
+            H = wd.model.forward_kinematics(model, data).numpy()
+            heights.append((H[:, cube, 2, 3], H[:, left, 2, 3]))
+    return data, np.array(heights)
+
+
+def test_a_light_body_squeezed_beyond_the_dampers_stability_is_flagged():
+    """The soft law's damping is explicit: squeezed at 1 ms, the cube's contacts damp its velocity at 3 times the
+    step's stable rate (their coefficients D delta^q summed, over its mass), and without a check it was thrown
+    kilometres while its environment stayed 'healthy'. Now that environment is flagged and frozen as the squeeze
+    begins; a second one that does not squeeze is not; at 0.25 ms the squeeze is stable, the cube is lifted and slips
+    down the fingers at under 1 cm/s (measured 5.4 mm/s: no static friction between bodies; MuJoCo's soft
+    constraints let it slip 2.2 mm/s)."""
+    data, _ = _pinch(0.001, np.array([0.04, 0.0]), 0.5)
+    assert data.healthy.numpy().tolist() == [0, 1]
+    assert np.abs(data.generalized_velocity.numpy()[0]).max() < 10.0  # frozen at the flag, not thrown
+    data, heights = _pinch(0.00025, np.array([0.04]), 1.6)
+    assert data.healthy.numpy().all()
+    cube, finger = heights[:, 0, 0], heights[:, 1, 0]
+    assert cube[-1] > 0.15  # lifted with the fingers
+    slip = ((finger[-1] - cube[-1]) - (finger[0] - cube[0])) / (0.25e-3 * (len(cube) - 1))
+    assert 0.0 <= slip < 1e-2, slip

@@ -11,6 +11,7 @@ import warp as wp
 
 from .. import arrays
 from ..kernels.collisions import kernels as collision_kernels
+from ..description.tree import JOINT_FREE
 from ..types.geoms import geom_pairs
 from ..types.model_constants import transforms
 from .kinematics import link_poses
@@ -40,16 +41,29 @@ def pair_arrays(model) -> dict:
             mu=wp.array(np.where(pairs.condim > 1, pairs.friction[:, 0], 0.0), dtype=s, device=d),  # condim 1: frictionless
             first=wp.array(pairs.first, dtype=int, device=d),
             slots=wp.array(pairs.slots, dtype=int, device=d),
+            guarded=wp.array(_lone_free_bodies(model.tree, model.floating_base()), dtype=int, device=d),
         )  # fmt: skip
 
     return model.cached("geom pair arrays", build)
 
 
+def _lone_free_bodies(tree, floating_base: bool) -> np.ndarray:
+    """(nL,) int32: 1 for a link that moves as one rigid body of its own mass (a free joint's, or a floating base's,
+    without child links), whose contacts' damping geom_contact_wrenches checks against that mass."""
+    parent = np.asarray(tree.parent)
+    free = np.asarray(tree.joint_type) == JOINT_FREE
+    free[0] = floating_base
+    has_child = np.zeros(len(parent), dtype=bool)
+    has_child[parent[parent >= 0]] = True
+    return (free & ~has_child).astype(np.int32)
+
+
 def contact_buffers(a: dict, N: int, grad: bool = False) -> dict:
     """The contacts' arrays for N environments: count (N, nP) int, position (N, C, 3), frame (N, C, 3, 3), dist (N, C)
-    (requiring gradients with `grad`)."""
+    (requiring gradients with `grad`), and the wrench kernel's scratch damping (N, nL)."""
     s, d = a["scalar"], a["device"]
     return dict(
+        damping=wp.empty((N, a["guarded"].shape[0]), dtype=s, device=d),
         count=arrays.empty((a["pairs"],), N, int, d),
         position=arrays.output((a["contacts"], 3), N, s, d, grad),
         frame=arrays.output((a["contacts"], 3, 3), N, s, d, grad),
@@ -64,11 +78,13 @@ def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
     return Launch(collision_kernels(a["scalar"]).geom_contacts, (N, a["pairs"]), [*inputs, W_H_L], outputs)
 
 
-def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, b: dict, W_f_L: wp.array, N: int) -> list:
+def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, b: dict, W_f_L: wp.array, N: int, rate, mass: wp.array) -> list:
     """The pairs' contacts at (W_H_L, W_v_WL (N, nL) Inertial) and their wrenches added to W_f_L (N, nL, 6), with the
-    soft law's K, D, p, q of `contacts_bundle` (the kernels' Contacts)."""
+    soft law's K, D, p, q of `contacts_bundle` (the kernels' Contacts); a lone free body whose contacts' damping
+    exceeds rate (the integrator's stability limit / dt, 1/s) times its mass (P, nL) gets a NaN wrench (the step
+    flags its environment)."""
     contacts = [b[k] for k in ("count", "position", "frame", "dist")]
-    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], *contacts, W_v_WL]
+    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], *contacts, W_v_WL, rate, mass, a["guarded"], b["damping"]]
     return [contact_launch(a, W_H_L, b, N), Launch(collision_kernels(a["scalar"]).geom_contact_wrenches, N, inputs, [W_f_L])]
 
 

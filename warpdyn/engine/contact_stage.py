@@ -187,7 +187,7 @@ class SoftContactStage(ContactStage):
         args = [self.bundle, ev.W_f_C, f_in, order, links]
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
         if self.pairs:
-            launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, ev.contact, ev.W_f_L, N)
+            launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, ev.contact, ev.W_f_L, N, self.check_rate, plan.model.link_mass)
         return launches
 
 
