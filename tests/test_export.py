@@ -16,9 +16,11 @@ import pytest
 
 import robots
 import warpdyn as wd
+from warpdyn.description.tree import JOINT_FREE
 from mjcf_fixtures import BALL
 from mjcf_models import full_mass_matrix
 from test_fused_step import FREE_TREES
+from test_geom_contacts import SCENE
 
 ROOT = pathlib.Path(__file__).resolve().parent
 
@@ -98,6 +100,8 @@ def mjcf_source(which: str):
         return load(robots.random_tree_urdf(6, 12))
     if which == "ball":
         return load(BALL)
+    if which == "free trees":
+        return load(FREE_TREES)
     if which == "panda":
         return load(wd.assets.franka_panda_mjcf())
     model = load((ROOT / "jaxsim" / "hw_leg.sdf").read_text())
@@ -107,7 +111,7 @@ def mjcf_source(which: str):
     return updated
 
 
-@pytest.mark.parametrize("which", ["random tree", "ball", "panda", "scaled leg"])
+@pytest.mark.parametrize("which", ["random tree", "ball", "free trees", "panda", "scaled leg"])
 def test_the_mjcf_export_round_trips_and_mujoco_reads_it(which):
     """export_updated_model(format="mjcf") loads back to the same model (links, joints, frames, link and joint
     parameters, actuators, joint origins, mass matrix, bias forces, collidable points as sets; the
@@ -131,8 +135,8 @@ def test_the_mjcf_export_round_trips_and_mujoco_reads_it(which):
         np.testing.assert_allclose(theirs, ours, rtol=0, atol=1e-12 * np.abs(ours).max(), err_msg=quantity.__name__)
     points = [np.sort(wd.contact.collidable_point_positions(m, data).numpy().reshape(-1, 3), axis=0) for m in (model, back)]
     np.testing.assert_allclose(points[1], points[0], rtol=0, atol=1e-13)
-    if model.floating_base():
-        return  # MuJoCo's free-joint velocities are another representation: the round trip above holds the dynamics
+    if model.floating_base() or any(int(kind) == JOINT_FREE for kind in model.tree.joint_type):
+        return  # MuJoCo's free joints' velocities are other coordinates: the round trip above holds the dynamics
     mj = mujoco.MjModel.from_xml_string(text)
     d = mujoco.MjData(mj)
     s, sd = data.joint_positions.numpy(), data.joint_velocities.numpy()
@@ -145,13 +149,43 @@ def test_the_mjcf_export_round_trips_and_mujoco_reads_it(which):
 
 
 def test_what_the_mjcf_export_cannot_hold_is_refused():
-    with pytest.warns(wd.description.NotModelledWarning):
-        trees = wd.model.Model.build_from_model_description(FREE_TREES, dtype=np.float64)
-    with pytest.raises(ValueError, match="joint 'crate_free' is a free joint below the base"):
-        trees.export_updated_model(format="mjcf")
     model = mjcf_source("random tree")
     with pytest.raises(ValueError, match="format must be 'urdf' or 'mjcf', got 'sdf'"):
         model.export_updated_model(format="sdf")
     model.set_gravity(np.tile([0.0, 0.0, -9.81], (2, 1)))
     with pytest.raises(ValueError, match=r"\['world_gravity'\] are given per environment; a MJCF file holds one model"):
         model.export_updated_model(format="mjcf")
+
+
+def test_a_scene_exports_its_free_bodies_static_geoms_pairs_and_excludes():
+    """tests/test_geom_contacts.py's scene (four free bodies of the world, a shelf welded to it, a floor, an <exclude>,
+    an explicit <pair>, bit masks, priority, margins) exported as MJCF loads back with the same geom pairs and their
+    parameters (by geom names), the same static geoms and terrain, and the same mass matrix and bias forces; MuJoCo
+    reads the text's bodies with the original's masses and inertias, its <pair> and <exclude>."""
+    model = load(SCENE)
+    text = model.export_updated_model(format="mjcf")
+    back = load(text)
+    assert back.joint_names() == model.joint_names() and back.link_names() == model.link_names()
+
+    def pairs(m):
+        name = {shape.geom: shape.name for shape in (*m.description.world_geoms, *(s for link in m.description.links for s in link.collisions))}
+        return sorted((*sorted((name[p.geom1], name[p.geom2])), round(p.margin, 12), round(p.gap, 12), p.friction, p.condim) for p in m.description.geom_pairs)
+
+    assert pairs(back) == pairs(model) and len(pairs(model)) == 29
+    assert [shape.name for shape in back.description.world_geoms] == [shape.name for shape in model.description.world_geoms] == ["shelf_box"]
+    assert back.terrain == model.terrain
+    data = wd.data.random_model_data(model, key=5, num_envs=2)
+    for quantity in (wd.model.free_floating_mass_matrix, wd.model.free_floating_bias_forces):  # the joints' (the world's mass moves nothing)
+        ours = quantity(model, data).numpy()[:, 6:]
+        theirs = quantity(back, data).numpy()[:, 6:]
+        np.testing.assert_allclose(theirs[..., 6:] if theirs.ndim == 3 else theirs, ours[..., 6:] if ours.ndim == 3 else ours, rtol=0,
+                                   atol=1e-12 * np.abs(ours).max(), err_msg=quantity.__name__)
+    original, exported = mujoco.MjModel.from_xml_string(SCENE), mujoco.MjModel.from_xml_string(text)
+    for body in ("arm", "hand", "crate", "ball", "pin"):
+        ours, theirs = (m.body(body) for m in (original, exported))
+        np.testing.assert_allclose(theirs.mass, ours.mass, rtol=1e-12, err_msg=body)
+        np.testing.assert_allclose(np.sort(theirs.inertia), np.sort(ours.inertia), rtol=1e-12, err_msg=body)
+    lumped = original.body("forearm").mass + original.body("wrist_plate").mass  # welded: one link, its frame massless
+    np.testing.assert_allclose(exported.body("forearm").mass + exported.body("wrist_plate").mass, lumped, rtol=1e-12)
+    assert exported.body("wrist_plate").mass == 0.0
+    assert exported.npair == original.npair == 1 and exported.nexclude == original.nexclude == 1

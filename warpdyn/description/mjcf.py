@@ -191,6 +191,8 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
     description.actuators = actuators
     description.equalities = equalities
     description.world_geoms = _world_geoms(m, mujoco, note, name_of)
+    description.excludes = [(name_of(mujoco.mjtObj.mjOBJ_BODY, int(s) >> 16, "body"), name_of(mujoco.mjtObj.mjOBJ_BODY, int(s) & 0xFFFF, "body"))
+                            for s in m.exclude_signature]
     description.geom_pairs, uncollided = mujoco_geom_pairs(m, mujoco, lambda g: name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"))
     if description.geom_pairs:
         note(BODY_CONTACTS, f"{len(description.geom_pairs)} geom pairs")

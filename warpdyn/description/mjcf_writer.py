@@ -6,13 +6,16 @@ of mass and full inertia about it, link axes: `inertiafromgeom="false"`, so geom
 or slide through the joint's pivot along its axis, with its position limits (`range`), static friction
 (`frictionloss`), the clamp of its actuators' force (`actuatorfrcrange`), armature, MuJoCo's damper plus the description's viscous friction (`damping`: the same torque
 -b qdot, which warpdyn reads back as MuJoCo's damper), spring (`stiffness`, `springref`); a ball joint at its pivot;
-a floating base's `freejoint`. Actuators are MuJoCo's `general` ones with their current affine gain and bias, gear,
+a floating base's `freejoint`. The terrain's plane (a flat terrain's, a tilted plane's) is a plane geom, the static
+geoms (the world body's and bodies welded to it) are the worldbody's, and the description's explicit `<pair>`s and
+`<exclude>`s are written back (a body welded to the world is the world). Actuators are MuJoCo's `general` ones with their current affine gain and bias, gear,
 control and force ranges (warpdyn's actuator law is that affine subset). Frames (lumped links and explicit frames) are massless bodies welded where they are;
 collision shapes are geoms in the body of the link (or frame) that carries them, with their collision filter and
 contact parameters; the base hangs from the world at world_H_base when welded, and starts at the initial pose when
 floating; a mesh is an asset with its vertices inline (an MJCF's) or its file as the description names it (a URDF's
-package:// needs resolving before MuJoCo reads it). What MJCF cannot say here raises a ValueError naming it: a free
-joint below the base (a body in a scene of several trees), a mesh with neither vertices nor a file.
+package:// needs resolving before MuJoCo reads it). A free joint's body is a top-level body at its initial pose (MuJoCo's
+free joints measure the world pose). What MJCF cannot say here raises a ValueError naming it: a free joint below
+another body or off the world's frame, a mesh with neither vertices nor a file.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from .model import CollisionShape, matrix_to_quaternion_wxyz
+from .model import CollisionShape, ModelDescription, homogeneous, matrix_to_quaternion_wxyz, quaternion_wxyz_to_matrix
 from .tree import JOINT_BALL, JOINT_FREE, JOINT_REVOLUTE, KinematicTree
 
 __all__ = ["write_mjcf"]
@@ -74,22 +77,23 @@ def _geom(body: ET.Element, shape: CollisionShape, owner: str, asset: ET.Element
     geom.set("condim", str(shape.condim))
     geom.set("friction", _numbers(shape.friction))
     if shape.margin or shape.gap:
-        geom.set("margin", _numbers([shape.margin + shape.gap]))
+        geom.set("margin", _numbers([shape.margin]))
         geom.set("gap", _numbers([shape.gap]))
     if shape.priority:
         geom.set("priority", str(shape.priority))
 
 
-def write_mjcf(name: str, tree: KinematicTree, shapes: list, parameters: dict, world_H_base: np.ndarray | None,
-               initial_world_H_base: np.ndarray | None, time_step: float, gravity: np.ndarray) -> str:  # fmt: skip
+def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: dict, world_H_base: np.ndarray | None,
+               time_step: float, gravity: np.ndarray, floor: np.ndarray | None) -> str:  # fmt: skip
     """The MJCF text of `tree` with its current parameters (the module docstring). parameters: host float64 arrays
     link_mass (nL,) [kg], link_com (nL, 3) [m, link frame], link_inertia (nL, 3, 3) [kg m^2, about the CoM, link
     axes], position_limits (nj, 2), friction_static, friction_viscous, armature, damping (nv,), stiffness,
     springref (nj,), joint_actuator_force_range (nj, 2), actuator_gear, actuator_gain (na, 3), actuator_bias (na, 3), actuator_ctrl_range (na, 2),
-    actuator_force_range (na, 2) (infinite: unlimited); shapes: the description's (link name, its collision shapes in its own frame), each link a link
-    of the tree or a frame; world_H_base (4, 4) welds the base, None leaves it floating (at initial_world_H_base,
-    identity for None); time_step [s] and gravity (3,) [m/s^2] go to `option`."""
-    mujoco = ET.Element("mujoco", model=name)
+    actuator_force_range (na, 2) (infinite: unlimited); description: the model's (its links' collision shapes, each
+    link a link of the tree or a frame, its static geoms, explicit pairs and excludes, the floating base's initial
+    pose); world_H_base (4, 4) welds the base, None leaves it floating; time_step [s] and gravity (3,) [m/s^2] go to
+    `option`; floor: the pose (4, 4) of the terrain's plane (z up in it), None for none."""
+    mujoco = ET.Element("mujoco", model=description.name)
     ET.SubElement(mujoco, "compiler", angle="radian", inertiafromgeom="false", autolimits="true")
     ET.SubElement(mujoco, "option", timestep=f"{time_step:.17g}", gravity=_numbers(gravity))
     asset = ET.SubElement(mujoco, "asset")
@@ -98,23 +102,28 @@ def write_mjcf(name: str, tree: KinematicTree, shapes: list, parameters: dict, w
     v_start, kinds = np.asarray(tree.v_start), np.asarray(tree.joint_type)
     for i, link_name in enumerate(tree.link_names):
         kind = int(kinds[i])
-        if i == 0 and link_name == "world" and world_H_base is not None:  # an MJCF's world body: its children are the worldbody's
-            if np.any(np.asarray(world_H_base) != np.eye(4)) or float(parameters["link_mass"][0]) != 0.0:
-                raise ValueError("the base is called 'world' but is not MuJoCo's world (it is moved or has a mass): MJCF reserves the name")
+        if i == 0 and link_name == "world" and world_H_base is not None:  # an MJCF's world: its children are the worldbody's
+            if np.any(np.asarray(world_H_base) != np.eye(4)):  # (its mass, scenery welded to it, moves nothing)
+                raise ValueError("the base is called 'world' but is not MuJoCo's world (it is moved): MJCF reserves the name")
             bodies[link_name] = world
             continue
         if i == 0:
             body = ET.SubElement(world, "body", name=link_name)
-            base = world_H_base if world_H_base is not None else initial_world_H_base
+            base = world_H_base if world_H_base is not None else description.initial_world_H_base
             _pose(body, np.eye(4) if base is None else np.asarray(base, dtype=np.float64))
             if world_H_base is None:
                 ET.SubElement(body, "freejoint", name=f"{link_name}_free")
         else:
-            if kind == JOINT_FREE:
-                raise ValueError(f"joint '{tree.joint_names[i - 1]}' is a free joint below the base (a body of a scene of several trees): "
-                                 "the MJCF export writes one tree")
-            body = ET.SubElement(bodies[tree.link_names[int(tree.parent[i])]], "body", name=link_name)
-            _pose(body, np.asarray(tree.parent_H_joint[i], dtype=np.float64))
+            parent = bodies[tree.link_names[int(tree.parent[i])]]
+            H = np.asarray(tree.parent_H_joint[i], dtype=np.float64)
+            if kind == JOINT_FREE:  # MuJoCo's free joints measure the world pose: a top-level body's, at its initial pose
+                if parent is not world or np.abs(H - np.eye(4)).max() > 1e-12:
+                    raise ValueError(f"joint '{tree.joint_names[i - 1]}' is a free joint below another body or moved from the world's "
+                                     "frame: MuJoCo's free joints are the world's bodies'")
+                q0 = np.asarray(tree.qpos0, dtype=np.float64)[int(tree.q_start[i]) : int(tree.q_start[i]) + 7]
+                H = homogeneous(quaternion_wxyz_to_matrix(q0[3:]), q0[:3])
+            body = ET.SubElement(parent, "body", name=link_name)
+            _pose(body, H)
         bodies[link_name] = body
         mass = float(parameters["link_mass"][i])
         if mass > 0.0:
@@ -125,8 +134,10 @@ def write_mjcf(name: str, tree: KinematicTree, shapes: list, parameters: dict, w
             continue
         j, d = i - 1, int(v_start[i])
         joint = ET.SubElement(body, "joint", name=tree.joint_names[j], pos=_numbers(tree.joint_pivot[i]))
-        if kind == JOINT_BALL:
-            joint.set("type", "ball")
+        if kind in (JOINT_BALL, JOINT_FREE):
+            joint.set("type", "ball" if kind == JOINT_BALL else "free")
+            if kind == JOINT_FREE:
+                del joint.attrib["pos"]
         else:
             joint.set("type", "hinge" if kind == JOINT_REVOLUTE else "slide")  # the one-DoF kinds: revolute, prismatic
             joint.set("axis", _numbers(tree.joint_axis[i]))
@@ -135,7 +146,8 @@ def write_mjcf(name: str, tree: KinematicTree, shapes: list, parameters: dict, w
                 joint.set("range", _numbers([lower, upper]))
             joint.set("springref", f"{float(parameters['springref'][j]):.17g}")
         joint.set("stiffness", f"{float(parameters['stiffness'][j]):.17g}")
-        joint.set("frictionloss", f"{float(parameters['friction_static'][d]):.17g}")
+        if kind != JOINT_FREE:  # (MuJoCo's free joints may have it; warpdyn's loader does not read it on them)
+            joint.set("frictionloss", f"{float(parameters['friction_static'][d]):.17g}")
         joint.set("armature", f"{float(parameters['armature'][d]):.17g}")
         joint.set("damping", f"{float(parameters['damping'][d] + parameters['friction_viscous'][d]):.17g}")
         if np.all(np.isfinite(parameters["joint_actuator_force_range"][j])):
@@ -144,12 +156,29 @@ def write_mjcf(name: str, tree: KinematicTree, shapes: list, parameters: dict, w
         body = ET.SubElement(bodies[tree.link_names[int(tree.frame_parent[k])]], "body", name=frame_name)
         _pose(body, np.asarray(tree.link_H_frame[k], dtype=np.float64))
         bodies[frame_name] = body
+    shapes = [(link.name, link.collisions) for link in description.links]
     lost = [link_name for link_name, own in shapes if own and link_name not in bodies]
     if lost:
         raise ValueError(f"links {lost} carry collision shapes but are neither links nor frames of the model")
+    if floor is not None:
+        plane = ET.SubElement(world, "geom", name="floor", type="plane", size="0 0 1")
+        _pose(plane, floor)
+    on_links = {shape.geom for _, own in shapes for shape in own if shape.geom >= 0}
+    for shape in description.world_geoms:  # those of bodies welded to the world are their frames' already
+        if shape.geom < 0 or shape.geom not in on_links:
+            _geom(world, shape, "world", asset)
     for link_name, own in shapes:
         for shape in own:
             _geom(bodies[link_name], shape, link_name, asset)
+    names = {shape.geom: shape.name for shape in (*description.world_geoms, *(s for _, own in shapes for s in own)) if shape.geom >= 0}
+    explicit = [pair for pair in description.geom_pairs if pair.explicit]
+    if explicit or description.excludes:
+        contact = ET.SubElement(mujoco, "contact")
+        for pair in explicit:
+            ET.SubElement(contact, "pair", geom1=names[pair.geom1], geom2=names[pair.geom2], margin=f"{pair.margin:.17g}", gap=f"{pair.gap:.17g}",
+                          friction=_numbers(pair.friction), condim=str(pair.condim))
+        for body1, body2 in description.excludes:  # a body welded to the world is written as the world's geoms
+            ET.SubElement(contact, "exclude", body1=body1 if body1 in bodies else "world", body2=body2 if body2 in bodies else "world")
     if not len(asset):
         mujoco.remove(asset)
     if tree.actuators:

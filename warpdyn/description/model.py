@@ -383,7 +383,8 @@ class ModelDescription:
     applies them to the base's 6 DoFs: `warpdyn.description.tree.KinematicTree`); None otherwise.
     equalities: the MJCF equality constraints warpdyn enforces (`EqualityDescription`), in MuJoCo's order.
     geom_pairs: the pairs of geoms on bodies that MuJoCo may collide (`GeomPair`, warpdyn.description.collision_pairs),
-    in MuJoCo's order, those of geom types warpdyn's narrow phase collides; empty for URDF and SDF. world_geoms: the
+    in MuJoCo's order, those of geom types warpdyn's narrow phase collides; empty for URDF and SDF. excludes: an MJCF's
+    `<exclude>`s, (body1, body2) names (what the MJCF export writes back). world_geoms: the
     colliding geoms that do not move (on the world body or on bodies welded to it; planes and heightfields aside: the
     terrain), their `link_H_shape` their pose in the world, as MuJoCo places them.
     """
@@ -410,6 +411,7 @@ class ModelDescription:
     equalities: list[EqualityDescription] = field(default_factory=list)
     geom_pairs: list[GeomPair] = field(default_factory=list)
     world_geoms: list[CollisionShape] = field(default_factory=list)
+    excludes: list[tuple[str, str]] = field(default_factory=list)
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:

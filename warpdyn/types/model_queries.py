@@ -1,14 +1,19 @@
 """A model's queries with JaxSim's names (`name`, `number_of_links`, `dofs`, `link_names`, ...) and warpdyn's
 about its joints' positions and velocities, read from its lumped tree (`self.tree`,
-warpdyn.description.tree.KinematicTree) and description."""
+warpdyn.description.tree.KinematicTree) and description, and its export as URDF or MJCF text."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+import warp as wp
 
 from ..description.tree import JOINT_BALL, JOINT_FREE
 from ..description.mjcf_writer import write_mjcf
+from ..description.model import NotModelledWarning, axis_angle_to_matrix, homogeneous
 from ..description.urdf_writer import write_urdf
+from .terrain import FlatTerrain, PlaneTerrain
 
 __all__ = ["ModelQueries"]
 
@@ -117,6 +122,25 @@ class ModelQueries:
         shapes = [(link.name, link.collisions) for link in self.description.links]
         if format == "mjcf":
             gravity = np.asarray(self.world_gravity.numpy(), dtype=np.float64).reshape(-1, 3)[0]
-            return write_mjcf(self.name(), self.tree, shapes, host, welded, self.description.initial_world_H_base, self.time_step, gravity)
+            return write_mjcf(self.tree, self.description, host, welded, self.time_step, gravity, self._floor())
         return write_urdf(self.name(), self.tree, shapes, host["link_mass"], host["link_com"], host["link_inertia"], host["position_limits"],
                           host["friction_static"], host["friction_viscous"], welded)
+
+    def _floor(self) -> np.ndarray | None:
+        """The pose (4, 4) of the terrain's plane (z up in it) for the MJCF export: a flat terrain's or a plane's; None
+        with a warning for a heightfield, which the export does not write; a ValueError for heights per environment."""
+        terrain = self.terrain
+        if isinstance(terrain, FlatTerrain):
+            height = np.asarray(terrain.elevation.numpy() if isinstance(terrain.elevation, wp.array) else terrain.elevation, dtype=np.float64)
+            if height.ndim and np.ptp(height) > 0.0:
+                raise ValueError("export_updated_model: the terrain's height is given per environment; a MJCF file holds one model")
+            return homogeneous(np.eye(3), np.array([0.0, 0.0, float(height.reshape(-1)[0])]))
+        if isinstance(terrain, PlaneTerrain):
+            n = np.asarray(terrain.unit_normal, dtype=np.float64)
+            axis = np.cross([0.0, 0.0, 1.0], n)
+            turn = np.linalg.norm(axis)
+            R = np.eye(3) if turn < 1e-15 else axis_angle_to_matrix(axis / turn, float(np.arctan2(turn, n[2])))
+            return homogeneous(R, np.asarray(terrain.point, dtype=np.float64))
+        warnings.warn(f"export_updated_model: the {type(terrain).__name__} is not written to the MJCF (its heightfield asset is not "
+                      "exported yet): the file has no ground", NotModelledWarning, stacklevel=3)
+        return None
