@@ -88,7 +88,8 @@ def test_what_urdf_cannot_hold_is_refused():
         model.export_updated_model()
 
 
-MJCF_JOINT_PARAMETERS = ("position_limits", "friction_static", "armature", "stiffness", "joint_actuator_force_range")
+MJCF_JOINT_PARAMETERS = ("position_limits", "friction_static", "armature", "stiffness", "joint_actuator_force_range", "base_armature",
+                         "base_damping", "base_stiffness")
 
 
 def mjcf_source(which: str):
@@ -96,8 +97,10 @@ def mjcf_source(which: str):
     lumped), the ball-joint fixture, the shipped Panda (MJCF: its mesh geoms' vertices, 8 position actuators, armature,
     damping) and the hardware-scaled SDF leg with joint frictions set (viscous friction: URDF's, written as MuJoCo's
     damper)."""
-    if which == "random tree":
-        return load(robots.random_tree_urdf(6, 12))
+    if which == "random tree":  # its floating base given MuJoCo's free-joint armature, damper and spring
+        model = load(robots.random_tree_urdf(6, 12))
+        model.set_joint_parameters(base_armature=[0.02], base_damping=[0.3], base_stiffness=[1.5])
+        return model
     if which == "ball":
         return load(BALL)
     if which == "free trees":

@@ -6,7 +6,7 @@ of mass and full inertia about it, link axes: `inertiafromgeom="false"`, so geom
 or slide through the joint's pivot along its axis, with its position limits (`range`), static friction
 (`frictionloss`), the clamp of its actuators' force (`actuatorfrcrange`), armature, MuJoCo's damper plus the description's viscous friction (`damping`: the same torque
 -b qdot, which warpdyn reads back as MuJoCo's damper), spring (`stiffness`, `springref`); a ball joint at its pivot;
-a floating base's `freejoint`. The terrain's plane (a flat terrain's, a tilted plane's) is a plane geom, the static
+a floating base's free joint (its armature, damper, spring). The terrain's plane (a flat terrain's, a tilted plane's) is a plane geom, the static
 geoms (the world body's and bodies welded to it) are the worldbody's, and the description's explicit `<pair>`s and
 `<exclude>`s are written back (a body welded to the world is the world). Actuators are MuJoCo's `general` ones with their current affine gain and bias, gear,
 control and force ranges (warpdyn's actuator law is that affine subset). Frames (lumped links and explicit frames) are massless bodies welded where they are;
@@ -88,7 +88,7 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
     """The MJCF text of `tree` with its current parameters (the module docstring). parameters: host float64 arrays
     link_mass (nL,) [kg], link_com (nL, 3) [m, link frame], link_inertia (nL, 3, 3) [kg m^2, about the CoM, link
     axes], position_limits (nj, 2), friction_static, friction_viscous, armature, damping (nv,), stiffness,
-    springref (nj,), joint_actuator_force_range (nj, 2), actuator_gear, actuator_gain (na, 3), actuator_bias (na, 3), actuator_ctrl_range (na, 2),
+    springref (nj,), joint_actuator_force_range (nj, 2), base_armature, base_damping, base_stiffness (1,), actuator_gear, actuator_gain (na, 3), actuator_bias (na, 3), actuator_ctrl_range (na, 2),
     actuator_force_range (na, 2) (infinite: unlimited); description: the model's (its links' collision shapes, each
     link a link of the tree or a frame, its static geoms, explicit pairs and excludes, the floating base's initial
     pose); world_H_base (4, 4) welds the base, None leaves it floating; time_step [s] and gravity (3,) [m/s^2] go to
@@ -111,8 +111,9 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
             body = ET.SubElement(world, "body", name=link_name)
             base = world_H_base if world_H_base is not None else description.initial_world_H_base
             _pose(body, np.eye(4) if base is None else np.asarray(base, dtype=np.float64))
-            if world_H_base is None:
-                ET.SubElement(body, "freejoint", name=f"{link_name}_free")
+            if world_H_base is None:  # the floating base's free joint with its armature, damper and spring
+                ET.SubElement(body, "joint", name=f"{link_name}_free", type="free", armature=f"{float(parameters['base_armature'][0]):.17g}",
+                              damping=f"{float(parameters['base_damping'][0]):.17g}", stiffness=f"{float(parameters['base_stiffness'][0]):.17g}")
         else:
             parent = bodies[tree.link_names[int(tree.parent[i])]]
             H = np.asarray(tree.parent_H_joint[i], dtype=np.float64)

@@ -112,7 +112,7 @@ class ModelQueries:
             raise ValueError(f"export_updated_model: format must be 'urdf' or 'mjcf', got {format!r}")
         names = ("link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous")
         if format == "mjcf":
-            names += ("armature", "damping", "stiffness", "springref", "joint_actuator_force_range")
+            names += ("armature", "damping", "stiffness", "springref", "joint_actuator_force_range", "base_armature", "base_damping", "base_stiffness")
             names += ("actuator_gear", "actuator_gain", "actuator_bias", "actuator_ctrl_range", "actuator_force_range") if self.tree.actuators else ()
         per_env = sorted(set((*names, "joint_origins", "world_gravity" if format == "mjcf" else "")) & set(self.per_environment_parameters()))
         if per_env:
