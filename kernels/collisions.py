@@ -109,7 +109,6 @@ def kernels(scalar) -> types.SimpleNamespace:
         contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar), first: wp.array(dtype=int),
         count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar),
         W_v_WL: wp.array2d(dtype=sp.vec6),
-        rate: scalar, mass: wp.array2d(dtype=scalar), guarded: wp.array(dtype=int), damping: wp.array2d(dtype=scalar),
         # in and out
         W_f_L: wp.array3d(dtype=scalar),
     ):  # fmt: skip
@@ -117,26 +116,15 @@ def kernels(scalar) -> types.SimpleNamespace:
         Hunt/Crossley, kernels/soft_contacts.py's `hunt_crossley_at_depth`, at the depth -dist along the contact's
         normal, with the velocity of geom2's point relative to geom1's, no deformation state, the pair's mu) added to
         W_f_L (N, nL, 6), Inertial: [f; p x f] on geom2's link, its opposite on geom1's (none on the world, link -1).
-        One thread walks an environment's pairs in order (the sums are deterministic).
-        The explicit damper's stability: a free body (guarded[L] != 0) on contacts whose damper coefficients sum to
-        c (damping (N, nL), scratch; the law damps the contact point's velocity isotropically below the Coulomb
-        limit) has its translation decay at rate c / m per step, unstable beyond the integrator's limit: where
-        c / m > rate (its limit / dt; m its mass, (P, nL) rows) the link's wrench is NaN, which the step flags."""
+        One thread walks an environment's pairs in order (the sums are deterministic)."""
         env = wp.tid()
         K = B.env_parameter(contacts.K, env)
         D = B.env_parameter(contacts.D, env)
         zero = vec3(scalar(0.0))
-        for L in range(guarded.shape[0]):
-            damping[env, L] = scalar(0.0)
         for i in range(link1.shape[0]):
             a, b = link1[i], link2[i]
             for k in range(count[env, i]):
                 slot = first[i] + k
-                c = law.damper_coefficient(-dist[env, slot], D, contacts.q)
-                if a >= 0:
-                    damping[env, a] = damping[env, a] + c
-                if b >= 0:
-                    damping[env, b] = damping[env, b] + c
                 p = vec3(position[env, slot, 0], position[env, slot, 1], position[env, slot, 2])
                 n = vec3(frame[env, slot, 0, 0], frame[env, slot, 0, 1], frame[env, slot, 0, 2])
                 v = zero  # the velocity of geom2's point relative to geom1's (the world's is 0)
@@ -153,8 +141,36 @@ def kernels(scalar) -> types.SimpleNamespace:
                     if a >= 0:
                         W_f_L[env, a, r] -= f[r]
                         W_f_L[env, a, 3 + r] -= torque[r]
+
+    @wp.kernel(module="unique")
+    def damper_stability(
+        contacts: B.Contacts, model: B.Model, link1: wp.array(dtype=int), link2: wp.array(dtype=int), first: wp.array(dtype=int),
+        count: wp.array2d(dtype=int), dist: wp.array2d(dtype=scalar), rate: scalar, guarded: wp.array(dtype=int), damping: wp.array2d(dtype=scalar),
+        # in and out
+        W_f_L: wp.array3d(dtype=scalar),
+    ):  # fmt: skip
+        """Launched over N in a step, after `geom_contact_wrenches`: the explicit damper's stability of each lone free body
+        (guarded[L] != 0: a free joint's or floating base's link without children). The law damps a contact point's
+        velocity isotropically below the Coulomb limit with c = D delta^q, so the body's translation decays at sum c / m
+        per step (damping (N, nL): the sums, scratch); where that exceeds `rate` (the integrator's limit / dt) the
+        body's wrench is NaN, which the step flags. Rotations (contacts off the centre of mass damp them faster) and two
+        free bodies' relative motion (by both masses) are not counted: the Coulomb limit and the normal force's floor at
+        0 bound their oscillation as chatter (the pinch's cube at 0.25 ms: stable, though a rotation's linear rate
+        exceeds the limit), and a diverging one deepens its contacts until the translation's rate flags it."""
+        env = wp.tid()
+        D = B.env_parameter(contacts.D, env)
         for L in range(guarded.shape[0]):
-            if guarded[L] != 0 and damping[env, L] > rate * mass[wp.min(env, mass.shape[0] - 1), L]:
+            damping[env, L] = scalar(0.0)
+        for i in range(link1.shape[0]):
+            a, b = link1[i], link2[i]
+            for k in range(count[env, i]):
+                c = law.damper_coefficient(-dist[env, first[i] + k], D, contacts.q)
+                if a >= 0:
+                    damping[env, a] = damping[env, a] + c
+                if b >= 0:
+                    damping[env, b] = damping[env, b] + c
+        for L in range(guarded.shape[0]):
+            if guarded[L] != 0 and damping[env, L] > rate * B.mass_of(model, env, L):
                 W_f_L[env, L, 0] = scalar(wp.nan)
 
     @wp.kernel(module="unique")
@@ -164,8 +180,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         # in and out
         touching: wp.array2d(dtype=wp.bool),
     ):  # fmt: skip
-        """Launched over N, after `geom_contacts`: touching[env, asked[L]] = True for each link L (asked[L] >= 0) of a
-        pair with a contact at dist <= 0 (surfaces touching or penetrating; the world, link -1, is never asked)."""
+        """Launched over N, after `geom_contacts`: touching[env, k] = True where asked[k] (K,) is a link of a pair with a
+        contact at dist <= 0 (surfaces touching or penetrating; the world, link -1, is never asked)."""
         env = wp.tid()
         for i in range(link1.shape[0]):
             touches = int(0)
@@ -173,9 +189,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                 if dist[env, first[i] + k] <= scalar(0.0):
                     touches = 1
             if touches != 0:
-                if link1[i] >= 0 and asked[link1[i]] >= 0:
-                    touching[env, asked[link1[i]]] = True
-                if link2[i] >= 0 and asked[link2[i]] >= 0:
-                    touching[env, asked[link2[i]]] = True
+                for k in range(asked.shape[0]):
+                    if asked[k] == link1[i] or asked[k] == link2[i]:
+                        touching[env, k] = True
 
-    return types.SimpleNamespace(geom_contacts=geom_contacts, geom_contact_wrenches=geom_contact_wrenches, links_touching=links_touching)
+    return types.SimpleNamespace(
+        geom_contacts=geom_contacts, geom_contact_wrenches=geom_contact_wrenches, damper_stability=damper_stability, links_touching=links_touching
+    )

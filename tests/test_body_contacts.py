@@ -269,6 +269,8 @@ def test_in_contact_reads_the_bodies_touching_as_mujoco():
             assert terrain_only[env, names.index(name)] == (body in floor), (env, name)
         seen += [(body in bodies) and (body not in floor) for body in (1, 2, 3)]
     assert seen.min() > 0  # each box touches another box, off the floor, in some pose
+    repeated = wd.contact.in_contact(model, data, link_names=["top", "middle", "top"]).numpy()
+    np.testing.assert_array_equal(repeated, touching[:, [names.index("top"), names.index("middle"), names.index("top")]])
 
 
 PINCH = """<mujoco><option timestep="0.001"/>
@@ -325,3 +327,16 @@ def test_a_light_body_squeezed_beyond_the_dampers_stability_is_flagged():
     assert cube[-1] > 0.15  # lifted with the fingers
     slip = ((finger[-1] - cube[-1]) - (finger[0] - cube[0])) / (0.25e-3 * (len(cube) - 1))
     assert 0.0 <= slip < 1e-2, slip
+
+
+def test_the_damper_check_flags_steps_not_queries():
+    """A 2 g ball 2 cm deep in a static box (its contacts' damping far beyond the step's stable rate): a step flags it,
+    while link_contact_forces at the same state reports the law's finite wrench (the check is the step's)."""
+    model = _model("""<mujoco><option timestep="0.001" gravity="0 0 0"/><worldbody>
+      <body name="block" pos="0 0 0.1"><geom type="box" size=".1 .1 .1"/></body>
+      <body name="ball" pos="0 0 0.23"><freejoint/><geom type="sphere" size=".05" mass="0.002"/></body>
+    </worldbody></mujoco>""")
+    data = wd.data.Data.build(model)
+    W_f = wd.contact.link_contact_forces(model, data)[0].numpy()
+    assert np.isfinite(W_f).all() and W_f[model.link_names().index("ball"), 2] > 0.0
+    assert not wd.model.step(model, data).healthy.numpy().all()

@@ -192,3 +192,26 @@ def test_a_scene_exports_its_free_bodies_static_geoms_pairs_and_excludes():
     np.testing.assert_allclose(exported.body("forearm").mass + exported.body("wrist_plate").mass, lumped, rtol=1e-12)
     assert exported.body("wrist_plate").mass == 0.0
     assert exported.npair == original.npair == 1 and exported.nexclude == original.nexclude == 1
+
+
+def test_massless_moving_links_and_per_dof_values_in_the_mjcf():
+    """A massless link between two hinges (MuJoCo refuses massless moving bodies) is written with MuJoCo's boundmass and
+    named in a warning, and MuJoCo loads the text; a ball joint whose three DoFs have different armatures is refused
+    (an MJCF joint has one)."""
+    text = """<robot name="chain"><link name="base"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+      <link name="mid"/>
+      <link name="tip"><inertial><origin xyz="0 0 -0.2"/><mass value="0.5"/><inertia ixx="0.002" iyy="0.002" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+      <joint name="a" type="revolute"><parent link="base"/><child link="mid"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <joint name="b" type="revolute"><parent link="mid"/><child link="tip"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+    </robot>"""
+    model = load(text)
+    assert "mid" in model.link_names()
+    with pytest.warns(wd.description.NotModelledWarning, match=r"the massless moving links \['mid'\] get MuJoCo's boundmass"):
+        exported = model.export_updated_model(format="mjcf")
+    assert mujoco.MjModel.from_xml_string(exported).nv == 8
+    ball = load(BALL)
+    armature = ball.armature.numpy().copy()
+    armature[:3] = (0.01, 0.02, 0.03)
+    ball.set_joint_parameters(armature=armature)
+    with pytest.raises(ValueError, match=r"joint 'ball' has armature \[0.01, 0.02, 0.03\] on its DoFs"):
+        ball.export_updated_model(format="mjcf")

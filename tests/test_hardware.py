@@ -181,7 +181,7 @@ def test_per_environment_shapes_randomise_lengths_and_contacts():
         _, rec = wd.simulation.rollout(randomised, data, steps=40, record=("base_position",))
         wp.launch(final_height, dim=N, inputs=[rec["base_position"]], outputs=[loss])
     tape.backward(loss)
-    assert randomised.per_environment_parameters() == {"link_mass": N, "link_com": N, "link_inertia": N, "joint_origins": N}
+    assert randomised.per_environment_parameters() == {"link_mass": N, "link_com": N, "link_inertia": N, "joint_origins": N, "collidable_points": N}
     points = wd.contact.collidable_point_positions(randomised, data).numpy()
     heights = rec["base_position"].numpy()[:, :, 2]
 
@@ -268,7 +268,7 @@ def test_lumped_members_shapes_are_named_when_their_link_is_scaled():
 def test_enabling_points_keeps_the_scaled_points_per_environment():
     """with_collidable_points after per-environment shapes: a new enabled mask keeps each environment's moved points
     (the foot's alone enabled: its positions equal the scaled model's), new options are refused (they would make the
-    points from environment 0's shapes)."""
+    points from environment 0's shapes), and so is a step with geom contacts (the pairs' shapes are one)."""
     model = leg()
     nL = model.number_of_links()
     dims = np.ones((2, nL, 3))
@@ -283,6 +283,10 @@ def test_enabling_points_keeps_the_scaled_points_per_environment():
     assert np.abs(all_points[1] - all_points[0]).max() > 0.01
     with pytest.raises(ValueError, match="the model's points are per environment"):
         wd.contact.with_collidable_points(scaled, options=wd.contact.CollidablePointsOptions())
+    colliding = scaled.copy()
+    colliding.geom_contacts = True  # the geom pairs' shapes would be environment 0's
+    with pytest.raises(ValueError, match="model.geom_contacts with shapes per environment"):
+        wd.model.step(colliding, data)
 
 
 CAPSULE_LEG = """<sdf version="1.9"><model name="capsule_leg">

@@ -252,3 +252,39 @@ def test_origins_per_environment_refusals():
     Pf[1, crate, 0] += 0.1
     with pytest.raises(ValueError, match="the free joint 'crate_free' has other origins in other environments"):
         wd.model.with_joint_origins(trees, positions=Pf, rotations=Rf)
+
+
+def test_origins_survive_actuators_and_a_model_without_joints():
+    """add_actuators keeps the joints where with_joint_origins put them (its host tree, which export writes, too); a
+    model without joints takes (0, 3) and (0, 4) origins."""
+    model = legs()
+    P, R = moved_origins(model, 4, 1)
+    moved = wd.model.with_joint_origins(model, positions=P[0], rotations=R[0])
+    acted = wd.model.add_actuators(moved, "motor")
+    np.testing.assert_allclose(wd.model.joint_origins(acted)[0], P[0], rtol=0, atol=1e-15)
+    data = wd.data.random_model_data(model, key=1, num_envs=2)
+    np.testing.assert_allclose(wd.model.forward_kinematics(acted, data).numpy(), wd.model.forward_kinematics(moved, data).numpy(), rtol=0, atol=1e-14)
+    single = wd.model.Model.build_from_model_description("""<robot name="one"><link name="only"><inertial><mass value="1"/>
+        <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>""", dtype=np.float64)
+    same = wd.model.with_joint_origins(single, positions=np.zeros((0, 3)), rotations=np.zeros((0, 4)))
+    assert same.number_of_joints() == 0 and same.per_environment_parameters() == {}
+
+
+def test_the_contact_reach_counts_every_environments_origins():
+    """A fixed-base leg whose sole is 5 mm above the ground in environment 0 but reaches it with a longer shank in
+    environment 1: the soft law's deformation check (dt K / D) applies, as it would for a model with environment 1's
+    origins alone."""
+    W_H_B = np.eye(4)
+    full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), fixed_base=True, base_pose=W_H_B, dtype=np.float64)
+    model = wd.model.reduce(full, considered_joints=["r_hip_pitch", "r_knee", "r_ankle_pitch"])
+    positions = wd.model.joint_origins(model)[0]
+    reach = wd.engine.stability.contact_reach(model).reach
+    lift = np.eye(4)
+    lift[2, 3] = reach + 0.005
+    model = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf(), fixed_base=True, base_pose=lift, dtype=np.float64)
+    model = wd.model.reduce(model, considered_joints=["r_hip_pitch", "r_knee", "r_ankle_pitch"])
+    assert not wd.engine.stability.contact_reach(model).may_touch
+    longer = positions.copy()
+    longer[model.joint_names().index("r_knee")] *= 1.2
+    per_env = wd.model.with_joint_origins(model, positions=np.stack([positions, longer]))
+    assert wd.engine.stability.contact_reach(per_env).may_touch

@@ -128,8 +128,9 @@ def with_joint_origins(model: Model, *, positions=None, rotations=None) -> Model
     joint terms). Given for N environments (one of the two may be shared), the model serves data of N
     environments, as per-environment parameters do; a free joint's origin (the frame its pose is measured from)
     is the same in every environment. The returned model shares the rest with `model` (`Model.copy`); its host
-    tree holds environment 0's joint frames (what `export_updated_model`, `reduce` and the step's stability
-    estimate read: export refuses per-environment origins); the joints' axes and pivots (child frame) do not move.
+    tree holds environment 0's joint frames (what `export_updated_model` and the step's stability estimate read:
+    export refuses per-environment origins; `reduce` rebuilds the tree from the description, the description's
+    origins); the joints' axes and pivots (child frame) do not move.
     Collidable points and frames stay on their links.
     """
     nj = model.number_of_joints()
@@ -143,14 +144,14 @@ def with_joint_origins(model: Model, *, positions=None, rotations=None) -> Model
             host = value.numpy().astype(np.float64)
         else:
             host = arrays.host_numbers(value, name)
-        if host.shape[-2:] != (nj, width) or host.ndim not in (2, 3) or host.shape[0] == 0:
+        if host.shape[-2:] != (nj, width) or host.ndim not in (2, 3) or (host.ndim == 3 and host.shape[0] == 0):
             raise ValueError(f"{name} has shape {host.shape}, expected ({nj}, {width}) (one row per joint, shared by the environments) "
                              f"or (N, {nj}, {width}) (per environment)")
         if isinstance(value, wp.array):
             given[name] = value if host.ndim == 3 else value.reshape((1, nj, width))
         else:
-            given[name] = wp.array(host.reshape((-1, nj, width)), dtype=model.scalar, device=model.device)
-        hosts[name] = host.reshape((-1, nj, width))
+            given[name] = wp.array(host.reshape((len(host) if host.ndim == 3 else 1, nj, width)), dtype=model.scalar, device=model.device)
+        hosts[name] = host.reshape((len(host) if host.ndim == 3 else 1, nj, width))
     counts = {len(host) for host in hosts.values()} - {1}
     if len(counts) > 1:
         raise ValueError(f"with_joint_origins: positions are given for {len(hosts['positions'])} environments, rotations for "
@@ -186,8 +187,9 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
     them (each child joint's offset from the centre of mass scaled); the others keep theirs (JaxSim gives them mass
     0). Warp arrays of the model's scalar that require gradients get them when this is called under a wp.Tape
     (kernels/hardware.py). The collidable points move as JaxSim moves them (their offsets from the centres of mass
-    scaled in the link axes: a sphere's by its radius factor, a box's by its three; a cylinder's not), and a step
-    reads them from the kernel's output, so that gradients reach the factors through the contacts too; the
+    scaled in the link axes: a sphere's by its radius factor, a box's by its three; a cylinder's not), and the soft
+    law's step reads them from the kernel's output, so that gradients reach the factors through its contacts too (the
+    point queries and the rigid models read a host copy: no gradient); the
     description's collision shapes are scaled as JaxSim's export scales them (what `export_updated_model` writes;
     environment 0's when the shapes are per environment, which export refuses). A ValueError when the model's own
     link parameters or joint origins are per environment, and for per-environment shapes where the model's geom
@@ -228,7 +230,8 @@ def update_hw_parameters(model: Model, scaling_factors: ScalingFactors) -> Model
                          "shape for all environments; scale the shapes shared, or switch geom_contacts off")
     metadata = model.cached("hw link metadata", lambda: hw_link_metadata(model))
     out = hardware.hw_parameters(model, metadata, given["dims"], given["density"])
-    moved = with_joint_origins(model, positions=out["positions"], rotations=origins.origins_of(model.tree)[1]) if model.number_of_joints() else model
+    moves_joints = bool((metadata.link_shape[np.asarray(metadata.joint_parent, dtype=np.int64)] >= 0).any()) if model.number_of_joints() else False
+    moved = with_joint_origins(model, positions=out["positions"], rotations=origins.origins_of(model.tree)[1]) if moves_joints else model.copy()
     moved = moved.with_parameter_arrays({name: out[name] for name in ("link_mass", "link_com", "link_inertia")})
     points = out["points"]
     if points.shape[1] == 0:

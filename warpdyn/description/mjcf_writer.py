@@ -15,19 +15,25 @@ contact parameters; the base hangs from the world at world_H_base when welded, a
 floating; a mesh is an asset with its vertices inline (an MJCF's) or its file as the description names it (a URDF's
 package:// needs resolving before MuJoCo reads it). A free joint's body is a top-level body at its initial pose (MuJoCo's
 free joints measure the world pose). What MJCF cannot say here raises a ValueError naming it: a free joint below
-another body or off the world's frame, a mesh with neither vertices nor a file.
+another body or off the world's frame, a ball or free joint whose DoFs have different frictions, armatures or
+dampers, a mesh with neither vertices nor a file. Massless moving links (MuJoCo refuses them; an MJCF body of several
+joints is several links here) get MuJoCo's boundmass and boundinertia, named in a warning.
 """
 
 from __future__ import annotations
 
+import warnings
 import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from .model import CollisionShape, ModelDescription, homogeneous, matrix_to_quaternion_wxyz, quaternion_wxyz_to_matrix
+from .model import CollisionShape, ModelDescription, NotModelledWarning, homogeneous, matrix_to_quaternion_wxyz, quaternion_wxyz_to_matrix
 from .tree import JOINT_BALL, JOINT_FREE, JOINT_REVOLUTE, KinematicTree
 
-__all__ = ["write_mjcf"]
+__all__ = ["write_mjcf", "BOUND_MASS", "BOUND_INERTIA"]
+
+BOUND_MASS, BOUND_INERTIA = 1e-9, 1e-12
+"""The lower bounds [kg, kg m^2] the MJCF gives massless moving links (MuJoCo's compiler boundmass and boundinertia)."""
 
 
 def _numbers(values) -> str:
@@ -94,7 +100,13 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
     pose); world_H_base (4, 4) welds the base, None leaves it floating; time_step [s] and gravity (3,) [m/s^2] go to
     `option`; floor: the pose (4, 4) of the terrain's plane (z up in it), None for none."""
     mujoco = ET.Element("mujoco", model=description.name)
-    ET.SubElement(mujoco, "compiler", angle="radian", inertiafromgeom="false", autolimits="true")
+    compiler = ET.SubElement(mujoco, "compiler", angle="radian", inertiafromgeom="false", autolimits="true")
+    massless = [link_name for i, link_name in enumerate(tree.link_names) if i > 0 and float(parameters["link_mass"][i]) <= 0.0]
+    if massless:  # MuJoCo refuses massless moving bodies (an MJCF body of several joints is several links here)
+        compiler.set("boundmass", f"{BOUND_MASS:g}")
+        compiler.set("boundinertia", f"{BOUND_INERTIA:g}")
+        warnings.warn(f"export_updated_model: the massless moving links {massless} get MuJoCo's boundmass {BOUND_MASS:g} kg and boundinertia "
+                      f"{BOUND_INERTIA:g} kg m^2 in the MJCF (MuJoCo refuses massless moving bodies)", NotModelledWarning, stacklevel=4)
     ET.SubElement(mujoco, "option", timestep=f"{time_step:.17g}", gravity=_numbers(gravity))
     asset = ET.SubElement(mujoco, "asset")
     world = ET.SubElement(mujoco, "worldbody")
@@ -134,6 +146,10 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
         if i == 0:
             continue
         j, d = i - 1, int(v_start[i])
+        for name in ("friction_static", "armature", "damping", "friction_viscous"):  # MJCF gives a joint one value for its DoFs
+            values = parameters[name][d : int(v_start[i + 1])]
+            if np.ptp(values) > 0.0:
+                raise ValueError(f"joint '{tree.joint_names[j]}' has {name} {values.tolist()} on its DoFs: MJCF gives a joint one value")
         joint = ET.SubElement(body, "joint", name=tree.joint_names[j], pos=_numbers(tree.joint_pivot[i]))
         if kind in (JOINT_BALL, JOINT_FREE):
             joint.set("type", "ball" if kind == JOINT_BALL else "free")

@@ -27,6 +27,7 @@ def pair_arrays(model) -> dict:
     def build():
         pairs, s, d = geom_pairs(model), model.scalar, model.device
         vec3 = wp.types.vector(3, s)
+        lone = _lone_free_bodies(model.tree, model.floating_base())
         return dict(
             scalar=s, device=d, pairs=len(pairs), contacts=pairs.contacts,
             link1=wp.array(pairs.link1, dtype=int, device=d),
@@ -41,7 +42,8 @@ def pair_arrays(model) -> dict:
             mu=wp.array(np.where(pairs.condim > 1, pairs.friction[:, 0], 0.0), dtype=s, device=d),  # condim 1: frictionless
             first=wp.array(pairs.first, dtype=int, device=d),
             slots=wp.array(pairs.slots, dtype=int, device=d),
-            guarded=wp.array(_lone_free_bodies(model.tree, model.floating_base()), dtype=int, device=d),
+            guarded=wp.array(lone, dtype=int, device=d),
+            any_guarded=bool(lone.any()),
         )  # fmt: skip
 
     return model.cached("geom pair arrays", build)
@@ -60,7 +62,7 @@ def _lone_free_bodies(tree, floating_base: bool) -> np.ndarray:
 
 def contact_buffers(a: dict, N: int, grad: bool = False) -> dict:
     """The contacts' arrays for N environments: count (N, nP) int, position (N, C, 3), frame (N, C, 3, 3), dist (N, C)
-    (requiring gradients with `grad`), and the wrench kernel's scratch damping (N, nL)."""
+    (requiring gradients with `grad`), and the damper check's scratch damping (N, nL)."""
     s, d = a["scalar"], a["device"]
     return dict(
         damping=wp.empty((N, a["guarded"].shape[0]), dtype=s, device=d),
@@ -78,14 +80,20 @@ def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
     return Launch(collision_kernels(a["scalar"]).geom_contacts, (N, a["pairs"]), [*inputs, W_H_L], outputs)
 
 
-def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, b: dict, W_f_L: wp.array, N: int, rate, mass: wp.array) -> list:
+def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, b: dict, W_f_L: wp.array, N: int, check: tuple | None = None) -> list:
     """The pairs' contacts at (W_H_L, W_v_WL (N, nL) Inertial) and their wrenches added to W_f_L (N, nL, 6), with the
-    soft law's K, D, p, q of `contacts_bundle` (the kernels' Contacts); a lone free body whose contacts' damping
-    exceeds rate (the integrator's stability limit / dt, 1/s) times its mass (P, nL) gets a NaN wrench (the step
-    flags its environment)."""
+    soft law's K, D, p, q of `contacts_bundle` (the kernels' Contacts); in a step, check = (rate, the kernels' Model):
+    a lone free body whose contacts damp it faster than rate (the integrator's stability limit / dt, 1/s) gets a NaN
+    wrench, which flags its environment (kernels/collisions.py's `damper_stability`)."""
     contacts = [b[k] for k in ("count", "position", "frame", "dist")]
-    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], *contacts, W_v_WL, rate, mass, a["guarded"], b["damping"]]
-    return [contact_launch(a, W_H_L, b, N), Launch(collision_kernels(a["scalar"]).geom_contact_wrenches, N, inputs, [W_f_L])]
+    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], *contacts, W_v_WL]
+    kernels = collision_kernels(a["scalar"])
+    launches = [contact_launch(a, W_H_L, b, N), Launch(kernels.geom_contact_wrenches, N, inputs, [W_f_L])]
+    if check is not None and a["any_guarded"]:
+        rate, model_bundle = check
+        inputs = [contacts_bundle, model_bundle, a["link1"], a["link2"], a["first"], b["count"], b["dist"], rate, a["guarded"], b["damping"]]
+        launches.append(Launch(kernels.damper_stability, N, inputs, [W_f_L]))
+    return launches
 
 
 def geom_contacts(model, data) -> tuple[wp.array, wp.array, wp.array, wp.array]:
@@ -106,7 +114,5 @@ def mark_links_touching(model, data, links: np.ndarray, touching: wp.array) -> N
     if not a["pairs"]:
         return
     count, _, _, dist = geom_contacts(model, data)
-    asked = np.full(model.number_of_links(), -1, dtype=np.int32)
-    asked[np.asarray(links, dtype=np.int64)] = np.arange(len(links), dtype=np.int32)
-    inputs = [a["link1"], a["link2"], a["first"], count, dist, wp.array(asked, dtype=int, device=model.device)]
+    inputs = [a["link1"], a["link2"], a["first"], count, dist, wp.array(np.asarray(links, dtype=np.int32), dtype=int, device=model.device)]
     run([Launch(collision_kernels(a["scalar"]).links_touching, data.batch_size, inputs, [touching])], model.device)

@@ -121,6 +121,9 @@ class ContactStage:
         c.link_first_point = wp.array(first, dtype=int, device=d)
         c.link_point_count = wp.array(self.points_per_link, dtype=int, device=d)
         # the geom pairs whose contacts act (model.geom_contacts; warpdyn.engine.collisions)
+        if model.geom_contacts and "collidable_points" in model.per_environment_parameters():
+            raise ValueError("model.geom_contacts with shapes per environment (update_hw_parameters): the geom pairs' shapes are the "
+                             "description's, one for all environments; scale the shapes shared, or switch geom_contacts off")
         self.pair_arrays = collisions.pair_arrays(model) if model.geom_contacts else None
         self.pairs = self.pair_arrays["pairs"] if model.geom_contacts else 0
 
@@ -187,7 +190,8 @@ class SoftContactStage(ContactStage):
         args = [self.bundle, ev.W_f_C, f_in, order, links]
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
         if self.pairs:
-            launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, ev.contact, ev.W_f_L, N, self.check_rate, plan.model.link_mass)
+            check = (self.check_rate, plan.model) if ev.checks else None  # a step's evaluation flags; a query's reports
+            launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, ev.contact, ev.W_f_L, N, check)
         return launches
 
 

@@ -107,7 +107,8 @@ def contact_reach(model) -> ContactReach:
     joint motion takes the point farther. A prismatic joint makes it unbounded (its limits do not bound its
     position: JaxSim's are a spring, 0 by default). The terrain: a FlatTerrain (its highest height) or a
     PlaneTerrain is touched when the welded base's origin is within the reach of it; a HeightfieldTerrain is
-    assumed touched (its heights may change in place). A floating base is assumed to reach anything. The base
+    assumed touched (its heights may change in place). A floating base is assumed to reach anything. With joint
+    origins or collidable points per environment, the farthest of every environment's reach counts. The base
     that a fixed-base Data puts elsewhere is checked on the device at every step (kernels/parameter_checks.py).
     """
     return model.cached("contact reach", lambda: _contact_reach(model))
@@ -122,19 +123,21 @@ def _contact_reach(model) -> ContactReach:
         return ContactReach(np.inf, True, "the base floats: its collidable points can reach the terrain")
     tree = model.tree
     nL = tree.number_of_links
-    chain = np.zeros(nL)  # the reach of each link's origin from the base's
+    # every environment's joint origins and points where they differ (per-environment origins and shapes): the farthest
+    origins = model.joint_origins_per_env[0] if model.joint_origins_per_env is not None else np.asarray(tree.parent_H_joint)[None, 1:, :3, 3]
+    array = model.collidable_point_array
+    points = array.numpy() if array is not None and array.shape[0] > 1 else np.asarray(cp.point, dtype=np.float64).reshape(1, -1, 3)
+    chain = np.zeros((len(origins), nL))  # the reach of each link's origin from the base's
     for i in range(1, nL):
-        H = np.asarray(tree.parent_H_joint[i], dtype=np.float64)
-        step = np.inf  # a prismatic joint (or any but a revolute one): unbounded
+        step = np.full(len(origins), np.inf)  # a prismatic joint (or any but a revolute one): unbounded
         if tree.joint_type[i] == JOINT_REVOLUTE:
             a = np.asarray(tree.joint_axis[i], dtype=np.float64)
             a = a / np.linalg.norm(a)
             d = np.asarray(tree.joint_pivot[i], dtype=np.float64)
-            step = np.linalg.norm(H[:3, 3]) + 2.0 * np.linalg.norm(d - (a @ d) * a)
-        chain[i] = chain[tree.parent[i]] + step
-    points = np.asarray(cp.point, dtype=np.float64).reshape(-1, 3)[rows]
+            step = np.linalg.norm(np.asarray(origins[:, i - 1], dtype=np.float64), axis=1) + 2.0 * np.linalg.norm(d - (a @ d) * a)
+        chain[:, i] = chain[:, tree.parent[i]] + step
     links = np.asarray(cp.body, dtype=np.int64)[rows]
-    reach = float(np.max(chain[links] + np.linalg.norm(points, axis=1)))
+    reach = float(np.max(chain[:, links] + np.linalg.norm(np.asarray(points, dtype=np.float64)[:, rows], axis=2)))  # rows: 1 or N each
     if not np.isfinite(reach):
         return ContactReach(np.inf, True, "a prismatic joint moves a collidable point without bound")
     base = np.asarray(model.description.world_H_base, dtype=np.float64)[:3, 3]

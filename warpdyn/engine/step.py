@@ -279,6 +279,7 @@ class Evaluation:
         s, d = plan.scalar, plan.device
         nL, n = plan.nL, plan.n
         self.grad = grad
+        self.checks = aba  # a step's evaluation: its stability checks flag environments (a contact query's does not)
 
         def out(shape, dtype=s):
             return arrays.output(shape, N, dtype, d, grad)

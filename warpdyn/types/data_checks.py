@@ -27,8 +27,8 @@ def check_data(model, data, parameters: bool = False) -> list:
     """Errors naming what does not match between the data and the model, before any kernel reads the data:
     data of another dtype, model or device, then each state array (`check_state`). Attribute reads only:
     no device synchronisation. parameters: the caller reads the link or joint parameters, which, given per
-    environment, need data of those N environments (per-environment joint origins always do: kinematics read
-    them). Returns the data's `state_arrays`: the list the checks
+    environment, need data of those N environments (per-environment joint origins and collidable points always
+    do: kinematics read them). Returns the data's `state_arrays`: the list the checks
     remember while those arrays stay (the same list object from call to call, which callers may key on)."""
     memo = getattr(data, "__dict__", None)
     passed = memo.get("_checked") if memo is not None else None
@@ -58,7 +58,7 @@ def check_data(model, data, parameters: bool = False) -> list:
     _check_shapes(data)
     N = data.base_position_state.shape[0]
     per_env = model.per_environment_parameters()
-    read = per_env if parameters else {k: v for k, v in per_env.items() if k == "joint_origins"}  # kinematics read the origins
+    read = per_env if parameters else {k: v for k, v in per_env.items() if k in ("joint_origins", "collidable_points")}  # kinematics read them
     if any(count != N for count in read.values()):
         raise ValueError(f"the model's parameters {per_env} are given per environment, but the data has {N} environments")
     arrays = state_arrays(data)

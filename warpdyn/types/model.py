@@ -611,6 +611,7 @@ class Model(ModelSettings, ModelQueries):
         # its collidable points, on this model's device and in its scalar (params may be another model's)
         self._kin_dyn = dataclasses.replace(params.with_enabled(self, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
         self.collidable_point_array = None  # the points are params' now, not a kernel's
+        self._per_env.pop("collidable_points", None)
         links, joints = params.link_parameters, params.joint_parameters
         if links is not None:
             self.set_link_parameters(mass=links.mass, com=links.center_of_mass, inertia=LinkParameters.inertia_tensor(links))
@@ -625,11 +626,13 @@ class Model(ModelSettings, ModelQueries):
         self.notify_model_changed()
 
     def with_kin_dyn_parameters(self, params: KinDynParameters, point_array: wp.array | None = None) -> Model:
-        """A model like this one (sharing its device constants and parameters) with other collidable points; point_array
-        (P, nc_all) vec3: their positions as a kernel computed them, P = 1 or one row per environment (params holds
-        row 0's), which a step reads (a tape's gradients reach it)."""
+        """A model like this one (its device constants and parameters shared) with other collidable points; point_array (P, nc_all)
+        vec3: their positions as a kernel computed them, P = 1 or per environment (params: row 0's), which a step reads."""
         new = self.copy()
         new.collidable_point_array, new._kin_dyn = point_array, dataclasses.replace(params.with_enabled(new, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
+        new._per_env.pop("collidable_points", None)
+        if point_array is not None and point_array.shape[0] > 1:  # data of that N only, as per-environment parameters
+            new._per_env["collidable_points"] = point_array.shape[0]
         return new
 
     def snapshot_state(self) -> dict:
@@ -657,7 +660,8 @@ class Model(ModelSettings, ModelQueries):
         description = dataclasses.replace(self.description, actuators=[*self.description.actuators, *actuators])
         new = self.copy()
         new.description = description
-        new.tree = build_tree(description, self.joint_names(), dict(self.tree.locked_joints))
+        built = build_tree(description, self.joint_names(), dict(self.tree.locked_joints))
+        new.tree = dataclasses.replace(built, parent_H_joint=self.tree.parent_H_joint)  # the joints where with_joint_origins put them
         new._actuator_structure(new.tree)
         before = self.number_of_actuators()
         for parameter in ACTUATOR_PARAMETERS:
