@@ -123,6 +123,24 @@ def test_resets_randomise_masses_and_friction():
     assert mu.shape == (6,) and mu.min() >= 0.3 and mu.max() <= 0.9 and len(set(mu.tolist())) == 6
 
 
+def test_link_lengths_per_environment():
+    """A model with joint origins per environment (wd.model.with_joint_origins: link lengths randomised up to 8 %)
+    runs in LeggedEnv: each environment's feet stand where its legs put them, the resets place the tallest clear of
+    the ground (the standing height is the tallest environment's), and the steps stay healthy."""
+    model = _legs()
+    positions = wd.model.joint_origins(model)[0]
+    scale = np.random.default_rng(3).uniform(0.92, 1.08, (4, model.number_of_joints(), 1))
+    env = envs.LeggedEnv(wd.model.with_joint_origins(model, positions=positions * scale), num_envs=4, cfg=envs.LeggedEnvConfig(), seed=0)
+    assert env.model.per_environment_parameters()["joint_origins"] == 4
+    env.reset(seed=0)
+    upright = wd.data.Data.build(env.model, num_envs=4, joint_positions=env.default_joint_positions.cpu().numpy())
+    lowest = wd.contact.collidable_point_positions(env.model, upright).numpy()[..., 2].min(axis=1)
+    assert np.ptp(lowest) > 0.01 and env.standing_height == pytest.approx(-lowest.min())
+    for _ in range(10):
+        env.step(torch.zeros((4, env.single_action_space.shape[0]), device=env.device, dtype=env.torch_dtype))
+    assert bool(env.stepper.data.healthy.numpy().all())
+
+
 def test_ppo_learns_to_stand(tmp_path):
     """rsl-rl's PPO (examples/rl_locomotion.py's configuration), 96 environments, 16 iterations: the mean
     return of the last 4 iterations is higher than that of the first 4 by 0.1 (measured on the CPU: -0.68 ->

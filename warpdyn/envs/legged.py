@@ -299,9 +299,10 @@ class LeggedEnv(gym.vector.VectorEnv):
         default = self._default_joint_positions(model)
         self.default_joint_positions = torch.tensor(default, device=self.device, dtype=self.torch_dtype)
         # the standing pose: the default posture, the base upright, its lowest collidable point on the ground (the base
-        # at the world's origin here, wherever the description places it: an MJCF free body's or an SDF model's pose)
+        # at the world's origin here, wherever the description places it: an MJCF free body's or an SDF model's pose;
+        # with link lengths per environment (wd.model.with_joint_origins) the tallest environment's)
         upright = dict(base_position=(0.0, 0.0, 0.0), base_quaternion=(1.0, 0.0, 0.0, 0.0))
-        posture = wd.data.Data.build(model, joint_positions=default, **upright)
+        posture = wd.data.Data.build(model, num_envs=N, joint_positions=default, **upright)
         lowest = float(wd.contact.collidable_point_positions(model, posture).numpy()[..., 2].min())
         self.standing_height = -lowest
         if cfg.base_height_target is None:
