@@ -1,13 +1,15 @@
 """Simulation steps and rollouts for N environments: what a model pays for contacts, and for Python.
 
     python benchmarks/step.py [--device cuda:0] [--max-envs 65536 | --sizes 1,256,4096]
-                              [--dtypes float32,float64] [--robots legs,legs-no-contacts,legs-actuated,arm]
+                              [--dtypes float32,float64] [--robots legs,legs-no-contacts,legs-lengths,legs-actuated,arm]
                               [--repeats 10] [--fresh-cache] [--block-dims 64,256] [--fused on,off,one,groups,local]
 
 Robots:
 - legs: the seed's ergoCub legs (12 joints, 13 links) with its 32 collidable points (the ankle boxes),
   standing on flat ground (feet a few mm in the ground, so the contact kernel runs its contact branches);
 - legs-no-contacts: the same model with every point disabled: no FK, link-velocity or contact kernel;
+- legs-lengths: the legs with each joint's origin scaled by U(0.95, 1.05) per environment (issue 38: the kernels
+  read the joint terms per environment, (N, nL), instead of one shared row);
 - legs-actuated: the legs with what an MJCF robot brings (issue 11): armature 0.05 kg m^2 on every joint
   and a position servo per joint (`wd.model.add_actuators`: kp 300 N m/rad, kv 5 N m s/rad, ctrl within
   +-1.5 rad, force within +-100 N m), driven by `ctrl` (N, 12) instead of joint torques;
@@ -101,6 +103,8 @@ def robots(names, dtype, device):
         if "legs-no-contacts" in names:
             none = wd.contact.with_collidable_points(copy.copy(legs), enabled=np.zeros(count, dtype=bool))
             out.append(("ergoCub legs, no points", none, True))
+        if "legs-lengths" in names:
+            out.append((f"ergoCub legs, {count} points, lengths per environment", legs, True))
         if "legs-actuated" in names:
             actuated = wd.model.add_actuators(legs, "position", kp=300.0, kv=5.0, ctrl_range=(-1.5, 1.5), force_range=(-100.0, 100.0))
             actuated.set_joint_parameters(armature=np.full(legs.dofs(), 0.05))
@@ -111,6 +115,14 @@ def robots(names, dtype, device):
     return out
 
 
+def per_environment_lengths(model, N: int):
+    """The model (shared origins) with each joint's origin scaled by U(0.95, 1.05) per environment
+    (wd.model.with_joint_origins, (N, nj, 3))."""
+    positions = wd.model.joint_origins(model)[0]
+    scale = np.random.default_rng(N).uniform(0.95, 1.05, (N, model.number_of_joints(), 1))
+    return wd.model.with_joint_origins(model, positions=positions * scale)
+
+
 def initial_data(model, N: int, standing: bool, seed: int = 0):
     """States near a stance: joints within 0.05 rad of zero, small velocities; for the legs, the base at
     the height where the lowest point is 3 mm deep (+- 2 mm)."""
@@ -118,9 +130,9 @@ def initial_data(model, N: int, standing: bool, seed: int = 0):
     n = model.dofs()
     kwargs = dict(joint_positions=rng.uniform(-0.05, 0.05, (N, n)), joint_velocities=rng.uniform(-0.1, 0.1, (N, n)))
     if standing:
-        zero = wd.data.Data.build(model)
+        zero = wd.data.Data.build(model, num_envs=N)
         cp = wd.contact.with_collidable_points(model)  # all points, to place the feet even without contacts
-        lowest = float(wd.contact.collidable_point_positions(cp, zero).numpy()[:, 2].min())
+        lowest = float(wd.contact.collidable_point_positions(cp, zero).numpy()[..., 2].min())
         z = -lowest - 0.003 + rng.uniform(-0.002, 0.002, N)
         kwargs["base_position"] = np.stack([np.zeros(N), np.zeros(N), z], axis=1)
     return wd.data.Data.build(model, num_envs=N, **kwargs)
@@ -163,7 +175,8 @@ def main() -> None:
     summary = {}
     for dtype_name in args.dtypes.split(","):
         dtype = np_dtype[dtype_name]
-        for label, model, standing in robots(names, dtype, device):
+        for label, shared, standing in robots(names, dtype, device):
+            model = shared
             # the actuated legs take the servos' targets (ctrl, (N, na) [rad]), the others joint torques (N, n) [N m]
             control, width, scale = ("ctrl", model.number_of_actuators(), 0.1) if model.number_of_actuators() else ("joint_force_references", model.dofs(), 1.0)
             for N, block, fused in ((N, b, f) for N in Ns for b in blocks for f in fused_settings):
@@ -171,6 +184,8 @@ def main() -> None:
                 if FUSED[fused] != settings():
                     wd.config.fused_step, wd.config.fused_lanes, wd.config.fused_shared_records = FUSED[fused]
                     model.notify_model_changed()  # a new model version: `step` builds its launches and graphs again
+                if "lengths per environment" in label:  # the joint terms read per environment: (N, nL) rows
+                    model = per_environment_lengths(shared, N)
                 data = initial_data(model, N, standing)
                 rng = np.random.default_rng(1)
                 tau = {control: wp.array(rng.normal(0.0, scale, (N, width)), dtype=model.scalar, device=device)}
@@ -193,10 +208,12 @@ def main() -> None:
                     f"{N / roll_s:.3g} | {eager} |",
                     flush=True,
                 )
-    plain = [k for k in summary if k[0].startswith("ergoCub legs,") and "no points" not in k[0] and "servos" not in k[0]]
+    plain = [k for k in summary if k[0].startswith("ergoCub legs,") and not any(w in k[0] for w in ("no points", "servos", "lengths"))]
     ratios(summary, "Contacts' share (ergoCub legs, rollout per step, with / without points):", plain, lambda k: "no points" in k[0])
     actuated = [k for k in summary if "servos" in k[0]]
     ratios(summary, "Armature and servos' share (ergoCub legs with points, rollout per step, with / without):", actuated, lambda k: k in plain)
+    lengths = [k for k in summary if "lengths per environment" in k[0]]
+    ratios(summary, "Link lengths per environment (ergoCub legs with points, rollout per step, per environment / shared):", lengths, lambda k: k in plain)
 
 
 def settings() -> tuple:
