@@ -15,10 +15,9 @@ from ..kernels.contact_points import kernels as point_kernels
 from ..kernels.contact_wrenches import kernels as wrench_kernels
 from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts, register_forces, register_impact
 from ..types.enums import VelRepr
-from ..types.model_constants import transforms
 from . import collisions
 from .bundles import state_bundle
-from .contact_stage import model_points
+from .contact_stage import point_frames
 from .evaluations import contact_evaluation, deformation_rates
 from .forces import forces_in, forces_inertial
 from .kinematics import link_poses, state_arrays, targets, velocities
@@ -36,12 +35,7 @@ def point_targets(model):
 
 def _point_targets(model):
     params = model.kin_dyn_structure()
-    points = model_points(model)
-    if points.shape[0] == 1:
-        return targets(model, params.enabled_link, params.enabled_link_H_point)
-    offsets = np.tile(np.eye(4), (points.shape[0], len(params.enabled_link), 1, 1))
-    offsets[..., :3, 3] = points[:, params.contact_parameters.indices_of_enabled_collidable_points]
-    return targets(model, params.enabled_link, transforms(offsets, model.scalar, model.device).reshape(offsets.shape[:2]))
+    return targets(model, params.enabled_link, point_frames(model, params.contact_parameters.indices_of_enabled_collidable_points))
 
 
 def positions(model, data) -> wp.array:

@@ -57,7 +57,7 @@ from .kinematics import targets
 from .launch import Launch
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, check_reference_stability, contact_reach
 
-__all__ = ["model_points", "ContactStage", "SoftContactStage", "RigidContactStage", "RelaxedRigidContactStage", "STAGES", "stage_for", "contacts_per_environment"]
+__all__ = ["point_frames", "ContactStage", "SoftContactStage", "RigidContactStage", "RelaxedRigidContactStage", "STAGES", "stage_for", "contacts_per_environment"]
 
 
 ROUNDING_FLOOR = 100.0
@@ -73,13 +73,13 @@ def contacts_per_environment(device, grad: bool) -> bool:
     return grad or not wp.get_device(device).is_cuda
 
 
-def model_points(model) -> np.ndarray:
-    """(P, nc_all, 3) [m, link frames]: every collidable point, P = 1 but where warpdyn.model.update_hw_parameters
-    scaled the links per environment (the kernel's point array, one row per environment)."""
-    array = model.collidable_point_array
-    if array is not None and array.shape[0] > 1:
-        return array.numpy().astype(np.float64)
-    return np.asarray(model.kin_dyn_structure().contact_parameters.point, dtype=np.float64).reshape(1, -1, 3)
+def point_frames(model, rows: np.ndarray) -> wp.array:
+    """(P, len(rows)) transforms (L_p_C, identity) of the collidable points `rows` (indices among all the points) in
+    each environment's row of the model's points (`Model.collidable_point_rows`): the kernels' Targets' poses."""
+    points = model.collidable_point_rows()[:, rows]
+    offsets = np.tile(np.eye(4), (*points.shape[:2], 1, 1))
+    offsets[..., :3, 3] = points
+    return transforms(offsets, model.scalar, model.device).reshape(points.shape[:2])
 
 
 class ContactStage:
@@ -115,7 +115,7 @@ class ContactStage:
         # gathers them at each evaluation (`launches`), so that gradients reach them
         grad_points = model.collidable_point_array is not None and model.collidable_point_array.requires_grad
         self.point_array = model.collidable_point_array if grad_points else None
-        c.L_p_C = wp.array(model_points(model)[:, rows], dtype=wp.types.vector(3, s), device=d, requires_grad=grad_points)  # (P, nc)
+        c.L_p_C = wp.array(model.collidable_point_rows()[:, rows], dtype=wp.types.vector(3, s), device=d, requires_grad=grad_points)  # (P, nc)
         c.point_row = wp.array(rows.astype(np.int32), dtype=int, device=d)
         c.row_point = wp.array(row_point, dtype=int, device=d)
         c.link_first_point = wp.array(first, dtype=int, device=d)
@@ -226,10 +226,7 @@ class RigidContactStage(ContactStage):
         params = model.kin_dyn_structure().contact_parameters
         rows = params.indices_of_enabled_collidable_points
         order = np.argsort(np.asarray(params.body, dtype=np.int64)[rows], kind="stable")
-        points = model_points(model)[:, rows[order]]  # (P, nc, 3)
-        offsets = np.tile(np.eye(4), (*points.shape[:2], 1, 1))
-        offsets[..., :3, 3] = points
-        self.targets = targets(model, self.bundle.point_link, transforms(offsets, s, d).reshape(points.shape[:2]))
+        self.targets = targets(model, self.bundle.point_link, point_frames(model, rows[order]))
         multi = model.multi_dof()
         self.bias = derivative_kernels(s, multi)
         self.jacobians = jacobian_kernels(s, multi).jacobians

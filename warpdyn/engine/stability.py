@@ -125,8 +125,7 @@ def _contact_reach(model) -> ContactReach:
     nL = tree.number_of_links
     # every environment's joint origins and points where they differ (per-environment origins and shapes): the farthest
     origins = model.joint_origins_per_env[0] if model.joint_origins_per_env is not None else np.asarray(tree.parent_H_joint)[None, 1:, :3, 3]
-    array = model.collidable_point_array
-    points = array.numpy() if array is not None and array.shape[0] > 1 else np.asarray(cp.point, dtype=np.float64).reshape(1, -1, 3)
+    points = model.collidable_point_rows()
     chain = np.zeros((len(origins), nL))  # the reach of each link's origin from the base's
     for i in range(1, nL):
         step = np.full(len(origins), np.inf)  # a prismatic joint (or any but a revolute one): unbounded
@@ -137,7 +136,7 @@ def _contact_reach(model) -> ContactReach:
             step = np.linalg.norm(np.asarray(origins[:, i - 1], dtype=np.float64), axis=1) + 2.0 * np.linalg.norm(d - (a @ d) * a)
         chain[:, i] = chain[:, tree.parent[i]] + step
     links = np.asarray(cp.body, dtype=np.int64)[rows]
-    reach = float(np.max(chain[:, links] + np.linalg.norm(np.asarray(points, dtype=np.float64)[:, rows], axis=2)))  # rows: 1 or N each
+    reach = float(np.max(chain[:, links] + np.linalg.norm(points[:, rows], axis=2)))  # rows: 1 or N each
     if not np.isfinite(reach):
         return ContactReach(np.inf, True, "a prismatic joint moves a collidable point without bound")
     base = np.asarray(model.description.world_H_base, dtype=np.float64)[:3, 3]

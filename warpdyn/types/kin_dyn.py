@@ -271,9 +271,8 @@ class KinDynParameters:
     kinematic constraints are not in warpdyn yet: docs/porting.md).
     Equality and hash, as JaxSim's: the structure (numbers of links and joints, frames, parent and support
     arrays), not the parameters' values.
-    The enabled points' link indices, offsets and positions also live on the model's device (`enabled_link`,
-    `enabled_link_H_point`, `enabled_point`: (nc,) int, (nc,) transform and (nc,) vec3 L_p_C [m]), for
-    the contact kernels.
+    The enabled points' link indices also live on the model's device (`enabled_link`, (nc,) int), for the contact
+    kernels (their positions: `Model.collidable_point_rows`).
     """
 
     contact_parameters: ContactParameters
@@ -283,8 +282,6 @@ class KinDynParameters:
     support_body_array_bool: np.ndarray
     options: CollidablePointsOptions
     enabled_link: wp.array = dataclasses.field(repr=False)
-    enabled_link_H_point: wp.array = dataclasses.field(repr=False)
-    enabled_point: wp.array = dataclasses.field(repr=False)
     joint_model: JointModel | None = dataclasses.field(default=None, repr=False)
     link_parameters: LinkParameters | None = dataclasses.field(default=None, repr=False)
     joint_parameters: JointParameters | None = dataclasses.field(default=None, repr=False)
@@ -418,7 +415,6 @@ class KinDynParameters:
             body=tuple(int(b) for b in tree.frame_parent),
             transform=np.asarray(tree.link_H_frame, dtype=np.float64).reshape(-1, 4, 4),
         )
-        link, link_H_point, L_p_C = _device_targets(contact, model.scalar, model.device)
         return KinDynParameters(
             contact_parameters=contact,
             frame_parameters=frames,
@@ -426,24 +422,18 @@ class KinDynParameters:
             parent_array=np.asarray(tree.parent, dtype=np.int64),
             support_body_array_bool=support,
             options=options,
-            enabled_link=link,
-            enabled_link_H_point=link_H_point,
-            enabled_point=L_p_C,
+            enabled_link=_enabled_links(contact, model.device),
         )
 
     def with_points(self, model, point: np.ndarray) -> KinDynParameters:
         """The same parameters with the points at `point` (nc_all, 3) [m, link frames]."""
         contact = _contact_parameters(np.asarray(self.contact_parameters.body, dtype=np.int64), point, self.contact_parameters.enabled)
-        link, link_H_point, L_p_C = _device_targets(contact, model.scalar, model.device)
-        return dataclasses.replace(self, contact_parameters=contact, enabled_link=link, enabled_link_H_point=link_H_point, enabled_point=L_p_C)
+        return dataclasses.replace(self, contact_parameters=contact, enabled_link=_enabled_links(contact, model.device))
 
     def with_enabled(self, model, enabled) -> KinDynParameters:
         """The same parameters with another enabled mask (over all points)."""
         contact = _contact_parameters(np.asarray(self.contact_parameters.body, dtype=np.int64), self.contact_parameters.point, enabled)
-        link, link_H_point, L_p_C = _device_targets(contact, model.scalar, model.device)
-        return dataclasses.replace(
-            self, contact_parameters=contact, enabled_link=link, enabled_link_H_point=link_H_point, enabled_point=L_p_C
-        )
+        return dataclasses.replace(self, contact_parameters=contact, enabled_link=_enabled_links(contact, model.device))
 
 
 def _one_dof_only(joint_model: JointModel, what: str) -> None:
@@ -473,14 +463,7 @@ def _contact_parameters(body: np.ndarray, point: np.ndarray, enabled) -> Contact
     )
 
 
-def _device_targets(contact: ContactParameters, scalar, device):
-    """(link (nc,) int, link_H_point (nc,) transform, L_p_C (nc,) vec3) of the enabled points on `device`."""
+def _enabled_links(contact: ContactParameters, device) -> wp.array:
+    """The links (nc,) int of the enabled points on `device`."""
     idx = contact.indices_of_enabled_collidable_points
-    L_p_C = contact.point[idx]
-    rows = np.zeros((len(idx), 7))
-    rows[:, :3] = L_p_C
-    rows[:, 6] = 1.0  # identity rotation, (x, y, z, w)
-    link = wp.array(np.asarray(contact.body, dtype=np.int32)[idx], dtype=int, device=device)
-    link_H_point = wp.array(rows, dtype=wp.types.transformation(scalar), device=device)
-    points = wp.array(L_p_C, dtype=wp.types.vector(3, scalar), device=device)
-    return link, link_H_point, points
+    return wp.array(np.asarray(contact.body, dtype=np.int32)[idx], dtype=int, device=device)

@@ -103,6 +103,14 @@ class ModelQueries:
         """The description's keyframes (MJCF `<key>`), in its order: `warpdyn.data.keyframe(model, name)`."""
         return tuple(k.name for k in self.description.keyframes)
 
+    def collidable_point_rows(self) -> np.ndarray:
+        """(P, nc_all, 3) [m, link frames] host float64: every collidable point, P = 1 but where update_hw_parameters
+        scaled the links per environment (the kernel's point array, one row per environment)."""
+        array = self.collidable_point_array
+        if array is not None and array.shape[0] > 1:
+            return array.numpy().astype(np.float64)
+        return np.asarray(self.kin_dyn_structure().contact_parameters.point, dtype=np.float64).reshape(1, -1, 3)
+
     def export_updated_model(self, format: str = "urdf") -> str:
         """JaxSim's export: the text of the lumped tree with its current parameters, joint origins, collision shapes and
         frames, which loads back to the same model: URDF (JaxSim's; warpdyn.description.urdf_writer) or, with
