@@ -217,6 +217,8 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         rotation: wp.array3d(dtype=scalar),
         axis: wp.array(dtype=sp.vec3),
         pivot: wp.array(dtype=sp.vec3),
+        base: wp.array2d(dtype=sp.quat),
+        base_t: wp.array2d(dtype=sp.vec3),
         # outputs
         Q0: wp.array2d(dtype=sp.quat),
         Q1: wp.array2d(dtype=sp.quat),
@@ -230,9 +232,17 @@ def joints(scalar, multi_dof: bool) -> types.SimpleNamespace:
         (child frame): warpdyn.types.model_constants.joint_motion_terms' formulas (tests/test_joint_origins.py
         holds the two equal), revolute: Q0 = A, Q1 = A (a, 0), t0 = p + A d_perp, t1 = -A d_perp, t2 = -A (a x d),
         d_perp = d - (a.d) a; prismatic: t1 = A a; ball: t0 = p + A d, t1 = d; free and the base: Q0 = A, t0 = p.
-        Launched over (P, nj): the base's terms (link 0) are not written."""
-        r, j = wp.tid()
-        i = j + 1
+        Launched over (P, nL): link 0, the base, gets the terms base[0, 0] (Q0) and base_t[0, 0] (t0) with Q1, t1, t2
+        zero (its terms are constant: the model's own)."""
+        r, i = wp.tid()
+        if i == 0:
+            Q0[r, 0] = base[0, 0]
+            Q1[r, 0] = sp.quat(scalar(0.0), scalar(0.0), scalar(0.0), scalar(0.0))
+            t0[r, 0] = base_t[0, 0]
+            t1[r, 0] = sp.vec3(scalar(0.0))
+            t2[r, 0] = sp.vec3(scalar(0.0))
+            return
+        j = i - 1
         rr = wp.min(r, rotation.shape[0] - 1)
         rp = wp.min(r, position.shape[0] - 1)
         A = wp.normalize(sp.quat_from_wxyz(rotation[rr, j, 0], rotation[rr, j, 1], rotation[rr, j, 2], rotation[rr, j, 3]))

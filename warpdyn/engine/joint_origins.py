@@ -30,26 +30,24 @@ def origins_of(tree) -> tuple[np.ndarray, np.ndarray]:
 def joint_terms(model, positions: wp.array, rotations: wp.array, P: int) -> dict:
     """{name: (P, nL) array} of JOINT_TERMS from the joints' positions (1 or P, nj, 3) and rotations (1 or P, nj, 4)
     (w, x, y, z) in the model's scalar, P = 1 (shared) or N (per environment, environment-fastest on a GPU as the
-    other per-environment parameters), the base's terms (link 0) the model's: one launch (a tape records it; the
-    outputs require gradients when an input does)."""
+    other per-environment parameters), the base's terms (link 0) the model's (constant): one launch, no copy through
+    the host (a tape records it; the outputs require gradients when an input does)."""
     d, tree = model.device, model.tree
     grad = positions.requires_grad or rotations.requires_grad
     nL = tree.number_of_links
-    out = {}
-    for name in JOINT_TERMS:
-        current = getattr(model, name)
-        first = current.numpy()[:1]  # (1, nL, 4 or 3): row 0, of which the launch keeps link 0's
-        out[name] = arrays.empty((nL,), P, current.dtype, d, requires_grad=grad)
-        out[name].assign(wp.array(np.broadcast_to(first, (P, *first.shape[1:])), dtype=current.dtype, device=d))
-    vec3 = wp.types.vector(3, model.scalar)
-    axis = wp.array(np.asarray(tree.joint_axis, dtype=np.float64), dtype=vec3, device=d)
-    pivot = wp.array(np.asarray(tree.joint_pivot, dtype=np.float64), dtype=vec3, device=d)
-    if tree.number_of_joints:
-        launch(
-            joint_kernels(model.scalar, model.multi_dof()).joint_terms_from_origins,
-            dim=(P, tree.number_of_joints),
-            inputs=[model.joint_type, positions, rotations, axis, pivot],
-            outputs=[out[name] for name in JOINT_TERMS],
-            device=d,
-        )
+    out = {name: arrays.empty((nL,), P, getattr(model, name).dtype, d, requires_grad=grad) for name in JOINT_TERMS}
+    axis, pivot = model.cached("joint axes and pivots", lambda: _axes_and_pivots(model))
+    launch(
+        joint_kernels(model.scalar, model.multi_dof()).joint_terms_from_origins,
+        dim=(P, nL),
+        inputs=[model.joint_type, positions, rotations, axis, pivot, model.joint_Q0, model.joint_t0],
+        outputs=[out[name] for name in JOINT_TERMS],
+        device=d,
+    )
     return out
+
+
+def _axes_and_pivots(model) -> tuple:
+    """(axis, pivot): each link's joint axis and pivot (nL,) vec3 [child frame] on the model's device."""
+    vec3 = wp.types.vector(3, model.scalar)
+    return tuple(wp.array(np.asarray(v, dtype=np.float64), dtype=vec3, device=model.device) for v in (model.tree.joint_axis, model.tree.joint_pivot))
