@@ -136,7 +136,7 @@ def bundles(scalar) -> types.SimpleNamespace:
         """The enabled collidable points, ordered by link, and the soft-contact parameters (JaxSim's)."""
 
         point_link: wp.array(dtype=int)  # (nc,) the link of each enabled point
-        L_p_C: wp.array2d(dtype=sp.vec3)  # (P, nc) the point in its link's frame [m], row min(env, P - 1)
+        L_p_C: wp.array2d(dtype=sp.vec3)  # (P, nc) the point in its link's frame [m] (read with vec3_parameter)
         point_row: wp.array(dtype=int)  # (nc,) its index among all points (the contact state's row)
         row_point: wp.array(dtype=int)  # (nc_all,) a point's index among the enabled points, -1 if disabled
         link_first_point: wp.array(dtype=int)  # (nL,) a link's first enabled point, -1 for none
@@ -160,11 +160,6 @@ def bundles(scalar) -> types.SimpleNamespace:
     def target_pose(targets: Targets, env: int, t: int):
         """Target t's pose in its link in environment env (P = 1 but for collidable points given per environment)."""
         return targets.link_H_target[wp.min(env, targets.link_H_target.shape[0] - 1), t]
-
-    @wp.func
-    def point_in_link(contacts: Contacts, env: int, c: int):
-        """Enabled point c's position in its link's frame [m] in environment env."""
-        return contacts.L_p_C[wp.min(env, contacts.L_p_C.shape[0] - 1), c]
 
     @wp.func
     def link_parameter(values: wp.array2d(dtype=scalar), env: int, i: int):
@@ -296,7 +291,6 @@ def bundles(scalar) -> types.SimpleNamespace:
         Contacts=Contacts,
         vec4=vec4,
         target_pose=target_pose,
-        point_in_link=point_in_link,
         link_parameter=link_parameter,
         env_parameter=env_parameter,
         joint_parameter=joint_parameter,

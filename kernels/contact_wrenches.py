@@ -58,7 +58,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         """f_C (N, nc, 6): each point's contact wrench in `repr` for C = (W_p_C, [L]), launched over (N, nc);
         point_out[c] is where the contact kernel's point c goes in the output (the points' own order)."""
         env, c = wp.tid()
-        X = W_H_L[env, contacts.point_link[c]] * sp.transform(B.point_in_link(contacts, env, c), wp.quat_identity(dtype=scalar))
+        X = W_H_L[env, contacts.point_link[c]] * sp.transform(B.vec3_parameter(contacts.L_p_C, env, c), wp.quat_identity(dtype=scalar))
         W_f = sp.vec6(W_f_C[env, c, 0], W_f_C[env, c, 1], W_f_C[env, c, 2], W_f_C[env, c, 3], W_f_C[env, c, 4], W_f_C[env, c, 5])
         f = sp.inertial_to_force_repr(repr, X, W_f)
         if repr != INERTIAL:  # a pure force at C: its moment about C is zero, exactly (not a rounded difference)

@@ -195,7 +195,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
         """(enabled point c's position on its link L_p_C, its contact-state row, its tangential deformation m at x)."""
         row = contacts.point_row[c]
         m = x.tangential_deformation
-        return B.point_in_link(contacts, env, c), row, sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+        return B.vec3_parameter(contacts.L_p_C, env, c), row, sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
 
     @wp.func
     def point_force(contacts: B.Contacts, terrain: B.Terrain, h0: scalar, law: sp.vec3, dt: scalar, env: int, c: int, row: int,

@@ -8,6 +8,7 @@ import types
 
 import warp as wp
 
+from .bundles import bundles
 from .factory import factory
 from .spatial import spatial
 
@@ -18,6 +19,7 @@ BOX, CYLINDER, SPHERE, CAPSULE = 0, 1, 2, 3
 @factory
 def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
+    B = bundles(scalar)
 
     @wp.func
     def scale_vector(kind: int, dims: wp.array3d(dtype=scalar), e: int, i: int):
@@ -70,7 +72,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         g0 = geometry[i][0] * dims[d, i, 0]
         g1 = geometry[i][1] * dims[d, i, 1]
         g2 = geometry[i][2] * dims[d, i, 2]
-        rho = density[i] * density_scale[wp.min(e, density_scale.shape[0] - 1), i]
+        rho = density[i] * B.link_parameter(density_scale, e, i)
         pi = scalar(3.141592653589793)
         m = scalar(0.0)
         I = sp.mat33(scalar(0.0))

@@ -90,7 +90,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         """(p, p_dot, n, delta, delta_dot) of enabled point c: its position and velocity [world], the terrain's
         normal under it, its penetration and rate (0 out of contact; JaxSim's compute_penetration_data)."""
         L = contacts.point_link[c]
-        p = wp.transform_point(W_H_L[env, L], B.point_in_link(contacts, env, c))
+        p = wp.transform_point(W_H_L[env, L], B.vec3_parameter(contacts.L_p_C, env, c))
         v = W_v_WL[env, L]
         p_dot = sp.lin(v) + wp.cross(sp.ang(v), p)
         h = T.terrain_height(terrain, T.height_parameter(terrain, env), p[0], p[1])
@@ -172,7 +172,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 W_f_C[env, c, r] = scalar(0.0)
         for i in range(k):
             c = active[env, i]
-            p = wp.transform_point(W_H_L[env, contacts.point_link[c]], B.point_in_link(contacts, env, c))
+            p = wp.transform_point(W_H_L[env, contacts.point_link[c]], B.vec3_parameter(contacts.L_p_C, env, c))
             force = sp.vec3(scalar(f[env, 3 * i]), scalar(f[env, 3 * i + 1]), scalar(f[env, 3 * i + 2]))
             wrench = sp.stack(force, wp.cross(p, force))
             for r in range(6):

@@ -241,7 +241,7 @@ def kernels(scalar, terrain_kind: int | None = None):
                 L = contacts.point_link[c]
                 m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
                 law = law_parameters(contacts, env)
-                w, md = point_wrench(contacts, terrain, height_parameter(terrain, env), law, B.point_in_link(contacts, env, c), W_H_L[env, L], W_v_WL[env, L], m_c)
+                w, md = point_wrench(contacts, terrain, height_parameter(terrain, env), law, B.vec3_parameter(contacts.L_p_C, env, c), W_H_L[env, L], W_v_WL[env, L], m_c)
                 for a in range(6):
                     W_f_C[env, c, a] = w[a]
                 for a in range(3):
