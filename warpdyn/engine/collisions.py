@@ -107,12 +107,13 @@ def geom_contacts(model, data) -> tuple[wp.array, wp.array, wp.array, wp.array]:
     return b["count"], b["position"], b["frame"], b["dist"]
 
 
-def mark_links_touching(model, data, links: np.ndarray, touching: wp.array) -> None:
-    """Set touching[env, k] (N, K) bool where link links[k] (host indices) is in a geom pair whose contact at the
-    data's state has dist <= 0 (`geom_contacts`); the other entries are kept."""
+def mark_links_touching(model, W_H_L: wp.array, links: wp.array, touching: wp.array) -> None:
+    """Set touching[env, k] (N, K) bool where link links[k] is in a geom pair whose contact at the link poses W_H_L
+    (N, nL) has dist <= 0; the other entries are kept."""
     a = pair_arrays(model)
     if not a["pairs"]:
         return
-    count, _, _, dist = geom_contacts(model, data)
-    inputs = [a["link1"], a["link2"], a["first"], count, dist, wp.array(np.asarray(links, dtype=np.int32), dtype=int, device=model.device)]
-    run([Launch(collision_kernels(a["scalar"]).links_touching, data.batch_size, inputs, [touching])], model.device)
+    N = W_H_L.shape[0]
+    b = contact_buffers(a, N)
+    inputs = [a["link1"], a["link2"], a["first"], b["count"], b["dist"], links]
+    run([contact_launch(a, W_H_L, b, N), Launch(collision_kernels(a["scalar"]).links_touching, N, inputs, [touching])], model.device)

@@ -38,10 +38,11 @@ def _point_targets(model):
     return targets(model, params.enabled_link, point_frames(model, params.contact_parameters.indices_of_enabled_collidable_points))
 
 
-def positions(model, data) -> wp.array:
-    """W_p_C (N, nc, 3) [m]: the world positions of the enabled points."""
+def positions(model, data, W_H_L: wp.array | None = None) -> wp.array:
+    """W_p_C (N, nc, 3) [m]: the world positions of the enabled points (W_H_L: the data's link poses, if at hand)."""
     target = point_targets(model)
-    _, W_H_L = link_poses(model, data)
+    if W_H_L is None:
+        _, W_H_L = link_poses(model, data)
     N, nc = data.batch_size, target.link.shape[0]
     W_p_C = arrays.output((nc, 3), N, model.scalar, model.device, data.requires_grad)
     launch(point_kernels(model.scalar).point_positions, dim=(N, nc), inputs=[target, W_H_L], outputs=[W_p_C], device=model.device)
@@ -163,12 +164,12 @@ def _point_wrenches(model, data, out_repr: int, current, ev) -> wp.array:
 def links_in_contact(model, data, link_indices) -> wp.array:
     """(N, K) bool: whether each of the links `link_indices` (None: all) has an enabled point at or below the
     terrain or, where model.geom_contacts is set, a geom pair's contact at dist <= 0 (see warpdyn.contact.in_contact)."""
-    indices = np.arange(model.number_of_links()) if link_indices is None else np.asarray(link_indices, dtype=np.int32)
     if link_indices is None:
         links = model.all_links
     else:
-        links = wp.array(indices.astype(np.int32), dtype=int, device=model.device)
-    W_p_C = positions(model, data)
+        links = wp.array(np.asarray(link_indices, dtype=np.int32), dtype=int, device=model.device)
+    _, W_H_L = link_poses(model, data)
+    W_p_C = positions(model, data, W_H_L)
     current = plan(model)
     N, K = data.batch_size, links.shape[0]
     current.check_envs(N)
@@ -181,5 +182,5 @@ def links_in_contact(model, data, link_indices) -> wp.array:
         device=model.device,
     )
     if model.geom_contacts:
-        collisions.mark_links_touching(model, data, indices, out)
+        collisions.mark_links_touching(model, W_H_L, links, out)
     return out
