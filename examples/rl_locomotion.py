@@ -6,6 +6,7 @@ ergoCub legs (shipped) or the Unitree Go1 quadruped (from the pip package exampl
     python examples/rl_locomotion.py --robot go1 --task walk --max-minutes 4 --evaluate 0.5 --out runs/go1
     python examples/rl_locomotion.py --robot go1 --task walk --replay runs/go1/policy.pt --out runs/go1   # a recording
     python examples/rl_locomotion.py --robot anymal_c --task walk --max-minutes 2 --evaluate 1.0 --out runs/anymal   # also go2
+    python examples/rl_locomotion.py --robot anymal_c --task rough --iterations 100000 --max-minutes 10 --out runs/rough
 
 On K GPUs of one host (data parallel, torch.distributed with NCCL):
 
@@ -32,7 +33,12 @@ halves of the four foot spheres (9 points each), kp 20, damping 0.5, servo torqu
 steps of 2 ms per action, GO1_STANDING_POSE, Rudin et al.'s flat-ground rewards (velocity tracking, feet air
 time, penalties on vertical and roll/pitch velocity, torque and action rate). `stand`: zero commands, a push
 of up to 0.5 m/s every 4 s of each episode. `walk`: ergoCub: forward commands of 0..0.5 m/s, feet air time
-rewarded; Go1: vx in [-1, 1], vy in [-0.5, 0.5] m/s, yaw rate in [-1, 1] rad/s, redrawn every 10 s. `--evaluate
+rewarded; Go1: vx in [-1, 1], vy in [-0.5, 0.5] m/s, yaw rate in [-1, 1] rad/s, redrawn every 10 s. `rough` (the ANYmal C):
+vx and vy in [-1, 1] m/s and no yaw rate (the curriculum promotes by the distance walked from the origin: at
+1 m/s and 1 rad/s a robot walks a circle 2 m across; legged_gym commands a heading instead) on Rudin et al.'s
+curriculum over ROUGH_TERRAIN, ROUGH_OBSERVATIONS (the height
+scan), ROUGH_REWARDS (thighs touching penalised: ROUGH_LINKS touch the terrain too), falls judged above the terrain
+under the base at 0.4 x the standing height; each iteration prints the mean terrain level. `--evaluate
 SPEED` then commands SPEED m/s straight ahead and prints the forward speed reached. Trainer: rsl-rl-lib's PPO (the one Isaac Lab and mjlab
 use): 24 steps per environment and iteration, 5 epochs of 4 mini-batches (per rank), MLP (256, 128, 64)
 actor and critic with observation normalisation.
@@ -51,6 +57,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import io
 import os
 import pathlib
@@ -81,7 +88,33 @@ TASKS = {
         walk=dict(lin_vel_x=(-1.0, 1.0), lin_vel_y=(-0.5, 0.5), yaw_rate=(-1.0, 1.0), push_velocity=0.5, push_seconds=8.0),
     ),
 }
-TASKS["go2"] = TASKS["anymal_c"] = TASKS["go1"]  # the quadrupeds share Rudin et al.'s flat-ground tasks
+ROUGH_TERRAIN = envs.terrain_generator.TerrainConfig(
+    levels=10, columns_per_kind=2,
+    kinds=("pyramid_slope_up", "pyramid_slope_down", "random_rough", "stairs_up", "stairs_down", "discrete_obstacles"),
+)  # fmt: skip
+"""Rudin et al.'s rough terrain: 10 levels of slopes, rough ground, stairs and obstacles (8 m tiles, 12 columns)."""
+ROUGH_OBSERVATIONS = (*(entry for entry in envs.DEFAULT_OBSERVATIONS if entry[0] is not envs.terms.base_height), (envs.terms.height_scan, 1.0))
+"""The flat tasks' observations, the height scan (187 points) instead of the base's height above its origin."""
+ROUGH_REWARDS = {
+    **{name: term for name, term in envs.robots.GO1_REWARDS.items() if name not in ("upright", "height_error")},
+    "torque": (envs.terms.torque_squared, -1e-5),
+    "undesired_contacts": (envs.terms.undesired_contacts, -1.0),
+}
+"""Rudin et al.'s rough-terrain rewards: the flat ones without the height and tilt terms (slopes and stairs tilt
+and lift the base), legged_gym's torque weight for the ANYmal (-1e-5: the flat tasks' -2e-4 on its torques cancels
+the tracking terms, and a policy then learns to end its episodes), a penalty on thighs touching the terrain; each
+step's total clipped at 0 (legged_gym's only_positive_rewards)."""
+ROUGH_LINKS = {"anymal_c": ("LF_THIGH", "RF_THIGH", "LH_THIGH", "RH_THIGH")}
+"""Per robot with a rough task, the links besides the feet that touch the terrain (their box corners)."""
+TASKS["go2"] = TASKS["go1"]  # the quadrupeds share Rudin et al.'s flat-ground tasks
+TASKS["anymal_c"] = dict(
+    TASKS["go1"],
+    rough=dict(
+        terrain=ROUGH_TERRAIN, height_scan=((1.6, 1.0), 0.1), observations=ROUGH_OBSERVATIONS, rewards=ROUGH_REWARDS,
+        undesired_contacts=ROUGH_LINKS["anymal_c"], lin_vel_x=(-1.0, 1.0), lin_vel_y=(-1.0, 1.0), yaw_rate=(0.0, 0.0),
+        push_velocity=0.5, push_seconds=8.0, termination_height=0.4, only_positive_rewards=True,
+    ),
+)  # fmt: skip
 """Per robot, the LeggedEnvConfig settings of each task, over the preset's."""
 
 
@@ -92,8 +125,13 @@ def robot_model(robot: str, device) -> wd.model.Model:
 
 
 def make_env(task: str, num_envs: int, device, seed: int, robot: str = "ergocub", **overrides) -> envs.LeggedEnv:
-    """`robot`'s LeggedEnv for `task` (the preset's settings, the task's, then `overrides`)."""
+    """`robot`'s LeggedEnv for `task` (the preset's settings, the task's, then `overrides`; on rough terrain the
+    robot's ROUGH_LINKS touch it too)."""
+    if task not in TASKS[robot]:
+        raise ValueError(f"{robot} has no task {task!r} (its tasks: {', '.join(TASKS[robot])})")
     preset = ROBOTS[robot]()
+    if task == "rough":
+        preset = dataclasses.replace(preset, other_links=ROUGH_LINKS[robot])
     model = preset.model(device=device)
     return envs.LeggedEnv(model, num_envs=num_envs, cfg=preset.config(model, **{**TASKS[robot][task], **overrides}), seed=seed)
 
@@ -148,7 +186,7 @@ def train(
     max_minutes: float | None = None,
 ) -> list:
     """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass); returns
-    [(iteration, mean return, env-steps/s, seconds)], the returns and rates over all ranks when a process
+    [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
 
@@ -180,23 +218,24 @@ def train(
         episodes = stats["episodes"]
         out_of_time = max_minutes is not None and time.perf_counter() - start > 60.0 * max_minutes
         counts = [steps * env.num_envs, episodes, stats["mean_return"] * episodes if episodes else 0.0,
-                  stats["mean_length"] * episodes if episodes else 0.0, float(out_of_time)]  # fmt: skip
+                  stats["mean_length"] * episodes if episodes else 0.0, float(out_of_time), *terrain_levels(env)]  # fmt: skip
         if world > 1:  # one small all-reduce per iteration
             reduced = torch.tensor(counts, dtype=torch.float64, device=torch_device)
             torch.distributed.all_reduce(reduced)
             counts = reduced.tolist()
-        new_steps, episodes, return_sum, length_sum, out_of_time = counts
+        new_steps, episodes, return_sum, length_sum, out_of_time, level_sum, on_top, rough_envs = counts
+        level = f"  terrain level {level_sum / rough_envs:5.2f} ({on_top / rough_envs:6.1%} on the hardest)" if rough_envs else ""
         total_steps += int(new_steps)
         mean_return = return_sum / episodes if episodes else float("nan")
         mean_length = length_sum / episodes if episodes else float("nan")
         seconds = time.perf_counter() - t0
         rate = new_steps / seconds
-        history.append((it, mean_return, rate, time.perf_counter() - start))
+        history.append((it, mean_return, rate, time.perf_counter() - start, level_sum / rough_envs if rough_envs else float("nan")))
         if rank == 0:
             print(
                 f"iteration {it:4d}  mean return {mean_return:8.3f}  mean length {mean_length:7.1f}  "
                 f"{rate / 1e3:8.1f} k env-steps/s ({rate * env.decimation / 1e6:6.2f} M sim steps/s)  "
-                f"{total_steps:11d} env-steps  {history[-1][3]:7.1f} s",
+                f"{total_steps:11d} env-steps  {history[-1][3]:7.1f} s{level}",
                 flush=True,
             )
         if target_return is not None and reached is None and mean_return >= target_return:  # NaN: not reached
@@ -225,6 +264,16 @@ def train(
     return history
 
 
+def terrain_levels(env: envs.LeggedEnv) -> tuple[float, float, float]:
+    """(sum of the environments' terrain levels, how many are on the hardest level, how many environments) on
+    generated terrain; zeros on flat ground."""
+    gen = env.terrain_generator
+    if gen is None:
+        return 0.0, 0.0, 0.0
+    levels = env.terrain_levels
+    return float(levels.sum()), float((levels == gen.levels - 1).sum()), float(env.num_envs)
+
+
 def plot(history: list, path: pathlib.Path, title: str) -> None:
     try:
         import matplotlib
@@ -234,11 +283,15 @@ def plot(history: list, path: pathlib.Path, title: str) -> None:
     except ImportError:
         print("matplotlib is not installed: no plot")
         return
-    it, ret, _, seconds = (np.array(x, dtype=float) for x in zip(*history))
+    it, ret, _, seconds, level = (np.array(x, dtype=float) for x in zip(*history))
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.plot(seconds, ret)
     ax.set_xlabel("wall time [s]")
     ax.set_ylabel("mean episode return")
+    if np.isfinite(level).any():
+        levels = ax.twinx()
+        levels.plot(seconds, level, color="tab:orange")
+        levels.set_ylabel("mean terrain level", color="tab:orange")
     ax.set_title(title)
     ax.grid(True)
     fig.tight_layout()
@@ -306,7 +359,7 @@ def main(argv=None) -> None:
         epilog="On K GPUs: torchrun --standalone --nproc_per_node K examples/rl_locomotion.py ... (rank r on cuda:<LOCAL_RANK>)",
     )
     parser.add_argument("--robot", choices=sorted(ROBOTS), default="ergocub", help="ergocub: the shipped legs; anymal_c, go2: shipped from MuJoCo Menagerie; go1: example-robot-data's")
-    parser.add_argument("--task", choices=("stand", "walk"), default="stand")
+    parser.add_argument("--task", choices=("stand", "walk", "rough"), default="stand", help="rough: anymal_c on Rudin et al.'s curriculum")
     parser.add_argument(
         "--device", default=None,
         help="Warp device (default: a GPU if there is one); under torchrun 'cuda' or none gives rank r cuda:<LOCAL_RANK>, "

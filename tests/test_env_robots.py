@@ -6,6 +6,7 @@ dynamics equal MuJoCo's (measured: M 6e-16, h 5e-16, qacc 4e-15 relative, tests/
 stands on the lower halves of its foot spheres; so do the shipped Go2's (warpdyn/assets/go2.xml: M 6e-16, h 6e-16,
 qacc 2e-15 relative)."""
 
+import dataclasses
 import pathlib
 import re
 import warnings
@@ -212,3 +213,31 @@ def test_per_joint_torque_limits_clip_each_joint():
         legs.env(num_envs=2, torque_limit={"knee": 5.0})
     with pytest.raises(ValueError, match="torque_limit must be a positive finite number"):
         envs.LeggedEnvConfig(torque_limit={names[0]: -1.0})
+
+
+@pytest.mark.filterwarnings("ignore::warpdyn.model.NotModelledWarning")  # the joint limits and body contacts, tested above
+def test_other_links_touch_with_their_box_corners():
+    """LeggedRobot.other_links: the ANYmal C with its thighs besides its feet keeps the preset's foot points (the
+    same positions, lower halves of the foot spheres) and adds each thigh box's 8 corners (the box's pose and size
+    from the description); a link that is not the model's, or has no shape of those kinds, is refused by name."""
+    thighs = ("LF_THIGH", "RF_THIGH", "LH_THIGH", "RH_THIGH")
+    preset = envs.robots.anymal_c()
+    model = dataclasses.replace(preset, other_links=thighs).model()
+    alone = preset.model()
+
+    def enabled(m):
+        cp = m.kin_dyn_parameters.contact_parameters
+        return [(m.link_names()[b], tuple(np.round(p, 9))) for b, p, on in zip(cp.body, np.asarray(cp.point, dtype=np.float64), cp.enabled) if on]
+
+    feet, others = enabled(alone), [e for e in enabled(model) if e[0] in thighs]
+    assert sorted(e for e in enabled(model) if e[0] not in thighs) == sorted(feet) and len(feet) == 36
+    for thigh in thighs:
+        (box,) = [s for s in model.tree.collisions[model.link_names().index(thigh)] if s.kind == "box"]
+        corners = np.array(np.meshgrid(*[[-h, h] for h in np.asarray(box.size) / 2], indexing="ij")).reshape(3, -1).T
+        expected = corners @ box.link_H_shape[:3, :3].T + box.link_H_shape[:3, 3]
+        mine = np.array([p for name, p in others if name == thigh])
+        assert len(mine) == 8 and np.abs(mine[:, None, :] - expected[None, :, :]).max(axis=2).min(axis=1).max() < 1e-6
+    with pytest.raises(ValueError, match=r"other_links \['knee'\] are not links of"):
+        dataclasses.replace(preset, other_links=("knee",)).model()
+    with pytest.raises(ValueError, match=r"other_links \['LF_HIP'\] have no collision shape of the kinds \['sphere', 'box'\]"):
+        dataclasses.replace(preset, other_links=("LF_HIP",)).model()

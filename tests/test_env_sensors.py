@@ -229,6 +229,26 @@ def test_the_height_above_the_terrain_under_the_base():
     assert np.ptp(base[:, 2]) > 0.3  # the bases stand at different heights, above different ground
 
 
+def test_a_fall_is_judged_above_the_terrain_under_the_base():
+    """On a heightfield 1 m down for x < 0 and 1 m up for x > 0, with termination_height 1 (the standing height
+    above the terrain under the base), over one 0.1 ms step (the bases move by micrometres): a base 5 cm above
+    its standing height over the lower ground is not fallen though it is 0.95 m below its environment's origin,
+    and one 5 cm below it over the upper ground is, though it is 0.95 m above its origin."""
+    x = y = np.arange(41) * 0.1 - 2.0
+    X, _ = np.meshgrid(x, y, indexing="ij")
+    model = _legs()
+    model.terrain = wd.terrain.HeightfieldTerrain(np.where(X < -0.05, -1.0, 1.0), origin=(-2.0, -2.0), spacing=(0.1, 0.1))
+    cfg = envs.LeggedEnvConfig(joint_noise=0.0, termination_height=1.0, time_step=1e-4, policy_dt=1e-4)
+    env = envs.LeggedEnv(model, num_envs=2, cfg=cfg, seed=0)
+    env.reset(seed=0)
+    views = env._state_views[id(env.stepper.data)]
+    s = env.standing_height
+    views["base_position"].copy_(torch.tensor([[-1.0, 0.0, -1.0 + s + 0.05], [1.0, 0.0, 1.0 + s - 0.05]], device=env.device))
+    _, _, terminated, _, _ = env.step(_zero(env))
+    assert terminated.tolist() == [False, True]
+    assert float(envs.terms.base_height(env)[0, 0]) == pytest.approx(-1.0 + s + 0.05, abs=1e-3)  # (the fallen one was reset)
+
+
 class PD(torch.nn.Module):
     """kp * error - kd * velocity from an ActuatorNet's input (N, n, 2 history): the newest of each."""
 

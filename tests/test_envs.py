@@ -453,3 +453,39 @@ def test_the_go1_walk_task_steps_and_its_feet_touch_down():
         obs, reward, terminated, truncated, info = env.step(torch.zeros(4, 12, device=env.device))
         assert bool(torch.isfinite(obs).all()) and bool(torch.isfinite(reward).all()) and not info["invalid"].any()
         assert not terminated.any() and bool(env.feet_contact.all()) == (k >= 3), k
+
+
+@pytest.mark.filterwarnings("ignore::warpdyn.model.NotModelledWarning")  # the ANYmal C's, tests/test_env_robots.py checks them
+def test_the_anymal_c_rough_task_builds_on_its_curriculum(tmp_path):
+    """examples/rl_locomotion.py's rough task: the ANYmal C on the generated terrain (10 levels), the 187-point
+    height scan observed instead of the base's height above its origin (235 observations), its thighs' box corners
+    touching the terrain besides the feet (8 each) and watched as undesired contacts, each step's reward clipped at 0;
+    two PPO iterations record the mean terrain level (starting levels 0 and 1). A robot without a rough task is
+    refused by name."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    try:
+        import rl_locomotion
+    finally:
+        sys.path.pop(0)
+    env = rl_locomotion.make_env("rough", 4, wp.get_device(), seed=0, robot="anymal_c")
+    assert env.single_observation_space.shape == (235,) and env.terrain_generator.levels == 10
+    assert env.cfg.only_positive_rewards and env.undesired_contact.shape == (4, 4)
+    cp, links = env.model.kin_dyn_parameters.contact_parameters, env.model.link_names()
+    touching = [links[b] for b, on in zip(cp.body, cp.enabled) if on]
+    assert {name: touching.count(name) for name in set(touching)} == {**dict.fromkeys(wd.assets.ANYMAL_C_FEET, 9), **dict.fromkeys(rl_locomotion.ROUGH_LINKS["anymal_c"], 8)}
+    history = rl_locomotion.train(env, 2, tmp_path, str(env.device))
+    assert [round(h[4], 6) for h in history] == [float(env.terrain_levels.float().mean())] * 2 and history[0][4] in (0.0, 0.25, 0.5, 0.75, 1.0)
+    with pytest.raises(ValueError, match="go2 has no task 'rough' .its tasks: stand, walk"):
+        rl_locomotion.make_env("rough", 4, wp.get_device(), seed=0, robot="go2")
+
+
+def test_only_positive_rewards_clip_each_steps_total_at_zero():
+    """LeggedEnvConfig.only_positive_rewards (legged_gym's): a step whose terms sum to -policy_dt reports 0 with it
+    and -policy_dt without; a non-bool is refused by name."""
+    for clip in (False, True):
+        env = _env(N=2, joint_noise=0.0, rewards={"penalty": (envs.terms.alive, -1.0)}, only_positive_rewards=clip)
+        env.reset(seed=0)
+        _, reward, terminated, _, _ = env.step(torch.zeros(2, 12, device=env.device))
+        assert not terminated.any() and reward.tolist() == ([0.0, 0.0] if clip else [pytest.approx(-env.cfg.policy_dt)] * 2)
+    with pytest.raises(TypeError, match="LeggedEnvConfig.only_positive_rewards must be True or False, got 1"):
+        envs.LeggedEnvConfig(only_positive_rewards=1)

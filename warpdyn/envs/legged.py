@@ -74,8 +74,8 @@ class LeggedEnvConfig:
     `warpdyn.envs.terrain_generator.TerrainConfig`) its generated heightfield, each environment starting at the
     centre of its tile (`env_origins`, `terrain_levels`); with `terrain_curriculum` an environment whose episode
     ended goes a level up when it walked farther than half a tile from its origin and down when it walked less
-    than half its commanded distance (Rudin et al.'s rule, on the device); base heights (observed, rewarded,
-    terminated) are taken above the origin's. `height_scan` ((length, width), resolution) [m]: the terrain's height
+    than half its commanded distance (Rudin et al.'s rule, on the device); base heights (observed, rewarded) are
+    taken above the origin's, the termination's above the terrain under the base. `height_scan` ((length, width), resolution) [m]: the terrain's height
     on that grid around each base in its yaw frame after every step (`env.height_scan`, (N, P) [m];
     `terms.height_scan` observes the base's height above it). Realism: an observation entry (term, scale, noise)
     adds uniform noise of +-noise to its scaled values at every observation; `action_delay` k applies each action
@@ -119,6 +119,7 @@ class LeggedEnvConfig:
     friction: tuple = (0.5, 0.5)
     observations: tuple = DEFAULT_OBSERVATIONS
     rewards: dict = dataclasses.field(default_factory=lambda: dict(DEFAULT_REWARDS))
+    only_positive_rewards: bool = False  # legged_gym's: a step's total reward clipped at 0 (ending an episode early never pays)
     terrain: TerrainConfig | None = None
     terrain_curriculum: bool = True
     height_scan: tuple | None = None  # ((length, width), resolution) [m] of wd.terrain.grid_pattern; None: no scan
@@ -172,8 +173,9 @@ class LeggedEnvConfig:
             raise TypeError(f"LeggedEnvConfig.imu must be an ImuConfig (warpdyn.envs.sensors) or None, got {self.imu!r}")
         if not (isinstance(self.actuator, ActuatorNet) or (isinstance(self.actuator, str) and self.actuator in ("pd", "torque"))):
             raise ValueError(f"LeggedEnvConfig.actuator must be 'pd', 'torque' or an ActuatorNet (warpdyn.envs.actuators), got {self.actuator!r}")
-        if not isinstance(self.terrain_curriculum, (bool, np.bool_)):
-            raise TypeError(f"LeggedEnvConfig.terrain_curriculum must be True or False, got {self.terrain_curriculum!r}")
+        for name in ("terrain_curriculum", "only_positive_rewards"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise TypeError(f"LeggedEnvConfig.{name} must be True or False, got {getattr(self, name)!r}")
         if not isinstance(self.rewards, dict):
             raise TypeError(f"LeggedEnvConfig.rewards must be a dict {{name: (term, weight)}}, got {self.rewards!r}")
         for key, entry in self.rewards.items():
@@ -642,10 +644,11 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.feet_air_time.masked_fill_(self.feet_contact | self._previous_contact, 0.0)
         self._previous_contact.copy_(self.feet_contact)
         invalid = s.valid == 0
-        fell = (s.base_position[:, 2] - self.terrain_height < cfg.termination_height * self.standing_height) | (s.projected_gravity[:, 2] > -math.cos(cfg.termination_tilt))
+        fell = (s.base_position[:, 2] - self.terrain_below_base < cfg.termination_height * self.standing_height) | (s.projected_gravity[:, 2] > -math.cos(cfg.termination_tilt))
         terminated = fell | invalid
         truncated = (self.episode_length_buf >= self.max_episode_length) & ~terminated
         reward = torch.where(invalid, torch.zeros_like(reward), torch.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0))
+        reward = reward.clamp(min=0.0) if cfg.only_positive_rewards else reward
         done = terminated | truncated
         self._return += reward
         self._finished += torch.stack([done.sum(), (self._return * done).sum(), (self.episode_length_buf * done).sum()]).to(torch.float64)

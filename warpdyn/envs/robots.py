@@ -7,7 +7,9 @@ presets `ergocub_legs()` (shipped), `go1()` (the pip package example-robot-data'
     env = robot.env(num_envs=4096, push_velocity=0.5)      # LeggedEnvConfig fields override `settings`
 
 The feet's collision shapes become the contact points (`contact_shapes`, `sphere_points`; `lower_half` keeps a
-foot's points below the centre of its shapes: a round foot meets the ground with its lower half), and no other
+foot's points below the centre of its shapes: a round foot meets the ground with its lower half); `other_links`
+(e.g. the thighs, for rough terrain, where LeggedEnvConfig.undesired_contacts penalises their touching) touch the
+terrain with the points of their shapes of the kinds `other_shapes` (a box's corners) and `contact_shapes`; no other
 link has any. The posture is a {joint: position} dict or the name of an MJCF keyframe.
 """
 
@@ -53,17 +55,20 @@ class LeggedRobot:
     contact_shapes: tuple = ("box", "sphere", "cylinder", "capsule")
     sphere_points: int = 50
     lower_half: bool = False
+    other_links: tuple = ()
+    other_shapes: tuple = ("box",)
     settings: dict = dataclasses.field(default_factory=dict)
 
     def model(self, device=None, dtype=np.float32) -> wd.model.Model:
-        """The model: its joints reduced to `joints`, its contact points on the feet alone."""
+        """The model: its joints reduced to `joints`, its contact points on the feet and `other_links`."""
         source = self.description() if callable(self.description) else self.description
         model = wd.model.Model.build_from_model_description(source, dtype=dtype, device=device)
         if self.joints is not None:
             model = wd.model.reduce(model, considered_joints=list(self.joints))
-        missing = [name for name in self.feet if name not in model.link_names()]
-        if missing:
-            raise ValueError(f"feet {missing} are not links of '{model.name()}' (its links: {', '.join(model.link_names())})")
+        for role, names in (("feet", self.feet), ("other_links", self.other_links)):
+            missing = [name for name in names if name not in model.link_names()]
+            if missing:
+                raise ValueError(f"{role} {missing} are not links of '{model.name()}' (its links: {', '.join(model.link_names())})")
         options = wd.contact.CollidablePointsOptions(shapes=tuple(self.contact_shapes), sphere_points=self.sphere_points)
         model = wd.contact.with_collidable_points(model, options=options)
         cp = model.kin_dyn_parameters.contact_parameters
@@ -79,6 +84,25 @@ class LeggedRobot:
         without = [name for name in self.feet if not enabled[np.asarray(cp.body) == links.index(name)].any()]
         if without:
             raise ValueError(f"feet {without} have no collision shape of the kinds {list(self.contact_shapes)}: they cannot touch the ground")
+        if not self.other_links:
+            return wd.contact.with_collidable_points(model, options=options, enabled=enabled)
+        return self._with_other_links(model, options, enabled)
+
+    def _with_other_links(self, model, feet_options, feet_enabled) -> wd.model.Model:
+        """`model` with the feet's points (those `feet_enabled` of `feet_options`' points, found again by link and
+        position among the points of both option sets' shapes) and every point of `other_links`' shapes."""
+        feet_cp = model.kin_dyn_parameters.contact_parameters
+        feet = {(b, tuple(p)) for b, p, on in zip(feet_cp.body, np.asarray(feet_cp.point, dtype=np.float64).round(12), feet_enabled) if on}
+        kinds = tuple(dict.fromkeys((*self.contact_shapes, *self.other_shapes)))
+        options = dataclasses.replace(feet_options, shapes=kinds)
+        model = wd.contact.with_collidable_points(model, options=options)
+        cp = model.kin_dyn_parameters.contact_parameters
+        others = {model.link_names().index(name) for name in self.other_links}
+        points = np.asarray(cp.point, dtype=np.float64).round(12)
+        enabled = np.array([b in others or (b, tuple(p)) in feet for b, p in zip(cp.body, points)], dtype=bool)
+        bare = [name for name in self.other_links if not enabled[np.asarray(cp.body) == model.link_names().index(name)].any()]
+        if bare:
+            raise ValueError(f"other_links {bare} have no collision shape of the kinds {list(kinds)}: they cannot touch the ground")
         return wd.contact.with_collidable_points(model, options=options, enabled=enabled)
 
     def _shape_centre(self, model, link: int) -> float:
