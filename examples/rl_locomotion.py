@@ -35,7 +35,8 @@ time, penalties on vertical and roll/pitch velocity, torque and action rate). `s
 of up to 0.5 m/s every 4 s of each episode. `walk`: ergoCub: forward commands of 0..0.5 m/s, feet air time
 rewarded; Go1: vx in [-1, 1], vy in [-0.5, 0.5] m/s, yaw rate in [-1, 1] rad/s, redrawn every 10 s. `rough` (the ANYmal C):
 vx and vy in [-1, 1] m/s and no yaw rate (the curriculum promotes by the distance walked from the origin: at
-1 m/s and 1 rad/s a robot walks a circle 2 m across; legged_gym commands a heading instead) on Rudin et al.'s
+1 m/s and 1 rad/s a robot walks a circle 2 m across; legged_gym commands a heading instead, which
+LeggedEnvConfig.heading_command offers) on Rudin et al.'s
 curriculum over ROUGH_TERRAIN, ROUGH_OBSERVATIONS (the height
 scan), ROUGH_REWARDS (thighs touching penalised: ROUGH_LINKS touch the terrain too), falls judged above the terrain
 under the base at 0.4 x the standing height; each iteration prints the mean terrain level. `--evaluate

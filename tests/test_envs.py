@@ -489,3 +489,34 @@ def test_only_positive_rewards_clip_each_steps_total_at_zero():
         assert not terminated.any() and reward.tolist() == ([0.0, 0.0] if clip else [pytest.approx(-env.cfg.policy_dt)] * 2)
     with pytest.raises(TypeError, match="LeggedEnvConfig.only_positive_rewards must be True or False, got 1"):
         envs.LeggedEnvConfig(only_positive_rewards=1)
+
+
+def test_heading_commands_steer_the_yaw_rate():
+    """LeggedEnvConfig.heading_command (legged_gym's): each environment draws a heading in [-pi, pi] with its
+    commands, and every observation commands the yaw rate 0.5 x the heading's error from the base's yaw, wrapped to
+    [-pi, pi) and clipped to yaw_rate's range (headings 0.4, -0.4 - 2 pi, 3 and -3 rad from the yaw command 0.2,
+    -0.2, 1 and -1 rad/s); without it the heading stays 0 and the drawn yaw rate stands."""
+    env = _env(N=4, joint_noise=0.0, heading_command=True, yaw_rate=(-1.0, 1.0))
+    env.reset(seed=0)
+
+    def yaw():
+        w, x, y, z = env.state.base_quaternion.double().T
+        return torch.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+    def expected():
+        error = torch.remainder(env.heading.double() - yaw() + math.pi, 2 * math.pi) - math.pi
+        return (0.5 * error).clamp(-1.0, 1.0)
+
+    heading = env.heading.clone()
+    assert bool((heading.abs() <= math.pi).all()) and len(set(heading.tolist())) == 4
+    np.testing.assert_allclose(env.commands[:, 2].double().cpu(), expected().cpu(), atol=1e-6)
+    env.heading.copy_((yaw() + torch.tensor([0.4, -0.4 - 2 * math.pi, 3.0, -3.0], dtype=torch.float64, device=env.device)).float())
+    env.step(torch.zeros(4, 12, device=env.device))
+    np.testing.assert_allclose(env.commands[:, 2].double().cpu(), expected().cpu(), atol=1e-6)
+    np.testing.assert_allclose(env.commands[:, 2].cpu(), [0.2, -0.2, 1.0, -1.0], atol=0.02)
+    plain = _env(N=4, joint_noise=0.0, yaw_rate=(-1.0, 1.0))
+    plain.reset(seed=0)
+    plain.step(torch.zeros(4, 12, device=plain.device))
+    assert plain.heading.tolist() == [0.0] * 4 and len(set(plain.commands[:, 2].tolist())) == 4
+    with pytest.raises(TypeError, match="LeggedEnvConfig.heading_command must be True or False"):
+        envs.LeggedEnvConfig(heading_command="yes")

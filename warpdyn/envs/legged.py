@@ -53,39 +53,38 @@ DEFAULT_REWARDS: dict = {
 class LeggedEnvConfig:
     """What `LeggedEnv` simulates and rewards; units SI (s, m, rad, N m).
 
-    Simulation: `time_step` [s] of the semi-implicit Euler (the joints' damping implicit), `policy_dt` [s]
-    per action (decimation = policy_dt / time_step steps), soft contacts `contact_stiffness` K and
-    `contact_damping` D (None: JaxSim's damping ratio at that K). Actions: joint position targets
-    default + action_scale * clip(action, +-action_clip), followed by a position actuator per joint (kp)
-    and the joint damper (kd) (a model that has actuators keeps its own and takes the targets as ctrl).
-    `default_joint_positions` {joint: rad} is the posture the targets are taken around and resets start from
-    (joints not named: 0); `torque_limit` [N m] clips each servo's force, one number for every joint or {joint: N m}
-    (joints not named: no clip; None: none). Episodes:
-    `episode_seconds` (then truncated); terminated when the base falls below `termination_height` x its
-    standing height, tilts beyond `termination_tilt` [rad], or its state stops being finite (the health
-    flag: reset and reported in info["invalid"]). Commands (vx, vy, yaw rate) drawn uniformly from the
-    ranges at each reset and every `command_seconds`. Pushes: every `push_seconds` of each episode, a random
-    horizontal velocity change of at most `push_velocity` [m/s]. Feet: `feet` names the links whose
-    collidable points are the feet (empty: every link with enabled points); a foot is in contact while the
-    normal force on its points exceeds `contact_force_threshold` [N]; `undesired_contacts` names links (thighs,
-    shanks, the base) whose contact (the same test) `env.undesired_contact` (N, links) flags and
-    `terms.undesired_contacts` counts. Domain randomisation at each reset:
-    link masses times U(mass_scale), contact friction U(friction). Terrain: flat ground, or with `terrain` (a
-    `warpdyn.envs.terrain_generator.TerrainConfig`) its generated heightfield, each environment starting at the
-    centre of its tile (`env_origins`, `terrain_levels`); with `terrain_curriculum` an environment whose episode
-    ended goes a level up when it walked farther than half a tile from its origin and down when it walked less
-    than half its commanded distance (Rudin et al.'s rule, on the device); base heights (observed, rewarded) are
-    taken above the origin's, the termination's above the terrain under the base. `height_scan` ((length, width), resolution) [m]: the terrain's height
-    on that grid around each base in its yaw frame after every step (`env.height_scan`, (N, P) [m];
-    `terms.height_scan` observes the base's height above it). Realism: an observation entry (term, scale, noise)
-    adds uniform noise of +-noise to its scaled values at every observation; `action_delay` k applies each action
-    k policy steps after the policy gave it (the targets hold the last ones given k steps ago; zero after a reset),
-    while `env.actions` (what the action terms read) is the newest. `imu` (a `warpdyn.envs.sensors.ImuConfig`): an IMU
-    on the base (`env.imu`; terms.imu_linear_acceleration, terms.imu_angular_velocity). `stumble_ratio`: a foot
-    stumbles when its horizontal contact force exceeds this times its vertical one (terms.stumbling). `actuator`:
-    "pd" (the servo above), "torque" (torques action_scale * action [N m], clipped at torque_limit) or a
-    `warpdyn.envs.actuators.ActuatorNet` (a torch network from the joints' error and velocity history to torques,
-    at every simulation step); these two leave the joints without damping and ignore kp and kd.
+    Simulation: `time_step` [s] of the semi-implicit Euler (the joints' damping implicit), `policy_dt` [s] per action
+    (decimation = policy_dt / time_step steps), soft contacts `contact_stiffness` K and `contact_damping` D (None:
+    JaxSim's damping ratio at that K). Actions: joint position targets default + action_scale * clip(action,
+    +-action_clip), followed by a position actuator per joint (kp) and the joint damper (kd) (a model that has actuators
+    keeps its own and takes the targets as ctrl). `default_joint_positions` {joint: rad} is the posture the targets are
+    taken around and resets start from (joints not named: 0); `torque_limit` [N m] clips each servo's force, one number
+    for every joint or {joint: N m} (joints not named: no clip; None: none). Episodes: `episode_seconds` (then
+    truncated); terminated when the base falls below `termination_height` x its standing height, tilts beyond
+    `termination_tilt` [rad], or its state stops being finite (the health flag: reset and reported in info["invalid"]).
+    Commands (vx, vy, yaw rate) drawn uniformly from the ranges at each reset and every `command_seconds`; with
+    `heading_command` (legged_gym's) a heading in [-pi, pi] is drawn instead of the yaw rate, which each observation
+    then sets to terms.heading_yaw_rate. Pushes: every `push_seconds` of each episode, a random horizontal velocity
+    change of at most `push_velocity` [m/s]. Feet: `feet` names the links whose collidable points are the feet (empty:
+    every link with enabled points); a foot is in contact while the normal force on its points exceeds
+    `contact_force_threshold` [N]; `undesired_contacts` names links (thighs, shanks, the base) whose contact (the same
+    test) `env.undesired_contact` (N, links) flags and `terms.undesired_contacts` counts. Domain randomisation at each
+    reset: link masses times U(mass_scale), contact friction U(friction). Terrain: flat ground, or with `terrain` (a
+    `warpdyn.envs.terrain_generator.TerrainConfig`) its generated heightfield, each environment starting at the centre
+    of its tile (`env_origins`, `terrain_levels`); with `terrain_curriculum` an environment whose episode ended goes a
+    level up when it walked farther than half a tile from its origin and down when it walked less than half its
+    commanded distance (Rudin et al.'s rule, on the device); base heights (observed, rewarded) are taken above the
+    origin's, the termination's above the terrain under the base. `height_scan` ((length, width), resolution) [m]: the
+    terrain's height on that grid around each base in its yaw frame after every step (`env.height_scan`, (N, P) [m];
+    `terms.height_scan` observes the base's height above it). Realism: an observation entry (term, scale, noise) adds
+    uniform noise of +-noise to its scaled values at every observation; `action_delay` k applies each action k policy
+    steps after the policy gave it (the targets hold the last ones given k steps ago; zero after a reset), while
+    `env.actions` (what the action terms read) is the newest. `imu` (a `warpdyn.envs.sensors.ImuConfig`): an IMU on the
+    base (`env.imu`; terms.imu_linear_acceleration, terms.imu_angular_velocity). `stumble_ratio`: a foot stumbles when
+    its horizontal contact force exceeds this times its vertical one (terms.stumbling). `actuator`: "pd" (the servo
+    above), "torque" (torques action_scale * action [N m], clipped at torque_limit) or a
+    `warpdyn.envs.actuators.ActuatorNet` (a torch network from the joints' error and velocity history to torques, at
+    every simulation step); these two leave the joints without damping and ignore kp and kd.
     """
 
     time_step: float = 0.002
@@ -106,6 +105,7 @@ class LeggedEnvConfig:
     lin_vel_x: tuple = (0.0, 0.0)
     lin_vel_y: tuple = (0.0, 0.0)
     yaw_rate: tuple = (0.0, 0.0)
+    heading_command: bool = False
     command_seconds: float = 10.0
     tracking_sigma: float = 0.25
     push_seconds: float = 8.0
@@ -173,7 +173,7 @@ class LeggedEnvConfig:
             raise TypeError(f"LeggedEnvConfig.imu must be an ImuConfig (warpdyn.envs.sensors) or None, got {self.imu!r}")
         if not (isinstance(self.actuator, ActuatorNet) or (isinstance(self.actuator, str) and self.actuator in ("pd", "torque"))):
             raise ValueError(f"LeggedEnvConfig.actuator must be 'pd', 'torque' or an ActuatorNet (warpdyn.envs.actuators), got {self.actuator!r}")
-        for name in ("terrain_curriculum", "only_positive_rewards"):
+        for name in ("terrain_curriculum", "only_positive_rewards", "heading_command"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"LeggedEnvConfig.{name} must be True or False, got {getattr(self, name)!r}")
         if not isinstance(self.rewards, dict):
@@ -343,7 +343,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         nf = len(self.feet)
         self.actions = torch.zeros(N, na, **f32)
         self.previous_actions = torch.zeros(N, na, **f32)
-        self.commands = torch.zeros(N, 3, **f32)
+        self.commands, self.heading = torch.zeros(N, 3, **f32), torch.zeros(N, **f32)  # heading [rad, world]: cfg.heading_command's
         self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
         self.joint_torques = torch.zeros(N, n, device=self.device, dtype=self.torch_dtype)
         self.feet_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
@@ -481,6 +481,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         )
 
     def _observe(self) -> torch.Tensor:
+        if self.cfg.heading_command:
+            self.commands[:, 2] = terms.heading_yaw_rate(self)
         parts = []
         for entry in self.cfg.observations:
             value = (entry[0](self) * entry[1]).reshape(self.num_envs, -1).to(torch.float32)
@@ -500,6 +502,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         cfg = self.cfg
         new = torch.stack([self._uniform(*r, (self.num_envs,)) for r in (cfg.lin_vel_x, cfg.lin_vel_y, cfg.yaw_rate)], dim=1)
         self.commands.copy_(torch.where(mask[:, None], new.to(torch.float32), self.commands))
+        if cfg.heading_command:
+            self.heading.copy_(torch.where(mask, self._uniform(-math.pi, math.pi, (self.num_envs,)).to(torch.float32), self.heading))
 
     def _reset(self, mask: torch.Tensor, curriculum: bool = True) -> None:
         """Reset the environments where `mask` (bool (N,)): a new initial state, parameters and commands; with

@@ -13,6 +13,7 @@ step); a task composes them with weights
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import torch
 
@@ -32,6 +33,7 @@ __all__ = [
     "joint_velocities",
     "actions",
     "commands",
+    "heading_yaw_rate",
     "track_linear_velocity",
     "track_angular_velocity",
     "upright",
@@ -154,6 +156,15 @@ def commands(env) -> torch.Tensor:
 
 
 # ------------------------------------------------------------------------------------------ rewards
+
+
+def heading_yaw_rate(env) -> torch.Tensor:
+    """legged_gym's heading command: 0.5 x the error from the base's heading (the yaw of its x axis) to env.heading,
+    wrapped to [-pi, pi), clipped to cfg.yaw_rate's range [rad/s] (N,)."""
+    q = env.state.base_quaternion
+    forward = quat_rotate(q, torch.zeros_like(q[:, 1:]).index_fill_(1, torch.tensor([0], device=q.device), 1.0))
+    error = torch.remainder(env.heading - torch.atan2(forward[:, 1], forward[:, 0]) + math.pi, 2.0 * math.pi) - math.pi
+    return (0.5 * error).clamp(*env.cfg.yaw_rate).to(env.commands.dtype)
 
 
 def track_linear_velocity(env) -> torch.Tensor:
