@@ -26,7 +26,16 @@ floating base's damper d acts on MuJoCo's free-joint coordinates T nu, so D's ba
 force d T^T (T a0' + T_dot nu) (`base_coordinates`).
 
 M is factorised along the tree (Featherstone's LTDL: only the entries its branches fill, `tree_factor`), A densely
-(kernels/cholesky.py's `factor` and `substitute`); forward only (no tape records this kernel).
+(kernels/cholesky.py's `factor` and `substitute`); forward only (no tape records these kernels).
+
+Post-stabilisation (`equality_projection`, after a step; the model setting `equality_projection` its iterations;
+the hard constraints JaxSim's kinematic constraints aim at): the step's new position is moved by the least change in
+the mass metric that zeroes r to first order, dq = -M^-1 J^T (J M^-1 J^T)^+ r (Gauss-Newton: r shrinks
+quadratically over the iterations), then its velocity projected onto J nu = 0 at the corrected position (the
+least change in kinetic energy). After a semi-implicit Euler step this gains energy where the constrained motion
+turns: the step's velocity takes the whole centripetal kick, the projection keeps (beta - 1/2) (omega dt)^2 of it
+(beta: the soft solve's share of the centripetal acceleration, about 1); after RK4 it does not (model_settings'
+`equality_projection` gives the figures).
 """
 
 import types
@@ -241,6 +250,100 @@ def kernels(scalar) -> types.SimpleNamespace:
                 x[env, i] = x[env, i] - L[env, i, j] * x[env, j]
                 j = parent[j]
 
+    @wp.func
+    def inverse_mass_rows(
+        model: B.Model, M: wp.array3d(dtype=scalar), env: int, off: int, parent: wp.array(dtype=wp.int32), J: wp.array3d(dtype=scalar),
+        L: wp.array3d(dtype=scalar), w: wp.array2d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar),
+    ):
+        """MinvJT[env, r] = M^-1 J[env, r] for every row r of J (DoFs off to K - 1), M factorised into L along the tree
+        (`tree_factor`, no damper); w: scratch (K)."""
+        K = M.shape[1]
+        tree_factor(model, M, env, off, parent, scalar(0.0), sp.mat66(scalar(0.0)), L)
+        for r in range(J.shape[1]):
+            for i in range(off, K):
+                w[env, i] = J[env, r, i]
+            tree_solve(L, env, off, parent, w)
+            for i in range(off, K):
+                MinvJT[env, r, i] = w[env, i]
+
+    @wp.func
+    def constraint_rows(
+        eq: Equalities, x: B.State, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), J_t: wp.array4d(dtype=scalar),
+        Jdotnu_t: wp.array3d(dtype=scalar), env: int, e: int, J: wp.array3d(dtype=scalar),
+    ):
+        """Constraint e's rows (the module docstring) added into J[env, row:row + rows] (zeroed before; K columns):
+        returns (r, J̇ν (their first `rows` entries), rows, the residual's size |r|)."""
+        K = J.shape[2]
+        row = eq.row[e]
+        residual = sp.vec6(scalar(0.0))
+        bias = sp.vec6(scalar(0.0))
+        rows = 1
+        distance = scalar(0.0)
+        if eq.kind[e] == COUPLING:
+            dif = scalar(0.0)
+            if eq.count2[e] > 0:
+                dif = length_of(eq, x, env, eq.first2[e], eq.count2[e]) - eq.ref2[e]
+                c1 = eq.polycoef[e, 1]
+                c2 = eq.polycoef[e, 2]
+                c3 = eq.polycoef[e, 3]
+                c4 = eq.polycoef[e, 4]
+                slope = c1 + dif * (scalar(2.0) * c2 + dif * (scalar(3.0) * c3 + dif * scalar(4.0) * c4))
+                for k in range(eq.first2[e], eq.first2[e] + eq.count2[e]):
+                    J[env, row, 6 + eq.term_dof[k]] = J[env, row, 6 + eq.term_dof[k]] - slope * eq.term_coef[k]
+            value = eq.polycoef[e, 0] + dif * (eq.polycoef[e, 1] + dif * (eq.polycoef[e, 2] + dif * (eq.polycoef[e, 3] + dif * eq.polycoef[e, 4])))
+            residual[0] = length_of(eq, x, env, eq.first1[e], eq.count1[e]) - eq.ref1[e] - value
+            for k in range(eq.first1[e], eq.first1[e] + eq.count1[e]):
+                J[env, row, 6 + eq.term_dof[k]] = J[env, row, 6 + eq.term_dof[k]] + eq.term_coef[k]
+            distance = wp.abs(residual[0])
+        else:
+            rows = 3
+            if eq.kind[e] == WELD:
+                rows = 6
+            t = eq.target[e]
+            link1 = eq.link1[e]
+            link2 = eq.link2[e]
+            P1 = eq.p1[e]
+            if link1 >= 0:
+                P1 = wp.transform_point(W_H_L[env, link1], P1)
+            P2 = eq.p2[e]
+            if link2 >= 0:
+                P2 = wp.transform_point(W_H_L[env, link2], P2)
+            translation = P1 - P2
+            distance = wp.length(translation)
+            # the rows' Jacobians and J̇ν: the anchors' (linear), and for a weld the links' (angular)
+            for a in range(rows):
+                if link1 >= 0:
+                    bias[a] = bias[a] + Jdotnu_t[env, t, a]
+                    for c in range(K):
+                        J[env, row + a, c] = J_t[env, t, a, c]
+                if link2 >= 0:
+                    bias[a] = bias[a] - Jdotnu_t[env, t + 1, a]
+                    for c in range(K):
+                        J[env, row + a, c] = J[env, row + a, c] - J_t[env, t + 1, a, c]
+            for a in range(3):
+                residual[a] = translation[a]
+            if eq.kind[e] == WELD:  # MuJoCo's rotation rows, from the angular rows just written
+                s = eq.torquescale[e]
+                q0 = frame_of(W_H_L, env, link1, eq.Q1[e])
+                q1 = wp.quat_inverse(frame_of(W_H_L, env, link2, eq.Q2[e]))
+                rotation = s * vector_part(q1 * q0)
+                w1 = angular_velocity(W_v_WL, env, link1)
+                w2 = angular_velocity(W_v_WL, env, link2)
+                dw = w1 - w2
+                q1dot = wp.quat_inverse(scalar(0.5) * (pure(w2) * wp.quat_inverse(q1)))
+                q0dot = scalar(0.5) * (pure(w1) * q0)
+                djw = sp.vec3(bias[3], bias[4], bias[5])
+                rate = scalar(0.5) * s * vector_part(q1dot * pure(dw) * q0 + q1 * pure(djw) * q0 + q1 * pure(dw) * q0dot)
+                for c in range(K):
+                    column = scalar(0.5) * s * vector_part(q1 * pure(sp.vec3(J[env, row + 3, c], J[env, row + 4, c], J[env, row + 5, c])) * q0)
+                    for a in range(3):
+                        J[env, row + 3 + a, c] = column[a]
+                for a in range(3):
+                    residual[3 + a] = rotation[a]
+                    bias[3 + a] = rate[a]
+                distance = wp.sqrt(wp.dot(translation, translation) + wp.dot(rotation, rotation))
+        return residual, bias, rows, distance
+
     @wp.kernel(module="unique", enable_backward=False)
     def equality_accelerations(
         model: B.Model,
@@ -287,73 +390,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 J[env, r, c] = scalar(0.0)
         for e in range(eq.kind.shape[0]):
             row = eq.row[e]
-            residual = sp.vec6(scalar(0.0))
-            bias = sp.vec6(scalar(0.0))
-            rows = 1
-            distance = scalar(0.0)
-            if eq.kind[e] == COUPLING:
-                dif = scalar(0.0)
-                if eq.count2[e] > 0:
-                    dif = length_of(eq, x, env, eq.first2[e], eq.count2[e]) - eq.ref2[e]
-                    c1 = eq.polycoef[e, 1]
-                    c2 = eq.polycoef[e, 2]
-                    c3 = eq.polycoef[e, 3]
-                    c4 = eq.polycoef[e, 4]
-                    slope = c1 + dif * (scalar(2.0) * c2 + dif * (scalar(3.0) * c3 + dif * scalar(4.0) * c4))
-                    for k in range(eq.first2[e], eq.first2[e] + eq.count2[e]):
-                        J[env, row, 6 + eq.term_dof[k]] = J[env, row, 6 + eq.term_dof[k]] - slope * eq.term_coef[k]
-                value = eq.polycoef[e, 0] + dif * (eq.polycoef[e, 1] + dif * (eq.polycoef[e, 2] + dif * (eq.polycoef[e, 3] + dif * eq.polycoef[e, 4])))
-                residual[0] = length_of(eq, x, env, eq.first1[e], eq.count1[e]) - eq.ref1[e] - value
-                for k in range(eq.first1[e], eq.first1[e] + eq.count1[e]):
-                    J[env, row, 6 + eq.term_dof[k]] = J[env, row, 6 + eq.term_dof[k]] + eq.term_coef[k]
-                distance = wp.abs(residual[0])
-            else:
-                rows = 3
-                if eq.kind[e] == WELD:
-                    rows = 6
-                t = eq.target[e]
-                link1 = eq.link1[e]
-                link2 = eq.link2[e]
-                P1 = eq.p1[e]
-                if link1 >= 0:
-                    P1 = wp.transform_point(W_H_L[env, link1], P1)
-                P2 = eq.p2[e]
-                if link2 >= 0:
-                    P2 = wp.transform_point(W_H_L[env, link2], P2)
-                translation = P1 - P2
-                distance = wp.length(translation)
-                # the rows' Jacobians and J̇ν: the anchors' (linear), and for a weld the links' (angular)
-                for a in range(rows):
-                    if link1 >= 0:
-                        bias[a] = bias[a] + Jdotnu_t[env, t, a]
-                        for c in range(K):
-                            J[env, row + a, c] = J_t[env, t, a, c]
-                    if link2 >= 0:
-                        bias[a] = bias[a] - Jdotnu_t[env, t + 1, a]
-                        for c in range(K):
-                            J[env, row + a, c] = J[env, row + a, c] - J_t[env, t + 1, a, c]
-                for a in range(3):
-                    residual[a] = translation[a]
-                if eq.kind[e] == WELD:  # MuJoCo's rotation rows, from the angular rows just written
-                    s = eq.torquescale[e]
-                    q0 = frame_of(W_H_L, env, link1, eq.Q1[e])
-                    q1 = wp.quat_inverse(frame_of(W_H_L, env, link2, eq.Q2[e]))
-                    rotation = s * vector_part(q1 * q0)
-                    w1 = angular_velocity(W_v_WL, env, link1)
-                    w2 = angular_velocity(W_v_WL, env, link2)
-                    dw = w1 - w2
-                    q1dot = wp.quat_inverse(scalar(0.5) * (pure(w2) * wp.quat_inverse(q1)))
-                    q0dot = scalar(0.5) * (pure(w1) * q0)
-                    djw = sp.vec3(bias[3], bias[4], bias[5])
-                    rate = scalar(0.5) * s * vector_part(q1dot * pure(dw) * q0 + q1 * pure(djw) * q0 + q1 * pure(dw) * q0dot)
-                    for c in range(K):
-                        column = scalar(0.5) * s * vector_part(q1 * pure(sp.vec3(J[env, row + 3, c], J[env, row + 4, c], J[env, row + 5, c])) * q0)
-                        for a in range(3):
-                            J[env, row + 3 + a, c] = column[a]
-                    for a in range(3):
-                        residual[3 + a] = rotation[a]
-                        bias[3 + a] = rate[a]
-                    distance = wp.sqrt(wp.dot(translation, translation) + wp.dot(rotation, rotation))
+            residual, bias, rows, distance = constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J)
             imp = impedance(eq, e, distance)
             k_imp, b = reference(eq, e, dt, refsafe, imp)
             for a in range(rows):
@@ -372,7 +409,6 @@ def kernels(scalar) -> types.SimpleNamespace:
         # base's damper d acts on MuJoCo's free-joint coordinates T nu (`base_coordinates`), D's base block d T^T T,
         # its force d T^T (T a0' + T_dot nu), T_dot nu = [w x p_dot; 0]
         parent = eq.dof_parent
-        no_damper = sp.mat66(scalar(0.0))
         base_damper = sp.mat66(scalar(0.0))
         T = sp.mat66(scalar(0.0))
         d_base = scalar(0.0)
@@ -380,13 +416,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             d_base = B.joint_parameter(model.base_damping, env, 0)
             T = base_coordinates(x, env)
             base_damper = d_base * (wp.transpose(T) * T)
-        tree_factor(model, M, env, off, parent, scalar(0.0), no_damper, L)
-        for r in range(m):
-            for i in range(off, K):
-                w[env, i] = J[env, r, i]
-            tree_solve(L, env, off, parent, w)
-            for i in range(off, K):
-                MinvJT[env, r, i] = w[env, i]
+        inverse_mass_rows(model, M, env, off, parent, J, L, w, MinvJT)
         for i in range(K):
             nu_dot[env, i] = a_free[env, i]
         if implicit_dt > scalar(0.0):
@@ -439,4 +469,98 @@ def kernels(scalar) -> types.SimpleNamespace:
                     s = s + MinvJT[env, r, i] * w[env, r]
                 nu_dot[env, i] = s
 
-    return types.SimpleNamespace(Equalities=Equalities, equality_accelerations=equality_accelerations)
+    @wp.kernel(module="unique", enable_backward=False)
+    def equality_projection(
+        model: B.Model,
+        eq: Equalities,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
+        J_t: wp.array4d(dtype=scalar),
+        Jdotnu_t: wp.array3d(dtype=scalar),
+        M: wp.array3d(dtype=scalar),
+        drop: scalar,
+        velocity: int,
+        # scratch as equality_accelerations'
+        J: wp.array3d(dtype=scalar),
+        L: wp.array3d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar),
+        A: wp.array3d(dtype=scalar),
+        LA: wp.array3d(dtype=scalar),
+        y: wp.array2d(dtype=scalar),
+        rhs: wp.array2d(dtype=scalar),
+        w: wp.array2d(dtype=scalar),
+        # input and output: the state, projected in place
+        x: B.State,
+    ):
+        """One pass of the post-stabilisation (the module docstring) of x (N environments, 1-DoF joints and the base) at
+        its link poses W_H_L, anchors' Jacobians J_t (N, T, 6, K; Mixed, nu Inertial) and mass matrix M (N, K, K;
+        Inertial base). velocity 0: the position moved by dq = -M^-1 J^T (J M^-1 J^T)^+ r; 1: the velocity projected,
+        nu - M^-1 J^T (J M^-1 J^T)^+ J nu. Rows that depend on others (a planar loop's out-of-plane row) are dropped (`factor`'s
+        pivots at most `drop` times their diagonal). W_v_WL and Jdotnu_t feed the rows' J̇ν, unused here. A flagged
+        environment is left as it is."""
+        env = wp.tid()
+        if x.valid[env] == 0:
+            return
+        K = M.shape[1]
+        off = 6
+        if model.floating_base != 0:
+            off = 0
+        m = J.shape[1]
+        W_H_B = B.base_pose(x, env)
+        v_B = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env))
+        for r in range(m):
+            for c in range(K):
+                J[env, r, c] = scalar(0.0)
+        for e in range(eq.kind.shape[0]):
+            residual, bias, rows, distance = constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J)
+            for a in range(rows):
+                rhs[env, eq.row[e] + a] = residual[a]
+        inverse_mass_rows(model, M, env, off, eq.dof_parent, J, L, w, MinvJT)
+        for r in range(m):
+            for q in range(r + 1):
+                total = scalar(0.0)
+                for c in range(off, K):
+                    total = total + J[env, r, c] * MinvJT[env, q, c]
+                A[env, r, q] = total
+                A[env, q, r] = total
+        factor(A, env, 0, m, drop, LA)
+        if velocity != 0:  # J nu into rhs: the velocity's residual
+            for r in range(m):
+                total = scalar(0.0)
+                for c in range(6):
+                    total = total + J[env, r, c] * v_B[c]
+                for c in range(6, K):
+                    total = total + J[env, r, c] * x.joint_velocities[env, c - 6]
+                rhs[env, r] = total
+        substitute(LA, env, m, rhs, w, 0)
+        # the change -M^-1 J^T w: of the velocity (velocity != 0) or of the position
+        dv = sp.vec6(scalar(0.0))
+        for i in range(off, K):
+            change = scalar(0.0)
+            for r in range(m):
+                change = change - MinvJT[env, r, i] * w[env, r]
+            if i < 6:
+                dv[i] = change
+            elif velocity != 0:
+                x.joint_velocities[env, i - 6] = x.joint_velocities[env, i - 6] + change
+            else:
+                x.joint_positions[env, i - 6] = x.joint_positions[env, i - 6] + change
+        if model.floating_base != 0:
+            p = wp.transform_get_translation(W_H_B)
+            Q = wp.transform_get_rotation(W_H_B)
+            dp = sp.lin(dv) + wp.cross(sp.ang(dv), p)  # the base origin's velocity change, or displacement
+            if velocity != 0:
+                v_mixed = B.base_velocity_mixed(x, env) + sp.stack(dp, sp.ang(dv))
+                for a in range(6):
+                    x.base_velocity[env, a] = v_mixed[a]
+            else:
+                angle = wp.length(sp.ang(dv))
+                if angle > scalar(0.0):
+                    Q = wp.normalize(wp.quat_from_axis_angle(sp.ang(dv) / angle, angle) * Q)
+                for a in range(3):
+                    x.base_position[env, a] = p[a] + dp[a]
+                x.base_quaternion[env, 0] = Q[3]
+                for a in range(3):
+                    x.base_quaternion[env, 1 + a] = Q[a]
+
+    return types.SimpleNamespace(Equalities=Equalities, equality_accelerations=equality_accelerations, equality_projection=equality_projection)

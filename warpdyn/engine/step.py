@@ -516,6 +516,8 @@ def step_launches(
         launches.append(Launch(euler, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
         if plan.contacts:
             launches += plan.contact_stage.after_step(plan, ev, Y, N)
+        if plan.equality is not None:
+            launches += plan.equality.after_step(plan, ev, Y, N)
         launches.append(parameter_check(plan, X, Y, N))
         return launches
     stage = X
@@ -537,6 +539,8 @@ def step_launches(
     launches.append(Launch(K.rk4_combine, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, *ws.slopes], [Y]))
     if plan.contacts:
         launches += plan.contact_stage.after_step(plan, first, Y, N)
+    if plan.equality is not None:
+        launches += plan.equality.after_step(plan, first, Y, N)
     launches.append(parameter_check(plan, X, Y, N))
     return launches
 

@@ -84,7 +84,7 @@ class Model(ModelSettings, ModelQueries):
     the world's gravity `world_gravity` [m/s^2, world frame] (`set_gravity`), (1, 3) shared or (N, 1, 3).
     Settings (warpdyn.types.model_settings, each checked when assigned): `terrain`, `contact_model`,
     `contact_params`, `actuation_params`, `integrator`, `time_step` [s], `gravity` (JaxSim's: the z
-    component of `world_gravity` [m/s^2], -9.81 by default), `quaternion_tolerance`, `implicit_damping`, `geom_contacts`;
+    component of `world_gravity` [m/s^2], -9.81 by default), `quaternion_tolerance`, `implicit_damping`, `geom_contacts`, `equality_projection`;
     JaxSim's `replace`, `editable`, `mutable_context`, `built_from` (what the model was built from), equality
     and hashing.
     """
@@ -151,7 +151,7 @@ class Model(ModelSettings, ModelQueries):
         self.contact_params = SoftContactsParams()
         self.integrator = IntegratorType.SemiImplicitEuler
         self.actuation_params = ActuationParams()
-        self.quaternion_tolerance, self.implicit_damping, self.geom_contacts = 0.1, False, False
+        self.quaternion_tolerance, self.implicit_damping, self.geom_contacts, self.equality_projection = 0.1, False, False, 0
         if description.integrator is not None:
             self._follow_mujoco(description.integrator, description.disabled)
 
@@ -690,7 +690,7 @@ class Model(ModelSettings, ModelQueries):
         W_g = self.world_gravity.numpy().reshape(-1, 3)
         gravity = W_g if "world_gravity" in self._per_env else W_g[0]
         reduced = Model(self.description, tree, model_name=self.model_name, gravity=gravity, time_step=self.time_step, dtype=self.dtype, device=self.device)
-        carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "implicit_damping", "geom_contacts")
+        carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "implicit_damping", "geom_contacts", "equality_projection")
         reduced.apply_settings(**{name: getattr(self, name) for name in carried}, built_from=self.built_from)
         return reduced
 
