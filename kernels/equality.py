@@ -45,7 +45,9 @@ import warp as wp
 from .bundles import bundles
 from .cholesky import kernels as cholesky_kernels
 from .factory import factory
-from .spatial import MIXED, spatial
+from .integrators import kernels as integrator_kernels
+from .joints import joints
+from .spatial import BALL, FREE, MIXED, spatial
 
 CONNECT = wp.constant(0)
 COUPLING = wp.constant(1)  # a joint or fixed-tendon coupling
@@ -469,10 +471,21 @@ def kernels(scalar) -> types.SimpleNamespace:
                     s = s + MinvJT[env, r, i] * w[env, r]
                 nu_dot[env, i] = s
 
+    return types.SimpleNamespace(
+        Equalities=Equalities, equality_accelerations=equality_accelerations, constraint_rows=constraint_rows, inverse_mass_rows=inverse_mass_rows
+    )
+
+
+@factory
+def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
+    """The post-stabilisation kernel in `scalar`, for models with ball or free joints (multi_dof) or without."""
+    sp, B, jm = spatial(scalar), bundles(scalar), joints(scalar, multi_dof)
+    E, C, I = kernels(scalar), cholesky_kernels(scalar), integrator_kernels(scalar, multi_dof)
+
     @wp.kernel(module="unique", enable_backward=False)
     def equality_projection(
         model: B.Model,
-        eq: Equalities,
+        eq: E.Equalities,
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
         J_t: wp.array4d(dtype=scalar),
@@ -492,7 +505,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         # input and output: the state, projected in place
         x: B.State,
     ):
-        """One pass of the post-stabilisation (the module docstring) of x (N environments, 1-DoF joints and the base) at
+        """One pass of the post-stabilisation (the module docstring) of x (N environments) at
         its link poses W_H_L, anchors' Jacobians J_t (N, T, 6, K; Mixed, nu Inertial) and mass matrix M (N, K, K;
         Inertial base). velocity 0: the position moved by dq = -M^-1 J^T (J M^-1 J^T)^+ r; 1: the velocity projected,
         nu - M^-1 J^T (J M^-1 J^T)^+ J nu. Rows that depend on others (a planar loop's out-of-plane row) are dropped (`factor`'s
@@ -512,10 +525,10 @@ def kernels(scalar) -> types.SimpleNamespace:
             for c in range(K):
                 J[env, r, c] = scalar(0.0)
         for e in range(eq.kind.shape[0]):
-            residual, bias, rows, distance = constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J)
+            residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J)
             for a in range(rows):
                 rhs[env, eq.row[e] + a] = residual[a]
-        inverse_mass_rows(model, M, env, off, eq.dof_parent, J, L, w, MinvJT)
+        E.inverse_mass_rows(model, M, env, off, eq.dof_parent, J, L, w, MinvJT)
         for r in range(m):
             for q in range(r + 1):
                 total = scalar(0.0)
@@ -523,7 +536,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                     total = total + J[env, r, c] * MinvJT[env, q, c]
                 A[env, r, q] = total
                 A[env, q, r] = total
-        factor(A, env, 0, m, drop, LA)
+        C.factor(A, env, 0, m, drop, LA)
         if velocity != 0:  # J nu into rhs: the velocity's residual
             for r in range(m):
                 total = scalar(0.0)
@@ -532,35 +545,52 @@ def kernels(scalar) -> types.SimpleNamespace:
                 for c in range(6, K):
                     total = total + J[env, r, c] * x.joint_velocities[env, c - 6]
                 rhs[env, r] = total
-        substitute(LA, env, m, rhs, w, 0)
-        # the change -M^-1 J^T w: of the velocity (velocity != 0) or of the position
-        dv = sp.vec6(scalar(0.0))
+        C.substitute(LA, env, m, rhs, w, 0)
+        # the change -M^-1 J^T w (into y): of the velocity (velocity != 0), or of the position, per joint on its
+        # manifold (a ball's or free joint's rotation Q (x) exp(dw), body axes, as the integrators step it)
         for i in range(off, K):
             change = scalar(0.0)
             for r in range(m):
                 change = change - MinvJT[env, r, i] * w[env, r]
-            if i < 6:
-                dv[i] = change
-            elif velocity != 0:
-                x.joint_velocities[env, i - 6] = x.joint_velocities[env, i - 6] + change
-            else:
-                x.joint_positions[env, i - 6] = x.joint_positions[env, i - 6] + change
+            y[env, i] = change
+        if velocity != 0:
+            for i in range(6, K):
+                x.joint_velocities[env, i - 6] = x.joint_velocities[env, i - 6] + y[env, i]
+        else:
+            for link in range(1, W_H_L.shape[1]):
+                kind = model.joint_type[link]
+                a = jm.position_address(model, link)
+                d = 6 + jm.dof_address(model, link)
+                if wp.static(multi_dof) and (kind == BALL or kind == FREE):
+                    r = 0
+                    if kind == FREE:
+                        r = 3
+                        for k in range(3):
+                            x.joint_positions[env, a + k] = x.joint_positions[env, a + k] + y[env, d + k]
+                    Qj = I.read4(x.joint_positions, env, a + r)
+                    Qj = I.quaternion_product(Qj / wp.length(Qj), I.rotation_step(Qj, sp.vec3(y[env, d + r], y[env, d + r + 1], y[env, d + r + 2]), scalar(1.0)))
+                    Qj = Qj / wp.length(Qj)
+                    for k in range(4):
+                        x.joint_positions[env, a + r + k] = Qj[k]
+                else:
+                    x.joint_positions[env, a] = x.joint_positions[env, a] + y[env, d]
         if model.floating_base != 0:
+            dv = sp.vec6(y[env, 0], y[env, 1], y[env, 2], y[env, 3], y[env, 4], y[env, 5])
             p = wp.transform_get_translation(W_H_B)
             Q = wp.transform_get_rotation(W_H_B)
             dp = sp.lin(dv) + wp.cross(sp.ang(dv), p)  # the base origin's velocity change, or displacement
             if velocity != 0:
                 v_mixed = B.base_velocity_mixed(x, env) + sp.stack(dp, sp.ang(dv))
-                for a in range(6):
-                    x.base_velocity[env, a] = v_mixed[a]
+                for k in range(6):
+                    x.base_velocity[env, k] = v_mixed[k]
             else:
                 angle = wp.length(sp.ang(dv))
                 if angle > scalar(0.0):
                     Q = wp.normalize(wp.quat_from_axis_angle(sp.ang(dv) / angle, angle) * Q)
-                for a in range(3):
-                    x.base_position[env, a] = p[a] + dp[a]
+                for k in range(3):
+                    x.base_position[env, k] = p[k] + dp[k]
                 x.base_quaternion[env, 0] = Q[3]
-                for a in range(3):
-                    x.base_quaternion[env, 1 + a] = Q[a]
+                for k in range(3):
+                    x.base_quaternion[env, 1 + k] = Q[k]
 
-    return types.SimpleNamespace(Equalities=Equalities, equality_accelerations=equality_accelerations, equality_projection=equality_projection)
+    return types.SimpleNamespace(equality_projection=equality_projection)

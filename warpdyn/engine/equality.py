@@ -16,11 +16,11 @@ from ..kernels.crba import CRBA_RECORD
 from ..kernels.crba import kernels as crba_kernels
 from ..kernels.equality import CONNECT, COUPLING, ROWS, WELD
 from ..kernels.equality import kernels as equality_kernels
+from ..kernels.equality import projection_kernels
 from ..kernels.jacobian_derivatives import kernels as derivative_kernels
 from ..kernels.jacobians import kernels as jacobian_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..types.enums import VelRepr
-from ..description.tree import JOINT_BALL, JOINT_FREE
 from ..types.model_constants import transforms
 from .kinematics import targets
 from .launch import Launch
@@ -44,9 +44,6 @@ class EqualityPlan:
         tree = model.tree
         self.count, self.model_name = len(tree.equalities), model.name()
         self.projection = model.equality_projection  # the post-stabilisation's position passes after each step (0: none)
-        if self.projection and not tree.one_dof_joints:
-            multi = [name for name, kind in zip(tree.joint_names, tree.joint_type[1:]) if kind in (JOINT_BALL, JOINT_FREE)]
-            raise NotImplementedError(f"model.equality_projection on '{model.name()}': its ball and free joints {multi} are not projected yet (1-DoF joints and a floating base are)")
         self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
         kinds = [{"connect": CONNECT, "weld": WELD, "joint": COUPLING, "tendon": COUPLING}[e.kind] for e in tree.equalities]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
@@ -104,7 +101,7 @@ class EqualityPlan:
         eq.solimp = floats([e.solimp for e in E], 5)
         eq.invweight = floats([e.invweight for e in E])
         multi = model.multi_dof()
-        self.kernel, self.project = K.equality_accelerations, K.equality_projection
+        self.kernel, self.project = K.equality_accelerations, projection_kernels(s, model.multi_dof()).equality_projection
         self.fk = kinematics_kernels(s, model.multi_dof()).forward_kinematics
         self.bias = derivative_kernels(s, multi)
         self.jacobians = jacobian_kernels(s, multi).jacobians

@@ -166,7 +166,7 @@ class ModelSettings:
         lambda value: _iterations("equality_projection", value),
         "The post-stabilisation's position passes after each step of a model with equality constraints, 0 to 10 "
         "(kernels/equality.py: Gauss-Newton steps in the mass metric onto the constraints, then the velocity projected "
-        "onto them; 1-DoF joints and a floating base). 0 by default: MuJoCo's soft constraints alone, whose loops part "
+        "onto them; every joint kind and a floating base). 0 by default: MuJoCo's soft constraints alone, whose loops part "
         "by up to millimetres. 2 closes the four-bar and the slider-crank to 1e-15 m (3 a ball spinning about a pivot), "
         "their motion within 1e-2 of MuJoCo's stiffest constraint's over 10 s (tests/test_equality.py). Prefer "
         "RungeKutta4: after a semi-implicit Euler step the projection gains energy where the constrained motion turns "
