@@ -32,7 +32,8 @@ Post-stabilisation (`equality_projection`, after a step; the model setting `equa
 the hard constraints JaxSim's kinematic constraints aim at): the step's new position is moved by the least change in
 the mass metric that zeroes r to first order, dq = -M^-1 J^T (J M^-1 J^T)^+ r (Gauss-Newton: r shrinks
 quadratically over the iterations), then its velocity projected onto J nu = 0 at the corrected position (the
-least change in kinetic energy). After a semi-implicit Euler step this gains energy where the constrained motion
+least change in kinetic energy); (J M^-1 J^T)^+ is solved with Levenberg-Marquardt's damping (rows that depend on
+the others move nothing), the velocity's solve refined three times. After a semi-implicit Euler step this gains energy where the constrained motion
 turns: the step's velocity takes the whole centripetal kick, the projection keeps (beta - 1/2) (omega dt)^2 of it
 (beta: the soft solve's share of the centripetal acceleration, about 1); after RK4 it does not (model_settings'
 `equality_projection` gives the figures).
@@ -491,7 +492,7 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         J_t: wp.array4d(dtype=scalar),
         Jdotnu_t: wp.array3d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
-        drop: scalar,
+        damping: scalar,
         velocity: int,
         # scratch as equality_accelerations'
         J: wp.array3d(dtype=scalar),
@@ -508,8 +509,9 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         """One pass of the post-stabilisation (the module docstring) of x (N environments) at
         its link poses W_H_L, anchors' Jacobians J_t (N, T, 6, K; Mixed, nu Inertial) and mass matrix M (N, K, K;
         Inertial base). velocity 0: the position moved by dq = -M^-1 J^T (J M^-1 J^T)^+ r; 1: the velocity projected,
-        nu - M^-1 J^T (J M^-1 J^T)^+ J nu. Rows that depend on others (a planar loop's out-of-plane row) are dropped (`factor`'s
-        pivots at most `drop` times their diagonal). W_v_WL and Jdotnu_t feed the rows' J̇ν, unused here. A flagged
+        nu - M^-1 J^T (J M^-1 J^T)^+ J nu, (J M^-1 J^T)^+ the inverse of J M^-1 J^T + `damping` times its largest diagonal
+        entry (Levenberg-Marquardt's: rows that depend on the others, a planar loop's out-of-plane row, two connects
+        on one body, or nearly so, move nothing instead of amplifying rounding). W_v_WL and Jdotnu_t feed the rows' J̇ν, unused here. A flagged
         environment is left as it is."""
         env = wp.tid()
         if x.valid[env] == 0:
@@ -536,61 +538,73 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
                     total = total + J[env, r, c] * MinvJT[env, q, c]
                 A[env, r, q] = total
                 A[env, q, r] = total
-        C.factor(A, env, 0, m, drop, LA)
-        if velocity != 0:  # J nu into rhs: the velocity's residual
-            for r in range(m):
-                total = scalar(0.0)
-                for c in range(6):
-                    total = total + J[env, r, c] * v_B[c]
-                for c in range(6, K):
-                    total = total + J[env, r, c] * x.joint_velocities[env, c - 6]
-                rhs[env, r] = total
+        largest = scalar(0.0)
+        for r in range(m):
+            largest = wp.max(largest, A[env, r, r])
+        if largest <= scalar(0.0):
+            return
+        for r in range(m):
+            A[env, r, r] = A[env, r, r] + damping * largest
+        C.factor(A, env, 0, m, scalar(0.0), LA)
+        if velocity != 0:  # nu - M^-1 J^T (J M^-1 J^T)^+ J nu, refined: the damped solve leaves damping / eigenvalue of J nu
+            for sweep in range(3):
+                for r in range(m):
+                    total = scalar(0.0)
+                    for c in range(6):
+                        total = total + J[env, r, c] * v_B[c]
+                    for c in range(6, K):
+                        total = total + J[env, r, c] * x.joint_velocities[env, c - 6]
+                    rhs[env, r] = total
+                C.substitute(LA, env, m, rhs, w, 0)
+                for i in range(off, K):
+                    change = scalar(0.0)
+                    for r in range(m):
+                        change = change - MinvJT[env, r, i] * w[env, r]
+                    if i < 6:
+                        v_B[i] = v_B[i] + change
+                    else:
+                        x.joint_velocities[env, i - 6] = x.joint_velocities[env, i - 6] + change
+            v_mixed = sp.inertial_to_repr(MIXED, W_H_B, v_B)
+            for k in range(6):
+                x.base_velocity[env, k] = v_mixed[k]
+            return
+        # the position moved by -M^-1 J^T w (into y), per joint on its manifold (a ball's or free joint's rotation
+        # Q (x) exp(dw), body axes, as the integrators step it), the base by its Inertial displacement
         C.substitute(LA, env, m, rhs, w, 0)
-        # the change -M^-1 J^T w (into y): of the velocity (velocity != 0), or of the position, per joint on its
-        # manifold (a ball's or free joint's rotation Q (x) exp(dw), body axes, as the integrators step it)
         for i in range(off, K):
             change = scalar(0.0)
             for r in range(m):
                 change = change - MinvJT[env, r, i] * w[env, r]
             y[env, i] = change
-        if velocity != 0:
-            for i in range(6, K):
-                x.joint_velocities[env, i - 6] = x.joint_velocities[env, i - 6] + y[env, i]
-        else:
-            for link in range(1, W_H_L.shape[1]):
-                kind = model.joint_type[link]
-                a = jm.position_address(model, link)
-                d = 6 + jm.dof_address(model, link)
-                if wp.static(multi_dof) and (kind == BALL or kind == FREE):
-                    r = 0
-                    if kind == FREE:
-                        r = 3
-                        for k in range(3):
-                            x.joint_positions[env, a + k] = x.joint_positions[env, a + k] + y[env, d + k]
-                    Qj = I.read4(x.joint_positions, env, a + r)
-                    Qj = I.quaternion_product(Qj / wp.length(Qj), I.rotation_step(Qj, sp.vec3(y[env, d + r], y[env, d + r + 1], y[env, d + r + 2]), scalar(1.0)))
-                    Qj = Qj / wp.length(Qj)
-                    for k in range(4):
-                        x.joint_positions[env, a + r + k] = Qj[k]
-                else:
-                    x.joint_positions[env, a] = x.joint_positions[env, a] + y[env, d]
+        for link in range(1, W_H_L.shape[1]):
+            kind = model.joint_type[link]
+            a = jm.position_address(model, link)
+            d = 6 + jm.dof_address(model, link)
+            if wp.static(multi_dof) and (kind == BALL or kind == FREE):
+                r = 0
+                if kind == FREE:
+                    r = 3
+                    for k in range(3):
+                        x.joint_positions[env, a + k] = x.joint_positions[env, a + k] + y[env, d + k]
+                Qj = I.read4(x.joint_positions, env, a + r)
+                Qj = I.quaternion_product(Qj / wp.length(Qj), I.rotation_step(Qj, sp.vec3(y[env, d + r], y[env, d + r + 1], y[env, d + r + 2]), scalar(1.0)))
+                Qj = Qj / wp.length(Qj)
+                for k in range(4):
+                    x.joint_positions[env, a + r + k] = Qj[k]
+            else:
+                x.joint_positions[env, a] = x.joint_positions[env, a] + y[env, d]
         if model.floating_base != 0:
             dv = sp.vec6(y[env, 0], y[env, 1], y[env, 2], y[env, 3], y[env, 4], y[env, 5])
             p = wp.transform_get_translation(W_H_B)
             Q = wp.transform_get_rotation(W_H_B)
-            dp = sp.lin(dv) + wp.cross(sp.ang(dv), p)  # the base origin's velocity change, or displacement
-            if velocity != 0:
-                v_mixed = B.base_velocity_mixed(x, env) + sp.stack(dp, sp.ang(dv))
-                for k in range(6):
-                    x.base_velocity[env, k] = v_mixed[k]
-            else:
-                angle = wp.length(sp.ang(dv))
-                if angle > scalar(0.0):
-                    Q = wp.normalize(wp.quat_from_axis_angle(sp.ang(dv) / angle, angle) * Q)
-                for k in range(3):
-                    x.base_position[env, k] = p[k] + dp[k]
-                x.base_quaternion[env, 0] = Q[3]
-                for k in range(3):
-                    x.base_quaternion[env, 1 + k] = Q[k]
+            dp = sp.lin(dv) + wp.cross(sp.ang(dv), p)  # the base origin's displacement
+            angle = wp.length(sp.ang(dv))
+            if angle > scalar(0.0):
+                Q = wp.normalize(wp.quat_from_axis_angle(sp.ang(dv) / angle, angle) * Q)
+            for k in range(3):
+                x.base_position[env, k] = p[k] + dp[k]
+            x.base_quaternion[env, 0] = Q[3]
+            for k in range(3):
+                x.base_quaternion[env, 1 + k] = Q[k]
 
     return types.SimpleNamespace(equality_projection=equality_projection)
