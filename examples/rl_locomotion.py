@@ -132,7 +132,7 @@ def make_env(task: str, num_envs: int, device, seed: int, robot: str = "ergocub"
         raise ValueError(f"{robot} has no task {task!r} (its tasks: {', '.join(TASKS[robot])})")
     preset = ROBOTS[robot]()
     if task == "rough":
-        preset = dataclasses.replace(preset, other_links=ROUGH_LINKS[robot])
+        preset = dataclasses.replace(preset, other_links=ROUGH_LINKS.get(robot, ()))
     model = preset.model(device=device)
     return envs.LeggedEnv(model, num_envs=num_envs, cfg=preset.config(model, **{**TASKS[robot][task], **overrides}), seed=seed)
 
@@ -219,7 +219,7 @@ def train(
         episodes = stats["episodes"]
         out_of_time = max_minutes is not None and time.perf_counter() - start > 60.0 * max_minutes
         counts = [steps * env.num_envs, episodes, stats["mean_return"] * episodes if episodes else 0.0,
-                  stats["mean_length"] * episodes if episodes else 0.0, float(out_of_time), *terrain_levels(env)]  # fmt: skip
+                  stats["mean_length"] * episodes if episodes else 0.0, float(out_of_time), *terrain_level_counts(env)]  # fmt: skip
         if world > 1:  # one small all-reduce per iteration
             reduced = torch.tensor(counts, dtype=torch.float64, device=torch_device)
             torch.distributed.all_reduce(reduced)
@@ -265,7 +265,7 @@ def train(
     return history
 
 
-def terrain_levels(env: envs.LeggedEnv) -> tuple[float, float, float]:
+def terrain_level_counts(env: envs.LeggedEnv) -> tuple[float, float, float]:
     """(sum of the environments' terrain levels, how many are on the hardest level, how many environments) on
     generated terrain; zeros on flat ground."""
     gen = env.terrain_generator

@@ -483,6 +483,14 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
     sp, B, jm = spatial(scalar), bundles(scalar), joints(scalar, multi_dof)
     E, C, I = kernels(scalar), cholesky_kernels(scalar), integrator_kernels(scalar, multi_dof)
 
+    @wp.func
+    def correction(MinvJT: wp.array3d(dtype=scalar), w: wp.array2d(dtype=scalar), env: int, m: int, i: int):
+        """DoF i of -M^-1 J^T w (MinvJT's rows are those of (M^-1 J^T)^T, w[env, :m] the rows' multipliers)."""
+        change = scalar(0.0)
+        for r in range(m):
+            change = change - MinvJT[env, r, i] * w[env, r]
+        return change
+
     @wp.kernel(module="unique", enable_backward=False)
     def equality_projection(
         model: B.Model,
@@ -493,7 +501,7 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         Jdotnu_t: wp.array3d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
         damping: scalar,
-        velocity: int,
+        velocity_pass: int,
         # scratch as equality_accelerations'
         J: wp.array3d(dtype=scalar),
         L: wp.array3d(dtype=scalar),
@@ -508,11 +516,11 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
     ):
         """One pass of the post-stabilisation (the module docstring) of x (N environments) at
         its link poses W_H_L, anchors' Jacobians J_t (N, T, 6, K; Mixed, nu Inertial) and mass matrix M (N, K, K;
-        Inertial base). velocity 0: the position moved by dq = -M^-1 J^T (J M^-1 J^T)^+ r; 1: the velocity projected,
+        Inertial base). velocity_pass 0: the position moved by dq = -M^-1 J^T (J M^-1 J^T)^+ r; 1: the velocity projected,
         nu - M^-1 J^T (J M^-1 J^T)^+ J nu, (J M^-1 J^T)^+ the inverse of J M^-1 J^T + `damping` times its largest diagonal
         entry (Levenberg-Marquardt's: rows that depend on the others, a planar loop's out-of-plane row, two connects
         on one body, or nearly so, move nothing instead of amplifying rounding). W_v_WL and Jdotnu_t feed the rows' J̇ν, unused here. A flagged
-        environment is left as it is."""
+        environment is left as it is; one whose new state is not finite is flagged (x.valid = 0)."""
         env = wp.tid()
         if x.valid[env] == 0:
             return
@@ -545,8 +553,8 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             return
         for r in range(m):
             A[env, r, r] = A[env, r, r] + damping * largest
-        C.factor(A, env, 0, m, scalar(0.0), LA)
-        if velocity != 0:  # nu - M^-1 J^T (J M^-1 J^T)^+ J nu, refined: the damped solve leaves damping / eigenvalue of J nu
+        C.factor(A, env, 0, m, scalar(-1.0), LA)  # positive definite once damped
+        if velocity_pass != 0:  # nu - M^-1 J^T (J M^-1 J^T)^+ J nu, refined: the damped solve leaves damping / eigenvalue of J nu
             for sweep in range(3):
                 for r in range(m):
                     total = scalar(0.0)
@@ -557,25 +565,28 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
                     rhs[env, r] = total
                 C.substitute(LA, env, m, rhs, w, 0)
                 for i in range(off, K):
-                    change = scalar(0.0)
-                    for r in range(m):
-                        change = change - MinvJT[env, r, i] * w[env, r]
+                    change = correction(MinvJT, w, env, m, i)
                     if i < 6:
                         v_B[i] = v_B[i] + change
                     else:
                         x.joint_velocities[env, i - 6] = x.joint_velocities[env, i - 6] + change
             v_mixed = sp.inertial_to_repr(MIXED, W_H_B, v_B)
+            nonfinite = int(0)
             for k in range(6):
                 x.base_velocity[env, k] = v_mixed[k]
+                if not wp.isfinite(v_mixed[k]):
+                    nonfinite = 1
+            for i in range(6, K):
+                if not wp.isfinite(x.joint_velocities[env, i - 6]):
+                    nonfinite = 1
+            if nonfinite != 0:
+                x.valid[env] = 0
             return
         # the position moved by -M^-1 J^T w (into y), per joint on its manifold (a ball's or free joint's rotation
         # Q (x) exp(dw), body axes, as the integrators step it), the base by its Inertial displacement
         C.substitute(LA, env, m, rhs, w, 0)
         for i in range(off, K):
-            change = scalar(0.0)
-            for r in range(m):
-                change = change - MinvJT[env, r, i] * w[env, r]
-            y[env, i] = change
+            y[env, i] = correction(MinvJT, w, env, m, i)
         for link in range(1, W_H_L.shape[1]):
             kind = model.joint_type[link]
             a = jm.position_address(model, link)
@@ -606,5 +617,11 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             x.base_quaternion[env, 0] = Q[3]
             for k in range(3):
                 x.base_quaternion[env, 1 + k] = Q[k]
+        nonfinite = int(0)
+        for i in range(off, K):
+            if not wp.isfinite(y[env, i]):
+                nonfinite = 1
+        if nonfinite != 0:
+            x.valid[env] = 0
 
     return types.SimpleNamespace(equality_projection=equality_projection)

@@ -460,8 +460,7 @@ def test_the_anymal_c_rough_task_builds_on_its_curriculum(tmp_path):
     """examples/rl_locomotion.py's rough task: the ANYmal C on the generated terrain (10 levels), the 187-point
     height scan observed instead of the base's height above its origin (235 observations), its thighs' box corners
     touching the terrain besides the feet (8 each) and watched as undesired contacts, each step's reward clipped at 0;
-    two PPO iterations record the mean terrain level (starting levels 0 and 1). A robot without a rough task is
-    refused by name."""
+    two PPO iterations record the mean terrain level. A robot without a rough task is refused by name."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
     try:
         import rl_locomotion
@@ -474,7 +473,7 @@ def test_the_anymal_c_rough_task_builds_on_its_curriculum(tmp_path):
     touching = [links[b] for b, on in zip(cp.body, cp.enabled) if on]
     assert {name: touching.count(name) for name in set(touching)} == {**dict.fromkeys(wd.assets.ANYMAL_C_FEET, 9), **dict.fromkeys(rl_locomotion.ROUGH_LINKS["anymal_c"], 8)}
     history = rl_locomotion.train(env, 2, tmp_path, str(env.device))
-    assert [round(h[4], 6) for h in history] == [float(env.terrain_levels.float().mean())] * 2 and history[0][4] in (0.0, 0.25, 0.5, 0.75, 1.0)
+    assert [round(h[4], 6) for h in history] == [round(float(env.terrain_levels.float().mean()), 6)] * 2
     with pytest.raises(ValueError, match="go2 has no task 'rough' .its tasks: stand, walk"):
         rl_locomotion.make_env("rough", 4, wp.get_device(), seed=0, robot="go2")
 

@@ -355,7 +355,7 @@ def test_the_projection_closes_loops_and_follows_mujocos_stiffest_constraint(xml
 
 
 # A free ball hung by a connect from a static hook (a body welded to the world: scenery, which a floating base's
-# description drops) and held by a weld to the world's frame at an offset, MuJoCo's refsafe disabled and a time
+# description drops) and by a second connect to a point of the world's frame, MuJoCo's refsafe disabled and a time
 # constant below 2 dt.
 HOOK = """
 <mujoco model="hook">
@@ -504,13 +504,64 @@ def test_the_projection_keeps_cassies_free_fall_rigid():
 
 
 def test_the_projection_setting():
-    """equality_projection takes 0 to 10 position passes (named otherwise) and is carried by reduce."""
+    """equality_projection takes 0 to 10 position passes (a TypeError names another type, a ValueError another
+    number), is carried by reduce, and a step with a solved contact model is refused by name."""
     model = _load(FOUR_BAR)
-    for bad in (-1, 11, 1.5, True, "2"):
-        with pytest.raises(ValueError, match=r"equality_projection must be an integer from 0 to 10"):
+    for bad, error, message in ((-1, ValueError, "from 0 to 10"), (11, ValueError, "from 0 to 10"), (1.5, TypeError, "an integer"),
+                                (True, TypeError, "an integer"), ("2", TypeError, "an integer")):  # fmt: skip
+        with pytest.raises(error, match=f"equality_projection must be {message}"):
             model.equality_projection = bad
     model.equality_projection = 3
     assert wd.model.reduce(model, considered_joints=list(model.joint_names())).equality_projection == 3
+    rigid = model.replace(contact_model=wd.rbda.contacts.RelaxedRigidContacts())
+    with pytest.raises(NotImplementedError, match="equality_projection with RelaxedRigidContacts on 'four-bar'.*use SoftContacts"):
+        wd.model.step(rigid, wd.data.Data.build(rigid))
+
+
+COUPLED_BALL = _mjcf(
+    "coupled ball",
+    """
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0"/>
+      <geom fromto="0 0 0 0.3 0 0" mass="0.5"/>
+      <body name="lower" pos="0.3 0 0">
+        <joint name="elbow" axis="0 1 0"/>
+        <geom fromto="0 0 0 0.25 0 0" mass="0.3"/>
+      </body>
+    </body>
+    <body name="bob" pos="0 0.5 1">
+      <joint name="swivel" type="ball"/>
+      <geom fromto="0 0 0 0 0 -0.3" mass="0.4"/>
+      <body name="tip" pos="0 0 -0.3"/>
+    </body>
+  """,
+    """<joint name="couple" joint1="elbow" joint2="shoulder" polycoef="0 0.5 0 0 0"/>
+    <connect name="tether" body1="tip" anchor="0 0 0"/>""",
+)
+"""A two-link arm whose elbow follows half its shoulder (a joint coupling) and a bob on a ball joint whose tip is
+held to the world's point (a connect): it can only spin about its own axis."""
+
+
+def test_the_projection_of_couplings_and_ball_joints_per_environment():
+    """A joint coupling and a ball joint's connect, two environments at random velocities, 1 s of RK4 steps with
+    the projection: the elbow stays at half the shoulder to 1e-12 rad and the bob's tip at its point to 1e-12 m in
+    each environment while the arm swings; an environment flagged before the step is left as it is."""
+    model = _load(COUPLED_BALL)
+    model.equality_projection, model.integrator = 2, wd.model.IntegratorType.RungeKutta4
+    shoulder, elbow = (int(model.tree.q_start[model.joint_names().index(name) + 1]) for name in ("shoulder", "elbow"))  # their positions' addresses
+    velocities = np.random.default_rng(7).normal(size=(2, model.dofs()))
+    data = wd.data.Data.build(model, joint_velocities=velocities, num_envs=2)
+    stepper = wd.simulation.Stepper(model, data, substeps=10)
+    for _ in range(100):
+        out = stepper.step()
+        q = out.joint_positions.numpy()
+        assert np.abs(q[:, elbow] - 0.5 * q[:, shoulder]).max() < 1e-12 and _anchor_gap(model, out) < 1e-12
+    assert np.abs(q[:, shoulder]).min() > 0.05, "the arm swung"
+    flagged = wd.data.Data.build(model, joint_velocities=velocities, num_envs=2)
+    flagged.valid_state.assign(np.array([1, 0], dtype=np.int32))
+    before = flagged.joint_positions.numpy().copy()
+    after = wd.model.step(model, flagged)
+    assert np.array_equal(after.joint_positions.numpy()[1], before[1]) and after.valid_state.numpy().tolist() == [1, 0]
 
 
 

@@ -2,8 +2,10 @@
 TreeEquality), solved as MuJoCo solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
 Inertial base) at a state x, with the link poses of its FK, the launches compute the mass matrix (Inertial base),
 for connects and welds the links' velocities and bias terms and their anchors' Jacobians and J̇ν (Mixed, ν
-Inertial), and the constrained accelerations into the evaluation's nu_dot. Forward only: a recorded step of a
-constrained model is refused (`check_steppable`).
+Inertial), and the constrained accelerations into the evaluation's nu_dot. With the model setting
+`equality_projection`, `after_step` ends the step with the post-stabilisation (kernels/equality.py's
+`equality_projection`; SoftContacts only). Forward only: a recorded step of a constrained model is refused
+(`check_steppable`).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from ..kernels.equality import projection_kernels
 from ..kernels.jacobian_derivatives import kernels as derivative_kernels
 from ..kernels.jacobians import kernels as jacobian_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
+from ..types.contact_models import SoftContacts
 from ..types.enums import VelRepr
 from ..types.model_constants import transforms
 from .kinematics import targets
@@ -44,7 +47,12 @@ class EqualityPlan:
         s, d = model.scalar, model.device
         tree = model.tree
         self.count, self.model_name = len(tree.equalities), model.name()
-        self.projection = model.equality_projection  # the post-stabilisation's position passes after each step (0: none)
+        self.projection_passes = model.equality_projection  # the post-stabilisation's position passes after each step (0: none)
+        if self.projection_passes and not isinstance(model.contact_model, SoftContacts):
+            raise NotImplementedError(
+                f"model.equality_projection with {type(model.contact_model).__name__} on '{model.name()}': the projection would "
+                "undo the solved contacts' velocities (the rigid impact) and push their points into the ground; use SoftContacts"
+            )
         self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
         kinds = [{"connect": CONNECT, "weld": WELD, "joint": COUPLING, "tendon": COUPLING}[e.kind] for e in tree.equalities]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
@@ -102,8 +110,8 @@ class EqualityPlan:
         eq.solimp = floats([e.solimp for e in E], 5)
         eq.invweight = floats([e.invweight for e in E])
         multi = model.multi_dof()
-        self.kernel, self.project = K.equality_accelerations, projection_kernels(s, model.multi_dof()).equality_projection
-        self.fk = kinematics_kernels(s, model.multi_dof()).forward_kinematics
+        self.kernel, self.projection_kernel = K.equality_accelerations, projection_kernels(s, multi).equality_projection
+        self.fk = kinematics_kernels(s, multi).forward_kinematics
         self.bias = derivative_kernels(s, multi)
         self.jacobians = jacobian_kernels(s, multi).jacobians
         self.crba = crba_kernels(s, "tuned", multi).crba
@@ -127,7 +135,7 @@ class EqualityPlan:
             "M": empty((K, K)),
             "crba_scratch": empty((max(nL, plan.n + 1), CRBA_RECORD)),
             "scratch": [empty((m, K)), empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m)), empty((width,)), empty((width,)), empty((width,))],
-            **({"parent_H_link_next": empty((nL,), wp.types.transformation(s)), "W_H_L_next": empty((nL,), wp.types.transformation(s))} if self.projection else {}),
+            **({"parent_H_link_next": empty((nL,), wp.types.transformation(s)), "W_H_L_next": empty((nL,), wp.types.transformation(s))} if self.projection_passes else {}),
         }
 
     def launches(self, plan, ev, x, N: int) -> list:
@@ -152,15 +160,15 @@ class EqualityPlan:
         b = ev.equality
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
         launches = []
-        for velocity in [0] * self.projection + [1] * (self.projection > 0):
+        for velocity_pass in [0] * self.projection_passes + [1] * (self.projection_passes > 0):
             launches += [
                 Launch(self.fk, N, [plan.model, Y], [b["parent_H_link_next"], b["W_H_L_next"]]),
                 Launch(self.crba, N, [plan.model, Y, inertial, b["crba_scratch"]], [b["M"]]),
             ]
             if self.T:
                 launches.append(Launch(self.jacobians, (N, self.T), [plan.model, self.targets, b["W_H_L_next"], inertial, mixed], [b["J_t"]]))
-            args = [plan.model, self.bundle, b["W_H_L_next"], b["W_v_WL"], b["J_t"], b["Jdotnu_t"], b["M"], plan.scalar(PROJECTION_DAMPING[plan.scalar]), velocity, *b["scratch"]]
-            launches.append(Launch(self.project, N, args, [Y]))
+            args = [plan.model, self.bundle, b["W_H_L_next"], b["W_v_WL"], b["J_t"], b["Jdotnu_t"], b["M"], plan.scalar(PROJECTION_DAMPING[plan.scalar]), velocity_pass, *b["scratch"]]
+            launches.append(Launch(self.projection_kernel, N, args, [Y]))
         return launches
 
 

@@ -164,8 +164,7 @@ class LeggedEnvConfig:
                 _check_field(f"observations[{k}] noise", entry[2], "non-negative", "(the scaled term's units)")
         if self.terrain is not None and not isinstance(self.terrain, TerrainConfig):
             raise TypeError(f"LeggedEnvConfig.terrain must be a TerrainConfig (warpdyn.envs.terrain_generator) or None, got {self.terrain!r}")
-        if self.height_scan is not None:
-            scan = self.height_scan
+        if (scan := self.height_scan) is not None:
             if not (isinstance(scan, (tuple, list)) and len(scan) == 2 and isinstance(scan[0], (tuple, list)) and len(scan[0]) == 2):
                 raise TypeError(f"LeggedEnvConfig.height_scan must be ((length, width), resolution) [m] or None, got {scan!r}")
             wd.terrain.grid_pattern(scan[0], scan[1])  # its values checked
@@ -176,6 +175,8 @@ class LeggedEnvConfig:
         for name in ("terrain_curriculum", "only_positive_rewards", "heading_command"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"LeggedEnvConfig.{name} must be True or False, got {getattr(self, name)!r}")
+        if self.heading_command and self.yaw_rate[0] == self.yaw_rate[1]:
+            raise ValueError(f"LeggedEnvConfig.heading_command clips its yaw rate to yaw_rate's range, which is the single value {self.yaw_rate[0]}: give a range")
         if not isinstance(self.rewards, dict):
             raise TypeError(f"LeggedEnvConfig.rewards must be a dict {{name: (term, weight)}}, got {self.rewards!r}")
         for key, entry in self.rewards.items():
@@ -341,8 +342,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         # buffers
         f32 = dict(device=self.device, dtype=torch.float32)
         nf = len(self.feet)
-        self.actions = torch.zeros(N, na, **f32)
-        self.previous_actions = torch.zeros(N, na, **f32)
+        self.actions, self.previous_actions = torch.zeros(N, na, **f32), torch.zeros(N, na, **f32)
         self.commands, self.heading = torch.zeros(N, 3, **f32), torch.zeros(N, **f32)  # heading [rad, world]: cfg.heading_command's
         self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
         self.joint_torques = torch.zeros(N, n, device=self.device, dtype=self.torch_dtype)
@@ -648,7 +648,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.feet_air_time.masked_fill_(self.feet_contact | self._previous_contact, 0.0)
         self._previous_contact.copy_(self.feet_contact)
         invalid = s.valid == 0
-        fell = (s.base_position[:, 2] - self.terrain_below_base < cfg.termination_height * self.standing_height) | (s.projected_gravity[:, 2] > -math.cos(cfg.termination_tilt))
+        fell = (terms.height_above_terrain(self)[:, 0] < cfg.termination_height * self.standing_height) | (s.projected_gravity[:, 2] > -math.cos(cfg.termination_tilt))
         terminated = fell | invalid
         truncated = (self.episode_length_buf >= self.max_episode_length) & ~terminated
         reward = torch.where(invalid, torch.zeros_like(reward), torch.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0))

@@ -45,7 +45,8 @@ class LeggedRobot:
     """A legged robot: `description` (a path or the text of a URDF, SDF or MJCF, or a function returning one: a pip
     package's file), `feet` (link names), `joints` (the joints kept, the others locked at 0; None: all),
     `posture` ({joint: position [rad or m]} or an MJCF keyframe's name; None: the description's zero), how the feet
-    touch (`contact_shapes`, `sphere_points`, `lower_half`; warpdyn.contact.CollidablePointsOptions) and
+    touch (`contact_shapes`, `sphere_points`, `lower_half`; warpdyn.contact.CollidablePointsOptions), the other links
+    that touch the terrain (`other_links`, with their shapes of the kinds `other_shapes` and `contact_shapes`) and
     `settings`, LeggedEnvConfig fields of this robot (gains, torque limit, height target, rewards...)."""
 
     description: object

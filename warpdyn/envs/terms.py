@@ -155,16 +155,17 @@ def commands(env) -> torch.Tensor:
     return env.commands
 
 
-# ------------------------------------------------------------------------------------------ rewards
-
-
 def heading_yaw_rate(env) -> torch.Tensor:
-    """legged_gym's heading command: 0.5 x the error from the base's heading (the yaw of its x axis) to env.heading,
-    wrapped to [-pi, pi), clipped to cfg.yaw_rate's range [rad/s] (N,)."""
-    q = env.state.base_quaternion
-    forward = quat_rotate(q, torch.zeros_like(q[:, 1:]).index_fill_(1, torch.tensor([0], device=q.device), 1.0))
-    error = torch.remainder(env.heading - torch.atan2(forward[:, 1], forward[:, 0]) + math.pi, 2.0 * math.pi) - math.pi
+    """legged_gym's heading command: 0.5 x the error from the base's heading (the yaw of its x axis, atan2 of the
+    rotation's (1, 0) and (0, 0) entries) to env.heading, wrapped to [-pi, pi), clipped to cfg.yaw_rate's range
+    [rad/s] (N,). Torch operations on device tensors only: it runs inside the captured step."""
+    w, x, y, z = env.state.base_quaternion.unbind(1)
+    yaw = torch.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    error = torch.remainder(env.heading - yaw + math.pi, 2.0 * math.pi) - math.pi
     return (0.5 * error).clamp(*env.cfg.yaw_rate).to(env.commands.dtype)
+
+
+# ------------------------------------------------------------------------------------------ rewards
 
 
 def track_linear_velocity(env) -> torch.Tensor:

@@ -49,8 +49,10 @@ def _number(name: str, value, positive: bool) -> float:
 
 
 def _iterations(name: str, value) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not 0 <= value <= 10:
-        raise ValueError(f"{name} must be an integer from 0 to 10 (iterations), got {value!r}")
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer (position passes), got {value!r}")
+    if not 0 <= value <= 10:
+        raise ValueError(f"{name} must be from 0 to 10 (position passes), got {value}")
     return int(value)
 
 
@@ -167,11 +169,13 @@ class ModelSettings:
         "The post-stabilisation's position passes after each step of a model with equality constraints, 0 to 10 "
         "(kernels/equality.py: Gauss-Newton steps in the mass metric onto the constraints, then the velocity projected "
         "onto them; every joint kind and a floating base). 0 by default: MuJoCo's soft constraints alone, whose loops part "
-        "by up to millimetres. 2 closes the four-bar and the slider-crank to 1e-15 m (3 a ball spinning about a pivot), "
-        "their motion within 1e-2 of MuJoCo's stiffest constraint's over 10 s (tests/test_equality.py). Prefer "
+        "by up to millimetres. 2 closes the four-bar and the slider-crank to rounding (1e-15 m measured, the tests hold "
+        "1e-12), their motion within 1e-2 of MuJoCo's stiffest constraint's over 10 s (tests/test_equality.py); a "
+        "large correction (a kicked weld) may take 3. SoftContacts only (the solved contacts are refused). Prefer "
         "RungeKutta4: after a semi-implicit Euler step the projection gains energy where the constrained motion turns "
-        "(the undamped four-bar 2 % over 9 s at 1 ms; a ball pivoting at 27 rad/s diverges within 2 s at 1 ms, 0.5 % "
-        "a second at 0.25 ms), after RK4 it loses a little (0.25 % over 9 s; the ball 1.2 % a second).",
+        "(tested: the undamped four-bar gains 2 % over 9 s at 1 ms; measured once: a ball pivoting at 27 rad/s diverged "
+        "within 2 s at 1 ms and gained 0.5 % a second at 0.25 ms); after RK4 it loses a little (tested: the four-bar "
+        "under 0.5 % over 9 s, the ball under 2 % a second).",
     )
 
     def _follow_mujoco(self, integrator: str, disabled: frozenset) -> None:
