@@ -494,7 +494,8 @@ def test_heading_commands_steer_the_yaw_rate():
     """LeggedEnvConfig.heading_command (legged_gym's): each environment draws a heading in [-pi, pi] with its
     commands, and every observation commands the yaw rate 0.5 x the heading's error from the base's yaw, wrapped to
     [-pi, pi) and clipped to yaw_rate's range (headings 0.4, -0.4 - 2 pi, 3 and -3 rad from the yaw command 0.2,
-    -0.2, 1 and -1 rad/s); without it the heading stays 0 and the drawn yaw rate stands."""
+    -0.2, 1 and -1 rad/s); without it the heading stays 0 and the drawn yaw rate stands; a single yaw rate (nothing
+    to steer with) is refused."""
     env = _env(N=4, joint_noise=0.0, heading_command=True, yaw_rate=(-1.0, 1.0))
     env.reset(seed=0)
 
@@ -519,3 +520,5 @@ def test_heading_commands_steer_the_yaw_rate():
     assert plain.heading.tolist() == [0.0] * 4 and len(set(plain.commands[:, 2].tolist())) == 4
     with pytest.raises(TypeError, match="LeggedEnvConfig.heading_command must be True or False"):
         envs.LeggedEnvConfig(heading_command="yes")
+    with pytest.raises(ValueError, match="heading_command clips its yaw rate to yaw_rate's range, which is the single value 0.0"):
+        envs.LeggedEnvConfig(heading_command=True)
