@@ -272,10 +272,11 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.func
     def constraint_rows(
         eq: Equalities, x: B.State, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), J_t: wp.array4d(dtype=scalar),
-        Jdotnu_t: wp.array3d(dtype=scalar), env: int, e: int, J: wp.array3d(dtype=scalar),
+        Jdotnu_t: wp.array3d(dtype=scalar), env: int, e: int, J: wp.array3d(dtype=scalar), with_rates: int,
     ):
         """Constraint e's rows (the module docstring) added into J[env, row:row + rows] (zeroed before; K columns):
-        returns (r, J̇ν (their first `rows` entries), rows, the residual's size |r|)."""
+        returns (r, J̇ν (their first `rows` entries; 0 unless with_rates, W_v_WL and Jdotnu_t then unread), rows, the
+        residual's size |r|)."""
         K = J.shape[2]
         row = eq.row[e]
         residual = sp.vec6(scalar(0.0))
@@ -316,11 +317,13 @@ def kernels(scalar) -> types.SimpleNamespace:
             # the rows' Jacobians and J̇ν: the anchors' (linear), and for a weld the links' (angular)
             for a in range(rows):
                 if link1 >= 0:
-                    bias[a] = bias[a] + Jdotnu_t[env, t, a]
+                    if with_rates != 0:
+                        bias[a] = bias[a] + Jdotnu_t[env, t, a]
                     for c in range(K):
                         J[env, row + a, c] = J_t[env, t, a, c]
                 if link2 >= 0:
-                    bias[a] = bias[a] - Jdotnu_t[env, t + 1, a]
+                    if with_rates != 0:
+                        bias[a] = bias[a] - Jdotnu_t[env, t + 1, a]
                     for c in range(K):
                         J[env, row + a, c] = J[env, row + a, c] - J_t[env, t + 1, a, c]
             for a in range(3):
@@ -330,13 +333,15 @@ def kernels(scalar) -> types.SimpleNamespace:
                 q0 = frame_of(W_H_L, env, link1, eq.Q1[e])
                 q1 = wp.quat_inverse(frame_of(W_H_L, env, link2, eq.Q2[e]))
                 rotation = s * vector_part(q1 * q0)
-                w1 = angular_velocity(W_v_WL, env, link1)
-                w2 = angular_velocity(W_v_WL, env, link2)
-                dw = w1 - w2
-                q1dot = wp.quat_inverse(scalar(0.5) * (pure(w2) * wp.quat_inverse(q1)))
-                q0dot = scalar(0.5) * (pure(w1) * q0)
-                djw = sp.vec3(bias[3], bias[4], bias[5])
-                rate = scalar(0.5) * s * vector_part(q1dot * pure(dw) * q0 + q1 * pure(djw) * q0 + q1 * pure(dw) * q0dot)
+                rate = sp.vec3(scalar(0.0))
+                if with_rates != 0:
+                    w1 = angular_velocity(W_v_WL, env, link1)
+                    w2 = angular_velocity(W_v_WL, env, link2)
+                    dw = w1 - w2
+                    q1dot = wp.quat_inverse(scalar(0.5) * (pure(w2) * wp.quat_inverse(q1)))
+                    q0dot = scalar(0.5) * (pure(w1) * q0)
+                    djw = sp.vec3(bias[3], bias[4], bias[5])
+                    rate = scalar(0.5) * s * vector_part(q1dot * pure(dw) * q0 + q1 * pure(djw) * q0 + q1 * pure(dw) * q0dot)
                 for c in range(K):
                     column = scalar(0.5) * s * vector_part(q1 * pure(sp.vec3(J[env, row + 3, c], J[env, row + 4, c], J[env, row + 5, c])) * q0)
                     for a in range(3):
@@ -393,7 +398,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 J[env, r, c] = scalar(0.0)
         for e in range(eq.kind.shape[0]):
             row = eq.row[e]
-            residual, bias, rows, distance = constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J)
+            residual, bias, rows, distance = constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 1)
             imp = impedance(eq, e, distance)
             k_imp, b = reference(eq, e, dt, refsafe, imp)
             for a in range(rows):
@@ -519,7 +524,7 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         Inertial base). velocity_pass 0: the position moved by dq = -M^-1 J^T (J M^-1 J^T)^+ r; 1: the velocity projected,
         nu - M^-1 J^T (J M^-1 J^T)^+ J nu, (J M^-1 J^T)^+ the inverse of J M^-1 J^T + `damping` times its largest diagonal
         entry (Levenberg-Marquardt's: rows that depend on the others, a planar loop's out-of-plane row, two connects
-        on one body, or nearly so, move nothing instead of amplifying rounding). W_v_WL and Jdotnu_t feed the rows' J̇ν, unused here. A flagged
+        on one body, or nearly so, move nothing instead of amplifying rounding). W_v_WL and Jdotnu_t are not read (the rows without their J̇ν). A flagged
         environment is left as it is; one whose new state is not finite is flagged (x.valid = 0)."""
         env = wp.tid()
         if x.valid[env] == 0:
@@ -535,7 +540,7 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             for c in range(K):
                 J[env, r, c] = scalar(0.0)
         for e in range(eq.kind.shape[0]):
-            residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J)
+            residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 0)
             for a in range(rows):
                 rhs[env, eq.row[e] + a] = residual[a]
         E.inverse_mass_rows(model, M, env, off, eq.dof_parent, J, L, w, MinvJT)
