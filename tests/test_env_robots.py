@@ -219,7 +219,8 @@ def test_per_joint_torque_limits_clip_each_joint():
 def test_other_links_touch_with_their_box_corners():
     """LeggedRobot.other_links: the ANYmal C with its thighs besides its feet keeps the preset's foot points (the
     same positions, lower halves of the foot spheres) and adds each thigh box's 8 corners (the box's pose and size
-    from the description); a link that is not the model's, or has no shape of those kinds, is refused by name."""
+    from the description); a link that is not the model's, or has no shape of those kinds, is refused by name, and a
+    single name where a tuple of names belongs by the field's."""
     thighs = ("LF_THIGH", "RF_THIGH", "LH_THIGH", "RH_THIGH")
     preset = envs.robots.anymal_c()
     model = dataclasses.replace(preset, other_links=thighs).model()
@@ -241,3 +242,6 @@ def test_other_links_touch_with_their_box_corners():
         dataclasses.replace(preset, other_links=("knee",)).model()
     with pytest.raises(ValueError, match=r"other_links \['LF_HIP'\] have no collision shape of the kinds \['sphere', 'box'\]"):
         dataclasses.replace(preset, other_links=("LF_HIP",)).model()
+    for field in ("feet", "other_links"):  # a name where a tuple of names belongs
+        with pytest.raises(TypeError, match=f"LeggedRobot.{field} must be a tuple of names, got 'LF_THIGH'"):
+            dataclasses.replace(preset, **{field: "LF_THIGH"})

@@ -60,6 +60,12 @@ class LeggedRobot:
     other_shapes: tuple = ("box",)
     settings: dict = dataclasses.field(default_factory=dict)
 
+    def __post_init__(self):
+        for name in ("feet", "other_links", "contact_shapes", "other_shapes"):
+            value = getattr(self, name)
+            if isinstance(value, str) or not isinstance(value, (tuple, list)) or not all(isinstance(v, str) for v in value):
+                raise TypeError(f"LeggedRobot.{name} must be a tuple of names, got {value!r}")
+
     def model(self, device=None, dtype=np.float32) -> wd.model.Model:
         """The model: its joints reduced to `joints`, its contact points on the feet and `other_links`."""
         source = self.description() if callable(self.description) else self.description
