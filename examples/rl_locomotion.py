@@ -41,8 +41,9 @@ curriculum over ROUGH_TERRAIN, ROUGH_OBSERVATIONS (the height
 scan), ROUGH_REWARDS (thighs touching penalised: ROUGH_LINKS touch the terrain too), falls judged above the terrain
 under the base at 0.4 x the standing height; each iteration prints the mean terrain level. `--evaluate
 SPEED` then commands SPEED m/s straight ahead and prints the forward speed reached. Trainer: rsl-rl-lib's PPO (the one Isaac Lab and mjlab
-use): 24 steps per environment and iteration, 5 epochs of 4 mini-batches (per rank), MLP (256, 128, 64)
-actor and critic with observation normalisation.
+use): 24 steps per environment and iteration, 5 epochs of 4 mini-batches (per rank), learning rate 1e-3 (adaptive),
+MLP (256, 128, 64) actor and critic with observation normalisation; --steps-per-env, --epochs, --mini-batches and
+--learning-rate change the first four (PPO_DEFAULTS).
 
 Prints, per iteration: the mean return and length of the episodes completed in it (on all ranks), env-steps/s
 (policy steps x N x K and simulation steps, collection and update included, over rank 0's wall time of the
@@ -137,14 +138,21 @@ def make_env(task: str, num_envs: int, device, seed: int, robot: str = "ergocub"
     return envs.LeggedEnv(model, num_envs=num_envs, cfg=preset.config(model, **{**TASKS[robot][task], **overrides}), seed=seed)
 
 
-def train_config(iterations: int) -> dict:
+PPO_DEFAULTS = dict(steps_per_env=24, epochs=5, mini_batches=4, learning_rate=1e-3)
+"""The trainer's settings that set its time per iteration and its step size (the CLI's --steps-per-env, --epochs,
+--mini-batches, --learning-rate): Rudin et al.'s."""
+
+
+def train_config(iterations: int, steps_per_env: int = 24, epochs: int = 5, mini_batches: int = 4, learning_rate: float = 1e-3) -> dict:
+    """rsl-rl's configuration: PPO_DEFAULTS' settings as given, the rest Rudin et al.'s (MLP (256, 128, 64) actor and
+    critic with observation normalisation, the adaptive learning rate at a KL of 0.01)."""
     mlp = dict(hidden_dims=[256, 128, 64], activation="elu", obs_normalization=True)
     return {
-        "num_steps_per_env": 24,
+        "num_steps_per_env": steps_per_env,
         "save_interval": max(1, iterations),
         "obs_groups": {"actor": ["policy"], "critic": ["policy"]},
         "algorithm": dict(
-            class_name="PPO", learning_rate=1e-3, num_learning_epochs=5, num_mini_batches=4, clip_param=0.2, gamma=0.99,
+            class_name="PPO", learning_rate=learning_rate, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2, gamma=0.99,
             lam=0.95, value_loss_coef=1.0, entropy_coef=0.005, max_grad_norm=1.0, schedule="adaptive", desired_kl=0.01,
         ),  # fmt: skip
         "actor": dict(class_name="MLPModel", distribution_cfg=dict(class_name="GaussianDistribution", init_std=1.0), **mlp),
@@ -185,15 +193,17 @@ def train(
     torch_device: str,
     target_return: float | None = None,
     max_minutes: float | None = None,
+    ppo: dict | None = None,
 ) -> list:
-    """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass); returns
+    """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass; `ppo`: PPO_DEFAULTS'
+    settings to change); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
 
     world, rank = _group()
     vec = RslRlVecEnv(env)
-    cfg = train_config(iterations)
+    cfg = train_config(iterations, **{**PPO_DEFAULTS, **(ppo or {})})
     if world > 1:  # rsl-rl's PPO then averages gradients, KL and normaliser statistics over the ranks
         cfg["multi_gpu"] = {"global_rank": rank, "local_rank": torchrun_ranks()[2], "world_size": world}
     quiet = contextlib.redirect_stdout(io.StringIO()) if rank else contextlib.nullcontext()
@@ -374,11 +384,16 @@ def main(argv=None) -> None:
     parser.add_argument("--seed", type=int, default=0, help="rank r uses seed + r")
     parser.add_argument("--target-return", type=float, default=None, help="stop when an iteration's mean return reaches this; prints the time")  # fmt: skip
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
+    for name, value in PPO_DEFAULTS.items():
+        parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g}, Rudin et al.'s)")
     parser.add_argument("--evaluate", type=float, default=None, metavar="SPEED",
                         help="after training, command SPEED m/s straight ahead in 256 fresh environments for 5 s and print the speed reached")  # fmt: skip
     parser.add_argument("--out", default="runs/locomotion")
     parser.add_argument("--replay", default=None, help="a policy.pt to record instead of training (one process)")
     args = parser.parse_args(argv)
+    for name in PPO_DEFAULTS:
+        if not getattr(args, name) > 0:
+            parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
     started = time.perf_counter()  # the phases' times below count from here (after the imports)
     world, rank, local_rank = torchrun_ranks()
     if world > 1 and args.replay:
@@ -412,7 +427,8 @@ def main(argv=None) -> None:
             print(f"{args.robot} {args.task}: {where}, {env.single_observation_space.shape[0]} observations, "
                   f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps")  # fmt: skip
         phases = {"environment": time.perf_counter() - started}
-        history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes)
+        ppo = {name: getattr(args, name) for name in PPO_DEFAULTS}
+        history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes, ppo)
         phases["training"] = time.perf_counter() - started - sum(phases.values())
         if rank == 0:
             plot(history, out / "rewards.png", f"{args.robot}, {args.task}: {where}")
