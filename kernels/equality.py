@@ -28,15 +28,14 @@ force d T^T (T a0' + T_dot nu) (`base_coordinates`).
 M is factorised along the tree (Featherstone's LTDL: only the entries its branches fill, `tree_factor`), A densely
 (kernels/cholesky.py's `factor` and `substitute`); forward only (no tape records these kernels).
 
-Post-stabilisation (`equality_projection`, after a step; the model setting `equality_projection` its iterations;
+Post-stabilisation (`equality_projection`, after a step; the model setting `equality_projection` its position passes;
 the hard constraints JaxSim's kinematic constraints aim at): the step's new position is moved by the least change in
 the mass metric that zeroes r to first order, dq = -M^-1 J^T (J M^-1 J^T)^+ r (Gauss-Newton: r shrinks
 quadratically over the iterations), then its velocity projected onto J nu = 0 at the corrected position (the
 least change in kinetic energy); (J M^-1 J^T)^+ is solved with Levenberg-Marquardt's damping (rows that depend on
-the others move nothing), the velocity's solve refined three times. After a semi-implicit Euler step this gains energy where the constrained motion
-turns: the step's velocity takes the whole centripetal kick, the projection keeps (beta - 1/2) (omega dt)^2 of it
-(beta: the soft solve's share of the centripetal acceleration, about 1); after RK4 it does not (model_settings'
-`equality_projection` gives the figures).
+the others move nothing), the velocity's solve refined three times. Measured, not explained: after a semi-implicit
+Euler step the projected motion gains energy where it turns (the energy enters in the step from the projected
+state, not in the projection); after RK4 it loses a little (model_settings' `equality_projection` gives the figures).
 """
 
 import types

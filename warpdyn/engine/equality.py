@@ -153,10 +153,9 @@ class EqualityPlan:
         launches.append(Launch(self.kernel, N, args, [ev.nu_dot]))
         return launches
 
-
     def after_step(self, plan, ev, Y, N: int) -> list:
-        """The post-stabilisation of the step's new state Y, in place (kernels/equality.py): `projection` position
-        passes and one velocity pass, each after forward kinematics, the mass matrix and the anchors' Jacobians at Y."""
+        """The post-stabilisation of the step's new state Y, in place (kernels/equality.py): `projection_passes`
+        position passes and one velocity pass (none when it is 0), each after forward kinematics, the mass matrix and the anchors' Jacobians at Y."""
         b = ev.equality
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
         launches = []
