@@ -269,6 +269,27 @@ def kernels(scalar) -> types.SimpleNamespace:
                 MinvJT[env, r, i] = w[env, i]
 
     @wp.func
+    def row_velocity(J: wp.array3d(dtype=scalar), env: int, r: int, v_B: sp.vec6, x: B.State):
+        """Row r of J nu: nu the base's Inertial velocity v_B and the joints' velocities in x."""
+        total = scalar(0.0)
+        for c in range(6):
+            total = total + J[env, r, c] * v_B[c]
+        for c in range(6, J.shape[2]):
+            total = total + J[env, r, c] * x.joint_velocities[env, c - 6]
+        return total
+
+    @wp.func
+    def delassus_rows(J: wp.array3d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar), env: int, off: int, A: wp.array3d(dtype=scalar)):
+        """A[env] = J M^-1 J^T over the rows of J (DoFs off to K - 1; MinvJT: `inverse_mass_rows`)."""
+        for r in range(J.shape[1]):
+            for q in range(r + 1):
+                total = scalar(0.0)
+                for c in range(off, J.shape[2]):
+                    total = total + J[env, r, c] * MinvJT[env, q, c]
+                A[env, r, q] = total
+                A[env, q, r] = total
+
+    @wp.func
     def constraint_rows(
         eq: Equalities, x: B.State, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), J_t: wp.array4d(dtype=scalar),
         Jdotnu_t: wp.array3d(dtype=scalar), env: int, e: int, J: wp.array3d(dtype=scalar), with_rates: int,
@@ -391,7 +412,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         m = J.shape[1]
         W_H_B = B.base_pose(x, env)
         v_B = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env))
-        # 1. the rows: J, and aref in rhs
+        # 1. the rows: J, aref in rhs, their regularisation R in y
         for r in range(m):
             for c in range(K):
                 J[env, r, c] = scalar(0.0)
@@ -404,14 +425,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                 invweight = eq.invweight[e]
                 if a >= 3:  # a weld's rotation rows
                     invweight = eq.invweight_rotation[e]
-                R = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * invweight / imp)
-                velocity = scalar(0.0)
-                for c in range(6):
-                    velocity = velocity + J[env, row + a, c] * v_B[c]
-                for c in range(6, K):
-                    velocity = velocity + J[env, row + a, c] * x.joint_velocities[env, c - 6]
-                rhs[env, row + a] = -b * velocity - k_imp * residual[a] - bias[a]
-                A[env, row + a, row + a] = R  # the diagonal's regularisation, J M^-1 J^T added below
+                rhs[env, row + a] = -b * row_velocity(J, env, row + a, v_B, x) - k_imp * residual[a] - bias[a]
+                y[env, row + a] = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * invweight / imp)  # R, added to A's diagonal below
         # 2. M^-1 J^T (rows of MinvJT) and, with implicit damping, the explicit a0 = a0' + dt M^-1 D a0': a floating
         # base's damper d acts on MuJoCo's free-joint coordinates T nu (`base_coordinates`), D's base block d T^T T,
         # its force d T^T (T a0' + T_dot nu), T_dot nu = [w x p_dot; 0]
@@ -442,20 +457,13 @@ def kernels(scalar) -> types.SimpleNamespace:
             for i in range(off, K):
                 nu_dot[env, i] = a_free[env, i] + implicit_dt * w[env, i]
         # 3. A = J M^-1 J^T + diag(R); f = A^-1 (aref - J a0)
+        delassus_rows(J, MinvJT, env, off, A)
         for r in range(m):
             s = rhs[env, r]
             for c in range(off, K):
                 s = s - J[env, r, c] * nu_dot[env, c]
             rhs[env, r] = s
-            for q in range(r + 1):
-                s = scalar(0.0)
-                for c in range(off, K):
-                    s = s + J[env, r, c] * MinvJT[env, q, c]
-                if q == r:
-                    A[env, r, r] = A[env, r, r] + s
-                else:
-                    A[env, r, q] = s
-                    A[env, q, r] = s
+            A[env, r, r] = A[env, r, r] + y[env, r]
         factor(A, env, 0, m, scalar(-1.0), LA)
         substitute(LA, env, m, rhs, w, 0)  # f in w[0:m]
         # 4. nu_dot = a0 + M^-1 J^T f, or a0' + (M + dt D)^-1 J^T f with implicit damping
@@ -477,7 +485,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                 nu_dot[env, i] = s
 
     return types.SimpleNamespace(
-        Equalities=Equalities, equality_accelerations=equality_accelerations, constraint_rows=constraint_rows, inverse_mass_rows=inverse_mass_rows
+        Equalities=Equalities, equality_accelerations=equality_accelerations, constraint_rows=constraint_rows, inverse_mass_rows=inverse_mass_rows,
+        row_velocity=row_velocity, delassus_rows=delassus_rows,
     )
 
 
@@ -543,13 +552,7 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             for a in range(rows):
                 rhs[env, eq.row[e] + a] = residual[a]
         E.inverse_mass_rows(model, M, env, off, eq.dof_parent, J, L, w, MinvJT)
-        for r in range(m):
-            for q in range(r + 1):
-                total = scalar(0.0)
-                for c in range(off, K):
-                    total = total + J[env, r, c] * MinvJT[env, q, c]
-                A[env, r, q] = total
-                A[env, q, r] = total
+        E.delassus_rows(J, MinvJT, env, off, A)
         largest = scalar(0.0)
         for r in range(m):
             largest = wp.max(largest, A[env, r, r])
@@ -561,12 +564,7 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         if velocity_pass != 0:  # nu - M^-1 J^T (J M^-1 J^T)^+ J nu, refined: the damped solve leaves damping / eigenvalue of J nu
             for sweep in range(3):
                 for r in range(m):
-                    total = scalar(0.0)
-                    for c in range(6):
-                        total = total + J[env, r, c] * v_B[c]
-                    for c in range(6, K):
-                        total = total + J[env, r, c] * x.joint_velocities[env, c - 6]
-                    rhs[env, r] = total
+                    rhs[env, r] = E.row_velocity(J, env, r, v_B, x)
                 C.substitute(LA, env, m, rhs, w, 0)
                 for i in range(off, K):
                     change = correction(MinvJT, w, env, m, i)
