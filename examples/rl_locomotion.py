@@ -282,7 +282,8 @@ def terrain_level_counts(env: envs.LeggedEnv) -> tuple[float, float, float]:
     if gen is None:
         return 0.0, 0.0, 0.0
     levels = env.terrain_levels
-    return float(levels.sum()), float((levels == gen.levels - 1).sum()), float(env.num_envs)
+    level_sum, on_top = torch.stack([levels.sum(), (levels == gen.levels - 1).sum()]).tolist()  # one host synchronisation
+    return float(level_sum), float(on_top), float(env.num_envs)
 
 
 def plot(history: list, path: pathlib.Path, title: str) -> None:
