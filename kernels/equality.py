@@ -549,8 +549,9 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
                 J[env, r, c] = scalar(0.0)
         for e in range(eq.kind.shape[0]):
             residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 0)
-            for a in range(rows):
-                rhs[env, eq.row[e] + a] = residual[a]
+            if velocity_pass == 0:  # the position pass's right-hand side (the velocity pass writes J nu there)
+                for a in range(rows):
+                    rhs[env, eq.row[e] + a] = residual[a]
         E.inverse_mass_rows(model, M, env, off, eq.dof_parent, J, L, w, MinvJT)
         E.delassus_rows(J, MinvJT, env, off, A)
         largest = scalar(0.0)
@@ -599,9 +600,7 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
                     r = 3
                     for k in range(3):
                         x.joint_positions[env, a + k] = x.joint_positions[env, a + k] + y[env, d + k]
-                Qj = I.read4(x.joint_positions, env, a + r)
-                Qj = I.quaternion_product(Qj / wp.length(Qj), I.rotation_step(Qj, sp.vec3(y[env, d + r], y[env, d + r + 1], y[env, d + r + 2]), scalar(1.0)))
-                Qj = Qj / wp.length(Qj)
+                Qj = I.body_rotated(I.read4(x.joint_positions, env, a + r), sp.vec3(y[env, d + r], y[env, d + r + 1], y[env, d + r + 2]), scalar(1.0))
                 for k in range(4):
                     x.joint_positions[env, a + r + k] = Qj[k]
             else:
@@ -609,16 +608,14 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         if model.floating_base != 0:
             dv = sp.vec6(y[env, 0], y[env, 1], y[env, 2], y[env, 3], y[env, 4], y[env, 5])
             p = wp.transform_get_translation(W_H_B)
-            Q = wp.transform_get_rotation(W_H_B)
             dp = sp.lin(dv) + wp.cross(sp.ang(dv), p)  # the base origin's displacement
-            angle = wp.length(sp.ang(dv))
-            if angle > scalar(0.0):
-                Q = wp.normalize(wp.quat_from_axis_angle(sp.ang(dv) / angle, angle) * Q)
+            Q = I.quaternion_of(x, env)  # turned by the world-axes rotation ang(dv), as so3_base_step turns it
+            Q = I.quaternion_product(I.rotation_step(Q, sp.ang(dv), scalar(1.0)), Q / wp.length(Q))
+            Q = Q / wp.length(Q)
             for k in range(3):
                 x.base_position[env, k] = p[k] + dp[k]
-            x.base_quaternion[env, 0] = Q[3]
-            for k in range(3):
-                x.base_quaternion[env, 1 + k] = Q[k]
+            for k in range(4):
+                x.base_quaternion[env, k] = Q[k]
         nonfinite = int(0)
         for i in range(off, K):
             if not wp.isfinite(y[env, i]):

@@ -68,6 +68,13 @@ def kernels(scalar, multi_dof: bool):
         return quat4(a[0] * b[0] - wp.dot(av, bv), r[0], r[1], r[2])
 
     @wp.func
+    def body_rotated(Q: quat4, omega: sp.vec3, dt: scalar):
+        """Q (x) exp(dt omega / 2), normalised: Q (w, x, y, z; normalised first) turned by dt omega in its own axes (a
+        ball or free joint's rotation step)."""
+        Q_next = quaternion_product(Q / wp.length(Q), rotation_step(Q, omega, dt))
+        return Q_next / wp.length(Q_next)
+
+    @wp.func
     def read4(a: wp.array2d(dtype=scalar), env: int, offset: int):
         return quat4(a[env, offset], a[env, offset + 1], a[env, offset + 2], a[env, offset + 3])
 
@@ -104,9 +111,7 @@ def kernels(scalar, multi_dof: bool):
             nonfinite = poison(nonfinite, omega[k])
             if write:
                 y.joint_velocities[env, b + k] = omega[k]
-        Q = read4(x.joint_positions, env, a + r)
-        Q_next = quaternion_product(Q / wp.length(Q), rotation_step(Q, omega, dt))
-        Q_next = Q_next / wp.length(Q_next)
+        Q_next = body_rotated(read4(x.joint_positions, env, a + r), omega, dt)
         for k in range(4):
             nonfinite = poison(nonfinite, Q_next[k])
             if write:
@@ -484,6 +489,8 @@ def kernels(scalar, multi_dof: bool):
         quaternion_rate=quaternion_rate,
         rotation_step=rotation_step,
         quaternion_product=quaternion_product,
+        body_rotated=body_rotated,
+        quaternion_of=quaternion_of,
         read4=read4,
         poison=poison,
         euler_coordinate=euler_coordinate,
