@@ -29,6 +29,7 @@ import numpy as np
 
 from .model import CollisionShape, ModelDescription, NotModelledWarning, homogeneous, matrix_to_quaternion_wxyz, quaternion_wxyz_to_matrix
 from .tree import JOINT_BALL, JOINT_FREE, JOINT_REVOLUTE, KinematicTree
+from .urdf_writer import numbers
 
 __all__ = ["write_mjcf", "BOUND_MASS", "BOUND_INERTIA"]
 
@@ -36,13 +37,9 @@ BOUND_MASS, BOUND_INERTIA = 1e-9, 1e-12
 """The lower bounds [kg, kg m^2] the MJCF gives massless moving links (MuJoCo's compiler boundmass and boundinertia)."""
 
 
-def _numbers(values) -> str:
-    return " ".join(f"{float(v):.17g}" for v in np.ravel(values))
-
-
 def _pose(element: ET.Element, H: np.ndarray) -> None:
-    element.set("pos", _numbers(H[:3, 3]))
-    element.set("quat", _numbers(matrix_to_quaternion_wxyz(H[:3, :3])))
+    element.set("pos", numbers(H[:3, 3]))
+    element.set("quat", numbers(matrix_to_quaternion_wxyz(H[:3, :3])))
 
 
 def _mesh_asset(asset: ET.Element, shape: CollisionShape, name: str) -> None:
@@ -50,11 +47,11 @@ def _mesh_asset(asset: ET.Element, shape: CollisionShape, name: str) -> None:
     file as the description names it."""
     mesh = ET.SubElement(asset, "mesh", name=name)
     if shape.vertices is not None:
-        mesh.set("vertex", _numbers(np.asarray(shape.vertices, dtype=np.float64)))
+        mesh.set("vertex", numbers(np.asarray(shape.vertices, dtype=np.float64)))
     else:
         mesh.set("file", str(shape.filename))
     if shape.scale is not None:
-        mesh.set("scale", _numbers(shape.scale))
+        mesh.set("scale", numbers(shape.scale))
 
 
 def _geom(body: ET.Element, shape: CollisionShape, owner: str, asset: ET.Element) -> None:
@@ -64,13 +61,13 @@ def _geom(body: ET.Element, shape: CollisionShape, owner: str, asset: ET.Element
     _pose(geom, np.asarray(shape.link_H_shape, dtype=np.float64))
     if shape.kind == "box":
         geom.set("type", "box")
-        geom.set("size", _numbers(0.5 * np.asarray(shape.size, dtype=np.float64)))
+        geom.set("size", numbers(0.5 * np.asarray(shape.size, dtype=np.float64)))
     elif shape.kind == "sphere":
         geom.set("type", "sphere")
-        geom.set("size", _numbers([shape.radius]))
+        geom.set("size", numbers([shape.radius]))
     elif shape.kind in ("cylinder", "capsule"):
         geom.set("type", shape.kind)
-        geom.set("size", _numbers([shape.radius, 0.5 * shape.length]))
+        geom.set("size", numbers([shape.radius, 0.5 * shape.length]))
     elif shape.kind == "mesh" and (shape.filename or shape.vertices is not None):
         name = f"{owner}_mesh{len(asset)}"
         _mesh_asset(asset, shape, name)
@@ -81,10 +78,10 @@ def _geom(body: ET.Element, shape: CollisionShape, owner: str, asset: ET.Element
     geom.set("contype", str(shape.contype))
     geom.set("conaffinity", str(shape.conaffinity))
     geom.set("condim", str(shape.condim))
-    geom.set("friction", _numbers(shape.friction))
+    geom.set("friction", numbers(shape.friction))
     if shape.margin or shape.gap:
-        geom.set("margin", _numbers([shape.margin]))
-        geom.set("gap", _numbers([shape.gap]))
+        geom.set("margin", numbers([shape.margin]))
+        geom.set("gap", numbers([shape.gap]))
     if shape.priority:
         geom.set("priority", str(shape.priority))
 
@@ -107,7 +104,7 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
         compiler.set("boundinertia", f"{BOUND_INERTIA:g}")
         warnings.warn(f"export_updated_model: the massless moving links {massless} get MuJoCo's boundmass {BOUND_MASS:g} kg and boundinertia "
                       f"{BOUND_INERTIA:g} kg m^2 in the MJCF (MuJoCo refuses massless moving bodies)", NotModelledWarning, stacklevel=4)
-    ET.SubElement(mujoco, "option", timestep=f"{time_step:.17g}", gravity=_numbers(gravity))
+    ET.SubElement(mujoco, "option", timestep=f"{time_step:.17g}", gravity=numbers(gravity))
     asset = ET.SubElement(mujoco, "asset")
     world = ET.SubElement(mujoco, "worldbody")
     bodies: dict[str, ET.Element] = {}
@@ -141,8 +138,8 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
         mass = float(parameters["link_mass"][i])
         if mass > 0.0:
             I = parameters["link_inertia"][i]
-            ET.SubElement(body, "inertial", pos=_numbers(parameters["link_com"][i]), mass=f"{mass:.17g}",
-                          fullinertia=_numbers([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
+            ET.SubElement(body, "inertial", pos=numbers(parameters["link_com"][i]), mass=f"{mass:.17g}",
+                          fullinertia=numbers([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
         if i == 0:
             continue
         j, d = i - 1, int(v_start[i])
@@ -150,17 +147,17 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
             values = parameters[name][d : int(v_start[i + 1])]
             if np.ptp(values) > 0.0:
                 raise ValueError(f"joint '{tree.joint_names[j]}' has {name} {values.tolist()} on its DoFs: MJCF gives a joint one value")
-        joint = ET.SubElement(body, "joint", name=tree.joint_names[j], pos=_numbers(tree.joint_pivot[i]))
+        joint = ET.SubElement(body, "joint", name=tree.joint_names[j], pos=numbers(tree.joint_pivot[i]))
         if kind in (JOINT_BALL, JOINT_FREE):
             joint.set("type", "ball" if kind == JOINT_BALL else "free")
             if kind == JOINT_FREE:
                 del joint.attrib["pos"]
         else:
             joint.set("type", "hinge" if kind == JOINT_REVOLUTE else "slide")  # the one-DoF kinds: revolute, prismatic
-            joint.set("axis", _numbers(tree.joint_axis[i]))
+            joint.set("axis", numbers(tree.joint_axis[i]))
             lower, upper = parameters["position_limits"][j]
             if np.isfinite(lower) or np.isfinite(upper):
-                joint.set("range", _numbers([lower, upper]))
+                joint.set("range", numbers([lower, upper]))
             joint.set("springref", f"{float(parameters['springref'][j]):.17g}")
         joint.set("stiffness", f"{float(parameters['stiffness'][j]):.17g}")
         if kind != JOINT_FREE:  # (MuJoCo's free joints may have it; warpdyn's loader does not read it on them)
@@ -168,7 +165,7 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
         joint.set("armature", f"{float(parameters['armature'][d]):.17g}")
         joint.set("damping", f"{float(parameters['damping'][d] + parameters['friction_viscous'][d]):.17g}")
         if np.all(np.isfinite(parameters["joint_actuator_force_range"][j])):
-            joint.set("actuatorfrcrange", _numbers(parameters["joint_actuator_force_range"][j]))
+            joint.set("actuatorfrcrange", numbers(parameters["joint_actuator_force_range"][j]))
     for k, frame_name in enumerate(tree.frame_names):
         body = ET.SubElement(bodies[tree.link_names[int(tree.frame_parent[k])]], "body", name=frame_name)
         _pose(body, np.asarray(tree.link_H_frame[k], dtype=np.float64))
@@ -193,7 +190,7 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
         contact = ET.SubElement(mujoco, "contact")
         for pair in explicit:
             ET.SubElement(contact, "pair", geom1=names[pair.geom1], geom2=names[pair.geom2], margin=f"{pair.margin:.17g}", gap=f"{pair.gap:.17g}",
-                          friction=_numbers(pair.friction), condim=str(pair.condim))
+                          friction=numbers(pair.friction), condim=str(pair.condim))
         for body1, body2 in description.excludes:  # a body welded to the world is written as the world's geoms
             ET.SubElement(contact, "exclude", body1=body1 if body1 in bodies else "world", body2=body2 if body2 in bodies else "world")
     if not len(asset):
@@ -203,11 +200,11 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
         for k, act in enumerate(tree.actuators):
             ctrl, force = parameters["actuator_ctrl_range"][k], parameters["actuator_force_range"][k]
             general = ET.SubElement(actuators, "general", name=act.name, joint=act.joint_name, gear=f"{float(parameters['actuator_gear'][k]):.17g}",
-                                    gaintype="affine", gainprm=_numbers(parameters["actuator_gain"][k]),
-                                    biastype="affine", biasprm=_numbers(parameters["actuator_bias"][k]))
+                                    gaintype="affine", gainprm=numbers(parameters["actuator_gain"][k]),
+                                    biastype="affine", biasprm=numbers(parameters["actuator_bias"][k]))
             if np.all(np.isfinite(ctrl)):
-                general.set("ctrlrange", _numbers(ctrl))
+                general.set("ctrlrange", numbers(ctrl))
             if np.all(np.isfinite(force)):
-                general.set("forcerange", _numbers(force))
+                general.set("forcerange", numbers(force))
     ET.indent(mujoco)
     return ET.tostring(mujoco, encoding="unicode")

@@ -25,9 +25,14 @@ def rpy_of(R: np.ndarray) -> np.ndarray:
     return np.array([math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])])
 
 
+def numbers(values) -> str:
+    """Numbers as XML writes them: each to 17 significant digits (a float64 read back exactly), spaces between."""
+    return " ".join(f"{float(v):.17g}" for v in np.ravel(values))
+
+
 def _origin(parent: ET.Element, H: np.ndarray) -> None:
     rpy = rpy_of(H[:3, :3])
-    ET.SubElement(parent, "origin", xyz=" ".join(f"{v:.17g}" for v in H[:3, 3]), rpy=" ".join(f"{v:.17g}" for v in rpy))
+    ET.SubElement(parent, "origin", xyz=numbers(H[:3, 3]), rpy=numbers(rpy))
 
 
 def _collision(link: ET.Element, shape: CollisionShape) -> None:
@@ -35,14 +40,14 @@ def _collision(link: ET.Element, shape: CollisionShape) -> None:
     _origin(collision, shape.link_H_shape)
     geometry = ET.SubElement(collision, "geometry")
     if shape.kind == "box":
-        ET.SubElement(geometry, "box", size=" ".join(f"{v:.17g}" for v in shape.size))
+        ET.SubElement(geometry, "box", size=numbers(shape.size))
     elif shape.kind == "sphere":
         ET.SubElement(geometry, "sphere", radius=f"{shape.radius:.17g}")
     elif shape.kind == "cylinder":
         ET.SubElement(geometry, "cylinder", radius=f"{shape.radius:.17g}", length=f"{shape.length:.17g}")
     else:
         scale = np.ones(3) if shape.scale is None else shape.scale
-        ET.SubElement(geometry, "mesh", filename=str(shape.filename), scale=" ".join(f"{v:.17g}" for v in scale))
+        ET.SubElement(geometry, "mesh", filename=str(shape.filename), scale=numbers(scale))
 
 
 def write_urdf(name: str, tree: KinematicTree, shapes: list, mass: np.ndarray, com: np.ndarray, inertia: np.ndarray,
@@ -97,7 +102,7 @@ def write_urdf(name: str, tree: KinematicTree, shapes: list, mass: np.ndarray, c
         ET.SubElement(joint, "parent", link=tree.link_names[int(tree.parent[i])])
         ET.SubElement(joint, "child", link=tree.link_names[i])
         _origin(joint, tree.parent_H_joint[i])
-        ET.SubElement(joint, "axis", xyz=" ".join(f"{v:.17g}" for v in tree.joint_axis[i]))
+        ET.SubElement(joint, "axis", xyz=numbers(tree.joint_axis[i]))
         if not unlimited:
             ET.SubElement(joint, "limit", lower=f"{lower:.17g}", upper=f"{upper:.17g}", effort=f"{tree.effort_limits[j]:.17g}",
                           velocity=f"{tree.velocity_limits[j]:.17g}")
