@@ -407,12 +407,9 @@ class Model(ModelSettings, ModelQueries):
             self._per_env.pop(name, None)
         elif host.ndim == len(shared) + 1 and host.shape[1:] == shared and host.shape[0] >= 1:
             N = host.shape[0]
-            others = {k: v for k, v in self._per_env.items() if k != name and v != N}
-            if others:
-                raise ValueError(f"{name} is given for {N} environments but {others} for other numbers: one N per model")
+            self._record_per_env(name, N)
             array = arrays.empty((count,), N, dtype, self.device)
             array.assign(wp.array(host, dtype=dtype, device=self.device))
-            self._per_env[name] = N
         else:
             per_env = "(N, " + ", ".join(str(k) for k in shared) + ")"
             raise ValueError(f"{name} has shape {host.shape}, expected {shared} (shared) or {per_env} (per environment)")
@@ -484,10 +481,7 @@ class Model(ModelSettings, ModelQueries):
                 parameter.check(name, host)
             new._values[name], new._hosts[name] = array, host
             if array.ndim == 2:
-                others = {k: v for k, v in new._per_env.items() if k != name and v != array.shape[0]}
-                if others:
-                    raise ValueError(f"{name} is given for {array.shape[0]} environments but {others} for other numbers: one N per model")
-                new._per_env[name] = array.shape[0]
+                new._record_per_env(name, array.shape[0])
             else:
                 new._per_env.pop(name, None)
         new.notify_model_changed()
@@ -504,11 +498,7 @@ class Model(ModelSettings, ModelQueries):
             setattr(new, name, terms[name])
         new._per_env.pop("joint_origins", None)
         if origins_per_env is not None:
-            N = len(origins_per_env[0])
-            others = {k: v for k, v in new._per_env.items() if v != N}
-            if others:
-                raise ValueError(f"joint origins are given for {N} environments but {others} for other numbers: one N per model")
-            new._per_env["joint_origins"] = N
+            new._record_per_env("joint_origins", len(origins_per_env[0]), "joint origins are")
         return new
 
     def mark_for_gradients(self, names) -> dict:
@@ -632,8 +622,16 @@ class Model(ModelSettings, ModelQueries):
         new.collidable_point_array, new._kin_dyn = point_array, dataclasses.replace(params.with_enabled(new, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
         new._per_env.pop("collidable_points", None)
         if point_array is not None and point_array.shape[0] > 1:  # data of that N only, as per-environment parameters
-            new._per_env["collidable_points"] = point_array.shape[0]
+            new._record_per_env("collidable_points", point_array.shape[0])
         return new
+
+    def _record_per_env(self, name: str, N: int, subject: str | None = None) -> None:
+        """Record that `name` is given for N environments; a ValueError when another per-environment parameter has
+        another N (`subject`: how the message names it, "<name> is" by default)."""
+        others = {k: v for k, v in self._per_env.items() if k != name and v != N}
+        if others:
+            raise ValueError(f"{subject or f'{name} is'} given for {N} environments but {others} for other numbers: one N per model")
+        self._per_env[name] = N
 
     def snapshot_state(self) -> dict:
         """What `restore_state` puts back: the settings and the parameter tables (not the arrays' contents)."""
