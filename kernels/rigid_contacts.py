@@ -7,12 +7,7 @@ J_c (3 x K) is its linear Jacobian (Mixed rows, nu Inertial), a_c = J_c a_free +
 contact forces (a_free: ABA's at the joint forces and the other link forces), G = J M^-1 J^T the active points'
 Delassus matrix. The force f_c (3, world axes) acts at the point; inactive points get none.
 
-- relaxed rigid (`relaxed_rigid_forces`): f = -(G + diag(R))^-1 (a - a_ref), per axis of a point, with
-  pos = -delta n and vel = p_dot: the impedance xi in [d_min, d_max] of |pos| / width (MuJoCo's solimp sigmoid with
-  `midpoint` and `power`; d_max beyond width), a_ref = -(D vel + K xi pos), K = 1 / (d_max tau zeta)^2,
-  D = 2 / (d_max tau) (tau the time constant, zeta the damping coefficient; JaxSim's formula overwrites its
-  parameters K and D, which it therefore never reads), R = 2 mu^2 (1 - xi) / (xi + 1e-12) (1 + mu^2) / m, m the
-  point's link's mass. JaxSim minimises |A f + b|^2 by L-BFGS; here A is factorised: its exact minimiser.
+- relaxed rigid: kernels/relaxed_rigid.py, on this module's rows, Delassus matrix and wrenches.
 - rigid (`rigid_forces`): f minimises 1/2 f^T (G + eps I) f + (a - beta)^T f over the friction pyramids
   |f_x|, |f_y| <= mu f_z, f_z >= 0 (world axes, JaxSim's), beta = (K delta + D delta_dot) n (Baumgarte's terms),
   solved by a primal-dual interior point (Mehrotra's predictor-corrector, one factorisation per iteration) until
@@ -33,7 +28,7 @@ rounding which points stop (the engine's stage warns). The factorisations drop a
 diagonal entry (kernels/cholesky.py's `factor`; 0 for the positive-definite solves: a pivot that rounding made
 non-positive; DROPPED_PIVOT for the impact's singular Delassus matrix): that unknown is then 0.
 
-Forward only: no tape records these kernels.
+Forward only: no tape records the rigid QP and impact (the relaxed-rigid law differentiates).
 """
 
 import types
@@ -45,9 +40,6 @@ from .cholesky import kernels as cholesky_kernels
 from .factory import factory
 from .soft_contacts import kernels as soft_contact_kernels
 from .spatial import MIXED, spatial
-
-REGULARISATION_FLOOR = 1.0e-12
-"""JaxSim's 1e-12 added to the impedance xi in the relaxed-rigid regularisation R's denominator."""
 
 PYRAMID_ROWS = 5
 """The inequality rows of a point's friction pyramid: f_x - mu f_z, f_y - mu f_z, -f_x - mu f_z, -f_y - mu f_z, -f_z."""
@@ -138,27 +130,40 @@ def kernels(scalar) -> types.SimpleNamespace:
                 G[env, q, r] = s
 
     @wp.func
+    def point_row(
+        J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), a_free: wp.array2d(dtype=scalar), env: int, c: int,
+        i: int, active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=f64), a: wp.array2d(dtype=f64),
+    ):
+        """Point c as the i-th active point (float64): active[env, i] = c, J[env, 3 i + r] its rows (K columns),
+        a[env, 3 i + r] = J a_free + J̇ν."""
+        active[env, i] = c
+        for r in range(3):
+            s = f64(Jdotnu_t[env, c, r])
+            for j in range(J.shape[2]):
+                J[env, 3 * i + r, j] = f64(J_t[env, c, r, j])
+                s = s + f64(J_t[env, c, r, j]) * f64(a_free[env, j])
+            a[env, 3 * i + r] = s
+
+    @wp.func
     def point_rows(
         contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6),
         J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), a_free: wp.array2d(dtype=scalar), env: int,
         active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=f64), a: wp.array2d(dtype=f64),
     ):
-        """The active points' rows (float64): active[env, :k] their indices, J[env, 3 i + r] the rows of the i-th (K
-        columns), a[env, 3 i + r] = J a_free + J̇ν; returns k."""
-        K = J.shape[2]
+        """The penetrating points' rows (`point_row`, in order); returns their number k."""
         k = int(0)
         for c in range(contacts.point_link.shape[0]):
             p, p_dot, n, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, c)
             if delta > scalar(0.0):
-                active[env, k] = c
-                for r in range(3):
-                    s = f64(Jdotnu_t[env, c, r])
-                    for i in range(K):
-                        J[env, 3 * k + r, i] = f64(J_t[env, c, r, i])
-                        s = s + f64(J_t[env, c, r, i]) * f64(a_free[env, i])
-                    a[env, 3 * k + r] = s
+                point_row(J_t, Jdotnu_t, a_free, env, c, k, active, J, a)
                 k = k + 1
         return k
+
+    @wp.func
+    def point_wrench(contacts: B.Contacts, W_H_L: wp.array2d(dtype=sp.transform), env: int, c: int, force: sp.vec3):
+        """The Inertial wrench [f; p x f] of the force f [N, world] at point c."""
+        p = wp.transform_point(W_H_L[env, contacts.point_link[c]], B.vec3_parameter(contacts.L_p_C, env, c))
+        return sp.stack(force, wp.cross(p, force))
 
     @wp.func
     def write_forces(
@@ -172,82 +177,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                 W_f_C[env, c, r] = scalar(0.0)
         for i in range(k):
             c = active[env, i]
-            p = wp.transform_point(W_H_L[env, contacts.point_link[c]], B.vec3_parameter(contacts.L_p_C, env, c))
             force = sp.vec3(scalar(f[env, 3 * i]), scalar(f[env, 3 * i + 1]), scalar(f[env, 3 * i + 2]))
-            wrench = sp.stack(force, wp.cross(p, force))
+            wrench = point_wrench(contacts, W_H_L, env, c, force)
             for r in range(6):
                 W_f_C[env, c, r] = wrench[r]
-
-    @wp.func
-    def impedance(law: RigidLaw, distance: scalar):
-        """JaxSim's relaxed-rigid impedance xi of |pos| = distance [m] on one axis."""
-        one = scalar(1.0)
-        x = distance / law.width
-        mid = law.midpoint
-        pw = law.power
-        y = scalar(0.0)
-        if x < mid:
-            y = wp.pow(x, pw) / wp.pow(mid, pw - one)
-        elif x <= one:
-            y = one - wp.pow(one - x, pw) / wp.pow(one - mid, pw - one)
-        xi = wp.clamp(law.d_min + y * (law.d_max - law.d_min), law.d_min, law.d_max)
-        if x > one:
-            xi = law.d_max
-        return xi
-
-    @wp.kernel(module="unique", enable_backward=False)
-    def relaxed_rigid_forces(
-        model: B.Model,
-        contacts: B.Contacts,
-        law: RigidLaw,
-        terrain: B.Terrain,
-        W_H_L: wp.array2d(dtype=sp.transform),
-        W_v_WL: wp.array2d(dtype=sp.vec6),
-        J_t: wp.array4d(dtype=scalar),
-        Jdotnu_t: wp.array3d(dtype=scalar),
-        M: wp.array3d(dtype=scalar),
-        a_free: wp.array2d(dtype=scalar),
-        # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); A and LA (N, 3P, 3P);
-        # b, f, y, w (N, max(3P, K))
-        active: wp.array2d(dtype=wp.int32),
-        J: wp.array3d(dtype=f64),
-        MinvJT: wp.array3d(dtype=f64),
-        M64: wp.array3d(dtype=f64),
-        Lm: wp.array3d(dtype=f64),
-        A: wp.array3d(dtype=f64),
-        LA: wp.array3d(dtype=f64),
-        b: wp.array2d(dtype=f64),
-        f: wp.array2d(dtype=f64),
-        y: wp.array2d(dtype=f64),
-        w: wp.array2d(dtype=f64),
-        # outputs
-        W_f_C: wp.array3d(dtype=scalar),
-    ):
-        """W_f_C (N, P, 6): the Inertial wrenches of the relaxed-rigid forces (the module docstring) from the link
-        poses and Inertial velocities (N, nL), the points' Jacobians J_t (N, P, 6, K) and J̇ν (N, P, 6) (Mixed, ν
-        Inertial), the mass matrix M (N, K, K) (Inertial base) and ABA's a_free (N, K)."""
-        env = wp.tid()
-        k = point_rows(contacts, terrain, W_H_L, W_v_WL, J_t, Jdotnu_t, a_free, env, active, J, b)
-        m = 3 * k
-        delassus(model, M, J, env, m, M64, Lm, MinvJT, y, w, A)
-        mu = B.env_parameter(contacts.mu, env)
-        stiffness = scalar(1.0) / (law.d_max * law.time_constant * law.damping_coefficient) ** scalar(2.0)
-        damping = scalar(2.0) / (law.d_max * law.time_constant)
-        for i in range(k):
-            c = active[env, i]
-            p, p_dot, n, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, c)
-            mass = B.link_parameter(model.link_mass, env, contacts.point_link[c])
-            for r in range(3):
-                pos = -delta * n[r]
-                xi = impedance(law, wp.abs(pos))
-                a_ref = -(damping * p_dot[r] + stiffness * xi * pos)
-                b[env, 3 * i + r] = -(b[env, 3 * i + r] - f64(a_ref))
-                R = scalar(2.0) * mu * mu * (scalar(1.0) - xi) / (xi + scalar(REGULARISATION_FLOOR)) * (scalar(1.0) + mu * mu) / mass
-                A[env, 3 * i + r, 3 * i + r] = A[env, 3 * i + r, 3 * i + r] + f64(R)
-        if m > 0:
-            C.factor(A, env, 0, m, f64(0.0), LA)
-            C.substitute(LA, env, m, b, f, 0)
-        write_forces(contacts, W_H_L, env, k, active, f, W_f_C)
 
     @wp.func
     def pyramid_row(mu: f64, j: int):
@@ -388,7 +321,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         W_f_C: wp.array3d(dtype=scalar),
     ):
         """W_f_C (N, P, 6): the Inertial wrenches of the rigid forces (the module docstring; inputs as
-        `relaxed_rigid_forces`'). Mehrotra's predictor-corrector from CVXOPT's start (x from (Q + G^T G) x = -q,
+        kernels/relaxed_rigid.py's `relaxed_rigid_solve`'). Mehrotra's predictor-corrector from CVXOPT's start (x from (Q + G^T G) x = -q,
         s = -G x and z = G x shifted to be positive), at most law.iterations iterations, until the residuals and
         the mean complementarity are below law.tol (relative to 1 + max |q|)."""
         env = wp.tid()
@@ -537,7 +470,11 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     return types.SimpleNamespace(
         RigidLaw=RigidLaw,
-        relaxed_rigid_forces=relaxed_rigid_forces,
+        penetration=penetration,
+        solver_offset=solver_offset,
+        delassus=delassus,
+        point_row=point_row,
+        point_wrench=point_wrench,
         rigid_forces=rigid_forces,
         impact_velocities=impact_velocities,
     )

@@ -27,6 +27,7 @@ mass matrix and the points' Jacobians (kernels/rigid_contacts.py); contacts betw
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -42,6 +43,7 @@ from ..kernels.jacobian_derivatives import kernels as derivative_kernels
 from ..kernels.jacobians import kernels as jacobian_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.rigid_contacts import PYRAMID_ROWS
+from ..kernels.relaxed_rigid import kernels as relaxed_kernels
 from ..kernels.rigid_contacts import kernels as rigid_kernels
 from ..kernels.scratch import TRANSFORM
 from ..kernels.contact_points import kernels as point_kernels
@@ -54,7 +56,7 @@ from ..types.settings import host_values
 from . import collisions, tape
 from .bundles import controls_bundle, per_env
 from .kinematics import targets
-from .launch import Launch
+from .launch import Launch, launch
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, check_reference_stability, contact_reach
 
 __all__ = ["point_frames", "ContactStage", "SoftContactStage", "RigidContactStage", "RelaxedRigidContactStage", "STAGES", "stage_for", "contacts_per_environment"]
@@ -202,7 +204,6 @@ class RigidContactStage(ContactStage):
 
     has_state = False
     reads_other_forces = True
-    law_kernel = "rigid_forces"
     impact = True  # `after_step` launches the impact (and `buffers` holds its poses and velocities)
 
     def __init__(self, model, integrator):
@@ -280,25 +281,26 @@ class RigidContactStage(ContactStage):
         return ((f"{self.owner}.mu", c.mu), (f"{self.owner}.K", c.K), (f"{self.owner}.D", c.D))
 
     def buffers(self, plan, N: int, grad: bool = False) -> dict:
-        """The kernel's inputs and scratch for N environments (none differentiable)."""
+        """The kernels' inputs and scratch for N environments; grad: the law's inputs (a_free, J_t, J̇ν, M and what
+        they are computed from) carry gradients (the float64 scratch never does)."""
         s, d = plan.scalar, plan.device
         K, P, nL = 6 + plan.n, self.count, plan.nL
         m, width = 3 * P, max(3 * P, 6 + plan.n)
         vec6 = wp.types.vector(6, s)
         transform = wp.types.transformation(s)
 
-        def empty(shape, dtype=s):
-            return arrays.empty(shape, N, dtype, d)
+        def empty(shape, dtype=s, differentiable=False):
+            return arrays.empty(shape, N, dtype, d, grad and differentiable)
 
         out = {
-            "a_free": empty((K,)),
-            "no_joints": empty((0,)),
-            "W_a_L": empty((nL,), vec6),
-            "J_t": empty((P, 6, K)),
-            "Jdotnu_t": empty((P, 6)),
-            "M": empty((K, K)),
-            "crba_scratch": empty((max(nL, plan.n + 1), CRBA_RECORD)),
-            "aba_scratch": empty((plan.rows, ABA_RECORD + TRANSFORM)),
+            "a_free": empty((K,), differentiable=True),
+            "no_joints": empty((0,), differentiable=True),
+            "W_a_L": empty((nL,), vec6, differentiable=True),
+            "J_t": empty((P, 6, K), differentiable=True),
+            "Jdotnu_t": empty((P, 6), differentiable=True),
+            "M": empty((K, K), differentiable=True),
+            "crba_scratch": empty((max(nL, plan.n + 1), CRBA_RECORD), differentiable=True),
+            "aba_scratch": empty((plan.rows, ABA_RECORD + TRANSFORM), differentiable=True),
             "active": empty((P,), wp.int32),
             "J": empty((m, K), wp.float64),
             "MinvJT": empty((m, K), wp.float64),
@@ -306,11 +308,23 @@ class RigidContactStage(ContactStage):
             "Lm": empty((K, K), wp.float64),
         }
         out["scratch"] = self.scratch(empty, m, width)
+        out.update(self.law_buffers(plan, empty, P))
         if self.impact:
             out["W_H_L_next"] = empty((nL,), transform)
             out["parent_H_link_next"] = empty((nL,), transform)
             out["W_v_WL_next"] = empty((nL,), vec6)
         return out
+
+    def law_buffers(self, plan, empty, P: int) -> dict:
+        """The law's own per-point buffers (none: the QP writes the wrenches)."""
+        return {}
+
+    def law_launches(self, plan, ev, N: int) -> list:
+        """The launches from the rows' inputs (ev.contact's J_t, J̇ν, M, a_free) to the points' wrenches ev.W_f_C."""
+        b = ev.contact
+        args = [plan.model, self.bundle, self.law, plan.terrain, ev.W_H_L, ev.W_v_WL, b["J_t"], b["Jdotnu_t"], b["M"], b["a_free"]]
+        args += [b["active"], b["J"], b["MinvJT"], b["M64"], b["Lm"], *b["scratch"]]
+        return [Launch(self.kernels.rigid_forces, N, args, [ev.W_f_C])]
 
     def scratch(self, empty, m: int, width: int) -> list:
         """The QP's float64 scratch: Q, H, LH (m x m); q, x, rd, dx, y, w (width); s, z, rp, rc, ds, dz, ds_aff, dz_aff
@@ -322,11 +336,7 @@ class RigidContactStage(ContactStage):
         """At x: the link velocities and bias terms, the points' Jacobians and J̇ν, the mass matrix, ABA's
         accelerations a_free at tau and f_ext (their own ABA: explicit, MuJoCo's implicit damping aside), the points'
         forces ev.W_f_C and ev.W_f_L = f_ext (None: 0) + each link's."""
-        if ev.grad or tape.taping():
-            raise NotImplementedError(
-                f"{type(plan.contact_stage).__name__.removesuffix('Stage')}s under a wp.Tape or with gradients: their solve "
-                "(kernels/rigid_contacts.py) has no adjoint yet; use SoftContacts for gradients, or run this outside the tape"
-            )
+        self.refuse_gradients(ev)
         s, b = plan.scalar, ev.contact
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
         f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
@@ -338,13 +348,19 @@ class RigidContactStage(ContactStage):
             Launch(self.crba, N, [plan.model, x, inertial, b["crba_scratch"]], [b["M"]]),
             Launch(self.aba, N, [plan.model, x, controls, inertial, s(0.0), b["aba_scratch"]], [b["a_free"][:, :6], b["a_free"][:, 6:] if plan.n > 0 else b["no_joints"]]),
         ]
-        args = [plan.model, self.bundle, self.law, plan.terrain, ev.W_H_L, ev.W_v_WL, b["J_t"], b["Jdotnu_t"], b["M"], b["a_free"]]
-        args += [b["active"], b["J"], b["MinvJT"], b["M64"], b["Lm"], *b["scratch"]]
-        launches.append(Launch(getattr(self.kernels, self.law_kernel), N, args, [ev.W_f_C]))
+        launches += self.law_launches(plan, ev, N)
         order = int(arrays.env_fastest(plan.device))
         links = plan.nL if contacts_per_environment(plan.device, ev.grad) else 1
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, [self.bundle, ev.W_f_C, f_in, order, links], [ev.W_f_L]))
         return launches
+
+    def refuse_gradients(self, ev) -> None:
+        """A NotImplementedError under a wp.Tape or with gradients: the QP and the impact have no adjoint."""
+        if ev.grad or tape.taping():
+            raise NotImplementedError(
+                "RigidContacts under a wp.Tape or with gradients: their QP and impact (kernels/rigid_contacts.py) have no adjoint; "
+                "use RelaxedRigidContacts or SoftContacts for gradients, or run this outside the tape"
+            )
 
     def after_step(self, plan, ev, Y, N: int) -> list:
         """JaxSim's impact at the step's new state Y: its velocities replaced in place (`impact_velocities`)."""
@@ -367,12 +383,42 @@ class RigidContactStage(ContactStage):
 
 
 class RelaxedRigidContactStage(RigidContactStage):
-    """JaxSim's relaxed-rigid contacts (kernels/rigid_contacts.py's `relaxed_rigid_forces`): a linear solve, no
-    impact. mu: shared (1,) or per environment (N,); the impedance's parameters: one number each."""
+    """JaxSim's relaxed-rigid contacts (kernels/relaxed_rigid.py's `relaxed_rigid_rows`, `relaxed_rigid_solve`,
+    `point_wrenches`): a linear solve, no impact; differentiable (the solve's adjoint registered by hand). mu:
+    shared (1,) or per environment (N,); the impedance's parameters: one number each."""
 
     has_state = False
-    law_kernel = "relaxed_rigid_forces"
     impact = False
+
+    def refuse_gradients(self, ev) -> None:
+        """A NotImplementedError where gradients would miss a dependence: collidable points computed under a tape
+        (warpdyn.model.update_hw_parameters) move the Jacobians' targets, which this stage builds once."""
+        if (ev.grad or tape.taping()) and self.point_array is not None:
+            raise NotImplementedError(
+                "RelaxedRigidContacts with collidable points that require gradients (update_hw_parameters under a tape): the "
+                "points' Jacobians are built from the model's points once; use SoftContacts for gradients through the points"
+            )
+
+    def law_buffers(self, plan, empty, P: int) -> dict:
+        """Each point's depth (N, P) and its rows' a_ref, R and force (N, P, 3), differentiable where grad is."""
+        vec3 = wp.types.vector(3, plan.scalar)
+        return {"depth": empty((P,)), **{name: empty((P,), vec3, differentiable=True) for name in ("a_ref", "R", "force")}}
+
+    def law_launches(self, plan, ev, N: int) -> list:
+        """The rows (a tape records them), the solve (its adjoint by hand where ev.grad; unrecorded otherwise) and
+        the wrenches (recorded)."""
+        b, K = ev.contact, relaxed_kernels(plan.scalar)
+        rows = Launch(K.relaxed_rigid_rows, N, [plan.model, self.bundle, self.law, plan.terrain, ev.W_H_L, ev.W_v_WL], [b["depth"], b["a_ref"], b["R"]])
+        args = [plan.model, b["J_t"], b["Jdotnu_t"], b["M"], b["a_free"], b["depth"], b["a_ref"], b["R"]]
+        args += [b["active"], b["J"], b["MinvJT"], b["M64"], b["Lm"], *b["scratch"]]
+        if ev.grad:
+            grads = [b[name].grad for name in ("force", "J_t", "Jdotnu_t", "M", "a_free", "a_ref", "R")]
+            adjoint = functools.partial(launch, K.relaxed_rigid_solve_adjoint, N, [*args, *grads], [], device=plan.device, record_tape=False)
+        else:
+            adjoint = _nothing_to_differentiate
+        solve = Launch(K.relaxed_rigid_solve, N, args, [b["force"]], adjoint=adjoint)
+        wrenches = Launch(K.point_wrenches, N, [self.bundle, ev.W_H_L, b["force"]], [ev.W_f_C])
+        return [rows, solve, wrenches]
 
     @staticmethod
     def baumgarte(c, s, d) -> tuple:
@@ -409,6 +455,10 @@ class RelaxedRigidContactStage(RigidContactStage):
 
     def after_step(self, plan, ev, Y, N: int) -> list:
         return []
+
+
+def _nothing_to_differentiate() -> None:
+    """The adjoint of a launch none of whose inputs requires gradients (a tape records it, nothing flows)."""
 
 
 STAGES: dict[type, type] = {SoftContacts: SoftContactStage, RigidContacts: RigidContactStage, RelaxedRigidContacts: RelaxedRigidContactStage}

@@ -22,7 +22,7 @@ import warp as wp
 from ..arrays import capture_lock, note_thread, other_threads
 from . import determinism, warp_private
 from .loading import block_size, ensure_loaded, for_launch, preload
-from .tape import check_thread
+from .tape import check_thread, suspended
 
 
 def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | None = None, **options):
@@ -40,18 +40,30 @@ def launch(kernel, dim, inputs=(), outputs=(), device=None, block_dim: int | Non
 
 
 class Launch(NamedTuple):
-    """One kernel launch: `kernel` over `dim` with `inputs` then `outputs` (and CUDA's `block_dim`)."""
+    """One kernel launch: `kernel` over `dim` with `inputs` then `outputs` (and CUDA's `block_dim`). `adjoint`:
+    None (a tape records the launch, Warp differentiates it) or a function of no arguments that adds the launch's
+    adjoint into its inputs' gradients from its outputs' (a kernel whose adjoint is written by hand: under a tape
+    `run` launches it unrecorded and registers that function; a no-op where nothing it reads requires gradients)."""
 
     kernel: object
     dim: object
     inputs: list
     outputs: list
     block_dim: int | None = None
+    adjoint: object = None
 
 
 def run(launches, device) -> None:
-    """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them)."""
+    """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them, or, for a
+    Launch with a hand-written `adjoint`, that adjoint)."""
     for item in launches:
+        if item.adjoint is not None:
+            with suspended() as recording:
+                launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
+            if recording is not None:
+                arrays = [a for a in (*item.inputs, *item.outputs) if isinstance(a, wp.array) and a.grad is not None]
+                recording.record_func(backward=item.adjoint, arrays=arrays)
+            continue
         launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
 
 
