@@ -9,7 +9,7 @@ R = 2 mu^2 (1 - xi) / (xi + 1e-12) (1 + mu^2) / m, m the point's link's mass. Ja
 L-BFGS; here A is factorised: its exact minimiser.
 
 Three launches: `relaxed_rigid_rows` (each point's depth, a_ref and R), `relaxed_rigid_solve` (the forces) and
-`point_wrenches`. Gradients: Warp differentiates the rows and the wrenches (a thread per environment: each
+kernels/rigid_contacts.py's `point_wrenches`. Gradients: Warp differentiates the rows and the wrenches (a thread per environment: each
 adjoint of a link's pose or a shared parameter from one thread, in order); the solve has a hand-written adjoint,
 `relaxed_rigid_solve_adjoint` (the implicit function theorem at the forward pass's penetrating points), which the
 engine registers on the tape (warpdyn.engine.launch's Launch.adjoint).
@@ -161,10 +161,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         m = relaxed_system(model, J_t, Jdotnu_t, M, a_free, depth, a_ref, R, env, active, J, MinvJT, M64, Lm, A, LA, b, y, w)
         if m > 0:
             C.substitute(LA, env, m, b, f, 0)
-        for c in range(force.shape[1]):
-            force[env, c] = sp.vec3(scalar(0.0), scalar(0.0), scalar(0.0))
-        for i in range(m // 3):
-            force[env, active[env, i]] = sp.vec3(scalar(f[env, 3 * i]), scalar(f[env, 3 * i + 1]), scalar(f[env, 3 * i + 2]))
+        RC.forces_out(env, m, active, f, force)
 
     @wp.kernel(module="unique", enable_backward=False)
     def relaxed_rigid_solve_adjoint(
@@ -197,66 +194,24 @@ def kernels(scalar) -> types.SimpleNamespace:
         adj_R: wp.array2d(dtype=sp.vec3),
     ):
         """The adjoint of `relaxed_rigid_solve` (its system recomputed; the active set held), from the implicit
-        function theorem for A f = b with A = J M^-1 J^T + diag(R), b = a_ref - J a_free - J̇ν: with
-        b̄ = A^-1 f̄, u = M^-1 J^T f and v = M^-1 J^T b̄ (the solved block), adj a_ref = b̄, adj R = -b̄ ∘ f,
-        adj J̇ν = -b̄, adj a_free = -J^T b̄, adj J = -b̄ (a_free + u)^T - f v^T, adj M = (v u^T + u v^T) / 2."""
+        function theorem for A f = b with A = J M^-1 J^T + diag(R), b = a_ref - J a_free - J̇ν: with b̄ = A^-1 f̄,
+        adj a_ref = b̄, adj R = -b̄ ∘ f, and kernels/rigid_contacts.py's `rows_adjoint` for J, J̇ν, M and a_free."""
         env = wp.tid()
-        K = J.shape[2]
-        off = RC.solver_offset(model)
         m = relaxed_system(model, J_t, Jdotnu_t, M, a_free, depth, a_ref, R, env, active, J, MinvJT, M64, Lm, A, LA, b, y, w)
-        k = m // 3
+        RC.adjoint_in(env, m, active, adj_force, y)
         if m > 0:
             C.substitute(LA, env, m, b, f, 0)
-            for i in range(k):
-                g = adj_force[env, active[env, i]]
-                for r in range(3):
-                    y[env, 3 * i + r] = f64(g[r])
             C.substitute(LA, env, m, y, w, 0)  # w: b̄
-            for j in range(K):  # b: u, y: v (0 in a fixed base's columns)
-                u = f64(0.0)
-                v = f64(0.0)
-                if j >= off:
-                    for r in range(m):
-                        u = u + MinvJT[env, r, j] * f[env, r]
-                        v = v + MinvJT[env, r, j] * w[env, r]
-                b[env, j] = u
-                y[env, j] = v
-            for i in range(k):
+            for i in range(m // 3):
                 c = active[env, i]
                 adj_a_ref[env, c] = adj_a_ref[env, c] + sp.vec3(scalar(w[env, 3 * i]), scalar(w[env, 3 * i + 1]), scalar(w[env, 3 * i + 2]))
                 adj_R[env, c] = adj_R[env, c] - sp.vec3(
                     scalar(w[env, 3 * i] * f[env, 3 * i]), scalar(w[env, 3 * i + 1] * f[env, 3 * i + 1]), scalar(w[env, 3 * i + 2] * f[env, 3 * i + 2])
                 )
-                for r in range(3):
-                    row = 3 * i + r
-                    adj_Jdotnu_t[env, c, r] = adj_Jdotnu_t[env, c, r] - scalar(w[env, row])
-                    for j in range(K):
-                        adj = -w[env, row] * (f64(a_free[env, j]) + b[env, j]) - f[env, row] * y[env, j]
-                        adj_J_t[env, c, r, j] = adj_J_t[env, c, r, j] + scalar(adj)
-            for j in range(K):
-                t = f64(0.0)
-                for r in range(m):
-                    t = t + J[env, r, j] * w[env, r]
-                adj_a_free[env, j] = adj_a_free[env, j] - scalar(t)
-            for r in range(off, K):
-                for c in range(off, K):
-                    adj_M[env, r, c] = adj_M[env, r, c] + scalar(f64(0.5) * (y[env, r] * b[env, c] + b[env, r] * y[env, c]))
-        for c in range(adj_force.shape[1]):
-            adj_force[env, c] = sp.vec3(scalar(0.0), scalar(0.0), scalar(0.0))
-
-    @wp.kernel(module="unique")
-    def point_wrenches(contacts: B.Contacts, W_H_L: wp.array2d(dtype=sp.transform), force: wp.array2d(dtype=sp.vec3), W_f_C: wp.array3d(dtype=scalar)):
-        """W_f_C (N, P, 6): the Inertial wrenches of the points' forces (N, P) (`point_wrench`); a thread per
-        environment, differentiable."""
-        env = wp.tid()
-        for c in range(W_f_C.shape[1]):
-            wrench = RC.point_wrench(contacts, W_H_L, env, c, force[env, c])
-            for r in range(6):
-                W_f_C[env, c, r] = wrench[r]
+            RC.rows_adjoint(model, J, MinvJT, a_free, env, m, active, f, w, b, y, adj_J_t, adj_Jdotnu_t, adj_M, adj_a_free)
 
     return types.SimpleNamespace(
         relaxed_rigid_rows=relaxed_rigid_rows,
         relaxed_rigid_solve=relaxed_rigid_solve,
         relaxed_rigid_solve_adjoint=relaxed_rigid_solve_adjoint,
-        point_wrenches=point_wrenches,
     )

@@ -8,15 +8,11 @@ contact forces (a_free: ABA's at the joint forces and the other link forces), G 
 Delassus matrix. The force f_c (3, world axes) acts at the point; inactive points get none.
 
 - relaxed rigid: kernels/relaxed_rigid.py, on this module's rows, Delassus matrix and wrenches.
-- rigid (`rigid_forces`): f minimises 1/2 f^T (G + eps I) f + (a - beta)^T f over the friction pyramids
+- rigid (`rigid_rows`, `rigid_solve`, `point_wrenches`): f minimises 1/2 f^T (G + eps I) f + (a - beta)^T f over the friction pyramids
   |f_x|, |f_y| <= mu f_z, f_z >= 0 (world axes, JaxSim's), beta = (K delta + D delta_dot) n (Baumgarte's terms),
   solved by a primal-dual interior point (Mehrotra's predictor-corrector, one factorisation per iteration) until
   its residuals and complementarity are below `tol` (JaxSim: qpax, an interior point too).
-- impact (`impact_velocities`, rigid, after each step): nu+ = nu - M^-1 J^T lambda with G lambda = J nu over the
-  points then active, the velocity nearest nu in M's metric at which every active point is still (JaxSim's
-  update_velocity_after_impact, a least-squares KKT solve). G is singular where the active rows outnumber the DoFs
-  they move: kernels/cholesky.py's `factor` drops its dependent rows, so lambda is one of the solutions and nu+
-  the unique one.
+- impact (rigid, after each step): kernels/rigid_impact.py.
 
 The linear algebra runs in float64 whatever the model's dtype: the mass matrix and the points' Jacobian rows are
 promoted, M is factorised densely (kernels/cholesky.py), and the Delassus matrix, the solves and the interior
@@ -28,7 +24,9 @@ rounding which points stop (the engine's stage warns). The factorisations drop a
 diagonal entry (kernels/cholesky.py's `factor`; 0 for the positive-definite solves: a pivot that rounding made
 non-positive; DROPPED_PIVOT for the impact's singular Delassus matrix): that unknown is then 0.
 
-Forward only: no tape records the rigid QP and impact (the relaxed-rigid law differentiates).
+Gradients: Warp differentiates `rigid_rows` and `point_wrenches` (a thread per environment); `rigid_solve` has a
+hand-written adjoint, `rigid_solve_adjoint` (OptNet's differentiation of the QP's KKT conditions at its active set),
+which the engine registers on the tape (warpdyn.engine.launch's Launch.adjoint).
 """
 
 import types
@@ -39,10 +37,14 @@ from .bundles import bundles
 from .cholesky import kernels as cholesky_kernels
 from .factory import factory
 from .soft_contacts import kernels as soft_contact_kernels
-from .spatial import MIXED, spatial
+from .spatial import spatial
 
 PYRAMID_ROWS = 5
 """The inequality rows of a point's friction pyramid: f_x - mu f_z, f_y - mu f_z, -f_x - mu f_z, -f_y - mu f_z, -f_z."""
+
+ACTIVE_PENALTY = 1.0e8
+"""The rigid QP's adjoint holds its active constraints (rows whose dual exceeds their slack) by this weight times
+Q's largest diagonal entry: an error of its inverse, 1e-8, against rounding amplified by it."""
 
 DROPPED_PIVOT = 1.0e-10
 """The impact's Cholesky (`factor`) drops a pivot below this fraction of its row's diagonal (a dependent row): above
@@ -145,40 +147,75 @@ def kernels(scalar) -> types.SimpleNamespace:
             a[env, 3 * i + r] = s
 
     @wp.func
-    def point_rows(
-        contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6),
-        J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), a_free: wp.array2d(dtype=scalar), env: int,
-        active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=f64), a: wp.array2d(dtype=f64),
-    ):
-        """The penetrating points' rows (`point_row`, in order); returns their number k."""
-        k = int(0)
-        for c in range(contacts.point_link.shape[0]):
-            p, p_dot, n, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, c)
-            if delta > scalar(0.0):
-                point_row(J_t, Jdotnu_t, a_free, env, c, k, active, J, a)
-                k = k + 1
-        return k
-
-    @wp.func
     def point_wrench(contacts: B.Contacts, W_H_L: wp.array2d(dtype=sp.transform), env: int, c: int, force: sp.vec3):
         """The Inertial wrench [f; p x f] of the force f [N, world] at point c."""
         p = wp.transform_point(W_H_L[env, contacts.point_link[c]], B.vec3_parameter(contacts.L_p_C, env, c))
         return sp.stack(force, wp.cross(p, force))
 
     @wp.func
-    def write_forces(
-        contacts: B.Contacts, W_H_L: wp.array2d(dtype=sp.transform), env: int, k: int, active: wp.array2d(dtype=wp.int32),
-        f: wp.array2d(dtype=f64), W_f_C: wp.array3d(dtype=scalar),
+    def rows_adjoint(
+        model: B.Model, J: wp.array3d(dtype=f64), MinvJT: wp.array3d(dtype=f64), a_free: wp.array2d(dtype=scalar), env: int, m: int,
+        active: wp.array2d(dtype=wp.int32), f: wp.array2d(dtype=f64), g: wp.array2d(dtype=f64), u: wp.array2d(dtype=f64), v: wp.array2d(dtype=f64),
+        adj_J_t: wp.array4d(dtype=scalar), adj_Jdotnu_t: wp.array3d(dtype=scalar), adj_M: wp.array3d(dtype=scalar), adj_a_free: wp.array2d(dtype=scalar),
     ):
-        """W_f_C[env] = the Inertial wrenches [f; p x f] of the active points' forces f[env, 3 i:3 i + 3] (float64,
-        rounded to the model's dtype), 0 elsewhere."""
-        for c in range(W_f_C.shape[1]):
-            for r in range(6):
-                W_f_C[env, c, r] = scalar(0.0)
-        for i in range(k):
+        """The adjoint of the forces f (m rows) of a system (J M^-1 J^T + D) f = r - (J a_free + J̇ν) with respect to J,
+        J̇ν, M and a_free (the implicit function theorem), from g = (J M^-1 J^T + D)^-1 f̄ (then r̄ = g, D̄ = -g f^T):
+        with u = M^-1 J^T f and v = M^-1 J^T g (the solved block; u, v (N, >= K) scratch), adj J̇ν = -g,
+        adj a_free = -J^T g, adj J = -g (a_free + u)^T - f v^T, adj M = (v u^T + u v^T) / 2; added into the adj_ arrays."""
+        K = J.shape[2]
+        off = solver_offset(model)
+        for j in range(K):
+            uj = f64(0.0)
+            vj = f64(0.0)
+            if j >= off:
+                for r in range(m):
+                    uj = uj + MinvJT[env, r, j] * f[env, r]
+                    vj = vj + MinvJT[env, r, j] * g[env, r]
+            u[env, j] = uj
+            v[env, j] = vj
+        for i in range(m // 3):
             c = active[env, i]
-            force = sp.vec3(scalar(f[env, 3 * i]), scalar(f[env, 3 * i + 1]), scalar(f[env, 3 * i + 2]))
-            wrench = point_wrench(contacts, W_H_L, env, c, force)
+            for r in range(3):
+                row = 3 * i + r
+                adj_Jdotnu_t[env, c, r] = adj_Jdotnu_t[env, c, r] - scalar(g[env, row])
+                for j in range(K):
+                    adj = -g[env, row] * (f64(a_free[env, j]) + u[env, j]) - f[env, row] * v[env, j]
+                    adj_J_t[env, c, r, j] = adj_J_t[env, c, r, j] + scalar(adj)
+        for j in range(K):
+            t = f64(0.0)
+            for r in range(m):
+                t = t + J[env, r, j] * g[env, r]
+            adj_a_free[env, j] = adj_a_free[env, j] - scalar(t)
+        for r in range(off, K):
+            for c in range(off, K):
+                adj_M[env, r, c] = adj_M[env, r, c] + scalar(f64(0.5) * (v[env, r] * u[env, c] + u[env, r] * v[env, c]))
+
+    @wp.func
+    def forces_out(env: int, m: int, active: wp.array2d(dtype=wp.int32), f: wp.array2d(dtype=f64), force: wp.array2d(dtype=sp.vec3)):
+        """force[env] (N, P): the active points' forces f[env, 3 i:3 i + 3] (float64, rounded), 0 elsewhere."""
+        for c in range(force.shape[1]):
+            force[env, c] = sp.vec3(scalar(0.0), scalar(0.0), scalar(0.0))
+        for i in range(m // 3):
+            force[env, active[env, i]] = sp.vec3(scalar(f[env, 3 * i]), scalar(f[env, 3 * i + 1]), scalar(f[env, 3 * i + 2]))
+
+    @wp.func
+    def adjoint_in(env: int, m: int, active: wp.array2d(dtype=wp.int32), adj_force: wp.array2d(dtype=sp.vec3), g: wp.array2d(dtype=f64)):
+        """g[env, :m] = the active points' f̄ (float64); adj_force[env] zeroed (it was read: Warp's rule for an output's
+        adjoint)."""
+        for i in range(m // 3):
+            a = adj_force[env, active[env, i]]
+            for r in range(3):
+                g[env, 3 * i + r] = f64(a[r])
+        for c in range(adj_force.shape[1]):
+            adj_force[env, c] = sp.vec3(scalar(0.0), scalar(0.0), scalar(0.0))
+
+    @wp.kernel(module="unique")
+    def point_wrenches(contacts: B.Contacts, W_H_L: wp.array2d(dtype=sp.transform), force: wp.array2d(dtype=sp.vec3), W_f_C: wp.array3d(dtype=scalar)):
+        """W_f_C (N, P, 6): the Inertial wrenches of the points' forces (N, P) (`point_wrench`); a thread per
+        environment, differentiable."""
+        env = wp.tid()
+        for c in range(W_f_C.shape[1]):
+            wrench = point_wrench(contacts, W_H_L, env, c, force[env, c])
             for r in range(6):
                 W_f_C[env, c, r] = wrench[r]
 
@@ -200,9 +237,13 @@ def kernels(scalar) -> types.SimpleNamespace:
         return g
 
     @wp.func
-    def newton_matrix(Q: wp.array3d(dtype=f64), mu: f64, env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), H: wp.array3d(dtype=f64), LH: wp.array3d(dtype=f64)):
-        """LH: the Cholesky factor of the interior point's Newton matrix Q + G^T S^-1 Z G at the slacks s and duals z
-        (G block-diagonal, a pyramid per point, so G^T S^-1 Z G is too); Mehrotra's predictor and corrector share it."""
+    def newton_matrix(
+        Q: wp.array3d(dtype=f64), mu: f64, env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), penalty: f64,
+        H: wp.array3d(dtype=f64), LH: wp.array3d(dtype=f64),
+    ):
+        """LH: the Cholesky factor of Q + G^T W G (G block-diagonal, a pyramid per point, so G^T W G is too): with
+        penalty 0 the interior point's Newton matrix at the slacks s and duals z, W = S^-1 Z (Mehrotra's predictor and
+        corrector share it); with penalty > 0 the active set's, W_j = penalty for a row with z_j > s_j, else 0."""
         for r in range(n):
             for c in range(n):
                 H[env, r, c] = Q[env, r, c]
@@ -211,6 +252,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                 row = PYRAMID_ROWS * i + j
                 g = pyramid_row(mu, j)
                 weight = z[env, row] / s[env, row]
+                if penalty > f64(0.0):
+                    weight = f64(0.0)
+                    if z[env, row] > s[env, row]:
+                        weight = penalty
                 for r in range(3):
                     for c in range(3):
                         H[env, 3 * i + r, 3 * i + c] = H[env, 3 * i + r, 3 * i + c] + weight * g[r] * g[c]
@@ -281,18 +326,138 @@ def kernels(scalar) -> types.SimpleNamespace:
             worst_d = wp.max(worst_d, wp.abs(rd[env, r]))
         return worst_d, worst_p, gap / f64(float(PYRAMID_ROWS)) / f64(n // 3)
 
-    @wp.kernel(module="unique", enable_backward=False)
-    def rigid_forces(
-        model: B.Model,
+    @wp.kernel(module="unique")
+    def rigid_rows(
         contacts: B.Contacts,
-        law: RigidLaw,
         terrain: B.Terrain,
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
+        # outputs
+        depth: wp.array2d(dtype=scalar),
+        beta: wp.array2d(dtype=sp.vec3),
+        friction: wp.array(dtype=scalar),
+    ):
+        """Each enabled point's penetration depth delta (N, P) [m] and, where it penetrates, Baumgarte's term
+        beta = (K delta + D delta_dot) n [m/s^2] (N, P) (0 elsewhere), and each environment's mu (N,), from the link
+        poses and Inertial velocities (N, nL). A thread per environment; differentiable (a tape records it)."""
+        env = wp.tid()
+        friction[env] = B.env_parameter(contacts.mu, env)
+        K = B.env_parameter(contacts.K, env)
+        D = B.env_parameter(contacts.D, env)
+        for c in range(contacts.point_link.shape[0]):
+            p, p_dot, n, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, c)
+            term = sp.vec3(scalar(0.0), scalar(0.0), scalar(0.0))
+            if delta > scalar(0.0):
+                term = (K * delta + D * delta_dot) * n
+            depth[env, c] = delta
+            beta[env, c] = term
+
+    @wp.func
+    def qp_system(
+        model: B.Model, law: RigidLaw, J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), M: wp.array3d(dtype=scalar),
+        a_free: wp.array2d(dtype=scalar), depth: wp.array2d(dtype=scalar), beta: wp.array2d(dtype=sp.vec3), env: int,
+        active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=f64), MinvJT: wp.array3d(dtype=f64), M64: wp.array3d(dtype=f64),
+        Lm: wp.array3d(dtype=f64), Q: wp.array3d(dtype=f64), q: wp.array2d(dtype=f64), y: wp.array2d(dtype=f64), w: wp.array2d(dtype=f64),
+    ):
+        """The QP of the penetrating points (float64): their rows (`point_row`), Q = J M^-1 J^T + eps I and
+        q = J a_free + J̇ν - beta; returns (its size n = 3 k, the scale 1 + max |q| of its tolerance)."""
+        k = int(0)
+        for c in range(depth.shape[1]):
+            if depth[env, c] > scalar(0.0):
+                point_row(J_t, Jdotnu_t, a_free, env, c, k, active, J, q)
+                k = k + 1
+        n = 3 * k
+        delassus(model, M, J, env, n, M64, Lm, MinvJT, y, w, Q)
+        scale = f64(1.0)
+        for i in range(k):
+            c = active[env, i]
+            for r in range(3):
+                q[env, 3 * i + r] = q[env, 3 * i + r] - f64(beta[env, c][r])
+                scale = wp.max(scale, wp.abs(q[env, 3 * i + r]))
+                Q[env, 3 * i + r, 3 * i + r] = Q[env, 3 * i + r, 3 * i + r] + f64(law.eps)
+        return n, scale
+
+    @wp.func
+    def interior_point(
+        law: RigidLaw, mu: f64, env: int, n: int, scale: f64, Q: wp.array3d(dtype=f64), H: wp.array3d(dtype=f64), LH: wp.array3d(dtype=f64),
+        q: wp.array2d(dtype=f64), x: wp.array2d(dtype=f64), rd: wp.array2d(dtype=f64), dx: wp.array2d(dtype=f64), y: wp.array2d(dtype=f64),
+        s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), rp: wp.array2d(dtype=f64), rc: wp.array2d(dtype=f64), ds: wp.array2d(dtype=f64),
+        dz: wp.array2d(dtype=f64), ds_aff: wp.array2d(dtype=f64), dz_aff: wp.array2d(dtype=f64),
+    ):
+        """x[env, :n] = argmin 1/2 x^T Q x + q^T x over the points' friction pyramids (G x <= 0), with the slacks s and
+        duals z at it: Mehrotra's predictor-corrector from CVXOPT's start (x from (Q + G^T G) x = -q, s = -G x and
+        z = G x shifted to be positive), at most law.iterations iterations, until the residuals and the mean
+        complementarity are below law.tol times `scale`."""
+        k = n // 3
+        tol = f64(law.tol)
+        rows = PYRAMID_ROWS * k
+        # CVXOPT's start: the solve with S = Z = I and rc = rp = 0 is (Q + G^T G) x = -q; then s = -G x, z = G x
+        for row in range(rows):
+            s[env, row] = f64(1.0)
+            z[env, row] = f64(1.0)
+            rp[env, row] = f64(0.0)
+            rc[env, row] = f64(0.0)
+        for r in range(n):
+            rd[env, r] = q[env, r]
+        newton_matrix(Q, mu, env, n, s, z, f64(0.0), H, LH)
+        newton_direction(LH, mu, env, n, s, z, rd, rp, rc, y, x, ds, dz)
+        lowest_s = f64(0.0)
+        lowest_z = f64(0.0)
+        for row in range(rows):
+            s[env, row] = ds[env, row]
+            z[env, row] = -ds[env, row]
+            lowest_s = wp.min(lowest_s, s[env, row])
+            lowest_z = wp.min(lowest_z, z[env, row])
+        for row in range(rows):
+            s[env, row] = s[env, row] - lowest_s + f64(1.0)
+            z[env, row] = z[env, row] - lowest_z + f64(1.0)
+        for _ in range(law.iterations):
+            worst_d, worst_p, gap = residuals(Q, q, mu, env, n, x, s, z, rd, rp)
+            converged = worst_d <= tol * scale and worst_p <= tol * scale and gap <= tol * scale
+            # complementarity a thousand times below the tolerance while rounding holds the residuals above it:
+            # further steps would only drive s and z to 0 and their ratios to infinity
+            exhausted = not gap > f64(1.0e-3) * tol * scale
+            if converged or exhausted:
+                break
+            # predictor: rc = s z
+            for row in range(rows):
+                rc[env, row] = s[env, row] * z[env, row]
+            newton_matrix(Q, mu, env, n, s, z, f64(0.0), H, LH)
+            newton_direction(LH, mu, env, n, s, z, rd, rp, rc, y, dx, ds_aff, dz_aff)
+            alpha = step_to_boundary(env, rows, s, z, ds_aff, dz_aff)
+            gap_aff = f64(0.0)
+            for row in range(rows):
+                gap_aff = gap_aff + (s[env, row] + alpha * ds_aff[env, row]) * (z[env, row] + alpha * dz_aff[env, row])
+            sigma = (gap_aff / f64(float(rows)) / gap) ** f64(3.0)
+            # corrector: rc = s z + ds_aff dz_aff - sigma gap
+            for row in range(rows):
+                rc[env, row] = s[env, row] * z[env, row] + ds_aff[env, row] * dz_aff[env, row] - sigma * gap
+            newton_direction(LH, mu, env, n, s, z, rd, rp, rc, y, dx, ds, dz)
+            alpha = wp.min(f64(1.0), f64(0.99) * step_to_boundary(env, rows, s, z, ds, dz))
+            probe = alpha
+            for r in range(n):
+                probe = probe + f64(0.0) * dx[env, r]
+            for row in range(rows):
+                probe = probe + f64(0.0) * (ds[env, row] + dz[env, row])
+            if not wp.isfinite(probe):
+                break  # a direction rounding made non-finite: keep the last iterate
+            for r in range(n):
+                x[env, r] = x[env, r] + alpha * dx[env, r]
+            for row in range(rows):
+                s[env, row] = s[env, row] + alpha * ds[env, row]
+                z[env, row] = z[env, row] + alpha * dz[env, row]
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def rigid_solve(
+        model: B.Model,
+        law: RigidLaw,
         J_t: wp.array4d(dtype=scalar),
         Jdotnu_t: wp.array3d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
         a_free: wp.array2d(dtype=scalar),
+        depth: wp.array2d(dtype=scalar),
+        beta: wp.array2d(dtype=sp.vec3),
+        friction: wp.array(dtype=scalar),
         # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); Q, H and LH (N, 3P, 3P);
         # the vectors q, x, rd, dx, y, w (N, max(3P, K)) and s, z, rp, rc, ds, dz, ds_aff, dz_aff (N, 5P)
         active: wp.array2d(dtype=wp.int32),
@@ -317,156 +482,90 @@ def kernels(scalar) -> types.SimpleNamespace:
         dz: wp.array2d(dtype=f64),
         ds_aff: wp.array2d(dtype=f64),
         dz_aff: wp.array2d(dtype=f64),
-        # outputs
-        W_f_C: wp.array3d(dtype=scalar),
+        # output
+        force: wp.array2d(dtype=sp.vec3),
     ):
-        """W_f_C (N, P, 6): the Inertial wrenches of the rigid forces (the module docstring; inputs as
-        kernels/relaxed_rigid.py's `relaxed_rigid_solve`'). Mehrotra's predictor-corrector from CVXOPT's start (x from (Q + G^T G) x = -q,
-        s = -G x and z = G x shifted to be positive), at most law.iterations iterations, until the residuals and
-        the mean complementarity are below law.tol (relative to 1 + max |q|)."""
+        """force (N, P) [N, world]: the rigid forces of the penetrating points (the module docstring; 0 elsewhere) from
+        `rigid_rows`' outputs, the points' Jacobians J_t (N, P, 6, K) and J̇ν (N, P, 6) (Mixed, ν Inertial), the mass
+        matrix M (N, K, K) (Inertial base) and ABA's a_free (N, K). Its adjoint is `rigid_solve_adjoint` (a tape
+        records it by hand: warpdyn.engine.launch)."""
         env = wp.tid()
-        k = point_rows(contacts, terrain, W_H_L, W_v_WL, J_t, Jdotnu_t, a_free, env, active, J, q)
-        n = 3 * k
-        mu = f64(B.env_parameter(contacts.mu, env))
-        tol = f64(law.tol)
+        n, scale = qp_system(model, law, J_t, Jdotnu_t, M, a_free, depth, beta, env, active, J, MinvJT, M64, Lm, Q, q, y, w)
         if n > 0:
-            delassus(model, M, J, env, n, M64, Lm, MinvJT, y, w, Q)
-            scale = f64(1.0)
-            for i in range(k):
-                c = active[env, i]
-                p, p_dot, nrm, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, c)
-                beta = (B.env_parameter(contacts.K, env) * delta + B.env_parameter(contacts.D, env) * delta_dot) * nrm
-                for r in range(3):
-                    q[env, 3 * i + r] = q[env, 3 * i + r] - f64(beta[r])
-                    scale = wp.max(scale, wp.abs(q[env, 3 * i + r]))
-                    Q[env, 3 * i + r, 3 * i + r] = Q[env, 3 * i + r, 3 * i + r] + f64(law.eps)
-            rows = PYRAMID_ROWS * k
-            # CVXOPT's start: the solve with S = Z = I and rc = rp = 0 is (Q + G^T G) x = -q; then s = -G x, z = G x
-            for row in range(rows):
-                s[env, row] = f64(1.0)
-                z[env, row] = f64(1.0)
-                rp[env, row] = f64(0.0)
-                rc[env, row] = f64(0.0)
-            for r in range(n):
-                rd[env, r] = q[env, r]
-            newton_matrix(Q, mu, env, n, s, z, H, LH)
-            newton_direction(LH, mu, env, n, s, z, rd, rp, rc, y, x, ds, dz)
-            lowest_s = f64(0.0)
-            lowest_z = f64(0.0)
-            for row in range(rows):
-                s[env, row] = ds[env, row]
-                z[env, row] = -ds[env, row]
-                lowest_s = wp.min(lowest_s, s[env, row])
-                lowest_z = wp.min(lowest_z, z[env, row])
-            for row in range(rows):
-                s[env, row] = s[env, row] - lowest_s + f64(1.0)
-                z[env, row] = z[env, row] - lowest_z + f64(1.0)
-            for _ in range(law.iterations):
-                worst_d, worst_p, gap = residuals(Q, q, mu, env, n, x, s, z, rd, rp)
-                converged = worst_d <= tol * scale and worst_p <= tol * scale and gap <= tol * scale
-                # complementarity a thousand times below the tolerance while rounding holds the residuals above it:
-                # further steps would only drive s and z to 0 and their ratios to infinity
-                exhausted = not gap > f64(1.0e-3) * tol * scale
-                if converged or exhausted:
-                    break
-                # predictor: rc = s z
-                for row in range(rows):
-                    rc[env, row] = s[env, row] * z[env, row]
-                newton_matrix(Q, mu, env, n, s, z, H, LH)
-                newton_direction(LH, mu, env, n, s, z, rd, rp, rc, y, dx, ds_aff, dz_aff)
-                alpha = step_to_boundary(env, rows, s, z, ds_aff, dz_aff)
-                gap_aff = f64(0.0)
-                for row in range(rows):
-                    gap_aff = gap_aff + (s[env, row] + alpha * ds_aff[env, row]) * (z[env, row] + alpha * dz_aff[env, row])
-                sigma = (gap_aff / f64(float(rows)) / gap) ** f64(3.0)
-                # corrector: rc = s z + ds_aff dz_aff - sigma gap
-                for row in range(rows):
-                    rc[env, row] = s[env, row] * z[env, row] + ds_aff[env, row] * dz_aff[env, row] - sigma * gap
-                newton_direction(LH, mu, env, n, s, z, rd, rp, rc, y, dx, ds, dz)
-                alpha = wp.min(f64(1.0), f64(0.99) * step_to_boundary(env, rows, s, z, ds, dz))
-                probe = alpha
-                for r in range(n):
-                    probe = probe + f64(0.0) * dx[env, r]
-                for row in range(rows):
-                    probe = probe + f64(0.0) * (ds[env, row] + dz[env, row])
-                if not wp.isfinite(probe):
-                    break  # a direction rounding made non-finite: keep the last iterate
-                for r in range(n):
-                    x[env, r] = x[env, r] + alpha * dx[env, r]
-                for row in range(rows):
-                    s[env, row] = s[env, row] + alpha * ds[env, row]
-                    z[env, row] = z[env, row] + alpha * dz[env, row]
-        write_forces(contacts, W_H_L, env, k, active, x, W_f_C)
+            interior_point(law, f64(friction[env]), env, n, scale, Q, H, LH, q, x, rd, dx, y, s, z, rp, rc, ds, dz, ds_aff, dz_aff)
+        forces_out(env, n, active, x, force)
 
     @wp.kernel(module="unique", enable_backward=False)
-    def impact_velocities(
+    def rigid_solve_adjoint(
         model: B.Model,
-        contacts: B.Contacts,
         law: RigidLaw,
-        terrain: B.Terrain,
-        W_H_L: wp.array2d(dtype=sp.transform),
-        W_v_WL: wp.array2d(dtype=sp.vec6),
         J_t: wp.array4d(dtype=scalar),
+        Jdotnu_t: wp.array3d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
-        # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); G and LG (N, 3P, 3P);
-        # c, lam, y, w (N, max(3P, K))
+        a_free: wp.array2d(dtype=scalar),
+        depth: wp.array2d(dtype=scalar),
+        beta: wp.array2d(dtype=sp.vec3),
+        friction: wp.array(dtype=scalar),
         active: wp.array2d(dtype=wp.int32),
         J: wp.array3d(dtype=f64),
         MinvJT: wp.array3d(dtype=f64),
         M64: wp.array3d(dtype=f64),
         Lm: wp.array3d(dtype=f64),
-        G: wp.array3d(dtype=f64),
-        LG: wp.array3d(dtype=f64),
-        c: wp.array2d(dtype=f64),
-        lam: wp.array2d(dtype=f64),
+        Q: wp.array3d(dtype=f64),
+        H: wp.array3d(dtype=f64),
+        LH: wp.array3d(dtype=f64),
+        q: wp.array2d(dtype=f64),
+        x: wp.array2d(dtype=f64),
+        rd: wp.array2d(dtype=f64),
+        dx: wp.array2d(dtype=f64),
         y: wp.array2d(dtype=f64),
         w: wp.array2d(dtype=f64),
-        # the state, whose velocities are replaced
-        state: B.State,
+        s: wp.array2d(dtype=f64),
+        z: wp.array2d(dtype=f64),
+        rp: wp.array2d(dtype=f64),
+        rc: wp.array2d(dtype=f64),
+        ds: wp.array2d(dtype=f64),
+        dz: wp.array2d(dtype=f64),
+        ds_aff: wp.array2d(dtype=f64),
+        dz_aff: wp.array2d(dtype=f64),
+        # the adjoints: read and zeroed (adj_force), added into (the rest)
+        adj_force: wp.array2d(dtype=sp.vec3),
+        adj_J_t: wp.array4d(dtype=scalar),
+        adj_Jdotnu_t: wp.array3d(dtype=scalar),
+        adj_M: wp.array3d(dtype=scalar),
+        adj_a_free: wp.array2d(dtype=scalar),
+        adj_beta: wp.array2d(dtype=sp.vec3),
+        adj_friction: wp.array(dtype=scalar),
     ):
-        """The state's velocities after JaxSim's impact (the module docstring) at its link poses and Inertial
-        velocities (N, nL), the points' Jacobians J_t (N, P, 6, K) (Mixed, ν Inertial) and M (N, K, K) (Inertial
-        base); a fixed base's velocity is left as it is."""
+        """The adjoint of `rigid_solve` (its QP solved again; OptNet's differentiation of the KKT conditions
+        Q x + q + G^T z = 0, z ∘ G x = 0 at the solution): u = (Q + G^T S^-1 Z G)^-1 x̄ (the interior point's
+        Newton matrix at the final s, z) and v = -S^-1 G u give adj q = -u, so adj beta = u and, by
+        kernels/rigid_contacts.py's `rows_adjoint` with g = u, adj J, J̇ν, M, a_free; adj G = diag(z) (v x^T - 1 u^T)
+        gives adj mu = -sum over the friction rows of z_j (v_j x_z - u_z) (G's -mu entries)."""
         env = wp.tid()
-        K = M.shape[1]
-        k = int(0)
-        for p_i in range(contacts.point_link.shape[0]):
-            p, p_dot, n, delta, delta_dot = penetration(contacts, terrain, W_H_L, W_v_WL, env, p_i)
-            if delta > scalar(0.0):
-                for r in range(3):
-                    for i in range(K):
-                        J[env, 3 * k + r, i] = f64(J_t[env, p_i, r, i])
-                k = k + 1
-        m = 3 * k
-        if m > 0:
-            off = solver_offset(model)
-            W_H_B = B.base_pose(state, env)
-            nu = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env))
-            delassus(model, M, J, env, m, M64, Lm, MinvJT, y, w, G)
-            for r in range(m):
-                t = f64(0.0)
-                for i in range(off, K):
-                    v_i = scalar(0.0)
-                    if i < 6:
-                        v_i = nu[i]
-                    else:
-                        v_i = state.joint_velocities[env, i - 6]
-                    t = t + J[env, r, i] * f64(v_i)
-                c[env, r] = t
-            C.factor(G, env, 0, m, f64(DROPPED_PIVOT), LG)
-            C.substitute(LG, env, m, c, lam, 0)
-            for i in range(off, K):
-                t = f64(0.0)
-                for r in range(m):
-                    t = t + MinvJT[env, r, i] * lam[env, r]
-                w[env, i] = t
-            for i in range(6, K):
-                state.joint_velocities[env, i - 6] = scalar(f64(state.joint_velocities[env, i - 6]) - w[env, i])
-            if off == 0:
-                nu_plus = nu - sp.vec6(scalar(w[env, 0]), scalar(w[env, 1]), scalar(w[env, 2]), scalar(w[env, 3]), scalar(w[env, 4]), scalar(w[env, 5]))
-                mixed = sp.inertial_to_repr(MIXED, W_H_B, nu_plus)
-                for r in range(6):
-                    state.base_velocity[env, r] = mixed[r]
+        mu = f64(friction[env])
+        n, scale = qp_system(model, law, J_t, Jdotnu_t, M, a_free, depth, beta, env, active, J, MinvJT, M64, Lm, Q, q, y, w)
+        adjoint_in(env, n, active, adj_force, w)  # w: x̄ (the interior point does not use w)
+        if n > 0:
+            interior_point(law, mu, env, n, scale, Q, H, LH, q, x, rd, dx, y, s, z, rp, rc, ds, dz, ds_aff, dz_aff)
+            largest = f64(0.0)
+            for r in range(n):
+                largest = wp.max(largest, Q[env, r, r])
+            penalty = f64(ACTIVE_PENALTY) * largest
+            newton_matrix(Q, mu, env, n, s, z, penalty, H, LH)
+            C.substitute(LH, env, n, w, rd, 0)  # rd: u
+            adj_mu = f64(0.0)
+            for i in range(n // 3):
+                for j in range(4):  # the friction rows, whose -mu entries multiply f_z
+                    row = PYRAMID_ROWS * i + j
+                    if z[env, row] > s[env, row]:
+                        g = pyramid_row(mu, j)
+                        gu = g[0] * rd[env, 3 * i] + g[1] * rd[env, 3 * i + 1] + g[2] * rd[env, 3 * i + 2]
+                        adj_mu = adj_mu + penalty * gu * x[env, 3 * i + 2] + z[env, row] * rd[env, 3 * i + 2]
+                c = active[env, i]
+                adj_beta[env, c] = adj_beta[env, c] + sp.vec3(scalar(rd[env, 3 * i]), scalar(rd[env, 3 * i + 1]), scalar(rd[env, 3 * i + 2]))
+            adj_friction[env] = adj_friction[env] + scalar(adj_mu)
+            rows_adjoint(model, J, MinvJT, a_free, env, n, active, x, rd, y, w, adj_J_t, adj_Jdotnu_t, adj_M, adj_a_free)
 
     return types.SimpleNamespace(
         RigidLaw=RigidLaw,
@@ -474,7 +573,11 @@ def kernels(scalar) -> types.SimpleNamespace:
         solver_offset=solver_offset,
         delassus=delassus,
         point_row=point_row,
-        point_wrench=point_wrench,
-        rigid_forces=rigid_forces,
-        impact_velocities=impact_velocities,
+        rows_adjoint=rows_adjoint,
+        forces_out=forces_out,
+        adjoint_in=adjoint_in,
+        point_wrenches=point_wrenches,
+        rigid_rows=rigid_rows,
+        rigid_solve=rigid_solve,
+        rigid_solve_adjoint=rigid_solve_adjoint,
     )

@@ -230,27 +230,40 @@ def _tangent(data, reference) -> np.ndarray:
     return np.concatenate([x[0], 2.0 * (w * v0 + w0 * v + np.cross(v, v0)), x[2], x[3], x[4]])
 
 
-@pytest.mark.parametrize("name, bound_A, bound_mu", [("relaxed_box", 2e-7, 1e-4), ("relaxed_legs", 1e-8, 1e-4)])
-def test_relaxed_rigid_gradients_equal_central_differences(name, bound_A, bound_mu):
-    """The relaxed-rigid step differentiates (Warp's adjoints of the rows and the wrenches, the solve's written by
-    hand: the implicit function theorem at the forward pass's active set). In contact, A and B of one step and of 20
-    steps (wd.autodiff's reverse pass through the tape) equal central differences at h = 1e-5, and ∂x'/∂mu and
-    ∂x'/∂(link masses) equal central differences of the step with the parameter varied.
+GRADIENT_CASES = {  # name: (bound on A and B, the contact parameters checked: {name: relative step})
+    "relaxed_box": (2e-7, {"mu": 1e-2}),
+    "relaxed_legs": (1e-8, {"mu": 1e-2}),
+    "rigid_box": (1e-7, {"mu": 1e-4, "K": 1e-4, "D": 1e-4}),
+    "rigid_legs": (1e-7, {"mu": 1e-4, "K": 1e-4, "D": 1e-4}),
+}
 
-    Tolerances, relative to the largest entry: the box's 4 corners give 12 rows of rank 6 regularised by R ~ 1e-6 / m,
-    so the differences' rounding, eps cond(A) |x| / h, dominates: measured 2.4e-8 (one step) and 4.5e-9 (20 steps) at
-    h = 1e-5, 2e-7 at 1e-6; the legs 6e-11 and 5.8e-9. mu moves the state through R alone, by ~1e-6 of the forces: its
-    differences need h = 1e-2 mu (measured: 1.7e-5 on the box, truncation; 2e-4 at h = 1e-5, rounding); the masses
-    at h = 1e-4 of each."""
+
+@pytest.mark.parametrize("name", list(GRADIENT_CASES))
+def test_solved_contact_gradients_equal_central_differences(name):
+    """The relaxed-rigid and rigid steps differentiate: Warp's adjoints of the rows and the wrenches, the solves'
+    written by hand (the relaxed law's linear solve by the implicit function theorem; the rigid QP by OptNet's
+    differentiation of its KKT conditions at its active set; the rigid impact as the projection it is, at the kept
+    rows), each at the forward pass's penetrating points. In contact, A and B of one step and of 20 steps
+    (wd.autodiff's reverse pass through the tape) equal central differences at h = 1e-5, and ∂x'/∂(the contact
+    parameters) and ∂x'/∂(link masses) equal central differences of the step with the parameter varied.
+
+    Tolerances, relative to the largest entry: the relaxed box's 4 corners give 12 rows of rank 6 regularised by
+    R ~ 1e-6 / m, so the differences' rounding, eps cond(A) |x| / h, dominates: measured 2.4e-8 (one step) and 4.5e-9
+    (20 steps) at h = 1e-5, 2e-7 at 1e-6; the relaxed legs 6e-11 and 5.8e-9; the rigid box 6.6e-9 and 4.6e-10, the
+    rigid legs 1.1e-8 (B) and 1.2e-8, where the QP's own tolerance (1e-10) adds its noise / h. mu moves the relaxed
+    state through R alone, by ~1e-6 of the forces: its differences need h = 1e-2 mu (measured 1.7e-5 on the box,
+    truncation; 2e-4 at h = 1e-5, rounding); the rigid model's mu, K and D at h = 1e-4 of each (measured 3e-6 at
+    most), the masses at 1e-4 of each (measured 6e-9 at most)."""
+    bound, contact_parameters = GRADIENT_CASES[name]
     model = _model(name)
     data = _data(name, model)
     assert np.abs(_forces(name, model, data)).max() > 1.0  # in contact
     for steps in (1, 20):
-        reverse = wd.autodiff.transition_matrices(model, data, steps=steps, parameters=("mu", "link_mass") if steps == 1 else ())
+        reverse = wd.autodiff.transition_matrices(model, data, steps=steps, parameters=(*contact_parameters, "link_mass") if steps == 1 else ())
         central = wd.autodiff.transition_matrices(model, data, steps=steps, method="central", h=1e-5)
         for key in ("A", "B") if model.dofs() else ("A",):
             exact, fd = reverse[key].numpy(), central[key].numpy()
-            assert np.abs(exact - fd).max() <= bound_A * np.abs(exact).max(), (key, steps)
+            assert np.abs(exact - fd).max() <= bound * np.abs(exact).max(), (key, steps)
         if steps == 1:
             parameters = reverse
     stepped = wd.model.step(model, data)
@@ -259,16 +272,17 @@ def test_relaxed_rigid_gradients_equal_central_differences(name, bound_A, bound_
         plus, minus = (_tangent(wd.model.step(vary(sign * h), data), stepped) for sign in (1.0, -1.0))
         return (plus - minus) / (2.0 * h)
 
-    mu = float(model.contact_params.mu)
+    for parameter, relative in contact_parameters.items():
+        value = float(getattr(model.contact_params, parameter))
 
-    def with_mu(dmu):
-        varied = model.copy()
-        varied.contact_params = dataclasses.replace(model.contact_params, mu=mu + dmu)
-        return varied
+        def with_parameter(dv, parameter=parameter, value=value):
+            varied = model.copy()
+            varied.contact_params = dataclasses.replace(model.contact_params, **{parameter: value + dv})
+            return varied
 
-    fd = central_difference(with_mu, 1e-2 * mu)
-    exact = parameters["mu"].numpy()[:, 0]
-    assert np.abs(fd).max() > 0.0 and np.abs(exact - fd).max() <= bound_mu * np.abs(fd).max()
+        fd = central_difference(with_parameter, relative * value)
+        exact = parameters[parameter].numpy()[:, 0]
+        assert np.abs(fd).max() > 0.0 and np.abs(exact - fd).max() <= 1e-4 * np.abs(fd).max(), parameter
     masses = model.link_mass.numpy()
     for link in range(min(3, masses.size)):
 
@@ -282,23 +296,18 @@ def test_relaxed_rigid_gradients_equal_central_differences(name, bound_A, bound_
         assert np.abs(fd).max() > 0.0 and np.abs(exact - fd).max() <= 1e-6 * np.abs(fd).max(), link
 
 
-def test_rigid_contacts_and_moving_points_refuse_gradients():
-    """The rigid QP and impact have no adjoint: a taped step of a RigidContacts model is refused, naming the models
-    that differentiate. A relaxed-rigid model whose collidable points a taped update_hw_parameters computed is
-    refused too (its points' Jacobians are built from the model's points once: the gradient would miss them)."""
-    model = _model("rigid_box")
-    data = wd.data.JaxSimModelData.build(model=model, requires_grad=True, base_position=_data("rigid_box", model).base_position.numpy())
-    with pytest.raises(NotImplementedError, match="RigidContacts under a wp.Tape .* use RelaxedRigidContacts or SoftContacts"):
-        with wp.Tape():
-            wd.model.step(model, data)
+def test_solved_models_with_moving_points_refuse_gradients():
+    """A solved model whose collidable points a taped update_hw_parameters computed is refused, naming the law: its
+    points' Jacobians are built from the model's points once, so a gradient would miss them."""
     leg = wd.model.Model.build_from_model_description((ROOT / "tests" / "jaxsim" / "hw_leg.sdf").read_text(), dtype=np.float64)
-    leg = leg.replace(contact_model=contacts.RelaxedRigidContacts.build())
     nL = leg.number_of_links()
-    dims = wp.array(np.ones((nL, 3)), dtype=wp.float64, requires_grad=True)
-    with pytest.raises(NotImplementedError, match="RelaxedRigidContacts with collidable points that require gradients"):
-        with wp.Tape():
-            updated = wd.model.update_hw_parameters(leg, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=np.ones(nL)))
-            wd.model.step(updated, wd.data.Data.build(updated, base_position=(0.0, 0.0, 0.5)))
+    for kind in (contacts.RelaxedRigidContacts, contacts.RigidContacts):
+        model = leg.replace(contact_model=kind.build())
+        dims = wp.array(np.ones((nL, 3)), dtype=wp.float64, requires_grad=True)
+        with pytest.raises(NotImplementedError, match=f"{kind.__name__} with collidable points that require gradients"):
+            with wp.Tape():
+                updated = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=dims, density=np.ones(nL)))
+                wd.model.step(updated, wd.data.Data.build(updated, base_position=(0.0, 0.0, 0.5)))
 
 
 def test_parameters_are_checked_and_named():

@@ -17,8 +17,8 @@ base axes in Body: the axes of the representation's angular velocity), then the 
 (a ball joint's rotation in its child's axes, a free joint's δp then δθ, as MuJoCo's); dv the base velocity in
 the data's representation, then the joint velocities. The contact deformation state (soft contacts) is held,
 not differentiated. Gradients are those of the staged step under a wp.Tape (docs/differentiation.md for where
-the derivative is one-sided); RelaxedRigidContacts differentiate (their solve's adjoint at the step's set of
-penetrating points), RigidContacts do not (refused).
+the derivative is one-sided); the solved contact models differentiate at the step's set of penetrating points
+(their solves' adjoints written by hand).
 """
 
 from __future__ import annotations

@@ -45,6 +45,7 @@ from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.rigid_contacts import PYRAMID_ROWS
 from ..kernels.relaxed_rigid import kernels as relaxed_kernels
 from ..kernels.rigid_contacts import kernels as rigid_kernels
+from ..kernels.rigid_impact import kernels as impact_kernels
 from ..kernels.scratch import TRANSFORM
 from ..kernels.contact_points import kernels as point_kernels
 from ..kernels.soft_contacts import kernels as contact_kernels
@@ -54,7 +55,7 @@ from ..types.enums import VelRepr
 from ..types.model_constants import transforms
 from ..types.settings import host_values
 from . import collisions, tape
-from .bundles import controls_bundle, per_env
+from .bundles import controls_bundle, per_env, state_bundle
 from .kinematics import targets
 from .launch import Launch, launch
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, check_reference_stability, contact_reach
@@ -198,9 +199,11 @@ class SoftContactStage(ContactStage):
 
 
 class RigidContactStage(ContactStage):
-    """JaxSim's rigid contacts (kernels/rigid_contacts.py's `rigid_forces`, and its impact after each step): the
-    forces of an environment's points solved together, from ABA's accelerations without them, the mass matrix and
-    the points' Jacobians and J̇ν at the state. mu, K, D: shared (1,) or per environment (N,)."""
+    """JaxSim's rigid contacts (kernels/rigid_contacts.py's `rigid_rows`, `rigid_solve`, `point_wrenches`, and
+    kernels/rigid_impact.py's impact after each step): the forces of an environment's points solved together, from
+    ABA's accelerations without them, the mass matrix and the points' Jacobians and J̇ν at the state;
+    differentiable (the solve's and the impact's adjoints registered by hand). mu, K, D: shared (1,) or per
+    environment (N,)."""
 
     has_state = False
     reads_other_forces = True
@@ -309,22 +312,49 @@ class RigidContactStage(ContactStage):
         }
         out["scratch"] = self.scratch(empty, m, width)
         out.update(self.law_buffers(plan, empty, P))
-        if self.impact:
-            out["W_H_L_next"] = empty((nL,), transform)
-            out["parent_H_link_next"] = empty((nL,), transform)
-            out["W_v_WL_next"] = empty((nL,), vec6)
+        if self.impact:  # the impact's own inputs at the step's new state (a tape's adjoints read the evaluation's)
+            out["W_H_L_next"] = empty((nL,), transform, True)
+            out["parent_H_link_next"] = empty((nL,), transform, True)
+            out["W_v_WL_next"] = empty((nL,), vec6, True)
+            out["W_a_L_next"] = empty((nL,), vec6, True)
+            out["J_t_next"] = empty((P, 6, K), differentiable=True)
+            out["M_next"] = empty((K, K), differentiable=True)
+            out["crba_scratch_next"] = empty((max(nL, plan.n + 1), CRBA_RECORD), differentiable=True)
+            out["nu_before"] = empty((K,), wp.float64)
         return out
 
+    law_outputs = ("beta", "friction")  # the rows kernel's differentiable outputs, which the solve reads
+
     def law_buffers(self, plan, empty, P: int) -> dict:
-        """The law's own per-point buffers (none: the QP writes the wrenches)."""
-        return {}
+        """Each point's depth (N, P), the rows' terms (`law_outputs`: Baumgarte's beta (N, P, 3), mu (N,)) and the
+        forces (N, P, 3), differentiable where grad is."""
+        vec3 = wp.types.vector(3, plan.scalar)
+        return {"depth": empty((P,)), "beta": empty((P,), vec3, True), "friction": empty((), plan.scalar, True), "force": empty((P,), vec3, True)}
+
+    def law_kernels(self, plan):
+        """The (rows, solve, solve's adjoint) kernels, the rows kernel's inputs before the link poses and velocities
+        and the solve's before the rows' inputs."""
+        K = self.kernels
+        return K.rigid_rows, K.rigid_solve, K.rigid_solve_adjoint, [self.bundle, plan.terrain], [plan.model, self.law]
 
     def law_launches(self, plan, ev, N: int) -> list:
-        """The launches from the rows' inputs (ev.contact's J_t, J̇ν, M, a_free) to the points' wrenches ev.W_f_C."""
+        """The rows (a tape records them: Warp differentiates them), the solve (its adjoint written by hand, registered
+        where ev.grad; run unrecorded otherwise) and the points' wrenches ev.W_f_C (recorded)."""
         b = ev.contact
-        args = [plan.model, self.bundle, self.law, plan.terrain, ev.W_H_L, ev.W_v_WL, b["J_t"], b["Jdotnu_t"], b["M"], b["a_free"]]
+        rows, solve, solve_adjoint, head, solve_head = self.law_kernels(plan)
+        outputs = [b["depth"], *(b[name] for name in self.law_outputs)]
+        args = [*solve_head, b["J_t"], b["Jdotnu_t"], b["M"], b["a_free"], *outputs]
         args += [b["active"], b["J"], b["MinvJT"], b["M64"], b["Lm"], *b["scratch"]]
-        return [Launch(self.kernels.rigid_forces, N, args, [ev.W_f_C])]
+        if ev.grad:
+            grads = [b[name].grad for name in ("force", "J_t", "Jdotnu_t", "M", "a_free", *self.law_outputs)]
+            adjoint = functools.partial(launch, solve_adjoint, N, [*args, *grads], [], device=plan.device, record_tape=False)
+        else:
+            adjoint = _nothing_to_differentiate
+        return [
+            Launch(rows, N, [*head, ev.W_H_L, ev.W_v_WL], outputs),
+            Launch(solve, N, args, [b["force"]], adjoint=adjoint),
+            Launch(self.kernels.point_wrenches, N, [self.bundle, ev.W_H_L, b["force"]], [ev.W_f_C]),
+        ]
 
     def scratch(self, empty, m: int, width: int) -> list:
         """The QP's float64 scratch: Q, H, LH (m x m); q, x, rd, dx, y, w (width); s, z, rp, rc, ds, dz, ds_aff, dz_aff
@@ -355,30 +385,35 @@ class RigidContactStage(ContactStage):
         return launches
 
     def refuse_gradients(self, ev) -> None:
-        """A NotImplementedError under a wp.Tape or with gradients: the QP and the impact have no adjoint."""
-        if ev.grad or tape.taping():
+        """A NotImplementedError where gradients would miss a dependence: collidable points computed under a tape
+        (warpdyn.model.update_hw_parameters) move the Jacobians' targets, which this stage builds once."""
+        if (ev.grad or tape.taping()) and self.point_array is not None:
             raise NotImplementedError(
-                "RigidContacts under a wp.Tape or with gradients: their QP and impact (kernels/rigid_contacts.py) have no adjoint; "
-                "use RelaxedRigidContacts or SoftContacts for gradients, or run this outside the tape"
+                f"{self.owner.removesuffix('Params')} with collidable points that require gradients (update_hw_parameters under a tape): the "
+                "points' Jacobians are built from the model's points once; use SoftContacts for gradients through the points"
             )
 
     def after_step(self, plan, ev, Y, N: int) -> list:
-        """JaxSim's impact at the step's new state Y: its velocities replaced in place (`impact_velocities`)."""
-        b = ev.contact
+        """JaxSim's impact at the step's new state Y: its velocities replaced in place (kernels/rigid_impact.py), from
+        the poses, Jacobians and mass matrix at Y in the impact's own buffers; its adjoint registered by hand where
+        ev.grad."""
+        b, K = ev.contact, impact_kernels(plan.scalar)
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
-        G, LG = b["scratch"][0], b["scratch"][2]
-        c, lam, y, w = b["scratch"][5:9]
+        scratch = b["scratch"]
+        args = [plan.model, self.bundle, self.law, plan.terrain, b["W_H_L_next"], b["W_v_WL_next"], b["J_t_next"], b["M_next"], b["active"], b["J"], b["MinvJT"]]
+        args += [b["M64"], b["Lm"], scratch[0], scratch[2], *scratch[5:9], b["nu_before"]]
+        adjoint = _nothing_to_differentiate
+        if ev.grad:
+            fields = (Y.base_position, Y.base_quaternion, Y.joint_positions, Y.base_velocity, Y.joint_velocities)
+            adj_state = state_bundle(plan.scalar, [a.grad for a in fields] + [None, None])
+            grads = [adj_state, b["J_t_next"].grad, b["M_next"].grad]
+            adjoint = functools.partial(launch, K.impact_adjoint, N, [*args, Y, scratch[3], scratch[4], *grads], [], device=plan.device, record_tape=False)
         return [
             Launch(self.fk, N, [plan.model, Y], [b["parent_H_link_next"], b["W_H_L_next"]]),
-            Launch(self.bias.link_bias_recursion, N, [plan.model, b["W_H_L_next"], Y], [b["W_v_WL_next"], b["W_a_L"]]),
-            Launch(self.jacobians, (N, self.count), [plan.model, self.targets, b["W_H_L_next"], inertial, mixed], [b["J_t"]]),
-            Launch(self.crba, N, [plan.model, Y, inertial, b["crba_scratch"]], [b["M"]]),
-            Launch(
-                self.kernels.impact_velocities,
-                N,
-                [plan.model, self.bundle, self.law, plan.terrain, b["W_H_L_next"], b["W_v_WL_next"], b["J_t"], b["M"], b["active"], b["J"], b["MinvJT"], b["M64"], b["Lm"], G, LG, c, lam, y, w],
-                [Y],
-            ),
+            Launch(self.bias.link_bias_recursion, N, [plan.model, b["W_H_L_next"], Y], [b["W_v_WL_next"], b["W_a_L_next"]]),
+            Launch(self.jacobians, (N, self.count), [plan.model, self.targets, b["W_H_L_next"], inertial, mixed], [b["J_t_next"]]),
+            Launch(self.crba, N, [plan.model, Y, inertial, b["crba_scratch_next"]], [b["M_next"]]),
+            Launch(K.impact_velocities, N, args, [Y], adjoint=adjoint),
         ]
 
 
@@ -390,35 +425,16 @@ class RelaxedRigidContactStage(RigidContactStage):
     has_state = False
     impact = False
 
-    def refuse_gradients(self, ev) -> None:
-        """A NotImplementedError where gradients would miss a dependence: collidable points computed under a tape
-        (warpdyn.model.update_hw_parameters) move the Jacobians' targets, which this stage builds once."""
-        if (ev.grad or tape.taping()) and self.point_array is not None:
-            raise NotImplementedError(
-                "RelaxedRigidContacts with collidable points that require gradients (update_hw_parameters under a tape): the "
-                "points' Jacobians are built from the model's points once; use SoftContacts for gradients through the points"
-            )
+    law_outputs = ("a_ref", "R")
 
     def law_buffers(self, plan, empty, P: int) -> dict:
         """Each point's depth (N, P) and its rows' a_ref, R and force (N, P, 3), differentiable where grad is."""
         vec3 = wp.types.vector(3, plan.scalar)
-        return {"depth": empty((P,)), **{name: empty((P,), vec3, differentiable=True) for name in ("a_ref", "R", "force")}}
+        return {"depth": empty((P,)), **{name: empty((P,), vec3, True) for name in ("a_ref", "R", "force")}}
 
-    def law_launches(self, plan, ev, N: int) -> list:
-        """The rows (a tape records them), the solve (its adjoint by hand where ev.grad; unrecorded otherwise) and
-        the wrenches (recorded)."""
-        b, K = ev.contact, relaxed_kernels(plan.scalar)
-        rows = Launch(K.relaxed_rigid_rows, N, [plan.model, self.bundle, self.law, plan.terrain, ev.W_H_L, ev.W_v_WL], [b["depth"], b["a_ref"], b["R"]])
-        args = [plan.model, b["J_t"], b["Jdotnu_t"], b["M"], b["a_free"], b["depth"], b["a_ref"], b["R"]]
-        args += [b["active"], b["J"], b["MinvJT"], b["M64"], b["Lm"], *b["scratch"]]
-        if ev.grad:
-            grads = [b[name].grad for name in ("force", "J_t", "Jdotnu_t", "M", "a_free", "a_ref", "R")]
-            adjoint = functools.partial(launch, K.relaxed_rigid_solve_adjoint, N, [*args, *grads], [], device=plan.device, record_tape=False)
-        else:
-            adjoint = _nothing_to_differentiate
-        solve = Launch(K.relaxed_rigid_solve, N, args, [b["force"]], adjoint=adjoint)
-        wrenches = Launch(K.point_wrenches, N, [self.bundle, ev.W_H_L, b["force"]], [ev.W_f_C])
-        return [rows, solve, wrenches]
+    def law_kernels(self, plan):
+        K = relaxed_kernels(plan.scalar)
+        return K.relaxed_rigid_rows, K.relaxed_rigid_solve, K.relaxed_rigid_solve_adjoint, [plan.model, self.bundle, self.law, plan.terrain], [plan.model]
 
     @staticmethod
     def baumgarte(c, s, d) -> tuple:

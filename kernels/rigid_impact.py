@@ -1,0 +1,221 @@
+"""JaxSim 0.9.0's impact after a rigid-contact step (jaxsim.rbda.contacts.rigid's update_velocity_after_impact), on
+kernels/rigid_contacts.py's rows and Delassus matrix, one thread per environment.
+
+nu+ = nu - M^-1 J^T lambda with G lambda = J nu over the points then penetrating (G = J M^-1 J^T): the velocity
+nearest nu in M's metric at which every such point is still (a least-squares KKT solve; nu Inertial, the state's
+base velocity converted from and back to Mixed at the base's position p). G is singular where the rows outnumber
+the DoFs they move: kernels/cholesky.py's `factor` drops its dependent rows (DROPPED_PIVOT), so lambda is one of
+the solutions and nu+ the unique one; the kept rows J_r define it: nu+ = P nu, P = I - M^-1 J_r^T G_r^-1 J_r.
+
+Its adjoint (`impact_adjoint`, registered by hand: the state's velocities are replaced in place) holds the
+penetrating points and the kept rows: with W = M^-1 nu+bar, rho = G_r^-1 J_r W, xi = nu - nu+ and
+eta = M^-1 J_r^T rho, nubar = nu+bar - J_r^T rho, adj M = sym((W - eta) xi^T), adj J_r = -lambda (W - eta)^T -
+rho nu+^T, and the Mixed conversions add their terms in p.
+"""
+
+import types
+
+import warp as wp
+
+from .bundles import bundles
+from .cholesky import kernels as cholesky_kernels
+from .factory import factory
+from .rigid_contacts import DROPPED_PIVOT
+from .rigid_contacts import kernels as rigid_kernels
+from .spatial import MIXED, spatial
+
+
+@factory
+def kernels(scalar) -> types.SimpleNamespace:
+    """The impact's kernels in `scalar`."""
+    sp, B = spatial(scalar), bundles(scalar)
+    f64 = wp.float64
+    C = cholesky_kernels(f64)
+    RC = rigid_kernels(scalar)
+    RigidLaw = RC.RigidLaw
+
+    @wp.func
+    def impact_rows(
+        model: B.Model, contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6),
+        J_t: wp.array4d(dtype=scalar), M: wp.array3d(dtype=scalar), env: int, nu: wp.array2d(dtype=f64), active: wp.array2d(dtype=wp.int32),
+        J: wp.array3d(dtype=f64), MinvJT: wp.array3d(dtype=f64), M64: wp.array3d(dtype=f64), Lm: wp.array3d(dtype=f64),
+        G: wp.array3d(dtype=f64), LG: wp.array3d(dtype=f64), c: wp.array2d(dtype=f64), lam: wp.array2d(dtype=f64),
+        y: wp.array2d(dtype=f64), w: wp.array2d(dtype=f64),
+    ):
+        """The penetrating points' rows J (active[env, :k] their indices), G = J M^-1 J^T factorised into LG with its
+        dependent rows dropped, lambda = G^+ J nu (nu[env] Inertial, K) and xi = M^-1 J^T lambda into w; returns m = 3 k."""
+        K = M.shape[1]
+        k = int(0)
+        for p_i in range(contacts.point_link.shape[0]):
+            p, p_dot, n, delta, delta_dot = RC.penetration(contacts, terrain, W_H_L, W_v_WL, env, p_i)
+            if delta > scalar(0.0):
+                active[env, k] = p_i
+                for r in range(3):
+                    for i in range(K):
+                        J[env, 3 * k + r, i] = f64(J_t[env, p_i, r, i])
+                k = k + 1
+        m = 3 * k
+        if m > 0:
+            off = RC.solver_offset(model)
+            RC.delassus(model, M, J, env, m, M64, Lm, MinvJT, y, w, G)
+            for r in range(m):
+                t = f64(0.0)
+                for i in range(off, K):
+                    t = t + J[env, r, i] * nu[env, i]
+                c[env, r] = t
+            C.factor(G, env, 0, m, f64(DROPPED_PIVOT), LG)
+            C.substitute(LG, env, m, c, lam, 0)
+            for i in range(K):
+                t = f64(0.0)
+                if i >= off:
+                    for r in range(m):
+                        t = t + MinvJT[env, r, i] * lam[env, r]
+                w[env, i] = t
+        return m
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def impact_velocities(
+        model: B.Model,
+        contacts: B.Contacts,
+        law: RigidLaw,
+        terrain: B.Terrain,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
+        J_t: wp.array4d(dtype=scalar),
+        M: wp.array3d(dtype=scalar),
+        # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); G and LG (N, 3P, 3P);
+        # c, lam, y, w (N, max(3P, K)); nu (N, K): the velocity before the impact (Inertial), kept for the adjoint
+        active: wp.array2d(dtype=wp.int32),
+        J: wp.array3d(dtype=f64),
+        MinvJT: wp.array3d(dtype=f64),
+        M64: wp.array3d(dtype=f64),
+        Lm: wp.array3d(dtype=f64),
+        G: wp.array3d(dtype=f64),
+        LG: wp.array3d(dtype=f64),
+        c: wp.array2d(dtype=f64),
+        lam: wp.array2d(dtype=f64),
+        y: wp.array2d(dtype=f64),
+        w: wp.array2d(dtype=f64),
+        nu: wp.array2d(dtype=f64),
+        # the state, whose velocities are replaced
+        state: B.State,
+    ):
+        """The state's velocities after JaxSim's impact (the module docstring) at its link poses and Inertial
+        velocities (N, nL), the points' Jacobians J_t (N, P, 6, K) (Mixed, ν Inertial) and M (N, K, K) (Inertial
+        base); a fixed base's velocity is left as it is."""
+        env = wp.tid()
+        K = M.shape[1]
+        W_H_B = B.base_pose(state, env)
+        base = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env))
+        for i in range(K):
+            if i < 6:
+                nu[env, i] = f64(base[i])
+            else:
+                nu[env, i] = f64(state.joint_velocities[env, i - 6])
+        m = impact_rows(model, contacts, terrain, W_H_L, W_v_WL, J_t, M, env, nu, active, J, MinvJT, M64, Lm, G, LG, c, lam, y, w)
+        if m > 0:
+            for i in range(6, K):
+                state.joint_velocities[env, i - 6] = scalar(nu[env, i] - w[env, i])
+            if RC.solver_offset(model) == 0:
+                nu_plus = sp.vec6(
+                    scalar(nu[env, 0] - w[env, 0]), scalar(nu[env, 1] - w[env, 1]), scalar(nu[env, 2] - w[env, 2]),
+                    scalar(nu[env, 3] - w[env, 3]), scalar(nu[env, 4] - w[env, 4]), scalar(nu[env, 5] - w[env, 5]),
+                )
+                mixed = sp.inertial_to_repr(MIXED, W_H_B, nu_plus)
+                for r in range(6):
+                    state.base_velocity[env, r] = mixed[r]
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def impact_adjoint(
+        model: B.Model,
+        contacts: B.Contacts,
+        law: RigidLaw,
+        terrain: B.Terrain,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
+        J_t: wp.array4d(dtype=scalar),
+        M: wp.array3d(dtype=scalar),
+        active: wp.array2d(dtype=wp.int32),
+        J: wp.array3d(dtype=f64),
+        MinvJT: wp.array3d(dtype=f64),
+        M64: wp.array3d(dtype=f64),
+        Lm: wp.array3d(dtype=f64),
+        G: wp.array3d(dtype=f64),
+        LG: wp.array3d(dtype=f64),
+        c: wp.array2d(dtype=f64),
+        lam: wp.array2d(dtype=f64),
+        y: wp.array2d(dtype=f64),
+        w: wp.array2d(dtype=f64),
+        nu: wp.array2d(dtype=f64),
+        state: B.State,
+        # two more float64 vectors (N, max(3P, K)) of scratch
+        nu_bar: wp.array2d(dtype=f64),
+        W: wp.array2d(dtype=f64),
+        # the adjoints: the state's velocities' replaced (nu+bar in, nubar out), the rest added into
+        adj_state: B.State,
+        adj_J_t: wp.array4d(dtype=scalar),
+        adj_M: wp.array3d(dtype=scalar),
+    ):
+        """The adjoint of `impact_velocities` (the module docstring), from `nu` (kept by it) and the state's positions."""
+        env = wp.tid()
+        K = M.shape[1]
+        m = impact_rows(model, contacts, terrain, W_H_L, W_v_WL, J_t, M, env, nu, active, J, MinvJT, M64, Lm, G, LG, c, lam, y, w)
+        if m > 0:
+            off = RC.solver_offset(model)
+            p = wp.transform_get_translation(B.base_pose(state, env))
+            adj_p = sp.vec3(scalar(0.0), scalar(0.0), scalar(0.0))
+            for i in range(6, K):
+                nu_bar[env, i] = f64(adj_state.joint_velocities[env, i - 6])
+            if off == 0:  # nu+bar Inertial from the Mixed velocity's adjoint
+                g_lin = sp.vec3(adj_state.base_velocity[env, 0], adj_state.base_velocity[env, 1], adj_state.base_velocity[env, 2])
+                g_ang = sp.vec3(adj_state.base_velocity[env, 3], adj_state.base_velocity[env, 4], adj_state.base_velocity[env, 5])
+                omega_plus = sp.vec3(scalar(nu[env, 3] - w[env, 3]), scalar(nu[env, 4] - w[env, 4]), scalar(nu[env, 5] - w[env, 5]))
+                adj_p = adj_p + wp.cross(g_lin, omega_plus)
+                g_ang = g_ang + wp.cross(p, g_lin)
+                for r in range(3):
+                    nu_bar[env, r] = f64(g_lin[r])
+                    nu_bar[env, 3 + r] = f64(g_ang[r])
+            for i in range(off, K):
+                y[env, i - off] = nu_bar[env, i]
+            C.substitute(Lm, env, K - off, y, W, off)  # W = M^-1 nu+bar
+            for r in range(m):
+                t = f64(0.0)
+                for i in range(off, K):
+                    t = t + J[env, r, i] * W[env, i]
+                c[env, r] = t
+            C.substitute(LG, env, m, c, y, 0)  # y: rho
+            for i in range(off, K):  # c: W - eta
+                t = f64(0.0)
+                for r in range(m):
+                    t = t + MinvJT[env, r, i] * y[env, r]
+                c[env, i] = W[env, i] - t
+            for i in range(m // 3):
+                point = active[env, i]
+                for r in range(3):
+                    row = 3 * i + r
+                    for j in range(off, K):
+                        adj = -lam[env, row] * c[env, j] - y[env, row] * (nu[env, j] - w[env, j])
+                        adj_J_t[env, point, r, j] = adj_J_t[env, point, r, j] + scalar(adj)
+            for r in range(off, K):
+                for j in range(off, K):
+                    adj_M[env, r, j] = adj_M[env, r, j] + scalar(f64(0.5) * (c[env, r] * w[env, j] + w[env, r] * c[env, j]))
+            for i in range(off, K):  # nubar = nu+bar - J^T rho
+                t = f64(0.0)
+                for r in range(m):
+                    t = t + J[env, r, i] * y[env, r]
+                nu_bar[env, i] = nu_bar[env, i] - t
+            for i in range(6, K):
+                adj_state.joint_velocities[env, i - 6] = scalar(nu_bar[env, i])
+            if off == 0:  # back to the Mixed velocity's adjoint before the impact
+                g_lin = sp.vec3(scalar(nu_bar[env, 0]), scalar(nu_bar[env, 1]), scalar(nu_bar[env, 2]))
+                g_ang = sp.vec3(scalar(nu_bar[env, 3]), scalar(nu_bar[env, 4]), scalar(nu_bar[env, 5]))
+                omega = sp.vec3(scalar(nu[env, 3]), scalar(nu[env, 4]), scalar(nu[env, 5]))
+                adj_p = adj_p - wp.cross(g_lin, omega)
+                g_ang = g_ang - wp.cross(p, g_lin)
+                for r in range(3):
+                    adj_state.base_velocity[env, r] = g_lin[r]
+                    adj_state.base_velocity[env, 3 + r] = g_ang[r]
+                for r in range(3):
+                    adj_state.base_position[env, r] = adj_state.base_position[env, r] + adj_p[r]
+
+    return types.SimpleNamespace(impact_velocities=impact_velocities, impact_adjoint=impact_adjoint)
