@@ -26,7 +26,9 @@ floating base's damper d acts on MuJoCo's free-joint coordinates T nu, so D's ba
 force d T^T (T a0' + T_dot nu) (`base_coordinates`).
 
 M is factorised along the tree (Featherstone's LTDL: only the entries its branches fill, `tree_factor`), A densely
-(kernels/cholesky.py's `factor` and `substitute`); forward only (no tape records these kernels).
+(kernels/cholesky.py's `factor` and `substitute`). The accelerations' kernels, differentiable, are in
+kernels/equality_solve.py; the rows (`constraint_rows`) write each entry once so that Warp differentiates them. The
+post-stabilisation below is forward only.
 
 Post-stabilisation (`equality_projection`, after a step; the model setting `equality_projection` its position passes;
 the hard constraints JaxSim's kinematic constraints aim at): the step's new position is moved by the least change in
@@ -67,7 +69,6 @@ MAX_IMPEDANCE = 0.9999
 def kernels(scalar) -> types.SimpleNamespace:
     """The equality-constraint kernel in `scalar`."""
     sp, B = spatial(scalar), bundles(scalar)
-    factor, substitute = cholesky_kernels(scalar).factor, cholesky_kernels(scalar).substitute
 
     @wp.struct
     class Equalities:
@@ -290,21 +291,50 @@ def kernels(scalar) -> types.SimpleNamespace:
                 A[env, q, r] = total
 
     @wp.func
+    def norm(v: sp.vec6):
+        """|v|, 0 at 0 (whose derivative, unlike wp.length's, is then 0 rather than 0/0)."""
+        square = wp.dot(v, v)
+        if square > scalar(0.0):
+            return wp.sqrt(square)
+        return scalar(0.0)
+
+    @wp.func
+    def anchor_row(J_t: wp.array4d(dtype=scalar), env: int, t: int, link1: int, link2: int, a: int, c: int):
+        """Row a, column c of anchor 1's Jacobian less anchor 2's (targets t and t + 1; a world anchor's 0)."""
+        value = scalar(0.0)
+        if link1 >= 0:
+            value = J_t[env, t, a, c]
+        if link2 >= 0:
+            value = value - J_t[env, t + 1, a, c]
+        return value
+
+    @wp.func
+    def anchor_bias(Jdotnu_t: wp.array3d(dtype=scalar), env: int, t: int, link1: int, link2: int):
+        """Anchor 1's J̇ν (6) less anchor 2's (0 for a world anchor)."""
+        bias = sp.vec6(scalar(0.0))
+        if link1 >= 0:
+            bias = sp.vec6(Jdotnu_t[env, t, 0], Jdotnu_t[env, t, 1], Jdotnu_t[env, t, 2], Jdotnu_t[env, t, 3], Jdotnu_t[env, t, 4], Jdotnu_t[env, t, 5])
+        if link2 >= 0:
+            u = t + 1
+            bias = bias - sp.vec6(Jdotnu_t[env, u, 0], Jdotnu_t[env, u, 1], Jdotnu_t[env, u, 2], Jdotnu_t[env, u, 3], Jdotnu_t[env, u, 4], Jdotnu_t[env, u, 5])
+        return bias
+
+    @wp.func
     def constraint_rows(
         eq: Equalities, x: B.State, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), J_t: wp.array4d(dtype=scalar),
         Jdotnu_t: wp.array3d(dtype=scalar), env: int, e: int, J: wp.array3d(dtype=scalar), with_rates: int,
     ):
-        """Constraint e's rows (the module docstring) added into J[env, row:row + rows] (zeroed before; K columns):
-        returns (r, J̇ν (their first `rows` entries; 0 unless with_rates, W_v_WL and Jdotnu_t then unread), rows, the
-        residual's size |r|)."""
+        """Constraint e's rows (the module docstring) written into J[env, row:row + rows] (K columns, each entry once: a
+        tape differentiates it): returns (r, J̇ν (their first `rows` entries; 0 unless with_rates, W_v_WL and Jdotnu_t
+        then unread), rows, the residual's size |r|)."""
         K = J.shape[2]
         row = eq.row[e]
         residual = sp.vec6(scalar(0.0))
         bias = sp.vec6(scalar(0.0))
         rows = 1
-        distance = scalar(0.0)
         if eq.kind[e] == COUPLING:
             dif = scalar(0.0)
+            slope = scalar(0.0)
             if eq.count2[e] > 0:
                 dif = length_of(eq, x, env, eq.first2[e], eq.count2[e]) - eq.ref2[e]
                 c1 = eq.polycoef[e, 1]
@@ -312,17 +342,18 @@ def kernels(scalar) -> types.SimpleNamespace:
                 c3 = eq.polycoef[e, 3]
                 c4 = eq.polycoef[e, 4]
                 slope = c1 + dif * (scalar(2.0) * c2 + dif * (scalar(3.0) * c3 + dif * scalar(4.0) * c4))
+            for c in range(K):
+                total = scalar(0.0)
+                for k in range(eq.first1[e], eq.first1[e] + eq.count1[e]):
+                    if 6 + eq.term_dof[k] == c:
+                        total = total + eq.term_coef[k]
                 for k in range(eq.first2[e], eq.first2[e] + eq.count2[e]):
-                    J[env, row, 6 + eq.term_dof[k]] = J[env, row, 6 + eq.term_dof[k]] - slope * eq.term_coef[k]
+                    if 6 + eq.term_dof[k] == c:
+                        total = total - slope * eq.term_coef[k]
+                J[env, row, c] = total
             value = eq.polycoef[e, 0] + dif * (eq.polycoef[e, 1] + dif * (eq.polycoef[e, 2] + dif * (eq.polycoef[e, 3] + dif * eq.polycoef[e, 4])))
-            residual[0] = length_of(eq, x, env, eq.first1[e], eq.count1[e]) - eq.ref1[e] - value
-            for k in range(eq.first1[e], eq.first1[e] + eq.count1[e]):
-                J[env, row, 6 + eq.term_dof[k]] = J[env, row, 6 + eq.term_dof[k]] + eq.term_coef[k]
-            distance = wp.abs(residual[0])
+            residual = sp.vec6(length_of(eq, x, env, eq.first1[e], eq.count1[e]) - eq.ref1[e] - value, scalar(0.0), scalar(0.0), scalar(0.0), scalar(0.0), scalar(0.0))
         else:
-            rows = 3
-            if eq.kind[e] == WELD:
-                rows = 6
             t = eq.target[e]
             link1 = eq.link1[e]
             link2 = eq.link2[e]
@@ -333,27 +364,21 @@ def kernels(scalar) -> types.SimpleNamespace:
             if link2 >= 0:
                 P2 = wp.transform_point(W_H_L[env, link2], P2)
             translation = P1 - P2
-            distance = wp.length(translation)
-            # the rows' Jacobians and J̇ν: the anchors' (linear), and for a weld the links' (angular)
-            for a in range(rows):
-                if link1 >= 0:
-                    if with_rates != 0:
-                        bias[a] = bias[a] + Jdotnu_t[env, t, a]
-                    for c in range(K):
-                        J[env, row + a, c] = J_t[env, t, a, c]
-                if link2 >= 0:
-                    if with_rates != 0:
-                        bias[a] = bias[a] - Jdotnu_t[env, t + 1, a]
-                    for c in range(K):
-                        J[env, row + a, c] = J[env, row + a, c] - J_t[env, t + 1, a, c]
+            # the anchors' linear rows (and J̇ν), then for a weld MuJoCo's rotation rows from the links' angular ones
             for a in range(3):
-                residual[a] = translation[a]
-            if eq.kind[e] == WELD:  # MuJoCo's rotation rows, from the angular rows just written
+                for c in range(K):
+                    J[env, row + a, c] = anchor_row(J_t, env, t, link1, link2, a, c)
+            if with_rates != 0:
+                bias = anchor_bias(Jdotnu_t, env, t, link1, link2)
+            rotation = sp.vec3(scalar(0.0))
+            rate = sp.vec3(scalar(0.0))
+            rows = 3
+            if eq.kind[e] == WELD:
+                rows = 6
                 s = eq.torquescale[e]
                 q0 = frame_of(W_H_L, env, link1, eq.Q1[e])
                 q1 = wp.quat_inverse(frame_of(W_H_L, env, link2, eq.Q2[e]))
                 rotation = s * vector_part(q1 * q0)
-                rate = sp.vec3(scalar(0.0))
                 if with_rates != 0:
                     w1 = angular_velocity(W_v_WL, env, link1)
                     w2 = angular_velocity(W_v_WL, env, link2)
@@ -363,130 +388,18 @@ def kernels(scalar) -> types.SimpleNamespace:
                     djw = sp.vec3(bias[3], bias[4], bias[5])
                     rate = scalar(0.5) * s * vector_part(q1dot * pure(dw) * q0 + q1 * pure(djw) * q0 + q1 * pure(dw) * q0dot)
                 for c in range(K):
-                    column = scalar(0.5) * s * vector_part(q1 * pure(sp.vec3(J[env, row + 3, c], J[env, row + 4, c], J[env, row + 5, c])) * q0)
+                    jw = sp.vec3(anchor_row(J_t, env, t, link1, link2, 3, c), anchor_row(J_t, env, t, link1, link2, 4, c), anchor_row(J_t, env, t, link1, link2, 5, c))
+                    column = scalar(0.5) * s * vector_part(q1 * pure(jw) * q0)
                     for a in range(3):
                         J[env, row + 3 + a, c] = column[a]
-                for a in range(3):
-                    residual[3 + a] = rotation[a]
-                    bias[3 + a] = rate[a]
-                distance = wp.sqrt(wp.dot(translation, translation) + wp.dot(rotation, rotation))
-        return residual, bias, rows, distance
-
-    @wp.kernel(module="unique", enable_backward=False)
-    def equality_accelerations(
-        model: B.Model,
-        eq: Equalities,
-        x: B.State,
-        W_H_L: wp.array2d(dtype=sp.transform),
-        W_v_WL: wp.array2d(dtype=sp.vec6),
-        J_t: wp.array4d(dtype=scalar),
-        Jdotnu_t: wp.array3d(dtype=scalar),
-        M: wp.array3d(dtype=scalar),
-        a_free: wp.array2d(dtype=scalar),
-        dt: scalar,
-        implicit_dt: scalar,
-        refsafe: int,
-        # scratch: J (N, m, K), L (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w (N, max(m, K))
-        J: wp.array3d(dtype=scalar),
-        L: wp.array3d(dtype=scalar),
-        MinvJT: wp.array3d(dtype=scalar),
-        A: wp.array3d(dtype=scalar),
-        LA: wp.array3d(dtype=scalar),
-        y: wp.array2d(dtype=scalar),
-        rhs: wp.array2d(dtype=scalar),
-        w: wp.array2d(dtype=scalar),
-        # outputs
-        nu_dot: wp.array2d(dtype=scalar),
-    ):
-        """nu_dot (N, K = 6 + nv): the constrained accelerations (Inertial base) from ABA's a_free (N, K), the mass
-        matrix M (N, K, K) (Inertial base), the link poses W_H_L and Inertial velocities W_v_WL (N, nL), the
-        anchors' Jacobians J_t (N, T, 6, K) and J̇ν Jdotnu_t (N, T, 6) (Mixed, ν Inertial): the module docstring.
-        implicit_dt: dt for MuJoCo's implicit joint damping, else 0; dt: the step; refsafe: MuJoCo's time constant
-        raised to 2 dt (0: as given, MuJoCo's refsafe flag disabled). A fixed base's DoFs
-        (the first six) are not solved for."""
-        env = wp.tid()
-        K = M.shape[1]
-        off = 6
-        if model.floating_base != 0:
-            off = 0
-        m = J.shape[1]
-        W_H_B = B.base_pose(x, env)
-        v_B = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env))
-        # 1. the rows: J, aref in rhs, their regularisation R in y
-        for r in range(m):
-            for c in range(K):
-                J[env, r, c] = scalar(0.0)
-        for e in range(eq.kind.shape[0]):
-            row = eq.row[e]
-            residual, bias, rows, distance = constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 1)
-            imp = impedance(eq, e, distance)
-            k_imp, b = reference(eq, e, dt, refsafe, imp)
-            for a in range(rows):
-                invweight = eq.invweight[e]
-                if a >= 3:  # a weld's rotation rows
-                    invweight = eq.invweight_rotation[e]
-                rhs[env, row + a] = -b * row_velocity(J, env, row + a, v_B, x) - k_imp * residual[a] - bias[a]
-                y[env, row + a] = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * invweight / imp)  # R, added to A's diagonal below
-        # 2. M^-1 J^T (rows of MinvJT) and, with implicit damping, the explicit a0 = a0' + dt M^-1 D a0': a floating
-        # base's damper d acts on MuJoCo's free-joint coordinates T nu (`base_coordinates`), D's base block d T^T T,
-        # its force d T^T (T a0' + T_dot nu), T_dot nu = [w x p_dot; 0]
-        parent = eq.dof_parent
-        base_damper = sp.mat66(scalar(0.0))
-        T = sp.mat66(scalar(0.0))
-        d_base = scalar(0.0)
-        if model.floating_base != 0:
-            d_base = B.joint_parameter(model.base_damping, env, 0)
-            T = base_coordinates(x, env)
-            base_damper = d_base * (wp.transpose(T) * T)
-        inverse_mass_rows(model, M, env, off, parent, J, L, w, MinvJT)
-        for i in range(K):
-            nu_dot[env, i] = a_free[env, i]
-        if implicit_dt > scalar(0.0):
-            for i in range(off, K):
-                w[env, i] = scalar(0.0)
-                if i >= 6:
-                    w[env, i] = B.joint_parameter(model.damping, env, i - 6) * a_free[env, i]
-            if d_base != scalar(0.0):
-                v_mixed = B.base_velocity_mixed(x, env)
-                rate = wp.cross(sp.ang(v_mixed), sp.lin(v_mixed))
-                a_base = sp.vec6(a_free[env, 0], a_free[env, 1], a_free[env, 2], a_free[env, 3], a_free[env, 4], a_free[env, 5])
-                force = d_base * (wp.transpose(T) * (T * a_base + sp.stack(rate, sp.vec3(scalar(0.0)))))
-                for i in range(6):
-                    w[env, i] = force[i]
-            tree_solve(L, env, off, parent, w)
-            for i in range(off, K):
-                nu_dot[env, i] = a_free[env, i] + implicit_dt * w[env, i]
-        # 3. A = J M^-1 J^T + diag(R); f = A^-1 (aref - J a0)
-        delassus_rows(J, MinvJT, env, off, A)
-        for r in range(m):
-            s = rhs[env, r]
-            for c in range(off, K):
-                s = s - J[env, r, c] * nu_dot[env, c]
-            rhs[env, r] = s
-            A[env, r, r] = A[env, r, r] + y[env, r]
-        factor(A, env, 0, m, scalar(-1.0), LA)
-        substitute(LA, env, m, rhs, w, 0)  # f in w[0:m]
-        # 4. nu_dot = a0 + M^-1 J^T f, or a0' + (M + dt D)^-1 J^T f with implicit damping
-        if implicit_dt > scalar(0.0):
-            for i in range(off, K):
-                s = scalar(0.0)
-                for r in range(m):
-                    s = s + J[env, r, i] * w[env, r]
-                y[env, i] = s
-            tree_factor(model, M, env, off, parent, implicit_dt, base_damper, L)
-            tree_solve(L, env, off, parent, y)
-            for i in range(off, K):
-                nu_dot[env, i] = a_free[env, i] + y[env, i]
-        else:
-            for i in range(off, K):
-                s = nu_dot[env, i]
-                for r in range(m):
-                    s = s + MinvJT[env, r, i] * w[env, r]
-                nu_dot[env, i] = s
+            residual = sp.stack(translation, rotation)
+            bias = sp.stack(sp.lin(bias), rate)
+        return residual, bias, rows, norm(residual)
 
     return types.SimpleNamespace(
-        Equalities=Equalities, equality_accelerations=equality_accelerations, constraint_rows=constraint_rows, inverse_mass_rows=inverse_mass_rows,
-        row_velocity=row_velocity, delassus_rows=delassus_rows,
+        Equalities=Equalities, constraint_rows=constraint_rows, inverse_mass_rows=inverse_mass_rows, row_velocity=row_velocity,
+        delassus_rows=delassus_rows, impedance=impedance, reference=reference, base_coordinates=base_coordinates, tree_factor=tree_factor,
+        tree_solve=tree_solve,
     )
 
 
@@ -515,7 +428,7 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
         M: wp.array3d(dtype=scalar),
         damping: scalar,
         velocity_pass: int,
-        # scratch as equality_accelerations'
+        # scratch: J (N, m, K), L (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w (N, max(m, K))
         J: wp.array3d(dtype=scalar),
         L: wp.array3d(dtype=scalar),
         MinvJT: wp.array3d(dtype=scalar),

@@ -57,7 +57,7 @@ from ..types.settings import host_values
 from . import collisions, tape
 from .bundles import controls_bundle, per_env, state_bundle
 from .kinematics import targets
-from .launch import Launch, launch
+from .launch import Launch, launch, no_adjoint
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, check_reference_stability, contact_reach
 
 __all__ = ["point_frames", "ContactStage", "SoftContactStage", "RigidContactStage", "RelaxedRigidContactStage", "STAGES", "stage_for", "contacts_per_environment"]
@@ -349,7 +349,7 @@ class RigidContactStage(ContactStage):
             grads = [b[name].grad for name in ("force", "J_t", "Jdotnu_t", "M", "a_free", *self.law_outputs)]
             adjoint = functools.partial(launch, solve_adjoint, N, [*args, *grads], [], device=plan.device, record_tape=False)
         else:
-            adjoint = _nothing_to_differentiate
+            adjoint = no_adjoint
         return [
             Launch(rows, N, [*head, ev.W_H_L, ev.W_v_WL], outputs),
             Launch(solve, N, args, [b["force"]], adjoint=adjoint),
@@ -402,7 +402,7 @@ class RigidContactStage(ContactStage):
         scratch = b["scratch"]
         args = [plan.model, self.bundle, self.law, plan.terrain, b["W_H_L_next"], b["W_v_WL_next"], b["J_t_next"], b["M_next"], b["active"], b["J"], b["MinvJT"]]
         args += [b["M64"], b["Lm"], scratch[0], scratch[2], *scratch[5:9], b["nu_before"]]
-        adjoint = _nothing_to_differentiate
+        adjoint = no_adjoint
         if ev.grad:
             fields = (Y.base_position, Y.base_quaternion, Y.joint_positions, Y.base_velocity, Y.joint_velocities)
             adj_state = state_bundle(plan.scalar, [a.grad for a in fields] + [None, None])
@@ -471,10 +471,6 @@ class RelaxedRigidContactStage(RigidContactStage):
 
     def after_step(self, plan, ev, Y, N: int) -> list:
         return []
-
-
-def _nothing_to_differentiate() -> None:
-    """The adjoint of a launch none of whose inputs requires gradients (a tape records it, nothing flows)."""
 
 
 STAGES: dict[type, type] = {SoftContacts: SoftContactStage, RigidContacts: RigidContactStage, RelaxedRigidContacts: RelaxedRigidContactStage}

@@ -4,11 +4,14 @@ Inertial base) at a state x, with the link poses of its FK, the launches compute
 for connects and welds the links' velocities and bias terms and their anchors' Jacobians and J̇ν (Mixed, ν
 Inertial), and the constrained accelerations into the evaluation's nu_dot. With the model setting
 `equality_projection`, `after_step` ends the step with the post-stabilisation (kernels/equality.py's
-`equality_projection`; SoftContacts only). Forward only: a recorded step of a constrained model is refused
-(`check_steppable`).
+`equality_projection`; SoftContacts only). Differentiable (kernels/equality_solve.py: the rows recorded, the
+solve's adjoint registered by hand) but for MuJoCo's implicit joint damping and the post-stabilisation, whose
+recorded steps are refused (`check_steppable`).
 """
 
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 import warp as wp
@@ -19,6 +22,7 @@ from ..kernels.crba import kernels as crba_kernels
 from ..kernels.equality import CONNECT, COUPLING, ROWS, WELD
 from ..kernels.equality import kernels as equality_kernels
 from ..kernels.equality import projection_kernels
+from ..kernels.equality_solve import kernels as solve_kernels
 from ..kernels.jacobian_derivatives import kernels as derivative_kernels
 from ..kernels.jacobians import kernels as jacobian_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
@@ -26,7 +30,7 @@ from ..types.contact_models import SoftContacts
 from ..types.enums import VelRepr
 from ..types.model_constants import transforms
 from .kinematics import targets
-from .launch import Launch
+from .launch import Launch, launch, no_adjoint
 
 __all__ = ["EqualityPlan", "equality_plan", "check_steppable"]
 
@@ -110,36 +114,39 @@ class EqualityPlan:
         eq.solimp = floats([e.solimp for e in E], 5)
         eq.invweight = floats([e.invweight for e in E])
         multi = model.multi_dof()
-        self.kernel, self.projection_kernel = K.equality_accelerations, projection_kernels(s, multi).equality_projection
+        self.solve, self.projection_kernel = solve_kernels(s), projection_kernels(s, multi).equality_projection
         self.fk = kinematics_kernels(s, multi).forward_kinematics
         self.bias = derivative_kernels(s, multi)
         self.jacobians = jacobian_kernels(s, multi).jacobians
         self.crba = crba_kernels(s, "tuned", multi).crba
 
-    def buffers(self, plan, N: int) -> dict:
-        """The evaluation's buffers for N environments (none differentiable)."""
+    def buffers(self, plan, N: int, grad: bool = False) -> dict:
+        """An evaluation's buffers for N environments; grad: the solve's inputs (and what they are computed from) carry
+        gradients (the scratch never does)."""
         s, d = plan.scalar, plan.device
         K, m, nL = 6 + plan.n, self.rows, plan.nL
         vec6 = wp.types.vector(6, s)
 
-        def empty(shape, dtype=s):
-            return arrays.empty(shape, N, dtype, d)
+        def empty(shape, dtype=s, differentiable=False):
+            return arrays.empty(shape, N, dtype, d, grad and differentiable)
 
         width = max(m, K)
-        return {
-            "nu_free": empty((K,)),
-            "W_v_WL": empty((nL,), vec6),
-            "W_a_L": empty((nL,), vec6),
-            "J_t": empty((self.T, 6, K)),
-            "Jdotnu_t": empty((self.T, 6)),
-            "M": empty((K, K)),
-            "crba_scratch": empty((max(nL, plan.n + 1), CRBA_RECORD)),
-            "scratch": [empty((m, K)), empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m)), empty((width,)), empty((width,)), empty((width,))],
-            **({"parent_H_link_next": empty((nL,), wp.types.transformation(s)), "W_H_L_next": empty((nL,), wp.types.transformation(s))} if self.projection_passes else {}),
+        out = {
+            name: empty(shape, dtype, True)
+            for name, shape, dtype in (
+                ("nu_free", (K,), s), ("W_v_WL", (nL,), vec6), ("W_a_L", (nL,), vec6), ("J_t", (self.T, 6, K), s), ("Jdotnu_t", (self.T, 6), s),
+                ("M", (K, K), s), ("crba_scratch", (max(nL, plan.n + 1), CRBA_RECORD), s), ("J", (m, K), s), ("aref", (m,), s), ("R", (m,), s),
+            )
         }
+        # the solve's scratch: L (K, K), MinvJT (m, K), A and LA (m, m), y, rhs, w, u, v, a0 (width)
+        out["scratch"] = [empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m))] + [empty((width,)) for _ in range(6)]
+        if self.projection_passes:
+            out["parent_H_link_next"], out["W_H_L_next"] = (empty((nL,), wp.types.transformation(s)) for _ in range(2))
+        return out
 
     def launches(self, plan, ev, x, N: int) -> list:
-        """After ABA wrote ev.equality["nu_free"] at x (ev.W_H_L: FK at x): the constrained ev.nu_dot."""
+        """After ABA wrote ev.equality["nu_free"] at x (ev.W_H_L: FK at x): the constrained ev.nu_dot (the rows
+        recorded by a tape, the solve's adjoint registered by hand where ev.grad)."""
         b = ev.equality
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
         launches = [Launch(self.crba, N, [plan.model, x, inertial, b["crba_scratch"]], [b["M"]])]
@@ -149,8 +156,15 @@ class EqualityPlan:
                 Launch(self.jacobians, (N, self.T), [plan.model, self.targets, ev.W_H_L, inertial, mixed], [b["J_t"]]),
                 Launch(self.bias.bias_accelerations, (N, self.T), [self.targets, ev.W_H_L, b["W_v_WL"], b["W_a_L"], inertial, mixed], [b["Jdotnu_t"]]),
             ]
-        args = [plan.model, self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], b["M"], b["nu_free"], plan.dt, plan.implicit_dt, self.refsafe, *b["scratch"]]
-        launches.append(Launch(self.kernel, N, args, [ev.nu_dot]))
+        rows = [self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], plan.dt, self.refsafe]
+        launches.append(Launch(self.solve.equality_rows, N, rows, [b["J"], b["aref"], b["R"]]))
+        scratch = b["scratch"]
+        args = [plan.model, self.bundle, x, b["J"], b["aref"], b["R"], b["M"], b["nu_free"], plan.implicit_dt, *scratch[:9]]
+        adjoint = no_adjoint
+        if ev.grad:
+            grads = [ev.nu_dot.grad, b["J"].grad, b["aref"].grad, b["R"].grad, b["M"].grad, b["nu_free"].grad]
+            adjoint = functools.partial(launch, self.solve.equality_solve_adjoint, N, [*args, scratch[9], *grads], [], device=plan.device, record_tape=False)
+        launches.append(Launch(self.solve.equality_solve, N, args, [ev.nu_dot], adjoint=adjoint))
         return launches
 
     def after_step(self, plan, ev, Y, N: int) -> list:
@@ -166,7 +180,8 @@ class EqualityPlan:
             ]
             if self.T:
                 launches.append(Launch(self.jacobians, (N, self.T), [plan.model, self.targets, b["W_H_L_next"], inertial, mixed], [b["J_t"]]))
-            args = [plan.model, self.bundle, b["W_H_L_next"], b["W_v_WL"], b["J_t"], b["Jdotnu_t"], b["M"], plan.scalar(PROJECTION_DAMPING[plan.scalar]), velocity_pass, *b["scratch"]]
+            scratch = [b["J"], *b["scratch"][:4], *b["scratch"][4:7]]  # J, L, MinvJT, A, LA, y, rhs, w
+            args = [plan.model, self.bundle, b["W_H_L_next"], b["W_v_WL"], b["J_t"], b["Jdotnu_t"], b["M"], plan.scalar(PROJECTION_DAMPING[plan.scalar]), velocity_pass, *scratch]
             launches.append(Launch(self.projection_kernel, N, args, [Y]))
         return launches
 
@@ -195,12 +210,17 @@ def equality_plan(model) -> EqualityPlan | None:
 
 
 def check_steppable(plan, recorded: bool) -> None:
-    """Refuse a recorded step of a constrained model (kernels/equality.py has no adjoint); queries that do not step
-    (contact forces, joint torques) pass."""
-    if plan.equality is None:
+    """Refuse a recorded step of a constrained model whose solve has no adjoint: MuJoCo's implicit joint damping, the
+    post-stabilisation (`equality_projection`); queries that do not step (contact forces, joint torques) pass."""
+    if plan.equality is None or not recorded:
         return
-    if recorded:
+    if float(plan.implicit_dt) > 0.0:
         raise NotImplementedError(
-            f"a step of a model with equality constraints ({plan.equality.count}) under a wp.Tape: their solve has no "
-            "gradient yet; step it outside the tape"
+            f"a step of '{plan.equality.model_name}' (equality constraints with MuJoCo's implicit joint damping) under a wp.Tape: that "
+            "solve has no adjoint yet; use an explicit integrator (JaxSim's SemiImplicitEuler or RungeKutta4) or step it outside the tape"
+        )
+    if plan.equality.projection_passes:
+        raise NotImplementedError(
+            f"a step of '{plan.equality.model_name}' with model.equality_projection = {plan.equality.projection_passes} under a wp.Tape: "
+            "the post-stabilisation has no adjoint yet; set model.equality_projection = 0 to differentiate, or step it outside the tape"
         )

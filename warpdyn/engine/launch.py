@@ -53,6 +53,10 @@ class Launch(NamedTuple):
     adjoint: object = None
 
 
+def no_adjoint() -> None:
+    """The `Launch.adjoint` of a launch none of whose inputs requires gradients: a tape records it, nothing flows."""
+
+
 def run(launches, device) -> None:
     """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them, or, for a
     Launch with a hand-written `adjoint`, that adjoint)."""

@@ -314,7 +314,7 @@ class Evaluation:
         # solve's buffers (`equality`: shared by RK4's stages, which run one after the other)
         self.equality = None
         if plan.equality is not None:
-            self.equality = equality if equality is not None else plan.equality.buffers(plan, N)
+            self.equality = equality if equality is not None else plan.equality.buffers(plan, N, grad)
 
 
 class Workspace:
@@ -342,7 +342,7 @@ class Workspace:
             self.nu_dot = arrays.output((6 + n,), N, s, d, grad)
             self.evals = [Evaluation(plan, N, grad, forces, self.nu_dot)]
         else:
-            shared = plan.equality.buffers(plan, N) if plan.equality is not None else None
+            shared = plan.equality.buffers(plan, N) if plan.equality is not None and not grad else None  # a tape's adjoints read each stage's
             self.evals = [Evaluation(plan, N, grad, forces, None, equality=shared) for _ in range(4)]
             size = plan.integrators.state_size(plan.nq, n, plan.total)
             self.slopes = [arrays.output((size,), N, s, d, grad) for _ in range(4)]

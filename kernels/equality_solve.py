@@ -1,0 +1,242 @@
+"""The constrained accelerations of MJCF equality constraints (kernels/equality.py's module docstring: MuJoCo's soft
+equality constraints), in three launches, one thread per environment:
+
+- `equality_rows` (differentiable: a tape records it): each constraint's rows J (m, K), reference accelerations
+  aref = -b J nu - k imp r - J̇ν and regularisation R (m,);
+- `equality_solve`: f = (J M^-1 J^T + diag(R))^-1 (aref - J a0) and nu_dot = a0 + M^-1 J^T f, or with MuJoCo's
+  implicit joint damping the explicit a0 = a0' + dt M^-1 D a0' and nu_dot = a0' + (M + dt D)^-1 J^T f;
+- `equality_solve_adjoint`: its adjoint, written by hand (the implicit function theorem; without implicit damping,
+  whose steps the engine refuses under a tape), registered on the tape by the engine (warpdyn.engine.launch's
+  Launch.adjoint). With w = M^-1 nudot_bar, fbar = J w, bbar = A^-1 fbar, u = M^-1 J^T f and v = M^-1 J^T bbar (the
+  solved block): adj a0 = nudot_bar - J^T bbar, adj aref = bbar, adj R = -bbar f, adj J = f w^T - bbar (a0 + u)^T
+  - f v^T, adj M = sym((v - w) u^T).
+"""
+
+import types
+
+import warp as wp
+
+from .bundles import bundles
+from .cholesky import kernels as cholesky_kernels
+from .equality import MIN_VALUE
+from .equality import kernels as equality_kernels
+from .factory import factory
+from .spatial import MIXED, spatial
+
+
+@factory
+def kernels(scalar) -> types.SimpleNamespace:
+    """The equality constraints' solve in `scalar`."""
+    sp, B = spatial(scalar), bundles(scalar)
+    C, E = cholesky_kernels(scalar), equality_kernels(scalar)
+    Equalities = E.Equalities
+
+    @wp.kernel(module="unique")
+    def equality_rows(
+        eq: Equalities,
+        x: B.State,
+        W_H_L: wp.array2d(dtype=sp.transform),
+        W_v_WL: wp.array2d(dtype=sp.vec6),
+        J_t: wp.array4d(dtype=scalar),
+        Jdotnu_t: wp.array3d(dtype=scalar),
+        dt: scalar,
+        refsafe: int,
+        # outputs
+        J: wp.array3d(dtype=scalar),
+        aref: wp.array2d(dtype=scalar),
+        R: wp.array2d(dtype=scalar),
+    ):
+        """J (N, m, K), aref and R (N, m) of the constraints at the state x, its link poses W_H_L and Inertial
+        velocities W_v_WL (N, nL) and the anchors' Jacobians J_t (N, T, 6, K) and J̇ν (N, T, 6) (Mixed, ν
+        Inertial). dt: the step; refsafe: MuJoCo's time constant raised to 2 dt (0: as given)."""
+        env = wp.tid()
+        W_H_B = B.base_pose(x, env)
+        v_B = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env))
+        for e in range(eq.kind.shape[0]):
+            row = eq.row[e]
+            residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 1)
+            imp = E.impedance(eq, e, distance)
+            k_imp, b = E.reference(eq, e, dt, refsafe, imp)
+            for a in range(rows):
+                invweight = eq.invweight[e]
+                if a >= 3:  # a weld's rotation rows
+                    invweight = eq.invweight_rotation[e]
+                aref[env, row + a] = -b * E.row_velocity(J, env, row + a, v_B, x) - k_imp * residual[a] - bias[a]
+                R[env, row + a] = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * invweight / imp)
+
+    @wp.func
+    def free_accelerations(
+        model: B.Model, eq: Equalities, x: B.State, J: wp.array3d(dtype=scalar), aref: wp.array2d(dtype=scalar), R: wp.array2d(dtype=scalar),
+        M: wp.array3d(dtype=scalar), a_free: wp.array2d(dtype=scalar), implicit_dt: scalar, env: int, off: int, L: wp.array3d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar), A: wp.array3d(dtype=scalar), LA: wp.array3d(dtype=scalar), rhs: wp.array2d(dtype=scalar),
+        w: wp.array2d(dtype=scalar), nu_dot: wp.array2d(dtype=scalar),
+    ):
+        """M^-1 J^T (rows of MinvJT, M factorised into L), nu_dot = a0 (with implicit damping the explicit a0 =
+        a0' + dt M^-1 D a0': a floating base's damper d acts on MuJoCo's free-joint coordinates T nu, D's base block
+        d T^T T, its force d T^T (T a0' + T_dot nu), T_dot nu = [w x p_dot; 0]), A = J M^-1 J^T + diag(R) factorised
+        into LA and rhs = aref - J a0; returns (T's damper block for the final solve, the number of rows m)."""
+        K = M.shape[1]
+        m = J.shape[1]
+        parent = eq.dof_parent
+        base_damper = sp.mat66(scalar(0.0))
+        T = sp.mat66(scalar(0.0))
+        d_base = scalar(0.0)
+        if model.floating_base != 0:
+            d_base = B.joint_parameter(model.base_damping, env, 0)
+            T = E.base_coordinates(x, env)
+            base_damper = d_base * (wp.transpose(T) * T)
+        E.inverse_mass_rows(model, M, env, off, parent, J, L, w, MinvJT)
+        for i in range(K):
+            nu_dot[env, i] = a_free[env, i]
+        if implicit_dt > scalar(0.0):
+            for i in range(off, K):
+                w[env, i] = scalar(0.0)
+                if i >= 6:
+                    w[env, i] = B.joint_parameter(model.damping, env, i - 6) * a_free[env, i]
+            if d_base != scalar(0.0):
+                v_mixed = B.base_velocity_mixed(x, env)
+                rate = wp.cross(sp.ang(v_mixed), sp.lin(v_mixed))
+                a_base = sp.vec6(a_free[env, 0], a_free[env, 1], a_free[env, 2], a_free[env, 3], a_free[env, 4], a_free[env, 5])
+                force = d_base * (wp.transpose(T) * (T * a_base + sp.stack(rate, sp.vec3(scalar(0.0)))))
+                for i in range(6):
+                    w[env, i] = force[i]
+            E.tree_solve(L, env, off, parent, w)
+            for i in range(off, K):
+                nu_dot[env, i] = a_free[env, i] + implicit_dt * w[env, i]
+        E.delassus_rows(J, MinvJT, env, off, A)
+        for r in range(m):
+            s = aref[env, r]
+            for c in range(off, K):
+                s = s - J[env, r, c] * nu_dot[env, c]
+            rhs[env, r] = s
+            A[env, r, r] = A[env, r, r] + R[env, r]
+        C.factor(A, env, 0, m, scalar(-1.0), LA)
+        return base_damper, m
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def equality_solve(
+        model: B.Model,
+        eq: Equalities,
+        x: B.State,
+        J: wp.array3d(dtype=scalar),
+        aref: wp.array2d(dtype=scalar),
+        R: wp.array2d(dtype=scalar),
+        M: wp.array3d(dtype=scalar),
+        a_free: wp.array2d(dtype=scalar),
+        implicit_dt: scalar,
+        # scratch: L (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w, u, v (N, max(m, K))
+        L: wp.array3d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar),
+        A: wp.array3d(dtype=scalar),
+        LA: wp.array3d(dtype=scalar),
+        y: wp.array2d(dtype=scalar),
+        rhs: wp.array2d(dtype=scalar),
+        w: wp.array2d(dtype=scalar),
+        u: wp.array2d(dtype=scalar),
+        v: wp.array2d(dtype=scalar),
+        # output
+        nu_dot: wp.array2d(dtype=scalar),
+    ):
+        """nu_dot (N, K = 6 + nv): the constrained accelerations (Inertial base) from `equality_rows`' outputs, ABA's
+        a_free (N, K) and the mass matrix M (N, K, K) (Inertial base); implicit_dt: dt for MuJoCo's implicit joint
+        damping, else 0. A fixed base's DoFs (the first six) are not solved for."""
+        env = wp.tid()
+        K = M.shape[1]
+        off = 6
+        if model.floating_base != 0:
+            off = 0
+        base_damper, m = free_accelerations(model, eq, x, J, aref, R, M, a_free, implicit_dt, env, off, L, MinvJT, A, LA, rhs, w, nu_dot)
+        C.substitute(LA, env, m, rhs, w, 0)  # f in w[0:m]
+        if implicit_dt > scalar(0.0):  # nu_dot = a0' + (M + dt D)^-1 J^T f
+            for i in range(off, K):
+                s = scalar(0.0)
+                for r in range(m):
+                    s = s + J[env, r, i] * w[env, r]
+                y[env, i] = s
+            E.tree_factor(model, M, env, off, eq.dof_parent, implicit_dt, base_damper, L)
+            E.tree_solve(L, env, off, eq.dof_parent, y)
+            for i in range(off, K):
+                nu_dot[env, i] = a_free[env, i] + y[env, i]
+        else:
+            for i in range(off, K):
+                s = nu_dot[env, i]
+                for r in range(m):
+                    s = s + MinvJT[env, r, i] * w[env, r]
+                nu_dot[env, i] = s
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def equality_solve_adjoint(
+        model: B.Model,
+        eq: Equalities,
+        x: B.State,
+        J: wp.array3d(dtype=scalar),
+        aref: wp.array2d(dtype=scalar),
+        R: wp.array2d(dtype=scalar),
+        M: wp.array3d(dtype=scalar),
+        a_free: wp.array2d(dtype=scalar),
+        implicit_dt: scalar,
+        L: wp.array3d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar),
+        A: wp.array3d(dtype=scalar),
+        LA: wp.array3d(dtype=scalar),
+        y: wp.array2d(dtype=scalar),
+        rhs: wp.array2d(dtype=scalar),
+        w: wp.array2d(dtype=scalar),
+        u: wp.array2d(dtype=scalar),
+        v: wp.array2d(dtype=scalar),
+        nu_dot: wp.array2d(dtype=scalar),
+        # the adjoints: read and zeroed (adj_nu_dot), added into (the rest)
+        adj_nu_dot: wp.array2d(dtype=scalar),
+        adj_J: wp.array3d(dtype=scalar),
+        adj_aref: wp.array2d(dtype=scalar),
+        adj_R: wp.array2d(dtype=scalar),
+        adj_M: wp.array3d(dtype=scalar),
+        adj_a_free: wp.array2d(dtype=scalar),
+    ):
+        """The adjoint of `equality_solve` without implicit damping (the module docstring), its solve recomputed;
+        nu_dot: scratch here (a0)."""
+        env = wp.tid()
+        K = M.shape[1]
+        off = 6
+        if model.floating_base != 0:
+            off = 0
+        base_damper, m = free_accelerations(model, eq, x, J, aref, R, M, a_free, implicit_dt, env, off, L, MinvJT, A, LA, rhs, w, nu_dot)
+        C.substitute(LA, env, m, rhs, w, 0)  # w: f
+        for i in range(K):  # u: M^-1 nudot_bar (solved block), the rest passes to a0
+            u[env, i] = scalar(0.0)
+            g = adj_nu_dot[env, i]
+            adj_a_free[env, i] = adj_a_free[env, i] + g
+            if i >= off:
+                u[env, i] = g
+            adj_nu_dot[env, i] = scalar(0.0)
+        E.tree_solve(L, env, off, eq.dof_parent, u)
+        for r in range(m):  # rhs: fbar = J M^-1 nudot_bar
+            s = scalar(0.0)
+            for i in range(off, K):
+                s = s + J[env, r, i] * u[env, i]
+            rhs[env, r] = s
+        C.substitute(LA, env, m, rhs, y, 0)  # y: bbar
+        for i in range(K):  # v: M^-1 J^T bbar, rhs: M^-1 J^T f (the solved block; 0 elsewhere)
+            s_v = scalar(0.0)
+            s_f = scalar(0.0)
+            if i >= off:
+                for r in range(m):
+                    s_v = s_v + MinvJT[env, r, i] * y[env, r]
+                    s_f = s_f + MinvJT[env, r, i] * w[env, r]
+            v[env, i] = s_v
+            rhs[env, i] = s_f
+        for r in range(m):
+            adj_aref[env, r] = adj_aref[env, r] + y[env, r]
+            adj_R[env, r] = adj_R[env, r] - y[env, r] * w[env, r]
+            for i in range(off, K):
+                adj_J[env, r, i] = adj_J[env, r, i] + w[env, r] * (u[env, i] - v[env, i]) - y[env, r] * (nu_dot[env, i] + rhs[env, i])
+        for i in range(off, K):
+            s = scalar(0.0)
+            for r in range(m):
+                s = s + J[env, r, i] * y[env, r]
+            adj_a_free[env, i] = adj_a_free[env, i] - s
+        for r in range(off, K):
+            for c in range(off, K):
+                adj_M[env, r, c] = adj_M[env, r, c] + scalar(0.5) * ((v[env, r] - u[env, r]) * rhs[env, c] + rhs[env, r] * (v[env, c] - u[env, c]))
+
+    return types.SimpleNamespace(equality_rows=equality_rows, equality_solve=equality_solve, equality_solve_adjoint=equality_solve_adjoint)
