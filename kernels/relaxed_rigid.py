@@ -46,7 +46,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         mid = law.midpoint
         pw = law.power
         y = scalar(0.0)
-        if x < mid:
+        if x > scalar(0.0) and x < mid:  # x = 0: y = 0 (pow's derivative there is infinite for a power below 1)
             y = wp.pow(x, pw) / wp.pow(mid, pw - one)
         elif x <= one:
             y = one - wp.pow(one - x, pw) / wp.pow(one - mid, pw - one)
@@ -116,7 +116,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                 RC.point_row(J_t, Jdotnu_t, a_free, env, c, k, active, J, b)
                 k = k + 1
         m = 3 * k
-        RC.delassus(model, M, J, env, m, M64, Lm, MinvJT, y, w, A)
+        if m > 0:  # an environment out of contact factorises nothing
+            RC.delassus(model, M, J, env, m, M64, Lm, MinvJT, y, w, A)
         for i in range(k):
             c = active[env, i]
             for r in range(3):

@@ -367,7 +367,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                 point_row(J_t, Jdotnu_t, a_free, env, c, k, active, J, q)
                 k = k + 1
         n = 3 * k
-        delassus(model, M, J, env, n, M64, Lm, MinvJT, y, w, Q)
+        if n > 0:  # an environment out of contact factorises nothing
+            delassus(model, M, J, env, n, M64, Lm, MinvJT, y, w, Q)
         scale = f64(1.0)
         for i in range(k):
             c = active[env, i]
@@ -538,10 +539,11 @@ def kernels(scalar) -> types.SimpleNamespace:
         adj_friction: wp.array(dtype=scalar),
     ):
         """The adjoint of `rigid_solve` (its QP solved again; OptNet's differentiation of the KKT conditions
-        Q x + q + G^T z = 0, z ∘ G x = 0 at the solution): u = (Q + G^T S^-1 Z G)^-1 x̄ (the interior point's
-        Newton matrix at the final s, z) and v = -S^-1 G u give adj q = -u, so adj beta = u and, by
-        kernels/rigid_contacts.py's `rows_adjoint` with g = u, adj J, J̇ν, M, a_free; adj G = diag(z) (v x^T - 1 u^T)
-        gives adj mu = -sum over the friction rows of z_j (v_j x_z - u_z) (G's -mu entries)."""
+        Q x + q + G^T z = 0, z ∘ G x = 0 at the solution, its active constraints, rows whose dual z_j exceeds their
+        slack s_j, held): u = (Q + W G_A^T G_A)^-1 x̄ with W = ACTIVE_PENALTY times Q's largest diagonal entry (the
+        equality-constrained KKT solve to 1e-8) gives adj q = -u, so adj beta = u and, by `rows_adjoint` with g = u,
+        adj J, J̇ν, M, a_free; adj G = -W (G_A u) x^T - z u^T on the active rows gives adj mu = sum over the active
+        friction rows of W (g_j . u) x_z + z_j u_z (G's -mu entries)."""
         env = wp.tid()
         mu = f64(friction[env])
         n, scale = qp_system(model, law, J_t, Jdotnu_t, M, a_free, depth, beta, env, active, J, MinvJT, M64, Lm, Q, q, y, w)

@@ -135,11 +135,12 @@ register_forces(RelaxedRigidContacts, solved_contact_forces)
 
 def rigid_impact(model, data):
     """RigidContacts.update_velocity_after_impact: a copy of the data after the impact at its state (the stage's
-    `after_step` on the copy's arrays)."""
+    `after_step` on the copy's arrays; under a wp.Tape its adjoint is registered where gradients are required)."""
     current, N = prepare(model, data, parameters=False)
     out = data.copy()
     if current.contacts:
-        ev = Evaluation(current, N, False, False, None, aba=False)
+        grad = data.requires_grad or model.parameters_require_grad()
+        ev = Evaluation(current, N, grad, False, None, aba=False)
         run(current.contact_stage.after_step(current, ev, state_bundle(current.scalar, state_arrays(out)), N), current.device)
     return out
 

@@ -60,13 +60,13 @@ def no_adjoint() -> None:
 def run(launches, device) -> None:
     """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them, or, for a
     Launch with a hand-written `adjoint`, that adjoint)."""
+    taping = warp_private.recording_tape() is not None
     for item in launches:
-        if item.adjoint is not None:
+        if item.adjoint is not None and taping:
             with suspended() as recording:
                 launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
-            if recording is not None:
-                arrays = [a for a in (*item.inputs, *item.outputs) if isinstance(a, wp.array) and a.grad is not None]
-                recording.record_func(backward=item.adjoint, arrays=arrays)
+            arrays = [a for a in (*item.inputs, *item.outputs) if isinstance(a, wp.array) and a.grad is not None]
+            recording.record_func(backward=item.adjoint, arrays=arrays)
             continue
         launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
 
