@@ -5,11 +5,12 @@ equality constraints), in three launches, one thread per environment:
   aref = -b J nu - k imp r - J̇ν and regularisation R (m,);
 - `equality_solve`: f = (J M^-1 J^T + diag(R))^-1 (aref - J a0) and nu_dot = a0 + M^-1 J^T f, or with MuJoCo's
   implicit joint damping the explicit a0 = a0' + dt M^-1 D a0' and nu_dot = a0' + (M + dt D)^-1 J^T f;
-- `equality_solve_adjoint`: its adjoint, written by hand (the implicit function theorem; without implicit damping,
-  whose steps the engine refuses under a tape), registered on the tape by the engine (warpdyn.engine.launch's
-  Launch.adjoint). With w = M^-1 nudot_bar, fbar = J w, bbar = A^-1 fbar, u = M^-1 J^T f and v = M^-1 J^T bbar (the
-  solved block): adj a0 = nudot_bar - J^T bbar, adj aref = bbar, adj R = -bbar f, adj J = f w^T - bbar (a0 + u)^T
-  - f v^T, adj M = sym((v - w) u^T).
+- `equality_solve_adjoint`: its adjoint, written by hand (the implicit function theorem; with implicit damping, the
+  joints' only: a floating base's damper, and gradients of the damping, are refused under a tape by the engine),
+  registered on the tape by the engine (warpdyn.engine.launch's Launch.adjoint). Without damping: with
+  w = M^-1 nudot_bar, fbar = J w, bbar = A^-1 fbar, u = M^-1 J^T f and v = M^-1 J^T bbar (the solved block),
+  adj a0 = nudot_bar - J^T bbar, adj aref = bbar, adj R = -bbar f, adj J = f (w - v)^T - bbar (a0 + u)^T,
+  adj M = sym((v - w) u^T); `equality_solve_adjoint` gives the damped terms.
 """
 
 import types
@@ -184,7 +185,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         w: wp.array2d(dtype=scalar),
         u: wp.array2d(dtype=scalar),
         v: wp.array2d(dtype=scalar),
-        nu_dot: wp.array2d(dtype=scalar),
+        a0: wp.array2d(dtype=scalar),
+        t: wp.array2d(dtype=scalar),
         # the adjoints: read and zeroed (adj_nu_dot), added into (the rest)
         adj_nu_dot: wp.array2d(dtype=scalar),
         adj_J: wp.array3d(dtype=scalar),
@@ -193,24 +195,36 @@ def kernels(scalar) -> types.SimpleNamespace:
         adj_M: wp.array3d(dtype=scalar),
         adj_a_free: wp.array2d(dtype=scalar),
     ):
-        """The adjoint of `equality_solve` without implicit damping (the module docstring), its solve recomputed;
-        nu_dot: scratch here (a0)."""
+        """The adjoint of `equality_solve` (the module docstring), its solve recomputed (a0, t: scratch). With
+        MuJoCo's implicit joint damping (h = implicit_dt, D the joints' damping; a floating base's damper is refused
+        under a tape, and so are gradients of the damping): g = (M + h D)^-1 nudot_bar, y_h = (M + h D)^-1 J^T f, and
+        adj a0' = nudot_bar - J^T bbar - h D v, adj J = f (g - v)^T - bbar (a0 + u)^T,
+        adj M = sym(v (u + a0 - a0')^T - g y_h^T); without it g = w, y_h = u, a0 = a0'."""
         env = wp.tid()
         K = M.shape[1]
         off = 6
         if model.floating_base != 0:
             off = 0
-        base_damper, m = free_accelerations(model, eq, x, J, aref, R, M, a_free, implicit_dt, env, off, L, MinvJT, A, LA, rhs, w, nu_dot)
+        parent = eq.dof_parent
+        base_damper, m = free_accelerations(model, eq, x, J, aref, R, M, a_free, implicit_dt, env, off, L, MinvJT, A, LA, rhs, w, a0)
         C.substitute(LA, env, m, rhs, w, 0)  # w: f
-        for i in range(K):  # u: M^-1 nudot_bar (solved block), the rest passes to a0
-            u[env, i] = scalar(0.0)
+        for i in range(K):  # u: nudot_bar on the solved block (the rest passes to a0'), t: J^T f
             g = adj_nu_dot[env, i]
             adj_a_free[env, i] = adj_a_free[env, i] + g
+            adj_nu_dot[env, i] = scalar(0.0)
+            u[env, i] = scalar(0.0)
+            t[env, i] = scalar(0.0)
             if i >= off:
                 u[env, i] = g
-            adj_nu_dot[env, i] = scalar(0.0)
-        E.tree_solve(L, env, off, eq.dof_parent, u)
-        for r in range(m):  # rhs: fbar = J M^-1 nudot_bar
+                s = scalar(0.0)
+                for r in range(m):
+                    s = s + J[env, r, i] * w[env, r]
+                t[env, i] = s
+        if implicit_dt > scalar(0.0):
+            E.tree_factor(model, M, env, off, parent, implicit_dt, base_damper, L)  # L: M + h D
+        E.tree_solve(L, env, off, parent, u)  # u: g
+        E.tree_solve(L, env, off, parent, t)  # t: y_h
+        for r in range(m):  # rhs: fbar = J g
             s = scalar(0.0)
             for i in range(off, K):
                 s = s + J[env, r, i] * u[env, i]
@@ -229,14 +243,18 @@ def kernels(scalar) -> types.SimpleNamespace:
             adj_aref[env, r] = adj_aref[env, r] + y[env, r]
             adj_R[env, r] = adj_R[env, r] - y[env, r] * w[env, r]
             for i in range(off, K):
-                adj_J[env, r, i] = adj_J[env, r, i] + w[env, r] * (u[env, i] - v[env, i]) - y[env, r] * (nu_dot[env, i] + rhs[env, i])
+                adj_J[env, r, i] = adj_J[env, r, i] + w[env, r] * (u[env, i] - v[env, i]) - y[env, r] * (a0[env, i] + rhs[env, i])
         for i in range(off, K):
             s = scalar(0.0)
             for r in range(m):
                 s = s + J[env, r, i] * y[env, r]
+            if i >= 6 and implicit_dt > scalar(0.0):
+                s = s + implicit_dt * B.joint_parameter(model.damping, env, i - 6) * v[env, i]
             adj_a_free[env, i] = adj_a_free[env, i] - s
         for r in range(off, K):
             for c in range(off, K):
-                adj_M[env, r, c] = adj_M[env, r, c] + scalar(0.5) * ((v[env, r] - u[env, r]) * rhs[env, c] + rhs[env, r] * (v[env, c] - u[env, c]))
+                shift_r = rhs[env, r] + a0[env, r] - a_free[env, r]
+                shift_c = rhs[env, c] + a0[env, c] - a_free[env, c]
+                adj_M[env, r, c] = adj_M[env, r, c] + scalar(0.5) * (v[env, r] * shift_c + shift_r * v[env, c] - u[env, r] * t[env, c] - t[env, r] * u[env, c])
 
     return types.SimpleNamespace(equality_rows=equality_rows, equality_solve=equality_solve, equality_solve_adjoint=equality_solve_adjoint)

@@ -5,8 +5,7 @@ for connects and welds the links' velocities and bias terms and their anchors' J
 Inertial), and the constrained accelerations into the evaluation's nu_dot. With the model setting
 `equality_projection`, `after_step` ends the step with the post-stabilisation (kernels/equality.py's
 `equality_projection`; SoftContacts only). Differentiable (kernels/equality_solve.py: the rows recorded, the
-solve's adjoint registered by hand) but for MuJoCo's implicit joint damping and the post-stabilisation, whose
-recorded steps are refused (`check_steppable`).
+solve's adjoint registered by hand) but for what `check_steppable` refuses under a tape.
 """
 
 from __future__ import annotations
@@ -58,6 +57,9 @@ class EqualityPlan:
                 "undo the solved contacts' velocities (the rigid impact) and push their points into the ground; use SoftContacts"
             )
         self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
+        # what the solve's adjoint leaves out with MuJoCo's implicit damping (`check_steppable`)
+        self.base_damped = bool(model.floating_base() and np.any(model.parameter_host("base_damping") != 0.0))
+        self.damping = model.parameter("damping")
         kinds = [{"connect": CONNECT, "weld": WELD, "joint": COUPLING, "tendon": COUPLING}[e.kind] for e in tree.equalities]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
@@ -138,8 +140,8 @@ class EqualityPlan:
                 ("M", (K, K), s), ("crba_scratch", (max(nL, plan.n + 1), CRBA_RECORD), s), ("J", (m, K), s), ("aref", (m,), s), ("R", (m,), s),
             )
         }
-        # the solve's scratch: L (K, K), MinvJT (m, K), A and LA (m, m), y, rhs, w, u, v, a0 (width)
-        out["scratch"] = [empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m))] + [empty((width,)) for _ in range(6)]
+        # the solve's scratch: L (K, K), MinvJT (m, K), A and LA (m, m), y, rhs, w, u, v, a0, t (width)
+        out["scratch"] = [empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m))] + [empty((width,)) for _ in range(7)]
         if self.projection_passes:
             out["parent_H_link_next"], out["W_H_L_next"] = (empty((nL,), wp.types.transformation(s)) for _ in range(2))
         return out
@@ -163,7 +165,7 @@ class EqualityPlan:
         adjoint = no_adjoint
         if ev.grad:
             grads = [ev.nu_dot.grad, b["J"].grad, b["aref"].grad, b["R"].grad, b["M"].grad, b["nu_free"].grad]
-            adjoint = functools.partial(launch, self.solve.equality_solve_adjoint, N, [*args, scratch[9], *grads], [], device=plan.device, record_tape=False)
+            adjoint = functools.partial(launch, self.solve.equality_solve_adjoint, N, [*args, *scratch[9:11], *grads], [], device=plan.device, record_tape=False)
         launches.append(Launch(self.solve.equality_solve, N, args, [ev.nu_dot], adjoint=adjoint))
         return launches
 
@@ -210,17 +212,21 @@ def equality_plan(model) -> EqualityPlan | None:
 
 
 def check_steppable(plan, recorded: bool) -> None:
-    """Refuse a recorded step of a constrained model whose solve has no adjoint: MuJoCo's implicit joint damping, the
-    post-stabilisation (`equality_projection`); queries that do not step (contact forces, joint torques) pass."""
+    """Refuse a recorded step of a constrained model where the solve's adjoint leaves something out: with MuJoCo's
+    implicit joint damping, a floating base's free-joint damper (its force depends on the base's pose) and gradients
+    of the damping; the post-stabilisation (`equality_projection`). Queries that do not step pass."""
     if plan.equality is None or not recorded:
         return
-    if float(plan.implicit_dt) > 0.0:
+    eq = plan.equality
+    if float(plan.implicit_dt) > 0.0 and (eq.base_damped or eq.damping.requires_grad):
+        what = "a floating base's free-joint damper" if eq.base_damped else "gradients of the joints' damping"
         raise NotImplementedError(
-            f"a step of '{plan.equality.model_name}' (equality constraints with MuJoCo's implicit joint damping) under a wp.Tape: that "
-            "solve has no adjoint yet; use an explicit integrator (JaxSim's SemiImplicitEuler or RungeKutta4) or step it outside the tape"
+            f"a step of '{eq.model_name}' (equality constraints, MuJoCo's implicit damping with {what}) under a wp.Tape: that "
+            "solve's adjoint leaves it out; use an explicit integrator (JaxSim's SemiImplicitEuler or RungeKutta4, or "
+            "model.implicit_damping = False) or step it outside the tape"
         )
-    if plan.equality.projection_passes:
+    if eq.projection_passes:
         raise NotImplementedError(
-            f"a step of '{plan.equality.model_name}' with model.equality_projection = {plan.equality.projection_passes} under a wp.Tape: "
+            f"a step of '{eq.model_name}' with model.equality_projection = {eq.projection_passes} under a wp.Tape: "
             "the post-stabilisation has no adjoint yet; set model.equality_projection = 0 to differentiate, or step it outside the tape"
         )
