@@ -5,9 +5,8 @@ equality constraints), in three launches, one thread per environment:
   aref = -b J nu - k imp r - J̇ν and regularisation R (m,);
 - `equality_solve`: f = (J M^-1 J^T + diag(R))^-1 (aref - J a0) and nu_dot = a0 + M^-1 J^T f, or with MuJoCo's
   implicit joint damping the explicit a0 = a0' + dt M^-1 D a0' and nu_dot = a0' + (M + dt D)^-1 J^T f;
-- `equality_solve_adjoint`: its adjoint, written by hand (the implicit function theorem; with implicit damping, the
-  joints' only: a floating base's damper, and gradients of the damping, are refused under a tape by the engine),
-  registered on the tape by the engine (warpdyn.engine.launch's Launch.adjoint). Without damping: with
+- `equality_solve_adjoint`: its adjoint, written by hand (the implicit function theorem; with implicit damping,
+  but not with respect to the damping, whose gradients the engine refuses under a tape), registered on the tape by the engine (warpdyn.engine.launch's Launch.adjoint). Without damping: with
   w = M^-1 nudot_bar, fbar = J w, bbar = A^-1 fbar, u = M^-1 J^T f and v = M^-1 J^T bbar (the solved block),
   adj a0 = nudot_bar - J^T bbar, adj aref = bbar, adj R = -bbar f, adj J = f (w - v)^T - bbar (a0 + u)^T,
   adj M = sym((v - w) u^T); `equality_solve_adjoint` gives the damped terms.
@@ -165,6 +164,40 @@ def kernels(scalar) -> types.SimpleNamespace:
                     s = s + MinvJT[env, r, i] * w[env, r]
                 nu_dot[env, i] = s
 
+    @wp.func
+    def damper_form_gradient(p: sp.vec3, a: sp.vec6, b: sp.vec6):
+        """The gradient in p of a^T S(p) b, S = [[I, -[p]x], [[p]x, I - [p]x^2]] (a floating base's implicit damper's
+        metric in MuJoCo's free-joint coordinates, `equality_solve_adjoint`)."""
+        a_l, a_r, b_l, b_r = sp.lin(a), sp.ang(a), sp.lin(b), sp.ang(b)
+        return wp.cross(b_l, a_r) - wp.cross(b_r, a_l) - a_r * wp.dot(p, b_r) - b_r * wp.dot(a_r, p) + scalar(2.0) * p * wp.dot(a_r, b_r)
+
+    @wp.func
+    def base_damper_adjoint(
+        x: B.State, env: int, hd: scalar, g: wp.array2d(dtype=scalar), y_h: wp.array2d(dtype=scalar), v: wp.array2d(dtype=scalar),
+        a_free: wp.array2d(dtype=scalar), adj_a_free: wp.array2d(dtype=scalar), adj_x: B.State,
+    ):
+        """A floating base's implicit damper's terms of `equality_solve_adjoint` (hd = h d): into adj a0' (its base
+        part, -hd S v), the state's base position and its Mixed velocity [p_dot; omega]."""
+        p = wp.transform_get_translation(B.base_pose(x, env))
+        mixed = B.base_velocity_mixed(x, env)
+        g_b = sp.vec6(g[env, 0], g[env, 1], g[env, 2], g[env, 3], g[env, 4], g[env, 5])
+        y_b = sp.vec6(y_h[env, 0], y_h[env, 1], y_h[env, 2], y_h[env, 3], y_h[env, 4], y_h[env, 5])
+        v_b = sp.vec6(v[env, 0], v[env, 1], v[env, 2], v[env, 3], v[env, 4], v[env, 5])
+        a_b = sp.vec6(a_free[env, 0], a_free[env, 1], a_free[env, 2], a_free[env, 3], a_free[env, 4], a_free[env, 5])
+        v_l, v_r = sp.lin(v_b), sp.ang(v_b)
+        S_v = sp.stack(v_l - wp.cross(p, v_r), wp.cross(p, v_l) + v_r - wp.cross(p, wp.cross(p, v_r)))
+        for i in range(6):
+            adj_a_free[env, i] = adj_a_free[env, i] - hd * S_v[i]
+        rho = wp.cross(sp.ang(mixed), sp.lin(mixed))
+        adj_p = -hd * (damper_form_gradient(p, g_b, y_b) + damper_form_gradient(p, v_b, a_b) + wp.cross(rho, v_r))
+        adj_rho = -hd * (v_l + wp.cross(v_r, p))
+        adj_omega = wp.cross(sp.lin(mixed), adj_rho)
+        adj_pdot = wp.cross(adj_rho, sp.ang(mixed))
+        for r in range(3):
+            adj_x.base_position[env, r] = adj_x.base_position[env, r] + adj_p[r]
+            adj_x.base_velocity[env, r] = adj_x.base_velocity[env, r] + adj_pdot[r]
+            adj_x.base_velocity[env, 3 + r] = adj_x.base_velocity[env, 3 + r] + adj_omega[r]
+
     @wp.kernel(module="unique", enable_backward=False)
     def equality_solve_adjoint(
         model: B.Model,
@@ -187,8 +220,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         v: wp.array2d(dtype=scalar),
         a0: wp.array2d(dtype=scalar),
         t: wp.array2d(dtype=scalar),
-        # the adjoints: read and zeroed (adj_nu_dot), added into (the rest)
+        # the adjoints: read and zeroed (adj_nu_dot), added into (the rest: adj_x the state's base position and
+        # velocity, through a floating base's implicit damper)
         adj_nu_dot: wp.array2d(dtype=scalar),
+        adj_x: B.State,
         adj_J: wp.array3d(dtype=scalar),
         adj_aref: wp.array2d(dtype=scalar),
         adj_R: wp.array2d(dtype=scalar),
@@ -196,10 +231,13 @@ def kernels(scalar) -> types.SimpleNamespace:
         adj_a_free: wp.array2d(dtype=scalar),
     ):
         """The adjoint of `equality_solve` (the module docstring), its solve recomputed (a0, t: scratch). With
-        MuJoCo's implicit joint damping (h = implicit_dt, D the joints' damping; a floating base's damper is refused
-        under a tape, and so are gradients of the damping): g = (M + h D)^-1 nudot_bar, y_h = (M + h D)^-1 J^T f, and
-        adj a0' = nudot_bar - J^T bbar - h D v, adj J = f (g - v)^T - bbar (a0 + u)^T,
-        adj M = sym(v (u + a0 - a0')^T - g y_h^T); without it g = w, y_h = u, a0 = a0'."""
+        MuJoCo's implicit damping (h = implicit_dt; D the joints' damping and a floating base's d S(p), S = T^T T =
+        [[I, -[p]x], [[p]x, I - [p]x^2]] in the base's position p; gradients of the damping itself are refused under
+        a tape): g = (M + h D)^-1 nudot_bar, y_h = (M + h D)^-1 J^T f, and adj a0' = nudot_bar - J^T bbar - h D v,
+        adj J = f (g - v)^T - bbar (a0 + u)^T, adj M = sym(v (u + a0 - a0')^T - g y_h^T); the base's damper adds
+        adj p = h d (-grad_p(g^T S y_h) - grad_p(v^T S a0') - rho x v_r) and, through rho = omega x p_dot (its force
+        d T^T (T a0' + [rho; 0])), adj rho = -h d (v_l + v_r x p) into the state's Mixed velocity. Without implicit
+        damping g = w, y_h = u, a0 = a0'."""
         env = wp.tid()
         K = M.shape[1]
         off = 6
@@ -251,6 +289,10 @@ def kernels(scalar) -> types.SimpleNamespace:
             if i >= 6 and implicit_dt > scalar(0.0):
                 s = s + implicit_dt * B.joint_parameter(model.damping, env, i - 6) * v[env, i]
             adj_a_free[env, i] = adj_a_free[env, i] - s
+        if implicit_dt > scalar(0.0) and off == 0:
+            hd = implicit_dt * B.joint_parameter(model.base_damping, env, 0)
+            if hd != scalar(0.0):
+                base_damper_adjoint(x, env, hd, u, t, v, a_free, adj_a_free, adj_x)
         for r in range(off, K):
             for c in range(off, K):
                 shift_r = rhs[env, r] + a0[env, r] - a_free[env, r]

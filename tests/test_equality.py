@@ -599,10 +599,11 @@ def test_constrained_steps_differentiate(name):
 
 
 def test_implicit_damping_differentiates_and_what_has_no_adjoint_is_refused():
-    """With MuJoCo's Euler and its implicit joint damping (the MJCF's integrator) the four-bar's A and B equal central
-    differences (measured 4.8e-9 of the largest entry at h = 3e-7; bound 2e-6). Refused under a tape, naming what
-    differentiates: gradients of the damping and a floating base's free-joint damper with implicit damping, which
-    the solve's adjoint leaves out, and the post-stabilisation."""
+    """With MuJoCo's Euler and its implicit damping (the MJCF's integrator) A and B equal central differences: the
+    four-bar's joint damping (measured 4.8e-9 of the largest entry at h = 3e-7) and a welded box's free-joint damper
+    on a floating base, whose force depends on the base's position and velocity (1.8e-8; 2.6e-8 over 10 steps);
+    bound 2e-6. Refused under a tape, naming what differentiates: gradients of the damping with implicit damping
+    (the solve's adjoint leaves them out) and the post-stabilisation."""
     model = _load(FOUR_BAR)
     assert model.implicit_damping
     data = wd.data.Data.build(model, joint_velocities=np.array([0.4, -0.2, 0.3]))
@@ -612,12 +613,15 @@ def test_implicit_damping_differentiates_and_what_has_no_adjoint_is_refused():
         assert np.abs(exact[key].numpy() - central[key].numpy()).max() <= 2e-6 * np.abs(exact[key].numpy()).max(), key
     marked = model.copy()
     wd.model.parameters_requiring_grad(marked, names=("damping",))
-    with wp.Tape(), pytest.raises(NotImplementedError, match=r"'four-bar' \(equality constraints, MuJoCo's implicit damping with gradients of the joints' damping\)"):
+    with wp.Tape(), pytest.raises(NotImplementedError, match=r"'four-bar' \(equality constraints, MuJoCo's implicit damping with gradients of the damping\)"):
         wd.model.step(marked, data)
     damped = _load(WELDED_BOX.replace("<freejoint/>", '<joint type="free" damping="0.3"/>'))
     assert damped.floating_base() and damped.implicit_damping
-    with wp.Tape(), pytest.raises(NotImplementedError, match=r"implicit damping with a floating base's free-joint damper\) under a wp.Tape.*SemiImplicitEuler"):
-        wd.model.step(damped, wd.data.Data.build(damped, requires_grad=True))
+    moving = wd.data.Data.build(damped, base_linear_velocity=np.array([0.3, -0.1, 0.2]), base_angular_velocity=np.array([0.5, -0.4, 0.3]))
+    for steps in (1, 10):
+        exact = wd.autodiff.transition_matrices(damped, moving, steps=steps)["A"].numpy()
+        central = wd.autodiff.transition_matrices(damped, moving, steps=steps, method="central", h=3e-7)["A"].numpy()
+        assert np.abs(exact - central).max() <= 2e-6 * np.abs(exact).max(), steps
     projected = model.replace(integrator=wd.model.IntegratorType.RungeKutta4)
     projected.equality_projection = 2
     with wp.Tape(), pytest.raises(NotImplementedError, match=r"model.equality_projection = 2 under a wp.Tape.*set model.equality_projection = 0"):

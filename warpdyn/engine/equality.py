@@ -28,6 +28,7 @@ from ..kernels.kinematics import kernels as kinematics_kernels
 from ..types.contact_models import SoftContacts
 from ..types.enums import VelRepr
 from ..types.model_constants import transforms
+from .bundles import state_bundle
 from .kinematics import targets
 from .launch import Launch, launch, no_adjoint
 
@@ -57,9 +58,8 @@ class EqualityPlan:
                 "undo the solved contacts' velocities (the rigid impact) and push their points into the ground; use SoftContacts"
             )
         self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
-        # what the solve's adjoint leaves out with MuJoCo's implicit damping (`check_steppable`)
-        self.base_damped = bool(model.floating_base() and np.any(model.parameter_host("base_damping") != 0.0))
-        self.damping = model.parameter("damping")
+        # what the solve's adjoint leaves out with MuJoCo's implicit damping: gradients of the damping (`check_steppable`)
+        self.dampings = (model.parameter("damping"), model.parameter("base_damping"))
         kinds = [{"connect": CONNECT, "weld": WELD, "joint": COUPLING, "tendon": COUPLING}[e.kind] for e in tree.equalities]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
@@ -164,7 +164,9 @@ class EqualityPlan:
         args = [plan.model, self.bundle, x, b["J"], b["aref"], b["R"], b["M"], b["nu_free"], plan.implicit_dt, *scratch[:9]]
         adjoint = no_adjoint
         if ev.grad:
-            grads = [ev.nu_dot.grad, b["J"].grad, b["aref"].grad, b["R"].grad, b["M"].grad, b["nu_free"].grad]
+            fields = (x.base_position, x.base_quaternion, x.joint_positions, x.base_velocity, x.joint_velocities)
+            adj_x = state_bundle(plan.scalar, [a.grad if a.grad is not None else wp.zeros_like(a) for a in fields] + [None, None])
+            grads = [ev.nu_dot.grad, adj_x, b["J"].grad, b["aref"].grad, b["R"].grad, b["M"].grad, b["nu_free"].grad]
             adjoint = functools.partial(launch, self.solve.equality_solve_adjoint, N, [*args, *scratch[9:11], *grads], [], device=plan.device, record_tape=False)
         launches.append(Launch(self.solve.equality_solve, N, args, [ev.nu_dot], adjoint=adjoint))
         return launches
@@ -212,18 +214,17 @@ def equality_plan(model) -> EqualityPlan | None:
 
 
 def check_steppable(plan, recorded: bool) -> None:
-    """Refuse a recorded step of a constrained model where the solve's adjoint leaves something out: with MuJoCo's
-    implicit joint damping, a floating base's free-joint damper (its force depends on the base's pose) and gradients
-    of the damping; the post-stabilisation (`equality_projection`). Queries that do not step pass."""
+    """Refuse a recorded step of a constrained model where the solve's adjoint leaves something out: gradients of
+    the damping with MuJoCo's implicit damping; the post-stabilisation (`equality_projection`). Queries that do not
+    step pass."""
     if plan.equality is None or not recorded:
         return
     eq = plan.equality
-    if float(plan.implicit_dt) > 0.0 and (eq.base_damped or eq.damping.requires_grad):
-        what = "a floating base's free-joint damper" if eq.base_damped else "gradients of the joints' damping"
+    if float(plan.implicit_dt) > 0.0 and any(d.requires_grad for d in eq.dampings):
         raise NotImplementedError(
-            f"a step of '{eq.model_name}' (equality constraints, MuJoCo's implicit damping with {what}) under a wp.Tape: that "
-            "solve's adjoint leaves it out; use an explicit integrator (JaxSim's SemiImplicitEuler or RungeKutta4, or "
-            "model.implicit_damping = False) or step it outside the tape"
+            f"a step of '{eq.model_name}' (equality constraints, MuJoCo's implicit damping with gradients of the damping) under a "
+            "wp.Tape: that solve's adjoint leaves them out; use an explicit integrator (JaxSim's SemiImplicitEuler or RungeKutta4, "
+            "or model.implicit_damping = False) or step it outside the tape"
         )
     if eq.projection_passes:
         raise NotImplementedError(
