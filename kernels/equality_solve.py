@@ -125,7 +125,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         M: wp.array3d(dtype=scalar),
         a_free: wp.array2d(dtype=scalar),
         implicit_dt: scalar,
-        # scratch: L (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w, u, v (N, max(m, K))
+        # scratch: L (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w (N, max(m, K))
         L: wp.array3d(dtype=scalar),
         MinvJT: wp.array3d(dtype=scalar),
         A: wp.array3d(dtype=scalar),
@@ -133,8 +133,6 @@ def kernels(scalar) -> types.SimpleNamespace:
         y: wp.array2d(dtype=scalar),
         rhs: wp.array2d(dtype=scalar),
         w: wp.array2d(dtype=scalar),
-        u: wp.array2d(dtype=scalar),
-        v: wp.array2d(dtype=scalar),
         # output
         nu_dot: wp.array2d(dtype=scalar),
     ):

@@ -161,13 +161,13 @@ class EqualityPlan:
         rows = [self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], plan.dt, self.refsafe]
         launches.append(Launch(self.solve.equality_rows, N, rows, [b["J"], b["aref"], b["R"]]))
         scratch = b["scratch"]
-        args = [plan.model, self.bundle, x, b["J"], b["aref"], b["R"], b["M"], b["nu_free"], plan.implicit_dt, *scratch[:9]]
+        args = [plan.model, self.bundle, x, b["J"], b["aref"], b["R"], b["M"], b["nu_free"], plan.implicit_dt, *scratch[:7]]
         adjoint = no_adjoint
         if ev.grad:
             fields = (x.base_position, x.base_quaternion, x.joint_positions, x.base_velocity, x.joint_velocities)
             adj_x = state_bundle(plan.scalar, [a.grad if a.grad is not None else wp.zeros_like(a) for a in fields] + [None, None])
             grads = [ev.nu_dot.grad, adj_x, b["J"].grad, b["aref"].grad, b["R"].grad, b["M"].grad, b["nu_free"].grad]
-            adjoint = functools.partial(launch, self.solve.equality_solve_adjoint, N, [*args, *scratch[9:11], *grads], [], device=plan.device, record_tape=False)
+            adjoint = functools.partial(launch, self.solve.equality_solve_adjoint, N, [*args, *scratch[7:11], *grads], [], device=plan.device, record_tape=False)
         launches.append(Launch(self.solve.equality_solve, N, args, [ev.nu_dot], adjoint=adjoint))
         return launches
 
