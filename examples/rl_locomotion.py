@@ -143,9 +143,13 @@ PPO_DEFAULTS = dict(steps_per_env=24, epochs=5, mini_batches=4, learning_rate=1e
 --mini-batches, --learning-rate): Rudin et al.'s."""
 
 
-def train_config(iterations: int, steps_per_env: int = 24, epochs: int = 5, mini_batches: int = 4, learning_rate: float = 1e-3) -> dict:
-    """rsl-rl's configuration: PPO_DEFAULTS' settings as given, the rest Rudin et al.'s (MLP (256, 128, 64) actor and
-    critic with observation normalisation, the adaptive learning rate at a KL of 0.01)."""
+def train_config(iterations: int, **ppo) -> dict:
+    """rsl-rl's configuration: PPO_DEFAULTS' settings, those given in `ppo` replacing them, the rest Rudin et al.'s
+    (MLP (256, 128, 64) actor and critic with observation normalisation, the adaptive learning rate at a KL of 0.01)."""
+    unknown = sorted(set(ppo) - set(PPO_DEFAULTS))
+    if unknown:
+        raise TypeError(f"train_config takes the settings {sorted(PPO_DEFAULTS)}, got {unknown}")
+    steps_per_env, epochs, mini_batches, learning_rate = ({**PPO_DEFAULTS, **ppo}[name] for name in PPO_DEFAULTS)
     mlp = dict(hidden_dims=[256, 128, 64], activation="elu", obs_normalization=True)
     return {
         "num_steps_per_env": steps_per_env,
@@ -203,7 +207,7 @@ def train(
 
     world, rank = _group()
     vec = RslRlVecEnv(env)
-    cfg = train_config(iterations, **{**PPO_DEFAULTS, **(ppo or {})})
+    cfg = train_config(iterations, **(ppo or {}))
     if world > 1:  # rsl-rl's PPO then averages gradients, KL and normaliser statistics over the ranks
         cfg["multi_gpu"] = {"global_rank": rank, "local_rank": torchrun_ranks()[2], "world_size": world}
     quiet = contextlib.redirect_stdout(io.StringIO()) if rank else contextlib.nullcontext()
