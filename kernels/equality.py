@@ -11,7 +11,15 @@ weld: the anchors' bias accelerations; 0 for a coupling, as in MuJoCo):
   quaternions inside), J̇ν = s/2 vec(q1dot* dw q0 + q1* (J̇ν_w1 - J̇ν_w2) q0 + q1* dw q0dot), dw = w1 - w2,
   qdot = 1/2 w q, s the torquescale;
 - coupling: r = L1 - L1_0 - sum_k c_k (L2 - L2_0)^k, J = dL1 - (sum_k k c_k (L2 - L2_0)^(k-1)) dL2, L a joint's
-  position or a fixed tendon's length sum_j coef_j q_j (dL its coefficients on the DoFs).
+  position or a fixed tendon's length sum_j coef_j q_j (dL its coefficients on the DoFs);
+- frame weld (JaxSim's kinematic constraint, jaxsim.rbda.kinematic_constraints): two frames F1, F2 held together,
+  J = J_F1 - J_F2 (their Mixed Jacobians: the origins' linear velocities and the angular ones, world axes),
+  r = [p_F1 - p_F2; R_F2 log(R_F2^T R_F1)], J̇ν = 0 (JaxSim leaves it out), aref = -(K_P r + K_D J nu) and
+  R = its regularisation (JaxSim's 1e-3), no impedance. JaxSim's rotation residual is log(R_F2^T R_F1) itself, in
+  F2's axes, against rows in world axes: its rotational error then obeys e'' + K_D e' + K_P R_F2^T e = 0, unstable
+  once F2 turns more than 76 degrees from the world's axes (K_D = 2 sqrt(K_P); the roots of s^2 + K_D s + K_P
+  e^(i theta) cross the imaginary axis at cos theta = sqrt(5) - 2); warpdyn's residual is that vector in world
+  axes, equal to JaxSim's where F2 keeps the world's axes or the frames' orientations agree.
 MuJoCo's reference acceleration and regularisation (mj_makeImpedance, mj_referenceConstraint): with solref
 (timeconst, dampratio) (timeconst raised to 2 dt, MuJoCo's refsafe, unless disabled; or direct (-stiffness,
 -damping)) and the impedance imp = solimp's function of |r| (of the rows' norm for a connect or weld),
@@ -54,7 +62,8 @@ from .spatial import BALL, FREE, MIXED, spatial
 CONNECT = wp.constant(0)
 COUPLING = wp.constant(1)  # a joint or fixed-tendon coupling
 WELD = wp.constant(2)
-ROWS = {0: 3, 1: 1, 2: 6}
+FRAME_WELD = wp.constant(3)  # JaxSim's weld between two frames (its ConstraintMap's ConstraintType.Weld)
+ROWS = {0: 3, 1: 1, 2: 6, 3: 6}
 """The rows of each kind."""
 
 MIN_VALUE = 1.0e-15
@@ -79,7 +88,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         fixed-tendon coupling's lengths L = sum coef q over its terms (term_q, term_dof, term_coef (T,): position
         address, DoF, coefficient), side 1 its first1 and count1 terms, side 2 its first2 and count2 (0: none),
         their values at qpos0 ref1, ref2, polycoef (E, 5);
-        solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows); dof_parent
+        solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows); a frame
+        weld's gains baumgarte (E, 2) (K_P [1/s^2], K_D [1/s]) and regularization (E,) (its R); dof_parent
         (K = 6 + nv,): each DoF's parent DoF in the tree (the base's six a chain; -1 at a root), for `tree_factor`."""
 
         kind: wp.array(dtype=wp.int32)
@@ -106,6 +116,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         solimp: wp.array2d(dtype=scalar)
         invweight: wp.array(dtype=scalar)
         invweight_rotation: wp.array(dtype=scalar)
+        baumgarte: wp.array2d(dtype=scalar)
+        regularization: wp.array(dtype=scalar)
         dof_parent: wp.array(dtype=wp.int32)
 
     @wp.func
@@ -373,6 +385,15 @@ def kernels(scalar) -> types.SimpleNamespace:
             rotation = sp.vec3(scalar(0.0))
             rate = sp.vec3(scalar(0.0))
             rows = 3
+            if eq.kind[e] == FRAME_WELD:  # the frames' angular rows as they are; no J̇ν (JaxSim's)
+                rows = 6
+                for a in range(3, 6):
+                    for c in range(K):
+                        J[env, row + a, c] = anchor_row(J_t, env, t, link1, link2, a, c)
+                R1 = frame_of(W_H_L, env, link1, eq.Q1[e])
+                R2 = frame_of(W_H_L, env, link2, eq.Q2[e])
+                rotation = wp.quat_rotate(R2, sp.rotation_vector(wp.quat_inverse(R2) * R1))
+                bias = sp.vec6(scalar(0.0))
             if eq.kind[e] == WELD:
                 rows = 6
                 s = eq.torquescale[e]

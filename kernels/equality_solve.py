@@ -2,7 +2,7 @@
 equality constraints), in three launches, one thread per environment:
 
 - `equality_rows` (differentiable: a tape records it): each constraint's rows J (m, K), reference accelerations
-  aref = -b J nu - k imp r - J̇ν and regularisation R (m,);
+  aref = -b J nu - k imp r - J̇ν and regularisation R (m,) (a frame weld's: aref = -(K_P r + K_D J nu), R its own);
 - `equality_solve`: f = (J M^-1 J^T + diag(R))^-1 (aref - J a0) and nu_dot = a0 + M^-1 J^T f, or with MuJoCo's
   implicit joint damping the explicit a0 = a0' + dt M^-1 D a0' and nu_dot = a0' + (M + dt D)^-1 J^T f;
 - `equality_solve_adjoint`: its adjoint, written by hand (the implicit function theorem; with implicit damping, but
@@ -19,7 +19,7 @@ import warp as wp
 
 from .bundles import bundles
 from .cholesky import kernels as cholesky_kernels
-from .equality import MIN_VALUE
+from .equality import FRAME_WELD, MIN_VALUE
 from .equality import kernels as equality_kernels
 from .factory import factory
 from .spatial import MIXED, spatial
@@ -56,14 +56,19 @@ def kernels(scalar) -> types.SimpleNamespace:
         for e in range(eq.kind.shape[0]):
             row = eq.row[e]
             residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 1)
-            imp = E.impedance(eq, e, distance)
-            k_imp, b = E.reference(eq, e, dt, refsafe, imp)
-            for a in range(rows):
-                invweight = eq.invweight[e]
-                if a >= 3:  # a weld's rotation rows
-                    invweight = eq.invweight_rotation[e]
-                aref[env, row + a] = -b * E.row_velocity(J, env, row + a, v_B, x) - k_imp * residual[a] - bias[a]
-                R[env, row + a] = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * invweight / imp)
+            if eq.kind[e] == FRAME_WELD:  # JaxSim's Baumgarte gains and regularisation
+                for a in range(rows):
+                    aref[env, row + a] = -eq.baumgarte[e, 1] * E.row_velocity(J, env, row + a, v_B, x) - eq.baumgarte[e, 0] * residual[a]
+                    R[env, row + a] = eq.regularization[e]
+            else:
+                imp = E.impedance(eq, e, distance)
+                k_imp, b = E.reference(eq, e, dt, refsafe, imp)
+                for a in range(rows):
+                    invweight = eq.invweight[e]
+                    if a >= 3:  # a weld's rotation rows
+                        invweight = eq.invweight_rotation[e]
+                    aref[env, row + a] = -b * E.row_velocity(J, env, row + a, v_B, x) - k_imp * residual[a] - bias[a]
+                    R[env, row + a] = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * invweight / imp)
 
     @wp.func
     def free_accelerations(

@@ -47,7 +47,8 @@ def test_model_queries():
 
 def test_model_build_keywords():
     """build_from_model_description's JaxSim keywords set the settings; Model.build from a parsed description
-    equals it; constraints and parametrized_links (not in warpdyn yet) are refused."""
+    equals it; parametrized_links (not in warpdyn) is refused, constraints that are not a ConstraintMap too (an
+    empty one is none: tests/test_kinematic_constraints.py sets real ones)."""
     terrain = wd.terrain.FlatTerrain.build(height=0.1)
     params = wd.rbda.contacts.SoftContactsParams.build(K=5e4, D=500.0)
     model = _build(
@@ -58,9 +59,11 @@ def test_model_build_keywords():
     assert model.actuation_params.torque_max == 50.0 and model.integrator == wd.model.IntegratorType.RungeKutta4
     built = wd.model.JaxSimModel.build(wd.description.load(HOPPER), time_step=0.002, dtype=np.float64)
     assert built == model and hash(built) == hash(model)
-    for keyword in ("constraints", "parametrized_links"):
-        with pytest.raises(NotImplementedError, match=keyword):
-            _build(HOPPER, **{keyword: ()})
+    with pytest.raises(NotImplementedError, match="parametrized_links"):
+        _build(HOPPER, parametrized_links=())
+    with pytest.raises(TypeError, match="constraints must be a wd.kin_dyn_parameters.ConstraintMap or None, got tuple"):
+        _build(HOPPER, constraints=())
+    assert _build(HOPPER, constraints=wd.kin_dyn_parameters.ConstraintMap()).constraints is None
 
 
 def test_reduce():

@@ -92,7 +92,8 @@ def test_same_and_alias_rows_name_existing_tests_and_objects():
                 problems.append(f"{name}: {status} without a reason")
             continue
         kind, _, what = test.partition(":")
-        known = {"api": api_tests, "parity": parity, "math": math, "contacts": _api_tests("test_contact_models.py")}.get(kind, set())
+        known = {"api": api_tests, "parity": parity, "math": math, "contacts": _api_tests("test_contact_models.py"),
+                 "constraints": _api_tests("test_kinematic_constraints.py")}.get(kind, set())  # fmt: skip
         if what not in known:
             problems.append(f"{name}: its test '{test}' does not exist")
         target = warpdyn_name.strip("`") if warpdyn_name.startswith("`") and warpdyn_name.strip("`").startswith("wd.") else None

@@ -6,9 +6,11 @@ JaxSim, through copies applied with `model.replace(kin_dyn_parameters=...)`, or 
 (`Model.set_link_parameters`, `set_joint_parameters`), which also take one row per environment. JaxSim's
 hardware parametrisation: `HwLinkMetadata` (`hw_link_metadata(model)`), `ScalingFactors` and
 `LinkParametrizableShape` here, `wd.model.update_hw_parameters` (boxes, cylinders and spheres; not meshes).
-JaxSim's kinematic constraints (`ConstraintMap`, `ConstraintType`) are not in warpdyn yet (docs/porting.md).
+JaxSim's kinematic constraints: `ConstraintMap` and `ConstraintType` (welds between frames, warpdyn.types.constraints),
+set as `model.kin_dyn_parameters.constraints`, `model.constraints` or `build_from_model_description(constraints=...)`.
 """
 
+from .types.constraints import ConstraintMap, ConstraintType
 from .types.hardware import HwLinkMetadata, LinkParametrizableShape, ScalingFactors, hw_link_metadata
 from .types.kin_dyn import ContactParameters, FrameParameters, JointModel, JointParameters, KinDynParameters, LinkParameters
 
@@ -23,4 +25,6 @@ __all__ = [
     "LinkParametrizableShape",
     "ScalingFactors",
     "hw_link_metadata",
+    "ConstraintMap",
+    "ConstraintType",
 ]

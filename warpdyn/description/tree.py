@@ -72,7 +72,9 @@ class TreeEquality:
     quaternions (w, x, y, z): body (x) rot in those links' frames); a joint or fixed-tendon coupling's lengths as
     terms1, terms2 ((tree joint index, coef) pairs: one (j, 1) for a joint; terms2 empty: none) and their values
     at qpos0 ref1, ref2; kind, polycoef, solref, solimp, torquescale, invweight and invweight_rotation as the
-    description's."""
+    description's. kind "frame_weld": JaxSim's weld of two frames (warpdyn.types.constraints' ConstraintMap; the
+    frames' origins p1, p2 and orientations Q1, Q2 in their links), with baumgarte (K_P [1/s^2], K_D [1/s]) and
+    regularization (the rows' R) instead of solref, solimp and invweight."""
 
     name: str
     kind: str
@@ -92,6 +94,8 @@ class TreeEquality:
     solref: np.ndarray = field(default_factory=lambda: np.zeros(2))
     solimp: np.ndarray = field(default_factory=lambda: np.zeros(5))
     invweight: float = 0.0
+    baumgarte: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    regularization: float = 0.0
 
 
 @dataclass

@@ -1,5 +1,6 @@
 """Equality constraints in a step: MJCF connects, welds, and joint and fixed-tendon couplings (warpdyn.description.tree's
-TreeEquality), solved as MuJoCo solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
+TreeEquality), solved as MuJoCo solves them, and JaxSim's kinematic constraints (the model's ConstraintMap: frame
+welds), solved as JaxSim solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
 Inertial base) at a state x, with the link poses of its FK, the launches compute the mass matrix (Inertial base),
 for connects and welds the links' velocities and bias terms and their anchors' Jacobians and J̇ν (Mixed, ν
 Inertial), and the constrained accelerations into the evaluation's nu_dot. With the model setting
@@ -18,7 +19,7 @@ import warp as wp
 from .. import arrays
 from ..kernels.crba import CRBA_RECORD
 from ..kernels.crba import kernels as crba_kernels
-from ..kernels.equality import CONNECT, COUPLING, ROWS, WELD
+from ..kernels.equality import CONNECT, COUPLING, FRAME_WELD, ROWS, WELD
 from ..kernels.equality import kernels as equality_kernels
 from ..kernels.equality import projection_kernels
 from ..kernels.equality_solve import kernels as solve_kernels
@@ -50,7 +51,8 @@ class EqualityPlan:
     def __init__(self, model):
         s, d = model.scalar, model.device
         tree = model.tree
-        self.count, self.model_name = len(tree.equalities), model.name()
+        E = equalities(model)
+        self.count, self.model_name = len(E), model.name()
         self.projection_passes = model.equality_projection  # the post-stabilisation's position passes after each step (0: none)
         if self.projection_passes and not isinstance(model.contact_model, SoftContacts):
             raise NotImplementedError(
@@ -60,10 +62,10 @@ class EqualityPlan:
         self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
         # what the solve's adjoint leaves out with MuJoCo's implicit damping: gradients of the damping (`check_steppable`)
         self.dampings = (model.parameter("damping"), model.parameter("base_damping"))
-        kinds = [{"connect": CONNECT, "weld": WELD, "joint": COUPLING, "tendon": COUPLING}[e.kind] for e in tree.equalities]
+        kinds = [{"connect": CONNECT, "weld": WELD, "frame_weld": FRAME_WELD, "joint": COUPLING, "tendon": COUPLING}[e.kind] for e in E]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
-        anchored = [e for e in tree.equalities if e.kind in ("connect", "weld")]  # two anchors each
+        anchored = [e for e in E if e.kind in ("connect", "weld", "frame_weld")]  # two anchors each
         target_of, t = [], 0
         for kind in kinds:
             target_of.append(t)
@@ -84,7 +86,6 @@ class EqualityPlan:
             shape = (self.count,) if width is None else (self.count, width)
             return wp.array(np.array(values, dtype=np.float64).reshape(shape), dtype=s, device=d)
 
-        E = tree.equalities
         eq.kind = ints(kinds)
         eq.row = ints(rows[:-1])
         eq.target = ints(target_of)
@@ -115,6 +116,8 @@ class EqualityPlan:
         eq.solref = floats([e.solref for e in E], 2)
         eq.solimp = floats([e.solimp for e in E], 5)
         eq.invweight = floats([e.invweight for e in E])
+        eq.baumgarte = floats([e.baumgarte for e in E], 2)
+        eq.regularization = floats([e.regularization for e in E])
         multi = model.multi_dof()
         self.solve, self.projection_kernel = solve_kernels(s), projection_kernels(s, multi).equality_projection
         self.fk = kinematics_kernels(s, multi).forward_kinematics
@@ -206,9 +209,15 @@ def dof_parents(tree, floating: bool) -> np.ndarray:
     return parent
 
 
+def equalities(model) -> list:
+    """The constraints a step enforces (TreeEquality): the description's (MJCF equality constraints), then the
+    model's JaxSim kinematic constraints (`model.constraints`, a ConstraintMap) as frame welds."""
+    return list(model.tree.equalities) + (model.constraints.tree_equalities(model) if model.constraints is not None else [])
+
+
 def equality_plan(model) -> EqualityPlan | None:
     """The model's EqualityPlan, None without equality constraints."""
-    if not model.tree.equalities:
+    if not model.tree.equalities and model.constraints is None:
         return None
     return EqualityPlan(model)
 

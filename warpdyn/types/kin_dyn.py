@@ -23,6 +23,7 @@ import warp as wp
 from ..description.collidable import CollidablePointsOptions, collidable_points
 from ..description.model import homogeneous
 from ..description.tree import JOINT_PRISMATIC, JOINT_REVOLUTE, KinematicTree
+from .constraints import ConstraintMap
 
 __all__ = ["ContactParameters", "FrameParameters", "JointModel", "JointParameters", "KinDynParameters", "LinkParameters"]
 
@@ -255,7 +256,7 @@ class FrameParameters:
     transform: np.ndarray
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
+@dataclasses.dataclass(eq=False)
 class KinDynParameters:
     """JaxSim's `KinDynParameters`, host-side (NumPy): what scripts ported from JaxSim read.
 
@@ -267,8 +268,11 @@ class KinDynParameters:
     options: the `CollidablePointsOptions` the points were made with.
     link_parameters, joint_parameters (`LinkParameters`, `JointParameters`): the model's link and joint
     parameters when this object was taken from the model (`Model.kin_dyn_parameters`); joint_model
-    (`JointModel`); hw_link_metadata and constraints: None (JaxSim's hardware parametrisation and
-    kinematic constraints are not in warpdyn yet: docs/porting.md).
+    (`JointModel`); hw_link_metadata: None (JaxSim's hardware parametrisation: `hw_link_metadata(model)`);
+    constraints: the model's kinematic constraints (a `ConstraintMap`, or None).
+    Read-only (dataclasses.FrozenInstanceError) but for `constraints`: assigning it on a model's snapshot sets the
+    model's, JaxSim's `with model.editable() as model: model.kin_dyn_parameters.constraints = constraints`
+    (owner: that model; None for other instances).
     Equality and hash, as JaxSim's: the structure (numbers of links and joints, frames, parent and support
     arrays), not the parameters' values.
     The enabled points' link indices also live on the model's device (`enabled_link`, (nc,) int), for the contact
@@ -286,7 +290,30 @@ class KinDynParameters:
     link_parameters: LinkParameters | None = dataclasses.field(default=None, repr=False)
     joint_parameters: JointParameters | None = dataclasses.field(default=None, repr=False)
     hw_link_metadata: None = None
-    constraints: None = None
+    constraints: ConstraintMap | None = None
+    owner: object = dataclasses.field(default=None, repr=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "_sealed", True)
+
+    def __setattr__(self, name: str, value) -> None:
+        if not getattr(self, "_sealed", False):  # the dataclass's __init__
+            object.__setattr__(self, name, value)
+            return
+        if name != "constraints":
+            raise dataclasses.FrozenInstanceError(
+                f"cannot assign to field {name!r}: KinDynParameters is read-only but for `constraints`; change parameters with "
+                "its set_link_mass / set_link_inertia copies and model.replace(kin_dyn_parameters=...), or the model's setters"
+            )
+        if self.owner is not None:
+            self.owner.constraints = value
+            value = self.owner.constraints
+        object.__setattr__(self, name, value)
+
+    def structure_only(self) -> KinDynParameters:
+        """These parameters without the snapshot's parts (joint model, link and joint parameters, constraints, owner):
+        what a model keeps as its structure."""
+        return dataclasses.replace(self, joint_model=None, link_parameters=None, joint_parameters=None, constraints=None, owner=None)
 
     def __eq__(self, other) -> bool:
         return isinstance(other, KinDynParameters) and self._structure() == other._structure()

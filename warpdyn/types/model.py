@@ -202,8 +202,8 @@ class Model(ModelSettings, ModelQueries):
         `<world><gravity>`, any direction), else (0, 0, -9.81): `model.world_gravity`. time_step [s] defaults
         to the description's, else 0.001. terrain, contact_model, contact_params, actuation_params, integrator: the settings
         (defaults: FlatTerrain, SoftContacts, SoftContactsParams(), ActuationParams(), SemiImplicitEuler or
-        MuJoCo's). constraints and parametrized_links: JaxSim's kinematic constraints and hardware
-        parametrisation, not in warpdyn yet (anything but None: NotImplementedError). dtype: np.float32 (the
+        MuJoCo's). constraints: JaxSim's kinematic constraints (a ConstraintMap, its frames found here by name);
+        parametrized_links: not in warpdyn (anything but None: NotImplementedError). dtype: np.float32 (the
         default) or np.float64, the scalar of every computation. device: a Warp device (default: Warp's
         default device, a GPU when there is one). `model.built_from` keeps `model_description`.
 
@@ -259,9 +259,8 @@ class Model(ModelSettings, ModelQueries):
     ) -> Model:
         """Build a model from a parsed description (warpdyn.description.ModelDescription, as `load` returns
         it; JaxSim's `build` takes its own parsed description). Keywords: see `build_from_model_description`."""
-        for name, value in (("constraints", constraints), ("parametrized_links", parametrized_links)):
-            if value is not None:
-                raise NotImplementedError(f"{name}: JaxSim's kinematic constraints and hardware parametrisation are not in warpdyn yet (docs/porting.md)")
+        if parametrized_links is not None:
+            raise NotImplementedError("parametrized_links: warpdyn parametrises every link with a box, cylinder, sphere or capsule (hw_link_metadata); choosing links is not in warpdyn yet")
         if not isinstance(model_description, ModelDescription):
             raise TypeError(f"model_description must be a warpdyn ModelDescription (build_from_model_description reads files), got {type(model_description).__name__}")
         tree = build_tree(model_description, considered_joints)
@@ -280,7 +279,7 @@ class Model(ModelSettings, ModelQueries):
         )
         if gravity is not None:
             model.gravity = -float(gravity)  # JaxSim's keyword: the magnitude, along -z
-        settings = {"terrain": terrain, "contact_model": contact_model, "contact_params": contact_params, "actuation_params": actuation_params, "integrator": integrator}
+        settings = {"terrain": terrain, "contact_model": contact_model, "contact_params": contact_params, "actuation_params": actuation_params, "integrator": integrator, "constraints": constraints}
         model.apply_settings(**{k: v for k, v in settings.items() if v is not None})
         return model
 
@@ -589,17 +588,18 @@ class Model(ModelSettings, ModelQueries):
             position_limit_spring=hosts["joint_limit_spring"].copy(),
             position_limit_damper=hosts["joint_limit_damper"].copy(),
         )
-        return dataclasses.replace(self.kin_dyn_structure(), joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints)
+        return dataclasses.replace(self.kin_dyn_structure(), joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints, constraints=self.constraints, owner=self)
 
     def apply_kin_dyn_parameters(self, params: KinDynParameters) -> None:
-        """Set the link and joint parameters `params` holds (when it has them) and use its collidable points
-        (what `replace(kin_dyn_parameters=...)` does). A ValueError when it is another model's structure."""
+        """Set the link and joint parameters `params` holds (when it has them), its constraints, and use its collidable
+        points (what `replace(kin_dyn_parameters=...)` does). A ValueError when it is another model's structure."""
         if not isinstance(params, KinDynParameters):
             raise TypeError(f"kin_dyn_parameters must be a KinDynParameters, got {type(params).__name__}")
         if params.link_names != self.link_names() or params != self.kin_dyn_structure():
             raise ValueError(f"kin_dyn_parameters describe links {list(params.link_names)[:4]}..., not model '{self.name()}''s structure")
         # its collidable points, on this model's device and in its scalar (params may be another model's)
-        self._kin_dyn = dataclasses.replace(params.with_enabled(self, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
+        self._kin_dyn = params.with_enabled(self, params.contact_parameters.enabled).structure_only()
+        self.constraints = params.constraints
         self.collidable_point_array = None  # the points are params' now, not a kernel's
         self._per_env.pop("collidable_points", None)
         links, joints = params.link_parameters, params.joint_parameters
@@ -619,7 +619,7 @@ class Model(ModelSettings, ModelQueries):
         """A model like this one (its device constants and parameters shared) with other collidable points; point_array (P, nc_all)
         vec3: their positions as a kernel computed them, P = 1 or per environment (params: row 0's), which a step reads."""
         new = self.copy()
-        new.collidable_point_array, new._kin_dyn = point_array, dataclasses.replace(params.with_enabled(new, params.contact_parameters.enabled), joint_model=None, link_parameters=None, joint_parameters=None)
+        new.collidable_point_array, new._kin_dyn = point_array, params.with_enabled(new, params.contact_parameters.enabled).structure_only()
         new._per_env.pop("collidable_points", None)
         if point_array is not None and point_array.shape[0] > 1:  # data of that N only, as per-environment parameters
             new._record_per_env("collidable_points", point_array.shape[0])
@@ -688,7 +688,7 @@ class Model(ModelSettings, ModelQueries):
         W_g = self.world_gravity.numpy().reshape(-1, 3)
         gravity = W_g if "world_gravity" in self._per_env else W_g[0]
         reduced = Model(self.description, tree, model_name=self.model_name, gravity=gravity, time_step=self.time_step, dtype=self.dtype, device=self.device)
-        carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "implicit_damping", "geom_contacts", "equality_projection")
+        carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "implicit_damping", "geom_contacts", "equality_projection", "constraints")
         reduced.apply_settings(**{name: getattr(self, name) for name in carried}, built_from=self.built_from)
         return reduced
 

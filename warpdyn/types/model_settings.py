@@ -13,6 +13,7 @@ import contextlib
 
 import numpy as np
 
+from .constraints import ConstraintMap
 from .contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts
 from .enums import IntegratorType
 from .settings import ActuationParams, RelaxedRigidContactsParams, RigidContactsParams, SoftContactsParams
@@ -91,6 +92,7 @@ REPLACEABLE = (
     "implicit_damping",
     "geom_contacts",
     "equality_projection",
+    "constraints",
     "kin_dyn_parameters",
     "built_from",
 )
@@ -178,6 +180,24 @@ class ModelSettings:
         "under 0.5 % over 9 s, the ball under 2 % a second).",
     )
 
+    _constraints = None
+
+    @property
+    def constraints(self) -> ConstraintMap | None:
+        """JaxSim's kinematic constraints (`model.kin_dyn_parameters.constraints`): a ConstraintMap (welds between
+        frames, warpdyn.types.constraints) or None. A step solves them as JaxSim does, after the contacts, beside an
+        MJCF's equality constraints; `equality_projection` closes them to rounding. Assigning a map made for another
+        model (or before a reduction) finds its frames here by name; an empty map is None."""
+        return self._constraints
+
+    @constraints.setter
+    def constraints(self, value) -> None:
+        if value is not None and not isinstance(value, ConstraintMap):
+            raise TypeError(f"constraints must be a wd.kin_dyn_parameters.ConstraintMap or None, got {type(value).__name__}")
+        value = None if value is None else value.for_model(self)
+        self._constraints = value if value else None
+        self.notify_model_changed()
+
     def _follow_mujoco(self, integrator: str, disabled: frozenset) -> None:
         """MuJoCo's integrator and disable flags (see build_from_model_description)."""
         self.integrator = IntegratorType.RungeKutta4 if integrator == "RK4" else IntegratorType.SemiImplicitEulerSO3
@@ -211,7 +231,7 @@ class ModelSettings:
     def replace(self, validate: bool = True, **kwargs):
         """A copy of the model with the given fields replaced (JaxSim's `model.replace`): time_step, terrain,
         gravity, contact_model, contact_params, actuation_params, integrator, model_name, kin_dyn_parameters
-        (its link and joint parameters and collidable points), built_from, and warpdyn's
+        (its link and joint parameters, collidable points and constraints), constraints, built_from, and warpdyn's
         quaternion_tolerance and implicit_damping. Each value is checked (`validate` is JaxSim's switch of
         its pytree's shape checks; warpdyn checks values always, so it changes nothing). The copy shares the
         device constants and parameter arrays (`Model.copy`)."""
@@ -240,13 +260,14 @@ class ModelSettings:
             raise
 
     def __eq__(self, other) -> bool:
-        """JaxSim's model equality: the same name, time step and kinematic structure (KinDynParameters'
-        equality: links, joints, frames, parent and support arrays; not the parameters' values)."""
+        """JaxSim's model equality: the same name, time step, kinematic constraints and kinematic structure
+        (KinDynParameters' equality: links, joints, frames, parent and support arrays; not the parameters' values)."""
         if not isinstance(other, ModelSettings):
             return NotImplemented
         if self is other:
             return True
-        return (self.model_name, self.time_step) == (other.model_name, other.time_step) and self.kin_dyn_structure() == other.kin_dyn_structure()
+        same = (self.model_name, self.time_step, self.constraints) == (other.model_name, other.time_step, other.constraints)
+        return same and self.kin_dyn_structure() == other.kin_dyn_structure()
 
     def __hash__(self) -> int:
         """The hash of the name and the kinematic structure (what does not change over a model's life; equal
