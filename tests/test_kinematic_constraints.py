@@ -24,7 +24,7 @@ KEYS = ("base_position", "base_quaternion", "joint_positions", "base_velocity", 
 
 
 def _model(name: str, dtype=np.float64):
-    return cc.build(wd, name, dtype=dtype, device="cpu")
+    return cc.build(wd, name, dtype=dtype)
 
 
 @pytest.mark.parametrize("name", list(cc.CASES))
@@ -118,7 +118,7 @@ def test_the_gains_follow_jaxsims_defaults_and_every_way_to_set_a_map():
     idiom), `model.constraints`, `replace(kin_dyn_parameters=...)` or `build_from_model_description(constraints=...)`
     gives the same model; `reduce` keeps it (frames by name); an empty map is none; model equality sees it."""
     model = _model("four_bar")
-    plain = wd.model.JaxSimModel.build_from_model_description(cc.description("four_bar"), dtype=np.float64, device="cpu")
+    plain = wd.model.JaxSimModel.build_from_model_description(cc.description("four_bar"), dtype=np.float64)
     m1, m2 = (wd.frame.name_to_idx(plain, frame_name=f) for f in ("m1", "m2"))
     default = wd.kin_dyn_parameters.ConstraintMap().add_constraint(plain, m1, m2, wd.kin_dyn_parameters.ConstraintType.Weld)
     assert default.K_P.tolist() == [1000.0] and default.K_D[0] == pytest.approx(2.0 * np.sqrt(1000.0))
@@ -126,7 +126,7 @@ def test_the_gains_follow_jaxsims_defaults_and_every_way_to_set_a_map():
     assert model.constraints.K_P.tolist() == [1e4] and model.kin_dyn_parameters.constraints == model.constraints
     assert model != plain
     given = model.constraints
-    built = wd.model.JaxSimModel.build_from_model_description(cc.description("four_bar"), constraints=given, dtype=np.float64, device="cpu")
+    built = wd.model.JaxSimModel.build_from_model_description(cc.description("four_bar"), constraints=given, dtype=np.float64)
     assigned = plain.copy()
     assigned.constraints = given
     replaced = plain.replace(kin_dyn_parameters=dataclasses.replace(plain.kin_dyn_parameters, constraints=given))
@@ -158,7 +158,7 @@ def test_bad_constraints_are_refused_by_name():
                          ({"K_P": [1.0, 2.0]}, r"K_P must be one number, got shape \(2,\)")):  # fmt: skip
         with pytest.raises(ValueError, match=match):
             empty.add_constraint(model, m1, m2, weld, **gains)
-    lumped = wd.model.JaxSimModel.build_from_model_description(cc.description("pendulums"), dtype=np.float64, device="cpu")
+    lumped = wd.model.JaxSimModel.build_from_model_description(cc.description("pendulums"), dtype=np.float64)
     assert "a_tip" in lumped.frame_names()
     pendulum_map = empty.add_constraint(lumped, *(wd.frame.name_to_idx(lumped, frame_name=f) for f in ("a_tip", "b_tip")), weld)
     with pytest.raises(ValueError, match=r"frames \['a_tip', 'b_tip'\] are not frames of model 'four_bar'"):
@@ -174,7 +174,7 @@ def test_a_weld_of_frames_on_one_link_is_refused_or_dropped_by_a_reduction():
     joints between two welded frames drops the weld with a NotModelledWarning naming it."""
     text = cc.description("four_bar").replace('<frame name="m2" attached_to="coupler_2">', '<frame name="m2" attached_to="coupler_1">').replace(
         '<pose relative_to="coupler_2">', '<pose relative_to="coupler_1">')
-    model = wd.model.JaxSimModel.build_from_model_description(text, dtype=np.float64, device="cpu")
+    model = wd.model.JaxSimModel.build_from_model_description(text, dtype=np.float64)
     m1, m2 = (wd.frame.name_to_idx(model, frame_name=f) for f in ("m1", "m2"))
     with pytest.raises(ValueError, match="frames 'm1' and 'm2' of model 'four_bar': both are on link 'coupler_1'"):
         wd.kin_dyn_parameters.ConstraintMap().add_constraint(model, m1, m2, wd.kin_dyn_parameters.ConstraintType.Weld)
