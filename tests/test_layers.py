@@ -11,14 +11,17 @@ test parses every module's imports (ast, no import is executed) and asserts:
 - the leaves (LEAVES: warpdyn.config, warpdyn.assets, warpdyn.engine.warp_private), which every layer may use,
   import nothing of warpdyn (tests/test_warp_private.py checks that warp_private alone reads Warp's internals);
 - no Python file of the project (tests, examples and benchmarks included) is over 700 lines;
-- pyproject.toml installs every package (a non-editable install would otherwise lack one).
+- pyproject.toml installs every package (a non-editable install would otherwise lack one);
+- no kernel loop ends an iteration with `continue` (Warp's adjoint loses that iteration's gradients).
 A module missing from LAYERS fails the test: a new module is placed in a layer on purpose.
 """
 
 import ast
 import pathlib
+import re
 
 import pytest
+import warp as wp
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -242,3 +245,32 @@ def test_pyproject_installs_every_package():
     found = {"warpdyn" + (f".{name}" if name else "") for name in found} | {"warpdyn.kernels"}
     assert set(setuptools["packages"]) == found
     assert setuptools["package-dir"]["warpdyn.kernels"] == "kernels"
+
+
+def test_no_kernel_loop_continues():
+    """No `continue` in kernels/: Warp 1.19's adjoint of a dynamic loop skips the iterations a `continue` ended, so
+    their gradients vanish (JaxSim's frame welds' rows lost theirs: A off by 10 against central differences). The
+    repro below is Warp's behaviour (d/dx of 2x + 2x + 3x + 3x comes out 6, not 10); when Warp differentiates it
+    right, this test says so and the rule can go."""
+    offenders = [f"{p.name}:{i}" for p in sorted((ROOT / "kernels").glob("*.py")) for i, line in enumerate(p.read_text().splitlines(), 1)
+                 if re.match(r"\s*continue\b", line)]  # fmt: skip
+    assert not offenders, f"`continue` in kernels: {offenders}; write the loop's body under if/else"
+
+    @wp.kernel(module="unique")
+    def continued(x: wp.array(dtype=float), kind: wp.array(dtype=int), out: wp.array(dtype=float)):
+        for e in range(kind.shape[0]):
+            if kind[e] == 1:
+                for a in range(2):
+                    out[e * 2 + a] = x[0] * 2.0
+                continue
+            for a in range(2):
+                out[e * 2 + a] = x[0] * 3.0
+
+    x = wp.array([1.0], dtype=float, requires_grad=True)
+    out = wp.zeros(4, dtype=float, requires_grad=True)
+    tape = wp.Tape()
+    with tape:
+        wp.launch(continued, 1, [x, wp.array([1, 0], dtype=int)], [out])
+    tape.backward(grads={out: wp.ones(4, dtype=float)})
+    assert out.numpy().tolist() == [2.0, 2.0, 3.0, 3.0]
+    assert x.grad.numpy()[0] != 10.0, "Warp now differentiates `continue` in dynamic loops: test_no_kernel_loop_continues' rule can go"
