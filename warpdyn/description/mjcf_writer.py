@@ -5,11 +5,13 @@ Each link is a body at its joint's frame in its parent (`pos`, `quat`), with an 
 of mass and full inertia about it, link axes: `inertiafromgeom="false"`, so geoms add nothing) and its joint: a hinge
 or slide through the joint's pivot along its axis, with its position limits (`range`), static friction
 (`frictionloss`), the clamp of its actuators' force (`actuatorfrcrange`), armature, MuJoCo's damper plus the description's viscous friction (`damping`: the same torque
--b qdot, which warpdyn reads back as MuJoCo's damper), spring (`stiffness`, `springref`); a ball joint at its pivot;
+-b qdot, which warpdyn reads back as MuJoCo's damper), spring (`stiffness`, `springref`), its start `ref` (qpos0; the body
+written where the joint is at it); a ball joint at its pivot;
 a floating base's free joint (its armature, damper, spring). The terrain's plane (a flat terrain's, a tilted plane's) is a plane geom, the static
 geoms (the world body's and bodies welded to it) are the worldbody's, and the description's explicit `<pair>`s and
 `<exclude>`s are written back (a body welded to the world is the world). Actuators are MuJoCo's `general` ones with their current affine gain and bias, gear,
-control and force ranges (warpdyn's actuator law is that affine subset). Frames (lumped links and explicit frames) are massless bodies welded where they are;
+control and force ranges (warpdyn's actuator law is that affine subset). Equality constraints are MJCF's: connects and
+welds between sites at their anchors, joint couplings, fixed-tendon couplings between fixed tendons. Frames (lumped links and explicit frames) are massless bodies welded where they are;
 collision shapes are geoms in the body of the link (or frame) that carries them, with their collision filter and
 contact parameters; the base hangs from the world at world_H_base when welded, and starts at the initial pose when
 floating; a mesh is an asset with its vertices inline (an MJCF's) or its file as the description names it (a URDF's
@@ -27,7 +29,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from .model import CollisionShape, ModelDescription, NotModelledWarning, homogeneous, matrix_to_quaternion_wxyz, quaternion_wxyz_to_matrix
+from .model import CollisionShape, ModelDescription, NotModelledWarning, axis_angle_to_matrix, homogeneous, matrix_to_quaternion_wxyz, quaternion_wxyz_to_matrix
 from .tree import JOINT_BALL, JOINT_FREE, JOINT_REVOLUTE, KinematicTree
 from .urdf_writer import numbers
 
@@ -40,6 +42,16 @@ BOUND_MASS, BOUND_INERTIA = 1e-9, 1e-12
 def _pose(element: ET.Element, H: np.ndarray) -> None:
     element.set("pos", numbers(H[:3, 3]))
     element.set("quat", numbers(matrix_to_quaternion_wxyz(H[:3, :3])))
+
+
+def _joint_motion(kind: int, axis, pivot, q: float) -> np.ndarray:
+    """(4, 4): a hinge's rotation by q about `axis` through `pivot`, or a slide's translation by q along `axis` (the
+    child link's frame)."""
+    axis, pivot = np.asarray(axis, dtype=np.float64), np.asarray(pivot, dtype=np.float64)
+    if kind == JOINT_REVOLUTE:
+        R = axis_angle_to_matrix(axis, q)
+        return homogeneous(R, pivot - R @ pivot)
+    return homogeneous(np.eye(3), axis * q)
 
 
 def _mesh_asset(asset: ET.Element, shape: CollisionShape, name: str) -> None:
@@ -132,6 +144,8 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
                                      "frame: MuJoCo's free joints are the world's bodies'")
                 q0 = np.asarray(tree.qpos0, dtype=np.float64)[int(tree.q_start[i]) : int(tree.q_start[i]) + 7]
                 H = homogeneous(quaternion_wxyz_to_matrix(q0[3:]), q0[:3])
+            if kind not in (JOINT_BALL, JOINT_FREE) and tree.qpos0[int(tree.q_start[i])] != 0.0:  # MuJoCo's ref: the body at q = qpos0
+                H = H @ _joint_motion(kind, tree.joint_axis[i], tree.joint_pivot[i], float(tree.qpos0[int(tree.q_start[i])]))
             body = ET.SubElement(parent, "body", name=link_name)
             _pose(body, H)
         bodies[link_name] = body
@@ -159,6 +173,9 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
             if np.isfinite(lower) or np.isfinite(upper):
                 joint.set("range", numbers([lower, upper]))
             joint.set("springref", f"{float(parameters['springref'][j]):.17g}")
+            q0 = float(tree.qpos0[int(tree.q_start[i])])
+            if q0 != 0.0:
+                joint.set("ref", f"{q0:.17g}")
         joint.set("stiffness", f"{float(parameters['stiffness'][j]):.17g}")
         if kind != JOINT_FREE:  # (MuJoCo's free joints may have it; warpdyn's loader does not read it on them)
             joint.set("frictionloss", f"{float(parameters['friction_static'][d]):.17g}")
@@ -206,5 +223,54 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
                 general.set("ctrlrange", numbers(ctrl))
             if np.all(np.isfinite(force)):
                 general.set("forcerange", numbers(force))
+    if tree.equalities:
+        _equalities(mujoco, tree, description, bodies, world)
     ET.indent(mujoco)
     return ET.tostring(mujoco, encoding="unicode")
+
+
+def _equalities(mujoco: ET.Element, tree: KinematicTree, description: ModelDescription, bodies: dict, world: ET.Element) -> None:
+    """The tree's equality constraints as MJCF: a connect or weld between two sites at its anchors (and, for a weld, its
+    frames), MuJoCo's site semantics, each site on the description's body where that body is written (a link or a
+    lumped frame: MuJoCo's invweight of a connect is its bodies'), else on its link's body (the world's for link -1);
+    a joint coupling between its joints; a fixed-tendon coupling between fixed tendons of its terms; each with its
+    solref and solimp (MuJoCo recomputes the invweights from the written model) and, when the description disables
+    it, refsafe off."""
+    if "refsafe" in description.disabled:
+        ET.SubElement(mujoco.find("option"), "flag", refsafe="disable")
+    equality = ET.SubElement(mujoco, "equality")
+    tendons = None
+    described = {d.name: d for d in description.equalities}
+    for e in tree.equalities:
+        common = dict(name=e.name, solref=numbers(e.solref), solimp=numbers(e.solimp))
+        if e.kind in ("connect", "weld"):
+            sites, d = [], described.get(e.name)
+            for side, (link, p, Q) in enumerate(((e.link1, e.p1, e.Q1), (e.link2, e.p2, e.Q2)), 1):
+                body = getattr(d, f"body{side}", None)
+                if body in bodies and link >= 0:  # the description's own body, its anchor and frame in that body
+                    parent, p, Q = bodies[body], getattr(d, f"anchor{side}"), getattr(d, f"rot{side}")
+                else:
+                    parent = world if link < 0 else bodies[tree.link_names[link]]
+                site = ET.SubElement(parent, "site", name=f"{e.name}_anchor{side}")
+                _pose(site, homogeneous(quaternion_wxyz_to_matrix(np.asarray(Q, dtype=np.float64)), np.asarray(p, dtype=np.float64)))
+                sites.append(site.get("name"))
+            element = ET.SubElement(equality, e.kind, site1=sites[0], site2=sites[1], **common)
+            if e.kind == "weld":
+                element.set("torquescale", f"{float(e.torquescale):.17g}")
+        elif e.kind == "joint":
+            element = ET.SubElement(equality, "joint", joint1=tree.joint_names[e.terms1[0][0]], polycoef=numbers(e.polycoef), **common)
+            if e.terms2:
+                element.set("joint2", tree.joint_names[e.terms2[0][0]])
+        else:  # fixed tendons of the coupling's terms
+            tendons = tendons if tendons is not None else ET.SubElement(mujoco, "tendon")
+            names = []
+            for side, terms in enumerate((e.terms1, e.terms2), 1):
+                if not terms:
+                    continue
+                fixed = ET.SubElement(tendons, "fixed", name=f"{e.name}_tendon{side}")
+                for j, coef in terms:
+                    ET.SubElement(fixed, "joint", joint=tree.joint_names[j], coef=f"{float(coef):.17g}")
+                names.append(fixed.get("name"))
+            element = ET.SubElement(equality, "tendon", tendon1=names[0], polycoef=numbers(e.polycoef), **common)
+            if len(names) == 2:
+                element.set("tendon2", names[1])

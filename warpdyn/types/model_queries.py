@@ -115,7 +115,9 @@ class ModelQueries:
         """JaxSim's export: the text of the lumped tree with its current parameters, joint origins, collision shapes and
         frames, which loads back to the same model: URDF (JaxSim's; warpdyn.description.urdf_writer) or, with
         format="mjcf", MJCF (warpdyn.description.mjcf_writer: ball joints, armature, MuJoCo's damper and springs
-        too, for MuJoCo). A ValueError for per-environment parameters and for what the format cannot hold."""
+        too, and the equality constraints, for MuJoCo). A ValueError for per-environment parameters and for what the
+        format cannot hold; a NotModelledWarning names the constraints it leaves out (a URDF's equality constraints,
+        JaxSim's kinematic constraints)."""
         if format not in ("urdf", "mjcf"):
             raise ValueError(f"export_updated_model: format must be 'urdf' or 'mjcf', got {format!r}")
         names = ("link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous")
@@ -127,12 +129,24 @@ class ModelQueries:
             raise ValueError(f"export_updated_model: {per_env} are given per environment; a {format.upper()} file holds one model")
         host = {name: np.asarray(self.parameter(name).numpy(), dtype=np.float64) for name in names}
         welded = None if self.floating_base() else np.asarray(self.description.world_H_base, dtype=np.float64)
+        self._warn_unwritten_constraints(format)
         shapes = [(link.name, link.collisions) for link in self.description.links]
         if format == "mjcf":
             gravity = np.asarray(self.world_gravity.numpy(), dtype=np.float64).reshape(-1, 3)[0]
             return write_mjcf(self.tree, self.description, host, welded, self.time_step, gravity, self._floor())
         return write_urdf(self.name(), self.tree, shapes, host["link_mass"], host["link_com"], host["link_inertia"], host["position_limits"],
                           host["friction_static"], host["friction_viscous"], welded)
+
+    def _warn_unwritten_constraints(self, format: str) -> None:
+        """A NotModelledWarning naming the constraints the exported file will not hold: a URDF's equality constraints
+        (URDF has none), and JaxSim's kinematic constraints in either format (a ConstraintMap's Baumgarte welds are
+        neither; set the map again on the loaded model)."""
+        unwritten = [f"equality constraints {[e.name for e in self.tree.equalities]}"] if format == "urdf" and self.tree.equalities else []
+        if self.constraints is not None:
+            welds = [f"{a} - {b}" for a, b in zip(self.constraints.frame_names_1, self.constraints.frame_names_2)]
+            unwritten.append(f"JaxSim's kinematic constraints (ConstraintMap welds {welds}: set the map again on the loaded model)")
+        if unwritten:
+            warnings.warn(f"export_updated_model: the {format.upper()} does not hold the model's {' nor its '.join(unwritten)}", NotModelledWarning, stacklevel=3)
 
     def _floor(self) -> np.ndarray | None:
         """The pose (4, 4) of the terrain's plane (z up in it) for the MJCF export: a flat terrain's or a plane's; None
