@@ -277,3 +277,15 @@ def test_the_export_names_the_constraints_it_leaves_out():
     for format in ("urdf", "mjcf"):
         with pytest.warns(wd.model.NotModelledWarning, match=rf"the {format.upper()} does not hold the model's JaxSim's kinematic constraints \(ConstraintMap welds \['m1 - m2'\]"):
             welded.export_updated_model(format=format)
+
+
+def test_the_mjcf_export_keeps_refsafe_disabled():
+    """A description that disables MuJoCo's refsafe (the constraints' time constant not raised to 2 dt) is written with
+    the flag off, and loads back with it."""
+    import test_equality as te
+
+    xml = te.FOUR_BAR.replace('<option timestep="0.001" gravity="0 0 -9.81"/>', '<option timestep="0.001" gravity="0 0 -9.81"><flag refsafe="disable"/></option>')
+    model = wd.model.Model.build_from_model_description(xml, dtype=np.float64)
+    assert "refsafe" in model.description.disabled
+    back = wd.model.Model.build_from_model_description(model.export_updated_model(format="mjcf"), dtype=np.float64)
+    assert "refsafe" in back.description.disabled
