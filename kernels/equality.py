@@ -81,8 +81,8 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.struct
     class Equalities:
-        """E constraints, m rows (warpdyn.engine.equality fills it): kind (E,) CONNECT, WELD or COUPLING, row (E,) its
-        first row; a connect's or weld's targets target (E,) (its anchors p1, p2 are the targets target and
+        """E constraints, m rows (warpdyn.engine.equality fills it): kind (E,) CONNECT, WELD, FRAME_WELD or COUPLING,
+        row (E,) its first row; a connect's or weld's targets target (E,) (its anchors p1, p2 are the targets target and
         target + 1 of the step's Targets), link1, link2 (E,) (-1: the world) and anchors p1, p2 (E,) in their
         links' frames; a weld's frames Q1, Q2 (E,) in those links' frames and torquescale (E,); a joint or
         fixed-tendon coupling's lengths L = sum coef q over its terms (term_q, term_dof, term_coef (T,): position
@@ -380,7 +380,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             for a in range(3):
                 for c in range(K):
                     J[env, row + a, c] = anchor_row(J_t, env, t, link1, link2, a, c)
-            if with_rates != 0:
+            if with_rates != 0 and eq.kind[e] != FRAME_WELD:  # (a frame weld's J̇ν is 0: its W_v_WL and Jdotnu_t go unread)
                 bias = anchor_bias(Jdotnu_t, env, t, link1, link2)
             rotation = sp.vec3(scalar(0.0))
             rate = sp.vec3(scalar(0.0))
@@ -393,7 +393,6 @@ def kernels(scalar) -> types.SimpleNamespace:
                 R1 = frame_of(W_H_L, env, link1, eq.Q1[e])
                 R2 = frame_of(W_H_L, env, link2, eq.Q2[e])
                 rotation = wp.quat_rotate(R2, sp.rotation_vector(wp.quat_inverse(R2) * R1))
-                bias = sp.vec6(scalar(0.0))
             if eq.kind[e] == WELD:
                 rows = 6
                 s = eq.torquescale[e]

@@ -114,37 +114,67 @@ def test_welded_steps_differentiate():
 
 
 def test_the_gains_follow_jaxsims_defaults_and_every_way_to_set_a_map():
-    """K_P = 1000 and K_D = 2 sqrt(K_P) unless given; a map set through the snapshot inside `editable` (JaxSim's
-    idiom), `model.constraints`, `replace(kin_dyn_parameters=...)` or `build_from_model_description(constraints=...)`
-    gives the same model; `reduce` keeps it (frames by name); an empty map is none; model equality sees it."""
+    """K_P = 1000 and K_D = 2 sqrt(K_P) unless given (0 allowed, as JaxSim's); a map set through the snapshot inside
+    `editable` (JaxSim's idiom), `model.constraints`, `replace(kin_dyn_parameters=...)`, `replace(constraints=...)` or
+    `build_from_model_description(constraints=...)`, or made of indices alone (JaxSim's fields), gives the same model;
+    a model without constraints has an empty map (JaxSim's default); model equality sees the map."""
     model = _model("four_bar")
     plain = wd.model.JaxSimModel.build_from_model_description(cc.description("four_bar"), dtype=np.float64)
+    assert len(plain.constraints) == 0 and plain.kin_dyn_parameters.constraints.frame_idxs_1.shape == (0,)
     m1, m2 = (wd.frame.name_to_idx(plain, frame_name=f) for f in ("m1", "m2"))
     default = wd.kin_dyn_parameters.ConstraintMap().add_constraint(plain, m1, m2, wd.kin_dyn_parameters.ConstraintType.Weld)
     assert default.K_P.tolist() == [1000.0] and default.K_D[0] == pytest.approx(2.0 * np.sqrt(1000.0))
     assert default.parent_link_idxs_1.tolist() == [plain.link_names().index("coupler_1")]
-    assert model.constraints.K_P.tolist() == [1e4] and model.kin_dyn_parameters.constraints == model.constraints
-    assert model != plain
-    given = model.constraints
+    assert wd.kin_dyn_parameters.ConstraintMap().add_constraint(plain, m1, m2, 0, K_P=0.0).K_D.tolist() == [0.0]
+    given = wd.kin_dyn_parameters.ConstraintMap().add_constraint(plain, m1, m2, wd.kin_dyn_parameters.ConstraintType.Weld, K_P=1e4)
+    assert model.kin_dyn_parameters.constraints == given and model != plain
     built = wd.model.JaxSimModel.build_from_model_description(cc.description("four_bar"), constraints=given, dtype=np.float64)
     assigned = plain.copy()
     assigned.constraints = given
     replaced = plain.replace(kin_dyn_parameters=dataclasses.replace(plain.kin_dyn_parameters, constraints=given))
-    reduced = wd.model.reduce(model, ["A", "B", "C", "D"])
-    for other in (built, assigned, replaced, reduced):
+    beside = plain.replace(kin_dyn_parameters=plain.kin_dyn_parameters, constraints=given)  # the keyword wins
+    indices = plain.replace(constraints=wd.kin_dyn_parameters.ConstraintMap(
+        frame_idxs_1=[m1], frame_idxs_2=[m2], constraint_types=[0], K_P=[1e4], K_D=[200.0], parent_link_idxs_1=[3], parent_link_idxs_2=[4]))
+    for other in (built, assigned, replaced, beside, indices):
         assert other.constraints == given and other == model
-    assert plain.constraints is None  # the copies took it, not the model they came from
+    assert len(plain.constraints) == 0  # the copies took it, not the model they came from
     cleared = model.copy()
-    cleared.constraints = wd.kin_dyn_parameters.ConstraintMap()
-    assert cleared.constraints is None
+    cleared.constraints = None
+    assert len(cleared.constraints) == 0 and cleared == plain
     data = wd.data.Data.build(model, **cc.CASES["four_bar"]["state"])
-    steps = [wd.model.step(m, data).joint_positions.numpy() for m in (model, built, reduced)]
+    steps = [wd.model.step(m, data).joint_positions.numpy() for m in (model, built, indices)]
     assert np.array_equal(steps[0], steps[1]) and np.array_equal(steps[0], steps[2])
 
 
+def test_reduce_finds_the_welded_frames_by_name_and_copies_share_nothing_writable():
+    """A reduction that moves the welded frames' links (the crank's joint locked: the frames' links 3 and 4 become 1
+    and 3) keeps the weld on the same frames: its step equals that of the reduced model given the map directly. The
+    map's arrays are read-only (model copies share it); a copy made from a snapshot is not the model's (assigning its
+    constraints leaves the model as it is), and a snapshot takes a ConstraintMap only."""
+    model = _model("four_bar")
+    reduced = wd.model.reduce(model, ["B", "C", "D"])
+    assert reduced.constraints.parent_link_idxs_1.tolist() == [reduced.link_names().index("coupler_1")] != model.constraints.parent_link_idxs_1.tolist()
+    direct = wd.model.reduce(model.replace(constraints=None), ["B", "C", "D"])
+    direct.constraints = wd.kin_dyn_parameters.ConstraintMap().add_constraint(
+        direct, *(wd.frame.name_to_idx(direct, frame_name=f) for f in ("m1", "m2")), wd.kin_dyn_parameters.ConstraintType.Weld, K_P=1e4)
+    data = wd.data.Data.build(reduced, joint_velocities=np.array([0.5, -0.2, 0.1]))
+    assert np.array_equal(wd.model.step(reduced, data).joint_velocities.numpy(), wd.model.step(direct, data).joint_velocities.numpy())
+    with pytest.raises(ValueError, match="read-only"):
+        model.constraints.K_P[0] = 1.0
+    plain = model.replace(constraints=None)
+    derived = plain.kin_dyn_parameters.set_link_mass(1, 2.0)
+    derived.constraints = model.constraints
+    assert len(plain.constraints) == 0 and derived.constraints == model.constraints
+    with pytest.raises(TypeError, match="kin_dyn_parameters.constraints must be a wd.kin_dyn_parameters.ConstraintMap, got str"):
+        derived.constraints = "welds"
+    with pytest.raises(dataclasses.FrozenInstanceError, match="cannot delete field 'link_names'"):
+        del derived.link_names
+
+
 def test_bad_constraints_are_refused_by_name():
-    """Indices that are not frames, another type, gains that are not positive and finite, two frames of one link, a
-    map whose frames a model lacks, another type assigned, a snapshot's other fields: each refused, naming it."""
+    """Indices that are not frames, another type, gains that are negative or not finite, two frames of one link, a
+    map whose frames a model lacks, fields of different lengths, another type assigned, a snapshot's other fields:
+    each refused, naming it."""
     model = _model("four_bar")
     empty, weld = wd.kin_dyn_parameters.ConstraintMap(), wd.kin_dyn_parameters.ConstraintType.Weld
     m1, m2 = (wd.frame.name_to_idx(model, frame_name=f) for f in ("m1", "m2"))
@@ -154,7 +184,7 @@ def test_bad_constraints_are_refused_by_name():
         empty.add_constraint(model, "m1", m2, weld)
     with pytest.raises(ValueError, match="constraint_type must be ConstraintType.Weld"):
         empty.add_constraint(model, m1, m2, 1)
-    for gains, match in (({"K_P": -1.0}, "K_P must be positive and finite, got -1.0"), ({"K_D": np.nan}, "K_D must be positive and finite"),
+    for gains, match in (({"K_P": -1.0}, "K_P must be non-negative and finite, got -1.0"), ({"K_D": np.nan}, "K_D must be non-negative and finite"),
                          ({"K_P": [1.0, 2.0]}, r"K_P must be one number, got shape \(2,\)")):  # fmt: skip
         with pytest.raises(ValueError, match=match):
             empty.add_constraint(model, m1, m2, weld, **gains)
@@ -165,6 +195,9 @@ def test_bad_constraints_are_refused_by_name():
         model.copy().constraints = pendulum_map
     with pytest.raises(TypeError, match="constraints must be a wd.kin_dyn_parameters.ConstraintMap or None, got dict"):
         model.copy().constraints = {}
+    with pytest.raises(ValueError, match=r"must have one length .*'frame_idxs_1': 2, 'frame_idxs_2': 1.*make maps with add_constraint"):
+        wd.kin_dyn_parameters.ConstraintMap(frame_idxs_1=[m1, m1], frame_idxs_2=[m2], constraint_types=[0], K_P=[1.0], K_D=[1.0],
+                                            parent_link_idxs_1=[3], parent_link_idxs_2=[4])  # fmt: skip
     with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'link_names'"):
         model.kin_dyn_parameters.link_names = ("x",)
 
@@ -180,7 +213,7 @@ def test_a_weld_of_frames_on_one_link_is_refused_or_dropped_by_a_reduction():
         wd.kin_dyn_parameters.ConstraintMap().add_constraint(model, m1, m2, wd.kin_dyn_parameters.ConstraintType.Weld)
     with pytest.warns(wd.model.NotModelledWarning, match=r"'four_bar' holds the frames of the welds \['m1 - m2'\] on one link each"):
         rigid = wd.model.reduce(_model("four_bar"), [])
-    assert rigid.constraints is None
+    assert len(rigid.constraints) == 0
 
 
 def test_welds_in_float32_and_per_environment_states():

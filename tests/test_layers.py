@@ -18,7 +18,6 @@ A module missing from LAYERS fails the test: a new module is placed in a layer o
 
 import ast
 import pathlib
-import re
 
 import pytest
 import warp as wp
@@ -252,8 +251,8 @@ def test_no_kernel_loop_continues():
     their gradients vanish (JaxSim's frame welds' rows lost theirs: A off by 10 against central differences). The
     repro below is Warp's behaviour (d/dx of 2x + 2x + 3x + 3x comes out 6, not 10); when Warp differentiates it
     right, this test says so and the rule can go."""
-    offenders = [f"{p.name}:{i}" for p in sorted((ROOT / "kernels").glob("*.py")) for i, line in enumerate(p.read_text().splitlines(), 1)
-                 if re.match(r"\s*continue\b", line)]  # fmt: skip
+    offenders = [f"{p.name}:{node.lineno}" for p in sorted((ROOT / "kernels").glob("*.py")) for node in ast.walk(ast.parse(p.read_text()))
+                 if isinstance(node, ast.Continue)]  # fmt: skip
     assert not offenders, f"`continue` in kernels: {offenders}; write the loop's body under if/else"
 
     @wp.kernel(module="unique")

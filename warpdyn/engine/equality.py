@@ -75,6 +75,7 @@ class EqualityPlan:
         offsets[:, :3, 3] = [p for e in anchored for p in (e.p1, e.p2)] if anchored else np.zeros((0, 3))
         self.targets = targets(model, wp.array(np.array(links, dtype=int), dtype=int, device=d), transforms(offsets, s, d))
         self.T = len(links)
+        self.rates = any(e.kind in ("connect", "weld") for e in E)  # MuJoCo's J̇ν (the anchors' bias accelerations); frame welds have none
         q_start, v_start = tree.q_start, tree.v_start  # joint j moves link j + 1
         K = equality_kernels(s)
         eq = self.bundle = K.Equalities()
@@ -155,12 +156,12 @@ class EqualityPlan:
         b = ev.equality
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
         launches = [Launch(self.crba, N, [plan.model, x, inertial, b["crba_scratch"]], [b["M"]])]
-        if self.T:  # the anchors of connects and welds
-            launches += [
-                Launch(self.bias.link_bias_recursion, N, [plan.model, ev.W_H_L, x], [b["W_v_WL"], b["W_a_L"]]),
-                Launch(self.jacobians, (N, self.T), [plan.model, self.targets, ev.W_H_L, inertial, mixed], [b["J_t"]]),
-                Launch(self.bias.bias_accelerations, (N, self.T), [self.targets, ev.W_H_L, b["W_v_WL"], b["W_a_L"], inertial, mixed], [b["Jdotnu_t"]]),
-            ]
+        if self.rates:  # the links' velocities (a weld's angular rates) and the anchors' J̇ν
+            launches.append(Launch(self.bias.link_bias_recursion, N, [plan.model, ev.W_H_L, x], [b["W_v_WL"], b["W_a_L"]]))
+        if self.T:  # the anchors of connects and welds, MJCF's and JaxSim's
+            launches.append(Launch(self.jacobians, (N, self.T), [plan.model, self.targets, ev.W_H_L, inertial, mixed], [b["J_t"]]))
+        if self.rates:
+            launches.append(Launch(self.bias.bias_accelerations, (N, self.T), [self.targets, ev.W_H_L, b["W_v_WL"], b["W_a_L"], inertial, mixed], [b["Jdotnu_t"]]))
         rows = [self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], plan.dt, self.refsafe]
         launches.append(Launch(self.solve.equality_rows, N, rows, [b["J"], b["aref"], b["R"]]))
         scratch = b["scratch"]
@@ -212,12 +213,12 @@ def dof_parents(tree, floating: bool) -> np.ndarray:
 def equalities(model) -> list:
     """The constraints a step enforces (TreeEquality): the description's (MJCF equality constraints), then the
     model's JaxSim kinematic constraints (`model.constraints`, a ConstraintMap) as frame welds."""
-    return list(model.tree.equalities) + (model.constraints.tree_equalities(model) if model.constraints is not None else [])
+    return list(model.tree.equalities) + model.constraints.tree_equalities(model)
 
 
 def equality_plan(model) -> EqualityPlan | None:
     """The model's EqualityPlan, None without equality constraints."""
-    if not model.tree.equalities and model.constraints is None:
+    if not model.tree.equalities and not len(model.constraints):
         return None
     return EqualityPlan(model)
 

@@ -39,8 +39,9 @@ class ConstraintMap:
     """Kinematic constraints of a model (JaxSim's `ConstraintMap`): C constraints, each between frames
     frame_idxs_1[c] and frame_idxs_2[c] (frame indices: number_of_links() + k for the k-th of `frame_names()`) on
     links parent_link_idxs_1[c] and parent_link_idxs_2[c], of type constraint_types[c] (ConstraintType.Weld) with
-    Baumgarte gains K_P[c] [1/s^2] and K_D[c] [1/s]; frame_names_1, frame_names_2 (C,) the frames' names. Arrays
-    (C,), NumPy; `add_constraint` returns a new map."""
+    Baumgarte gains K_P[c] [1/s^2] and K_D[c] [1/s]; frame_names_1, frame_names_2 (C,) the frames' names (empty
+    for a map made from indices alone, as JaxSim's may be: a model then reads them from the indices). Arrays (C,),
+    NumPy, read-only (copies shared by model copies); `add_constraint` returns a new map."""
 
     frame_idxs_1: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=int))
     frame_idxs_2: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=int))
@@ -52,8 +53,23 @@ class ConstraintMap:
     frame_names_1: tuple[str, ...] = ()
     frame_names_2: tuple[str, ...] = ()
 
+    def __post_init__(self):
+        sizes = {}
+        for name, kind in (("frame_idxs_1", int), ("frame_idxs_2", int), ("constraint_types", int), ("K_P", float), ("K_D", float),
+                           ("parent_link_idxs_1", int), ("parent_link_idxs_2", int)):  # fmt: skip
+            array = np.array(getattr(self, name), dtype=kind).reshape(-1)
+            array.flags.writeable = False
+            object.__setattr__(self, name, array)
+            sizes[name] = array.size
+        for name in ("frame_names_1", "frame_names_2"):
+            object.__setattr__(self, name, tuple(str(n) for n in getattr(self, name)))
+            if getattr(self, name):
+                sizes[name] = len(getattr(self, name))
+        if len(set(sizes.values())) > 1:
+            raise ValueError(f"a ConstraintMap's fields must have one length (one entry per constraint), got {sizes}; make maps with add_constraint")
+
     def __len__(self) -> int:
-        return len(self.frame_names_1)
+        return len(self.frame_idxs_1)
 
     def __eq__(self, other) -> bool:
         return isinstance(other, ConstraintMap) and self._key() == other._key()
@@ -67,12 +83,12 @@ class ConstraintMap:
     def add_constraint(self, model, frame_idx_1: int, frame_idx_2: int, constraint_type: int, K_P: float | None = None, K_D: float | None = None) -> ConstraintMap:
         """A new map with one more constraint between the frames of indices frame_idx_1 and frame_idx_2 of `model`
         (JaxSim's `add_constraint`): K_P = 1000 [1/s^2] and K_D = 2 sqrt(K_P) [1/s] unless given. An IndexError
-        names an index that is not one of the model's frames; a ValueError an unknown type, gains that are not
-        positive and finite, or two frames on one link (nothing to hold)."""
+        names an index that is not one of the model's frames; a ValueError an unknown type, gains that are negative or
+        not finite, or two frames on one link (nothing to hold; JaxSim accepts them)."""
         if constraint_type != ConstraintType.Weld:
             raise ValueError(f"constraint_type must be ConstraintType.Weld (0), the only type JaxSim 0.9 has, got {constraint_type!r}")
         K_P = 1000.0 if K_P is None else _gain("K_P", K_P)
-        K_D = 2.0 * np.sqrt(K_P) if K_D is None else _gain("K_D", K_D)
+        K_D = 2.0 * np.sqrt(K_P) if K_D is None else _gain("K_D", K_D)  # 0 and 0: no stabilisation, as JaxSim allows
         nL = model.number_of_links()
         rows = [_names.check_idx("frame", model.number_of_frames(), _scalar(i), nL) - nL for i in (frame_idx_1, frame_idx_2)]
         names = [model.frame_names()[r] for r in rows]
@@ -98,7 +114,10 @@ class ConstraintMap:
         """This map on `model`: its frames found by name (a model reduced from the one the map was made for keeps
         its frames' names). A ValueError names a frame the model does not have; a weld whose frames the model holds
         on one link (a reduction locked the joints between them) is dropped with a NotModelledWarning naming it."""
-        frames = list(model.frame_names())
+        frames, nL = list(model.frame_names()), model.number_of_links()
+        if len(self) and not self.frame_names_1:  # a map of indices alone: the frames they index on this model
+            rows = [[_names.check_idx("frame", len(frames), _scalar(i), nL) - nL for i in idx] for idx in (self.frame_idxs_1, self.frame_idxs_2)]
+            return dataclasses.replace(self, frame_names_1=tuple(frames[r] for r in rows[0]), frame_names_2=tuple(frames[r] for r in rows[1])).for_model(model)
         missing = sorted({n for n in (*self.frame_names_1, *self.frame_names_2) if n not in frames})
         if missing:
             raise ValueError(f"the ConstraintMap's frames {missing} are not frames of model '{model.name()}' (its frames: {frames})")
@@ -108,7 +127,7 @@ class ConstraintMap:
             if model.tree.frame_parent[rows[0]] == model.tree.frame_parent[rows[1]]:
                 rigid.append(f"{self.frame_names_1[c]} - {self.frame_names_2[c]}")
                 continue
-            idx = [model.number_of_links() + r for r in rows]
+            idx = [nL + r for r in rows]
             new = new.add_constraint(model, idx[0], idx[1], int(self.constraint_types[c]), float(self.K_P[c]), float(self.K_D[c]))
         if rigid:
             warnings.warn(f"model '{model.name()}' holds the frames of the welds {rigid} on one link each (their joints are locked): the welds are dropped",
@@ -142,6 +161,6 @@ def _gain(name: str, value) -> float:
     if array.size != 1:
         raise ValueError(f"{name} must be one number, got shape {array.shape}")
     gain = float(array.reshape(()))
-    if not np.isfinite(gain) or gain <= 0.0:
-        raise ValueError(f"{name} must be positive and finite, got {gain}")
+    if not np.isfinite(gain) or gain < 0.0:
+        raise ValueError(f"{name} must be non-negative and finite, got {gain}")
     return gain

@@ -269,10 +269,10 @@ class KinDynParameters:
     link_parameters, joint_parameters (`LinkParameters`, `JointParameters`): the model's link and joint
     parameters when this object was taken from the model (`Model.kin_dyn_parameters`); joint_model
     (`JointModel`); hw_link_metadata: None (JaxSim's hardware parametrisation: `hw_link_metadata(model)`);
-    constraints: the model's kinematic constraints (a `ConstraintMap`, or None).
-    Read-only (dataclasses.FrozenInstanceError) but for `constraints`: assigning it on a model's snapshot sets the
-    model's, JaxSim's `with model.editable() as model: model.kin_dyn_parameters.constraints = constraints`
-    (owner: that model; None for other instances).
+    constraints: the model's kinematic constraints (a `ConstraintMap`, empty when none, as JaxSim's).
+    Read-only (dataclasses.FrozenInstanceError) but for `constraints`: assigning it on the snapshot a model's
+    `kin_dyn_parameters` returned sets the model's too, JaxSim's `with model.editable() as model:
+    model.kin_dyn_parameters.constraints = constraints` (copies made from the snapshot are not the model's).
     Equality and hash, as JaxSim's: the structure (numbers of links and joints, frames, parent and support
     arrays), not the parameters' values.
     The enabled points' link indices also live on the model's device (`enabled_link`, (nc,) int), for the contact
@@ -290,11 +290,16 @@ class KinDynParameters:
     link_parameters: LinkParameters | None = dataclasses.field(default=None, repr=False)
     joint_parameters: JointParameters | None = dataclasses.field(default=None, repr=False)
     hw_link_metadata: None = None
-    constraints: ConstraintMap | None = None
-    owner: object = dataclasses.field(default=None, repr=False)
+    constraints: ConstraintMap = dataclasses.field(default_factory=ConstraintMap)
 
     def __post_init__(self):
+        object.__setattr__(self, "_owner", None)  # the model whose snapshot this is (`owned_by`); copies have none
         object.__setattr__(self, "_sealed", True)
+
+    def owned_by(self, model) -> KinDynParameters:
+        """This object as `model`'s snapshot: assigning its `constraints` sets the model's."""
+        object.__setattr__(self, "_owner", model)
+        return self
 
     def __setattr__(self, name: str, value) -> None:
         if not getattr(self, "_sealed", False):  # the dataclass's __init__
@@ -305,15 +310,20 @@ class KinDynParameters:
                 f"cannot assign to field {name!r}: KinDynParameters is read-only but for `constraints`; change parameters with "
                 "its set_link_mass / set_link_inertia copies and model.replace(kin_dyn_parameters=...), or the model's setters"
             )
-        if self.owner is not None:
-            self.owner.constraints = value
-            value = self.owner.constraints
+        if not isinstance(value, ConstraintMap):
+            raise TypeError(f"kin_dyn_parameters.constraints must be a wd.kin_dyn_parameters.ConstraintMap, got {type(value).__name__}")
+        if self._owner is not None:
+            self._owner.constraints = value
+            value = self._owner.constraints
         object.__setattr__(self, name, value)
 
+    def __delattr__(self, name: str) -> None:
+        raise dataclasses.FrozenInstanceError(f"cannot delete field {name!r}: KinDynParameters is read-only")
+
     def structure_only(self) -> KinDynParameters:
-        """These parameters without the snapshot's parts (joint model, link and joint parameters, constraints, owner):
-        what a model keeps as its structure."""
-        return dataclasses.replace(self, joint_model=None, link_parameters=None, joint_parameters=None, constraints=None, owner=None)
+        """These parameters without the snapshot's parts (joint model, link and joint parameters, constraints): what
+        a model keeps as its structure."""
+        return dataclasses.replace(self, joint_model=None, link_parameters=None, joint_parameters=None, constraints=ConstraintMap())
 
     def __eq__(self, other) -> bool:
         return isinstance(other, KinDynParameters) and self._structure() == other._structure()

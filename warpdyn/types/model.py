@@ -588,7 +588,7 @@ class Model(ModelSettings, ModelQueries):
             position_limit_spring=hosts["joint_limit_spring"].copy(),
             position_limit_damper=hosts["joint_limit_damper"].copy(),
         )
-        return dataclasses.replace(self.kin_dyn_structure(), joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints, constraints=self.constraints, owner=self)
+        return dataclasses.replace(self.kin_dyn_structure(), joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints, constraints=self.constraints).owned_by(self)
 
     def apply_kin_dyn_parameters(self, params: KinDynParameters) -> None:
         """Set the link and joint parameters `params` holds (when it has them), its constraints, and use its collidable

@@ -142,7 +142,7 @@ class ModelQueries:
         (URDF has none), and JaxSim's kinematic constraints in either format (a ConstraintMap's Baumgarte welds are
         neither; set the map again on the loaded model)."""
         unwritten = [f"equality constraints {[e.name for e in self.tree.equalities]}"] if format == "urdf" and self.tree.equalities else []
-        if self.constraints is not None:
+        if len(self.constraints):
             welds = [f"{a} - {b}" for a, b in zip(self.constraints.frame_names_1, self.constraints.frame_names_2)]
             unwritten.append(f"JaxSim's kinematic constraints (ConstraintMap welds {welds}: set the map again on the loaded model)")
         if unwritten:

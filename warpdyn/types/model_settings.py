@@ -180,22 +180,22 @@ class ModelSettings:
         "under 0.5 % over 9 s, the ball under 2 % a second).",
     )
 
-    _constraints = None
+    _constraints = ConstraintMap()
 
     @property
-    def constraints(self) -> ConstraintMap | None:
-        """JaxSim's kinematic constraints (`model.kin_dyn_parameters.constraints`): a ConstraintMap (welds between
-        frames, warpdyn.types.constraints) or None. A step solves them as JaxSim does, after the contacts, beside an
-        MJCF's equality constraints; `equality_projection` closes them to rounding. Assigning a map made for another
-        model (or before a reduction) finds its frames here by name; an empty map is None."""
+    def constraints(self) -> ConstraintMap:
+        """JaxSim's kinematic constraints (`model.kin_dyn_parameters.constraints`): a ConstraintMap of welds between
+        frames (warpdyn.types.constraints), empty when none (JaxSim's default). A step solves them as JaxSim does,
+        after the contacts, beside an MJCF's equality constraints; `equality_projection` closes them to rounding.
+        Assigning a map made for another model (or before a reduction) finds its frames here by name; None is an
+        empty map."""
         return self._constraints
 
     @constraints.setter
     def constraints(self, value) -> None:
         if value is not None and not isinstance(value, ConstraintMap):
             raise TypeError(f"constraints must be a wd.kin_dyn_parameters.ConstraintMap or None, got {type(value).__name__}")
-        value = None if value is None else value.for_model(self)
-        self._constraints = value if value else None
+        self._constraints = ConstraintMap() if value is None else value.for_model(self)
         self.notify_model_changed()
 
     def _follow_mujoco(self, integrator: str, disabled: frozenset) -> None:
@@ -221,10 +221,10 @@ class ModelSettings:
         if unknown:
             raise TypeError(f"unknown model fields {unknown}; known: {list(REPLACEABLE)}")
         kin_dyn = values.pop("kin_dyn_parameters", None)
+        if kin_dyn is not None:  # first: its constraints give way to a `constraints` given beside it
+            self.apply_kin_dyn_parameters(kin_dyn)
         for name, value in values.items():
             setattr(self, name, _name(value) if name == "model_name" else value)
-        if kin_dyn is not None:
-            self.apply_kin_dyn_parameters(kin_dyn)
         if "contact_model" in values and "contact_params" not in values and not isinstance(self.contact_params, self.contact_model.parameters_class):
             self.contact_params = self.contact_model.parameters_class()
 
@@ -260,8 +260,9 @@ class ModelSettings:
             raise
 
     def __eq__(self, other) -> bool:
-        """JaxSim's model equality: the same name, time step, kinematic constraints and kinematic structure
-        (KinDynParameters' equality: links, joints, frames, parent and support arrays; not the parameters' values)."""
+        """JaxSim's model equality: the same name, time step and kinematic structure (KinDynParameters' equality:
+        links, joints, frames, parent and support arrays; not the parameters' values), and warpdyn's: the same
+        kinematic constraints (JaxSim's leaves them out: two models that step differently are not equal here)."""
         if not isinstance(other, ModelSettings):
             return NotImplemented
         if self is other:
