@@ -289,3 +289,39 @@ def test_the_mjcf_export_keeps_refsafe_disabled():
     assert "refsafe" in model.description.disabled
     back = wd.model.Model.build_from_model_description(model.export_updated_model(format="mjcf"), dtype=np.float64)
     assert "refsafe" in back.description.disabled
+
+
+LUMPED_MASS = """
+<mujoco model="lumped">
+  <option><flag eulerdamp="disable"/></option>
+  <default><geom contype="0" conaffinity="0" type="capsule" size="0.01"/></default>
+  <worldbody>
+    <body name="a"><joint name="ja" axis="0 1 0" ref="0.3"/><geom fromto="0 0 0 0.2 0 0" mass="0.2"/>
+      <body name="tip" pos="0.2 0 0"><geom type="sphere" size="0.02" mass="1"/></body>
+    </body>
+    <body name="b" pos="0.3 0 0"><joint name="jb" type="slide" axis="0 0 1" ref="0.1"/><geom type="sphere" size="0.02" mass="0.5"/></body>
+  </worldbody>
+  <equality><connect name="equality1" body1="tip" body2="b" anchor="0 0 0"/><connect body1="a" body2="b" anchor="0.1 0 0"/></equality>
+</mujoco>
+"""
+
+
+def test_the_mjcf_export_names_what_moves_the_constraints_and_keeps_names_and_flags_apart():
+    """A connect on a link holding a lumped body with mass: MuJoCo's invweights of the written (lumped) link differ, named
+    in a NotModelledWarning; an explicit equality name equal to the loader's name of an unnamed one is written apart
+    (suffixed), each constraint on its own bodies; the description's disable flags (eulerdamp here) are written; a
+    URDF names the joints' start positions (MuJoCo's ref) it cannot hold."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        model = wd.model.Model.build_from_model_description(LUMPED_MASS, dtype=np.float64)
+    assert [e.name for e in model.tree.equalities] == ["equality1", "equality1"] and "eulerdamp" in model.description.disabled
+    with pytest.warns(wd.model.NotModelledWarning, match=r"constraints \['equality1', 'equality1'\] are on links that hold lumped bodies with mass"):
+        text = model.export_updated_model(format="mjcf")
+    mj = mujoco.MjModel.from_xml_string(text)
+    assert [mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_EQUALITY, i) for i in range(mj.neq)] == ["equality1", "equality1_1"]
+    assert mj.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_EULERDAMP)
+    bodies = [mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_BODY, int(mj.site_bodyid[mj.eq_obj1id[i]])) for i in range(mj.neq)]
+    assert bodies == ["tip", "a"]
+    np.testing.assert_allclose(mj.qpos0, mujoco.MjModel.from_xml_string(LUMPED_MASS).qpos0, rtol=0, atol=1e-15)  # ja's ref in degrees there
+    with pytest.warns(wd.model.NotModelledWarning, match=r"joints' start positions \(MuJoCo's ref, qpos0\) of \['ja', 'jb'\]"):
+        model.export_updated_model()

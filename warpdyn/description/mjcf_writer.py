@@ -11,7 +11,8 @@ a floating base's free joint (its armature, damper, spring). The terrain's plane
 geoms (the world body's and bodies welded to it) are the worldbody's, and the description's explicit `<pair>`s and
 `<exclude>`s are written back (a body welded to the world is the world). Actuators are MuJoCo's `general` ones with their current affine gain and bias, gear,
 control and force ranges (warpdyn's actuator law is that affine subset). Equality constraints are MJCF's: connects and
-welds between sites at their anchors, joint couplings, fixed-tendon couplings between fixed tendons. Frames (lumped links and explicit frames) are massless bodies welded where they are;
+welds between sites at their anchors, joint couplings, fixed-tendon couplings between fixed tendons; MuJoCo's disable
+flags the description holds are written too. Frames (lumped links and explicit frames) are massless bodies welded where they are;
 collision shapes are geoms in the body of the link (or frame) that carries them, with their collision filter and
 contact parameters; the base hangs from the world at world_H_base when welded, and starts at the initial pose when
 floating; a mesh is an asset with its vertices inline (an MJCF's) or its file as the description names it (a URDF's
@@ -116,7 +117,9 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
         compiler.set("boundinertia", f"{BOUND_INERTIA:g}")
         warnings.warn(f"export_updated_model: the massless moving links {massless} get MuJoCo's boundmass {BOUND_MASS:g} kg and boundinertia "
                       f"{BOUND_INERTIA:g} kg m^2 in the MJCF (MuJoCo refuses massless moving bodies)", NotModelledWarning, stacklevel=4)
-    ET.SubElement(mujoco, "option", timestep=f"{time_step:.17g}", gravity=numbers(gravity))
+    option = ET.SubElement(mujoco, "option", timestep=f"{time_step:.17g}", gravity=numbers(gravity))
+    for flag in sorted(description.disabled):  # MuJoCo's disable flags the description holds (refsafe, eulerdamp, ...)
+        ET.SubElement(option, "flag", **{flag: "disable"})
     asset = ET.SubElement(mujoco, "asset")
     world = ET.SubElement(mujoco, "worldbody")
     bodies: dict[str, ET.Element] = {}
@@ -232,26 +235,31 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
 def _equalities(mujoco: ET.Element, tree: KinematicTree, description: ModelDescription, bodies: dict, world: ET.Element) -> None:
     """The tree's equality constraints as MJCF: a connect or weld between two sites at its anchors (and, for a weld, its
     frames), MuJoCo's site semantics, each site on the description's body where that body is written (a link or a
-    lumped frame: MuJoCo's invweight of a connect is its bodies'), else on its link's body (the world's for link -1);
-    a joint coupling between its joints; a fixed-tendon coupling between fixed tendons of its terms; each with its
-    solref and solimp (MuJoCo recomputes the invweights from the written model) and, when the description disables
-    it, refsafe off."""
-    if "refsafe" in description.disabled:
-        ET.SubElement(mujoco.find("option"), "flag", refsafe="disable")
+    lumped frame), else on its link's body (the world's for link -1); a joint coupling between its joints; a
+    fixed-tendon coupling between fixed tendons of its terms; each with its solref and solimp. MuJoCo computes the
+    invweights from the written bodies: a constraint on a link that holds lumped bodies with mass gets others than
+    the description's (its regularisation with them), named in a NotModelledWarning. Names are the constraints'
+    (a repeated one suffixed), the sites' and tendons' made from them."""
     equality = ET.SubElement(mujoco, "equality")
     tendons = None
-    described = {d.name: d for d in description.equalities}
+    masses = {link.name: float(link.mass) for link in description.links}
+    heavy = {int(tree.frame_parent[k]) for k, frame in enumerate(tree.frame_names) if masses.get(frame, 0.0) > 0.0}  # links with lumped mass
+    reweighted, used = [], set()
     for e in tree.equalities:
-        common = dict(name=e.name, solref=numbers(e.solref), solimp=numbers(e.solimp))
+        name = e.name if e.name not in used else next(f"{e.name}_{k}" for k in range(1, len(used) + 2) if f"{e.name}_{k}" not in used)
+        used.add(name)
+        common = dict(name=name, solref=numbers(e.solref), solimp=numbers(e.solimp))
         if e.kind in ("connect", "weld"):
-            sites, d = [], described.get(e.name)
+            sites, d = [], description.equalities[e.source] if e.source >= 0 else None
+            if {e.link1, e.link2} & heavy:
+                reweighted.append(e.name)
             for side, (link, p, Q) in enumerate(((e.link1, e.p1, e.Q1), (e.link2, e.p2, e.Q2)), 1):
                 body = getattr(d, f"body{side}", None)
                 if body in bodies and link >= 0:  # the description's own body, its anchor and frame in that body
                     parent, p, Q = bodies[body], getattr(d, f"anchor{side}"), getattr(d, f"rot{side}")
                 else:
                     parent = world if link < 0 else bodies[tree.link_names[link]]
-                site = ET.SubElement(parent, "site", name=f"{e.name}_anchor{side}")
+                site = ET.SubElement(parent, "site", name=f"{name}_anchor{side}")
                 _pose(site, homogeneous(quaternion_wxyz_to_matrix(np.asarray(Q, dtype=np.float64)), np.asarray(p, dtype=np.float64)))
                 sites.append(site.get("name"))
             element = ET.SubElement(equality, e.kind, site1=sites[0], site2=sites[1], **common)
@@ -267,10 +275,14 @@ def _equalities(mujoco: ET.Element, tree: KinematicTree, description: ModelDescr
             for side, terms in enumerate((e.terms1, e.terms2), 1):
                 if not terms:
                     continue
-                fixed = ET.SubElement(tendons, "fixed", name=f"{e.name}_tendon{side}")
+                fixed = ET.SubElement(tendons, "fixed", name=f"{name}_tendon{side}")
                 for j, coef in terms:
                     ET.SubElement(fixed, "joint", joint=tree.joint_names[j], coef=f"{float(coef):.17g}")
                 names.append(fixed.get("name"))
             element = ET.SubElement(equality, "tendon", tendon1=names[0], polycoef=numbers(e.polycoef), **common)
             if len(names) == 2:
                 element.set("tendon2", names[1])
+    if reweighted:
+        warnings.warn(f"export_updated_model: the constraints {reweighted} are on links that hold lumped bodies with mass; MuJoCo computes their "
+                      "invweights (their soft constraints' regularisation) from the written, lumped links, which differ from the description's",
+                      NotModelledWarning, stacklevel=4)

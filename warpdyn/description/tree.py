@@ -96,6 +96,7 @@ class TreeEquality:
     invweight: float = 0.0
     baumgarte: np.ndarray = field(default_factory=lambda: np.zeros(2))
     regularization: float = 0.0
+    source: int = -1  # its index in the description's equalities (-1: none, a frame weld)
 
 
 @dataclass
@@ -543,9 +544,9 @@ def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict,
         H = kept_H_link[body]
         return index[kept_of[body]], H[:3, :3] @ np.asarray(anchor, dtype=np.float64) + H[:3, 3], quaternion_product(matrix_to_quaternion_wxyz(H[:3, :3]), rot)
 
-    for eq in description.equalities:
+    for source, eq in enumerate(description.equalities):
         common = dict(name=eq.name, kind=eq.kind, solref=np.array(eq.solref, dtype=np.float64), solimp=np.array(eq.solimp, dtype=np.float64),
-                      invweight=float(eq.invweight))  # fmt: skip
+                      invweight=float(eq.invweight), source=source)  # fmt: skip
         if eq.kind in ("connect", "weld"):
             (link1, p1, Q1), (link2, p2, Q2) = on_link(eq.body1, eq.anchor1, eq.rot1), on_link(eq.body2, eq.anchor2, eq.rot2)
             equalities.append(TreeEquality(link1=link1, link2=link2, p1=p1, p2=p2, Q1=Q1, Q2=Q2, torquescale=eq.torquescale,

@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 import warp as wp
 
-from ..description.tree import JOINT_BALL, JOINT_FREE
+from ..description.tree import JOINT_BALL, JOINT_FREE, JOINT_PRISMATIC, JOINT_REVOLUTE
 from ..description.mjcf_writer import write_mjcf
 from ..description.model import NotModelledWarning, axis_angle_to_matrix, homogeneous
 from ..description.urdf_writer import write_urdf
@@ -138,10 +138,14 @@ class ModelQueries:
                           host["friction_static"], host["friction_viscous"], welded)
 
     def _warn_unwritten_constraints(self, format: str) -> None:
-        """A NotModelledWarning naming the constraints the exported file will not hold: a URDF's equality constraints
-        (URDF has none), and JaxSim's kinematic constraints in either format (a ConstraintMap's Baumgarte welds are
-        neither; set the map again on the loaded model)."""
+        """A NotModelledWarning naming what the exported file will not hold: a URDF's equality constraints (URDF has
+        none) and joints' start positions (MuJoCo's ref), and JaxSim's kinematic constraints in either format (a
+        ConstraintMap's Baumgarte welds are neither; set the map again on the loaded model)."""
         unwritten = [f"equality constraints {[e.name for e in self.tree.equalities]}"] if format == "urdf" and self.tree.equalities else []
+        started = [self.tree.joint_names[i - 1] for i in range(1, self.tree.number_of_links) if self.tree.joint_type[i] in (JOINT_REVOLUTE, JOINT_PRISMATIC)
+                   and self.tree.qpos0[self.tree.q_start[i]] != 0.0]  # fmt: skip
+        if format == "urdf" and started:
+            unwritten.append(f"joints' start positions (MuJoCo's ref, qpos0) of {started}: they load back at 0")
         if len(self.constraints):
             welds = [f"{a} - {b}" for a, b in zip(self.constraints.frame_names_1, self.constraints.frame_names_2)]
             unwritten.append(f"JaxSim's kinematic constraints (ConstraintMap welds {welds}: set the map again on the loaded model)")
