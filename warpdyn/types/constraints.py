@@ -78,7 +78,9 @@ class ConstraintMap:
         return hash(self._key())
 
     def _key(self) -> tuple:
-        return (self.frame_names_1, self.frame_names_2, tuple(self.constraint_types.tolist()), tuple(self.K_P.tolist()), tuple(self.K_D.tolist()))
+        """The frames by name (by index for a map of indices alone), the types and the gains."""
+        frames = (self.frame_names_1, self.frame_names_2) if self.frame_names_1 else (tuple(self.frame_idxs_1.tolist()), tuple(self.frame_idxs_2.tolist()))
+        return (*frames, tuple(self.constraint_types.tolist()), tuple(self.K_P.tolist()), tuple(self.K_D.tolist()))
 
     def add_constraint(self, model, frame_idx_1: int, frame_idx_2: int, constraint_type: int, K_P: float | None = None, K_D: float | None = None) -> ConstraintMap:
         """A new map with one more constraint between the frames of indices frame_idx_1 and frame_idx_2 of `model`
