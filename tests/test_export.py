@@ -96,11 +96,11 @@ def mjcf_source(which: str):
     """The models the MJCF export is checked on: a random tree (floating base, revolute, prismatic, fixed joints
     lumped), the ball-joint fixture, the shipped Panda (MJCF: its mesh geoms' vertices, 8 position actuators, armature,
     damping) and the hardware-scaled SDF leg with joint frictions set (viscous friction: URDF's, written as MuJoCo's
-    damper)."""
+    damper). The floating ones step with MuJoCo's Euler (JaxSim's has no MJCF counterpart: a warning's matter)."""
     if which == "random tree":  # its floating base given MuJoCo's free-joint armature, damper and spring
         model = load(robots.random_tree_urdf(6, 12))
         model.set_joint_parameters(base_armature=[0.02], base_damping=[0.3], base_stiffness=[1.5])
-        return model
+        return model.replace(integrator=wd.model.IntegratorType.SemiImplicitEulerSO3)
     if which == "ball":
         return load(BALL)
     if which == "free trees":
@@ -111,7 +111,7 @@ def mjcf_source(which: str):
     nL = model.number_of_links()
     updated = wd.model.update_hw_parameters(model, wd.kin_dyn_parameters.ScalingFactors(dims=np.full((nL, 3), 1.2), density=np.ones(nL)))
     updated.set_joint_parameters(friction_viscous=np.array([0.1, 0.2, 0.3]), friction_static=np.array([0.5, 0.0, 0.2]))
-    return updated
+    return updated.replace(integrator=wd.model.IntegratorType.SemiImplicitEulerSO3)
 
 
 @pytest.mark.parametrize("which", ["random tree", "ball", "free trees", "panda", "scaled leg"])
@@ -204,7 +204,7 @@ def test_massless_moving_links_and_per_dof_values_in_the_mjcf():
       <joint name="a" type="revolute"><parent link="base"/><child link="mid"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
       <joint name="b" type="revolute"><parent link="mid"/><child link="tip"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
     </robot>"""
-    model = load(text)
+    model = load(text).replace(integrator=wd.model.IntegratorType.SemiImplicitEulerSO3)
     assert "mid" in model.link_names()
     with pytest.warns(wd.description.NotModelledWarning, match=r"the massless moving links \['mid'\] get MuJoCo's boundmass"):
         exported = model.export_updated_model(format="mjcf")
@@ -325,3 +325,24 @@ def test_the_mjcf_export_names_what_moves_the_constraints_and_keeps_names_and_fl
     np.testing.assert_allclose(mj.qpos0, mujoco.MjModel.from_xml_string(LUMPED_MASS).qpos0, rtol=0, atol=1e-15)  # ja's ref in degrees there
     with pytest.warns(wd.model.NotModelledWarning, match=r"joints' start positions \(MuJoCo's ref, qpos0\) of \['ja', 'jb'\]"):
         model.export_updated_model()
+
+
+def test_the_mjcf_export_writes_the_integrator():
+    """RungeKutta4 is written as MuJoCo's RK4, SemiImplicitEulerSO3 as the description's Euler, implicit or implicitfast
+    with eulerdamp disabled unless the damping is implicit: each loads back with the same integrator and damping;
+    JaxSim's SemiImplicitEuler on a floating base has no MuJoCo counterpart, named in a NotModelledWarning."""
+    import test_equality as te
+
+    implicit = te.FOUR_BAR.replace('<option timestep="0.001"', '<option integrator="implicitfast" timestep="0.001"')
+    for xml, integrator, damping in ((te.FOUR_BAR, wd.model.IntegratorType.RungeKutta4, False), (te.FOUR_BAR, wd.model.IntegratorType.SemiImplicitEulerSO3, False),
+                                     (implicit, wd.model.IntegratorType.SemiImplicitEulerSO3, True)):  # fmt: skip
+        model = wd.model.Model.build_from_model_description(xml, dtype=np.float64).replace(integrator=integrator, implicit_damping=damping)
+        text = model.export_updated_model(format="mjcf")
+        back = wd.model.Model.build_from_model_description(text, dtype=np.float64)
+        assert (back.integrator, back.implicit_damping) == (integrator, damping)
+        euler = mujoco.mjtIntegrator.mjINT_IMPLICITFAST if xml is implicit else mujoco.mjtIntegrator.mjINT_EULER
+        expected = mujoco.mjtIntegrator.mjINT_RK4 if integrator == wd.model.IntegratorType.RungeKutta4 else euler
+        assert mujoco.MjModel.from_xml_string(text).opt.integrator == expected
+    free = wd.model.Model.build_from_model_description(te.WELDED_BOX, dtype=np.float64).replace(integrator=wd.model.IntegratorType.SemiImplicitEuler)
+    with pytest.warns(wd.model.NotModelledWarning, match="IntegratorType.SemiImplicitEuler has no MuJoCo counterpart"):
+        free.export_updated_model(format="mjcf")

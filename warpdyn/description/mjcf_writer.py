@@ -11,8 +11,8 @@ a floating base's free joint (its armature, damper, spring). The terrain's plane
 geoms (the world body's and bodies welded to it) are the worldbody's, and the description's explicit `<pair>`s and
 `<exclude>`s are written back (a body welded to the world is the world). Actuators are MuJoCo's `general` ones with their current affine gain and bias, gear,
 control and force ranges (warpdyn's actuator law is that affine subset). Equality constraints are MJCF's: connects and
-welds between sites at their anchors, joint couplings, fixed-tendon couplings between fixed tendons; MuJoCo's disable
-flags the description holds are written too. Frames (lumped links and explicit frames) are massless bodies welded where they are;
+welds between sites at their anchors, joint couplings, fixed-tendon couplings between fixed tendons; the integrator
+and MuJoCo's disable flags are written too. Frames (lumped links and explicit frames) are massless bodies welded where they are;
 collision shapes are geoms in the body of the link (or frame) that carries them, with their collision filter and
 contact parameters; the base hangs from the world at world_H_base when welded, and starts at the initial pose when
 floating; a mesh is an asset with its vertices inline (an MJCF's) or its file as the description names it (a URDF's
@@ -100,15 +100,16 @@ def _geom(body: ET.Element, shape: CollisionShape, owner: str, asset: ET.Element
 
 
 def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: dict, world_H_base: np.ndarray | None,
-               time_step: float, gravity: np.ndarray, floor: np.ndarray | None) -> str:  # fmt: skip
+               time_step: float, gravity: np.ndarray, floor: np.ndarray | None, integrator: str = "Euler", disabled: frozenset = frozenset()) -> str:  # fmt: skip
     """The MJCF text of `tree` with its current parameters (the module docstring). parameters: host float64 arrays
     link_mass (nL,) [kg], link_com (nL, 3) [m, link frame], link_inertia (nL, 3, 3) [kg m^2, about the CoM, link
     axes], position_limits (nj, 2), friction_static, friction_viscous, armature, damping (nv,), stiffness,
     springref (nj,), joint_actuator_force_range (nj, 2), base_armature, base_damping, base_stiffness (1,), actuator_gear, actuator_gain (na, 3), actuator_bias (na, 3), actuator_ctrl_range (na, 2),
     actuator_force_range (na, 2) (infinite: unlimited); description: the model's (its links' collision shapes, each
     link a link of the tree or a frame, its static geoms, explicit pairs and excludes, the floating base's initial
-    pose); world_H_base (4, 4) welds the base, None leaves it floating; time_step [s] and gravity (3,) [m/s^2] go to
-    `option`; floor: the pose (4, 4) of the terrain's plane (z up in it), None for none."""
+    pose); world_H_base (4, 4) welds the base, None leaves it floating; time_step [s], gravity (3,) [m/s^2], MuJoCo's
+    integrator name and disable flags go to `option`; floor: the pose (4, 4) of the terrain's plane (z up in it), None
+    for none."""
     mujoco = ET.Element("mujoco", model=description.name)
     compiler = ET.SubElement(mujoco, "compiler", angle="radian", inertiafromgeom="false", autolimits="true")
     massless = [link_name for i, link_name in enumerate(tree.link_names) if i > 0 and float(parameters["link_mass"][i]) <= 0.0]
@@ -117,8 +118,8 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
         compiler.set("boundinertia", f"{BOUND_INERTIA:g}")
         warnings.warn(f"export_updated_model: the massless moving links {massless} get MuJoCo's boundmass {BOUND_MASS:g} kg and boundinertia "
                       f"{BOUND_INERTIA:g} kg m^2 in the MJCF (MuJoCo refuses massless moving bodies)", NotModelledWarning, stacklevel=4)
-    option = ET.SubElement(mujoco, "option", timestep=f"{time_step:.17g}", gravity=numbers(gravity))
-    for flag in sorted(description.disabled):  # MuJoCo's disable flags the description holds (refsafe, eulerdamp, ...)
+    option = ET.SubElement(mujoco, "option", timestep=f"{time_step:.17g}", gravity=numbers(gravity), integrator=integrator)
+    for flag in sorted(disabled):  # MuJoCo's disable flags (the description's; eulerdamp as the model's implicit damping)
         ET.SubElement(option, "flag", **{flag: "disable"})
     asset = ET.SubElement(mujoco, "asset")
     world = ET.SubElement(mujoco, "worldbody")

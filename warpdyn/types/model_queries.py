@@ -13,6 +13,7 @@ from ..description.tree import JOINT_BALL, JOINT_FREE, JOINT_PRISMATIC, JOINT_RE
 from ..description.mjcf_writer import write_mjcf
 from ..description.model import NotModelledWarning, axis_angle_to_matrix, homogeneous
 from ..description.urdf_writer import write_urdf
+from .enums import IntegratorType
 from .terrain import FlatTerrain, PlaneTerrain
 
 __all__ = ["ModelQueries"]
@@ -115,9 +116,10 @@ class ModelQueries:
         """JaxSim's export: the text of the lumped tree with its current parameters, joint origins, collision shapes and
         frames, which loads back to the same model: URDF (JaxSim's; warpdyn.description.urdf_writer) or, with
         format="mjcf", MJCF (warpdyn.description.mjcf_writer: ball joints, armature, MuJoCo's damper and springs
-        too, and the equality constraints, for MuJoCo). A ValueError for per-environment parameters and for what the
-        format cannot hold; a NotModelledWarning names the constraints it leaves out (a URDF's equality constraints,
-        JaxSim's kinematic constraints)."""
+        too, the equality constraints and the integrator, for MuJoCo). A ValueError for per-environment parameters
+        and for what the format cannot hold; a NotModelledWarning names what it leaves out or changes (a URDF's
+        equality constraints and joints' start positions, JaxSim's kinematic constraints, an integrator MuJoCo has
+        not, MuJoCo's invweights of constraints on lumped links)."""
         if format not in ("urdf", "mjcf"):
             raise ValueError(f"export_updated_model: format must be 'urdf' or 'mjcf', got {format!r}")
         names = ("link_mass", "link_com", "link_inertia", "position_limits", "friction_static", "friction_viscous")
@@ -133,9 +135,26 @@ class ModelQueries:
         shapes = [(link.name, link.collisions) for link in self.description.links]
         if format == "mjcf":
             gravity = np.asarray(self.world_gravity.numpy(), dtype=np.float64).reshape(-1, 3)[0]
-            return write_mjcf(self.tree, self.description, host, welded, self.time_step, gravity, self._floor())
+            return write_mjcf(self.tree, self.description, host, welded, self.time_step, gravity, self._floor(), *self._mujoco_integrator())
         return write_urdf(self.name(), self.tree, shapes, host["link_mass"], host["link_com"], host["link_inertia"], host["position_limits"],
                           host["friction_static"], host["friction_viscous"], welded)
+
+    def _mujoco_integrator(self) -> tuple[str, frozenset]:
+        """(MuJoCo's integrator name, disable flags) for the MJCF export: RungeKutta4 as RK4; SemiImplicitEulerSO3 as
+        the description's Euler, implicit or implicitfast (Euler for other descriptions), eulerdamp disabled unless
+        the joints' damping is implicit; JaxSim's SemiImplicitEuler as Euler (the same steps on a fixed base; on a
+        floating base they differ by O(dt^2) per step) and RungeKutta4Fast as Euler, those two named in a
+        NotModelledWarning (the file loads back with SemiImplicitEulerSO3)."""
+        disabled = frozenset(self.description.disabled)
+        if self.integrator == IntegratorType.RungeKutta4:
+            return "RK4", disabled
+        if self.integrator == IntegratorType.RungeKutta4Fast or (self.integrator == IntegratorType.SemiImplicitEuler and self.floating_base()):
+            warnings.warn(f"export_updated_model: IntegratorType.{self.integrator.name} has no MuJoCo counterpart: the MJCF names MuJoCo's "
+                          "Euler (SemiImplicitEulerSO3 when loaded back; on a floating base a step apart by O(dt^2), RungeKutta4Fast's "
+                          "by its held contacts)", NotModelledWarning, stacklevel=3)  # fmt: skip
+        name = self.description.integrator if self.description.integrator in ("Euler", "implicit", "implicitfast") else "Euler"
+        explicit = not self.implicit_damping and "damper" not in disabled
+        return name, (disabled | {"eulerdamp"}) if explicit else (disabled - {"eulerdamp"})
 
     def _warn_unwritten_constraints(self, format: str) -> None:
         """A NotModelledWarning naming what the exported file will not hold: a URDF's equality constraints (URDF has
