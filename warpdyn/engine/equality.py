@@ -33,7 +33,7 @@ from .bundles import state_bundle
 from .kinematics import targets
 from .launch import Launch, launch, no_adjoint
 
-__all__ = ["EqualityPlan", "equality_plan", "check_steppable"]
+__all__ = ["EqualityPlan", "equalities", "equality_plan", "check_steppable"]
 
 PROJECTION_DAMPING = {wp.float64: 1.0e-10, wp.float32: 1.0e-5}
 """Per dtype, the projection's Levenberg-Marquardt damping, times the largest diagonal entry of J M^-1 J^T: above the
