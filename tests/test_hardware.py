@@ -352,3 +352,28 @@ def test_a_capsule_is_parametrised_as_mujoco_weighs_it():
     minus[shin, 0] -= 1e-6
     fd = (final(plus) - final(minus)) / 2e-6
     assert abs(factors.grad.numpy()[shin, 0] - fd) <= 1e-5 * abs(fd) + 1e-9 and abs(fd) > 1e-4, (factors.grad.numpy()[shin, 0], fd)
+
+
+def test_parametrized_links_choose_what_the_parametrisation_scales():
+    """JaxSim's `parametrized_links`: the links outside it are Unsupported in hw_link_metadata and update_hw_parameters
+    leaves them as they are (mass, inertia, the joint origins they carry), the chosen one scales as with every link
+    parametrised; reduce keeps the names it still has; unknown names are refused, naming them."""
+    every = leg()
+    names = every.link_names()
+    shapes = wd.kin_dyn_parameters.hw_link_metadata(every).link_shape
+    chosen = next(n for n, shape in zip(names, shapes) if shape >= 0 and n != names[0])
+    model = wd.model.Model.build_from_model_description((ROOT / "jaxsim" / "hw_leg.sdf").read_text(), dtype=np.float64, parametrized_links=(chosen,))
+    metadata = wd.kin_dyn_parameters.hw_link_metadata(model)
+    assert [n for n, shape in zip(names, metadata.link_shape) if shape >= 0] == [chosen]
+    nL = model.number_of_links()
+    factors = wd.kin_dyn_parameters.ScalingFactors(dims=np.full((nL, 3), 1.2), density=np.full(nL, 0.9))
+    some, all_ = wd.model.update_hw_parameters(model, factors), wd.model.update_hw_parameters(every, factors)
+    k = names.index(chosen)
+    mass, base = some.link_mass.numpy(), model.link_mass.numpy()
+    np.testing.assert_allclose(mass[k], all_.link_mass.numpy()[k], rtol=1e-15)
+    assert mass[k] != base[k] and np.array_equal(np.delete(mass, k), np.delete(base, k))
+    assert wd.model.reduce(model, list(model.joint_names())).parametrized_links == (chosen,)
+    with pytest.raises(ValueError, match=r"parametrized_links names links that model '.*' does not have: \['phantom'\]"):
+        wd.model.Model.build_from_model_description((ROOT / "jaxsim" / "hw_leg.sdf").read_text(), dtype=np.float64, parametrized_links=("phantom",))
+    with pytest.raises(TypeError, match="parametrized_links must be link names"):
+        model.parametrized_links = chosen

@@ -47,7 +47,7 @@ def test_model_queries():
 
 def test_model_build_keywords():
     """build_from_model_description's JaxSim keywords set the settings; Model.build from a parsed description
-    equals it; parametrized_links (not in warpdyn) is refused, constraints that are not a ConstraintMap too (an
+    equals it; parametrized_links is kept, constraints that are not a ConstraintMap are refused (an
     empty one is JaxSim's default: tests/test_kinematic_constraints.py sets real ones)."""
     terrain = wd.terrain.FlatTerrain.build(height=0.1)
     params = wd.rbda.contacts.SoftContactsParams.build(K=5e4, D=500.0)
@@ -59,8 +59,7 @@ def test_model_build_keywords():
     assert model.actuation_params.torque_max == 50.0 and model.integrator == wd.model.IntegratorType.RungeKutta4
     built = wd.model.JaxSimModel.build(wd.description.load(HOPPER), time_step=0.002, dtype=np.float64)
     assert built == model and hash(built) == hash(model)
-    with pytest.raises(NotImplementedError, match="parametrized_links"):
-        _build(HOPPER, parametrized_links=())
+    assert _build(HOPPER, parametrized_links=("l_shank",)).parametrized_links == ("l_shank",)  # tests/test_hardware.py scales with it
     with pytest.raises(TypeError, match="constraints must be a wd.kin_dyn_parameters.ConstraintMap or None, got tuple"):
         _build(HOPPER, constraints=())
     assert len(_build(HOPPER, constraints=wd.kin_dyn_parameters.ConstraintMap()).constraints) == 0

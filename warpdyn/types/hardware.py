@@ -69,8 +69,9 @@ def shape_volume(shape: int, geometry: np.ndarray) -> float:
 
 
 def hw_link_metadata(model) -> HwLinkMetadata:
-    """The model's HwLinkMetadata (see the module docstring), from its description and its tree."""
-    tree, description = model.tree, model.description
+    """The model's HwLinkMetadata (see the module docstring), from its description and its tree; links outside the
+    model's `parametrized_links` (when given) Unsupported, as JaxSim's."""
+    tree, description, chosen = model.tree, model.description, model.parametrized_links
     by_name = {link.name: link for link in description.links}
     nL, nj = tree.number_of_links, tree.number_of_joints
     shape = np.full(nL, LinkParametrizableShape.Unsupported, dtype=np.int32)
@@ -78,7 +79,7 @@ def hw_link_metadata(model) -> HwLinkMetadata:
     L_H_G = np.tile(np.eye(4), (nL, 1, 1))
     for i, name in enumerate(tree.link_names):
         link = by_name.get(name)
-        if link is None:
+        if link is None or (chosen is not None and name not in chosen):
             continue
         visual = next((v for v in link.visuals if v.kind in ("box", "cylinder", "sphere", "capsule")), None)
         L_H_G[i, :3, :3] = link.inertial_rotation

@@ -203,7 +203,7 @@ class Model(ModelSettings, ModelQueries):
         to the description's, else 0.001. terrain, contact_model, contact_params, actuation_params, integrator: the settings
         (defaults: FlatTerrain, SoftContacts, SoftContactsParams(), ActuationParams(), SemiImplicitEuler or
         MuJoCo's). constraints: JaxSim's kinematic constraints (a ConstraintMap, its frames found here by name);
-        parametrized_links: not in warpdyn (anything but None: NotImplementedError). dtype: np.float32 (the
+        parametrized_links: the links JaxSim's hardware parametrisation scales (None: all). dtype: np.float32 (the
         default) or np.float64, the scalar of every computation. device: a Warp device (default: Warp's
         default device, a GPU when there is one). `model.built_from` keeps `model_description`.
 
@@ -259,8 +259,6 @@ class Model(ModelSettings, ModelQueries):
     ) -> Model:
         """Build a model from a parsed description (warpdyn.description.ModelDescription, as `load` returns
         it; JaxSim's `build` takes its own parsed description). Keywords: see `build_from_model_description`."""
-        if parametrized_links is not None:
-            raise NotImplementedError("parametrized_links: warpdyn parametrises every link with a box, cylinder, sphere or capsule (hw_link_metadata); choosing links is not in warpdyn yet")
         if not isinstance(model_description, ModelDescription):
             raise TypeError(f"model_description must be a warpdyn ModelDescription (build_from_model_description reads files), got {type(model_description).__name__}")
         tree = build_tree(model_description, considered_joints)
@@ -279,7 +277,8 @@ class Model(ModelSettings, ModelQueries):
         )
         if gravity is not None:
             model.gravity = -float(gravity)  # JaxSim's keyword: the magnitude, along -z
-        settings = {"terrain": terrain, "contact_model": contact_model, "contact_params": contact_params, "actuation_params": actuation_params, "integrator": integrator, "constraints": constraints}
+        settings = {"terrain": terrain, "contact_model": contact_model, "contact_params": contact_params, "actuation_params": actuation_params, "integrator": integrator, "constraints": constraints,
+                    "parametrized_links": parametrized_links}
         model.apply_settings(**{k: v for k, v in settings.items() if v is not None})
         return model
 
@@ -689,7 +688,8 @@ class Model(ModelSettings, ModelQueries):
         gravity = W_g if "world_gravity" in self._per_env else W_g[0]
         reduced = Model(self.description, tree, model_name=self.model_name, gravity=gravity, time_step=self.time_step, dtype=self.dtype, device=self.device)
         carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "implicit_damping", "geom_contacts", "equality_projection", "constraints")
-        reduced.apply_settings(**{name: getattr(self, name) for name in carried}, built_from=self.built_from)
+        kept = None if self.parametrized_links is None else tuple(n for n in self.parametrized_links if n in reduced.link_names())
+        reduced.apply_settings(**{name: getattr(self, name) for name in carried}, parametrized_links=kept, built_from=self.built_from)
         return reduced
 
 

@@ -93,6 +93,7 @@ REPLACEABLE = (
     "geom_contacts",
     "equality_projection",
     "constraints",
+    "parametrized_links",
     "kin_dyn_parameters",
     "built_from",
 )
@@ -196,6 +197,27 @@ class ModelSettings:
         if value is not None and not isinstance(value, ConstraintMap):
             raise TypeError(f"constraints must be a wd.kin_dyn_parameters.ConstraintMap or None, got {type(value).__name__}")
         self._constraints = ConstraintMap() if value is None else value.for_model(self)
+        self.notify_model_changed()
+
+    _parametrized_links = None
+
+    @property
+    def parametrized_links(self) -> tuple[str, ...] | None:
+        """JaxSim's `parametrized_links`: the links JaxSim's hardware parametrisation scales (`hw_link_metadata`
+        marks the others Unsupported, so `update_hw_parameters` leaves them as they are); None: every link with a
+        box, cylinder, sphere or capsule. Names of links the model lacks are dropped when a reduction lumps them."""
+        return self._parametrized_links
+
+    @parametrized_links.setter
+    def parametrized_links(self, value) -> None:
+        if value is not None:
+            if isinstance(value, str) or not all(isinstance(name, str) for name in value):
+                raise TypeError(f"parametrized_links must be link names (a tuple of str) or None, got {value!r}")
+            unknown = sorted(set(value) - set(self.link_names()))
+            if unknown:
+                raise ValueError(f"parametrized_links names links that model '{self.name()}' does not have: {unknown}")
+            value = tuple(value)
+        self._parametrized_links = value
         self.notify_model_changed()
 
     def _follow_mujoco(self, integrator: str, disabled: frozenset) -> None:
