@@ -373,6 +373,7 @@ def test_parametrized_links_choose_what_the_parametrisation_scales():
     np.testing.assert_allclose(mass[k], all_.link_mass.numpy()[k], rtol=1e-15)
     assert mass[k] != base[k] and np.array_equal(np.delete(mass, k), np.delete(base, k))
     assert wd.model.reduce(model, list(model.joint_names())).parametrized_links == (chosen,)
+    assert np.array_equal(model.kin_dyn_parameters.hw_link_metadata.link_shape, metadata.link_shape)  # JaxSim's field, filled
     with pytest.raises(ValueError, match=r"parametrized_links names links that model '.*' does not have: \['phantom'\]"):
         wd.model.Model.build_from_model_description((ROOT / "jaxsim" / "hw_leg.sdf").read_text(), dtype=np.float64, parametrized_links=("phantom",))
     with pytest.raises(TypeError, match="parametrized_links must be link names"):

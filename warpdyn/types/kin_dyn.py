@@ -24,6 +24,7 @@ from ..description.collidable import CollidablePointsOptions, collidable_points
 from ..description.model import homogeneous
 from ..description.tree import JOINT_PRISMATIC, JOINT_REVOLUTE, KinematicTree
 from .constraints import ConstraintMap
+from .hardware import HwLinkMetadata
 
 __all__ = ["ContactParameters", "FrameParameters", "JointModel", "JointParameters", "KinDynParameters", "LinkParameters"]
 
@@ -268,7 +269,7 @@ class KinDynParameters:
     options: the `CollidablePointsOptions` the points were made with.
     link_parameters, joint_parameters (`LinkParameters`, `JointParameters`): the model's link and joint
     parameters when this object was taken from the model (`Model.kin_dyn_parameters`); joint_model
-    (`JointModel`); hw_link_metadata: None (JaxSim's hardware parametrisation: `hw_link_metadata(model)`);
+    (`JointModel`); hw_link_metadata (`HwLinkMetadata`, JaxSim's hardware parametrisation: `hw_link_metadata(model)`);
     constraints: the model's kinematic constraints (a `ConstraintMap`, empty when none, as JaxSim's).
     Read-only (dataclasses.FrozenInstanceError) but for `constraints`: assigning it on the snapshot a model's
     `kin_dyn_parameters` returned sets the model's too, JaxSim's `with model.editable() as model:
@@ -289,7 +290,7 @@ class KinDynParameters:
     joint_model: JointModel | None = dataclasses.field(default=None, repr=False)
     link_parameters: LinkParameters | None = dataclasses.field(default=None, repr=False)
     joint_parameters: JointParameters | None = dataclasses.field(default=None, repr=False)
-    hw_link_metadata: None = None
+    hw_link_metadata: HwLinkMetadata | None = dataclasses.field(default=None, repr=False)
     constraints: ConstraintMap = dataclasses.field(default_factory=ConstraintMap)
 
     def __post_init__(self):
@@ -321,9 +322,9 @@ class KinDynParameters:
         raise dataclasses.FrozenInstanceError(f"cannot delete field {name!r}: KinDynParameters is read-only")
 
     def structure_only(self) -> KinDynParameters:
-        """These parameters without the snapshot's parts (joint model, link and joint parameters, constraints): what
-        a model keeps as its structure."""
-        return dataclasses.replace(self, joint_model=None, link_parameters=None, joint_parameters=None, constraints=ConstraintMap())
+        """These parameters without the snapshot's parts (joint model, link and joint parameters, constraints, hardware
+        metadata): what a model keeps as its structure."""
+        return dataclasses.replace(self, joint_model=None, link_parameters=None, joint_parameters=None, constraints=ConstraintMap(), hw_link_metadata=None)
 
     def __eq__(self, other) -> bool:
         return isinstance(other, KinDynParameters) and self._structure() == other._structure()

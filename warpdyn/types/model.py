@@ -33,6 +33,7 @@ from ..description.collidable import warn_without_points
 from ..description.tree import KinematicTree, build_tree
 from .contact_models import SoftContacts
 from .enums import IntegratorType
+from .hardware import hw_link_metadata
 from .kin_dyn import JointModel, JointParameters, KinDynParameters, LinkParameters
 from .model_constants import JOINT_TERMS, joint_motion_terms, quaternion_xyzw, sibling_chains, transforms
 from .model_queries import ModelQueries
@@ -587,7 +588,8 @@ class Model(ModelSettings, ModelQueries):
             position_limit_spring=hosts["joint_limit_spring"].copy(),
             position_limit_damper=hosts["joint_limit_damper"].copy(),
         )
-        return dataclasses.replace(self.kin_dyn_structure(), joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints, constraints=self.constraints).owned_by(self)
+        return dataclasses.replace(self.kin_dyn_structure(), joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints, constraints=self.constraints,
+                                   hw_link_metadata=hw_link_metadata(self)).owned_by(self)
 
     def apply_kin_dyn_parameters(self, params: KinDynParameters) -> None:
         """Set the link and joint parameters `params` holds (when it has them), its constraints, and use its collidable
