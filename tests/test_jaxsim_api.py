@@ -10,6 +10,7 @@ from __future__ import annotations
 import pathlib
 import warnings
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -391,3 +392,31 @@ def test_log_vee_at_every_angle():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         np.testing.assert_allclose(wd.math.Rotation.log_vee(R), angles[:, None] * axis, atol=1e-12)
+
+
+def test_mesh_inertia_equals_mujocos_and_scales_by_its_moments():
+    """JaxSim's mesh helpers on HwLinkMetadata: compute_mesh_inertia of an irregular closed hexahedron equals MuJoCo's
+    mass, centre of mass and inertia of the same mesh geom (1e-6 relative: MuJoCo keeps a mesh's vertices in float32);
+    the winding does not matter; compute_mesh_inertia_from_moments(precompute_mesh_moments, dims, density) equals the
+    inertia of the mesh scaled by dims (1e-12); empty() holds no links."""
+    H = wd.kin_dyn_parameters.HwLinkMetadata
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+    vertices = corners * [0.1, 0.2, 0.15] + np.random.default_rng(0).uniform(-0.02, 0.02, (8, 3)) + [0.05, -0.02, 0.1]
+    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    mass, com, inertia = H.compute_mesh_inertia(vertices, faces, 800.0)
+    mj = mujoco.MjModel.from_xml_string(f"""<mujoco><asset><mesh name="m" vertex="{' '.join(map(repr, vertices.ravel().tolist()))}"
+        face="{' '.join(map(str, faces.ravel().tolist()))}"/></asset><worldbody><body><freejoint/><geom type="mesh" mesh="m" density="800"/></body></worldbody></mujoco>""")
+    R = np.zeros(9)
+    mujoco.mju_quat2Mat(R, mj.body_iquat[1])
+    R = R.reshape(3, 3)
+    assert mass == pytest.approx(mj.body_mass[1], rel=1e-6)
+    np.testing.assert_allclose(com, mj.body_ipos[1], rtol=0, atol=1e-6 * np.abs(vertices).max())
+    np.testing.assert_allclose(inertia, R @ np.diag(mj.body_inertia[1]) @ R.T, rtol=0, atol=1e-6 * np.abs(inertia).max())
+    flipped = H.compute_mesh_inertia(vertices, faces[:, ::-1], 800.0)
+    assert flipped[0] == pytest.approx(mass, rel=1e-14) and np.allclose(flipped[2], inertia, rtol=1e-13, atol=0)
+    dims = np.array([1.3, 0.7, 1.1])
+    scaled_mass, scaled_inertia = H.compute_mesh_inertia_from_moments(H.precompute_mesh_moments(vertices, faces), dims, 500.0)
+    expected = H.compute_mesh_inertia(vertices * dims, faces, 500.0)
+    assert scaled_mass == pytest.approx(expected[0], rel=1e-12)
+    np.testing.assert_allclose(scaled_inertia, expected[2], rtol=0, atol=1e-12 * np.abs(expected[2]).max())
+    assert H.empty().link_shape.shape == (0,) and H.empty().L_H_pre.shape == (0, 4, 4)

@@ -3,8 +3,9 @@ density, and the frames the scaling moves (JaxSim 0.9.0's `HwLinkMetadata`, `Sca
 `LinkParametrizableShape`; the device side is kernels/hardware.py, the function warpdyn.model.update_hw_parameters).
 
 A link is parametrised by its first visual that is a box, a cylinder or a sphere (JaxSim's rule; warpdyn also takes
-a capsule, an SDF visual, which JaxSim does not parametrise; meshes, which
-JaxSim scales from their volumetric moments, are not supported here: such links keep their parameters), when the
+a capsule, an SDF visual, which JaxSim does not parametrise; meshes, which JaxSim scales from their volumetric
+moments, are not parametrised here: such links keep their parameters, though JaxSim's mesh helpers,
+`HwLinkMetadata.compute_mesh_inertia` and its moments, are), when the
 link's frame is its joint's frame (always for warpdyn's trees). Its density is the link's (lumped) mass over the
 visual's volume; L_H_G is its inertial frame (the centre of mass and the inertial axes the description gave).
 """
@@ -43,6 +44,53 @@ class HwLinkMetadata:
     L_H_G: np.ndarray
     L_H_pre: np.ndarray
     joint_parent: np.ndarray
+
+    @classmethod
+    def empty(cls) -> HwLinkMetadata:
+        """Metadata of no links (JaxSim's `HwLinkMetadata.empty`)."""
+        return cls(np.zeros(0, dtype=np.int32), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4, 4)), np.zeros((0, 4, 4)), np.zeros(0, dtype=np.int32))
+
+    @staticmethod
+    def precompute_mesh_moments(vertices, faces) -> np.ndarray:
+        """(13,) the volumetric moments of a closed triangle mesh (JaxSim's): its volume V [m^3], centroid c (3,) [m]
+        and second moment about the origin S (3 x 3, flattened) [m^5], each the sum over the tetrahedra that the
+        faces (M, 3) int form with the origin (vertices (V, 3) [m]; the faces' winding either way); zeros for a
+        mesh of no volume."""
+        triangles = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=int)]
+        A, B, C = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+        volumes = np.einsum("ij,ij->i", A, np.cross(B, C)) / 6.0
+        total = volumes.sum()
+        if abs(total) <= 1e-12:
+            return np.zeros(13)
+        volumes = volumes * np.sign(total)
+        V = volumes.sum()
+        centroid = (volumes[:, None] * (A + B + C)).sum(axis=0) / (4.0 * V)
+        S = A + B + C
+        second = np.einsum("t,tij->ij", volumes / 20.0, np.einsum("ti,tj->tij", A, A) + np.einsum("ti,tj->tij", B, B)
+                           + np.einsum("ti,tj->tij", C, C) + np.einsum("ti,tj->tij", S, S))  # fmt: skip
+        return np.concatenate([[V], centroid, second.reshape(-1)])
+
+    @staticmethod
+    def compute_mesh_inertia_from_moments(moments, dims, density) -> tuple[float, np.ndarray]:
+        """(mass [kg], inertia (3, 3) about the centre of mass [kg m^2]) of the mesh whose `precompute_mesh_moments`
+        are `moments`, scaled by dims (3,) along its axes (V' = det(S) V, c' = S c, S' = det(S) S_d S S_d), of
+        `density` [kg/m^3] (JaxSim's); zeros for a mesh of no volume."""
+        moments, d = np.asarray(moments, dtype=np.float64), np.asarray(dims, dtype=np.float64)
+        if moments[0] <= 1e-12:
+            return 0.0, np.zeros((3, 3))
+        det = float(np.prod(d))
+        mass = float(density) * moments[0] * det
+        centroid = d * moments[1:4]
+        second = float(density) * det * (d[:, None] * moments[4:13].reshape(3, 3) * d[None, :]) - mass * np.outer(centroid, centroid)
+        return mass, np.trace(second) * np.eye(3) - second
+
+    @staticmethod
+    def compute_mesh_inertia(vertices, faces, density) -> tuple[float, np.ndarray, np.ndarray]:
+        """(mass [kg], centre of mass (3,) [m], inertia (3, 3) about it [kg m^2]) of a closed triangle mesh of
+        `density` [kg/m^3] (JaxSim's `compute_mesh_inertia`: vertices (V, 3), faces (M, 3) int)."""
+        moments = HwLinkMetadata.precompute_mesh_moments(vertices, faces)
+        mass, inertia = HwLinkMetadata.compute_mesh_inertia_from_moments(moments, np.ones(3), density)
+        return mass, moments[1:4].copy(), inertia
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
