@@ -30,7 +30,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from .model import CollisionShape, ModelDescription, NotModelledWarning, axis_angle_to_matrix, homogeneous, matrix_to_quaternion_wxyz, quaternion_wxyz_to_matrix
+from .model import CollisionShape, ModelDescription, NotModelledWarning, homogeneous, joint_motion, matrix_to_quaternion_wxyz, quaternion_wxyz_to_matrix
 from .tree import JOINT_BALL, JOINT_FREE, JOINT_REVOLUTE, KinematicTree
 from .urdf_writer import numbers
 
@@ -43,16 +43,6 @@ BOUND_MASS, BOUND_INERTIA = 1e-9, 1e-12
 def _pose(element: ET.Element, H: np.ndarray) -> None:
     element.set("pos", numbers(H[:3, 3]))
     element.set("quat", numbers(matrix_to_quaternion_wxyz(H[:3, :3])))
-
-
-def _joint_motion(kind: int, axis, pivot, q: float) -> np.ndarray:
-    """(4, 4): a hinge's rotation by q about `axis` through `pivot`, or a slide's translation by q along `axis` (the
-    child link's frame)."""
-    axis, pivot = np.asarray(axis, dtype=np.float64), np.asarray(pivot, dtype=np.float64)
-    if kind == JOINT_REVOLUTE:
-        R = axis_angle_to_matrix(axis, q)
-        return homogeneous(R, pivot - R @ pivot)
-    return homogeneous(np.eye(3), axis * q)
 
 
 def _mesh_asset(asset: ET.Element, shape: CollisionShape, name: str) -> None:
@@ -149,7 +139,7 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
                 q0 = np.asarray(tree.qpos0, dtype=np.float64)[int(tree.q_start[i]) : int(tree.q_start[i]) + 7]
                 H = homogeneous(quaternion_wxyz_to_matrix(q0[3:]), q0[:3])
             if kind not in (JOINT_BALL, JOINT_FREE) and tree.qpos0[int(tree.q_start[i])] != 0.0:  # MuJoCo's ref: the body at q = qpos0
-                H = H @ _joint_motion(kind, tree.joint_axis[i], tree.joint_pivot[i], float(tree.qpos0[int(tree.q_start[i])]))
+                H = H @ joint_motion("revolute" if kind == JOINT_REVOLUTE else "prismatic", tree.joint_axis[i], tree.joint_pivot[i], tree.qpos0[int(tree.q_start[i])])
             body = ET.SubElement(parent, "body", name=link_name)
             _pose(body, H)
         bodies[link_name] = body
