@@ -32,7 +32,7 @@ def test_welds_follow_jaxsims_trajectories(name):
     """1000 steps of 1 ms (semi-implicit Euler, float64) of each case (welded pendulums, fixed and floating; a four-bar
     closed by a weld, fixed and floating; pendulums on one axis welded by turned frames) equal JaxSim 0.9.0's with the
     three corrections tests/jaxsim/generate_constraints.py names, every 100 steps, within 1e-10 (positions [m, rad],
-    velocities [m/s, rad/s]; measured 4e-14 at most)."""
+    velocities [m/s, rad/s])."""
     ours = cc.rollout(wd, _model(name), name)
     for key in KEYS:
         assert np.abs(ours[key] - REFERENCE[f"{name}/{key}"]).max() <= 1e-10, key

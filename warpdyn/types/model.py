@@ -589,7 +589,7 @@ class Model(ModelSettings, ModelQueries):
             position_limit_damper=hosts["joint_limit_damper"].copy(),
         )
         return dataclasses.replace(self.kin_dyn_structure(), joint_model=JointModel.build(self), link_parameters=links, joint_parameters=joints, constraints=self.constraints,
-                                   hw_link_metadata=hw_link_metadata(self)).owned_by(self)
+                                   hw_link_metadata=self.cached("hw link metadata", lambda: hw_link_metadata(self))).owned_by(self)
 
     def apply_kin_dyn_parameters(self, params: KinDynParameters) -> None:
         """Set the link and joint parameters `params` holds (when it has them), its constraints, and use its collidable

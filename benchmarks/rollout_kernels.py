@@ -1,0 +1,71 @@
+"""Where a rollout's time goes, kernel by kernel: the CUDA time of each kernel of a `wd.simulation.Rollout` of
+benchmarks/speed_accuracy.py's scene (the ergoCub legs standing in contact, joint PD, dt = 1 ms, SIE) replayed from
+its recording without a graph (each kernel timed by Warp's CUDA activity timing), per step, beside the wall time per
+step of the same rollout replayed from its graph.
+
+    python benchmarks/rollout_kernels.py [--device cuda:0] [--contact rigid] [--dtype float32] [--num-envs 4096]
+                                         [--steps 50] [--top 8]
+
+--contact: soft (JaxSim's K = 1e6), relaxed or rigid. The rollout first runs once (compilation, capture) and once
+more (the state moves on: a later segment of the same landing is timed). GPU only (the kernel timing is CUDA's).
+Prints the wall time per step and a Markdown table of the `--top` kernels by time per step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import time
+
+import numpy as np
+import warp as wp
+
+import speed_accuracy as sa
+import warpdyn as wd
+from common import header, seed_model
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--device", default="cuda:0")
+    parser.add_argument("--contact", default="rigid", choices=("soft", "relaxed", "rigid"))
+    parser.add_argument("--dtype", default="float32", choices=("float32", "float64"))
+    parser.add_argument("--num-envs", type=int, default=4096)
+    parser.add_argument("--steps", type=int, default=50)
+    parser.add_argument("--top", type=int, default=8)
+    args = parser.parse_args()
+    wp.config.quiet = True
+    device = wp.get_device(args.device)
+    if not device.is_cuda:
+        raise SystemExit("rollout_kernels.py times CUDA kernels: give --device cuda:N")
+    base = seed_model({"float32": np.float32, "float64": np.float64}[args.dtype], device)
+    init = sa.initial_state(seed_model(np.float64, device))
+    model = sa.scene_model(base, sa.SIE, 1e-3, sa.contact_settings([args.contact], [1e6])[0])
+    data = sa.batch_data(model, init, args.num_envs)
+    graphed = wd.simulation.Rollout(model, steps=args.steps, record=("valid",))
+    graphed.run(data)
+    wp.synchronize_device(device)
+    start = time.perf_counter()
+    graphed.run(data)
+    wp.synchronize_device(device)
+    wall = (time.perf_counter() - start) / args.steps
+    eager = wd.simulation.Rollout(model, steps=args.steps, record=("valid",), use_graph=False)
+    eager.run(data)
+    wp.timing_begin(cuda_filter=wp.TIMING_KERNEL)
+    eager.run(data)
+    wp.synchronize_device(device)
+    per_step, count = collections.defaultdict(float), collections.Counter()
+    for result in wp.timing_end():
+        per_step[result.name] += result.elapsed / args.steps
+        count[result.name] += 1
+    print(f"`python benchmarks/rollout_kernels.py --contact {args.contact} --dtype {args.dtype} --num-envs {args.num_envs}`; {header(device)}.")
+    print(f"Graph-replayed rollout: {wall * 1e3:.3f} ms per step (wall); kernels of the recorded replay: {sum(per_step.values()):.3f} ms per step.")
+    print()
+    print("| kernel | launches per step | ms per step |")
+    print("| --- | ---: | ---: |")
+    for name, ms in sorted(per_step.items(), key=lambda item: -item[1])[: args.top]:
+        print(f"| {name} | {count[name] / args.steps:g} | {ms:.3f} |")
+
+
+if __name__ == "__main__":
+    main()
