@@ -75,6 +75,11 @@ def build(api, name: str, **kwargs):
     return model
 
 
+def _host(array) -> np.ndarray:
+    """A JAX or Warp array (on any device) as a NumPy array: Warp refuses the implicit conversion of a GPU array."""
+    return array.numpy() if hasattr(array, "device") and hasattr(array, "numpy") else np.asarray(array)
+
+
 def rollout(api, model, name: str) -> dict:
     """The states every EVERY steps from case `name`'s initial state ((steps / EVERY + 1, ...) arrays: base position,
     base quaternion, joint positions, base velocity (Inertial), joint velocities) and the welded frames' world poses
@@ -86,9 +91,9 @@ def rollout(api, model, name: str) -> dict:
     for step in range(spec["steps"] + 1):
         if step % EVERY == 0:
             for key in ("base_position", "base_quaternion", "joint_positions", "base_velocity", "joint_velocities"):
-                out[key].append(np.asarray(getattr(data, key)))
-            out["W_H_F1"].append([np.asarray(api.frame.transform(model=model, data=data, frame_index=f1)) for f1, _ in frames])
-            out["W_H_F2"].append([np.asarray(api.frame.transform(model=model, data=data, frame_index=f2)) for _, f2 in frames])
+                out[key].append(_host(getattr(data, key)))
+            out["W_H_F1"].append([_host(api.frame.transform(model=model, data=data, frame_index=f1)) for f1, _ in frames])
+            out["W_H_F2"].append([_host(api.frame.transform(model=model, data=data, frame_index=f2)) for _, f2 in frames])
         if step < spec["steps"]:
             data = api.model.step(model=model, data=data)
     return {key: np.array(values) for key, values in out.items()}
