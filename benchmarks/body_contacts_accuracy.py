@@ -7,8 +7,8 @@ cases), for each time step and dtype, the soft law with its defaults (model.geom
   median of the repeats);
 - grasping: tests/test_body_contacts.py's pinch (two box fingers squeeze a 0.1 kg cube and a carrier lifts them
   15 cm): whether it stays healthy (a flag is the explicit damper's stability check), the cube's height after the
-  lift, and its slip down the fingers [mm/s] (warpdyn has no static friction between bodies; MuJoCo's soft
-  constraints slip too: its figure is printed beside).
+  lift, and its slip down the fingers [mm/s] (the contacts' tangential deformation holds it; MuJoCo's soft
+  constraints slip: its figure is printed beside).
 
     python benchmarks/body_contacts_accuracy.py --device cpu --num-envs 256 > benchmarks/results/body_contacts_accuracy_cpu.md
 """
@@ -137,7 +137,7 @@ def main() -> None:
             rate = throughput(dt, dtype, device, args.num_envs, args.steps, args.repeats)
             z, slip, held = pinch(dt, dtype, device)
             stack = f"yes | {far_ref:.3f} | {far_mj:.3f}" if healthy else "flagged | - | -"  # a flagged environment is frozen
-            grasp = f"yes | {z:.4f} | {1e3 * slip:.2f}" if held else "flagged | - | -"
+            grasp = f"yes | {z:.4f} | {1e3 * slip:.3g}" if held else "flagged | - | -"
             print(f"| {np.dtype(dtype).name} | {1e3 * dt:g} | {stack} | {rate:.3g} | {grasp} |", flush=True)
     print(f"\nMuJoCo's pinch: the cube at {z_mj:.4f} m, slipping {1e3 * slip_mj:.2f} mm/s.")
 

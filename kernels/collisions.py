@@ -107,24 +107,32 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.kernel(module="unique")
     def geom_contact_wrenches(
         contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar), first: wp.array(dtype=int),
-        count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar),
-        W_v_WL: wp.array2d(dtype=sp.vec6),
+        slots: wp.array(dtype=int), count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar),
+        dist: wp.array2d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar),
+        # outputs
+        m_dot: wp.array3d(dtype=scalar),
         # in and out
         W_f_L: wp.array3d(dtype=scalar),
     ):  # fmt: skip
         """Launched over N, after `geom_contacts` at the same state: each contact's soft-law force (JaxSim's
-        Hunt/Crossley, kernels/soft_contacts.py's `hunt_crossley_at_depth`, at the depth -dist along the contact's
-        normal, with the velocity of geom2's point relative to geom1's, no deformation state, the pair's mu) added to
-        W_f_L (N, nL, 6), Inertial: [f; p x f] on geom2's link, its opposite on geom1's (none on the world, link -1).
+        Hunt/Crossley with its tangential deformation, kernels/soft_contacts.py's `hunt_crossley_at_depth`, at the
+        depth -dist along the contact's normal, with the velocity of geom2's point relative to geom1's, the pair's mu)
+        added to W_f_L (N, nL, 6), Inertial: [f; p x f] on geom2's link, its opposite on geom1's (none on the world,
+        link -1). The deformation of the contact in slot k is row nc_all + k of the contact state m (N, rows, 3) [m,
+        world axes], its rate written to the same row of m_dot: the relative tangential displacement while the contact
+        sticks (static friction), relaxing at K / D where the slot holds no touching contact. A slot keeps its
+        deformation while its pair's contacts keep their order (a pair's slots are in its narrow phase's order).
         One thread walks an environment's pairs in order (the sums are deterministic)."""
         env = wp.tid()
         K = B.env_parameter(contacts.K, env)
         D = B.env_parameter(contacts.D, env)
+        row0 = contacts.row_point.shape[0]  # the points' rows come first
         zero = vec3(scalar(0.0))
         for i in range(link1.shape[0]):
             a, b = link1[i], link2[i]
-            for k in range(count[env, i]):
+            for k in range(slots[i]):
                 slot = first[i] + k
+                row = row0 + slot
                 p = vec3(position[env, slot, 0], position[env, slot, 1], position[env, slot, 2])
                 n = vec3(frame[env, slot, 0, 0], frame[env, slot, 0, 1], frame[env, slot, 0, 2])
                 v = zero  # the velocity of geom2's point relative to geom1's (the world's is 0)
@@ -132,15 +140,20 @@ def kernels(scalar) -> types.SimpleNamespace:
                     v = v + sp.lin(W_v_WL[env, b]) + wp.cross(sp.ang(W_v_WL[env, b]), p)
                 if a >= 0:
                     v = v - sp.lin(W_v_WL[env, a]) - wp.cross(sp.ang(W_v_WL[env, a]), p)
-                f, m_dot = law.hunt_crossley_at_depth(-dist[env, slot], v, zero, n, K, D, mu[i], contacts.p, contacts.q)
-                torque = wp.cross(p, f)
-                for r in range(3):  # += is Warp's atomic add (one thread: in order), whose adjoint is right
-                    if b >= 0:
-                        W_f_L[env, b, r] += f[r]
-                        W_f_L[env, b, 3 + r] += torque[r]
-                    if a >= 0:
-                        W_f_L[env, a, r] -= f[r]
-                        W_f_L[env, a, 3 + r] -= torque[r]
+                depth = -dist[env, slot]  # an empty slot's dist is +inf: out of contact
+                m_k = vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+                f, md = law.hunt_crossley_at_depth(depth, v, m_k, n, K, D, mu[i], contacts.p, contacts.q)
+                for r in range(3):
+                    m_dot[env, row, r] = md[r]
+                if k < count[env, i]:
+                    torque = wp.cross(p, f)
+                    for r in range(3):  # += is Warp's atomic add (one thread: in order), whose adjoint is right
+                        if b >= 0:
+                            W_f_L[env, b, r] += f[r]
+                            W_f_L[env, b, 3 + r] += torque[r]
+                        if a >= 0:
+                            W_f_L[env, a, r] -= f[r]
+                            W_f_L[env, a, 3 + r] -= torque[r]
 
     @wp.kernel(module="unique")
     def damper_stability(

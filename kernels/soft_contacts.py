@@ -214,7 +214,7 @@ def kernels(scalar, terrain_kind: int | None = None):
     def point_contact_forces(
         contacts: B.Contacts,
         terrain: B.Terrain,
-        # the links' poses and Inertial velocities (N, nL), the contact state (N, nc_all, 3)
+        # the links' poses and Inertial velocities (N, nL), the contact state (N, rows, 3): its first nc_all rows the points
         W_H_L: wp.array2d(dtype=sp.transform),
         W_v_WL: wp.array2d(dtype=sp.vec6),
         m: wp.array3d(dtype=scalar),
@@ -225,13 +225,14 @@ def kernels(scalar, terrain_kind: int | None = None):
         m_dot: wp.array3d(dtype=scalar),
     ):
         """Launched over N nc_all / rows_per_thread threads (order: bundles.env_and_item), each for
-        rows_per_thread consecutive rows of the contact state: 1 (a thread per point, the points of an
+        rows_per_thread consecutive rows of the points' contact state (the geom pairs' slots after them are
+        kernels/collisions.py's): 1 (a thread per point, the points of an
         environment are independent) or nc_all (a thread per environment: under a tape, each adjoint of a
         link's pose, velocity and per-environment parameter then comes from one thread, in a fixed order).
         W_f_C (N, P, 6) the Inertial wrench of each enabled point's contact force, in the enabled points' order
         (by link); m_dot (N, nc_all, 3) for all points, 0 for disabled ones. K, D, mu and the terrain's height:
         (1,) or (N,) (shared or per environment)."""
-        env, chunk = B.env_and_item(wp.tid(), m.shape[0], m.shape[1] // rows_per_thread, env_fastest)
+        env, chunk = B.env_and_item(wp.tid(), m.shape[0], contacts.row_point.shape[0] // rows_per_thread, env_fastest)
         for row in range(chunk * rows_per_thread, (chunk + 1) * rows_per_thread):
             c = contacts.row_point[row]
             if c < 0:

@@ -400,8 +400,9 @@ def keyframe(model, name: str, *, velocity_representation: VelRepr = VelRepr.Mix
 
 
 def _deformation(model, contact_state: dict | None, num_envs: int | None, N: int) -> wp.array:
-    """The tangential deformation state (N, nc_all, 3) of JaxSim's contact_state (None: zero)."""
-    rows = (len(model.kin_dyn_structure().contact_parameters.body), 3)
+    """The tangential deformation state (N, rows, 3) of JaxSim's contact_state (None: zero; rows:
+    Model.contact_state_rows)."""
+    rows = (model.contact_state_rows(), 3)
     if contact_state is None:
         return arrays.zeros(rows, N, model.scalar, model.device)
     if not isinstance(contact_state, dict) or set(contact_state) - {"tangential_deformation"}:

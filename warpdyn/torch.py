@@ -171,7 +171,7 @@ def rollout(
             _check_tensor(value, name, torch_dtype, device)
 
     n, nq = model.dofs(), model.number_of_joint_coordinates()
-    nc = len(model.kin_dyn_structure().contact_parameters.body)
+    nc = model.contact_state_rows()
     per_env = {
         "base_position": (3,),
         "base_quaternion": (4,),

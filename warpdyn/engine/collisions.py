@@ -1,6 +1,6 @@
 """Contacts between geoms: the model's geom pairs (warpdyn.types.geoms) on the device, their contacts at a state
 (kernels/collisions.py's `geom_contacts`) and, in a step where model.geom_contacts is set, their soft-law wrenches
-added to the links' (`geom_contact_wrenches`, launched by the soft contact stage: warpdyn.engine.contact_stage).
+added to the links' and their deformation rates (`geom_contact_wrenches`, launched by the soft contact stage: warpdyn.engine.contact_stage).
 Results have a leading N axis.
 """
 
@@ -80,15 +80,17 @@ def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
     return Launch(collision_kernels(a["scalar"]).geom_contacts, (N, a["pairs"]), [*inputs, W_H_L], outputs)
 
 
-def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, b: dict, W_f_L: wp.array, N: int, check: tuple | None = None) -> list:
-    """The pairs' contacts at (W_H_L, W_v_WL (N, nL) Inertial) and their wrenches added to W_f_L (N, nL, 6), with the
+def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, m: wp.array, b: dict, W_f_L: wp.array, m_dot: wp.array, N: int,
+                  check: tuple | None = None) -> list:  # fmt: skip
+    """The pairs' contacts at (W_H_L, W_v_WL (N, nL) Inertial, the contact state m (N, rows, 3)) and their wrenches
+    added to W_f_L (N, nL, 6), their slots' deformation rates written to m_dot (N, rows, 3) (rows nc_all on), with the
     soft law's K, D, p, q of `contacts_bundle` (the kernels' Contacts); in a step, check = (rate, the kernels' Model):
     a lone free body whose contacts damp it faster than rate (the integrator's stability limit / dt, 1/s) gets a NaN
     wrench, which flags its environment (kernels/collisions.py's `damper_stability`)."""
     contacts = [b[k] for k in ("count", "position", "frame", "dist")]
-    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], *contacts, W_v_WL]
+    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["slots"], *contacts, W_v_WL, m]
     kernels = collision_kernels(a["scalar"])
-    launches = [contact_launch(a, W_H_L, b, N), Launch(kernels.geom_contact_wrenches, N, inputs, [W_f_L])]
+    launches = [contact_launch(a, W_H_L, b, N), Launch(kernels.geom_contact_wrenches, N, inputs, [m_dot, W_f_L])]
     if check is not None and a["any_guarded"]:
         rate, model_bundle = check
         inputs = [contacts_bundle, model_bundle, a["link1"], a["link2"], a["first"], b["count"], b["dist"], rate, a["guarded"], b["damping"]]

@@ -108,7 +108,7 @@ class ContactStage:
             first[links[k]] = k
         row_point = np.full(len(cp.body), -1, dtype=np.int32)
         row_point[rows] = np.arange(len(rows), dtype=np.int32)
-        self.total = len(cp.body)  # the contact state's rows: every collidable point
+        self.total = len(cp.body)  # every collidable point: the contact state's first rows
         self.count = len(rows)  # the enabled points
         self.points_per_link = np.bincount(links, minlength=nL).astype(np.int32)
         self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
@@ -129,6 +129,7 @@ class ContactStage:
                              "description's, one for all environments; scale the shapes shared, or switch geom_contacts off")
         self.pair_arrays = collisions.pair_arrays(model) if model.geom_contacts else None
         self.pairs = self.pair_arrays["pairs"] if model.geom_contacts else 0
+        self.state_rows = model.contact_state_rows()  # the contact state's rows: the points', then the pairs' slots'
 
     def per_env_parameters(self) -> tuple:
         """((name, array), ...): the law's parameters that may have one value per environment."""
@@ -164,8 +165,8 @@ class SoftContactStage(ContactStage):
         # the deformation's stability where the points can touch the terrain (contact_reach); the device check
         # of every step (kernels/parameter_checks.py) asks it again of values written in place
         reach = contact_reach(model) if self.count > 0 else ContactReach(0.0, False, "")
-        if reach.may_touch:
-            check_deformation_stability(model.time_step, c.K, c.D, integrator, reach.why)
+        if reach.may_touch or self.pairs:  # the geom pairs' contacts carry the deformation too
+            check_deformation_stability(model.time_step, c.K, c.D, integrator, reach.why if reach.may_touch else "the geom pairs' contacts: model.geom_contacts")
         self.check_rate = s(DEFORMATION_STABILITY[integrator] / model.time_step)
         self.check_reach = s(reach.reach if np.isfinite(reach.reach) else -1.0)
 
@@ -194,7 +195,7 @@ class SoftContactStage(ContactStage):
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
         if self.pairs:
             check = (self.check_rate, plan.model) if ev.checks else None  # a step's evaluation flags; a query's reports
-            launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, ev.contact, ev.W_f_L, N, check)
+            launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, ev.contact, ev.W_f_L, ev.m_dot, N, check)
         return launches
 
 

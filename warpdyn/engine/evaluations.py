@@ -80,8 +80,8 @@ def contact_evaluation(model, data, W_f_ext=None, tau=None) -> tuple[Plan, Evalu
 
 
 def contact_forces(model, data, W_f_ext: wp.array | None = None, tau: wp.array | None = None):
-    """(W_f_C (N, nc, 6), m_dot (N, nc_all, 3), W_f_L (N, nL, 6)): the Inertial contact wrench of each
-    enabled point (ordered by link), the deformation rate of every point, and W_f_ext (Inertial; None: zero)
+    """(W_f_C (N, nc, 6), m_dot (N, rows, 3), W_f_L (N, nL, 6)): the Inertial contact wrench of each
+    enabled point (ordered by link), the deformation rate of every row of the contact state, and W_f_ext (Inertial; None: zero)
     plus the contact wrenches per link; tau (N, n): the joint forces (None: zero), read by the rigid models."""
     current, ev = contact_evaluation(model, data, W_f_ext, tau)
     N, s, d = data.batch_size, current.scalar, current.device
@@ -94,10 +94,10 @@ def contact_forces(model, data, W_f_ext: wp.array | None = None, tau: wp.array |
 
 
 def deformation_rates(current: Plan, ev: Evaluation | None, N: int) -> wp.array:
-    """m_dot (N, nc_all, 3) [m/s] of a contact evaluation (`contact_evaluation`): zeros without enabled points."""
+    """m_dot (N, rows, 3) [m/s] (Model.contact_state_rows) of a contact evaluation (`contact_evaluation`): zeros without enabled points."""
     if ev is not None:
         return ev.m_dot
-    m_dot = arrays.output((current.total, 3), N, current.scalar, current.device)
+    m_dot = arrays.output((current.state_rows, 3), N, current.scalar, current.device)
     m_dot.zero_()
     return m_dot
 

@@ -133,7 +133,7 @@ def record_is_view(name: str, storage: str, every: int, repr: int) -> bool:
 
 def state_shapes(plan) -> list:
     """The per-environment shapes of the float state arrays (p, Q, s, v, sdot, m); `valid` is an int32 more."""
-    return [(3,), (4,), (plan.nq,), (6,), (plan.n,), (plan.total, 3)]
+    return [(3,), (4,), (plan.nq,), (6,), (plan.n,), (plan.state_rows, 3)]
 
 
 def roots(obj, found: dict, skip: set) -> dict:

@@ -191,6 +191,7 @@ class Plan:
         # the contact model's stage (warpdyn.engine.contact_stage): its points, parameters and launches
         stage = self.contact_stage = stage_for(model, self.integrator)
         self.contact_bundle, self.total, self.count, self.point_out = stage.bundle, stage.total, stage.count, stage.point_out
+        self.state_rows = stage.state_rows  # the contact state's rows (Model.contact_state_rows)
         self.contacts = self.count > 0 or stage.pairs > 0
         # MJCF equality constraints (warpdyn.engine.equality), solved after ABA
         self.equality = equality_plan(model)
@@ -295,11 +296,11 @@ class Evaluation:
             self.W_v_WL = out((nL,), vec6)
             self.target_velocities = arrays.empty((0, 6), N, s, d)
             self.W_f_C = out((plan.count, 6))
-            self.m_dot = out((plan.total, 3)) if plan.contact_stage.has_state else plan.zeros((plan.total, 3), N)
+            self.m_dot = out((plan.state_rows, 3)) if plan.contact_stage.has_state else plan.zeros((plan.state_rows, 3), N)
             self.W_f_L = out((nL, 6))
             self.contact = plan.contact_stage.buffers(plan, N, grad)  # the contact model's own (warpdyn.engine.contact_stage)
         else:
-            self.m_dot = plan.zeros((plan.total, 3), N)
+            self.m_dot = plan.zeros((plan.state_rows, 3), N)
         if not aba:  # contact results only (warpdyn.engine.contact)
             return
         link_forces = plan.contacts or plan.gravcomp or forces
@@ -344,7 +345,7 @@ class Workspace:
         else:
             shared = plan.equality.buffers(plan, N) if plan.equality is not None and not grad else None  # a tape's adjoints read each stage's
             self.evals = [Evaluation(plan, N, grad, forces, None, equality=shared) for _ in range(4)]
-            size = plan.integrators.state_size(plan.nq, n, plan.total)
+            size = plan.integrators.state_size(plan.nq, n, plan.state_rows)
             self.slopes = [arrays.output((size,), N, s, d, grad) for _ in range(4)]
             self.stages = [state_buffers(plan, N, grad)[:6] for _ in range(3)]
 
@@ -358,7 +359,7 @@ def state_buffers(plan: Plan, N: int, grad: bool) -> list:
         arrays.output((plan.nq,), N, s, d, grad),
         arrays.output((6,), N, s, d, grad),
         arrays.output((n,), N, s, d, grad),
-        arrays.output((plan.total, 3), N, s, d, grad),
+        arrays.output((plan.state_rows, 3), N, s, d, grad),
         wp.empty(N, dtype=wp.int32, device=d),
     ]
 

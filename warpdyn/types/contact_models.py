@@ -100,8 +100,9 @@ class SoftContacts(ContactModel):
 
     @staticmethod
     def zero_state_variables(model) -> dict[str, np.ndarray]:
-        """{"tangential_deformation": zeros (nc_all, 3)}: one row per collidable point, enabled or not."""
-        return {"tangential_deformation": np.zeros((len(model.kin_dyn_structure().contact_parameters.body), 3))}
+        """{"tangential_deformation": zeros (rows, 3)}: one row per collidable point, enabled or not, then one per geom
+        pair contact slot where model.geom_contacts is set (Model.contact_state_rows)."""
+        return {"tangential_deformation": np.zeros((model.contact_state_rows(), 3))}
 
     @staticmethod
     def update_contact_state(old_contact_state: dict) -> dict:

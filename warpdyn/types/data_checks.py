@@ -152,12 +152,15 @@ def _check_field(name: str, array: wp.array, shape: tuple, dtype, device) -> Non
 
 
 def check_contact_state(model, data) -> None:
-    """A ValueError when the data's contact state does not hold one row per collidable point of the model."""
-    total = len(model.kin_dyn_structure().contact_parameters.body)
+    """A ValueError when the data's contact state does not hold the model's rows (Model.contact_state_rows)."""
+    total = model.contact_state_rows()
     m = data.tangential_deformation_state
     if m is None or m.shape[1] != total:
         got = None if m is None else m.shape[1]
+        points = len(model.kin_dyn_structure().contact_parameters.body)
+        slots = f" and {total - points} geom pair contact slots (model.geom_contacts)" if total > points else ""
         raise ValueError(
-            f"data holds the tangential deformation of {got} collidable points but the model has {total}: "
-            "build the data from this model (wd.data.Data.build) after changing its collidable points"
+            f"data holds {got} rows of tangential deformation but the model's contact state has {total}: {points} "
+            f"collidable points{slots}; build the data from this model (wd.data.Data.build) after changing its "
+            "collidable points or geom_contacts"
         )

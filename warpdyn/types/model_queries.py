@@ -14,6 +14,7 @@ from ..description.mjcf_writer import write_mjcf
 from ..description.model import NotModelledWarning, axis_angle_to_matrix, homogeneous
 from ..description.urdf_writer import write_urdf
 from .enums import IntegratorType
+from .geoms import geom_pairs
 from .terrain import FlatTerrain, PlaneTerrain
 
 __all__ = ["ModelQueries"]
@@ -111,6 +112,13 @@ class ModelQueries:
         if array is not None and array.shape[0] > 1:
             return array.numpy().astype(np.float64)
         return np.asarray(self.kin_dyn_structure().contact_parameters.point, dtype=np.float64).reshape(1, -1, 3)
+
+    def contact_state_rows(self) -> int:
+        """The rows of the soft contacts' state (the data's tangential deformation, (N, rows, 3)): one per collidable
+        point, enabled or not (JaxSim's), then, where `geom_contacts` is set, one per contact slot of the geom pairs
+        (warpdyn.types.geoms: each pair's slots in order), the deformation of the contact in that slot."""
+        rows = len(self.kin_dyn_structure().contact_parameters.body)
+        return rows + geom_pairs(self).contacts if self.geom_contacts else rows
 
     def export_updated_model(self, format: str = "urdf") -> str:
         """JaxSim's export: the text of the lumped tree with its current parameters, joint origins, collision shapes and
