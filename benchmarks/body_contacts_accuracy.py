@@ -118,9 +118,17 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200, help="steps of each timed rollout (default 200)")
     parser.add_argument("--repeats", type=int, default=5, help="timed rollouts, median (default 5)")
     parser.add_argument("--time-steps", default="0.002,0.001,0.0005,0.00025", help="dt [s], comma-separated")
+    parser.add_argument("--throughput-only", action="store_true",
+                        help="print only the stack's throughput per dtype and dt (to compare versions: PYTHONPATH=<a checkout's package>)")
     args = parser.parse_args()
     wp.config.quiet = True
     device = wp.get_device(args.device)
+    if args.throughput_only:
+        print(f"warpdyn from {pathlib.Path(wd.__file__).parent}; device {device}; N = {args.num_envs}, {args.steps} steps, median of {args.repeats}")
+        for dtype in (np.float32, np.float64):
+            for dt in (float(v) for v in args.time_steps.split(",")):
+                print(f"| {np.dtype(dtype).name} | {1e3 * dt:g} | {throughput(dt, dtype, device, args.num_envs, args.steps, args.repeats):.4g} |", flush=True)
+        return
     reference, _ = stack_rest(1.0 / 16000.0, np.float64, device)
     theirs = mujoco_stack()
     z_mj, slip_mj = mujoco_pinch()

@@ -138,8 +138,8 @@ def link_contact_forces(
     model, data, *, link_forces=None, joint_force_references=None, joint_torques=None, output_vel_repr=VelRepr.Inertial
 ) -> tuple[wp.array, dict]:
     """(f_L, derivatives), JaxSim's: the contact wrench on each link, (nL, 6) or (N, nL, 6), [force; torque],
-    and the rates of the contact model's state, {"m_dot": (nc_all, 3) or (N, nc_all, 3)} [m/s] for the soft
-    law (0 for disabled points), at the data's state (one contact evaluation). f_L in `output_vel_repr` for the link frame L (default
+    and the rates of the contact model's state, {"m_dot": (rows, 3) or (N, rows, 3)} [m/s] for the soft
+    law (0 for disabled points; rows: Model.contact_state_rows, the geom pairs' slots after the points), at the data's state (one contact evaluation). f_L in `output_vel_repr` for the link frame L (default
     Inertial, as JaxSim's, whatever the data's representation):
     - Inertial: W_f_L = sum over L's enabled points C of [f_C; W_p_C x f_C] (torque about the world origin),
       plus, where model.geom_contacts is set, the wrenches of L's geom pairs' contacts (`geom_contacts`), what

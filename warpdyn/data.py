@@ -7,7 +7,8 @@ N (N = 1 for single-environment data), stored environment-fastest (see warpdyn.a
 - joint_positions_state (N, n): s [rad or m], in the model's joint order.
 - base_velocity_state (N, 6): the base velocity in the Mixed representation, [W_pdot_B; W_omega_WB].
 - joint_velocities_state (N, n): sdot [rad/s or m/s].
-- tangential_deformation_state (N, nc, 3): the soft-contact state m of every collidable point [m].
+- tangential_deformation_state (N, rows, 3): the soft-contact state m [m] of every collidable point, then of each
+  geom pair contact slot where model.geom_contacts is set (Model.contact_state_rows).
 - valid_state (N,) int32: 1 while an environment's simulation is healthy, 0 once `step` flagged it.
 The public properties below give these in JaxSim's shapes (no environment axis for single-environment
 data) and in the data's velocity representation.
@@ -80,7 +81,8 @@ class Data(ModelDataWithVelocityRepresentation):
         positions (nq,), which default to the description's initial positions (MuJoCo's qpos0: an MJCF
         joint's `ref`, a free body's pose; an SDF joint's `<initial_position>`; else 0 and identity
         quaternions). joint_velocities: (nv,). Base velocities are read in `velocity_representation`. contact_state: JaxSim's, {"tangential_deformation":
-        (nc_all, 3) or (N, nc_all, 3) [m]} (default zero). NumPy-like inputs are checked on the host
+        (rows, 3) or (N, rows, 3) [m]} (rows: model.contact_state_rows(), JaxSim's nc_all but where geom_contacts
+        adds the pairs' slots; default zero). NumPy-like inputs are checked on the host
         (finite; unit quaternion within 1e-6 when `validate`); Warp arrays are copied on the device,
         and checked on the host (a synchronisation) only when `validate` is set.
         """
@@ -221,7 +223,8 @@ class Data(ModelDataWithVelocityRepresentation):
 
     @property
     def contact_state(self) -> dict[str, wp.array]:
-        """JaxSim's contact state: {"tangential_deformation": (nc, 3) or (N, nc, 3) [m]} for all points."""
+        """JaxSim's contact state: {"tangential_deformation": (rows, 3) or (N, rows, 3) [m]} for all points (and the
+        geom pairs' contact slots: Model.contact_state_rows)."""
         return {"tangential_deformation": self._out(self.tangential_deformation_state)}
 
     @property
@@ -294,7 +297,7 @@ class Data(ModelDataWithVelocityRepresentation):
     ) -> Data:
         """A new Data with the given fields replaced (base velocities in the data's representation), JaxSim's:
         the base quaternion is normalised (a zero or non-finite one is a ValueError), contact_state is
-        {"tangential_deformation": (nc_all, 3) or (N, nc_all, 3)}. validate: check the values on the host
+        {"tangential_deformation": (rows, 3) or (N, rows, 3)} (Model.contact_state_rows). validate: check the values on the host
         (warpdyn's default; JaxSim's `validate`, off by default there, checks its pytree's shapes). envs
         (warpdyn's): the environments to change (indices or a boolean mask of length N); the others keep their
         state. A base velocity given without its other half keeps that half from this data (in its
