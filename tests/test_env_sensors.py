@@ -4,10 +4,12 @@ at an offset, its noise and bias; the stumbling and height-above-terrain terms; 
 stairs and terrain. Few environments, few steps, on the tests' device."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
 import torch
+from scipy.spatial.transform import Rotation
 import warp as wp
 
 import warpdyn as wd
@@ -120,6 +122,73 @@ def test_an_offset_imu_reads_its_own_points_acceleration():
     expected = _rotate_inverse(env.state.base_quaternion, acceleration - g)
     assert float(expected.norm(dim=1).min()) > 1.0  # not free fall's zero
     torch.testing.assert_close(env.imu.linear_acceleration, expected, atol=0.03, rtol=0)
+
+
+def test_an_imu_on_a_link_reads_that_links_frame():
+    """An IMU on the tail (ImuConfig.link, offset and turned on it): at a reset it reads -g in its own axes (the tail's
+    pose composed with the mount); on the box spinning in free fall, with the tail servoed, the accelerometer reads the
+    finite difference of the IMU point's velocity over the last simulation step less gravity and the gyroscope the
+    tail's angular velocity, both in the IMU's axes, as wd.link.transform and wd.link.velocity give them at the two
+    state buffers (1e-4 m/s^2, float32); an unknown link is refused, naming the model's links."""
+    offset, mount = (0.04, 0.01, -0.02), (np.cos(0.4), 0.0, 0.0, np.sin(0.4))
+    env = _box(2, imu=ImuConfig(link="tail", offset=offset, rotation=mount))
+    env.reset(seed=0)
+    tail = env.model.link_names().index("tail")
+    R_LI = torch.tensor(Rotation.from_quat([*mount[1:], mount[0]]).as_matrix(), dtype=env.torch_dtype, device=env.device)
+    r = torch.tensor(offset, dtype=env.torch_dtype, device=env.device)
+
+    def imu_frame(data):
+        W_H_L = wp.to_torch(wd.link.transform(env.model, data, link_index=tail))
+        v = wp.to_torch(wd.link.velocity(env.model, data, link_index=tail, output_vel_repr=wd.VelRepr.Mixed))
+        R = W_H_L[:, :3, :3]
+        return R @ R_LI, v[:, :3] + torch.cross(v[:, 3:], R @ r, dim=1), v[:, 3:]
+
+    g = torch.tensor([[0.0, 0.0, -9.81]], dtype=env.torch_dtype, device=env.device)
+    R, _, _ = imu_frame(env.stepper.data)
+    torch.testing.assert_close(env.imu.linear_acceleration, torch.einsum("nji,nj->ni", R, -g.expand(2, 3)), atol=1e-5, rtol=0)
+    views = env._state_views[id(env.stepper.data)]
+    views["base_position"][:, 2] += 1.0
+    views["base_velocity"][:, 3:] = torch.tensor([0.5, -1.0, 3.0], device=env.device)
+    env.step(_zero(env) + 0.5)
+    before = next(d for d in env.stepper.buffers if d is not env.stepper.data)
+    (R, v_now, omega), (_, v_before, _) = imu_frame(env.stepper.data), imu_frame(before)
+    expected = torch.einsum("nji,nj->ni", R, (v_now - v_before) / env.cfg.time_step - g)
+    assert float(expected.norm(dim=1).min()) > 1.0  # not free fall's zero: the tail turns about the spinning box
+    torch.testing.assert_close(env.imu.linear_acceleration, expected, atol=1e-4, rtol=0)
+    torch.testing.assert_close(env.imu.angular_velocity, torch.einsum("nji,nj->ni", R, omega), atol=1e-5, rtol=0)
+    with pytest.raises(ValueError, match=r"ImuConfig.link 'fin' is not a link of model 'box'; its links: \['base', 'tail'\]"):
+        _box(1, imu=ImuConfig(link="fin"))
+    with pytest.raises(TypeError, match="ImuConfig.link must be a link's name or None"):
+        ImuConfig(link=3)
+
+
+def test_frame_motion_is_the_links_pose_and_velocity_composed_with_the_frame():
+    """wd.link.FrameMotion (ANYmal C's left front shank, a frame offset and turned on it, 3 random states, float64)
+    equals wd.link.transform times the frame's pose, and the Mixed velocity of wd.link.velocity moved to the frame's
+    origin, to 1e-15; the same arrays at every call; bad frames and another N are refused."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        model = wd.model.Model.build_from_model_description(wd.assets.anymal_c_mjcf(), dtype=np.float64)
+    rng = np.random.default_rng(0)
+    data = wd.data.Data.build(model, num_envs=3, joint_positions=rng.normal(size=(3, model.dofs())) * 0.3,
+                              joint_velocities=rng.normal(size=(3, model.dofs())), base_linear_velocity=rng.normal(size=(3, 3)),
+                              base_angular_velocity=rng.normal(size=(3, 3)), velocity_representation=wd.VelRepr.Mixed)  # fmt: skip
+    link, p, q = model.link_names().index("LF_SHANK"), np.array([0.02, -0.03, 0.05]), np.array([np.cos(0.3), 0.0, np.sin(0.3), 0.0])
+    motion = wd.link.FrameMotion(model, link_index=link, position=p, quaternion=q, num_envs=3)
+    W_H_F, W_v_WF = motion(data)
+    W_H_L = wd.link.transform(model, data, link_index=link).numpy()
+    v_L = wd.link.velocity(model, data, link_index=link, output_vel_repr=wd.VelRepr.Mixed).numpy()
+    L_H_F = np.eye(4)
+    L_H_F[:3, :3], L_H_F[:3, 3] = Rotation.from_quat([*q[1:], q[0]]).as_matrix(), p
+    np.testing.assert_allclose(W_H_F.numpy(), W_H_L @ L_H_F, rtol=0, atol=1e-15)
+    r = np.einsum("nij,j->ni", W_H_L[:, :3, :3], p)
+    np.testing.assert_allclose(W_v_WF.numpy(), np.concatenate([v_L[:, :3] + np.cross(v_L[:, 3:], r), v_L[:, 3:]], axis=1), rtol=0, atol=1e-15)
+    again = motion(data)
+    assert again[0].ptr == W_H_F.ptr and again[1].ptr == W_v_WF.ptr
+    with pytest.raises(ValueError, match="unit quaternion"):
+        wd.link.FrameMotion(model, link_index=link, quaternion=(1.0, 1.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="made for 2 environments, the data holds 3"):
+        wd.link.FrameMotion(model, link_index=link, num_envs=2)(data)
 
 
 def test_imu_noise_and_bias_statistics():

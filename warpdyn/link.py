@@ -6,9 +6,10 @@ Results are Warp arrays on the model's device, with a leading N axis for batched
 from __future__ import annotations
 
 import numpy as np
+import warp as wp
 
 from . import arrays
-from .engine import centroidal, derivatives, kinematics
+from .engine import centroidal, derivatives, kinematics, sensors
 from .types import names as _names
 
 __all__ = [
@@ -24,6 +25,7 @@ __all__ = [
     "bias_acceleration",
     "spatial_inertia",
     "com_position",
+    "FrameMotion",
 ]
 
 
@@ -104,3 +106,35 @@ def com_position(model, data, *, link_index: int, in_link_frame: bool = True):
     """The link's CoM: L_p_CoM (in_link_frame, the default) or W_p_CoM: (3,) or (N, 3) [m]."""
     i = _names.check_idx("link", model.number_of_links(), link_index)
     return arrays.squeeze_env(centroidal.link_com_position(model, data, i, bool(in_link_frame)), data.num_envs)
+
+
+class FrameMotion:
+    """warpdyn's (not JaxSim's): a frame fixed on a link whose pose and velocity are written into the same buffers at
+    each call, for N environments, so that a sensor reads them inside a captured graph (nothing is allocated): an
+    IMU on a link (warpdyn.envs.sensors). `link_index`; `position` (3,) [m] and `quaternion` (w, x, y, z) of the
+    frame in the link's frame (default: the link's own).
+
+        motion = wd.link.FrameMotion(model, link_index=3, position=[0, 0, 0.05], num_envs=N)
+        W_H_F, W_v_WF = motion(data)    # (N, 4, 4); (N, 6) Mixed: the frame origin's velocity, world axes [m/s, rad/s]
+    """
+
+    def __init__(self, model, *, link_index: int, position=(0.0, 0.0, 0.0), quaternion=(1.0, 0.0, 0.0, 0.0), num_envs: int = 1):
+        i = _names.check_idx("link", model.number_of_links(), link_index)
+        p = arrays.host_numbers(position, "position")
+        q = arrays.host_numbers(quaternion, "quaternion")
+        if p.shape != (3,) or q.shape != (4,) or not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+            raise ValueError(f"FrameMotion takes a finite position (3,) [m] and quaternion (4,) (w, x, y, z), got shapes {p.shape} and {q.shape}")
+        if abs(np.linalg.norm(q) - 1.0) > 1e-6:
+            raise ValueError(f"FrameMotion's quaternion must be a unit quaternion (w, x, y, z), got {q.tolist()}")
+        if type(num_envs) is not int or num_envs < 1:
+            raise ValueError(f"FrameMotion's num_envs must be an integer >= 1, got {num_envs!r}")
+        self.model, self.num_envs = model, num_envs
+        frame = wp.types.transformation(model.scalar)(p, (q[1], q[2], q[3], q[0]))
+        self._buffers = sensors.frame_motion_buffers(model, i, frame, num_envs)
+
+    def __call__(self, data) -> tuple[wp.array, wp.array]:
+        """(W_H_F (N, 4, 4), W_v_WF (N, 6)) at the data's state (N = num_envs), in the same arrays at every call."""
+        if data.batch_size != self.num_envs:
+            raise ValueError(f"this FrameMotion was made for {self.num_envs} environments, the data holds {data.batch_size}")
+        W_H_F, W_v_WF = sensors.frame_motion(self.model, data, self._buffers)
+        return W_H_F[:, 0], W_v_WF[:, 0]

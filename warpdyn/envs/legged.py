@@ -80,7 +80,7 @@ class LeggedEnvConfig:
     uniform noise of +-noise to its scaled values at every observation; `action_delay` k applies each action k policy
     steps after the policy gave it (the targets hold the last ones given k steps ago; zero after a reset), while
     `env.actions` (what the action terms read) is the newest. `imu` (a `warpdyn.envs.sensors.ImuConfig`): an IMU on the
-    base (`env.imu`; terms.imu_linear_acceleration, terms.imu_angular_velocity). `stumble_ratio`: a foot stumbles when
+    base or a link (`env.imu`; terms.imu_linear_acceleration, terms.imu_angular_velocity). `stumble_ratio`: a foot stumbles when
     its horizontal contact force exceeds this times its vertical one (terms.stumbling). `actuator`: "pd" (the servo
     above), "torque" (torques action_scale * action [N m], clipped at torque_limit) or a
     `warpdyn.envs.actuators.ActuatorNet` (a torch network from the joints' error and velocity history to torques, at
@@ -350,7 +350,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.feet_first_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
         self.feet_air_time = torch.zeros(N, nf, **f32)
         self.feet_contact_forces = torch.zeros(N, nf, 3, device=self.device, dtype=self.torch_dtype)
-        self.imu = None if cfg.imu is None else Imu(cfg.imu, N, cfg.time_step, self._generator, self.device, self.torch_dtype)
+        self.imu = None if cfg.imu is None else Imu(cfg.imu, N, cfg.time_step, self._generator, self.device, self.torch_dtype, model)
         self.undesired_contact = torch.zeros(N, len(self._undesired_points), dtype=torch.bool, device=self.device)
         self._previous_contact = torch.zeros(N, nf, dtype=torch.bool, device=self.device)
         self._action_input = torch.zeros(N, na, **f32)
@@ -672,8 +672,8 @@ class LeggedEnv(gym.vector.VectorEnv):
         if self.imu is not None:
             now = self.stepper.data
             before = now if at_rest is not None else next(data for data in self.stepper.buffers if data is not now)
-            velocity = [self._state_views[id(data)]["base_velocity"] for data in (now, before)]
-            self.imu.read(self.state.base_quaternion, *velocity, wp.to_torch(self.model.world_gravity).reshape(-1, 3), at_rest)
+            velocity = tuple(self._state_views[id(data)]["base_velocity"] for data in (now, before))
+            self.imu.sense(now, before, self.state.base_quaternion, velocity, wp.to_torch(self.model.world_gravity).reshape(-1, 3), at_rest)
 
     def _update_feet(self) -> None:
         """Contact of each foot (normal force above the threshold), its first contact and its air time [s], each
