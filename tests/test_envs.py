@@ -390,10 +390,13 @@ def test_use_graph_true_is_refused_on_the_cpu():
 
 
 @pytest.mark.skipif(not wp.get_device().is_cuda, reason="CUDA graphs: the tests' device is not a GPU")
-@pytest.mark.parametrize("policy_dt, terrain, sensors", [(0.02, False, False), (0.01, False, False), (0.02, True, False), (0.02, True, True)])  # 10 and 5 simulation steps: an odd count ends on the other buffer
+@pytest.mark.parametrize(
+    "policy_dt, terrain, sensors", [(0.02, False, None), (0.01, False, None), (0.02, True, None), (0.02, True, "root_link"), (0.01, False, "l_lower_leg")]
+)  # 10 and 5 simulation steps: an odd count ends on the other buffer
 def test_graph_replays_equal_eager_steps(policy_dt, terrain, sensors):
     """use_graph=True captures a whole step (actions, simulation, rewards, resets, randomisation, the terrain
-    curriculum and the height scan; with `sensors` the IMU's noise and biases, an ActuatorNet's torch network at each
+    curriculum and the height scan; with `sensors` the IMU's noise and biases on that link (the base's path, or a
+    shank's kinematics at both state buffers), an ActuatorNet's torch network at each
     simulation step on two Steppers, stumbling and the height above the terrain) and its replays give what eager steps
     give, bitwise, through pushes, time-limit resets and a reset() between replays, in tensors that the next step does
     not overwrite."""
@@ -409,10 +412,11 @@ def test_graph_replays_equal_eager_steps(policy_dt, terrain, sensors):
     if sensors:
         torch.manual_seed(0)
         net = torch.nn.Sequential(torch.nn.Linear(6, 16), torch.nn.Softsign(), torch.nn.Linear(16, 1)).to(wp.device_to_torch(wp.get_device()))
-        settings["imu"] = ImuConfig(offset=(0.05, 0.0, 0.1), accelerometer_noise=0.1, gyroscope_noise=0.01, accelerometer_bias=0.2, gyroscope_bias=0.05)
+        settings["imu"] = ImuConfig(offset=(0.05, 0.0, 0.1), accelerometer_noise=0.1, gyroscope_noise=0.01, accelerometer_bias=0.2, gyroscope_bias=0.05, link=sensors)
         settings["actuator"] = ActuatorNet(net, history=3)
         terms = envs.terms
-        settings["observations"] += ((terms.imu_linear_acceleration, 0.1), (terms.imu_angular_velocity, 0.25), (terms.height_above_terrain, 1.0))
+        settings["observations"] = (*settings.get("observations", envs.DEFAULT_OBSERVATIONS), (terms.imu_linear_acceleration, 0.1),
+                                    (terms.imu_angular_velocity, 0.25), (terms.height_above_terrain, 1.0))  # fmt: skip
         settings["rewards"] = {**envs.DEFAULT_REWARDS, "stumbling": (terms.stumbling, -1.0), "base_height": (terms.height_above_terrain_error, -10.0)}
     graphed = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=True)
     eager = envs.LeggedEnv(_legs(), num_envs=8, cfg=envs.LeggedEnvConfig(**settings), seed=3, use_graph=False)
