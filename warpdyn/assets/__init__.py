@@ -18,6 +18,14 @@
   joint torques (`joint_force_references`), within FRANKA_PANDA_TORQUE_LIMITS; the flange is the frame
   FRANKA_PANDA_FLANGE; the keyframe "home" (`wd.data.keyframe(model, "home")`) is Menagerie's. Loading it
   warns once, a NotModelledWarning for the joint limits (MuJoCo's limit constraints).
+- `franka_panda_cube_mjcf()`: the Panda with its hand and a 0.1 kg cube on the floor, MuJoCo Playground's
+  PandaPickCube scene (Menagerie's `franka_emika_panda/mjx_single_cube.xml` with its mjx_panda.xml and
+  mjx_scene.xml in one file, without meshes and the mocap target, at 1 ms; the file's comment says what was
+  changed; Apache-2.0: `LICENSE.panda`): the hand's capsule and fingertip pads collide with the cube (its two
+  geom pairs act where model.geom_contacts is set), the fingers are coupled by a joint equality, the 7 joints'
+  position servos and the gripper's are its 8 controls, and its keyframes "home", "pickup" and "pickup1" are
+  Menagerie's. A scripted grasp from "pickup1" lifts the cube 39 cm and holds it, the arm moving as MuJoCo's
+  (tests/test_panda.py; soft law K = 5e5, D = 500 for the 0.1 kg cube at 1 ms).
 - `anymal_c_mjcf()`: ANYbotics' ANYmal C quadruped (floating base, 12 revolute joints, 44.97 kg), MuJoCo
   Menagerie's `anybotics_anymal_c/anymal_c.xml` without meshes, textures, materials, visual geoms, actuators
   and frictionloss, with the keyframe "standing" of Menagerie's anymal_c_mjx.xml (the file's comment says what
@@ -80,6 +88,7 @@ __all__ = [
     "ergocub_sdf",
     "ERGOCUB_LEG_JOINTS",
     "franka_panda_mjcf",
+    "franka_panda_cube_mjcf",
     "FRANKA_PANDA_FLANGE",
     "FRANKA_PANDA_TORQUE_LIMITS",
     "anymal_c_mjcf",
@@ -135,6 +144,12 @@ def franka_panda_mjcf() -> pathlib.Path:
     """The path of the shipped Franka Emika Panda arm, an MJCF file without meshes (a file inside the installed
     package)."""
     return _HERE / "franka_panda.xml"
+
+
+def franka_panda_cube_mjcf() -> pathlib.Path:
+    """The path of the shipped Panda with its hand and a cube on the floor (Playground's PandaPickCube scene), an
+    MJCF file without meshes (a file inside the installed package)."""
+    return _HERE / "franka_panda_cube.xml"
 
 
 FRANKA_PANDA_FLANGE = "attachment"
