@@ -3,7 +3,6 @@ the model's device (see warpdyn.envs)."""
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
 
@@ -20,6 +19,7 @@ from . import terms
 from .actuators import Actuation, ActuatorNet, torque_limits
 from .sensors import Imu, ImuConfig
 from .terrain_generator import TerrainConfig, TerrainCurriculum, TerrainGenerator
+from .vector_env import DeviceVectorEnv
 
 __all__ = ["LeggedEnvConfig", "LeggedEnv", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS"]
 
@@ -250,7 +250,7 @@ def _snapshot(cfg: LeggedEnvConfig) -> LeggedEnvConfig:
     return dataclasses.replace(cfg, rewards=dict(cfg.rewards), observations=tuple(cfg.observations))
 
 
-class LeggedEnv(gym.vector.VectorEnv):
+class LeggedEnv(DeviceVectorEnv):
     """N environments of a floating-base robot on flat ground, stepped in place on the model's device.
 
     Gymnasium's vector API with SAME_STEP autoreset: `reset(seed=...)` -> (obs, info); `step(actions)` ->
@@ -270,6 +270,7 @@ class LeggedEnv(gym.vector.VectorEnv):
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
+    _replayed = ("state", "joint_torques")
 
     def __init__(self, model, num_envs: int, cfg: LeggedEnvConfig | None = None, *, seed: int = 0, use_graph="auto"):
         if not model.floating_base():
@@ -358,7 +359,7 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._return = torch.zeros(N, **f32)
         self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)  # episodes, return sum, length sum
         self._warp_streams: dict = {}
-        self._program = self._step_program()
+        self._program = self._step_program("a LeggedEnv")
         self._graph_version, self._graph_cfg = model.version, _snapshot(cfg)
         with self._on_device_stream():  # the height scan's launch ordered with the torch ops
             self.state = self._state()
@@ -491,10 +492,6 @@ class LeggedEnv(gym.vector.VectorEnv):
             parts.append(value)
         return torch.nan_to_num(torch.cat(parts, dim=1), nan=0.0, posinf=0.0, neginf=0.0)
 
-    def _uniform(self, low, high, shape) -> torch.Tensor:
-        u = torch.rand(shape, generator=self._generator, device=self.device, dtype=self.torch_dtype)
-        return low + (high - low) * u
-
     def _every(self, seconds: float) -> int:
         return max(1, round(seconds / self.cfg.policy_dt))
 
@@ -538,24 +535,13 @@ class LeggedEnv(gym.vector.VectorEnv):
         self.episode_length_buf.masked_fill_(mask, 0)
         self._return.masked_fill_(mask, 0.0)
 
-    def _on_device_stream(self, capturing: bool = False):
-        """On a GPU, Warp's launches on torch's current stream, ordered with the torch ops (captured with them):
-        outside a capture that stream first waits for Warp's, and Warp's for it at the exit."""
-        if not self.device.type == "cuda":
-            return contextlib.nullcontext()
-        current = torch.cuda.current_stream(self.device)
-        stream = self._warp_streams.get(current.cuda_stream)
-        if stream is None:
-            stream = self._warp_streams[current.cuda_stream] = wp.stream_from_torch(current)
-        return wp.ScopedStream(stream, sync_enter=not capturing, sync_exit=not capturing)
-
     def _sync_model(self) -> None:
         """After a setter changed the model (new parameter arrays, a rebuilt Stepper workspace) or a change of
         `cfg` (read when a graph was captured): drop the graphs (the next step runs eagerly, then captures)
         and take new views of the randomised parameters."""
         if self.model.version == self._graph_version and self.cfg == self._graph_cfg:
             return
-        self._program = self._step_program()
+        self._program = self._step_program("a LeggedEnv")
         self._graph_version, self._graph_cfg = self.model.version, _snapshot(self.cfg)
         self._link_mass = wp.to_torch(self.model.link_mass)
         self._mu = wp.to_torch(self.model.contact_params.mu)
@@ -589,34 +575,6 @@ class LeggedEnv(gym.vector.VectorEnv):
         self._sync_model()
         with self._on_device_stream():  # a replay too: ordered after Warp's pending work
             return self._program.run()
-
-    def _step_program(self):
-        """`_advance` as the Stepper's step program (wd.simulation.Stepper): on a GPU captured whole in a torch
-        CUDA graph as use_graph allows, at the second step; on the CPU eager (the Stepper replays its Warp CPU
-        graph)."""
-        use_graph = self.use_graph if self.device.type == "cuda" else False
-        return self.stepper.step_program(self._advance, self._torch_graph, use_graph, "a LeggedEnv")
-
-    def _torch_graph(self, advance):
-        """Capture one `advance()` in a torch CUDA graph, not run (torch's allocations in the graph's memory pool,
-        the generator's state registered with it); returns its replay, which points `state` and `joint_torques`
-        at the graph's tensors and returns copies of the graph's outputs, as an eager step returns new tensors."""
-        graph = torch.cuda.CUDAGraph()
-        graph.register_generator_state(self._generator)
-        with torch.cuda.device(self.device), torch.cuda.graph(graph), self._on_device_stream(capturing=True):
-            outputs = advance()
-        state, joint_torques = self.state, self.joint_torques
-
-        def replay() -> tuple:
-            with torch.cuda.device(self.device):
-                graph.replay()
-            self.state, self.joint_torques = state, joint_torques
-            obs, reward, terminated, truncated, info = outputs
-            info = {"final_obs": info["final_obs"].clone(), "_final_obs": info["_final_obs"].clone(), "invalid": info["invalid"].clone(),
-                    "log": {name: value.clone() for name, value in info["log"].items()}}  # fmt: skip
-            return obs.clone(), reward.clone(), terminated.clone(), truncated.clone(), info
-
-        return replay
 
     def _advance(self) -> tuple:
         """One policy step from the actions in `_action_input`: (obs, reward, terminated, truncated, info)."""
@@ -687,14 +645,3 @@ class LeggedEnv(gym.vector.VectorEnv):
         touching = self.feet_contact | self._previous_contact
         self.feet_first_contact.copy_((self.feet_air_time > 0) & touching)
         self.feet_air_time += self.cfg.policy_dt
-
-    def episode_statistics(self) -> dict:
-        """{"episodes", "mean_return", "mean_length"} of the episodes completed since the last call (one
-        host synchronisation)."""
-        count, total, length = self._finished.tolist()
-        self._finished.zero_()
-        return {"episodes": int(count), "mean_return": total / count if count else float("nan"), "mean_length": length / count if count else float("nan")}
-
-    def close_extras(self, **kwargs) -> None:
-        self._program = None
-        self.stepper = None
