@@ -279,10 +279,10 @@ def train(
     return history
 
 
-def terrain_level_counts(env: envs.LeggedEnv) -> tuple[float, float, float]:
+def terrain_level_counts(env) -> tuple[float, float, float]:
     """(sum of the environments' terrain levels, how many are on the hardest level, how many environments) on
-    generated terrain; zeros on flat ground."""
-    gen = env.terrain_generator
+    generated terrain; zeros on flat ground and for environments without terrain (examples/rl_manipulation.py's)."""
+    gen = getattr(env, "terrain_generator", None)
     if gen is None:
         return 0.0, 0.0, 0.0
     levels = env.terrain_levels

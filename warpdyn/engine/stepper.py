@@ -115,12 +115,18 @@ class Stepper:
     @property
     def contact_wrenches(self):
         """W_f_C (N, nc, 6): the Inertial wrench [force; torque about the world origin] [N, N m] of each enabled
-        collidable point's contact force (points in the order of `model.kin_dyn_parameters.enabled_link`: by
-        link) at the start of the last step of the latest call, a sample of one step (None for a model without
+        collidable point's contact force (points by link, each link's in the description's order: row r on link
+        `contact_point_links[r]`) at the start of the last step of the latest call, a sample of one step (None for a model without
         enabled points); a view of the Stepper's workspace, overwritten by each call and replaced when a
         setter changes the model."""
         evaluation = self._workspace.evals[0]
         return evaluation.W_f_C if self._plan.contacts else None
+
+    @property
+    def contact_point_links(self) -> np.ndarray:
+        """(nc,) int: the link of each row of `contact_wrenches` (the description's enabled points sorted by link,
+        stably: model.kin_dyn_parameters.enabled_link lists them in the description's order)."""
+        return self._plan.contact_bundle.point_link.numpy().astype(np.int64)
 
     @property
     def buffers(self) -> tuple:

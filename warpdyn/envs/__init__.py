@@ -16,12 +16,15 @@ configuration composes. `warpdyn.envs.rsl_rl.RslRlVecEnv` hands it to rsl-rl's P
 environments between its levels (Rudin et al.'s curriculum; LeggedEnvConfig.terrain). `warpdyn.envs.sensors` puts an
 IMU on the base (`ImuConfig`); `warpdyn.envs.actuators` turns actions into torques ("torque", `ActuatorNet`);
 `warpdyn.envs.robots` sets a legged robot up from its description and a few names (`LeggedRobot`, the presets).
+`PickCubeEnv` (`warpdyn.envs.manipulation`): the Franka Panda picking up a cube and bringing it to a target, after
+MuJoCo Playground's PandaPickCube, on the same vector API (`warpdyn.envs.vector_env`).
 """
 
 from . import robots, terms
 from .actuators import ActuatorNet
 from .legged import DEFAULT_OBSERVATIONS, DEFAULT_REWARDS, LeggedEnv, LeggedEnvConfig
+from .manipulation import PickCubeConfig, PickCubeEnv
 from .robots import LeggedRobot
 from .sensors import ImuConfig
 
-__all__ = ["LeggedEnv", "LeggedEnvConfig", "LeggedRobot", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS", "ImuConfig", "ActuatorNet", "terms", "robots"]
+__all__ = ["LeggedEnv", "LeggedEnvConfig", "PickCubeEnv", "PickCubeConfig", "LeggedRobot", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS", "ImuConfig", "ActuatorNet", "terms", "robots"]

@@ -444,7 +444,7 @@ class LeggedEnv(DeviceVectorEnv):
         """(link names, [torch index tensor of each link's enabled collidable points]) of `names` (None: cfg.feet,
         or every link with enabled points when that is empty); a ValueError names `field` and a link that the model
         lacks or that has no enabled points."""
-        link_of_point = np.asarray(model.kin_dyn_structure().enabled_link.numpy()).reshape(-1)
+        link_of_point = self.stepper.contact_point_links  # the rows of its contact_wrenches
         links = model.link_names()
         if names is None:
             names = tuple(self.cfg.feet) or tuple(links[i] for i in sorted(set(link_of_point.tolist())))

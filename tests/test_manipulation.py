@@ -1,0 +1,181 @@
+"""warpdyn.envs.PickCubeEnv (issue 37: a manipulation task): MuJoCo Playground's PandaPickCube on the shipped scene,
+its resets, actions, rewards (recomputed from the JaxSim-style API), terminations, a scripted grasp through its
+actions, and the Stepper's contact rows it reads. Few environments, on the tests' device."""
+
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+import torch
+import warp as wp
+
+import warpdyn as wd
+import warpdyn.envs as envs
+from warpdyn.envs.manipulation import PickCubeConfig
+
+N = 4
+
+
+def _env(**cfg) -> envs.PickCubeEnv:
+    return envs.PickCubeEnv(N, PickCubeConfig(**cfg), seed=1)
+
+
+def _cube_and_target(env):
+    q = wp.to_torch(env.stepper.data.joint_positions_state)
+    return q[:, env._cube : env._cube + 3], env.target
+
+
+def test_resets_draw_cubes_and_targets_in_their_ranges():
+    """reset(seed) gives (N, 66) float32 observations, the same for the same seed and others for another; each cube
+    lies on the floor within 0.2 m (x, y) of the keyframe's, its target 0.2 to 0.4 m above the floor around it; the
+    controls are the keyframe's."""
+    env = _env()
+    obs, _ = env.reset(seed=3)
+    assert obs.shape == (N, 66) and obs.dtype == torch.float32 and torch.isfinite(obs).all()
+    assert torch.equal(env.reset(seed=3)[0], obs) and not torch.equal(env.reset(seed=4)[0], obs)
+    cube, target = _cube_and_target(env)
+    home = env._home_cube
+    assert bool(((cube[:, :2] - home[:2]).abs() <= 0.2).all()) and torch.allclose(cube[:, 2], home[2].expand(N))
+    offset = target - home
+    assert bool(((offset[:, :2].abs() <= 0.2).all(dim=1) & (offset[:, 2] >= 0.2) & (offset[:, 2] <= 0.4)).all())
+    key = next(k for k in env.model.description.keyframes if k.name == "home")
+    np.testing.assert_allclose(wp.to_torch(env.stepper.ctrl).cpu().numpy(), np.tile(key.ctrl, (N, 1)), atol=1e-6)
+
+
+def test_actions_add_to_the_controls_within_their_ranges():
+    """A step adds 0.04 times the actions (clipped to [-1, 1]) to the 8 controls, clipped to their ranges (the
+    gripper's 0 to 0.04 m); actions of another shape are refused."""
+    env = _env()
+    env.reset(seed=0)
+    before = wp.to_torch(env.stepper.ctrl).clone()
+    actions = torch.tensor([[0.5, -2.0, 0.0, 1.0, -0.25, 0.0, 3.0, 1.0]] * N)
+    env.step(actions)
+    expected = torch.minimum(torch.maximum(before + 0.04 * actions.clamp(-1, 1).to(before.dtype), env._low), env._high)
+    torch.testing.assert_close(wp.to_torch(env.stepper.ctrl), expected, rtol=0, atol=1e-6)
+    assert float(wp.to_torch(env.stepper.ctrl)[0, 7]) == pytest.approx(0.04)  # the gripper at its range's top
+    with pytest.raises(ValueError, match=r"actions has shape \(4, 7\); expected \(4, 8\)"):
+        env.step(torch.zeros(N, 7))
+
+
+def test_rewards_equal_playgrounds_terms_recomputed():
+    """After random steps, each reward is Playground's sum of scaled terms, recomputed here from wd.frame.transform
+    (the gripper site 0.1 m along the hand frame's z), wd.link.transform (the cube) and the joint positions
+    (float32: 1e-4)."""
+    env = _env()
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        target = env.target.clone()
+        reached = env.reached.clone()
+        _, reward, terminated, _, _ = env.step(torch.tensor(rng.uniform(-1, 1, (N, 8)), dtype=torch.float32))
+        assert not terminated.any()
+        data = env.stepper.data
+        H_hand = wp.to_torch(wd.frame.transform(env.model, data, frame_index=wd.frame.name_to_idx(env.model, frame_name="hand")))
+        gripper = H_hand[:, :3, 3] + 0.1 * H_hand[:, :3, 2]
+        H_cube = wp.to_torch(wd.link.transform(env.model, data, link_index=env.model.link_names().index("box")))
+        cube, R = H_cube[:, :3, 3], H_cube[:, :3, :3]
+        reach = (cube - gripper).norm(dim=1)
+        reached = reached | (reach < 0.012)
+        rotation = (torch.eye(3, dtype=R.dtype).reshape(9)[:6] - R.reshape(-1, 9)[:, :6]).norm(dim=1)
+        q = wp.to_torch(data.joint_positions_state)
+        arm = (q[:, env._arm] - env._home[env._arm]).norm(dim=1)
+        expected = (4.0 * (1 - torch.tanh(5 * reach)) + 8.0 * (1 - torch.tanh(5 * (0.9 * (target - cube).norm(dim=1) + 0.1 * rotation))) * reached
+                    + 0.25 * 1.0 + 0.3 * (1 - torch.tanh(arm)))  # fmt: skip (the hand stays off the floor here)
+        torch.testing.assert_close(reward, expected.to(torch.float32), rtol=0, atol=1e-4)
+
+
+def test_a_scripted_grasp_through_the_actions_lifts_the_cube():
+    """From the keyframe "pickup1" (the fingers around the cube), the cube where the keyframe has it: one action
+    closes the gripper, 15 wait, then 10 raise joint 2's target by 0.4 rad and 8 lower joint 4's by 0.3 rad: the cube
+    rises with the hand (above 0.2 m), held between the pads, and no episode ends."""
+    env = _env(keyframe="pickup1", cube_range=0.0)
+    env.reset(seed=0)
+    plan = [(7, -1.0)] + [(None, 0.0)] * 15 + [(1, -1.0)] * 10 + [(3, 1.0)] * 8 + [(None, 0.0)] * 15
+    for joint, value in plan:
+        actions = torch.zeros(N, 8)
+        if joint is not None:
+            actions[:, joint] = value
+        _, _, terminated, truncated, _ = env.step(actions)
+        assert not (terminated | truncated).any()
+    cube, _ = _cube_and_target(env)
+    assert bool((cube[:, 2] > 0.2).all()), cube
+
+
+def test_a_cube_out_of_bounds_ends_its_episode():
+    """A cube moved 1.5 m away ends its environment's episode (terminated; the observation returned is the reset's,
+    info['final_obs'] the last one); the others go on."""
+    env = _env()
+    env.reset(seed=0)
+    q = wp.to_torch(env.stepper.data.joint_positions_state)
+    q[1, env._cube] = 1.5
+    obs, _, terminated, truncated, info = env.step(torch.zeros(N, 8))
+    assert terminated.tolist() == [False, True, False, False] and not truncated.any()
+    assert bool(info["_final_obs"][1]) and not torch.equal(info["final_obs"][1], obs[1])
+    cube, _ = _cube_and_target(env)
+    assert float(cube[1].abs().max()) < 1.0  # reset
+
+
+def test_bad_settings_and_models_are_refused():
+    """Each bad setting names its field; a model of another scene is refused, naming what it lacks."""
+    for kwargs, match in [
+        (dict(time_step=-1.0), "PickCubeConfig.time_step must be a positive finite number"),
+        (dict(policy_dt=0.0205), r"policy_dt \(0.0205 s\) must be a whole number of time_step"),
+        (dict(rewards={"lift": 1.0}), "PickCubeConfig.rewards maps terms of"),
+        (dict(target_low=(0, 0, 1), target_high=(0, 0, 0.5)), "target_low and target_high"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            PickCubeConfig(**kwargs).validate()
+    with pytest.warns(wd.model.NotModelledWarning, match="joint limits"):
+        arm = wd.model.Model.build_from_model_description(wd.assets.franka_panda_mjcf())
+    with pytest.raises(ValueError, match=r"PickCubeEnv simulates wd.assets.franka_panda_cube_mjcf\(\)'s scene: 'panda nohand' lacks \['box'"):
+        envs.PickCubeEnv(2, model=arm)
+
+
+def test_the_steppers_contact_rows_are_sorted_by_link():
+    """Stepper.contact_wrenches' rows hold the enabled points by link (contact_point_links), which for the cube scene
+    is not the description's order (model.kin_dyn_parameters.enabled_link: the cube, link 1, is described last):
+    the env's hand rows are the points of link7 and the fingers, and the cube resting on the floor pushes on its
+    own rows only."""
+    env = _env()
+    env.reset(seed=0)
+    env.step(torch.zeros(N, 8))
+    described = env.model.kin_dyn_structure().enabled_link.numpy()
+    links = env.stepper.contact_point_links
+    np.testing.assert_array_equal(links, np.sort(described, kind="stable"))
+    assert not np.array_equal(links, described)
+    names = env.model.link_names()
+    assert {names[i] for i in links[env._hand_points.cpu().numpy()]} == {"link7", "left_finger", "right_finger"}
+    pushing = np.flatnonzero(wp.to_torch(env.stepper.contact_wrenches)[0, :, 2].cpu().numpy() > 0.0)
+    assert pushing.size and {names[i] for i in links[pushing]} == {"box"}
+
+
+def test_the_example_trains_and_evaluates(tmp_path):
+    """examples/rl_manipulation.py on 8 environments: 2 PPO iterations, its policy saved and evaluated in 8 fresh
+    environments (the success rate a fraction)."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    import rl_manipulation
+
+    device = str(wp.get_device())
+    history = rl_manipulation.main(["--device", device, "--num-envs", "8", "--iterations", "2", "--evaluate", "--evaluate-envs", "8", "--out", str(tmp_path)])
+    assert len(history) == 2 and (tmp_path / "policy.pt").is_file()
+    result = rl_manipulation.evaluate(tmp_path / "policy.pt", wp.get_device(), seed=5, num_envs=8)
+    assert result["environments"] == 8 and 0.0 <= result["success"] <= 1.0 and np.isfinite(result["distance"])
+
+
+@pytest.mark.skipif(not wp.get_device().is_cuda, reason="CUDA graphs: the tests' device is not a GPU")
+def test_graph_replays_equal_eager_steps():
+    """use_graph=True captures a whole step (actions, 20 simulation steps, the gripper's kinematics, rewards, resets)
+    and its replays give what eager steps give, bitwise, through a reset() between replays and episodes that end."""
+    cfg = PickCubeConfig(episode_seconds=0.1)
+    graphed, eager = (envs.PickCubeEnv(8, cfg, seed=3, use_graph=mode) for mode in (True, False))
+    actions = torch.tensor(np.random.default_rng(0).uniform(-1, 1, (12, 8, 8)), dtype=torch.float32, device=graphed.device)
+    for env in (graphed, eager):
+        env.reset(seed=3)
+    for k in range(12):
+        if k == 7:
+            assert torch.equal(graphed.reset(seed=5)[0], eager.reset(seed=5)[0])
+        a, b = graphed.step(actions[k]), eager.step(actions[k])
+        for x, y in zip(a[:4], b[:4]):
+            assert torch.equal(x, y), k
+        assert torch.equal(a[4]["final_obs"], b[4]["final_obs"]) and torch.equal(graphed.cube_position, eager.cube_position)

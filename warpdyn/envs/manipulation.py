@@ -1,0 +1,314 @@
+"""A batched manipulation environment: the Franka Panda picking up a cube and bringing it to a target, after MuJoCo
+Playground's PandaPickCube (its scene, `wd.assets.franka_panda_cube_mjcf()`; its actions, observations, rewards,
+resets and terminations), on a `wd.simulation.Stepper` with the contacts between the fingertip pads and the cube
+acting (model.geom_contacts) and their static friction holding the grasp.
+
+    env = envs.PickCubeEnv(num_envs=4096, device="cuda:0")
+    obs, info = env.reset(seed=0)                                   # torch (N, 66) float32
+    obs, reward, terminated, truncated, info = env.step(actions)    # actions (N, 8) in [-1, 1]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import torch
+import warp as wp
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+import warpdyn as wd
+
+from .terms import quat_rotate
+from .vector_env import DeviceVectorEnv
+
+__all__ = ["PickCubeConfig", "PickCubeEnv"]
+
+
+@dataclasses.dataclass
+class PickCubeConfig:
+    """What `PickCubeEnv` simulates and rewards; units SI (s, m).
+
+    Simulation: `time_step` [s] of the model's integrator (1 ms: Playground's 5 ms relies on MuJoCo's implicit
+    integration of the servos and contacts; warpdyn's soft contacts and the fingers' damping are explicit),
+    `policy_dt` [s] per action (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5] and
+    `contact_damping` D [N s/m^1.5] (D = 500: the 0.1 kg cube squeezed between the pads at 1 ms stays within the
+    explicit damper's stable rate), `friction` the terrain's (the floor's) Coulomb coefficient (MuJoCo's cube-floor
+    friction, 1). Task: an action adds `action_scale` times itself (clipped to [-1, 1]) to each of the 8 controls
+    (the 7 joints' position targets [rad] and the gripper's opening [m]), clipped to their ranges; episodes of
+    `episode_seconds`; the cube starts on the floor `cube_range` [m] around the keyframe `keyframe`'s cube in x and y,
+    the target `target_low` to `target_high` [m] from there. `rewards`: name -> scale of the terms (Playground's
+    gripper_box 1 - tanh(5 |cube - gripper|), box_target 1 - tanh(5 (0.9 |target - cube| + 0.1 rotation error)) once
+    the gripper came within `reach_distance` of the cube, no_floor_collision, robot_target_qpos 1 - tanh(|arm -
+    arm at the keyframe|)); the reward is their scaled sum (not times the policy step). An episode ends where the
+    cube leaves the box |x|, |y|, |z| <= 1 m or falls below the floor, or the state stops being finite. A step's
+    info["log"] holds the terms' means and "success": the fraction of environments whose cube is within
+    `success_distance` [m] of its target."""
+
+    time_step: float = 0.001
+    policy_dt: float = 0.02
+    episode_seconds: float = 3.0
+    action_scale: float = 0.04
+    contact_stiffness: float = 5e5
+    contact_damping: float = 500.0
+    friction: float = 1.0
+    keyframe: str = "home"
+    cube_range: float = 0.2
+    target_low: tuple = (-0.2, -0.2, 0.2)
+    target_high: tuple = (0.2, 0.2, 0.4)
+    reach_distance: float = 0.012
+    success_distance: float = 0.05
+    rewards: dict = dataclasses.field(default_factory=lambda: {"gripper_box": 4.0, "box_target": 8.0, "no_floor_collision": 0.25, "robot_target_qpos": 0.3})
+
+    def validate(self) -> None:
+        """A ValueError naming the field whose value is not what it must be."""
+        for name in ("time_step", "policy_dt", "episode_seconds", "action_scale", "contact_stiffness", "contact_damping", "reach_distance", "success_distance"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0.0):
+                raise ValueError(f"PickCubeConfig.{name} must be a positive finite number, got {value!r}")
+        for name in ("friction", "cube_range"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"PickCubeConfig.{name} must be a finite number >= 0, got {value!r}")
+        low, high = np.asarray(self.target_low, dtype=float), np.asarray(self.target_high, dtype=float)
+        if low.shape != (3,) or high.shape != (3,) or not (np.all(np.isfinite(low)) and np.all(low <= high)):
+            raise ValueError(f"PickCubeConfig.target_low and target_high must be 3 finite numbers each, low <= high, got {self.target_low!r}, {self.target_high!r}")
+        ratio = self.policy_dt / self.time_step
+        if abs(ratio - round(ratio)) > 1e-9 * ratio:
+            raise ValueError(f"PickCubeConfig.policy_dt ({self.policy_dt} s) must be a whole number of time_step ({self.time_step} s)")
+        unknown = sorted(set(self.rewards) - set(_TERMS))
+        if unknown or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in self.rewards.values()):
+            raise ValueError(f"PickCubeConfig.rewards maps terms of {list(_TERMS)} to finite scales, got {self.rewards!r}")
+
+
+_TERMS = ("gripper_box", "box_target", "no_floor_collision", "robot_target_qpos")
+_ARM = tuple(f"joint{i}" for i in range(1, 8))
+_FINGERS = ("finger_joint1", "finger_joint2")
+_HAND_LINKS = ("link7", "left_finger", "right_finger")  # the hand's capsule is on link7 (the hand is lumped into it)
+
+
+class PickCubeEnv(DeviceVectorEnv):
+    """N environments of the Panda and its cube (`wd.assets.franka_panda_cube_mjcf()`, or `model`: a model of that
+    scene), stepped in place on the device, Gymnasium's vector API with SAME_STEP autoreset and torch tensors as
+    `LeggedEnv` (its docstring says what a step returns and how a GPU captures it). Observations (66,), float32,
+    Playground's: the joint positions (16: the cube's free joint, then the arm's and fingers') and velocities (15),
+    the gripper's position (3) and its rotation matrix's last six entries, the cube's likewise (6), the cube from
+    the gripper (3), the target from the cube (3), the target's rotation (identity) less the cube's, first six
+    entries (6), and the controls less the joints they drive (8)."""
+
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
+    _replayed = ("cube_position",)
+
+    def __init__(self, num_envs: int, cfg: PickCubeConfig | None = None, *, model=None, device=None, dtype=np.float32, seed: int = 0, use_graph="auto"):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        if use_graph not in ("auto", True, False):
+            raise ValueError(f"use_graph must be 'auto', True or False, got {use_graph!r}")
+        self.cfg = cfg = cfg if cfg is not None else PickCubeConfig()
+        if not isinstance(cfg, PickCubeConfig):
+            raise TypeError(f"cfg must be a PickCubeConfig, got {type(cfg).__name__}")
+        cfg.validate()
+        if model is None:
+            with warnings.catch_warnings():  # the scene's joint limits and contacts, which its docs name
+                warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+                model = wd.model.Model.build_from_model_description(wd.assets.franka_panda_cube_mjcf(), dtype=dtype, device=device)
+        if use_graph is True and not model.device.is_cuda:
+            raise ValueError(f"use_graph=True captures torch ops in a CUDA graph; '{model.device}' is not a GPU (use 'auto')")
+        self.num_envs = N = int(num_envs)
+        self.use_graph = use_graph
+        self.decimation = int(round(cfg.policy_dt / cfg.time_step))
+        self.max_episode_length = int(math.ceil(cfg.episode_seconds / cfg.policy_dt))
+        self.model = model = self._simulated(model)
+        self.device = torch.device(wp.device_to_torch(model.device))
+        self.torch_dtype = wp.dtype_to_torch(model.scalar)
+        self._generator = torch.Generator(device=self.device)
+        self._generator.manual_seed(seed)
+        kw = dict(device=self.device, dtype=self.torch_dtype)
+        # addresses: the cube's free joint and the robot's joints in the joint positions; the controls' joints
+        names = model.joint_names()
+        cube_link = model.link_names().index("box")
+        self._cube = wd.joint.position_slice(model, joint_index=cube_link - 1).start  # link i's joint is joint i - 1
+        self._arm = torch.tensor([wd.joint.position_slice(model, joint_index=names.index(j)).start for j in _ARM], device=self.device)
+        self._driven = torch.tensor([wd.joint.position_slice(model, joint_index=names.index(j)).start for j in (*_ARM, _FINGERS[0])], device=self.device)
+        # the keyframe's state and controls: what resets copy from
+        key = next(k for k in model.description.keyframes if k.name == cfg.keyframe)
+        self._reset_data = wd.data.keyframe(model, cfg.keyframe, num_envs=N)
+        self.stepper = wd.simulation.Stepper(model, self._reset_data, substeps=self.decimation, use_graph=False if model.device.is_cuda else use_graph and "auto")
+        self._ctrl = wp.to_torch(self.stepper.ctrl)
+        self._home_ctrl = torch.tensor(np.asarray(key.ctrl, dtype=np.float64), **kw)
+        self._ctrl.copy_(self._home_ctrl.expand(N, -1))
+        limits = torch.tensor(model.actuator_ctrl_range.numpy().reshape(-1, 2), **kw)
+        self._low, self._high = limits[:, 0], limits[:, 1]
+        self._reset_views = self._views(self._reset_data)
+        self._state_views = {id(d): self._views(d) for d in self.stepper.buffers}
+        self._home = self._reset_views["joint_positions"][0].clone()
+        self._home_cube = self._home[self._cube : self._cube + 3].clone()
+        self._target_low, self._target_high = torch.tensor(cfg.target_low, **kw), torch.tensor(cfg.target_high, **kw)
+        self._gripper = wd.link.FrameMotion(model, num_envs=N, **_gripper_frame(model))
+        self._hand_points = _points_of(self.stepper, _HAND_LINKS, self.device)
+        # buffers
+        self.target = torch.zeros(N, 3, **kw)
+        self.cube_position = torch.zeros(N, 3, **kw)
+        self.reached = torch.zeros(N, dtype=torch.bool, device=self.device)
+        self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
+        self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
+        self._reset_mask_wp = wp.from_torch(self._reset_mask)
+        self._action_input = torch.zeros(N, 8, device=self.device, dtype=torch.float32)
+        self._return = torch.zeros(N, device=self.device, dtype=torch.float32)
+        self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)
+        self._warp_streams: dict = {}
+        self._program = self._step_program("a PickCubeEnv")
+        self._graph_version = model.version
+        self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (66,), np.float32)
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, (8,), np.float32)
+        self.observation_space = batch_space(self.single_observation_space, N)
+        self.action_space = batch_space(self.single_action_space, N)
+
+    def _simulated(self, model):
+        """A copy of `model` with the pads' contacts acting and the task's time step and soft law."""
+        cfg = self.cfg
+        missing = sorted({"box", *_HAND_LINKS} - set(model.link_names())) + sorted(set(_ARM + _FINGERS) - set(model.joint_names()))
+        if missing or model.number_of_actuators() != 8 or cfg.keyframe not in model.keyframe_names():
+            raise ValueError(
+                f"PickCubeEnv simulates wd.assets.franka_panda_cube_mjcf()'s scene: '{model.name()}' lacks {missing or 'nothing named'}, "
+                f"has {model.number_of_actuators()} actuators (8 needed) and keyframes {list(model.keyframe_names())} (needs '{cfg.keyframe}')"
+            )
+        model = model.copy()
+        model.geom_contacts = True
+        model.time_step = cfg.time_step
+        model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=cfg.contact_damping, mu=cfg.friction)
+        return model
+
+    def _views(self, data) -> dict:
+        return {name: wp.to_torch(getattr(data, f"{name}_state")) for name in ("joint_positions", "joint_velocities", "valid")}
+
+    def _frames(self) -> tuple:
+        """(gripper position (N, 3), gripper rotation (N, 3, 3), cube position (N, 3), cube rotation (N, 3, 3)) [m,
+        world] at the current state."""
+        W_H_G = wp.to_torch(self._gripper(self.stepper.data)[0])
+        q = self._state_views[id(self.stepper.data)]["joint_positions"]
+        cube = q[:, self._cube : self._cube + 7]
+        return W_H_G[:, :3, 3], W_H_G[:, :3, :3], cube[:, :3], _rotation(cube[:, 3:] / cube[:, 3:].norm(dim=1, keepdim=True))
+
+    def _observe(self, frames) -> torch.Tensor:
+        gripper, R_G, cube, R_C = frames
+        v = self._state_views[id(self.stepper.data)]
+        q = v["joint_positions"]
+        target_rotation = torch.eye(3, dtype=R_C.dtype, device=self.device).reshape(9)[:6]
+        parts = [q, v["joint_velocities"], gripper, R_G.reshape(-1, 9)[:, 3:], R_C.reshape(-1, 9)[:, 3:], cube - gripper, self.target - cube,
+                 target_rotation - R_C.reshape(-1, 9)[:, :6], self._ctrl - q[:, self._driven]]  # fmt: skip
+        return torch.nan_to_num(torch.cat(parts, dim=1).to(torch.float32), nan=0.0, posinf=0.0, neginf=0.0)
+
+    def _terms(self, frames) -> dict:
+        """Playground's reward terms at the current state (`reached` latched first)."""
+        gripper, _, cube, R_C = frames
+        reach = (cube - gripper).norm(dim=1)
+        self.reached |= reach < self.cfg.reach_distance
+        rotation_error = (torch.eye(3, dtype=R_C.dtype, device=self.device).reshape(9)[:6] - R_C.reshape(-1, 9)[:, :6]).norm(dim=1)
+        to_target = (self.target - cube).norm(dim=1)
+        arm = self._state_views[id(self.stepper.data)]["joint_positions"][:, self._arm]
+        W_f_C = wp.to_torch(self.stepper.contact_wrenches)
+        on_floor = (W_f_C[:, self._hand_points, 2] > 0.0).any(dim=1)
+        return {
+            "gripper_box": 1.0 - torch.tanh(5.0 * reach),
+            "box_target": (1.0 - torch.tanh(5.0 * (0.9 * to_target + 0.1 * rotation_error))) * self.reached,
+            "no_floor_collision": (~on_floor).to(reach.dtype),
+            "robot_target_qpos": 1.0 - torch.tanh((arm - self._home[self._arm]).norm(dim=1)),
+        }, to_target
+
+    def _advance(self) -> tuple:
+        """One policy step from the actions in `_action_input`: (obs, reward, terminated, truncated, info)."""
+        cfg = self.cfg
+        delta = cfg.action_scale * torch.nan_to_num(self._action_input, nan=0.0).clamp(-1.0, 1.0).to(self.torch_dtype)
+        self._ctrl.copy_(torch.minimum(torch.maximum(self._ctrl + delta, self._low), self._high))
+        self.stepper.step()
+        frames = self._frames()
+        values, to_target = self._terms(frames)
+        reward = sum(cfg.rewards[name] * values[name] for name in cfg.rewards).to(torch.float32).clamp(-1e4, 1e4)
+        log = {f"/reward/{name}": value.to(torch.float32).mean() for name, value in values.items()}
+        log["/success"] = (to_target < cfg.success_distance).to(torch.float32).mean()
+        cube = frames[2]
+        self.cube_position = cube.clone()
+        invalid = self._state_views[id(self.stepper.data)]["valid"] == 0
+        terminated = invalid | (cube.abs() > 1.0).any(dim=1) | (cube[:, 2] < 0.0)
+        reward = torch.where(invalid, torch.zeros_like(reward), torch.nan_to_num(reward, nan=0.0))
+        self.episode_length_buf += 1
+        truncated = (self.episode_length_buf >= self.max_episode_length) & ~terminated
+        done = terminated | truncated
+        self._return += reward
+        self._finished += torch.stack([done.sum(), (self._return * done).sum(), (self.episode_length_buf * done).sum()]).to(torch.float64)
+        final = self._observe(frames)
+        self._reset(done)
+        obs = self._observe(self._frames())
+        return obs, reward, terminated, truncated, {"final_obs": final, "_final_obs": done, "invalid": invalid, "log": log}
+
+    def _reset(self, mask: torch.Tensor) -> None:
+        """New cubes and targets, the keyframe's arm and controls, where `mask` (bool (N,))."""
+        N, cfg = self.num_envs, self.cfg
+        v = self._reset_views
+        cube = self._home_cube + torch.cat([self._uniform(-cfg.cube_range, cfg.cube_range, (N, 2)), torch.zeros(N, 1, device=self.device, dtype=self.torch_dtype)], dim=1)
+        q = self._home.expand(N, -1).clone()
+        q[:, self._cube : self._cube + 3] = cube
+        v["joint_positions"].copy_(q)
+        v["joint_velocities"].zero_()
+        self._reset_mask.copy_(mask.to(torch.int32))
+        self.stepper.set_state(self._reset_data, envs=self._reset_mask_wp)
+        target = self._home_cube + self._target_low + (self._target_high - self._target_low) * self._uniform(0.0, 1.0, (N, 3))
+        self.target.copy_(torch.where(mask[:, None], target, self.target))
+        self._ctrl.copy_(torch.where(mask[:, None], self._home_ctrl.expand(N, -1), self._ctrl))
+        self.reached.masked_fill_(mask, False)
+        self.episode_length_buf.masked_fill_(mask, 0)
+        self._return.masked_fill_(mask, 0.0)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Reset every environment; seed: reseed its random numbers (cubes, targets). Returns (obs (N, 66), info)."""
+        if seed is not None:
+            self._generator.manual_seed(int(seed))
+        self._sync_model()
+        with self._on_device_stream():
+            self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
+            obs = self._observe(self._frames())
+        self._finished.zero_()
+        return obs, {}
+
+    def step(self, actions):
+        """Apply `actions` (N, 8) in [-1, 1] for policy_dt; see LeggedEnv.step for what comes back."""
+        actions = torch.as_tensor(actions, device=self.device, dtype=torch.float32)
+        if tuple(actions.shape) != (self.num_envs, 8):
+            raise ValueError(f"actions has shape {tuple(actions.shape)}; expected {(self.num_envs, 8)}")
+        self._action_input.copy_(actions)
+        self._sync_model()
+        with self._on_device_stream():
+            return self._program.run()
+
+    def _sync_model(self) -> None:
+        """After a setter changed the model: drop the graphs (the next step runs eagerly, then captures)."""
+        if self.model.version != self._graph_version:
+            self._program = self._step_program("a PickCubeEnv")
+            self._graph_version = self.model.version
+
+
+def _gripper_frame(model) -> dict:
+    """FrameMotion's arguments for the scene's gripper site (Menagerie's, 0.1 m along the hand frame's z): the hand
+    frame's link and the site's pose in that link."""
+    hand = wd.frame.name_to_idx(model, frame_name="hand")
+    X = model.link_H_frame.numpy()[hand - model.number_of_links()].astype(np.float64)  # (p, quaternion x y z w)
+    quaternion = np.array([X[6], X[3], X[4], X[5]])
+    position = X[:3] + np.asarray(wd.math.Quaternion.to_dcm(quaternion)) @ np.array([0.0, 0.0, 0.1])
+    return dict(link_index=wd.frame.idx_of_parent_link(model, frame_index=hand), position=position, quaternion=quaternion)
+
+
+def _points_of(stepper, links: tuple, device) -> torch.Tensor:
+    """The rows of the Stepper's contact_wrenches (enabled collidable points) on `links`."""
+    indices = [stepper.model.link_names().index(name) for name in links]
+    return torch.tensor(np.flatnonzero(np.isin(stepper.contact_point_links, indices)), device=device, dtype=torch.long)
+
+
+def _rotation(q: torch.Tensor) -> torch.Tensor:
+    """Rotation matrices (N, 3, 3) of unit quaternions (N, 4) (w, x, y, z): the turned axes as columns."""
+    axes = torch.eye(3, dtype=q.dtype, device=q.device)
+    return torch.stack([quat_rotate(q, axes[j].expand(q.shape[0], 3)) for j in range(3)], dim=2)
