@@ -230,7 +230,7 @@ def kernels(scalar, terrain_kind: int | None = None):
         environment are independent) or nc_all (a thread per environment: under a tape, each adjoint of a
         link's pose, velocity and per-environment parameter then comes from one thread, in a fixed order).
         W_f_C (N, P, 6) the Inertial wrench of each enabled point's contact force, in the enabled points' order
-        (by link); m_dot (N, nc_all, 3) for all points, 0 for disabled ones. K, D, mu and the terrain's height:
+        (by link); m_dot's first nc_all rows (N, rows, 3): every point's, 0 for disabled ones. K, D, mu and the terrain's height:
         (1,) or (N,) (shared or per environment)."""
         env, chunk = B.env_and_item(wp.tid(), m.shape[0], contacts.row_point.shape[0] // rows_per_thread, env_fastest)
         for row in range(chunk * rows_per_thread, (chunk + 1) * rows_per_thread):
