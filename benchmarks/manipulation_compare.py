@@ -109,13 +109,14 @@ def run_mjwarp(N: int, device, repeats: int) -> dict:
 
     mjm = mujoco.MjModel.from_xml_path(str(wd.assets.franka_panda_cube_mjcf()))
     mjd = mujoco.MjData(mjm)
-    mujoco.mj_resetDataKeyframe(mjm, mjd, mjm.key(KEYFRAME).id)
+    key = mujoco.mj_name2id(mjm, mujoco.mjtObj.mjOBJ_KEY, KEYFRAME)
+    mujoco.mj_resetDataKeyframe(mjm, mjd, key)
     mujoco.mj_forward(mjm, mjd)
     with wp.ScopedDevice(device):
         m = mjw.put_model(mjm)
         d = mjw.put_data(mjm, mjd, nworld=N, nconmax=32, njmax=160)
         state0 = {name: wp.clone(getattr(d, name)) for name in ("qpos", "qvel", "qacc_warmstart", "time", "act")}
-        controls = [wp.array(np.tile(c, (N, 1)), dtype=wp.float32) for c in schedule(mjm.key(KEYFRAME).ctrl.copy())]
+        controls = [wp.array(np.tile(c, (N, 1)), dtype=wp.float32) for c in schedule(mjm.key_ctrl[key].copy())]
 
         def steps():
             for name, value in state0.items():
