@@ -403,3 +403,21 @@ def test_the_damper_check_flags_steps_not_queries():
     W_f = wd.contact.link_contact_forces(model, data)[0].numpy()
     assert np.isfinite(W_f).all() and W_f[model.link_names().index("ball"), 2] > 0.0
     assert not wd.model.step(model, data).healthy.numpy().all()
+
+
+def test_a_stepper_refuses_geom_contacts_switched_after_it_was_built():
+    """The pairs' contact slots change the contact state's rows: a Stepper built before geom_contacts is switched on
+    (or off) refuses its next step, naming the rows (its buffers hold the old rows), instead of reading past them."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        model = wd.model.Model.build_from_model_description(TWO_SPHERES, dtype=np.float64)
+    stepper = wd.simulation.Stepper(model, wd.data.Data.build(model))
+    stepper.step()
+    model.geom_contacts = True
+    with pytest.raises(ValueError, match=r"contact state now has 101 rows .* this Stepper's 100: build a new Stepper"):
+        stepper.step()
+    on = wd.simulation.Stepper(model, wd.data.Data.build(model))
+    on.step()
+    model.geom_contacts = False
+    with pytest.raises(ValueError, match=r"contact state now has 100 rows .* this Stepper's 101"):
+        on.step()

@@ -5,6 +5,7 @@ actions, and the Stepper's contact rows it reads. Few environments, on the tests
 import pathlib
 import sys
 
+import mujoco
 import numpy as np
 import pytest
 import torch
@@ -60,10 +61,17 @@ def test_actions_add_to_the_controls_within_their_ranges():
 
 def test_rewards_equal_playgrounds_terms_recomputed():
     """After random steps, each reward is Playground's sum of scaled terms, recomputed here from wd.frame.transform
-    (the gripper site 0.1 m along the hand frame's z), wd.link.transform (the cube) and the joint positions
-    (float32: 1e-4)."""
+    (the gripper site where MuJoCo's file puts it on the hand), wd.link.transform (the cube, turned 0.7 rad about the vertical
+    so that its rotation error counts) and the joint positions (float32: 1e-4); the cube-to-target term counts where
+    `reached` is set (here by hand in two environments)."""
     env = _env()
     env.reset(seed=0)
+    q = wp.to_torch(env.stepper.data.joint_positions_state)
+    q[:, env._cube + 3 : env._cube + 7] = torch.tensor([np.cos(0.35), 0.0, 0.0, np.sin(0.35)], dtype=q.dtype)
+    env.reached[:2] = True
+    mj = mujoco.MjModel.from_xml_path(str(wd.assets.franka_panda_cube_mjcf()))
+    assert mj.body(mj.site("gripper").bodyid[0]).name == "hand"
+    site = torch.tensor(mj.site("gripper").pos, dtype=q.dtype)  # MuJoCo's gripper site in the hand's frame
     rng = np.random.default_rng(0)
     for _ in range(3):
         target = env.target.clone()
@@ -72,7 +80,7 @@ def test_rewards_equal_playgrounds_terms_recomputed():
         assert not terminated.any()
         data = env.stepper.data
         H_hand = wp.to_torch(wd.frame.transform(env.model, data, frame_index=wd.frame.name_to_idx(env.model, frame_name="hand")))
-        gripper = H_hand[:, :3, 3] + 0.1 * H_hand[:, :3, 2]
+        gripper = H_hand[:, :3, 3] + H_hand[:, :3, :3] @ site
         H_cube = wp.to_torch(wd.link.transform(env.model, data, link_index=env.model.link_names().index("box")))
         cube, R = H_cube[:, :3, 3], H_cube[:, :3, :3]
         reach = (cube - gripper).norm(dim=1)
@@ -179,3 +187,5 @@ def test_graph_replays_equal_eager_steps():
         for x, y in zip(a[:4], b[:4]):
             assert torch.equal(x, y), k
         assert torch.equal(a[4]["final_obs"], b[4]["final_obs"]) and torch.equal(graphed.cube_position, eager.cube_position)
+        assert all(torch.equal(a[4]["log"][name], b[4]["log"][name]) for name in a[4]["log"])
+    assert graphed._program.captured == (1 if graphed.stepper.substeps % 2 == 0 else 2) and not eager._program.captured

@@ -409,7 +409,7 @@ def _deformation(model, contact_state: dict | None, num_envs: int | None, N: int
     if contact_state is None:
         return arrays.zeros(rows, N, model.scalar, model.device)
     if not isinstance(contact_state, dict) or set(contact_state) - {"tangential_deformation"}:
-        raise ValueError(f"contact_state must be {{'tangential_deformation': (nc_all, 3) array}} (the soft contacts' state), got {contact_state!r:.200}")
+        raise ValueError(f"contact_state must be {{'tangential_deformation': (rows, 3) array}} (the soft contacts' state; rows: model.contact_state_rows()), got {contact_state!r:.200}")
     return states.state_array(contact_state.get("tangential_deformation"), "contact_state['tangential_deformation']", rows, num_envs, model.scalar, model.device)
 
 

@@ -26,7 +26,7 @@ def system_acceleration(model, data: Data, *, link_forces=None, joint_torques=No
     """(base acceleration (6,), joint accelerations (n,), the contact state's rates): forward dynamics with
     the joint torques (n,) [N m or N] (None: zero), the link forces (nL, 6) in the data's representation and
     the contact forces at the data's state. The base acceleration is the derivative of the base velocity in
-    the data's representation; the rates are {"tangential_deformation": (nc_all, 3)} [m/s] (JaxSim's
+    the data's representation; the rates are {"tangential_deformation": (rows, 3)} [m/s] (model.contact_state_rows()) (JaxSim's
     `update_contact_state` of the contact model's rates). Leading (N,) for batched data."""
     W_f_user = None
     if link_forces is not None:

@@ -38,7 +38,7 @@ being what step t (from the state t to t + 1) computed at its start:
     base_position (T+1, N, 3) [m]        base_quaternion (T+1, N, 4) (w, x, y, z)
     joint_positions (T+1, N, n)          joint_velocities (T+1, N, n)
     base_velocity (T+1, N, 6) in the data's representation
-    tangential_deformation (T+1, N, nc_all, 3) [m]         valid (T+1, N) int32 (see Data.healthy)
+    tangential_deformation (T+1, N, rows, 3) [m]         valid (T+1, N) int32 (see Data.healthy)
     joint_torques (T, N, n): the joint forces step t applied (references through friction, limits, clip;
         the joints' springs and dampers; the actuators)
     link_contact_forces (T, N, nL, 6): the contact wrench on each link in the data's representation, as
@@ -59,7 +59,7 @@ Storage: how the states between steps are kept.
   respect to the initial data, the controls (Warp arrays with requires_grad) and the model parameters marked
   by `warpdyn.model.parameters_requiring_grad` (their .grad); the state records are views of
   the trajectory (no copies). The default under a tape. Memory per environment and step: the state,
-  S = 13 + 2 n + 3 nc_all numbers, and under a tape the step's intermediates, about
+  S = 13 + 2 n + 3 rows numbers (rows: model.contact_state_rows()), and under a tape the step's intermediates, about
   2 n + 6 + 79 nL + 12 nc + 3 nc_all numbers for the semi-implicit Euler with contacts (ABA keeps 46-53
   per link), about four times that for RK4; gradients double both. The ergoCub legs (n = 12, nL = 13,
   nc = 32): ~3,300 numbers per environment and step, 27 kB in float64, so 1024 environments x 100 steps

@@ -112,7 +112,7 @@ def rollout(
         base_velocity (6,) [linear; angular] of the base in `velocity_representation` [m/s, rad/s]
             (kept Mixed inside; the conversion is on the tape, so its gradient is in this representation);
         joint_velocities (n,) sdot [rad/s or m/s];
-        tangential_deformation (nc_all, 3) m of every collidable point [m] (None: zero).
+        tangential_deformation (rows, 3) m of every collidable point, then geom pair slot (model.contact_state_rows()) [m] (None: zero).
     The data is batched (records with a leading N axis) when any state tensor has the leading axis, or when
     `num_envs` is given; otherwise it is one environment, and the records have JaxSim's shapes.
 
@@ -187,7 +187,7 @@ def rollout(
         if value is not None:
             accepted = [shape] + ([(N, *shape)] if num_envs is not None else [])
             if tuple(value.shape) not in accepted:
-                raise ValueError(f"{name} has shape {tuple(value.shape)}; accepted: {accepted} (nq = {nq} joint positions, nv = {n} joint velocities, nc_all = {nc} points)")
+                raise ValueError(f"{name} has shape {tuple(value.shape)}; accepted: {accepted} (nq = {nq} joint positions, nv = {n} joint velocities, {nc} contact state rows: model.contact_state_rows())")
 
     marked = _model_parameters(model, parameters, N)
     if validate:

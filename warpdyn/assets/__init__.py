@@ -21,8 +21,8 @@
 - `franka_panda_cube_mjcf()`: the Panda with its hand and a 0.1 kg cube on the floor, MuJoCo Playground's
   PandaPickCube scene (Menagerie's `franka_emika_panda/mjx_single_cube.xml` with its mjx_panda.xml and
   mjx_scene.xml in one file, without meshes and the mocap target, at 1 ms; the file's comment says what was
-  changed; Apache-2.0: `LICENSE.panda`): the hand's capsule and fingertip pads collide with the cube (its two
-  geom pairs act where model.geom_contacts is set), the fingers are coupled by a joint equality, the 7 joints'
+  changed; Apache-2.0: `LICENSE.panda`): its fingertip pads collide with the cube (their two geom pairs act
+  where model.geom_contacts is set; the hand's capsule meets the floor through its collidable points), the fingers are coupled by a joint equality, the 7 joints'
   position servos and the gripper's are its 8 controls, and its keyframes "home", "pickup" and "pickup1" are
   Menagerie's. A scripted grasp from "pickup1" lifts the cube 39 cm and holds it, the arm moving as MuJoCo's
   (tests/test_panda.py; soft law K = 5e5, D = 500 for the 0.1 kg cube at 1 ms).

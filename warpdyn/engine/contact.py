@@ -80,7 +80,7 @@ def other_forces(model, data, link_forces, joint_force_references) -> tuple:
 
 
 def link_wrenches_and_rates(model, data, out_repr: int, W_f_ext=None, tau=None) -> tuple[wp.array, wp.array]:
-    """((N, nL, 6) `link_wrenches`, m_dot (N, nc_all, 3) the deformation rates) of one contact evaluation
+    """((N, nL, 6) `link_wrenches`, m_dot (N, rows, 3) the deformation rates (Model.contact_state_rows)) of one contact evaluation
     (W_f_ext, tau: `other_forces`)."""
     current, ev = contact_evaluation(model, data, W_f_ext, tau)
     N, nL = data.batch_size, model.number_of_links()
@@ -108,7 +108,7 @@ def point_wrenches(model, data, out_repr: int, W_f_ext=None, tau=None) -> wp.arr
 
 def soft_contact_forces(model, data, link_forces=None, joint_force_references=None) -> tuple:
     """SoftContacts.compute_contact_forces (warpdyn.types.contact_models): (W_f_C (N, nc, 6), the enabled
-    points' Inertial contact wrenches [f; W_p_C x f], {"m_dot": (N, nc_all, 3)}, the deformation rates, 0
+    points' Inertial contact wrenches [f; W_p_C x f], {"m_dot": (N, rows, 3)}, the deformation rates, 0
     for disabled points), with the data's environment axis; link_forces and joint_force_references do not
     act on the soft law."""
     current, ev = contact_evaluation(model, data)

@@ -10,7 +10,7 @@ stage alone (`ContactStage`), chosen from the model's class when the step's plan
   points can touch the terrain) and the values of the device check that every step runs again on the
   parameters as they are then (`check_rate`, `check_reach`: kernels/parameter_checks.py);
 - `launches`: the launches that write, at a state, each enabled point's Inertial contact wrench W_f_C (N, P, 6),
-  the rate m_dot (N, nc, 3) of the model's contact state (the data's `tangential_deformation_state`), and each
+  the rate m_dot (N, rows, 3) of the model's contact state (Model.contact_state_rows) (the data's `tangential_deformation_state`), and each
   link's W_f_L (N, nL, 6) = the other external forces + its points' wrenches;
 - `point_law`: where the force at a point depends on that point alone, the kernels' per-point law
   (kernels/soft_contacts.py's `law_parameters` and `contact_at`), which the fused step
@@ -108,7 +108,7 @@ class ContactStage:
             first[links[k]] = k
         row_point = np.full(len(cp.body), -1, dtype=np.int32)
         row_point[rows] = np.arange(len(rows), dtype=np.int32)
-        self.total = len(cp.body)  # every collidable point: the contact state's first rows
+        self.points = len(cp.body)  # every collidable point: the contact state's first rows
         self.count = len(rows)  # the enabled points
         self.points_per_link = np.bincount(links, minlength=nL).astype(np.int32)
         self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
@@ -168,7 +168,8 @@ class SoftContactStage(ContactStage):
         if reach.may_touch or self.pairs:  # the geom pairs' contacts carry the deformation too
             check_deformation_stability(model.time_step, c.K, c.D, integrator, reach.why if reach.may_touch else "the geom pairs' contacts: model.geom_contacts")
         self.check_rate = s(DEFORMATION_STABILITY[integrator] / model.time_step)
-        self.check_reach = s(reach.reach if np.isfinite(reach.reach) else -1.0)
+        # the device check everywhere (-1) where the pairs' contacts carry the deformation: they touch off the terrain
+        self.check_reach = s(reach.reach if np.isfinite(reach.reach) and not self.pairs else -1.0)
 
     def per_env_parameters(self) -> tuple:
         c = self.bundle
@@ -188,9 +189,9 @@ class SoftContactStage(ContactStage):
             launches.append(Launch(point_kernels(s).gather_points, self.bundle.L_p_C.shape, [self.bundle.point_row, self.point_array], [self.bundle.L_p_C]))
         f_in = f_ext if f_ext is not None else plan.zeros((plan.nL, 6), N)
         order = int(arrays.env_fastest(plan.device))
-        rows, links = (self.total, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)
+        rows, links = (self.points, plan.nL) if contacts_per_environment(plan.device, ev.grad) else (1, 1)
         args = [self.bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, order, rows]
-        launches.append(Launch(contact_kernels(s, plan.terrain.kind).point_contact_forces, N * self.total // rows, args, [ev.W_f_C, ev.m_dot]))
+        launches.append(Launch(contact_kernels(s, plan.terrain.kind).point_contact_forces, N * self.points // rows, args, [ev.W_f_C, ev.m_dot]))
         args = [self.bundle, ev.W_f_C, f_in, order, links]
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
         if self.pairs:

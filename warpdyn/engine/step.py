@@ -190,7 +190,7 @@ class Plan:
         self.gravcomp = nonzero("gravcomp_mass", "base_damping", "base_stiffness") or gravcomp_grad or base_grad
         # the contact model's stage (warpdyn.engine.contact_stage): its points, parameters and launches
         stage = self.contact_stage = stage_for(model, self.integrator)
-        self.contact_bundle, self.total, self.count, self.point_out = stage.bundle, stage.total, stage.count, stage.point_out
+        self.contact_bundle, self.count, self.point_out = stage.bundle, stage.count, stage.point_out
         self.state_rows = stage.state_rows  # the contact state's rows (Model.contact_state_rows)
         self.contacts = self.count > 0 or stage.pairs > 0
         # MJCF equality constraints (warpdyn.engine.equality), solved after ABA

@@ -89,6 +89,13 @@ class Stepper:
         current = step_plan(self.model)
         if current is not self._plan:  # a setter changed the model: the launches read its new arrays
             current.check_envs(self.batch_size)
+            rows = self._slots[0][5].shape[1]
+            if current.state_rows != rows:
+                raise ValueError(
+                    f"the model's contact state now has {current.state_rows} rows (model.contact_state_rows(): its collidable points, "
+                    f"then the geom pairs' contact slots where geom_contacts is set), this Stepper's {rows}: build a new Stepper "
+                    "after changing geom_contacts or the collidable points"
+                )
             self._build(current)
         program = self._programs[self._current]
         if program is None:

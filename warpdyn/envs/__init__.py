@@ -14,7 +14,7 @@ there; on the CPU the simulation steps replay a Warp CPU graph). Its terms (`war
 configuration composes. `warpdyn.envs.rsl_rl.RslRlVecEnv` hands it to rsl-rl's PPO (examples/rl_locomotion.py).
 `warpdyn.envs.terrain_generator` tiles rough sub-terrains of graded difficulty into a heightfield and moves
 environments between its levels (Rudin et al.'s curriculum; LeggedEnvConfig.terrain). `warpdyn.envs.sensors` puts an
-IMU on the base (`ImuConfig`); `warpdyn.envs.actuators` turns actions into torques ("torque", `ActuatorNet`);
+IMU on the base or a link (`ImuConfig`); `warpdyn.envs.actuators` turns actions into torques ("torque", `ActuatorNet`);
 `warpdyn.envs.robots` sets a legged robot up from its description and a few names (`LeggedRobot`, the presets).
 `PickCubeEnv` (`warpdyn.envs.manipulation`): the Franka Panda picking up a cube and bringing it to a target, after
 MuJoCo Playground's PandaPickCube, on the same vector API (`warpdyn.envs.vector_env`).

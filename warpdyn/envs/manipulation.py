@@ -141,7 +141,10 @@ class PickCubeEnv(DeviceVectorEnv):
         self._ctrl = wp.to_torch(self.stepper.ctrl)
         self._home_ctrl = torch.tensor(np.asarray(key.ctrl, dtype=np.float64), **kw)
         self._ctrl.copy_(self._home_ctrl.expand(N, -1))
-        limits = torch.tensor(model.actuator_ctrl_range.numpy().reshape(-1, 2), **kw)
+        ranges = model.actuator_ctrl_range.numpy()
+        if ranges.ndim != 2:
+            raise ValueError(f"PickCubeEnv clips the controls to one range per actuator; model.actuator_ctrl_range has shape {ranges.shape} (per environment)")
+        limits = torch.tensor(ranges, **kw)
         self._low, self._high = limits[:, 0], limits[:, 1]
         self._reset_views = self._views(self._reset_data)
         self._state_views = {id(d): self._views(d) for d in self.stepper.buffers}
@@ -162,7 +165,7 @@ class PickCubeEnv(DeviceVectorEnv):
         self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)
         self._warp_streams: dict = {}
         self._program = self._step_program("a PickCubeEnv")
-        self._graph_version = model.version
+        self._graph_version, self._graph_cfg = model.version, _snapshot(cfg)
         self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (66,), np.float32)
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, (8,), np.float32)
         self.observation_space = batch_space(self.single_observation_space, N)
@@ -198,9 +201,8 @@ class PickCubeEnv(DeviceVectorEnv):
         gripper, R_G, cube, R_C = frames
         v = self._state_views[id(self.stepper.data)]
         q = v["joint_positions"]
-        target_rotation = torch.eye(3, dtype=R_C.dtype, device=self.device).reshape(9)[:6]
         parts = [q, v["joint_velocities"], gripper, R_G.reshape(-1, 9)[:, 3:], R_C.reshape(-1, 9)[:, 3:], cube - gripper, self.target - cube,
-                 target_rotation - R_C.reshape(-1, 9)[:, :6], self._ctrl - q[:, self._driven]]  # fmt: skip
+                 _rotation_difference(R_C), self._ctrl - q[:, self._driven]]  # fmt: skip
         return torch.nan_to_num(torch.cat(parts, dim=1).to(torch.float32), nan=0.0, posinf=0.0, neginf=0.0)
 
     def _terms(self, frames) -> dict:
@@ -208,7 +210,7 @@ class PickCubeEnv(DeviceVectorEnv):
         gripper, _, cube, R_C = frames
         reach = (cube - gripper).norm(dim=1)
         self.reached |= reach < self.cfg.reach_distance
-        rotation_error = (torch.eye(3, dtype=R_C.dtype, device=self.device).reshape(9)[:6] - R_C.reshape(-1, 9)[:, :6]).norm(dim=1)
+        rotation_error = _rotation_difference(R_C).norm(dim=1)
         to_target = (self.target - cube).norm(dim=1)
         arm = self._state_views[id(self.stepper.data)]["joint_positions"][:, self._arm]
         W_f_C = wp.to_torch(self.stepper.contact_wrenches)
@@ -286,10 +288,23 @@ class PickCubeEnv(DeviceVectorEnv):
             return self._program.run()
 
     def _sync_model(self) -> None:
-        """After a setter changed the model: drop the graphs (the next step runs eagerly, then captures)."""
-        if self.model.version != self._graph_version:
+        """After a setter changed the model or a change of `cfg` (read when a graph was captured): drop the graphs (the
+        next step runs eagerly, then captures)."""
+        if self.model.version != self._graph_version or self.cfg != self._graph_cfg:
+            self.cfg.validate()
             self._program = self._step_program("a PickCubeEnv")
-            self._graph_version = self.model.version
+            self._graph_version, self._graph_cfg = self.model.version, _snapshot(self.cfg)
+
+
+def _snapshot(cfg: PickCubeConfig) -> PickCubeConfig:
+    """A copy of `cfg` that changes to it (also in place, to its rewards) do not reach."""
+    return dataclasses.replace(cfg, rewards=dict(cfg.rewards))
+
+
+def _rotation_difference(R: torch.Tensor) -> torch.Tensor:
+    """(N, 6): the target's rotation (the identity) less R (N, 3, 3), their first six entries row by row
+    (Playground's rotation error terms)."""
+    return torch.eye(3, dtype=R.dtype, device=R.device).reshape(9)[:6] - R.reshape(-1, 9)[:, :6]
 
 
 def _gripper_frame(model) -> dict:

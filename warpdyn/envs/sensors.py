@@ -24,7 +24,7 @@ is taken as zero (the sensor at rest) until the next step.
 
 On another link (`ImuConfig.link`), the IMU's frame (the link's pose composed with `offset` and `rotation`) is posed
 and its point's velocity computed at the current state and at the state one simulation step before
-(`wd.link.FrameMotion`, two kinematics passes per policy step, into fixed buffers), and the accelerometer reads the
+(`wd.link.FrameMotion`, a kinematics pass per state, into fixed buffers), and the accelerometer reads the
 difference of the IMU point's velocities over that step, (v_I(t) - v_I(t - dt)) / dt, less gravity, in the IMU's
 axes at t; the gyroscope the link's angular velocity in them.
 """
@@ -91,12 +91,14 @@ class Imu:
     `linear_acceleration` [m/s^2] and `angular_velocity` [rad/s] (what the sensor reads: true + bias + noise),
     `true_linear_acceleration` and `true_angular_velocity` (noise- and bias-free: a privileged critic's),
     `accelerometer_bias` and `gyroscope_bias` (this episode's). LeggedEnv calls `reset(mask)` at resets and
-    `read(...)` after each step and reset; the random numbers come from the environment's generator."""
+    `sense(...)` after each step and reset (`read` for an IMU on the base); the random numbers come from the environment's generator."""
 
     def __init__(self, config: ImuConfig, num_envs: int, time_step: float, generator: torch.Generator, device, dtype, model=None):
         self.config, self.time_step, self._generator = config, float(time_step), generator
         self._motion = None  # on another link than the base: its frame's motion now and one step before
         if config.link is not None:
+            if model is None:
+                raise ValueError(f"an IMU on link {config.link!r} needs the model (Imu(..., model=...)) to find that link")
             names = model.link_names()
             if config.link not in names:
                 raise ValueError(f"ImuConfig.link {config.link!r} is not a link of model {model.name()!r}; its links: {list(names)}")
@@ -130,7 +132,7 @@ class Imu:
             self.read(quaternion, *velocities, gravity, mask)
             return
         W_H_I, v_now = (wp.to_torch(a) for a in self._motion[0](now))
-        v_before = wp.to_torch(self._motion[1](before)[1])
+        v_before = v_now if before is now else wp.to_torch(self._motion[1](before)[1])  # at a reset: at rest
         R = W_H_I[:, :3, :3]  # W_R_I: the IMU's axes in the world
         acceleration = (v_now[:, :3] - v_before[:, :3]) / self.time_step
         in_imu = [torch.einsum("nji,nj->ni", R, vector) for vector in (acceleration - gravity, v_now[:, 3:])]

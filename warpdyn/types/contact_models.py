@@ -94,7 +94,7 @@ class ContactModel:
 class SoftContacts(ContactModel):
     """JaxSim's soft contacts: the Hunt/Crossley normal force of a point's penetration into the terrain and
     a tangential spring-damper on its deformation m, limited by Coulomb's cone (kernels/soft_contacts.py has
-    the formulas). Parameters: `SoftContactsParams`; state: {"tangential_deformation": (nc_all, 3) [m]}."""
+    the formulas). Parameters: `SoftContactsParams`; state: {"tangential_deformation": (rows, 3) [m]} (Model.contact_state_rows)."""
 
     parameters_class = SoftContactsParams
 
