@@ -608,12 +608,9 @@ class LeggedEnv(DeviceVectorEnv):
         invalid = s.valid == 0
         fell = (terms.height_above_terrain(self)[:, 0] < cfg.termination_height * self.standing_height) | (s.projected_gravity[:, 2] > -math.cos(cfg.termination_tilt))
         terminated = fell | invalid
-        truncated = (self.episode_length_buf >= self.max_episode_length) & ~terminated
         reward = torch.where(invalid, torch.zeros_like(reward), torch.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0))
         reward = reward.clamp(min=0.0) if cfg.only_positive_rewards else reward
-        done = terminated | truncated
-        self._return += reward
-        self._finished += torch.stack([done.sum(), (self._return * done).sum(), (self.episode_length_buf * done).sum()]).to(torch.float64)
+        truncated, done = self._end_episodes(terminated, reward)
         final = self._observe()
         self._reset(done)
         resample = (self.episode_length_buf % self._every(cfg.command_seconds) == 0) & ~done

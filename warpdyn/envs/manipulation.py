@@ -239,10 +239,7 @@ class PickCubeEnv(DeviceVectorEnv):
         terminated = invalid | (cube.abs() > 1.0).any(dim=1) | (cube[:, 2] < 0.0)
         reward = torch.where(invalid, torch.zeros_like(reward), torch.nan_to_num(reward, nan=0.0))
         self.episode_length_buf += 1
-        truncated = (self.episode_length_buf >= self.max_episode_length) & ~terminated
-        done = terminated | truncated
-        self._return += reward
-        self._finished += torch.stack([done.sum(), (self._return * done).sum(), (self.episode_length_buf * done).sum()]).to(torch.float64)
+        truncated, done = self._end_episodes(terminated, reward)
         final = self._observe(frames)
         self._reset(done)
         obs = self._observe(self._frames())

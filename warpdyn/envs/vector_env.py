@@ -15,8 +15,9 @@ __all__ = ["DeviceVectorEnv"]
 
 class DeviceVectorEnv(gym.vector.VectorEnv):
     """The base of a batched environment whose subclass sets `stepper`, `device`, `use_graph`, `num_envs`,
-    `_generator` (torch.Generator), `_finished` (float64 (3,): episodes, return sum, length sum) and
-    `_warp_streams` ({}), and defines `_advance()` (one policy step: (obs, reward, terminated, truncated, info)).
+    `max_episode_length`, `episode_length_buf` (long (N,)), `_return` (float32 (N,)), `_generator`
+    (torch.Generator), `_finished` (float64 (3,): episodes, return sum, length sum) and `_warp_streams` ({}), and
+    defines `_advance()` (one policy step: (obs, reward, terminated, truncated, info)).
     `_replayed` names the attributes a step points at tensors of its own, which a graph's replay points at the
     graph's."""
 
@@ -63,6 +64,16 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
             return _copied(outputs)
 
         return replay
+
+    def _end_episodes(self, terminated: torch.Tensor, reward: torch.Tensor) -> tuple:
+        """(truncated, done) (bool (N,)) after a step whose `reward` (N,) is final: the episodes that reached
+        `max_episode_length` without terminating are truncated; the ended episodes' count, return and length are
+        added to `_finished` (episode_statistics reads them)."""
+        truncated = (self.episode_length_buf >= self.max_episode_length) & ~terminated
+        done = terminated | truncated
+        self._return += reward
+        self._finished += torch.stack([done.sum(), (self._return * done).sum(), (self.episode_length_buf * done).sum()]).to(torch.float64)
+        return truncated, done
 
     def episode_statistics(self) -> dict:
         """{"episodes", "mean_return", "mean_length"} of the episodes completed since the last call (one
