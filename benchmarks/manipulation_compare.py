@@ -66,6 +66,25 @@ def timed(run, device, repeats: int) -> tuple[float, float]:
     return first, statistics.median(times)
 
 
+def captured(steps, warm_up, device):
+    """A run of `steps()`: on a GPU one Warp graph, captured at the first call after `warm_up()` (compilation,
+    recording) and replayed at each; eager on the CPU."""
+    graph = {}
+
+    def run():
+        if not device.is_cuda:
+            steps()
+            return
+        if not graph:
+            warm_up()
+            with wp.ScopedCapture(device=device) as capture:
+                steps()
+            graph["g"] = capture.graph
+        wp.capture_launch(graph["g"])
+
+    return run
+
+
 def run_warpdyn(N: int, device, dtype, repeats: int) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
@@ -83,20 +102,7 @@ def run_warpdyn(N: int, device, dtype, repeats: int) -> dict:
             wp.copy(stepper.ctrl, c)
             stepper.step()
 
-    graph = {}
-
-    def run():
-        if not device.is_cuda:
-            steps()
-            return
-        if not graph:
-            steps()  # the launches recorded once, eagerly
-            with wp.ScopedCapture(device=device) as capture:
-                steps()
-            graph["g"] = capture.graph
-        wp.capture_launch(graph["g"])
-
-    first, run_s = timed(run, device, repeats)
+    first, run_s = timed(captured(steps, steps, device), device, repeats)  # the launches recorded once, eagerly
     cube = model.link_names().index("box")
     z = wd.model.forward_kinematics(model, stepper.data).numpy().reshape(N, -1, 4, 4)[:, cube, 2, 3]
     healthy = stepper.data.healthy.numpy().astype(bool)
@@ -126,20 +132,7 @@ def run_mjwarp(N: int, device, repeats: int) -> dict:
                 for _ in range(SEGMENT_STEPS):
                     mjw.step(m, d)
 
-        graph = {}
-
-        def run():
-            if not device.is_cuda:
-                steps()
-                return
-            if not graph:
-                mjw.step(m, d)  # compile, then capture
-                with wp.ScopedCapture(device=device) as capture:
-                    steps()
-                graph["g"] = capture.graph
-            wp.capture_launch(graph["g"])
-
-        first, run_s = timed(run, device, repeats)
+        first, run_s = timed(captured(steps, lambda: mjw.step(m, d), device), device, repeats)  # compile, then capture
         z = d.xpos.numpy()[:, mjm.body("box").id, 2].astype(np.float64)
         ok = np.isfinite(d.qpos.numpy()).all(axis=1)
     return dict(first=first, run=run_s, z=z, ok=ok)
