@@ -98,10 +98,12 @@ class PickCubeEnv(DeviceVectorEnv):
     Playground's: the joint positions (16: the cube's free joint, then the arm's and fingers') and velocities (15),
     the gripper's position (3) and its rotation matrix's last six entries, the cube's likewise (6), the cube from
     the gripper (3), the target from the cube (3), the target's rotation (identity) less the cube's, first six
-    entries (6), and the controls less the joints they drive (8)."""
+    entries (6), and the controls less the joints they drive (8). Without `model` the scene is loaded on `device` in
+    `dtype`; `seed` seeds the resets' draws. Tensors (N, ...) kept: `target` [m] (each episode's), `cube_position`
+    [m] (the cube after the last step, before that step's resets), `reached` (the gripper came within
+    reach_distance of the cube this episode)."""
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
-    _replayed = ("cube_position",)
 
     def __init__(self, num_envs: int, cfg: PickCubeConfig | None = None, *, model=None, device=None, dtype=np.float32, seed: int = 0, use_graph="auto"):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -205,8 +207,10 @@ class PickCubeEnv(DeviceVectorEnv):
                  _rotation_difference(R_C), self._ctrl - q[:, self._driven]]  # fmt: skip
         return torch.nan_to_num(torch.cat(parts, dim=1).to(torch.float32), nan=0.0, posinf=0.0, neginf=0.0)
 
-    def _terms(self, frames) -> dict:
-        """Playground's reward terms at the current state (`reached` latched first)."""
+    def _terms(self, frames) -> tuple:
+        """({name: (N,)} Playground's reward terms at the current state, `reached` latched first; the cube's distance
+        to its target (N,) [m]). The hand touches the floor where one of its collidable points pushes on the terrain
+        (the Stepper's contact wrenches: at the start of the last simulation step)."""
         gripper, _, cube, R_C = frames
         reach = (cube - gripper).norm(dim=1)
         self.reached |= reach < self.cfg.reach_distance
@@ -230,11 +234,11 @@ class PickCubeEnv(DeviceVectorEnv):
         self.stepper.step()
         frames = self._frames()
         values, to_target = self._terms(frames)
-        reward = sum(cfg.rewards[name] * values[name] for name in cfg.rewards).to(torch.float32).clamp(-1e4, 1e4)
+        reward = sum((cfg.rewards[name] * values[name] for name in cfg.rewards), torch.zeros_like(to_target)).to(torch.float32).clamp(-1e4, 1e4)
         log = {f"/reward/{name}": value.to(torch.float32).mean() for name, value in values.items()}
         log["/success"] = (to_target < cfg.success_distance).to(torch.float32).mean()
         cube = frames[2]
-        self.cube_position = cube.clone()
+        self.cube_position.copy_(cube)
         invalid = self._state_views[id(self.stepper.data)]["valid"] == 0
         terminated = invalid | (cube.abs() > 1.0).any(dim=1) | (cube[:, 2] < 0.0)
         reward = torch.where(invalid, torch.zeros_like(reward), torch.nan_to_num(reward, nan=0.0))
