@@ -4,11 +4,16 @@ its recording without a graph (each kernel timed by Warp's CUDA activity timing)
 step of the same rollout replayed from its graph.
 
     python benchmarks/rollout_kernels.py [--device cuda:0] [--contact rigid] [--dtype float32] [--num-envs 4096]
-                                         [--steps 50] [--top 8]
+                                         [--steps 50] [--top 8] [--block-dim 64] [--profile-steps S]
 
 --contact: soft (JaxSim's K = 1e6), relaxed or rigid. The rollout first runs once (compilation, capture) and once
 more (the state moves on: a later segment of the same landing is timed). GPU only (the kernel timing is CUDA's).
-Prints the wall time per step and a Markdown table of the `--top` kernels by time per step.
+Prints the wall time per step and a Markdown table of the `--top` kernels by time per step. --block-dim sets
+wd.config.cuda_block_dim (threads per CUDA block of every launch). --profile-steps S instead runs one eager rollout of
+S steps from the landing's start and prints nothing: for Nsight Compute, e.g. the rigid solve at step 110:
+
+    ncu --kernel-name regex:rigid_solve --launch-skip 110 --launch-count 1 \
+        --metrics gpu__time_duration.sum,smsp__inst_executed.sum python benchmarks/rollout_kernels.py --profile-steps 113
 """
 
 from __future__ import annotations
@@ -33,8 +38,12 @@ def main() -> None:
     parser.add_argument("--num-envs", type=int, default=4096)
     parser.add_argument("--steps", type=int, default=50)
     parser.add_argument("--top", type=int, default=8)
+    parser.add_argument("--block-dim", type=int, default=None, help="wd.config.cuda_block_dim (default: warpdyn's, 64)")
+    parser.add_argument("--profile-steps", type=int, default=None, help="only one eager rollout of this many steps (for Nsight Compute)")
     args = parser.parse_args()
     wp.config.quiet = True
+    if args.block_dim is not None:
+        wd.config.cuda_block_dim = args.block_dim
     device = wp.get_device(args.device)
     if not device.is_cuda:
         raise SystemExit("rollout_kernels.py times CUDA kernels: give --device cuda:N")
@@ -42,6 +51,10 @@ def main() -> None:
     init = sa.initial_state(seed_model(np.float64, device))
     model = sa.scene_model(base, sa.SIE, 1e-3, sa.contact_settings([args.contact], [1e6])[0])
     data = sa.batch_data(model, init, args.num_envs)
+    if args.profile_steps is not None:
+        wd.simulation.Rollout(model, steps=args.profile_steps, record=("valid",), use_graph=False).run(data)
+        wp.synchronize_device(device)
+        return
     graphed = wd.simulation.Rollout(model, steps=args.steps, record=("valid",))
     graphed.run(data)
     wp.synchronize_device(device)
@@ -58,7 +71,8 @@ def main() -> None:
     for result in wp.timing_end():
         per_step[result.name] += result.elapsed / args.steps
         count[result.name] += 1
-    print(f"`python benchmarks/rollout_kernels.py --contact {args.contact} --dtype {args.dtype} --num-envs {args.num_envs}`; {header(device)}.")
+    block = f" --block-dim {args.block_dim}" if args.block_dim is not None else ""
+    print(f"`python benchmarks/rollout_kernels.py --contact {args.contact} --dtype {args.dtype} --num-envs {args.num_envs}{block}`; {header(device)}.")
     print(f"Graph-replayed rollout: {wall * 1e3:.3f} ms per step (wall); kernels of the recorded replay: {sum(per_step.values()):.3f} ms per step.")
     print()
     print("| kernel | launches per step | ms per step |")
