@@ -8,7 +8,7 @@ What runs, N environments (worlds) at once, each from the keyframe "pickup1" (th
 of the scripted grasp of tests/test_panda.py (the gripper closes over 0.3 s, the arm lifts the cube from 0.5 s to
 1 s, then holds), its 8 controls changed every 100 steps (20 segments of 100 steps of 1 ms, the file's time step).
 - warpdyn: a `wd.simulation.Stepper` of 100 substeps, the pads' contacts acting (model.geom_contacts) with
-  tests/test_panda.py's soft law (K = 5e5, D = 500, mu = 1), the file's integrator; a run copies the initial state
+  PickCubeEnv's soft law (PickCubeConfig's K = 5e5, D = 500, mu = 1), the file's integrator; a run copies the initial state
   in, then per segment copies that segment's controls into the Stepper's and steps. On a GPU the whole run is one
   captured Warp graph; on the CPU the Stepper replays its own graph per segment.
 - MuJoCo Warp: `mujoco_warp.put_model` of MuJoCo's compile of the same file (its implicitfast integrator, Newton
@@ -35,6 +35,7 @@ import numpy as np
 import warp as wp
 
 import warpdyn as wd
+from warpdyn.envs import PickCubeConfig
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "tests"))
 from test_panda import _grasp_controls  # noqa: E402  (the scripted grasp the tests hold beside MuJoCo)
@@ -90,7 +91,8 @@ def run_warpdyn(N: int, device, dtype, repeats: int) -> dict:
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
         model = wd.model.Model.build_from_model_description(wd.assets.franka_panda_cube_mjcf(), dtype=dtype, device=device)
     model.geom_contacts = True
-    model.contact_params = wd.model.SoftContactsParams(K=5e5, D=500.0, mu=1.0)
+    cfg = PickCubeConfig()  # the environment's contact settings
+    model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=cfg.contact_damping, mu=cfg.friction)
     start = wd.data.keyframe(model, KEYFRAME, num_envs=N)
     key = next(k for k in model.description.keyframes if k.name == KEYFRAME)
     controls = [wp.array(np.tile(c, (N, 1)), dtype=model.scalar, device=device) for c in schedule(np.asarray(key.ctrl, dtype=np.float64))]
