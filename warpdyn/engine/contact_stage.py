@@ -110,6 +110,7 @@ class ContactStage:
         row_point[rows] = np.arange(len(rows), dtype=np.int32)
         self.points = len(cp.body)  # every collidable point: the contact state's first rows
         self.count = len(rows)  # the enabled points
+        self.point_links = links.astype(np.int64)  # (count,) each enabled point's link, by link: the kernels' order
         self.points_per_link = np.bincount(links, minlength=nL).astype(np.int32)
         self.point_out = wp.array(order.astype(np.int32), dtype=int, device=d)  # place among the enabled points
         c = self.bundle = bundles(s).Contacts()

@@ -133,7 +133,7 @@ class Stepper:
     def contact_point_links(self) -> np.ndarray:
         """(nc,) int: the link of each row of `contact_wrenches` (the description's enabled points sorted by link,
         stably: model.kin_dyn_parameters.enabled_link lists them in the description's order)."""
-        return self._plan.contact_bundle.point_link.numpy().astype(np.int64)
+        return self._plan.contact_stage.point_links.copy()
 
     @property
     def buffers(self) -> tuple:
