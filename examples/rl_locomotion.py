@@ -42,8 +42,8 @@ scan), ROUGH_REWARDS (thighs touching penalised: ROUGH_LINKS touch the terrain t
 under the base at 0.4 x the standing height; each iteration prints the mean terrain level. `--evaluate
 SPEED` then commands SPEED m/s straight ahead and prints the forward speed reached. Trainer: rsl-rl-lib's PPO (the one Isaac Lab and mjlab
 use): 24 steps per environment and iteration, 5 epochs of 4 mini-batches (per rank), learning rate 1e-3 (adaptive),
-MLP (256, 128, 64) actor and critic with observation normalisation; --steps-per-env, --epochs, --mini-batches and
---learning-rate change the first four (PPO_DEFAULTS).
+MLP (256, 128, 64) actor and critic with observation normalisation, discount 0.99, entropy coefficient 0.005;
+--steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma and --entropy-coef change them (PPO_DEFAULTS).
 
 Prints, per iteration: the mean return and length of the episodes completed in it (on all ranks), env-steps/s
 (policy steps x N x K and simulation steps, collection and update included, over rank 0's wall time of the
@@ -138,9 +138,9 @@ def make_env(task: str, num_envs: int, device, seed: int, robot: str = "ergocub"
     return envs.LeggedEnv(model, num_envs=num_envs, cfg=preset.config(model, **{**TASKS[robot][task], **overrides}), seed=seed)
 
 
-PPO_DEFAULTS = dict(steps_per_env=24, epochs=5, mini_batches=4, learning_rate=1e-3)
-"""The trainer's settings that set its time per iteration and its step size (the CLI's --steps-per-env, --epochs,
---mini-batches, --learning-rate): Rudin et al.'s."""
+PPO_DEFAULTS = dict(steps_per_env=24, epochs=5, mini_batches=4, learning_rate=1e-3, gamma=0.99, entropy_coef=0.005)
+"""The trainer's settings that set its time per iteration, its step size, its horizon and its exploration (the CLI's
+--steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma, --entropy-coef): Rudin et al.'s."""
 
 
 def train_config(iterations: int, **ppo) -> dict:
@@ -149,15 +149,15 @@ def train_config(iterations: int, **ppo) -> dict:
     unknown = sorted(set(ppo) - set(PPO_DEFAULTS))
     if unknown:
         raise TypeError(f"train_config takes the settings {sorted(PPO_DEFAULTS)}, got {unknown}")
-    steps_per_env, epochs, mini_batches, learning_rate = ({**PPO_DEFAULTS, **ppo}[name] for name in PPO_DEFAULTS)
+    steps_per_env, epochs, mini_batches, learning_rate, gamma, entropy_coef = ({**PPO_DEFAULTS, **ppo}[name] for name in PPO_DEFAULTS)
     mlp = dict(hidden_dims=[256, 128, 64], activation="elu", obs_normalization=True)
     return {
         "num_steps_per_env": steps_per_env,
         "save_interval": max(1, iterations),
         "obs_groups": {"actor": ["policy"], "critic": ["policy"]},
         "algorithm": dict(
-            class_name="PPO", learning_rate=learning_rate, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2, gamma=0.99,
-            lam=0.95, value_loss_coef=1.0, entropy_coef=0.005, max_grad_norm=1.0, schedule="adaptive", desired_kl=0.01,
+            class_name="PPO", learning_rate=learning_rate, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2, gamma=gamma,
+            lam=0.95, value_loss_coef=1.0, entropy_coef=entropy_coef, max_grad_norm=1.0, schedule="adaptive", desired_kl=0.01,
         ),  # fmt: skip
         "actor": dict(class_name="MLPModel", distribution_cfg=dict(class_name="GaussianDistribution", init_std=1.0), **mlp),
         "critic": dict(class_name="MLPModel", **mlp),

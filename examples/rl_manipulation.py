@@ -10,7 +10,7 @@ Environment (`warpdyn.envs.PickCubeEnv`, its defaults: PickCubeConfig): the ship
 controls, episodes of 3 s; each reset puts the cube within 0.2 m of the keyframe "home"'s and draws a target 0.2 to
 0.4 m above the floor around it; Playground's rewards (gripper to cube, cube to target once reached, no hand on the
 floor, arm near its keyframe posture). Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO, the same
-settings and flags: --steps-per-env, --epochs, --mini-batches, --learning-rate).
+settings and flags: --steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma, --entropy-coef).
 
 Prints, per iteration: the mean return and length of the completed episodes, env-steps/s and the wall time;
 `--evaluate` then runs the deterministic policy for one episode in 256 fresh environments (--evaluate-envs) and prints the success

@@ -531,7 +531,7 @@ def test_heading_commands_steer_the_yaw_rate():
 
 
 def test_the_ppo_settings_reach_the_trainer(tmp_path, capsys):
-    """examples/rl_locomotion.py's --steps-per-env, --epochs, --mini-batches and --learning-rate (PPO_DEFAULTS) reach
+    """examples/rl_locomotion.py's --steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma and --entropy-coef (PPO_DEFAULTS) reach
     rsl-rl's configuration and the collection (2 iterations of 8 steps: every environment 16 steps into its episode);
     a non-positive value is refused by the parser, naming the flag."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
@@ -539,11 +539,16 @@ def test_the_ppo_settings_reach_the_trainer(tmp_path, capsys):
         import rl_locomotion
     finally:
         sys.path.pop(0)
-    cfg = rl_locomotion.train_config(3, steps_per_env=8, epochs=1, mini_batches=2, learning_rate=5e-4)
-    assert (cfg["num_steps_per_env"], cfg["algorithm"]["num_learning_epochs"], cfg["algorithm"]["num_mini_batches"], cfg["algorithm"]["learning_rate"]) == (8, 1, 2, 5e-4)
+    cfg = rl_locomotion.train_config(3, steps_per_env=8, epochs=1, mini_batches=2, learning_rate=5e-4, gamma=0.97, entropy_coef=0.02)
+    algorithm = cfg["algorithm"]
+    assert (cfg["num_steps_per_env"], algorithm["num_learning_epochs"], algorithm["num_mini_batches"], algorithm["learning_rate"]) == (8, 1, 2, 5e-4)
+    assert (algorithm["gamma"], algorithm["entropy_coef"]) == (0.97, 0.02)
     env = rl_locomotion.make_env("stand", 8, wp.get_device(), seed=0, joint_noise=0.0)
     history = rl_locomotion.train(env, 2, tmp_path, str(env.device), ppo=dict(steps_per_env=8, epochs=1, mini_batches=2))
     assert len(history) == 2 and env.episode_length_buf.tolist() == [16] * 8
     with pytest.raises(SystemExit):
         rl_locomotion.main(["--epochs", "0", "--device", "cpu"])
     assert "--epochs must be positive, got 0" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        rl_locomotion.main(["--gamma", "-0.5", "--device", "cpu"])
+    assert "--gamma must be positive, got -0.5" in capsys.readouterr().err
