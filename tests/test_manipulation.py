@@ -3,6 +3,7 @@ its resets, actions, rewards (recomputed from the JaxSim-style API), termination
 actions, and the Stepper's contact rows it reads. Few environments, on the tests' device."""
 
 import pathlib
+import re
 import sys
 
 import mujoco
@@ -50,7 +51,7 @@ def test_actions_add_to_the_controls_within_their_ranges():
     env = _env()
     env.reset(seed=0)
     before = wp.to_torch(env.stepper.ctrl).clone()
-    actions = torch.tensor([[0.5, -2.0, 0.0, 1.0, -0.25, 0.0, 3.0, 1.0]] * N)
+    actions = torch.tensor([[0.5, -2.0, 0.0, 1.0, -0.25, 0.0, 3.0, 1.0]] * N, device=env.device)
     env.step(actions)
     expected = torch.minimum(torch.maximum(before + 0.04 * actions.clamp(-1, 1).to(before.dtype), env._low), env._high)
     torch.testing.assert_close(wp.to_torch(env.stepper.ctrl), expected, rtol=0, atol=1e-6)
@@ -67,16 +68,16 @@ def test_rewards_equal_playgrounds_terms_recomputed():
     env = _env()
     env.reset(seed=0)
     q = wp.to_torch(env.stepper.data.joint_positions_state)
-    q[:, env._cube + 3 : env._cube + 7] = torch.tensor([np.cos(0.35), 0.0, 0.0, np.sin(0.35)], dtype=q.dtype)
+    q[:, env._cube + 3 : env._cube + 7] = torch.tensor([np.cos(0.35), 0.0, 0.0, np.sin(0.35)], dtype=q.dtype, device=q.device)
     env.reached[:2] = True
     mj = mujoco.MjModel.from_xml_path(str(wd.assets.franka_panda_cube_mjcf()))
     assert mj.body(mj.site("gripper").bodyid[0]).name == "hand"
-    site = torch.tensor(mj.site("gripper").pos, dtype=q.dtype)  # MuJoCo's gripper site in the hand's frame
+    site = torch.tensor(mj.site("gripper").pos, dtype=q.dtype, device=q.device)  # MuJoCo's gripper site in the hand's frame
     rng = np.random.default_rng(0)
     for _ in range(3):
         target = env.target.clone()
         reached = env.reached.clone()
-        _, reward, terminated, _, _ = env.step(torch.tensor(rng.uniform(-1, 1, (N, 8)), dtype=torch.float32))
+        _, reward, terminated, _, info = env.step(torch.tensor(rng.uniform(-1, 1, (N, 8)), dtype=torch.float32))
         assert not terminated.any()
         data = env.stepper.data
         H_hand = wp.to_torch(wd.frame.transform(env.model, data, frame_index=wd.frame.name_to_idx(env.model, frame_name="hand")))
@@ -85,12 +86,14 @@ def test_rewards_equal_playgrounds_terms_recomputed():
         cube, R = H_cube[:, :3, 3], H_cube[:, :3, :3]
         reach = (cube - gripper).norm(dim=1)
         reached = reached | (reach < 0.012)
-        rotation = (torch.eye(3, dtype=R.dtype).reshape(9)[:6] - R.reshape(-1, 9)[:, :6]).norm(dim=1)
+        rotation = (torch.eye(3, dtype=R.dtype, device=R.device).reshape(9)[:6] - R.reshape(-1, 9)[:, :6]).norm(dim=1)
         q = wp.to_torch(data.joint_positions_state)
         arm = (q[:, env._arm] - env._home[env._arm]).norm(dim=1)
         expected = (4.0 * (1 - torch.tanh(5 * reach)) + 8.0 * (1 - torch.tanh(5 * (0.9 * (target - cube).norm(dim=1) + 0.1 * rotation))) * reached
                     + 0.25 * 1.0 + 0.3 * (1 - torch.tanh(arm)))  # fmt: skip (the hand stays off the floor here)
         torch.testing.assert_close(reward, expected.to(torch.float32), rtol=0, atol=1e-4)
+        assert float(info["log"]["/reached"]) == float(reached.float().mean()) and float(reached.float().mean()) >= 0.5
+        assert float(info["log"]["/success"]) == float(((target - cube).norm(dim=1) < 0.05).float().mean())
 
 
 def test_a_scripted_grasp_through_the_actions_lifts_the_cube():
@@ -158,15 +161,17 @@ def test_the_steppers_contact_rows_are_sorted_by_link():
     assert pushing.size and {names[i] for i in links[pushing]} == {"box"}
 
 
-def test_the_example_trains_and_evaluates(tmp_path):
-    """examples/rl_manipulation.py on 8 environments: 2 PPO iterations, its policy saved and evaluated in 8 fresh
-    environments (the success rate a fraction)."""
+def test_the_example_trains_and_evaluates(tmp_path, capsys):
+    """examples/rl_manipulation.py on 8 environments: 2 PPO iterations (each line printing the reached and success
+    fractions), its policy saved and evaluated in 8 fresh environments (the success rate a fraction)."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
     import rl_manipulation
 
     device = str(wp.get_device())
     history = rl_manipulation.main(["--device", device, "--num-envs", "8", "--iterations", "2", "--evaluate", "--evaluate-envs", "8", "--out", str(tmp_path)])
     assert len(history) == 2 and (tmp_path / "policy.pt").is_file()
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("iteration")]
+    assert len(lines) == 2 and all(re.search(r"reached \d\.\d{3}  success \d\.\d{3}  reward/box_target \d\.\d{3}$", line) for line in lines), lines
     result = rl_manipulation.evaluate(tmp_path / "policy.pt", wp.get_device(), seed=5, num_envs=8)
     assert result["environments"] == 8 and 0.0 <= result["success"] <= 1.0 and np.isfinite(result["distance"])
 
