@@ -198,9 +198,11 @@ def train(
     target_return: float | None = None,
     max_minutes: float | None = None,
     ppo: dict | None = None,
+    log_names: tuple = (),
 ) -> list:
     """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass; `ppo`: PPO_DEFAULTS'
-    settings to change); returns
+    settings to change; `log_names`: entries of the environment's info["log"] whose mean over the iteration's steps
+    each iteration's line prints, rank 0's); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
@@ -221,10 +223,13 @@ def train(
     steps = cfg["num_steps_per_env"]
     for it in range(iterations):
         t0 = time.perf_counter()
+        logged = {name: 0.0 for name in log_names}
         with torch.inference_mode():
             for _ in range(steps):
                 actions = alg.act(obs)
                 obs, rewards, dones, extras = vec.step(actions.to(env.device))
+                for name in log_names:
+                    logged[name] = logged[name] + extras["log"][name]
                 obs, rewards, dones = obs.to(torch_device), rewards.to(torch_device), dones.to(torch_device)
                 alg.process_env_step(obs, rewards, dones, extras)
             alg.compute_returns(obs)
@@ -250,7 +255,8 @@ def train(
             print(
                 f"iteration {it:4d}  mean return {mean_return:8.3f}  mean length {mean_length:7.1f}  "
                 f"{rate / 1e3:8.1f} k env-steps/s ({rate * env.decimation / 1e6:6.2f} M sim steps/s)  "
-                f"{total_steps:11d} env-steps  {history[-1][3]:7.1f} s{level}",
+                f"{total_steps:11d} env-steps  {history[-1][3]:7.1f} s{level}"
+                + "".join(f"  {name.strip('/')} {float(value) / steps:.3f}" for name, value in logged.items()),
                 flush=True,
             )
         if target_return is not None and reached is None and mean_return >= target_return:  # NaN: not reached

@@ -12,7 +12,9 @@ controls, episodes of 3 s; each reset puts the cube within 0.2 m of the keyframe
 floor, arm near its keyframe posture). Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO, the same
 settings and flags: --steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma, --entropy-coef).
 
-Prints, per iteration: the mean return and length of the completed episodes, env-steps/s and the wall time;
+Prints, per iteration: the mean return and length of the completed episodes, env-steps/s, the wall time, and the
+means over its steps of the fraction of environments whose gripper has reached the cube ("reached", box_target's
+gate), of those whose cube is at its target ("success") and of box_target's term (LOGGED);
 `--evaluate` then runs the deterministic policy for one episode in 256 fresh environments (--evaluate-envs) and prints the success
 rate (the cube within 5 cm of its target at the episode's end) and the mean distance. Writes `<out>/policy.pt` and
 `<out>/rewards.png`.
@@ -29,6 +31,11 @@ import warp as wp
 
 import warpdyn.envs as envs
 from rl_locomotion import PPO_DEFAULTS, load_policy, plot, train
+
+
+LOGGED = ("/reached", "/success", "/reward/box_target")
+"""PickCubeEnv's info["log"] entries each iteration prints (their means over the iteration): the fraction of
+environments whose gripper has reached the cube this episode, the fraction whose cube is at its target, box_target's term."""
 
 
 def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256) -> dict:
@@ -77,7 +84,7 @@ def main(argv=None) -> list:
     print(f"pick cube: {where}, {env.single_observation_space.shape[0]} observations, {env.single_action_space.shape[0]} actions, "
           f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
     phases = {"environment": time.perf_counter() - started}
-    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, {name: getattr(args, name) for name in PPO_DEFAULTS})
+    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, {name: getattr(args, name) for name in PPO_DEFAULTS}, LOGGED)
     phases["training"] = time.perf_counter() - started - sum(phases.values())
     plot(history, out / "rewards.png", f"Panda pick cube: {where}")
     if args.evaluate:

@@ -46,8 +46,9 @@ class PickCubeConfig:
     the gripper came within `reach_distance` of the cube, no_floor_collision, robot_target_qpos 1 - tanh(|arm -
     arm at the keyframe|)); the reward is their scaled sum (not times the policy step). An episode ends where the
     cube leaves the box |x|, |y|, |z| <= 1 m or falls below the floor, or the state stops being finite. A step's
-    info["log"] holds the terms' means and "success": the fraction of environments whose cube is within
-    `success_distance` [m] of its target."""
+    info["log"] holds the terms' means, "success": the fraction of environments whose cube is within
+    `success_distance` [m] of its target, and "reached": the fraction whose gripper came within reach_distance of
+    the cube this episode (box_target's gate)."""
 
     time_step: float = 0.001
     policy_dt: float = 0.02
@@ -237,6 +238,7 @@ class PickCubeEnv(DeviceVectorEnv):
         reward = sum((cfg.rewards[name] * values[name] for name in cfg.rewards), torch.zeros_like(to_target)).to(torch.float32).clamp(-1e4, 1e4)
         log = {f"/reward/{name}": value.to(torch.float32).mean() for name, value in values.items()}
         log["/success"] = (to_target < cfg.success_distance).to(torch.float32).mean()
+        log["/reached"] = self.reached.to(torch.float32).mean()
         cube = frames[2]
         self.cube_position.copy_(cube)
         invalid = self._state_views[id(self.stepper.data)]["valid"] == 0
