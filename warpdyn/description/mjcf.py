@@ -85,6 +85,8 @@ ACTUATOR_GRAVCOMP = (
     "does not clamp it, and it is kept in a model without actuators)"
 )
 GEOMS = "collision geoms of unsupported types (ellipsoid, plane/hfield on bodies, sdf)"
+GROUND = ("ground geoms other than one upward plane (several planes, heightfields, a plane facing down: the terrain stays "
+          "the plane z = 0; set model.terrain, e.g. to a HeightfieldTerrain)")
 STATIC_BODIES = "bodies welded to the world beside the free body (static scenery: not links; their geoms are the world's)"
 UNCOLLIDED_PAIRS = (
     "pairs of geoms that warpdyn's narrow phase does not collide (MuJoCo's convex solver's; <pair>s of a geom without "
@@ -191,6 +193,7 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
     description.actuators = actuators
     description.equalities = equalities
     description.world_geoms = _world_geoms(m, mujoco, note, name_of)
+    description.ground = _ground(m, mujoco, note, name_of)
     description.excludes = [(name_of(mujoco.mjtObj.mjOBJ_BODY, int(s) >> 16, "body"), name_of(mujoco.mjtObj.mjOBJ_BODY, int(s) & 0xFFFF, "body"))
                             for s in m.exclude_signature]
     description.geom_pairs, uncollided = mujoco_geom_pairs(m, mujoco, lambda g: name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"))
@@ -247,6 +250,7 @@ _KIND_ORDER = (
     UNCOLLIDED_PAIRS,
     TORSION,
     GEOMS,
+    GROUND,
     STATIC_BODIES,
     MOCAP,
     FLEX,
@@ -555,6 +559,25 @@ def _world_geoms(m, mujoco, note, name_of) -> list[CollisionShape]:
         elif int(m.geom_bodyid[g]) == 0:  # a welded body's are noted with its link's
             note(GEOMS, f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, g, 'geom')} of the world ({_geom_type_name(kind, mujoco)})")
     return out
+
+
+def _ground(m, mujoco, note, name_of) -> tuple[np.ndarray, np.ndarray] | None:
+    """The world body's one colliding plane, (unit normal, point) [world, m] as MuJoCo places it: the model's terrain
+    (planes on other bodies, welded or not, are noted with GEOMS). None without one; with several, or with a
+    heightfield, or a plane facing down, None and a note naming them (the terrain then stays the plane z = 0 until
+    model.terrain is set)."""
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    ground = [g for g in range(m.ngeom) if int(m.geom_bodyid[g]) == 0 and (m.geom_contype[g] or m.geom_conaffinity[g])
+              and int(m.geom_type[g]) in (mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_HFIELD)]  # fmt: skip
+    if not ground:
+        return None
+    normal = np.array(d.geom_xmat[ground[0]], dtype=np.float64).reshape(3, 3)[:, 2]
+    if len(ground) == 1 and int(m.geom_type[ground[0]]) == mujoco.mjtGeom.mjGEOM_PLANE and normal[2] > 1e-6:
+        return normal, np.array(d.geom_xpos[ground[0]], dtype=np.float64)
+    for g in ground:
+        note(GROUND, f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, g, 'geom')} ({_geom_type_name(int(m.geom_type[g]), mujoco)})")
+    return None
 
 
 def _shape(m, g: int, H: np.ndarray, mujoco, name_of) -> CollisionShape | None:

@@ -386,7 +386,9 @@ class ModelDescription:
     in MuJoCo's order, those of geom types warpdyn's narrow phase collides; empty for URDF and SDF. excludes: an MJCF's
     `<exclude>`s, (body1, body2) names (what the MJCF export writes back). world_geoms: the
     colliding geoms that do not move (on the world body or on bodies welded to it; planes and heightfields aside: the
-    terrain), their `link_H_shape` their pose in the world, as MuJoCo places them.
+    terrain), their `link_H_shape` their pose in the world, as MuJoCo places them. ground: the MJCF world body's
+    one colliding plane, (unit normal (3,), point (3,)) [world, m] as MuJoCo places it, which a model takes as its terrain;
+    None without one (then, and for URDF and SDF, the terrain is the plane z = 0).
     """
 
     name: str
@@ -412,6 +414,7 @@ class ModelDescription:
     geom_pairs: list[GeomPair] = field(default_factory=list)
     world_geoms: list[CollisionShape] = field(default_factory=list)
     excludes: list[tuple[str, str]] = field(default_factory=list)
+    ground: tuple[np.ndarray, np.ndarray] | None = None
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:

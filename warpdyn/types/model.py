@@ -40,7 +40,7 @@ from .model_queries import ModelQueries
 from .model_settings import ModelSettings
 from .parameters import ACTUATOR_PARAMETERS, JOINT_PARAMETERS, LINK_PARAMETERS, REGISTRY, WORLD_PARAMETERS, Parameter, validate_parameters
 from .settings import STANDARD_GRAVITY, ActuationParams, SoftContactsParams
-from .terrain import FlatTerrain, HeightfieldTerrain
+from .terrain import FlatTerrain, HeightfieldTerrain, terrain_of_ground
 
 __all__ = ["Model", "SCALARS", "STANDARD_GRAVITY", "transforms", "quaternion_xyzw"]
 
@@ -147,7 +147,7 @@ class Model(ModelSettings, ModelQueries):
             self._store(parameter, parameter.default(tree), checked=parameter.group != "link")
         self.set_gravity(gravity)
         self.time_step = time_step
-        self.terrain = FlatTerrain()
+        self.terrain = terrain_of_ground(description.ground)
         self.contact_model = SoftContacts()
         self.contact_params = SoftContactsParams()
         self.integrator = IntegratorType.SemiImplicitEuler

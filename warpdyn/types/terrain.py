@@ -274,3 +274,16 @@ class HeightfieldTerrain(Terrain):
         dhdy = ((1 - a) * (h[i, j + 1] - h[i, j]) + a * (h[i + 1, j + 1] - h[i + 1, j])) / self.spacing[1]
         n = np.stack([-dhdx, -dhdy, np.ones_like(dhdx)], axis=-1)
         return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def terrain_of_ground(ground) -> Terrain:
+    """A model's terrain from its description's ground (ModelDescription.ground: (unit normal, point) [world, m] or
+    None): FlatTerrain at the point's height where the normal is +z, else the PlaneTerrain through the point;
+    FlatTerrain(0) without a ground."""
+    if ground is None:
+        return FlatTerrain()
+    normal, point = ground
+    if np.allclose(normal, (0.0, 0.0, 1.0), rtol=0.0, atol=1e-12):
+        return FlatTerrain(float(point[2]))
+    return PlaneTerrain(normal, point)
+
