@@ -179,7 +179,9 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
     links, joints = _world_children(m, links, joints, where, note, mujoco)
 
     actuators = _actuators(m, joint_name, note, mujoco)
-    equalities = _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco)
+    poses = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, poses)  # at qpos0: where bodies welded to the world and their geoms are
+    equalities = _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco, poses)
     _constraints_and_others(m, note, name_of, mujoco)
 
     world_link = LinkDescription(name="world")
@@ -192,8 +194,8 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
         description.base_joint = floating[0]
     description.actuators = actuators
     description.equalities = equalities
-    description.world_geoms = _world_geoms(m, mujoco, note, name_of)
-    description.ground = _ground(m, mujoco, note, name_of)
+    description.world_geoms = _world_geoms(m, mujoco, note, name_of, poses)
+    description.ground = _ground(m, mujoco, note, name_of, poses)
     description.excludes = [(name_of(mujoco.mjtObj.mjOBJ_BODY, int(s) >> 16, "body"), name_of(mujoco.mjtObj.mjOBJ_BODY, int(s) & 0xFFFF, "body"))
                             for s in m.exclude_signature]
     description.geom_pairs, uncollided = mujoco_geom_pairs(m, mujoco, lambda g: name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom"))
@@ -439,14 +441,13 @@ def _actuators(m, joint_name, note, mujoco) -> list[ActuatorDescription]:
     return actuators
 
 
-def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco) -> list[EqualityDescription]:
+def _equalities(m, body_name, joint_name, name_of, note, disabled, mujoco, poses) -> list[EqualityDescription]:
     """The connect, weld, joint and fixed-tendon equality constraints active at the start (MuJoCo's eq_active0), as MuJoCo compiled
-    them; the others are noted as not modelled. None when MuJoCo's constraints or equalities are disabled."""
+    them; the others are noted as not modelled. None when MuJoCo's constraints or equalities are disabled. poses: an
+    MjData after mj_kinematics at qpos0."""
     if "constraint" in disabled or "equality" in disabled:
         return []
     Eq, Obj = mujoco.mjtEq, mujoco.mjtObj
-    poses = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, poses)  # at qpos0: where bodies welded to the world are
     equalities = []
     for i in range(m.neq):
         name = name_of(Obj.mjOBJ_EQUALITY, i, "equality")
@@ -541,11 +542,9 @@ def _mjcf_collisions(m, b: int, link: LinkDescription, mujoco, note, name_of) ->
             note(GEOMS, f"{geom} ({_geom_type_name(int(m.geom_type[g]), mujoco)})")
 
 
-def _world_geoms(m, mujoco, note, name_of) -> list[CollisionShape]:
+def _world_geoms(m, mujoco, note, name_of, d) -> list[CollisionShape]:
     """The colliding geoms that do not move (body_weldid 0: the world body's and those of bodies welded to it), posed
-    in the world as MuJoCo places them (geom_xpos, geom_xmat at qpos0); planes and heightfields are the terrain's."""
-    d = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, d)
+    in the world as MuJoCo places them (d: an MjData after mj_kinematics at qpos0); planes and heightfields are the terrain's."""
     out = []
     for g in range(m.ngeom):
         kind = int(m.geom_type[g])
@@ -561,13 +560,11 @@ def _world_geoms(m, mujoco, note, name_of) -> list[CollisionShape]:
     return out
 
 
-def _ground(m, mujoco, note, name_of) -> tuple[np.ndarray, np.ndarray] | None:
+def _ground(m, mujoco, note, name_of, d) -> tuple[np.ndarray, np.ndarray] | None:
     """The world body's one colliding plane, (unit normal, point) [world, m] as MuJoCo places it: the model's terrain
     (planes on other bodies, welded or not, are noted with GEOMS). None without one; with several, or with a
     heightfield, or a plane facing down, None and a note naming them (the terrain then stays the plane z = 0 until
-    model.terrain is set)."""
-    d = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, d)
+    model.terrain is set). d: an MjData after mj_kinematics at qpos0."""
     ground = [g for g in range(m.ngeom) if int(m.geom_bodyid[g]) == 0 and (m.geom_contype[g] or m.geom_conaffinity[g])
               and int(m.geom_type[g]) in (mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_HFIELD)]  # fmt: skip
     if not ground:
