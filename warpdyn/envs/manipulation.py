@@ -36,8 +36,8 @@ class PickCubeConfig:
     Simulation: `time_step` [s] of the model's integrator (0.5 ms: Playground's 5 ms relies on MuJoCo's implicit
     integration of the servos and contacts, warpdyn's soft contacts and the fingers' damping are explicit; at 1 ms a
     pad that clips the cube's edge, as a policy's approaches do, drives the 0.1 kg cube's rotation past the explicit
-    step's stable rate: over 24 scripted approaches a touched cube moved a median 118 mm at 1 ms, 2.5 mm at 0.5 ms,
-    1.2 mm in MuJoCo; tests/test_manipulation.py's pad-on-the-edge test),
+    step's stable rate: over 24 scripted approaches a touched cube moved a median 118 mm at 1 ms, 2.4 mm at 0.5 ms,
+    1.0 mm in MuJoCo: benchmarks/cube_clipping.py; tests/test_manipulation.py's pad-on-the-edge test),
     `policy_dt` [s] per action (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5] and
     `contact_damping` D [N s/m^1.5] (D = 500: the 0.1 kg cube squeezed between the pads at 1 ms stays within the
     explicit damper's stable rate), `friction` the terrain's (the floor's) Coulomb coefficient (MuJoCo's cube-floor
