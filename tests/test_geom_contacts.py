@@ -81,7 +81,7 @@ def _mujoco(xml_or_path) -> mujoco.MjModel:
     return mujoco.MjModel.from_xml_string(xml_or_path)
 
 
-CASES = {"scene": SCENE, "cassie": MENAGERIE / "cassie.xml", "rby1": MENAGERIE / "rby1a_1.2.xml"}
+CASES = {"scene": SCENE, "cassie": MENAGERIE / "cassie.xml", "rby1": MENAGERIE / "rby1a_1.2.xml", "leap": wd.assets.leap_hand_cube_mjcf()}
 
 
 def _geom_name(m, g: int) -> str:
@@ -125,7 +125,7 @@ def test_pairs_are_those_mujoco_collides(case):
         d.qpos[:] = qpos
         mujoco.mj_forward(wide, d)
         assert set(_body_contacts(wide, d, types=m.geom_type)) == ours
-    assert len(ours) == {"scene": len(SCENE_PAIRS), "cassie": 49, "rby1": 2255}[case]
+    assert len(ours) == {"scene": len(SCENE_PAIRS), "cassie": 49, "rby1": 2255, "leap": 325}[case]
 
 
 SCENE_PAIRS = (
@@ -234,7 +234,7 @@ def test_contacts_equal_mujocos(case):
     rng = np.random.default_rng(1)
     states = [_crowded(m, rng) for _ in range(12)] if case == "scene" else list(_touching(m, rng, 4))
     compared = sum(_compare(model, m, qpos, 1e-10) for qpos in states)
-    assert compared >= {"scene": 60, "cassie": 8, "rby1": 20}[case]
+    assert compared >= {"scene": 60, "cassie": 8, "rby1": 20, "leap": 60}[case]
 
 
 def test_batched_and_both_layouts(layout):

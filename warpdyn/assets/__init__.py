@@ -26,6 +26,15 @@
   position servos and the gripper's are its 8 controls, and its keyframes "home", "pickup" and "pickup1" are
   Menagerie's. A scripted grasp from "pickup1" lifts the cube 39 cm and holds it, the arm moving as MuJoCo's
   (tests/test_panda.py; soft law K = 5e5, D = 500 for the 0.1 kg cube at 1 ms).
+- `leap_hand_cube_mjcf()`: the LEAP hand (right, its mount fixed to the world; 16 revolute joints, LEAP_HAND_JOINTS,
+  each with a position servo of kp 3 and a force range of 0.22 N m) and a 0.108 kg cube of 7 cm in its palm,
+  MuJoCo Playground's LeapCubeReorient scene (its leap_rh_mjx.xml, reorientation_cube.xml and scene_mjx_cube.xml in
+  one file, without meshes, sensors and the mocap goal, at 1 ms; the file's comment says what was changed;
+  Apache-2.0: `LICENSE.leap_hand`). Every collision geom is a box: the cube's, the palm's, the fingers' and the
+  fingertips', 325 geom pairs as MuJoCo pairs them (its contact excludes and filters; they act where
+  model.geom_contacts is set); the floor (z = -0.25 m; the mount at the origin) is the model's terrain; the keyframe "home" holds
+  the cube in the palm. Loading it warns once, a NotModelledWarning for the joint limits and the frictionloss
+  (applied as JaxSim's static friction).
 - `anymal_c_mjcf()`: ANYbotics' ANYmal C quadruped (floating base, 12 revolute joints, 44.97 kg), MuJoCo
   Menagerie's `anybotics_anymal_c/anymal_c.xml` without meshes, textures, materials, visual geoms, actuators
   and frictionloss, with the keyframe "standing" of Menagerie's anymal_c_mjx.xml (the file's comment says what
@@ -91,6 +100,8 @@ __all__ = [
     "franka_panda_cube_mjcf",
     "FRANKA_PANDA_FLANGE",
     "FRANKA_PANDA_TORQUE_LIMITS",
+    "leap_hand_cube_mjcf",
+    "LEAP_HAND_JOINTS",
     "anymal_c_mjcf",
     "ANYMAL_C_FEET",
     "ANYMAL_C_TORQUE_LIMIT",
@@ -158,6 +169,16 @@ it, a frame of link7 in warpdyn's model (at the joints' zero: (0.088, 0, 0.926) 
 
 FRANKA_PANDA_TORQUE_LIMITS = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 """The largest joint torque of joints 1 to 7 [N m] (Menagerie's actuator forcerange, Franka's limits)."""
+
+
+def leap_hand_cube_mjcf() -> pathlib.Path:
+    """The path of the shipped LEAP hand with a cube in its palm (Playground's LeapCubeReorient scene), an MJCF file
+    without meshes (a file inside the installed package)."""
+    return _HERE / "leap_hand_cube.xml"
+
+
+LEAP_HAND_JOINTS = tuple(f"{finger}_{joint}" for finger in ("if", "mf", "rf") for joint in ("mcp", "rot", "pip", "dip")) + ("th_cmc", "th_axl", "th_mcp", "th_ipl")
+"""The LEAP hand's 16 joints, in its actuators' order (index, middle, ring finger, then the thumb): Playground's."""
 
 
 # ------------------------------------------------------------------------------------ ANYbotics' ANYmal C
