@@ -210,6 +210,7 @@ def train(
     world, rank = _group()
     vec = RslRlVecEnv(env)
     cfg = train_config(iterations, **(ppo or {}))
+    cfg["obs_groups"] = vec.obs_groups
     if world > 1:  # rsl-rl's PPO then averages gradients, KL and normaliser statistics over the ranks
         cfg["multi_gpu"] = {"global_rank": rank, "local_rank": torchrun_ranks()[2], "world_size": world}
     quiet = contextlib.redirect_stdout(io.StringIO()) if rank else contextlib.nullcontext()
@@ -328,8 +329,10 @@ def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
     from rsl_rl.algorithms import PPO
 
     vec = RslRlVecEnv(env)
+    cfg = train_config(1)
+    cfg["obs_groups"] = vec.obs_groups
     with contextlib.redirect_stdout(io.StringIO()):  # construct_algorithm prints the models
-        alg = PPO.construct_algorithm(vec.get_observations(), vec, train_config(1), str(env.device))
+        alg = PPO.construct_algorithm(vec.get_observations(), vec, cfg, str(env.device))
     alg.load(torch.load(policy_path, map_location=str(env.device), weights_only=False), load_cfg={"actor": True, "critic": True}, strict=True)
     alg.eval_mode()
     return vec, alg.get_policy()

@@ -17,14 +17,17 @@ environments between its levels (Rudin et al.'s curriculum; LeggedEnvConfig.terr
 IMU on the base or a link (`ImuConfig`); `warpdyn.envs.actuators` turns actions into torques ("torque", `ActuatorNet`);
 `warpdyn.envs.robots` sets a legged robot up from its description and a few names (`LeggedRobot`, the presets).
 `PickCubeEnv` (`warpdyn.envs.manipulation`): the Franka Panda picking up a cube and bringing it to a target, after
-MuJoCo Playground's PandaPickCube, on the same vector API (`warpdyn.envs.vector_env`).
+MuJoCo Playground's PandaPickCube, on the same vector API (`warpdyn.envs.vector_env`). `CubeReorientEnv`
+(`warpdyn.envs.reorient`): the LEAP hand turning a cube in its palm to goal orientations, after Playground's
+LeapCubeReorient.
 """
 
 from . import robots, terms
 from .actuators import ActuatorNet
 from .legged import DEFAULT_OBSERVATIONS, DEFAULT_REWARDS, LeggedEnv, LeggedEnvConfig
 from .manipulation import PickCubeConfig, PickCubeEnv
+from .reorient import CubeReorientConfig, CubeReorientEnv
 from .robots import LeggedRobot
 from .sensors import ImuConfig
 
-__all__ = ["LeggedEnv", "LeggedEnvConfig", "PickCubeEnv", "PickCubeConfig", "LeggedRobot", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS", "ImuConfig", "ActuatorNet", "terms", "robots"]
+__all__ = ["LeggedEnv", "LeggedEnvConfig", "PickCubeEnv", "PickCubeConfig", "CubeReorientEnv", "CubeReorientConfig", "LeggedRobot", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS", "ImuConfig", "ActuatorNet", "terms", "robots"]

@@ -23,7 +23,7 @@ from gymnasium.vector.utils import batch_space
 
 import warpdyn as wd
 
-from .terms import quat_rotate
+from .terms import quat_to_matrix
 from .vector_env import DeviceVectorEnv
 
 __all__ = ["PickCubeConfig", "PickCubeEnv"]
@@ -201,7 +201,7 @@ class PickCubeEnv(DeviceVectorEnv):
         W_H_G = wp.to_torch(self._gripper(self.stepper.data)[0])
         q = self._state_views[id(self.stepper.data)]["joint_positions"]
         cube = q[:, self._cube : self._cube + 7]
-        return W_H_G[:, :3, 3], W_H_G[:, :3, :3], cube[:, :3], _rotation(cube[:, 3:] / cube[:, 3:].norm(dim=1, keepdim=True))
+        return W_H_G[:, :3, 3], W_H_G[:, :3, :3], cube[:, :3], quat_to_matrix(cube[:, 3:] / cube[:, 3:].norm(dim=1, keepdim=True))
 
     def _observe(self, frames) -> torch.Tensor:
         gripper, R_G, cube, R_C = frames
@@ -328,8 +328,3 @@ def _points_of(stepper, links: tuple, device) -> torch.Tensor:
     indices = [stepper.model.link_names().index(name) for name in links]
     return torch.tensor(np.flatnonzero(np.isin(stepper.contact_point_links, indices)), device=device, dtype=torch.long)
 
-
-def _rotation(q: torch.Tensor) -> torch.Tensor:
-    """Rotation matrices (N, 3, 3) of unit quaternions (N, 4) (w, x, y, z): the turned axes as columns."""
-    axes = torch.eye(3, dtype=q.dtype, device=q.device)
-    return torch.stack([quat_rotate(q, axes[j].expand(q.shape[0], 3)) for j in range(3)], dim=2)

@@ -10,9 +10,10 @@ __all__ = ["RslRlVecEnv"]
 
 
 class RslRlVecEnv(VecEnv):
-    """rsl-rl's view of a `warpdyn.envs.LeggedEnv`: one observation group, "policy" (the actor's and the
-    critic's: `obs_groups={"actor": ["policy"], "critic": ["policy"]}`), dones = terminated or truncated,
-    extras["time_outs"] = truncated (PPO bootstraps those) and extras["log"] the reward terms' means."""
+    """rsl-rl's view of a warpdyn environment (`LeggedEnv`, `PickCubeEnv`, `CubeReorientEnv`): the observation group
+    "policy", and "critic" where the environment's info holds "critic_obs" (the critic's own observations:
+    `obs_groups={"actor": ["policy"], "critic": ["critic"]}`; else the critic reads "policy"), dones = terminated
+    or truncated, extras["time_outs"] = truncated (PPO bootstraps those) and extras["log"] the reward terms' means."""
 
     def __init__(self, env):
         self.env = env
@@ -21,7 +22,8 @@ class RslRlVecEnv(VecEnv):
         self.max_episode_length = env.max_episode_length
         self.device = env.device
         self.cfg = env.cfg
-        self._obs, _ = env.reset()
+        self._obs, info = env.reset()
+        self._critic = info.get("critic_obs")
 
     @property
     def episode_length_buf(self) -> torch.Tensor:
@@ -31,15 +33,21 @@ class RslRlVecEnv(VecEnv):
     def episode_length_buf(self, value: torch.Tensor) -> None:  # rsl-rl randomises it at the start of learning
         self.env.episode_length_buf.copy_(value)
 
-    def _group(self, obs: torch.Tensor) -> TensorDict:
-        return TensorDict({"policy": obs}, batch_size=[self.num_envs], device=self.device)
+    @property
+    def obs_groups(self) -> dict:
+        """rsl-rl's obs_groups for this environment's observations."""
+        return {"actor": ["policy"], "critic": ["critic" if self._critic is not None else "policy"]}
+
+    def _group(self) -> TensorDict:
+        groups = {"policy": self._obs} if self._critic is None else {"policy": self._obs, "critic": self._critic}
+        return TensorDict(groups, batch_size=[self.num_envs], device=self.device)
 
     def get_observations(self) -> TensorDict:
-        return self._group(self._obs)
+        return self._group()
 
     def step(self, actions: torch.Tensor):
-        obs, reward, terminated, truncated, info = self.env.step(actions)
-        self._obs = obs
+        self._obs, reward, terminated, truncated, info = self.env.step(actions)
+        self._critic = info.get("critic_obs")
         dones = (terminated | truncated).to(torch.long)
         extras = {"time_outs": truncated, "log": info["log"]}
-        return self._group(obs), reward, dones, extras
+        return self._group(), reward, dones, extras

@@ -21,6 +21,8 @@ __all__ = [
     "State",
     "quat_rotate",
     "quat_rotate_inverse",
+    "quat_multiply",
+    "quat_to_matrix",
     "base_height",
     "height_above_terrain",
     "imu_linear_acceleration",
@@ -62,6 +64,18 @@ def quat_rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     """R(q)^T v for unit quaternions q (N, 4) as (w, x, y, z) and vectors v (N, 3)."""
     w, u = q[:, :1], q[:, 1:]
     return v * (2.0 * w * w - 1.0) - 2.0 * w * torch.cross(u, v, dim=1) + 2.0 * u * (u * v).sum(dim=1, keepdim=True)
+
+
+def quat_multiply(p: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+    """The products p q (N, 4) of quaternions (N, 4) as (w, x, y, z): the rotation q, then p."""
+    pw, pv, qw, qv = p[:, :1], p[:, 1:], q[:, :1], q[:, 1:]
+    return torch.cat([pw * qw - (pv * qv).sum(dim=1, keepdim=True), pw * qv + qw * pv + torch.cross(pv, qv, dim=1)], dim=1)
+
+
+def quat_to_matrix(q: torch.Tensor) -> torch.Tensor:
+    """Rotation matrices (N, 3, 3) of unit quaternions (N, 4) (w, x, y, z): the turned axes as columns."""
+    axes = torch.eye(3, dtype=q.dtype, device=q.device)
+    return torch.stack([quat_rotate(q, axes[j].expand(q.shape[0], 3)) for j in range(3)], dim=2)
 
 
 @dataclasses.dataclass

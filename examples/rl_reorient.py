@@ -1,0 +1,104 @@
+"""Train the LEAP hand to turn a cube in its palm to goal orientations (MuJoCo Playground's LeapCubeReorient) with
+rsl-rl's PPO on warpdyn.envs.CubeReorientEnv, the contacts between the hand's and the cube's boxes acting.
+
+    pip install -e ".[rl,viz,examples]"
+    python examples/rl_reorient.py --max-minutes 30 --evaluate --out runs/reorient     # a GPU: N = 8192
+    python examples/rl_reorient.py --device cpu --num-envs 16 --iterations 2            # a look on the CPU
+
+Environment (`warpdyn.envs.CubeReorientEnv`, its defaults: CubeReorientConfig): the shipped scene
+`wd.assets.leap_hand_cube_mjcf()` at 0.5 ms steps, the policy at 20 Hz adding 0.5 x its actions to the 16 position
+targets, episodes of 50 s; each reset draws a goal orientation and takes the hand's joints and the cube's pose from a
+bank of Playground's reset draws that do not interpenetrate; Playground's noisy observations for the actor and
+privileged ones for the critic, its rewards (orientation, cube in the palm, a fall, hand pose, action rate,
+energy) and a bonus of 100 at each success (the cube within 0.1 rad of the goal, which then turns to a new one).
+Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO, its flags), with Playground's settings for this task
+as defaults (REORIENT_PPO; its networks are (512, 256, 128), the trainer's (256, 128, 64)).
+
+Prints, per iteration: the mean return and length of the completed episodes, env-steps/s, the wall time, and the
+means over its steps of the fraction of environments at a success, the orientation error [rad] and the
+orientation term (LOGGED). `--evaluate` then runs the deterministic policy for --evaluate-seconds in 256 fresh
+environments (--evaluate-envs) and prints the successes per environment and the fraction that dropped the cube.
+Writes `<out>/policy.pt` and `<out>/rewards.png`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import time
+
+import torch
+import warp as wp
+
+import warpdyn.envs as envs
+from rl_locomotion import PPO_DEFAULTS, load_policy, plot, train
+
+REORIENT_PPO = {**PPO_DEFAULTS, "steps_per_env": 40, "epochs": 4, "mini_batches": 32, "learning_rate": 3e-4, "gamma": 0.99, "entropy_coef": 0.01}
+"""The trainer's settings for this task (the CLI's defaults): Playground's for LeapCubeReorient with Brax's PPO
+(unrolls of 40 steps, 4 epochs of 32 mini-batches, learning rate 3e-4, discount 0.99, entropy cost 0.01)."""
+
+LOGGED = ("/success", "/orientation_error", "/reward/orientation")
+"""CubeReorientEnv's info["log"] entries each iteration prints (their means over the iteration)."""
+
+
+def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256, seconds: float = 20.0) -> dict:
+    """{"environments", "seconds", "successes", "dropped"}: the deterministic policy for `seconds` in `num_envs` fresh
+    environments: the mean number of successes per environment (an environment that drops the cube restarts and
+    keeps counting) and the fraction of environments that dropped it at least once."""
+    env = envs.CubeReorientEnv(num_envs, device=device, seed=seed)
+    vec, policy = load_policy(env, policy_path)
+    obs = vec.get_observations()
+    successes = torch.zeros(num_envs, device=env.device)
+    dropped = torch.zeros(num_envs, dtype=torch.bool, device=env.device)
+    with torch.inference_mode():
+        for _ in range(int(round(seconds / env.cfg.policy_dt))):
+            before = env.successes.clone()
+            obs, _, dones, extras = vec.step(policy(obs))
+            ended = dones.bool()
+            successes += torch.where(ended, before, torch.zeros_like(before)).float()  # an ended episode's count, before its reset
+            dropped |= ended & ~extras["time_outs"]
+    successes += env.successes.float()
+    return {"environments": num_envs, "seconds": seconds, "successes": float(successes.mean()), "dropped": float(dropped.float().mean())}
+
+
+def main(argv=None) -> list:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
+    parser.add_argument("--num-envs", type=int, default=None, help="environments; default: 8192 on a GPU, 16 on the CPU")
+    parser.add_argument("--iterations", type=int, default=100000, help="at most this many PPO iterations")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
+    for name, value in REORIENT_PPO.items():
+        parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
+    parser.add_argument("--evaluate", action="store_true", help="after training, the successes of --evaluate-envs fresh environments")
+    parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
+    parser.add_argument("--evaluate-seconds", type=float, default=20.0, help="seconds of --evaluate (default 20)")
+    parser.add_argument("--out", default="runs/reorient")
+    args = parser.parse_args(argv)
+    for name in REORIENT_PPO:
+        if not getattr(args, name) > 0:
+            parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
+    started = time.perf_counter()
+    wp.config.quiet = True
+    device = wp.get_device(args.device)
+    torch.manual_seed(args.seed)
+    out = pathlib.Path(args.out)
+    N = args.num_envs or (8192 if device.is_cuda else 16)
+    env = envs.CubeReorientEnv(N, device=device, seed=args.seed)
+    where = f"{N} environments on {device.name}"
+    print(f"reorient cube: {where}, {env.single_observation_space.shape[0]} observations (critic {env.single_critic_observation_space.shape[0]}), "
+          f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
+    phases = {"environment": time.perf_counter() - started}
+    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, {name: getattr(args, name) for name in REORIENT_PPO}, LOGGED)
+    phases["training"] = time.perf_counter() - started - sum(phases.values())
+    plot(history, out / "rewards.png", f"LEAP hand cube reorientation: {where}")
+    if args.evaluate:
+        result = evaluate(out / "policy.pt", device, args.seed + 1000, args.evaluate_envs, args.evaluate_seconds)
+        print(f"evaluation: {result['environments']} fresh environments, {result['seconds']:g} s: {result['successes']:.2f} successes per environment "
+              f"(the cube within {env.cfg.success_threshold:g} rad of its goal), {result['dropped']:.1%} dropped the cube", flush=True)  # fmt: skip
+    print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
+    return history
+
+
+if __name__ == "__main__":
+    main()
