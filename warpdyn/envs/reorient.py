@@ -187,6 +187,7 @@ class CubeReorientEnv(DeviceVectorEnv):
         self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)
         self._warp_streams: dict = {}
         self._program = self._step_program("a CubeReorientEnv")
+        self._graph_key = self._snapshot()
         self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (57,), np.float32)
         self.single_critic_observation_space = gym.spaces.Box(-np.inf, np.inf, (116,), np.float32)
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, (16,), np.float32)
@@ -360,13 +361,16 @@ class CubeReorientEnv(DeviceVectorEnv):
         with self._on_device_stream():
             return self._program.run()
 
+    def _snapshot(self) -> tuple:
+        """(the model's version, a copy of `cfg` that changes to it, also in place to its dicts, do not reach)."""
+        return self.model.version, dataclasses.replace(self.cfg, rewards=dict(self.cfg.rewards), noise=dict(self.cfg.noise))
+
     def _sync_model(self) -> None:
         """After a change of the model or of `cfg`: drop the graphs (the next step runs eagerly, then captures)."""
-        snapshot = (self.model.version, dataclasses.replace(self.cfg, rewards=dict(self.cfg.rewards), noise=dict(self.cfg.noise)))
-        if getattr(self, "_graph_key", None) != snapshot:
+        if self._graph_key != self._snapshot():
             self.cfg.validate()
             self._program = self._step_program("a CubeReorientEnv")
-            self._graph_key = snapshot
+            self._graph_key = self._snapshot()
 
     @property
     def _conjugate(self) -> torch.Tensor:
