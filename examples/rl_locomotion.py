@@ -322,6 +322,36 @@ def plot(history: list, path: pathlib.Path, title: str) -> None:
     print(f"wrote {path}")
 
 
+def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int) -> argparse.ArgumentParser:
+    """The command line the manipulation examples share (rl_manipulation.py, rl_reorient.py): --device, --num-envs
+    (`default_envs` says the default), --iterations, --seed, --max-minutes, `ppo`'s settings as flags with its values
+    as defaults, --evaluate, --evaluate-envs and --out; `task_setup` parses it."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
+    parser.add_argument("--num-envs", type=int, default=None, help=f"environments; default: {default_envs}")
+    parser.add_argument("--iterations", type=int, default=iterations, help="at most this many PPO iterations")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
+    for name, value in ppo.items():
+        parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
+    parser.add_argument("--evaluate", action="store_true", help="after training, evaluate the policy in --evaluate-envs fresh environments")
+    parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
+    parser.add_argument("--out", default=out)
+    return parser
+
+
+def task_setup(parser: argparse.ArgumentParser, argv, ppo: dict) -> tuple:
+    """(args, the Warp device, the output folder, `ppo`'s settings as given): `task_arguments`' command line parsed,
+    each PPO setting checked positive, Warp quiet, torch seeded with --seed."""
+    args = parser.parse_args(argv)
+    for name in ppo:
+        if not getattr(args, name) > 0:
+            parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
+    wp.config.quiet = True
+    torch.manual_seed(args.seed)
+    return args, wp.get_device(args.device), pathlib.Path(args.out), {name: getattr(args, name) for name in ppo}
+
+
 def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
     """(rsl-rl VecEnv of `env`, the deterministic policy of a policy.pt on env's device). Built as `train`
     builds it (not by OnPolicyRunner, which would start a process group of its own under torchrun); a policy

@@ -23,15 +23,13 @@ rate (the cube within 5 cm of its target at the episode's end) and the mean dist
 
 from __future__ import annotations
 
-import argparse
 import pathlib
 import time
 
 import torch
-import warp as wp
 
 import warpdyn.envs as envs
-from rl_locomotion import PPO_DEFAULTS, load_policy, plot, train
+from rl_locomotion import PPO_DEFAULTS, load_policy, plot, task_arguments, task_setup, train
 
 
 PICK_PPO = {**PPO_DEFAULTS, "steps_per_env": 10, "epochs": 8, "mini_batches": 8, "gamma": 0.97, "entropy_coef": 0.02}
@@ -66,33 +64,16 @@ def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256) 
 
 
 def main(argv=None) -> list:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
-    parser.add_argument("--num-envs", type=int, default=None, help="environments; default: 4096 on a GPU, 64 on the CPU")
-    parser.add_argument("--iterations", type=int, default=1000, help="at most this many PPO iterations")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
-    for name, value in PICK_PPO.items():
-        parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
-    parser.add_argument("--evaluate", action="store_true", help="after training, the success rate of --evaluate-envs fresh environments")
-    parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
-    parser.add_argument("--out", default="runs/pick")
-    args = parser.parse_args(argv)
-    for name in PICK_PPO:
-        if not getattr(args, name) > 0:
-            parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
+    parser = task_arguments(__doc__.split("\n\n")[0], PICK_PPO, "4096 on a GPU, 64 on the CPU", "runs/pick", 1000)
     started = time.perf_counter()
-    wp.config.quiet = True
-    device = wp.get_device(args.device)
-    torch.manual_seed(args.seed)
-    out = pathlib.Path(args.out)
+    args, device, out, ppo = task_setup(parser, argv, PICK_PPO)
     N = args.num_envs or (4096 if device.is_cuda else 64)
     env = envs.PickCubeEnv(N, device=device, seed=args.seed)
     where = f"{N} environments on {device.name}"
     print(f"pick cube: {where}, {env.single_observation_space.shape[0]} observations, {env.single_action_space.shape[0]} actions, "
           f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
     phases = {"environment": time.perf_counter() - started}
-    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, {name: getattr(args, name) for name in PICK_PPO}, LOGGED)
+    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED)
     phases["training"] = time.perf_counter() - started - sum(phases.values())
     plot(history, out / "rewards.png", f"Panda pick cube: {where}")
     if args.evaluate:

@@ -23,15 +23,13 @@ Writes `<out>/policy.pt` and `<out>/rewards.png`.
 
 from __future__ import annotations
 
-import argparse
 import pathlib
 import time
 
 import torch
-import warp as wp
 
 import warpdyn.envs as envs
-from rl_locomotion import PPO_DEFAULTS, load_policy, plot, train
+from rl_locomotion import PPO_DEFAULTS, load_policy, plot, task_arguments, task_setup, train
 
 REORIENT_PPO = {**PPO_DEFAULTS, "steps_per_env": 40, "epochs": 4, "mini_batches": 32, "learning_rate": 3e-4, "gamma": 0.99, "entropy_coef": 0.01}
 """The trainer's settings for this task (the CLI's defaults): Playground's for LeapCubeReorient with Brax's PPO
@@ -62,34 +60,17 @@ def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256, 
 
 
 def main(argv=None) -> list:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
-    parser.add_argument("--num-envs", type=int, default=None, help="environments; default: 8192 on a GPU, 16 on the CPU")
-    parser.add_argument("--iterations", type=int, default=100000, help="at most this many PPO iterations")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
-    for name, value in REORIENT_PPO.items():
-        parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
-    parser.add_argument("--evaluate", action="store_true", help="after training, the successes of --evaluate-envs fresh environments")
-    parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
+    parser = task_arguments(__doc__.split("\n\n")[0], REORIENT_PPO, "8192 on a GPU, 16 on the CPU", "runs/reorient", 100000)
     parser.add_argument("--evaluate-seconds", type=float, default=20.0, help="seconds of --evaluate (default 20)")
-    parser.add_argument("--out", default="runs/reorient")
-    args = parser.parse_args(argv)
-    for name in REORIENT_PPO:
-        if not getattr(args, name) > 0:
-            parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
     started = time.perf_counter()
-    wp.config.quiet = True
-    device = wp.get_device(args.device)
-    torch.manual_seed(args.seed)
-    out = pathlib.Path(args.out)
+    args, device, out, ppo = task_setup(parser, argv, REORIENT_PPO)
     N = args.num_envs or (8192 if device.is_cuda else 16)
     env = envs.CubeReorientEnv(N, device=device, seed=args.seed)
     where = f"{N} environments on {device.name}"
     print(f"reorient cube: {where}, {env.single_observation_space.shape[0]} observations (critic {env.single_critic_observation_space.shape[0]}), "
           f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
     phases = {"environment": time.perf_counter() - started}
-    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, {name: getattr(args, name) for name in REORIENT_PPO}, LOGGED)
+    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED)
     phases["training"] = time.perf_counter() - started - sum(phases.values())
     plot(history, out / "rewards.png", f"LEAP hand cube reorientation: {where}")
     if args.evaluate:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 
 import gymnasium as gym
 import numpy as np
@@ -110,29 +109,8 @@ class PickCubeEnv(DeviceVectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
 
     def __init__(self, num_envs: int, cfg: PickCubeConfig | None = None, *, model=None, device=None, dtype=np.float32, seed: int = 0, use_graph="auto"):
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        if use_graph not in ("auto", True, False):
-            raise ValueError(f"use_graph must be 'auto', True or False, got {use_graph!r}")
-        self.cfg = cfg = cfg if cfg is not None else PickCubeConfig()
-        if not isinstance(cfg, PickCubeConfig):
-            raise TypeError(f"cfg must be a PickCubeConfig, got {type(cfg).__name__}")
-        cfg.validate()
-        if model is None:
-            with warnings.catch_warnings():  # the scene's joint limits and contacts, which its docs name
-                warnings.simplefilter("ignore", wd.model.NotModelledWarning)
-                model = wd.model.Model.build_from_model_description(wd.assets.franka_panda_cube_mjcf(), dtype=dtype, device=device)
-        if use_graph is True and not model.device.is_cuda:
-            raise ValueError(f"use_graph=True captures torch ops in a CUDA graph; '{model.device}' is not a GPU (use 'auto')")
-        self.num_envs = N = int(num_envs)
-        self.use_graph = use_graph
-        self.decimation = int(round(cfg.policy_dt / cfg.time_step))
-        self.max_episode_length = int(math.ceil(cfg.episode_seconds / cfg.policy_dt))
-        self.model = model = self._simulated(model)
-        self.device = torch.device(wp.device_to_torch(model.device))
-        self.torch_dtype = wp.dtype_to_torch(model.scalar)
-        self._generator = torch.Generator(device=self.device)
-        self._generator.manual_seed(seed)
+        self._setup(num_envs, cfg, PickCubeConfig, model, wd.assets.franka_panda_cube_mjcf, dtype, device, seed, use_graph)
+        cfg, model, N = self.cfg, self.model, self.num_envs
         kw = dict(device=self.device, dtype=self.torch_dtype)
         # addresses: the cube's free joint and the robot's joints in the joint positions; the controls' joints
         names = model.joint_names()
@@ -171,7 +149,7 @@ class PickCubeEnv(DeviceVectorEnv):
         self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)
         self._warp_streams: dict = {}
         self._program = self._step_program("a PickCubeEnv")
-        self._graph_version, self._graph_cfg = model.version, _snapshot(cfg)
+        self._graph_key = self._snapshot()
         self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (66,), np.float32)
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, (8,), np.float32)
         self.observation_space = batch_space(self.single_observation_space, N)
@@ -272,39 +250,17 @@ class PickCubeEnv(DeviceVectorEnv):
         self.episode_length_buf.masked_fill_(mask, 0)
         self._return.masked_fill_(mask, 0.0)
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """Reset every environment; seed: reseed its random numbers (cubes, targets). Returns (obs (N, 66), info)."""
-        if seed is not None:
-            self._generator.manual_seed(int(seed))
-        self._sync_model()
-        with self._on_device_stream():
-            self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
-            obs = self._observe(self._frames())
-        self._finished.zero_()
-        return obs, {}
+    def _first_observation(self) -> tuple:
+        """(obs (N, 66), {}) after a reset of all."""
+        return self._observe(self._frames()), {}
 
-    def step(self, actions):
-        """Apply `actions` (N, 8) in [-1, 1] for policy_dt; see LeggedEnv.step for what comes back."""
-        actions = torch.as_tensor(actions, device=self.device, dtype=torch.float32)
-        if tuple(actions.shape) != (self.num_envs, 8):
-            raise ValueError(f"actions has shape {tuple(actions.shape)}; expected {(self.num_envs, 8)}")
+    def _take(self, actions: torch.Tensor) -> None:
+        """Keep the actions (N, 8) for `_advance` (which clips them to [-1, 1], NaN as 0)."""
         self._action_input.copy_(actions)
-        self._sync_model()
-        with self._on_device_stream():
-            return self._program.run()
 
-    def _sync_model(self) -> None:
-        """After a setter changed the model or a change of `cfg` (read when a graph was captured): drop the graphs (the
-        next step runs eagerly, then captures)."""
-        if self.model.version != self._graph_version or self.cfg != self._graph_cfg:
-            self.cfg.validate()
-            self._program = self._step_program("a PickCubeEnv")
-            self._graph_version, self._graph_cfg = self.model.version, _snapshot(self.cfg)
-
-
-def _snapshot(cfg: PickCubeConfig) -> PickCubeConfig:
-    """A copy of `cfg` that changes to it (also in place, to its rewards) do not reach."""
-    return dataclasses.replace(cfg, rewards=dict(cfg.rewards))
+    def _snapshot(self) -> tuple:
+        """(the model's version, a copy of `cfg` that changes to it, also in place to its rewards, do not reach)."""
+        return self.model.version, dataclasses.replace(self.cfg, rewards=dict(self.cfg.rewards))
 
 
 def _rotation_difference(R: torch.Tensor) -> torch.Tensor:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 
 import gymnasium as gym
 import numpy as np
@@ -124,29 +123,8 @@ class CubeReorientEnv(DeviceVectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
 
     def __init__(self, num_envs: int, cfg: CubeReorientConfig | None = None, *, model=None, device=None, dtype=np.float32, seed: int = 0, use_graph="auto"):
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        if use_graph not in ("auto", True, False):
-            raise ValueError(f"use_graph must be 'auto', True or False, got {use_graph!r}")
-        self.cfg = cfg = cfg if cfg is not None else CubeReorientConfig()
-        if not isinstance(cfg, CubeReorientConfig):
-            raise TypeError(f"cfg must be a CubeReorientConfig, got {type(cfg).__name__}")
-        cfg.validate()
-        if model is None:
-            with warnings.catch_warnings():  # the joint limits, frictionloss and contacts, which the asset's docs name
-                warnings.simplefilter("ignore", wd.model.NotModelledWarning)
-                model = wd.model.Model.build_from_model_description(wd.assets.leap_hand_cube_mjcf(), dtype=dtype, device=device)
-        if use_graph is True and not model.device.is_cuda:
-            raise ValueError(f"use_graph=True captures torch ops in a CUDA graph; '{model.device}' is not a GPU (use 'auto')")
-        self.num_envs = N = int(num_envs)
-        self.use_graph = use_graph
-        self.decimation = int(round(cfg.policy_dt / cfg.time_step))
-        self.max_episode_length = int(math.ceil(cfg.episode_seconds / cfg.policy_dt))
-        self.model = model = self._simulated(model)
-        self.device = torch.device(wp.device_to_torch(model.device))
-        self.torch_dtype = wp.dtype_to_torch(model.scalar)
-        self._generator = torch.Generator(device=self.device)
-        self._generator.manual_seed(seed)
+        self._setup(num_envs, cfg, CubeReorientConfig, model, wd.assets.leap_hand_cube_mjcf, dtype, device, seed, use_graph)
+        cfg, model, N = self.cfg, self.model, self.num_envs
         kw = dict(device=self.device, dtype=self.torch_dtype)
         # addresses: the hand's joints in the actuators' order, the cube's free joint
         names = model.joint_names()
@@ -339,38 +317,19 @@ class CubeReorientEnv(DeviceVectorEnv):
         self.episode_length_buf.masked_fill_(mask, 0)
         self._return.masked_fill_(mask, 0.0)
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """Reset every environment; seed: reseed its random numbers. Returns (obs (N, 57), {"critic_obs": (N, 116)})."""
-        if seed is not None:
-            self._generator.manual_seed(int(seed))
-        self._sync_model()
-        with self._on_device_stream():
-            self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
-            obs, critic = self._observe(self._state())
-        self._finished.zero_()
+    def _first_observation(self) -> tuple:
+        """(obs (N, 57), {"critic_obs": (N, 116)}) after a reset of all."""
+        obs, critic = self._observe(self._state())
         return obs, {"critic_obs": critic}
 
-    def step(self, actions):
-        """Apply `actions` (N, 16) in [-1, 1] (clipped; NaN as 0) for policy_dt; see LeggedEnv.step for what comes
-        back; info["critic_obs"] holds the critic's observations after the step (its resets included)."""
-        actions = torch.as_tensor(actions, device=self.device, dtype=torch.float32)
-        if tuple(actions.shape) != (self.num_envs, 16):
-            raise ValueError(f"actions has shape {tuple(actions.shape)}; expected {(self.num_envs, 16)}")
+    def _take(self, actions: torch.Tensor) -> None:
+        """Keep the actions (N, 16), clipped to [-1, 1], NaN as 0; info["critic_obs"] after a step holds the
+        critic's observations (its resets included)."""
         self._actions[0].copy_(torch.nan_to_num(actions, nan=0.0).clamp(-1.0, 1.0))
-        self._sync_model()
-        with self._on_device_stream():
-            return self._program.run()
 
     def _snapshot(self) -> tuple:
         """(the model's version, a copy of `cfg` that changes to it, also in place to its dicts, do not reach)."""
         return self.model.version, dataclasses.replace(self.cfg, rewards=dict(self.cfg.rewards), noise=dict(self.cfg.noise))
-
-    def _sync_model(self) -> None:
-        """After a change of the model or of `cfg`: drop the graphs (the next step runs eagerly, then captures)."""
-        if self._graph_key != self._snapshot():
-            self.cfg.validate()
-            self._program = self._step_program("a CubeReorientEnv")
-            self._graph_key = self._snapshot()
 
     @property
     def _conjugate(self) -> torch.Tensor:

@@ -5,10 +5,15 @@ tensors on the model's device, episode statistics read in one host synchronisati
 from __future__ import annotations
 
 import contextlib
+import math
+import warnings
 
 import gymnasium as gym
+import numpy as np
 import torch
 import warp as wp
+
+import warpdyn as wd
 
 __all__ = ["DeviceVectorEnv"]
 
@@ -22,6 +27,69 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
     graph's."""
 
     _replayed: tuple = ()
+
+    def _setup(self, num_envs, cfg, config_type: type, model, asset, dtype, device, seed: int, use_graph) -> None:
+        """The arguments a manipulation environment takes (`PickCubeEnv`, `CubeReorientEnv`), checked (a ValueError or
+        TypeError naming the one that is wrong), and what they set: cfg (config_type()'s when None, validated),
+        num_envs, use_graph, decimation and max_episode_length (from cfg's time_step, policy_dt, episode_seconds),
+        model (the subclass's `_simulated` copy of `model`, or of `asset()` loaded on `device` in `dtype`, its
+        NotModelledWarning silenced: the asset's docs name what it does not model), device, torch_dtype and the
+        generator seeded with `seed`."""
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        if use_graph not in ("auto", True, False):
+            raise ValueError(f"use_graph must be 'auto', True or False, got {use_graph!r}")
+        self.cfg = cfg = cfg if cfg is not None else config_type()
+        if not isinstance(cfg, config_type):
+            raise TypeError(f"cfg must be a {config_type.__name__}, got {type(cfg).__name__}")
+        cfg.validate()
+        if model is None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+                model = wd.model.Model.build_from_model_description(asset(), dtype=dtype, device=device)
+        if use_graph is True and not model.device.is_cuda:
+            raise ValueError(f"use_graph=True captures torch ops in a CUDA graph; '{model.device}' is not a GPU (use 'auto')")
+        self.num_envs = int(num_envs)
+        self.use_graph = use_graph
+        self.decimation = int(round(cfg.policy_dt / cfg.time_step))
+        self.max_episode_length = int(math.ceil(cfg.episode_seconds / cfg.policy_dt))
+        self.model = self._simulated(model)
+        self.device = torch.device(wp.device_to_torch(self.model.device))
+        self.torch_dtype = wp.dtype_to_torch(self.model.scalar)
+        self._generator = torch.Generator(device=self.device)
+        self._generator.manual_seed(seed)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Reset every environment (the subclass's `_reset` of all); seed: reseed its random numbers. Returns the
+        subclass's `_first_observation()`: (obs (N, ...), info). LeggedEnv has its own."""
+        if seed is not None:
+            self._generator.manual_seed(int(seed))
+        self._sync_model()
+        with self._on_device_stream():
+            self._reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
+            obs, info = self._first_observation()
+        self._finished.zero_()
+        return obs, info
+
+    def step(self, actions):
+        """Apply `actions` (N, na) for policy_dt (the subclass's `_take(actions)` keeps them for its `_advance`); see
+        LeggedEnv.step for what comes back. LeggedEnv has its own."""
+        actions = torch.as_tensor(actions, device=self.device, dtype=torch.float32)
+        expected = (self.num_envs, *self.single_action_space.shape)
+        if tuple(actions.shape) != expected:
+            raise ValueError(f"actions has shape {tuple(actions.shape)}; expected {expected}")
+        self._take(actions)
+        self._sync_model()
+        with self._on_device_stream():
+            return self._program.run()
+
+    def _sync_model(self) -> None:
+        """After a setter changed the model or a change of `cfg` (read when a graph was captured): drop the graphs
+        (the next step runs eagerly, then captures). The subclass's `_snapshot()` is what a graph depends on."""
+        if self._graph_key != self._snapshot():
+            self.cfg.validate()
+            self._program = self._step_program(f"a {type(self).__name__}")
+            self._graph_key = self._snapshot()
 
     def _uniform(self, low, high, shape) -> torch.Tensor:
         """U(low, high) of `shape` from the environment's generator, in its dtype."""
