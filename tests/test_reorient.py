@@ -174,6 +174,28 @@ def test_bad_settings_and_models_are_refused():
         envs.CubeReorientEnv(1, model=panda)
 
 
+@pytest.mark.skipif(not wp.get_device().is_cuda, reason="CUDA graphs: the tests' device is not a GPU")
+def test_graph_replays_equal_eager_steps():
+    """use_graph=True captures a whole step (actions, 100 simulation steps with the 325 pairs' contacts, the
+    fingertips' kinematics, noise, rewards, goal updates, resets from the bank) and its replays give what eager steps
+    give, bitwise, through a reset() between replays and episodes that end."""
+    cfg = CubeReorientConfig(episode_seconds=0.2, reset_bank=32)
+    graphed, eager = (envs.CubeReorientEnv(4, cfg, seed=3, use_graph=mode) for mode in (True, False))
+    actions = torch.tensor(np.random.default_rng(0).uniform(-1, 1, (10, 4, 16)), dtype=torch.float32, device=graphed.device)
+    for env in (graphed, eager):
+        env.reset(seed=3)
+    for k in range(10):
+        if k == 6:
+            assert torch.equal(graphed.reset(seed=5)[0], eager.reset(seed=5)[0])
+        a, b = graphed.step(actions[k]), eager.step(actions[k])
+        for x, y in zip(a[:4], b[:4]):
+            assert torch.equal(x, y), k
+        for name in ("final_obs", "critic_obs", "final_critic_obs"):
+            assert torch.equal(a[4][name], b[4][name]), (k, name)
+        assert torch.equal(graphed.goal, eager.goal) and all(torch.equal(a[4]["log"][n], b[4]["log"][n]) for n in a[4]["log"])
+    assert graphed._program.captured >= 1 and not eager._program.captured
+
+
 def test_the_example_trains_and_evaluates(tmp_path, capsys):
     """examples/rl_reorient.py: one short iteration and an evaluation run, on the tests' device."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
