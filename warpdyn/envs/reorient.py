@@ -52,8 +52,8 @@ class CubeReorientConfig:
     that rate decaying by 0.8 per policy step (Playground's goal update: a new goal without a reset). Observations
     carry uniform noise of `noise["joint_pos"]` [rad] and `noise["cube_pos"]` [m], and `noise["cube_ori"]` times a
     standard normal on the quaternion's components (renormalised). `rewards`: name -> scale of Playground's terms
-    (orientation: 1 - 0.09 |error| / 0.2 rad... dm_control's linear tolerance of the orientation error, 1 within 0.2
-    rad, 0 at pi; position: the same of the cube's distance from the palm's grasp site, 1 within 2 cm, margin 5 cm;
+    (orientation: dm_control's linear tolerance of the orientation error, 1 within 0.2 rad, 0.1 at 0.2 + pi rad (a
+    margin of pi); position: the same of the cube's distance from the palm's grasp site, 1 within 2 cm, margin 5 cm;
     termination: 1 where the cube fell; hand_pose: the squared distance of the joints from the keyframe's;
     action_rate: |a - a_prev|^2 + |a - 2 a_prev + a_prev2|^2; joint_velocity: |sdot / 4|^2; energy: sum |sdot| |tau|);
     the reward is their scaled sum times policy_dt, plus `success_reward` at each success. An episode ends where
@@ -137,8 +137,6 @@ class CubeReorientEnv(DeviceVectorEnv):
         self._reset_data = wd.data.keyframe(model, "home", num_envs=N)
         self.stepper = wd.simulation.Stepper(model, self._reset_data, substeps=self.decimation, use_graph=False if model.device.is_cuda else use_graph and "auto")
         self._ctrl = wp.to_torch(self.stepper.ctrl)
-        key = next(k for k in model.description.keyframes if k.name == "home")
-        self._home_ctrl = torch.tensor(np.asarray(key.ctrl, dtype=np.float64), **kw)
         ranges = torch.tensor(model.actuator_ctrl_range.numpy(), **kw)
         self._low, self._high = ranges[:, 0], ranges[:, 1]
         gain, bias = model.actuator_gain.numpy(), model.actuator_bias.numpy()
@@ -155,6 +153,7 @@ class CubeReorientEnv(DeviceVectorEnv):
         self._tips = [wd.link.FrameMotion(model, num_envs=N, link_index=sites[t][0], position=sites[t][1][:3, 3]) for t in _TIPS]
         # buffers
         self.goal = torch.zeros(N, 4, **kw)
+        self._conjugate = torch.tensor([1.0, -1.0, -1.0, -1.0], **kw)  # times a unit quaternion: its inverse
         self._goal_rate = torch.zeros(N, 3, **kw)
         self.successes = torch.zeros(N, device=self.device, dtype=torch.long)
         self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
@@ -330,10 +329,6 @@ class CubeReorientEnv(DeviceVectorEnv):
     def _snapshot(self) -> tuple:
         """(the model's version, a copy of `cfg` that changes to it, also in place to its dicts, do not reach)."""
         return self.model.version, dataclasses.replace(self.cfg, rewards=dict(self.cfg.rewards), noise=dict(self.cfg.noise))
-
-    @property
-    def _conjugate(self) -> torch.Tensor:
-        return torch.tensor([1.0, -1.0, -1.0, -1.0], device=self.device, dtype=self.torch_dtype)
 
 
 def _tolerance(x: torch.Tensor, bound: float, margin: float) -> torch.Tensor:

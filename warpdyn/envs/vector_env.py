@@ -22,7 +22,10 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
     """The base of a batched environment whose subclass sets `stepper`, `device`, `use_graph`, `num_envs`,
     `max_episode_length`, `episode_length_buf` (long (N,)), `_return` (float32 (N,)), `_generator`
     (torch.Generator), `_finished` (float64 (3,): episodes, return sum, length sum) and `_warp_streams` ({}), and
-    defines `_advance()` (one policy step: (obs, reward, terminated, truncated, info)).
+    defines `_advance()` (one policy step: (obs, reward, terminated, truncated, info)). A manipulation environment
+    (`PickCubeEnv`, `CubeReorientEnv`) calls `_setup` and defines `_simulated(model)`, `_reset(mask)`,
+    `_first_observation()`, `_take(actions)` and `_snapshot()`, on which the base's `reset`, `step` and `_sync_model`
+    run; `LeggedEnv` has its own.
     `_replayed` names the attributes a step points at tensors of its own, which a graph's replay points at the
     graph's."""
 
