@@ -73,7 +73,7 @@ def mujoco_displacements(cubes: np.ndarray, controls: np.ndarray) -> np.ndarray:
     substeps = int(round(envs.PickCubeConfig().policy_dt / m.opt.timestep))
     moved = []
     for e, cube in enumerate(cubes):
-        mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+        mujoco.mj_resetDataKeyframe(m, d, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, "home"))
         d.qpos[9:12] = cube
         mujoco.mj_forward(m, d)
         for ctrl in controls[:, e]:
