@@ -163,6 +163,9 @@ def main() -> None:
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     print("\n".join(lines), flush=True)
+    path = pathlib.Path(args.output_dir) / f"manipulation_compare_{device.alias.replace(':', '')}.md" if args.output_dir else None
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
     for library in args.libraries.split(","):
         for N in sizes:
             try:
@@ -175,9 +178,9 @@ def main() -> None:
                         f"{held} of {N} | {float(np.mean(r['z'][r['ok']])) if r['ok'].any() else float('nan'):.4f} |")  # fmt: skip
             lines.append(line)
             print(line, flush=True)
-    if args.output_dir:
-        path = pathlib.Path(args.output_dir) / f"manipulation_compare_{device.alias.replace(':', '')}.md"
-        path.write_text("\n".join(lines) + "\n")
+            if path is not None:  # rewritten after each row: a run stopped by a time limit keeps the rows it measured
+                path.write_text("\n".join(lines) + "\n")
+    if path is not None:
         print(f"wrote {path}")
 
 
