@@ -13,12 +13,10 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import gymnasium as gym
 import numpy as np
 import torch
 import warp as wp
 from gymnasium.vector import AutoresetMode
-from gymnasium.vector.utils import batch_space
 
 import warpdyn as wd
 
@@ -141,19 +139,8 @@ class PickCubeEnv(DeviceVectorEnv):
         self.target = torch.zeros(N, 3, **kw)
         self.cube_position = torch.zeros(N, 3, **kw)
         self.reached = torch.zeros(N, dtype=torch.bool, device=self.device)
-        self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
-        self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
-        self._reset_mask_wp = wp.from_torch(self._reset_mask)
         self._action_input = torch.zeros(N, 8, device=self.device, dtype=torch.float32)
-        self._return = torch.zeros(N, device=self.device, dtype=torch.float32)
-        self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)
-        self._warp_streams: dict = {}
-        self._program = self._step_program("a PickCubeEnv")
-        self._graph_key = self._snapshot()
-        self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (66,), np.float32)
-        self.single_action_space = gym.spaces.Box(-1.0, 1.0, (8,), np.float32)
-        self.observation_space = batch_space(self.single_observation_space, N)
-        self.action_space = batch_space(self.single_action_space, N)
+        self._finish_setup(observations=66, actions=8)
 
     def _simulated(self, model):
         """A copy of `model` with the pads' contacts acting and the task's time step and soft law."""

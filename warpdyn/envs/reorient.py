@@ -19,7 +19,6 @@ import numpy as np
 import torch
 import warp as wp
 from gymnasium.vector import AutoresetMode
-from gymnasium.vector.utils import batch_space
 
 import warpdyn as wd
 
@@ -148,28 +147,17 @@ class CubeReorientEnv(DeviceVectorEnv):
         self._home_hand = self._home[self._q].clone()
         self._cube_start = torch.tensor(cfg.cube_start, **kw)
         self._bank = self._draw_bank()
-        sites = _sites(model, ("grasp_site", *_TIPS))
-        self._palm = torch.tensor(sites["grasp_site"][1][:3, 3], **kw)  # the mount is fixed to the world
-        self._tips = [wd.link.FrameMotion(model, num_envs=N, link_index=sites[t][0], position=sites[t][1][:3, 3]) for t in _TIPS]
+        sites = _site_positions(model, ("grasp_site", *_TIPS))
+        self._palm = torch.tensor(sites["grasp_site"][1], **kw)  # the mount is fixed to the world
+        self._tips = [wd.link.FrameMotion(model, num_envs=N, link_index=sites[t][0], position=sites[t][1]) for t in _TIPS]
         # buffers
         self.goal = torch.zeros(N, 4, **kw)
         self._conjugate = torch.tensor([1.0, -1.0, -1.0, -1.0], **kw)  # times a unit quaternion: its inverse
         self._goal_rate = torch.zeros(N, 3, **kw)
         self.successes = torch.zeros(N, device=self.device, dtype=torch.long)
-        self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
         self._actions = torch.zeros(3, N, 16, device=self.device, dtype=torch.float32)  # this step's, the last, the one before
-        self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
-        self._reset_mask_wp = wp.from_torch(self._reset_mask)
-        self._return = torch.zeros(N, device=self.device, dtype=torch.float32)
-        self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)
-        self._warp_streams: dict = {}
-        self._program = self._step_program("a CubeReorientEnv")
-        self._graph_key = self._snapshot()
-        self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (57,), np.float32)
+        self._finish_setup(observations=57, actions=16)
         self.single_critic_observation_space = gym.spaces.Box(-np.inf, np.inf, (116,), np.float32)
-        self.single_action_space = gym.spaces.Box(-1.0, 1.0, (16,), np.float32)
-        self.observation_space = batch_space(self.single_observation_space, N)
-        self.action_space = batch_space(self.single_action_space, N)
 
     def _simulated(self, model):
         """A copy of `model` with the geom pairs' contacts acting and the task's time step and soft law."""
@@ -345,9 +333,10 @@ def _uniform_quaternions(env, n: int) -> torch.Tensor:
     return torch.stack([a * torch.sin(t1), a * torch.cos(t1), b * torch.sin(t2), b * torch.cos(t2)], dim=1)
 
 
-def _sites(model, names: tuple) -> dict:
-    """{site name: (its link, its pose in that link (4, 4))} from MuJoCo's compile of the MJCF that `model` was loaded
-    from, at qpos0; a site on a body welded to the world is on the world's link 0, its pose the world's."""
+def _site_positions(model, names: tuple) -> dict:
+    """{site name: (its link, its position in that link (3,) [m])} from MuJoCo's compile of the MJCF that `model` was
+    loaded from: a site on a link's body is at MuJoCo's site_pos there; one on a body welded to the world is on the
+    world's link 0, at its world position."""
     import mujoco  # the MJCF loader's dependency
 
     m = mujoco.MjModel.from_xml_path(str(model.description.path))
@@ -357,12 +346,8 @@ def _sites(model, names: tuple) -> dict:
     for name in names:
         site = m.site(name)
         body = int(site.bodyid[0])
-        W_H_S = np.eye(4)
-        W_H_S[:3, :3], W_H_S[:3, 3] = d.site_xmat[site.id].reshape(3, 3), d.site_xpos[site.id]
         if int(m.body_weldid[body]) == 0:
-            out[name] = (0, W_H_S)
-            continue
-        W_H_B = np.eye(4)
-        W_H_B[:3, :3], W_H_B[:3, 3] = d.xmat[body].reshape(3, 3), d.xpos[body]
-        out[name] = (model.link_names().index(m.body(body).name), np.linalg.inv(W_H_B) @ W_H_S)
+            out[name] = (0, np.array(d.site_xpos[site.id]))
+        else:
+            out[name] = (model.link_names().index(m.body(body).name), np.array(site.pos))
     return out

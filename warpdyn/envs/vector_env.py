@@ -12,6 +12,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 import warp as wp
+from gymnasium.vector.utils import batch_space
 
 import warpdyn as wd
 
@@ -61,6 +62,24 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
         self.torch_dtype = wp.dtype_to_torch(self.model.scalar)
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(seed)
+
+    def _finish_setup(self, observations: int, actions: int) -> None:
+        """The rest a manipulation environment keeps, once its own state exists: the episodes' lengths, the reset
+        mask (torch and Warp views), the returns and finished-episode sums, the step program and its graph key, and
+        the spaces of `observations` float32 observations and `actions` actions in [-1, 1]."""
+        N = self.num_envs
+        self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
+        self._reset_mask = torch.zeros(N, dtype=torch.int32, device=self.device)
+        self._reset_mask_wp = wp.from_torch(self._reset_mask)
+        self._return = torch.zeros(N, device=self.device, dtype=torch.float32)
+        self._finished = torch.zeros(3, device=self.device, dtype=torch.float64)
+        self._warp_streams = {}
+        self._program = self._step_program(f"a {type(self).__name__}")
+        self._graph_key = self._snapshot()
+        self.single_observation_space = gym.spaces.Box(-np.inf, np.inf, (observations,), np.float32)
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, (actions,), np.float32)
+        self.observation_space = batch_space(self.single_observation_space, N)
+        self.action_space = batch_space(self.single_action_space, N)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Reset every environment (the subclass's `_reset` of all); seed: reseed its random numbers. Returns the
