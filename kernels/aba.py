@@ -147,6 +147,12 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         return sp.stack(x1, x2), a_i + sp.stack(wp.transpose(R) * x1, x2)
 
     @wp.func
+    def with_implicit_contacts(controls: B.Controls, env: int, i: int, IA: sp.mat66, pA: sp.vec6):
+        """(IA + A_i, pA - g_i): link i's own articulated inertia and bias force with its contacts' linearly implicit
+        terms (controls.link_implicit, link coordinates: kernels/implicit_contacts.py)."""
+        return IA + sc.get_sym66(controls.link_implicit, env, i, 0), pA - sc.get6(controls.link_implicit, env, i, SYM66)
+
+    @wp.func
     def bias_force(v: sp.vec6, I_v: sp.vec6):
         """A link's velocity-product force v_i x* I_i v_i (link coordinates): v its velocity, I_v its spatial
         inertia times v; its own bias force is this less the external force on it (step 2's first terms of pA_i)."""
@@ -191,6 +197,7 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         project_dof=project_dof,
         articulated=articulated,
         free_joint_acceleration=free_joint_acceleration,
+        with_implicit_contacts=with_implicit_contacts,
         bias_force=bias_force,
         base_inertia=base_inertia,
         base_bias_force=base_bias_force,
@@ -301,11 +308,14 @@ def kernels(scalar, max_registers, multi_dof: bool):
         controls: joint forces (N, nv) and external link forces (N, nL, 6) in `repr` (either may be absent).
         The joint-space inertia of DoF d is S_d^T IA S_d + armature_d + implicit_dt damping_d: with
         implicit_dt = dt this solves (M + dt diag(damping)) nu_dot = f, MuJoCo's implicit damping (0: none).
+        controls' link_implicit (N, nL, 27), when given: each link's contact terms A_L added to its articulated
+        inertia and g_L to its force (kernels/implicit_contacts.py: the step's linearly implicit contacts).
         s (N, max(nL, nv + 1), ABA_RECORD, + 7 with link forces): scratch, columns named at the top of this file.
         """
         env = wp.tid()
         nL = model.parent.shape[0]
         forces = controls.link_forces.shape[0] > 0
+        implicit = controls.link_implicit.shape[0] > 0
         W_H_B = B.base_pose(state, env)
         B_v = sp.motion_from(W_H_B, sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(state, env)))
         B_a_g = B.gravity_in(model, env, W_H_B)
@@ -329,6 +339,8 @@ def kernels(scalar, max_registers, multi_dof: bool):
             pA = F.bias_force(v_i, IA * v_i)
             if forces:
                 pA = pA - external_force(controls, repr, s, _WHL, env, i)
+            if implicit:
+                IA, pA = F.with_implicit_contacts(controls, env, i, IA, pA)
             if model.first_child[i] >= 0:
                 IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
                 pA = pA + sc.get6(s, env, model.first_child[i], _PA)
@@ -347,6 +359,8 @@ def kernels(scalar, max_registers, multi_dof: bool):
             pA0 = F.base_bias_force(model, env, implicit_dt, B_v, B_a_g)
             if forces:
                 pA0 = pA0 - external_force(controls, repr, s, _WHL, env, 0)
+            if implicit:
+                IA0, pA0 = F.with_implicit_contacts(controls, env, 0, IA0, pA0)
             if model.first_child[0] >= 0:
                 IA0 = IA0 + sc.get_sym66(s, env, model.first_child[0], _IA)
                 pA0 = pA0 + sc.get6(s, env, model.first_child[0], _PA)

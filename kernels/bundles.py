@@ -112,6 +112,7 @@ def bundles(scalar) -> types.SimpleNamespace:
 
         joint_forces: wp.array2d(dtype=scalar)  # (N, nv) [N m or N], or (0, 0): none
         link_forces: wp.array3d(dtype=scalar)  # (N, nL, 6) [force; torque], or (0, 0, 0): none
+        link_implicit: wp.array3d(dtype=scalar)  # (N, nL, 27) the contacts' implicit terms (kernels/implicit_contacts.py), or (0, 0, 0): none
 
     @wp.struct
     class Targets:

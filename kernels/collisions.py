@@ -11,7 +11,7 @@ import types
 
 import warp as wp
 
-from . import collision_box, collision_primitives, soft_contacts
+from . import collision_box, collision_primitives, implicit_contacts, soft_contacts
 from .bundles import bundles
 from .collision_primitives import BOX, CAPSULE, CYLINDER, SPHERE
 from .factory import factory
@@ -24,6 +24,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     prim = collision_primitives.kernels(scalar)
     box = collision_box.kernels(scalar)
     law = soft_contacts.kernels(scalar)
+    implicit_terms = implicit_contacts.kernels(scalar)
     sp = spatial(scalar)
     B = bundles(scalar)
     vec2, vec3, mat23, mat33 = prim.vec2, prim.vec3, prim.mat23, prim.mat33
@@ -109,10 +110,12 @@ def kernels(scalar) -> types.SimpleNamespace:
         contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar), first: wp.array(dtype=int),
         slots: wp.array(dtype=int), count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar),
         dist: wp.array2d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar),
+        W_H_L: wp.array2d(dtype=sp.transform), h: scalar,
         # outputs
         m_dot: wp.array3d(dtype=scalar),
         # in and out
         W_f_L: wp.array3d(dtype=scalar),
+        implicit: wp.array3d(dtype=scalar),
     ):  # fmt: skip
         """Launched over N, after `geom_contacts` at the same state: each contact's soft-law force (JaxSim's
         Hunt/Crossley with its tangential deformation, kernels/soft_contacts.py's `hunt_crossley_at_depth`, at the
@@ -122,6 +125,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         world axes], its rate written to the same row of m_dot: the relative tangential displacement while the contact
         sticks (static friction), relaxing at K / D where the slot holds no touching contact. A slot keeps its
         deformation while its pair's contacts keep their order (a pair's slots are in its narrow phase's order).
+        Where implicit (N, nL, IMPLICIT) has rows (model.implicit_contacts), each contact's linearly implicit terms at
+        the time step h [s] are added to both links' (kernels/implicit_contacts.py; W_H_L (N, nL) the links' poses).
         One thread walks an environment's pairs in order (the sums are deterministic)."""
         env = wp.tid()
         K = B.env_parameter(contacts.K, env)
@@ -154,6 +159,13 @@ def kernels(scalar) -> types.SimpleNamespace:
                         if a >= 0:
                             W_f_L[env, a, r] -= f[r]
                             W_f_L[env, a, 3 + r] -= torque[r]
+                    if implicit.shape[0] > 0:
+                        alpha, beta, g = implicit_terms.contact_terms(f, depth, v, n, K, D, mu[i], contacts.p, contacts.q, h)
+                        if alpha > scalar(0.0):
+                            if b >= 0:
+                                implicit_terms.add_terms(implicit, env, b, W_H_L[env, b], p, n, alpha, beta, g)
+                            if a >= 0:
+                                implicit_terms.add_terms(implicit, env, a, W_H_L[env, a], p, n, alpha, beta, -g)
 
     @wp.kernel(module="unique")
     def damper_stability(

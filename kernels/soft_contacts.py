@@ -286,6 +286,7 @@ def kernels(scalar, terrain_kind: int | None = None):
         hunt_crossley=hunt_crossley,
         hunt_crossley_at_depth=hunt_crossley_at_depth,
         damper_coefficient=damper_coefficient,
+        power=power,
         law_parameters=law_parameters,
         contact_at=contact_at,
         point_wrench=point_wrench,

@@ -114,10 +114,11 @@ _EMPTY: dict = {}
 _NO_CONTROLS: dict = {}
 
 
-def controls_bundle(scalar, device, joint_forces=None, link_forces=None):
-    """A `bundles(scalar).Controls`: joint forces (N, n) and link forces (N, nL, 6), None for absent (both
-    absent: one bundle per (scalar, device), made once; nothing writes it)."""
-    if joint_forces is None and link_forces is None:
+def controls_bundle(scalar, device, joint_forces=None, link_forces=None, link_implicit=None):
+    """A `bundles(scalar).Controls`: joint forces (N, n), link forces (N, nL, 6) and the contacts' implicit terms
+    (N, nL, 27: kernels/implicit_contacts.py), None for absent (all absent: one bundle per (scalar, device), made
+    once; nothing writes it)."""
+    if joint_forces is None and link_forces is None and link_implicit is None:
         key = (scalar, str(device))
         bundle = _NO_CONTROLS.get(key)
         if bundle is None:
@@ -126,6 +127,7 @@ def controls_bundle(scalar, device, joint_forces=None, link_forces=None):
     bundle = bundles(scalar).Controls()
     bundle.joint_forces = joint_forces if joint_forces is not None else empty_like_input(scalar, device, 2)
     bundle.link_forces = link_forces if link_forces is not None else empty_like_input(scalar, device, 3)
+    bundle.link_implicit = link_implicit if link_implicit is not None else empty_like_input(scalar, device, 3)
     return bundle
 
 

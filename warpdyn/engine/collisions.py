@@ -14,6 +14,7 @@ from ..kernels.collisions import kernels as collision_kernels
 from ..description.tree import JOINT_FREE
 from ..types.geoms import geom_pairs
 from ..types.model_constants import transforms
+from .bundles import empty_like_input
 from .kinematics import link_poses
 from .launch import Launch, run
 
@@ -81,16 +82,20 @@ def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
 
 
 def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, m: wp.array, b: dict, W_f_L: wp.array, m_dot: wp.array, N: int,
-                  check: tuple | None = None) -> list:  # fmt: skip
+                  check: tuple | None = None, implicit: tuple | None = None) -> list:  # fmt: skip
     """The pairs' contacts at (W_H_L, W_v_WL (N, nL) Inertial, the contact state m (N, rows, 3)) and their wrenches
     added to W_f_L (N, nL, 6), their slots' deformation rates written to m_dot (N, rows, 3) (rows nc_all on), with the
     soft law's K, D, p, q of `contacts_bundle` (the kernels' Contacts); in a step, check = (rate, the kernels' Model):
     a lone free body whose contacts damp it faster than rate (the integrator's stability limit / dt, 1/s) gets a NaN
-    wrench, which flags its environment (kernels/collisions.py's `damper_stability`)."""
+    wrench, which flags its environment (kernels/collisions.py's `damper_stability`); implicit = (dt, the links'
+    implicit terms (N, nL, 27) or None): the contacts' linearly implicit terms added to those
+    (kernels/implicit_contacts.py)."""
+    s, d = a["scalar"], a["device"]
+    h, terms = implicit if implicit is not None and implicit[1] is not None else (s(0.0), empty_like_input(s, d, 3))
     contacts = [b[k] for k in ("count", "position", "frame", "dist")]
-    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["slots"], *contacts, W_v_WL, m]
-    kernels = collision_kernels(a["scalar"])
-    launches = [contact_launch(a, W_H_L, b, N), Launch(kernels.geom_contact_wrenches, N, inputs, [m_dot, W_f_L])]
+    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["slots"], *contacts, W_v_WL, m, W_H_L, h]
+    kernels = collision_kernels(s)
+    launches = [contact_launch(a, W_H_L, b, N), Launch(kernels.geom_contact_wrenches, N, inputs, [m_dot, W_f_L, terms])]
     if check is not None and a["any_guarded"]:
         rate, model_bundle = check
         inputs = [contacts_bundle, model_bundle, a["link1"], a["link2"], a["first"], b["count"], b["dist"], rate, a["guarded"], b["damping"]]

@@ -39,6 +39,7 @@ from ..kernels.aba import kernels as aba_kernels
 from ..kernels.bundles import bundles
 from ..kernels.crba import CRBA_RECORD
 from ..kernels.crba import kernels as crba_kernels
+from ..kernels.implicit_contacts import kernels as implicit_kernels
 from ..kernels.jacobian_derivatives import kernels as derivative_kernels
 from ..kernels.jacobians import kernels as jacobian_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
@@ -195,9 +196,14 @@ class SoftContactStage(ContactStage):
         launches.append(Launch(contact_kernels(s, plan.terrain.kind).point_contact_forces, N * self.points // rows, args, [ev.W_f_C, ev.m_dot]))
         args = [self.bundle, ev.W_f_C, f_in, order, links]
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
+        if ev.implicit is not None:  # the contacts' linearly implicit terms for the step's ABA (model.implicit_contacts)
+            args = [self.bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, plan.dt]
+            launches.append(Launch(implicit_kernels(s, plan.terrain.kind).point_implicit_terms, N, args, [ev.implicit]))
         if self.pairs:
-            check = (self.check_rate, plan.model) if ev.checks else None  # a step's evaluation flags; a query's reports
-            launches += collisions.force_launches(self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, ev.contact, ev.W_f_L, ev.m_dot, N, check)
+            # a step's evaluation flags an explicit damper's instability (an implicit one has none); a query's reports
+            check = (self.check_rate, plan.model) if ev.checks and ev.implicit is None else None
+            args = (self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, ev.contact, ev.W_f_L, ev.m_dot, N)
+            launches += collisions.force_launches(*args, check, (plan.dt, ev.implicit))
         return launches
 
 

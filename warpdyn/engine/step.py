@@ -61,6 +61,7 @@ from ..kernels.actuation import mujoco_kernel
 from ..kernels.bundles import bundles
 from ..kernels.forces import kernels as force_kernels
 from ..kernels.fused_step import kernel as fused_step_kernel
+from ..kernels.implicit_contacts import IMPLICIT
 from ..kernels.integrators import kernels as integrator_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.parameter_checks import kernels as parameter_check_kernels
@@ -193,6 +194,13 @@ class Plan:
         self.contact_bundle, self.count, self.point_out = stage.bundle, stage.count, stage.point_out
         self.state_rows = stage.state_rows  # the contact state's rows (Model.contact_state_rows)
         self.contacts = self.count > 0 or stage.pairs > 0
+        # the soft law's contacts linearly implicit in an Euler step (model.implicit_contacts: kernels/implicit_contacts.py)
+        self.implicit_contacts = model.implicit_contacts and self.contacts
+        if model.implicit_contacts and not (self.euler and stage.point_law is not None):
+            raise ValueError(
+                f"model '{model.name()}': implicit_contacts linearises the soft law in a semi-implicit Euler step; it has "
+                f"{type(model.contact_model).__name__} and {self.integrator.name}: set model.implicit_contacts = False"
+            )
         # MJCF equality constraints (warpdyn.engine.equality), solved after ABA
         self.equality = equality_plan(model)
         self.poses = self.contacts or self.gravcomp or self.equality is not None  # an evaluation runs FK
@@ -207,7 +215,7 @@ class Plan:
         self.fused = None
         tree = model.tree
         free_roots = not tree.one_dof_joints and tree.free_roots and not model.floating_base()
-        if self.euler and (tree.one_dof_joints or free_roots) and stage.point_law is not None and self.equality is None and not stage.pairs:
+        if self.euler and (tree.one_dof_joints or free_roots) and stage.point_law is not None and self.equality is None and not stage.pairs and not self.implicit_contacts:
             walk = fused_layout.fused_walk(model.tree.parent, fused_layout.MAX_LANES, 1 + stage.points_per_link)
             self.walk = wp.array(walk.walk, dtype=wp.vec3i, device=d)
             self.walk_starts = wp.array(walk.starts, dtype=wp.int32, device=d)
@@ -281,6 +289,7 @@ class Evaluation:
         nL, n = plan.nL, plan.n
         self.grad = grad
         self.checks = aba  # a step's evaluation: its stability checks flag environments (a contact query's does not)
+        self.implicit = None
 
         def out(shape, dtype=s):
             return arrays.output(shape, N, dtype, d, grad)
@@ -298,6 +307,8 @@ class Evaluation:
             self.W_f_C = out((plan.count, 6))
             self.m_dot = out((plan.state_rows, 3)) if plan.contact_stage.has_state else plan.zeros((plan.state_rows, 3), N)
             self.W_f_L = out((nL, 6))
+            # the contacts' implicit terms per link (kernels/implicit_contacts.py), for a step's ABA
+            self.implicit = out((nL, IMPLICIT)) if plan.implicit_contacts and aba else None
             self.contact = plan.contact_stage.buffers(plan, N, grad)  # the contact model's own (warpdyn.engine.contact_stage)
         else:
             self.m_dot = plan.zeros((plan.state_rows, 3), N)
@@ -390,7 +401,7 @@ def evaluate(plan: Plan, ev: Evaluation, x, tau, f_ext, poses_done: bool, aba: b
         launches += plan.contact_stage.launches(plan, ev, x, f_ext, tau, N)
         f_ext = ev.W_f_L
     if aba:
-        controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
+        controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext, ev.implicit if plan.implicit_contacts else None)
         args = [plan.model, x, controls, int(VelRepr.Inertial), plan.implicit_dt, ev.aba_scratch]
         outputs = [ev.base_acceleration, ev.joint_accelerations]
         if ev.equality is not None:

@@ -56,6 +56,7 @@ class PickCubeConfig:
     action_scale: float = 0.04
     contact_stiffness: float = 5e5
     contact_damping: float = 500.0
+    implicit_contacts: bool = False
     friction: float = 1.0
     keyframe: str = "home"
     cube_range: float = 0.2
@@ -153,6 +154,7 @@ class PickCubeEnv(DeviceVectorEnv):
             )
         model = model.copy()
         model.geom_contacts = True
+        model.implicit_contacts = cfg.implicit_contacts
         model.time_step = cfg.time_step
         model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=cfg.contact_damping, mu=cfg.friction)
         return model

@@ -1,0 +1,123 @@
+"""The soft law's contacts made linearly implicit in a semi-implicit Euler step (model.implicit_contacts).
+
+A contact's force f(x, v) (kernels/soft_contacts.py's `hunt_crossley_at_depth`) evaluated at the step's start
+turns a light body that stiff contacts press faster than the explicit step's stable rate (h c / m or h^2 k / m
+beyond about 2; the damper on a 0.1 kg cube's edge: 9 at 1 ms). Linearised about the start instead, a link's
+contact force at the step's end is f - h K v_rel - (h C + h^2 K) a_L: C = -df/dv and K = -df/dx at the contact
+(3 x 3, world axes), v_rel the contact's relative velocity, a_L the link's own acceleration (the other body's is
+held: each link sees its own block, as MuJoCo's implicitfast keeps its own). ABA then solves with, on each link L,
+
+    IA_L += A_L = sum_c J_c^T (h C_c + h^2 K_c) J_c,      pA_L -= g_L = sum_c J_c^T (-h K_c v_rel,c)
+
+in link coordinates (J_c = [1, -r_c^], r_c the contact point from the link's origin): the backward-Euler
+linearisation of the contact forces (Baraff and Witkin), exact for a link touching the static world. Per contact,
+with delta the penetration depth and the law's K, D, p, q (JaxSim's), where it pushes (f . n > 0):
+    normal: c = D (delta + eps)^q, k_n = (1 + p) K (delta + eps)^p (d fn / d delta at a fixed rate);
+    tangential, while the contact sticks (|f_t| < mu fn): c and k_t = K (delta + eps)^p (the deformation's spring,
+    which the deformation state integrates at the contact's velocity); sliding: none (the force's magnitude is
+    Coulomb's, mu fn, whatever the velocity);
+the predicted normal force h k_n v_n is held to what keeps the force pushing (it never pulls). The terms of a link
+are a record of IMPLICIT numbers: A_L's upper triangle (21), then g_L (6).
+"""
+
+import types
+
+import warp as wp
+
+from .bundles import bundles
+from .factory import factory
+from .scratch import SYM66, scratch
+from .soft_contacts import EPSILON
+from .soft_contacts import kernels as soft_contact_kernels
+from .spatial import spatial
+
+IMPLICIT = SYM66 + 6
+"""The numbers of a link's implicit contact terms: A_L's upper triangle, then g_L (link coordinates)."""
+
+
+@factory
+def kernels(scalar, terrain_kind: int | None = None) -> types.SimpleNamespace:
+    """The implicit terms in `scalar`, for any terrain or one kind (kernels/soft_contacts.py's `kernels`)."""
+    sp = spatial(scalar)
+    sc = scratch(scalar)
+    B = bundles(scalar)
+    law = soft_contact_kernels(scalar, terrain_kind)
+
+    @wp.func
+    def contact_terms(f: sp.vec3, depth: scalar, v: sp.vec3, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar, h: scalar):
+        """(alpha, beta, g): a contact's h C + h^2 K = alpha n n^T + beta (1 - n n^T) and its predicted force
+        g = -h K v [N, world axes], from its force f [N] (`hunt_crossley_at_depth` at the same depth, velocity v of
+        the pushed surface relative to the other, normal n); zeros where it does not push."""
+        zero = scalar(0.0)
+        fn = wp.dot(f, n)
+        if depth <= zero or fn <= zero:
+            return zero, zero, sp.vec3(zero)
+        c = law.damper_coefficient(depth, D, qe)
+        k_t = K * law.power(depth + scalar(EPSILON), pe)
+        k_n = (scalar(1.0) + pe) * k_t
+        v_n = wp.dot(v, n)
+        g = -wp.min(h * k_n * v_n, fn) * n  # the predicted normal force never pulls
+        alpha = h * c + h * h * k_n
+        beta = zero
+        f_t = f - fn * n
+        if wp.length(f_t) < mu * fn:  # sticking: the tangential spring and damper act
+            beta = h * c + h * h * k_t
+            g = g - h * k_t * (v - v_n * n)
+        return alpha, beta, g
+
+    @wp.func
+    def add_terms(implicit: wp.array3d(dtype=scalar), env: int, L: int, W_H_L: sp.transform, p: sp.vec3, n: sp.vec3, alpha: scalar, beta: scalar, g: sp.vec3):
+        """Add to link L's record in implicit (N, nL, IMPLICIT) the terms of a contact at p [m, world] with normal n
+        (`contact_terms`' alpha, beta, g: g the force on link L), in link coordinates (W_H_L its pose)."""
+        q = wp.transform_get_rotation(W_H_L)
+        r = wp.quat_rotate_inv(q, p - wp.transform_get_translation(W_H_L))
+        nl = wp.quat_rotate_inv(q, n)
+        gl = wp.quat_rotate_inv(q, g)
+        M = beta * wp.identity(n=3, dtype=scalar) + (alpha - beta) * wp.outer(nl, nl)
+        rx = wp.skew(r)
+        Mr = M * rx
+        H = -Mr
+        Lr = -(rx * Mr)
+        A = sp.mat66(
+            M[0, 0], M[0, 1], M[0, 2], H[0, 0], H[0, 1], H[0, 2],
+            M[1, 0], M[1, 1], M[1, 2], H[1, 0], H[1, 1], H[1, 2],
+            M[2, 0], M[2, 1], M[2, 2], H[2, 0], H[2, 1], H[2, 2],
+            H[0, 0], H[1, 0], H[2, 0], Lr[0, 0], Lr[0, 1], Lr[0, 2],
+            H[0, 1], H[1, 1], H[2, 1], Lr[1, 0], Lr[1, 1], Lr[1, 2],
+            H[0, 2], H[1, 2], H[2, 2], Lr[2, 0], Lr[2, 1], Lr[2, 2],
+        )  # fmt: skip
+        sc.put_sym66(implicit, env, L, 0, sc.get_sym66(implicit, env, L, 0) + A)
+        sc.put6(implicit, env, L, SYM66, sc.get6(implicit, env, L, SYM66) + sp.stack(gl, wp.cross(r, gl)))
+
+    @wp.kernel(module="unique")
+    def point_implicit_terms(
+        contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar),
+        h: scalar,
+        # outputs
+        implicit: wp.array3d(dtype=scalar),
+    ):  # fmt: skip
+        """Launched over N, at the state of the step's contact forces: implicit (N, nL, IMPLICIT) = each link's terms
+        of its enabled points' contacts with the terrain (zero for a link without contacts), at the time step h [s];
+        the geom pairs' contacts add theirs after (kernels/collisions.py's `geom_contact_wrenches`). One thread per
+        environment, the points in order (the sums are deterministic)."""
+        env = wp.tid()
+        zero = scalar(0.0)
+        for L in range(implicit.shape[1]):
+            for a in range(IMPLICIT):
+                implicit[env, L, a] = zero
+        params = law.law_parameters(contacts, env)
+        h0 = law.height_parameter(terrain, env)
+        for c in range(contacts.point_row.shape[0]):
+            L = contacts.point_link[c]
+            row = contacts.point_row[c]
+            X = W_H_L[env, L]
+            p = wp.transform_point(X, B.vec3_parameter(contacts.L_p_C, env, c))
+            v = sp.lin(W_v_WL[env, L]) + wp.cross(sp.ang(W_v_WL[env, L]), p)
+            n = law.terrain_normal(terrain, p[0], p[1])
+            depth = (law.terrain_height(terrain, h0, p[0], p[1]) - p[2]) * n[2]
+            f, _ = law.contact_at(contacts, terrain, h0, params, p, v, sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2]))
+            alpha, beta, g = contact_terms(f, depth, v, n, params[0], params[1], params[2], contacts.p, contacts.q, h)
+            if alpha > zero:
+                add_terms(implicit, env, L, X, p, n, alpha, beta, g)
+
+    return types.SimpleNamespace(contact_terms=contact_terms, add_terms=add_terms, point_implicit_terms=point_implicit_terms)

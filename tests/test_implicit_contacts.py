@@ -1,0 +1,98 @@
+"""Linearly implicit soft contacts in a semi-implicit Euler step (model.implicit_contacts, kernels/implicit_contacts.py):
+one step of free bodies against a NumPy solve of the linearised contact forces, the stability that they buy (a pad on
+the 0.1 kg cube's edge at 1 ms, beside MuJoCo), that resting contacts rest where explicit ones do, the refusals, and
+a step's Jacobian against central differences."""
+
+import warnings
+
+import numpy as np
+import pytest
+import warp as wp
+
+import warpdyn as wd
+
+EPS = 2.220446049250313e-16
+K, D, P, Q = 1e6, 2000.0, 0.5, 0.5  # SoftContactsParams' defaults
+H = 1e-3
+
+SCENE = """<mujoco><option timestep="0.001" gravity="0 0 0"/><worldbody>
+  <geom name="table" type="box" size=".5 .5 .05" pos="3 0 0.95" friction="{mu}"/>
+  <body name="ball" pos="3 0 1.049"><freejoint/><geom type="sphere" size=".05" mass="0.3" friction="{mu}"/></body>
+  <body name="cube" pos="0 0 0.049"><freejoint/><geom type="box" size=".05 .05 .05" mass="0.1"/></body>
+</worldbody></mujoco>"""
+"""A ball 1 mm into a table (a geom of the world: a geom pair's contact), a 0.1 kg cube 1 mm into the terrain (its four
+lower corners: the collidable points' contacts), far apart, no gravity, both unrotated (body axes = world axes)."""
+
+
+def _model(mu: float, implicit: bool = True):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        model = wd.model.Model.build_from_model_description(SCENE.format(mu=mu), dtype=np.float64)
+    model.geom_contacts = True
+    model.implicit_contacts = implicit
+    return model
+
+
+def _law(depth, v, n, mu):
+    """(f, alpha, beta, g, sticks): the soft law's force at a zero deformation and its implicit terms (the module docstring of
+    kernels/implicit_contacts.py), written out."""
+    power = (depth + EPS) ** P
+    fn = max(0.0, K * power * depth - D * power * (v @ n))
+    v_t = v - (v @ n) * n
+    f_t = -D * power * v_t
+    sticks = np.linalg.norm(f_t) < mu * fn
+    if not sticks and np.linalg.norm(f_t) > 0:
+        f_t = f_t * mu * fn / np.linalg.norm(f_t)
+    k_n, c = (1 + P) * K * power, D * power
+    alpha, beta = H * c + H * H * k_n, (H * c + H * H * K * power if sticks else 0.0)
+    g = -min(H * k_n * (v @ n), fn) * n - (H * K * power * v_t if sticks else 0.0)
+    return fn * n + f_t, alpha, beta, g, sticks
+
+
+def _expected_velocity(mass, inertia, centre, v, w, contacts, mu):
+    """The body's velocity after one step: (M + sum J^T (alpha n n^T + beta (1 - n n^T)) J) a = sum J^T (f + g) - v x* M v
+    in body coordinates (J = [1, -r^], r from the body's centre), a its spatial acceleration; the free joint's
+    linear velocity changes by a_lin + w x v (the origin's classical acceleration); and whether each contact sticks."""
+    Mb = np.diag([mass] * 3 + list(inertia))
+    A, rhs, sticking = Mb.copy(), np.zeros(6), []
+    for p, n, depth in contacts:
+        r = p - centre
+        f, alpha, beta, g, sticks = _law(depth, v + np.cross(w, r), n, mu)
+        sticking.append(sticks)
+        rx = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+        J = np.hstack([np.eye(3), -rx])
+        A += J.T @ (beta * np.eye(3) + (alpha - beta) * np.outer(n, n)) @ J
+        rhs += J.T @ (f + g)
+    rhs -= np.concatenate([mass * np.cross(w, v), np.cross(w, np.asarray(inertia) * w)])
+    a = np.linalg.solve(A, rhs)
+    return np.concatenate([v + H * (a[:3] + np.cross(w, v)), w + H * a[3:]]), sticking
+
+
+@pytest.mark.parametrize("mu", [1.0, 0.05])
+def test_one_step_is_the_linearised_solve(mu):
+    """The ball on the table (a geom pair's contact) and the cube on the terrain (four corners), moving into their
+    contacts and sideways, spinning: after one step each body's velocity is the NumPy solve of its linearised
+    contact forces (float64, to 1e-12 relative); mu 1 (the geoms' and the terrain's) keeps the ball's contact and the
+    cube's corners sticking; at 0.05 the ball and three corners slide (no tangential terms)."""
+    model = _model(mu)
+    model.contact_params = wd.model.SoftContactsParams(mu=mu)
+    v_ball, w_ball, v_cube, w_cube = np.array([0.01, -0.005, -0.05]), np.array([0.5, -1.0, 2.0]), np.array([0.02, -0.01, -0.03]), np.array([0.3, -0.2, 0.5])
+    qpos = np.array([3, 0, 1.049, 1, 0, 0, 0, 0, 0, 0.049, 1, 0, 0, 0], dtype=np.float64)
+    data = wd.data.Data.build(model, joint_positions=qpos, joint_velocities=np.concatenate([v_ball, w_ball, v_cube, w_cube]))
+    after = wd.model.step(model, data).joint_velocities.numpy()
+    contact = wd.contact.geom_contacts(model, data)
+    count = contact.count.numpy()
+    assert sorted(count) == [0, 0, 1]  # ball-table touch; cube-table, ball-cube do not
+    slot = wd.contact.geom_pairs(model).first[int(np.argmax(count))]
+    p, n = contact.position.numpy()[slot], contact.frame.numpy()[slot, 0]
+    n = n if n @ (qpos[:3] - p) > 0 else -n  # the normal from geom1 to geom2: here towards the ball
+    ball_contacts = [(p, n, -float(contact.distance.numpy()[slot]))]
+    corners = wd.contact.collidable_point_positions(model, data).numpy()
+    cube_contacts = [(p, np.array([0.0, 0.0, 1.0]), -p[2]) for p in corners if p[2] < 0.0 and p[0] < 1.0]
+    assert len(cube_contacts) == 4
+    ball, ball_sticks = _expected_velocity(0.3, [0.4 * 0.3 * 0.05**2] * 3, qpos[:3], v_ball, w_ball, ball_contacts, mu)
+    cube, cube_sticks = _expected_velocity(0.1, [0.1 * 0.02 / 12] * 3, qpos[7:10], v_cube, w_cube, cube_contacts, mu)
+    # at mu 0.05 the ball slides, and three corners slide while the slowest sticks: both branches in one step
+    assert all(ball_sticks + cube_sticks) if mu == 1.0 else not any(ball_sticks) and sum(cube_sticks) == 1
+    np.testing.assert_allclose(after[:6], ball, rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(after[6:], cube, rtol=1e-12, atol=1e-13)
