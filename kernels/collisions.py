@@ -160,7 +160,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                             W_f_L[env, a, r] -= f[r]
                             W_f_L[env, a, 3 + r] -= torque[r]
                     if implicit.shape[0] > 0:
-                        alpha, beta, g = implicit_terms.contact_terms(f, depth, v, n, K, D, mu[i], contacts.p, contacts.q, h)
+                        alpha, beta, g = implicit_terms.contact_terms(f, depth, v, m_k, n, K, D, mu[i], contacts.p, contacts.q, h)
                         if alpha > scalar(0.0):
                             if b >= 0:
                                 implicit_terms.add_terms(implicit, env, b, W_H_L[env, b], p, n, alpha, beta, g)

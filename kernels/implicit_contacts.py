@@ -44,23 +44,26 @@ def kernels(scalar, terrain_kind: int | None = None) -> types.SimpleNamespace:
     law = soft_contact_kernels(scalar, terrain_kind)
 
     @wp.func
-    def contact_terms(f: sp.vec3, depth: scalar, v: sp.vec3, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar, h: scalar):
+    def contact_terms(
+        f: sp.vec3, depth: scalar, v: sp.vec3, m: sp.vec3, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar, h: scalar
+    ):
         """(alpha, beta, g): a contact's h C + h^2 K = alpha n n^T + beta (1 - n n^T) and its predicted force
         g = -h K v [N, world axes], from its force f [N] (`hunt_crossley_at_depth` at the same depth, velocity v of
-        the pushed surface relative to the other, normal n); zeros where it does not push."""
+        the pushed surface relative to the other, deformation m, normal n); zeros where it does not push."""
         zero = scalar(0.0)
         fn = wp.dot(f, n)
         if depth <= zero or fn <= zero:
             return zero, zero, sp.vec3(zero)
+        delta_p = law.power(depth + scalar(EPSILON), pe)
         c = law.damper_coefficient(depth, D, qe)
-        k_t = K * law.power(depth + scalar(EPSILON), pe)
+        k_t = K * delta_p
         k_n = (scalar(1.0) + pe) * k_t
         v_n = wp.dot(v, n)
         g = -wp.min(h * k_n * v_n, fn) * n  # the predicted normal force never pulls
         alpha = h * c + h * h * k_n
         beta = zero
-        f_t = f - fn * n
-        if wp.length(f_t) < mu * fn:  # sticking: the tangential spring and damper act
+        trial = law.trial_tangential_force(delta_p, law.power(depth + scalar(EPSILON), qe), law.tangential_part(v, n), law.tangential_part(m, n), K, D)
+        if wp.length(trial) <= mu * fn:  # sticking (the law's test): the tangential spring and damper act
             beta = h * c + h * h * k_t
             g = g - h * k_t * (v - v_n * n)
         return alpha, beta, g
@@ -115,8 +118,9 @@ def kernels(scalar, terrain_kind: int | None = None) -> types.SimpleNamespace:
             v = sp.lin(W_v_WL[env, L]) + wp.cross(sp.ang(W_v_WL[env, L]), p)
             n = law.terrain_normal(terrain, p[0], p[1])
             depth = (law.terrain_height(terrain, h0, p[0], p[1]) - p[2]) * n[2]
-            f, _ = law.contact_at(contacts, terrain, h0, params, p, v, sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2]))
-            alpha, beta, g = contact_terms(f, depth, v, n, params[0], params[1], params[2], contacts.p, contacts.q, h)
+            m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+            f, _ = law.contact_at(contacts, terrain, h0, params, p, v, m_c)
+            alpha, beta, g = contact_terms(f, depth, v, m_c, n, params[0], params[1], params[2], contacts.p, contacts.q, h)
             if alpha > zero:
                 add_terms(implicit, env, L, X, p, n, alpha, beta, g)
 

@@ -140,6 +140,12 @@ def kernels(scalar, terrain_kind: int | None = None):
         return scalar(0.0)
 
     @wp.func
+    def trial_tangential_force(delta_p: scalar, delta_q: scalar, v_t: sp.vec3, m_t: sp.vec3, K: scalar, D: scalar):
+        """The tangential force [N] of the spring-damper, -(K (delta + eps)^p m_t + D (delta + eps)^q v_t), given
+        (delta + eps)^p and ^q: the contact sticks while its length is within Coulomb's limit mu fn."""
+        return -(K * delta_p * m_t + D * delta_q * v_t)
+
+    @wp.func
     def hunt_crossley_at_depth(depth: scalar, v: sp.vec3, m: sp.vec3, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar):
         """(f (3,), m_dot (3,)): the law at a penetration `depth` [m] along the unit normal n (the force pushes
         along +n), v the velocity [m/s] of the pushed surface relative to the other."""
@@ -164,7 +170,7 @@ def kernels(scalar, terrain_kind: int | None = None):
             v_t = tangential_part(v, n)
             m_n = along_normal(n, normal_part(m, n))
             m_t = tangential_part(m, n)
-            f_t = -(K * delta_p * m_t + D * delta_q * v_t)
+            f_t = trial_tangential_force(delta_p, delta_q, v_t, m_t, K, D)
             norm = wp.length(f_t)
             limit = mu * fn
             m_dot = v_t - (K / D) * m_n
@@ -287,6 +293,8 @@ def kernels(scalar, terrain_kind: int | None = None):
         hunt_crossley_at_depth=hunt_crossley_at_depth,
         damper_coefficient=damper_coefficient,
         power=power,
+        tangential_part=tangential_part,
+        trial_tangential_force=trial_tangential_force,
         law_parameters=law_parameters,
         contact_at=contact_at,
         point_wrench=point_wrench,
