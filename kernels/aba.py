@@ -147,10 +147,13 @@ def inertia_funcs(scalar) -> types.SimpleNamespace:
         return sp.stack(x1, x2), a_i + sp.stack(wp.transpose(R) * x1, x2)
 
     @wp.func
-    def with_implicit_contacts(controls: B.Controls, env: int, i: int, IA: sp.mat66, pA: sp.vec6):
-        """(IA + A_i, pA - g_i): link i's own articulated inertia and bias force with its contacts' linearly implicit
-        terms (controls.link_implicit, link coordinates: kernels/implicit_contacts.py)."""
-        return IA + sc.get_sym66(controls.link_implicit, env, i, 0), pA - sc.get6(controls.link_implicit, env, i, SYM66)
+    def with_implicit_contacts(model: B.Model, controls: B.Controls, env: int, i: int, W_H_L: sp.transform, IA: sp.mat66, pA: sp.vec6):
+        """(IA + A_i, pA - g_i + A_i a_g): link i's own articulated inertia and bias force with its contacts' linearly
+        implicit terms (controls.link_implicit, link coordinates: kernels/implicit_contacts.py), W_H_L its pose. The
+        contacts respond to the link's true acceleration a'_i + a_g, hence A_i a_g (a_g: gravity in link i's
+        coordinates, `gravity_in`), as the base's rotor in `base_bias_force`."""
+        A = sc.get_sym66(controls.link_implicit, env, i, 0)
+        return IA + A, pA - sc.get6(controls.link_implicit, env, i, SYM66) + A * B.gravity_in(model, env, W_H_L)
 
     @wp.func
     def bias_force(v: sp.vec6, I_v: sp.vec6):
@@ -340,7 +343,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
             if forces:
                 pA = pA - external_force(controls, repr, s, _WHL, env, i)
             if implicit:
-                IA, pA = F.with_implicit_contacts(controls, env, i, IA, pA)
+                IA, pA = F.with_implicit_contacts(model, controls, env, i, sc.get_transform(s, env, i, _WHL), IA, pA)
             if model.first_child[i] >= 0:
                 IA = sc.sym_upper(IA + sc.get_sym66(s, env, model.first_child[i], _IA))
                 pA = pA + sc.get6(s, env, model.first_child[i], _PA)
@@ -360,7 +363,7 @@ def kernels(scalar, max_registers, multi_dof: bool):
             if forces:
                 pA0 = pA0 - external_force(controls, repr, s, _WHL, env, 0)
             if implicit:
-                IA0, pA0 = F.with_implicit_contacts(controls, env, 0, IA0, pA0)
+                IA0, pA0 = F.with_implicit_contacts(model, controls, env, 0, W_H_B, IA0, pA0)
             if model.first_child[0] >= 0:
                 IA0 = IA0 + sc.get_sym66(s, env, model.first_child[0], _IA)
                 pA0 = pA0 + sc.get6(s, env, model.first_child[0], _PA)
