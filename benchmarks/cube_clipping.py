@@ -1,5 +1,6 @@
 """How far a fingertip pad that clips the cube throws it: PickCubeEnv's scene under scripted approaches, warpdyn's
-soft law at several time steps beside MuJoCo (issue 37: why PickCubeConfig steps at 0.5 ms).
+soft law at several time steps, explicit and linearly implicit (model.implicit_contacts), beside MuJoCo (issue 37:
+why PickCubeConfig steps at 1 ms with implicit contacts).
 
     python benchmarks/cube_clipping.py [--envs 24] [--time-steps 0.001,0.0005] [--seed 5]
 
@@ -8,7 +9,8 @@ position targets move the gripper site towards 12 cm above its cube by damped le
 alone (the hand tilts on the way, so that a pad often clips the cube's top edge), at most 0.04 rad per policy step,
 for 22 policy steps (0.44 s), the gripper open. The controls are computed once (from the commanded joint positions:
 the same for every simulator) and replayed in warpdyn (float64, PickCubeConfig's K and D, each --time-steps) and in
-MuJoCo (the file's 1 ms, its implicit soft constraints). Prints, over the environments whose cube moved more than
+MuJoCo (the file's 1 ms, its implicit soft constraints); warpdyn's at each time step with explicit and with
+implicit contacts. Prints, over the environments whose cube moved more than
 1 mm in either simulator, the median and mean displacement of the cube [mm] and how many moved more than 2 cm.
 """
 
@@ -56,9 +58,10 @@ def approach_controls(N: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return cubes, np.array(out)
 
 
-def warpdyn_displacements(cubes: np.ndarray, controls: np.ndarray, time_step: float, seed: int) -> np.ndarray:
-    """(N,) [m]: each cube's displacement after the approach in warpdyn at `time_step`."""
-    env = envs.PickCubeEnv(len(cubes), envs.PickCubeConfig(time_step=time_step), dtype=np.float64, device="cpu", seed=seed)
+def warpdyn_displacements(cubes: np.ndarray, controls: np.ndarray, time_step: float, implicit: bool, seed: int) -> np.ndarray:
+    """(N,) [m]: each cube's displacement after the approach in warpdyn at `time_step`, its contacts implicit or not."""
+    config = envs.PickCubeConfig(time_step=time_step, implicit_contacts=implicit)
+    env = envs.PickCubeEnv(len(cubes), config, dtype=np.float64, device="cpu", seed=seed)
     env.reset(seed=seed)
     for ctrl in controls:
         env.step(((torch.from_numpy(ctrl) - env._ctrl) / env.cfg.action_scale).clamp(-1.0, 1.0).float())
@@ -94,12 +97,15 @@ def main() -> None:
     cubes, controls = approach_controls(args.envs, args.seed)
     reference = mujoco_displacements(cubes, controls)
     rows = [("MuJoCo (1 ms, implicit)", reference)]
-    rows += [(f"warpdyn {float(dt) * 1e3:g} ms", warpdyn_displacements(cubes, controls, float(dt), args.seed)) for dt in args.time_steps.split(",")]
+    for dt in args.time_steps.split(","):
+        for implicit in (False, True):
+            name = f"warpdyn {float(dt) * 1e3:g} ms {'implicit' if implicit else 'explicit'}"
+            rows.append((name, warpdyn_displacements(cubes, controls, float(dt), implicit, args.seed)))
     touched = np.any([moved > 1e-3 for _, moved in rows], axis=0)
     print(f"{args.envs} scripted approaches, {touched.sum()} touched the cube (moved > 1 mm in one simulator at least)")
     for name, moved in rows:
         m = moved[touched] * 1e3
-        print(f"{name:>24}: median {np.median(m):6.1f} mm, mean {m.mean():6.1f} mm, {int((moved > 0.02).sum())} moved > 2 cm")
+        print(f"{name:>28}: median {np.median(m):6.1f} mm, mean {m.mean():6.1f} mm, {int((moved > 0.02).sum())} moved > 2 cm")
 
 
 if __name__ == "__main__":

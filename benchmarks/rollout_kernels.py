@@ -5,6 +5,12 @@ step of the same rollout replayed from its graph.
 
     python benchmarks/rollout_kernels.py [--device cuda:0] [--contact rigid] [--dtype float32] [--num-envs 4096]
                                          [--steps 50] [--top 8] [--block-dim 64] [--profile-steps S]
+                                         [--scene legs|pick|reorient] [--explicit]
+
+--scene pick or reorient times instead the manipulation environments' scenes as they step them (envs.PickCubeEnv's
+Panda and cube, envs.CubeReorientEnv's LEAP hand and cube: geom contacts, their configs' time step and implicit
+contacts, or with --explicit their contacts explicit at the same time step; --contact does not apply), from their
+first reset, the actuators' controls 0.
 
 --contact: soft (JaxSim's K = 1e6), relaxed or rigid. The rollout first runs once (compilation, capture) and once
 more (the state moves on: a later segment of the same landing is timed). GPU only (the kernel timing is CUDA's).
@@ -27,7 +33,22 @@ import warp as wp
 
 import speed_accuracy as sa
 import warpdyn as wd
+import warpdyn.envs as envs
 from common import header, seed_model
+
+
+def scene(args, device) -> tuple:
+    """(model, data) of the scene `args.scene` for args.num_envs environments in args.dtype."""
+    dtype = {"float32": np.float32, "float64": np.float64}[args.dtype]
+    if args.scene == "legs":
+        base = seed_model(dtype, device)
+        init = sa.initial_state(seed_model(np.float64, device))
+        model = sa.scene_model(base, sa.SIE, 1e-3, sa.contact_settings([args.contact], [1e6])[0])
+        return model, sa.batch_data(model, init, args.num_envs)
+    make, config = (envs.PickCubeEnv, envs.PickCubeConfig) if args.scene == "pick" else (envs.CubeReorientEnv, envs.CubeReorientConfig)
+    env = make(args.num_envs, config(implicit_contacts=not args.explicit), device=str(device), dtype=dtype, seed=0)
+    env.reset(seed=0)
+    return env.model, env.stepper.data
 
 
 def main() -> None:
@@ -40,6 +61,8 @@ def main() -> None:
     parser.add_argument("--top", type=int, default=8)
     parser.add_argument("--block-dim", type=int, default=None, help="wd.config.cuda_block_dim (default: warpdyn's, 64)")
     parser.add_argument("--profile-steps", type=int, default=None, help="only one eager rollout of this many steps (for Nsight Compute)")
+    parser.add_argument("--scene", default="legs", choices=("legs", "pick", "reorient"))
+    parser.add_argument("--explicit", action="store_true", help="pick, reorient: explicit contacts (model.implicit_contacts off)")
     args = parser.parse_args()
     wp.config.quiet = True
     if args.block_dim is not None:
@@ -47,10 +70,7 @@ def main() -> None:
     device = wp.get_device(args.device)
     if not device.is_cuda:
         raise SystemExit("rollout_kernels.py times CUDA kernels: give --device cuda:N")
-    base = seed_model({"float32": np.float32, "float64": np.float64}[args.dtype], device)
-    init = sa.initial_state(seed_model(np.float64, device))
-    model = sa.scene_model(base, sa.SIE, 1e-3, sa.contact_settings([args.contact], [1e6])[0])
-    data = sa.batch_data(model, init, args.num_envs)
+    model, data = scene(args, device)
     if args.profile_steps is not None:
         wd.simulation.Rollout(model, steps=args.profile_steps, record=("valid",), use_graph=False).run(data)
         wp.synchronize_device(device)
@@ -72,7 +92,8 @@ def main() -> None:
         per_step[result.name] += result.elapsed / args.steps
         count[result.name] += 1
     block = f" --block-dim {args.block_dim}" if args.block_dim is not None else ""
-    print(f"`python benchmarks/rollout_kernels.py --contact {args.contact} --dtype {args.dtype} --num-envs {args.num_envs}{block}`; {header(device)}.")
+    what = f"--scene {args.scene}{' --explicit' * args.explicit}" if args.scene != "legs" else f"--contact {args.contact}"
+    print(f"`python benchmarks/rollout_kernels.py {what} --dtype {args.dtype} --num-envs {args.num_envs}{block}`; {header(device)}.")
     print(f"Graph-replayed rollout: {wall * 1e3:.3f} ms per step (wall); kernels of the recorded replay: {sum(per_step.values()):.3f} ms per step.")
     print()
     print("| kernel | launches per step | ms per step |")

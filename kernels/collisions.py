@@ -135,22 +135,23 @@ def kernels(scalar) -> types.SimpleNamespace:
         zero = vec3(scalar(0.0))
         for i in range(link1.shape[0]):
             a, b = link1[i], link2[i]
+            touching = count[env, i]
             for k in range(slots[i]):
                 slot = first[i] + k
                 row = row0 + slot
-                p = vec3(position[env, slot, 0], position[env, slot, 1], position[env, slot, 2])
-                n = vec3(frame[env, slot, 0, 0], frame[env, slot, 0, 1], frame[env, slot, 0, 2])
-                v = zero  # the velocity of geom2's point relative to geom1's (the world's is 0)
-                if b >= 0:
-                    v = v + sp.lin(W_v_WL[env, b]) + wp.cross(sp.ang(W_v_WL[env, b]), p)
-                if a >= 0:
-                    v = v - sp.lin(W_v_WL[env, a]) - wp.cross(sp.ang(W_v_WL[env, a]), p)
-                depth = -dist[env, slot]  # an empty slot's dist is +inf: out of contact
                 m_k = vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-                f, md = law.hunt_crossley_at_depth(depth, v, m_k, n, K, D, mu[i], contacts.p, contacts.q)
-                for r in range(3):
-                    m_dot[env, row, r] = md[r]
-                if k < count[env, i]:
+                if k < touching:
+                    p = vec3(position[env, slot, 0], position[env, slot, 1], position[env, slot, 2])
+                    n = vec3(frame[env, slot, 0, 0], frame[env, slot, 0, 1], frame[env, slot, 0, 2])
+                    v = zero  # the velocity of geom2's point relative to geom1's (the world's is 0)
+                    if b >= 0:
+                        v = v + sp.lin(W_v_WL[env, b]) + wp.cross(sp.ang(W_v_WL[env, b]), p)
+                    if a >= 0:
+                        v = v - sp.lin(W_v_WL[env, a]) - wp.cross(sp.ang(W_v_WL[env, a]), p)
+                    depth = -dist[env, slot]
+                    f, md = law.hunt_crossley_at_depth(depth, v, m_k, n, K, D, mu[i], contacts.p, contacts.q)
+                    for r in range(3):
+                        m_dot[env, row, r] = md[r]
                     torque = wp.cross(p, f)
                     for r in range(3):  # += is Warp's atomic add (one thread: in order), whose adjoint is right
                         if b >= 0:
@@ -166,6 +167,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                                 implicit_terms.add_terms(implicit, env, b, W_H_L[env, b], p, n, alpha, beta, g)
                             if a >= 0:
                                 implicit_terms.add_terms(implicit, env, a, W_H_L[env, a], p, n, alpha, beta, -g)
+                else:  # an empty slot (its dist +inf), out of contact: its deformation relaxes, nothing else is read
+                    f_none, md_none = law.hunt_crossley_at_depth(scalar(-wp.inf), zero, m_k, zero, K, D, mu[i], contacts.p, contacts.q)
+                    for r in range(3):
+                        m_dot[env, row, r] = md_none[r]
 
     @wp.kernel(module="unique")
     def damper_stability(

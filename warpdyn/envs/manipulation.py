@@ -30,15 +30,15 @@ __all__ = ["PickCubeConfig", "PickCubeEnv"]
 class PickCubeConfig:
     """What `PickCubeEnv` simulates and rewards; units SI (s, m).
 
-    Simulation: `time_step` [s] of the model's integrator (0.5 ms: Playground's 5 ms relies on MuJoCo's implicit
-    integration of the servos and contacts, warpdyn's soft contacts and the fingers' damping are explicit; at 1 ms a
-    pad that clips the cube's edge, as a policy's approaches do, drives the 0.1 kg cube's rotation past the explicit
-    step's stable rate: over 24 scripted approaches a touched cube moved a median 118 mm at 1 ms, 2.4 mm at 0.5 ms,
-    1.0 mm in MuJoCo: benchmarks/cube_clipping.py; tests/test_manipulation.py's pad-on-the-edge test),
-    `policy_dt` [s] per action (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5] and
-    `contact_damping` D [N s/m^1.5] (D = 500: the 0.1 kg cube squeezed between the pads at 1 ms stays within the
-    explicit damper's stable rate), `friction` the terrain's (the floor's) Coulomb coefficient (MuJoCo's cube-floor
-    friction, 1). Task: an action adds `action_scale` times itself (clipped to [-1, 1]) to each of the 8 controls
+    Simulation: `time_step` [s] of the model's integrator (1 ms: Playground's 5 ms relies on MuJoCo's implicit
+    integration of the servos and contacts) and `implicit_contacts` (model.implicit_contacts: the soft law's contacts
+    linearly implicit; explicit, a pad that clips the cube's edge, as a policy's approaches do, drives the 0.1 kg
+    cube's rotation past the explicit step's stable rate: over 24 scripted approaches a touched cube moved a median
+    118 mm at 1 ms explicit, 2.4 mm at 0.5 ms explicit, 1.9 mm at 1 ms implicit, 0.9 mm in MuJoCo:
+    benchmarks/cube_clipping.py; tests/test_manipulation.py's pad-on-the-edge test), `policy_dt` [s] per action
+    (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5] and `contact_damping` D [N s/m^1.5]
+    (D = 500: the 0.1 kg cube squeezed between the pads at 1 ms stays within the explicit damper's stable rate),
+    `friction` the terrain's (the floor's) Coulomb coefficient (MuJoCo's cube-floor friction, 1). Task: an action adds `action_scale` times itself (clipped to [-1, 1]) to each of the 8 controls
     (the 7 joints' position targets [rad] and the gripper's opening [m]), clipped to their ranges; episodes of
     `episode_seconds`; the cube starts on the floor `cube_range` [m] around the keyframe `keyframe`'s cube in x and y,
     the target `target_low` to `target_high` [m] from there. `rewards`: name -> scale of the terms (Playground's
@@ -50,13 +50,13 @@ class PickCubeConfig:
     `success_distance` [m] of its target, and "reached": the fraction whose gripper came within reach_distance of
     the cube this episode (box_target's gate)."""
 
-    time_step: float = 0.0005
+    time_step: float = 0.001
     policy_dt: float = 0.02
     episode_seconds: float = 3.0
     action_scale: float = 0.04
     contact_stiffness: float = 5e5
     contact_damping: float = 500.0
-    implicit_contacts: bool = False
+    implicit_contacts: bool = True
     friction: float = 1.0
     keyframe: str = "home"
     cube_range: float = 0.2
@@ -76,6 +76,8 @@ class PickCubeConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"PickCubeConfig.{name} must be a finite number >= 0, got {value!r}")
+        if not isinstance(self.implicit_contacts, bool):
+            raise ValueError(f"PickCubeConfig.implicit_contacts must be True or False, got {self.implicit_contacts!r}")
         low, high = np.asarray(self.target_low, dtype=float), np.asarray(self.target_high, dtype=float)
         if low.shape != (3,) or high.shape != (3,) or not (np.all(np.isfinite(low)) and np.all(low <= high)):
             raise ValueError(f"PickCubeConfig.target_low and target_high must be 3 finite numbers each, low <= high, got {self.target_low!r}, {self.target_high!r}")

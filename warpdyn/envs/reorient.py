@@ -35,9 +35,9 @@ _TIPS = ("th_tip", "if_tip", "mf_tip", "rf_tip")
 class CubeReorientConfig:
     """What `CubeReorientEnv` simulates and rewards; units SI (s, m, rad).
 
-    Simulation: `time_step` [s] (0.5 ms: Playground's 10 ms relies on MuJoCo's implicit constraint solver; warpdyn's
-    soft contacts are explicit, and the 0.108 kg cube on the fingers' boxes needs the step PickCubeConfig's cube
-    does), `policy_dt` [s] per action (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5],
+    Simulation: `time_step` [s] (1 ms: Playground's 10 ms relies on MuJoCo's implicit constraint solver) and
+    `implicit_contacts` (model.implicit_contacts: the soft law's contacts linearly implicit; explicit, the 0.108 kg
+    cube on the fingers' boxes needs 0.5 ms, as PickCubeConfig's cube), `policy_dt` [s] per action (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5],
     `contact_damping` D [N s/m^1.5] and the floor's `friction`. Task: an action adds `action_scale` times itself
     (clipped to [-1, 1]) to each of the 16 position targets, clipped to their ranges; episodes of `episode_seconds`;
     a reset draws the goal orientation uniformly and takes the hand's joints (the targets there) and the cube's pose
@@ -58,7 +58,8 @@ class CubeReorientConfig:
     the reward is their scaled sum times policy_dt, plus `success_reward` at each success. An episode ends where
     the cube falls below z = -0.05 m or the state stops being finite."""
 
-    time_step: float = 0.0005
+    time_step: float = 0.001
+    implicit_contacts: bool = True
     policy_dt: float = 0.05
     episode_seconds: float = 50.0
     action_scale: float = 0.5
@@ -82,6 +83,8 @@ class CubeReorientConfig:
             value = getattr(self, name)
             if not (_is_number(value) and value > 0.0):
                 raise ValueError(f"CubeReorientConfig.{name} must be a positive finite number, got {value!r}")
+        if not isinstance(self.implicit_contacts, bool):
+            raise ValueError(f"CubeReorientConfig.implicit_contacts must be True or False, got {self.implicit_contacts!r}")
         if isinstance(self.reset_bank, bool) or not isinstance(self.reset_bank, int) or self.reset_bank < 1:
             raise ValueError(f"CubeReorientConfig.reset_bank must be a positive integer, got {self.reset_bank!r}")
         for name in ("friction", "hand_noise", "cube_range", "success_reward", "reset_depth"):
@@ -171,6 +174,7 @@ class CubeReorientEnv(DeviceVectorEnv):
             )
         model = model.copy()
         model.geom_contacts = True
+        model.implicit_contacts = cfg.implicit_contacts
         model.time_step = cfg.time_step
         model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=cfg.contact_damping, mu=cfg.friction)
         return model
