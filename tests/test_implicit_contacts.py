@@ -7,7 +7,6 @@ import warnings
 
 import numpy as np
 import pytest
-import warp as wp
 
 import warpdyn as wd
 
