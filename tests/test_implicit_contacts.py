@@ -135,3 +135,15 @@ def test_implicit_contacts_outside_the_soft_euler_step_are_refused(setting):
         model.contact_params = wd.rbda.contacts.RigidContactsParams()
     with pytest.raises(ValueError, match="implicit_contacts"):
         wd.model.step(model, wd.data.Data.build(model))
+
+
+def test_the_setting_is_checked_and_carried():
+    """model.implicit_contacts takes a bool only (naming itself otherwise), is off by default, and is carried by
+    copy, replace and reduce, as the other settings."""
+    model = _model(1.0, implicit=False)
+    assert model.implicit_contacts is False
+    with pytest.raises((TypeError, ValueError), match="implicit_contacts"):
+        model.implicit_contacts = 1
+    model.implicit_contacts = True
+    assert model.copy().implicit_contacts and model.replace(time_step=5e-4).implicit_contacts
+    assert wd.model.reduce(model, considered_joints=model.joint_names()).implicit_contacts
