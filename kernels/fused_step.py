@@ -1,6 +1,6 @@
 """A semi-implicit Euler step in one kernel, for launches that no tape records.
 
-One thread per environment runs what warpdyn.engine.step otherwise launches as six to eight kernels (the
+One thread per environment runs what warpdyn.engine.step otherwise launches as seven to nine kernels (the
 joint forces, FK, link velocities, the contact forces of the points and their sums per link, ABA, the
 integrator), from the state x. It walks the tree in depth-first order (`walk`), so that most links follow
 their parent:

@@ -318,30 +318,28 @@ def kernels(scalar, multi_dof: bool):
             x: B.State,
             # derivatives at t
             nu_dot: wp.array2d(dtype=scalar),
-            m_dot: wp.array3d(dtype=scalar),
+            # in and out: where `contact_state_euler` found a non-finite deformation (N,), reset to 0
+            contact_flags: wp.array(dtype=int),
             # outputs: the state at t + dt
             y: B.State,
         ):
-            """One semi-implicit Euler step from x to y; nu_dot (N, 6 + nv) is [W_vdot_WB (Inertial); sddot]. The
-            quaternion tolerance bounds |Q+| - 1 before normalising (JaxSim's), |Q| - 1 of the state read (SO3)."""
+            """One semi-implicit Euler step from x to y but the contact state, which `contact_state_euler` stepped
+            before (launched over N rows, a thread per row: one thread per environment walked thousands of slots
+            in series); nu_dot (N, 6 + nv) is [W_vdot_WB (Inertial); sddot]. The quaternion tolerance bounds |Q+| -
+            1 before normalising (JaxSim's), |Q| - 1 of the state read (SO3). A flagged environment keeps all of x,
+            its contact state too."""
             env = wp.tid()
             p_next, pdot_next, omega_next, Q_next, ok = euler_base(SO3, dt, quaternion_tolerance, x, env, read3(nu_dot, env, 0), read3(nu_dot, env, 3))
             nL = model.parent.shape[0]
-            m = x.tangential_deformation
             nonfinite = scalar(0.0)
             for i in range(1, nL):
                 nonfinite = nonfinite + joint_euler_step(model, i, env, dt, x, nu_dot, False, y)
-            for c in range(m.shape[1]):
-                for a in range(3):
-                    nonfinite = poison(nonfinite, euler_rate(m[env, c, a], m_dot[env, c, a], dt))
-            ok = ok and wp.isfinite(nonfinite)
+            ok = ok and wp.isfinite(nonfinite) and contact_flags[env] == 0
+            contact_flags[env] = 0
             if ok:
                 write_base(env, y, p_next, pdot_next, omega_next, Q_next)
                 for i in range(1, nL):
                     joint_euler_step(model, i, env, dt, x, nu_dot, True, y)
-                for c in range(m.shape[1]):
-                    for a in range(3):
-                        y.tangential_deformation[env, c, a] = euler_rate(m[env, c, a], m_dot[env, c, a], dt)
                 y.valid[env] = 1
             else:
                 keep_state(env, x, y)
@@ -350,6 +348,29 @@ def kernels(scalar, multi_dof: bool):
 
     semi_implicit_euler = euler(False)
     semi_implicit_euler_so3 = euler(True)
+
+    @wp.kernel(module="unique")
+    def contact_state_euler(
+        dt: scalar,
+        x: B.State,
+        m_dot: wp.array3d(dtype=scalar),
+        env_fastest: int,
+        # outputs: y's contact state; contact_flags[env] = 1 where a row of it is not finite
+        contact_flags: wp.array(dtype=int),
+        y: B.State,
+    ):
+        """The semi-implicit Euler step of the contact state, m+ = m + dt m_dot (N, rows, 3), launched over N rows
+        threads (order: bundles.env_and_item), before `semi_implicit_euler`, which reads and resets contact_flags
+        and keeps x's contact state in a flagged environment."""
+        env, c = B.env_and_item(wp.tid(), x.valid.shape[0], x.tangential_deformation.shape[1], env_fastest)
+        m = x.tangential_deformation
+        nonfinite = scalar(0.0)
+        for a in range(3):
+            value = euler_rate(m[env, c, a], m_dot[env, c, a], dt)
+            y.tangential_deformation[env, c, a] = value
+            nonfinite = poison(nonfinite, value)
+        if not wp.isfinite(nonfinite):
+            contact_flags[env] = 1
 
     @wp.kernel(module="unique")
     def slope(
@@ -503,6 +524,7 @@ def kernels(scalar, multi_dof: bool):
         write_base=write_base,
         semi_implicit_euler=semi_implicit_euler,
         semi_implicit_euler_so3=semi_implicit_euler_so3,
+        contact_state_euler=contact_state_euler,
         slope=slope,
         rk4_stage=rk4_stage,
         rk4_combine=rk4_combine,

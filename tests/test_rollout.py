@@ -585,7 +585,8 @@ def test_plan_is_cached_and_rebuilt_when_parameters_change():
 @pytest.mark.parametrize("fused", [True, False], ids=["fused", "launch_list"])
 def test_models_launch_only_what_they_need(monkeypatch, fused):
     """The launch list (what a tape records): legs with contacts: actuation, FK, link velocities, the points'
-    contact forces, their sums per link, ABA, integrator; without enabled points: actuation, ABA, integrator.
+    contact forces, their sums per link, ABA, the contact state's step, integrator; without enabled points: actuation,
+    ABA, the contact state's step (the disabled points' deformation carried over), integrator.
     Fused (warpdyn.config.fused_step): the fused step alone (the joint forces in it), with or without points. Each list ends
     with the parameters' device check (kernels/parameter_checks.py). Mixed link forces add FK and a conversion (Inertial ones
     nothing)."""
@@ -598,8 +599,8 @@ def test_models_launch_only_what_they_need(monkeypatch, fused):
     if fused:
         assert with_contacts == without == ["fused_euler_step", "keep_unphysical"], "the joint forces in the fused kernel"
     else:
-        assert with_contacts == ["resultant_torques", "forward_kinematics", "link_velocities", "point_contact_forces", "link_contact_forces", "aba", "semi_implicit_euler", "keep_unphysical"]
-        assert without == ["resultant_torques", "aba", "semi_implicit_euler", "keep_unphysical"]
+        assert with_contacts == ["resultant_torques", "forward_kinematics", "link_velocities", "point_contact_forces", "link_contact_forces", "aba", "contact_state_euler", "semi_implicit_euler", "keep_unphysical"]
+        assert without == ["resultant_torques", "aba", "contact_state_euler", "semi_implicit_euler", "keep_unphysical"]
     assert len(_kernel_names(no_contacts, data, forces=True)) == len(without) + 2
     inertial = wd.data.random_model_data(legs, key=1, num_envs=2, velocity_representation=VelRepr.Inertial)
     assert len(_kernel_names(no_contacts, inertial, forces=True)) == len(without)

@@ -352,6 +352,7 @@ class Workspace:
                 self.W_H_L = arrays.output((nL,), N, transform, d, grad)
         if plan.euler:
             self.nu_dot = arrays.output((6 + n,), N, s, d, grad)
+            self.contact_flags = wp.zeros(N, dtype=wp.int32, device=d)  # integrators.contact_state_euler's, reset by each step
             self.evals = [Evaluation(plan, N, grad, forces, self.nu_dot)]
         else:
             shared = plan.equality.buffers(plan, N) if plan.equality is not None and not grad else None  # a tape's adjoints read each stage's
@@ -525,7 +526,10 @@ def step_launches(
     launches += evaluate(plan, ev, X, tau, f_ext, poses_done)
     if plan.euler:
         euler = K.semi_implicit_euler_so3 if plan.integrator == IntegratorType.SemiImplicitEulerSO3 else K.semi_implicit_euler
-        launches.append(Launch(euler, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ev.m_dot], [Y]))
+        if plan.state_rows:  # the contact state, a thread per row (its rows may be thousands: geom pairs' slots)
+            args = [plan.dt, X, ev.m_dot, int(arrays.env_fastest(plan.device))]
+            launches.append(Launch(K.contact_state_euler, N * plan.state_rows, args, [ws.contact_flags, Y]))
+        launches.append(Launch(euler, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ws.contact_flags], [Y]))
         if plan.contacts:
             launches += plan.contact_stage.after_step(plan, ev, Y, N)
         if plan.equality is not None:
