@@ -405,15 +405,22 @@ def test_a_diverging_environment_is_flagged_frozen_and_reset(dtype, layout):
 
 
 @pytest.mark.parametrize("bad_value", [np.nan, np.inf], ids=["nan", "inf"])
-@pytest.mark.parametrize("integrator", [SIE, wd.model.IntegratorType.SemiImplicitEulerSO3, RK4], ids=lambda i: i.name)
-def test_each_kind_of_state_value_is_in_the_health_check(integrator, bad_value):
+@pytest.mark.parametrize(
+    "integrator, fused",
+    [(SIE, True), (SIE, False), (wd.model.IntegratorType.SemiImplicitEulerSO3, True), (wd.model.IntegratorType.SemiImplicitEulerSO3, False), (RK4, False)],
+    ids=["SemiImplicitEuler-fused", "SemiImplicitEuler-staged", "SemiImplicitEulerSO3-fused", "SemiImplicitEulerSO3-staged", "RungeKutta4"],
+)
+def test_each_kind_of_state_value_is_in_the_health_check(integrator, fused, bad_value, monkeypatch):
     """The integrators check the next state by summing 0 x value over it (NaN once a value is not finite;
     kernels/integrators.py's `poison`), not by a chain of isfinite tests. One non-finite value in the state
     of environment k (the last joint position, the last joint velocity, the last collidable point's last
     deformation component: the ends of each loop of that sum) flags environment k alone and keeps its state;
     the other environments' next states equal a clean batch's bitwise. The seed's legs with their points,
     float64, a step each, in the air: a non-finite deformation of a point out of contact changes no force,
-    so only the sum over the deformations can flag it (checked by removing that term: the test fails)."""
+    so only the sum over the deformations can flag it (checked by removing that term: the test fails). The Euler
+    steps fused (one kernel) and staged (the launch list: the contact state stepped by its own kernel, whose flag the
+    Euler kernel reads); RK4 is staged."""
+    monkeypatch.setattr(wd.config, "fused_step", fused)
     model = robots.ergocub_seed_with_points(np.float64)
     model.integrator = integrator
     n, N = model.dofs(), 4
