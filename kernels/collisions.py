@@ -45,14 +45,16 @@ def kernels(scalar) -> types.SimpleNamespace:
         link_H_geom1: wp.array(dtype=sp.transform), link_H_geom2: wp.array(dtype=sp.transform),
         size1: wp.array(dtype=vec3), size2: wp.array(dtype=vec3), margin: wp.array(dtype=scalar),
         first: wp.array(dtype=int), slots: wp.array(dtype=int),
-        W_H_L: wp.array2d(dtype=sp.transform),
+        W_H_L: wp.array2d(dtype=sp.transform), env_fastest: int,
         # outputs
         count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar),
     ):  # fmt: skip
-        """Launched over (N, nP): pair i's contacts in environment env (the module docstring), count (N, nP),
+        """Launched over N nP threads, one per environment and pair (order: bundles.env_and_item: with
+        environment-fastest arrays a warp holds one pair in 32 environments, one branch of the narrow phase and
+        neighbouring numbers): pair i's contacts in environment env (the module docstring), count (N, nP),
         position (N, C, 3), frame (N, C, 3, 3), dist (N, C); margin: the pair's margin + gap [m]; a link -1 is the
         world (its geom's pose given in it)."""
-        env, i = wp.tid()
+        env, i = B.env_and_item(wp.tid(), W_H_L.shape[0], link1.shape[0], env_fastest)
         X1 = link_H_geom1[i]
         if link1[i] >= 0:
             X1 = W_H_L[env, link1[i]] * X1

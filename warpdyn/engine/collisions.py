@@ -78,7 +78,8 @@ def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
     """The launch of the pairs' contacts at the link poses W_H_L (N, nL) into the buffers b (`contact_buffers`)."""
     inputs = [a[k] for k in ("link1", "link2", "type1", "type2", "link_H_geom1", "link_H_geom2", "size1", "size2", "margin", "first", "slots")]
     outputs = [b[k] for k in ("count", "position", "frame", "dist")]
-    return Launch(collision_kernels(a["scalar"]).geom_contacts, (N, a["pairs"]), [*inputs, W_H_L], outputs)
+    order = int(arrays.env_fastest(a["device"]))
+    return Launch(collision_kernels(a["scalar"]).geom_contacts, N * a["pairs"], [*inputs, W_H_L, order], outputs)
 
 
 def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, m: wp.array, b: dict, W_f_L: wp.array, m_dot: wp.array, N: int,
