@@ -20,7 +20,7 @@ from .spatial import spatial
 
 @factory
 def kernels(scalar) -> types.SimpleNamespace:
-    """The kernels `geom_contacts` and `geom_contact_wrenches` in `scalar` (wp.float32 or wp.float64)."""
+    """The kernels `geom_contacts`, `geom_contact_rates` and `geom_contact_wrenches` in `scalar` (wp.float32 or wp.float64)."""
     prim = collision_primitives.kernels(scalar)
     box = collision_box.kernels(scalar)
     law = soft_contacts.kernels(scalar)
@@ -107,72 +107,96 @@ def kernels(scalar) -> types.SimpleNamespace:
         for k in range(n, slots[i]):
             put(env, base + k, zero, mat33(scalar(0.0)), scalar(wp.inf), position, frame, dist)
 
+    @wp.func
+    def slot_contact(
+        contacts: B.Contacts, a: int, b: int, mu: scalar, K: scalar, D: scalar, env: int, slot: int, row: int, position: wp.array3d(dtype=scalar),
+        frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar),
+    ):  # fmt: skip
+        """The soft law at the touching contact in `slot` of a pair of links a and b (-1: the world) with friction mu:
+        (its position p [m, world], normal n (geom1 to geom2), velocity v of geom2's point relative to geom1's [m/s],
+        depth -dist [m], deformation m_k (row `row` of m), force f on geom2's link [N, world], deformation rate)."""
+        p = vec3(position[env, slot, 0], position[env, slot, 1], position[env, slot, 2])
+        n = vec3(frame[env, slot, 0, 0], frame[env, slot, 0, 1], frame[env, slot, 0, 2])
+        v = vec3(scalar(0.0))  # the world's is 0
+        if b >= 0:
+            v = v + sp.lin(W_v_WL[env, b]) + wp.cross(sp.ang(W_v_WL[env, b]), p)
+        if a >= 0:
+            v = v - sp.lin(W_v_WL[env, a]) - wp.cross(sp.ang(W_v_WL[env, a]), p)
+        depth = -dist[env, slot]
+        m_k = vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+        f, md = law.hunt_crossley_at_depth(depth, v, m_k, n, K, D, mu, contacts.p, contacts.q)
+        return p, n, v, depth, m_k, f, md
+
+    @wp.kernel(module="unique")
+    def geom_contact_rates(
+        contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar), first: wp.array(dtype=int),
+        slot_pair: wp.array(dtype=int), count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar),
+        dist: wp.array2d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar), env_fastest: int,
+        # outputs
+        m_dot: wp.array3d(dtype=scalar),
+    ):  # fmt: skip
+        """Launched over N C threads, one per environment and contact slot (order: bundles.env_and_item), after
+        `geom_contacts` at the same state: the deformation rate of the contact in slot k (slot_pair: its pair), row
+        nc_all + k of m_dot (N, rows, 3) [m/s, world axes] (its deformation that row of the contact state m): the
+        law's (`slot_contact`) where the slot holds a touching contact, the relative tangential displacement while it
+        sticks (static friction); a relaxation at K / D where it holds none. A slot keeps its deformation while its
+        pair's contacts keep their order (a pair's slots are in its narrow phase's order)."""
+        env, slot = B.env_and_item(wp.tid(), m.shape[0], slot_pair.shape[0], env_fastest)
+        i = slot_pair[slot]
+        row = contacts.row_point.shape[0] + slot  # the points' rows come first
+        K = B.env_parameter(contacts.K, env)
+        D = B.env_parameter(contacts.D, env)
+        md = vec3(scalar(0.0))
+        if slot - first[i] < count[env, i]:
+            p, n, v, depth, m_k, f, md = slot_contact(contacts, link1[i], link2[i], mu[i], K, D, env, slot, row, position, frame, dist, W_v_WL, m)
+        else:  # an empty slot (its dist +inf), out of contact: nothing else is read
+            zero = vec3(scalar(0.0))
+            m_k = vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+            f, md = law.hunt_crossley_at_depth(scalar(-wp.inf), zero, m_k, zero, K, D, mu[i], contacts.p, contacts.q)
+        for r in range(3):
+            m_dot[env, row, r] = md[r]
+
     @wp.kernel(module="unique")
     def geom_contact_wrenches(
         contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar), first: wp.array(dtype=int),
-        slots: wp.array(dtype=int), count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar),
-        dist: wp.array2d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar),
-        W_H_L: wp.array2d(dtype=sp.transform), h: scalar,
-        # outputs
-        m_dot: wp.array3d(dtype=scalar),
+        link_pair_start: wp.array(dtype=int), link_pairs: wp.array(dtype=int), count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar),
+        frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar),
+        W_H_L: wp.array2d(dtype=sp.transform), h: scalar, env_fastest: int,
         # in and out
         W_f_L: wp.array3d(dtype=scalar),
         implicit: wp.array3d(dtype=scalar),
     ):  # fmt: skip
-        """Launched over N, after `geom_contacts` at the same state: each contact's soft-law force (JaxSim's
-        Hunt/Crossley with its tangential deformation, kernels/soft_contacts.py's `hunt_crossley_at_depth`, at the
-        depth -dist along the contact's normal, with the velocity of geom2's point relative to geom1's, the pair's mu)
-        added to W_f_L (N, nL, 6), Inertial: [f; p x f] on geom2's link, its opposite on geom1's (none on the world,
-        link -1). The deformation of the contact in slot k is row nc_all + k of the contact state m (N, rows, 3) [m,
-        world axes], its rate written to the same row of m_dot: the relative tangential displacement while the contact
-        sticks (static friction), relaxing at K / D where the slot holds no touching contact. A slot keeps its
-        deformation while its pair's contacts keep their order (a pair's slots are in its narrow phase's order).
-        Where implicit (N, nL, IMPLICIT) has rows (model.implicit_contacts), each contact's linearly implicit terms at
-        the time step h [s] are added to both links' (kernels/implicit_contacts.py; W_H_L (N, nL) the links' poses).
-        One thread walks an environment's pairs in order (the sums are deterministic)."""
-        env = wp.tid()
+        """Launched over N nL threads, one per environment and link (order: bundles.env_and_item), after `geom_contacts`
+        at the same state: the soft-law force (`slot_contact`: JaxSim's Hunt/Crossley with its tangential deformation
+        at the depth -dist along the contact's normal, with the velocity of geom2's point relative to geom1's, the
+        pair's mu) of each touching contact of the link's pairs (link_pairs[link_pair_start[L]:link_pair_start[L + 1]],
+        in pair order) added to its row of W_f_L (N, nL, 6), Inertial: [f; p x f] where the link holds geom2, its
+        opposite where it holds geom1 (the world, link -1, gets none). Where implicit (N, nL, IMPLICIT) has rows
+        (model.implicit_contacts), each contact's linearly implicit terms at the time step h [s] are added to the
+        link's (kernels/implicit_contacts.py; W_H_L (N, nL) the links' poses). A thread writes its link's rows alone,
+        in the pairs' order (the sums are deterministic); a contact's force is so computed by both its links'."""
+        env, L = B.env_and_item(wp.tid(), W_f_L.shape[0], W_f_L.shape[1], env_fastest)
         K = B.env_parameter(contacts.K, env)
         D = B.env_parameter(contacts.D, env)
         row0 = contacts.row_point.shape[0]  # the points' rows come first
-        zero = vec3(scalar(0.0))
-        for i in range(link1.shape[0]):
+        for e in range(link_pair_start[L], link_pair_start[L + 1]):
+            i = link_pairs[e]
             a, b = link1[i], link2[i]
-            touching = count[env, i]
-            for k in range(slots[i]):
+            sign = scalar(1.0)
+            if b != L:
+                sign = scalar(-1.0)
+            for k in range(count[env, i]):
                 slot = first[i] + k
-                row = row0 + slot
-                m_k = vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-                if k < touching:
-                    p = vec3(position[env, slot, 0], position[env, slot, 1], position[env, slot, 2])
-                    n = vec3(frame[env, slot, 0, 0], frame[env, slot, 0, 1], frame[env, slot, 0, 2])
-                    v = zero  # the velocity of geom2's point relative to geom1's (the world's is 0)
-                    if b >= 0:
-                        v = v + sp.lin(W_v_WL[env, b]) + wp.cross(sp.ang(W_v_WL[env, b]), p)
-                    if a >= 0:
-                        v = v - sp.lin(W_v_WL[env, a]) - wp.cross(sp.ang(W_v_WL[env, a]), p)
-                    depth = -dist[env, slot]
-                    f, md = law.hunt_crossley_at_depth(depth, v, m_k, n, K, D, mu[i], contacts.p, contacts.q)
-                    for r in range(3):
-                        m_dot[env, row, r] = md[r]
-                    torque = wp.cross(p, f)
-                    for r in range(3):  # += is Warp's atomic add (one thread: in order), whose adjoint is right
-                        if b >= 0:
-                            W_f_L[env, b, r] += f[r]
-                            W_f_L[env, b, 3 + r] += torque[r]
-                        if a >= 0:
-                            W_f_L[env, a, r] -= f[r]
-                            W_f_L[env, a, 3 + r] -= torque[r]
-                    if implicit.shape[0] > 0:
-                        alpha, beta, g = implicit_terms.contact_terms(f, depth, v, m_k, n, K, D, mu[i], contacts.p, contacts.q, h)
-                        if alpha > scalar(0.0):
-                            if b >= 0:
-                                implicit_terms.add_terms(implicit, env, b, W_H_L[env, b], p, n, alpha, beta, g)
-                            if a >= 0:
-                                implicit_terms.add_terms(implicit, env, a, W_H_L[env, a], p, n, alpha, beta, -g)
-                else:  # an empty slot (its dist +inf), out of contact: its deformation relaxes, nothing else is read
-                    f_none, md_none = law.hunt_crossley_at_depth(scalar(-wp.inf), zero, m_k, zero, K, D, mu[i], contacts.p, contacts.q)
-                    for r in range(3):
-                        m_dot[env, row, r] = md_none[r]
+                p, n, v, depth, m_k, f, md = slot_contact(contacts, a, b, mu[i], K, D, env, slot, row0 + slot, position, frame, dist, W_v_WL, m)
+                w = sign * f
+                torque = wp.cross(p, w)
+                for r in range(3):  # += is Warp's atomic add (one thread per link: in order), whose adjoint is right
+                    W_f_L[env, L, r] += w[r]
+                    W_f_L[env, L, 3 + r] += torque[r]
+                if implicit.shape[0] > 0:
+                    alpha, beta, g = implicit_terms.contact_terms(f, depth, v, m_k, n, K, D, mu[i], contacts.p, contacts.q, h)
+                    if alpha > scalar(0.0):
+                        implicit_terms.add_terms(implicit, env, L, W_H_L[env, L], p, n, alpha, beta, sign * g)
 
     @wp.kernel(module="unique")
     def damper_stability(
@@ -226,5 +250,5 @@ def kernels(scalar) -> types.SimpleNamespace:
                         touching[env, k] = True
 
     return types.SimpleNamespace(
-        geom_contacts=geom_contacts, geom_contact_wrenches=geom_contact_wrenches, damper_stability=damper_stability, links_touching=links_touching
+        geom_contacts=geom_contacts, geom_contact_rates=geom_contact_rates, geom_contact_wrenches=geom_contact_wrenches, damper_stability=damper_stability, links_touching=links_touching
     )

@@ -1,5 +1,5 @@
 """Contacts between bodies in a step (model.geom_contacts): the soft law at each contact of the geom pairs
-(kernels/collisions.py's `geom_contact_wrenches`), checked by hand on one contact, by the conservation of momentum
+(kernels/collisions.py's `geom_contact_wrenches` and `geom_contact_rates`), checked by hand on one contact, by the conservation of momentum
 in free flight, by scenes of free objects coming to rest where MuJoCo's do and a pusher moving a box as MuJoCo's does,
 and by a step's Jacobians against central differences.
 

@@ -1,6 +1,7 @@
 """Contacts between geoms: the model's geom pairs (warpdyn.types.geoms) on the device, their contacts at a state
 (kernels/collisions.py's `geom_contacts`) and, in a step where model.geom_contacts is set, their soft-law wrenches
-added to the links' and their deformation rates (`geom_contact_wrenches`, launched by the soft contact stage: warpdyn.engine.contact_stage).
+added to the links' and their deformation rates (`geom_contact_wrenches`, `geom_contact_rates`, launched by the soft contact
+stage: warpdyn.engine.contact_stage).
 Results have a leading N axis.
 """
 
@@ -29,6 +30,7 @@ def pair_arrays(model) -> dict:
         pairs, s, d = geom_pairs(model), model.scalar, model.device
         vec3 = wp.types.vector(3, s)
         lone = _lone_free_bodies(model.tree, model.floating_base())
+        slot_pair, link_pair_start, link_pairs = _slot_and_link_pairs(pairs, model.number_of_links())
         return dict(
             scalar=s, device=d, pairs=len(pairs), contacts=pairs.contacts,
             link1=wp.array(pairs.link1, dtype=int, device=d),
@@ -43,11 +45,26 @@ def pair_arrays(model) -> dict:
             mu=wp.array(np.where(pairs.condim > 1, pairs.friction[:, 0], 0.0), dtype=s, device=d),  # condim 1: frictionless
             first=wp.array(pairs.first, dtype=int, device=d),
             slots=wp.array(pairs.slots, dtype=int, device=d),
+            slot_pair=wp.array(slot_pair, dtype=int, device=d),
+            link_pair_start=wp.array(link_pair_start, dtype=int, device=d),
+            link_pairs=wp.array(link_pairs, dtype=int, device=d),
             guarded=wp.array(lone, dtype=int, device=d),
             any_guarded=bool(lone.any()),
         )  # fmt: skip
 
     return model.cached("geom pair arrays", build)
+
+
+def _slot_and_link_pairs(pairs, links: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(slot_pair (C,): each contact slot's pair; link_pair_start (nL + 1,), link_pairs: the pairs of each link in pair
+    order, link L's at link_pairs[link_pair_start[L]:link_pair_start[L + 1]]), int32 (the world, -1, has none)."""
+    slot_pair = np.repeat(np.arange(len(pairs.first), dtype=np.int32), np.asarray(pairs.slots, dtype=np.int64))
+    by_link = [[] for _ in range(links)]
+    for i, (a, b) in enumerate(zip(pairs.link1, pairs.link2)):
+        for link in {int(a), int(b)} - {-1}:
+            by_link[link].append(i)
+    start = np.cumsum([0] + [len(p) for p in by_link]).astype(np.int32)
+    return slot_pair, start, np.array([i for p in by_link for i in p], dtype=np.int32)
 
 
 def _lone_free_bodies(tree, floating_base: bool) -> np.ndarray:
@@ -93,10 +110,16 @@ def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, 
     (kernels/implicit_contacts.py)."""
     s, d = a["scalar"], a["device"]
     h, terms = implicit if implicit is not None and implicit[1] is not None else (s(0.0), empty_like_input(s, d, 3))
-    contacts = [b[k] for k in ("count", "position", "frame", "dist")]
-    inputs = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["slots"], *contacts, W_v_WL, m, W_H_L, h]
+    order = int(arrays.env_fastest(d))
+    state = [b[k] for k in ("count", "position", "frame", "dist")] + [W_v_WL, m]
     kernels = collision_kernels(s)
-    launches = [contact_launch(a, W_H_L, b, N), Launch(kernels.geom_contact_wrenches, N, inputs, [m_dot, W_f_L, terms])]
+    rates = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["slot_pair"], *state, order]
+    wrenches = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["link_pair_start"], a["link_pairs"], *state, W_H_L, h, order]
+    launches = [
+        contact_launch(a, W_H_L, b, N),
+        Launch(kernels.geom_contact_rates, N * a["contacts"], rates, [m_dot]),
+        Launch(kernels.geom_contact_wrenches, N * W_f_L.shape[1], wrenches, [W_f_L, terms]),
+    ]
     if check is not None and a["any_guarded"]:
         rate, model_bundle = check
         inputs = [contacts_bundle, model_bundle, a["link1"], a["link2"], a["first"], b["count"], b["dist"], rate, a["guarded"], b["damping"]]
