@@ -311,8 +311,8 @@ def kernels(scalar, max_registers, multi_dof: bool):
         controls: joint forces (N, nv) and external link forces (N, nL, 6) in `repr` (either may be absent).
         The joint-space inertia of DoF d is S_d^T IA S_d + armature_d + implicit_dt damping_d: with
         implicit_dt = dt this solves (M + dt diag(damping)) nu_dot = f, MuJoCo's implicit damping (0: none).
-        controls' link_implicit (N, nL, 27), when given: each link's contact terms A_L added to its articulated
-        inertia and g_L to its force (kernels/implicit_contacts.py: the step's linearly implicit contacts).
+        controls' link_implicit (N, nL, 27), given with the link forces: each link's contact terms A_L added to its
+        articulated inertia and g_L to its force (kernels/implicit_contacts.py: the step's linearly implicit contacts).
         s (N, max(nL, nv + 1), ABA_RECORD, + 7 with link forces): scratch, columns named at the top of this file.
         """
         env = wp.tid()

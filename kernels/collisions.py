@@ -131,42 +131,46 @@ def kernels(scalar) -> types.SimpleNamespace:
     def geom_contact_rates(
         contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar), first: wp.array(dtype=int),
         slot_pair: wp.array(dtype=int), count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar),
-        dist: wp.array2d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar), env_fastest: int,
+        dist: wp.array2d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar), env_fastest: int, per_thread: int,
         # outputs
         m_dot: wp.array3d(dtype=scalar),
     ):  # fmt: skip
-        """Launched over N C threads, one per environment and contact slot (order: bundles.env_and_item), after
+        """Launched over N C / per_thread threads, each for per_thread consecutive contact slots of an environment
+        (order: bundles.env_and_item; per_thread 1, or C: a thread per environment, as the points' kernels under a
+        tape: warpdyn.engine.contact_stage's `contacts_per_environment`), after
         `geom_contacts` at the same state: the deformation rate of the contact in slot k (slot_pair: its pair), row
         nc_all + k of m_dot (N, rows, 3) [m/s, world axes] (its deformation that row of the contact state m): the
         law's (`slot_contact`) where the slot holds a touching contact, the relative tangential displacement while it
         sticks (static friction); a relaxation at K / D where it holds none. A slot keeps its deformation while its
         pair's contacts keep their order (a pair's slots are in its narrow phase's order)."""
-        env, slot = B.env_and_item(wp.tid(), m.shape[0], slot_pair.shape[0], env_fastest)
-        i = slot_pair[slot]
-        row = contacts.row_point.shape[0] + slot  # the points' rows come first
+        env, chunk = B.env_and_item(wp.tid(), m.shape[0], slot_pair.shape[0] // per_thread, env_fastest)
         K = B.env_parameter(contacts.K, env)
         D = B.env_parameter(contacts.D, env)
-        md = vec3(scalar(0.0))
-        if slot - first[i] < count[env, i]:
-            p, n, v, depth, m_k, f, md = slot_contact(contacts, link1[i], link2[i], mu[i], K, D, env, slot, row, position, frame, dist, W_v_WL, m)
-        else:  # an empty slot (its dist +inf), out of contact: nothing else is read
-            zero = vec3(scalar(0.0))
-            m_k = vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-            f, md = law.hunt_crossley_at_depth(scalar(-wp.inf), zero, m_k, zero, K, D, mu[i], contacts.p, contacts.q)
-        for r in range(3):
-            m_dot[env, row, r] = md[r]
+        for slot in range(chunk * per_thread, (chunk + 1) * per_thread):
+            i = slot_pair[slot]
+            row = contacts.row_point.shape[0] + slot  # the points' rows come first
+            md = vec3(scalar(0.0))
+            if slot - first[i] < count[env, i]:
+                p, n, v, depth, m_k, f, md = slot_contact(contacts, link1[i], link2[i], mu[i], K, D, env, slot, row, position, frame, dist, W_v_WL, m)
+            else:  # an empty slot (its dist +inf), out of contact: nothing else is read
+                zero = vec3(scalar(0.0))
+                m_k = vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
+                f, md = law.hunt_crossley_at_depth(scalar(-wp.inf), zero, m_k, zero, K, D, mu[i], contacts.p, contacts.q)
+            for r in range(3):
+                m_dot[env, row, r] = md[r]
 
     @wp.kernel(module="unique")
     def geom_contact_wrenches(
         contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar), first: wp.array(dtype=int),
         link_pair_start: wp.array(dtype=int), link_pairs: wp.array(dtype=int), count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar),
         frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar),
-        W_H_L: wp.array2d(dtype=sp.transform), h: scalar, env_fastest: int,
+        W_H_L: wp.array2d(dtype=sp.transform), h: scalar, env_fastest: int, per_thread: int,
         # in and out
         W_f_L: wp.array3d(dtype=scalar),
         implicit: wp.array3d(dtype=scalar),
     ):  # fmt: skip
-        """Launched over N nL threads, one per environment and link (order: bundles.env_and_item), after `geom_contacts`
+        """Launched over N nL / per_thread threads, each for per_thread consecutive links of an environment (order:
+        bundles.env_and_item; per_thread 1, or nL: a thread per environment, as `geom_contact_rates`), after `geom_contacts`
         at the same state: the soft-law force (`slot_contact`: JaxSim's Hunt/Crossley with its tangential deformation
         at the depth -dist along the contact's normal, with the velocity of geom2's point relative to geom1's, the
         pair's mu) of each touching contact of the link's pairs (link_pairs[link_pair_start[L]:link_pair_start[L + 1]],
@@ -175,28 +179,29 @@ def kernels(scalar) -> types.SimpleNamespace:
         (model.implicit_contacts), each contact's linearly implicit terms at the time step h [s] are added to the
         link's (kernels/implicit_contacts.py; W_H_L (N, nL) the links' poses). A thread writes its link's rows alone,
         in the pairs' order (the sums are deterministic); a contact's force is so computed by both its links'."""
-        env, L = B.env_and_item(wp.tid(), W_f_L.shape[0], W_f_L.shape[1], env_fastest)
+        env, chunk = B.env_and_item(wp.tid(), W_f_L.shape[0], W_f_L.shape[1] // per_thread, env_fastest)
         K = B.env_parameter(contacts.K, env)
         D = B.env_parameter(contacts.D, env)
         row0 = contacts.row_point.shape[0]  # the points' rows come first
-        for e in range(link_pair_start[L], link_pair_start[L + 1]):
-            i = link_pairs[e]
-            a, b = link1[i], link2[i]
-            sign = scalar(1.0)
-            if b != L:
-                sign = scalar(-1.0)
-            for k in range(count[env, i]):
-                slot = first[i] + k
-                p, n, v, depth, m_k, f, md = slot_contact(contacts, a, b, mu[i], K, D, env, slot, row0 + slot, position, frame, dist, W_v_WL, m)
-                w = sign * f
-                torque = wp.cross(p, w)
-                for r in range(3):  # += is Warp's atomic add (one thread per link: in order), whose adjoint is right
-                    W_f_L[env, L, r] += w[r]
-                    W_f_L[env, L, 3 + r] += torque[r]
-                if implicit.shape[0] > 0:
-                    alpha, beta, g = implicit_terms.contact_terms(f, depth, v, m_k, n, K, D, mu[i], contacts.p, contacts.q, h)
-                    if alpha > scalar(0.0):
-                        implicit_terms.add_terms(implicit, env, L, W_H_L[env, L], p, n, alpha, beta, sign * g)
+        for L in range(chunk * per_thread, (chunk + 1) * per_thread):
+            for e in range(link_pair_start[L], link_pair_start[L + 1]):
+                i = link_pairs[e]
+                a, b = link1[i], link2[i]
+                sign = scalar(1.0)
+                if b != L:
+                    sign = scalar(-1.0)
+                for k in range(count[env, i]):
+                    slot = first[i] + k
+                    p, n, v, depth, m_k, f, md = slot_contact(contacts, a, b, mu[i], K, D, env, slot, row0 + slot, position, frame, dist, W_v_WL, m)
+                    w = sign * f
+                    torque = wp.cross(p, w)
+                    for r in range(3):  # += is Warp's atomic add (one thread per link: in order), whose adjoint is right
+                        W_f_L[env, L, r] += w[r]
+                        W_f_L[env, L, 3 + r] += torque[r]
+                    if implicit.shape[0] > 0:
+                        alpha, beta, g = implicit_terms.contact_terms(f, depth, v, m_k, n, K, D, mu[i], contacts.p, contacts.q, h)
+                        if alpha > scalar(0.0):
+                            implicit_terms.add_terms(implicit, env, L, W_H_L[env, L], p, n, alpha, beta, sign * g)
 
     @wp.kernel(module="unique")
     def damper_stability(

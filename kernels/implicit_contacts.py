@@ -92,36 +92,46 @@ def kernels(scalar, terrain_kind: int | None = None) -> types.SimpleNamespace:
         sc.put_sym66(implicit, env, L, 0, sc.get_sym66(implicit, env, L, 0) + A)
         sc.put6(implicit, env, L, SYM66, sc.get6(implicit, env, L, SYM66) + sp.stack(gl, wp.cross(r, gl)))
 
-    @wp.kernel(module="unique")
-    def point_implicit_terms(
+    @wp.func
+    def link_terms(
         contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar),
-        h: scalar,
-        # outputs
-        implicit: wp.array3d(dtype=scalar),
+        h: scalar, params: sp.vec3, h0: scalar, env: int, L: int, implicit: wp.array3d(dtype=scalar),
     ):  # fmt: skip
-        """Launched over N, at the state of the step's contact forces: implicit (N, nL, IMPLICIT) = each link's terms
-        of its enabled points' contacts with the terrain (zero for a link without contacts), at the time step h [s];
-        the geom pairs' contacts add theirs after (kernels/collisions.py's `geom_contact_wrenches`). One thread per
-        environment, the points in order (the sums are deterministic)."""
-        env = wp.tid()
-        zero = scalar(0.0)
-        for L in range(implicit.shape[1]):
-            for a in range(IMPLICIT):
-                implicit[env, L, a] = zero
-        params = law.law_parameters(contacts, env)
-        h0 = law.height_parameter(terrain, env)
-        for c in range(contacts.point_row.shape[0]):
-            L = contacts.point_link[c]
+        """implicit[env, L] = link L's terms of its enabled points' contacts with the terrain, in the points' order
+        (`point_implicit_terms`; params the law's (K, D, mu), h0 the terrain's height parameter)."""
+        for a in range(IMPLICIT):
+            implicit[env, L, a] = scalar(0.0)
+        X = W_H_L[env, L]
+        first = contacts.link_first_point[L]
+        for k in range(contacts.link_point_count[L]):
+            c = first + k
             row = contacts.point_row[c]
-            X = W_H_L[env, L]
             p = wp.transform_point(X, B.vec3_parameter(contacts.L_p_C, env, c))
             v = sp.lin(W_v_WL[env, L]) + wp.cross(sp.ang(W_v_WL[env, L]), p)
             n = law.terrain_normal(terrain, p[0], p[1])
-            depth = (law.terrain_height(terrain, h0, p[0], p[1]) - p[2]) * n[2]
+            depth = law.terrain_depth(p, law.terrain_height(terrain, h0, p[0], p[1]), n)
             m_c = sp.vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
             f, _ = law.contact_at(contacts, terrain, h0, params, p, v, m_c)
             alpha, beta, g = contact_terms(f, depth, v, m_c, n, params[0], params[1], params[2], contacts.p, contacts.q, h)
-            if alpha > zero:
+            if alpha > scalar(0.0):
                 add_terms(implicit, env, L, X, p, n, alpha, beta, g)
+
+    @wp.kernel(module="unique")
+    def point_implicit_terms(
+        contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), m: wp.array3d(dtype=scalar),
+        h: scalar, env_fastest: int, per_thread: int,
+        # outputs
+        implicit: wp.array3d(dtype=scalar),
+    ):  # fmt: skip
+        """Launched over N nL / per_thread threads, each for per_thread consecutive links of an environment (order:
+        bundles.env_and_item; per_thread 1, or nL: a thread per environment, as the points' kernels under a tape), at the state of the
+        step's contact forces: implicit (N, nL, IMPLICIT) = the link's terms of its enabled points' contacts with the
+        terrain (zero for a link without contacts), at the time step h [s]; the geom pairs' contacts add theirs after
+        (kernels/collisions.py's `geom_contact_wrenches`). A thread sums its link's points in order (deterministic)."""
+        env, chunk = B.env_and_item(wp.tid(), implicit.shape[0], implicit.shape[1] // per_thread, env_fastest)
+        params = law.law_parameters(contacts, env)
+        h0 = law.height_parameter(terrain, env)
+        for L in range(chunk * per_thread, (chunk + 1) * per_thread):
+            link_terms(contacts, terrain, W_H_L, W_v_WL, m, h, params, h0, env, L, implicit)
 
     return types.SimpleNamespace(contact_terms=contact_terms, add_terms=add_terms, point_implicit_terms=point_implicit_terms)

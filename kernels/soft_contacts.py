@@ -185,12 +185,18 @@ def kernels(scalar, terrain_kind: int | None = None):
         return along_normal(n, fn) + f_t, m_dot
 
     @wp.func
+    def terrain_depth(p: sp.vec3, h: scalar, n: sp.vec3):
+        """The penetration depth [m] of a point at p into a terrain of height h and unit normal n there, along n (the
+        height's excess over p's, times n_z): negative above the terrain."""
+        return (h - p[2]) * n[2]
+
+    @wp.func
     def hunt_crossley(
         p: sp.vec3, v: sp.vec3, m: sp.vec3, h: scalar, n: sp.vec3, K: scalar, D: scalar, mu: scalar, pe: scalar, qe: scalar
     ):
         """(f (3,), m_dot (3,)): the contact force [N, world axes] and the deformation rate [m/s] of a point at p
         on a terrain of height h and normal n there."""
-        return hunt_crossley_at_depth((h - p[2]) * n[2], v, m, n, K, D, mu, pe, qe)
+        return hunt_crossley_at_depth(terrain_depth(p, h, n), v, m, n, K, D, mu, pe, qe)
 
     @wp.func
     def law_parameters(contacts: B.Contacts, env: int):
@@ -291,6 +297,7 @@ def kernels(scalar, terrain_kind: int | None = None):
         terrain_normal=terrain_normal,
         hunt_crossley=hunt_crossley,
         hunt_crossley_at_depth=hunt_crossley_at_depth,
+        terrain_depth=terrain_depth,
         damper_coefficient=damper_coefficient,
         power=power,
         tangential_part=tangential_part,

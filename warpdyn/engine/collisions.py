@@ -100,25 +100,27 @@ def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
 
 
 def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, m: wp.array, b: dict, W_f_L: wp.array, m_dot: wp.array, N: int,
-                  check: tuple | None = None, implicit: tuple | None = None) -> list:  # fmt: skip
+                  check: tuple | None = None, implicit: tuple | None = None, per_environment: bool = False) -> list:  # fmt: skip
     """The pairs' contacts at (W_H_L, W_v_WL (N, nL) Inertial, the contact state m (N, rows, 3)) and their wrenches
     added to W_f_L (N, nL, 6), their slots' deformation rates written to m_dot (N, rows, 3) (rows nc_all on), with the
     soft law's K, D, p, q of `contacts_bundle` (the kernels' Contacts); in a step, check = (rate, the kernels' Model):
     a lone free body whose contacts damp it faster than rate (the integrator's stability limit / dt, 1/s) gets a NaN
     wrench, which flags its environment (kernels/collisions.py's `damper_stability`); implicit = (dt, the links'
     implicit terms (N, nL, 27) or None): the contacts' linearly implicit terms added to those
-    (kernels/implicit_contacts.py)."""
+    (kernels/implicit_contacts.py); per_environment: the slots' and links' kernels a thread per environment
+    (warpdyn.engine.contact_stage's `contacts_per_environment`: under a tape, deterministic adjoints)."""
     s, d = a["scalar"], a["device"]
     h, terms = implicit if implicit is not None and implicit[1] is not None else (s(0.0), empty_like_input(s, d, 3))
     order = int(arrays.env_fastest(d))
     state = [b[k] for k in ("count", "position", "frame", "dist")] + [W_v_WL, m]
     kernels = collision_kernels(s)
-    rates = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["slot_pair"], *state, order]
-    wrenches = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["link_pair_start"], a["link_pairs"], *state, W_H_L, h, order]
+    slots, links = (a["contacts"], W_f_L.shape[1]) if per_environment else (1, 1)
+    rates = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["slot_pair"], *state, order, slots]
+    wrenches = [contacts_bundle, a["link1"], a["link2"], a["mu"], a["first"], a["link_pair_start"], a["link_pairs"], *state, W_H_L, h, order, links]
     launches = [
         contact_launch(a, W_H_L, b, N),
-        Launch(kernels.geom_contact_rates, N * a["contacts"], rates, [m_dot]),
-        Launch(kernels.geom_contact_wrenches, N * W_f_L.shape[1], wrenches, [W_f_L, terms]),
+        Launch(kernels.geom_contact_rates, N * a["contacts"] // slots, rates, [m_dot]),
+        Launch(kernels.geom_contact_wrenches, N * W_f_L.shape[1] // links, wrenches, [W_f_L, terms]),
     ]
     if check is not None and a["any_guarded"]:
         rate, model_bundle = check

@@ -197,13 +197,13 @@ class SoftContactStage(ContactStage):
         args = [self.bundle, ev.W_f_C, f_in, order, links]
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, args, [ev.W_f_L]))
         if ev.implicit is not None:  # the contacts' linearly implicit terms for the step's ABA (model.implicit_contacts)
-            args = [self.bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, plan.dt]
-            launches.append(Launch(implicit_kernels(s, plan.terrain.kind).point_implicit_terms, N, args, [ev.implicit]))
+            args = [self.bundle, plan.terrain, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, plan.dt, order, links]
+            launches.append(Launch(implicit_kernels(s, plan.terrain.kind).point_implicit_terms, N * plan.nL // links, args, [ev.implicit]))
         if self.pairs:
             # a step's evaluation flags an explicit damper's instability (an implicit one has none); a query's reports
             check = (self.check_rate, plan.model) if ev.checks and ev.implicit is None else None
             args = (self.pair_arrays, self.bundle, ev.W_H_L, ev.W_v_WL, x.tangential_deformation, ev.contact, ev.W_f_L, ev.m_dot, N)
-            launches += collisions.force_launches(*args, check, (plan.dt, ev.implicit))
+            launches += collisions.force_launches(*args, check, (plan.dt, ev.implicit), per_environment=links > 1)
         return launches
 
 
