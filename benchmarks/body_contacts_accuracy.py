@@ -1,12 +1,13 @@
 """Speed against accuracy of contacts between bodies (issue 37: the speed/accuracy table's stacking and grasping
-cases), for each time step and dtype, the soft law with its defaults (model.geom_contacts, semi-implicit Euler):
+cases), for each time step, dtype and treatment of the contacts (explicit, or linearly implicit:
+model.implicit_contacts), the soft law with its defaults (model.geom_contacts, semi-implicit Euler):
 
 - stacking: tests/test_body_contacts.py's stack of three boxes dropped a few millimetres, 1.5 s: whether it stays
   healthy, the largest distance of a box's resting position from the float64 reference at dt = 1/16 ms and from
   MuJoCo's (its defaults, 1 ms), and the throughput of N environments of it (steps x environments per second,
   median of the repeats);
 - grasping: tests/test_body_contacts.py's pinch (two box fingers squeeze a 0.1 kg cube and a carrier lifts them
-  15 cm): whether it stays healthy (a flag is the explicit damper's stability check), the cube's height after the
+  15 cm): whether it stays healthy (a flag is the explicit damper's stability check; implicit contacts have none), the cube's height after the
   lift, and its slip down the fingers [mm/s] (the contacts' tangential deformation holds it; MuJoCo's soft
   constraints slip: its figure is printed beside).
 
@@ -36,17 +37,18 @@ LIFT_BEGINS, LIFT_SPEED, LIFT_TOP = 0.5, 0.3, 0.15  # s, m/s, m: the pinch's car
 SQUEEZE = 0.04  # m: the fingers' target, past the cube's faces
 
 
-def build(xml: str, dt: float, dtype, device) -> wd.model.Model:
+def build(xml: str, dt: float, dtype, device, implicit: bool) -> wd.model.Model:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
         model = wd.model.Model.build_from_model_description(xml.replace('timestep="0.001"', f'timestep="{dt!r}"'), dtype=dtype, device=device)
     model.geom_contacts = True
+    model.implicit_contacts = implicit
     return model
 
 
-def stack_rest(dt: float, dtype, device) -> tuple[np.ndarray, bool]:
+def stack_rest(dt: float, dtype, device, implicit: bool) -> tuple[np.ndarray, bool]:
     """The boxes' positions (3, 3) after 1.5 s, and whether the environment stayed healthy."""
-    model = build(STACK, dt, dtype, device)
+    model = build(STACK, dt, dtype, device, implicit)
     data = wd.data.Data.build(model)
     for _ in range(int(round(1.5 / dt))):
         data = wd.model.step(model, data)
@@ -68,9 +70,9 @@ def pinch_controls(t: float) -> np.ndarray:
     return np.array([lift, squeeze, squeeze])
 
 
-def pinch(dt: float, dtype, device) -> tuple[float, float, bool]:
+def pinch(dt: float, dtype, device, implicit: bool) -> tuple[float, float, bool]:
     """(the cube's height [m] 1.6 s in, its slip down the fingers from 1.1 s to 1.6 s [m/s], healthy)."""
-    model = build(PINCH, dt, dtype, device)
+    model = build(PINCH, dt, dtype, device, implicit)
     data = wd.data.Data.build(model)
     cube, finger = model.link_names().index("cube"), model.link_names().index("left")
     gaps = {}
@@ -96,9 +98,9 @@ def mujoco_pinch() -> tuple[float, float]:
     return gaps[1599][1], (gaps[1599][0] - gaps[1100][0]) / (499 * dt)
 
 
-def throughput(dt: float, dtype, device, N: int, steps: int, repeats: int) -> float:
+def throughput(dt: float, dtype, device, implicit: bool, N: int, steps: int, repeats: int) -> float:
     """Environment-steps per second of N copies of the stack (median of `repeats` rollouts of `steps`)."""
-    model = build(STACK, dt, dtype, device)
+    model = build(STACK, dt, dtype, device, implicit)
     data = wd.data.Data.build(model, num_envs=N)
     wd.simulation.rollout(model, data, steps=steps)  # compile and warm up
     times = []
@@ -118,35 +120,41 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200, help="steps of each timed rollout (default 200)")
     parser.add_argument("--repeats", type=int, default=5, help="timed rollouts, median (default 5)")
     parser.add_argument("--time-steps", default="0.002,0.001,0.0005,0.00025", help="dt [s], comma-separated")
+    parser.add_argument("--contacts", default="explicit,implicit", help="explicit, implicit (model.implicit_contacts), comma-separated")
     parser.add_argument("--throughput-only", action="store_true",
                         help="print only the stack's throughput per dtype and dt (to compare versions: PYTHONPATH=<a checkout's package>)")
     args = parser.parse_args()
+    treatments = [{"explicit": False, "implicit": True}[name] for name in args.contacts.split(",")]
     wp.config.quiet = True
     device = wp.get_device(args.device)
     if args.throughput_only:
         print(f"warpdyn from {pathlib.Path(wd.__file__).parent}; device {device}; N = {args.num_envs}, {args.steps} steps, median of {args.repeats}")
         for dtype in (np.float32, np.float64):
             for dt in (float(v) for v in args.time_steps.split(",")):
-                print(f"| {np.dtype(dtype).name} | {1e3 * dt:g} | {throughput(dt, dtype, device, args.num_envs, args.steps, args.repeats):.4g} |", flush=True)
+                for implicit in treatments:
+                    rate = throughput(dt, dtype, device, implicit, args.num_envs, args.steps, args.repeats)
+                    print(f"| {np.dtype(dtype).name} | {1e3 * dt:g} | {'implicit' if implicit else 'explicit'} | {rate:.4g} |", flush=True)
         return
-    reference, _ = stack_rest(1.0 / 16000.0, np.float64, device)
+    reference, _ = stack_rest(1.0 / 16000.0, np.float64, device, False)
     theirs = mujoco_stack()
     z_mj, slip_mj = mujoco_pinch()
     print(f"device: {device.name} ({device}); warp {wp.config.version}, mujoco {mujoco.__version__}; the stack's reference: float64 at 1/16 ms;"
           f" MuJoCo's stack and pinch at 1 ms (its defaults); throughput: N = {args.num_envs}, {args.steps} steps, median of {args.repeats}\n")
-    print("| dtype | dt [ms] | stack healthy | stack: from the reference [mm] | stack: from MuJoCo [mm] | stack throughput [env-steps/s] "
+    print("| dtype | dt [ms] | contacts | stack healthy | stack: from the reference [mm] | stack: from MuJoCo [mm] | stack throughput [env-steps/s] "
           "| pinch healthy | pinch: cube height [m] | pinch: slip [mm/s] |")
-    print("| --- | ---: | --- | ---: | ---: | ---: | --- | ---: | ---: |")
+    print("| --- | ---: | --- | --- | ---: | ---: | ---: | --- | ---: | ---: |")
     for dtype in (np.float32, np.float64):
         for dt in (float(v) for v in args.time_steps.split(",")):
-            rest, healthy = stack_rest(dt, dtype, device)
-            far_ref = 1e3 * np.linalg.norm(rest - reference, axis=1).max()
-            far_mj = 1e3 * np.linalg.norm(rest - theirs, axis=1).max()
-            rate = throughput(dt, dtype, device, args.num_envs, args.steps, args.repeats)
-            z, slip, held = pinch(dt, dtype, device)
-            stack = f"yes | {far_ref:.3f} | {far_mj:.3f}" if healthy else "flagged | - | -"  # a flagged environment is frozen
-            grasp = f"yes | {z:.4f} | {1e3 * slip:.3g}" if held else "flagged | - | -"
-            print(f"| {np.dtype(dtype).name} | {1e3 * dt:g} | {stack} | {rate:.3g} | {grasp} |", flush=True)
+            for implicit in treatments:
+                rest, healthy = stack_rest(dt, dtype, device, implicit)
+                far_ref = 1e3 * np.linalg.norm(rest - reference, axis=1).max()
+                far_mj = 1e3 * np.linalg.norm(rest - theirs, axis=1).max()
+                rate = throughput(dt, dtype, device, implicit, args.num_envs, args.steps, args.repeats)
+                z, slip, held = pinch(dt, dtype, device, implicit)
+                stack = f"yes | {far_ref:.3f} | {far_mj:.3f}" if healthy else "flagged | - | -"  # a flagged environment is frozen
+                grasp = f"yes | {z:.4f} | {1e3 * slip:.3g}" if held else "flagged | - | -"
+                row = f"| {np.dtype(dtype).name} | {1e3 * dt:g} | {'implicit' if implicit else 'explicit'} | {stack} | {rate:.3g} | {grasp} |"
+                print(row, flush=True)
     print(f"\nMuJoCo's pinch: the cube at {z_mj:.4f} m, slipping {1e3 * slip_mj:.2f} mm/s.")
 
 
