@@ -174,9 +174,11 @@ class ModelSettings:
         "the geom pairs') linearly implicit: each link's contact damping and stiffness enter its articulated inertia "
         "(kernels/implicit_contacts.py: backward Euler linearised, each link with its own block, as MuJoCo's implicitfast "
         "its dampers). Explicit (False, the default), a light body that stiff contacts press is unstable beyond "
-        "h c / m or h^2 k / m of about 2 (a 0.1 kg cube under a gripper's pad at 1 ms); implicit, it is stable at any "
-        "time step, at the cost of the fused kernel (the step runs as its stages). SoftContacts and the Euler "
-        "integrators only (a step refuses it otherwise).",
+        "h c / m or h^2 k / m of about 2 (a 0.1 kg cube under a gripper's pad at 1 ms); implicit, a link's contacts with "
+        "the static world are stable at any time step (the tangential deformation's relaxation still asks dt K / D < 2; "
+        "two moving bodies in contact each see their own block), at the cost of the fused kernel (the step runs as its stages). With equality constraints their solve "
+        "after ABA keeps the mass matrix without the contacts' terms (the constraints hold as before; the implicit terms "
+        "act on the unconstrained accelerations). SoftContacts and the Euler integrators only (a step refuses it otherwise).",
     )
 
     equality_projection = _setting(
