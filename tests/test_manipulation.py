@@ -131,6 +131,7 @@ def test_bad_settings_and_models_are_refused():
     """Each bad setting names its field; a model of another scene is refused, naming what it lacks."""
     for kwargs, match in [
         (dict(time_step=-1.0), "PickCubeConfig.time_step must be a positive finite number"),
+        (dict(implicit_contacts="yes"), "PickCubeConfig.implicit_contacts must be True or False"),
         (dict(policy_dt=0.02025), r"policy_dt \(0.02025 s\) must be a whole number of time_step"),
         (dict(rewards={"lift": 1.0}), "PickCubeConfig.rewards maps terms of"),
         (dict(target_low=(0, 0, 1), target_high=(0, 0, 0.5)), "target_low and target_high"),

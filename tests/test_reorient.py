@@ -160,6 +160,7 @@ def test_bad_settings_and_models_are_refused():
         (dict(time_step=0.0), "CubeReorientConfig.time_step must be a positive finite number"),
         (dict(policy_dt=0.0502), r"policy_dt \(0.0502 s\) must be a whole number of time_step"),
         (dict(reset_bank=0), "CubeReorientConfig.reset_bank must be a positive integer"),
+        (dict(implicit_contacts=1), "CubeReorientConfig.implicit_contacts must be True or False"),
         (dict(noise={"joint_pos": 0.1}), "CubeReorientConfig.noise maps joint_pos, cube_pos and cube_ori"),
         (dict(rewards={"speed": 1.0}), r"CubeReorientConfig.rewards maps terms of \['orientation'"),
         (dict(cube_start=(0.1, 0.0)), "CubeReorientConfig.cube_start must be 3 finite numbers"),

@@ -34,7 +34,7 @@ class PickCubeConfig:
     integration of the servos and contacts) and `implicit_contacts` (model.implicit_contacts: the soft law's contacts
     linearly implicit; explicit, a pad that clips the cube's edge, as a policy's approaches do, drives the 0.1 kg
     cube's rotation past the explicit step's stable rate: over 24 scripted approaches a touched cube moved a median
-    118 mm at 1 ms explicit, 2.4 mm at 0.5 ms explicit, 1.9 mm at 1 ms implicit, 0.9 mm in MuJoCo:
+    118 mm at 1 ms explicit, 2.4 mm at 0.5 ms explicit, 1.9 mm at 1 ms implicit, 1.0 mm in MuJoCo:
     benchmarks/cube_clipping.py; tests/test_manipulation.py's pad-on-the-edge test), `policy_dt` [s] per action
     (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5] and `contact_damping` D [N s/m^1.5]
     (D = 500: the 0.1 kg cube squeezed between the pads at 1 ms stays within the explicit damper's stable rate),
