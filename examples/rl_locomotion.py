@@ -143,9 +143,21 @@ PPO_DEFAULTS = dict(steps_per_env=24, epochs=5, mini_batches=4, learning_rate=1e
 --steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma, --entropy-coef): Rudin et al.'s."""
 
 
-def train_config(iterations: int, **ppo) -> dict:
-    """rsl-rl's configuration: PPO_DEFAULTS' settings, those given in `ppo` replacing them, the rest Rudin et al.'s
-    (MLP (256, 128, 64) actor and critic with observation normalisation, the adaptive learning rate at a KL of 0.01)."""
+ACTION_DISTRIBUTIONS = {
+    "gaussian": dict(class_name="GaussianDistribution", init_std=1.0),
+    "beta": dict(class_name="BetaDistribution", action_range=(-1.0, 1.0)),
+}
+"""The policy's action distributions (rsl-rl's): a Gaussian (Rudin et al.'s; its samples unbounded, the environments
+clip them to [-1, 1]), or a Beta rescaled to [-1, 1] (bounded: its mean cannot drift past the clip, where a clipped
+Gaussian's exploration no longer reaches the other end of the range; Chou et al. 2017)."""
+
+
+def train_config(iterations: int, distribution: str = "gaussian", **ppo) -> dict:
+    """rsl-rl's configuration: PPO_DEFAULTS' settings, those given in `ppo` replacing them, the actor's action
+    `distribution` (ACTION_DISTRIBUTIONS), the rest Rudin et al.'s (MLP (256, 128, 64) actor and critic with
+    observation normalisation, the adaptive learning rate at a KL of 0.01)."""
+    if distribution not in ACTION_DISTRIBUTIONS:
+        raise ValueError(f"the action distribution is one of {sorted(ACTION_DISTRIBUTIONS)}, got {distribution!r}")
     unknown = sorted(set(ppo) - set(PPO_DEFAULTS))
     if unknown:
         raise TypeError(f"train_config takes the settings {sorted(PPO_DEFAULTS)}, got {unknown}")
@@ -159,7 +171,7 @@ def train_config(iterations: int, **ppo) -> dict:
             class_name="PPO", learning_rate=learning_rate, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2, gamma=gamma,
             lam=0.95, value_loss_coef=1.0, entropy_coef=entropy_coef, max_grad_norm=1.0, schedule="adaptive", desired_kl=0.01,
         ),  # fmt: skip
-        "actor": dict(class_name="MLPModel", distribution_cfg=dict(class_name="GaussianDistribution", init_std=1.0), **mlp),
+        "actor": dict(class_name="MLPModel", distribution_cfg=dict(ACTION_DISTRIBUTIONS[distribution]), **mlp),
         "critic": dict(class_name="MLPModel", **mlp),
         "multi_gpu": None,
     }
@@ -199,17 +211,19 @@ def train(
     max_minutes: float | None = None,
     ppo: dict | None = None,
     log_names: tuple = (),
+    distribution: str = "gaussian",
 ) -> list:
     """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass; `ppo`: PPO_DEFAULTS'
     settings to change; `log_names`: entries of the environment's info["log"] whose mean over the iteration's steps
-    each iteration's line prints, rank 0's); returns
+    each iteration's line prints, rank 0's; `distribution`: the actions', ACTION_DISTRIBUTIONS, kept in the
+    checkpoint's infos for `load_policy`); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
 
     world, rank = _group()
     vec = RslRlVecEnv(env)
-    cfg = train_config(iterations, **(ppo or {}))
+    cfg = train_config(iterations, distribution, **(ppo or {}))
     cfg["obs_groups"] = vec.obs_groups
     if world > 1:  # rsl-rl's PPO then averages gradients, KL and normaliser statistics over the ranks
         cfg["multi_gpu"] = {"global_rank": rank, "local_rank": torchrun_ranks()[2], "world_size": world}
@@ -282,7 +296,8 @@ def train(
             print(f"policy identical on {world} ranks (largest difference {difference:.3g})", flush=True)
     if rank == 0:
         out.mkdir(parents=True, exist_ok=True)
-        torch.save({**alg.save(), "iter": len(history) - 1, "infos": None}, out / "policy.pt")  # OnPolicyRunner.save's format
+        infos = {"action_distribution": distribution}
+        torch.save({**alg.save(), "iter": len(history) - 1, "infos": infos}, out / "policy.pt")  # OnPolicyRunner.save's format
     return history
 
 
@@ -325,7 +340,8 @@ def plot(history: list, path: pathlib.Path, title: str) -> None:
 def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int) -> argparse.ArgumentParser:
     """The command line the manipulation examples share (rl_manipulation.py, rl_reorient.py): --device, --num-envs
     (`default_envs` says the default), --iterations, --seed, --max-minutes, `ppo`'s settings as flags with its values
-    as defaults, --evaluate, --evaluate-envs and --out; `task_setup` parses it."""
+    as defaults, --action-distribution (ACTION_DISTRIBUTIONS), --evaluate, --evaluate-envs and --out; `task_setup`
+    parses it."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
     parser.add_argument("--num-envs", type=int, default=None, help=f"environments; default: {default_envs}")
@@ -334,6 +350,7 @@ def task_arguments(description: str, ppo: dict, default_envs: str, out: str, ite
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
     for name, value in ppo.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
+    parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default="gaussian", help="the policy's (default gaussian)")
     parser.add_argument("--evaluate", action="store_true", help="after training, evaluate the policy in --evaluate-envs fresh environments")
     parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
     parser.add_argument("--out", default=out)
@@ -359,11 +376,12 @@ def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
     from rsl_rl.algorithms import PPO
 
     vec = RslRlVecEnv(env)
-    cfg = train_config(1)
+    saved = torch.load(policy_path, map_location=str(env.device), weights_only=False)
+    cfg = train_config(1, (saved.get("infos") or {}).get("action_distribution", "gaussian"))  # earlier checkpoints: Gaussian
     cfg["obs_groups"] = vec.obs_groups
     with contextlib.redirect_stdout(io.StringIO()):  # construct_algorithm prints the models
         alg = PPO.construct_algorithm(vec.get_observations(), vec, cfg, str(env.device))
-    alg.load(torch.load(policy_path, map_location=str(env.device), weights_only=False), load_cfg={"actor": True, "critic": True}, strict=True)
+    alg.load(saved, load_cfg={"actor": True, "critic": True}, strict=True)
     alg.eval_mode()
     return vec, alg.get_policy()
 
