@@ -43,6 +43,15 @@ ERGOCUB = _ergocub_path()
 _EXCLUDED = ("camera", "neck", "wrist", "thumb", "index", "middle", "ring", "pinkie", "torso", "elbow", "shoulder")
 
 
+def assert_same_compilation_results(a, b) -> None:
+    """Two runs of the same operations in two launch layouts: bitwise on the CPU (the same operations per item), to
+    rounding on a GPU (another compilation of them)."""
+    if TEST_DEVICE == "cpu":
+        np.testing.assert_array_equal(a, b)
+    else:
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(a).max()))
+
+
 def seed_joints(joint_names) -> list[str]:
     """The joints the seed notebook keeps: every joint whose name contains none of _EXCLUDED."""
     return [j for j in joint_names if not any(word in j for word in _EXCLUDED)]
