@@ -171,11 +171,12 @@ def test_a_batch_steps_as_its_environments_alone_in_both_layouts(layout):
         np.testing.assert_array_equal(batch.tangential_deformation_state.numpy()[e], d.tangential_deformation_state.numpy()[0])
 
 
-def test_the_kernels_per_item_equal_their_loops_per_environment(monkeypatch):
+def test_the_kernels_per_item_equal_their_loops_per_environment(monkeypatch, layout):
     """Without gradients on a GPU the geom pairs' rates, their wrenches and the implicit terms run a thread per slot or
     link; with gradients (and on the CPU) a thread per environment walks them in order (deterministic adjoints). Here
-    both on this device (warpdyn.engine.contact_stage's `contacts_per_environment` made to answer by gradients alone):
-    50 steps of the scene, 3 environments, records bitwise equal on the CPU, to rounding on a GPU."""
+    both on this device (warpdyn.engine.contact_stage's `contacts_per_environment` made to answer by gradients alone),
+    in the device's layout and environment-fastest (the GPU's thread order): 50 steps of the scene, 3 environments,
+    records bitwise equal on the CPU, to rounding on a GPU."""
     monkeypatch.setattr(contact_stage, "contacts_per_environment", lambda device, grad: grad)
     model = _model(1.0)
     qpos = np.array([3, 0, 1.049, 1, 0, 0, 0, 0, 0, 0.049, 1, 0, 0, 0], dtype=np.float64)
