@@ -154,12 +154,7 @@ class PickCubeEnv(DeviceVectorEnv):
                 f"PickCubeEnv simulates wd.assets.franka_panda_cube_mjcf()'s scene: '{model.name()}' lacks {missing or 'nothing named'}, "
                 f"has {model.number_of_actuators()} actuators (8 needed) and keyframes {list(model.keyframe_names())} (needs '{cfg.keyframe}')"
             )
-        model = model.copy()
-        model.geom_contacts = True
-        model.implicit_contacts = cfg.implicit_contacts
-        model.time_step = cfg.time_step
-        model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=cfg.contact_damping, mu=cfg.friction)
-        return model
+        return self._with_body_contacts(model)
 
     def _views(self, data) -> dict:
         return {name: wp.to_torch(getattr(data, f"{name}_state")) for name in ("joint_positions", "joint_velocities", "valid")}

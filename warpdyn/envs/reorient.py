@@ -165,7 +165,6 @@ class CubeReorientEnv(DeviceVectorEnv):
 
     def _simulated(self, model):
         """A copy of `model` with the geom pairs' contacts acting and the task's time step and soft law."""
-        cfg = self.cfg
         expected = tuple(f"{j}_act" for j in wd.assets.LEAP_HAND_JOINTS)
         missing = sorted({"cube"} - set(model.link_names())) + sorted({"cube_freejoint", *wd.assets.LEAP_HAND_JOINTS} - set(model.joint_names()))
         if missing or model.actuator_names() != expected or "home" not in model.keyframe_names():
@@ -173,12 +172,7 @@ class CubeReorientEnv(DeviceVectorEnv):
                 f"CubeReorientEnv simulates wd.assets.leap_hand_cube_mjcf()'s scene: '{model.name()}' lacks {missing or 'nothing named'}, "
                 f"has the actuators {list(model.actuator_names())} ({list(expected)} needed) and keyframes {list(model.keyframe_names())} (needs 'home')"
             )
-        model = model.copy()
-        model.geom_contacts = True
-        model.implicit_contacts = cfg.implicit_contacts
-        model.time_step = cfg.time_step
-        model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=cfg.contact_damping, mu=cfg.friction)
-        return model
+        return self._with_body_contacts(model)
 
     def _state(self) -> tuple:
         """(joint angles (N, 16), joint velocities (N, 16), cube position (N, 3) [m], cube orientation (N, 4) (w, x,

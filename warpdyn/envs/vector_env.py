@@ -63,6 +63,18 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
         self._generator = torch.Generator(device=self.device)
         self._generator.manual_seed(seed)
 
+    def _with_body_contacts(self, model):
+        """A copy of `model` with its geom pairs' contacts acting and the config's `time_step`, `implicit_contacts`
+        and soft law (`contact_stiffness` K, `contact_damping` D, `friction` mu): a manipulation environment's
+        `_simulated` after its checks of the scene."""
+        cfg = self.cfg
+        model = model.copy()
+        model.geom_contacts = True
+        model.implicit_contacts = cfg.implicit_contacts
+        model.time_step = cfg.time_step
+        model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=cfg.contact_damping, mu=cfg.friction)
+        return model
+
     def _finish_setup(self, observations: int, actions: int) -> None:
         """The rest a manipulation environment keeps, once its own state exists: the episodes' lengths, the reset
         mask (torch and Warp views), the returns and finished-episode sums, the step program and its graph key, and
