@@ -1,6 +1,6 @@
 """Contacts between the geoms of a model's pairs (warpdyn.types.geoms): each pair's geoms placed by their links' world
-poses, then MuJoCo's narrow phase for their types (kernels/collision_primitives.py, kernels/collision_box.py), one
-thread per (environment, pair), each pair writing its fixed slots.
+poses, then MuJoCo's narrow phase for their types (kernels/collision_primitives.py, kernels/collision_box.py,
+kernels/collision_convex.py), one thread per (environment, pair), each pair writing its fixed slots.
 
 A slot holds a contact's position [m, world], MuJoCo's contact frame (rows: the normal from geom1 to geom2, two
 tangents) and the distance between the surfaces [m] (negative: penetration), as MuJoCo's d.contact; a pair's slots
@@ -11,7 +11,7 @@ import types
 
 import warp as wp
 
-from . import collision_box, collision_primitives, implicit_contacts, soft_contacts
+from . import collision_box, collision_convex, collision_primitives, implicit_contacts, soft_contacts
 from .bundles import bundles
 from .collision_primitives import BOX, CAPSULE, CYLINDER, SPHERE
 from .factory import factory
@@ -19,12 +19,12 @@ from .spatial import spatial
 
 
 @factory
-def kernels(scalar) -> types.SimpleNamespace:
-    """The kernels `geom_contacts`, `geom_contact_rates` and `geom_contact_wrenches` in `scalar` (wp.float32 or wp.float64)."""
+def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
+    """The kernel `geom_contacts` in `scalar` (wp.float32 or wp.float64); convex: with the pairs of
+    kernels/collision_convex.py (its GJK and EPA are compiled only into a model's kernel that has such pairs)."""
     prim = collision_primitives.kernels(scalar)
     box = collision_box.kernels(scalar)
-    law = soft_contacts.kernels(scalar)
-    implicit_terms = implicit_contacts.kernels(scalar)
+    gjk = collision_convex.kernels(scalar)
     sp = spatial(scalar)
     B = bundles(scalar)
     vec2, vec3, mat23, mat33 = prim.vec2, prim.vec3, prim.mat23, prim.mat33
@@ -86,7 +86,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 if m1 > 0:
                     put(env, base, p, prim.contact_frame(normal, zero), d, position, frame, dist)
                 n = m1
-            elif t1 == CAPSULE:
+            elif t1 == CAPSULE and t2 != CYLINDER:
                 m2 = int(0)
                 P2 = mat23()
                 N2 = mat23()
@@ -103,9 +103,27 @@ def kernels(scalar) -> types.SimpleNamespace:
                 for k in range(m8):
                     put(env, base + k, P8[k], prim.contact_frame(N8[k], zero), D8[k], position, frame, dist)
                 n = m8
+            elif wp.static(convex):  # capsule-cylinder, cylinder-cylinder, cylinder-box
+                m1, p, normal, d = gjk.convex(t1, p1, R1, s1, t2, p2, R2, s2, e)
+                if m1 > 0:
+                    put(env, base, p, prim.contact_frame(normal, zero), d, position, frame, dist)
+                n = m1
         count[env, i] = n
         for k in range(n, slots[i]):
             put(env, base + k, zero, mat33(scalar(0.0)), scalar(wp.inf), position, frame, dist)
+
+    return types.SimpleNamespace(geom_contacts=geom_contacts)
+
+
+@factory
+def kernels(scalar) -> types.SimpleNamespace:
+    """The kernels `geom_contact_rates`, `geom_contact_wrenches`, `damper_stability` and `links_touching` in `scalar`
+    (wp.float32 or wp.float64)."""
+    law = soft_contacts.kernels(scalar)
+    implicit_terms = implicit_contacts.kernels(scalar)
+    sp = spatial(scalar)
+    B = bundles(scalar)
+    vec3 = sp.vec3
 
     @wp.func
     def slot_contact(
@@ -255,5 +273,5 @@ def kernels(scalar) -> types.SimpleNamespace:
                         touching[env, k] = True
 
     return types.SimpleNamespace(
-        geom_contacts=geom_contacts, geom_contact_rates=geom_contact_rates, geom_contact_wrenches=geom_contact_wrenches, damper_stability=damper_stability, links_touching=links_touching
+        geom_contact_rates=geom_contact_rates, geom_contact_wrenches=geom_contact_wrenches, damper_stability=damper_stability, links_touching=links_touching
     )

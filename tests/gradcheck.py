@@ -154,11 +154,12 @@ def relative_errors(tape: dict, fd: dict, floor: float = 0.0) -> dict:
     return {k: abs(tape[k] - fd[k]) / max(abs(fd[k]), floor) for k in fd}
 
 
-def contact_gradient_check(run, xpos, xmat, max_contacts: int, vec3, mat33, seed: int = 2) -> dict:
+def contact_gradient_check(run, xpos, xmat, max_contacts: int, vec3, mat33, seed: int = 2, position_and_normal: bool = True) -> dict:
     """The narrow-phase tests' directional check of a batch of geom pairs (tests/test_collision_primitives.py,
     test_collision_box.py). run(xpos, xmat) launches the pairs' kernel on the poses xpos (n, 2, 3), xmat (n, 2, 3, 3)
     and returns ([p1, R1, p2, R2] the Warp inputs requiring gradients, count (n,), pos, frame, dist (n, max_contacts)
-    its outputs requiring gradients). L = sum over each pair's contacts of dist + w1.pos + w2.normal (w1, w2 random);
+    its outputs requiring gradients). L = sum over each pair's contacts of dist + w1.pos + w2.normal (w1, w2 random;
+    zero unless position_and_normal);
     the tape's gradient along a random direction d (positions moved by h d, rotations turned by h d) against central
     differences at h = 1e-6 and 2e-6. Returns {"along": the tape's, "fd1", "fd2": the differences, "kink": the
     one-sided differences' gap at 1e-6, "count": the counts at the poses, "steps_keep_count": whether every moved
@@ -169,7 +170,7 @@ def contact_gradient_check(run, xpos, xmat, max_contacts: int, vec3, mat33, seed
 
     n = len(xpos)
     rng = np.random.default_rng(seed)
-    w1, w2 = rng.standard_normal((2, n, max_contacts, 3))
+    w1, w2 = rng.standard_normal((2, n, max_contacts, 3)) * position_and_normal
     direction_pos, direction_rot = rng.standard_normal((2, n, 2, 3))
 
     def loss(xpos, xmat, tape=None):

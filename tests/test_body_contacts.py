@@ -48,12 +48,27 @@ SCENES = {
       </body>
       <body name="log" pos="0 0 0.134" euler="90 0 0"><freejoint/><geom type="capsule" size=".03 .15" mass="0.5"/></body>
     </worldbody></mujoco>""",
+    "crossed cylinders": """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
+      <body name="rack" pos="0 0 0.022"><freejoint/>
+        <geom type="box" size=".2 .2 .02" mass="2"/>
+        <geom type="cylinder" size=".03 .2" pos="0 -0.1 0.05" euler="0 90 0" mass="0.5"/>
+        <geom type="cylinder" size=".03 .2" pos="0 0.1 0.05" euler="0 90 0" mass="0.5"/>
+      </body>
+      <body name="log" pos="0.08 0 0.134" euler="90 0 0"><freejoint/><geom type="cylinder" size=".03 .15" mass="0.5"/></body>
+      <body name="pin" pos="-0.08 0 0.134" euler="90 0 0"><freejoint/><geom type="capsule" size=".03 .15" mass="0.5"/></body>
+    </worldbody></mujoco>""",
 }
 """Free objects placed a few millimetres above where they come to rest: boxes on boxes, turned about the vertical; a
 cube on a table (a box of the world body) and a capsule on a shelf (a body welded to the world); a lone free ball (a
 floating base) on a step of static scenery (dropped as a body, its box the world's); a ball on a box; a
-capsule across the two capsule rails of a rack. (Dropped from higher, light bodies on several contacts need a smaller
+capsule across the two capsule rails of a rack; a cylinder and a capsule across two cylinder rails (GJK and EPA, one
+contact at each crossing, as MuJoCo's multiCCD too gives where two round sides cross). (Dropped from higher, light bodies on several contacts need a smaller
 time step: the soft law's damping is explicit, D (delta + eps)^q per contact on the body's mass.)"""
+
+
+ROLLING = {"crossed cylinders": 2e-3}
+"""A log across two rails rolls in neutral equilibrium: EPA's witnesses, placed to ~5e-8 m on the round sides, give
+it a torque about its axis (8e-4 rad/s after 1.5 s here; MuJoCo's own log rolls at 0.035 rad/s by then)."""
 
 
 def _model(xml, dtype=np.float64):
@@ -73,14 +88,15 @@ def _positions(model, data) -> dict:
 @pytest.mark.parametrize("scene", SCENES)
 def test_scenes_come_to_rest_where_mujocos_do(scene, implicit):
     """After 1.5 s (1 ms steps), each body's position is MuJoCo's within REST_TOL, and it has stopped (every velocity
-    below 1e-3 m/s or rad/s): with the explicit contacts and the linearly implicit ones (model.implicit_contacts)."""
+    below 1e-3 m/s or rad/s, but ROLLING's): with the explicit contacts and the linearly implicit ones
+    (model.implicit_contacts)."""
     xml = SCENES[scene]
     model = _model(xml)
     model.implicit_contacts = implicit
     data = wd.data.Data.build(model)
     for _ in range(1500):
         data = wd.model.step(model, data)
-    assert float(np.abs(data.generalized_velocity.numpy()).max()) < 1e-3
+    assert float(np.abs(data.generalized_velocity.numpy()).max()) < ROLLING.get(scene, 1e-3)
     mj = mujoco.MjModel.from_xml_string(xml)
     d = mujoco.MjData(mj)
     for _ in range(1500):

@@ -19,7 +19,7 @@ import torch
 import mjcf_compare
 import warpdyn as wd
 import warpdyn.envs as envs
-from warpdyn.description.mjcf import BODY_CONTACTS, JOINT_LIMITS, TORSION, UNCOLLIDED_PAIRS
+from warpdyn.description.mjcf import BODY_CONTACTS, JOINT_LIMITS, MULTICCD, TORSION
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -99,8 +99,8 @@ def _one_warning(path) -> tuple:
 def test_mujoco_compiles_the_shipped_anymal_c_alone_and_warpdyn_names_what_it_does_not_model():
     """No mesh, texture, material, light or actuator, no frictionloss; Menagerie's 44 collision primitives (29 cylinders,
     11 boxes, 4 foot spheres) and its keyframe "standing". warpdyn (float64) warns once: the 12 joints' limits,
-    the contacts between bodies (178 pairs, off), the 414 pairs with a cylinder it does not collide and the feet pairs'
-    torsional and rolling friction (condim 6), nothing else; 13 links (the base, 4 hips, thighs, shanks), the feet
+    the contacts between bodies (592 pairs, off), the multiCCD contacts of the 414 pairs with a cylinder (GJK and EPA's
+    one contact instead) and the feet pairs' torsional and rolling friction (condim 6), nothing else; 13 links (the base, 4 hips, thighs, shanks), the feet
     spheres on the shanks."""
     m = mujoco.MjModel.from_xml_path(str(wd.assets.anymal_c_mjcf()))
     assert (m.nq, m.nv, m.nu, m.nmesh, m.ntex, m.nmat, m.nlight) == (19, 18, 0, 0, 0, 0, 0)
@@ -111,9 +111,8 @@ def test_mujoco_compiles_the_shipped_anymal_c_alone_and_warpdyn_names_what_it_do
     np.testing.assert_array_equal(m.dof_damping[6:], 1.0)
     assert m.key("standing").qpos[2] == 0.56 and m.body_subtreemass[1] == pytest.approx(44.96518)
     model, listed = _one_warning(wd.assets.anymal_c_mjcf())
-    uncollided = ["184 cylinder-box (e.g. geom0/geom16)", "230 cylinder-cylinder (e.g. geom1/geom16)"]
     torsion = ["142 geom pairs (e.g. geom19/geom0, condim 6)"]  # the feet's condim 6
-    assert listed == f"{JOINT_LIMITS}: {list(ANYMAL_C_JOINTS)}; {BODY_CONTACTS}: ['178 geom pairs']; {UNCOLLIDED_PAIRS}: {uncollided}; {TORSION}: {torsion}"
+    assert listed == f"{JOINT_LIMITS}: {list(ANYMAL_C_JOINTS)}; {BODY_CONTACTS}: ['592 geom pairs']; {MULTICCD}: ['414 geom pairs (e.g. geom16/geom0)']; {TORSION}: {torsion}"
     assert model.floating_base() and model.number_of_links() == 13 and set(model.joint_names()) == set(ANYMAL_C_JOINTS)
     spheres = {model.link_names()[link] for link, shapes in enumerate(model.tree.collisions) for s in shapes if s.kind == "sphere"}
     assert spheres == set(wd.assets.ANYMAL_C_FEET)
@@ -156,8 +155,8 @@ GO2_JOINTS = tuple(f"{leg}_{joint}_joint" for leg in ("FL", "FR", "RL", "RR") fo
 def test_mujoco_compiles_the_shipped_go2_alone_and_warpdyn_names_what_it_does_not_model():
     """No mesh, material, light or actuator, no frictionloss; Menagerie's 23 collision primitives (5 spheres: the
     base's and the feet's; 13 cylinders, 5 boxes), its damping and armature, and its keyframe "home". warpdyn
-    (float64) warns once: the 12 joints' limits, the contacts between bodies (92 pairs, off), the 118 pairs with a
-    cylinder it does not collide and the feet pairs' torsional and rolling friction (condim 6), nothing else; 13 links,
+    (float64) warns once: the 12 joints' limits, the contacts between bodies (210 pairs, off), the multiCCD contacts of
+    the 118 pairs with a cylinder and the feet pairs' torsional and rolling friction (condim 6), nothing else; 13 links,
     the foot spheres on the calves."""
     m = mujoco.MjModel.from_xml_path(str(wd.assets.go2_mjcf()))
     assert (m.nq, m.nv, m.nu, m.nmesh, m.ntex, m.nmat, m.nlight) == (19, 18, 0, 0, 0, 0, 0)
@@ -169,9 +168,8 @@ def test_mujoco_compiles_the_shipped_go2_alone_and_warpdyn_names_what_it_does_no
     np.testing.assert_array_equal(m.dof_armature[6:], 0.01)
     assert m.key("home").qpos[2] == 0.27 and m.body_subtreemass[1] == pytest.approx(15.206408)
     model, listed = _one_warning(wd.assets.go2_mjcf())
-    uncollided = ["48 cylinder-box (e.g. geom1/geom4)", "70 cylinder-cylinder (e.g. geom1/geom5)"]
     torsion = ["70 geom pairs (e.g. FL/geom0, condim 6)"]  # the feet's condim 6
-    assert listed == f"{JOINT_LIMITS}: {list(GO2_JOINTS)}; {BODY_CONTACTS}: ['92 geom pairs']; {UNCOLLIDED_PAIRS}: {uncollided}; {TORSION}: {torsion}"
+    assert listed == f"{JOINT_LIMITS}: {list(GO2_JOINTS)}; {BODY_CONTACTS}: ['210 geom pairs']; {MULTICCD}: ['118 geom pairs (e.g. geom1/geom4)']; {TORSION}: {torsion}"
     assert model.floating_base() and model.number_of_links() == 13 and set(model.joint_names()) == set(GO2_JOINTS)
     spheres = {model.link_names()[link] for link, shapes in enumerate(model.tree.collisions) for s in shapes if s.kind == "sphere"}
     assert spheres == {"base", *wd.assets.GO2_FEET}

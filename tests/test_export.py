@@ -174,7 +174,7 @@ def test_a_scene_exports_its_free_bodies_static_geoms_pairs_and_excludes():
         name = {shape.geom: shape.name for shape in (*m.description.world_geoms, *(s for link in m.description.links for s in link.collisions))}
         return sorted((*sorted((name[p.geom1], name[p.geom2])), round(p.margin, 12), round(p.gap, 12), p.friction, p.condim) for p in m.description.geom_pairs)
 
-    assert pairs(back) == pairs(model) and len(pairs(model)) == 29
+    assert pairs(back) == pairs(model) and len(pairs(model)) == 38
     assert [shape.name for shape in back.description.world_geoms] == [shape.name for shape in model.description.world_geoms] == ["shelf_box"]
     assert back.terrain == model.terrain
     data = wd.data.random_model_data(model, key=5, num_envs=2)

@@ -24,15 +24,20 @@ import numpy as np
 
 from .model import GeomPair
 
-__all__ = ["COLLIDED_TYPES", "mujoco_geom_pairs"]
+__all__ = ["COLLIDED_TYPES", "CONVEX_TYPES", "mujoco_geom_pairs"]
 
 _SPHERE, _CAPSULE, _CYLINDER, _BOX = 2, 3, 5, 6  # MuJoCo's mjtGeom values (kernels/collision_primitives.py's)
 COLLIDED_TYPES = frozenset(
     {(_SPHERE, _SPHERE), (_SPHERE, _CAPSULE), (_SPHERE, _CYLINDER), (_SPHERE, _BOX), (_CAPSULE, _CAPSULE), (_CAPSULE, _BOX), (_BOX, _BOX)}
+    | {(_CAPSULE, _CYLINDER), (_CYLINDER, _CYLINDER), (_CYLINDER, _BOX)}
 )
 """The (type1 <= type2) pairs of geoms on bodies that warpdyn's narrow phase collides (kernels/collision_primitives.py,
-kernels/collision_box.py); MuJoCo collides the others (capsule-cylinder, cylinder-cylinder, cylinder-box, ellipsoids,
-meshes) with its general convex solver."""
+kernels/collision_box.py, and CONVEX_TYPES by kernels/collision_convex.py); MuJoCo collides the others (ellipsoids,
+meshes) with its general convex solver too."""
+CONVEX_TYPES = frozenset({(_CAPSULE, _CYLINDER), (_CYLINDER, _CYLINDER), (_CYLINDER, _BOX)})
+"""The pairs that MuJoCo and warpdyn collide with a general convex solver (GJK and EPA), one contact a pair: MuJoCo 4's
+multiCCD, on by default, adds polygon contacts where the two geoms meet face to face or edge to face (a cylinder
+standing on a box: 4), which warpdyn does not (the loader says so)."""
 
 
 def _contact_parameters(m, g1: int, g2: int) -> tuple[tuple, int]:

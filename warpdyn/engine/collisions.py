@@ -11,8 +11,10 @@ import numpy as np
 import warp as wp
 
 from .. import arrays
-from ..kernels.collisions import kernels as collision_kernels
+from ..description.collision_pairs import CONVEX_TYPES
 from ..description.tree import JOINT_FREE
+from ..kernels.collisions import kernels as collision_kernels
+from ..kernels.collisions import narrow_phase
 from ..types.geoms import geom_pairs
 from ..types.model_constants import transforms
 from .bundles import empty_like_input
@@ -23,8 +25,8 @@ __all__ = ["geom_pairs", "pair_arrays", "contact_buffers", "contact_launch", "fo
 
 
 def pair_arrays(model) -> dict:
-    """The geom pairs' device arrays as kernels/collisions.py takes them, with "scalar", "pairs" (nP) and "contacts"
-    (C, their slots) (cached per model version)."""
+    """The geom pairs' device arrays as kernels/collisions.py takes them, with "scalar", "pairs" (nP), "contacts"
+    (C, their slots) and "convex" (whether a pair needs kernels/collision_convex.py) (cached per model version)."""
 
     def build():
         pairs, s, d = geom_pairs(model), model.scalar, model.device
@@ -50,6 +52,7 @@ def pair_arrays(model) -> dict:
             link_pairs=wp.array(link_pairs, dtype=int, device=d),
             guarded=wp.array(lone, dtype=int, device=d),
             any_guarded=bool(lone.any()),
+            convex=any((int(t1), int(t2)) in CONVEX_TYPES for t1, t2 in zip(pairs.type1, pairs.type2)),
         )  # fmt: skip
 
     return model.cached("geom pair arrays", build)
@@ -96,7 +99,7 @@ def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
     inputs = [a[k] for k in ("link1", "link2", "type1", "type2", "link_H_geom1", "link_H_geom2", "size1", "size2", "margin", "first", "slots")]
     outputs = [b[k] for k in ("count", "position", "frame", "dist")]
     order = int(arrays.env_fastest(a["device"]))
-    return Launch(collision_kernels(a["scalar"]).geom_contacts, N * a["pairs"], [*inputs, W_H_L, order], outputs)
+    return Launch(narrow_phase(a["scalar"], a["convex"]).geom_contacts, N * a["pairs"], [*inputs, W_H_L, order], outputs)
 
 
 def force_launches(a: dict, contacts_bundle, W_H_L: wp.array, W_v_WL: wp.array, m: wp.array, b: dict, W_f_L: wp.array, m_dot: wp.array, N: int,

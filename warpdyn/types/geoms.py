@@ -2,8 +2,9 @@
 tree's links, with what the narrow phase reads (kernels/collisions.py), fixed when the model is built so that a
 step's collision work has one size.
 
-Each pair has slots for the most contacts its types give (1 with a sphere, 2 for capsule-capsule and capsule-box,
-8 for box-box: kernels/collision_primitives.py, kernels/collision_box.py), consecutive, pair after pair.
+Each pair has slots for the most contacts its types give (1 with a sphere or a cylinder, 2 for capsule-capsule and
+capsule-box, 8 for box-box: kernels/collision_primitives.py, kernels/collision_box.py, kernels/collision_convex.py),
+consecutive, pair after pair.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ __all__ = ["GeomPairs", "geom_pairs", "self_collision", "MUJOCO_TYPES", "SLOTS"]
 MUJOCO_TYPES = {"sphere": 2, "capsule": 3, "cylinder": 5, "box": 6}
 """A collision shape's kind -> MuJoCo's mjtGeom value (the narrow phase's type)."""
 
-SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8}
+SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8, (3, 5): 1, (5, 5): 1, (5, 6): 1}
 """(type1, type2) -> the most contacts of such a pair."""
 
 

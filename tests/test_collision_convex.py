@@ -1,0 +1,189 @@
+"""kernels/collision_convex.py (capsule-cylinder, cylinder-cylinder, cylinder-box: GJK and EPA) against MuJoCo's
+mj_collision and against the definition of the contact it computes.
+
+MuJoCo's reference runs with mjDSBL_MULTICCD set: MuJoCo 4 otherwise adds polygon contacts where the EPA's features
+are faces or edges (a cylinder's cap on a box), which warpdyn does not reproduce (one contact a pair; the loader says
+so). Each pair at N_RANDOM random poses, for two margins, in a two-geom MJCF (tests/collision_reference.py).
+
+What is checked:
+- the count equals MuJoCo's at every pose (0 or 1; but for a contact exactly on the margin's edge);
+- the contact is the pair's: its normal n maximises the cores' separation sep(n) = min_b n.b - max_a n.a over all
+  directions (dense directions refined by Nelder-Mead, `_best_separation`): to EPA_TOL where the geoms penetrate,
+  to GJK_TOL where they are apart within the margin (GJK converges linearly between two curved surfaces and stops
+  where rounding leaves no progress); dist = sep(n) - the capsule's radius, and pos lies midway between the witnesses;
+- MuJoCo agrees where its own EPA converged (its dist equals its sep along its normal to 1e-7: about half the poses;
+  MuJoCo stops at ccd_tolerance 1e-6 and 35 iterations): dist to 1e-6, normal and position to MJ_TOL; where it did
+  not, warpdyn's normal separates at least as well as MuJoCo's (it is the better contact);
+- float32 against float64; the tape's gradient of dist against central differences (the normal and the witnesses
+  are held: kernels/collision_convex.py's docstring).
+"""
+
+import functools
+
+import mujoco
+import numpy as np
+import pytest
+import scipy.optimize
+import warp as wp
+
+from warpdyn.kernels import collision_convex as cc
+from warpdyn.kernels import collision_primitives as cp
+from collision_reference import posed_contacts
+from gradcheck import contact_gradient_check
+
+PAIRS = [("capsule", "cylinder"), ("cylinder", "cylinder"), ("cylinder", "box")]
+TYPES = {"capsule": cp.CAPSULE, "cylinder": cp.CYLINDER, "box": cp.BOX}
+SIZE1 = {"capsule": (0.1, 0.3, 0.0), "cylinder": (0.2, 0.15, 0.0)}
+SIZE2 = {"cylinder": (0.15, 0.25, 0.0), "box": (0.2, 0.3, 0.1)}
+MARGINS = (0.0, 0.1)  # margin + gap of the pair, half on each geom
+N_RANDOM = 120
+EPA_TOL = 1e-7
+GJK_TOL = 2e-5
+"""[m] EPA stops at TOLERANCE (1e-10) of the pair's size (9 poses in 10 here: below 6e-11 m), else where its polytope
+is full or rounding breaks its convexity (4e-8 m at most here); GJK, apart, where rounding leaves no progress: its
+last support's gap bounded the distance's error by 1e-5 m at most here (two cylinders' rims)."""
+MJ_TOL = 2e-3
+"""MuJoCo's normal and position where its EPA converged: its ccd_tolerance 1e-6 on the depth leaves the normal at a
+curved optimum free to about its square root, and the position moves along the surfaces with it."""
+
+
+def _support(name, size, p, R, d):
+    """The core's support point along the world directions d (k, 3) (a capsule's segment: its radius apart)."""
+    local = d @ R
+    if name == "box":
+        q = np.where(local >= 0, 1.0, -1.0) * np.asarray(size)
+    elif name == "cylinder":
+        radial = np.maximum(np.hypot(local[:, 0], local[:, 1]), 1e-300)
+        q = np.stack([size[0] * local[:, 0] / radial, size[0] * local[:, 1] / radial, np.where(local[:, 2] >= 0, size[1], -size[1])], 1)
+    else:
+        q = np.zeros_like(local)
+        q[:, 2] = np.where(local[:, 2] >= 0, size[1], -size[1])
+    return p + q @ R.T
+
+
+def _separation(pair, sizes, xpos, xmat, n):
+    """sep(n) of the cores (k,) for unit directions n (k, 3)."""
+    n = np.atleast_2d(n)
+    a = _support(pair[0], sizes[0], xpos[0], xmat[0], n)
+    b = _support(pair[1], sizes[1], xpos[1], xmat[1], -n)
+    return np.sum(n * (b - a), axis=1)
+
+
+def _best_separation(pair, sizes, xpos, xmat):
+    """max over unit n of sep(n): 20000 directions, the best 3 refined by Nelder-Mead."""
+    k = np.arange(20000) + 0.5
+    z = 1 - 2 * k / 20000
+    phi = np.pi * (1 + 5**0.5) * k
+    dirs = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z], 1)
+    values = _separation(pair, sizes, xpos, xmat, dirs)
+    best = values.max()
+    for start in dirs[np.argsort(values)[-3:]]:
+        result = scipy.optimize.minimize(lambda x: -_separation(pair, sizes, xpos, xmat, x / np.linalg.norm(x))[0], start, method="Nelder-Mead",
+                                         options={"xatol": 1e-13, "fatol": 1e-15, "maxiter": 3000})  # fmt: skip
+        best = max(best, -result.fun)
+    return best
+
+
+def _radius(pair, sizes):
+    return sizes[0][0] if pair[0] == "capsule" else 0.0
+
+
+@functools.cache
+def _reference(pair, margin):
+    """(xpos (n, 2, 3), xmat (n, 2, 3, 3), sizes (2, 3), MuJoCo's contacts per pose) at random poses."""
+    size1, size2 = SIZE1[pair[0]], SIZE2[pair[1]]
+    xml = f"""<mujoco><option gravity="0 0 0"/><worldbody>
+      <body mocap="true"><geom type="{pair[0]}" size="{' '.join(map(str, size1))}" margin="{margin / 2}"/></body>
+      <body><freejoint/><geom type="{pair[1]}" size="{' '.join(map(str, size2))}" margin="{margin / 2}"/></body>
+    </worldbody></mujoco>"""
+    m = mujoco.MjModel.from_xml_string(xml)
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
+    rng = np.random.default_rng(7)
+    reach = np.linalg.norm(size1[:2]) + (size1[0] if pair[0] == "capsule" else 0.0) + np.linalg.norm(size2) + margin
+    poses = []
+    for _ in range(N_RANDOM):
+        q, u = rng.normal(size=4), rng.normal(size=3)
+        poses.append((tuple(u / np.linalg.norm(u) * rng.uniform(0.0, 0.8 * reach)), q / np.linalg.norm(q)))
+    xpos, xmat, contacts = posed_contacts(m, rng, poses)
+    return xpos, xmat, np.array([size1, size2]), contacts
+
+
+def _collide(pair, xpos, xmat, sizes, margin, dtype, requires_grad=False):
+    """The kernel's inputs (p1, R1, p2, R2) and outputs count (n,), pos (n, 1), frame (n, 1), dist (n, 1)."""
+    K = cc.kernels(wp.float64 if dtype == np.float64 else wp.float32)
+    n = len(xpos)
+    inputs = [wp.array(np.ascontiguousarray(a, dtype=dtype), dtype=t, requires_grad=requires_grad) for a, t in ((xpos[:, 0], K.vec3), (xmat[:, 0], K.mat33), (xpos[:, 1], K.vec3), (xmat[:, 1], K.mat33))]
+    size = [wp.array(np.broadcast_to(s, (n, 3)).astype(dtype), dtype=K.vec3) for s in sizes]
+    count = wp.full(n, -2, dtype=int)
+    pos, frame, dist = (wp.zeros((n, 1), dtype=t, requires_grad=requires_grad) for t in (K.vec3, K.mat33, K.scalar))
+    wp.launch(K.collide, n, inputs=[TYPES[pair[0]], TYPES[pair[1]], inputs[0], inputs[1], size[0], inputs[2], inputs[3], size[1], wp.full(n, margin, dtype=K.scalar)], outputs=[count, pos, frame, dist])
+    return inputs, count, pos, frame, dist
+
+
+@pytest.mark.parametrize("margin", MARGINS, ids=["no_margin", "margin"])
+@pytest.mark.parametrize("pair", PAIRS, ids=lambda p: "-".join(p))
+def test_pair_is_the_contact_and_equals_mujoco(pair, margin):
+    """The count, the optimality of the normal, and MuJoCo's contact where its EPA converged (module docstring)."""
+    xpos, xmat, sizes, contacts = _reference(pair, margin)
+    _, count, pos, frame, dist = _collide(pair, xpos, xmat, sizes, margin, np.float64)
+    count, pos, normal, dist = count.numpy(), pos.numpy()[:, 0], frame.numpy()[:, 0, 0], dist.numpy()[:, 0]
+    r = _radius(pair, sizes)
+    converged = better = 0
+    for i, (mj_pos, mj_frame, mj_dist) in enumerate(contacts):
+        if len(mj_dist) != count[i]:
+            assert abs(dist[i] - margin) < 1e-9, (i, mj_dist, dist[i])  # on the margin's edge
+            continue
+        if count[i] == 0:
+            continue
+        sep = _separation(pair, sizes, xpos[i], xmat[i], normal[i])[0]
+        tol = EPA_TOL if dist[i] < 0 else GJK_TOL
+        assert abs(dist[i] - (sep - r)) <= tol, i
+        assert sep >= _best_separation(pair, sizes, xpos[i], xmat[i]) - tol, i
+        mj_sep = _separation(pair, sizes, xpos[i], xmat[i], mj_frame[0, 0])[0]
+        if abs(mj_dist[0] - (mj_sep - r)) <= 1e-7:
+            converged += 1
+            assert abs(dist[i] - mj_dist[0]) <= 1e-6, i
+            assert np.abs(normal[i] - mj_frame[0, 0]).max() <= MJ_TOL, i
+            assert np.abs(pos[i] - mj_pos[0]).max() <= MJ_TOL, i
+        else:
+            better += 1
+            assert sep >= mj_sep - tol, i
+    print("-".join(pair), f"margin {margin}: {count.sum()} contacts, MuJoCo converged on {converged}, warpdyn's at least as good on {better}")
+    assert count.sum() > N_RANDOM // 2 and converged > count.sum() // 4
+
+
+@pytest.mark.parametrize("pair", PAIRS, ids=lambda p: "-".join(p))
+def test_float32_equals_float64(pair):
+    """float32: the same counts but within the margin's edge, dist to 2e-5 m (tens of operations on lengths of
+    0.1-1 m, rounded to 6e-8; EPA stopped at 1e-6 of the size), and the float32 normal separates the geoms (sep in
+    float64) within 5e-5 m of the float64 normal. The normals themselves may differ by 1e-2 where sep is flat about
+    its optimum (a capsule's segment across a cylinder's side: sep then moves by 3e-5 m for it)."""
+    xpos, xmat, sizes, _ = _reference(pair, 0.1)
+    out64 = [a.numpy() for a in _collide(pair, xpos, xmat, sizes, 0.1, np.float64)[1:]]
+    out32 = [a.numpy() for a in _collide(pair, xpos, xmat, sizes, 0.1, np.float32)[1:]]
+    same = (out64[0] == out32[0]) & (out64[0] == 1)
+    edge = out64[0] != out32[0]
+    assert np.all(np.abs(out64[3][edge, 0] - 0.1) < 1e-5)
+    assert np.all(np.abs(out64[3][same, 0] - out32[3][same, 0]) <= 2e-5)
+    for i in np.nonzero(same)[0]:
+        sep64, sep32 = (_separation(pair, sizes, xpos[i], xmat[i], out[2][i, 0, 0].astype(np.float64))[0] for out in (out64, out32))
+        assert sep32 >= sep64 - 5e-5, i
+    assert same.sum() > len(xpos) // 2
+
+
+@pytest.mark.parametrize("pair", PAIRS, ids=lambda p: "-".join(p))
+def test_tape_gradient_of_dist_equals_finite_differences(pair):
+    """float64: wp.Tape's gradient of L = sum of dist with respect to both poses, along a random direction, equals the
+    central difference at steps 1e-6 and 2e-6 where those agree to 1e-6 and keep the count: to 1e-4 (dist's derivative
+    at the held normal and witnesses is exact at the optimum (Danskin), with the witnesses' lever arms as accurate as
+    EPA places them on a curved surface: to about the square root of its tolerance, 1e-5 m)."""
+    xpos, xmat, sizes, _ = _reference(pair, 0.1)
+
+    def run(xpos, xmat):
+        return _collide(pair, xpos, xmat, sizes, 0.1, np.float64, requires_grad=True)
+
+    K = cc.kernels(wp.float64)
+    c = contact_gradient_check(run, xpos, xmat, 1, K.vec3, K.mat33, position_and_normal=False)
+    smooth = (np.abs(c["fd1"] - c["fd2"]) < 1e-6) & c["steps_keep_count"] & (c["count"] > 0)
+    assert smooth.sum() > len(xpos) // 3
+    np.testing.assert_allclose(c["along"][smooth], c["fd1"][smooth], atol=1e-4)
