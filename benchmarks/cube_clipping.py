@@ -2,13 +2,14 @@
 soft law at several time steps, explicit and linearly implicit (model.implicit_contacts), beside MuJoCo (issue 37:
 why PickCubeConfig steps at 1 ms with implicit contacts).
 
-    python benchmarks/cube_clipping.py [--envs 24] [--time-steps 0.001,0.0005] [--seed 5]
+    python benchmarks/cube_clipping.py [--envs 24] [--time-steps 0.001,0.0005] [--damping D] [--seed 5]
 
 What runs: PickCubeEnv's resets (seed --seed) put --envs cubes on the floor; from the keyframe "home" each arm's
 position targets move the gripper site towards 12 cm above its cube by damped least squares on the site's position
 alone (the hand tilts on the way, so that a pad often clips the cube's top edge), at most 0.04 rad per policy step,
 for 22 policy steps (0.44 s), the gripper open. The controls are computed once (from the commanded joint positions:
-the same for every simulator) and replayed in warpdyn (float64, PickCubeConfig's K and D, each --time-steps) and in
+the same for every simulator) and replayed in warpdyn (float64, PickCubeConfig's K and D (--damping: another D, as
+2 ms needs for the deformation's dt K / D < 2), each --time-steps) and in
 MuJoCo (the file's 1 ms, its implicit soft constraints); warpdyn's at each time step with explicit and with
 implicit contacts. Prints, over the environments whose cube moved more than
 1 mm in either simulator, the median and mean displacement of the cube [mm] and how many moved more than 2 cm.
@@ -58,9 +59,9 @@ def approach_controls(N: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return cubes, np.array(out)
 
 
-def warpdyn_displacements(cubes: np.ndarray, controls: np.ndarray, time_step: float, implicit: bool, seed: int) -> np.ndarray:
+def warpdyn_displacements(cubes: np.ndarray, controls: np.ndarray, time_step: float, implicit: bool, seed: int, damping: float) -> np.ndarray:
     """(N,) [m]: each cube's displacement after the approach in warpdyn at `time_step`, its contacts implicit or not."""
-    config = envs.PickCubeConfig(time_step=time_step, implicit_contacts=implicit)
+    config = envs.PickCubeConfig(time_step=time_step, implicit_contacts=implicit, contact_damping=damping)
     env = envs.PickCubeEnv(len(cubes), config, dtype=np.float64, device="cpu", seed=seed)
     env.reset(seed=seed)
     for ctrl in controls:
@@ -90,6 +91,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--envs", type=int, default=24)
     parser.add_argument("--time-steps", default="0.001,0.0005")
+    parser.add_argument("--damping", type=float, default=envs.PickCubeConfig().contact_damping, help="the soft law's D [N s/m^1.5]")
     parser.add_argument("--seed", type=int, default=5)
     args = parser.parse_args()
     wp.config.quiet = True
@@ -100,7 +102,7 @@ def main() -> None:
     for dt in args.time_steps.split(","):
         for implicit in (False, True):
             name = f"warpdyn {float(dt) * 1e3:g} ms {'implicit' if implicit else 'explicit'}"
-            rows.append((name, warpdyn_displacements(cubes, controls, float(dt), implicit, args.seed)))
+            rows.append((name, warpdyn_displacements(cubes, controls, float(dt), implicit, args.seed, args.damping)))
     touched = np.any([moved > 1e-3 for _, moved in rows], axis=0)
     print(f"{args.envs} scripted approaches, {touched.sum()} touched the cube (moved > 1 mm in one simulator at least)")
     for name, moved in rows:

@@ -147,6 +147,7 @@ def bundles(scalar) -> types.SimpleNamespace:
         mu: wp.array(dtype=scalar)  # (1,) or (N,) friction coefficient
         p: scalar  # exponent of the spring term
         q: scalar  # exponent of the damper term
+        implicit: int  # 1 where the step's contacts are linearly implicit (model.implicit_contacts): the Coulomb limit's normal force is then the one the step applies to a contact it arrests
 
     @wp.func
     def env_and_item(i: int, N: int, K: int, env_fastest: int):

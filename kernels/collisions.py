@@ -142,7 +142,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             v = v - sp.lin(W_v_WL[env, a]) - wp.cross(sp.ang(W_v_WL[env, a]), p)
         depth = -dist[env, slot]
         m_k = vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-        f, md = law.hunt_crossley_at_depth(depth, v, m_k, n, K, D, mu, contacts.p, contacts.q)
+        f, md = law.hunt_crossley_at_depth(depth, v, m_k, n, K, D, mu, contacts.p, contacts.q, contacts.implicit)
         return p, n, v, depth, m_k, f, md
 
     @wp.kernel(module="unique")
@@ -173,7 +173,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             else:  # an empty slot (its dist +inf), out of contact: nothing else is read
                 zero = vec3(scalar(0.0))
                 m_k = vec3(m[env, row, 0], m[env, row, 1], m[env, row, 2])
-                f, md = law.hunt_crossley_at_depth(scalar(-wp.inf), zero, m_k, zero, K, D, mu[i], contacts.p, contacts.q)
+                f, md = law.hunt_crossley_at_depth(scalar(-wp.inf), zero, m_k, zero, K, D, mu[i], contacts.p, contacts.q, contacts.implicit)
             for r in range(3):
                 m_dot[env, row, r] = md[r]
 

@@ -13,11 +13,14 @@ in link coordinates (J_c = [1, -r_c^], r_c the contact point from the link's ori
 linearisation of the contact forces (Baraff and Witkin), exact for a link touching the static world. Per contact,
 with delta the penetration depth and the law's K, D, p, q (JaxSim's), where it pushes (f . n > 0):
     normal: c = D (delta + eps)^q, k_n = (1 + p) K (delta + eps)^p (d fn / d delta at a fixed rate);
-    tangential, while the contact sticks (|f_t| < mu fn): c and k_t = K (delta + eps)^p (the deformation's spring,
-    which the deformation state integrates at the contact's velocity); sliding: none (the force's magnitude is
-    Coulomb's, mu fn, whatever the velocity);
-the predicted normal force h k_n v_n is held to what keeps the force pushing (it never pulls). The terms of a link
-are a record of IMPLICIT numbers: A_L's upper triangle (21), then g_L (6).
+    tangential, while the contact sticks (|f_t| < mu fn*): c and k_t = K (delta + eps)^p (the deformation's spring,
+    which the deformation state integrates at the contact's velocity); sliding: Coulomb's force mu fn* taken as the
+    damper mu fn* / |v_t| that gives it at the slip's velocity (so that one step's friction can stop the slip, never
+    reverse it: explicit, a light body's sliding corner chattered and grew at 2 ms), at most the sticking one's c + h k_t;
+fn* = min(fn, K delta^(1+p)) (kernels/soft_contacts.py's `coulomb_normal_force`, the law's limit in such a step: the
+normal force that backward Euler applies to a contact it arrests, without the impact's damper spike). The predicted
+normal force h k_n v_n is held to what keeps the force pushing (it never pulls). The terms of a link are a record of
+IMPLICIT numbers: A_L's upper triangle (21), then g_L (6).
 """
 
 import types
@@ -62,10 +65,17 @@ def kernels(scalar, terrain_kind: int | None = None) -> types.SimpleNamespace:
         g = -wp.min(h * k_n * v_n, fn) * n  # the predicted normal force never pulls
         alpha = h * c + h * h * k_n
         beta = zero
-        trial = law.trial_tangential_force(delta_p, law.power(depth + scalar(EPSILON), qe), law.tangential_part(v, n), law.tangential_part(m, n), K, D)
-        if wp.length(trial) <= mu * fn:  # sticking (the law's test): the tangential spring and damper act
+        v_t = law.tangential_part(v, n)
+        trial = law.trial_tangential_force(delta_p, law.power(depth + scalar(EPSILON), qe), v_t, law.tangential_part(m, n), K, D)
+        limit = mu * law.coulomb_normal_force(fn, k_t * depth)
+        if wp.length(trial) <= limit:  # sticking (the law's test): the tangential spring and damper act
             beta = h * c + h * h * k_t
-            g = g - h * k_t * (v - v_n * n)
+            g = g - h * k_t * v_t
+        else:  # sliding: Coulomb's force as the damper mu fn / |v_t| that gives it, which can stop the slip but not reverse it; at most the sticking contact's
+            speed = wp.length(v_t)
+            beta = h * (c + h * k_t)
+            if speed * (c + h * k_t) > limit:
+                beta = h * limit / speed
         return alpha, beta, g
 
     @wp.func

@@ -37,18 +37,22 @@ def _model(mu: float, implicit: bool = True):
 
 
 def _law(depth, v, n, mu):
-    """(f, alpha, beta, g, sticks): the soft law's force at a zero deformation and its implicit terms (the module docstring of
-    kernels/implicit_contacts.py), written out."""
+    """(f, alpha, beta, g, sticks): the soft law's force at a zero deformation in a linearly implicit step (its Coulomb
+    limit mu min(fn, K delta^(1+p))) and its implicit terms (the module docstring of kernels/implicit_contacts.py),
+    written out."""
     power = (depth + EPS) ** P
     fn = max(0.0, K * power * depth - D * power * (v @ n))
+    limit = mu * min(fn, K * power * depth)
     v_t = v - (v @ n) * n
     f_t = -D * power * v_t
-    sticks = np.linalg.norm(f_t) < mu * fn
+    sticks = np.linalg.norm(f_t) < limit
     if not sticks and np.linalg.norm(f_t) > 0:
-        f_t = f_t * mu * fn / np.linalg.norm(f_t)
-    k_n, c = (1 + P) * K * power, D * power
-    alpha, beta = H * c + H * H * k_n, (H * c + H * H * K * power if sticks else 0.0)
-    g = -min(H * k_n * (v @ n), fn) * n - (H * K * power * v_t if sticks else 0.0)
+        f_t = f_t * limit / np.linalg.norm(f_t)
+    k_n, k_t, c = (1 + P) * K * power, K * power, D * power
+    speed = np.linalg.norm(v_t)
+    alpha = H * c + H * H * k_n
+    beta = H * (c + H * k_t) if sticks or speed * (c + H * k_t) <= limit else H * limit / speed
+    g = -min(H * k_n * (v @ n), fn) * n - (H * k_t * v_t if sticks else 0.0)
     return fn * n + f_t, alpha, beta, g, sticks
 
 
@@ -77,7 +81,7 @@ def test_one_step_is_the_linearised_solve(mu):
     """The ball on the table (a geom pair's contact) and the cube on the terrain (four corners), moving into their
     contacts and sideways, spinning: after one step each body's velocity is the NumPy solve of its linearised
     contact forces (float64, to 1e-12 relative); mu 1 (the geoms' and the terrain's) keeps the ball's contact and the
-    cube's corners sticking; at 0.05 the ball and three corners slide (no tangential terms)."""
+    cube's corners sticking; at 0.05 the ball and three corners slide (Coulomb's force as a damper)."""
     model = _model(mu)
     model.contact_params = wd.model.SoftContactsParams(mu=mu)
     v_ball, w_ball, v_cube, w_cube = np.array([0.01, -0.005, -0.05]), np.array([0.5, -1.0, 2.0]), np.array([0.02, -0.01, -0.03]), np.array([0.3, -0.2, 0.5])

@@ -164,6 +164,7 @@ class SoftContactStage(ContactStage):
         c = model.contact_params
         self.bundle.K, self.bundle.D, self.bundle.mu = (per_env(getattr(c, k), k, s, d) for k in ("K", "D", "mu"))
         self.bundle.p, self.bundle.q = s(c.p), s(c.q)
+        self.bundle.implicit = int(bool(model.implicit_contacts))  # the Coulomb limit of a linearly implicit step (kernels/soft_contacts.py)
         # the deformation's stability where the points can touch the terrain (contact_reach); the device check
         # of every step (kernels/parameter_checks.py) asks it again of values written in place
         reach = contact_reach(model) if self.count > 0 else ContactReach(0.0, False, "")
