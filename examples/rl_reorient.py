@@ -6,7 +6,7 @@ rsl-rl's PPO on warpdyn.envs.CubeReorientEnv, the contacts between the hand's an
     python examples/rl_reorient.py --device cpu --num-envs 16 --iterations 2            # a look on the CPU
 
 Environment (`warpdyn.envs.CubeReorientEnv`, its defaults: CubeReorientConfig): the shipped scene
-`wd.assets.leap_hand_cube_mjcf()` at 1 ms steps (implicit contacts), the policy at 20 Hz adding 0.5 x its actions to the 16 position
+`wd.assets.leap_hand_cube_mjcf()` at 2 ms steps (implicit contacts), the policy at 20 Hz adding 0.5 x its actions to the 16 position
 targets, episodes of 50 s; each reset draws a goal orientation and takes the hand's joints and the cube's pose from a
 bank of Playground's reset draws that do not interpenetrate; Playground's noisy observations for the actor and
 privileged ones for the critic, its rewards (orientation, cube in the palm, a fall, hand pose, action rate,

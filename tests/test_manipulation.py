@@ -247,8 +247,8 @@ def _press_on_the_edge(m, d) -> tuple[np.ndarray, list]:
 def test_a_pad_pressing_on_the_cubes_edge_leaves_it_near_mujocos():
     """A fingertip pad lands on the cube's top edge and presses on it (`_press_on_the_edge`, 0.62 s), as a policy's
     approaches do, beside MuJoCo (the file's 1 ms, implicit contacts): MuJoCo's cube moves 1.3 mm and turns at 2.3
-    rad/s at most. With PickCubeConfig's 1 ms steps and implicit contacts warpdyn's moves 1.5 mm and turns at up to
-    6.4 rad/s (measured); explicit, at 0.5 ms it moved 11 mm with a 62 rad/s burst (near the explicit step's stable
+    rad/s at most. With PickCubeConfig's 2 ms steps, D = 2000 and implicit contacts warpdyn's moves 1.4 mm and turns at
+    up to 2.2 rad/s (measured; 1.5 mm and 6.4 rad/s at 1 ms, D = 500); explicit, at 0.5 ms it moved 11 mm with a 62 rad/s burst (near the explicit step's stable
     rate of the light cube's off-centre contacts), at 1 ms it spun at 860 rad/s and was thrown 0.23 m, unflagged (the
     damper check counts translations only)."""
     m = mujoco.MjModel.from_xml_path(str(wd.assets.franka_panda_cube_mjcf()))

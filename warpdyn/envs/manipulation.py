@@ -30,14 +30,14 @@ __all__ = ["PickCubeConfig", "PickCubeEnv"]
 class PickCubeConfig:
     """What `PickCubeEnv` simulates and rewards; units SI (s, m).
 
-    Simulation: `time_step` [s] of the model's integrator (1 ms: Playground's 5 ms relies on MuJoCo's implicit
+    Simulation: `time_step` [s] of the model's integrator (2 ms: Playground's 5 ms relies on MuJoCo's implicit
     integration of the servos and contacts) and `implicit_contacts` (model.implicit_contacts: the soft law's contacts
     linearly implicit; explicit, a pad that clips the cube's edge, as a policy's approaches do, drives the 0.1 kg
     cube's rotation past the explicit step's stable rate: over 24 scripted approaches a touched cube moved a median
-    118 mm at 1 ms explicit, 2.4 mm at 0.5 ms explicit, 1.9 mm at 1 ms implicit, 1.0 mm in MuJoCo:
+    118 mm at 1 ms explicit, 2.4 mm at 0.5 ms explicit, 0.8 mm at 2 ms implicit with D = 2000, 0.9 mm in MuJoCo:
     benchmarks/cube_clipping.py; tests/test_manipulation.py's pad-on-the-edge test), `policy_dt` [s] per action
     (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5] and `contact_damping` D [N s/m^1.5]
-    (D = 500: the 0.1 kg cube squeezed between the pads at 1 ms stays within the explicit damper's stable rate),
+    (D = 2000: at 2 ms the tangential deformation needs dt K / D < 2; explicit contacts would want D = 500 at 1 ms),
     `friction` the terrain's (the floor's) Coulomb coefficient (MuJoCo's cube-floor friction, 1). Task: an action adds `action_scale` times itself (clipped to [-1, 1]) to each of the 8 controls
     (the 7 joints' position targets [rad] and the gripper's opening [m]), clipped to their ranges; episodes of
     `episode_seconds`; the cube starts on the floor `cube_range` [m] around the keyframe `keyframe`'s cube in x and y,
@@ -50,12 +50,12 @@ class PickCubeConfig:
     `success_distance` [m] of its target, and "reached": the fraction whose gripper came within reach_distance of
     the cube this episode (box_target's gate)."""
 
-    time_step: float = 0.001
+    time_step: float = 0.002
     policy_dt: float = 0.02
     episode_seconds: float = 3.0
     action_scale: float = 0.04
     contact_stiffness: float = 5e5
-    contact_damping: float = 500.0
+    contact_damping: float = 2000.0
     implicit_contacts: bool = True
     friction: float = 1.0
     keyframe: str = "home"

@@ -35,11 +35,13 @@ _TIPS = ("th_tip", "if_tip", "mf_tip", "rf_tip")
 class CubeReorientConfig:
     """What `CubeReorientEnv` simulates and rewards; units SI (s, m, rad).
 
-    Simulation: `time_step` [s] (1 ms: Playground's 10 ms relies on MuJoCo's implicit constraint solver) and
+    Simulation: `time_step` [s] (2 ms: Playground's 10 ms relies on MuJoCo's implicit constraint solver) and
     `implicit_contacts` (model.implicit_contacts: the soft law's contacts linearly implicit; explicit, the 0.108 kg
-    cube on the fingers' boxes needs 0.5 ms, as PickCubeConfig's cube; implicit at 1 ms, 32 hands under smooth random
-    actions for 5 s flagged none, the cube never faster than 1.2 m/s), `policy_dt` [s] per action (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5],
-    `contact_damping` D [N s/m^1.5] and the floor's `friction`. Task: an action adds `action_scale` times itself
+    cube on the fingers' boxes needs 0.5 ms, as PickCubeConfig's cube; implicit at 2 ms, 128 hands under smooth random
+    actions for 10 s flagged none, the cube below 1 m/s), `policy_dt` [s] per action (Playground's ctrl_dt), the soft
+    law's `contact_stiffness` K [N/m^1.5], `contact_damping` D [N s/m^1.5] (2000: at 2 ms the tangential deformation
+    needs dt K / D < 2, and a cube dropped into the hand from a deep reset leaves at a median 0.5 m/s, 1.4 m/s at 1 ms
+    with D = 500) and the floor's `friction`. Task: an action adds `action_scale` times itself
     (clipped to [-1, 1]) to each of the 16 position targets, clipped to their ranges; episodes of `episode_seconds`;
     a reset draws the goal orientation uniformly and takes the hand's joints (the targets there) and the cube's pose
     from a bank of `reset_bank` states drawn when the environment is built as Playground draws its resets (the
@@ -59,13 +61,13 @@ class CubeReorientConfig:
     the reward is their scaled sum times policy_dt, plus `success_reward` at each success. An episode ends where
     the cube falls below z = -0.05 m or the state stops being finite."""
 
-    time_step: float = 0.001
+    time_step: float = 0.002
     implicit_contacts: bool = True
     policy_dt: float = 0.05
     episode_seconds: float = 50.0
     action_scale: float = 0.5
     contact_stiffness: float = 5e5
-    contact_damping: float = 500.0
+    contact_damping: float = 2000.0
     friction: float = 1.0
     hand_noise: float = 0.1
     cube_start: tuple = (0.1, 0.0, 0.05)
