@@ -1,11 +1,13 @@
 """The pairs MuJoCo collides with its general convex solver (mjc_Convex: its native GJK and EPA): here capsule-cylinder,
-cylinder-cylinder and cylinder-box, one contact a pair, as MuJoCo gives with mjDSBL_MULTICCD (MuJoCo 4's multiCCD,
-on by default, adds polygon contacts where the geoms' features meet face to face or edge to face; not here).
+cylinder-cylinder, cylinder-box and a convex mesh with a sphere, capsule, cylinder, box or mesh, one contact a pair,
+as MuJoCo gives with mjDSBL_MULTICCD (MuJoCo 4's multiCCD, on by default, adds polygon contacts where the geoms'
+features meet face to face or edge to face; not here). GJK and EPA run in float64 whatever the kernels' scalar: their
+results are held (below), and float32's rounding stalled GJK between curved surfaces millimetres short.
 
-The geoms are taken as cores inflated by a radius (a capsule: its segment and radius; a cylinder or a box: itself and
-0). GJK (the closest point to the origin of a simplex of the cores' Minkowski difference, by its faces' affine
-projections) gives the cores' distance where they are apart; where they overlap, EPA (the expanding polytope) gives
-their penetration. Either gives the direction n (unit, geom1 to geom2) of the cores' largest separation
+The geoms are taken as cores inflated by a radius (a sphere: its centre and radius; a capsule: its segment and
+radius; a cylinder, a box or a mesh: itself and 0; a mesh as its convex hull, the support of its vertices). GJK (the
+closest point to the origin of a simplex of the cores' Minkowski difference, by its faces' affine projections) gives
+the cores' distance where they are apart; where they overlap, EPA (the expanding polytope) gives their penetration. Either gives the direction n (unit, geom1 to geom2) of the cores' largest separation
 sep(n) = min_b n.b - max_a n.a and the witness points a, b on each core; then, as MuJoCo's d.contact:
 dist = n.(b - a) - r1 - r2 [m] (negative where they penetrate), pos midway between the surfaces' witnesses a + r1 n
 and b - r2 n [m, world], and the normal n. EPA stops when a support moves the nearest face by less than TOLERANCE of the
@@ -20,11 +22,12 @@ them); pos moves with the witnesses fixed on their geoms, and the frame is held.
 """
 
 import types
+from typing import Any
 
 import warp as wp
 
 from . import collision_primitives
-from .collision_primitives import BOX, CAPSULE, CYLINDER, SPHERE
+from .collision_primitives import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 from .factory import factory
 from .spatial import spatial
 
@@ -34,10 +37,10 @@ FACES = 2 * VERTICES
 HORIZON = 64
 """The most edges of the horizon that one support point sees."""
 GJK_ITERATIONS = 64
-TOLERANCE = {wp.float64: 1e-10, wp.float32: 1e-6}
-"""EPA's and GJK's stopping tolerance, relative to the pair's size (the cores' radii and half-size vectors' lengths):
-well above the supports' rounding (~1e-15 of the size in float64, 6e-8 in float32), and reached in about 30 steps
-where EPA refines a curved surface (its gap about halves a step)."""
+TOLERANCE = 1e-10
+"""EPA's and GJK's stopping tolerance, relative to the pair's size (the cores' radii and half-size vectors' lengths;
+both run in float64): well above the supports' rounding (~1e-15 of the size), and reached in about 30 steps where
+EPA refines a curved surface (its gap about halves a step)."""
 
 
 @factory
@@ -46,53 +49,67 @@ def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     prim = collision_primitives.kernels(scalar)
     vec3, mat33 = sp.vec3, sp.mat33
-    vec4 = wp.types.vector(4, scalar)
-    mat43 = wp.types.matrix(shape=(4, 3), dtype=scalar)
-    Points = wp.types.matrix(shape=(VERTICES, 3), dtype=scalar)
-    Normals = wp.types.matrix(shape=(FACES, 3), dtype=scalar)
-    FaceValues = wp.types.vector(FACES, scalar)
+    Held = wp.types.matrix(shape=(4, 3), dtype=scalar)
+    # GJK and EPA in float64 whatever `scalar` (their results are held, not differentiated): float32's rounding stalls
+    # GJK between two curved surfaces millimetres short of the distance
+    F = wp.float64
+    V3, M33, V4 = wp.vec3d, wp.mat33d, wp.vec4d
+    M43 = wp.types.matrix(shape=(4, 3), dtype=F)
+    Points = wp.types.matrix(shape=(VERTICES, 3), dtype=F)
+    Normals = wp.types.matrix(shape=(FACES, 3), dtype=F)
+    FaceValues = wp.types.vector(FACES, F)
     FaceInts = wp.types.vector(FACES, int)
     Edges = wp.types.vector(HORIZON, int)
-    Held = wp.types.matrix(shape=(4, 3), dtype=scalar)
-    tol = scalar(TOLERANCE[scalar])
-    zero, one = scalar(0.0), scalar(1.0)
+    tol = F(TOLERANCE)
+    zero, one = F(0.0), F(1.0)
 
     @wp.func
-    def core_radius(t: int, s: vec3):
-        """The radius a geom's core is inflated by: a sphere's or a capsule's, else 0."""
+    def core_radius(t: int, s: Any):
+        """The radius a geom's core is inflated by: a sphere's or a capsule's, else 0 (s: its size, any scalar)."""
+        r = s[0] - s[0]
         if t == SPHERE or t == CAPSULE:
-            return s[0]
-        return scalar(0.0)
+            r = s[0]
+        return r
 
     @wp.func
-    def signed(x: scalar, d: scalar):
+    def signed(x: F, d: F):
         """x where d >= 0, else -x."""
-        if d < scalar(0.0):
+        if d < F(0.0):
             return -x
         return x
 
     @wp.func
-    def core_support(t: int, s: vec3, d: vec3):
-        """The point of a geom's core farthest along d, in the geom's frame (d too)."""
+    def core_support(t: int, s: V3, verts: wp.array(dtype=vec3), vr: wp.vec2i, d: V3):
+        """The point of a geom's core farthest along d, in the geom's frame (d too); a mesh's: of its vertices
+        verts[vr[0]:vr[0] + vr[1]] (its convex hull's support)."""
+        if t == MESH:
+            best = V3(verts[vr[0]])
+            top = wp.dot(best, d)
+            for k in range(vr[0] + 1, vr[0] + vr[1]):
+                x = wp.dot(V3(verts[k]), d)
+                if x > top:
+                    top = x
+                    best = V3(verts[k])
+            return best
         if t == BOX:
-            return vec3(signed(s[0], d[0]), signed(s[1], d[1]), signed(s[2], d[2]))
+            return V3(signed(s[0], d[0]), signed(s[1], d[1]), signed(s[2], d[2]))
         if t == CYLINDER:
             radial = wp.sqrt(d[0] * d[0] + d[1] * d[1])
-            x, y = scalar(0.0), scalar(0.0)
-            if radial > scalar(0.0):
+            x, y = F(0.0), F(0.0)
+            if radial > F(0.0):
                 x, y = s[0] * d[0] / radial, s[0] * d[1] / radial
-            return vec3(x, y, signed(s[1], d[2]))
+            return V3(x, y, signed(s[1], d[2]))
         if t == CAPSULE:
-            return vec3(scalar(0.0), scalar(0.0), signed(s[1], d[2]))
-        return vec3(scalar(0.0))
+            return V3(F(0.0), F(0.0), signed(s[1], d[2]))
+        return V3(F(0.0))
 
     @wp.func
-    def world_support(t: int, p: vec3, R: mat33, s: vec3, d: vec3):
+    def world_support(t: int, p: V3, R: M33, s: V3, verts: wp.array(dtype=vec3), vr: wp.vec2i, d: V3):
         """The point of a geom's core (pose p, R) farthest along the world direction d [m, world]."""
-        return p + R * core_support(t, s, wp.transpose(R) * d)
+        return p + R * core_support(t, s, verts, vr, wp.transpose(R) * d)
 
     @wp.func
-    def project(S: mat43, mask: int):
+    def project(S: M43, mask: int):
         """(found, |x|^2, lambda): the origin's projection x onto the affine hull of the simplex points S[k] with bit k of
         mask, lambda its barycentric coordinates (zero off the mask); found where the hull is not degenerate and every
         lambda >= 0 (x is then the subset's closest point to the origin)."""
@@ -103,15 +120,15 @@ def kernels(scalar) -> types.SimpleNamespace:
                 idx[k] = j
                 k += 1
         w0 = S[idx[0]]
-        lam = vec4(scalar(0.0))
-        mu = vec3(scalar(0.0))
+        lam = V4(F(0.0))
+        mu = V3(F(0.0))
         found = bool(True)
         if k == 1:
             lam[idx[0]] = one
             return True, wp.dot(w0, w0), lam
-        G = mat33(scalar(0.0))
-        r = vec3(scalar(0.0))
-        E = mat33(scalar(0.0))
+        G = M33(F(0.0))
+        r = V3(F(0.0))
+        E = M33(F(0.0))
         for a in range(k - 1):
             e = S[idx[a + 1]] - w0
             for c in range(3):
@@ -121,7 +138,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             for b in range(k - 1):
                 G[a, b] = wp.dot(E[a], E[b])
         if k == 2:
-            if G[0, 0] <= scalar(0.0):
+            if G[0, 0] <= F(0.0):
                 found = False
             else:
                 mu[0] = r[0] / G[0, 0]
@@ -145,17 +162,17 @@ def kernels(scalar) -> types.SimpleNamespace:
         for a in range(k - 1):
             x = x + mu[a] * E[a]
         for j in range(4):
-            if lam[j] < scalar(0.0):
+            if lam[j] < F(0.0):
                 found = False
         return found, wp.dot(x, x), lam
 
     @wp.func
-    def closest(S: mat43, n: int):
+    def closest(S: M43, n: int):
         """(mask, lambda): the face of the simplex of the first n points S whose projection of the origin is the
         simplex's closest point (the least among the faces where it falls inside)."""
-        best = scalar(wp.inf)
+        best = F(wp.inf)
         best_mask = int(1)
-        best_lam = vec4(scalar(0.0))
+        best_lam = V4(F(0.0))
         best_lam[0] = one
         for mask in range(1, 1 << n):
             found, d2, lam = project(S, mask)
@@ -164,39 +181,39 @@ def kernels(scalar) -> types.SimpleNamespace:
         return best_mask, best_lam
 
     @wp.func
-    def face_normal(P: Points, i: int, j: int, k: int, centre: vec3):
+    def face_normal(P: Points, i: int, j: int, k: int, centre: V3):
         """The unit normal of the triangle (P[i], P[j], P[k]), pointing away from centre, and the face's order that
         makes it the right-handed one (i, j, k or i, k, j: flipped where the order is reversed)."""
         nrm = wp.cross(P[j] - P[i], P[k] - P[i])
         flipped = False
-        if wp.dot(nrm, P[i] - centre) < scalar(0.0):
+        if wp.dot(nrm, P[i] - centre) < F(0.0):
             nrm = -nrm
             flipped = True
         length = wp.length(nrm)
-        if length > scalar(0.0):
+        if length > F(0.0):
             nrm = nrm / length
         return nrm, flipped
 
     @wp.func
-    def direction(t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3):
+    def direction64(t1: int, p1: V3, R1: M33, s1: V3, t2: int, p2: V3, R2: M33, s2: V3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i):
         """Rows: the unit direction n from geom1 to geom2 of the cores' largest separation (GJK where they are apart,
         EPA where they overlap), the witness on core1 in geom1's frame, the witness on core2 in geom2's frame, and
         (the cores' separation along n, 0, 0). Held by the adjoint (`adj_direction`)."""
         scale = core_radius(t1, s1) + wp.length(s1) + core_radius(t2, s2) + wp.length(s2)
         eps = tol * scale
-        S = mat43(scalar(0.0))
-        SA = mat43(scalar(0.0))
-        SB = mat43(scalar(0.0))
+        S = M43(F(0.0))
+        SA = M43(F(0.0))
+        SB = M43(F(0.0))
         d = p1 - p2
         if wp.dot(d, d) <= eps * eps:
-            d = vec3(one, zero, zero)
-        a = world_support(t1, p1, R1, s1, d)
-        b = world_support(t2, p2, R2, s2, -d)
+            d = V3(one, zero, zero)
+        a = world_support(t1, p1, R1, s1, verts, vr1, d)
+        b = world_support(t2, p2, R2, s2, verts, vr2, -d)
         S[0] = a - b
         SA[0] = a
         SB[0] = b
         n = int(1)
-        lam = vec4(one, zero, zero, zero)
+        lam = V4(one, zero, zero, zero)
         v = S[0]
         overlap = bool(False)
         for _it in range(GJK_ITERATIONS):
@@ -205,8 +222,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                 if vv <= eps * eps:
                     overlap = True
                 else:
-                    a = world_support(t1, p1, R1, s1, -v)
-                    b = world_support(t2, p2, R2, s2, v)
+                    a = world_support(t1, p1, R1, s1, verts, vr1, -v)
+                    b = world_support(t2, p2, R2, s2, verts, vr2, v)
                     w = a - b
                     if vv - wp.dot(v, w) > eps * wp.sqrt(vv) and n < 4:
                         S[n] = w
@@ -215,9 +232,9 @@ def kernels(scalar) -> types.SimpleNamespace:
                         n += 1
                         mask, lam4 = closest(S, n)
                         m = int(0)
-                        S2, A2, B2 = mat43(scalar(0.0)), mat43(scalar(0.0)), mat43(scalar(0.0))
-                        lam = vec4(scalar(0.0))
-                        v = vec3(scalar(0.0))
+                        S2, A2, B2 = M43(F(0.0)), M43(F(0.0)), M43(F(0.0))
+                        lam = V4(F(0.0))
+                        v = V3(F(0.0))
                         for j in range(4):
                             if (mask >> j) & 1 != 0:
                                 S2[m] = S[j]
@@ -233,9 +250,9 @@ def kernels(scalar) -> types.SimpleNamespace:
                             break
                     else:
                         break
-        out = Held(scalar(0.0))
+        out = M43(F(0.0))
         if not overlap:  # apart: the closest points
-            wa, wb = vec3(scalar(0.0)), vec3(scalar(0.0))
+            wa, wb = V3(F(0.0)), V3(F(0.0))
             for j in range(4):
                 wa = wa + lam[j] * SA[j]
                 wb = wb + lam[j] * SB[j]
@@ -244,27 +261,27 @@ def kernels(scalar) -> types.SimpleNamespace:
             out[0] = nrm
             out[1] = wp.transpose(R1) * (wa - p1)
             out[2] = wp.transpose(R2) * (wb - p2)
-            out[3] = vec3(wp.length(dv), zero, zero)
+            out[3] = V3(wp.length(dv), zero, zero)
             return out
         # overlapping: EPA from the simplex, grown to a polytope around the origin
-        P, PA, PB = Points(scalar(0.0)), Points(scalar(0.0)), Points(scalar(0.0))
+        P, PA, PB = Points(F(0.0)), Points(F(0.0)), Points(F(0.0))
         for j in range(n):
             P[j] = S[j]
             PA[j] = SA[j]
             PB[j] = SB[j]
         nv = n
         if n < 4:
-            e = vec3(one, zero, zero)
+            e = V3(one, zero, zero)
             if n == 3:
                 e = wp.cross(S[1] - S[0], S[2] - S[0])
             elif n == 2:
                 e = S[1] - S[0]
             e = wp.normalize(e)
-            u = wp.cross(e, vec3(one, zero, zero))
-            if wp.length(u) < scalar(0.5):
-                u = wp.cross(e, vec3(zero, one, zero))
+            u = wp.cross(e, V3(one, zero, zero))
+            if wp.length(u) < F(0.5):
+                u = wp.cross(e, V3(zero, one, zero))
             u = wp.normalize(u)
-            dirs = mat33(scalar(0.0))
+            dirs = M33(F(0.0))
             count = int(0)
             if n == 3:
                 dirs[0] = e
@@ -272,10 +289,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                 count = 2
             elif n == 2:
                 u2 = wp.cross(e, u)
-                half = scalar(0.8660254037844386)
+                half = F(0.8660254037844386)
                 dirs[0] = u
-                dirs[1] = scalar(-0.5) * u + half * u2
-                dirs[2] = scalar(-0.5) * u - half * u2
+                dirs[1] = F(-0.5) * u + half * u2
+                dirs[2] = F(-0.5) * u - half * u2
                 count = 3
             else:  # one point: a tetrahedron around it
                 u2 = wp.cross(e, u)
@@ -286,26 +303,26 @@ def kernels(scalar) -> types.SimpleNamespace:
             if n == 1:  # the point itself is dropped
                 nv = 0
             for j in range(count):
-                a = world_support(t1, p1, R1, s1, dirs[j])
-                b = world_support(t2, p2, R2, s2, -dirs[j])
+                a = world_support(t1, p1, R1, s1, verts, vr1, dirs[j])
+                b = world_support(t2, p2, R2, s2, verts, vr2, -dirs[j])
                 P[nv] = a - b
                 PA[nv] = a
                 PB[nv] = b
                 nv += 1
             if n == 1:
-                a = world_support(t1, p1, R1, s1, -(dirs[0] + dirs[1] + dirs[2]))
-                b = world_support(t2, p2, R2, s2, dirs[0] + dirs[1] + dirs[2])
+                a = world_support(t1, p1, R1, s1, verts, vr1, -(dirs[0] + dirs[1] + dirs[2]))
+                b = world_support(t2, p2, R2, s2, verts, vr2, dirs[0] + dirs[1] + dirs[2])
                 P[nv] = a - b
                 PA[nv] = a
                 PB[nv] = b
                 nv += 1
-        centre = vec3(scalar(0.0))
+        centre = V3(F(0.0))
         for j in range(nv):
             centre = centre + P[j]
-        centre = centre / scalar(nv)
+        centre = centre / F(nv)
         fi, fj, fk, alive = FaceInts(0), FaceInts(0), FaceInts(0), FaceInts(0)
-        normal = Normals(scalar(0.0))
-        fdist = FaceValues(scalar(0.0))
+        normal = Normals(F(0.0))
+        fdist = FaceValues(F(0.0))
         nf = int(0)
         # the initial faces: a tetrahedron (4 points), or the bipyramid of 5 (a triangle with apexes 3, 4; a segment 0-1 with 2, 3, 4 around it)
         tri = wp.vec3i(0)
@@ -334,8 +351,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                 nf += 1
         nalive = nf
         face = wp.vec3i(0)  # the nearest face so far: its vertices, normal and distance (kept: its slot may be reused)
-        face_normal_kept = vec3(scalar(0.0))
-        face_dist = scalar(-1.0)
+        face_normal_kept = V3(F(0.0))
+        face_dist = F(-1.0)
         for _it in range(VERTICES):
             best = int(-1)
             for f in range(nf):
@@ -350,8 +367,8 @@ def kernels(scalar) -> types.SimpleNamespace:
             face_normal_kept = normal[best]
             face_dist = fdist[best]
             nrm = normal[best]
-            a = world_support(t1, p1, R1, s1, nrm)
-            b = world_support(t2, p2, R2, s2, -nrm)
+            a = world_support(t1, p1, R1, s1, verts, vr1, nrm)
+            b = world_support(t2, p2, R2, s2, verts, vr2, -nrm)
             w = a - b
             if wp.dot(nrm, w) - fdist[best] <= eps or nv == VERTICES:
                 break
@@ -362,7 +379,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             ne = int(0)
             full = bool(False)
             for f in range(nf):
-                if alive[f] == 1 and wp.dot(normal[f], w - P[fi[f]]) > scalar(0.0):
+                if alive[f] == 1 and wp.dot(normal[f], w - P[fi[f]]) > F(0.0):
                     alive[f] = 0
                     nalive -= 1
                     for c in range(3):
@@ -413,8 +430,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         e0, e1, e2 = vb - va, vc - va, origin_on_face - va
         d00, d01, d11, d20, d21 = wp.dot(e0, e0), wp.dot(e0, e1), wp.dot(e1, e1), wp.dot(e2, e0), wp.dot(e2, e1)
         den = d00 * d11 - d01 * d01
-        l1, l2 = scalar(0.0), scalar(0.0)
-        if den > scalar(0.0):
+        l1, l2 = F(0.0), F(0.0)
+        if den > F(0.0):
             l1 = (d11 * d20 - d01 * d21) / den
             l2 = (d00 * d21 - d01 * d20) / den
         l0 = one - l1 - l2
@@ -423,19 +440,28 @@ def kernels(scalar) -> types.SimpleNamespace:
         out[0] = nrm
         out[1] = wp.transpose(R1) * (wa - p1)
         out[2] = wp.transpose(R2) * (wb - p2)
-        out[3] = vec3(-face_dist, zero, zero)
+        out[3] = V3(-face_dist, zero, zero)
         return out
 
+    @wp.func
+    def direction(t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i):
+        """`direction64` in float64, its rows returned in `scalar`; held by the adjoint (`adj_direction`)."""
+        return Held(direction64(t1, V3(p1), M33(R1), V3(s1), t2, V3(p2), M33(R2), V3(s2), verts, vr1, vr2))
+
     @wp.func_grad(direction)
-    def adj_direction(t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, adj_ret: Held):
+    def adj_direction(
+        t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i, adj_ret: Held
+    ):
         """Held: the direction and the witnesses carry no gradient (the module docstring)."""
         pass
 
     @wp.func
-    def convex(t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, margin: scalar):
+    def convex(
+        t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i, margin: scalar
+    ):
         """(count, pos [m, world], normal (geom1 to geom2), dist [m]): the pair's contact (the module docstring), count 0
         where dist > margin; MuJoCo's conventions (kernels/collision_primitives.py)."""
-        held = direction(t1, p1, R1, s1, t2, p2, R2, s2)
+        held = direction(t1, p1, R1, s1, t2, p2, R2, s2, verts, vr1, vr2)
         n = held[0]
         r1, r2 = core_radius(t1, s1), core_radius(t2, s2)
         a = p1 + R1 * held[1]
@@ -452,6 +478,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     def collide(
         type1: int, type2: int, pos1: wp.array(dtype=vec3), R1: wp.array(dtype=mat33), size1: wp.array(dtype=vec3),
         pos2: wp.array(dtype=vec3), R2: wp.array(dtype=mat33), size2: wp.array(dtype=vec3), margin: wp.array(dtype=scalar),
+        verts: wp.array(dtype=vec3), vr1: wp.array(dtype=wp.vec2i), vr2: wp.array(dtype=wp.vec2i),
         # outputs
         count: wp.array(dtype=int), position: wp.array2d(dtype=vec3), frame: wp.array2d(dtype=mat33), dist: wp.array2d(dtype=scalar),
     ):  # fmt: skip
@@ -459,7 +486,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         count[i] (0 or 1; 0 where MuJoCo's bounding-sphere filter drops the pair), the contact's position, frame and
         distance."""
         i = wp.tid()
-        n, p, normal, d = convex(type1, pos1[i], R1[i], size1[i], type2, pos2[i], R2[i], size2[i], margin[i])
+        n, p, normal, d = convex(type1, pos1[i], R1[i], size1[i], type2, pos2[i], R2[i], size2[i], verts, vr1[i], vr2[i], margin[i])
         if not prim.may_touch(type1, pos1[i], R1[i], size1[i], type2, pos2[i], size2[i], margin[i]):
             n = 0
         if n > 0:

@@ -35,8 +35,9 @@ import warp as wp
 from .factory import factory
 from .spatial import spatial
 
-PLANE, SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = 0, 2, 3, 4, 5, 6
-"""MuJoCo's mjtGeom values of the primitive geoms."""
+PLANE, SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX, MESH = 0, 2, 3, 4, 5, 6, 7
+"""MuJoCo's mjtGeom values of the primitive geoms, and a mesh's (its size here: (its bounding radius, 0, 0);
+kernels/collision_convex.py collides it)."""
 
 MAX_CONTACTS = 4
 """The most contacts a pair gives (plane-box, plane-cylinder): the size of `collide`'s outputs' second axis."""
@@ -588,6 +589,8 @@ def kernels(scalar) -> types.SimpleNamespace:
             return wp.max(wp.max(size[0], size[1]), size[2])
         if geom_type == BOX:
             return wp.sqrt(size[0] * size[0] + size[1] * size[1] + size[2] * size[2])
+        if geom_type == MESH:
+            return size[0]
         return scalar(0.0)
 
     @wp.func

@@ -13,7 +13,7 @@ import warp as wp
 
 from . import collision_box, collision_convex, collision_primitives, implicit_contacts, soft_contacts
 from .bundles import bundles
-from .collision_primitives import BOX, CAPSULE, CYLINDER, SPHERE
+from .collision_primitives import BOX, CAPSULE, CYLINDER, MESH, SPHERE
 from .factory import factory
 from .spatial import spatial
 
@@ -45,6 +45,7 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
         link_H_geom1: wp.array(dtype=sp.transform), link_H_geom2: wp.array(dtype=sp.transform),
         size1: wp.array(dtype=vec3), size2: wp.array(dtype=vec3), margin: wp.array(dtype=scalar),
         first: wp.array(dtype=int), slots: wp.array(dtype=int),
+        vertices: wp.array(dtype=vec3), vertices1: wp.array(dtype=wp.vec2i), vertices2: wp.array(dtype=wp.vec2i),
         W_H_L: wp.array2d(dtype=sp.transform), env_fastest: int,
         # outputs
         count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar),
@@ -53,7 +54,8 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
         environment-fastest arrays a warp holds one pair in 32 environments, one branch of the narrow phase and
         neighbouring numbers): pair i's contacts in environment env (the module docstring), count (N, nP),
         position (N, C, 3), frame (N, C, 3, 3), dist (N, C); margin: the pair's margin + gap [m]; a link -1 is the
-        world (its geom's pose given in it)."""
+        world (its geom's pose given in it); vertices (V,) [m]: the meshes', each in its geom's frame, a pair's geoms'
+        (first, count) in vertices1, vertices2 (nP,)."""
         env, i = B.env_and_item(wp.tid(), W_H_L.shape[0], link1.shape[0], env_fastest)
         X1 = link_H_geom1[i]
         if link1[i] >= 0:
@@ -70,7 +72,7 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
         zero = vec3(scalar(0.0))
         n = int(0)
         if prim.may_touch(t1, p1, R1, s1, t2, p2, s2, e):
-            if t1 == SPHERE:
+            if t1 == SPHERE and t2 != MESH:
                 m1 = int(0)
                 p = vec3()
                 normal = vec3()
@@ -86,7 +88,7 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
                 if m1 > 0:
                     put(env, base, p, prim.contact_frame(normal, zero), d, position, frame, dist)
                 n = m1
-            elif t1 == CAPSULE and t2 != CYLINDER:
+            elif t1 == CAPSULE and t2 != CYLINDER and t2 != MESH:
                 m2 = int(0)
                 P2 = mat23()
                 N2 = mat23()
@@ -103,8 +105,8 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
                 for k in range(m8):
                     put(env, base + k, P8[k], prim.contact_frame(N8[k], zero), D8[k], position, frame, dist)
                 n = m8
-            elif wp.static(convex):  # capsule-cylinder, cylinder-cylinder, cylinder-box
-                m1, p, normal, d = gjk.convex(t1, p1, R1, s1, t2, p2, R2, s2, e)
+            elif wp.static(convex):  # capsule-cylinder, cylinder-cylinder, cylinder-box, the meshes' pairs
+                m1, p, normal, d = gjk.convex(t1, p1, R1, s1, t2, p2, R2, s2, vertices, vertices1[i], vertices2[i], e)
                 if m1 > 0:
                     put(env, base, p, prim.contact_frame(normal, zero), d, position, frame, dist)
                 n = m1

@@ -57,12 +57,20 @@ SCENES = {
       <body name="log" pos="0.08 0 0.134" euler="90 0 0"><freejoint/><geom type="cylinder" size=".03 .15" mass="0.5"/></body>
       <body name="pin" pos="-0.08 0 0.134" euler="90 0 0"><freejoint/><geom type="capsule" size=".03 .15" mass="0.5"/></body>
     </worldbody></mujoco>""",
+    "a ball between a mesh ramp and a wall": """<mujoco><option timestep="0.001"/>
+      <asset><mesh name="ramp" vertex="0 -.2 0  .4 -.2 0  0 -.2 .2  0 .2 0  .4 .2 0  0 .2 .2"/></asset>
+      <worldbody><geom type="plane" size="5 5 .1"/>
+        <geom type="mesh" mesh="ramp"/>
+        <geom type="box" size=".02 .2 .15" pos="0.3 0 0.15"/>
+        <body name="ball" pos="0.2282 0 0.1412"><freejoint/><geom type="sphere" size=".05" mass="0.3"/></body>
+      </worldbody></mujoco>""",
 }
 """Free objects placed a few millimetres above where they come to rest: boxes on boxes, turned about the vertical; a
 cube on a table (a box of the world body) and a capsule on a shelf (a body welded to the world); a lone free ball (a
 floating base) on a step of static scenery (dropped as a body, its box the world's); a ball on a box; a
 capsule across the two capsule rails of a rack; a cylinder and a capsule across two cylinder rails (GJK and EPA, one
-contact at each crossing, as MuJoCo's multiCCD too gives where two round sides cross). (Dropped from higher, light bodies on several contacts need a smaller
+contact at each crossing, as MuJoCo's multiCCD too gives where two round sides cross); a ball rolled down a mesh ramp
+(a world geom: sphere-mesh, GJK and EPA, one contact as in MuJoCo) against a wall. (Dropped from higher, light bodies on several contacts need a smaller
 time step: the soft law's damping is explicit, D (delta + eps)^q per contact on the body's mass.)"""
 
 

@@ -1,5 +1,6 @@
-"""kernels/collision_convex.py (capsule-cylinder, cylinder-cylinder, cylinder-box: GJK and EPA) against MuJoCo's
-mj_collision and against the definition of the contact it computes.
+"""kernels/collision_convex.py (capsule-cylinder, cylinder-cylinder, cylinder-box, and convex meshes with spheres,
+capsules, cylinders, boxes and meshes: GJK and EPA) against MuJoCo's mj_collision and against the definition of the
+contact it computes.
 
 MuJoCo's reference runs with mjDSBL_MULTICCD set: MuJoCo 4 otherwise adds polygon contacts where the EPA's features
 are faces or edges (a cylinder's cap on a box), which warpdyn does not reproduce (one contact a pair; the loader says
@@ -31,92 +32,140 @@ from warpdyn.kernels import collision_primitives as cp
 from collision_reference import posed_contacts
 from gradcheck import contact_gradient_check
 
-PAIRS = [("capsule", "cylinder"), ("cylinder", "cylinder"), ("cylinder", "box")]
-TYPES = {"capsule": cp.CAPSULE, "cylinder": cp.CYLINDER, "box": cp.BOX}
-SIZE1 = {"capsule": (0.1, 0.3, 0.0), "cylinder": (0.2, 0.15, 0.0)}
+PAIRS = [("capsule", "cylinder"), ("cylinder", "cylinder"), ("cylinder", "box"), ("sphere", "mesh"), ("capsule", "mesh"), ("cylinder", "mesh"), ("box", "mesh"), ("mesh", "mesh")]
+TYPES = {"sphere": cp.SPHERE, "capsule": cp.CAPSULE, "cylinder": cp.CYLINDER, "box": cp.BOX, "mesh": cp.MESH}
+SIZE1 = {"sphere": (0.12, 0.0, 0.0), "capsule": (0.1, 0.3, 0.0), "cylinder": (0.2, 0.15, 0.0), "box": (0.2, 0.3, 0.1)}
 SIZE2 = {"cylinder": (0.15, 0.25, 0.0), "box": (0.2, 0.3, 0.1)}
+
+
+def _rock(seed: int, radii) -> np.ndarray:
+    """A convex mesh's vertices (k, 3) [m]: points on an ellipsoid of these radii (every one a vertex of the hull)."""
+    u = np.random.default_rng(seed).normal(size=(24, 3))
+    return u / np.linalg.norm(u, axis=1, keepdims=True) * np.asarray(radii)
+
+
+ROCKS = (_rock(3, (0.15, 0.1, 0.12)), _rock(4, (0.12, 0.12, 0.08)))
+"""geom1's and geom2's meshes where they are meshes (MuJoCo takes their convex hull, and recentres them)."""
 MARGINS = (0.0, 0.1)  # margin + gap of the pair, half on each geom
 N_RANDOM = 120
 EPA_TOL = 1e-7
 GJK_TOL = 2e-5
-"""[m] EPA stops at TOLERANCE (1e-10) of the pair's size (9 poses in 10 here: below 6e-11 m), else where its polytope
-is full or rounding breaks its convexity (4e-8 m at most here); GJK, apart, where rounding leaves no progress: its
-last support's gap bounded the distance's error by 1e-5 m at most here (two cylinders' rims)."""
+"""[m] EPA (the cores overlap) stops at TOLERANCE (1e-10) of the pair's size (9 poses in 10 here: below 6e-11 m), else
+where its polytope is full or rounding breaks its convexity (4e-8 m at most here); GJK (the cores apart: two geoms
+apart, or a capsule's or sphere's segment or centre outside the other) where rounding leaves no progress: its last
+support's gap bounded the distance's error by 1e-5 m at most here (two curved surfaces: GJK converges linearly)."""
 MJ_TOL = 2e-3
 """MuJoCo's normal and position where its EPA converged: its ccd_tolerance 1e-6 on the depth leaves the normal at a
 curved optimum free to about its square root, and the position moves along the surfaces with it."""
 
 
-def _support(name, size, p, R, d):
-    """The core's support point along the world directions d (k, 3) (a capsule's segment: its radius apart)."""
+def _support(name, size, p, R, d, vertices=None):
+    """The core's support point along the world directions d (k, 3) (a capsule's segment and a sphere's centre: their
+    radius apart; a mesh's: of its vertices)."""
     local = d @ R
     if name == "box":
         q = np.where(local >= 0, 1.0, -1.0) * np.asarray(size)
     elif name == "cylinder":
         radial = np.maximum(np.hypot(local[:, 0], local[:, 1]), 1e-300)
         q = np.stack([size[0] * local[:, 0] / radial, size[0] * local[:, 1] / radial, np.where(local[:, 2] >= 0, size[1], -size[1])], 1)
+    elif name == "mesh":
+        q = vertices[np.argmax(local @ vertices.T, axis=1)]
     else:
         q = np.zeros_like(local)
-        q[:, 2] = np.where(local[:, 2] >= 0, size[1], -size[1])
+        if name == "capsule":
+            q[:, 2] = np.where(local[:, 2] >= 0, size[1], -size[1])
     return p + q @ R.T
 
 
-def _separation(pair, sizes, xpos, xmat, n):
-    """sep(n) of the cores (k,) for unit directions n (k, 3)."""
+def _separation(pair, shapes, xpos, xmat, n):
+    """sep(n) of the cores (k,) for unit directions n (k, 3); shapes: (sizes (2, 3), meshes' vertices (2,))."""
+    sizes, meshes = shapes
     n = np.atleast_2d(n)
-    a = _support(pair[0], sizes[0], xpos[0], xmat[0], n)
-    b = _support(pair[1], sizes[1], xpos[1], xmat[1], -n)
+    a = _support(pair[0], sizes[0], xpos[0], xmat[0], n, meshes[0])
+    b = _support(pair[1], sizes[1], xpos[1], xmat[1], -n, meshes[1])
     return np.sum(n * (b - a), axis=1)
 
 
-def _best_separation(pair, sizes, xpos, xmat):
+def _best_separation(pair, shapes, xpos, xmat):
     """max over unit n of sep(n): 20000 directions, the best 3 refined by Nelder-Mead."""
     k = np.arange(20000) + 0.5
     z = 1 - 2 * k / 20000
     phi = np.pi * (1 + 5**0.5) * k
     dirs = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z], 1)
-    values = _separation(pair, sizes, xpos, xmat, dirs)
+    values = _separation(pair, shapes, xpos, xmat, dirs)
     best = values.max()
     for start in dirs[np.argsort(values)[-3:]]:
-        result = scipy.optimize.minimize(lambda x: -_separation(pair, sizes, xpos, xmat, x / np.linalg.norm(x))[0], start, method="Nelder-Mead",
+        result = scipy.optimize.minimize(lambda x: -_separation(pair, shapes, xpos, xmat, x / np.linalg.norm(x))[0], start, method="Nelder-Mead",
                                          options={"xatol": 1e-13, "fatol": 1e-15, "maxiter": 3000})  # fmt: skip
         best = max(best, -result.fun)
     return best
 
 
-def _radius(pair, sizes):
-    return sizes[0][0] if pair[0] == "capsule" else 0.0
+def _radius(pair, shapes):
+    """The cores' radii, summed (spheres' and capsules')."""
+    return sum(size[0] for name, size in zip(pair, shapes[0]) if name in ("sphere", "capsule"))
+
+
+def _geom(name, size, mesh, margin):
+    if name == "mesh":
+        return f'<geom type="mesh" mesh="{mesh}" margin="{margin / 2}"/>'
+    numbers = " ".join(map(str, size))
+    return f'<geom type="{name}" size="{numbers}" margin="{margin / 2}"/>'
 
 
 @functools.cache
 def _reference(pair, margin):
-    """(xpos (n, 2, 3), xmat (n, 2, 3, 3), sizes (2, 3), MuJoCo's contacts per pose) at random poses."""
-    size1, size2 = SIZE1[pair[0]], SIZE2[pair[1]]
-    xml = f"""<mujoco><option gravity="0 0 0"/><worldbody>
-      <body mocap="true"><geom type="{pair[0]}" size="{' '.join(map(str, size1))}" margin="{margin / 2}"/></body>
-      <body><freejoint/><geom type="{pair[1]}" size="{' '.join(map(str, size2))}" margin="{margin / 2}"/></body>
+    """(xpos (n, 2, 3), xmat (n, 2, 3, 3), shapes (the kernel's sizes (2, 3): a mesh's (MuJoCo's bounding radius, 0,
+    0); the meshes' vertices in their geoms' frames, MuJoCo's, or None), MuJoCo's contacts per pose) at random poses."""
+    size1, size2 = SIZE1.get(pair[0]), SIZE2.get(pair[1])
+    assets = "".join(f'<mesh name="rock{k}" vertex="{" ".join(map(str, rock.ravel()))}"/>' for k, rock in enumerate(ROCKS))
+    xml = f"""<mujoco><option gravity="0 0 0"/><asset>{assets}</asset><worldbody>
+      <body mocap="true">{_geom(pair[0], size1, "rock0", margin)}</body>
+      <body><freejoint/>{_geom(pair[1], size2, "rock1", margin)}</body>
     </worldbody></mujoco>"""
     m = mujoco.MjModel.from_xml_string(xml)
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
+    meshes = [None, None]
+    sizes = np.zeros((2, 3))
+    for g, name in enumerate(pair):
+        if name == "mesh":
+            k = int(m.geom_dataid[g])
+            meshes[g] = np.array(m.mesh_vert[m.mesh_vertadr[k] : m.mesh_vertadr[k] + m.mesh_vertnum[k]], dtype=np.float64)
+            sizes[g, 0] = m.geom_rbound[g]
+        else:
+            sizes[g, : len((size1, size2)[g])] = (size1, size2)[g]
     rng = np.random.default_rng(7)
-    reach = np.linalg.norm(size1[:2]) + (size1[0] if pair[0] == "capsule" else 0.0) + np.linalg.norm(size2) + margin
+    reach = float(m.geom_rbound[0] + m.geom_rbound[1]) + margin
     poses = []
     for _ in range(N_RANDOM):
         q, u = rng.normal(size=4), rng.normal(size=3)
         poses.append((tuple(u / np.linalg.norm(u) * rng.uniform(0.0, 0.8 * reach)), q / np.linalg.norm(q)))
     xpos, xmat, contacts = posed_contacts(m, rng, poses)
-    return xpos, xmat, np.array([size1, size2]), contacts
+    return xpos, xmat, (sizes, tuple(meshes)), contacts
 
 
-def _collide(pair, xpos, xmat, sizes, margin, dtype, requires_grad=False):
+def _collide(pair, xpos, xmat, shapes, margin, dtype, requires_grad=False):
     """The kernel's inputs (p1, R1, p2, R2) and outputs count (n,), pos (n, 1), frame (n, 1), dist (n, 1)."""
     K = cc.kernels(wp.float64 if dtype == np.float64 else wp.float32)
     n = len(xpos)
+    sizes, meshes = shapes
     inputs = [wp.array(np.ascontiguousarray(a, dtype=dtype), dtype=t, requires_grad=requires_grad) for a, t in ((xpos[:, 0], K.vec3), (xmat[:, 0], K.mat33), (xpos[:, 1], K.vec3), (xmat[:, 1], K.mat33))]
     size = [wp.array(np.broadcast_to(s, (n, 3)).astype(dtype), dtype=K.vec3) for s in sizes]
+    vertices = [v for v in meshes if v is not None]
+    flat = np.concatenate(vertices) if vertices else np.zeros((1, 3))
+    ranges, start = [], 0
+    for v in meshes:
+        ranges.append((start, len(v)) if v is not None else (0, 0))
+        start += len(v) if v is not None else 0
+    vr = [wp.array(np.broadcast_to(r, (n, 2)).astype(np.int32), dtype=wp.vec2i) for r in ranges]
     count = wp.full(n, -2, dtype=int)
     pos, frame, dist = (wp.zeros((n, 1), dtype=t, requires_grad=requires_grad) for t in (K.vec3, K.mat33, K.scalar))
-    wp.launch(K.collide, n, inputs=[TYPES[pair[0]], TYPES[pair[1]], inputs[0], inputs[1], size[0], inputs[2], inputs[3], size[1], wp.full(n, margin, dtype=K.scalar)], outputs=[count, pos, frame, dist])
+    wp.launch(
+        K.collide, n,
+        inputs=[TYPES[pair[0]], TYPES[pair[1]], inputs[0], inputs[1], size[0], inputs[2], inputs[3], size[1], wp.full(n, margin, dtype=K.scalar),
+                wp.array(flat.astype(dtype), dtype=K.vec3), vr[0], vr[1]],
+        outputs=[count, pos, frame, dist],
+    )  # fmt: skip
     return inputs, count, pos, frame, dist
 
 
@@ -124,10 +173,10 @@ def _collide(pair, xpos, xmat, sizes, margin, dtype, requires_grad=False):
 @pytest.mark.parametrize("pair", PAIRS, ids=lambda p: "-".join(p))
 def test_pair_is_the_contact_and_equals_mujoco(pair, margin):
     """The count, the optimality of the normal, and MuJoCo's contact where its EPA converged (module docstring)."""
-    xpos, xmat, sizes, contacts = _reference(pair, margin)
-    _, count, pos, frame, dist = _collide(pair, xpos, xmat, sizes, margin, np.float64)
+    xpos, xmat, shapes, contacts = _reference(pair, margin)
+    _, count, pos, frame, dist = _collide(pair, xpos, xmat, shapes, margin, np.float64)
     count, pos, normal, dist = count.numpy(), pos.numpy()[:, 0], frame.numpy()[:, 0, 0], dist.numpy()[:, 0]
-    r = _radius(pair, sizes)
+    r = _radius(pair, shapes)
     converged = better = 0
     for i, (mj_pos, mj_frame, mj_dist) in enumerate(contacts):
         if len(mj_dist) != count[i]:
@@ -135,11 +184,11 @@ def test_pair_is_the_contact_and_equals_mujoco(pair, margin):
             continue
         if count[i] == 0:
             continue
-        sep = _separation(pair, sizes, xpos[i], xmat[i], normal[i])[0]
-        tol = EPA_TOL if dist[i] < 0 else GJK_TOL
+        sep = _separation(pair, shapes, xpos[i], xmat[i], normal[i])[0]
+        tol = EPA_TOL if dist[i] + r < 0 else GJK_TOL  # the cores overlap (EPA) or not (GJK)
         assert abs(dist[i] - (sep - r)) <= tol, i
-        assert sep >= _best_separation(pair, sizes, xpos[i], xmat[i]) - tol, i
-        mj_sep = _separation(pair, sizes, xpos[i], xmat[i], mj_frame[0, 0])[0]
+        assert sep >= _best_separation(pair, shapes, xpos[i], xmat[i]) - tol, i
+        mj_sep = _separation(pair, shapes, xpos[i], xmat[i], mj_frame[0, 0])[0]
         if abs(mj_dist[0] - (mj_sep - r)) <= 1e-7:
             converged += 1
             assert abs(dist[i] - mj_dist[0]) <= 1e-6, i
@@ -154,36 +203,36 @@ def test_pair_is_the_contact_and_equals_mujoco(pair, margin):
 
 @pytest.mark.parametrize("pair", PAIRS, ids=lambda p: "-".join(p))
 def test_float32_equals_float64(pair):
-    """float32: the same counts but within the margin's edge, dist to 2e-5 m (tens of operations on lengths of
-    0.1-1 m, rounded to 6e-8; EPA stopped at 1e-6 of the size), and the float32 normal separates the geoms (sep in
-    float64) within 5e-5 m of the float64 normal. The normals themselves may differ by 1e-2 where sep is flat about
-    its optimum (a capsule's segment across a cylinder's side: sep then moves by 3e-5 m for it)."""
-    xpos, xmat, sizes, _ = _reference(pair, 0.1)
-    out64 = [a.numpy() for a in _collide(pair, xpos, xmat, sizes, 0.1, np.float64)[1:]]
-    out32 = [a.numpy() for a in _collide(pair, xpos, xmat, sizes, 0.1, np.float32)[1:]]
+    """float32 (GJK and EPA run in float64 in both; float32 rounds the poses, sizes and results): the same counts but
+    within the margin's edge, dist to 2e-5 m, and the float32 normal separates the geoms (sep in float64) within 1e-4 m
+    of the float64 normal. The normals themselves may differ by 1e-2 where sep is flat about its optimum (a capsule's
+    segment across a cylinder's side: sep then moves by 6e-5 m for it)."""
+    xpos, xmat, shapes, _ = _reference(pair, 0.1)
+    out64 = [a.numpy() for a in _collide(pair, xpos, xmat, shapes, 0.1, np.float64)[1:]]
+    out32 = [a.numpy() for a in _collide(pair, xpos, xmat, shapes, 0.1, np.float32)[1:]]
     same = (out64[0] == out32[0]) & (out64[0] == 1)
     edge = out64[0] != out32[0]
     assert np.all(np.abs(out64[3][edge, 0] - 0.1) < 1e-5)
     assert np.all(np.abs(out64[3][same, 0] - out32[3][same, 0]) <= 2e-5)
     for i in np.nonzero(same)[0]:
-        sep64, sep32 = (_separation(pair, sizes, xpos[i], xmat[i], out[2][i, 0, 0].astype(np.float64))[0] for out in (out64, out32))
-        assert sep32 >= sep64 - 5e-5, i
+        sep64, sep32 = (_separation(pair, shapes, xpos[i], xmat[i], out[2][i, 0, 0].astype(np.float64))[0] for out in (out64, out32))
+        assert sep32 >= sep64 - 1e-4, i
     assert same.sum() > len(xpos) // 2
 
 
 @pytest.mark.parametrize("pair", PAIRS, ids=lambda p: "-".join(p))
 def test_tape_gradient_of_dist_equals_finite_differences(pair):
     """float64: wp.Tape's gradient of L = sum of dist with respect to both poses, along a random direction, equals the
-    central difference at steps 1e-6 and 2e-6 where those agree to 1e-6 and keep the count: to 1e-4 (dist's derivative
+    central difference at steps 1e-6 and 2e-6 where those agree to 1e-6 and keep the count: to 3e-4 (dist's derivative
     at the held normal and witnesses is exact at the optimum (Danskin), with the witnesses' lever arms as accurate as
-    EPA places them on a curved surface: to about the square root of its tolerance, 1e-5 m)."""
-    xpos, xmat, sizes, _ = _reference(pair, 0.1)
+    EPA places them on a curved surface: to about the square root of its tolerance, 1e-5 m: 2.2e-4 at most here)."""
+    xpos, xmat, shapes, _ = _reference(pair, 0.1)
 
     def run(xpos, xmat):
-        return _collide(pair, xpos, xmat, sizes, 0.1, np.float64, requires_grad=True)
+        return _collide(pair, xpos, xmat, shapes, 0.1, np.float64, requires_grad=True)
 
     K = cc.kernels(wp.float64)
     c = contact_gradient_check(run, xpos, xmat, 1, K.vec3, K.mat33, position_and_normal=False)
     smooth = (np.abs(c["fd1"] - c["fd2"]) < 1e-6) & c["steps_keep_count"] & (c["count"] > 0)
     assert smooth.sum() > len(xpos) // 3
-    np.testing.assert_allclose(c["along"][smooth], c["fd1"][smooth], atol=1e-4)
+    np.testing.assert_allclose(c["along"][smooth], c["fd1"][smooth], atol=3e-4)

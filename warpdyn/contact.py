@@ -23,7 +23,7 @@ from . import arrays, com
 from .data import Data
 from .description import NotModelledWarning
 from .description.collidable import CollidablePointsOptions, NoCollidablePointsWarning, UnresolvedMeshWarning, resolve_mesh_uri
-from .description.collision_pairs import CONVEX_TYPES
+from .description.collision_pairs import MULTICCD_TYPES
 from .engine import collisions, contact, derivatives, kinematics
 from .types import names
 from .types.enums import VelRepr, output_repr
@@ -236,16 +236,16 @@ def with_self_collision(model, *, exclude=()):
     """A model like a URDF or SDF `model` whose links' collision shapes collide with each other, as MuJoCo collides
     those of the same URDF (warpdyn.types.geoms.self_collision): every pair of shapes on two links but a link and its
     parent (unless the parent is a fixed base) and the link-name pairs in `exclude`; `geom_pairs` lists them. They act
-    in a step where model.geom_contacts is set. Pairs of types the narrow phase does not collide (meshes) are counted
-    in a NotModelledWarning, and so are the pairs with a cylinder, which get one contact where MuJoCo's multiCCD may add
-    more. An MJCF model's pairs are MuJoCo's: a ValueError."""
+    in a step where model.geom_contacts is set. Pairs of meshes (whose vertices the URDF and SDF loaders do not read)
+    are counted in a NotModelledWarning, and so are the pairs with a cylinder, which get one contact where MuJoCo's
+    multiCCD may add more. An MJCF model's pairs are MuJoCo's: a ValueError."""
     new, uncollided = geom_types.self_collision(model, exclude)
     if uncollided:
         counts = ", ".join(f"{n} {kinds}" for kinds, n in sorted(uncollided.items()))
-        warnings.warn(f"model '{model.name()}': shape pairs that warpdyn's narrow phase does not collide (MuJoCo's convex solver's): {counts}",
+        warnings.warn(f"model '{model.name()}': shape pairs that warpdyn's narrow phase does not collide (meshes, whose vertices the URDF and SDF loaders do not read): {counts}",
                       NotModelledWarning, stacklevel=2)  # fmt: skip
     pairs = geom_types.geom_pairs(new)
-    convex = int(sum((int(a), int(b)) in CONVEX_TYPES for a, b in zip(pairs.type1, pairs.type2)))
+    convex = int(sum((int(a), int(b)) in MULTICCD_TYPES for a, b in zip(pairs.type1, pairs.type2)))
     if convex:
         warnings.warn(f"model '{model.name()}': {convex} shape pairs with a cylinder get one contact (GJK and EPA); MuJoCo's multiCCD, on by "
                       "default, adds polygon contacts where they meet face to face or edge to face", NotModelledWarning, stacklevel=2)  # fmt: skip
@@ -254,9 +254,9 @@ def with_self_collision(model, *, exclude=()):
 
 def geom_contacts(model, data) -> GeomContacts:
     """The contacts between the model's geom pairs at the data's state, as MuJoCo's narrow phase finds them
-    (`GeomContacts`): sphere, capsule, box and cylinder pairs (the cylinder's but sphere-cylinder by GJK and EPA, one
-    contact: kernels/collision_convex.py; a pair of other types is not in `geom_pairs`; the loader names it in a
-    NotModelledWarning). A contact is reported where the surfaces are
+    (`GeomContacts`): sphere, capsule, box, cylinder and convex mesh pairs (the cylinder's but sphere-cylinder, and the
+    mesh's, by GJK and EPA, one contact: kernels/collision_convex.py; a pair of other types is not in `geom_pairs`;
+    the loader names it in a NotModelledWarning). A contact is reported where the surfaces are
     nearer than the pair's margin + gap, as MuJoCo reports it. They act in a step where model.geom_contacts is set
     (the soft law at each contact that penetrates)."""
     count, position, frame, dist = collisions.geom_contacts(model, data)

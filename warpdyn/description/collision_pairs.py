@@ -24,20 +24,21 @@ import numpy as np
 
 from .model import GeomPair
 
-__all__ = ["COLLIDED_TYPES", "CONVEX_TYPES", "mujoco_geom_pairs"]
+__all__ = ["COLLIDED_TYPES", "CONVEX_TYPES", "MULTICCD_TYPES", "mujoco_geom_pairs"]
 
-_SPHERE, _CAPSULE, _CYLINDER, _BOX = 2, 3, 5, 6  # MuJoCo's mjtGeom values (kernels/collision_primitives.py's)
+_SPHERE, _CAPSULE, _CYLINDER, _BOX, _MESH = 2, 3, 5, 6, 7  # MuJoCo's mjtGeom values (kernels/collision_primitives.py's)
+CONVEX_TYPES = frozenset({(_CAPSULE, _CYLINDER), (_CYLINDER, _CYLINDER), (_CYLINDER, _BOX)} | {(t, _MESH) for t in (_SPHERE, _CAPSULE, _CYLINDER, _BOX, _MESH)})
+"""The pairs that MuJoCo and warpdyn collide with a general convex solver (GJK and EPA; a mesh as its convex hull), one
+contact a pair."""
+MULTICCD_TYPES = CONVEX_TYPES - {(_SPHERE, _MESH)}
+"""Those to which MuJoCo 4's multiCCD, on by default, adds polygon contacts where the two geoms meet face to face or
+edge to face (a cylinder standing on a box: 4), which warpdyn does not (the loader says so); a sphere has no face."""
 COLLIDED_TYPES = frozenset(
     {(_SPHERE, _SPHERE), (_SPHERE, _CAPSULE), (_SPHERE, _CYLINDER), (_SPHERE, _BOX), (_CAPSULE, _CAPSULE), (_CAPSULE, _BOX), (_BOX, _BOX)}
-    | {(_CAPSULE, _CYLINDER), (_CYLINDER, _CYLINDER), (_CYLINDER, _BOX)}
-)
+) | CONVEX_TYPES
 """The (type1 <= type2) pairs of geoms on bodies that warpdyn's narrow phase collides (kernels/collision_primitives.py,
-kernels/collision_box.py, and CONVEX_TYPES by kernels/collision_convex.py); MuJoCo collides the others (ellipsoids,
-meshes) with its general convex solver too."""
-CONVEX_TYPES = frozenset({(_CAPSULE, _CYLINDER), (_CYLINDER, _CYLINDER), (_CYLINDER, _BOX)})
-"""The pairs that MuJoCo and warpdyn collide with a general convex solver (GJK and EPA), one contact a pair: MuJoCo 4's
-multiCCD, on by default, adds polygon contacts where the two geoms meet face to face or edge to face (a cylinder
-standing on a box: 4), which warpdyn does not (the loader says so)."""
+kernels/collision_box.py, and CONVEX_TYPES by kernels/collision_convex.py); MuJoCo collides the others (ellipsoids)
+with its general convex solver too."""
 
 
 def _contact_parameters(m, g1: int, g2: int) -> tuple[tuple, int]:

@@ -36,7 +36,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from .collision_pairs import CONVEX_TYPES, mujoco_geom_pairs
+from .collision_pairs import MULTICCD_TYPES, mujoco_geom_pairs
 from .model import (
     ActuatorDescription,
     CollisionShape,
@@ -98,8 +98,8 @@ BODY_CONTACTS = (
 )
 TORSION = "torsional and rolling friction of geom pairs with condim 4 or 6 (their sliding friction acts)"
 MULTICCD = (
-    "MuJoCo's multiCCD polygon contacts where a pair with a cylinder meets face to face or edge to face (warpdyn's GJK and "
-    "EPA give such a pair one contact, as MuJoCo does with mjDSBL_MULTICCD)"
+    "MuJoCo's multiCCD polygon contacts where a pair with a cylinder or a mesh meets face to face or edge to face (warpdyn's "
+    "GJK and EPA give such a pair one contact, as MuJoCo does with mjDSBL_MULTICCD)"
 )
 MOCAP = "mocap bodies (kept welded at their initial pose)"
 FLEX = "flexes"
@@ -211,7 +211,7 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
         note(TORSION, f"{len(rolling)} geom pairs (e.g. {example}, condim {rolling[0].condim})")
     for kinds, names in sorted(uncollided.items()):
         note(UNCOLLIDED_PAIRS, f"{len(names)} {kinds} (e.g. {names[0]})")
-    convex = [p for p in description.geom_pairs if (int(m.geom_type[p.geom1]), int(m.geom_type[p.geom2])) in CONVEX_TYPES]
+    convex = [p for p in description.geom_pairs if (int(m.geom_type[p.geom1]), int(m.geom_type[p.geom2])) in MULTICCD_TYPES]
     if convex and not int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_MULTICCD):
         example = f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, convex[0].geom1, 'geom')}/{name_of(mujoco.mjtObj.mjOBJ_GEOM, convex[0].geom2, 'geom')}"
         note(MULTICCD, f"{len(convex)} geom pairs (e.g. {example})")

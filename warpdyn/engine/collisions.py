@@ -47,6 +47,9 @@ def pair_arrays(model) -> dict:
             mu=wp.array(np.where(pairs.condim > 1, pairs.friction[:, 0], 0.0), dtype=s, device=d),  # condim 1: frictionless
             first=wp.array(pairs.first, dtype=int, device=d),
             slots=wp.array(pairs.slots, dtype=int, device=d),
+            vertices=wp.array(pairs.vertices if len(pairs.vertices) else np.zeros((1, 3)), dtype=vec3, device=d),
+            vertices1=wp.array(pairs.vertices1, dtype=wp.vec2i, device=d),
+            vertices2=wp.array(pairs.vertices2, dtype=wp.vec2i, device=d),
             slot_pair=wp.array(slot_pair, dtype=int, device=d),
             link_pair_start=wp.array(link_pair_start, dtype=int, device=d),
             link_pairs=wp.array(link_pairs, dtype=int, device=d),
@@ -96,7 +99,7 @@ def contact_buffers(a: dict, N: int, grad: bool = False) -> dict:
 
 def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
     """The launch of the pairs' contacts at the link poses W_H_L (N, nL) into the buffers b (`contact_buffers`)."""
-    inputs = [a[k] for k in ("link1", "link2", "type1", "type2", "link_H_geom1", "link_H_geom2", "size1", "size2", "margin", "first", "slots")]
+    inputs = [a[k] for k in ("link1", "link2", "type1", "type2", "link_H_geom1", "link_H_geom2", "size1", "size2", "margin", "first", "slots", "vertices", "vertices1", "vertices2")]
     outputs = [b[k] for k in ("count", "position", "frame", "dist")]
     order = int(arrays.env_fastest(a["device"]))
     return Launch(narrow_phase(a["scalar"], a["convex"]).geom_contacts, N * a["pairs"], [*inputs, W_H_L, order], outputs)

@@ -19,10 +19,10 @@ from ..description.model import GeomPair
 
 __all__ = ["GeomPairs", "geom_pairs", "self_collision", "MUJOCO_TYPES", "SLOTS"]
 
-MUJOCO_TYPES = {"sphere": 2, "capsule": 3, "cylinder": 5, "box": 6}
+MUJOCO_TYPES = {"sphere": 2, "capsule": 3, "cylinder": 5, "box": 6, "mesh": 7}
 """A collision shape's kind -> MuJoCo's mjtGeom value (the narrow phase's type)."""
 
-SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8, (3, 5): 1, (5, 5): 1, (5, 6): 1}
+SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8, (3, 5): 1, (5, 5): 1, (5, 6): 1} | {(t, 7): 1 for t in (2, 3, 5, 6, 7)}
 """(type1, type2) -> the most contacts of such a pair."""
 
 
@@ -34,8 +34,10 @@ class GeomPairs:
     move (the description's world_geoms); type1, type2 (nP,) int: MuJoCo's geom types (type1 <= type2); link_H_geom1,
     link_H_geom2 (nP, 4, 4): the geoms' poses in their links (in the world for link -1);
     size1, size2 (nP, 3) [m]: MuJoCo's geom_size (a sphere's radius; a capsule's or cylinder's radius and half
-    length; a box's half sizes); margin, gap (nP,) [m]; friction (nP, 5); condim (nP,) int; first (nP,) int: each
-    pair's first slot; slots (nP,) int: its number of slots; contacts: the slots of all pairs.
+    length; a box's half sizes; a mesh's bounding radius, MuJoCo's geom_rbound, then 0, 0); margin, gap (nP,) [m];
+    friction (nP, 5); condim (nP,) int; first (nP,) int: each pair's first slot; slots (nP,) int: its number of slots;
+    contacts: the slots of all pairs; vertices (V, 3) [m]: the meshes' vertices, each in its geom's frame, mesh after
+    mesh; vertices1, vertices2 (nP, 2) int: a pair's geom's (first, count) in them ((0, 0) but for a mesh).
     """
 
     names: tuple
@@ -53,6 +55,9 @@ class GeomPairs:
     condim: np.ndarray
     first: np.ndarray
     slots: np.ndarray
+    vertices: np.ndarray
+    vertices1: np.ndarray
+    vertices2: np.ndarray
 
     @property
     def contacts(self) -> int:
@@ -62,8 +67,18 @@ class GeomPairs:
         return len(self.names)
 
 
+def mesh_vertices(shape) -> np.ndarray:
+    """A mesh shape's vertices (k, 3) [m] in its frame, scaled."""
+    return np.asarray(shape.vertices, dtype=np.float64) * np.asarray(shape.scale if shape.scale is not None else 1.0, dtype=np.float64)
+
+
 def _mujoco_size(shape) -> np.ndarray:
-    """MuJoCo's geom_size of a collision shape."""
+    """MuJoCo's geom_size of a collision shape (a mesh's: (its geom_rbound, 0, 0), the norm of |its box's centre| +
+    its half sizes, as MuJoCo bounds a mesh geom)."""
+    if shape.kind == "mesh":
+        v = mesh_vertices(shape)
+        hi, lo = v.max(axis=0), v.min(axis=0)
+        return np.array([np.linalg.norm(np.abs(hi + lo) / 2 + (hi - lo) / 2), 0.0, 0.0])
     if shape.kind == "box":
         return 0.5 * np.asarray(shape.size, dtype=np.float64)
     if shape.kind == "sphere":
@@ -93,6 +108,16 @@ def _build(tree, pairs, world_geoms) -> GeomPairs:
     def stack(values, shape):
         return np.array(values, dtype=np.float64).reshape((len(rows), *shape))
 
+    meshes, first_vertex = {}, 0  # each mesh geom's vertices once
+    for _, _, s1, _, s2 in rows:
+        for shape in (s1, s2):
+            if shape.kind == "mesh" and id(shape) not in meshes:
+                meshes[id(shape)] = (first_vertex, mesh_vertices(shape))
+                first_vertex += len(meshes[id(shape)][1])
+
+    def vertex_range(shape):
+        return (meshes[id(shape)][0], len(meshes[id(shape)][1])) if shape.kind == "mesh" else (0, 0)
+
     return GeomPairs(
         names=tuple((s1.name, s2.name) for _, _, s1, _, s2 in rows),
         link1=np.array([r[1] for r in rows], dtype=np.int32),
@@ -109,6 +134,9 @@ def _build(tree, pairs, world_geoms) -> GeomPairs:
         condim=np.array([r[0].condim for r in rows], dtype=np.int32),
         first=first,
         slots=slots,
+        vertices=np.concatenate([v for _, v in meshes.values()]) if meshes else np.zeros((0, 3)),
+        vertices1=np.array([vertex_range(r[2]) for r in rows], dtype=np.int32).reshape(len(rows), 2),
+        vertices2=np.array([vertex_range(r[4]) for r in rows], dtype=np.int32).reshape(len(rows), 2),
     )
 
 
@@ -118,7 +146,8 @@ def self_collision(model, exclude=()) -> tuple:
     shapes on two links, but a link and its parent (MuJoCo's filterparent; not where the parent is a fixed base, which
     MuJoCo welds to the world) and the link pairs of `exclude` ((name, name), ...); MuJoCo's default friction, no
     margin. Its shapes are numbered (`CollisionShape.geom`, link after link) and named "{link}/{k}" where unnamed.
-    uncollided: {"type1-type2": count} of the pairs whose types the narrow phase does not collide."""
+    uncollided: {"type1-type2": count} of the pairs whose types the narrow phase does not collide (a mesh whose
+    vertices the loader did not read: a URDF's or an SDF's)."""
     if model.description.source == "mjcf":
         raise ValueError(f"model '{model.name()}' is MJCF: its geom pairs are MuJoCo's (edit contype, conaffinity, <exclude> and <pair> in the file)")
     tree, names = model.tree, model.link_names()
@@ -146,7 +175,7 @@ def self_collision(model, exclude=()) -> tuple:
             parent = tree.parent[b] == a or tree.parent[a] == b
             if a == b or frozenset((a, b)) in excluded or (parent and not (fixed_base and 0 in (a, b))):
                 continue
-            t1, t2 = MUJOCO_TYPES.get(s1.kind, 99), MUJOCO_TYPES.get(s2.kind, 99)
+            t1, t2 = (99 if s.kind == "mesh" and s.vertices is None else MUJOCO_TYPES.get(s.kind, 99) for s in (s1, s2))  # a URDF's meshes: no vertices read
             g1, g2 = (s2, s1) if t1 > t2 else (s1, s2)
             if (min(t1, t2), max(t1, t2)) in COLLIDED_TYPES:
                 pairs.append(GeomPair(g1.geom, g2.geom, 0.0, 0.0, default, 3))
