@@ -1,6 +1,6 @@
 """How far a fingertip pad that clips the cube throws it: PickCubeEnv's scene under scripted approaches, warpdyn's
 soft law at several time steps, explicit and linearly implicit (model.implicit_contacts), beside MuJoCo (issue 37:
-why PickCubeConfig steps at 1 ms with implicit contacts).
+why PickCubeConfig steps at 2 ms with implicit contacts and D = 2000).
 
     python benchmarks/cube_clipping.py [--envs 24] [--time-steps 0.001,0.0005] [--damping D] [--seed 5]
 

@@ -12,8 +12,9 @@ sep(n) = min_b n.b - max_a n.a and the witness points a, b on each core; then, a
 dist = n.(b - a) - r1 - r2 [m] (negative where they penetrate), pos midway between the surfaces' witnesses a + r1 n
 and b - r2 n [m, world], and the normal n. EPA stops when a support moves the nearest face by less than TOLERANCE of the
 pair's size (MuJoCo: ccd_tolerance 1e-6, ccd_iterations 35), when its polytope is full (VERTICES) or when rounding
-breaks its convexity (the last good face is kept); GJK when a support gains less than that, or rounding leaves no
-progress (linear convergence between two curved surfaces: tests/test_collision_convex.py measures both).
+breaks its convexity (the last good face is kept); GJK when a support gains less than that, when rounding leaves no
+progress (the last simplex is kept) or after GJK_ITERATIONS (linear convergence between two curved surfaces:
+tests/test_collision_convex.py measures both).
 
 Gradients: n and the witnesses, in their geoms' frames, come from `direction`, whose adjoint is zero (its loops are
 not differentiable); dist = n.(b - a) - r1 - r2 is then evaluated at the poses with them held, which is dist's exact
@@ -49,7 +50,6 @@ def kernels(scalar) -> types.SimpleNamespace:
     sp = spatial(scalar)
     prim = collision_primitives.kernels(scalar)
     vec3, mat33 = sp.vec3, sp.mat33
-    Held = wp.types.matrix(shape=(4, 3), dtype=scalar)
     # GJK and EPA in float64 whatever `scalar` (their results are held, not differentiated): float32's rounding stalls
     # GJK between two curved surfaces millimetres short of the distance
     F = wp.float64
@@ -192,13 +192,13 @@ def kernels(scalar) -> types.SimpleNamespace:
         length = wp.length(nrm)
         if length > F(0.0):
             nrm = nrm / length
-        return nrm, flipped
+        return nrm, flipped, length > F(0.0)
 
     @wp.func
     def direction64(t1: int, p1: V3, R1: M33, s1: V3, t2: int, p2: V3, R2: M33, s2: V3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i):
         """Rows: the unit direction n from geom1 to geom2 of the cores' largest separation (GJK where they are apart,
-        EPA where they overlap), the witness on core1 in geom1's frame, the witness on core2 in geom2's frame, and
-        (the cores' separation along n, 0, 0). Held by the adjoint (`adj_direction`)."""
+        EPA where they overlap), the witness on core1 in geom1's frame, the witness on core2 in geom2's frame; n = 0
+        where EPA's polytope degenerates (coincident supports only). Held by the adjoint (`adj_direction`)."""
         scale = core_radius(t1, s1) + wp.length(s1) + core_radius(t2, s2) + wp.length(s2)
         eps = tol * scale
         S = M43(F(0.0))
@@ -226,31 +226,31 @@ def kernels(scalar) -> types.SimpleNamespace:
                     b = world_support(t2, p2, R2, s2, verts, vr2, v)
                     w = a - b
                     if vv - wp.dot(v, w) > eps * wp.sqrt(vv) and n < 4:
-                        S[n] = w
-                        SA[n] = a
-                        SB[n] = b
-                        n += 1
-                        mask, lam4 = closest(S, n)
+                        S1, A1, B1 = S, SA, SB
+                        S1[n] = w
+                        A1[n] = a
+                        B1[n] = b
+                        mask, lam4 = closest(S1, n + 1)
                         m = int(0)
                         S2, A2, B2 = M43(F(0.0)), M43(F(0.0)), M43(F(0.0))
-                        lam = V4(F(0.0))
-                        v = V3(F(0.0))
+                        lam2 = V4(F(0.0))
+                        v2 = V3(F(0.0))
                         for j in range(4):
                             if (mask >> j) & 1 != 0:
-                                S2[m] = S[j]
-                                A2[m] = SA[j]
-                                B2[m] = SB[j]
-                                lam[m] = lam4[j]
-                                v = v + lam4[j] * S[j]
+                                S2[m] = S1[j]
+                                A2[m] = A1[j]
+                                B2[m] = B1[j]
+                                lam2[m] = lam4[j]
+                                v2 = v2 + lam4[j] * S1[j]
                                 m += 1
-                        S, SA, SB, n = S2, A2, B2, m
+                        if m < 4 and wp.dot(v2, v2) >= vv:  # no progress left to rounding: v stays the closest point found
+                            break
+                        S, SA, SB, n, lam, v = S2, A2, B2, m, lam2, v2
                         if n == 4:
                             overlap = True
-                        elif wp.dot(v, v) >= vv:  # no progress left to rounding: v is the closest point found
-                            break
                     else:
                         break
-        out = M43(F(0.0))
+        out = M33(F(0.0))
         if not overlap:  # apart: the closest points
             wa, wb = V3(F(0.0)), V3(F(0.0))
             for j in range(4):
@@ -261,7 +261,6 @@ def kernels(scalar) -> types.SimpleNamespace:
             out[0] = nrm
             out[1] = wp.transpose(R1) * (wa - p1)
             out[2] = wp.transpose(R2) * (wb - p2)
-            out[3] = V3(wp.length(dv), zero, zero)
             return out
         # overlapping: EPA from the simplex, grown to a polytope around the origin
         P, PA, PB = Points(F(0.0)), Points(F(0.0)), Points(F(0.0))
@@ -338,7 +337,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 tri = wp.vec3i(2 + c % 3, 2 + (c + 1) % 3, c // 3)
                 ok = True
             if ok:
-                nrm, flipped = face_normal(P, tri[0], tri[1], tri[2], centre)
+                nrm, flipped, proper = face_normal(P, tri[0], tri[1], tri[2], centre)
                 fi[nf] = tri[0]
                 fj[nf] = tri[1]
                 fk[nf] = tri[2]
@@ -347,6 +346,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                     fk[nf] = tri[1]
                 normal[nf] = nrm
                 fdist[nf] = wp.dot(nrm, P[tri[0]])
+                if not proper:  # a degenerate face (coincident supports): never the nearest
+                    fdist[nf] = F(wp.inf)
                 alive[nf] = 1
                 nf += 1
         nalive = nf
@@ -361,6 +362,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                         best = f
                     elif fdist[f] < fdist[best]:
                         best = f
+            if best < 0 or fdist[best] == F(wp.inf):  # no proper face left (a degenerate polytope): keep the last one
+                break
             if fdist[best] < face_dist - eps:  # rounding broke the polytope's convexity: keep the last face
                 break
             face = wp.vec3i(fi[best], fj[best], fk[best])
@@ -411,7 +414,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 f = slot
                 if f == nf:
                     nf += 1
-                nrm2, flipped = face_normal(P, ei[g], ej[g], nv, centre)
+                nrm2, flipped, proper = face_normal(P, ei[g], ej[g], nv, centre)
                 fi[f] = ei[g]
                 fj[f] = ej[g]
                 fk[f] = nv
@@ -420,6 +423,8 @@ def kernels(scalar) -> types.SimpleNamespace:
                     fk[f] = ej[g]
                 normal[f] = nrm2
                 fdist[f] = wp.dot(nrm2, P[ei[g]])
+                if not proper:
+                    fdist[f] = F(wp.inf)
                 alive[f] = 1
             nalive += ne
             nv += 1
@@ -440,17 +445,16 @@ def kernels(scalar) -> types.SimpleNamespace:
         out[0] = nrm
         out[1] = wp.transpose(R1) * (wa - p1)
         out[2] = wp.transpose(R2) * (wb - p2)
-        out[3] = V3(-face_dist, zero, zero)
         return out
 
     @wp.func
     def direction(t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i):
         """`direction64` in float64, its rows returned in `scalar`; held by the adjoint (`adj_direction`)."""
-        return Held(direction64(t1, V3(p1), M33(R1), V3(s1), t2, V3(p2), M33(R2), V3(s2), verts, vr1, vr2))
+        return mat33(direction64(t1, V3(p1), M33(R1), V3(s1), t2, V3(p2), M33(R2), V3(s2), verts, vr1, vr2))
 
     @wp.func_grad(direction)
     def adj_direction(
-        t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i, adj_ret: Held
+        t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i, adj_ret: mat33
     ):
         """Held: the direction and the witnesses carry no gradient (the module docstring)."""
         pass
@@ -470,7 +474,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         a = a + r1 * n
         b = b - r2 * n
         count = int(0)
-        if dist <= margin:
+        if dist <= margin and wp.dot(n, n) > scalar(0.25):  # (a degenerate polytope gives no direction: no contact)
             count = 1
         return count, scalar(0.5) * (a + b), n, dist
 

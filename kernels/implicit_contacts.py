@@ -71,7 +71,7 @@ def kernels(scalar, terrain_kind: int | None = None) -> types.SimpleNamespace:
         if wp.length(trial) <= limit:  # sticking (the law's test): the tangential spring and damper act
             beta = h * c + h * h * k_t
             g = g - h * k_t * v_t
-        else:  # sliding: Coulomb's force as the damper mu fn / |v_t| that gives it, which can stop the slip but not reverse it; at most the sticking contact's
+        elif limit > zero:  # sliding: Coulomb's force as the damper mu fn / |v_t| that gives it, which can stop the slip but not reverse it; at most the sticking contact's
             speed = wp.length(v_t)
             beta = h * (c + h * k_t)
             if speed * (c + h * k_t) > limit:

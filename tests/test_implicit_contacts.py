@@ -51,7 +51,7 @@ def _law(depth, v, n, mu):
     k_n, k_t, c = (1 + P) * K * power, K * power, D * power
     speed = np.linalg.norm(v_t)
     alpha = H * c + H * H * k_n
-    beta = H * (c + H * k_t) if sticks or speed * (c + H * k_t) <= limit else H * limit / speed
+    beta = 0.0 if not sticks and limit <= 0 else H * (c + H * k_t) if sticks or speed * (c + H * k_t) <= limit else H * limit / speed
     g = -min(H * k_n * (v @ n), fn) * n - (H * k_t * v_t if sticks else 0.0)
     return fn * n + f_t, alpha, beta, g, sticks
 

@@ -250,7 +250,7 @@ def test_a_pad_pressing_on_the_cubes_edge_leaves_it_near_mujocos():
     rad/s at most. With PickCubeConfig's 2 ms steps, D = 2000 and implicit contacts warpdyn's moves 1.4 mm and turns at
     up to 2.2 rad/s (measured; 1.5 mm and 6.4 rad/s at 1 ms, D = 500); explicit, at 0.5 ms it moved 11 mm with a 62 rad/s burst (near the explicit step's stable
     rate of the light cube's off-centre contacts), at 1 ms it spun at 860 rad/s and was thrown 0.23 m, unflagged (the
-    damper check counts translations only)."""
+    damper check counts translations only). Bounds: MuJoCo's (5 mm moved, 5 rad/s), 3 mm moved for warpdyn's."""
     m = mujoco.MjModel.from_xml_path(str(wd.assets.franka_panda_cube_mjcf()))
     d = mujoco.MjData(m)
     cube, ctrls = _press_on_the_edge(m, d)
@@ -274,4 +274,4 @@ def test_a_pad_pressing_on_the_cubes_edge_leaves_it_near_mujocos():
     state = env._state_views[id(env.stepper.data)]
     moved = float((state["joint_positions"][0, env._cube : env._cube + 3].cpu() - torch.tensor(cube)).norm())
     assert mj_moved < 5e-3 and mj_spin < 5.0  # the reference: MuJoCo's cube nudged
-    assert int(state["valid"][0]) == 1 and moved < 5e-3 and spin < 20.0, (moved, spin)
+    assert int(state["valid"][0]) == 1 and moved < 3e-3 and spin < 5.0, (moved, spin)

@@ -245,9 +245,9 @@ def with_self_collision(model, *, exclude=()):
         warnings.warn(f"model '{model.name()}': shape pairs that warpdyn's narrow phase does not collide (meshes, whose vertices the URDF and SDF loaders do not read): {counts}",
                       NotModelledWarning, stacklevel=2)  # fmt: skip
     pairs = geom_types.geom_pairs(new)
-    convex = int(sum((int(a), int(b)) in MULTICCD_TYPES for a, b in zip(pairs.type1, pairs.type2)))
-    if convex:
-        warnings.warn(f"model '{model.name()}': {convex} shape pairs with a cylinder get one contact (GJK and EPA); MuJoCo's multiCCD, on by "
+    polygons = int(sum((int(a), int(b)) in MULTICCD_TYPES for a, b in zip(pairs.type1, pairs.type2)))
+    if polygons:
+        warnings.warn(f"model '{model.name()}': {polygons} shape pairs with a cylinder get one contact (GJK and EPA); MuJoCo's multiCCD, on by "
                       "default, adds polygon contacts where they meet face to face or edge to face", NotModelledWarning, stacklevel=2)  # fmt: skip
     return new
 

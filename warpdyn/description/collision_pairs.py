@@ -24,7 +24,7 @@ import numpy as np
 
 from .model import GeomPair
 
-__all__ = ["COLLIDED_TYPES", "CONVEX_TYPES", "MULTICCD_TYPES", "mujoco_geom_pairs"]
+__all__ = ["COLLIDED_TYPES", "CONVEX_TYPES", "MULTICCD_TYPES", "multiccd", "mujoco_geom_pairs"]
 
 _SPHERE, _CAPSULE, _CYLINDER, _BOX, _MESH = 2, 3, 5, 6, 7  # MuJoCo's mjtGeom values (kernels/collision_primitives.py's)
 CONVEX_TYPES = frozenset({(_CAPSULE, _CYLINDER), (_CYLINDER, _CYLINDER), (_CYLINDER, _BOX)} | {(t, _MESH) for t in (_SPHERE, _CAPSULE, _CYLINDER, _BOX, _MESH)})
@@ -39,6 +39,16 @@ COLLIDED_TYPES = frozenset(
 """The (type1 <= type2) pairs of geoms on bodies that warpdyn's narrow phase collides (kernels/collision_primitives.py,
 kernels/collision_box.py, and CONVEX_TYPES by kernels/collision_convex.py); MuJoCo collides the others (ellipsoids)
 with its general convex solver too."""
+
+
+def multiccd(m, mujoco) -> bool:
+    """Whether MuJoCo's multiCCD acts in model m: on unless mjDSBL_MULTICCD (MuJoCo 3.8 on), off unless mjENBL_MULTICCD
+    before."""
+    disable = getattr(mujoco.mjtDisableBit, "mjDSBL_MULTICCD", None)
+    if disable is not None:
+        return not int(m.opt.disableflags) & int(disable)
+    enable = getattr(mujoco.mjtEnableBit, "mjENBL_MULTICCD", None)
+    return enable is not None and bool(int(m.opt.enableflags) & int(enable))
 
 
 def _contact_parameters(m, g1: int, g2: int) -> tuple[tuple, int]:

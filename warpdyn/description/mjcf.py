@@ -36,7 +36,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from .collision_pairs import MULTICCD_TYPES, mujoco_geom_pairs
+from .collision_pairs import MULTICCD_TYPES, mujoco_geom_pairs, multiccd
 from .model import (
     ActuatorDescription,
     CollisionShape,
@@ -89,8 +89,8 @@ GROUND = ("ground geoms other than one upward plane (several planes, heightfield
           "the plane z = 0; set model.terrain, e.g. to a HeightfieldTerrain)")
 STATIC_BODIES = "bodies welded to the world beside the free body (static scenery: not links; their geoms are the world's)"
 UNCOLLIDED_PAIRS = (
-    "pairs of geoms that warpdyn's narrow phase does not collide (MuJoCo's convex solver's; <pair>s of a geom without "
-    "a shape, or with the ground, whose contacts are the terrain's law's)"
+    "pairs of geoms that warpdyn's narrow phase does not collide (ellipsoids'; <pair>s of a geom without a shape, or "
+    "with the ground, whose contacts are the terrain's law's)"
 )
 BODY_CONTACTS = (
     "contacts between bodies, off by default (model.geom_contacts = True makes the soft law act on them; "
@@ -211,10 +211,10 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
         note(TORSION, f"{len(rolling)} geom pairs (e.g. {example}, condim {rolling[0].condim})")
     for kinds, names in sorted(uncollided.items()):
         note(UNCOLLIDED_PAIRS, f"{len(names)} {kinds} (e.g. {names[0]})")
-    convex = [p for p in description.geom_pairs if (int(m.geom_type[p.geom1]), int(m.geom_type[p.geom2])) in MULTICCD_TYPES]
-    if convex and not int(m.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_MULTICCD):
-        example = f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, convex[0].geom1, 'geom')}/{name_of(mujoco.mjtObj.mjOBJ_GEOM, convex[0].geom2, 'geom')}"
-        note(MULTICCD, f"{len(convex)} geom pairs (e.g. {example})")
+    polygons = [p for p in description.geom_pairs if (int(m.geom_type[p.geom1]), int(m.geom_type[p.geom2])) in MULTICCD_TYPES]
+    if polygons and multiccd(m, mujoco):
+        example = f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, polygons[0].geom1, 'geom')}/{name_of(mujoco.mjtObj.mjOBJ_GEOM, polygons[0].geom2, 'geom')}"
+        note(MULTICCD, f"{len(polygons)} geom pairs (e.g. {example})")
     description.gravity = gravity
     description.time_step = time_step
     description.integrator = integrator

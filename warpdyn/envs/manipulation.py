@@ -34,8 +34,9 @@ class PickCubeConfig:
     integration of the servos and contacts) and `implicit_contacts` (model.implicit_contacts: the soft law's contacts
     linearly implicit; explicit, a pad that clips the cube's edge, as a policy's approaches do, drives the 0.1 kg
     cube's rotation past the explicit step's stable rate: over 24 scripted approaches a touched cube moved a median
-    118 mm at 1 ms explicit, 2.4 mm at 0.5 ms explicit, 0.8 mm at 2 ms implicit with D = 2000, 0.9 mm in MuJoCo:
-    benchmarks/cube_clipping.py; tests/test_manipulation.py's pad-on-the-edge test), `policy_dt` [s] per action
+    118 mm at 1 ms explicit and 2.4 mm at 0.5 ms explicit with D = 500 (MuJoCo 1.0 mm), and with D = 2000 0.8 mm at
+    2 ms implicit, 148 mm at 1 ms explicit (MuJoCo 0.9 mm over that run's touched cubes): benchmarks/cube_clipping.py;
+    tests/test_manipulation.py's pad-on-the-edge test; explicit contacts need D = 500 and 0.5 ms), `policy_dt` [s] per action
     (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5] and `contact_damping` D [N s/m^1.5]
     (D = 2000: at 2 ms the tangential deformation needs dt K / D < 2; explicit contacts would want D = 500 at 1 ms),
     `friction` the terrain's (the floor's) Coulomb coefficient (MuJoCo's cube-floor friction, 1). Task: an action adds `action_scale` times itself (clipped to [-1, 1]) to each of the 8 controls

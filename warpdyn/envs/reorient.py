@@ -38,10 +38,10 @@ class CubeReorientConfig:
     Simulation: `time_step` [s] (2 ms: Playground's 10 ms relies on MuJoCo's implicit constraint solver) and
     `implicit_contacts` (model.implicit_contacts: the soft law's contacts linearly implicit; explicit, the 0.108 kg
     cube on the fingers' boxes needs 0.5 ms, as PickCubeConfig's cube; implicit at 2 ms, 128 hands under smooth random
-    actions for 10 s flagged none, the cube below 1 m/s), `policy_dt` [s] per action (Playground's ctrl_dt), the soft
-    law's `contact_stiffness` K [N/m^1.5], `contact_damping` D [N s/m^1.5] (2000: at 2 ms the tangential deformation
-    needs dt K / D < 2, and a cube dropped into the hand from a deep reset leaves at a median 0.5 m/s, 1.4 m/s at 1 ms
-    with D = 500) and the floor's `friction`. Task: an action adds `action_scale` times itself
+    actions for 10 s: none flagged, the cube at 1.2 m/s at most, as at 1 ms with D = 500: benchmarks/reorient_stability.py),
+    `policy_dt` [s] per action (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5], `contact_damping`
+    D [N s/m^1.5] (2000: at 2 ms the tangential deformation needs dt K / D < 2; a cube put 2 mm or more into the hand by
+    Playground's reset draws leaves at a median 0.84 m/s, 1.8 m/s at 1 ms with D = 500) and the floor's `friction`. Task: an action adds `action_scale` times itself
     (clipped to [-1, 1]) to each of the 16 position targets, clipped to their ranges; episodes of `episode_seconds`;
     a reset draws the goal orientation uniformly and takes the hand's joints (the targets there) and the cube's pose
     from a bank of `reset_bank` states drawn when the environment is built as Playground draws its resets (the

@@ -2,7 +2,7 @@
 tree's links, with what the narrow phase reads (kernels/collisions.py), fixed when the model is built so that a
 step's collision work has one size.
 
-Each pair has slots for the most contacts its types give (1 with a sphere or a cylinder, 2 for capsule-capsule and
+Each pair has slots for the most contacts its types give (1 with a sphere, a cylinder or a mesh, 2 for capsule-capsule and
 capsule-box, 8 for box-box: kernels/collision_primitives.py, kernels/collision_box.py, kernels/collision_convex.py),
 consecutive, pair after pair.
 """

@@ -178,7 +178,9 @@ class ModelSettings:
         "the static world are stable at any time step (the tangential deformation's relaxation still asks dt K / D < 2; "
         "two moving bodies in contact each see their own block), at the cost of the fused kernel (the step runs as its stages). With equality constraints their solve "
         "after ABA keeps the mass matrix without the contacts' terms (the constraints hold as before; the implicit terms "
-        "act on the unconstrained accelerations). SoftContacts and the Euler integrators only (a step refuses it otherwise).",
+        "act on the unconstrained accelerations). Friction too: the Coulomb limit is mu min(fn, K delta^(1+p)), the normal "
+        "force the step applies to a contact it arrests, for the steps and for the model's contact queries alike "
+        "(wd.contact's forces). SoftContacts and the Euler integrators only (a step refuses it otherwise).",
     )
 
     equality_projection = _setting(
