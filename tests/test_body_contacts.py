@@ -20,6 +20,15 @@ import warpdyn as wd
 
 REST_TOL = 1.5e-3  # m
 
+_RACK = """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
+      <body name="rack" pos="0 0 0.022"><freejoint/>
+        <geom type="box" size=".2 .2 .02" mass="2"/>
+        <geom type="{rail}" size=".03 .2" pos="0 -0.1 0.05" euler="0 90 0" mass="0.5"/>
+        <geom type="{rail}" size=".03 .2" pos="0 0.1 0.05" euler="0 90 0" mass="0.5"/>
+      </body>{logs}
+    </worldbody></mujoco>"""
+"""A free rack (a slab with two rails of type `rail` along x) on the floor, and `logs` (free bodies) across it."""
+
 SCENES = {
     "a stack of boxes": """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
       <body name="bottom" pos="0 0 0.102"><freejoint/><geom type="box" size=".1 .1 .1" mass="2"/></body>
@@ -40,23 +49,11 @@ SCENES = {
       <body name="box" pos="0 0 0.052"><freejoint/><geom type="box" size=".2 .2 .05" mass="2"/></body>
       <body name="ball" pos="0 0 0.156"><freejoint/><geom type="sphere" size=".05" mass="0.5"/></body>
     </worldbody></mujoco>""",
-    "crossed capsules": """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
-      <body name="rack" pos="0 0 0.022"><freejoint/>
-        <geom type="box" size=".2 .2 .02" mass="2"/>
-        <geom type="capsule" size=".03 .2" pos="0 -0.1 0.05" euler="0 90 0" mass="0.5"/>
-        <geom type="capsule" size=".03 .2" pos="0 0.1 0.05" euler="0 90 0" mass="0.5"/>
-      </body>
-      <body name="log" pos="0 0 0.134" euler="90 0 0"><freejoint/><geom type="capsule" size=".03 .15" mass="0.5"/></body>
-    </worldbody></mujoco>""",
-    "crossed cylinders": """<mujoco><option timestep="0.001"/><worldbody><geom type="plane" size="5 5 .1"/>
-      <body name="rack" pos="0 0 0.022"><freejoint/>
-        <geom type="box" size=".2 .2 .02" mass="2"/>
-        <geom type="cylinder" size=".03 .2" pos="0 -0.1 0.05" euler="0 90 0" mass="0.5"/>
-        <geom type="cylinder" size=".03 .2" pos="0 0.1 0.05" euler="0 90 0" mass="0.5"/>
-      </body>
+    "crossed capsules": _RACK.format(rail="capsule", logs="""
+      <body name="log" pos="0 0 0.134" euler="90 0 0"><freejoint/><geom type="capsule" size=".03 .15" mass="0.5"/></body>"""),
+    "crossed cylinders": _RACK.format(rail="cylinder", logs="""
       <body name="log" pos="0.08 0 0.134" euler="90 0 0"><freejoint/><geom type="cylinder" size=".03 .15" mass="0.5"/></body>
-      <body name="pin" pos="-0.08 0 0.134" euler="90 0 0"><freejoint/><geom type="capsule" size=".03 .15" mass="0.5"/></body>
-    </worldbody></mujoco>""",
+      <body name="pin" pos="-0.08 0 0.134" euler="90 0 0"><freejoint/><geom type="capsule" size=".03 .15" mass="0.5"/></body>"""),
     "a ball between a mesh ramp and a wall": """<mujoco><option timestep="0.001"/>
       <asset><mesh name="ramp" vertex="0 -.2 0  .4 -.2 0  0 -.2 .2  0 .2 0  .4 .2 0  0 .2 .2"/></asset>
       <worldbody><geom type="plane" size="5 5 .1"/>

@@ -113,18 +113,27 @@ def _geom(name, size, mesh, margin):
     return f'<geom type="{name}" size="{numbers}" margin="{margin / 2}"/>'
 
 
+_ROCK_ASSETS = "".join(f'<mesh name="rock{k}" vertex="{" ".join(map(str, rock.ravel()))}"/>' for k, rock in enumerate(ROCKS))
+
+
+def _mujoco_pair(pair, margin) -> mujoco.MjModel:
+    """MuJoCo's model of the pair: geom1 on a mocap body, geom2 on a free body (a mesh: ROCKS' first, second), half the
+    margin on each, multiCCD off (one contact a pair, as warpdyn's)."""
+    xml = f"""<mujoco><option gravity="0 0 0"/><asset>{_ROCK_ASSETS}</asset><worldbody>
+      <body mocap="true">{_geom(pair[0], SIZE1.get(pair[0]), "rock0", margin)}</body>
+      <body><freejoint/>{_geom(pair[1], SIZE2.get(pair[1]), "rock1", margin)}</body>
+    </worldbody></mujoco>"""
+    m = mujoco.MjModel.from_xml_string(xml)
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
+    return m
+
+
 @functools.cache
 def _reference(pair, margin):
     """(xpos (n, 2, 3), xmat (n, 2, 3, 3), shapes (the kernel's sizes (2, 3): a mesh's (MuJoCo's bounding radius, 0,
     0); the meshes' vertices in their geoms' frames, MuJoCo's, or None), MuJoCo's contacts per pose) at random poses."""
     size1, size2 = SIZE1.get(pair[0]), SIZE2.get(pair[1])
-    assets = "".join(f'<mesh name="rock{k}" vertex="{" ".join(map(str, rock.ravel()))}"/>' for k, rock in enumerate(ROCKS))
-    xml = f"""<mujoco><option gravity="0 0 0"/><asset>{assets}</asset><worldbody>
-      <body mocap="true">{_geom(pair[0], size1, "rock0", margin)}</body>
-      <body><freejoint/>{_geom(pair[1], size2, "rock1", margin)}</body>
-    </worldbody></mujoco>"""
-    m = mujoco.MjModel.from_xml_string(xml)
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
+    m = _mujoco_pair(pair, margin)
     meshes = [None, None]
     sizes = np.zeros((2, 3))
     for g, name in enumerate(pair):
@@ -248,8 +257,7 @@ def test_a_meshs_bounding_radius_and_vertices_are_mujocos():
 
     import warpdyn as wd
 
-    assets = "".join(f'<mesh name="rock{k}" vertex="{" ".join(map(str, rock.ravel()))}"/>' for k, rock in enumerate(ROCKS))
-    xml = f"""<mujoco><asset>{assets}</asset><worldbody><geom type="mesh" mesh="rock0" pos="0 0 0.3"/>
+    xml = f"""<mujoco><asset>{_ROCK_ASSETS}</asset><worldbody><geom type="mesh" mesh="rock0" pos="0 0 0.3"/>
       <body pos="0 0 0.6"><freejoint/><geom type="mesh" mesh="rock1"/></body></worldbody></mujoco>"""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
@@ -288,14 +296,7 @@ def test_degenerate_poses(case):
     a face and is not compared)."""
     pair, position, tol = case
     _, _, shapes, _ = _reference(pair, 0.0)
-    size1, size2 = SIZE1.get(pair[0]), SIZE2.get(pair[1])
-    assets = "".join(f'<mesh name="rock{k}" vertex="{" ".join(map(str, rock.ravel()))}"/>' for k, rock in enumerate(ROCKS))
-    xml = f"""<mujoco><option gravity="0 0 0"/><asset>{assets}</asset><worldbody>
-      <body mocap="true">{_geom(pair[0], size1, "rock0", 0.0)}</body>
-      <body><freejoint/>{_geom(pair[1], size2, "rock1", 0.0)}</body>
-    </worldbody></mujoco>"""
-    m = mujoco.MjModel.from_xml_string(xml)
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
+    m = _mujoco_pair(pair, 0.0)
     xpos, xmat, contacts = posed_contacts(m, np.random.default_rng(11), [(position, np.array([1.0, 0.0, 0.0, 0.0]))])
     _, count, pos, frame, dist = _collide(pair, xpos, xmat, shapes, 0.0, np.float64)
     n, d = frame.numpy()[0, 0, 0], dist.numpy()[0, 0]
