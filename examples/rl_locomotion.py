@@ -71,7 +71,7 @@ import warp as wp
 
 import warpdyn as wd
 import warpdyn.envs as envs
-from warpdyn.envs.rsl_rl import RslRlVecEnv
+from warpdyn.envs.rsl_rl import GraphedPPO, RslRlVecEnv
 
 ERGOCUB_WALK_REWARDS = dict(
     envs.DEFAULT_REWARDS,
@@ -152,10 +152,11 @@ clip them to [-1, 1]), or a Beta rescaled to [-1, 1] (bounded: its mean cannot d
 Gaussian's exploration no longer reaches the other end of the range; Chou et al. 2017)."""
 
 
-def train_config(iterations: int, distribution: str = "gaussian", **ppo) -> dict:
+def train_config(iterations: int, distribution: str = "gaussian", graphed: bool = False, **ppo) -> dict:
     """rsl-rl's configuration: PPO_DEFAULTS' settings, those given in `ppo` replacing them, the actor's action
     `distribution` (ACTION_DISTRIBUTIONS), the rest Rudin et al.'s (MLP (256, 128, 64) actor and critic with
-    observation normalisation, the adaptive learning rate at a KL of 0.01)."""
+    observation normalisation, the adaptive learning rate at a KL of 0.01); `graphed`: the algorithm is
+    warpdyn.envs.rsl_rl.GraphedPPO (rsl-rl's PPO replayed as CUDA graphs on a GPU), else rsl-rl's PPO."""
     if distribution not in ACTION_DISTRIBUTIONS:
         raise ValueError(f"the action distribution is one of {sorted(ACTION_DISTRIBUTIONS)}, got {distribution!r}")
     unknown = sorted(set(ppo) - set(PPO_DEFAULTS))
@@ -168,7 +169,7 @@ def train_config(iterations: int, distribution: str = "gaussian", **ppo) -> dict
         "save_interval": max(1, iterations),
         "obs_groups": {"actor": ["policy"], "critic": ["policy"]},
         "algorithm": dict(
-            class_name="PPO", learning_rate=learning_rate, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2, gamma=gamma,
+            class_name=GraphedPPO if graphed else "PPO", learning_rate=learning_rate, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2, gamma=gamma,
             lam=0.95, value_loss_coef=1.0, entropy_coef=entropy_coef, max_grad_norm=1.0, schedule="adaptive", desired_kl=0.01,
         ),  # fmt: skip
         "actor": dict(class_name="MLPModel", distribution_cfg=dict(ACTION_DISTRIBUTIONS[distribution]), **mlp),
@@ -212,18 +213,20 @@ def train(
     ppo: dict | None = None,
     log_names: tuple = (),
     distribution: str = "gaussian",
+    graphed: bool = True,
 ) -> list:
     """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass; `ppo`: PPO_DEFAULTS'
     settings to change; `log_names`: entries of the environment's info["log"] whose mean over the iteration's steps
     each iteration's line prints, rank 0's; `distribution`: the actions', ACTION_DISTRIBUTIONS, kept in the
-    checkpoint's infos for `load_policy`); returns
+    checkpoint's infos for `load_policy`; `graphed`: GraphedPPO in one process, rsl-rl's own PPO else and under a
+    process group, which GraphedPPO does not run); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
 
     world, rank = _group()
     vec = RslRlVecEnv(env)
-    cfg = train_config(iterations, distribution, **(ppo or {}))
+    cfg = train_config(iterations, distribution, graphed and world == 1, **(ppo or {}))
     cfg["obs_groups"] = vec.obs_groups
     if world > 1:  # rsl-rl's PPO then averages gradients, KL and normaliser statistics over the ranks
         cfg["multi_gpu"] = {"global_rank": rank, "local_rank": torchrun_ranks()[2], "world_size": world}
@@ -340,7 +343,7 @@ def plot(history: list, path: pathlib.Path, title: str) -> None:
 def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int) -> argparse.ArgumentParser:
     """The command line the manipulation examples share (rl_manipulation.py, rl_reorient.py): --device, --num-envs
     (`default_envs` says the default), --iterations, --seed, --max-minutes, `ppo`'s settings as flags with its values
-    as defaults, --action-distribution (ACTION_DISTRIBUTIONS), --evaluate, --evaluate-envs and --out; `task_setup`
+    as defaults, --action-distribution (ACTION_DISTRIBUTIONS), --ppo, --evaluate, --evaluate-envs and --out; `task_setup`
     parses it."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
@@ -351,6 +354,8 @@ def task_arguments(description: str, ppo: dict, default_envs: str, out: str, ite
     for name, value in ppo.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
     parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default="gaussian", help="the policy's (default gaussian)")
+    parser.add_argument("--ppo", choices=("graphed", "rsl-rl"), default="graphed",
+                        help="graphed (default): rsl-rl's PPO replayed as CUDA graphs on a GPU (warpdyn.envs.rsl_rl.GraphedPPO; one process); rsl-rl: its own")  # fmt: skip
     parser.add_argument("--evaluate", action="store_true", help="after training, evaluate the policy in --evaluate-envs fresh environments")
     parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
     parser.add_argument("--out", default=out)
@@ -448,6 +453,8 @@ def main(argv=None) -> None:
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
     for name, value in PPO_DEFAULTS.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g}, Rudin et al.'s)")
+    parser.add_argument("--ppo", choices=("graphed", "rsl-rl"), default="graphed",
+                        help="graphed (default): rsl-rl's PPO replayed as CUDA graphs on a GPU (warpdyn.envs.rsl_rl.GraphedPPO; one process); rsl-rl: its own")  # fmt: skip
     parser.add_argument("--evaluate", type=float, default=None, metavar="SPEED",
                         help="after training, command SPEED m/s straight ahead in 256 fresh environments for 5 s and print the speed reached")  # fmt: skip
     parser.add_argument("--out", default="runs/locomotion")
@@ -490,7 +497,7 @@ def main(argv=None) -> None:
                   f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps")  # fmt: skip
         phases = {"environment": time.perf_counter() - started}
         ppo = {name: getattr(args, name) for name in PPO_DEFAULTS}
-        history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes, ppo)
+        history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes, ppo, graphed=args.ppo == "graphed")
         phases["training"] = time.perf_counter() - started - sum(phases.values())
         if rank == 0:
             plot(history, out / "rewards.png", f"{args.robot}, {args.task}: {where}")

@@ -1,12 +1,19 @@
-"""`LeggedEnv` as rsl-rl's VecEnv (rsl-rl-lib >= 5: observations as a TensorDict of groups), for its PPO."""
+"""`LeggedEnv` as rsl-rl's VecEnv (rsl-rl-lib >= 5: observations as a TensorDict of groups), and `GraphedPPO`: rsl-rl's
+PPO whose rollout step, returns and update a GPU replays as CUDA graphs."""
 
 from __future__ import annotations
 
+from itertools import chain
+
 import torch
+from rsl_rl.algorithms import PPO
 from rsl_rl.env import VecEnv
+from rsl_rl.modules import EmpiricalNormalization
 from tensordict import TensorDict
 
-__all__ = ["RslRlVecEnv"]
+from .vector_env import no_collection
+
+__all__ = ["GraphedPPO", "RslRlVecEnv"]
 
 
 class RslRlVecEnv(VecEnv):
@@ -51,3 +58,161 @@ class RslRlVecEnv(VecEnv):
         dones = (terminated | truncated).to(torch.long)
         extras = {"time_outs": truncated, "log": info["log"]}
         return self._group(), reward, dones, extras
+
+
+class GraphedPPO(PPO):
+    """rsl-rl's PPO (rsl-rl-lib 5: its losses, clipping, adaptive learning rate, normalisers, storage and checkpoints)
+    with its per-step and per-mini-batch host round trips removed: the learning rate is a tensor the adaptive
+    schedule updates on the device, the losses are summed there and read once an update. On a GPU, `act`,
+    `compute_returns` and `update` are each captured as a CUDA graph at their second call (the first runs eagerly,
+    on a side stream, as capture needs) and replayed after, so a PPO iteration costs a few launches instead of
+    thousands (rsl-rl's update launched about 200 kernels and synchronised 4 times per mini-batch). Elsewhere the same
+    code runs eagerly. What differs from rsl-rl's PPO: the mini-batches' shuffle draws its permutation as the order of
+    uniform draws on the device (rsl-rl: torch.randperm). Feed-forward models in one process only: recurrent models, RND,
+    symmetry and several GPUs are refused (rsl-rl's PPO does those). Use it as rsl-rl's algorithm:
+    `cfg["algorithm"]["class_name"] = GraphedPPO`."""
+
+    def __init__(self, actor, critic, storage, **kwargs):
+        unsupported = [k for k in ("rnd_cfg", "symmetry_cfg", "multi_gpu_cfg") if kwargs.get(k)]
+        if unsupported or actor.is_recurrent or critic.is_recurrent or kwargs.get("use_mixed_precision"):
+            raise ValueError(f"GraphedPPO runs feed-forward models in one process without mixed precision; got {unsupported or 'a recurrent model or mixed precision'} (use rsl-rl's PPO)")
+        super().__init__(actor, critic, storage, **kwargs)
+        self._lr = torch.tensor(float(self.learning_rate), device=self.device)
+        self._capture = torch.device(self.device).type == "cuda"
+        params = chain(self.actor.parameters(), self.critic.parameters())
+        self.optimizer = torch.optim.Adam(params, lr=self._lr, capturable=self._capture)
+        self._sums = torch.zeros(4, device=self.device)  # value loss, surrogate loss, entropy, learning rate
+        self._graphs: dict[str, torch.cuda.CUDAGraph] = {}
+        self._warm: set[str] = set()
+        self._obs_in: TensorDict | None = None  # the graphs' observations (a copy of the caller's)
+        self._act_out: tuple = ()
+
+    def _run(self, name: str, body) -> None:
+        """body() eagerly (the CPU; a GPU's first call, on a side stream), captured at a GPU's second call, replayed
+        from then on."""
+        if not self._capture:
+            body()
+            return
+        graph = self._graphs.get(name)
+        if graph is None:
+            if name not in self._warm:
+                self._warm.add(name)
+                side = torch.cuda.Stream(device=self.device)
+                side.wait_stream(torch.cuda.current_stream(self.device))
+                with torch.cuda.stream(side):
+                    body()
+                torch.cuda.current_stream(self.device).wait_stream(side)
+                return
+            graph = torch.cuda.CUDAGraph()
+            with no_collection(), torch.cuda.graph(graph):
+                body()
+            self._graphs[name] = graph
+        graph.replay()
+
+    def _observe(self, obs: TensorDict) -> None:
+        if self._obs_in is None:
+            self._obs_in = obs.clone()
+        else:
+            for key, value in obs.items():
+                self._obs_in[key].copy_(value)
+
+    def _act(self) -> None:
+        actions = self.actor(self._obs_in, stochastic_output=True).detach()
+        values = self.critic(self._obs_in).detach()
+        log_prob = self.actor.get_output_log_prob(actions).detach()
+        self._act_out = (actions, values, log_prob, tuple(p.detach() for p in self.actor.output_distribution_params))
+
+    def act(self, obs: TensorDict) -> torch.Tensor:
+        """Sample actions (N, A) and keep the step's transition (rsl-rl's PPO.act); the actions are the graph's buffer,
+        overwritten by the next call."""
+        self._observe(obs)
+        self._run("act", self._act)
+        t = self.transition
+        t.hidden_states = (None, None)
+        t.actions, t.values, t.actions_log_prob, t.distribution_params = self._act_out
+        t.observations = obs
+        return t.actions
+
+    def _returns(self) -> None:
+        st = self.storage
+        last_values = self.critic(self._obs_in).detach()
+        advantage = torch.zeros_like(last_values)
+        for step in reversed(range(st.num_transitions_per_env)):
+            next_values = last_values if step == st.num_transitions_per_env - 1 else st.values[step + 1]
+            not_terminal = 1.0 - st.dones[step].float()
+            delta = st.rewards[step] + not_terminal * self.gamma * next_values - st.values[step]
+            advantage = delta + not_terminal * self.gamma * self.lam * advantage
+            st.returns[step] = advantage + st.values[step]
+        st.advantages.copy_(st.returns - st.values)
+        if not self.normalize_advantage_per_mini_batch:
+            st.advantages.copy_((st.advantages - st.advantages.mean()) / (st.advantages.std() + 1e-8))
+
+    def compute_returns(self, obs: TensorDict) -> None:
+        """rsl-rl's GAE returns and advantages, in the storage's buffers (in place)."""
+        self._observe(obs)
+        self._run("returns", self._returns)
+
+    def _update(self) -> None:
+        st = self.storage
+        size = st.num_envs * st.num_transitions_per_env // self.num_mini_batches
+        observations = st.observations.flatten(0, 1)
+        actions, values, returns = st.actions.flatten(0, 1), st.values.flatten(0, 1), st.returns.flatten(0, 1)
+        old_log_prob, advantages = st.actions_log_prob.flatten(0, 1), st.advantages.flatten(0, 1)
+        old_params = tuple(p.flatten(0, 1) for p in st.distribution_params)
+        self._sums.zero_()
+        order = torch.argsort(torch.rand(size * self.num_mini_batches, device=self.device))
+        for _ in range(self.num_learning_epochs):
+            for i in range(self.num_mini_batches):
+                idx = order[i * size : (i + 1) * size]
+                adv = advantages[idx]
+                if self.normalize_advantage_per_mini_batch:
+                    adv = (adv - adv.mean()) / (adv.std() + 1e-8)
+                self.actor(observations[idx], stochastic_output=True)
+                log_prob = self.actor.get_output_log_prob(actions[idx])
+                value = self.critic(observations[idx])
+                params = self.actor.output_distribution_params
+                entropy = self.actor.output_entropy
+                if self.desired_kl is not None and self.schedule == "adaptive":
+                    with torch.no_grad():
+                        kl = self.actor.get_kl_divergence(tuple(p[idx] for p in old_params), params).mean()
+                        lr = self._lr
+                        lower, higher = torch.clamp(lr / 1.5, min=1e-5), torch.clamp(lr * 1.5, max=1e-2)
+                        lr.copy_(torch.where(kl > 2.0 * self.desired_kl, lower, torch.where((kl < 0.5 * self.desired_kl) & (kl > 0.0), higher, lr)))
+                ratio = torch.exp(log_prob - torch.squeeze(old_log_prob[idx]))
+                adv = torch.squeeze(adv)
+                surrogate = torch.max(-adv * ratio, -adv * torch.clamp(ratio, 1.0 - self.clip_param, 1.0 + self.clip_param)).mean()
+                if self.use_clipped_value_loss:
+                    clipped = values[idx] + (value - values[idx]).clamp(-self.clip_param, self.clip_param)
+                    value_loss = torch.max((value - returns[idx]).pow(2), (clipped - returns[idx]).pow(2)).mean()
+                else:
+                    value_loss = (returns[idx] - value).pow(2).mean()
+                loss = surrogate + self.value_loss_coef * value_loss - self.entropy_coef * entropy.mean()
+                self.optimizer.zero_grad()
+                loss.backward()
+                torch.nn.utils.clip_grad_norm_(self.actor.parameters(), self.max_grad_norm)
+                torch.nn.utils.clip_grad_norm_(self.critic.parameters(), self.max_grad_norm)
+                self.optimizer.step()
+                self._sums[:3] += torch.stack([value_loss, surrogate, entropy.mean()]).detach()
+        self._sums[3] = self._lr
+
+    def update(self) -> dict[str, float]:
+        """rsl-rl's PPO update over the stored rollout; returns the mean losses (one host synchronisation)."""
+        self._run("update", self._update)
+        observations = self.storage.observations.flatten(0, 1)
+        for model in (self.actor, self.critic):
+            _update_normalization(model, observations)
+        value, surrogate, entropy, self.learning_rate = self._sums.tolist()
+        updates = self.num_learning_epochs * self.num_mini_batches
+        self.storage.clear()
+        return {"value": value / updates, "surrogate": surrogate / updates, "entropy": entropy / updates}
+
+
+def _update_normalization(model, observations: TensorDict) -> None:
+    """model.update_normalization(observations), its normaliser's statistics kept in their buffers (rsl-rl's
+    EmpiricalNormalization replaces its std tensor, which the captured graphs read)."""
+    normalizer = getattr(model, "obs_normalizer", None)
+    std = normalizer._std if isinstance(normalizer, EmpiricalNormalization) else None
+    model.update_normalization(observations)
+    if std is not None and normalizer._std is not std:
+        std.copy_(normalizer._std)
+        normalizer._std = std

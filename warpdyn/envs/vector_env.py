@@ -5,6 +5,7 @@ tensors on the model's device, episode statistics read in one host synchronisati
 from __future__ import annotations
 
 import contextlib
+import gc
 import math
 import warnings
 
@@ -154,7 +155,7 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
         the graph's tensors and returns copies of the graph's outputs, as an eager step returns new tensors."""
         graph = torch.cuda.CUDAGraph()
         graph.register_generator_state(self._generator)
-        with torch.cuda.device(self.device), torch.cuda.graph(graph), self._on_device_stream(capturing=True):
+        with no_collection(), torch.cuda.device(self.device), torch.cuda.graph(graph), self._on_device_stream(capturing=True):
             outputs = advance()
         kept = {name: getattr(self, name) for name in self._replayed}
 
@@ -187,6 +188,21 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
     def close_extras(self, **kwargs) -> None:
         self._program = None
         self.stepper = None
+
+
+@contextlib.contextmanager
+def no_collection():
+    """Python's cyclic garbage collector run, then off until the exit: while a CUDA graph is captured, it must not free
+    unreachable Warp arrays, whose device memory may not be released during a capture (CUDA error 900 ends the
+    capture)."""
+    gc.collect()
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 def _copied(value):

@@ -1,0 +1,148 @@
+"""GraphedPPO (warpdyn.envs.rsl_rl) against rsl-rl's PPO: the same actions, returns, advantages and parameters after
+updates, from the same initial models, transitions and random draws; on a GPU, its CUDA graphs against its eager
+code."""
+
+import types
+
+import pytest
+import torch
+
+pytest.importorskip("rsl_rl")
+from rsl_rl.algorithms import PPO  # noqa: E402
+from tensordict import TensorDict  # noqa: E402
+
+from warpdyn.envs.rsl_rl import GraphedPPO  # noqa: E402
+
+N, OBS, ACTIONS, STEPS = 16, 5, 3, 4
+DISTRIBUTIONS = {
+    "gaussian": dict(class_name="GaussianDistribution", init_std=1.0),
+    "beta": dict(class_name="BetaDistribution", action_range=(-1.0, 1.0)),
+}
+
+
+def _algorithm(cls, device: str, distribution: str, epochs: int, mini_batches: int, critic_group: bool = False):
+    """An rsl-rl algorithm of class cls on small MLPs, its initial parameters from seed 0."""
+    torch.manual_seed(0)
+    groups = {"policy": torch.zeros(N, OBS, device=device)}
+    if critic_group:
+        groups["critic"] = torch.zeros(N, OBS + 2, device=device)
+    obs = TensorDict(groups, batch_size=[N], device=device)
+    mlp = dict(hidden_dims=[32, 16], activation="elu", obs_normalization=True)
+    cfg = {
+        "num_steps_per_env": STEPS,
+        "obs_groups": {"actor": ["policy"], "critic": ["critic" if critic_group else "policy"]},
+        "algorithm": dict(class_name=cls, learning_rate=1e-3, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2,
+                          gamma=0.97, lam=0.95, value_loss_coef=1.0, entropy_coef=0.01, max_grad_norm=1.0, schedule="adaptive", desired_kl=0.01),  # fmt: skip
+        "actor": dict(class_name="MLPModel", distribution_cfg=dict(DISTRIBUTIONS[distribution]), **mlp),
+        "critic": dict(class_name="MLPModel", **mlp),
+        "multi_gpu": None,
+    }
+    env = types.SimpleNamespace(num_envs=N, num_actions=ACTIONS)
+    alg = PPO.construct_algorithm(obs, env, cfg, device)
+    alg.train_mode()
+    return alg
+
+
+def _observations(step: int, device: str, critic_group: bool) -> TensorDict:
+    g = torch.Generator().manual_seed(1000 + step)
+    groups = {"policy": 2.0 * torch.randn(N, OBS, generator=g) + 1.0}
+    if critic_group:
+        groups["critic"] = torch.randn(N, OBS + 2, generator=g)
+    return TensorDict({k: v.to(device) for k, v in groups.items()}, batch_size=[N], device=device)
+
+
+def _iteration(alg, iteration: int, device: str, critic_group: bool) -> dict:
+    """One PPO iteration of fixed observations, rewards and dones, the random draws seeded: (actions, returns,
+    advantages, losses)."""
+    g = torch.Generator().manual_seed(iteration)
+    actions = []
+    with torch.inference_mode():
+        for t in range(STEPS):
+            obs = _observations(STEPS * iteration + t, device, critic_group)
+            torch.manual_seed(100 * iteration + t)
+            actions.append(alg.act(obs).clone())
+            rewards = torch.randn(N, generator=g).to(device)
+            dones = (torch.rand(N, generator=g) < 0.2).to(device, torch.long)
+            time_outs = (torch.rand(N, generator=g) < 0.5).to(device) & dones.bool()
+            alg.process_env_step(obs, rewards, dones, {"time_outs": time_outs})
+        alg.compute_returns(_observations(STEPS * iteration + STEPS, device, critic_group))
+    returns, advantages = alg.storage.returns.clone(), alg.storage.advantages.clone()
+    torch.manual_seed(7 + iteration)
+    losses = alg.update()
+    return {"actions": torch.stack(actions), "returns": returns, "advantages": advantages, "losses": losses}
+
+
+def _parameters(alg) -> torch.Tensor:
+    state = alg.save()
+    return torch.cat([t.reshape(-1).float() for t in (*state["actor_state_dict"].values(), *state["critic_state_dict"].values())])
+
+
+@pytest.fixture
+def permutation_as_graphed(monkeypatch):
+    """rsl-rl's mini-batch shuffle drawn as GraphedPPO draws it (the order of uniform draws), so both shuffle alike."""
+    monkeypatch.setattr(torch, "randperm", lambda n, requires_grad=False, device=None: torch.argsort(torch.rand(n, device=device)))
+
+
+@pytest.mark.parametrize("distribution", sorted(DISTRIBUTIONS))
+@pytest.mark.parametrize("mini_batches,critic_group", [(1, False), (4, True)])
+def test_graphed_ppo_equals_rsl_rl_ppo(distribution, mini_batches, critic_group, permutation_as_graphed):
+    ref = _algorithm(PPO, "cpu", distribution, epochs=3, mini_batches=mini_batches, critic_group=critic_group)
+    alg = _algorithm(GraphedPPO, "cpu", distribution, epochs=3, mini_batches=mini_batches, critic_group=critic_group)
+    assert torch.equal(_parameters(ref), _parameters(alg))
+    start = _parameters(ref)
+    for it in range(3):
+        a, b = _iteration(ref, it, "cpu", critic_group), _iteration(alg, it, "cpu", critic_group)
+        torch.testing.assert_close(b["actions"], a["actions"], rtol=1e-5, atol=1e-6)
+        torch.testing.assert_close(b["returns"], a["returns"], rtol=1e-6, atol=1e-6)
+        torch.testing.assert_close(b["advantages"], a["advantages"], rtol=1e-5, atol=1e-5)
+        for key in ("value", "surrogate", "entropy"):
+            assert b["losses"][key] == pytest.approx(a["losses"][key], rel=1e-4, abs=1e-6), key
+        assert alg.learning_rate == pytest.approx(ref.learning_rate, rel=1e-6)
+        torch.testing.assert_close(_parameters(alg), _parameters(ref), rtol=1e-4, atol=1e-5)
+    assert (_parameters(alg) - start).abs().max() > 1e-3  # the updates moved the models
+    assert ref.learning_rate != 1e-3  # the adaptive schedule acted
+
+
+def test_graphed_ppo_refuses_what_it_does_not_run():
+    actor = types.SimpleNamespace(is_recurrent=True)
+    with pytest.raises(ValueError, match="feed-forward"):
+        GraphedPPO(actor, actor, None)
+    critic = types.SimpleNamespace(is_recurrent=False)
+    with pytest.raises(ValueError, match="multi_gpu_cfg"):
+        GraphedPPO(critic, critic, None, multi_gpu_cfg={"world_size": 2})
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="CUDA graphs need a GPU")
+@pytest.mark.parametrize("distribution", sorted(DISTRIBUTIONS))
+def test_graphs_replay_the_eager_update(distribution):
+    """Its graphs (the second iteration captures, the third replays) against its eager code on the same GPU, the
+    transitions copied from the eager run (sampling draws differ between a graph and eager code); one mini-batch, whose
+    shuffle does not change the update."""
+    eager = _algorithm(GraphedPPO, "cuda", distribution, epochs=3, mini_batches=1)
+    eager._capture = False
+    graphed = _algorithm(GraphedPPO, "cuda", distribution, epochs=3, mini_batches=1)
+    for it in range(4):
+        with torch.inference_mode():
+            for t in range(STEPS):
+                obs = _observations(STEPS * it + t, "cuda", False)
+                actions = graphed.act(obs)
+                torch.testing.assert_close(graphed.transition.values, eager.critic(obs), rtol=1e-5, atol=1e-6)
+                eager.actor(obs, stochastic_output=True)
+                for p, q in zip(graphed.transition.distribution_params, eager.actor.output_distribution_params):
+                    torch.testing.assert_close(p, q, rtol=1e-5, atol=1e-6)
+                torch.testing.assert_close(graphed.transition.actions_log_prob, eager.actor.get_output_log_prob(actions), rtol=1e-4, atol=1e-5)
+                graphed.storage.add_transition(graphed.transition)
+                graphed.transition.clear()
+        a = _iteration(eager, it, "cuda", False)
+        st, ref = graphed.storage, eager.storage
+        for name in ("actions", "rewards", "dones", "values", "actions_log_prob"):
+            getattr(st, name).copy_(getattr(ref, name))
+        for p, q in zip(st.distribution_params, ref.distribution_params):
+            p.copy_(q)
+        st.observations.update_(ref.observations)
+        with torch.inference_mode():
+            graphed.compute_returns(_observations(STEPS * it + STEPS, "cuda", False))
+        torch.testing.assert_close(st.advantages, a["advantages"], rtol=1e-5, atol=1e-5)
+        graphed.update()
+        torch.testing.assert_close(_parameters(graphed), _parameters(eager), rtol=1e-4, atol=1e-5)
+    assert set(graphed._graphs) == {"act", "returns", "update"}
