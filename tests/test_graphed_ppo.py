@@ -131,7 +131,8 @@ def test_graphs_replay_the_eager_update(distribution):
                 for p, q in zip(graphed.transition.distribution_params, eager.actor.output_distribution_params):
                     torch.testing.assert_close(p, q, rtol=1e-5, atol=1e-6)
                 torch.testing.assert_close(graphed.transition.actions_log_prob, eager.actor.get_output_log_prob(actions), rtol=1e-4, atol=1e-5)
-                graphed.storage.add_transition(graphed.transition)
+                graphed.transition.rewards, graphed.transition.dones = torch.zeros(N, device="cuda"), torch.zeros(N, device="cuda")
+                graphed.storage.add_transition(graphed.transition)  # the rollout's tensors are copied from the eager run below
                 graphed.transition.clear()
         a = _iteration(eager, it, "cuda", False)
         st, ref = graphed.storage, eager.storage

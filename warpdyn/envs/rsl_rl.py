@@ -8,7 +8,7 @@ from itertools import chain
 import torch
 from rsl_rl.algorithms import PPO
 from rsl_rl.env import VecEnv
-from rsl_rl.modules import EmpiricalNormalization
+from rsl_rl.modules import EmpiricalNormalization, GaussianDistribution
 from tensordict import TensorDict
 
 from .vector_env import no_collection
@@ -117,7 +117,8 @@ class GraphedPPO(PPO):
                 self._obs_in[key].copy_(value)
 
     def _act(self) -> None:
-        actions = self.actor(self._obs_in, stochastic_output=True).detach()
+        _update_distribution(self.actor, self._obs_in)
+        actions = _sample(self.actor.distribution).detach()
         values = self.critic(self._obs_in).detach()
         log_prob = self.actor.get_output_log_prob(actions).detach()
         self._act_out = (actions, values, log_prob, tuple(p.detach() for p in self.actor.output_distribution_params))
@@ -167,7 +168,7 @@ class GraphedPPO(PPO):
                 adv = advantages[idx]
                 if self.normalize_advantage_per_mini_batch:
                     adv = (adv - adv.mean()) / (adv.std() + 1e-8)
-                self.actor(observations[idx], stochastic_output=True)
+                _update_distribution(self.actor, observations[idx])
                 log_prob = self.actor.get_output_log_prob(actions[idx])
                 value = self.critic(observations[idx])
                 params = self.actor.output_distribution_params
@@ -216,3 +217,18 @@ def _update_normalization(model, observations: TensorDict) -> None:
     if std is not None and normalizer._std is not std:
         std.copy_(normalizer._std)
         normalizer._std = std
+
+
+def _update_distribution(model, observations: TensorDict) -> None:
+    """The model's action distribution at `observations`, as its forward pass sets it, without a draw."""
+    model.distribution.update(model.mlp(model.get_latent(observations)))
+
+
+def _sample(distribution) -> torch.Tensor:
+    """A draw of an rsl-rl distribution that a CUDA graph can capture: a Gaussian's drawn as torch.normal(mean, std)
+    draws it (standard normal draws, scaled and shifted: the same numbers from the same generator state), without
+    torch.normal's host check of the standard deviation's sign, which a capture does not allow."""
+    if isinstance(distribution, GaussianDistribution):
+        mean = distribution.mean
+        return torch.empty_like(mean).normal_() * distribution.std + mean
+    return distribution.sample()
