@@ -136,12 +136,12 @@ def test_graphs_replay_the_eager_update(distribution):
                 graphed.transition.clear()
         a = _iteration(eager, it, "cuda", False)
         st, ref = graphed.storage, eager.storage
-        for name in ("actions", "rewards", "dones", "values", "actions_log_prob"):
-            getattr(st, name).copy_(getattr(ref, name))
-        for p, q in zip(st.distribution_params, ref.distribution_params):
-            p.copy_(q)
-        st.observations.update_(ref.observations)
-        with torch.inference_mode():
+        with torch.inference_mode():  # (the storage's distribution parameters were made there)
+            for name in ("actions", "rewards", "dones", "values", "actions_log_prob"):
+                getattr(st, name).copy_(getattr(ref, name))
+            for p, q in zip(st.distribution_params, ref.distribution_params):
+                p.copy_(q)
+            st.observations.update_(ref.observations)
             graphed.compute_returns(_observations(STEPS * it + STEPS, "cuda", False))
         torch.testing.assert_close(st.advantages, a["advantages"], rtol=1e-5, atol=1e-5)
         graphed.update()
