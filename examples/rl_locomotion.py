@@ -1,5 +1,6 @@
 """Train a legged robot to stand under pushes or walk on command with rsl-rl's PPO on warpdyn.envs: the seed's
-ergoCub legs (shipped) or the Unitree Go1 quadruped (from the pip package example-robot-data).
+ergoCub legs (shipped) or the Unitree Go1 quadruped (from the pip package example-robot-data). In one process the
+PPO is warpdyn.envs.rsl_rl.GraphedPPO (rsl-rl's, replayed as CUDA graphs on a GPU; `--ppo rsl-rl`: rsl-rl's own).
 
     pip install -e ".[rl,viz,examples]"
     python examples/rl_locomotion.py --robot ergocub --task stand --iterations 300 --out runs/stand   # a GPU: N = 4096
@@ -15,7 +16,7 @@ On K GPUs of one host (data parallel, torch.distributed with NCCL):
 Rank r simulates its own `--num-envs` environments (the number is PER RANK: K x N in all; pass N / K to keep
 the total batch) on Warp device and torch device `cuda:<LOCAL_RANK>`, seeded with `--seed + r` (the
 environments' resets and the torch generator, hence the actions' noise); rank 0's initial parameters are
-broadcast, rsl-rl's PPO averages the gradients, the KL divergence (adaptive learning rate) and the
+broadcast, rsl-rl's own PPO (not GraphedPPO) averages the gradients, the KL divergence (adaptive learning rate) and the
 observation normaliser's statistics over the ranks, so every rank holds the same policy (checked at the end:
 the run fails if the ranks' parameters differ by more than 1e-5). Only rank 0 prints, saves and plots. On
 the CPU (`--device cpu`) the same runs with the gloo backend, e.g. `torchrun --standalone --nproc_per_node 2

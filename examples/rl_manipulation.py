@@ -9,7 +9,7 @@ Environment (`warpdyn.envs.PickCubeEnv`, its defaults: PickCubeConfig): the ship
 `wd.assets.franka_panda_cube_mjcf()` at 2 ms steps (implicit contacts), the policy at 50 Hz adding 0.04 x its actions to the 8 position
 controls, episodes of 3 s; each reset puts the cube within 0.2 m of the keyframe "home"'s and draws a target 0.2 to
 0.4 m above the floor around it; Playground's rewards (gripper to cube, cube to target once reached, no hand on the
-floor, arm near its keyframe posture). Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO, the same
+floor, arm near its keyframe posture). Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO as GraphedPPO, the same
 flags: --steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma, --entropy-coef), with Playground's
 settings for this task as defaults (PICK_PPO).
 

@@ -11,7 +11,7 @@ targets, episodes of 50 s; each reset draws a goal orientation and takes the han
 bank of Playground's reset draws that do not interpenetrate; Playground's noisy observations for the actor and
 privileged ones for the critic, its rewards (orientation, cube in the palm, a fall, hand pose, action rate,
 energy) and a bonus of 100 at each success (the cube within 0.1 rad of the goal, which then turns to a new one).
-Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO, its flags), with Playground's settings for this task
+Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO as GraphedPPO, its flags), with Playground's settings for this task
 as defaults (REORIENT_PPO; its networks are (512, 256, 128), the trainer's (256, 128, 64)).
 
 Prints, per iteration: the mean return and length of the completed episodes, env-steps/s, the wall time, and the

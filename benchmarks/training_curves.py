@@ -1,0 +1,78 @@
+"""Training curves from the examples' logs (examples/rl_*.py print one line per PPO iteration): a quantity of those
+lines against wall time, one curve per log, in one figure. For runs whose machine had no matplotlib (the GPU
+machine's) and to put runs side by side.
+
+    python benchmarks/training_curves.py OUT.png LOG [LOG ...] [--quantity reached] [--labels a,b]
+
+--quantity: "return" (the mean return of the episodes completed in the iteration; iterations without one are
+skipped) or a logged entry of the line ("reached", "success", "orientation_error", ...; default "return"). Prints
+for each log its iterations, wall time, median env-steps/s, and the quantity's last value and its maximum.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import pathlib
+import re
+
+_LINE = re.compile(r"^iteration\s+(\d+)\s+mean return\s+(\S+).*?([\d.]+) k env-steps/s.*?([\d.]+) s(?:\s|$)(.*)$")
+
+
+def read(path: pathlib.Path, quantity: str) -> tuple[list[float], list[float], list[float]]:
+    """(wall times [s], the quantity, env-steps/s [k]) of the log's iteration lines."""
+    seconds, values, rates = [], [], []
+    for line in path.read_text().splitlines():
+        m = _LINE.match(line)
+        if m is None:
+            continue
+        if quantity == "return":
+            value = float(m.group(2))
+        else:
+            logged = dict(zip(*[iter(m.group(5).split())] * 2))
+            if quantity not in logged:
+                raise SystemExit(f"{path}: its iteration lines log {sorted(logged)}, not {quantity!r}")
+            value = float(logged[quantity])
+        rates.append(float(m.group(3)))
+        if math.isfinite(value):
+            seconds.append(float(m.group(4)))
+            values.append(value)
+    if not rates:
+        raise SystemExit(f"{path}: no iteration lines (examples/rl_*.py's)")
+    return seconds, values, rates
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("out")
+    parser.add_argument("logs", nargs="+")
+    parser.add_argument("--quantity", default="return")
+    parser.add_argument("--labels", default=None, help="comma-separated, one per log (default: the logs' names)")
+    args = parser.parse_args()
+    paths = [pathlib.Path(p) for p in args.logs]
+    labels = args.labels.split(",") if args.labels else [p.stem for p in paths]
+    if len(labels) != len(paths):
+        parser.error(f"--labels has {len(labels)} names for {len(paths)} logs")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for path, label in zip(paths, labels):
+        seconds, values, rates = read(path, args.quantity)
+        rates = sorted(rates)
+        print(f"{label}: {len(rates)} iterations, {seconds[-1] if seconds else float('nan'):.1f} s, median {rates[len(rates) // 2]:.1f} k env-steps/s, "
+              f"{args.quantity} last {values[-1] if values else float('nan'):.3f}, max {max(values) if values else float('nan'):.3f}")  # fmt: skip
+        ax.plot(seconds, values, label=label)
+    ax.set_xlabel("wall time [s]")
+    ax.set_ylabel(args.quantity)
+    ax.grid(True)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(args.out, dpi=110)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
