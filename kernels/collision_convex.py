@@ -1,11 +1,13 @@
 """The pairs MuJoCo collides with its general convex solver (mjc_Convex: its native GJK and EPA): here capsule-cylinder,
-cylinder-cylinder, cylinder-box and a convex mesh with a sphere, capsule, cylinder, box or mesh, one contact a pair,
+cylinder-cylinder, cylinder-box, an ellipsoid with a sphere, capsule, ellipsoid, cylinder, box or mesh, and a convex
+mesh with a sphere, capsule, cylinder, box or mesh, one contact a pair (MuJoCo's multiCCD skips ellipsoids),
 as MuJoCo gives with mjDSBL_MULTICCD (MuJoCo 4's multiCCD, on by default, adds polygon contacts where the geoms'
 features meet face to face or edge to face; not here). GJK and EPA run in float64 whatever the kernels' scalar: their
 results are held (below), and float32's rounding stalled GJK between curved surfaces millimetres short.
 
 The geoms are taken as cores inflated by a radius (a sphere: its centre and radius; a capsule: its segment and
-radius; a cylinder, a box or a mesh: itself and 0; a mesh as its convex hull, the support of its vertices). GJK (the
+radius; an ellipsoid, a cylinder, a box or a mesh: itself and 0; a mesh as its convex hull, the support of its
+vertices; an ellipsoid's support along d: diag(r)^2 d / |diag(r) d|, its radii r). GJK (the
 closest point to the origin of a simplex of the cores' Minkowski difference, by its faces' affine projections) gives
 the cores' distance where they are apart; where they overlap, EPA (the expanding polytope) gives their penetration. Either gives the direction n (unit, geom1 to geom2) of the cores' largest separation
 sep(n) = min_b n.b - max_a n.a and the witness points a, b on each core; then, as MuJoCo's d.contact:
@@ -28,7 +30,7 @@ from typing import Any
 import warp as wp
 
 from . import collision_primitives
-from .collision_primitives import BOX, CAPSULE, CYLINDER, MESH, SPHERE
+from .collision_primitives import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 from .factory import factory
 from .spatial import spatial
 
@@ -101,12 +103,41 @@ def kernels(scalar) -> types.SimpleNamespace:
             return V3(x, y, signed(s[1], d[2]))
         if t == CAPSULE:
             return V3(F(0.0), F(0.0), signed(s[1], d[2]))
+        if t == ELLIPSOID:
+            scaled = wp.cw_mul(s, d)
+            norm = wp.length(scaled)
+            if norm > F(0.0):
+                return wp.cw_mul(s, scaled) / norm
+            return V3(s[0], F(0.0), F(0.0))  # (d = 0: any surface point; MuJoCo's too)
         return V3(F(0.0))
 
     @wp.func
     def world_support(t: int, p: V3, R: M33, s: V3, verts: wp.array(dtype=vec3), vr: wp.vec2i, d: V3):
         """The point of a geom's core (pose p, R) farthest along the world direction d [m, world]."""
         return p + R * core_support(t, s, verts, vr, wp.transpose(R) * d)
+
+    @wp.func
+    def held_rows(
+        t1: int, p1: V3, R1: M33, s1: V3, t2: int, p2: V3, R2: M33, s2: V3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i,
+        nrm: V3, wa: V3, wb: V3,
+    ):  # fmt: skip
+        """(n, geom1's witness in its frame, geom2's in its frame) from GJK's or EPA's witnesses wa, wb [m, world]: an
+        ellipsoid's witness is its point farthest along the normal (unique on a strictly convex surface: exact where
+        EPA's face interpolates a coarse polytope), and the other geom's then lies on the normal through it (n.(b - a)
+        unchanged; EPA's lateral placement on a face would wander from step to step and rock the ellipsoid)."""
+        if t1 == ELLIPSOID:
+            wa = world_support(t1, p1, R1, s1, verts, vr1, nrm)
+        if t2 == ELLIPSOID:
+            wb = world_support(t2, p2, R2, s2, verts, vr2, -nrm)
+        if t1 == ELLIPSOID and t2 != ELLIPSOID:
+            wb = wa + wp.dot(wb - wa, nrm) * nrm
+        if t2 == ELLIPSOID and t1 != ELLIPSOID:
+            wa = wb - wp.dot(wb - wa, nrm) * nrm
+        out = M33(F(0.0))
+        out[0] = nrm
+        out[1] = wp.transpose(R1) * (wa - p1)
+        out[2] = wp.transpose(R2) * (wb - p2)
+        return out
 
     @wp.func
     def project(S: M43, mask: int):
@@ -250,18 +281,13 @@ def kernels(scalar) -> types.SimpleNamespace:
                             overlap = True
                     else:
                         break
-        out = M33(F(0.0))
         if not overlap:  # apart: the closest points
             wa, wb = V3(F(0.0)), V3(F(0.0))
             for j in range(4):
                 wa = wa + lam[j] * SA[j]
                 wb = wb + lam[j] * SB[j]
             dv = wb - wa
-            nrm = dv / wp.length(dv)
-            out[0] = nrm
-            out[1] = wp.transpose(R1) * (wa - p1)
-            out[2] = wp.transpose(R2) * (wb - p2)
-            return out
+            return held_rows(t1, p1, R1, s1, t2, p2, R2, s2, verts, vr1, vr2, dv / wp.length(dv), wa, wb)
         # overlapping: EPA from the simplex, grown to a polytope around the origin
         P, PA, PB = Points(F(0.0)), Points(F(0.0)), Points(F(0.0))
         for j in range(n):
@@ -442,10 +468,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         l0 = one - l1 - l2
         wa = l0 * PA[face[0]] + l1 * PA[face[1]] + l2 * PA[face[2]]
         wb = l0 * PB[face[0]] + l1 * PB[face[1]] + l2 * PB[face[2]]
-        out[0] = nrm
-        out[1] = wp.transpose(R1) * (wa - p1)
-        out[2] = wp.transpose(R2) * (wb - p2)
-        return out
+        return held_rows(t1, p1, R1, s1, t2, p2, R2, s2, verts, vr1, vr2, nrm, wa, wb)
 
     @wp.func
     def direction(t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i):

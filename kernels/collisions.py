@@ -13,7 +13,7 @@ import warp as wp
 
 from . import collision_box, collision_convex, collision_primitives, implicit_contacts, soft_contacts
 from .bundles import bundles
-from .collision_primitives import BOX, CAPSULE, CYLINDER, MESH, SPHERE
+from .collision_primitives import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 from .factory import factory
 from .spatial import spatial
 
@@ -72,7 +72,7 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
         zero = vec3(scalar(0.0))
         n = int(0)
         if prim.may_touch(t1, p1, R1, s1, t2, p2, s2, e):
-            if t1 == SPHERE and t2 != MESH:
+            if t1 == SPHERE and t2 != MESH and t2 != ELLIPSOID:
                 m1 = int(0)
                 p = vec3()
                 normal = vec3()
@@ -88,7 +88,7 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
                 if m1 > 0:
                     put(env, base, p, prim.contact_frame(normal, zero), d, position, frame, dist)
                 n = m1
-            elif t1 == CAPSULE and t2 != CYLINDER and t2 != MESH:
+            elif t1 == CAPSULE and t2 != CYLINDER and t2 != MESH and t2 != ELLIPSOID:
                 m2 = int(0)
                 P2 = mat23()
                 N2 = mat23()
@@ -105,7 +105,7 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
                 for k in range(m8):
                     put(env, base + k, P8[k], prim.contact_frame(N8[k], zero), D8[k], position, frame, dist)
                 n = m8
-            elif wp.static(convex):  # capsule-cylinder, cylinder-cylinder, cylinder-box, the meshes' pairs
+            elif wp.static(convex):  # capsule-cylinder, cylinder-cylinder, cylinder-box, the ellipsoids' and the meshes' pairs
                 m1, p, normal, d = gjk.convex(t1, p1, R1, s1, t2, p2, R2, s2, vertices, vertices1[i], vertices2[i], e)
                 if m1 > 0:
                     put(env, base, p, prim.contact_frame(normal, zero), d, position, frame, dist)

@@ -1,5 +1,5 @@
-"""kernels/collision_convex.py (capsule-cylinder, cylinder-cylinder, cylinder-box, and convex meshes with spheres,
-capsules, cylinders, boxes and meshes: GJK and EPA) against MuJoCo's mj_collision and against the definition of the
+"""kernels/collision_convex.py (capsule-cylinder, cylinder-cylinder, cylinder-box, ellipsoids with spheres, capsules,
+ellipsoids, cylinders, boxes and meshes, and convex meshes with spheres, capsules, cylinders, boxes and meshes: GJK and EPA) against MuJoCo's mj_collision and against the definition of the
 contact it computes.
 
 MuJoCo's reference runs with mjDSBL_MULTICCD set: MuJoCo 4 otherwise adds polygon contacts where the EPA's features
@@ -32,10 +32,11 @@ from warpdyn.kernels import collision_primitives as cp
 from collision_reference import posed_contacts
 from gradcheck import contact_gradient_check
 
-PAIRS = [("capsule", "cylinder"), ("cylinder", "cylinder"), ("cylinder", "box"), ("sphere", "mesh"), ("capsule", "mesh"), ("cylinder", "mesh"), ("box", "mesh"), ("mesh", "mesh")]
-TYPES = {"sphere": cp.SPHERE, "capsule": cp.CAPSULE, "cylinder": cp.CYLINDER, "box": cp.BOX, "mesh": cp.MESH}
-SIZE1 = {"sphere": (0.12, 0.0, 0.0), "capsule": (0.1, 0.3, 0.0), "cylinder": (0.2, 0.15, 0.0), "box": (0.2, 0.3, 0.1)}
-SIZE2 = {"cylinder": (0.15, 0.25, 0.0), "box": (0.2, 0.3, 0.1)}
+PAIRS = [("capsule", "cylinder"), ("cylinder", "cylinder"), ("cylinder", "box"), ("sphere", "mesh"), ("capsule", "mesh"), ("cylinder", "mesh"), ("box", "mesh"), ("mesh", "mesh"),
+         ("sphere", "ellipsoid"), ("capsule", "ellipsoid"), ("ellipsoid", "ellipsoid"), ("ellipsoid", "cylinder"), ("ellipsoid", "box"), ("ellipsoid", "mesh")]  # fmt: skip
+TYPES = {"sphere": cp.SPHERE, "capsule": cp.CAPSULE, "ellipsoid": cp.ELLIPSOID, "cylinder": cp.CYLINDER, "box": cp.BOX, "mesh": cp.MESH}
+SIZE1 = {"sphere": (0.12, 0.0, 0.0), "capsule": (0.1, 0.3, 0.0), "ellipsoid": (0.25, 0.1, 0.15), "cylinder": (0.2, 0.15, 0.0), "box": (0.2, 0.3, 0.1)}
+SIZE2 = {"ellipsoid": (0.12, 0.2, 0.3), "cylinder": (0.15, 0.25, 0.0), "box": (0.2, 0.3, 0.1)}
 
 
 def _rock(seed: int, radii) -> np.ndarray:
@@ -54,6 +55,10 @@ GJK_TOL = 2e-5
 where its polytope is full or rounding breaks its convexity (4e-8 m at most here); GJK (the cores apart: two geoms
 apart, or a capsule's or sphere's segment or centre outside the other) where rounding leaves no progress: its last
 support's gap bounded the distance's error by 1e-5 m at most here (two curved surfaces: GJK converges linearly)."""
+ELLIPSOID_TOL = 1e-4
+"""[m] An ellipsoid is curved in every direction: EPA's polytope (VERTICES) places the depth to about 1e-5 m of the
+best separation here, its face's normal where sep(n) is within 7e-5 m of the best (MuJoCo's depth: within 9e-4 m of
+the best at these poses, a median 8e-7)."""
 MJ_TOL = 2e-3
 """MuJoCo's normal and position where its EPA converged: its ccd_tolerance 1e-6 on the depth leaves the normal at a
 curved optimum free to about its square root, and the position moves along the surfaces with it."""
@@ -68,6 +73,9 @@ def _support(name, size, p, R, d, vertices=None):
     elif name == "cylinder":
         radial = np.maximum(np.hypot(local[:, 0], local[:, 1]), 1e-300)
         q = np.stack([size[0] * local[:, 0] / radial, size[0] * local[:, 1] / radial, np.where(local[:, 2] >= 0, size[1], -size[1])], 1)
+    elif name == "ellipsoid":
+        scaled = local * np.asarray(size)
+        q = scaled * np.asarray(size) / np.linalg.norm(scaled, axis=1, keepdims=True)
     elif name == "mesh":
         q = vertices[np.argmax(local @ vertices.T, axis=1)]
     else:
@@ -197,6 +205,7 @@ def test_pair_is_the_contact_and_equals_mujoco(pair, margin):
             continue
         sep = _separation(pair, shapes, xpos[i], xmat[i], normal[i])[0]
         tol = EPA_TOL if dist[i] + r < 0 else GJK_TOL  # the cores overlap (EPA) or not (GJK)
+        tol = max(tol, ELLIPSOID_TOL) if "ellipsoid" in pair else tol
         assert abs(dist[i] - (sep - r)) <= tol, i
         assert sep >= _best_separation(pair, shapes, xpos[i], xmat[i]) - tol, i
         mj_sep = _separation(pair, shapes, xpos[i], xmat[i], mj_frame[0, 0])[0]
@@ -209,7 +218,7 @@ def test_pair_is_the_contact_and_equals_mujoco(pair, margin):
             better += 1
             assert sep >= mj_sep - tol, i
     print("-".join(pair), f"margin {margin}: {count.sum()} contacts, MuJoCo converged on {converged}, warpdyn's at least as good on {better}")
-    assert count.sum() > N_RANDOM // 2 and converged > count.sum() // 4
+    assert count.sum() > N_RANDOM // 2 and (converged > count.sum() // 4 or "ellipsoid" in pair)  # (MuJoCo's EPA seldom converges on these)
 
 
 @pytest.mark.parametrize("pair", PAIRS, ids=lambda p: "-".join(p))
@@ -236,7 +245,9 @@ def test_tape_gradient_of_dist_equals_finite_differences(pair):
     """float64: wp.Tape's gradient of L = sum of dist with respect to both poses, along a random direction, equals the
     central difference at steps 1e-6 and 2e-6 where those agree to 1e-6 and keep the count: to 3e-4 (dist's derivative
     at the held normal and witnesses is exact at the optimum (Danskin), with the witnesses' lever arms as accurate as
-    EPA places them on a curved surface: to about the square root of its tolerance, 1e-5 m: 2.2e-4 at most here)."""
+    EPA places them on a curved surface: to about the square root of its tolerance, 1e-5 m: 2.2e-4 at most here). With
+    an ellipsoid (its witness its exact support point along the normal): the median error 1e-5 and 9 in 10 below 1e-4,
+    a few poses in a hundred up to 0.1 where EPA's normal between two curved surfaces is coarse (docs/simulation.md)."""
     xpos, xmat, shapes, _ = _reference(pair, 0.1)
 
     def run(xpos, xmat):
@@ -244,6 +255,12 @@ def test_tape_gradient_of_dist_equals_finite_differences(pair):
 
     K = cc.kernels(wp.float64)
     c = contact_gradient_check(run, xpos, xmat, 1, K.vec3, K.mat33, position_and_normal=False)
+    if "ellipsoid" in pair:  # EPA's normal between curved surfaces is coarse at a few poses (the module's ELLIPSOID_TOL)
+        smooth = (np.abs(c["fd1"] - c["fd2"]) < 1e-5) & c["steps_keep_count"] & (c["count"] > 0)
+        error = np.abs(c["along"][smooth] - c["fd1"][smooth])
+        assert smooth.sum() > len(xpos) // 3
+        assert np.median(error) < 2e-5 and np.quantile(error, 0.9) < 1e-4, (np.median(error), np.quantile(error, 0.9), error.max())
+        return
     smooth = (np.abs(c["fd1"] - c["fd2"]) < 1e-6) & c["steps_keep_count"] & (c["count"] > 0)
     assert smooth.sum() > len(xpos) // 3
     np.testing.assert_allclose(c["along"][smooth], c["fd1"][smooth], atol=3e-4)

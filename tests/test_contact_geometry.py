@@ -31,7 +31,7 @@ import robots
 import warpdyn as wd
 from robots import NO_MESH, ergocub_full_model, ergocub_seed_model, ergocub_seed_with_points, random_state_kwargs
 from warpdyn import VelRepr
-from warpdyn.description.collidable import capsule_points, cylinder_points, farthest_point_subsample, sphere_points
+from warpdyn.description.collidable import capsule_points, cylinder_points, ellipsoid_points, farthest_point_subsample, sphere_points
 
 REPRS = (VelRepr.Body, VelRepr.Mixed, VelRepr.Inertial)
 TOL = {np.dtype(np.float64): 1e-10, np.dtype(np.float32): 1e-5}
@@ -354,7 +354,7 @@ def test_mjcf_shapes_lie_on_mujoco_geoms(dtype):
 
 
 def test_shape_points_lie_on_the_surfaces():
-    """Sphere, cylinder and capsule points in their own frame: on the surface, the expected counts, rims
+    """Sphere, ellipsoid, cylinder and capsule points in their own frame: on the surface, the expected counts, rims
     and caps present, spread out (no duplicates). Reference: the implicit surface equations."""
     r, L = 0.3, 0.8
     S = sphere_points(r, 50)
@@ -372,7 +372,10 @@ def test_shape_points_lie_on_the_surfaces():
     closest = np.stack([np.zeros(len(K)), np.zeros(len(K)), np.clip(K[:, 2], -L / 2, L / 2)], axis=1)
     np.testing.assert_allclose(np.linalg.norm(K - closest, axis=1), r, atol=1e-15)
     assert np.isclose(K[:, 2].min(), -L / 2 - r) and np.isclose(K[:, 2].max(), L / 2 + r)
-    for points in (S, C, K):
+    E = ellipsoid_points([0.3, 0.2, 0.1], 50)
+    np.testing.assert_allclose(np.sum((E / [0.3, 0.2, 0.1]) ** 2, axis=1), 1.0, atol=1e-14)
+    assert E.shape == (50, 3) and np.isclose(E[:, 1].max(), 0.2) and np.isclose(E[:, 1].min(), -0.2)
+    for points in (S, C, K, E):
         assert len(np.unique(np.round(points, 12), axis=0)) == len(points)
 
 

@@ -346,3 +346,20 @@ def test_the_mjcf_export_writes_the_integrator():
     free = wd.model.Model.build_from_model_description(te.WELDED_BOX, dtype=np.float64).replace(integrator=wd.model.IntegratorType.SemiImplicitEuler)
     with pytest.warns(wd.model.NotModelledWarning, match="IntegratorType.SemiImplicitEuler has no MuJoCo counterpart"):
         free.export_updated_model(format="mjcf")
+
+
+def test_ellipsoids_export_to_mjcf_and_are_refused_by_urdf():
+    """tests/test_geom_contacts.py's EGGS (two free ellipsoids among free bodies over a table): the MJCF export loads back
+    with the same shapes (kinds, radii) and geom pairs; URDF has no ellipsoid, and says so, naming the link."""
+    from test_geom_contacts import EGGS
+
+    model = load(EGGS)
+    back = load(model.export_updated_model(format="mjcf"))
+
+    def shapes(m):
+        return sorted((s.name, s.kind, tuple(np.round(s.size, 12)) if s.kind == "ellipsoid" else ()) for link in m.description.links for s in link.collisions)
+
+    assert shapes(back) == shapes(model) and ("egg", "ellipsoid", (0.06, 0.04, 0.03)) in shapes(model)
+    assert sorted(wd.contact.geom_pairs(back).names) == sorted(wd.contact.geom_pairs(model).names)
+    with pytest.raises(ValueError, match=r"link 'egg' has a collision URDF cannot hold \(ellipsoid"):
+        model.export_updated_model()

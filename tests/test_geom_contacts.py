@@ -25,6 +25,7 @@ import pytest
 import warpdyn as wd
 from mjcf_compare import mujoco_to_warpdyn_state
 from mjcf_models import random_state
+from warpdyn.description import mjcf
 from warpdyn.description.collision_pairs import COLLIDED_TYPES, CONVEX_TYPES
 
 MENAGERIE = pathlib.Path(__file__).parent / "models" / "menagerie"
@@ -114,6 +115,47 @@ def test_pairs_are_those_mujoco_collides(case):
     qpos0 and two random states."""
     model, m = _model(CASES[case]), _mujoco(CASES[case])
     ours = set(wd.contact.geom_pairs(model).names)
+    _assert_mujoco_collides(m, ours)
+    assert len(ours) == {"scene": len(SCENE_PAIRS), "cassie": 49, "rby1": 2255, "leap": 325}[case]
+
+
+EGGS = """<mujoco><worldbody><geom name="floor" type="plane" size="5 5 .1"/>
+  <geom name="table" type="box" size=".3 .3 .02" pos="0 0 .4"/>
+  <body name="egg" pos="0.02 0.01 0.4495" euler="0 0 20"><freejoint/><geom name="egg" type="ellipsoid" size=".06 .04 .03"/></body>
+  <body name="ball" pos=".15 0 .5"><freejoint/><geom name="ball" type="sphere" size=".04"/></body>
+  <body name="rod" pos="0 .15 .5"><freejoint/><geom name="rod" type="capsule" size=".02 .06"/></body>
+  <body name="pebble" pos="0 -.15 .5"><freejoint/><geom name="pebble" type="ellipsoid" size=".03 .05 .02"/></body>
+</worldbody></mujoco>"""
+"""Two ellipsoids among free bodies above a table (a box of the world), the egg 0.5 mm into it."""
+
+
+def test_ellipsoids_are_collided_as_mujoco_collides_them():
+    """An MJCF's ellipsoids load as shapes (their radii), named in no note (the one note: contacts between bodies are
+    off by default), pair with every moving geom and the table as MuJoCo's do, and the egg's contact with the table is
+    the exact one (to 1e-12 m) and MuJoCo's (depth and normal to 2e-6, about its EPA's tolerance; its point 0.13 mm aside)."""
+    with pytest.warns(wd.model.NotModelledWarning) as caught:
+        model = wd.model.Model.build_from_model_description(EGGS, dtype=np.float64)
+    assert len(caught) == 1 and list(model.description.not_modelled) == [mjcf.BODY_CONTACTS]
+    shapes = {shape.name: shape for link in model.description.links for shape in link.collisions}
+    assert shapes["egg"].kind == "ellipsoid" and np.allclose(shapes["egg"].size, [0.06, 0.04, 0.03])
+    m = _mujoco(EGGS)
+    pairs = wd.contact.geom_pairs(model)
+    _assert_mujoco_collides(m, set(pairs.names))
+    assert len(pairs) == 10 and ("egg", "table") in pairs.names
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    (pos, frame, dist), = _body_contacts(m, d)[("egg", "table")]
+    count, position, normal_frame, distance = (a.numpy() for a in wd.contact.geom_contacts(model, wd.data.Data.build(model)))
+    k = pairs.names.index(("egg", "table"))
+    s = pairs.first[k]
+    assert count[k] == 1  # the exact contact: 0.5 mm deep, straight down, midway between the egg's bottom and the table
+    np.testing.assert_allclose([distance[s], *normal_frame[s][0], *position[s]], [-0.0005, 0, 0, -1, 0.02, 0.01, 0.41975], atol=1e-12)
+    np.testing.assert_allclose([distance[s], *normal_frame[s][0]], [dist, *frame[0]], atol=2e-6)  # MuJoCo's: to its EPA's tolerance
+    np.testing.assert_allclose(position[s], pos, atol=2e-4)  # (its EPA's point: 0.13 mm beside the exact one)
+
+
+def _assert_mujoco_collides(m, ours: set) -> None:
+    """`ours` (names) are exactly the pairs MuJoCo collides when every margin is 100 m, at qpos0 and two random states."""
     wide = copy.deepcopy(m)
     wide.geom_type[:] = mujoco.mjtGeom.mjGEOM_SPHERE  # sphere-sphere reports every pair within its margin
     wide.geom_margin[:] = 100.0
@@ -125,7 +167,6 @@ def test_pairs_are_those_mujoco_collides(case):
         d.qpos[:] = qpos
         mujoco.mj_forward(wide, d)
         assert set(_body_contacts(wide, d, types=m.geom_type)) == ours
-    assert len(ours) == {"scene": len(SCENE_PAIRS), "cassie": 49, "rby1": 2255, "leap": 325}[case]
 
 
 SCENE_PAIRS = (

@@ -110,6 +110,8 @@ def test_graphed_ppo_refuses_what_it_does_not_run():
     critic = types.SimpleNamespace(is_recurrent=False)
     with pytest.raises(ValueError, match="multi_gpu_cfg"):
         GraphedPPO(critic, critic, None, multi_gpu_cfg={"world_size": 2})
+    with pytest.raises(ValueError, match="optimises with Adam.*'sgd'"):
+        GraphedPPO(critic, critic, None, optimizer="sgd")
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="CUDA graphs need a GPU")

@@ -48,16 +48,17 @@ def test_unsupported_gives_one_warning_naming_everything():
 
 
 def test_more_unsupported_elements_are_listed():
-    """An ellipsoid on a body, a plane on a static body beside the free one (dropped as scenery), a geom fluid shape, polynomial damping, a body-transmission and an
+    """A heightfield on a body, a plane on a static body beside the free one (dropped as scenery), a geom fluid shape, polynomial damping, a body-transmission and an
     integrator actuator: each named in one warning; a world plane (the floor), sensors and the free joint's
     damping (the floating base's, modelled) and a box on the world (a geom that does not move: modelled) are not."""
     xml = """<mujoco model="more"><compiler angle="radian"/>
+      <asset><hfield name="bumps" nrow="2" ncol="2" size="0.1 0.1 0.05 0.01"/></asset>
       <worldbody>
         <geom name="floor" type="plane" size="5 5 0.1"/>
         <geom name="rock" type="box" size="0.1 0.1 0.1" pos="1 0 0"/>
         <body name="shelf" pos="0 2 0"><geom name="wall" type="plane" size="1 1 0.1"/></body>
         <body name="base" pos="0 0 1"><joint name="root" type="free" damping="0.3"/>
-          <geom name="egg" type="ellipsoid" size="0.1 0.2 0.3"/>
+          <geom name="egg" type="hfield" hfield="bumps"/>
           <geom name="blade" type="box" size="0.1 0.1 0.01" fluidshape="ellipsoid"/>
           <inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>
           <body name="arm"><joint name="elbow" axis="0 1 0" damping="1 0.5"/>
@@ -76,10 +77,10 @@ def test_more_unsupported_elements_are_listed():
         description = load(xml)
     assert len(caught) == 1 and caught[0].category is NotModelledWarning
     message = str(caught[0].message)
-    for name in ("egg (ellipsoid)", "wall (plane)", "shelf", "base (fluidshape)", "elbow", "glue", "iv"):
+    for name in ("egg (hfield)", "wall (plane)", "shelf", "base (fluidshape)", "elbow", "glue", "iv"):
         assert f"'{name}'" in message, name
     assert "rock (box)" not in message and [g.name for g in description.world_geoms] == ["rock"]
-    assert "'1 ellipsoid-box (e.g. rock/egg)'" in message  # the <pair> touch: an ellipsoid, which nothing collides
+    assert "'1 hfield-box (e.g. rock/egg)'" in message  # the <pair> touch: a heightfield on a body, which nothing collides
     assert "'1 with the ground (e.g. floor/g_arm)'" in message  # the <pair> grip: the terrain's law, not its friction
     assert "'root'" not in message  # the floating base's free-joint damping is modelled
     assert "'floor" not in message and "jointpos" not in message and "'ok'" not in message

@@ -306,7 +306,8 @@ def test_twin_of_a_urdf(case, version, style, axis, rotation):
 def test_collision_shapes_give_the_urdf_points():
     """Boxes, spheres and cylinders at rotated origins on two links give the URDF twin's collidable points
     (bodies equal, points to 1e-14: an rpy round trip per shape); an SDF capsule gives
-    collidable.capsule_points placed at its pose (its reference: the shape's definition, 1e-15)."""
+    collidable.capsule_points placed at its pose, an SDF ellipsoid collidable.ellipsoid_points (their reference: the
+    shapes' definitions, 1e-15)."""
     urdf = """<robot name="shapes"><link name="a"><inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0"
       ixz="0" iyz="0"/></inertial>
       <collision><origin xyz="0.1 0 0.2" rpy="0.3 0 0.5"/><geometry><box size="0.1 0.2 0.3"/></geometry></collision>
@@ -325,6 +326,12 @@ def test_collision_shapes_give_the_urdf_points():
     options = wd.contact.CollidablePointsOptions()
     expected = wd.description.collidable.capsule_points(0.1, 0.4, options.circle_points, options.capsule_cap_rings) + [0, 0, 0.5]
     np.testing.assert_allclose(capsule.kin_dyn_parameters.contact_parameters.point, expected, atol=1e-15)
+    egg = build("""<sdf version="1.9"><model name="e"><link name="l"><collision name="k"><pose>0 0 0.5 0 0 0</pose>
+      <geometry><ellipsoid><radii>0.1 0.2 0.3</radii></ellipsoid></geometry></collision></link></model></sdf>""")
+    (shape,) = egg.description.links[0].collisions
+    assert shape.kind == "ellipsoid" and np.array_equal(shape.size, [0.1, 0.2, 0.3])
+    expected = wd.description.collidable.ellipsoid_points([0.1, 0.2, 0.3], options.sphere_points) + [0, 0, 0.5]
+    np.testing.assert_allclose(egg.kin_dyn_parameters.contact_parameters.point, expected, atol=1e-15)
 
 
 # ------------------------------------------------------------------------------------ the base

@@ -440,7 +440,7 @@ def test_one_warning_lists_what_is_not_modelled(recwarn):
     doc = sdf(f"""<model name="m"><plugin name="ctrl" filename="libctrl.so"/><self_collide>true</self_collide>
         <link name="a">{INERTIAL}<gravity>false</gravity><sensor name="imu" type="imu"/><light name="lamp"/>
           <visual name="v"><geometry><box/></geometry></visual>
-          <collision name="c"><geometry><ellipsoid><radii>1 1 1</radii></ellipsoid></geometry></collision>
+          <collision name="c"><geometry><cone><radius>1</radius><length>1</length></cone></geometry></collision>
           <collision name="d"><surface><friction/></surface><geometry><sphere><radius>0.1</radius></sphere></geometry></collision>
         </link><link name="b"/>
         <joint name="j" type="revolute"><parent>a</parent><child>b</child><physics><ode/></physics>
@@ -452,7 +452,7 @@ def test_one_warning_lists_what_is_not_modelled(recwarn):
     assert [k.split(" ")[0] for k in notes] == ["sensors", "plugins", "joint", "joint-limit", "joint", "mimic", "links",
                                                 "collision", "collision", "links", "self", "lights"]
     assert list(notes.values())[2:] == [["j"], ["j"], ["j (1 > -1)"], ["j"], ["b (<inertial>)"], ["a/d"],
-                                        ["a/c (ellipsoid)"], ["a"], ["m"], ["a/lamp"]]
+                                        ["a/c (cone)"], ["a"], ["m"], ["a/lamp"]]
     assert (description.joints[0].lower, description.joints[0].upper) == (-np.inf, np.inf)
     assert description.link("b").mass == 1.0 and np.array_equal(description.link("b").inertia, np.eye(3))
     kinds = [type(w.message) for w in recwarn]

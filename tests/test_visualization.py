@@ -173,18 +173,21 @@ def test_recorder_arguments_and_missing_rerun(tmp_path, monkeypatch):
 
 
 def test_a_heightfield_terrain_and_mjcf_shapes_are_logged(tmp_path):
-    """An MJCF body with a capsule and a mesh (vertices only: drawn as their convex hull) over a
+    """An MJCF body with a capsule, a mesh (vertices only: drawn as their convex hull) and an ellipsoid over a
     heightfield: shapes static under the link, the terrain mesh is the grid."""
     mjcf = """<mujoco><asset><mesh name="tet" vertex="0 0 0  0.1 0 0  0 0.1 0  0 0 0.1"/></asset>
     <worldbody><body name="b" pos="0 0 0.5"><freejoint/><inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>
-    <geom type="capsule" size="0.05 0.1"/><geom type="mesh" mesh="tet" pos="0.2 0 0"/></body></worldbody></mujoco>"""
+    <geom type="capsule" size="0.05 0.1"/><geom type="mesh" mesh="tet" pos="0.2 0 0"/><geom type="ellipsoid" size="0.1 0.05 0.02"/>
+    </body></worldbody></mujoco>"""
     model = wd.model.Model.build_from_model_description(mjcf, dtype=np.float64)
     model.terrain = TERRAINS["heightfield"]
     path = tmp_path / "mjcf.rrd"
     viz.record_rollout(model, wd.data.Data.build(model, base_position=[0.0, 0.0, 0.3]), steps=5, path=path)
     _, static = _read(path)
     kinds = sorted(p.rsplit("/", 1)[1] for p in static if "/collision/" in p)
-    assert kinds == ["0_capsule", "1_mesh"]
+    assert kinds == ["0_capsule", "1_mesh", "2_ellipsoid"]
+    ellipsoid = next(v for p, v in static.items() if p.endswith("2_ellipsoid"))
+    np.testing.assert_allclose(ellipsoid["Ellipsoids3D:half_sizes"][0], [[0.1, 0.05, 0.02]])
     capsule = next(v for p, v in static.items() if p.endswith("0_capsule"))
     np.testing.assert_allclose(capsule["Capsules3D:translations"][0], [[0.0, 0.0, -0.1]])
     np.testing.assert_allclose(capsule["Capsules3D:lengths"][0], [0.2])

@@ -95,7 +95,7 @@ def _rerun():
 class ShapePrimitive:
     """A collision shape as rerun draws it, in the shape's frame (whose pose in the link is `link_H_shape`).
 
-    kind: "box" (half_sizes (3,)), "sphere" (radius), "cylinder" (radius, length: centred, along z),
+    kind: "box" (half_sizes (3,)), "sphere" (radius), "ellipsoid" (half_sizes: its radii (3,)), "cylinder" (radius, length: centred, along z),
     "capsule" (radius, length of the cylindrical part: centred, along z), "mesh" (filename, scale (3,),
     vertices (K, 3) for MJCF meshes).
     """
@@ -115,6 +115,8 @@ def shape_primitive(shape) -> ShapePrimitive:
     H = np.asarray(shape.link_H_shape, dtype=np.float64).reshape(4, 4)
     if shape.kind == "box":
         return ShapePrimitive("box", H, half_sizes=0.5 * np.asarray(shape.size, dtype=np.float64).reshape(3))
+    if shape.kind == "ellipsoid":
+        return ShapePrimitive("ellipsoid", H, half_sizes=np.asarray(shape.size, dtype=np.float64).reshape(3))
     if shape.kind in ("sphere", "cylinder", "capsule"):
         return ShapePrimitive(shape.kind, H, radius=float(shape.radius), length=float(shape.length))
     if shape.kind == "mesh":
@@ -379,6 +381,8 @@ class RerunRecorder:
         if shape.kind == "sphere":
             r = shape.radius
             return rr.Ellipsoids3D(half_sizes=[[r, r, r]], colors=color, **self._fill())
+        if shape.kind == "ellipsoid":
+            return rr.Ellipsoids3D(half_sizes=[shape.half_sizes.astype(np.float32)], colors=color, **self._fill())
         if shape.kind == "cylinder":
             if hasattr(rr, "Cylinders3D"):  # rerun >= 0.22
                 return rr.Cylinders3D(lengths=[shape.length], radii=[shape.radius], colors=color, **self._fill())

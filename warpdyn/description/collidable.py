@@ -7,6 +7,8 @@ pose `link_H_shape`) into points `L_p_C` in the link frame:
 - box: its 8 corners, in JaxSim's order (x, y, z the full extents, corners of [0, x] x [0, y] x [0, z]
   taken as (0,0,0), (x,0,0), (x,y,0), (0,y,0), (0,0,z), (x,0,z), (x,y,z), (0,y,z), then centred).
 - sphere: `sphere_points` points of a Fibonacci lattice on the surface (JaxSim's construction).
+- ellipsoid (radii a, b, c): the sphere's lattice of `sphere_points` points on the unit sphere, scaled by the radii
+  (every point on the surface; denser where the surface is less curved).
 - cylinder (axis z, length L): two rims of `circle_points` points at z = +-L/2, `side_rings` more rings
   evenly spaced between them, and the centre of each cap.
 - capsule (axis z, cylindrical part of length L): for each hemispherical cap, `capsule_cap_rings`
@@ -42,6 +44,7 @@ __all__ = [
     "NoCollidablePointsWarning",
     "box_points",
     "sphere_points",
+    "ellipsoid_points",
     "cylinder_points",
     "capsule_points",
     "farthest_point_subsample",
@@ -49,7 +52,7 @@ __all__ = [
     "collidable_points",
 ]
 
-SHAPE_KINDS = ("box", "sphere", "cylinder", "capsule", "mesh")
+SHAPE_KINDS = ("box", "sphere", "ellipsoid", "cylinder", "capsule", "mesh")
 
 
 class UnresolvedMeshWarning(UserWarning):
@@ -74,7 +77,7 @@ def warn_without_points(model_name: str, tree, stacklevel: int) -> None:
     if meshes:
         how = (
             f"its {meshes} collision meshes give points with wd.contact.with_collidable_points(model, "
-            "options=wd.contact.CollidablePointsOptions(shapes=('box', 'sphere', 'cylinder', 'capsule', 'mesh'), "
+            "options=wd.contact.CollidablePointsOptions(shapes=('box', 'sphere', 'ellipsoid', 'cylinder', 'capsule', 'mesh'), "
             f"mesh_max_points={MESH_POINTS_SUGGESTED})) ({MESH_POINTS_SUGGESTED} points per mesh, farthest-point "
             "sampled; package_dirs= where package:// URIs do not resolve; enabled_links= to keep the feet)"
         )
@@ -92,9 +95,9 @@ def warn_without_points(model_name: str, tree, stacklevel: int) -> None:
 class CollidablePointsOptions:
     """How collision shapes become collidable points (see the module docstring for each shape).
 
-    shapes: the kinds of shape that give points, among "box", "sphere", "cylinder", "capsule", "mesh"
+    shapes: the kinds of shape that give points, among "box", "sphere", "ellipsoid", "cylinder", "capsule", "mesh"
         (default: all but "mesh").
-    sphere_points: points on each sphere (Fibonacci lattice), >= 2. JaxSim's documented default is 50.
+    sphere_points: points on each sphere and ellipsoid (Fibonacci lattice), >= 2. JaxSim's documented default is 50.
     circle_points: points on each ring of a cylinder or capsule, >= 3.
     side_rings: extra rings on the lateral surface of cylinders and capsules, between the end rims, >= 0.
     capsule_cap_rings: rings on each hemispherical cap of a capsule, the rim included, >= 1 (plus the pole).
@@ -106,7 +109,7 @@ class CollidablePointsOptions:
         directory when it is known, before the working directory).
     """
 
-    shapes: tuple[str, ...] = ("box", "sphere", "cylinder", "capsule")
+    shapes: tuple[str, ...] = ("box", "sphere", "ellipsoid", "cylinder", "capsule")
     sphere_points: int = 50
     circle_points: int = 16
     side_rings: int = 0
@@ -154,6 +157,12 @@ def sphere_points(radius: float, count: int) -> np.ndarray:
     rho = np.sqrt(np.clip(1.0 - y * y, 0.0, None))
     theta = np.pi * (3.0 - np.sqrt(5.0)) * i
     return radius * np.stack([np.cos(theta) * rho, y, np.sin(theta) * rho], axis=1)
+
+
+def ellipsoid_points(radii, count: int) -> np.ndarray:
+    """(count, 3) points on an ellipsoid of `radii` (3,) [m] centred at the origin, its axes along x, y, z:
+    `sphere_points(1, count)` scaled by the radii."""
+    return sphere_points(1.0, count) * np.asarray(radii, dtype=np.float64).reshape(3)
 
 
 def _ring(radius: float, z: float, count: int) -> np.ndarray:
@@ -284,6 +293,8 @@ def _shape_points(shape, options: CollidablePointsOptions, base_dir) -> tuple[np
         return box_points(shape.size), None
     if shape.kind == "sphere":
         return sphere_points(shape.radius, options.sphere_points), None
+    if shape.kind == "ellipsoid":
+        return ellipsoid_points(shape.size, options.sphere_points), None
     if shape.kind == "cylinder":
         return cylinder_points(shape.radius, shape.length, options.circle_points, options.side_rings), None
     if shape.kind == "capsule":

@@ -84,13 +84,13 @@ ACTUATOR_GRAVCOMP = (
     "actuatorgravcomp (warpdyn applies the joint's gravity compensation as a passive force: its actuatorfrcrange "
     "does not clamp it, and it is kept in a model without actuators)"
 )
-GEOMS = "collision geoms of unsupported types (ellipsoid, plane/hfield on bodies, sdf)"
+GEOMS = "collision geoms of unsupported types (plane/hfield on bodies, sdf)"
 GROUND = ("ground geoms other than one upward plane (several planes, heightfields, a plane facing down: the terrain stays "
           "the plane z = 0; set model.terrain, e.g. to a HeightfieldTerrain)")
 STATIC_BODIES = "bodies welded to the world beside the free body (static scenery: not links; their geoms are the world's)"
 UNCOLLIDED_PAIRS = (
-    "pairs of geoms that warpdyn's narrow phase does not collide (ellipsoids'; <pair>s of a geom without a shape, or "
-    "with the ground, whose contacts are the terrain's law's)"
+    "pairs of geoms that warpdyn's narrow phase does not collide (with a geom of an unsupported type; <pair>s of a geom "
+    "without a shape, or with the ground, whose contacts are the terrain's law's)"
 )
 BODY_CONTACTS = (
     "contacts between bodies, off by default (model.geom_contacts = True makes the soft law act on them; "
@@ -588,7 +588,7 @@ def _ground(m, mujoco, note, name_of, d) -> tuple[np.ndarray, np.ndarray] | None
 
 def _shape(m, g: int, H: np.ndarray, mujoco, name_of) -> CollisionShape | None:
     """Geom g as a CollisionShape at the pose H (its body's frame, or the world's), with MuJoCo's collision
-    attributes; None for a kind warpdyn does not represent (plane, ellipsoid, heightfield, sdf)."""
+    attributes; None for a kind warpdyn does not represent (plane, heightfield, sdf)."""
     size = np.array(m.geom_size[g], dtype=np.float64)
     kind = int(m.geom_type[g])
     geom = dict(
@@ -601,6 +601,8 @@ def _shape(m, g: int, H: np.ndarray, mujoco, name_of) -> CollisionShape | None:
         return CollisionShape("box", H, size=2.0 * size, **geom)
     if kind == Geom.mjGEOM_SPHERE:
         return CollisionShape("sphere", H, radius=float(size[0]), **geom)
+    if kind == Geom.mjGEOM_ELLIPSOID:
+        return CollisionShape("ellipsoid", H, size=size.copy(), **geom)
     if kind in (Geom.mjGEOM_CYLINDER, Geom.mjGEOM_CAPSULE):
         return CollisionShape("cylinder" if kind == Geom.mjGEOM_CYLINDER else "capsule", H, radius=float(size[0]), length=2.0 * float(size[1]), **geom)
     if kind == Geom.mjGEOM_MESH:

@@ -68,6 +68,9 @@ def _geom(body: ET.Element, shape: CollisionShape, owner: str, asset: ET.Element
     elif shape.kind == "sphere":
         geom.set("type", "sphere")
         geom.set("size", numbers([shape.radius]))
+    elif shape.kind == "ellipsoid":
+        geom.set("type", "ellipsoid")
+        geom.set("size", numbers(np.asarray(shape.size, dtype=np.float64)))
     elif shape.kind in ("cylinder", "capsule"):
         geom.set("type", shape.kind)
         geom.set("size", numbers([shape.radius, 0.5 * shape.length]))

@@ -111,8 +111,9 @@ def warn_not_modelled(where: str, not_modelled: dict[str, list[str]]) -> None:
 class CollisionShape:
     """A collision shape attached to a link.
 
-    kind: "box" (size: full extents (3,)), "sphere" (radius), "cylinder" (radius, length along z),
-    "capsule" (radius, length of the cylindrical part along z), "mesh" (filename, scale (3,)).
+    kind: "box" (size: full extents (3,)), "sphere" (radius), "ellipsoid" (size: radii along x, y, z (3,)),
+    "cylinder" (radius, length along z), "capsule" (radius, length of the cylindrical part along z), "mesh"
+    (filename, scale (3,)).
     link_H_shape: (4, 4) pose of the shape in its link frame.
     MJCF geoms also carry what MuJoCo's collision filter and contact parameters read (`GeomPair`): geom (the
     geom's id in MuJoCo's compiled model; -1 for URDF and SDF shapes), name (an unnamed geom g's "geom{g}"), contype and conaffinity (bit masks),

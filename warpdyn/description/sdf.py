@@ -77,7 +77,7 @@ SURFACES = (
     "collision contact settings (<surface> friction, bounce and contact stiffness, <max_contacts>, <laser_retro>: "
     "warpdyn's contact parameters are the model's, model.contact_params)"
 )
-GEOMETRIES = "collision geometries without collidable points (ellipsoid, plane, heightmap, polyline, cone, image)"
+GEOMETRIES = "collision geometries without collidable points (plane, heightmap, polyline, cone, image)"
 SUBMESHES = "mesh <submesh> selections (the whole mesh is used)"
 LINK_GRAVITY = "links with <gravity>false</gravity> (warpdyn applies gravity to every link)"
 SELF_COLLISION = "self collision (<self_collide>: warpdyn's contacts are between collidable points and the terrain)"
@@ -117,7 +117,7 @@ _FLAGS = {  # boolean child elements: (the default, which has no effect; the kin
     "gravity": (True, LINK_GRAVITY), "self_collide": (False, SELF_COLLISION), "kinematic": (False, KINEMATIC),
     "enable_wind": (False, WIND), "must_be_base_link": (False, OTHER), "allow_auto_disable": (True, None),
 }  # fmt: skip
-_UNSUPPORTED_GEOMETRIES = ("ellipsoid", "plane", "heightmap", "polyline", "cone", "image")
+_UNSUPPORTED_GEOMETRIES = ("plane", "heightmap", "polyline", "cone", "image")
 _WORLD_SETTINGS = ("physics", "scene", "gui", "atmosphere", "magnetic_field", "spherical_coordinates", "audio", "road",
                    "population", "state")  # fmt: skip
 
@@ -451,9 +451,10 @@ class _Reader(FrameGraph):
 
     @staticmethod
     def primitive(shape, H: np.ndarray, what: str, where: str) -> CollisionShape | None:
-        """A box, sphere, cylinder or capsule geometry element as a shape at H (SDFormat's defaults); None else."""
-        if shape.tag == "box":
-            return CollisionShape("box", H, size=vector(shape.find("size"), 3, f"{what}<size>", where, (1.0, 1.0, 1.0)))
+        """A box, sphere, ellipsoid, cylinder or capsule geometry element as a shape at H (SDFormat's defaults); None else."""
+        if shape.tag in ("box", "ellipsoid"):  # a box's full extents, an ellipsoid's radii
+            tag = "size" if shape.tag == "box" else "radii"
+            return CollisionShape(shape.tag, H, size=vector(shape.find(tag), 3, f"{what}<{tag}>", where, (1.0, 1.0, 1.0)))
         if shape.tag == "sphere":
             return CollisionShape("sphere", H, radius=number(shape.find("radius"), f"{what}<radius>", where, 1.0))
         if shape.tag in ("cylinder", "capsule"):
@@ -477,7 +478,7 @@ class _Reader(FrameGraph):
             return None
         shape = shapes[0]
         kind, what = shape.tag, f"collision '{label}' <{shape.tag}>"
-        if kind in ("box", "sphere", "cylinder", "capsule"):
+        if kind in ("box", "sphere", "ellipsoid", "cylinder", "capsule"):
             return self.primitive(shape, H, what, where)
         if kind == "mesh":
             uri = text(shape.find("uri"))

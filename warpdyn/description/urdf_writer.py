@@ -83,8 +83,8 @@ def write_urdf(name: str, tree: KinematicTree, shapes: list, mass: np.ndarray, c
             ET.SubElement(inertial, "inertia", ixx=f"{I[0, 0]:.17g}", ixy=f"{I[0, 1]:.17g}", ixz=f"{I[0, 2]:.17g}",
                           iyy=f"{I[1, 1]:.17g}", iyz=f"{I[1, 2]:.17g}", izz=f"{I[2, 2]:.17g}")
         for shape in own.get(link_name, ()):
-            if shape.kind == "capsule" or (shape.kind == "mesh" and not shape.filename):
-                raise ValueError(f"link '{link_name}' has a {shape.kind} collision URDF cannot hold (a capsule, or a mesh without a file)")
+            if shape.kind in ("capsule", "ellipsoid") or (shape.kind == "mesh" and not shape.filename):
+                raise ValueError(f"link '{link_name}' has a collision URDF cannot hold ({shape.kind}: URDF has no capsule or ellipsoid, and a mesh needs a file)")
             _collision(link, shape)
     lost = [link_name for link_name, own_shapes in shapes if own_shapes and link_name not in links and link_name not in frames]
     if lost:

@@ -65,17 +65,19 @@ class GraphedPPO(PPO):
     with its per-step and per-mini-batch host round trips removed: the learning rate is a tensor the adaptive
     schedule updates on the device, the losses are summed there and read once an update. On a GPU, `act`,
     `compute_returns` and `update` are each captured as a CUDA graph at their second call (the first runs eagerly,
-    on a side stream, as capture needs) and replayed after, so a PPO iteration costs a few launches instead of
-    thousands (rsl-rl's update launched about 200 kernels and synchronised 4 times per mini-batch). Elsewhere the same
-    code runs eagerly. What differs from rsl-rl's PPO: the mini-batches' shuffle draws its permutation as the order of
-    uniform draws on the device (rsl-rl: torch.randperm). Feed-forward models in one process only: recurrent models, RND,
-    symmetry and several GPUs are refused (rsl-rl's PPO does those). Use it as rsl-rl's algorithm:
-    `cfg["algorithm"]["class_name"] = GraphedPPO`."""
+    on a side stream, as capture needs) and replayed after: the trainer's part of a rollout step is one graph launch
+    and a few copies, an update one launch (rsl-rl's update launched about 200 kernels and synchronised 4 times per
+    mini-batch). Elsewhere the same code runs eagerly. What differs from rsl-rl's PPO: the mini-batches' shuffle draws
+    its permutation as the order of uniform draws on the device (rsl-rl: torch.randperm). Refused (rsl-rl's PPO does
+    them): recurrent models, RND, symmetry, mixed precision, several GPUs, optimizers other than Adam. Use it as
+    rsl-rl's algorithm: `cfg["algorithm"]["class_name"] = GraphedPPO`."""
 
     def __init__(self, actor, critic, storage, **kwargs):
         unsupported = [k for k in ("rnd_cfg", "symmetry_cfg", "multi_gpu_cfg") if kwargs.get(k)]
         if unsupported or actor.is_recurrent or critic.is_recurrent or kwargs.get("use_mixed_precision"):
             raise ValueError(f"GraphedPPO runs feed-forward models in one process without mixed precision; got {unsupported or 'a recurrent model or mixed precision'} (use rsl-rl's PPO)")
+        if str(kwargs.get("optimizer", "adam")).lower() != "adam":
+            raise ValueError(f"GraphedPPO optimises with Adam (its capturable form), got optimizer={kwargs['optimizer']!r} (use rsl-rl's PPO)")
         super().__init__(actor, critic, storage, **kwargs)
         self._lr = torch.tensor(float(self.learning_rate), device=self.device)
         self._capture = torch.device(self.device).type == "cuda"

@@ -2,7 +2,7 @@
 tree's links, with what the narrow phase reads (kernels/collisions.py), fixed when the model is built so that a
 step's collision work has one size.
 
-Each pair has slots for the most contacts its types give (1 with a sphere, a cylinder or a mesh, 2 for capsule-capsule and
+Each pair has slots for the most contacts its types give (1 with a sphere, an ellipsoid, a cylinder or a mesh, 2 for capsule-capsule and
 capsule-box, 8 for box-box: kernels/collision_primitives.py, kernels/collision_box.py, kernels/collision_convex.py),
 consecutive, pair after pair.
 """
@@ -19,10 +19,10 @@ from ..description.model import GeomPair
 
 __all__ = ["GeomPairs", "geom_pairs", "self_collision", "MUJOCO_TYPES", "SLOTS"]
 
-MUJOCO_TYPES = {"sphere": 2, "capsule": 3, "cylinder": 5, "box": 6, "mesh": 7}
+MUJOCO_TYPES = {"sphere": 2, "capsule": 3, "ellipsoid": 4, "cylinder": 5, "box": 6, "mesh": 7}
 """A collision shape's kind -> MuJoCo's mjtGeom value (the narrow phase's type)."""
 
-SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8, (3, 5): 1, (5, 5): 1, (5, 6): 1} | {(t, 7): 1 for t in (2, 3, 5, 6, 7)}
+SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8, (3, 5): 1, (5, 5): 1, (5, 6): 1} | {(t, 7): 1 for t in (2, 3, 4, 5, 6, 7)} | {(2, 4): 1, (3, 4): 1, (4, 4): 1, (4, 5): 1, (4, 6): 1}
 """(type1, type2) -> the most contacts of such a pair."""
 
 
@@ -34,7 +34,7 @@ class GeomPairs:
     move (the description's world_geoms); type1, type2 (nP,) int: MuJoCo's geom types (type1 <= type2); link_H_geom1,
     link_H_geom2 (nP, 4, 4): the geoms' poses in their links (in the world for link -1);
     size1, size2 (nP, 3) [m]: MuJoCo's geom_size (a sphere's radius; a capsule's or cylinder's radius and half
-    length; a box's half sizes; a mesh's bounding radius, MuJoCo's geom_rbound, then 0, 0); margin, gap (nP,) [m];
+    length; an ellipsoid's radii; a box's half sizes; a mesh's bounding radius, MuJoCo's geom_rbound, then 0, 0); margin, gap (nP,) [m];
     friction (nP, 5); condim (nP,) int; first (nP,) int: each pair's first slot; slots (nP,) int: its number of slots;
     contacts: the slots of all pairs; vertices (V, 3) [m]: the meshes' vertices, each in its geom's frame, mesh after
     mesh; vertices1, vertices2 (nP, 2) int: a pair's geom's (first, count) in them ((0, 0) but for a mesh).
@@ -83,6 +83,8 @@ def _mujoco_size(shape) -> np.ndarray:
         return 0.5 * np.asarray(shape.size, dtype=np.float64)
     if shape.kind == "sphere":
         return np.array([shape.radius, 0.0, 0.0])
+    if shape.kind == "ellipsoid":
+        return np.asarray(shape.size, dtype=np.float64).reshape(3)
     return np.array([shape.radius, 0.5 * shape.length, 0.0])
 
 

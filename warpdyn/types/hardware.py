@@ -179,7 +179,7 @@ def scaled_collisions(description, link_names, metadata: HwLinkMetadata, dims: n
                 H = np.array(shape.link_H_shape, dtype=np.float64)
                 H[:3, 3] *= s
                 changes = {"link_H_shape": H}
-                if shape.kind == "box":
+                if shape.kind in ("box", "ellipsoid"):
                     changes["size"] = np.asarray(shape.size, dtype=np.float64) * s
                 elif shape.kind in ("sphere", "cylinder", "capsule"):
                     changes["radius"] = shape.radius * s[0]
