@@ -17,11 +17,14 @@ import pathlib
 import re
 
 _LINE = re.compile(r"^iteration\s+(\d+)\s+mean return\s+(\S+).*?([\d.]+) k env-steps/s.*?([\d.]+) s(?:\s|$)(.*)$")
+_LOGGED = re.compile(r"(\S+)\s+(-?\d+(?:\.\d+)?(?:e[-+]?\d+)?|nan)(?=\s|$)")
+"""A logged entry after the wall time: a name and its number ("reached 0.97"; "terrain level 2.38" reads as "level")."""
 
 
-def read(path: pathlib.Path, quantity: str) -> tuple[list[float], list[float], list[float]]:
-    """(wall times [s], the quantity, env-steps/s [k]) of the log's iteration lines."""
-    seconds, values, rates = [], [], []
+def read(path: pathlib.Path, quantity: str) -> tuple[list[float], list[float], list[float], float]:
+    """(wall times [s] and the quantity where it is finite, env-steps/s [k] of every iteration, the last iteration's
+    wall time [s]) of the log's iteration lines."""
+    seconds, values, rates, end = [], [], [], float("nan")
     for line in path.read_text().splitlines():
         m = _LINE.match(line)
         if m is None:
@@ -29,17 +32,18 @@ def read(path: pathlib.Path, quantity: str) -> tuple[list[float], list[float], l
         if quantity == "return":
             value = float(m.group(2))
         else:
-            logged = dict(zip(*[iter(m.group(5).split())] * 2))
+            logged = dict(_LOGGED.findall(m.group(5)))
             if quantity not in logged:
                 raise SystemExit(f"{path}: its iteration lines log {sorted(logged)}, not {quantity!r}")
             value = float(logged[quantity])
         rates.append(float(m.group(3)))
+        end = float(m.group(4))
         if math.isfinite(value):
-            seconds.append(float(m.group(4)))
+            seconds.append(end)
             values.append(value)
     if not rates:
         raise SystemExit(f"{path}: no iteration lines (examples/rl_*.py's)")
-    return seconds, values, rates
+    return seconds, values, rates, end
 
 
 def main() -> None:
@@ -60,9 +64,9 @@ def main() -> None:
 
     fig, ax = plt.subplots(figsize=(7, 4))
     for path, label in zip(paths, labels):
-        seconds, values, rates = read(path, args.quantity)
+        seconds, values, rates, end = read(path, args.quantity)
         rates = sorted(rates)
-        print(f"{label}: {len(rates)} iterations, {seconds[-1] if seconds else float('nan'):.1f} s, median {rates[len(rates) // 2]:.1f} k env-steps/s, "
+        print(f"{label}: {len(rates)} iterations, {end:.1f} s, median {rates[len(rates) // 2]:.1f} k env-steps/s, "
               f"{args.quantity} last {values[-1] if values else float('nan'):.3f}, max {max(values) if values else float('nan'):.3f}")  # fmt: skip
         ax.plot(seconds, values, label=label)
     ax.set_xlabel("wall time [s]")

@@ -123,16 +123,16 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):  # fmt: skip
         """(n, geom1's witness in its frame, geom2's in its frame) from GJK's or EPA's witnesses wa, wb [m, world]: an
         ellipsoid's witness is its point farthest along the normal (unique on a strictly convex surface: exact where
-        EPA's face interpolates a coarse polytope), and the other geom's then lies on the normal through it (n.(b - a)
-        unchanged; EPA's lateral placement on a face would wander from step to step and rock the ellipsoid)."""
+        EPA's face interpolates a coarse polytope); a cylinder's, a box's or a mesh's across from an ellipsoid (geom1:
+        the pairs are ordered by type) lies on the normal through the ellipsoid's (n.(b - a) unchanged; EPA's lateral
+        placement on a face wanders from step to step and would rock the ellipsoid). A sphere's or a capsule's stays
+        GJK's or EPA's, on its core."""
         if t1 == ELLIPSOID:
             wa = world_support(t1, p1, R1, s1, verts, vr1, nrm)
         if t2 == ELLIPSOID:
             wb = world_support(t2, p2, R2, s2, verts, vr2, -nrm)
-        if t1 == ELLIPSOID and t2 != ELLIPSOID:
+        elif t1 == ELLIPSOID:
             wb = wa + wp.dot(wb - wa, nrm) * nrm
-        if t2 == ELLIPSOID and t1 != ELLIPSOID:
-            wa = wb - wp.dot(wb - wa, nrm) * nrm
         out = M33(F(0.0))
         out[0] = nrm
         out[1] = wp.transpose(R1) * (wa - p1)

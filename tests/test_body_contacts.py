@@ -76,13 +76,13 @@ contact at each crossing, as MuJoCo's multiCCD too gives where two round sides c
 time step: the soft law's damping is explicit, D (delta + eps)^q per contact on the body's mass.)"""
 
 
-ROLLING = {"crossed cylinders": 2e-3, "an egg on a box": 5e-2}
+ROLLING = {"crossed cylinders": 2e-3, "an egg on a box": 8e-2}
 """A log across two rails rolls in neutral equilibrium: EPA's witnesses, placed to ~5e-8 m on the round sides, give
 it a torque about its axis (8e-4 rad/s after 1.5 s here; MuJoCo's own log rolls at 0.035 rad/s by then). The egg
 rocks on its one contact, rolling without slip, which the soft law's sticking spring does not dissipate: the drop
-leaves it rocking at 0.03 to 0.05 rad/s with the explicit contacts, 0.004 to 0.007 implicit, steady over 4 s, about
-0.1 mm at the contact (MuJoCo's soft constraints damp it: 1.7e-4 rad/s at 1.5 s); its position is MuJoCo's within
-0.1 mm."""
+leaves it rocking, its angular velocity peaking at about 0.06 rad/s with the explicit contacts and 0.007 implicit,
+undamped over 8 s (MuJoCo's soft constraints damp it: 1.7e-4 rad/s at 1.5 s); its position is MuJoCo's within 0.1 mm.
+These bounds hold for the largest velocity over the last 0.1 s."""
 
 
 def _model(xml, dtype=np.float64):
@@ -102,15 +102,19 @@ def _positions(model, data) -> dict:
 @pytest.mark.parametrize("scene", SCENES)
 def test_scenes_come_to_rest_where_mujocos_do(scene, implicit):
     """After 1.5 s (1 ms steps), each body's position is MuJoCo's within REST_TOL, and it has stopped (every velocity
-    below 1e-3 m/s or rad/s, but ROLLING's): with the explicit contacts and the linearly implicit ones
-    (model.implicit_contacts)."""
+    below 1e-3 m/s or rad/s; ROLLING's scenes below their bound over the last 0.1 s): with the explicit contacts and
+    the linearly implicit ones (model.implicit_contacts)."""
     xml = SCENES[scene]
     model = _model(xml)
     model.implicit_contacts = implicit
     data = wd.data.Data.build(model)
-    for _ in range(1500):
+    window = []
+    for k in range(1500):
         data = wd.model.step(model, data)
-    assert float(np.abs(data.generalized_velocity.numpy()).max()) < ROLLING.get(scene, 1e-3)
+        if k >= 1400 and scene in ROLLING:  # a rolling or rocking body: its largest velocity over the last 0.1 s
+            window.append(float(np.abs(data.generalized_velocity.numpy()).max()))
+    speed = max(window) if window else float(np.abs(data.generalized_velocity.numpy()).max())  # the others: stopped
+    assert speed < ROLLING.get(scene, 1e-3), speed
     mj = mujoco.MjModel.from_xml_string(xml)
     d = mujoco.MjData(mj)
     for _ in range(1500):

@@ -2,6 +2,7 @@
 updates, from the same initial models, transitions and random draws; on a GPU, its CUDA graphs against its eager
 code."""
 
+import copy
 import types
 
 import pytest
@@ -103,6 +104,26 @@ def test_graphed_ppo_equals_rsl_rl_ppo(distribution, mini_batches, critic_group,
     assert ref.learning_rate != 1e-3  # the adaptive schedule acted
 
 
+def test_a_checkpoint_resumes_the_same_training_and_loads_into_rsl_rl():
+    """A GraphedPPO saved after an iteration and loaded into another resumes as the first continues (the adaptive
+    learning rate, a tensor Adam reads, and Adam's moments restored); rsl-rl's PPO loads it with a number for its
+    learning rate."""
+    alg = _algorithm(GraphedPPO, "cpu", "gaussian", epochs=3, mini_batches=2)
+    _iteration(alg, 0, "cpu", False)
+    saved = copy.deepcopy(alg.save())
+    resumed = _algorithm(GraphedPPO, "cpu", "gaussian", epochs=3, mini_batches=2)
+    resumed.load(saved, None, strict=True)
+    assert resumed.optimizer.param_groups[0]["lr"] is resumed._lr and resumed.learning_rate == pytest.approx(alg.learning_rate)
+    assert alg.learning_rate != 1e-3  # (the schedule moved it)
+    for it in (1, 2):
+        _iteration(alg, it, "cpu", False)
+        _iteration(resumed, it, "cpu", False)
+        torch.testing.assert_close(_parameters(resumed), _parameters(alg), rtol=0, atol=0)
+    ref = _algorithm(PPO, "cpu", "gaussian", epochs=3, mini_batches=2)
+    ref.load(saved, None, strict=True)
+    assert type(ref.learning_rate) is float and ref.learning_rate == pytest.approx(float(saved["optimizer_state_dict"]["param_groups"][0]["lr"]))
+
+
 def test_graphed_ppo_refuses_what_it_does_not_run():
     actor = types.SimpleNamespace(is_recurrent=True)
     with pytest.raises(ValueError, match="feed-forward"):
@@ -112,6 +133,10 @@ def test_graphed_ppo_refuses_what_it_does_not_run():
         GraphedPPO(critic, critic, None, multi_gpu_cfg={"world_size": 2})
     with pytest.raises(ValueError, match="optimises with Adam.*'sgd'"):
         GraphedPPO(critic, critic, None, optimizer="sgd")
+    alg = _algorithm(GraphedPPO, "cpu", "gaussian", epochs=1, mini_batches=1)
+    with pytest.raises(ValueError, match="instead of torch.compile; got torch_compile_mode='default'"):
+        alg.compile("default")
+    alg.compile(None)  # (rsl-rl's construct_algorithm calls it so)
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="CUDA graphs need a GPU")

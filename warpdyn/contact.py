@@ -254,8 +254,8 @@ def with_self_collision(model, *, exclude=()):
 
 def geom_contacts(model, data) -> GeomContacts:
     """The contacts between the model's geom pairs at the data's state, as MuJoCo's narrow phase finds them
-    (`GeomContacts`): sphere, capsule, box, cylinder and convex mesh pairs (the cylinder's but sphere-cylinder, and the
-    mesh's, by GJK and EPA, one contact: kernels/collision_convex.py; a pair of other types is not in `geom_pairs`;
+    (`GeomContacts`): sphere, capsule, ellipsoid, box, cylinder and convex mesh pairs (the cylinder's but sphere-cylinder,
+    the ellipsoid's and the mesh's by GJK and EPA, one contact: kernels/collision_convex.py; a pair of other types is not in `geom_pairs`;
     the loader names it in a NotModelledWarning). A contact is reported where the surfaces are
     nearer than the pair's margin + gap, as MuJoCo reports it. They act in a step where model.geom_contacts is set
     (the soft law at each contact that penetrates)."""

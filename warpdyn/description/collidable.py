@@ -8,7 +8,7 @@ pose `link_H_shape`) into points `L_p_C` in the link frame:
   taken as (0,0,0), (x,0,0), (x,y,0), (0,y,0), (0,0,z), (x,0,z), (x,y,z), (0,y,z), then centred).
 - sphere: `sphere_points` points of a Fibonacci lattice on the surface (JaxSim's construction).
 - ellipsoid (radii a, b, c): the sphere's lattice of `sphere_points` points on the unit sphere, scaled by the radii
-  (every point on the surface; denser where the surface is less curved).
+  (every point on the surface; spread apart along the longer axes, closer where the surface curves most).
 - cylinder (axis z, length L): two rims of `circle_points` points at z = +-L/2, `side_rings` more rings
   evenly spaced between them, and the centre of each cap.
 - capsule (axis z, cylindrical part of length L): for each hemispherical cap, `capsule_cap_rings`

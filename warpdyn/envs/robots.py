@@ -53,7 +53,7 @@ class LeggedRobot:
     feet: tuple
     joints: tuple | None = None
     posture: dict | str | None = None
-    contact_shapes: tuple = ("box", "sphere", "cylinder", "capsule")
+    contact_shapes: tuple = ("box", "sphere", "ellipsoid", "cylinder", "capsule")
     sphere_points: int = 50
     lower_half: bool = False
     other_links: tuple = ()

@@ -69,8 +69,8 @@ class GraphedPPO(PPO):
     and a few copies, an update one launch (rsl-rl's update launched about 200 kernels and synchronised 4 times per
     mini-batch). Elsewhere the same code runs eagerly. What differs from rsl-rl's PPO: the mini-batches' shuffle draws
     its permutation as the order of uniform draws on the device (rsl-rl: torch.randperm). Refused (rsl-rl's PPO does
-    them): recurrent models, RND, symmetry, mixed precision, several GPUs, optimizers other than Adam. Use it as
-    rsl-rl's algorithm: `cfg["algorithm"]["class_name"] = GraphedPPO`."""
+    them): recurrent models, RND, symmetry, mixed precision, several GPUs, optimizers other than Adam, torch.compile.
+    Use it as rsl-rl's algorithm: `cfg["algorithm"]["class_name"] = GraphedPPO`."""
 
     def __init__(self, actor, critic, storage, **kwargs):
         unsupported = [k for k in ("rnd_cfg", "symmetry_cfg", "multi_gpu_cfg") if kwargs.get(k)]
@@ -86,34 +86,36 @@ class GraphedPPO(PPO):
         self._sums = torch.zeros(4, device=self.device)  # value loss, surrogate loss, entropy, learning rate
         self._graphs: dict[str, torch.cuda.CUDAGraph] = {}
         self._warm: set[str] = set()
+        self._stream = torch.cuda.Stream(device=self.device) if self._capture else None  # the warm-ups' and captures' stream
         self._obs_in: TensorDict | None = None  # the graphs' observations (a copy of the caller's)
         self._act_out: tuple = ()
 
     def _run(self, name: str, body) -> None:
-        """body() eagerly (the CPU; a GPU's first call, on a side stream), captured at a GPU's second call, replayed
-        from then on."""
+        """body() eagerly (the CPU; a GPU's first call, on the side stream the capture then uses, as capture needs),
+        captured at a GPU's second call, replayed from then on; on the algorithm's device whatever the current one."""
         if not self._capture:
             body()
             return
-        graph = self._graphs.get(name)
-        if graph is None:
-            if name not in self._warm:
-                self._warm.add(name)
-                side = torch.cuda.Stream(device=self.device)
-                side.wait_stream(torch.cuda.current_stream(self.device))
-                with torch.cuda.stream(side):
+        with torch.cuda.device(self.device):
+            graph = self._graphs.get(name)
+            if graph is None:
+                if name not in self._warm:
+                    self._warm.add(name)
+                    self._stream.wait_stream(torch.cuda.current_stream())
+                    with torch.cuda.stream(self._stream):
+                        body()
+                    torch.cuda.current_stream().wait_stream(self._stream)
+                    return
+                graph = torch.cuda.CUDAGraph()
+                with no_collection(), torch.cuda.graph(graph, stream=self._stream):
                     body()
-                torch.cuda.current_stream(self.device).wait_stream(side)
-                return
-            graph = torch.cuda.CUDAGraph()
-            with no_collection(), torch.cuda.graph(graph):
-                body()
-            self._graphs[name] = graph
-        graph.replay()
+                self._graphs[name] = graph
+            graph.replay()
 
     def _observe(self, obs: TensorDict) -> None:
         if self._obs_in is None:
-            self._obs_in = obs.clone()
+            with torch.inference_mode(False):  # a normal tensor, which calls in and out of inference mode may fill
+                self._obs_in = obs.clone()
         else:
             for key, value in obs.items():
                 self._obs_in[key].copy_(value)
@@ -199,7 +201,8 @@ class GraphedPPO(PPO):
         self._sums[3] = self._lr
 
     def update(self) -> dict[str, float]:
-        """rsl-rl's PPO update over the stored rollout; returns the mean losses (one host synchronisation)."""
+        """rsl-rl's PPO update over the stored rollout; returns the mean losses (read once; the normalisers' update,
+        rsl-rl's, adds a copy to the device each)."""
         self._run("update", self._update)
         observations = self.storage.observations.flatten(0, 1)
         for model in (self.actor, self.critic):
@@ -208,6 +211,35 @@ class GraphedPPO(PPO):
         updates = self.num_learning_epochs * self.num_mini_batches
         self.storage.clear()
         return {"value": value / updates, "surrogate": surrogate / updates, "entropy": entropy / updates}
+
+    def compile(self, mode: str | None = None) -> None:
+        """torch.compile is not used (the graphs replace it): a ValueError for a mode."""
+        if mode is not None:
+            raise ValueError(f"GraphedPPO replays CUDA graphs instead of torch.compile; got torch_compile_mode={mode!r} (use rsl-rl's PPO)")
+
+    def save(self) -> dict:
+        """rsl-rl's checkpoint, its optimizer's learning rate a number (rsl-rl's PPO loads it)."""
+        saved = super().save()
+        for group in saved["optimizer_state_dict"]["param_groups"]:
+            group["lr"], group["capturable"] = float(group["lr"]), False
+        return saved
+
+    def load(self, loaded_dict: dict, load_cfg: dict | None, strict: bool) -> bool:
+        """rsl-rl's load; then Adam reads the schedule's learning-rate tensor again (loading replaced its parameter
+        groups), its state is the capturable form's, and the graphs are dropped (the next calls capture anew: the
+        loaded moments are new tensors)."""
+        result = super().load(loaded_dict, load_cfg, strict)
+        self._lr.fill_(float(self.optimizer.param_groups[0]["lr"]))
+        self.learning_rate = float(self._lr)
+        for group in self.optimizer.param_groups:
+            group["lr"], group["capturable"] = self._lr, self._capture
+        if self._capture:
+            for state in self.optimizer.state.values():
+                if "step" in state:
+                    state["step"] = state["step"].to(device=self.device, dtype=torch.float32)
+        self._graphs.clear()
+        self._warm.clear()
+        return result
 
 
 def _update_normalization(model, observations: TensorDict) -> None:

@@ -165,8 +165,8 @@ def scale_vector(shape: int, dims: np.ndarray) -> np.ndarray:
 
 def scaled_collisions(description, link_names, metadata: HwLinkMetadata, dims: np.ndarray):
     """The description with the collision shapes of each parametrised link (a description link named as the lumped
-    link it is) scaled as JaxSim's export scales them by the link's scale vector s: a box's extents by s, a sphere's
-    radius by s0, a cylinder's radius by s0 and length by s2, each pose's translation by s. The collidable points of
+    link it is) scaled as JaxSim's export scales them by the link's scale vector s: a box's extents (an ellipsoid's
+    radii) by s, a sphere's radius by s0, a cylinder's radius by s0 and length by s2, each pose's translation by s. The collidable points of
     the shapes written so are the ones update_hw_parameters moves (but a cylinder's, which JaxSim's points keep;
     shapes of links lumped into a parametrised one keep theirs)."""
     factors = {name: scale_vector(int(shape), dims[i]) for i, (name, shape) in enumerate(zip(link_names, metadata.link_shape)) if shape >= 0}
