@@ -341,6 +341,12 @@ def plot(history: list, path: pathlib.Path, title: str) -> None:
     print(f"wrote {path}")
 
 
+def add_ppo_argument(parser: argparse.ArgumentParser) -> None:
+    """--ppo: which PPO `train` runs (its `graphed`)."""
+    parser.add_argument("--ppo", choices=("graphed", "rsl-rl"), default="graphed",
+                        help="graphed (default): rsl-rl's PPO replayed as CUDA graphs on a GPU (warpdyn.envs.rsl_rl.GraphedPPO; one process); rsl-rl: its own")  # fmt: skip
+
+
 def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int) -> argparse.ArgumentParser:
     """The command line the manipulation examples share (rl_manipulation.py, rl_reorient.py): --device, --num-envs
     (`default_envs` says the default), --iterations, --seed, --max-minutes, `ppo`'s settings as flags with its values
@@ -355,8 +361,7 @@ def task_arguments(description: str, ppo: dict, default_envs: str, out: str, ite
     for name, value in ppo.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
     parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default="gaussian", help="the policy's (default gaussian)")
-    parser.add_argument("--ppo", choices=("graphed", "rsl-rl"), default="graphed",
-                        help="graphed (default): rsl-rl's PPO replayed as CUDA graphs on a GPU (warpdyn.envs.rsl_rl.GraphedPPO; one process); rsl-rl: its own")  # fmt: skip
+    add_ppo_argument(parser)
     parser.add_argument("--evaluate", action="store_true", help="after training, evaluate the policy in --evaluate-envs fresh environments")
     parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
     parser.add_argument("--out", default=out)
@@ -454,8 +459,7 @@ def main(argv=None) -> None:
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
     for name, value in PPO_DEFAULTS.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g}, Rudin et al.'s)")
-    parser.add_argument("--ppo", choices=("graphed", "rsl-rl"), default="graphed",
-                        help="graphed (default): rsl-rl's PPO replayed as CUDA graphs on a GPU (warpdyn.envs.rsl_rl.GraphedPPO; one process); rsl-rl: its own")  # fmt: skip
+    add_ppo_argument(parser)
     parser.add_argument("--evaluate", type=float, default=None, metavar="SPEED",
                         help="after training, command SPEED m/s straight ahead in 256 fresh environments for 5 s and print the speed reached")  # fmt: skip
     parser.add_argument("--out", default="runs/locomotion")
