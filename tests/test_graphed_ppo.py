@@ -21,8 +21,8 @@ DISTRIBUTIONS = {
 }
 
 
-def _algorithm(cls, device: str, distribution: str, epochs: int, mini_batches: int, critic_group: bool = False):
-    """An rsl-rl algorithm of class cls on small MLPs, its initial parameters from seed 0."""
+def _algorithm(cls, device: str, distribution: str, epochs: int, mini_batches: int, critic_group: bool = False, **settings):
+    """An rsl-rl algorithm of class cls on small MLPs, its initial parameters from seed 0; `settings`: PPO's others."""
     torch.manual_seed(0)
     groups = {"policy": torch.zeros(N, OBS, device=device)}
     if critic_group:
@@ -33,7 +33,8 @@ def _algorithm(cls, device: str, distribution: str, epochs: int, mini_batches: i
         "num_steps_per_env": STEPS,
         "obs_groups": {"actor": ["policy"], "critic": ["critic" if critic_group else "policy"]},
         "algorithm": dict(class_name=cls, learning_rate=1e-3, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2,
-                          gamma=0.97, lam=0.95, value_loss_coef=1.0, entropy_coef=0.01, max_grad_norm=1.0, schedule="adaptive", desired_kl=0.01),  # fmt: skip
+                          gamma=0.97, lam=0.95, value_loss_coef=1.0, entropy_coef=0.01, max_grad_norm=1.0, schedule="adaptive", desired_kl=0.01)
+                     | settings,  # fmt: skip
         "actor": dict(class_name="MLPModel", distribution_cfg=dict(DISTRIBUTIONS[distribution]), **mlp),
         "critic": dict(class_name="MLPModel", **mlp),
         "multi_gpu": None,
@@ -102,6 +103,20 @@ def test_graphed_ppo_equals_rsl_rl_ppo(distribution, mini_batches, critic_group,
         torch.testing.assert_close(_parameters(alg), _parameters(ref), rtol=1e-4, atol=1e-5)
     assert (_parameters(alg) - start).abs().max() > 1e-3  # the updates moved the models
     assert ref.learning_rate != 1e-3  # the adaptive schedule acted
+
+
+@pytest.mark.parametrize("settings", [dict(normalize_advantage_per_mini_batch=True), dict(schedule="fixed"), dict(use_clipped_value_loss=False)], ids=str)
+def test_graphed_ppo_equals_rsl_rl_ppo_in_its_other_settings(settings, permutation_as_graphed):
+    """Advantages normalised per mini-batch, a fixed learning rate, the unclipped value loss: as rsl-rl's PPO."""
+    ref = _algorithm(PPO, "cpu", "gaussian", epochs=2, mini_batches=4, **settings)
+    alg = _algorithm(GraphedPPO, "cpu", "gaussian", epochs=2, mini_batches=4, **settings)
+    for it in range(2):
+        a, b = _iteration(ref, it, "cpu", False), _iteration(alg, it, "cpu", False)
+        for key in ("value", "surrogate", "entropy"):
+            assert b["losses"][key] == pytest.approx(a["losses"][key], rel=1e-4, abs=1e-6), key
+        torch.testing.assert_close(_parameters(alg), _parameters(ref), rtol=1e-4, atol=1e-5)
+    assert alg.learning_rate == pytest.approx(ref.learning_rate, rel=1e-6)
+    assert (ref.learning_rate == 1e-3) == (settings.get("schedule") == "fixed")
 
 
 def test_a_checkpoint_resumes_the_same_training_and_loads_into_rsl_rl():
