@@ -66,8 +66,8 @@ class GraphedPPO(PPO):
     schedule updates on the device, the losses are summed there and read once an update. On a GPU, `act`,
     `compute_returns` and `update` are each captured as a CUDA graph at their second call (the first runs eagerly,
     on a side stream, as capture needs) and replayed after: the trainer's part of a rollout step is one graph launch
-    and a few copies, an update one launch (rsl-rl's update launched about 200 kernels and synchronised 4 times per
-    mini-batch). Elsewhere the same code runs eagerly. What differs from rsl-rl's PPO: the mini-batches' shuffle draws
+    and a few copies, an update one launch (rsl-rl's update launches each mini-batch's kernels from Python and
+    synchronises with the host 4 times per mini-batch). Elsewhere the same code runs eagerly. What differs from rsl-rl's PPO: the mini-batches' shuffle draws
     its permutation as the order of uniform draws on the device (rsl-rl: torch.randperm). Refused (rsl-rl's PPO does
     them): recurrent models, RND, symmetry, mixed precision, several GPUs, optimizers other than Adam, torch.compile.
     Use it as rsl-rl's algorithm: `cfg["algorithm"]["class_name"] = GraphedPPO`."""
