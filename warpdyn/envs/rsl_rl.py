@@ -86,7 +86,7 @@ class GraphedPPO(PPO):
         self._sums = torch.zeros(4, device=self.device)  # value loss, surrogate loss, entropy, learning rate
         self._graphs: dict[str, torch.cuda.CUDAGraph] = {}
         self._warm: set[str] = set()
-        self._stream = torch.cuda.Stream(device=self.device) if self._capture else None  # the warm-ups' and captures' stream
+        self._side = torch.cuda.Stream(device=self.device) if self._capture else None  # the warm-ups' and captures' stream
         self._obs_in: TensorDict | None = None  # the graphs' observations (a copy of the caller's)
         self._act_out: tuple = ()
 
@@ -101,13 +101,13 @@ class GraphedPPO(PPO):
             if graph is None:
                 if name not in self._warm:
                     self._warm.add(name)
-                    self._stream.wait_stream(torch.cuda.current_stream())
-                    with torch.cuda.stream(self._stream):
+                    self._side.wait_stream(torch.cuda.current_stream())
+                    with torch.cuda.stream(self._side):
                         body()
-                    torch.cuda.current_stream().wait_stream(self._stream)
+                    torch.cuda.current_stream().wait_stream(self._side)
                     return
                 graph = torch.cuda.CUDAGraph()
-                with no_collection(), torch.cuda.graph(graph, stream=self._stream):
+                with no_collection(), torch.cuda.graph(graph, stream=self._side):
                     body()
                 self._graphs[name] = graph
             graph.replay()
