@@ -21,6 +21,7 @@ import warnings
 import mujoco
 import numpy as np
 import pytest
+import scipy.spatial
 
 import warpdyn as wd
 from mjcf_compare import mujoco_to_warpdyn_state
@@ -331,6 +332,87 @@ def _urdf_names(m) -> dict:
     return out
 
 
+def _mujoco_urdf_pairs(m) -> set:
+    """The pairs {frozenset(("link/k", "link/k"))} MuJoCo collides on a URDF's model m (every geom made a sphere,
+    margins 100 m, at qpos0)."""
+    names = _urdf_names(m)
+    wide = copy.deepcopy(m)
+    wide.geom_type[:] = mujoco.mjtGeom.mjGEOM_SPHERE
+    wide.geom_margin[:] = 100.0
+    wide.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MIDPHASE)
+    d = mujoco.MjData(wide)
+    mujoco.mj_forward(wide, d)
+    return {frozenset((names[int(c.geom[0])], names[int(c.geom[1])])) for c in d.contact[: d.ncon]}
+
+
+def _urdf_contacts(m, model, rng, states: int):
+    """At `states` random states where MuJoCo's model m of a URDF folds onto itself: each of the model's pairs' count
+    asserted MuJoCo's, then for each contact (the pair's index, MuJoCo's contact, warpdyn's position, normal (in MuJoCo's
+    order of the geoms) and distance)."""
+    names, pairs = _urdf_names(m), wd.contact.geom_pairs(model)
+    for qpos in _touching(m, rng, states):
+        d = mujoco.MjData(m)
+        d.qpos[:] = qpos
+        mujoco.mj_forward(m, d)
+        expected = {}
+        for c in d.contact[: d.ncon]:
+            expected.setdefault(frozenset((names[int(c.geom[0])], names[int(c.geom[1])])), []).append(c)
+        count, position, frame, dist = (a.numpy() for a in wd.contact.geom_contacts(model, wd.data.Data.build(model, joint_positions=qpos)))
+        for k, pair in enumerate(pairs.names):
+            cs = expected.get(frozenset(pair), [])
+            assert count[k] == len(cs), pair
+            for j, c in enumerate(cs):
+                s = pairs.first[k] + j
+                sign = 1.0 if names[int(c.geom[0])] == pair[0] else -1.0  # MuJoCo's order of the pair's geoms
+                yield k, c, position[s], sign * frame[s][0], dist[s]
+
+
+def _rock_obj(path: pathlib.Path, seed: int, radii) -> None:
+    """An OBJ of 20 points on an ellipsoid of `radii` about (0.01, 0, 0.02) and their convex hull's faces, facing out
+    (MuJoCo's inertia reads the faces; both take the hull for collisions)."""
+    u = np.random.default_rng(seed).normal(size=(20, 3))
+    v = u / np.linalg.norm(u, axis=1, keepdims=True) * radii + [0.01, 0.0, 0.02]
+    faces = []
+    for a, b, c in scipy.spatial.ConvexHull(v).simplices:
+        outward = np.dot(np.cross(v[b] - v[a], v[c] - v[a]), v[a] - v.mean(axis=0)) > 0
+        faces.append((a, b, c) if outward else (a, c, b))
+    path.write_text("".join(f"v {x:.12f} {y:.12f} {z:.12f}\n" for x, y, z in v) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+
+
+def test_urdf_meshes_self_collide_as_in_mujoco(tmp_path):
+    """The arm with its upper arm's box and its finger's sphere replaced by convex meshes (OBJ files beside the URDF,
+    one scaled, one at a turned origin): with_self_collision reads their files, and its pairs are MuJoCo's on the same
+    URDF; at states where the arm folds onto itself each pair's count is MuJoCo's with multiCCD off (one contact a
+    convex pair), its distance within 1e-5 m of MuJoCo's (its EPA's tolerance) and its normal within 2e-3. A mesh
+    whose file is missing is named in a NotModelledWarning and collides with nothing."""
+    _rock_obj(tmp_path / "arm_rock.obj", 1, (0.03, 0.03, 0.15))
+    _rock_obj(tmp_path / "finger_rock.obj", 2, (0.04, 0.05, 0.03))
+    text = ARM_URDF.read_text()
+    text = text.replace('<collision><origin xyz="0 0 0.15"/><geometry><box size="0.05 0.05 0.3"/></geometry></collision>',
+                        '<collision><origin xyz="0 0 0.13"/><geometry><mesh filename="arm_rock.obj" scale="1 1 1.1"/></geometry></collision>')
+    text = text.replace('<collision><origin xyz="0 0.08 0"/><geometry><sphere radius="0.03"/></geometry></collision>',
+                        '<collision><origin xyz="0 0.08 0" rpy="0.3 0.2 0.1"/><geometry><mesh filename="finger_rock.obj"/></geometry></collision>')
+    assert text.count("_rock.obj") == 2
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(text)
+    model = wd.contact.with_self_collision(_model(urdf))
+    pairs = wd.contact.geom_pairs(model)
+    m = mujoco.MjModel.from_xml_path(str(urdf))
+    assert {frozenset(p) for p in pairs.names} == _mujoco_urdf_pairs(m) and len(pairs) == 7
+    assert sum(7 in (a, b) for a, b in zip(pairs.type1, pairs.type2)) == 4  # base-upper, base-finger, upper-finger, upper's sphere-finger
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
+    compared = 0
+    for k, c, _, normal, dist in _urdf_contacts(m, model, np.random.default_rng(4), 6):
+        assert abs(dist - c.dist) < 1e-5, pairs.names[k]
+        np.testing.assert_allclose(normal, c.frame[:3], atol=2e-3, err_msg=str(pairs.names[k]))
+        compared += 1 if 7 in (pairs.type1[k], pairs.type2[k]) else 0
+    assert compared >= 3
+    (tmp_path / "finger_rock.obj").unlink()
+    with pytest.warns(wd.model.NotModelledWarning, match=r"meshes whose files were not found or read.*: 1 box-mesh, 1 mesh-mesh, 1 sphere-mesh"):
+        fewer = wd.contact.with_self_collision(_model(urdf))
+    assert len(wd.contact.geom_pairs(fewer)) == 4  # the finger's three pairs dropped
+
+
 def test_urdf_self_collision_is_mujocos():
     """wd.contact.with_self_collision on a URDF: its pairs are those MuJoCo collides on the same URDF (every geom made a
     sphere, margins 100 m: the base collides with its child, a fixed base being welded to the world; a link never with
@@ -339,36 +421,14 @@ def test_urdf_self_collision_is_mujocos():
     model = wd.contact.with_self_collision(_model(ARM_URDF))
     pairs = wd.contact.geom_pairs(model)
     m = mujoco.MjModel.from_xml_path(str(ARM_URDF))
-    names = _urdf_names(m)
-    wide = copy.deepcopy(m)
-    wide.geom_type[:] = mujoco.mjtGeom.mjGEOM_SPHERE
-    wide.geom_margin[:] = 100.0
-    wide.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MIDPHASE)
-    d = mujoco.MjData(wide)
-    mujoco.mj_forward(wide, d)
-    theirs = {frozenset((names[int(c.geom[0])], names[int(c.geom[1])])) for c in d.contact[: d.ncon]}
+    theirs = _mujoco_urdf_pairs(m)
     assert {frozenset(p) for p in pairs.names} == theirs and len(theirs) == 7
-    rng = np.random.default_rng(3)
     compared = 0
-    for qpos in _touching(m, rng, 4):
-        d = mujoco.MjData(m)
-        d.qpos[:] = qpos
-        mujoco.mj_forward(m, d)
-        expected = {}
-        for c in d.contact[: d.ncon]:
-            expected.setdefault(frozenset((names[int(c.geom[0])], names[int(c.geom[1])])), []).append(c)
-        data = wd.data.Data.build(model, joint_positions=qpos)
-        count, position, frame, dist = (a.numpy() for a in wd.contact.geom_contacts(model, data))
-        for k, pair in enumerate(pairs.names):
-            cs = expected.get(frozenset(pair), [])
-            assert count[k] == len(cs), pair
-            for j, c in enumerate(cs):
-                s = pairs.first[k] + j
-                sign = 1.0 if names[int(c.geom[0])] == pair[0] else -1.0  # MuJoCo's order of the pair's geoms
-                np.testing.assert_allclose(position[s], c.pos, atol=1e-10)
-                np.testing.assert_allclose(frame[s][0], sign * c.frame[:3], atol=1e-10)
-                np.testing.assert_allclose(dist[s], c.dist, atol=1e-10)
-                compared += 1
+    for _, c, position, normal, dist in _urdf_contacts(m, model, np.random.default_rng(3), 4):
+        np.testing.assert_allclose(position, c.pos, atol=1e-10)
+        np.testing.assert_allclose(normal, c.frame[:3], atol=1e-10)
+        np.testing.assert_allclose(dist, c.dist, atol=1e-10)
+        compared += 1
     assert compared >= 4
     fewer = wd.contact.with_self_collision(_model(ARM_URDF), exclude=[("base", "upper")])
     assert len(wd.contact.geom_pairs(fewer)) == 5 and all("upper" not in a + b or "base" not in a + b for a, b in wd.contact.geom_pairs(fewer).names)

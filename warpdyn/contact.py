@@ -232,22 +232,23 @@ class GeomContacts(NamedTuple):
     distance: wp.array
 
 
-def with_self_collision(model, *, exclude=()):
+def with_self_collision(model, *, exclude=(), options: CollidablePointsOptions | None = None):
     """A model like a URDF or SDF `model` whose links' collision shapes collide with each other, as MuJoCo collides
     those of the same URDF (warpdyn.types.geoms.self_collision): every pair of shapes on two links but a link and its
     parent (unless the parent is a fixed base) and the link-name pairs in `exclude`; `geom_pairs` lists them. They act
-    in a step where model.geom_contacts is set. Pairs of meshes (whose vertices the URDF and SDF loaders do not read)
-    are counted in a NotModelledWarning, and so are the pairs with a cylinder, which get one contact where MuJoCo's
-    multiCCD may add more. An MJCF model's pairs are MuJoCo's: a ValueError."""
-    new, uncollided = geom_types.self_collision(model, exclude)
+    in a step where model.geom_contacts is set. Meshes collide as their files' vertices' convex hulls (found as
+    collidable points find them: `options`' package_dirs and mesh_dirs, the description's directory); pairs of a mesh
+    whose file was not found or read are counted in a NotModelledWarning, and so are the pairs with a cylinder or a
+    mesh, which get one contact where MuJoCo's multiCCD may add more. An MJCF model's pairs are MuJoCo's: a ValueError."""
+    new, uncollided = geom_types.self_collision(model, exclude, options)
     if uncollided:
         counts = ", ".join(f"{n} {kinds}" for kinds, n in sorted(uncollided.items()))
-        warnings.warn(f"model '{model.name()}': shape pairs that warpdyn's narrow phase does not collide (meshes, whose vertices the URDF and SDF loaders do not read): {counts}",
-                      NotModelledWarning, stacklevel=2)  # fmt: skip
+        warnings.warn(f"model '{model.name()}': shape pairs that warpdyn's narrow phase does not collide (meshes whose files were not found or read: "
+                      f"CollidablePointsOptions' package_dirs and mesh_dirs say where to look): {counts}", NotModelledWarning, stacklevel=2)  # fmt: skip
     pairs = geom_types.geom_pairs(new)
     polygons = int(sum((int(a), int(b)) in MULTICCD_TYPES for a, b in zip(pairs.type1, pairs.type2)))
     if polygons:
-        warnings.warn(f"model '{model.name()}': {polygons} shape pairs with a cylinder get one contact (GJK and EPA); MuJoCo's multiCCD, on by "
+        warnings.warn(f"model '{model.name()}': {polygons} shape pairs with a cylinder or a mesh get one contact (GJK and EPA); MuJoCo's multiCCD, on by "
                       "default, adds polygon contacts where they meet face to face or edge to face", NotModelledWarning, stacklevel=2)  # fmt: skip
     return new
 

@@ -48,6 +48,7 @@ __all__ = [
     "cylinder_points",
     "capsule_points",
     "farthest_point_subsample",
+    "mesh_file_vertices",
     "resolve_mesh_uri",
     "collidable_points",
 ]
@@ -261,9 +262,10 @@ def resolve_mesh_uri(uri: str, *, base_dir=None, package_dirs=(), mesh_dirs=()) 
     return None
 
 
-def _mesh_vertices(shape, options: CollidablePointsOptions, base_dir) -> tuple[np.ndarray | None, str | None]:
-    """(vertices in the shape frame, None) or (None, why they are missing)."""
-    scale = np.ones(3) if shape.scale is None else np.asarray(shape.scale, dtype=np.float64)
+def mesh_file_vertices(shape, options: CollidablePointsOptions, base_dir) -> tuple[np.ndarray | None, str | None]:
+    """(a mesh shape's vertices (k, 3) as its file holds them, unscaled, None) or (None, why they are missing: "not
+    found", "unreadable (...)", "empty"); its own `vertices` where it has them (an MJCF mesh's). The file is found by
+    `resolve_mesh_uri` (base_dir, options.package_dirs, options.mesh_dirs) and read with trimesh."""
     if shape.vertices is not None:
         vertices = np.asarray(shape.vertices, dtype=np.float64)
     else:
@@ -282,6 +284,15 @@ def _mesh_vertices(shape, options: CollidablePointsOptions, base_dir) -> tuple[n
     vertices = vertices.reshape(-1, 3)
     if len(vertices) == 0:
         return None, "empty"
+    return vertices, None
+
+
+def _mesh_vertices(shape, options: CollidablePointsOptions, base_dir) -> tuple[np.ndarray | None, str | None]:
+    """(vertices in the shape frame, None) or (None, why they are missing)."""
+    vertices, why = mesh_file_vertices(shape, options, base_dir)
+    if vertices is None:
+        return None, why
+    scale = np.ones(3) if shape.scale is None else np.asarray(shape.scale, dtype=np.float64)
     vertices = np.unique(vertices, axis=0) * scale
     if options.mesh_max_points is not None:
         vertices = farthest_point_subsample(vertices, options.mesh_max_points)

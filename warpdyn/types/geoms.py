@@ -10,10 +10,12 @@ consecutive, pair after pair.
 from __future__ import annotations
 
 import dataclasses
+import pathlib
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..description.collidable import CollidablePointsOptions, mesh_file_vertices
 from ..description.collision_pairs import COLLIDED_TYPES
 from ..description.model import GeomPair
 
@@ -142,14 +144,16 @@ def _build(tree, pairs, world_geoms) -> GeomPairs:
     )
 
 
-def self_collision(model, exclude=()) -> tuple:
+def self_collision(model, exclude=(), options=None) -> tuple:
     """(model, uncollided): a copy of a URDF or SDF model whose links' collision shapes collide with each other as
     MuJoCo collides those of the same URDF (every geom's contype and conaffinity 1, fixed joints fused): every pair of
     shapes on two links, but a link and its parent (MuJoCo's filterparent; not where the parent is a fixed base, which
     MuJoCo welds to the world) and the link pairs of `exclude` ((name, name), ...); MuJoCo's default friction, no
-    margin. Its shapes are numbered (`CollisionShape.geom`, link after link) and named "{link}/{k}" where unnamed.
-    uncollided: {"type1-type2": count} of the pairs whose types the narrow phase does not collide (a mesh whose
-    vertices the loader did not read: a URDF's or an SDF's)."""
+    margin. Its shapes are numbered (`CollisionShape.geom`, link after link) and named "{link}/{k}" where unnamed; its
+    meshes carry their files' vertices (convex meshes to the narrow phase, as MuJoCo takes a URDF's meshes), found as
+    collidable points find them (`options`: a CollidablePointsOptions' package_dirs and mesh_dirs; the description's
+    directory). uncollided: {"type1-type2": count} of the pairs whose types the narrow phase does not collide (a mesh
+    whose file was not found or read)."""
     if model.description.source == "mjcf":
         raise ValueError(f"model '{model.name()}' is MJCF: its geom pairs are MuJoCo's (edit contype, conaffinity, <exclude> and <pair> in the file)")
     tree, names = model.tree, model.link_names()
@@ -161,11 +165,17 @@ def self_collision(model, exclude=()) -> tuple:
         if a is None or b is None:
             raise ValueError(f"exclude names links {list(pair)}; the model's links: {names}")
         excluded.add(frozenset((a, b)))
+    options = CollidablePointsOptions() if options is None else options
+    path = getattr(model.description, "path", None)
+    base_dir = pathlib.Path(path).parent if path else None
     numbered, shapes = [], []
     for link, links_shapes in enumerate(tree.collisions):
         row = []
         for k, shape in enumerate(links_shapes):
             shape = dataclasses.replace(shape, geom=len(shapes), name=shape.name or f"{names[link]}/{k}")
+            if shape.kind == "mesh" and shape.vertices is None:
+                vertices = mesh_file_vertices(shape, options, base_dir)[0]
+                shape = shape if vertices is None else dataclasses.replace(shape, vertices=np.unique(vertices, axis=0))
             row.append(shape)
             shapes.append((link, shape))
         numbered.append(row)
@@ -177,7 +187,7 @@ def self_collision(model, exclude=()) -> tuple:
             parent = tree.parent[b] == a or tree.parent[a] == b
             if a == b or frozenset((a, b)) in excluded or (parent and not (fixed_base and 0 in (a, b))):
                 continue
-            t1, t2 = (99 if s.kind == "mesh" and s.vertices is None else MUJOCO_TYPES.get(s.kind, 99) for s in (s1, s2))  # a URDF's meshes: no vertices read
+            t1, t2 = (99 if s.kind == "mesh" and s.vertices is None else MUJOCO_TYPES.get(s.kind, 99) for s in (s1, s2))  # a mesh not read: none
             g1, g2 = (s2, s1) if t1 > t2 else (s1, s2)
             if (min(t1, t2), max(t1, t2)) in COLLIDED_TYPES:
                 pairs.append(GeomPair(g1.geom, g2.geom, 0.0, 0.0, default, 3))
