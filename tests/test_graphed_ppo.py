@@ -7,12 +7,11 @@ import types
 
 import pytest
 import torch
+import warp as wp
+from rsl_rl.algorithms import PPO
+from tensordict import TensorDict
 
-pytest.importorskip("rsl_rl")
-from rsl_rl.algorithms import PPO  # noqa: E402
-from tensordict import TensorDict  # noqa: E402
-
-from warpdyn.envs.rsl_rl import GraphedPPO  # noqa: E402
+from warpdyn.envs.rsl_rl import GraphedPPO
 
 N, OBS, ACTIONS, STEPS = 16, 5, 3, 4
 DISTRIBUTIONS = {
@@ -154,7 +153,7 @@ def test_graphed_ppo_refuses_what_it_does_not_run():
     alg.compile(None)  # (rsl-rl's construct_algorithm calls it so)
 
 
-@pytest.mark.skipif(not torch.cuda.is_available(), reason="CUDA graphs need a GPU")
+@pytest.mark.skipif(not wp.get_device().is_cuda, reason="CUDA graphs: the tests' device is not a GPU")
 @pytest.mark.parametrize("distribution", sorted(DISTRIBUTIONS))
 def test_graphs_replay_the_eager_update(distribution):
     """Its graphs (the second iteration captures, the third replays) against its eager code on the same GPU, the
