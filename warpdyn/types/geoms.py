@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..description.collidable import CollidablePointsOptions, mesh_file_vertices
-from ..description.collision_pairs import COLLIDED_TYPES
+from ..description.collision_pairs import COLLIDED_TYPES, CONVEX_TYPES
 from ..description.model import GeomPair
 
 __all__ = ["GeomPairs", "geom_pairs", "self_collision", "MUJOCO_TYPES", "SLOTS"]
@@ -24,8 +24,8 @@ __all__ = ["GeomPairs", "geom_pairs", "self_collision", "MUJOCO_TYPES", "SLOTS"]
 MUJOCO_TYPES = {"sphere": 2, "capsule": 3, "ellipsoid": 4, "cylinder": 5, "box": 6, "mesh": 7}
 """A collision shape's kind -> MuJoCo's mjtGeom value (the narrow phase's type)."""
 
-SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8, (3, 5): 1, (5, 5): 1, (5, 6): 1} | {(t, 7): 1 for t in (2, 3, 4, 5, 6, 7)} | {(2, 4): 1, (3, 4): 1, (4, 4): 1, (4, 5): 1, (4, 6): 1}
-"""(type1, type2) -> the most contacts of such a pair."""
+SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8} | dict.fromkeys(CONVEX_TYPES, 1)
+"""(type1, type2) -> the most contacts of such a pair (GJK and EPA's pairs: one)."""
 
 
 @dataclass(frozen=True)
