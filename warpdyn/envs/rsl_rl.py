@@ -139,6 +139,7 @@ class GraphedPPO(PPO):
         return t.actions
 
     def _returns(self) -> None:
+        # rsl-rl's compute_returns, writing the advantages in place (it rebinds storage.advantages, which a graph cannot follow)
         st = self.storage
         last_values = self.critic(self._obs_in).detach()
         advantage = torch.zeros_like(last_values)
