@@ -1,6 +1,7 @@
 """Train a legged robot to stand under pushes or walk on command with rsl-rl's PPO on warpdyn.envs: the seed's
 ergoCub legs (shipped) or the Unitree Go1 quadruped (from the pip package example-robot-data). In one process the
-PPO is warpdyn.envs.rsl_rl.GraphedPPO (rsl-rl's, replayed as CUDA graphs on a GPU; `--ppo rsl-rl`: rsl-rl's own).
+PPO is warpdyn.envs.rsl_rl.GraphedPPO (rsl-rl's, replayed as CUDA graphs on a GPU; `--ppo rsl-rl`: rsl-rl's own),
+in one process or several.
 
     pip install -e ".[rl,viz,examples]"
     python examples/rl_locomotion.py --robot ergocub --task stand --iterations 300 --out runs/stand   # a GPU: N = 4096
@@ -16,8 +17,8 @@ On K GPUs of one host (data parallel, torch.distributed with NCCL):
 Rank r simulates its own `--num-envs` environments (the number is PER RANK: K x N in all; pass N / K to keep
 the total batch) on Warp device and torch device `cuda:<LOCAL_RANK>`, seeded with `--seed + r` (the
 environments' resets and the torch generator, hence the actions' noise); rank 0's initial parameters are
-broadcast, rsl-rl's own PPO (not GraphedPPO) averages the gradients, the KL divergence (adaptive learning rate) and the
-observation normaliser's statistics over the ranks, so every rank holds the same policy (checked at the end:
+broadcast, the PPO (GraphedPPO inside its graphs, or rsl-rl's with `--ppo rsl-rl`) averages the gradients, the KL
+divergence (adaptive learning rate) and the observation normaliser's statistics over the ranks, so every rank holds the same policy (checked at the end:
 the run fails if the ranks' parameters differ by more than 1e-5). Only rank 0 prints, saves and plots. On
 the CPU (`--device cpu`) the same runs with the gloo backend, e.g. `torchrun --standalone --nproc_per_node 2
 examples/rl_locomotion.py --device cpu --num-envs 8 --iterations 2` (tests/test_rl_distributed.py). The process
@@ -219,17 +220,17 @@ def train(
     """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass; `ppo`: PPO_DEFAULTS'
     settings to change; `log_names`: entries of the environment's info["log"] whose mean over the iteration's steps
     each iteration's line prints, rank 0's; `distribution`: the actions', ACTION_DISTRIBUTIONS, kept in the
-    checkpoint's infos for `load_policy`; `graphed`: GraphedPPO in one process, rsl-rl's own PPO else and under a
-    process group, which GraphedPPO does not run); returns
+    checkpoint's infos for `load_policy`; `graphed`: GraphedPPO, else rsl-rl's own PPO; either
+    averages over the ranks of a process group); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
 
     world, rank = _group()
     vec = RslRlVecEnv(env)
-    cfg = train_config(iterations, distribution, graphed and world == 1, **(ppo or {}))
+    cfg = train_config(iterations, distribution, graphed, **(ppo or {}))
     cfg["obs_groups"] = vec.obs_groups
-    if world > 1:  # rsl-rl's PPO then averages gradients, KL and normaliser statistics over the ranks
+    if world > 1:  # the PPO then averages gradients, KL and normaliser statistics over the ranks
         cfg["multi_gpu"] = {"global_rank": rank, "local_rank": torchrun_ranks()[2], "world_size": world}
     quiet = contextlib.redirect_stdout(io.StringIO()) if rank else contextlib.nullcontext()
     with quiet:  # construct_algorithm prints the models
@@ -344,7 +345,7 @@ def plot(history: list, path: pathlib.Path, title: str) -> None:
 def add_ppo_argument(parser: argparse.ArgumentParser) -> None:
     """--ppo: which PPO `train` runs (its `graphed`)."""
     parser.add_argument("--ppo", choices=("graphed", "rsl-rl"), default="graphed",
-                        help="graphed (default): rsl-rl's PPO replayed as CUDA graphs on a GPU (warpdyn.envs.rsl_rl.GraphedPPO; one process); rsl-rl: its own")  # fmt: skip
+                        help="graphed (default): rsl-rl's PPO replayed as CUDA graphs on a GPU (warpdyn.envs.rsl_rl.GraphedPPO); rsl-rl: its own")  # fmt: skip
 
 
 def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int) -> argparse.ArgumentParser:

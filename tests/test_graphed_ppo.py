@@ -20,8 +20,9 @@ DISTRIBUTIONS = {
 }
 
 
-def _algorithm(cls, device: str, distribution: str, epochs: int, mini_batches: int, critic_group: bool = False, **settings):
-    """An rsl-rl algorithm of class cls on small MLPs, its initial parameters from seed 0; `settings`: PPO's others."""
+def _algorithm(cls, device: str, distribution: str, epochs: int, mini_batches: int, critic_group: bool = False, multi_gpu: dict | None = None, **settings):
+    """An rsl-rl algorithm of class cls on small MLPs, its initial parameters from seed 0; `settings`: PPO's others;
+    `multi_gpu`: rsl-rl's multi_gpu configuration (a process group initialised)."""
     torch.manual_seed(0)
     groups = {"policy": torch.zeros(N, OBS, device=device)}
     if critic_group:
@@ -36,7 +37,7 @@ def _algorithm(cls, device: str, distribution: str, epochs: int, mini_batches: i
                      | settings,  # fmt: skip
         "actor": dict(class_name="MLPModel", distribution_cfg=dict(DISTRIBUTIONS[distribution]), **mlp),
         "critic": dict(class_name="MLPModel", **mlp),
-        "multi_gpu": None,
+        "multi_gpu": multi_gpu,
     }
     env = types.SimpleNamespace(num_envs=N, num_actions=ACTIONS)
     alg = PPO.construct_algorithm(obs, env, cfg, device)
@@ -138,13 +139,54 @@ def test_a_checkpoint_resumes_the_same_training_and_loads_into_rsl_rl():
     assert type(ref.learning_rate) is float and ref.learning_rate == pytest.approx(float(saved["optimizer_state_dict"]["param_groups"][0]["lr"]))
 
 
+def _two_ranks(rank: int, rendezvous: str, out: str) -> None:
+    """One of two gloo ranks: GraphedPPO and rsl-rl's PPO, each from its own random initial parameters made rank 0's
+    (broadcast), through three iterations of this rank's own observations, rewards and draws; saves both's
+    parameters after each iteration."""
+    torch.distributed.init_process_group("gloo", init_method=rendezvous, rank=rank, world_size=2)
+    torch.randperm = lambda n, requires_grad=False, device=None: torch.argsort(torch.rand(n, device=device))  # GraphedPPO's shuffle
+    multi_gpu = {"global_rank": rank, "local_rank": rank, "world_size": 2}
+    algs = {}
+    for name, cls in (("ppo", PPO), ("graphed", GraphedPPO)):
+        torch.manual_seed(rank)
+        alg = _algorithm(cls, "cpu", "gaussian", epochs=2, mini_batches=2, multi_gpu=multi_gpu)
+        torch.nn.init.normal_(alg.actor.mlp[0].weight)  # rank-dependent until the broadcast
+        alg.broadcast_parameters()
+        algs[name] = alg
+    saved = {name: [_parameters(alg)] for name, alg in algs.items()}
+    for it in range(3):
+        for name, alg in algs.items():
+            _iteration(alg, 10 * rank + it, "cpu", False)
+            saved[name].append(_parameters(alg))
+    saved["learning_rate"] = [algs["ppo"].learning_rate, algs["graphed"].learning_rate]
+    torch.save(saved, f"{out}/rank{rank}.pt")
+    torch.distributed.destroy_process_group()
+
+
+def test_two_ranks_average_as_rsl_rl_ppo(tmp_path):
+    """Under a process group (two gloo ranks on the CPU, each its own data): GraphedPPO's parameters equal rsl-rl's
+    PPO's on each rank after each iteration (the gradients, KL and learning rate averaged alike), and the two ranks
+    hold the same parameters (without the averaging they part after the first update)."""
+    torch.multiprocessing.spawn(_two_ranks, args=(f"file://{tmp_path}/rendezvous", str(tmp_path)), nprocs=2, join=True)
+    ranks = [torch.load(tmp_path / f"rank{r}.pt") for r in range(2)]
+    for saved in ranks:
+        for graphed, ppo in zip(saved["graphed"], saved["ppo"]):
+            torch.testing.assert_close(graphed, ppo, rtol=1e-4, atol=1e-5)
+        assert saved["learning_rate"][1] == pytest.approx(saved["learning_rate"][0], rel=1e-6)
+    for name in ("graphed", "ppo"):
+        for first, second in zip(ranks[0][name], ranks[1][name]):
+            torch.testing.assert_close(second, first, rtol=0, atol=0)
+        assert (ranks[0][name][-1] - ranks[0][name][0]).abs().max() > 1e-3  # the updates moved the models
+    assert ranks[0]["learning_rate"][0] == ranks[1]["learning_rate"][0] != 1e-3  # rank 0's adaptive rate on both
+
+
 def test_graphed_ppo_refuses_what_it_does_not_run():
     actor = types.SimpleNamespace(is_recurrent=True)
     with pytest.raises(ValueError, match="feed-forward"):
         GraphedPPO(actor, actor, None)
     critic = types.SimpleNamespace(is_recurrent=False)
-    with pytest.raises(ValueError, match="multi_gpu_cfg"):
-        GraphedPPO(critic, critic, None, multi_gpu_cfg={"world_size": 2})
+    with pytest.raises(ValueError, match="rnd_cfg"):
+        GraphedPPO(critic, critic, None, rnd_cfg={"weight": 1.0})
     with pytest.raises(ValueError, match="optimises with Adam.*'sgd'"):
         GraphedPPO(critic, critic, None, optimizer="sgd")
     alg = _algorithm(GraphedPPO, "cpu", "gaussian", epochs=1, mini_batches=1)

@@ -67,15 +67,18 @@ class GraphedPPO(PPO):
     `compute_returns` and `update` are each captured as a CUDA graph at their second call (the first runs eagerly,
     on a side stream, as capture needs) and replayed after: the trainer's part of a rollout step is one graph launch
     and a few copies, an update one launch (rsl-rl's update launches each mini-batch's kernels from Python and
-    synchronises with the host 4 times per mini-batch). Elsewhere the same code runs eagerly. What differs from rsl-rl's PPO: the mini-batches' shuffle draws
+    synchronises with the host 4 times per mini-batch). Elsewhere the same code runs eagerly. Under a process group
+    (rsl-rl's multi_gpu_cfg: one rank per GPU, NCCL; gloo on the CPU) it averages as rsl-rl's PPO does, inside the
+    graphs: each mini-batch's gradients (summed over the ranks in one all-reduce, divided by their number) and its KL
+    divergence, the learning rate rank 0's (broadcast). What differs from rsl-rl's PPO: the mini-batches' shuffle draws
     its permutation as the order of uniform draws on the device (rsl-rl: torch.randperm). Refused (rsl-rl's PPO does
-    them): recurrent models, RND, symmetry, mixed precision, several GPUs, optimizers other than Adam, torch.compile.
+    them): recurrent models, RND, symmetry, mixed precision, optimizers other than Adam, torch.compile.
     Use it as rsl-rl's algorithm: `cfg["algorithm"]["class_name"] = GraphedPPO`."""
 
     def __init__(self, actor, critic, storage, **kwargs):
-        unsupported = [k for k in ("rnd_cfg", "symmetry_cfg", "multi_gpu_cfg") if kwargs.get(k)]
+        unsupported = [k for k in ("rnd_cfg", "symmetry_cfg") if kwargs.get(k)]
         if unsupported or actor.is_recurrent or critic.is_recurrent or kwargs.get("use_mixed_precision"):
-            raise ValueError(f"GraphedPPO runs feed-forward models in one process without mixed precision; got {unsupported or 'a recurrent model or mixed precision'} (use rsl-rl's PPO)")
+            raise ValueError(f"GraphedPPO runs feed-forward models without mixed precision; got {unsupported or 'a recurrent model or mixed precision'} (use rsl-rl's PPO)")
         if str(kwargs.get("optimizer", "adam")).lower() != "adam":
             raise ValueError(f"GraphedPPO optimises with Adam (its capturable form), got optimizer={kwargs['optimizer']!r} (use rsl-rl's PPO)")
         super().__init__(actor, critic, storage, **kwargs)
@@ -181,9 +184,14 @@ class GraphedPPO(PPO):
                 if self.desired_kl is not None and self.schedule == "adaptive":
                     with torch.no_grad():
                         kl = self.actor.get_kl_divergence(tuple(p[idx] for p in old_params), params).mean()
+                        if self.is_multi_gpu:
+                            torch.distributed.all_reduce(kl, op=torch.distributed.ReduceOp.SUM)
+                            kl /= self.gpu_world_size
                         lr = self._lr
                         lower, higher = torch.clamp(lr / 1.5, min=1e-5), torch.clamp(lr * 1.5, max=1e-2)
                         lr.copy_(torch.where(kl > 2.0 * self.desired_kl, lower, torch.where((kl < 0.5 * self.desired_kl) & (kl > 0.0), higher, lr)))
+                        if self.is_multi_gpu:
+                            torch.distributed.broadcast(lr, src=0)
                 ratio = torch.exp(log_prob - torch.squeeze(old_log_prob[idx]))
                 adv = torch.squeeze(adv)
                 surrogate = torch.max(-adv * ratio, -adv * torch.clamp(ratio, 1.0 - self.clip_param, 1.0 + self.clip_param)).mean()
@@ -195,11 +203,25 @@ class GraphedPPO(PPO):
                 loss = surrogate + self.value_loss_coef * value_loss - self.entropy_coef * entropy.mean()
                 self.optimizer.zero_grad()
                 loss.backward()
+                if self.is_multi_gpu:
+                    self._average_gradients()
                 torch.nn.utils.clip_grad_norm_(self.actor.parameters(), self.max_grad_norm)
                 torch.nn.utils.clip_grad_norm_(self.critic.parameters(), self.max_grad_norm)
                 self.optimizer.step()
                 self._sums[:3] += torch.stack([value_loss, surrogate, entropy.mean()]).detach()
         self._sums[3] = self._lr
+
+    def _average_gradients(self) -> None:
+        """The actor's and critic's gradients averaged over the ranks: summed in one all-reduce of their concatenation
+        (rsl-rl: buckets of grad_reduce_bucket_mb; the same sums), divided by the number of ranks."""
+        grads = [p.grad for p in chain(self.actor.parameters(), self.critic.parameters()) if p.grad is not None]
+        flat = torch.cat([g.reshape(-1) for g in grads])
+        torch.distributed.all_reduce(flat, op=torch.distributed.ReduceOp.SUM)
+        flat /= self.gpu_world_size
+        offset = 0
+        for g in grads:
+            g.copy_(flat[offset : offset + g.numel()].view_as(g))
+            offset += g.numel()
 
     def update(self) -> dict[str, float]:
         """rsl-rl's PPO update over the stored rollout; returns the mean losses (read once; the normalisers' update,
