@@ -348,11 +348,11 @@ def add_ppo_argument(parser: argparse.ArgumentParser) -> None:
                         help="graphed (default): rsl-rl's PPO replayed as CUDA graphs on a GPU (warpdyn.envs.rsl_rl.GraphedPPO); rsl-rl: its own")  # fmt: skip
 
 
-def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int) -> argparse.ArgumentParser:
+def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int, distribution: str = "gaussian") -> argparse.ArgumentParser:
     """The command line the manipulation examples share (rl_manipulation.py, rl_reorient.py): --device, --num-envs
     (`default_envs` says the default), --iterations, --seed, --max-minutes, `ppo`'s settings as flags with its values
-    as defaults, --action-distribution (ACTION_DISTRIBUTIONS), --ppo, --evaluate, --evaluate-envs and --out; `task_setup`
-    parses it."""
+    as defaults, --action-distribution (ACTION_DISTRIBUTIONS, default `distribution`), --ppo, --evaluate,
+    --evaluate-envs and --out; `task_setup` parses it."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
     parser.add_argument("--num-envs", type=int, default=None, help=f"environments; default: {default_envs}")
@@ -361,7 +361,7 @@ def task_arguments(description: str, ppo: dict, default_envs: str, out: str, ite
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
     for name, value in ppo.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
-    parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default="gaussian", help="the policy's (default gaussian)")
+    parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default=distribution, help=f"the policy's (default {distribution})")
     add_ppo_argument(parser)
     parser.add_argument("--evaluate", action="store_true", help="after training, evaluate the policy in --evaluate-envs fresh environments")
     parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")

@@ -178,15 +178,15 @@ def test_the_example_trains_and_evaluates(tmp_path, capsys):
 
 
 def test_a_beta_policy_acts_within_the_range_and_reloads(tmp_path):
-    """--action-distribution beta (rsl-rl's Beta rescaled to [-1, 1]: a Gaussian's mean drifted to +13 to +18 on the
-    gripper in the 3-minute H200 run, past the environment's clip, and never closed it): one PPO iteration; the
+    """The example's default policy, a Beta (rsl-rl's, rescaled to [-1, 1]: a Gaussian's mean drifted to +13 to +18 on
+    the gripper in a 3-minute H200 run, past the environment's clip, and never closed it): one PPO iteration; the
     checkpoint names its distribution, which `load_policy` reads back, and the deterministic policy's actions lie
     within [-1, 1] (a Beta's samples do by construction); an unknown distribution is refused."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
     import rl_locomotion
     import rl_manipulation
 
-    rl_manipulation.main(["--device", str(wp.get_device()), "--num-envs", "4", "--iterations", "1", "--action-distribution", "beta", "--out", str(tmp_path)])
+    rl_manipulation.main(["--device", str(wp.get_device()), "--num-envs", "4", "--iterations", "1", "--out", str(tmp_path)])
     assert torch.load(tmp_path / "policy.pt", weights_only=False)["infos"] == {"action_distribution": "beta"}
     vec, policy = rl_locomotion.load_policy(envs.PickCubeEnv(4, seed=2), tmp_path / "policy.pt")
     obs = vec.get_observations()
