@@ -328,6 +328,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
         starts: wp.array(dtype=wp.int32),
         dt: scalar,
         quaternion_tolerance: scalar,
+        divergence_speed: scalar,
         implicit_dt: scalar,
         # outputs: the state at t + dt; the link poses and the points' contact wrenches at x (or empty: none)
         y: B.State,
@@ -630,13 +631,15 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
                 if model.joint_type[i] == FREE:  # its accelerations from pass 2: qdd in U_i / d_i, a_i in c_i
                     one_dof = False
                     a_i = c_i
-                    nonfinite = nonfinite + I.rotating_joint_step(FREE, jm.position_address(model, i), jm.dof_address(model, i), env, dt, x, Ud_i, True, y)
+                    nonfinite = nonfinite + I.rotating_joint_step(
+                        FREE, jm.position_address(model, i), jm.dof_address(model, i), env, dt, x, Ud_i, True, y, divergence_speed
+                    )
             if own >= 0:
                 slot_v[own] = a_i
             a_prev = a_i
             if one_dof:
                 s_next, sd_next = I.euler_coordinate(s_i, sd_i, qdd, dt)
-                nonfinite = I.poison(I.poison(nonfinite, sd_next), s_next)
+                nonfinite = I.poison(I.poison(I.poison_speed(nonfinite, sd_i, divergence_speed), sd_next), s_next)
                 y.joint_velocities[env, jm.dof_address(model, i)] = sd_next
                 y.joint_positions[env, jm.position_address(model, i)] = s_next
         if lane == 0:
@@ -651,7 +654,7 @@ def kernel(scalar, links: int, slots: int, so3: bool, actuation: tuple | None, p
         # 4. the base integrated, in lane 0
         if lane == 0:
             p_next, pdot_next, omega_next, Q_next, ok = I.euler_base_from(
-                SO3, dt, quaternion_tolerance, p_B, Q_B, pdot_B, omega_B, healthy, sp.lin(base), sp.ang(base)
+                SO3, dt, quaternion_tolerance, divergence_speed, p_B, Q_B, pdot_B, omega_B, healthy, sp.lin(base), sp.ang(base)
             )
             ok = ok and wp.isfinite(nonfinite)
             if ok:

@@ -15,9 +15,12 @@ RK4: the classic four stages, contacts evaluated at each, the quaternions normal
 Semi-implicit Euler on SO(3) (MuJoCo's Euler): the base's Mixed velocity integrated and its orientation
 advanced by the exact rotation dt omega+ (see `so3_base_step`); the joints as above.
 
-Health: an environment whose new state is not finite, or whose quaternion needed a normalisation by more
-than `quaternion_tolerance` (|Q+| - 1 before normalising), is flagged (valid = 0) and keeps its state;
-an environment already flagged does not change.
+Health: an environment whose new state is not finite, or whose quaternion needed a normalisation by more than
+`quaternion_tolerance` (|Q+| - 1 before normalising), is flagged (valid = 0) and keeps its state; so is one whose
+state read has a velocity component (the base's Mixed velocity, the joints') beyond `divergence_speed` in
+magnitude [m/s or rad/s]: a finite divergence, which the step before produced, flagged at the next step (the check
+reads the state, not the new velocities: a tape's replay of the step recomputes those from buffers that later
+launches overwrote, and its branch must be the forward's). An environment already flagged does not change.
 """
 
 import types
@@ -91,24 +94,25 @@ def kernels(scalar, multi_dof: bool):
         return value + dt * rate
 
     @wp.func
-    def rotating_joint_step(kind: int, a: int, d: int, env: int, dt: scalar, x: B.State, acc: sp.vec6, write: bool, y: B.State):
+    def rotating_joint_step(kind: int, a: int, d: int, env: int, dt: scalar, x: B.State, acc: sp.vec6, write: bool, y: B.State, divergence_speed: scalar):
         """A ball or free joint (its positions from a, its DoFs from d) stepped by semi-implicit Euler (the module
         docstring) from x with its DoFs' accelerations acc (a ball joint's 3 first, a free joint's 6): written to
-        y when `write`; returns 0, or NaN when a new value is not finite (the health check's)."""
+        y when `write`; returns 0, or NaN when a new value is not finite or a velocity read is beyond
+        `divergence_speed` (the health check's)."""
         nonfinite = scalar(0.0)
         r = 0  # the quaternion's first position, its rotation's first DoF
         if kind == FREE:
             r = 3
             for k in range(3):
                 p_next, v_next = euler_coordinate(x.joint_positions[env, a + k], x.joint_velocities[env, d + k], acc[k], dt)
-                nonfinite = poison(poison(nonfinite, v_next), p_next)
+                nonfinite = poison(poison(poison_speed(nonfinite, x.joint_velocities[env, d + k], divergence_speed), v_next), p_next)
                 if write:
                     y.joint_velocities[env, d + k] = v_next
                     y.joint_positions[env, a + k] = p_next
         b = d + r  # the rotation's first DoF
         omega = read3(x.joint_velocities, env, b) + dt * sp.vec3(acc[r], acc[r + 1], acc[r + 2])
         for k in range(3):
-            nonfinite = poison(nonfinite, omega[k])
+            nonfinite = poison(poison_speed(nonfinite, x.joint_velocities[env, b + k], divergence_speed), omega[k])
             if write:
                 y.joint_velocities[env, b + k] = omega[k]
         Q_next = body_rotated(read4(x.joint_positions, env, a + r), omega, dt)
@@ -120,11 +124,11 @@ def kernels(scalar, multi_dof: bool):
 
     @wp.func
     def joint_euler_step(
-        model: B.Model, i: int, env: int, dt: scalar, x: B.State, nu_dot: wp.array2d(dtype=scalar), write: bool, y: B.State
+        model: B.Model, i: int, env: int, dt: scalar, x: B.State, nu_dot: wp.array2d(dtype=scalar), write: bool, y: B.State, divergence_speed: scalar
     ):
         """Link i's joint stepped by semi-implicit Euler (the module docstring), from x with the accelerations
-        nu_dot[env, 6 + d]: written to y when `write`; returns 0, or NaN when a new value is not finite (the
-        health check's). Per joint kind, its loops of fixed length."""
+        nu_dot[env, 6 + d]: written to y when `write`; returns 0, or NaN when a new value is not finite or a
+        velocity read is beyond `divergence_speed` (the health check's). Per joint kind, its loops of fixed length."""
         kind = model.joint_type[i]
         a = jm.position_address(model, i)
         d = jm.dof_address(model, i)
@@ -134,10 +138,11 @@ def kernels(scalar, multi_dof: bool):
             acc = sp.vec6(nu_dot[env, 6 + d], nu_dot[env, 7 + d], nu_dot[env, 8 + d], zero, zero, zero)
             if kind == FREE:
                 acc = sp.vec6(nu_dot[env, 6 + d], nu_dot[env, 7 + d], nu_dot[env, 8 + d], nu_dot[env, 9 + d], nu_dot[env, 10 + d], nu_dot[env, 11 + d])
-            nonfinite = rotating_joint_step(kind, a, d, env, dt, x, acc, write, y)
+            nonfinite = rotating_joint_step(kind, a, d, env, dt, x, acc, write, y, divergence_speed)
         else:
-            s_next, sd_next = euler_coordinate(x.joint_positions[env, a], x.joint_velocities[env, d], nu_dot[env, 6 + d], dt)
-            nonfinite = poison(poison(nonfinite, sd_next), s_next)
+            sd = x.joint_velocities[env, d]
+            s_next, sd_next = euler_coordinate(x.joint_positions[env, a], sd, nu_dot[env, 6 + d], dt)
+            nonfinite = poison(poison(poison_speed(nonfinite, sd, divergence_speed), sd_next), s_next)
             if write:
                 y.joint_velocities[env, d] = sd_next
                 y.joint_positions[env, a] = s_next
@@ -218,6 +223,17 @@ def kernels(scalar, multi_dof: bool):
         return acc + scalar(0.0) * value
 
     @wp.func
+    def poison_speed(acc: scalar, value: scalar, bound: scalar):
+        """`poison` of a velocity read, also NaN where |value| > bound (a finite divergence; bound = inf: never): a
+        select, not a branch, and no adjoint through it (a flagged environment's gradients stay finite)."""
+        return poison(acc, value) + wp.where(wp.abs(value) <= bound, scalar(0.0), scalar(wp.nan))
+
+    @wp.func
+    def within3(v: sp.vec3, bound: scalar):
+        """|v| <= bound componentwise (False for a NaN)."""
+        return wp.abs(v[0]) <= bound and wp.abs(v[1]) <= bound and wp.abs(v[2]) <= bound
+
+    @wp.func
     def keep_state(env: int, x: B.State, y: B.State):
         """A flagged environment: its next state y is its state x, and y.valid = 0."""
         for a in range(3):
@@ -273,16 +289,27 @@ def kernels(scalar, multi_dof: bool):
         return read3(x.base_position, env, 0), quaternion_of(x, env), read3(x.base_velocity, env, 0), read3(x.base_velocity, env, 3), x.valid[env] != 0
 
     @wp.func
-    def euler_base(so3: int, dt: scalar, quaternion_tolerance: scalar, x: B.State, env: int, vdot: sp.vec3, omega_dot: sp.vec3):
+    def euler_base(so3: int, dt: scalar, quaternion_tolerance: scalar, divergence_speed: scalar, x: B.State, env: int, vdot: sp.vec3, omega_dot: sp.vec3):
         """The semi-implicit Euler step of environment env's base with MuJoCo's base step (so3 != 0) or JaxSim's,
         from the Inertial base acceleration (vdot, omega_dot): (p+, pdot+, omega+, Q+, ok), ok when the
-        environment is healthy, the quaternion within `quaternion_tolerance` (see the kernel) and all finite."""
+        environment is healthy, its velocity read within `divergence_speed`, the quaternion within
+        `quaternion_tolerance` (see the kernel) and all finite."""
         p, Q, pdot, omega, healthy = base_state(x, env)
-        return euler_base_from(so3, dt, quaternion_tolerance, p, Q, pdot, omega, healthy, vdot, omega_dot)
+        return euler_base_from(so3, dt, quaternion_tolerance, divergence_speed, p, Q, pdot, omega, healthy, vdot, omega_dot)
 
     @wp.func
     def euler_base_from(
-        so3: int, dt: scalar, quaternion_tolerance: scalar, p: sp.vec3, Q: quat4, pdot: sp.vec3, omega: sp.vec3, healthy: bool, vdot: sp.vec3, omega_dot: sp.vec3
+        so3: int,
+        dt: scalar,
+        quaternion_tolerance: scalar,
+        divergence_speed: scalar,
+        p: sp.vec3,
+        Q: quat4,
+        pdot: sp.vec3,
+        omega: sp.vec3,
+        healthy: bool,
+        vdot: sp.vec3,
+        omega_dot: sp.vec3,
     ):
         """`euler_base` from the base's `base_state`."""
         Q_read = wp.length(Q)
@@ -294,6 +321,7 @@ def kernels(scalar, multi_dof: bool):
             p_next, pdot_next, omega_next, Q_next, Q_norm = jaxsim_base_step(dt, p, Q, pdot, omega, vdot, omega_dot)
         ok = healthy and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
         ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm) and wp.isfinite(Q_next[0])
+        ok = ok and within3(pdot, divergence_speed) and within3(omega, divergence_speed)
         return p_next, pdot_next, omega_next, Q_next, ok
 
     @wp.func
@@ -315,6 +343,7 @@ def kernels(scalar, multi_dof: bool):
             model: B.Model,
             dt: scalar,
             quaternion_tolerance: scalar,
+            divergence_speed: scalar,
             x: B.State,
             # derivatives at t
             nu_dot: wp.array2d(dtype=scalar),
@@ -326,20 +355,20 @@ def kernels(scalar, multi_dof: bool):
             """One semi-implicit Euler step from x to y but the contact state, which `contact_state_euler` stepped
             before (launched over N rows, a thread per row: one thread per environment walked thousands of slots
             in series); nu_dot (N, 6 + nv) is [W_vdot_WB (Inertial); sddot]. The quaternion tolerance bounds |Q+| -
-            1 before normalising (JaxSim's), |Q| - 1 of the state read (SO3). A flagged environment keeps all of x,
-            its contact state too."""
+            1 before normalising (JaxSim's), |Q| - 1 of the state read (SO3); a velocity read beyond
+            `divergence_speed` flags as a non-finite one. A flagged environment keeps all of x, its contact state too."""
             env = wp.tid()
-            p_next, pdot_next, omega_next, Q_next, ok = euler_base(SO3, dt, quaternion_tolerance, x, env, read3(nu_dot, env, 0), read3(nu_dot, env, 3))
+            p_next, pdot_next, omega_next, Q_next, ok = euler_base(SO3, dt, quaternion_tolerance, divergence_speed, x, env, read3(nu_dot, env, 0), read3(nu_dot, env, 3))
             nL = model.parent.shape[0]
             nonfinite = scalar(0.0)
             for i in range(1, nL):
-                nonfinite = nonfinite + joint_euler_step(model, i, env, dt, x, nu_dot, False, y)
+                nonfinite = nonfinite + joint_euler_step(model, i, env, dt, x, nu_dot, False, y, divergence_speed)
             ok = ok and wp.isfinite(nonfinite) and contact_flags[env] == 0
             contact_flags[env] = 0
             if ok:
                 write_base(env, y, p_next, pdot_next, omega_next, Q_next)
                 for i in range(1, nL):
-                    joint_euler_step(model, i, env, dt, x, nu_dot, True, y)
+                    joint_euler_step(model, i, env, dt, x, nu_dot, True, y, divergence_speed)
                 y.valid[env] = 1
             else:
                 keep_state(env, x, y)
@@ -440,6 +469,7 @@ def kernels(scalar, multi_dof: bool):
         model: B.Model,
         dt: scalar,
         quaternion_tolerance: scalar,
+        divergence_speed: scalar,
         x: B.State,
         # slopes of the four stages
         k1: wp.array2d(dtype=scalar),
@@ -476,11 +506,13 @@ def kernels(scalar, multi_dof: bool):
         pdot_next = v_next + wp.cross(omega_next, p_next)
         ok = x.valid[env] != 0 and wp.abs(Q_norm - scalar(1.0)) <= quaternion_tolerance
         ok = ok and finite3(p_next) and finite3(pdot_next) and finite3(omega_next) and wp.isfinite(Q_norm)
+        ok = ok and within3(read3(x.base_velocity, env, 0), divergence_speed) and within3(omega, divergence_speed)
         nonfinite = scalar(0.0)
         for q in range(nq):
             nonfinite = poison(nonfinite, k1[env, 7 + q] + k2[env, 7 + q] + k3[env, 7 + q] + k4[env, 7 + q])
         for j in range(nv):
             nonfinite = poison(nonfinite, k1[env, 13 + nq + j] + k2[env, 13 + nq + j] + k3[env, 13 + nq + j] + k4[env, 13 + nq + j])
+            nonfinite = poison_speed(nonfinite, x.joint_velocities[env, j], divergence_speed)
         for c in range(3 * m.shape[1]):
             i = 13 + nq + nv + c
             nonfinite = poison(nonfinite, k1[env, i] + k2[env, i] + k3[env, i] + k4[env, i])
@@ -514,6 +546,7 @@ def kernels(scalar, multi_dof: bool):
         quaternion_of=quaternion_of,
         read4=read4,
         poison=poison,
+        poison_speed=poison_speed,
         euler_coordinate=euler_coordinate,
         euler_rate=euler_rate,
         rotating_joint_step=rotating_joint_step,

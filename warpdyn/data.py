@@ -230,8 +230,8 @@ class Data(ModelDataWithVelocityRepresentation):
     @property
     def healthy(self) -> wp.array:
         """(N,) int32 ((1,) for single-environment data): 1 where the simulation is healthy, 0 where a step
-        found a non-finite state, a quaternion step too large or parameters out of range, and stopped changing
-        the environment (its state kept). The array is the state's `valid_state`."""
+        found a non-finite state, a state whose velocity is beyond model.divergence_speed, a quaternion step too
+        large or parameters out of range, and stopped changing the environment (its state kept). The array is the state's `valid_state`."""
         return self.valid_state
 
     def valid(self, model) -> bool:

@@ -101,7 +101,7 @@ def reduce(model: Model, considered_joints, locked_joint_positions: dict | None 
     positions of the joints this reduction locks are used, those of kept joints lock nothing (a whole
     posture may be passed); a name that is not a joint of `model` is a ValueError. Joints already locked in
     `model` keep their locked positions. The settings are carried over (time_step, gravity, terrain,
-    contact_model, contact_params, actuation_params, integrator, quaternion_tolerance, implicit_damping,
+    contact_model, contact_params, actuation_params, integrator, quaternion_tolerance, divergence_speed, implicit_damping,
     geom_contacts, implicit_contacts, equality_projection, built_from), as JaxSim's; the link and joint parameters are the description's (lumping changes the
     links): values set on `model` with the setters are not carried over, set them on the result.
     """

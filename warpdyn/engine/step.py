@@ -7,8 +7,8 @@ A step, as JaxSim's `js.model.step` with SoftContacts:
 2. the contact forces of the enabled collidable points (kernels/soft_contacts.py) added to the link forces,
    and the rate of the tangential deformation;
 3. forward dynamics by ABA in the Inertial representation;
-4. the integrator (kernels/integrators.py); environments whose new state is not finite are flagged
-   (`data.healthy`) and keep their state;
+4. the integrator (kernels/integrators.py); environments whose new state is not finite, or whose state read has a
+   velocity beyond model.divergence_speed, are flagged (`data.healthy`) and keep their state;
 5. the parameters' ranges (kernels/parameter_checks.py, `parameter_check`): environments whose parameters,
    as their arrays hold them now (edits in place included, which no host check sees), are out of range,
    or whose dt K / D is unstable where their points can reach the terrain, are flagged likewise.
@@ -158,6 +158,7 @@ class Plan:
         self.integrator = IntegratorType(model.integrator)
         self.dt = s(model.time_step)
         self.quaternion_tolerance = s(model.quaternion_tolerance)
+        self.divergence_speed = s(model.divergence_speed)
         self.model = model_bundle(model)
         # actuation: the terms whose parameters are nonzero or marked for gradients
         a = model.actuation_params
@@ -513,7 +514,7 @@ def step_launches(
     if fused:
         controls = controls_bundle(s, plan.device, tau if plan.n > 0 else None, f_ext)
         args = [plan.model, plan.contact_bundle, plan.terrain, X, controls, *plan.torque_curve, tau_ref, u, plan.walk, plan.walk_starts]
-        args += [plan.dt, plan.quaternion_tolerance, plan.implicit_dt]
+        args += [plan.dt, plan.quaternion_tolerance, plan.divergence_speed, plan.implicit_dt]
         outputs = [plan.no_poses, empty_like_input(s, plan.device, 3)]
         if evaluation and plan.contacts:
             outputs = [ws.evals[0].W_H_L, ws.evals[0].W_f_C]
@@ -529,7 +530,7 @@ def step_launches(
         if plan.state_rows:  # the contact state, a thread per row (its rows may be thousands: geom pairs' slots)
             args = [plan.dt, X, ev.m_dot, int(arrays.env_fastest(plan.device))]
             launches.append(Launch(K.contact_state_euler, N * plan.state_rows, args, [ws.contact_flags, Y]))
-        launches.append(Launch(euler, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, ws.nu_dot, ws.contact_flags], [Y]))
+        launches.append(Launch(euler, N, [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, ws.nu_dot, ws.contact_flags], [Y]))
         if plan.contacts:
             launches += plan.contact_stage.after_step(plan, ev, Y, N)
         if plan.equality is not None:
@@ -552,7 +553,7 @@ def step_launches(
         if c is not None:
             stage = state_bundle(s, [*ws.stages[i], x[6]])
             launches.append(Launch(K.rk4_stage, N, [plan.model, s(c * float(plan.dt)), X, ws.slopes[i]], [stage]))
-    launches.append(Launch(K.rk4_combine, N, [plan.model, plan.dt, plan.quaternion_tolerance, X, *ws.slopes], [Y]))
+    launches.append(Launch(K.rk4_combine, N, [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, *ws.slopes], [Y]))
     if plan.contacts:
         launches += plan.contact_stage.after_step(plan, first, Y, N)
     if plan.equality is not None:

@@ -85,7 +85,7 @@ class Model(ModelSettings, ModelQueries):
     the world's gravity `world_gravity` [m/s^2, world frame] (`set_gravity`), (1, 3) shared or (N, 1, 3).
     Settings (warpdyn.types.model_settings, each checked when assigned): `terrain`, `contact_model`,
     `contact_params`, `actuation_params`, `integrator`, `time_step` [s], `gravity` (JaxSim's: the z
-    component of `world_gravity` [m/s^2], -9.81 by default), `quaternion_tolerance`, `implicit_damping`, `geom_contacts`, `implicit_contacts`, `equality_projection`;
+    component of `world_gravity` [m/s^2], -9.81 by default), `quaternion_tolerance`, `divergence_speed`, `implicit_damping`, `geom_contacts`, `implicit_contacts`, `equality_projection`;
     JaxSim's `replace`, `editable`, `mutable_context`, `built_from` (what the model was built from), equality
     and hashing.
     """
@@ -152,7 +152,7 @@ class Model(ModelSettings, ModelQueries):
         self.contact_params = SoftContactsParams()
         self.integrator = IntegratorType.SemiImplicitEuler
         self.actuation_params = ActuationParams()
-        self.quaternion_tolerance, self.implicit_damping, self.geom_contacts, self.implicit_contacts, self.equality_projection = 0.1, False, False, False, 0
+        self.quaternion_tolerance, self.divergence_speed, self.implicit_damping, self.geom_contacts, self.implicit_contacts, self.equality_projection = 0.1, float("inf"), False, False, False, 0
         if description.integrator is not None:
             self._follow_mujoco(description.integrator, description.disabled)
 
@@ -689,7 +689,7 @@ class Model(ModelSettings, ModelQueries):
         W_g = self.world_gravity.numpy().reshape(-1, 3)
         gravity = W_g if "world_gravity" in self._per_env else W_g[0]
         reduced = Model(self.description, tree, model_name=self.model_name, gravity=gravity, time_step=self.time_step, dtype=self.dtype, device=self.device)
-        carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "implicit_damping", "geom_contacts", "implicit_contacts", "equality_projection", "constraints")
+        carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "divergence_speed", "implicit_damping", "geom_contacts", "implicit_contacts", "equality_projection", "constraints")
         kept = None if self.parametrized_links is None else tuple(n for n in self.parametrized_links if n in reduced.link_names())
         reduced.apply_settings(**{name: getattr(self, name) for name in carried}, parametrized_links=kept, built_from=self.built_from)
         return reduced

@@ -37,14 +37,19 @@ def _setting(name: str, check, doc: str) -> property:
     return property(get, put, doc=doc)
 
 
-def _number(name: str, value, positive: bool) -> float:
+def _number(name: str, value, positive: bool, inf: bool = False) -> float:
+    """value as a float: finite (or +inf where `inf`: no bound), positive where `positive`; else a TypeError or
+    ValueError naming `name`."""
     if isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be a number, got {value!r}")
     try:
         value = float(value)
     except (TypeError, ValueError):
         raise TypeError(f"{name} must be a number, got {value!r}") from None
-    if not np.isfinite(value) or (positive and value <= 0.0):
+    if inf:
+        if np.isnan(value) or value <= 0.0:
+            raise ValueError(f"{name} must be positive (inf for no bound), got {value}")
+    elif not np.isfinite(value) or (positive and value <= 0.0):
         raise ValueError(f"{name} must be {'positive and ' if positive else ''}finite, got {value}")
     return value
 
@@ -89,6 +94,7 @@ REPLACEABLE = (
     "actuation_params",
     "integrator",
     "quaternion_tolerance",
+    "divergence_speed",
     "implicit_damping",
     "geom_contacts",
     "implicit_contacts",
@@ -133,6 +139,14 @@ class ModelSettings:
         "quaternion_tolerance",
         lambda v: _number("quaternion_tolerance", v, positive=True),
         "A step whose base quaternion changes by more than this (a norm) flags the environment invalid.",
+    )
+    divergence_speed = _setting(
+        "divergence_speed",
+        lambda v: _number("divergence_speed", v, positive=True, inf=True),
+        "A step from a state whose generalized velocity has a component beyond this in magnitude [m/s or rad/s: the "
+        "base's Mixed velocity, the joints'] flags the environment as diverged (data.healthy 0, that state kept), as "
+        "a non-finite state does: a divergence can stay finite (65 km/s in the LEAP scene, once). inf by default "
+        "(off: how fast a scene may move is the scene's).",
     )
     integrator = _setting("integrator", _integrator, "The step's integrator (IntegratorType).")
     terrain = _setting("terrain", _instance("terrain", FlatTerrain, PlaneTerrain, HeightfieldTerrain), "The terrain (warpdyn.terrain).")
@@ -271,7 +285,7 @@ class ModelSettings:
         """A copy of the model with the given fields replaced (JaxSim's `model.replace`): time_step, terrain,
         gravity, contact_model, contact_params, actuation_params, integrator, model_name, kin_dyn_parameters
         (its link and joint parameters, collidable points and constraints), constraints, built_from, and warpdyn's
-        quaternion_tolerance and implicit_damping. Each value is checked (`validate` is JaxSim's switch of
+        quaternion_tolerance, divergence_speed and implicit_damping. Each value is checked (`validate` is JaxSim's switch of
         its pytree's shape checks; warpdyn checks values always, so it changes nothing). The copy shares the
         device constants and parameter arrays (`Model.copy`)."""
         new = self.copy()
