@@ -1,7 +1,7 @@
 """Train a legged robot to stand under pushes or walk on command with rsl-rl's PPO on warpdyn.envs: the seed's
-ergoCub legs (shipped) or the Unitree Go1 quadruped (from the pip package example-robot-data). In one process the
-PPO is warpdyn.envs.rsl_rl.GraphedPPO (rsl-rl's, replayed as CUDA graphs on a GPU; `--ppo rsl-rl`: rsl-rl's own),
-in one process or several.
+ergoCub legs (shipped) or the Unitree Go1 quadruped (from the pip package example-robot-data). The PPO is
+warpdyn.envs.rsl_rl.GraphedPPO (rsl-rl's, replayed as CUDA graphs on a GPU; `--ppo rsl-rl`: rsl-rl's own), in one
+process or several.
 
     pip install -e ".[rl,viz,examples]"
     python examples/rl_locomotion.py --robot ergocub --task stand --iterations 300 --out runs/stand   # a GPU: N = 4096

@@ -4,6 +4,7 @@ code."""
 
 import copy
 import types
+from itertools import chain
 
 import pytest
 import torch
@@ -140,20 +141,29 @@ def test_a_checkpoint_resumes_the_same_training_and_loads_into_rsl_rl():
 
 
 def _two_ranks(rank: int, rendezvous: str, out: str) -> None:
-    """One of two gloo ranks: GraphedPPO and rsl-rl's PPO, each from its own random initial parameters made rank 0's
-    (broadcast), through three iterations of this rank's own observations, rewards and draws; saves both's
-    parameters after each iteration."""
+    """One of two gloo ranks: GraphedPPO's gradient averaging alone (rank r's gradients all r + 1); then GraphedPPO
+    and rsl-rl's PPO, each from its own random initial parameters made rank 0's (broadcast), through three
+    iterations of this rank's own observations, rewards and draws; saves the averaged gradients, and both's
+    parameters before the broadcast and after each iteration."""
     torch.distributed.init_process_group("gloo", init_method=rendezvous, rank=rank, world_size=2)
     torch.randperm = lambda n, requires_grad=False, device=None: torch.argsort(torch.rand(n, device=device))  # GraphedPPO's shuffle
     multi_gpu = {"global_rank": rank, "local_rank": rank, "world_size": 2}
-    algs = {}
+    algs, saved = {}, {}
     for name, cls in (("ppo", PPO), ("graphed", GraphedPPO)):
-        torch.manual_seed(rank)
         alg = _algorithm(cls, "cpu", "gaussian", epochs=2, mini_batches=2, multi_gpu=multi_gpu)
+        torch.manual_seed(rank)
         torch.nn.init.normal_(alg.actor.mlp[0].weight)  # rank-dependent until the broadcast
+        saved[f"{name} before"] = _parameters(alg)
         alg.broadcast_parameters()
         algs[name] = alg
-    saved = {name: [_parameters(alg)] for name, alg in algs.items()}
+        saved[name] = [_parameters(alg)]
+    params = list(chain(algs["graphed"].actor.parameters(), algs["graphed"].critic.parameters()))
+    for p in params:
+        p.grad = torch.full_like(p, rank + 1.0)
+    algs["graphed"]._average_gradients()
+    saved["averaged"] = torch.cat([p.grad.reshape(-1) for p in params])
+    for p in params:
+        p.grad = None
     for it in range(3):
         for name, alg in algs.items():
             _iteration(alg, 10 * rank + it, "cpu", False)
@@ -164,11 +174,17 @@ def _two_ranks(rank: int, rendezvous: str, out: str) -> None:
 
 
 def test_two_ranks_average_as_rsl_rl_ppo(tmp_path):
-    """Under a process group (two gloo ranks on the CPU, each its own data): GraphedPPO's parameters equal rsl-rl's
-    PPO's on each rank after each iteration (the gradients, KL and learning rate averaged alike), and the two ranks
-    hold the same parameters (without the averaging they part after the first update)."""
+    """Under a process group (two gloo ranks on the CPU, each its own data): GraphedPPO's averaged gradients are the
+    ranks' mean; its parameters equal rsl-rl's PPO's on each rank after each iteration (the gradients, KL and
+    learning rate averaged alike), and the two ranks hold the same parameters, which differed before the broadcast
+    (without the averaging they part after the first update). NCCL inside CUDA graphs: on two GPUs only (the
+    example's runs, benchmarks/RESULTS.md)."""
     torch.multiprocessing.spawn(_two_ranks, args=(f"file://{tmp_path}/rendezvous", str(tmp_path)), nprocs=2, join=True)
     ranks = [torch.load(tmp_path / f"rank{r}.pt") for r in range(2)]
+    for saved in ranks:
+        assert torch.equal(saved["averaged"], torch.full_like(saved["averaged"], 1.5))  # (1 + 2) / 2 on both ranks
+    for name in ("graphed", "ppo"):
+        assert (ranks[0][f"{name} before"] - ranks[1][f"{name} before"]).abs().max() > 0.1  # the broadcast's work
     for saved in ranks:
         for graphed, ppo in zip(saved["graphed"], saved["ppo"]):
             torch.testing.assert_close(graphed, ppo, rtol=1e-4, atol=1e-5)

@@ -1,11 +1,12 @@
 """examples/rl_locomotion.py data parallel (issue 14) on the CPU: `torchrun --standalone --nproc_per_node 2` with
-the gloo backend, the code path of K GPUs with NCCL but for the backend and the devices.
+the gloo backend: K GPUs' code path with NCCL but for the backend, the devices and GraphedPPO's CUDA graphs (eager
+on the CPU).
 
 - Two ranks x 8 environments x 2 iterations: the run exits 0; only rank 0 prints (one line per iteration);
   the env-steps printed are those of both ranks (all-reduced: 2 x 8 x 24 per iteration, 768 in all); the
   ranks end with identical actor and critic parameters and normaliser statistics (the example compares every
   rank's with rank 0's after training and fails otherwise: without the initial broadcast (each rank seeds
-  torch with seed + rank) the parameters differ by ~0.3, without rsl-rl's gradient averaging by ~0.01;
+  torch with seed + rank) the parameters differ by ~0.3, without the PPO's gradient averaging by ~0.01;
   with gloo and two ranks the sums are exact, so the difference printed must be 0); rank 0 alone writes
   policy.pt in OnPolicyRunner.save's format, which --replay then reads; --evaluate runs on rank 0 inside the
   process group (one evaluation line).
