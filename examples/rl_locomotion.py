@@ -217,12 +217,15 @@ def train(
     log_names: tuple = (),
     distribution: str = "gaussian",
     graphed: bool = True,
+    resume: pathlib.Path | None = None,
 ) -> list:
     """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass; `ppo`: PPO_DEFAULTS'
     settings to change; `log_names`: entries of the environment's info["log"] whose mean over the iteration's steps
     each iteration's line prints, rank 0's; `distribution`: the actions', ACTION_DISTRIBUTIONS, kept in the
     checkpoint's infos for `load_policy`; `graphed`: GraphedPPO, else rsl-rl's own PPO; either
-    averages over the ranks of a process group); returns
+    averages over the ranks of a process group; `resume`: a policy.pt `train` saved, whose models, normalisers,
+    optimizer state and learning rate the training continues from, its iterations numbered on from the saved one: a
+    long run split into several processes); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
@@ -237,12 +240,20 @@ def train(
     with quiet:  # construct_algorithm prints the models
         alg = PPO.construct_algorithm(vec.get_observations(), vec, cfg, torch_device)  # as OnPolicyRunner does
     alg.train_mode()
+    first = 0
+    if resume is not None:
+        saved = torch.load(resume, map_location=torch_device, weights_only=False)
+        kind = (saved.get("infos") or {}).get("action_distribution", "gaussian")
+        if kind != distribution:
+            raise ValueError(f"{resume}: its policy is {kind}, not the --action-distribution {distribution} asked for")
+        alg.load(saved, None, strict=True)
+        first = int(saved["iter"]) + 1
     if world > 1:
         alg.broadcast_parameters()  # rank 0's initial parameters everywhere (as OnPolicyRunner.learn does)
     obs = vec.get_observations().to(torch_device)
     history, start, total_steps, reached = [], time.perf_counter(), 0, None
     steps = cfg["num_steps_per_env"]
-    for it in range(iterations):
+    for it in range(first, first + iterations):
         t0 = time.perf_counter()
         logged = {name: 0.0 for name in log_names}
         with torch.inference_mode():
@@ -303,7 +314,7 @@ def train(
     if rank == 0:
         out.mkdir(parents=True, exist_ok=True)
         infos = {"action_distribution": distribution}
-        torch.save({**alg.save(), "iter": len(history) - 1, "infos": infos}, out / "policy.pt")  # OnPolicyRunner.save's format
+        torch.save({**alg.save(), "iter": first + len(history) - 1, "infos": infos}, out / "policy.pt")  # OnPolicyRunner.save's format
     return history
 
 
@@ -349,10 +360,16 @@ def add_ppo_argument(parser: argparse.ArgumentParser) -> None:
                         help="graphed (default): rsl-rl's PPO replayed as CUDA graphs on a GPU (warpdyn.envs.rsl_rl.GraphedPPO); rsl-rl: its own")  # fmt: skip
 
 
+def add_resume_argument(parser: argparse.ArgumentParser) -> None:
+    """--resume: `train`'s resume."""
+    parser.add_argument("--resume", type=pathlib.Path, default=None, metavar="POLICY",
+                        help="continue training from a policy.pt this example saved (its models, normalisers, optimizer and learning rate)")  # fmt: skip
+
+
 def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int, distribution: str = "gaussian") -> argparse.ArgumentParser:
     """The command line the manipulation examples share (rl_manipulation.py, rl_reorient.py): --device, --num-envs
     (`default_envs` says the default), --iterations, --seed, --max-minutes, `ppo`'s settings as flags with its values
-    as defaults, --action-distribution (ACTION_DISTRIBUTIONS, default `distribution`), --ppo, --evaluate,
+    as defaults, --action-distribution (ACTION_DISTRIBUTIONS, default `distribution`), --resume, --ppo, --evaluate,
     --evaluate-envs and --out; `task_setup` parses it."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
@@ -363,6 +380,7 @@ def task_arguments(description: str, ppo: dict, default_envs: str, out: str, ite
     for name, value in ppo.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
     parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default=distribution, help=f"the policy's (default {distribution})")
+    add_resume_argument(parser)
     add_ppo_argument(parser)
     parser.add_argument("--evaluate", action="store_true", help="after training, evaluate the policy in --evaluate-envs fresh environments")
     parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
@@ -461,6 +479,7 @@ def main(argv=None) -> None:
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
     for name, value in PPO_DEFAULTS.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g}, Rudin et al.'s)")
+    add_resume_argument(parser)
     add_ppo_argument(parser)
     parser.add_argument("--evaluate", type=float, default=None, metavar="SPEED",
                         help="after training, command SPEED m/s straight ahead in 256 fresh environments for 5 s and print the speed reached")  # fmt: skip
@@ -504,7 +523,7 @@ def main(argv=None) -> None:
                   f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps")  # fmt: skip
         phases = {"environment": time.perf_counter() - started}
         ppo = {name: getattr(args, name) for name in PPO_DEFAULTS}
-        history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes, ppo, graphed=args.ppo == "graphed")
+        history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes, ppo, graphed=args.ppo == "graphed", resume=args.resume)
         phases["training"] = time.perf_counter() - started - sum(phases.values())
         if rank == 0:
             plot(history, out / "rewards.png", f"{args.robot}, {args.task}: {where}")

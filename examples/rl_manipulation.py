@@ -75,7 +75,7 @@ def main(argv=None) -> list:
     print(f"pick cube: {where}, {env.single_observation_space.shape[0]} observations, {env.single_action_space.shape[0]} actions, "
           f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
     phases = {"environment": time.perf_counter() - started}
-    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED, args.action_distribution, args.ppo == "graphed")
+    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED, args.action_distribution, args.ppo == "graphed", args.resume)
     phases["training"] = time.perf_counter() - started - sum(phases.values())
     plot(history, out / "rewards.png", f"Panda pick cube: {where}")
     if args.evaluate:

@@ -70,7 +70,7 @@ def main(argv=None) -> list:
     print(f"reorient cube: {where}, {env.single_observation_space.shape[0]} observations (critic {env.single_critic_observation_space.shape[0]}), "
           f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
     phases = {"environment": time.perf_counter() - started}
-    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED, args.action_distribution, args.ppo == "graphed")
+    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED, args.action_distribution, args.ppo == "graphed", args.resume)
     phases["training"] = time.perf_counter() - started - sum(phases.values())
     plot(history, out / "rewards.png", f"LEAP hand cube reorientation: {where}")
     if args.evaluate:

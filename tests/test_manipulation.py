@@ -196,6 +196,35 @@ def test_a_beta_policy_acts_within_the_range_and_reloads(tmp_path):
         rl_locomotion.train_config(1, "tanh")
 
 
+def test_a_run_resumes_from_its_checkpoint(tmp_path, capsys):
+    """--resume (a long run split over several processes): the second run's iterations are numbered on from the
+    checkpoint's, and so is its own checkpoint; `train` for 0 iterations from a checkpoint saves it back unchanged
+    (models, normalisers, optimizer state, learning rate); a checkpoint of another action distribution is refused."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    import rl_locomotion
+    import rl_manipulation
+
+    device = str(wp.get_device())
+    rl_manipulation.main(["--device", device, "--num-envs", "4", "--iterations", "1", "--out", str(tmp_path / "a")])
+    capsys.readouterr()
+    rl_manipulation.main(["--device", device, "--num-envs", "4", "--iterations", "2", "--resume", str(tmp_path / "a" / "policy.pt"), "--out", str(tmp_path / "b")])
+    assert re.findall(r"^iteration\s+(\d+)", capsys.readouterr().out, re.M) == ["1", "2"]
+    first, second = (torch.load(tmp_path / x / "policy.pt", weights_only=False) for x in ("a", "b"))
+    assert (first["iter"], second["iter"]) == (0, 2)
+    env = envs.PickCubeEnv(4, seed=3)
+    assert rl_locomotion.train(env, 0, tmp_path / "c", str(env.device), distribution="beta", resume=tmp_path / "b" / "policy.pt") == []
+    again = torch.load(tmp_path / "c" / "policy.pt", weights_only=False)
+    assert again["iter"] == 2
+    for key in ("actor_state_dict", "critic_state_dict"):
+        for name, value in second[key].items():
+            torch.testing.assert_close(again[key][name], value, rtol=0, atol=0)
+    assert again["optimizer_state_dict"]["param_groups"][0]["lr"] == second["optimizer_state_dict"]["param_groups"][0]["lr"]
+    for k, state in second["optimizer_state_dict"]["state"].items():
+        torch.testing.assert_close(again["optimizer_state_dict"]["state"][k]["exp_avg"], state["exp_avg"], rtol=0, atol=0)
+    with pytest.raises(ValueError, match=r"its policy is beta, not the --action-distribution gaussian asked for"):
+        rl_locomotion.train(env, 1, tmp_path / "d", str(env.device), resume=tmp_path / "b" / "policy.pt")
+
+
 @pytest.mark.skipif(not wp.get_device().is_cuda, reason="CUDA graphs: the tests' device is not a GPU")
 def test_graph_replays_equal_eager_steps():
     """use_graph=True captures a whole step (actions, 20 simulation steps, the gripper's kinematics, rewards, resets)
