@@ -543,8 +543,8 @@ def main(argv=None) -> None:
 
 if __name__ == "__main__":
     if main() is not None:  # trained (not --replay, whose recording rerun flushes at exit)
-        # The interpreter's teardown of torch, Warp and their contexts takes seconds (1.5 s of a CPU run's 6), and
-        # everything written is closed: the process ends without it, for the seconds-to-a-policy measurements.
+        # The interpreter's teardown of torch, Warp and their contexts takes seconds (benchmarks/RESULTS.md, the Go1 in
+        # 30 s), and everything written is closed: the process ends without it, for the seconds-to-a-policy runs.
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(0)
