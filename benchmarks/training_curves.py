@@ -2,11 +2,12 @@
 lines against wall time, one curve per log, in one figure. For runs whose machine had no matplotlib (the GPU
 machine's) and to put runs side by side.
 
-    python benchmarks/training_curves.py OUT.png LOG [LOG ...] [--quantity reached] [--labels a,b]
+    python benchmarks/training_curves.py OUT.png LOG [LOG ...] [--quantity reached] [--labels a,b] [--first 0.5,0.9]
 
 --quantity: "return" (the mean return of the episodes completed in the iteration; iterations without one are
 skipped) or a logged entry of the line ("reached", "success", "orientation_error", ...; default "return"). Prints
-for each log its iterations, wall time, median env-steps/s, and the quantity's last value and its maximum.
+for each log its iterations, wall time, median env-steps/s, the quantity's last value and its maximum, and with
+--first the wall time at which the quantity first exceeded each of those values ("never" if it did not).
 """
 
 from __future__ import annotations
@@ -46,15 +47,22 @@ def read(path: pathlib.Path, quantity: str) -> tuple[list[float], list[float], l
     return seconds, values, rates, end
 
 
+def first_exceeding(seconds: list[float], values: list[float], threshold: float) -> float | None:
+    """The wall time [s] at which the values first exceeded `threshold`; None if they never did."""
+    return next((t for t, v in zip(seconds, values) if v > threshold), None)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out")
     parser.add_argument("logs", nargs="+")
     parser.add_argument("--quantity", default="return")
     parser.add_argument("--labels", default=None, help="comma-separated, one per log (default: the logs' names)")
+    parser.add_argument("--first", default="", help="comma-separated values: when the quantity first exceeded each")
     args = parser.parse_args()
     paths = [pathlib.Path(p) for p in args.logs]
     labels = args.labels.split(",") if args.labels else [p.stem for p in paths]
+    thresholds = [float(x) for x in args.first.split(",") if x]
     if len(labels) != len(paths):
         parser.error(f"--labels has {len(labels)} names for {len(paths)} logs")
     import matplotlib
@@ -67,7 +75,9 @@ def main() -> None:
         seconds, values, rates, end = read(path, args.quantity)
         rates = sorted(rates)
         print(f"{label}: {len(rates)} iterations, {end:.1f} s, median {rates[len(rates) // 2]:.1f} k env-steps/s, "
-              f"{args.quantity} last {values[-1] if values else float('nan'):.3f}, max {max(values) if values else float('nan'):.3f}")  # fmt: skip
+              f"{args.quantity} last {values[-1] if values else float('nan'):.3f}, max {max(values) if values else float('nan'):.3f}"
+              + "".join(f", > {th:g} at " + (f"{t:.1f} s" if (t := first_exceeding(seconds, values, th)) is not None else "never")
+                        for th in thresholds))  # fmt: skip
         ax.plot(seconds, values, label=label)
     ax.set_xlabel("wall time [s]")
     ax.set_ylabel(args.quantity)

@@ -6,7 +6,8 @@ import runpy
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-read = runpy.run_path(str(ROOT / "benchmarks" / "training_curves.py"))["read"]  # (not imported: examples/ has a common.py too)
+_script = runpy.run_path(str(ROOT / "benchmarks" / "training_curves.py"))  # (not imported: examples/ has a common.py too)
+read, first_exceeding = _script["read"], _script["first_exceeding"]
 
 
 def test_a_logs_iterations_rates_and_logged_values():
@@ -23,3 +24,14 @@ def test_a_logs_iterations_rates_and_logged_values():
     assert len(rough[0]) == len(rough[2]) and rough[1][-1] == pytest.approx(2.38)
     with pytest.raises(SystemExit, match="not 'speed'"):
         read(log, "speed")
+
+
+def test_when_a_quantity_first_exceeded_a_value():
+    logs = ROOT / "benchmarks" / "results"
+    seconds, success, _, _ = read(logs / "rl_pick_h200_2ms_graphed_3min_seed1.log", "success")
+    assert first_exceeding(seconds, success, 0.9) == pytest.approx(121.7)  # the line printed "... 121.7 s ... success 0.9xx"
+    earlier = [v for t, v in zip(seconds, success) if t < 121.7]
+    assert max(earlier) <= 0.9 < success[seconds.index(121.7)]
+    seconds, success, _, _ = read(logs / "rl_pick_h200_2ms_graphed_3min_seed0.log", "success")
+    assert max(success) < 0.9 and first_exceeding(seconds, success, 0.9) is None
+    assert first_exceeding([1.0, 2.0], [0.5, 0.5], 0.5) is None  # strictly above
