@@ -22,21 +22,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kernels.collision_primitives import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE  # MuJoCo's mjtGeom values
 from .model import GeomPair
 
 __all__ = ["COLLIDED_TYPES", "CONVEX_TYPES", "MULTICCD_TYPES", "multiccd", "mujoco_geom_pairs"]
 
-_SPHERE, _CAPSULE, _ELLIPSOID, _CYLINDER, _BOX, _MESH = 2, 3, 4, 5, 6, 7  # MuJoCo's mjtGeom values (kernels/collision_primitives.py's)
-_ELLIPSOID_PAIRS = frozenset({(t, _ELLIPSOID) for t in (_SPHERE, _CAPSULE, _ELLIPSOID)} | {(_ELLIPSOID, t) for t in (_CYLINDER, _BOX, _MESH)})
-CONVEX_TYPES = frozenset({(_CAPSULE, _CYLINDER), (_CYLINDER, _CYLINDER), (_CYLINDER, _BOX)} | {(t, _MESH) for t in (_SPHERE, _CAPSULE, _CYLINDER, _BOX, _MESH)}) | _ELLIPSOID_PAIRS
+_ELLIPSOID_PAIRS = frozenset({(t, ELLIPSOID) for t in (SPHERE, CAPSULE, ELLIPSOID)} | {(ELLIPSOID, t) for t in (CYLINDER, BOX, MESH)})
+CONVEX_TYPES = frozenset({(CAPSULE, CYLINDER), (CYLINDER, CYLINDER), (CYLINDER, BOX)} | {(t, MESH) for t in (SPHERE, CAPSULE, CYLINDER, BOX, MESH)}) | _ELLIPSOID_PAIRS
 """The pairs that MuJoCo and warpdyn collide with a general convex solver (GJK and EPA; a mesh as its convex hull), one
 contact a pair."""
-MULTICCD_TYPES = CONVEX_TYPES - {(_SPHERE, _MESH)} - _ELLIPSOID_PAIRS
+MULTICCD_TYPES = CONVEX_TYPES - {(SPHERE, MESH)} - _ELLIPSOID_PAIRS
 """Those to which MuJoCo 4's multiCCD, on by default, adds polygon contacts where the two geoms meet face to face or
 edge to face (a cylinder standing on a box: 4), which warpdyn does not (the loader says so); a sphere and an ellipsoid
 have no face (MuJoCo skips them)."""
 COLLIDED_TYPES = frozenset(
-    {(_SPHERE, _SPHERE), (_SPHERE, _CAPSULE), (_SPHERE, _CYLINDER), (_SPHERE, _BOX), (_CAPSULE, _CAPSULE), (_CAPSULE, _BOX), (_BOX, _BOX)}
+    {(SPHERE, SPHERE), (SPHERE, CAPSULE), (SPHERE, CYLINDER), (SPHERE, BOX), (CAPSULE, CAPSULE), (CAPSULE, BOX), (BOX, BOX)}
 ) | CONVEX_TYPES
 """The (type1 <= type2) pairs of geoms on bodies that warpdyn's narrow phase collides (kernels/collision_primitives.py,
 kernels/collision_box.py, and CONVEX_TYPES by kernels/collision_convex.py); planes and heightfields on bodies and

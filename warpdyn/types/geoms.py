@@ -18,13 +18,16 @@ import numpy as np
 from ..description.collidable import CollidablePointsOptions, mesh_file_vertices
 from ..description.collision_pairs import COLLIDED_TYPES, CONVEX_TYPES
 from ..description.model import GeomPair
+from ..kernels.collision_primitives import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 
 __all__ = ["GeomPairs", "geom_pairs", "self_collision", "MUJOCO_TYPES", "SLOTS"]
 
-MUJOCO_TYPES = {"sphere": 2, "capsule": 3, "ellipsoid": 4, "cylinder": 5, "box": 6, "mesh": 7}
+MUJOCO_TYPES = {"sphere": SPHERE, "capsule": CAPSULE, "ellipsoid": ELLIPSOID, "cylinder": CYLINDER, "box": BOX, "mesh": MESH}
 """A collision shape's kind -> MuJoCo's mjtGeom value (the narrow phase's type)."""
 
-SLOTS = {(2, 2): 1, (2, 3): 1, (2, 5): 1, (2, 6): 1, (3, 3): 2, (3, 6): 2, (6, 6): 8} | dict.fromkeys(CONVEX_TYPES, 1)
+SLOTS = {(SPHERE, SPHERE): 1, (SPHERE, CAPSULE): 1, (SPHERE, CYLINDER): 1, (SPHERE, BOX): 1, (CAPSULE, CAPSULE): 2, (CAPSULE, BOX): 2} | {
+    (BOX, BOX): 8
+} | dict.fromkeys(CONVEX_TYPES, 1)
 """(type1, type2) -> the most contacts of such a pair (GJK and EPA's pairs: one)."""
 
 
