@@ -186,6 +186,42 @@ def torchrun_ranks() -> tuple[int, int, int]:
     return int(os.getenv("WORLD_SIZE", "1")), int(os.getenv("RANK", "0")), int(os.getenv("LOCAL_RANK", "0"))
 
 
+def placement(N: int, device, world: int) -> str:
+    """Where the environments run, for the printed header and the plot's title: "N environments on DEVICE", or
+    under torchrun "K ranks x N environments on cuda:<LOCAL_RANK> (nccl)"."""
+    if world == 1:
+        return f"{N} environments on {device.name}"
+    return f"{world} ranks x {N} environments on {'cuda:<LOCAL_RANK>' if device.is_cuda else device.name} ({torch.distributed.get_backend()})"
+
+
+@contextlib.contextmanager
+def torchrun_device(parser: argparse.ArgumentParser, name: str | None, seed: int):
+    """Yields (the Warp device, world size, rank) of this process, torch seeded with `seed` + rank, Warp quiet. Under
+    torchrun (world > 1): rank r runs on cuda:<LOCAL_RANK> (`name` None or "cuda"; another CUDA device is an error
+    on `parser`) in an NCCL process group, or on the CPU (`name` "cpu", or no GPU) in a gloo one; the group is
+    destroyed on leaving. Without torchrun: the device `name` (None: Warp's default)."""
+    world, rank, local_rank = torchrun_ranks()
+    wp.config.quiet = True
+    if world > 1 and (name is None or name.startswith("cuda")) and wp.is_cuda_available():
+        if name not in (None, "cuda", f"cuda:{local_rank}"):
+            parser.error(f"under torchrun rank r runs on cuda:<LOCAL_RANK> (here cuda:{local_rank}): pass --device cuda, not {name}")
+        name = f"cuda:{local_rank}"
+    device = wp.get_device(name)
+    torch.manual_seed(seed + rank)
+    if world > 1:
+        if device.is_cuda:
+            wp.set_device(device)
+            torch.cuda.set_device(device.ordinal)
+            torch.distributed.init_process_group("nccl", device_id=torch.device(f"cuda:{device.ordinal}"))
+        else:
+            torch.distributed.init_process_group("gloo")  # the CPU: the same collectives, e.g. for tests
+    try:
+        yield device, world, rank
+    finally:
+        if world > 1:
+            torch.distributed.destroy_process_group()
+
+
 def _group() -> tuple[int, int]:
     """(world size, rank) of the initialised process group, (1, 0) without one."""
     if torch.distributed.is_available() and torch.distributed.is_initialized():
@@ -368,14 +404,14 @@ def add_resume_argument(parser: argparse.ArgumentParser) -> None:
 
 def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int, distribution: str = "gaussian") -> argparse.ArgumentParser:
     """The command line the manipulation examples share (rl_manipulation.py, rl_reorient.py): --device, --num-envs
-    (`default_envs` says the default), --iterations, --seed, --max-minutes, `ppo`'s settings as flags with its values
+    (per rank under torchrun; `default_envs` says the default), --iterations, --seed (rank r: seed + r), --max-minutes, `ppo`'s settings as flags with its values
     as defaults, --action-distribution (ACTION_DISTRIBUTIONS, default `distribution`), --resume, --ppo, --evaluate,
     --evaluate-envs and --out; `task_setup` parses it."""
-    parser = argparse.ArgumentParser(description=description)
-    parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
-    parser.add_argument("--num-envs", type=int, default=None, help=f"environments; default: {default_envs}")
+    parser = argparse.ArgumentParser(description=description, epilog="On K GPUs: torchrun --standalone --nproc_per_node K ... (rank r on cuda:<LOCAL_RANK>)")
+    parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one; under torchrun as rl_locomotion.py's)")
+    parser.add_argument("--num-envs", type=int, default=None, help=f"environments PER RANK; default: {default_envs}")
     parser.add_argument("--iterations", type=int, default=iterations, help="at most this many PPO iterations")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int, default=0, help="rank r uses seed + r")
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
     for name, value in ppo.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
@@ -389,15 +425,13 @@ def task_arguments(description: str, ppo: dict, default_envs: str, out: str, ite
 
 
 def task_setup(parser: argparse.ArgumentParser, argv, ppo: dict) -> tuple:
-    """(args, the Warp device, the output folder, `ppo`'s settings as given): `task_arguments`' command line parsed,
-    each PPO setting checked positive, Warp quiet, torch seeded with --seed."""
+    """(args, the output folder, `ppo`'s settings as given): `task_arguments`' command line parsed, each PPO setting
+    checked positive; `torchrun_device(parser, args.device, args.seed)` then gives the device (and the rank)."""
     args = parser.parse_args(argv)
     for name in ppo:
         if not getattr(args, name) > 0:
             parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
-    wp.config.quiet = True
-    torch.manual_seed(args.seed)
-    return args, wp.get_device(args.device), pathlib.Path(args.out), {name: getattr(args, name) for name in ppo}
+    return args, pathlib.Path(args.out), {name: getattr(args, name) for name in ppo}
 
 
 def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
@@ -490,34 +524,16 @@ def main(argv=None) -> None:
         if not getattr(args, name) > 0:
             parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
     started = time.perf_counter()  # the phases' times below count from here (after the imports)
-    world, rank, local_rank = torchrun_ranks()
-    if world > 1 and args.replay:
+    if torchrun_ranks()[0] > 1 and args.replay:
         parser.error("--replay runs in one process: python examples/rl_locomotion.py --replay ..., not torchrun")
-    wp.config.quiet = True
-    name = args.device
-    if world > 1 and (name is None or name.startswith("cuda")) and wp.is_cuda_available():
-        if name not in (None, "cuda", f"cuda:{local_rank}"):
-            parser.error(f"under torchrun rank r runs on cuda:<LOCAL_RANK> (here cuda:{local_rank}): pass --device cuda, not {name}")
-        name = f"cuda:{local_rank}"
-    device = wp.get_device(name)
     out = pathlib.Path(args.out)
-    torch.manual_seed(args.seed + rank)
-    if args.replay:
-        replay(args.robot, args.task, pathlib.Path(args.replay), out, device, args.seed)
-        return None
-    if world > 1:
-        if device.is_cuda:
-            wp.set_device(device)
-            torch.cuda.set_device(device.ordinal)
-            torch.distributed.init_process_group("nccl", device_id=torch.device(f"cuda:{device.ordinal}"))
-        else:
-            torch.distributed.init_process_group("gloo")  # the CPU: the same collectives, e.g. for tests
-    try:
+    with torchrun_device(parser, args.device, args.seed) as (device, world, rank):
+        if args.replay:
+            replay(args.robot, args.task, pathlib.Path(args.replay), out, device, args.seed)
+            return None
         N = args.num_envs or (4096 if device.is_cuda else 64)
         env = make_env(args.task, N, device, args.seed + rank, args.robot)
-        where = f"{N} environments on {device.name}"
-        if world > 1:
-            where = f"{world} ranks x {N} environments on {'cuda:<LOCAL_RANK>' if device.is_cuda else device.name} ({torch.distributed.get_backend()})"  # fmt: skip
+        where = placement(N, device, world)
         if rank == 0:
             print(f"{args.robot} {args.task}: {where}, {env.single_observation_space.shape[0]} observations, "
                   f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps")  # fmt: skip
@@ -535,9 +551,6 @@ def main(argv=None) -> None:
                       f"forward speed {result['speed']:.3f} m/s (std over environments {result['spread']:.3f}), "
                       f"{result['falls']} ended early", flush=True)  # fmt: skip
             print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
-    finally:
-        if world > 1:
-            torch.distributed.destroy_process_group()
     return history
 
 

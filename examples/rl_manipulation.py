@@ -4,6 +4,7 @@ PPO on warpdyn.envs.PickCubeEnv, the contacts between its fingertip pads and the
     pip install -e ".[rl,viz,examples]"
     python examples/rl_manipulation.py --max-minutes 3 --evaluate --out runs/pick     # a GPU: N = 4096
     python examples/rl_manipulation.py --device cpu --num-envs 16 --iterations 2      # a look on the CPU
+    torchrun --standalone --nproc_per_node 2 examples/rl_manipulation.py --max-minutes 3 --out runs/pick2   # 2 GPUs, 4096 each
 
 Environment (`warpdyn.envs.PickCubeEnv`, its defaults: PickCubeConfig): the shipped scene
 `wd.assets.franka_panda_cube_mjcf()` at 2 ms steps (implicit contacts), the policy at 50 Hz adding 0.04 x its actions to the 8 position
@@ -31,7 +32,7 @@ import time
 import torch
 
 import warpdyn.envs as envs
-from rl_locomotion import PPO_DEFAULTS, load_policy, plot, task_arguments, task_setup, train
+from rl_locomotion import PPO_DEFAULTS, load_policy, placement, plot, task_arguments, task_setup, torchrun_device, train
 
 
 PICK_PPO = {**PPO_DEFAULTS, "steps_per_env": 10, "epochs": 8, "mini_batches": 8, "gamma": 0.97, "entropy_coef": 0.02}
@@ -68,23 +69,25 @@ def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256) 
 def main(argv=None) -> list:
     parser = task_arguments(__doc__.split("\n\n")[0], PICK_PPO, "4096 on a GPU, 64 on the CPU", "runs/pick", 2000, "beta")
     started = time.perf_counter()
-    args, device, out, ppo = task_setup(parser, argv, PICK_PPO)
-    N = args.num_envs or (4096 if device.is_cuda else 64)
-    env = envs.PickCubeEnv(N, device=device, seed=args.seed)
-    where = f"{N} environments on {device.name}"
-    print(f"pick cube: {where}, {env.single_observation_space.shape[0]} observations, {env.single_action_space.shape[0]} actions, "
-          f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
-    phases = {"environment": time.perf_counter() - started}
-    history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED, args.action_distribution, args.ppo == "graphed", args.resume)
-    phases["training"] = time.perf_counter() - started - sum(phases.values())
-    plot(history, out / "rewards.png", f"Panda pick cube: {where}")
-    if args.evaluate:
-        result = evaluate(out / "policy.pt", device, args.seed + 1000, args.evaluate_envs)
-        print(f"evaluation: {result['environments']} fresh environments, one episode: success {result['success']:.1%} "
-              f"(cube within {env.cfg.success_distance:g} m of its target), mean distance {result['distance']:.3f} m", flush=True)  # fmt: skip
-    print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
+    args, out, ppo = task_setup(parser, argv, PICK_PPO)
+    with torchrun_device(parser, args.device, args.seed) as (device, world, rank):
+        N = args.num_envs or (4096 if device.is_cuda else 64)
+        env = envs.PickCubeEnv(N, device=device, seed=args.seed + rank)
+        where = placement(N, device, world)
+        if rank == 0:
+            print(f"pick cube: {where}, {env.single_observation_space.shape[0]} observations, {env.single_action_space.shape[0]} actions, "
+                  f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
+        phases = {"environment": time.perf_counter() - started}
+        history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED, args.action_distribution, args.ppo == "graphed", args.resume)
+        phases["training"] = time.perf_counter() - started - sum(phases.values())
+        if rank == 0:
+            plot(history, out / "rewards.png", f"Panda pick cube: {where}")
+            if args.evaluate:
+                result = evaluate(out / "policy.pt", device, args.seed + 1000, args.evaluate_envs)
+                print(f"evaluation: {result['environments']} fresh environments, one episode: success {result['success']:.1%} "
+                      f"(cube within {env.cfg.success_distance:g} m of its target), mean distance {result['distance']:.3f} m", flush=True)  # fmt: skip
+            print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
     return history
-
 
 if __name__ == "__main__":
     main()

@@ -12,6 +12,9 @@ on the CPU).
   process group (one evaluation line).
 - One process (plain python) still trains, counts 8 x 24 env-steps per iteration and stops at
   --target-return.
+- examples/rl_manipulation.py (and rl_reorient.py: the same `torchrun_device` and `train`) under torchrun: two ranks
+  train one policy, rank 0 alone prints, evaluates and saves; a second two-rank run resumes from that checkpoint
+  (every rank loads it, rank 0's broadcast) and numbers its iteration on.
 About 20 s warm on 2 cores (plus Warp's compilation of the ergoCub legs the first time, ~15 s).
 """
 
@@ -27,6 +30,7 @@ import warp as wp
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "rl_locomotion.py"
+PICK = ROOT / "examples" / "rl_manipulation.py"
 N, ITERATIONS, STEPS = 8, 2, 24  # STEPS: train_config's num_steps_per_env
 
 
@@ -85,3 +89,21 @@ def test_one_process_still_trains(tmp_path):
     reached = re.search(r"^reached mean return -1e\+09 at iteration (\d+)", stdout, re.M)
     assert (int(reached[1]) == len(lines) - 1) if reached else (len(lines) == 3 and "not reached" in stdout), stdout
     assert (tmp_path / "policy.pt").is_file()
+
+
+@CPU_BACKEND
+def test_two_ranks_train_and_resume_the_pick_task(tmp_path):
+    args = ["-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2", str(PICK), "--device", "cpu", "--num-envs", "4",
+            "--iterations", "1", "--steps-per-env", "4", "--mini-batches", "2"]  # fmt: skip
+    stdout = _run([*args, "--evaluate", "--evaluate-envs", "4", "--out", str(tmp_path / "a")])
+    assert "pick cube: 2 ranks x 4 environments on CPU (gloo)" in stdout, stdout
+    assert _iterations(stdout) == [(0, 2 * 4 * 4)], stdout  # both ranks' steps, printed once
+    match = re.search(r"^policy identical on 2 ranks \(largest difference (\S+)\)", stdout, re.M)
+    assert match and float(match[1]) == 0.0, stdout
+    assert len(re.findall(r"^evaluation: 4 fresh environments, one episode: success", stdout, re.M)) == 1, stdout
+    assert torch.load(tmp_path / "a" / "policy.pt", weights_only=False)["iter"] == 0
+    stdout = _run([*args, "--resume", str(tmp_path / "a" / "policy.pt"), "--out", str(tmp_path / "b")])
+    assert _iterations(stdout) == [(1, 2 * 4 * 4)], stdout
+    match = re.search(r"^policy identical on 2 ranks \(largest difference (\S+)\)", stdout, re.M)
+    assert match and float(match[1]) == 0.0, stdout
+    assert torch.load(tmp_path / "b" / "policy.pt", weights_only=False)["iter"] == 1
