@@ -19,7 +19,7 @@ from . import terms
 from .actuators import Actuation, ActuatorNet, torque_limits
 from .sensors import Imu, ImuConfig
 from .terrain_generator import TerrainConfig, TerrainCurriculum, TerrainGenerator
-from .vector_env import DeviceVectorEnv
+from .vector_env import DIVERGENCE_SPEED, DeviceVectorEnv, check_divergence_speed, follow_divergence_speed
 
 __all__ = ["LeggedEnvConfig", "LeggedEnv", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS"]
 
@@ -61,7 +61,8 @@ class LeggedEnvConfig:
     taken around and resets start from (joints not named: 0); `torque_limit` [N m] clips each servo's force, one number
     for every joint or {joint: N m} (joints not named: no clip; None: none). Episodes: `episode_seconds` (then
     truncated); terminated when the base falls below `termination_height` x its standing height, tilts beyond
-    `termination_tilt` [rad], or its state stops being finite (the health flag: reset and reported in info["invalid"]).
+    `termination_tilt` [rad], or its state stops being finite or moves faster than `divergence_speed` [m/s or rad/s]
+    (model.divergence_speed, vector_env.DIVERGENCE_SPEED; inf: off) (the health flag: reset and reported in info["invalid"]).
     Commands (vx, vy, yaw rate) drawn uniformly from the ranges at each reset and every `command_seconds`; with
     `heading_command` (legged_gym's) a heading in [-pi, pi] is drawn instead of the yaw rate, which each observation
     then sets to terms.heading_yaw_rate. Pushes: every `push_seconds` of each episode, a random horizontal velocity
@@ -88,6 +89,7 @@ class LeggedEnvConfig:
     """
 
     time_step: float = 0.002
+    divergence_speed: float = DIVERGENCE_SPEED
     policy_dt: float = 0.02
     contact_stiffness: float = 1e5
     contact_damping: float | None = None
@@ -138,6 +140,7 @@ class LeggedEnvConfig:
         place after it was made reaches."""
         for name, (kind, unit) in _FIELD_CHECKS.items():
             _check_field(name, getattr(self, name), kind, unit)
+        check_divergence_speed("LeggedEnvConfig", self.divergence_speed)
         decimation = self.policy_dt / self.time_step
         if abs(decimation - round(decimation)) > 1e-6 or round(decimation) < 1:
             raise ValueError(f"LeggedEnvConfig.policy_dt {self.policy_dt} s must be a whole number of time steps of {self.time_step} s")
@@ -422,6 +425,7 @@ class LeggedEnv(DeviceVectorEnv):
         model.integrator = wd.model.IntegratorType.SemiImplicitEuler
         model.implicit_damping = True
         model.time_step = cfg.time_step
+        model.divergence_speed = cfg.divergence_speed
         D = cfg.contact_damping if cfg.contact_damping is not None else 2000.0 * (cfg.contact_stiffness / 1e6) ** (2.0 / 3.0)
         mu = wp.array(np.full(N, np.mean(cfg.friction)), dtype=model.scalar, device=model.device)
         model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=D, mu=mu)
@@ -538,7 +542,8 @@ class LeggedEnv(DeviceVectorEnv):
     def _sync_model(self) -> None:
         """After a setter changed the model (new parameter arrays, a rebuilt Stepper workspace) or a change of
         `cfg` (read when a graph was captured): drop the graphs (the next step runs eagerly, then captures)
-        and take new views of the randomised parameters."""
+        and take new views of the randomised parameters. A `divergence_speed` changed in cfg reaches the model."""
+        follow_divergence_speed(self.cfg, self.model)
         if self.model.version == self._graph_version and self.cfg == self._graph_cfg:
             return
         self._program = self._step_program("a LeggedEnv")

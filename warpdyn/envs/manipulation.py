@@ -21,7 +21,7 @@ from gymnasium.vector import AutoresetMode
 import warpdyn as wd
 
 from .terms import quat_to_matrix
-from .vector_env import DeviceVectorEnv
+from .vector_env import DIVERGENCE_SPEED, DeviceVectorEnv, check_divergence_speed
 
 __all__ = ["PickCubeConfig", "PickCubeEnv"]
 
@@ -39,7 +39,8 @@ class PickCubeConfig:
     tests/test_manipulation.py's pad-on-the-edge test; explicit contacts need D = 500 and 0.5 ms), `policy_dt` [s] per action
     (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5] and `contact_damping` D [N s/m^1.5]
     (D = 2000: at 2 ms the tangential deformation needs dt K / D < 2; explicit contacts would want D = 500 at 1 ms),
-    `friction` the terrain's (the floor's) Coulomb coefficient (MuJoCo's cube-floor friction, 1). Task: an action adds `action_scale` times itself (clipped to [-1, 1]) to each of the 8 controls
+    `friction` the terrain's (the floor's) Coulomb coefficient (MuJoCo's cube-floor friction, 1), `divergence_speed`
+    [m/s or rad/s] the model's (vector_env.DIVERGENCE_SPEED; inf: off). Task: an action adds `action_scale` times itself (clipped to [-1, 1]) to each of the 8 controls
     (the 7 joints' position targets [rad] and the gripper's opening [m]), clipped to their ranges; episodes of
     `episode_seconds`; the cube starts on the floor `cube_range` [m] around the keyframe `keyframe`'s cube in x and y,
     the target `target_low` to `target_high` [m] from there. `rewards`: name -> scale of the terms (Playground's
@@ -59,6 +60,7 @@ class PickCubeConfig:
     contact_damping: float = 2000.0
     implicit_contacts: bool = True
     friction: float = 1.0
+    divergence_speed: float = DIVERGENCE_SPEED
     keyframe: str = "home"
     cube_range: float = 0.2
     target_low: tuple = (-0.2, -0.2, 0.2)
@@ -79,6 +81,7 @@ class PickCubeConfig:
                 raise ValueError(f"PickCubeConfig.{name} must be a finite number >= 0, got {value!r}")
         if not isinstance(self.implicit_contacts, bool):
             raise ValueError(f"PickCubeConfig.implicit_contacts must be True or False, got {self.implicit_contacts!r}")
+        check_divergence_speed("PickCubeConfig", self.divergence_speed)
         low, high = np.asarray(self.target_low, dtype=float), np.asarray(self.target_high, dtype=float)
         if low.shape != (3,) or high.shape != (3,) or not (np.all(np.isfinite(low)) and np.all(low <= high)):
             raise ValueError(f"PickCubeConfig.target_low and target_high must be 3 finite numbers each, low <= high, got {self.target_low!r}, {self.target_high!r}")

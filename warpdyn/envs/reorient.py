@@ -23,7 +23,7 @@ from gymnasium.vector import AutoresetMode
 import warpdyn as wd
 
 from .terms import quat_multiply, quat_to_matrix
-from .vector_env import DeviceVectorEnv
+from .vector_env import DIVERGENCE_SPEED, DeviceVectorEnv, check_divergence_speed
 
 __all__ = ["CubeReorientConfig", "CubeReorientEnv"]
 
@@ -41,7 +41,8 @@ class CubeReorientConfig:
     actions for 10 s: none flagged, the cube at 1.2 m/s at most, as at 1 ms with D = 500: benchmarks/reorient_stability.py),
     `policy_dt` [s] per action (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5], `contact_damping`
     D [N s/m^1.5] (2000: at 2 ms the tangential deformation needs dt K / D < 2; a cube put 2 mm or more into the hand by
-    Playground's reset draws leaves at a median 0.84 m/s, 1.8 m/s at 1 ms with D = 500) and the floor's `friction`. Task: an action adds `action_scale` times itself
+    Playground's reset draws leaves at a median 0.84 m/s, 1.8 m/s at 1 ms with D = 500), the floor's `friction` and
+    `divergence_speed` [m/s or rad/s] the model's (vector_env.DIVERGENCE_SPEED; inf: off). Task: an action adds `action_scale` times itself
     (clipped to [-1, 1]) to each of the 16 position targets, clipped to their ranges; episodes of `episode_seconds`;
     a reset draws the goal orientation uniformly and takes the hand's joints (the targets there) and the cube's pose
     from a bank of `reset_bank` states drawn when the environment is built as Playground draws its resets (the
@@ -69,6 +70,7 @@ class CubeReorientConfig:
     contact_stiffness: float = 5e5
     contact_damping: float = 2000.0
     friction: float = 1.0
+    divergence_speed: float = DIVERGENCE_SPEED
     hand_noise: float = 0.1
     cube_start: tuple = (0.1, 0.0, 0.05)
     cube_range: float = 0.01
@@ -88,6 +90,7 @@ class CubeReorientConfig:
                 raise ValueError(f"CubeReorientConfig.{name} must be a positive finite number, got {value!r}")
         if not isinstance(self.implicit_contacts, bool):
             raise ValueError(f"CubeReorientConfig.implicit_contacts must be True or False, got {self.implicit_contacts!r}")
+        check_divergence_speed("CubeReorientConfig", self.divergence_speed)
         if isinstance(self.reset_bank, bool) or not isinstance(self.reset_bank, int) or self.reset_bank < 1:
             raise ValueError(f"CubeReorientConfig.reset_bank must be a positive integer, got {self.reset_bank!r}")
         for name in ("friction", "hand_noise", "cube_range", "success_reward", "reset_depth"):

@@ -20,6 +20,31 @@ import warpdyn as wd
 __all__ = ["DeviceVectorEnv"]
 
 
+DIVERGENCE_SPEED = 100.0
+"""[m/s or rad/s] The environments' default `divergence_speed` (model.divergence_speed): a simulation step from a state
+with a base or joint velocity component beyond it flags the environment (reset, info["invalid"]), as a non-finite
+state does. Under uniformly random actions (benchmarks/env_speed_bounds.py: 64 environments, 10 s, pushes of 0.5 m/s
+on the legged robots; benchmarks/results/env_speed_bounds_cpu.md) none passed 20: the smallest bound that flagged
+none was 20 for the ergoCub legs and the Panda with its cube, 15 for the Go1, the ANYmal C and the LEAP hand with its
+cube. The default is five times the largest; a divergence passes it by far (docs/simulation.md: a cube once reached a
+finite 65 km/s)."""
+
+
+def check_divergence_speed(owner: str, value) -> None:
+    """A ValueError naming `owner`.divergence_speed unless `value` is a positive number of m/s or rad/s or inf (off)."""
+    number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+    if not (number and float(value) > 0.0):  # NaN fails too
+        raise ValueError(f"{owner}.divergence_speed must be a positive number [m/s or rad/s] or inf (off), got {value!r}")
+
+
+def follow_divergence_speed(cfg, model) -> None:
+    """Set model.divergence_speed to cfg's where a config changed in place differs (checked first); the model's
+    version then changes, which recaptures an environment's graph."""
+    if cfg.divergence_speed != model.divergence_speed:
+        check_divergence_speed(type(cfg).__name__, cfg.divergence_speed)
+        model.divergence_speed = cfg.divergence_speed
+
+
 class DeviceVectorEnv(gym.vector.VectorEnv):
     """The base of a batched environment whose subclass sets `stepper`, `device`, `use_graph`, `num_envs`,
     `max_episode_length`, `episode_length_buf` (long (N,)), `_return` (float32 (N,)), `_generator`
@@ -65,11 +90,12 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
         self._generator.manual_seed(seed)
 
     def _with_body_contacts(self, model):
-        """A copy of `model` with its geom pairs' contacts acting and the config's `time_step`, `implicit_contacts`
-        and soft law (`contact_stiffness` K, `contact_damping` D, `friction` mu): a manipulation environment's
-        `_simulated` after its checks of the scene."""
+        """A copy of `model` with its geom pairs' contacts acting and the config's `time_step`, `implicit_contacts`,
+        soft law (`contact_stiffness` K, `contact_damping` D, `friction` mu) and `divergence_speed`: a manipulation
+        environment's `_simulated` after its checks of the scene."""
         cfg = self.cfg
         model = model.copy()
+        model.divergence_speed = cfg.divergence_speed
         model.geom_contacts = True
         model.implicit_contacts = cfg.implicit_contacts
         model.time_step = cfg.time_step
@@ -120,7 +146,9 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
 
     def _sync_model(self) -> None:
         """After a setter changed the model or a change of `cfg` (read when a graph was captured): drop the graphs
-        (the next step runs eagerly, then captures). The subclass's `_snapshot()` is what a graph depends on."""
+        (the next step runs eagerly, then captures). The subclass's `_snapshot()` is what a graph depends on. A
+        `divergence_speed` changed in cfg reaches the model (`follow_divergence_speed`)."""
+        follow_divergence_speed(self.cfg, self.model)
         if self._graph_key != self._snapshot():
             self.cfg.validate()
             self._program = self._step_program(f"a {type(self).__name__}")

@@ -1,0 +1,82 @@
+"""How fast the environments move under random actions: the smallest divergence bound that flags none of them.
+
+    python benchmarks/env_speed_bounds.py [--device cpu] [--envs ergocub,go1,anymal_c,pick,reorient]
+                                          [--bounds 5,8,10,12,15,20,30,50] [--num-envs 64] [--seconds 10]
+
+For each environment (warpdyn.envs: LeggedEnv on the robots' presets with pushes of 0.5 m/s every 4 s,
+PickCubeEnv, CubeReorientEnv; their defaults otherwise) and each bound B [m/s or rad/s]: set the environment's
+`divergence_speed` to B, reset with seed 0 and step `--seconds` of policy steps with actions drawn uniformly in
+[-1, 1] (one torch generator seeded 0, the same draws for every B), and count the environments flagged
+(info["invalid"]: a simulation step read a base or joint velocity component beyond B; each is reset and goes on).
+The smallest B with no flag bounds every velocity component the run reached at its simulation steps. Random actions
+jump each target by its whole range every policy step: harsher than a trained policy's. Prints a Markdown table; the
+environments' default (warpdyn.envs.vector_env.DIVERGENCE_SPEED) is chosen from it. `go1` needs example-robot-data.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+
+import torch
+import warp as wp
+
+import warpdyn.envs as envs
+from common import header
+
+LEGGED = {"ergocub": envs.robots.ergocub_legs, "go1": envs.robots.go1, "anymal_c": envs.robots.anymal_c}
+
+
+def make(name: str, N: int, device, bound: float):
+    """The environment `name` with divergence_speed = bound."""
+    if name == "pick":
+        return envs.PickCubeEnv(N, envs.manipulation.PickCubeConfig(divergence_speed=bound), device=device, seed=0)
+    if name == "reorient":
+        return envs.CubeReorientEnv(N, envs.reorient.CubeReorientConfig(divergence_speed=bound), device=device, seed=0)
+    preset = LEGGED[name]()
+    model = preset.model(device=device)
+    cfg = preset.config(model, push_velocity=0.5, push_seconds=4.0)
+    return envs.LeggedEnv(model, num_envs=N, cfg=dataclasses.replace(cfg, divergence_speed=bound), seed=0)
+
+
+def flags(name: str, N: int, device, bound: float, seconds: float) -> tuple[int, int]:
+    """(environments flagged over the run, policy steps) under uniformly random actions."""
+    env = make(name, N, device, bound)
+    steps = math.ceil(seconds / env.cfg.policy_dt)
+    generator = torch.Generator(device=env.device).manual_seed(0)
+    env.reset(seed=0)
+    flagged = torch.zeros((), dtype=torch.long, device=env.device)
+    for _ in range(steps):
+        actions = 2.0 * torch.rand(env.action_space.shape, generator=generator, device=env.device) - 1.0
+        flagged += env.step(actions)[-1]["invalid"].sum()
+    return int(flagged), steps
+
+
+def main(argv=None) -> list:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--envs", default="ergocub,go1,anymal_c,pick,reorient")
+    parser.add_argument("--bounds", default="5,8,10,12,15,20,30,50")
+    parser.add_argument("--num-envs", type=int, default=64)
+    parser.add_argument("--seconds", type=float, default=10.0)
+    args = parser.parse_args(argv)
+    wp.config.quiet = True
+    device = wp.get_device(args.device)
+    bounds = [float(b) for b in args.bounds.split(",")]
+    rows = []
+    print(header(device))
+    print(f"\n{args.num_envs} environments, {args.seconds:g} s of uniformly random actions each; environments flagged per bound [m/s or rad/s]\n")
+    print("| environment | policy steps | " + " | ".join(f"B = {b:g}" for b in bounds) + " | smallest B with none |")
+    print("| --- | ---: | " + " | ".join("---:" for _ in bounds) + " | ---: |")
+    for name in args.envs.split(","):
+        counts = [flags(name, args.num_envs, device, b, args.seconds) for b in bounds]
+        clear = [b for b, (count, _) in zip(bounds, counts) if count == 0]
+        first = f"{min(clear):g}" if clear else f"> {bounds[-1]:g}"
+        rows.append((name, counts, first))
+        print(f"| {name} | {counts[0][1]} | " + " | ".join(str(c) for c, _ in counts) + f" | {first} |", flush=True)
+    return rows
+
+
+if __name__ == "__main__":
+    main()

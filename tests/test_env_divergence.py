@@ -1,0 +1,78 @@
+"""The environments' divergence bound (`divergence_speed` in LeggedEnvConfig, PickCubeConfig and CubeReorientConfig,
+model.divergence_speed; vector_env.DIVERGENCE_SPEED by default), on the tests' device: a joint pushed past it flags its
+environment alone (info["invalid"]), which is reset; with the bound off (inf, changed in the config in place) the same
+push is not flagged; the user's model keeps its own bound; bad values are refused naming the field."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+import warp as wp
+
+import warpdyn as wd
+import warpdyn.envs as envs
+from warpdyn.envs.manipulation import PickCubeConfig
+from warpdyn.envs.reorient import CubeReorientConfig
+from warpdyn.envs.vector_env import DIVERGENCE_SPEED
+
+N = 3
+
+
+def _legged(**cfg):
+    full = wd.model.Model.build_from_model_description(wd.assets.ergocub_urdf())
+    model = wd.model.reduce(full, wd.assets.ERGOCUB_LEG_JOINTS)
+    return envs.LeggedEnv(model, num_envs=N, cfg=envs.LeggedEnvConfig(**cfg), seed=0), model
+
+
+def _pick(**cfg):
+    return envs.PickCubeEnv(N, PickCubeConfig(**cfg), seed=1), None
+
+
+def _reorient(**cfg):
+    return envs.CubeReorientEnv(N, CubeReorientConfig(reset_bank=32, **cfg), dtype=np.float64, seed=1), None
+
+
+BUILDERS = {"LeggedEnvConfig": _legged, "PickCubeConfig": _pick, "CubeReorientConfig": _reorient}
+
+
+def _push_and_step(env, speed: float):
+    """Set the last joint's velocity of environment 0 to `speed` [rad/s or m/s], step with zero actions; info["invalid"]."""
+    u = wp.to_torch(env.stepper.data.joint_velocities_state)
+    u[0, -1] = speed
+    return env.step(torch.zeros(env.action_space.shape, device=env.device))[-1]["invalid"]
+
+
+@pytest.mark.parametrize("config", sorted(BUILDERS))
+def test_a_joint_past_the_bound_flags_its_environment_alone(config):
+    env, model = BUILDERS[config]()
+    assert env.cfg.divergence_speed == env.model.divergence_speed == DIVERGENCE_SPEED == 100.0
+    if model is not None:
+        assert model.divergence_speed == math.inf  # the user's model keeps its own
+    env.reset(seed=0)
+    invalid = _push_and_step(env, 1.5 * DIVERGENCE_SPEED)
+    assert invalid.tolist() == [True] + [False] * (N - 1)
+    velocities = wp.to_torch(env.stepper.data.joint_velocities_state)
+    assert velocities[0].abs().max() < DIVERGENCE_SPEED  # reset
+    env.reset(seed=0)
+    assert not _push_and_step(env, 0.5 * DIVERGENCE_SPEED).any()  # below the bound
+    env.cfg.divergence_speed = math.inf  # changed in place: reaches the model at the next step
+    env.reset(seed=0)
+    assert not _push_and_step(env, 1.5 * DIVERGENCE_SPEED).any()
+    assert env.model.divergence_speed == math.inf
+
+
+@pytest.mark.parametrize("config", sorted(BUILDERS))
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), "fast", True])
+def test_bad_bounds_are_refused_naming_the_field(config, bad):
+    config_type = {"LeggedEnvConfig": envs.LeggedEnvConfig, "PickCubeConfig": PickCubeConfig, "CubeReorientConfig": CubeReorientConfig}[config]
+    with pytest.raises(ValueError, match=rf"{config}\.divergence_speed must be a positive number \[m/s or rad/s\] or inf"):
+        config_type(divergence_speed=bad).validate()
+
+
+def test_a_bad_bound_set_in_place_is_refused_at_the_next_step():
+    env, _ = _legged()
+    env.reset(seed=0)
+    env.cfg.divergence_speed = float("nan")
+    with pytest.raises(ValueError, match=r"LeggedEnvConfig\.divergence_speed"):
+        env.step(torch.zeros(env.action_space.shape, device=env.device))
