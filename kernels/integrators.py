@@ -233,6 +233,19 @@ def kernels(scalar, multi_dof: bool):
         """|v| <= bound componentwise (False for a NaN)."""
         return wp.abs(v[0]) <= bound and wp.abs(v[1]) <= bound and wp.abs(v[2]) <= bound
 
+    @wp.kernel(module="unique")
+    def flag_fast_state(divergence_speed: scalar, x: B.State):
+        """x.valid[env] = 0 where x has a velocity component (the base's Mixed velocity, each joint's) beyond
+        `divergence_speed` or a non-finite one: the integrators' check of the state they read, on a state that no step
+        has read yet (a Stepper call's last, warpdyn.engine.stepper); the state is kept."""
+        env = wp.tid()
+        speeding = scalar(0.0)
+        for j in range(x.joint_velocities.shape[1]):
+            speeding = poison_speed(speeding, x.joint_velocities[env, j], divergence_speed)
+        ok = within3(read3(x.base_velocity, env, 0), divergence_speed) and within3(read3(x.base_velocity, env, 3), divergence_speed)
+        if not (ok and wp.isfinite(speeding)):
+            x.valid[env] = 0
+
     @wp.func
     def keep_state(env: int, x: B.State, y: B.State):
         """A flagged environment: its next state y is its state x, and y.valid = 0."""
@@ -551,6 +564,7 @@ def kernels(scalar, multi_dof: bool):
         euler_rate=euler_rate,
         rotating_joint_step=rotating_joint_step,
         keep_state=keep_state,
+        flag_fast_state=flag_fast_state,
         euler_base=euler_base,
         base_state=base_state,
         euler_base_from=euler_base_from,

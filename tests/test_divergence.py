@@ -164,3 +164,38 @@ def test_the_bound_is_off_by_default_and_acts_once_set():
     assert wd.model.step(model, data).healthy.numpy().tolist() == [0, 0]
     assert wd.model.reduce(model, ["hinge"]).divergence_speed == 1e3
 
+
+
+FALLING_BOX = """
+<mujoco model="falling_box">
+  <worldbody>
+    <body name="box" pos="0 0 1">
+      <freejoint name="box_root"/>
+      <inertial pos="0 0 0" mass="0.5" diaginertia="0.001 0.002 0.003"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("fused", [True, False], ids=["fused", "staged"])
+def test_a_stepper_call_flags_the_state_it_ends_on(fused, monkeypatch):
+    """A free box falling from rest at 9.81 dt per step passes the bound (9.5 steps' speed) in the last of a Stepper
+    call's 10 steps: the steps' own check, reading the states they start from (all below the bound), does not flag
+    it, as 10 calls of wd.model.step show; the call flags it at its end (warpdyn.engine.stepper), keeping the state.
+    With the bound at inf it stays healthy."""
+    monkeypatch.setattr(wd.config, "fused_step", fused)
+    dt, substeps = 0.01, 10
+    model = wd.model.Model.build_from_model_description(FALLING_BOX, dtype=np.float64).replace(time_step=dt, divergence_speed=9.81 * dt * 9.5)
+    data = wd.data.random_model_data(model, num_envs=N, key=0, base_vel_lin_bounds=(0.0, 0.0), base_vel_ang_bounds=(0.0, 0.0))
+    stepped = data
+    for _ in range(substeps):
+        stepped = wd.model.step(model, stepped)
+    assert stepped.healthy.numpy().tolist() == [1] * N  # the steps flag it only at the next one
+    stepper = wd.simulation.Stepper(model, data, substeps=substeps, use_graph=False)
+    ended = stepper.step()
+    assert ended.healthy.numpy().tolist() == [0] * N
+    np.testing.assert_array_equal(ended.base_position.numpy(), stepped.base_position.numpy())  # the state kept
+    assert np.all(np.abs(ended.base_velocity.numpy()[:, 2]) > model.divergence_speed)
+    free = wd.simulation.Stepper(model.replace(divergence_speed=np.inf), data, substeps=substeps, use_graph=False)
+    assert free.step().healthy.numpy().tolist() == [1] * N

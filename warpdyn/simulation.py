@@ -144,8 +144,9 @@ class Stepper(_Stepper):
             data = stepper.step()                                  # replays one graph: no allocation
         view = wp.to_torch(stepper.ctrl)                           # (N, na), zero-copy: view[:] = ... unchecked
 
-    What `wd.model.step` computes (the same kernels, numbers and health flags), but its state lives in the
-    Stepper: `step()` overwrites it, and `data` (returned by `step`) is a Data of views of the Stepper's
+    What `wd.model.step` computes (the same kernels, numbers and health flags; with a finite
+    `model.divergence_speed` a call also flags the state it ends on where that is beyond the bound, which a step
+    would flag at the next call), but its state lives in the Stepper: `step()` overwrites it, and `data` (returned by `step`) is a Data of views of the Stepper's
     buffers, valid until the next call (copy what you keep, e.g. `data.joint_positions.numpy()`). The
     controls are the Stepper's arrays, zero until written, held over each call's `substeps` steps:
     `joint_force_references` (N, n) [N m or N], `ctrl` (N, na) (the model's actuators), and, when built with

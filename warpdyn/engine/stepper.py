@@ -23,7 +23,8 @@ from ..kernels.state import kernels as state_kernels
 from ..types.enums import VelRepr
 from . import tape
 from .kinematics import state_arrays
-from .launch import Program, launch
+from .bundles import state_bundle
+from .launch import Launch, Program, launch
 from .launch import run as run_launches
 from .rollout import copy_launch
 from .step import Workspace, prepare, state_buffers, step_launches, with_state
@@ -75,6 +76,9 @@ class Stepper:
                 self._plan, self._workspace, x, y, self.joint_force_references, self.link_forces, int(self.velocity_representation), ctrl=u,
                 evaluation=last,
             )  # fmt: skip
+        if np.isfinite(self.model.divergence_speed):  # the call's last state beyond it: flagged now, not at the next call
+            end = state_bundle(self.scalar, self._slots[(start + self.substeps) % 2])
+            launches.append(Launch(self._plan.integrators.flag_fast_state, self.batch_size, [self._plan.divergence_speed, end], []))
         return launches
 
     def _program(self, start: int) -> Program:
