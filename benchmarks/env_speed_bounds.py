@@ -6,8 +6,9 @@
 For each environment (warpdyn.envs: LeggedEnv on the robots' presets with pushes of 0.5 m/s every 4 s,
 PickCubeEnv, CubeReorientEnv; their defaults otherwise) and each bound B [m/s or rad/s]: set the environment's
 `divergence_speed` to B, reset with seed 0 and step `--seconds` of policy steps with actions drawn uniformly in
-[-1, 1] (one torch generator seeded 0, the same draws for every B), and count the environments flagged
-(info["invalid"]: a simulation step read a base or joint velocity component beyond B; each is reset and goes on).
+[-1, 1] (one torch generator seeded 0, the same draws for every B), and count the flags: each time an environment is
+flagged (info["invalid"]: a base or joint velocity component beyond B at a simulation step) it is reset and goes on,
+to be flagged again, so the count may exceed the number of environments.
 The smallest B with no flag bounds every velocity component the run reached at its simulation steps. Random actions
 jump each target by its whole range every policy step: harsher than a trained policy's. Prints a Markdown table; the
 environments' default (warpdyn.envs.vector_env.DIVERGENCE_SPEED) is chosen from it. `go1` needs example-robot-data.
@@ -28,7 +29,7 @@ from common import header
 LEGGED = {"ergocub": envs.robots.ergocub_legs, "go1": envs.robots.go1, "anymal_c": envs.robots.anymal_c}
 
 
-def make(name: str, N: int, device, bound: float):
+def make_env(name: str, N: int, device, bound: float):
     """The environment `name` with divergence_speed = bound."""
     if name == "pick":
         return envs.PickCubeEnv(N, envs.manipulation.PickCubeConfig(divergence_speed=bound), device=device, seed=0)
@@ -40,9 +41,9 @@ def make(name: str, N: int, device, bound: float):
     return envs.LeggedEnv(model, num_envs=N, cfg=dataclasses.replace(cfg, divergence_speed=bound), seed=0)
 
 
-def flags(name: str, N: int, device, bound: float, seconds: float) -> tuple[int, int]:
-    """(environments flagged over the run, policy steps) under uniformly random actions."""
-    env = make(name, N, device, bound)
+def count_flags(name: str, N: int, device, bound: float, seconds: float) -> tuple[int, int]:
+    """(flags over the run, policy steps) under uniformly random actions."""
+    env = make_env(name, N, device, bound)
     steps = math.ceil(seconds / env.cfg.policy_dt)
     generator = torch.Generator(device=env.device).manual_seed(0)
     env.reset(seed=0)
@@ -66,11 +67,11 @@ def main(argv=None) -> list:
     bounds = [float(b) for b in args.bounds.split(",")]
     rows = []
     print(header(device))
-    print(f"\n{args.num_envs} environments, {args.seconds:g} s of uniformly random actions each; environments flagged per bound [m/s or rad/s]\n")
+    print(f"\n{args.num_envs} environments, {args.seconds:g} s of uniformly random actions each; flags (an environment flagged, reset and flagged again counts each time) per bound B [m/s or rad/s]\n")
     print("| environment | policy steps | " + " | ".join(f"B = {b:g}" for b in bounds) + " | smallest B with none |")
     print("| --- | ---: | " + " | ".join("---:" for _ in bounds) + " | ---: |")
     for name in args.envs.split(","):
-        counts = [flags(name, args.num_envs, device, b, args.seconds) for b in bounds]
+        counts = [count_flags(name, args.num_envs, device, b, args.seconds) for b in bounds]
         clear = [b for b, (count, _) in zip(bounds, counts) if count == 0]
         first = f"{min(clear):g}" if clear else f"> {bounds[-1]:g}"
         rows.append((name, counts, first))

@@ -366,6 +366,11 @@ def terrain_level_counts(env) -> tuple[float, float, float]:
 
 
 def plot(history: list, path: pathlib.Path, title: str) -> None:
+    """The mean return (and the mean terrain level where there is one) against wall time, written to `path`; none
+    without matplotlib or without iterations (--iterations 0: a checkpoint resumed and saved back)."""
+    if not history:
+        print("no iterations: no plot")
+        return
     try:
         import matplotlib
 

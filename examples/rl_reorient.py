@@ -84,5 +84,6 @@ def main(argv=None) -> list:
             print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
     return history
 
+
 if __name__ == "__main__":
     main()

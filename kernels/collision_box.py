@@ -17,8 +17,9 @@ import types
 import warp as wp
 
 from . import collision_primitives
-from .collision_primitives import BOX, MINVAL
+from .collision_primitives import MINVAL
 from .factory import factory
+from .geom_types import BOX
 
 MAX_CONTACTS = 8
 """The most contacts of a box pair: the incident face, a 4-gon, clipped by the reference face's 4 sides, has at most 8

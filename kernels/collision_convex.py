@@ -30,8 +30,8 @@ from typing import Any
 import warp as wp
 
 from . import collision_primitives
-from .collision_primitives import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 from .factory import factory
+from .geom_types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 from .spatial import spatial
 
 VERTICES = 64

@@ -33,11 +33,8 @@ from typing import Any
 import warp as wp
 
 from .factory import factory
+from .geom_types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, PLANE, SPHERE  # a mesh's size here: (its bounding radius, 0, 0)
 from .spatial import spatial
-
-PLANE, SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX, MESH = 0, 2, 3, 4, 5, 6, 7
-"""MuJoCo's mjtGeom values of the primitive geoms, and a mesh's (its size here: (its bounding radius, 0, 0);
-kernels/collision_convex.py collides it)."""
 
 MAX_CONTACTS = 4
 """The most contacts a pair gives (plane-box, plane-cylinder): the size of `collide`'s outputs' second axis."""

@@ -13,8 +13,8 @@ import warp as wp
 
 from . import collision_box, collision_convex, collision_primitives, implicit_contacts, soft_contacts
 from .bundles import bundles
-from .collision_primitives import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 from .factory import factory
+from .geom_types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 from .spatial import spatial
 
 

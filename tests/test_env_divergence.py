@@ -1,9 +1,13 @@
 """The environments' divergence bound (`divergence_speed` in LeggedEnvConfig, PickCubeConfig and CubeReorientConfig,
 model.divergence_speed; vector_env.DIVERGENCE_SPEED by default), on the tests' device: a joint pushed past it flags its
 environment alone (info["invalid"]), which is reset; with the bound off (inf, changed in the config in place) the same
-push is not flagged; the user's model keeps its own bound; bad values are refused naming the field."""
+push is not flagged; a bound set on env.model directly stays until the config's changes; the user's model keeps its
+own bound; bad values are refused naming the field."""
 
 import math
+import pathlib
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -17,6 +21,7 @@ from warpdyn.envs.reorient import CubeReorientConfig
 from warpdyn.envs.vector_env import DIVERGENCE_SPEED
 
 N = 3
+ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def _legged(**cfg):
@@ -60,6 +65,10 @@ def test_a_joint_past_the_bound_flags_its_environment_alone(config):
     env.reset(seed=0)
     assert not _push_and_step(env, 1.5 * DIVERGENCE_SPEED).any()
     assert env.model.divergence_speed == math.inf
+    env.model.divergence_speed = 10.0 * DIVERGENCE_SPEED  # set on the model directly: stays until the config's changes
+    env.reset(seed=0)
+    assert not _push_and_step(env, 5.0 * DIVERGENCE_SPEED).any() and _push_and_step(env, 15.0 * DIVERGENCE_SPEED)[0]
+    assert env.model.divergence_speed == 10.0 * DIVERGENCE_SPEED
 
 
 @pytest.mark.parametrize("config", sorted(BUILDERS))
@@ -76,3 +85,14 @@ def test_a_bad_bound_set_in_place_is_refused_at_the_next_step():
     env.cfg.divergence_speed = float("nan")
     with pytest.raises(ValueError, match=r"LeggedEnvConfig\.divergence_speed"):
         env.step(torch.zeros(env.action_space.shape, device=env.device))
+
+
+def test_the_speed_bound_benchmark_finds_the_smallest_bound_that_flags_none():
+    """benchmarks/env_speed_bounds.py (its own process: benchmarks/ is not on the tests' path) on two PickCubeEnv
+    environments for 0.1 s: a bound of 1 mm/s flags the moving arm, 1000 none, and the table says so."""
+    script = ROOT / "benchmarks" / "env_speed_bounds.py"
+    args = [sys.executable, str(script), "--device", str(wp.get_device()), "--envs", "pick", "--bounds", "0.001,1000", "--num-envs", "2", "--seconds", "0.1"]
+    stdout = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, timeout=600, check=True).stdout
+    row = next(line for line in stdout.splitlines() if line.startswith("| pick |"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[1] == "5" and int(cells[2]) > 0 and cells[3] == "0" and cells[4] == "1000", stdout  # 5 policy steps of 20 ms

@@ -12,10 +12,11 @@ on the CPU).
   process group (one evaluation line).
 - One process (plain python) still trains, counts 8 x 24 env-steps per iteration and stops at
   --target-return.
-- examples/rl_manipulation.py (and rl_reorient.py: the same `torchrun_device` and `train`) under torchrun: two ranks
-  train one policy, rank 0 alone prints, evaluates and saves; a second two-rank run resumes from that checkpoint
-  (every rank loads it, rank 0's broadcast) and numbers its iteration on.
-About 20 s warm on 2 cores (plus Warp's compilation of the ergoCub legs the first time, ~15 s).
+- examples/rl_manipulation.py under torchrun (rl_reorient.py calls the same `torchrun_device` and `train`): two ranks
+  train one policy, rank 0 alone prints, evaluates and saves; a two-rank run of 0 iterations resumes from that
+  checkpoint and saves it back unchanged (every rank loads it, rank 0's broadcast), and one of 1 iteration numbers it
+  on.
+About 60 s warm on 2 cores (plus Warp's compilation of the ergoCub legs the first time, ~15 s).
 """
 
 import os
@@ -94,16 +95,21 @@ def test_one_process_still_trains(tmp_path):
 @CPU_BACKEND
 def test_two_ranks_train_and_resume_the_pick_task(tmp_path):
     args = ["-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2", str(PICK), "--device", "cpu", "--num-envs", "4",
-            "--iterations", "1", "--steps-per-env", "4", "--mini-batches", "2"]  # fmt: skip
-    stdout = _run([*args, "--evaluate", "--evaluate-envs", "4", "--out", str(tmp_path / "a")])
+            "--steps-per-env", "4", "--mini-batches", "2"]  # fmt: skip
+    stdout = _run([*args, "--iterations", "1", "--evaluate", "--evaluate-envs", "4", "--out", str(tmp_path / "a")])
     assert "pick cube: 2 ranks x 4 environments on CPU (gloo)" in stdout, stdout
     assert _iterations(stdout) == [(0, 2 * 4 * 4)], stdout  # both ranks' steps, printed once
     match = re.search(r"^policy identical on 2 ranks \(largest difference (\S+)\)", stdout, re.M)
     assert match and float(match[1]) == 0.0, stdout
     assert len(re.findall(r"^evaluation: 4 fresh environments, one episode: success", stdout, re.M)) == 1, stdout
     assert torch.load(tmp_path / "a" / "policy.pt", weights_only=False)["iter"] == 0
-    stdout = _run([*args, "--resume", str(tmp_path / "a" / "policy.pt"), "--out", str(tmp_path / "b")])
-    assert _iterations(stdout) == [(1, 2 * 4 * 4)], stdout
+    saved = torch.load(tmp_path / "a" / "policy.pt", weights_only=False)
+    stdout = _run([*args, "--iterations", "0", "--resume", str(tmp_path / "a" / "policy.pt"), "--out", str(tmp_path / "b")])
     match = re.search(r"^policy identical on 2 ranks \(largest difference (\S+)\)", stdout, re.M)
     assert match and float(match[1]) == 0.0, stdout
-    assert torch.load(tmp_path / "b" / "policy.pt", weights_only=False)["iter"] == 1
+    resumed = torch.load(tmp_path / "b" / "policy.pt", weights_only=False)
+    assert resumed["iter"] == 0  # no iteration: the checkpoint's number
+    for name in ("actor_state_dict", "critic_state_dict"):  # loaded as saved (rank 1 too: identical to rank 0's)
+        assert all(torch.equal(resumed[name][k], saved[name][k]) for k in saved[name]), name
+    stdout = _run([*args, "--iterations", "1", "--resume", str(tmp_path / "a" / "policy.pt"), "--out", str(tmp_path / "c")])
+    assert _iterations(stdout) == [(1, 2 * 4 * 4)], stdout  # numbered on

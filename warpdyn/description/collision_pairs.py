@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernels.collision_primitives import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE  # MuJoCo's mjtGeom values
+from ..kernels.geom_types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE  # MuJoCo's mjtGeom values
 from .model import GeomPair
 
 __all__ = ["COLLIDED_TYPES", "CONVEX_TYPES", "MULTICCD_TYPES", "multiccd", "mujoco_geom_pairs"]

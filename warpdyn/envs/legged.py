@@ -19,7 +19,7 @@ from . import terms
 from .actuators import Actuation, ActuatorNet, torque_limits
 from .sensors import Imu, ImuConfig
 from .terrain_generator import TerrainConfig, TerrainCurriculum, TerrainGenerator
-from .vector_env import DIVERGENCE_SPEED, DeviceVectorEnv, check_divergence_speed, follow_divergence_speed
+from .vector_env import DIVERGENCE_SPEED, DeviceVectorEnv, check_divergence_speed, follow_divergence_speed, is_real_number
 
 __all__ = ["LeggedEnvConfig", "LeggedEnv", "DEFAULT_OBSERVATIONS", "DEFAULT_REWARDS"]
 
@@ -89,7 +89,6 @@ class LeggedEnvConfig:
     """
 
     time_step: float = 0.002
-    divergence_speed: float = DIVERGENCE_SPEED
     policy_dt: float = 0.02
     contact_stiffness: float = 1e5
     contact_damping: float | None = None
@@ -128,6 +127,7 @@ class LeggedEnvConfig:
     imu: ImuConfig | None = None
     stumble_ratio: float = 5.0
     actuator: str | ActuatorNet = "pd"
+    divergence_speed: float = DIVERGENCE_SPEED
 
     def __post_init__(self):
         self.validate()
@@ -152,7 +152,7 @@ class LeggedEnvConfig:
                 raise TypeError(f"LeggedEnvConfig.{name} must be a tuple of link names, got {links!r}")
         limit = self.torque_limit
         limits = limit.values() if isinstance(limit, dict) else () if limit is None else (limit,)
-        if (isinstance(limit, dict) and not all(isinstance(k, str) for k in limit)) or not all(_is_number(v) and math.isfinite(v) and v > 0 for v in limits):
+        if (isinstance(limit, dict) and not all(isinstance(k, str) for k in limit)) or not all(is_real_number(v) and math.isfinite(v) and v > 0 for v in limits):
             raise ValueError(f"LeggedEnvConfig.torque_limit must be a positive finite number [N m], {{joint name: N m}} or None, got {limit!r}")
         default = self.default_joint_positions
         if default is not None and not isinstance(default, dict):
@@ -228,11 +228,11 @@ def _check_field(name: str, value, kind: str, unit: str) -> None:
     if kind.endswith("range"):
         prefix, low_ok = _RANGES[kind]
         pair = tuple(value) if isinstance(value, (tuple, list)) else None
-        numbers = pair is not None and len(pair) == 2 and all(_is_number(v) for v in pair)
+        numbers = pair is not None and len(pair) == 2 and all(is_real_number(v) for v in pair)
         if not numbers or not all(math.isfinite(v) for v in pair) or not (low_ok(pair[0]) and pair[0] <= pair[1]):
             raise ValueError(f"{field} must be a range (low, high) of finite numbers with {prefix}low <= high{unit}, got {value!r}")
         return
-    if not _is_number(value):
+    if not is_real_number(value):
         raise TypeError(f"{field} must be a number, got {value!r}")
     value = float(value)
     if kind.startswith("positive") and not (math.isfinite(value) and value > 0.0):
@@ -241,11 +241,6 @@ def _check_field(name: str, value, kind: str, unit: str) -> None:
         raise ValueError(f"{field} must be a finite number >= 0{unit}, got {value}")
     if kind == "finite" and not math.isfinite(value):
         raise ValueError(f"{field} is {value}; a finite number{unit} is needed")
-
-
-def _is_number(value) -> bool:
-    """A real number: an int or float (NumPy's included), not a bool."""
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
 
 def _snapshot(cfg: LeggedEnvConfig) -> LeggedEnvConfig:
@@ -425,7 +420,7 @@ class LeggedEnv(DeviceVectorEnv):
         model.integrator = wd.model.IntegratorType.SemiImplicitEuler
         model.implicit_damping = True
         model.time_step = cfg.time_step
-        model.divergence_speed = cfg.divergence_speed
+        model.divergence_speed = self._divergence_speed = cfg.divergence_speed
         D = cfg.contact_damping if cfg.contact_damping is not None else 2000.0 * (cfg.contact_stiffness / 1e6) ** (2.0 / 3.0)
         mu = wp.array(np.full(N, np.mean(cfg.friction)), dtype=model.scalar, device=model.device)
         model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=D, mu=mu)
@@ -543,7 +538,7 @@ class LeggedEnv(DeviceVectorEnv):
         """After a setter changed the model (new parameter arrays, a rebuilt Stepper workspace) or a change of
         `cfg` (read when a graph was captured): drop the graphs (the next step runs eagerly, then captures)
         and take new views of the randomised parameters. A `divergence_speed` changed in cfg reaches the model."""
-        follow_divergence_speed(self.cfg, self.model)
+        self._divergence_speed = follow_divergence_speed(self.cfg, self.model, self._divergence_speed)
         if self.model.version == self._graph_version and self.cfg == self._graph_cfg:
             return
         self._program = self._step_program("a LeggedEnv")

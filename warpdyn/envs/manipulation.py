@@ -60,7 +60,6 @@ class PickCubeConfig:
     contact_damping: float = 2000.0
     implicit_contacts: bool = True
     friction: float = 1.0
-    divergence_speed: float = DIVERGENCE_SPEED
     keyframe: str = "home"
     cube_range: float = 0.2
     target_low: tuple = (-0.2, -0.2, 0.2)
@@ -68,6 +67,7 @@ class PickCubeConfig:
     reach_distance: float = 0.012
     success_distance: float = 0.05
     rewards: dict = dataclasses.field(default_factory=lambda: {"gripper_box": 4.0, "box_target": 8.0, "no_floor_collision": 0.25, "robot_target_qpos": 0.3})
+    divergence_speed: float = DIVERGENCE_SPEED
 
     def validate(self) -> None:
         """A ValueError naming the field whose value is not what it must be."""

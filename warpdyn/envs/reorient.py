@@ -70,7 +70,6 @@ class CubeReorientConfig:
     contact_stiffness: float = 5e5
     contact_damping: float = 2000.0
     friction: float = 1.0
-    divergence_speed: float = DIVERGENCE_SPEED
     hand_noise: float = 0.1
     cube_start: tuple = (0.1, 0.0, 0.05)
     cube_range: float = 0.01
@@ -81,6 +80,7 @@ class CubeReorientConfig:
     noise: dict = dataclasses.field(default_factory=lambda: {"joint_pos": 0.05, "cube_pos": 0.02, "cube_ori": 0.1})
     rewards: dict = dataclasses.field(default_factory=lambda: {
         "orientation": 5.0, "position": 0.5, "termination": -100.0, "hand_pose": -0.5, "action_rate": -0.001, "joint_velocity": 0.0, "energy": -1e-3})  # fmt: skip
+    divergence_speed: float = DIVERGENCE_SPEED
 
     def validate(self) -> None:
         """A ValueError naming the field whose value is not what it must be."""

@@ -17,7 +17,7 @@ from gymnasium.vector.utils import batch_space
 
 import warpdyn as wd
 
-__all__ = ["DeviceVectorEnv"]
+__all__ = ["DIVERGENCE_SPEED", "DeviceVectorEnv", "check_divergence_speed", "follow_divergence_speed", "is_real_number"]
 
 
 DIVERGENCE_SPEED = 100.0
@@ -30,19 +30,26 @@ cube. The default is five times the largest; a divergence passes it by far (docs
 finite 65 km/s)."""
 
 
+def is_real_number(value) -> bool:
+    """A real number: an int or float (NumPy's included), not a bool."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
 def check_divergence_speed(owner: str, value) -> None:
     """A ValueError naming `owner`.divergence_speed unless `value` is a positive number of m/s or rad/s or inf (off)."""
-    number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
-    if not (number and float(value) > 0.0):  # NaN fails too
+    if not (is_real_number(value) and float(value) > 0.0):  # NaN fails too
         raise ValueError(f"{owner}.divergence_speed must be a positive number [m/s or rad/s] or inf (off), got {value!r}")
 
 
-def follow_divergence_speed(cfg, model) -> None:
-    """Set model.divergence_speed to cfg's where a config changed in place differs (checked first); the model's
-    version then changes, which recaptures an environment's graph."""
-    if cfg.divergence_speed != model.divergence_speed:
+def follow_divergence_speed(cfg, model, applied: float) -> float:
+    """Where cfg.divergence_speed differs from `applied` (the value the environment last set from its config: a
+    config changed in place), check it and set model.divergence_speed to it (the model's version then changes,
+    which recaptures the environment's graph); returns the value now applied. A bound set on the model directly
+    stays until the config's changes."""
+    if cfg.divergence_speed != applied:
         check_divergence_speed(type(cfg).__name__, cfg.divergence_speed)
-        model.divergence_speed = cfg.divergence_speed
+        model.divergence_speed = applied = cfg.divergence_speed
+    return applied
 
 
 class DeviceVectorEnv(gym.vector.VectorEnv):
@@ -95,7 +102,7 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
         environment's `_simulated` after its checks of the scene."""
         cfg = self.cfg
         model = model.copy()
-        model.divergence_speed = cfg.divergence_speed
+        model.divergence_speed = self._divergence_speed = cfg.divergence_speed
         model.geom_contacts = True
         model.implicit_contacts = cfg.implicit_contacts
         model.time_step = cfg.time_step
@@ -148,7 +155,7 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
         """After a setter changed the model or a change of `cfg` (read when a graph was captured): drop the graphs
         (the next step runs eagerly, then captures). The subclass's `_snapshot()` is what a graph depends on. A
         `divergence_speed` changed in cfg reaches the model (`follow_divergence_speed`)."""
-        follow_divergence_speed(self.cfg, self.model)
+        self._divergence_speed = follow_divergence_speed(self.cfg, self.model, self._divergence_speed)
         if self._graph_key != self._snapshot():
             self.cfg.validate()
             self._program = self._step_program(f"a {type(self).__name__}")

@@ -18,16 +18,14 @@ import numpy as np
 from ..description.collidable import CollidablePointsOptions, mesh_file_vertices
 from ..description.collision_pairs import COLLIDED_TYPES, CONVEX_TYPES
 from ..description.model import GeomPair
-from ..kernels.collision_primitives import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
+from ..kernels.geom_types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 
 __all__ = ["GeomPairs", "geom_pairs", "self_collision", "MUJOCO_TYPES", "SLOTS"]
 
 MUJOCO_TYPES = {"sphere": SPHERE, "capsule": CAPSULE, "ellipsoid": ELLIPSOID, "cylinder": CYLINDER, "box": BOX, "mesh": MESH}
 """A collision shape's kind -> MuJoCo's mjtGeom value (the narrow phase's type)."""
 
-SLOTS = {(SPHERE, SPHERE): 1, (SPHERE, CAPSULE): 1, (SPHERE, CYLINDER): 1, (SPHERE, BOX): 1, (CAPSULE, CAPSULE): 2, (CAPSULE, BOX): 2} | {
-    (BOX, BOX): 8
-} | dict.fromkeys(CONVEX_TYPES, 1)
+SLOTS = {(SPHERE, SPHERE): 1, (SPHERE, CAPSULE): 1, (SPHERE, CYLINDER): 1, (SPHERE, BOX): 1, (CAPSULE, CAPSULE): 2, (CAPSULE, BOX): 2, (BOX, BOX): 8, **dict.fromkeys(CONVEX_TYPES, 1)}
 """(type1, type2) -> the most contacts of such a pair (GJK and EPA's pairs: one)."""
 
 
