@@ -439,6 +439,33 @@ def task_setup(parser: argparse.ArgumentParser, argv, ppo: dict) -> tuple:
     return args, pathlib.Path(args.out), {name: getattr(args, name) for name in ppo}
 
 
+def run_task(parser, argv, ppo: dict, counts: tuple, make, name: str, describe, title: str, log_names: tuple, report) -> list:
+    """A manipulation example's run (rl_manipulation.py, rl_reorient.py), under torchrun too: `task_arguments`'
+    command line (`task_setup`), this rank's device (`torchrun_device`), its `make(N, device, seed)` environments (N:
+    --num-envs, else counts[0] on a GPU and counts[1] on the CPU; seed: --seed + rank), `train`; rank 0 prints the
+    header ("`name`: where, `describe(env)`, actions, policy rate"), plots the returns ("`title`: where"), with
+    --evaluate prints "evaluation: " + `report(args, policy.pt's path, device, env)`, and the phases' times. Returns
+    `train`'s history."""
+    started = time.perf_counter()
+    args, out, ppo = task_setup(parser, argv, ppo)
+    with torchrun_device(parser, args.device, args.seed) as (device, world, rank):
+        N = args.num_envs or (counts[0] if device.is_cuda else counts[1])
+        env = make(N, device, args.seed + rank)
+        where = placement(N, device, world)
+        if rank == 0:
+            print(f"{name}: {where}, {describe(env)}, {env.single_action_space.shape[0]} actions, "
+                  f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
+        phases = {"environment": time.perf_counter() - started}
+        history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, log_names, args.action_distribution, args.ppo == "graphed", args.resume)
+        phases["training"] = time.perf_counter() - started - sum(phases.values())
+        if rank == 0:
+            plot(history, out / "rewards.png", f"{title}: {where}")
+            if args.evaluate:
+                print("evaluation: " + report(args, out / "policy.pt", device, env), flush=True)
+            print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
+    return history
+
+
 def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
     """(rsl-rl VecEnv of `env`, the deterministic policy of a policy.pt on env's device). Built as `train`
     builds it (not by OnPolicyRunner, which would start a process group of its own under torchrun); a policy

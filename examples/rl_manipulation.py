@@ -27,12 +27,11 @@ rate (the cube within 5 cm of its target at the episode's end) and the mean dist
 from __future__ import annotations
 
 import pathlib
-import time
 
 import torch
 
 import warpdyn.envs as envs
-from rl_locomotion import PPO_DEFAULTS, load_policy, placement, plot, task_arguments, task_setup, torchrun_device, train
+from rl_locomotion import PPO_DEFAULTS, load_policy, run_task, task_arguments
 
 
 PICK_PPO = {**PPO_DEFAULTS, "steps_per_env": 10, "epochs": 8, "mini_batches": 8, "gamma": 0.97, "entropy_coef": 0.02}
@@ -68,26 +67,19 @@ def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256) 
 
 def main(argv=None) -> list:
     parser = task_arguments(__doc__.split("\n\n")[0], PICK_PPO, "4096 on a GPU, 64 on the CPU", "runs/pick", 2000, "beta")
-    started = time.perf_counter()
-    args, out, ppo = task_setup(parser, argv, PICK_PPO)
-    with torchrun_device(parser, args.device, args.seed) as (device, world, rank):
-        N = args.num_envs or (4096 if device.is_cuda else 64)
-        env = envs.PickCubeEnv(N, device=device, seed=args.seed + rank)
-        where = placement(N, device, world)
-        if rank == 0:
-            print(f"pick cube: {where}, {env.single_observation_space.shape[0]} observations, {env.single_action_space.shape[0]} actions, "
-                  f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
-        phases = {"environment": time.perf_counter() - started}
-        history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED, args.action_distribution, args.ppo == "graphed", args.resume)
-        phases["training"] = time.perf_counter() - started - sum(phases.values())
-        if rank == 0:
-            plot(history, out / "rewards.png", f"Panda pick cube: {where}")
-            if args.evaluate:
-                result = evaluate(out / "policy.pt", device, args.seed + 1000, args.evaluate_envs)
-                print(f"evaluation: {result['environments']} fresh environments, one episode: success {result['success']:.1%} "
-                      f"(cube within {env.cfg.success_distance:g} m of its target), mean distance {result['distance']:.3f} m", flush=True)  # fmt: skip
-            print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
-    return history
+
+    def report(args, policy_path, device, env) -> str:
+        result = evaluate(policy_path, device, args.seed + 1000, args.evaluate_envs)
+        return (f"{result['environments']} fresh environments, one episode: success {result['success']:.1%} "
+                f"(cube within {env.cfg.success_distance:g} m of its target), mean distance {result['distance']:.3f} m")  # fmt: skip
+
+    def make(N, device, seed):
+        return envs.PickCubeEnv(N, device=device, seed=seed)
+
+    def describe(env):
+        return f"{env.single_observation_space.shape[0]} observations"
+
+    return run_task(parser, argv, PICK_PPO, (4096, 64), make, "pick cube", describe, "Panda pick cube", LOGGED, report)
 
 
 if __name__ == "__main__":

@@ -25,12 +25,11 @@ Writes `<out>/policy.pt` and `<out>/rewards.png`.
 from __future__ import annotations
 
 import pathlib
-import time
 
 import torch
 
 import warpdyn.envs as envs
-from rl_locomotion import PPO_DEFAULTS, load_policy, placement, plot, task_arguments, task_setup, torchrun_device, train
+from rl_locomotion import PPO_DEFAULTS, load_policy, run_task, task_arguments
 
 REORIENT_PPO = {**PPO_DEFAULTS, "steps_per_env": 40, "epochs": 4, "mini_batches": 32, "learning_rate": 3e-4, "gamma": 0.99, "entropy_coef": 0.01}
 """The trainer's settings for this task (the CLI's defaults): Playground's for LeapCubeReorient with Brax's PPO
@@ -63,26 +62,19 @@ def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256, 
 def main(argv=None) -> list:
     parser = task_arguments(__doc__.split("\n\n")[0], REORIENT_PPO, "8192 on a GPU, 16 on the CPU", "runs/reorient", 100000)
     parser.add_argument("--evaluate-seconds", type=float, default=20.0, help="seconds of --evaluate (default 20)")
-    started = time.perf_counter()
-    args, out, ppo = task_setup(parser, argv, REORIENT_PPO)
-    with torchrun_device(parser, args.device, args.seed) as (device, world, rank):
-        N = args.num_envs or (8192 if device.is_cuda else 16)
-        env = envs.CubeReorientEnv(N, device=device, seed=args.seed + rank)
-        where = placement(N, device, world)
-        if rank == 0:
-            print(f"reorient cube: {where}, {env.single_observation_space.shape[0]} observations (critic {env.single_critic_observation_space.shape[0]}), "
-                  f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
-        phases = {"environment": time.perf_counter() - started}
-        history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, LOGGED, args.action_distribution, args.ppo == "graphed", args.resume)
-        phases["training"] = time.perf_counter() - started - sum(phases.values())
-        if rank == 0:
-            plot(history, out / "rewards.png", f"LEAP hand cube reorientation: {where}")
-            if args.evaluate:
-                result = evaluate(out / "policy.pt", device, args.seed + 1000, args.evaluate_envs, args.evaluate_seconds)
-                print(f"evaluation: {result['environments']} fresh environments, {result['seconds']:g} s: {result['successes']:.2f} successes per environment "
-                      f"(the cube within {env.cfg.success_threshold:g} rad of its goal), {result['dropped']:.1%} dropped the cube", flush=True)  # fmt: skip
-            print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
-    return history
+
+    def report(args, policy_path, device, env) -> str:
+        result = evaluate(policy_path, device, args.seed + 1000, args.evaluate_envs, args.evaluate_seconds)
+        return (f"{result['environments']} fresh environments, {result['seconds']:g} s: {result['successes']:.2f} successes per environment "
+                f"(the cube within {env.cfg.success_threshold:g} rad of its goal), {result['dropped']:.1%} dropped the cube")  # fmt: skip
+
+    def make(N, device, seed):
+        return envs.CubeReorientEnv(N, device=device, seed=seed)
+
+    def describe(env):
+        return f"{env.single_observation_space.shape[0]} observations (critic {env.single_critic_observation_space.shape[0]})"
+
+    return run_task(parser, argv, REORIENT_PPO, (8192, 16), make, "reorient cube", describe, "LEAP hand cube reorientation", LOGGED, report)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ on the CPU).
   process group (one evaluation line).
 - One process (plain python) still trains, counts 8 x 24 env-steps per iteration and stops at
   --target-return.
-- examples/rl_manipulation.py under torchrun (rl_reorient.py calls the same `torchrun_device` and `train`): two ranks
+- examples/rl_manipulation.py under torchrun (rl_reorient.py runs through the same `run_task`): two ranks
   train one policy, rank 0 alone prints, evaluates and saves; a two-rank run of 0 iterations resumes from that
   checkpoint and saves it back unchanged (every rank loads it, rank 0's broadcast), and one of 1 iteration numbers it
   on.
