@@ -64,13 +64,20 @@ def main(argv=None) -> list:
     args = parser.parse_args(argv)
     wp.config.quiet = True
     device = wp.get_device(args.device)
-    bounds = [float(b) for b in args.bounds.split(",")]
+    names = args.envs.split(",")
+    unknown = sorted(set(names) - {*LEGGED, "pick", "reorient"})
+    if unknown:
+        parser.error(f"--envs names {unknown}; the environments: {', '.join([*LEGGED, 'pick', 'reorient'])}")
+    try:
+        bounds = [float(b) for b in args.bounds.split(",")]
+    except ValueError:
+        parser.error(f"--bounds must be comma-separated numbers [m/s or rad/s], got {args.bounds!r}")
     rows = []
     print(header(device))
     print(f"\n{args.num_envs} environments, {args.seconds:g} s of uniformly random actions each; flags (an environment flagged, reset and flagged again counts each time) per bound B [m/s or rad/s]\n")
     print("| environment | policy steps | " + " | ".join(f"B = {b:g}" for b in bounds) + " | smallest B with none |")
     print("| --- | ---: | " + " | ".join("---:" for _ in bounds) + " | ---: |")
-    for name in args.envs.split(","):
+    for name in names:
         counts = [count_flags(name, args.num_envs, device, b, args.seconds) for b in bounds]
         clear = [b for b, (count, _) in zip(bounds, counts) if count == 0]
         first = f"{min(clear):g}" if clear else f"> {bounds[-1]:g}"
