@@ -12,11 +12,10 @@ on the CPU).
   process group (one evaluation line).
 - One process (plain python) still trains, counts 8 x 24 env-steps per iteration and stops at
   --target-return.
-- examples/rl_manipulation.py under torchrun (rl_reorient.py runs through the same `run_task`): two ranks
-  train one policy, rank 0 alone prints, evaluates and saves; a two-rank run of 0 iterations resumes from that
-  checkpoint and saves it back unchanged (every rank loads it, rank 0's broadcast), and one of 1 iteration numbers it
-  on.
-About 60 s warm on 2 cores (plus Warp's compilation of the ergoCub legs the first time, ~15 s).
+- examples/rl_manipulation.py under torchrun: two ranks train one policy, rank 0 alone prints, evaluates and saves;
+  a two-rank run of 0 iterations resumes from that checkpoint and saves it back unchanged (every rank loads it, rank
+  0's broadcast), and one of 1 iteration numbers it on. examples/rl_reorient.py: two ranks train one policy.
+About 80 s warm on 2 cores (plus Warp's compilation of the ergoCub legs the first time, ~15 s).
 """
 
 import os
@@ -113,3 +112,15 @@ def test_two_ranks_train_and_resume_the_pick_task(tmp_path):
         assert all(torch.equal(resumed[name][k], saved[name][k]) for k in saved[name]), name
     stdout = _run([*args, "--iterations", "1", "--resume", str(tmp_path / "a" / "policy.pt"), "--out", str(tmp_path / "c")])
     assert _iterations(stdout) == [(1, 2 * 4 * 4)], stdout  # numbered on
+
+
+@CPU_BACKEND
+def test_two_ranks_train_the_reorient_task(tmp_path):
+    script = ROOT / "examples" / "rl_reorient.py"
+    stdout = _run(["-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2", str(script), "--device", "cpu", "--num-envs", "4",
+                   "--iterations", "1", "--steps-per-env", "4", "--mini-batches", "1", "--out", str(tmp_path)])  # fmt: skip
+    assert "reorient cube: 2 ranks x 4 environments on CPU (gloo)" in stdout, stdout
+    assert _iterations(stdout) == [(0, 2 * 4 * 4)], stdout
+    match = re.search(r"^policy identical on 2 ranks \(largest difference (\S+)\)", stdout, re.M)
+    assert match and float(match[1]) == 0.0, stdout
+    assert torch.load(tmp_path / "policy.pt", weights_only=False)["iter"] == 0
