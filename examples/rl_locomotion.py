@@ -63,6 +63,7 @@ import argparse
 import contextlib
 import dataclasses
 import io
+import math
 import os
 import pathlib
 import sys
@@ -429,13 +430,31 @@ def task_arguments(description: str, ppo: dict, default_envs: str, out: str, ite
     return parser
 
 
+def check_run_arguments(parser: argparse.ArgumentParser, args) -> None:
+    """A parser error naming the flag unless --num-envs is a positive number (or not given), --iterations >= 0 (0:
+    a --resume'd checkpoint saved back), --max-minutes positive and finite (or not given), and, where the example has
+    them, --evaluate-envs positive and --evaluate-seconds positive and finite: none of them is replaced or ignored."""
+    if args.num_envs is not None and args.num_envs < 1:
+        parser.error(f"--num-envs must be a positive number of environments, got {args.num_envs}")
+    if args.iterations < 0:
+        parser.error(f"--iterations must be >= 0, got {args.iterations}")
+    if args.max_minutes is not None and not (math.isfinite(args.max_minutes) and args.max_minutes > 0):
+        parser.error(f"--max-minutes must be a positive number of minutes, got {args.max_minutes}")
+    if getattr(args, "evaluate_envs", 1) < 1:
+        parser.error(f"--evaluate-envs must be a positive number of environments, got {args.evaluate_envs}")
+    seconds = getattr(args, "evaluate_seconds", 1.0)
+    if not (math.isfinite(seconds) and seconds > 0):
+        parser.error(f"--evaluate-seconds must be a positive number of seconds, got {seconds}")
+
+
 def task_setup(parser: argparse.ArgumentParser, argv, ppo: dict) -> tuple:
     """(args, the output folder, `ppo`'s settings as given): `task_arguments`' command line parsed, each PPO setting
-    checked positive; `torchrun_device(parser, args.device, args.seed)` then gives the device (and the rank)."""
+    checked positive and the run's (`check_run_arguments`); `torchrun_device(parser, args.device, args.seed)` then gives the device (and the rank)."""
     args = parser.parse_args(argv)
     for name in ppo:
         if not getattr(args, name) > 0:
             parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
+    check_run_arguments(parser, args)
     return args, pathlib.Path(args.out), {name: getattr(args, name) for name in ppo}
 
 
@@ -555,6 +574,7 @@ def main(argv=None) -> None:
     for name in PPO_DEFAULTS:
         if not getattr(args, name) > 0:
             parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
+    check_run_arguments(parser, args)
     started = time.perf_counter()  # the phases' times below count from here (after the imports)
     if torchrun_ranks()[0] > 1 and args.replay:
         parser.error("--replay runs in one process: python examples/rl_locomotion.py --replay ..., not torchrun")

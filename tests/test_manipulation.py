@@ -304,3 +304,29 @@ def test_a_pad_pressing_on_the_cubes_edge_leaves_it_near_mujocos():
     moved = float((state["joint_positions"][0, env._cube : env._cube + 3].cpu() - torch.tensor(cube)).norm())
     assert mj_moved < 5e-3 and mj_spin < 5.0  # the reference: MuJoCo's cube nudged
     assert int(state["valid"][0]) == 1 and moved < 3e-3 and spin < 5.0, (moved, spin)
+
+
+
+_BAD_SIZES = [
+    (["--num-envs", "0"], "--num-envs must be a positive number"),
+    (["--iterations", "-1"], "--iterations must be >= 0"),
+    (["--max-minutes", "0"], "--max-minutes must be a positive number"),
+    (["--max-minutes", "nan"], "--max-minutes must be a positive number"),
+]
+BAD_RUN_ARGUMENTS = (
+    [(example, argv, message) for example in ("rl_manipulation", "rl_reorient", "rl_locomotion") for argv, message in _BAD_SIZES]
+    + [(example, ["--evaluate-envs", "0"], "--evaluate-envs must be a positive number") for example in ("rl_manipulation", "rl_reorient")]
+    + [("rl_reorient", ["--evaluate-seconds", "-5"], "--evaluate-seconds must be a positive")]
+)
+"""(example, its flags, the error's words): rl_locomotion.py has no --evaluate-envs, only rl_reorient.py --evaluate-seconds."""
+
+
+@pytest.mark.parametrize("example, argv, message", BAD_RUN_ARGUMENTS)
+def test_the_examples_refuse_a_bad_run_argument(example, argv, message, capsys, tmp_path):
+    """A run's sizes are refused naming the flag, before anything is built: --num-envs 0 once meant the default
+    (silently), --iterations -1 saved an untrained policy, --max-minutes 0 stopped after one iteration."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    module = __import__(example)
+    with pytest.raises(SystemExit) as raised:
+        module.main([*argv, "--device", str(wp.get_device()), "--out", str(tmp_path)])
+    assert raised.value.code == 2 and message in capsys.readouterr().err
