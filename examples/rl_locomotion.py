@@ -432,8 +432,9 @@ def task_arguments(description: str, ppo: dict, default_envs: str, out: str, ite
 
 def check_run_arguments(parser: argparse.ArgumentParser, args) -> None:
     """A parser error naming the flag unless --num-envs is a positive number (or not given), --iterations >= 0 (0:
-    a --resume'd checkpoint saved back), --max-minutes positive and finite (or not given), and, where the example has
-    them, --evaluate-envs positive and --evaluate-seconds positive and finite: none of them is replaced or ignored."""
+    a --resume'd checkpoint saved back), --max-minutes positive and finite (or not given), --resume (and --replay) an existing file,
+    and, where the example has them, --evaluate-envs positive and --evaluate-seconds positive and finite: none of them
+    is replaced or ignored, and nothing is built before they are checked."""
     if args.num_envs is not None and args.num_envs < 1:
         parser.error(f"--num-envs must be a positive number of environments, got {args.num_envs}")
     if args.iterations < 0:
@@ -445,6 +446,10 @@ def check_run_arguments(parser: argparse.ArgumentParser, args) -> None:
     seconds = getattr(args, "evaluate_seconds", 1.0)
     if not (math.isfinite(seconds) and seconds > 0):
         parser.error(f"--evaluate-seconds must be a positive number of seconds, got {seconds}")
+    for flag in ("resume", "replay"):  # rl_locomotion.py's --replay too
+        path = getattr(args, flag, None)
+        if path is not None and not pathlib.Path(path).is_file():
+            parser.error(f"--{flag} {path}: no such file (a policy.pt this example saved)")
 
 
 def task_setup(parser: argparse.ArgumentParser, argv, ppo: dict) -> tuple:

@@ -312,13 +312,16 @@ _BAD_SIZES = [
     (["--iterations", "-1"], "--iterations must be >= 0"),
     (["--max-minutes", "0"], "--max-minutes must be a positive number"),
     (["--max-minutes", "nan"], "--max-minutes must be a positive number"),
+    (["--resume", "no/such/policy.pt"], "--resume no/such/policy.pt: no such file"),
 ]
 BAD_RUN_ARGUMENTS = (
     [(example, argv, message) for example in ("rl_manipulation", "rl_reorient", "rl_locomotion") for argv, message in _BAD_SIZES]
     + [(example, ["--evaluate-envs", "0"], "--evaluate-envs must be a positive number") for example in ("rl_manipulation", "rl_reorient")]
     + [("rl_reorient", ["--evaluate-seconds", "-5"], "--evaluate-seconds must be a positive")]
+    + [("rl_locomotion", ["--replay", "no/such/policy.pt"], "--replay no/such/policy.pt: no such file")]
 )
-"""(example, its flags, the error's words): rl_locomotion.py has no --evaluate-envs, only rl_reorient.py --evaluate-seconds."""
+"""(example, its flags, the error's words): rl_locomotion.py has no --evaluate-envs, only rl_reorient.py --evaluate-seconds
+and only rl_locomotion.py --replay."""
 
 
 @pytest.mark.parametrize("example, argv, message", BAD_RUN_ARGUMENTS)
