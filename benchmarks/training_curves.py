@@ -4,6 +4,10 @@ machine's) and to put runs side by side.
 
     python benchmarks/training_curves.py OUT.png LOG [LOG ...] [--quantity reached] [--labels a,b] [--first 0.5,0.9]
 
+A LOG may be several logs joined by "+" (`part1.log+part2.log`): one run resumed in parts (`--resume`), each part's
+wall time counted on from the previous part's last iteration (the restarts between parts, imports and compilation,
+not counted).
+
 --quantity: "return" (the mean return of the episodes completed in the iteration; iterations without one are
 skipped) or a logged entry of the line ("reached", "success", "orientation_error", ...; default "return"). Prints
 for each log its iterations, wall time, median env-steps/s, the quantity's last value and its maximum, and with
@@ -24,7 +28,9 @@ _LOGGED = re.compile(r"(\S+)\s+(-?\d+(?:\.\d+)?(?:e[-+]?\d+)?|nan)(?=\s|$)")
 
 def read(path: pathlib.Path, quantity: str) -> tuple[list[float], list[float], list[float], float]:
     """(wall times [s] and the quantity where it is finite, env-steps/s [k] of every iteration, the last iteration's
-    wall time [s]) of the log's iteration lines."""
+    wall time [s]) of the log's iteration lines; a path of logs joined by "+" reads as one run in parts."""
+    if "+" in path.name:
+        return read_parts([path.with_name(name) for name in path.name.split("+")], quantity)
     seconds, values, rates, end = [], [], [], float("nan")
     for line in path.read_text().splitlines():
         m = _LINE.match(line)
@@ -47,6 +53,19 @@ def read(path: pathlib.Path, quantity: str) -> tuple[list[float], list[float], l
     return seconds, values, rates, end
 
 
+def read_parts(paths: list[pathlib.Path], quantity: str) -> tuple[list[float], list[float], list[float], float]:
+    """`read` of a run resumed in parts, one log each: each part's wall times offset by the previous parts' last
+    iteration times."""
+    seconds, values, rates, offset = [], [], [], 0.0
+    for path in paths:
+        part_seconds, part_values, part_rates, end = read(path, quantity)
+        seconds += [offset + t for t in part_seconds]
+        values += part_values
+        rates += part_rates
+        offset += end
+    return seconds, values, rates, offset
+
+
 def first_exceeding(seconds: list[float], values: list[float], threshold: float) -> float | None:
     """The wall time [s] at which the values first exceeded `threshold`; None if they never did."""
     return next((t for t, v in zip(seconds, values) if v > threshold), None)
@@ -61,7 +80,7 @@ def main() -> None:
     parser.add_argument("--first", default="", help="comma-separated values: when the quantity first exceeded each")
     args = parser.parse_args()
     paths = [pathlib.Path(p) for p in args.logs]
-    labels = args.labels.split(",") if args.labels else [p.stem for p in paths]
+    labels = args.labels.split(",") if args.labels else [p.name.removesuffix(".log") for p in paths]
     thresholds = [float(x) for x in args.first.split(",") if x]
     if len(labels) != len(paths):
         parser.error(f"--labels has {len(labels)} names for {len(paths)} logs")

@@ -35,3 +35,15 @@ def test_when_a_quantity_first_exceeded_a_value():
     seconds, success, _, _ = read(logs / "rl_pick_h200_2ms_graphed_3min_seed0.log", "success")
     assert max(success) < 0.9 and first_exceeding(seconds, success, 0.9) is None
     assert first_exceeding([1.0, 2.0], [0.5, 0.5], 0.5) is None  # strictly above
+
+
+def test_a_run_in_parts_counts_its_wall_time_on():
+    logs = ROOT / "benchmarks" / "results"
+    names = ["rl_reorient_h200_8min_graphed_part1.log", "rl_reorient_h200x2_8min_graphed_part2.log"]
+    parts = [read(logs / name, "orientation_error") for name in names]
+    seconds, values, rates, end = read(logs / "+".join(names), "orientation_error")
+    assert parts[0][3] == pytest.approx(512.1) and parts[1][3] == pytest.approx(510.6)  # each part's last line
+    assert end == pytest.approx(512.1 + 510.6)
+    assert seconds == parts[0][0] + [512.1 + t for t in parts[1][0]]
+    assert values == parts[0][1] + parts[1][1] and rates == parts[0][2] + parts[1][2]
+    assert len(rates) == 237 + 231 and values[-1] == pytest.approx(1.436)
