@@ -155,14 +155,21 @@ ACTION_DISTRIBUTIONS = {
 clip them to [-1, 1]), or a Beta rescaled to [-1, 1] (bounded: its mean cannot drift past the clip, where a clipped
 Gaussian's exploration no longer reaches the other end of the range; Chou et al. 2017)."""
 
+SCHEDULES = ("adaptive", "fixed")
+"""rsl-rl's learning-rate schedules: "adaptive" (Rudin et al.'s: the rate divided by 1.5 after an update whose KL
+exceeded twice 0.01, multiplied by 1.5 below half of it, within [1e-5, 1e-2]) or "fixed" (Brax's PPO, which
+Playground trains with, keeps its rate)."""
 
-def train_config(iterations: int, distribution: str = "gaussian", graphed: bool = False, **ppo) -> dict:
+
+def train_config(iterations: int, distribution: str = "gaussian", graphed: bool = False, schedule: str = "adaptive", **ppo) -> dict:
     """rsl-rl's configuration: PPO_DEFAULTS' settings, those given in `ppo` replacing them, the actor's action
-    `distribution` (ACTION_DISTRIBUTIONS), the rest Rudin et al.'s (MLP (256, 128, 64) actor and critic with
-    observation normalisation, the adaptive learning rate at a KL of 0.01); `graphed`: the algorithm is
-    warpdyn.envs.rsl_rl.GraphedPPO (rsl-rl's PPO replayed as CUDA graphs on a GPU), else rsl-rl's PPO."""
+    `distribution` (ACTION_DISTRIBUTIONS), the learning rate's `schedule` (SCHEDULES), the rest Rudin et al.'s (MLP
+    (256, 128, 64) actor and critic with observation normalisation, an adaptive schedule's KL of 0.01); `graphed`:
+    the algorithm is warpdyn.envs.rsl_rl.GraphedPPO (rsl-rl's PPO replayed as CUDA graphs on a GPU), else rsl-rl's PPO."""
     if distribution not in ACTION_DISTRIBUTIONS:
         raise ValueError(f"the action distribution is one of {sorted(ACTION_DISTRIBUTIONS)}, got {distribution!r}")
+    if schedule not in SCHEDULES:
+        raise ValueError(f"the learning-rate schedule is one of {list(SCHEDULES)}, got {schedule!r}")
     unknown = sorted(set(ppo) - set(PPO_DEFAULTS))
     if unknown:
         raise TypeError(f"train_config takes the settings {sorted(PPO_DEFAULTS)}, got {unknown}")
@@ -174,7 +181,7 @@ def train_config(iterations: int, distribution: str = "gaussian", graphed: bool 
         "obs_groups": {"actor": ["policy"], "critic": ["policy"]},
         "algorithm": dict(
             class_name=GraphedPPO if graphed else "PPO", learning_rate=learning_rate, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2, gamma=gamma,
-            lam=0.95, value_loss_coef=1.0, entropy_coef=entropy_coef, max_grad_norm=1.0, schedule="adaptive", desired_kl=0.01,
+            lam=0.95, value_loss_coef=1.0, entropy_coef=entropy_coef, max_grad_norm=1.0, schedule=schedule, desired_kl=0.01,
         ),  # fmt: skip
         "actor": dict(class_name="MLPModel", distribution_cfg=dict(ACTION_DISTRIBUTIONS[distribution]), **mlp),
         "critic": dict(class_name="MLPModel", **mlp),
@@ -255,6 +262,7 @@ def train(
     distribution: str = "gaussian",
     graphed: bool = True,
     resume: pathlib.Path | None = None,
+    schedule: str = "adaptive",
 ) -> list:
     """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass; `ppo`: PPO_DEFAULTS'
     settings to change; `log_names`: entries of the environment's info["log"] whose mean over the iteration's steps
@@ -262,14 +270,14 @@ def train(
     checkpoint's infos for `load_policy`; `graphed`: GraphedPPO, else rsl-rl's own PPO; either
     averages over the ranks of a process group; `resume`: a policy.pt `train` saved, whose models, normalisers,
     optimizer state and learning rate the training continues from, its iterations numbered on from the saved one: a
-    long run split into several processes); returns
+    long run split into several processes; `schedule`: the learning rate's, SCHEDULES); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
 
     world, rank = _group()
     vec = RslRlVecEnv(env)
-    cfg = train_config(iterations, distribution, graphed, **(ppo or {}))
+    cfg = train_config(iterations, distribution, graphed, schedule, **(ppo or {}))
     cfg["obs_groups"] = vec.obs_groups
     if world > 1:  # the PPO then averages gradients, KL and normaliser statistics over the ranks
         cfg["multi_gpu"] = {"global_rank": rank, "local_rank": torchrun_ranks()[2], "world_size": world}
@@ -408,10 +416,13 @@ def add_resume_argument(parser: argparse.ArgumentParser) -> None:
                         help="continue training from a policy.pt this example saved (its models, normalisers, optimizer and learning rate)")  # fmt: skip
 
 
-def task_arguments(description: str, ppo: dict, default_envs: str, out: str, iterations: int, distribution: str = "gaussian") -> argparse.ArgumentParser:
+def task_arguments(
+    description: str, ppo: dict, default_envs: str, out: str, iterations: int, distribution: str = "gaussian", schedule: str = "adaptive"
+) -> argparse.ArgumentParser:
     """The command line the manipulation examples share (rl_manipulation.py, rl_reorient.py): --device, --num-envs
     (per rank under torchrun; `default_envs` says the default), --iterations, --seed (rank r: seed + r), --max-minutes, `ppo`'s settings as flags with its values
-    as defaults, --action-distribution (ACTION_DISTRIBUTIONS, default `distribution`), --resume, --ppo, --evaluate,
+    as defaults, --action-distribution (ACTION_DISTRIBUTIONS, default `distribution`), --schedule (SCHEDULES, default
+    `schedule`), --resume, --ppo, --evaluate,
     --evaluate-envs and --out; `task_setup` parses it."""
     parser = argparse.ArgumentParser(description=description, epilog="On K GPUs: torchrun --standalone --nproc_per_node K ... (rank r on cuda:<LOCAL_RANK>)")
     parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one; under torchrun as rl_locomotion.py's)")
@@ -422,6 +433,7 @@ def task_arguments(description: str, ppo: dict, default_envs: str, out: str, ite
     for name, value in ppo.items():
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
     parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default=distribution, help=f"the policy's (default {distribution})")
+    parser.add_argument("--schedule", choices=SCHEDULES, default=schedule, help=f"the learning rate's (default {schedule})")
     add_resume_argument(parser)
     add_ppo_argument(parser)
     parser.add_argument("--evaluate", action="store_true", help="after training, evaluate the policy in --evaluate-envs fresh environments")
@@ -480,7 +492,8 @@ def run_task(parser, argv, ppo: dict, counts: tuple, make, name: str, describe, 
             print(f"{name}: {where}, {describe(env)}, {env.single_action_space.shape[0]} actions, "
                   f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
         phases = {"environment": time.perf_counter() - started}
-        history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, log_names, args.action_distribution, args.ppo == "graphed", args.resume)
+        history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, log_names, args.action_distribution,
+                        args.ppo == "graphed", args.resume, args.schedule)  # fmt: skip
         phases["training"] = time.perf_counter() - started - sum(phases.values())
         if rank == 0:
             plot(history, out / "rewards.png", f"{title}: {where}")

@@ -13,7 +13,11 @@ bank of Playground's reset draws that do not interpenetrate; Playground's noisy 
 privileged ones for the critic, its rewards (orientation, cube in the palm, a fall, hand pose, action rate,
 energy) and a bonus of 100 at each success (the cube within 0.1 rad of the goal, which then turns to a new one).
 Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO as GraphedPPO, its flags), with Playground's settings for this task
-as defaults (REORIENT_PPO; its networks are (512, 256, 128), the trainer's (256, 128, 64)).
+as defaults (REORIENT_PPO; its networks are (512, 256, 128), the trainer's (256, 128, 64)), its fixed learning rate
+(`--schedule fixed`) and a Beta policy (`--action-distribution beta`, bounded like Brax's tanh-squashed Gaussian):
+with rsl-rl's adaptive schedule and a Gaussian, the 25-minute H200 run's learning rate was at or near the schedule's
+floor of 1e-5 and its Gaussian's standard deviation grew from 1 to 9.9 on actions clipped to [-1, 1] (its
+checkpoints; benchmarks/RESULTS.md).
 
 Prints, per iteration: the mean return and length of the completed episodes, env-steps/s, the wall time, and the
 means over its steps of the fraction of environments at a success, the orientation error [rad] and the
@@ -60,7 +64,7 @@ def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256, 
 
 
 def main(argv=None) -> list:
-    parser = task_arguments(__doc__.split("\n\n")[0], REORIENT_PPO, "8192 on a GPU, 16 on the CPU", "runs/reorient", 100000)
+    parser = task_arguments(__doc__.split("\n\n")[0], REORIENT_PPO, "8192 on a GPU, 16 on the CPU", "runs/reorient", 100000, "beta", "fixed")
     parser.add_argument("--evaluate-seconds", type=float, default=20.0, help="seconds of --evaluate (default 20)")
 
     def report(args, policy_path, device, env) -> str:

@@ -194,6 +194,9 @@ def test_a_beta_policy_acts_within_the_range_and_reloads(tmp_path):
         assert float(policy(obs).abs().max()) <= 1.0
     with pytest.raises(ValueError, match="action distribution is one of"):
         rl_locomotion.train_config(1, "tanh")
+    assert [rl_locomotion.train_config(1, schedule=s)["algorithm"]["schedule"] for s in ("adaptive", "fixed")] == ["adaptive", "fixed"]
+    with pytest.raises(ValueError, match=r"learning-rate schedule is one of \['adaptive', 'fixed'\], got 'cosine'"):
+        rl_locomotion.train_config(1, "beta", schedule="cosine")
 
 
 def test_a_run_resumes_from_its_checkpoint(tmp_path, capsys):

@@ -225,3 +225,17 @@ def test_the_example_trains_and_evaluates(tmp_path, capsys):
     out = capsys.readouterr().out
     assert len(history) == 1 and (tmp_path / "policy.pt").exists()
     assert "success 0." in out and "orientation_error" in out and "evaluation: 2 fresh environments, 0.2 s:" in out
+    assert torch.load(tmp_path / "policy.pt", weights_only=False)["infos"] == {"action_distribution": "beta"}  # the default policy
+
+
+@pytest.mark.parametrize("flags, kept", [([], True), (["--schedule", "adaptive"], False)])
+def test_the_examples_learning_rate_stays_fixed_by_default(tmp_path, flags, kept):
+    """rl_reorient.py's default schedule is Playground's fixed rate: a rate of 0.05 (updates whose KL exceeds twice
+    0.01) is kept through an iteration; rsl-rl's adaptive schedule (--schedule adaptive) divides it by 1.5 at each such update."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    import rl_reorient
+
+    rl_reorient.main(["--device", str(wp.get_device()), "--num-envs", "4", "--iterations", "1", "--steps-per-env", "4", "--mini-batches", "1",
+                      "--learning-rate", "0.05", "--out", str(tmp_path), *flags])  # fmt: skip
+    rate = float(torch.load(tmp_path / "policy.pt", weights_only=False)["optimizer_state_dict"]["param_groups"][0]["lr"])
+    assert (rate == pytest.approx(0.05, rel=1e-6)) == kept and rate <= 0.05 * (1 + 1e-6)
