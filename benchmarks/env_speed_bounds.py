@@ -2,6 +2,7 @@
 
     python benchmarks/env_speed_bounds.py [--device cpu] [--envs ergocub,go1,anymal_c,pick,reorient]
                                           [--bounds 5,8,10,12,15,20,30,50] [--num-envs 64] [--seconds 10]
+                                          [--policy POLICY.pt]
 
 For each environment (warpdyn.envs: LeggedEnv on the robots' presets with pushes of 0.5 m/s every 4 s,
 PickCubeEnv, CubeReorientEnv; their defaults otherwise) and each bound B [m/s or rad/s]: set the environment's
@@ -10,8 +11,11 @@ PickCubeEnv, CubeReorientEnv; their defaults otherwise) and each bound B [m/s or
 flagged (info["invalid"]: a base or joint velocity component beyond B at a simulation step) it is reset and goes on,
 to be flagged again, so the count may exceed the number of environments.
 The smallest B with no flag bounds every velocity component the run reached at its simulation steps. Random actions
-jump each target by its whole range every policy step: harsher than a trained policy's. Prints a Markdown table; the
+jump each target by its whole range every policy step, yet a trained policy can move faster (the Go1's walking policy
+needed 20 where random actions needed 15: results/env_speed_bounds_policies_cpu.md). Prints a Markdown table; the
 environments' default (warpdyn.envs.vector_env.DIVERGENCE_SPEED) is chosen from it. `go1` needs example-robot-data.
+--policy (one environment in --envs): the actions are instead a trained policy's deterministic ones (a checkpoint of
+the example that trains that environment, read as examples/rl_locomotion.py's load_policy reads it).
 """
 
 from __future__ import annotations
@@ -19,12 +23,17 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import pathlib
+import sys
 
 import torch
 import warp as wp
 
 import warpdyn.envs as envs
 from common import header
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+from rl_locomotion import load_policy  # noqa: E402
 
 LEGGED = {"ergocub": envs.robots.ergocub_legs, "go1": envs.robots.go1, "anymal_c": envs.robots.anymal_c}
 
@@ -41,17 +50,40 @@ def make_env(name: str, N: int, device, bound: float):
     return envs.LeggedEnv(model, num_envs=N, cfg=dataclasses.replace(cfg, divergence_speed=bound), seed=0)
 
 
-def count_flags(name: str, N: int, device, bound: float, seconds: float) -> tuple[int, int]:
-    """(flags over the run, policy steps) under uniformly random actions."""
-    env = make_env(name, N, device, bound)
+class FlagCounter:
+    """An environment whose steps count its flags (info["invalid"]) in `flagged`; everything else is the
+    environment's (so that rsl-rl's view of it, which drops info["invalid"], can step it)."""
+
+    def __init__(self, env):
+        self.env = env
+        self.flagged = torch.zeros((), dtype=torch.long, device=env.device)
+
+    def __getattr__(self, name: str):
+        return getattr(self.env, name)
+
+    def step(self, actions: torch.Tensor):
+        out = self.env.step(actions)
+        self.flagged += out[-1]["invalid"].sum()
+        return out
+
+
+def count_flags(name: str, N: int, device, bound: float, seconds: float, policy_path: pathlib.Path | None = None) -> tuple[int, int]:
+    """(flags over the run, policy steps) under uniformly random actions, or the deterministic actions of the
+    policy at `policy_path`."""
+    env = FlagCounter(make_env(name, N, device, bound))
     steps = math.ceil(seconds / env.cfg.policy_dt)
-    generator = torch.Generator(device=env.device).manual_seed(0)
     env.reset(seed=0)
-    flagged = torch.zeros((), dtype=torch.long, device=env.device)
+    if policy_path is not None:
+        vec, policy = load_policy(env, policy_path)
+        obs = vec.get_observations()
+        with torch.inference_mode():
+            for _ in range(steps):
+                obs = vec.step(policy(obs))[0]
+        return int(env.flagged), steps
+    generator = torch.Generator(device=env.device).manual_seed(0)
     for _ in range(steps):
-        actions = 2.0 * torch.rand(env.action_space.shape, generator=generator, device=env.device) - 1.0
-        flagged += env.step(actions)[-1]["invalid"].sum()
-    return int(flagged), steps
+        env.step(2.0 * torch.rand(env.action_space.shape, generator=generator, device=env.device) - 1.0)
+    return int(env.flagged), steps
 
 
 def main(argv=None) -> list:
@@ -61,6 +93,7 @@ def main(argv=None) -> list:
     parser.add_argument("--bounds", default="5,8,10,12,15,20,30,50")
     parser.add_argument("--num-envs", type=int, default=64)
     parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--policy", type=pathlib.Path, default=None, help="a trained policy's checkpoint (one environment in --envs)")
     args = parser.parse_args(argv)
     wp.config.quiet = True
     device = wp.get_device(args.device)
@@ -68,17 +101,20 @@ def main(argv=None) -> list:
     unknown = sorted(set(names) - {*LEGGED, "pick", "reorient"})
     if unknown:
         parser.error(f"--envs names {unknown}; the environments: {', '.join([*LEGGED, 'pick', 'reorient'])}")
+    if args.policy is not None and (len(names) != 1 or not args.policy.is_file()):
+        parser.error(f"--policy needs one environment in --envs (got {len(names)}) and an existing checkpoint (got {args.policy})")
     try:
         bounds = [float(b) for b in args.bounds.split(",")]
     except ValueError:
         parser.error(f"--bounds must be comma-separated numbers [m/s or rad/s], got {args.bounds!r}")
     rows = []
     print(header(device))
-    print(f"\n{args.num_envs} environments, {args.seconds:g} s of uniformly random actions each; flags (an environment flagged, reset and flagged again counts each time) per bound B [m/s or rad/s]\n")
+    actions = "uniformly random actions" if args.policy is None else f"the deterministic actions of {args.policy}"
+    print(f"\n{args.num_envs} environments, {args.seconds:g} s of {actions} each; flags (an environment flagged, reset and flagged again counts each time) per bound B [m/s or rad/s]\n")
     print("| environment | policy steps | " + " | ".join(f"B = {b:g}" for b in bounds) + " | smallest B with none |")
     print("| --- | ---: | " + " | ".join("---:" for _ in bounds) + " | ---: |")
     for name in names:
-        counts = [count_flags(name, args.num_envs, device, b, args.seconds) for b in bounds]
+        counts = [count_flags(name, args.num_envs, device, b, args.seconds, args.policy) for b in bounds]
         clear = [b for b, (count, _) in zip(bounds, counts) if count == 0]
         first = f"{min(clear):g}" if clear else f"> {bounds[-1]:g}"
         rows.append((name, counts, first))

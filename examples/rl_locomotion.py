@@ -160,21 +160,28 @@ SCHEDULES = ("adaptive", "fixed")
 exceeded twice 0.01, multiplied by 1.5 below half of it, within [1e-5, 1e-2]) or "fixed" (Brax's PPO, which
 Playground trains with, keeps its rate)."""
 
+HIDDEN_DIMS = (256, 128, 64)
+"""The actor's and the critic's MLP layers (Rudin et al.'s; --hidden-dims)."""
 
-def train_config(iterations: int, distribution: str = "gaussian", graphed: bool = False, schedule: str = "adaptive", **ppo) -> dict:
+
+def train_config(
+    iterations: int, distribution: str = "gaussian", graphed: bool = False, schedule: str = "adaptive", hidden_dims: tuple = HIDDEN_DIMS, **ppo
+) -> dict:
     """rsl-rl's configuration: PPO_DEFAULTS' settings, those given in `ppo` replacing them, the actor's action
-    `distribution` (ACTION_DISTRIBUTIONS), the learning rate's `schedule` (SCHEDULES), the rest Rudin et al.'s (MLP
-    (256, 128, 64) actor and critic with observation normalisation, an adaptive schedule's KL of 0.01); `graphed`:
+    `distribution` (ACTION_DISTRIBUTIONS), the learning rate's `schedule` (SCHEDULES), the actor's and the critic's MLP
+    layers `hidden_dims`, the rest Rudin et al.'s (observation normalisation, an adaptive schedule's KL of 0.01); `graphed`:
     the algorithm is warpdyn.envs.rsl_rl.GraphedPPO (rsl-rl's PPO replayed as CUDA graphs on a GPU), else rsl-rl's PPO."""
     if distribution not in ACTION_DISTRIBUTIONS:
         raise ValueError(f"the action distribution is one of {sorted(ACTION_DISTRIBUTIONS)}, got {distribution!r}")
     if schedule not in SCHEDULES:
         raise ValueError(f"the learning-rate schedule is one of {list(SCHEDULES)}, got {schedule!r}")
+    if not hidden_dims or any(int(d) != d or d < 1 for d in hidden_dims):
+        raise ValueError(f"hidden_dims must be positive layer widths, got {hidden_dims!r}")
     unknown = sorted(set(ppo) - set(PPO_DEFAULTS))
     if unknown:
         raise TypeError(f"train_config takes the settings {sorted(PPO_DEFAULTS)}, got {unknown}")
     steps_per_env, epochs, mini_batches, learning_rate, gamma, entropy_coef = ({**PPO_DEFAULTS, **ppo}[name] for name in PPO_DEFAULTS)
-    mlp = dict(hidden_dims=[256, 128, 64], activation="elu", obs_normalization=True)
+    mlp = dict(hidden_dims=[int(d) for d in hidden_dims], activation="elu", obs_normalization=True)
     return {
         "num_steps_per_env": steps_per_env,
         "save_interval": max(1, iterations),
@@ -263,6 +270,8 @@ def train(
     graphed: bool = True,
     resume: pathlib.Path | None = None,
     schedule: str = "adaptive",
+    hidden_dims: tuple = HIDDEN_DIMS,
+    random_episode_start: bool = False,
 ) -> list:
     """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass; `ppo`: PPO_DEFAULTS'
     settings to change; `log_names`: entries of the environment's info["log"] whose mean over the iteration's steps
@@ -270,14 +279,17 @@ def train(
     checkpoint's infos for `load_policy`; `graphed`: GraphedPPO, else rsl-rl's own PPO; either
     averages over the ranks of a process group; `resume`: a policy.pt `train` saved, whose models, normalisers,
     optimizer state and learning rate the training continues from, its iterations numbered on from the saved one: a
-    long run split into several processes; `schedule`: the learning rate's, SCHEDULES); returns
+    long run split into several processes; `schedule`: the learning rate's, SCHEDULES; `hidden_dims`: the MLPs' layers,
+    kept in the checkpoint's infos; `random_episode_start`: the environments' episode counters drawn uniformly in
+    [0, max_episode_length) first, so that their episodes end at different iterations (rsl-rl's OnPolicyRunner's
+    init_at_random_ep_len, which legged_gym sets; not on a resume)); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
 
     world, rank = _group()
     vec = RslRlVecEnv(env)
-    cfg = train_config(iterations, distribution, graphed, schedule, **(ppo or {}))
+    cfg = train_config(iterations, distribution, graphed, schedule, hidden_dims, **(ppo or {}))
     cfg["obs_groups"] = vec.obs_groups
     if world > 1:  # the PPO then averages gradients, KL and normaliser statistics over the ranks
         cfg["multi_gpu"] = {"global_rank": rank, "local_rank": torchrun_ranks()[2], "world_size": world}
@@ -288,11 +300,15 @@ def train(
     first = 0
     if resume is not None:
         saved = torch.load(resume, map_location=torch_device, weights_only=False)
-        kind = (saved.get("infos") or {}).get("action_distribution", "gaussian")
+        kind, dims = saved_policy_kind(saved)
         if kind != distribution:
             raise ValueError(f"{resume}: its policy is {kind}, not the --action-distribution {distribution} asked for")
+        if dims != tuple(hidden_dims):
+            raise ValueError(f"{resume}: its networks' layers are {dims}, not the --hidden-dims {tuple(hidden_dims)} asked for")
         alg.load(saved, None, strict=True)
         first = int(saved["iter"]) + 1
+    elif random_episode_start:
+        vec.episode_length_buf = torch.randint_like(env.episode_length_buf, high=int(env.max_episode_length))
     if world > 1:
         alg.broadcast_parameters()  # rank 0's initial parameters everywhere (as OnPolicyRunner.learn does)
     obs = vec.get_observations().to(torch_device)
@@ -358,7 +374,7 @@ def train(
             print(f"policy identical on {world} ranks (largest difference {difference:.3g})", flush=True)
     if rank == 0:
         out.mkdir(parents=True, exist_ok=True)
-        infos = {"action_distribution": distribution}
+        infos = {"action_distribution": distribution, "hidden_dims": [int(d) for d in hidden_dims]}
         torch.save({**alg.save(), "iter": first + len(history) - 1, "infos": infos}, out / "policy.pt")  # OnPolicyRunner.save's format
     return history
 
@@ -422,7 +438,7 @@ def task_arguments(
     """The command line the manipulation examples share (rl_manipulation.py, rl_reorient.py): --device, --num-envs
     (per rank under torchrun; `default_envs` says the default), --iterations, --seed (rank r: seed + r), --max-minutes, `ppo`'s settings as flags with its values
     as defaults, --action-distribution (ACTION_DISTRIBUTIONS, default `distribution`), --schedule (SCHEDULES, default
-    `schedule`), --resume, --ppo, --evaluate,
+    `schedule`), --hidden-dims, --random-episode-start, --resume, --ppo, --evaluate,
     --evaluate-envs and --out; `task_setup` parses it."""
     parser = argparse.ArgumentParser(description=description, epilog="On K GPUs: torchrun --standalone --nproc_per_node K ... (rank r on cuda:<LOCAL_RANK>)")
     parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one; under torchrun as rl_locomotion.py's)")
@@ -434,12 +450,25 @@ def task_arguments(
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
     parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default=distribution, help=f"the policy's (default {distribution})")
     parser.add_argument("--schedule", choices=SCHEDULES, default=schedule, help=f"the learning rate's (default {schedule})")
+    parser.add_argument("--hidden-dims", type=layer_widths, default=HIDDEN_DIMS, help=f"the actor's and critic's MLP layers (default {','.join(map(str, HIDDEN_DIMS))})")
+    parser.add_argument("--random-episode-start", action="store_true", help="start the environments' episode counters at random (rsl-rl's init_at_random_ep_len)")
     add_resume_argument(parser)
     add_ppo_argument(parser)
     parser.add_argument("--evaluate", action="store_true", help="after training, evaluate the policy in --evaluate-envs fresh environments")
     parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
     parser.add_argument("--out", default=out)
     return parser
+
+
+def layer_widths(text: str) -> tuple:
+    """--hidden-dims' "512,256,128" as (512, 256, 128); an argparse error naming the text otherwise."""
+    try:
+        dims = tuple(int(x) for x in text.split(","))
+    except ValueError:
+        dims = ()
+    if not dims or min(dims) < 1:
+        raise argparse.ArgumentTypeError(f"comma-separated positive layer widths, got {text!r}")
+    return dims
 
 
 def check_run_arguments(parser: argparse.ArgumentParser, args) -> None:
@@ -493,7 +522,7 @@ def run_task(parser, argv, ppo: dict, counts: tuple, make, name: str, describe, 
                   f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
         phases = {"environment": time.perf_counter() - started}
         history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, log_names, args.action_distribution,
-                        args.ppo == "graphed", args.resume, args.schedule)  # fmt: skip
+                        args.ppo == "graphed", args.resume, args.schedule, args.hidden_dims, args.random_episode_start)  # fmt: skip
         phases["training"] = time.perf_counter() - started - sum(phases.values())
         if rank == 0:
             plot(history, out / "rewards.png", f"{title}: {where}")
@@ -501,6 +530,12 @@ def run_task(parser, argv, ppo: dict, counts: tuple, make, name: str, describe, 
                 print("evaluation: " + report(args, out / "policy.pt", device, env), flush=True)
             print("phases after the imports: " + ", ".join(f"{k} {v:.1f} s" for k, v in phases.items()), flush=True)
     return history
+
+
+def saved_policy_kind(saved: dict) -> tuple[str, tuple]:
+    """(action distribution, hidden layers) of a checkpoint `train` saved (earlier ones: a Gaussian, HIDDEN_DIMS)."""
+    infos = saved.get("infos") or {}
+    return infos.get("action_distribution", "gaussian"), tuple(infos.get("hidden_dims", HIDDEN_DIMS))
 
 
 def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
@@ -511,7 +546,8 @@ def load_policy(env: envs.LeggedEnv, policy_path: pathlib.Path):
 
     vec = RslRlVecEnv(env)
     saved = torch.load(policy_path, map_location=str(env.device), weights_only=False)
-    cfg = train_config(1, (saved.get("infos") or {}).get("action_distribution", "gaussian"))  # earlier checkpoints: Gaussian
+    kind, dims = saved_policy_kind(saved)
+    cfg = train_config(1, kind, hidden_dims=dims)
     cfg["obs_groups"] = vec.obs_groups
     with contextlib.redirect_stdout(io.StringIO()):  # construct_algorithm prints the models
         alg = PPO.construct_algorithm(vec.get_observations(), vec, cfg, str(env.device))

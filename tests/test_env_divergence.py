@@ -96,3 +96,19 @@ def test_the_speed_bound_benchmark_finds_the_smallest_bound_that_flags_none():
     row = next(line for line in stdout.splitlines() if line.startswith("| pick |"))
     cells = [c.strip() for c in row.strip("|").split("|")]
     assert cells[1] == "5" and int(cells[2]) > 0 and cells[3] == "0" and cells[4] == "1000", stdout  # 5 policy steps of 20 ms
+
+
+def test_the_speed_bound_benchmark_runs_a_trained_policy(tmp_path):
+    """env_speed_bounds.py --policy: the actions of a checkpoint (examples/rl_manipulation.py's, one iteration) step the
+    environment instead of random ones, its flags counted the same way; --policy with two environments is refused."""
+    subprocess.run([sys.executable, str(ROOT / "examples" / "rl_manipulation.py"), "--device", str(wp.get_device()), "--num-envs", "2",
+                    "--iterations", "1", "--steps-per-env", "2", "--out", str(tmp_path)], cwd=ROOT, capture_output=True, timeout=600, check=True)  # fmt: skip
+    script = ROOT / "benchmarks" / "env_speed_bounds.py"
+    args = [sys.executable, str(script), "--device", str(wp.get_device()), "--bounds", "0.001,1000", "--num-envs", "2", "--seconds", "0.1",
+            "--policy", str(tmp_path / "policy.pt")]  # fmt: skip
+    stdout = subprocess.run([*args, "--envs", "pick"], cwd=ROOT, capture_output=True, text=True, timeout=600, check=True).stdout
+    assert f"the deterministic actions of {tmp_path / 'policy.pt'}" in stdout
+    cells = [c.strip() for c in next(line for line in stdout.splitlines() if line.startswith("| pick |")).strip("|").split("|")]
+    assert cells[1] == "5" and int(cells[2]) > 0 and cells[3] == "0" and cells[4] == "1000", stdout
+    refused = subprocess.run([*args, "--envs", "pick,go1"], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert refused.returncode == 2 and "--policy needs one environment in --envs (got 2)" in refused.stderr

@@ -2,6 +2,7 @@
 its resets, actions, rewards (recomputed from the JaxSim-style API), terminations, a scripted grasp through its
 actions, and the Stepper's contact rows it reads. Few environments, on the tests' device."""
 
+import argparse
 import pathlib
 import re
 import sys
@@ -187,7 +188,7 @@ def test_a_beta_policy_acts_within_the_range_and_reloads(tmp_path):
     import rl_manipulation
 
     rl_manipulation.main(["--device", str(wp.get_device()), "--num-envs", "4", "--iterations", "1", "--out", str(tmp_path)])
-    assert torch.load(tmp_path / "policy.pt", weights_only=False)["infos"] == {"action_distribution": "beta"}
+    assert torch.load(tmp_path / "policy.pt", weights_only=False)["infos"] == {"action_distribution": "beta", "hidden_dims": [256, 128, 64]}
     vec, policy = rl_locomotion.load_policy(envs.PickCubeEnv(4, seed=2), tmp_path / "policy.pt")
     obs = vec.get_observations()
     with torch.no_grad():
@@ -226,6 +227,46 @@ def test_a_run_resumes_from_its_checkpoint(tmp_path, capsys):
         torch.testing.assert_close(again["optimizer_state_dict"]["state"][k]["exp_avg"], state["exp_avg"], rtol=0, atol=0)
     with pytest.raises(ValueError, match=r"its policy is beta, not the --action-distribution gaussian asked for"):
         rl_locomotion.train(env, 1, tmp_path / "d", str(env.device), resume=tmp_path / "b" / "policy.pt")
+    with pytest.raises(ValueError, match=r"its networks' layers are \(256, 128, 64\), not the --hidden-dims \(64, 32\) asked for"):
+        rl_locomotion.train(env, 1, tmp_path / "d", str(env.device), distribution="beta", resume=tmp_path / "b" / "policy.pt", hidden_dims=(64, 32))
+
+
+def test_other_networks_are_saved_and_reloaded(tmp_path):
+    """--hidden-dims: the actor's layers as asked, named in the checkpoint's infos, from which `load_policy` builds
+    the same networks (a checkpoint of other layers would not load into the default ones); bad widths are refused."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    import rl_locomotion
+    import rl_manipulation
+
+    rl_manipulation.main(["--device", str(wp.get_device()), "--num-envs", "4", "--iterations", "1", "--hidden-dims", "32,16", "--out", str(tmp_path)])
+    saved = torch.load(tmp_path / "policy.pt", weights_only=False)
+    assert saved["infos"]["hidden_dims"] == [32, 16] and tuple(saved["actor_state_dict"]["mlp.0.weight"].shape)[0] == 32
+    vec, policy = rl_locomotion.load_policy(envs.PickCubeEnv(4, seed=2), tmp_path / "policy.pt")
+    with torch.no_grad():
+        assert policy(vec.get_observations()).shape == (4, 8)
+    for bad in ("0", "32,x", ""):
+        with pytest.raises(argparse.ArgumentTypeError, match="comma-separated positive layer widths"):
+            rl_locomotion.layer_widths(bad)
+    with pytest.raises(ValueError, match="hidden_dims must be positive layer widths"):
+        rl_locomotion.train_config(1, hidden_dims=(32, 0))
+
+
+@pytest.mark.parametrize("random_start", [False, True])
+def test_episodes_can_start_at_random_points(tmp_path, random_start):
+    """`train`'s random_episode_start (--random-episode-start; rsl-rl's init_at_random_ep_len): the episode counters
+    start uniformly in [0, max_episode_length), so episodes end apart; without it every counter moves in step."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    import rl_locomotion
+
+    env = envs.PickCubeEnv(16, seed=4)
+    ppo = {"steps_per_env": 2, "epochs": 1, "mini_batches": 1}
+    rl_locomotion.train(env, 1, tmp_path, str(env.device), ppo=ppo, distribution="beta", random_episode_start=random_start)
+    counters = env.episode_length_buf.cpu()
+    assert int(counters.max()) < env.max_episode_length
+    if random_start:
+        assert len(set(counters.tolist())) > 8
+    else:
+        assert counters.tolist() == [2] * 16
 
 
 @pytest.mark.skipif(not wp.get_device().is_cuda, reason="CUDA graphs: the tests' device is not a GPU")
