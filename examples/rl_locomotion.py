@@ -506,7 +506,7 @@ def task_setup(parser: argparse.ArgumentParser, argv, ppo: dict) -> tuple:
 
 def run_task(parser, argv, ppo: dict, counts: tuple, make, name: str, describe, title: str, log_names: tuple, report) -> list:
     """A manipulation example's run (rl_manipulation.py, rl_reorient.py), under torchrun too: `task_arguments`'
-    command line (`task_setup`), this rank's device (`torchrun_device`), its `make(N, device, seed)` environments (N:
+    command line (`task_setup`), this rank's device (`torchrun_device`), its `make(N, device, seed, args)` environments (args: the parsed command line, for the example's own flags; N:
     --num-envs, else counts[0] on a GPU and counts[1] on the CPU; seed: --seed + rank), `train`; rank 0 prints the
     header ("`name`: where, `describe(env)`, actions, policy rate"), plots the returns ("`title`: where"), with
     --evaluate prints "evaluation: " + `report(args, policy.pt's path, device, env)`, and the phases' times. Returns
@@ -515,7 +515,7 @@ def run_task(parser, argv, ppo: dict, counts: tuple, make, name: str, describe, 
     args, out, ppo = task_setup(parser, argv, ppo)
     with torchrun_device(parser, args.device, args.seed) as (device, world, rank):
         N = args.num_envs or (counts[0] if device.is_cuda else counts[1])
-        env = make(N, device, args.seed + rank)
+        env = make(N, device, args.seed + rank, args)
         where = placement(N, device, world)
         if rank == 0:
             print(f"{name}: {where}, {describe(env)}, {env.single_action_space.shape[0]} actions, "

@@ -73,7 +73,7 @@ def main(argv=None) -> list:
         return (f"{result['environments']} fresh environments, one episode: success {result['success']:.1%} "
                 f"(cube within {env.cfg.success_distance:g} m of its target), mean distance {result['distance']:.3f} m")  # fmt: skip
 
-    def make(N, device, seed):
+    def make(N, device, seed, args):
         return envs.PickCubeEnv(N, device=device, seed=seed)
 
     def describe(env):

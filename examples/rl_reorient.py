@@ -28,6 +28,7 @@ Writes `<out>/policy.pt` and `<out>/rewards.png`.
 
 from __future__ import annotations
 
+import argparse
 import pathlib
 
 import torch
@@ -43,11 +44,12 @@ LOGGED = ("/success", "/orientation_error", "/reward/orientation")
 """CubeReorientEnv's info["log"] entries each iteration prints (their means over the iteration)."""
 
 
-def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256, seconds: float = 20.0) -> dict:
+def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256, seconds: float = 20.0, cfg: envs.CubeReorientConfig | None = None) -> dict:
     """{"environments", "seconds", "successes", "dropped"}: the deterministic policy for `seconds` in `num_envs` fresh
-    environments: the mean number of successes per environment (an environment that drops the cube restarts and
-    keeps counting) and the fraction of environments that dropped it at least once."""
-    env = envs.CubeReorientEnv(num_envs, device=device, seed=seed)
+    environments (`cfg`: theirs, default CubeReorientConfig()): the mean number of successes per environment (an
+    environment that drops the cube restarts and keeps counting) and the fraction of environments that dropped it at
+    least once."""
+    env = envs.CubeReorientEnv(num_envs, cfg=cfg, device=device, seed=seed)
     vec, policy = load_policy(env, policy_path)
     obs = vec.get_observations()
     successes = torch.zeros(num_envs, device=env.device)
@@ -63,17 +65,29 @@ def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256, 
     return {"environments": num_envs, "seconds": seconds, "successes": float(successes.mean()), "dropped": float(dropped.float().mean())}
 
 
+def time_step(text: str) -> float:
+    """--time-step's value [s], checked as CubeReorientConfig checks it (an argparse error with its message)."""
+    try:
+        cfg = envs.CubeReorientConfig(time_step=float(text))
+        cfg.validate()
+        return cfg.time_step
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def main(argv=None) -> list:
     parser = task_arguments(__doc__.split("\n\n")[0], REORIENT_PPO, "8192 on a GPU, 16 on the CPU", "runs/reorient", 100000, "beta", "fixed")
     parser.add_argument("--evaluate-seconds", type=float, default=20.0, help="seconds of --evaluate (default 20)")
+    parser.add_argument("--time-step", type=time_step, default=envs.CubeReorientConfig.time_step,
+                        help=f"the simulation's step [s] (default {envs.CubeReorientConfig.time_step:g}; the policy's 0.05 s a whole number of them)")  # fmt: skip
 
     def report(args, policy_path, device, env) -> str:
-        result = evaluate(policy_path, device, args.seed + 1000, args.evaluate_envs, args.evaluate_seconds)
+        result = evaluate(policy_path, device, args.seed + 1000, args.evaluate_envs, args.evaluate_seconds, env.cfg)
         return (f"{result['environments']} fresh environments, {result['seconds']:g} s: {result['successes']:.2f} successes per environment "
                 f"(the cube within {env.cfg.success_threshold:g} rad of its goal), {result['dropped']:.1%} dropped the cube")  # fmt: skip
 
-    def make(N, device, seed):
-        return envs.CubeReorientEnv(N, device=device, seed=seed)
+    def make(N, device, seed, args):
+        return envs.CubeReorientEnv(N, cfg=envs.CubeReorientConfig(time_step=args.time_step), device=device, seed=seed)
 
     def describe(env):
         return f"{env.single_observation_space.shape[0]} observations (critic {env.single_critic_observation_space.shape[0]})"

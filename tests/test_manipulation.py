@@ -362,6 +362,7 @@ BAD_RUN_ARGUMENTS = (
     [(example, argv, message) for example in ("rl_manipulation", "rl_reorient", "rl_locomotion") for argv, message in _BAD_SIZES]
     + [(example, ["--evaluate-envs", "0"], "--evaluate-envs must be a positive number") for example in ("rl_manipulation", "rl_reorient")]
     + [("rl_reorient", ["--evaluate-seconds", "-5"], "--evaluate-seconds must be a positive")]
+    + [("rl_reorient", ["--time-step", "0.003"], "must be a whole number of time_step"), ("rl_reorient", ["--time-step", "0"], "time_step must be a positive")]
     + [("rl_locomotion", ["--replay", "no/such/policy.pt"], "--replay no/such/policy.pt: no such file")]
 )
 """(example, its flags, the error's words): rl_locomotion.py has no --evaluate-envs, only rl_reorient.py --evaluate-seconds
