@@ -4,9 +4,9 @@ machine's) and to put runs side by side.
 
     python benchmarks/training_curves.py OUT.png LOG [LOG ...] [--quantity reached] [--labels a,b] [--first 0.5,0.9]
 
-A LOG may be several logs joined by "+" (`part1.log+part2.log`): one run resumed in parts (`--resume`), each part's
-wall time counted on from the previous part's last iteration (the restarts between parts, imports and compilation,
-not counted).
+A LOG that is not a file may be several logs of one folder joined by "+" (`dir/part1.log+part2.log`): one run
+resumed in parts (`--resume`), each part's wall time counted on from the previous part's last iteration (the
+restarts between parts, imports and compilation, not counted).
 
 --quantity: "return" (the mean return of the episodes completed in the iteration; iterations without one are
 skipped) or a logged entry of the line ("reached", "success", "orientation_error", ...; default "return"). Prints
@@ -28,8 +28,8 @@ _LOGGED = re.compile(r"(\S+)\s+(-?\d+(?:\.\d+)?(?:e[-+]?\d+)?|nan)(?=\s|$)")
 
 def read(path: pathlib.Path, quantity: str) -> tuple[list[float], list[float], list[float], float]:
     """(wall times [s] and the quantity where it is finite, env-steps/s [k] of every iteration, the last iteration's
-    wall time [s]) of the log's iteration lines; a path of logs joined by "+" reads as one run in parts."""
-    if "+" in path.name:
+    wall time [s]) of the log's iteration lines; logs of one folder joined by "+" read as one run in parts."""
+    if "+" in path.name and not path.is_file():
         return read_parts([path.with_name(name) for name in path.name.split("+")], quantity)
     seconds, values, rates, end = [], [], [], float("nan")
     for line in path.read_text().splitlines():

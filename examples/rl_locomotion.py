@@ -164,6 +164,12 @@ HIDDEN_DIMS = (256, 128, 64)
 """The actor's and the critic's MLP layers (Rudin et al.'s; --hidden-dims)."""
 
 
+def check_layer_widths(widths) -> None:
+    """A ValueError naming hidden_dims unless `widths` is a non-empty sequence of positive integers."""
+    if not widths or not all(isinstance(w, int) and not isinstance(w, bool) and w > 0 for w in widths):
+        raise ValueError(f"hidden_dims must be positive integer layer widths, got {widths!r}")
+
+
 def train_config(
     iterations: int, distribution: str = "gaussian", graphed: bool = False, schedule: str = "adaptive", hidden_dims: tuple = HIDDEN_DIMS, **ppo
 ) -> dict:
@@ -175,13 +181,12 @@ def train_config(
         raise ValueError(f"the action distribution is one of {sorted(ACTION_DISTRIBUTIONS)}, got {distribution!r}")
     if schedule not in SCHEDULES:
         raise ValueError(f"the learning-rate schedule is one of {list(SCHEDULES)}, got {schedule!r}")
-    if not hidden_dims or any(int(d) != d or d < 1 for d in hidden_dims):
-        raise ValueError(f"hidden_dims must be positive layer widths, got {hidden_dims!r}")
+    check_layer_widths(hidden_dims)
     unknown = sorted(set(ppo) - set(PPO_DEFAULTS))
     if unknown:
         raise TypeError(f"train_config takes the settings {sorted(PPO_DEFAULTS)}, got {unknown}")
     steps_per_env, epochs, mini_batches, learning_rate, gamma, entropy_coef = ({**PPO_DEFAULTS, **ppo}[name] for name in PPO_DEFAULTS)
-    mlp = dict(hidden_dims=[int(d) for d in hidden_dims], activation="elu", obs_normalization=True)
+    mlp = dict(hidden_dims=list(hidden_dims), activation="elu", obs_normalization=True)
     return {
         "num_steps_per_env": steps_per_env,
         "save_interval": max(1, iterations),
@@ -270,7 +275,7 @@ def train(
     graphed: bool = True,
     resume: pathlib.Path | None = None,
     schedule: str = "adaptive",
-    hidden_dims: tuple = HIDDEN_DIMS,
+    hidden_dims: tuple | None = None,
     random_episode_start: bool = False,
 ) -> list:
     """rsl-rl's PPO for `iterations` (fewer when `target_return` is reached or `max_minutes` pass; `ppo`: PPO_DEFAULTS'
@@ -278,17 +283,27 @@ def train(
     each iteration's line prints, rank 0's; `distribution`: the actions', ACTION_DISTRIBUTIONS, kept in the
     checkpoint's infos for `load_policy`; `graphed`: GraphedPPO, else rsl-rl's own PPO; either
     averages over the ranks of a process group; `resume`: a policy.pt `train` saved, whose models, normalisers,
-    optimizer state and learning rate the training continues from, its iterations numbered on from the saved one: a
-    long run split into several processes; `schedule`: the learning rate's, SCHEDULES; `hidden_dims`: the MLPs' layers,
-    kept in the checkpoint's infos; `random_episode_start`: the environments' episode counters drawn uniformly in
-    [0, max_episode_length) first, so that their episodes end at different iterations (rsl-rl's OnPolicyRunner's
-    init_at_random_ep_len, which legged_gym sets; not on a resume)); returns
+    optimizer state and learning rate the training continues from (with a fixed `schedule`, the rate is the `ppo`
+    learning_rate instead), its iterations numbered on from the saved one: a long run split into several processes;
+    `schedule`: the learning rate's, SCHEDULES; `hidden_dims`: the MLPs' layers (None: the checkpoint's on a resume,
+    else HIDDEN_DIMS), kept with the distribution and the schedule in the checkpoint's infos; `random_episode_start`:
+    the environments' episode counters drawn uniformly in [0, max_episode_length) first, so that their episodes end
+    at different iterations (rsl-rl's OnPolicyRunner's init_at_random_ep_len, which legged_gym sets)); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
 
     world, rank = _group()
     vec = RslRlVecEnv(env)
+    saved = None if resume is None else torch.load(resume, map_location=torch_device, weights_only=False)
+    if saved is not None:
+        kind, dims = saved_policy_kind(saved)
+        if kind != distribution:
+            raise ValueError(f"{resume}: its policy is {kind}, not the --action-distribution {distribution} asked for")
+        if hidden_dims is not None and tuple(hidden_dims) != dims:
+            raise ValueError(f"{resume}: its networks' layers are {dims}, not the --hidden-dims {tuple(hidden_dims)} asked for")
+        hidden_dims = dims
+    hidden_dims = tuple(hidden_dims or HIDDEN_DIMS)
     cfg = train_config(iterations, distribution, graphed, schedule, hidden_dims, **(ppo or {}))
     cfg["obs_groups"] = vec.obs_groups
     if world > 1:  # the PPO then averages gradients, KL and normaliser statistics over the ranks
@@ -298,16 +313,13 @@ def train(
         alg = PPO.construct_algorithm(vec.get_observations(), vec, cfg, torch_device)  # as OnPolicyRunner does
     alg.train_mode()
     first = 0
-    if resume is not None:
-        saved = torch.load(resume, map_location=torch_device, weights_only=False)
-        kind, dims = saved_policy_kind(saved)
-        if kind != distribution:
-            raise ValueError(f"{resume}: its policy is {kind}, not the --action-distribution {distribution} asked for")
-        if dims != tuple(hidden_dims):
-            raise ValueError(f"{resume}: its networks' layers are {dims}, not the --hidden-dims {tuple(hidden_dims)} asked for")
+    if saved is not None:
+        if schedule == "fixed":  # the rate asked for, not the one an adaptive schedule left in the optimizer's state
+            for group in saved["optimizer_state_dict"]["param_groups"]:
+                group["lr"] = cfg["algorithm"]["learning_rate"]
         alg.load(saved, None, strict=True)
         first = int(saved["iter"]) + 1
-    elif random_episode_start:
+    if random_episode_start:
         vec.episode_length_buf = torch.randint_like(env.episode_length_buf, high=int(env.max_episode_length))
     if world > 1:
         alg.broadcast_parameters()  # rank 0's initial parameters everywhere (as OnPolicyRunner.learn does)
@@ -374,7 +386,7 @@ def train(
             print(f"policy identical on {world} ranks (largest difference {difference:.3g})", flush=True)
     if rank == 0:
         out.mkdir(parents=True, exist_ok=True)
-        infos = {"action_distribution": distribution, "hidden_dims": [int(d) for d in hidden_dims]}
+        infos = {"action_distribution": distribution, "hidden_dims": list(hidden_dims), "schedule": schedule}
         torch.save({**alg.save(), "iter": first + len(history) - 1, "infos": infos}, out / "policy.pt")  # OnPolicyRunner.save's format
     return history
 
@@ -450,7 +462,8 @@ def task_arguments(
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
     parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default=distribution, help=f"the policy's (default {distribution})")
     parser.add_argument("--schedule", choices=SCHEDULES, default=schedule, help=f"the learning rate's (default {schedule})")
-    parser.add_argument("--hidden-dims", type=layer_widths, default=HIDDEN_DIMS, help=f"the actor's and critic's MLP layers (default {','.join(map(str, HIDDEN_DIMS))})")
+    parser.add_argument("--hidden-dims", type=layer_widths, default=None,
+                        help=f"the actor's and critic's MLP layers (default {','.join(map(str, HIDDEN_DIMS))}, or --resume's)")  # fmt: skip
     parser.add_argument("--random-episode-start", action="store_true", help="start the environments' episode counters at random (rsl-rl's init_at_random_ep_len)")
     add_resume_argument(parser)
     add_ppo_argument(parser)
@@ -464,10 +477,9 @@ def layer_widths(text: str) -> tuple:
     """--hidden-dims' "512,256,128" as (512, 256, 128); an argparse error naming the text otherwise."""
     try:
         dims = tuple(int(x) for x in text.split(","))
+        check_layer_widths(dims)
     except ValueError:
-        dims = ()
-    if not dims or min(dims) < 1:
-        raise argparse.ArgumentTypeError(f"comma-separated positive layer widths, got {text!r}")
+        raise argparse.ArgumentTypeError(f"comma-separated positive layer widths, got {text!r}") from None
     return dims
 
 
@@ -521,8 +533,11 @@ def run_task(parser, argv, ppo: dict, counts: tuple, make, name: str, describe, 
             print(f"{name}: {where}, {describe(env)}, {env.single_action_space.shape[0]} actions, "
                   f"policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps", flush=True)  # fmt: skip
         phases = {"environment": time.perf_counter() - started}
-        history = train(env, args.iterations, out, str(env.device), None, args.max_minutes, ppo, log_names, args.action_distribution,
-                        args.ppo == "graphed", args.resume, args.schedule, args.hidden_dims, args.random_episode_start)  # fmt: skip
+        history = train(
+            env, args.iterations, out, str(env.device), max_minutes=args.max_minutes, ppo=ppo, log_names=log_names, distribution=args.action_distribution,
+            graphed=args.ppo == "graphed", resume=args.resume, schedule=args.schedule, hidden_dims=args.hidden_dims,
+            random_episode_start=args.random_episode_start,
+        )  # fmt: skip
         phases["training"] = time.perf_counter() - started - sum(phases.values())
         if rank == 0:
             plot(history, out / "rewards.png", f"{title}: {where}")

@@ -16,8 +16,8 @@ Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO as GraphedPPO, it
 as defaults (REORIENT_PPO; its networks are (512, 256, 128), the trainer's (256, 128, 64)), its fixed learning rate
 (`--schedule fixed`) and a Beta policy (`--action-distribution beta`, bounded like Brax's tanh-squashed Gaussian):
 with rsl-rl's adaptive schedule and a Gaussian, the 25-minute H200 run's learning rate was at or near the schedule's
-floor of 1e-5 and its Gaussian's standard deviation grew from 1 to 9.9 on actions clipped to [-1, 1] (its
-checkpoints; benchmarks/RESULTS.md).
+floor of 1e-5 and its Gaussian's standard deviation grew from 1 to 9.9 on actions clipped to [-1, 1]
+(benchmarks/results/rl_reorient_h200_25min_checkpoints.txt). `--hidden-dims 512,256,128` gives Playground's networks.
 
 Prints, per iteration: the mean return and length of the completed episodes, env-steps/s, the wall time, and the
 means over its steps of the fraction of environments at a success, the orientation error [rad] and the
@@ -65,7 +65,7 @@ def evaluate(policy_path: pathlib.Path, device, seed: int, num_envs: int = 256, 
     return {"environments": num_envs, "seconds": seconds, "successes": float(successes.mean()), "dropped": float(dropped.float().mean())}
 
 
-def time_step(text: str) -> float:
+def parse_time_step(text: str) -> float:
     """--time-step's value [s], checked as CubeReorientConfig checks it (an argparse error with its message)."""
     try:
         cfg = envs.CubeReorientConfig(time_step=float(text))
@@ -78,11 +78,12 @@ def time_step(text: str) -> float:
 def main(argv=None) -> list:
     parser = task_arguments(__doc__.split("\n\n")[0], REORIENT_PPO, "8192 on a GPU, 16 on the CPU", "runs/reorient", 100000, "beta", "fixed")
     parser.add_argument("--evaluate-seconds", type=float, default=20.0, help="seconds of --evaluate (default 20)")
-    parser.add_argument("--time-step", type=time_step, default=envs.CubeReorientConfig.time_step,
-                        help=f"the simulation's step [s] (default {envs.CubeReorientConfig.time_step:g}; the policy's 0.05 s a whole number of them)")  # fmt: skip
+    parser.add_argument("--time-step", type=parse_time_step, default=envs.CubeReorientConfig.time_step,
+                        help=f"the simulation's step [s] (default {envs.CubeReorientConfig.time_step:g}; the policy's 0.05 s a whole number of them; "
+                        "a step the soft contacts cannot hold, 8 ms and more at the default contact settings, is refused when the environments are built)")  # fmt: skip
 
     def report(args, policy_path, device, env) -> str:
-        result = evaluate(policy_path, device, args.seed + 1000, args.evaluate_envs, args.evaluate_seconds, env.cfg)
+        result = evaluate(policy_path, device, args.seed + 1000, args.evaluate_envs, args.evaluate_seconds, cfg=env.cfg)
         return (f"{result['environments']} fresh environments, {result['seconds']:g} s: {result['successes']:.2f} successes per environment "
                 f"(the cube within {env.cfg.success_threshold:g} rad of its goal), {result['dropped']:.1%} dropped the cube")  # fmt: skip
 

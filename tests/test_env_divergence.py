@@ -99,16 +99,26 @@ def test_the_speed_bound_benchmark_finds_the_smallest_bound_that_flags_none():
 
 
 def test_the_speed_bound_benchmark_runs_a_trained_policy(tmp_path):
-    """env_speed_bounds.py --policy: the actions of a checkpoint (examples/rl_manipulation.py's, one iteration) step the
-    environment instead of random ones, its flags counted the same way; --policy with two environments is refused."""
+    """env_speed_bounds.py --policy: the deterministic actions of a checkpoint (examples/rl_manipulation.py's, one
+    iteration: a Beta policy near its mode, far from random actions' mean absolute value of 0.5) step the environment,
+    its flags counted the same way; --policy with two environments, a missing file and another environment's
+    checkpoint are refused, each naming what is wrong."""
     subprocess.run([sys.executable, str(ROOT / "examples" / "rl_manipulation.py"), "--device", str(wp.get_device()), "--num-envs", "2",
                     "--iterations", "1", "--steps-per-env", "2", "--out", str(tmp_path)], cwd=ROOT, capture_output=True, timeout=600, check=True)  # fmt: skip
     script = ROOT / "benchmarks" / "env_speed_bounds.py"
-    args = [sys.executable, str(script), "--device", str(wp.get_device()), "--bounds", "0.001,1000", "--num-envs", "2", "--seconds", "0.1",
-            "--policy", str(tmp_path / "policy.pt")]  # fmt: skip
-    stdout = subprocess.run([*args, "--envs", "pick"], cwd=ROOT, capture_output=True, text=True, timeout=600, check=True).stdout
+    args = [sys.executable, str(script), "--device", str(wp.get_device()), "--bounds", "0.001,1000", "--num-envs", "2", "--seconds", "0.1"]
+
+    def row(*flags):
+        stdout = subprocess.run([*args, *flags], cwd=ROOT, capture_output=True, text=True, timeout=600, check=True).stdout
+        return stdout, [c.strip() for c in next(line for line in stdout.splitlines() if line.startswith("| pick |")).strip("|").split("|")]
+
+    stdout, policy = row("--envs", "pick", "--policy", str(tmp_path / "policy.pt"))
+    _, random = row("--envs", "pick")
     assert f"the deterministic actions of {tmp_path / 'policy.pt'}" in stdout
-    cells = [c.strip() for c in next(line for line in stdout.splitlines() if line.startswith("| pick |")).strip("|").split("|")]
-    assert cells[1] == "5" and int(cells[2]) > 0 and cells[3] == "0" and cells[4] == "1000", stdout
-    refused = subprocess.run([*args, "--envs", "pick,go1"], cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert refused.returncode == 2 and "--policy needs one environment in --envs (got 2)" in refused.stderr
+    assert policy[1] == "5" and int(policy[2]) > 0 and policy[3] == "0" and policy[4] == "1000", stdout
+    assert abs(float(random[5]) - 0.5) < 0.1 and abs(float(policy[5]) - 0.5) > 0.2, (policy, random)
+    for flags, message in [(["--envs", "pick,go1", "--policy", str(tmp_path / "policy.pt")], "--policy needs one environment in --envs (got 2)"),
+                           (["--envs", "pick", "--policy", str(tmp_path / "none.pt")], "none.pt: no such file"),
+                           (["--envs", "reorient", "--policy", str(tmp_path / "policy.pt")], "not a policy of this environment (size mismatch")]:  # fmt: skip
+        refused = subprocess.run([*args, *flags], cwd=ROOT, capture_output=True, text=True, timeout=600)
+        assert refused.returncode != 0 and message in refused.stderr, refused.stderr

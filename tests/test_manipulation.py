@@ -188,7 +188,7 @@ def test_a_beta_policy_acts_within_the_range_and_reloads(tmp_path):
     import rl_manipulation
 
     rl_manipulation.main(["--device", str(wp.get_device()), "--num-envs", "4", "--iterations", "1", "--out", str(tmp_path)])
-    assert torch.load(tmp_path / "policy.pt", weights_only=False)["infos"] == {"action_distribution": "beta", "hidden_dims": [256, 128, 64]}
+    assert torch.load(tmp_path / "policy.pt", weights_only=False)["infos"] == {"action_distribution": "beta", "hidden_dims": [256, 128, 64], "schedule": "adaptive"}
     vec, policy = rl_locomotion.load_policy(envs.PickCubeEnv(4, seed=2), tmp_path / "policy.pt")
     obs = vec.get_observations()
     with torch.no_grad():
@@ -233,7 +233,8 @@ def test_a_run_resumes_from_its_checkpoint(tmp_path, capsys):
 
 def test_other_networks_are_saved_and_reloaded(tmp_path):
     """--hidden-dims: the actor's layers as asked, named in the checkpoint's infos, from which `load_policy` builds
-    the same networks (a checkpoint of other layers would not load into the default ones); bad widths are refused."""
+    the same networks (a checkpoint of other layers would not load into the default ones) and a --resume without
+    --hidden-dims takes them; bad widths are refused."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
     import rl_locomotion
     import rl_manipulation
@@ -244,25 +245,66 @@ def test_other_networks_are_saved_and_reloaded(tmp_path):
     vec, policy = rl_locomotion.load_policy(envs.PickCubeEnv(4, seed=2), tmp_path / "policy.pt")
     with torch.no_grad():
         assert policy(vec.get_observations()).shape == (4, 8)
-    for bad in ("0", "32,x", ""):
+    rl_manipulation.main(["--device", str(wp.get_device()), "--num-envs", "4", "--iterations", "1", "--resume", str(tmp_path / "policy.pt"), "--out", str(tmp_path / "b")])
+    assert torch.load(tmp_path / "b" / "policy.pt", weights_only=False)["infos"]["hidden_dims"] == [32, 16]
+    for bad in ("0", "32,x", "", "32,-1"):
         with pytest.raises(argparse.ArgumentTypeError, match="comma-separated positive layer widths"):
             rl_locomotion.layer_widths(bad)
-    with pytest.raises(ValueError, match="hidden_dims must be positive layer widths"):
-        rl_locomotion.train_config(1, hidden_dims=(32, 0))
+    for bad in ((32, 0), (32.5,), (True,), ()):
+        with pytest.raises(ValueError, match="hidden_dims must be positive integer layer widths"):
+            rl_locomotion.train_config(1, hidden_dims=bad)
+
+
+@pytest.mark.parametrize("schedule", ["adaptive", "fixed"])
+def test_a_resume_with_a_fixed_schedule_takes_the_rate_asked_for(tmp_path, schedule):
+    """A checkpoint whose adaptive schedule cut its rate (0.05 with KLs beyond 0.02): resumed for 0 iterations with
+    --schedule fixed, the saved rate is the one asked for; with adaptive, the checkpoint's (as rsl-rl resumes)."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    import rl_manipulation
+
+    device = str(wp.get_device())
+    rl_manipulation.main(["--device", device, "--num-envs", "4", "--iterations", "1", "--learning-rate", "0.05", "--out", str(tmp_path / "a")])
+    cut = float(torch.load(tmp_path / "a" / "policy.pt", weights_only=False)["optimizer_state_dict"]["param_groups"][0]["lr"])
+    assert cut < 0.05 * (1 - 1e-6)
+    rl_manipulation.main(["--device", device, "--num-envs", "4", "--iterations", "0", "--learning-rate", "0.05", "--schedule", schedule,
+                          "--resume", str(tmp_path / "a" / "policy.pt"), "--out", str(tmp_path / "b")])  # fmt: skip
+    saved = torch.load(tmp_path / "b" / "policy.pt", weights_only=False)
+    rate = float(saved["optimizer_state_dict"]["param_groups"][0]["lr"])
+    assert rate == pytest.approx(0.05 if schedule == "fixed" else cut, rel=1e-6) and saved["infos"]["schedule"] == schedule
+
+
+def test_the_command_line_reaches_train(monkeypatch, tmp_path):
+    """rl_reorient.py's flags reach `train` (recorded by a stand-in): --schedule, --hidden-dims,
+    --random-episode-start, and the defaults Beta, fixed, the checkpoint's or HIDDEN_DIMS (None), no random start."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
+    import rl_locomotion
+    import rl_reorient
+
+    calls = []
+    monkeypatch.setattr(rl_locomotion, "train", lambda *args, **kwargs: calls.append(kwargs) or [])
+    common = ["--device", str(wp.get_device()), "--num-envs", "2", "--iterations", "0", "--out", str(tmp_path)]
+    rl_reorient.main(common)
+    rl_reorient.main([*common, "--schedule", "adaptive", "--hidden-dims", "64,32", "--random-episode-start", "--action-distribution", "gaussian"])
+    picked = [{k: c[k] for k in ("distribution", "schedule", "hidden_dims", "random_episode_start")} for c in calls]
+    assert picked == [dict(distribution="beta", schedule="fixed", hidden_dims=None, random_episode_start=False),
+                      dict(distribution="gaussian", schedule="adaptive", hidden_dims=(64, 32), random_episode_start=True)]  # fmt: skip
 
 
 @pytest.mark.parametrize("random_start", [False, True])
 def test_episodes_can_start_at_random_points(tmp_path, random_start):
     """`train`'s random_episode_start (--random-episode-start; rsl-rl's init_at_random_ep_len): the episode counters
-    start uniformly in [0, max_episode_length), so episodes end apart; without it every counter moves in step."""
+    start uniformly in [0, max_episode_length), so episodes end apart (on a resume too: a run in parts restarted its
+    episodes together at each part); without it every counter moves in step."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
     import rl_locomotion
 
     env = envs.PickCubeEnv(16, seed=4)
     ppo = {"steps_per_env": 2, "epochs": 1, "mini_batches": 1}
-    rl_locomotion.train(env, 1, tmp_path, str(env.device), ppo=ppo, distribution="beta", random_episode_start=random_start)
-    counters = env.episode_length_buf.cpu()
-    assert int(counters.max()) < env.max_episode_length
+    rl_locomotion.train(env, 1, tmp_path, str(env.device), ppo=ppo, distribution="beta")
+    resumed = envs.PickCubeEnv(16, seed=5)
+    rl_locomotion.train(resumed, 1, tmp_path / "b", str(env.device), ppo=ppo, distribution="beta", resume=tmp_path / "policy.pt", random_episode_start=random_start)
+    counters = resumed.episode_length_buf.cpu()
+    assert int(counters.max()) < resumed.max_episode_length
     if random_start:
         assert len(set(counters.tolist())) > 8
     else:

@@ -241,15 +241,15 @@ def test_the_examples_learning_rate_stays_fixed_by_default(tmp_path, flags, kept
     assert (rate == pytest.approx(0.05, rel=1e-6)) == kept and rate <= 0.05 * (1 + 1e-6)
 
 
-def test_the_example_steps_at_another_time_step(tmp_path, capsys):
+def test_the_example_steps_at_another_time_step(tmp_path, capsys, monkeypatch):
     """--time-step 0.005: the environments step at 5 ms, 10 simulation steps per policy step (the header says so),
-    and the evaluation's environments at the same step."""
+    and --evaluate builds its environments with the training's config (recorded by a stand-in for `evaluate`)."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
     import rl_reorient
 
+    steps = []
+    monkeypatch.setattr(rl_reorient, "evaluate", lambda *args, cfg=None, **kwargs: steps.append(cfg.time_step) or
+                        {"environments": 2, "seconds": 0.1, "successes": 0.0, "dropped": 0.0})  # fmt: skip
     rl_reorient.main(["--device", str(wp.get_device()), "--num-envs", "4", "--iterations", "1", "--steps-per-env", "2", "--mini-batches", "1",
-                      "--time-step", "0.005", "--out", str(tmp_path)])  # fmt: skip
-    assert "policy at 20 Hz over 10 steps" in capsys.readouterr().out
-    cfg = envs.CubeReorientConfig(time_step=0.005)
-    result = rl_reorient.evaluate(tmp_path / "policy.pt", wp.get_device(), seed=3, num_envs=2, seconds=0.1, cfg=cfg)
-    assert result["environments"] == 2 and 0.0 <= result["dropped"] <= 1.0
+                      "--time-step", "0.005", "--evaluate", "--out", str(tmp_path)])  # fmt: skip
+    assert "policy at 20 Hz over 10 steps" in capsys.readouterr().out and steps == [0.005]

@@ -1,9 +1,13 @@
-"""benchmarks/training_curves.py reads the examples' iteration lines: a shipped log's counts, rates and logged values."""
+"""benchmarks/training_curves.py reads the examples' iteration lines (a shipped log's counts, rates and logged values; a
+run in parts); benchmarks/checkpoint_summary.py reads their checkpoints."""
 
 import pathlib
 import runpy
+import subprocess
+import sys
 
 import pytest
+import warp as wp
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 _script = runpy.run_path(str(ROOT / "benchmarks" / "training_curves.py"))  # (not imported: examples/ has a common.py too)
@@ -47,3 +51,18 @@ def test_a_run_in_parts_counts_its_wall_time_on():
     assert seconds == parts[0][0] + [512.1 + t for t in parts[1][0]]
     assert values == parts[0][1] + parts[1][1] and rates == parts[0][2] + parts[1][2]
     assert len(rates) == 237 + 231 and values[-1] == pytest.approx(1.436)
+
+
+def test_a_checkpoints_summary_names_its_trainers_state(tmp_path):
+    """benchmarks/checkpoint_summary.py (its own process) on a one-iteration Gaussian checkpoint of
+    examples/rl_manipulation.py: its iteration, distribution, layers, schedule, learning rate and the Gaussian's
+    deviations (rsl-rl starts them at 1); a missing file is refused naming it."""
+    subprocess.run([sys.executable, str(ROOT / "examples" / "rl_manipulation.py"), "--device", str(wp.get_device()), "--num-envs", "2", "--iterations", "1",
+                    "--steps-per-env", "2", "--action-distribution", "gaussian", "--out", str(tmp_path)], cwd=ROOT, capture_output=True, timeout=600, check=True)  # fmt: skip
+    script = [sys.executable, str(ROOT / "benchmarks" / "checkpoint_summary.py")]
+    out = subprocess.run([*script, str(tmp_path / "policy.pt")], capture_output=True, text=True, timeout=600, check=True).stdout
+    assert "iteration 0, gaussian policy, layers [256, 128, 64], schedule adaptive, learning rate" in out
+    low, high = (float(x) for x in out.split("Gaussian standard deviations ")[1].split(" (")[0].split(" to "))
+    assert 0.8 < low <= high < 1.2 and "over 8 actions" in out
+    refused = subprocess.run([*script, str(tmp_path / "none.pt")], capture_output=True, text=True, timeout=600)
+    assert refused.returncode == 2 and "no such checkpoint:" in refused.stderr
