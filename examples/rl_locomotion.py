@@ -303,7 +303,7 @@ def train(
         if hidden_dims is not None and tuple(hidden_dims) != dims:
             raise ValueError(f"{resume}: its networks' layers are {dims}, not the --hidden-dims {tuple(hidden_dims)} asked for")
         hidden_dims = dims
-    hidden_dims = tuple(hidden_dims or HIDDEN_DIMS)
+    hidden_dims = HIDDEN_DIMS if hidden_dims is None else tuple(hidden_dims)
     cfg = train_config(iterations, distribution, graphed, schedule, hidden_dims, **(ppo or {}))
     cfg["obs_groups"] = vec.obs_groups
     if world > 1:  # the PPO then averages gradients, KL and normaliser statistics over the ranks
