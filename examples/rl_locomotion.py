@@ -288,7 +288,8 @@ def train(
     `schedule`: the learning rate's, SCHEDULES; `hidden_dims`: the MLPs' layers (None: the checkpoint's on a resume,
     else HIDDEN_DIMS), kept with the distribution and the schedule in the checkpoint's infos; `random_episode_start`:
     the environments' episode counters drawn uniformly in [0, max_episode_length) first, so that their episodes end
-    at different iterations (rsl-rl's OnPolicyRunner's init_at_random_ep_len, which legged_gym sets)); returns
+    at different iterations (rsl-rl's OnPolicyRunner's init_at_random_ep_len, which legged_gym sets; the first
+    episodes' lengths then count from the drawn start)); returns
     [(iteration, mean return, env-steps/s, seconds, mean terrain level or NaN)], the returns, rates and levels over all ranks when a process
     group is initialised (then every rank calls this with its own environments and rank 0 saves)."""
     from rsl_rl.algorithms import PPO
