@@ -507,8 +507,9 @@ def check_run_arguments(parser: argparse.ArgumentParser, args) -> None:
 
 
 def task_setup(parser: argparse.ArgumentParser, argv, ppo: dict) -> tuple:
-    """(args, the output folder, `ppo`'s settings as given): `task_arguments`' command line parsed, each PPO setting
-    checked positive and the run's (`check_run_arguments`); `torchrun_device(parser, args.device, args.seed)` then gives the device (and the rank)."""
+    """(args, the output folder, `ppo`'s settings as given): the command line parsed (`task_arguments`', or
+    rl_locomotion.py's own), each PPO setting checked positive and the run's (`check_run_arguments`);
+    `torchrun_device(parser, args.device, args.seed)` then gives the device (and the rank)."""
     args = parser.parse_args(argv)
     for name in ppo:
         if not getattr(args, name) > 0:
@@ -640,15 +641,10 @@ def main(argv=None) -> None:
                         help="after training, command SPEED m/s straight ahead in 256 fresh environments for 5 s and print the speed reached")  # fmt: skip
     parser.add_argument("--out", default="runs/locomotion")
     parser.add_argument("--replay", default=None, help="a policy.pt to record instead of training (one process)")
-    args = parser.parse_args(argv)
-    for name in PPO_DEFAULTS:
-        if not getattr(args, name) > 0:
-            parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
-    check_run_arguments(parser, args)
+    args, out, ppo = task_setup(parser, argv, PPO_DEFAULTS)
     started = time.perf_counter()  # the phases' times below count from here (after the imports)
     if torchrun_ranks()[0] > 1 and args.replay:
         parser.error("--replay runs in one process: python examples/rl_locomotion.py --replay ..., not torchrun")
-    out = pathlib.Path(args.out)
     with torchrun_device(parser, args.device, args.seed) as (device, world, rank):
         if args.replay:
             replay(args.robot, args.task, pathlib.Path(args.replay), out, device, args.seed)
@@ -660,7 +656,6 @@ def main(argv=None) -> None:
             print(f"{args.robot} {args.task}: {where}, {env.single_observation_space.shape[0]} observations, "
                   f"{env.single_action_space.shape[0]} actions, policy at {1 / env.cfg.policy_dt:g} Hz over {env.decimation} steps")  # fmt: skip
         phases = {"environment": time.perf_counter() - started}
-        ppo = {name: getattr(args, name) for name in PPO_DEFAULTS}
         history = train(env, args.iterations, out, str(env.device), args.target_return, args.max_minutes, ppo, graphed=args.ppo == "graphed", resume=args.resume)
         phases["training"] = time.perf_counter() - started - sum(phases.values())
         if rank == 0:
