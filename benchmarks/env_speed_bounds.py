@@ -69,7 +69,7 @@ class FlagCounter:
         return out
 
 
-def policy_actions(env, policy_path: pathlib.Path):
+def trained_policy(env, policy_path: pathlib.Path):
     """(rsl-rl's view of `env`, the deterministic policy of a checkpoint of the example that trains it); a
     checkpoint of another environment is a SystemExit naming it."""
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "examples"))
@@ -89,7 +89,7 @@ def count_flags(name: str, N: int, device, bound: float, seconds: float, policy_
     steps = math.ceil(seconds / env.cfg.policy_dt)
     env.reset(seed=0)
     if policy_path is not None:
-        vec, policy = policy_actions(env, policy_path)
+        vec, policy = trained_policy(env, policy_path)
         obs = vec.get_observations()
         with torch.inference_mode():
             for _ in range(steps):
