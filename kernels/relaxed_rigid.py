@@ -9,7 +9,9 @@ R = 2 mu^2 (1 - xi) / (xi + 1e-12) (1 + mu^2) / m, m the point's link's mass. Ja
 L-BFGS; here A is factorised: its exact minimiser.
 
 Three launches: `relaxed_rigid_rows` (each point's depth, a_ref and R), `relaxed_rigid_solve` (the forces) and
-kernels/rigid_contacts.py's `point_wrenches`. Gradients: Warp differentiates the rows and the wrenches (a thread per environment: each
+kernels/rigid_contacts.py's `point_wrenches`; with geom contacts, `relaxed_slot_rows` makes each contact slot a further
+point (its rows in the contact's axes, its mu the pair's, its mass the bodies' reduced mass) and
+kernels/rigid_contacts.py's `slot_wrenches` applies their forces to both bodies. Gradients: Warp differentiates the rows and the wrenches (a thread per environment: each
 adjoint of a link's pose or a shared parameter from one thread, in order); the solve has a hand-written adjoint,
 `relaxed_rigid_solve_adjoint` (the implicit function theorem at the forward pass's penetrating points), which the
 engine registers on the tape (warpdyn.engine.launch's Launch.adjoint).
@@ -100,6 +102,52 @@ def kernels(scalar) -> types.SimpleNamespace:
             a_ref[env, c] = reference
             R[env, c] = regularisation
 
+    @wp.kernel(module="unique")
+    def relaxed_slot_rows(
+        model: B.Model, law: RigidLaw, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar),
+        first: wp.array(dtype=int), slot_pair: wp.array(dtype=int), count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar),
+        frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar), J_L: wp.array4d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6),
+        W_a_L: wp.array2d(dtype=sp.vec6), points: int,
+        # outputs: rows points + slot
+        J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), depth: wp.array2d(dtype=scalar), a_ref: wp.array2d(dtype=sp.vec3),
+        R: wp.array2d(dtype=sp.vec3),
+    ):  # fmt: skip
+        """The geom pairs' contact slots (C; kernels/collisions.py's `geom_contacts` at the same state) as the points
+        points + slot of the relaxed-rigid solve: a slot holding a contact at dist < 0 penetrates by delta = -dist; its
+        rows (kernels/rigid_contacts.py's `slot_point`: the velocity of geom2's point relative to geom1's in the contact's
+        axes t1, t2, n) and its a_ref and R per axis (`relaxed_axis` with n = (0, 0, 1), the pair's mu, and the pair's
+        reduced mass 1 / (1 / m_a + 1 / m_b), the world's mass infinite: JaxSim's link mass on the terrain). A
+        frictionless pair (mu 0: condim 1) has tangential rows of zeros with a_ref 0 and R 1, so their forces are 0.
+        J_L (N, nL, 6, K): the links' Inertial Jacobians; W_v_WL, W_a_L (N, nL): their Inertial velocities and J̇ν.
+        A thread per environment; differentiable (a tape records it)."""
+        env = wp.tid()
+        zero = scalar(0.0)
+        for slot in range(slot_pair.shape[0]):
+            i = slot_pair[slot]
+            c = points + slot
+            delta = zero
+            if slot - first[i] < count[env, i]:
+                delta = wp.max(zero, -dist[env, slot])
+            reference = sp.vec3(zero, zero, zero)
+            regularisation = sp.vec3(zero, zero, zero)
+            if delta > zero:
+                frictionless = int(0)
+                if mu[i] == zero:
+                    frictionless = 1
+                v = RC.slot_point(J_L, W_v_WL, W_a_L, link1[i], link2[i], position, frame, env, slot, c, frictionless, J_t, Jdotnu_t)
+                mass = scalar(1.0) / (RC.inverse_mass(model, env, link1[i]) + RC.inverse_mass(model, env, link2[i]))
+                a0, R0 = relaxed_axis(law, mu[i], mass, delta, zero, v[0])
+                a1, R1 = relaxed_axis(law, mu[i], mass, delta, zero, v[1])
+                a2, R2 = relaxed_axis(law, mu[i], mass, delta, scalar(1.0), v[2])
+                reference = sp.vec3(a0, a1, a2)
+                regularisation = sp.vec3(R0, R1, R2)
+                if frictionless != 0:
+                    reference = sp.vec3(zero, zero, a2)
+                    regularisation = sp.vec3(scalar(1.0), scalar(1.0), R2)
+            depth[env, c] = delta
+            a_ref[env, c] = reference
+            R[env, c] = regularisation
+
     @wp.func
     def relaxed_system(
         model: B.Model, J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), M: wp.array3d(dtype=scalar),
@@ -109,12 +157,19 @@ def kernels(scalar) -> types.SimpleNamespace:
         y: wp.array2d(dtype=f64), w: wp.array2d(dtype=f64),
     ):
         """The penetrating points' system (float64): their rows (`point_row`), A = G + diag(R) factorised into LA
-        and b = a_ref - a (the right-hand side of A f = b); returns the number of rows m = 3 k."""
+        and b = a_ref - a (the right-hand side of A f = b); returns the number of rows m = 3 k, or -1 where more
+        points penetrate than the scratch holds (J's rows / 3: the stage's max_active_contacts)."""
         k = int(0)
+        overflow = int(0)
         for c in range(depth.shape[1]):
             if depth[env, c] > scalar(0.0):
-                RC.point_row(J_t, Jdotnu_t, a_free, env, c, k, active, J, b)
-                k = k + 1
+                if 3 * k < J.shape[1]:
+                    RC.point_row(J_t, Jdotnu_t, a_free, env, c, k, active, J, b)
+                    k = k + 1
+                else:
+                    overflow = 1
+        if overflow != 0:
+            return -1
         m = 3 * k
         if m > 0:  # an environment out of contact factorises nothing
             RC.delassus(model, M, J, env, m, M64, Lm, MinvJT, y, w, A)
@@ -154,15 +209,21 @@ def kernels(scalar) -> types.SimpleNamespace:
         # output
         force: wp.array2d(dtype=sp.vec3),
     ):
-        """force (N, P) [N, world]: the relaxed-rigid forces f = (G + diag(R))^-1 (a_ref - a) of the penetrating points
-        (0 elsewhere), from `relaxed_rigid_rows`' outputs, the points' Jacobians J_t (N, P, 6, K) and J̇ν (N, P, 6)
-        (Mixed, ν Inertial), the mass matrix M (N, K, K) (Inertial base) and ABA's a_free (N, K). Its adjoint is
-        `relaxed_rigid_solve_adjoint` (a tape records it by hand: warpdyn.engine.launch)."""
+        """force (N, P) [N, world; a slot's in its contact axes]: the relaxed-rigid forces f = (G + diag(R))^-1
+        (a_ref - a) of the penetrating points (0 elsewhere), from `relaxed_rigid_rows`' (and `relaxed_slot_rows`')
+        outputs, the points' Jacobians J_t (N, P, 6, K) and J̇ν (N, P, 6) (Mixed, ν Inertial), the mass matrix M
+        (N, K, K) (Inertial base) and ABA's a_free (N, K); NaN for all where more points penetrate than the scratch
+        holds (`relaxed_system`: the step flags that environment). Its adjoint is `relaxed_rigid_solve_adjoint` (a
+        tape records it by hand: warpdyn.engine.launch)."""
         env = wp.tid()
         m = relaxed_system(model, J_t, Jdotnu_t, M, a_free, depth, a_ref, R, env, active, J, MinvJT, M64, Lm, A, LA, b, y, w)
         if m > 0:
             C.substitute(LA, env, m, b, f, 0)
-        RC.forces_out(env, m, active, f, force)
+        if m < 0:
+            for c in range(force.shape[1]):
+                force[env, c] = sp.vec3(scalar(wp.nan), scalar(wp.nan), scalar(wp.nan))
+        else:
+            RC.forces_out(env, m, active, f, force)
 
     @wp.kernel(module="unique", enable_backward=False)
     def relaxed_rigid_solve_adjoint(
@@ -198,8 +259,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         function theorem for A f = b with A = J M^-1 J^T + diag(R), b = a_ref - J a_free - J̇ν: with b̄ = A^-1 f̄,
         adj a_ref = b̄, adj R = -b̄ ∘ f, and kernels/rigid_contacts.py's `rows_adjoint` for J, J̇ν, M and a_free."""
         env = wp.tid()
-        m = relaxed_system(model, J_t, Jdotnu_t, M, a_free, depth, a_ref, R, env, active, J, MinvJT, M64, Lm, A, LA, b, y, w)
-        RC.adjoint_in(env, m, active, adj_force, y)
+        m = wp.max(relaxed_system(model, J_t, Jdotnu_t, M, a_free, depth, a_ref, R, env, active, J, MinvJT, M64, Lm, A, LA, b, y, w), 0)
+        RC.adjoint_in(env, m, active, adj_force, y)  # a flagged environment (m < 0: NaN forces) passes no adjoint
         if m > 0:
             C.substitute(LA, env, m, b, f, 0)
             C.substitute(LA, env, m, y, w, 0)  # w: b̄
@@ -213,6 +274,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     return types.SimpleNamespace(
         relaxed_rigid_rows=relaxed_rigid_rows,
+        relaxed_slot_rows=relaxed_slot_rows,
         relaxed_rigid_solve=relaxed_rigid_solve,
         relaxed_rigid_solve_adjoint=relaxed_rigid_solve_adjoint,
     )

@@ -238,9 +238,10 @@ def test_momentum_is_conserved_in_free_flight():
     np.testing.assert_allclose(momentum(data), before, rtol=1e-10, atol=1e-10)
 
 
-def test_off_by_default_and_soft_law_only():
-    """model.geom_contacts is False unless set (the spheres then pass through each other); the solved contact models
-    refuse it, naming the setting."""
+def test_off_by_default():
+    """model.geom_contacts is False unless set (the spheres then pass through each other); data built before it was
+    set is refused, naming the rows (the relaxed-rigid law on the pairs, and the rigid law's refusal:
+    test_body_contacts_relaxed.py)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
         model = wd.model.Model.build_from_model_description(TWO_SPHERES, dtype=np.float64)
@@ -254,9 +255,6 @@ def test_off_by_default_and_soft_law_only():
     assert np.abs(wd.contact.link_contact_forces(model, data)[0].numpy()).max() > 1.0
     with pytest.raises(TypeError, match="geom_contacts"):
         model.geom_contacts = 1
-    rigid = model.replace(contact_model=wd.rbda.contacts.RelaxedRigidContacts())
-    with pytest.raises(NotImplementedError, match=r"geom_contacts.*soft law only"):
-        wd.model.step(rigid, wd.data.Data.build(rigid))
 
 
 MIXED = """<mujoco><option timestep="0.001"/><worldbody>

@@ -21,8 +21,9 @@ stage alone (`ContactStage`), chosen from the model's class when the step's plan
   rigid models: their free accelerations).
 ABA and the integrators read W_f_L and m_dot, nothing else of a contact model. JaxSim's rigid and relaxed-rigid
 models (`RigidContactStage`, `RelaxedRigidContactStage`) solve an environment's contact forces together from its
-mass matrix and the points' Jacobians (kernels/rigid_contacts.py); contacts between bodies are a further stage
-(docs/architecture.md: where a contact law goes).
+mass matrix and the points' Jacobians (kernels/rigid_contacts.py); the relaxed-rigid stage solves the geom pairs'
+contacts (model.geom_contacts) with them, each contact slot a point after the collidable points (docs/architecture.md:
+where a contact law goes).
 """
 
 from __future__ import annotations
@@ -57,7 +58,7 @@ from ..types.model_constants import transforms
 from ..types.settings import host_values
 from . import collisions, tape
 from .bundles import controls_bundle, per_env, state_bundle
-from .kinematics import targets
+from .kinematics import link_targets, targets
 from .launch import Launch, launch, no_adjoint
 from .stability import DEFORMATION_STABILITY, ContactReach, check_deformation_stability, check_reference_stability, contact_reach
 
@@ -218,14 +219,18 @@ class RigidContactStage(ContactStage):
     has_state = False
     reads_other_forces = True
     impact = True  # `after_step` launches the impact (and `buffers` holds its poses and velocities)
+    body_contacts = False  # whether the geom pairs' contacts (model.geom_contacts) join the solve
 
     def __init__(self, model, integrator):
         super().__init__(model, integrator)
-        if self.pairs:
+        if self.pairs and not self.body_contacts:
             raise NotImplementedError(
-                f"model '{model.name()}': geom contacts (model.geom_contacts) take the soft law only; with {type(model.contact_model).__name__} "
-                "set model.geom_contacts = False"
+                f"model '{model.name()}': geom contacts (model.geom_contacts) take the soft and relaxed-rigid laws, not {type(model.contact_model).__name__}'s "
+                "(its impact needs the contacts at the step's new state); choose SoftContacts or RelaxedRigidContacts, or set model.geom_contacts = False"
             )
+        self.slots = self.pair_arrays["contacts"] if self.pairs else 0  # the pairs' contact slots, solved after the points
+        limit = getattr(model.contact_model, "max_active_contacts", None)
+        self.max_active = self.count + self.slots if limit is None else min(limit, self.count + self.slots)  # the solve's rows / 3
         s, d = model.scalar, model.device
         c, contact_model = model.contact_params, model.contact_model
         K = rigid_kernels(s)
@@ -247,10 +252,11 @@ class RigidContactStage(ContactStage):
         self.crba = crba_kernels(s, "tuned", multi).crba
         self.aba = aba_kernels(s, "tuned", multi).aba
         self.fk = kinematics_kernels(s, multi).forward_kinematics
+        self.link_targets = link_targets(model) if self.pairs else None
         self.check_rate, self.check_reach = s(0.0), s(-1.0)  # the device check's soft-law terms do not apply
         reach = contact_reach(model) if self.count > 0 else ContactReach(0.0, False, "")
-        if reach.may_touch:
-            self.check_stability(model, c, integrator, reach.why)
+        if reach.may_touch or self.pairs:
+            self.check_stability(model, c, integrator, reach.why if reach.may_touch else "the geom pairs' contacts: model.geom_contacts")
             self.warn_dtype(model)
 
     @staticmethod
@@ -297,8 +303,9 @@ class RigidContactStage(ContactStage):
         """The kernels' inputs and scratch for N environments; grad: the law's inputs (a_free, J_t, J̇ν, M and what
         they are computed from) carry gradients (the float64 scratch never does)."""
         s, d = plan.scalar, plan.device
-        K, P, nL = 6 + plan.n, self.count, plan.nL
-        m, width = 3 * P, max(3 * P, 6 + plan.n)
+        K, P, nL = 6 + plan.n, self.count + self.slots, plan.nL
+        m = 3 * min(P, self.max_active)
+        width = max(m, 6 + plan.n)
         vec6 = wp.types.vector(6, s)
         transform = wp.types.transformation(s)
 
@@ -322,6 +329,9 @@ class RigidContactStage(ContactStage):
         }
         out["scratch"] = self.scratch(empty, m, width)
         out.update(self.law_buffers(plan, empty, P))
+        if self.slots:  # the pairs' contacts and the links' Inertial Jacobians, from which their slots' rows are made
+            out.update(collisions.contact_buffers(self.pair_arrays, N, grad))
+            out["J_L"] = empty((nL, 6, K), differentiable=True)
         if self.impact:  # the impact's own inputs at the step's new state (a tape's adjoints read the evaluation's)
             out["W_H_L_next"] = empty((nL,), transform, True)
             out["parent_H_link_next"] = empty((nL,), transform, True)
@@ -362,9 +372,15 @@ class RigidContactStage(ContactStage):
             adjoint = no_adjoint
         return [
             Launch(rows, N, [*head, ev.W_H_L, ev.W_v_WL], outputs),
+            *self.slot_launches(plan, ev, N),
             Launch(solve, N, args, [b["force"]], adjoint=adjoint),
             Launch(self.kernels.point_wrenches, N, [self.bundle, ev.W_H_L, b["force"]], [ev.W_f_C]),
         ]
+
+    def slot_launches(self, plan, ev, N: int) -> list:
+        """The launches that write the geom pairs' contact slots as the solve's points count + slot (none: a law
+        that takes no body contacts)."""
+        return []
 
     def scratch(self, empty, m: int, width: int) -> list:
         """The QP's float64 scratch: Q, H, LH (m x m); q, x, rd, dx, y, w (width); s, z, rp, rc, ds, dz, ds_aff, dz_aff
@@ -392,6 +408,10 @@ class RigidContactStage(ContactStage):
         order = int(arrays.env_fastest(plan.device))
         links = plan.nL if contacts_per_environment(plan.device, ev.grad) else 1
         launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, [self.bundle, ev.W_f_C, f_in, order, links], [ev.W_f_L]))
+        if self.slots:
+            a = self.pair_arrays
+            args = [a["link1"], a["link2"], a["slot_pair"], b["position"], b["frame"], b["force"], self.count]
+            launches.append(Launch(self.kernels.slot_wrenches, N, args, [ev.W_f_L]))
         return launches
 
     def refuse_gradients(self, ev) -> None:
@@ -430,10 +450,14 @@ class RigidContactStage(ContactStage):
 class RelaxedRigidContactStage(RigidContactStage):
     """JaxSim's relaxed-rigid contacts (kernels/relaxed_rigid.py's `relaxed_rigid_rows`, `relaxed_rigid_solve`,
     `point_wrenches`): a linear solve, no impact; differentiable (the solve's adjoint registered by hand). mu:
-    shared (1,) or per environment (N,); the impedance's parameters: one number each."""
+    shared (1,) or per environment (N,); the impedance's parameters: one number each. With model.geom_contacts the
+    pairs' contact slots are the solve's points count + slot (`slot_launches`; their mu the pair's), their wrenches
+    added to both links after the points' (kernels/rigid_contacts.py's `slot_wrenches`); the solve holds
+    `max_active` penetrating contacts (RelaxedRigidContacts.max_active_contacts; None: all)."""
 
     has_state = False
     impact = False
+    body_contacts = True
 
     law_outputs = ("a_ref", "R")
 
@@ -441,6 +465,20 @@ class RelaxedRigidContactStage(RigidContactStage):
         """Each point's depth (N, P) and its rows' a_ref, R and force (N, P, 3), differentiable where grad is."""
         vec3 = wp.types.vector(3, plan.scalar)
         return {"depth": empty((P,)), **{name: empty((P,), vec3, True) for name in ("a_ref", "R", "force")}}
+
+    def slot_launches(self, plan, ev, N: int) -> list:
+        """The pairs' contacts at ev's link poses, the links' Inertial Jacobians, and the slots' rows, a_ref and R
+        (kernels/relaxed_rigid.py's `relaxed_slot_rows`)."""
+        if not self.slots:
+            return []
+        a, b, inertial = self.pair_arrays, ev.contact, int(VelRepr.Inertial)
+        inputs = [plan.model, self.law, a["link1"], a["link2"], a["mu"], a["first"], a["slot_pair"], b["count"], b["position"], b["frame"], b["dist"]]
+        inputs += [b["J_L"], ev.W_v_WL, b["W_a_L"], self.count]
+        return [
+            collisions.contact_launch(a, ev.W_H_L, b, N),
+            Launch(self.jacobians, (N, plan.nL), [plan.model, self.link_targets, ev.W_H_L, inertial, inertial], [b["J_L"]]),
+            Launch(relaxed_kernels(plan.scalar).relaxed_slot_rows, N, inputs, [b["J_t"], b["Jdotnu_t"], b["depth"], b["a_ref"], b["R"]]),
+        ]
 
     def law_kernels(self, plan):
         K = relaxed_kernels(plan.scalar)

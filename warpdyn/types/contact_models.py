@@ -191,7 +191,12 @@ class RelaxedRigidContacts(_SolvedContacts):
     Delassus matrix, a_ref a MuJoCo-like reference acceleration, R a regularisation (kernels/rigid_contacts.py).
     Parameters: `RelaxedRigidContactsParams`; no state. JaxSim minimises the same quadratic by L-BFGS (its
     solver_options tol, maxiter, memory_size, scale_init_precond); warpdyn factorises it: its exact minimiser, so
-    it takes those options (for JaxSim's code) and reads none of them."""
+    it takes those options (for JaxSim's code) and reads none of them.
+
+    max_active_contacts (warpdyn's; None: every collidable point and geom pair contact slot): the most penetrating
+    contacts an environment's solve holds, which sizes its dense float64 scratch (two (3 n)^2 matrices per environment
+    for n of them: the LEAP scene's 280 points and 2600 slots would take 1.2 GB per environment, 48 contacts 0.33
+    MB), as MuJoCo's nconmax; an environment with more is flagged (its forces NaN: `data.healthy`), the others go on."""
 
     parameters_class = RelaxedRigidContactsParams
     _OPTIONS = {
@@ -200,6 +205,16 @@ class RelaxedRigidContacts(_SolvedContacts):
         "memory_size": (10, _count),
         "scale_init_precond": (False, lambda name, value: bool(value)),
     }
+
+    def __init__(self, solver_options: dict | None = None, max_active_contacts: int | None = None):
+        super().__init__(solver_options)
+        self.max_active_contacts = None if max_active_contacts is None else _count("RelaxedRigidContacts.max_active_contacts", max_active_contacts)
+
+    def _key(self) -> tuple:
+        return (*super()._key(), self.max_active_contacts)
+
+    def __repr__(self) -> str:
+        return f"RelaxedRigidContacts(solver_options={self._options}, max_active_contacts={self.max_active_contacts})"
 
     @classmethod
     def build(cls, solver_options: dict | None = None, **kwargs) -> RelaxedRigidContacts:

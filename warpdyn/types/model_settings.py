@@ -174,11 +174,12 @@ class ModelSettings:
         "geom_contacts",
         _instance("geom_contacts", bool),
         "Whether the contacts of the model's geom pairs (wd.contact.geom_pairs: an MJCF's, as MuJoCo pairs them; a URDF's "
-        "with wd.contact.with_self_collision) act in a step: the soft law (SoftContactsParams' K, D, p, q) at each "
-        "contact, the pair's sliding friction as mu (0 for condim 1), no tangential deformation state (its friction "
-        "below the Coulomb limit is viscous). False by default: robots' "
-        "self-collision pairs cost a step its fused kernel and are off in most locomotion training; True for scenes whose "
-        "bodies touch each other. SoftContacts only.",
+        "with wd.contact.with_self_collision) act in a step: with SoftContacts the soft law (SoftContactsParams' K, D, p, q) "
+        "at each contact, the pair's sliding friction as mu (0 for condim 1), each contact slot's tangential deformation a "
+        "row of the contact state (build the data after setting it); with RelaxedRigidContacts each penetrating contact "
+        "solved with the collidable points (the pair's mu, the bodies' reduced mass); RigidContacts refuses them. False by "
+        "default: robots' self-collision pairs cost a step its fused kernel and are off in most locomotion training; True "
+        "for scenes whose bodies touch each other.",
     )
 
     implicit_contacts = _setting(
