@@ -45,7 +45,8 @@ under the base at 0.4 x the standing height; each iteration prints the mean terr
 SPEED` then commands SPEED m/s straight ahead and prints the forward speed reached. Trainer: rsl-rl-lib's PPO (the one Isaac Lab and mjlab
 use): 24 steps per environment and iteration, 5 epochs of 4 mini-batches (per rank), learning rate 1e-3 (adaptive),
 MLP (256, 128, 64) actor and critic with observation normalisation, discount 0.99, entropy coefficient 0.005;
---steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma and --entropy-coef change them (PPO_DEFAULTS).
+--steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma, --entropy-coef and --clipped-value-loss (on: rsl-rl's
+clipped value loss) change them (PPO_DEFAULTS).
 
 Prints, per iteration: the mean return and length of the episodes completed in it (on all ranks), env-steps/s
 (policy steps x N x K and simulation steps, collection and update included, over rank 0's wall time of the
@@ -142,9 +143,11 @@ def make_env(task: str, num_envs: int, device, seed: int, robot: str = "ergocub"
     return envs.LeggedEnv(model, num_envs=num_envs, cfg=preset.config(model, **{**TASKS[robot][task], **overrides}), seed=seed)
 
 
-PPO_DEFAULTS = dict(steps_per_env=24, epochs=5, mini_batches=4, learning_rate=1e-3, gamma=0.99, entropy_coef=0.005)
-"""The trainer's settings that set its time per iteration, its step size, its horizon and its exploration (the CLI's
---steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma, --entropy-coef): Rudin et al.'s."""
+PPO_DEFAULTS = dict(steps_per_env=24, epochs=5, mini_batches=4, learning_rate=1e-3, gamma=0.99, entropy_coef=0.005, clipped_value_loss=True)
+"""The trainer's settings that set its time per iteration, its step size, its horizon, its exploration and whether a
+value's update is clipped (rsl-rl's: at clip_param 0.2 per iteration, whatever the returns' scale; Brax's PPO does not
+clip) (the CLI's --steps-per-env, --epochs, --mini-batches, --learning-rate, --gamma, --entropy-coef,
+--clipped-value-loss on|off): Rudin et al.'s."""
 
 
 ACTION_DISTRIBUTIONS = {
@@ -185,7 +188,7 @@ def train_config(
     unknown = sorted(set(ppo) - set(PPO_DEFAULTS))
     if unknown:
         raise TypeError(f"train_config takes the settings {sorted(PPO_DEFAULTS)}, got {unknown}")
-    steps_per_env, epochs, mini_batches, learning_rate, gamma, entropy_coef = ({**PPO_DEFAULTS, **ppo}[name] for name in PPO_DEFAULTS)
+    steps_per_env, epochs, mini_batches, learning_rate, gamma, entropy_coef, clipped = ({**PPO_DEFAULTS, **ppo}[name] for name in PPO_DEFAULTS)
     mlp = dict(hidden_dims=list(hidden_dims), activation="elu", obs_normalization=True)
     return {
         "num_steps_per_env": steps_per_env,
@@ -193,7 +196,7 @@ def train_config(
         "obs_groups": {"actor": ["policy"], "critic": ["policy"]},
         "algorithm": dict(
             class_name=GraphedPPO if graphed else "PPO", learning_rate=learning_rate, num_learning_epochs=epochs, num_mini_batches=mini_batches, clip_param=0.2, gamma=gamma,
-            lam=0.95, value_loss_coef=1.0, entropy_coef=entropy_coef, max_grad_norm=1.0, schedule=schedule, desired_kl=0.01,
+            lam=0.95, value_loss_coef=1.0, entropy_coef=entropy_coef, max_grad_norm=1.0, schedule=schedule, desired_kl=0.01, use_clipped_value_loss=clipped,
         ),  # fmt: skip
         "actor": dict(class_name="MLPModel", distribution_cfg=dict(ACTION_DISTRIBUTIONS[distribution]), **mlp),
         "critic": dict(class_name="MLPModel", **mlp),
@@ -459,8 +462,7 @@ def task_arguments(
     parser.add_argument("--iterations", type=int, default=iterations, help="at most this many PPO iterations")
     parser.add_argument("--seed", type=int, default=0, help="rank r uses seed + r")
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
-    for name, value in ppo.items():
-        parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g})")
+    add_ppo_flags(parser, ppo)
     parser.add_argument("--action-distribution", choices=sorted(ACTION_DISTRIBUTIONS), default=distribution, help=f"the policy's (default {distribution})")
     parser.add_argument("--schedule", choices=SCHEDULES, default=schedule, help=f"the learning rate's (default {schedule})")
     parser.add_argument("--hidden-dims", type=layer_widths, default=None,
@@ -472,6 +474,21 @@ def task_arguments(
     parser.add_argument("--evaluate-envs", type=int, default=256, help="environments of --evaluate (default 256)")
     parser.add_argument("--out", default=out)
     return parser
+
+
+def add_ppo_flags(parser: argparse.ArgumentParser, ppo: dict, note: str = "") -> None:
+    """A flag per PPO setting of `ppo` (PPO_DEFAULTS' names), its value the default: --clipped-value-loss takes on or off."""
+    for name, value in ppo.items():
+        kind, shown = (on_off, "on" if value else "off") if isinstance(value, bool) else (type(value), f"{value:g}")
+        parser.add_argument(f"--{name.replace('_', '-')}", type=kind, default=value, metavar="{on,off}" if kind is on_off else None,
+                            help=f"PPO's {name.replace('_', ' ')} (default {shown}{note})")  # fmt: skip
+
+
+def on_off(text: str) -> bool:
+    """A flag's "on" or "off" as True or False; an argparse error naming the text otherwise."""
+    if text not in ("on", "off"):
+        raise argparse.ArgumentTypeError(f"on or off, got {text!r}")
+    return text == "on"
 
 
 def layer_widths(text: str) -> tuple:
@@ -511,7 +528,7 @@ def task_setup(parser: argparse.ArgumentParser, argv, ppo: dict) -> tuple:
     rl_locomotion.py's own), each PPO setting checked positive and the run's (`check_run_arguments`);
     `torchrun_device(parser, args.device, args.seed)` then gives the device (and the rank)."""
     args = parser.parse_args(argv)
-    for name in ppo:
+    for name in (n for n, value in ppo.items() if not isinstance(value, bool)):
         if not getattr(args, name) > 0:
             parser.error(f"--{name.replace('_', '-')} must be positive, got {getattr(args, name)}")
     check_run_arguments(parser, args)
@@ -633,8 +650,7 @@ def main(argv=None) -> None:
     parser.add_argument("--seed", type=int, default=0, help="rank r uses seed + r")
     parser.add_argument("--target-return", type=float, default=None, help="stop when an iteration's mean return reaches this; prints the time")  # fmt: skip
     parser.add_argument("--max-minutes", type=float, default=None, help="stop after this many minutes of training")
-    for name, value in PPO_DEFAULTS.items():
-        parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=value, help=f"PPO's {name.replace('_', ' ')} (default {value:g}, Rudin et al.'s)")
+    add_ppo_flags(parser, PPO_DEFAULTS, ", Rudin et al.'s")
     add_resume_argument(parser)
     add_ppo_argument(parser)
     parser.add_argument("--evaluate", type=float, default=None, metavar="SPEED",

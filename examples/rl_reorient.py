@@ -13,7 +13,8 @@ bank of Playground's reset draws that do not interpenetrate; Playground's noisy 
 privileged ones for the critic, its rewards (orientation, cube in the palm, a fall, hand pose, action rate,
 energy) and a bonus of 100 at each success (the cube within 0.1 rad of the goal, which then turns to a new one).
 Trainer: examples/rl_locomotion.py's `train` (rsl-rl-lib's PPO as GraphedPPO, its flags), with Playground's settings for this task
-as defaults (REORIENT_PPO; its networks are (512, 256, 128), the trainer's (256, 128, 64)), its fixed learning rate
+as defaults (REORIENT_PPO; its networks are (512, 256, 128), the trainer's (256, 128, 64); as Brax's PPO, no clipping of
+the value's update: `--clipped-value-loss off`), its fixed learning rate
 (`--schedule fixed`) and a Beta policy (`--action-distribution beta`, bounded like Brax's tanh-squashed Gaussian):
 with rsl-rl's adaptive schedule and a Gaussian, the 25-minute H200 run's learning rate was at or near the schedule's
 floor of 1e-5 and its Gaussian's standard deviation grew from 1 to 9.9 on actions clipped to [-1, 1]
@@ -36,9 +37,12 @@ import torch
 import warpdyn.envs as envs
 from rl_locomotion import PPO_DEFAULTS, load_policy, run_task, task_arguments
 
-REORIENT_PPO = {**PPO_DEFAULTS, "steps_per_env": 40, "epochs": 4, "mini_batches": 32, "learning_rate": 3e-4, "gamma": 0.99, "entropy_coef": 0.01}
+REORIENT_PPO = {**PPO_DEFAULTS, "steps_per_env": 40, "epochs": 4, "mini_batches": 32, "learning_rate": 3e-4, "gamma": 0.99, "entropy_coef": 0.01,
+                "clipped_value_loss": False}  # fmt: skip
 """The trainer's settings for this task (the CLI's defaults): Playground's for LeapCubeReorient with Brax's PPO
-(unrolls of 40 steps, 4 epochs of 32 mini-batches, learning rate 3e-4, discount 0.99, entropy cost 0.01)."""
+(unrolls of 40 steps, 4 epochs of 32 mini-batches, learning rate 3e-4, discount 0.99, entropy cost 0.01), and as
+Brax's PPO no clipping of the value's update: rsl-rl's moves each value at most 0.2 per iteration towards its return,
+and this task's returns run to tens (its rewards per step) and hundreds (100 per success)."""
 
 LOGGED = ("/success", "/orientation_error", "/reward/orientation")
 """CubeReorientEnv's info["log"] entries each iteration prints (their means over the iteration)."""

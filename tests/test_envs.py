@@ -542,7 +542,8 @@ def test_the_ppo_settings_reach_the_trainer(tmp_path, capsys):
     cfg = rl_locomotion.train_config(3, steps_per_env=8, epochs=1, mini_batches=2, learning_rate=5e-4, gamma=0.97, entropy_coef=0.02)
     algorithm = cfg["algorithm"]
     assert (cfg["num_steps_per_env"], algorithm["num_learning_epochs"], algorithm["num_mini_batches"], algorithm["learning_rate"]) == (8, 1, 2, 5e-4)
-    assert (algorithm["gamma"], algorithm["entropy_coef"]) == (0.97, 0.02)
+    assert (algorithm["gamma"], algorithm["entropy_coef"], algorithm["use_clipped_value_loss"]) == (0.97, 0.02, True)
+    assert rl_locomotion.train_config(3, clipped_value_loss=False)["algorithm"]["use_clipped_value_loss"] is False
     env = rl_locomotion.make_env("stand", 8, wp.get_device(), seed=0, joint_noise=0.0)
     history = rl_locomotion.train(env, 2, tmp_path, str(env.device), ppo=dict(steps_per_env=8, epochs=1, mini_batches=2))
     assert len(history) == 2 and env.episode_length_buf.tolist() == [16] * 8
@@ -552,3 +553,6 @@ def test_the_ppo_settings_reach_the_trainer(tmp_path, capsys):
     with pytest.raises(SystemExit):
         rl_locomotion.main(["--gamma", "-0.5", "--device", "cpu"])
     assert "--gamma must be positive, got -0.5" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        rl_locomotion.main(["--clipped-value-loss", "no", "--device", "cpu"])
+    assert "--clipped-value-loss: on or off, got 'no'" in capsys.readouterr().err
