@@ -253,3 +253,21 @@ def test_the_example_steps_at_another_time_step(tmp_path, capsys, monkeypatch):
     rl_reorient.main(["--device", str(wp.get_device()), "--num-envs", "4", "--iterations", "1", "--steps-per-env", "2", "--mini-batches", "1",
                       "--time-step", "0.005", "--evaluate", "--out", str(tmp_path)])  # fmt: skip
     assert "policy at 20 Hz over 10 steps" in capsys.readouterr().out and steps == [0.005]
+
+
+def test_the_mujoco_comparison_runs_both_simulators_from_the_same_resets():
+    """benchmarks/reorient_vs_mujoco.py (run as a script) on 2 hands for 0.25 s: both simulators' lines printed, their
+    six statistics finite, the dropped fraction in [0, 1] and the cube's mean height within 0.3 m of the palm's."""
+    import re
+    import subprocess
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    run = subprocess.run([sys.executable, "benchmarks/reorient_vs_mujoco.py", "--envs", "2", "--seconds", "0.25", "--device", str(wp.get_device())],
+                         cwd=root, capture_output=True, text=True, timeout=600)  # fmt: skip
+    assert run.returncode == 0, run.stderr[-2000:]
+    lines = [line for line in run.stdout.splitlines() if line.startswith(("warpdyn", "MuJoCo"))]
+    assert len(lines) == 2, run.stdout
+    for line in lines:
+        numbers = [float(x) for x in re.findall(r"-?\d+\.\d+", line.split(":", 1)[1])]
+        assert len(numbers) == 6 and all(np.isfinite(numbers)), line
+        assert 0.0 <= numbers[3] <= 1.0 and -0.3 < numbers[4] < 0.3, line  # dropped fraction, mean height [m]
