@@ -13,9 +13,10 @@ Delassus matrix. The force f_c (3, world axes) acts at the point; inactive point
   solved by a primal-dual interior point (Mehrotra's predictor-corrector, one factorisation per iteration) until
   its residuals and complementarity are below `tol` (JaxSim: qpax, an interior point too).
 - impact (rigid, after each step): kernels/rigid_impact.py.
-- contacts between bodies (relaxed rigid): a geom pair's contact slot is a point whose rows are the velocity of geom2's
-  point relative to geom1's in the contact's axes (`slot_point`, from the links' Inertial Jacobians and J̇ν), its force
-  applied to both links (`slot_wrenches`).
+- contacts between bodies (relaxed rigid and rigid): a geom pair's contact slot is a point whose rows are the velocity
+  of geom2's point relative to geom1's in the contact's axes (`slot_point`, from the links' Inertial Jacobians and J̇ν),
+  its force applied to both links (`slot_wrenches`); for the rigid QP (`rigid_slot_rows`) its pyramid is in those
+  axes with the pair's mu (each point's mu is an input of the QP) and Baumgarte's term on its normal.
 
 The linear algebra runs in float64 whatever the model's dtype: the mass matrix and the points' Jacobian rows are
 promoted, M is factorised densely (kernels/cholesky.py), and the Delassus matrix, the solves and the interior
@@ -25,7 +26,7 @@ float32, the impact's dependent rows kept pivots of rounding's size instead of 0
 fell over. The inputs (M, J, J̇ν) keep the model's dtype's rounding, so float32 rigid landings still decide on
 rounding which points stop (the engine's stage warns). The factorisations drop a pivot at or below `drop` times its
 diagonal entry (kernels/cholesky.py's `factor`; 0 for the positive-definite solves: a pivot that rounding made
-non-positive; DROPPED_PIVOT for the impact's singular Delassus matrix): that unknown is then 0.
+non-positive): that unknown is then 0; the impact's singular Delassus matrix is regularised (IMPACT_REGULARISATION).
 
 Gradients: Warp differentiates `rigid_rows` and `point_wrenches` (a thread per environment); `rigid_solve` has a
 hand-written adjoint, `rigid_solve_adjoint` (OptNet's differentiation of the QP's KKT conditions at its active set),
@@ -49,10 +50,13 @@ ACTIVE_PENALTY = 1.0e8
 """The rigid QP's adjoint holds its active constraints (rows whose dual exceeds their slack) by this weight times
 Q's largest diagonal entry: an error of its inverse, 1e-8, against rounding amplified by it."""
 
-DROPPED_PIVOT = 1.0e-10
-"""The impact's Cholesky (`factor`) drops a pivot below this fraction of its row's diagonal (a dependent row): above
-the float64 rounding of a pivot that should be 0, below any independent row's (a foot's corners are centimetres
-apart: relative pivots of 1e-2 and more)."""
+IMPACT_REGULARISATION = 1.0e-14
+"""The impact's Delassus matrix G (singular where the rows outnumber the motions they constrain: a box face's four
+contacts give twelve rows of rank six) is solved as G + delta I, delta this fraction of G's largest diagonal entry:
+the rows' null space, which J^T maps to no velocity, stays bounded, and the velocity left at the contacts is delta
+over G's smallest non-zero eigenvalue of what it was. Dropping the rows whose Cholesky pivot fell below a threshold
+instead kept, on two boxes, a subset of rows whose own condition was 1e8 (a pivot of 2e-5 then one of 1.4e-8):
+the impact's velocities carried 3e-8 of noise."""
 
 
 @factory
@@ -338,7 +342,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.func
     def newton_matrix(
-        Q: wp.array3d(dtype=f64), mu: f64, env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), penalty: f64,
+        Q: wp.array3d(dtype=f64), mu: wp.array2d(dtype=f64), env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), penalty: f64,
         H: wp.array3d(dtype=f64), LH: wp.array3d(dtype=f64),
     ):
         """LH: the Cholesky factor of Q + G^T W G (G block-diagonal, a pyramid per point, so G^T W G is too): with
@@ -350,7 +354,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         for i in range(n // 3):
             for j in range(PYRAMID_ROWS):
                 row = PYRAMID_ROWS * i + j
-                g = pyramid_row(mu, j)
+                g = pyramid_row(mu[env, i], j)
                 weight = z[env, row] / s[env, row]
                 if penalty > f64(0.0):
                     weight = f64(0.0)
@@ -363,7 +367,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.func
     def newton_direction(
-        LH: wp.array3d(dtype=f64), mu: f64, env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64),
+        LH: wp.array3d(dtype=f64), mu: wp.array2d(dtype=f64), env: int, n: int, s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64),
         rd: wp.array2d(dtype=f64), rp: wp.array2d(dtype=f64), rc: wp.array2d(dtype=f64), y: wp.array2d(dtype=f64),
         dx: wp.array2d(dtype=f64), ds: wp.array2d(dtype=f64), dz: wp.array2d(dtype=f64),
     ):
@@ -375,7 +379,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         for i in range(n // 3):
             for j in range(PYRAMID_ROWS):
                 row = PYRAMID_ROWS * i + j
-                g = pyramid_row(mu, j)
+                g = pyramid_row(mu[env, i], j)
                 extra = (rc[env, row] - z[env, row] * rp[env, row]) / s[env, row]
                 for r in range(3):
                     y[env, 3 * i + r] = y[env, 3 * i + r] + g[r] * extra
@@ -383,7 +387,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         for i in range(n // 3):
             for j in range(PYRAMID_ROWS):
                 row = PYRAMID_ROWS * i + j
-                g = pyramid_row(mu, j)
+                g = pyramid_row(mu[env, i], j)
                 gdx = g[0] * dx[env, 3 * i] + g[1] * dx[env, 3 * i + 1] + g[2] * dx[env, 3 * i + 2]
                 ds[env, row] = -rp[env, row] - gdx
                 dz[env, row] = -(rc[env, row] + z[env, row] * ds[env, row]) / s[env, row]
@@ -401,7 +405,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.func
     def residuals(
-        Q: wp.array3d(dtype=f64), q: wp.array2d(dtype=f64), mu: f64, env: int, n: int, x: wp.array2d(dtype=f64),
+        Q: wp.array3d(dtype=f64), q: wp.array2d(dtype=f64), mu: wp.array2d(dtype=f64), env: int, n: int, x: wp.array2d(dtype=f64),
         s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), rd: wp.array2d(dtype=f64), rp: wp.array2d(dtype=f64),
     ):
         """rd = Q x + q + G^T z, rp = G x + s; returns (max |rd|, max |rp|, the mean s z)."""
@@ -416,7 +420,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         for i in range(n // 3):
             for j in range(PYRAMID_ROWS):
                 row = PYRAMID_ROWS * i + j
-                g = pyramid_row(mu, j)
+                g = pyramid_row(mu[env, i], j)
                 for r in range(3):
                     rd[env, 3 * i + r] = rd[env, 3 * i + r] + g[r] * z[env, row]
                 rp[env, row] = g[0] * x[env, 3 * i] + g[1] * x[env, 3 * i + 1] + g[2] * x[env, 3 * i + 2] + s[env, row]
@@ -435,13 +439,14 @@ def kernels(scalar) -> types.SimpleNamespace:
         # outputs
         depth: wp.array2d(dtype=scalar),
         beta: wp.array2d(dtype=sp.vec3),
-        friction: wp.array(dtype=scalar),
+        friction: wp.array2d(dtype=scalar),
     ):
         """Each enabled point's penetration depth delta (N, P) [m] and, where it penetrates, Baumgarte's term
-        beta = (K delta + D delta_dot) n [m/s^2] (N, P) (0 elsewhere), and each environment's mu (N,), from the link
-        poses and Inertial velocities (N, nL). A thread per environment; differentiable (a tape records it)."""
+        beta = (K delta + D delta_dot) n [m/s^2] (N, P) (0 elsewhere), and its mu (N, P: the environment's), from the
+        link poses and Inertial velocities (N, nL); the arrays' rows P on are the geom pairs' slots (`rigid_slot_rows`).
+        A thread per environment; differentiable (a tape records it)."""
         env = wp.tid()
-        friction[env] = B.env_parameter(contacts.mu, env)
+        mu = B.env_parameter(contacts.mu, env)
         K = B.env_parameter(contacts.K, env)
         D = B.env_parameter(contacts.D, env)
         for c in range(contacts.point_link.shape[0]):
@@ -451,21 +456,70 @@ def kernels(scalar) -> types.SimpleNamespace:
                 term = (K * delta + D * delta_dot) * n
             depth[env, c] = delta
             beta[env, c] = term
+            friction[env, c] = mu
+
+    @wp.kernel(module="unique")
+    def rigid_slot_rows(
+        contacts: B.Contacts, link1: wp.array(dtype=int), link2: wp.array(dtype=int), mu: wp.array(dtype=scalar),
+        first: wp.array(dtype=int), slot_pair: wp.array(dtype=int), count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar),
+        frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar), J_L: wp.array4d(dtype=scalar), W_v_WL: wp.array2d(dtype=sp.vec6),
+        W_a_L: wp.array2d(dtype=sp.vec6), points: int,
+        # outputs: rows points + slot
+        J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), depth: wp.array2d(dtype=scalar), beta: wp.array2d(dtype=sp.vec3),
+        friction: wp.array2d(dtype=scalar),
+    ):  # fmt: skip
+        """The geom pairs' contact slots (C; kernels/collisions.py's `geom_contacts` at the same state) as the points
+        points + slot of the rigid QP: a slot holding a contact at dist < 0 penetrates by delta = -dist at the rate
+        delta_dot = -v_n (v: geom2's point's velocity relative to geom1's, `slot_point`'s rows in the contact's axes t1,
+        t2, n); Baumgarte's term is (0, 0, K delta + D delta_dot) in those axes and its mu the pair's (0 for condim 1,
+        whose tangential rows are zeros: its pyramid holds the tangential forces at 0). J_L (N, nL, 6, K): the links'
+        Inertial Jacobians; W_v_WL, W_a_L (N, nL): their Inertial velocities and J̇ν. A thread per environment;
+        differentiable (a tape records it)."""
+        env = wp.tid()
+        zero = scalar(0.0)
+        K = B.env_parameter(contacts.K, env)
+        D = B.env_parameter(contacts.D, env)
+        for slot in range(slot_pair.shape[0]):
+            i = slot_pair[slot]
+            c = points + slot
+            delta = zero
+            if slot - first[i] < count[env, i]:
+                delta = wp.max(zero, -dist[env, slot])
+            term = sp.vec3(zero, zero, zero)
+            if delta > zero:
+                frictionless = int(0)
+                if mu[i] == zero:
+                    frictionless = 1
+                v = slot_point(J_L, W_v_WL, W_a_L, link1[i], link2[i], position, frame, env, slot, c, frictionless, J_t, Jdotnu_t)
+                term = sp.vec3(zero, zero, K * delta - D * v[2])
+            depth[env, c] = delta
+            beta[env, c] = term
+            friction[env, c] = mu[i]
 
     @wp.func
     def qp_system(
         model: B.Model, law: RigidLaw, J_t: wp.array4d(dtype=scalar), Jdotnu_t: wp.array3d(dtype=scalar), M: wp.array3d(dtype=scalar),
-        a_free: wp.array2d(dtype=scalar), depth: wp.array2d(dtype=scalar), beta: wp.array2d(dtype=sp.vec3), env: int,
-        active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=f64), MinvJT: wp.array3d(dtype=f64), M64: wp.array3d(dtype=f64),
+        a_free: wp.array2d(dtype=scalar), depth: wp.array2d(dtype=scalar), beta: wp.array2d(dtype=sp.vec3), friction: wp.array2d(dtype=scalar),
+        env: int, active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=f64), MinvJT: wp.array3d(dtype=f64), M64: wp.array3d(dtype=f64),
         Lm: wp.array3d(dtype=f64), Q: wp.array3d(dtype=f64), q: wp.array2d(dtype=f64), y: wp.array2d(dtype=f64), w: wp.array2d(dtype=f64),
+        mu: wp.array2d(dtype=f64),
     ):
-        """The QP of the penetrating points (float64): their rows (`point_row`), Q = J M^-1 J^T + eps I and
-        q = J a_free + J̇ν - beta; returns (its size n = 3 k, the scale 1 + max |q| of its tolerance)."""
+        """The QP of the penetrating points (float64): their rows (`point_row`), Q = J M^-1 J^T + eps I,
+        q = J a_free + J̇ν - beta and each one's mu (friction (N, P)) into mu[env, :k]; returns (its size n = 3 k, the
+        scale 1 + max |q| of its tolerance), n = -1 where more points penetrate than the scratch holds (J's rows / 3:
+        the stage's max_active_contacts)."""
         k = int(0)
+        overflow = int(0)
         for c in range(depth.shape[1]):
             if depth[env, c] > scalar(0.0):
-                point_row(J_t, Jdotnu_t, a_free, env, c, k, active, J, q)
-                k = k + 1
+                if 3 * k < J.shape[1]:
+                    point_row(J_t, Jdotnu_t, a_free, env, c, k, active, J, q)
+                    mu[env, k] = f64(friction[env, c])
+                    k = k + 1
+                else:
+                    overflow = 1
+        if overflow != 0:
+            return -1, f64(1.0)
         n = 3 * k
         if n > 0:  # an environment out of contact factorises nothing
             delassus(model, M, J, env, n, M64, Lm, MinvJT, y, w, Q)
@@ -480,7 +534,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.func
     def interior_point(
-        law: RigidLaw, mu: f64, env: int, n: int, scale: f64, Q: wp.array3d(dtype=f64), H: wp.array3d(dtype=f64), LH: wp.array3d(dtype=f64),
+        law: RigidLaw, mu: wp.array2d(dtype=f64), env: int, n: int, scale: f64, Q: wp.array3d(dtype=f64), H: wp.array3d(dtype=f64), LH: wp.array3d(dtype=f64),
         q: wp.array2d(dtype=f64), x: wp.array2d(dtype=f64), rd: wp.array2d(dtype=f64), dx: wp.array2d(dtype=f64), y: wp.array2d(dtype=f64),
         s: wp.array2d(dtype=f64), z: wp.array2d(dtype=f64), rp: wp.array2d(dtype=f64), rc: wp.array2d(dtype=f64), ds: wp.array2d(dtype=f64),
         dz: wp.array2d(dtype=f64), ds_aff: wp.array2d(dtype=f64), dz_aff: wp.array2d(dtype=f64),
@@ -558,9 +612,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         a_free: wp.array2d(dtype=scalar),
         depth: wp.array2d(dtype=scalar),
         beta: wp.array2d(dtype=sp.vec3),
-        friction: wp.array(dtype=scalar),
-        # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); Q, H and LH (N, 3P, 3P);
-        # the vectors q, x, rd, dx, y, w (N, max(3P, K)) and s, z, rp, rc, ds, dz, ds_aff, dz_aff (N, 5P)
+        friction: wp.array2d(dtype=scalar),
+        # float64 scratch for m rows (m / 3 points at most): active (N, m / 3) int; J and MinvJT (N, m, K); M64 and Lm
+        # (N, K, K); Q, H and LH (N, m, m); the vectors q, x, rd, dx, y, w (N, max(m, K)), s, z, rp, rc, ds, dz, ds_aff,
+        # dz_aff (N, 5 m / 3) and mu (N, m / 3)
         active: wp.array2d(dtype=wp.int32),
         J: wp.array3d(dtype=f64),
         MinvJT: wp.array3d(dtype=f64),
@@ -583,18 +638,24 @@ def kernels(scalar) -> types.SimpleNamespace:
         dz: wp.array2d(dtype=f64),
         ds_aff: wp.array2d(dtype=f64),
         dz_aff: wp.array2d(dtype=f64),
+        mu: wp.array2d(dtype=f64),
         # output
         force: wp.array2d(dtype=sp.vec3),
     ):
-        """force (N, P) [N, world]: the rigid forces of the penetrating points (the module docstring; 0 elsewhere) from
-        `rigid_rows`' outputs, the points' Jacobians J_t (N, P, 6, K) and J̇ν (N, P, 6) (Mixed, ν Inertial), the mass
-        matrix M (N, K, K) (Inertial base) and ABA's a_free (N, K). Its adjoint is `rigid_solve_adjoint` (a tape
-        records it by hand: warpdyn.engine.launch)."""
+        """force (N, P) [N, world; a slot's in its contact axes]: the rigid forces of the penetrating points (the
+        module docstring; 0 elsewhere) from `rigid_rows`' (and `rigid_slot_rows`') outputs, the points' Jacobians J_t
+        (N, P, 6, K) and J̇ν (N, P, 6) (Mixed, ν Inertial), the mass matrix M (N, K, K) (Inertial base) and ABA's
+        a_free (N, K); NaN for all where more points penetrate than the scratch holds (`qp_system`: the step flags that
+        environment). Its adjoint is `rigid_solve_adjoint` (a tape records it by hand: warpdyn.engine.launch)."""
         env = wp.tid()
-        n, scale = qp_system(model, law, J_t, Jdotnu_t, M, a_free, depth, beta, env, active, J, MinvJT, M64, Lm, Q, q, y, w)
+        n, scale = qp_system(model, law, J_t, Jdotnu_t, M, a_free, depth, beta, friction, env, active, J, MinvJT, M64, Lm, Q, q, y, w, mu)
         if n > 0:
-            interior_point(law, f64(friction[env]), env, n, scale, Q, H, LH, q, x, rd, dx, y, s, z, rp, rc, ds, dz, ds_aff, dz_aff)
-        forces_out(env, n, active, x, force)
+            interior_point(law, mu, env, n, scale, Q, H, LH, q, x, rd, dx, y, s, z, rp, rc, ds, dz, ds_aff, dz_aff)
+        if n < 0:
+            for c in range(force.shape[1]):
+                force[env, c] = sp.vec3(scalar(wp.nan), scalar(wp.nan), scalar(wp.nan))
+        else:
+            forces_out(env, n, active, x, force)
 
     @wp.kernel(module="unique", enable_backward=False)
     def rigid_solve_adjoint(
@@ -606,7 +667,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         a_free: wp.array2d(dtype=scalar),
         depth: wp.array2d(dtype=scalar),
         beta: wp.array2d(dtype=sp.vec3),
-        friction: wp.array(dtype=scalar),
+        friction: wp.array2d(dtype=scalar),
         active: wp.array2d(dtype=wp.int32),
         J: wp.array3d(dtype=f64),
         MinvJT: wp.array3d(dtype=f64),
@@ -629,6 +690,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         dz: wp.array2d(dtype=f64),
         ds_aff: wp.array2d(dtype=f64),
         dz_aff: wp.array2d(dtype=f64),
+        mu: wp.array2d(dtype=f64),
         # the adjoints: read and zeroed (adj_force), added into (the rest)
         adj_force: wp.array2d(dtype=sp.vec3),
         adj_J_t: wp.array4d(dtype=scalar),
@@ -636,17 +698,18 @@ def kernels(scalar) -> types.SimpleNamespace:
         adj_M: wp.array3d(dtype=scalar),
         adj_a_free: wp.array2d(dtype=scalar),
         adj_beta: wp.array2d(dtype=sp.vec3),
-        adj_friction: wp.array(dtype=scalar),
+        adj_friction: wp.array2d(dtype=scalar),
     ):
         """The adjoint of `rigid_solve` (its QP solved again; OptNet's differentiation of the KKT conditions
         Q x + q + G^T z = 0, z ∘ G x = 0 at the solution, its active constraints, rows whose dual z_j exceeds their
         slack s_j, held): u = (Q + W G_A^T G_A)^-1 x̄ with W = ACTIVE_PENALTY times Q's largest diagonal entry (the
         equality-constrained KKT solve to 1e-8) gives adj q = -u, so adj beta = u and, by `rows_adjoint` with g = u,
         adj J, J̇ν, M, a_free; adj G = -W (G_A u) x^T - z u^T on the active rows gives adj mu = sum over the active
-        friction rows of W (g_j . u) x_z + z_j u_z (G's -mu entries)."""
+        friction rows of W (g_j . u) x_z + z_j u_z (G's -mu entries), per point. A flagged environment (n < 0: NaN
+        forces) passes no adjoint."""
         env = wp.tid()
-        mu = f64(friction[env])
-        n, scale = qp_system(model, law, J_t, Jdotnu_t, M, a_free, depth, beta, env, active, J, MinvJT, M64, Lm, Q, q, y, w)
+        n, scale = qp_system(model, law, J_t, Jdotnu_t, M, a_free, depth, beta, friction, env, active, J, MinvJT, M64, Lm, Q, q, y, w, mu)
+        n = wp.max(n, 0)
         adjoint_in(env, n, active, adj_force, w)  # w: x̄ (the interior point does not use w)
         if n > 0:
             interior_point(law, mu, env, n, scale, Q, H, LH, q, x, rd, dx, y, s, z, rp, rc, ds, dz, ds_aff, dz_aff)
@@ -656,17 +719,17 @@ def kernels(scalar) -> types.SimpleNamespace:
             penalty = f64(ACTIVE_PENALTY) * largest
             newton_matrix(Q, mu, env, n, s, z, penalty, H, LH)
             C.substitute(LH, env, n, w, rd, 0)  # rd: u
-            adj_mu = f64(0.0)
             for i in range(n // 3):
+                adj_mu = f64(0.0)
                 for j in range(4):  # the friction rows, whose -mu entries multiply f_z
                     row = PYRAMID_ROWS * i + j
                     if z[env, row] > s[env, row]:
-                        g = pyramid_row(mu, j)
+                        g = pyramid_row(mu[env, i], j)
                         gu = g[0] * rd[env, 3 * i] + g[1] * rd[env, 3 * i + 1] + g[2] * rd[env, 3 * i + 2]
                         adj_mu = adj_mu + penalty * gu * x[env, 3 * i + 2] + z[env, row] * rd[env, 3 * i + 2]
                 c = active[env, i]
                 adj_beta[env, c] = adj_beta[env, c] + sp.vec3(scalar(rd[env, 3 * i]), scalar(rd[env, 3 * i + 1]), scalar(rd[env, 3 * i + 2]))
-            adj_friction[env] = adj_friction[env] + scalar(adj_mu)
+                adj_friction[env, c] = adj_friction[env, c] + scalar(adj_mu)
             rows_adjoint(model, J, MinvJT, a_free, env, n, active, x, rd, y, w, adj_J_t, adj_Jdotnu_t, adj_M, adj_a_free)
 
     return types.SimpleNamespace(
@@ -684,6 +747,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         inverse_mass=inverse_mass,
         slot_wrenches=slot_wrenches,
         rigid_rows=rigid_rows,
+        rigid_slot_rows=rigid_slot_rows,
         rigid_solve=rigid_solve,
         rigid_solve_adjoint=rigid_solve_adjoint,
     )

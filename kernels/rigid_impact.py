@@ -1,16 +1,19 @@
 """JaxSim 0.9.0's impact after a rigid-contact step (jaxsim.rbda.contacts.rigid's update_velocity_after_impact), on
 kernels/rigid_contacts.py's rows and Delassus matrix, one thread per environment.
 
-nu+ = nu - M^-1 J^T lambda with G lambda = J nu over the points then penetrating (G = J M^-1 J^T): the velocity
-nearest nu in M's metric at which every such point is still (a least-squares KKT solve; nu Inertial, the state's
+nu+ = nu - M^-1 J^T lambda with G lambda = J nu over the points then penetrating (G = J M^-1 J^T; their depths and
+rows at the new state from kernels/rigid_contacts.py's `rigid_rows` and, for the geom pairs' contact slots, whose rows
+are a relative velocity, `rigid_slot_rows`): the velocity nearest nu in M's metric at which every such point is still,
+each slot's two bodies moving together at it (a least-squares KKT solve; nu Inertial, the state's
 base velocity converted from and back to Mixed at the base's position p). G is singular where the rows outnumber
-the DoFs they move: kernels/cholesky.py's `factor` drops its dependent rows (DROPPED_PIVOT), so lambda is one of
-the solutions and nu+ the unique one; the kept rows J_r define it: nu+ = P nu, P = I - M^-1 J_r^T G_r^-1 J_r.
+the DoFs they move: it is solved as A = G + delta I (kernels/rigid_contacts.py's IMPACT_REGULARISATION, 1e-14 of its
+largest diagonal entry), so nu+ = P nu, P = I - M^-1 J^T A^-1 J, leaves delta over G's smallest non-zero eigenvalue of
+the points' velocity.
 
 Its adjoint (`impact_adjoint`, registered by hand: the state's velocities are replaced in place) holds the
-penetrating points and the kept rows: with W = M^-1 nu+bar, rho = G_r^-1 J_r W, xi = nu - nu+ and
-eta = M^-1 J_r^T rho, nubar = nu+bar - J_r^T rho, adj M = sym((W - eta) xi^T), adj J_r = -lambda (W - eta)^T -
-rho nu+^T, and the Mixed conversions add their terms in p.
+penetrating points: with W = M^-1 nu+bar, rho = A^-1 J W, xi = nu - nu+ and eta = M^-1 J^T rho, nubar = nu+bar -
+J^T rho, adj M = sym((W - eta) xi^T), adj J = -lambda (W - eta)^T - rho nu+^T (delta, a constant, adds no term),
+and the Mixed conversions add their terms in p.
 """
 
 import types
@@ -20,7 +23,7 @@ import warp as wp
 from .bundles import bundles
 from .cholesky import kernels as cholesky_kernels
 from .factory import factory
-from .rigid_contacts import DROPPED_PIVOT
+from .rigid_contacts import IMPACT_REGULARISATION
 from .rigid_contacts import kernels as rigid_kernels
 from .spatial import MIXED, spatial
 
@@ -32,23 +35,23 @@ def kernels(scalar) -> types.SimpleNamespace:
     f64 = wp.float64
     C = cholesky_kernels(f64)
     RC = rigid_kernels(scalar)
-    RigidLaw = RC.RigidLaw
 
     @wp.func
     def impact_rows(
-        model: B.Model, contacts: B.Contacts, terrain: B.Terrain, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6),
-        J_t: wp.array4d(dtype=scalar), M: wp.array3d(dtype=scalar), env: int, nu: wp.array2d(dtype=f64), active: wp.array2d(dtype=wp.int32),
-        J: wp.array3d(dtype=f64), MinvJT: wp.array3d(dtype=f64), M64: wp.array3d(dtype=f64), Lm: wp.array3d(dtype=f64),
-        G: wp.array3d(dtype=f64), LG: wp.array3d(dtype=f64), c: wp.array2d(dtype=f64), lam: wp.array2d(dtype=f64),
-        y: wp.array2d(dtype=f64), w: wp.array2d(dtype=f64),
-    ):
-        """The penetrating points' rows J (active[env, :k] their indices), G = J M^-1 J^T factorised into LG with its
-        dependent rows dropped, lambda = G^+ J nu (nu[env] Inertial, K) and xi = M^-1 J^T lambda into w; returns m = 3 k."""
+        model: B.Model, depth: wp.array2d(dtype=scalar), J_t: wp.array4d(dtype=scalar), M: wp.array3d(dtype=scalar), env: int,
+        nu: wp.array2d(dtype=f64), active: wp.array2d(dtype=wp.int32), J: wp.array3d(dtype=f64), MinvJT: wp.array3d(dtype=f64),
+        M64: wp.array3d(dtype=f64), Lm: wp.array3d(dtype=f64), G: wp.array3d(dtype=f64), LG: wp.array3d(dtype=f64), c: wp.array2d(dtype=f64),
+        lam: wp.array2d(dtype=f64), y: wp.array2d(dtype=f64), w: wp.array2d(dtype=f64),
+    ):  # fmt: skip
+        """The penetrating points' rows J (depth[env, p] > 0 at the new state; active[env, :k] their indices), G = J M^-1
+        J^T regularised (IMPACT_REGULARISATION) and factorised into LG, lambda = LG^-T LG^-1 J nu (nu[env] Inertial, K) and xi = M^-1 J^T
+        lambda into w; returns m = 3 k, or -1 where more points penetrate than the scratch holds (J's rows / 3)."""
         K = M.shape[1]
         k = int(0)
-        for p_i in range(contacts.point_link.shape[0]):
-            p, p_dot, n, delta, delta_dot = RC.penetration(contacts, terrain, W_H_L, W_v_WL, env, p_i)
-            if delta > scalar(0.0):
+        for p_i in range(depth.shape[1]):
+            if depth[env, p_i] > scalar(0.0):
+                if 3 * k >= J.shape[1]:
+                    return -1
                 active[env, k] = p_i
                 for r in range(3):
                     for i in range(K):
@@ -63,7 +66,12 @@ def kernels(scalar) -> types.SimpleNamespace:
                 for i in range(off, K):
                     t = t + J[env, r, i] * nu[env, i]
                 c[env, r] = t
-            C.factor(G, env, 0, m, f64(DROPPED_PIVOT), LG)
+            largest = f64(0.0)
+            for r in range(m):
+                largest = wp.max(largest, G[env, r, r])
+            for r in range(m):
+                G[env, r, r] = G[env, r, r] + f64(IMPACT_REGULARISATION) * largest
+            C.factor(G, env, 0, m, f64(0.0), LG)
             C.substitute(LG, env, m, c, lam, 0)
             for i in range(K):
                 t = f64(0.0)
@@ -76,11 +84,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.kernel(module="unique", enable_backward=False)
     def impact_velocities(
         model: B.Model,
-        contacts: B.Contacts,
-        law: RigidLaw,
-        terrain: B.Terrain,
-        W_H_L: wp.array2d(dtype=sp.transform),
-        W_v_WL: wp.array2d(dtype=sp.vec6),
+        depth: wp.array2d(dtype=scalar),
         J_t: wp.array4d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
         # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); G and LG (N, 3P, 3P);
@@ -100,9 +104,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         # the state, whose velocities are replaced
         state: B.State,
     ):
-        """The state's velocities after JaxSim's impact (the module docstring) at its link poses and Inertial
-        velocities (N, nL), the points' Jacobians J_t (N, P, 6, K) (Mixed, ν Inertial) and M (N, K, K) (Inertial
-        base); a fixed base's velocity is left as it is."""
+        """The state's velocities after JaxSim's impact (the module docstring) at the points' depths (N, P) and
+        Jacobians J_t (N, P, 6, K) (Mixed, ν Inertial; a geom pair's slot P + slot: its rows in the contact's axes) and
+        M (N, K, K) (Inertial base) at the state; a fixed base's velocity is left as it is. An environment where more
+        points penetrate than the scratch holds is flagged (state.valid = 0) and its velocities left as they are."""
         env = wp.tid()
         K = M.shape[1]
         W_H_B = B.base_pose(state, env)
@@ -112,7 +117,9 @@ def kernels(scalar) -> types.SimpleNamespace:
                 nu[env, i] = f64(base[i])
             else:
                 nu[env, i] = f64(state.joint_velocities[env, i - 6])
-        m = impact_rows(model, contacts, terrain, W_H_L, W_v_WL, J_t, M, env, nu, active, J, MinvJT, M64, Lm, G, LG, c, lam, y, w)
+        m = impact_rows(model, depth, J_t, M, env, nu, active, J, MinvJT, M64, Lm, G, LG, c, lam, y, w)
+        if m < 0:
+            state.valid[env] = 0
         if m > 0:
             for i in range(6, K):
                 state.joint_velocities[env, i - 6] = scalar(nu[env, i] - w[env, i])
@@ -128,11 +135,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.kernel(module="unique", enable_backward=False)
     def impact_adjoint(
         model: B.Model,
-        contacts: B.Contacts,
-        law: RigidLaw,
-        terrain: B.Terrain,
-        W_H_L: wp.array2d(dtype=sp.transform),
-        W_v_WL: wp.array2d(dtype=sp.vec6),
+        depth: wp.array2d(dtype=scalar),
         J_t: wp.array4d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
         active: wp.array2d(dtype=wp.int32),
@@ -159,7 +162,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         """The adjoint of `impact_velocities` (the module docstring), from `nu` (kept by it) and the state's positions."""
         env = wp.tid()
         K = M.shape[1]
-        m = impact_rows(model, contacts, terrain, W_H_L, W_v_WL, J_t, M, env, nu, active, J, MinvJT, M64, Lm, G, LG, c, lam, y, w)
+        m = impact_rows(model, depth, J_t, M, env, nu, active, J, MinvJT, M64, Lm, G, LG, c, lam, y, w)
         if m > 0:
             off = RC.solver_offset(model)
             p = wp.transform_get_translation(B.base_pose(state, env))

@@ -240,8 +240,7 @@ def test_momentum_is_conserved_in_free_flight():
 
 def test_off_by_default():
     """model.geom_contacts is False unless set (the spheres then pass through each other); data built before it was
-    set is refused, naming the rows (the relaxed-rigid law on the pairs, and the rigid law's refusal:
-    test_body_contacts_relaxed.py)."""
+    set is refused, naming the rows (the relaxed-rigid and rigid laws on the pairs: test_body_contacts_solved.py)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
         model = wd.model.Model.build_from_model_description(TWO_SPHERES, dtype=np.float64)

@@ -421,9 +421,9 @@ def test_relaxed_rigid_gradients_stay_finite_with_a_power_below_one():
 
 
 def test_compute_impact_velocity_is_the_kernels():
-    """JaxSim's host formula (a least-squares KKT solve) gives the step's impact velocity: the kernels' drop of
-    the Delassus matrix's dependent rows picks the same velocity (the box's four corners on the ground: 12 rows of
-    rank 6, a singular system)."""
+    """JaxSim's host formula (a least-squares KKT solve) gives the step's impact velocity: the kernels' solve of the
+    Delassus matrix regularised by 1e-14 of its largest diagonal entry gives the same velocity to 1e-12 (the box's four
+    corners on the ground: 12 rows of rank 6, a singular system)."""
     name = "rigid_box"
     model = _model(name)
     data = wd.data.JaxSimModelData.build(

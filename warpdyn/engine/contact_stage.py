@@ -21,9 +21,8 @@ stage alone (`ContactStage`), chosen from the model's class when the step's plan
   rigid models: their free accelerations).
 ABA and the integrators read W_f_L and m_dot, nothing else of a contact model. JaxSim's rigid and relaxed-rigid
 models (`RigidContactStage`, `RelaxedRigidContactStage`) solve an environment's contact forces together from its
-mass matrix and the points' Jacobians (kernels/rigid_contacts.py); the relaxed-rigid stage solves the geom pairs'
-contacts (model.geom_contacts) with them, each contact slot a point after the collidable points (docs/architecture.md:
-where a contact law goes).
+mass matrix and the points' Jacobians (kernels/rigid_contacts.py), and the geom pairs' contacts (model.geom_contacts)
+with them, each contact slot a point after the collidable points (docs/architecture.md: where a contact law goes).
 """
 
 from __future__ import annotations
@@ -214,20 +213,17 @@ class RigidContactStage(ContactStage):
     kernels/rigid_impact.py's impact after each step): the forces of an environment's points solved together, from
     ABA's accelerations without them, the mass matrix and the points' Jacobians and J̇ν at the state;
     differentiable (the solve's and the impact's adjoints registered by hand). mu, K, D: shared (1,) or per
-    environment (N,)."""
+    environment (N,). With model.geom_contacts the pairs' contact slots are the solve's points count + slot
+    (`slot_launches`; their mu the pair's), at the evaluation's state and, for the impact, at the step's new state;
+    their wrenches are added to both links after the points' (kernels/rigid_contacts.py's `slot_wrenches`); the solve
+    holds `max_active` penetrating contacts (max_active_contacts; None: all)."""
 
     has_state = False
     reads_other_forces = True
-    impact = True  # `after_step` launches the impact (and `buffers` holds its poses and velocities)
-    body_contacts = False  # whether the geom pairs' contacts (model.geom_contacts) join the solve
+    impact = True  # `after_step` launches the impact (and `buffers` holds its inputs at the step's new state)
 
     def __init__(self, model, integrator):
         super().__init__(model, integrator)
-        if self.pairs and not self.body_contacts:
-            raise NotImplementedError(
-                f"model '{model.name()}': geom contacts (model.geom_contacts) take the soft and relaxed-rigid laws, not {type(model.contact_model).__name__}'s "
-                "(its impact needs the contacts at the step's new state); choose SoftContacts or RelaxedRigidContacts, or set model.geom_contacts = False"
-            )
         self.slots = self.pair_arrays["contacts"] if self.pairs else 0  # the pairs' contact slots, solved after the points
         limit = getattr(model.contact_model, "max_active_contacts", None)
         self.max_active = self.count + self.slots if limit is None else min(limit, self.count + self.slots)  # the solve's rows / 3
@@ -304,7 +300,7 @@ class RigidContactStage(ContactStage):
         they are computed from) carry gradients (the float64 scratch never does)."""
         s, d = plan.scalar, plan.device
         K, P, nL = 6 + plan.n, self.count + self.slots, plan.nL
-        m = 3 * min(P, self.max_active)
+        m = 3 * self.max_active
         width = max(m, 6 + plan.n)
         vec6 = wp.types.vector(6, s)
         transform = wp.types.transformation(s)
@@ -332,24 +328,25 @@ class RigidContactStage(ContactStage):
         if self.slots:  # the pairs' contacts and the links' Inertial Jacobians, from which their slots' rows are made
             out.update(collisions.contact_buffers(self.pair_arrays, N, grad))
             out["J_L"] = empty((nL, 6, K), differentiable=True)
-        if self.impact:  # the impact's own inputs at the step's new state (a tape's adjoints read the evaluation's)
-            out["W_H_L_next"] = empty((nL,), transform, True)
-            out["parent_H_link_next"] = empty((nL,), transform, True)
-            out["W_v_WL_next"] = empty((nL,), vec6, True)
-            out["W_a_L_next"] = empty((nL,), vec6, True)
-            out["J_t_next"] = empty((P, 6, K), differentiable=True)
-            out["M_next"] = empty((K, K), differentiable=True)
-            out["crba_scratch_next"] = empty((max(nL, plan.n + 1), CRBA_RECORD), differentiable=True)
+        if self.impact:  # the impact's own inputs at the step's new state, named as the evaluation's (a tape's adjoints read those)
+            after = {"W_H_L": empty((nL,), transform, True), "parent_H_link": empty((nL,), transform, True), "W_v_WL": empty((nL,), vec6, True)}
+            after.update(W_a_L=empty((nL,), vec6, True), J_t=empty((P, 6, K), differentiable=True), M=empty((K, K), differentiable=True))
+            after["crba_scratch"] = empty((max(nL, plan.n + 1), CRBA_RECORD), differentiable=True)
+            after.update(self.law_buffers(plan, empty, P))
+            if self.slots:
+                after.update(collisions.contact_buffers(self.pair_arrays, N, grad))
+                after.update(J_L=empty((nL, 6, K), differentiable=True), Jdotnu_t=empty((P, 6), differentiable=True))
+            out["after"] = after
             out["nu_before"] = empty((K,), wp.float64)
         return out
 
     law_outputs = ("beta", "friction")  # the rows kernel's differentiable outputs, which the solve reads
 
     def law_buffers(self, plan, empty, P: int) -> dict:
-        """Each point's depth (N, P), the rows' terms (`law_outputs`: Baumgarte's beta (N, P, 3), mu (N,)) and the
-        forces (N, P, 3), differentiable where grad is."""
+        """Each point's depth (N, P), the rows' terms (`law_outputs`: Baumgarte's beta (N, P, 3), mu (N, P)) and the
+        forces (N, P, 3), differentiable where grad is (P: the points, then the geom pairs' slots)."""
         vec3 = wp.types.vector(3, plan.scalar)
-        return {"depth": empty((P,)), "beta": empty((P,), vec3, True), "friction": empty((), plan.scalar, True), "force": empty((P,), vec3, True)}
+        return {"depth": empty((P,)), "beta": empty((P,), vec3, True), "friction": empty((P,), plan.scalar, True), "force": empty((P,), vec3, True)}
 
     def law_kernels(self, plan):
         """The (rows, solve, solve's adjoint) kernels, the rows kernel's inputs before the link poses and velocities
@@ -372,26 +369,44 @@ class RigidContactStage(ContactStage):
             adjoint = no_adjoint
         return [
             Launch(rows, N, [*head, ev.W_H_L, ev.W_v_WL], outputs),
-            *self.slot_launches(plan, ev, N),
+            *self.slot_launches(plan, b, ev.W_H_L, ev.W_v_WL, N),
             Launch(solve, N, args, [b["force"]], adjoint=adjoint),
             Launch(self.kernels.point_wrenches, N, [self.bundle, ev.W_H_L, b["force"]], [ev.W_f_C]),
         ]
 
-    def slot_launches(self, plan, ev, N: int) -> list:
-        """The launches that write the geom pairs' contact slots as the solve's points count + slot (none: a law
-        that takes no body contacts)."""
-        return []
+    def slot_kernel(self, plan) -> tuple:
+        """The kernel of the slots' rows and its inputs before the pairs' arrays (kernels/rigid_contacts.py's
+        `rigid_slot_rows`: Baumgarte's terms and the pair's mu)."""
+        return self.kernels.rigid_slot_rows, [self.bundle]
+
+    def slot_launches(self, plan, b: dict, W_H_L, W_v_WL, N: int) -> list:
+        """The geom pairs' contacts at the link poses W_H_L (N, nL) into b's count, position, frame and dist, the links'
+        Inertial Jacobians b["J_L"], and the contact slots as the solve's points count + slot: their rows, J̇ν (from the
+        Inertial velocities W_v_WL and b["W_a_L"]), depth and `law_outputs` into b's (`slot_kernel`); none without pairs."""
+        if not self.slots:
+            return []
+        a, inertial = self.pair_arrays, int(VelRepr.Inertial)
+        kernel, head = self.slot_kernel(plan)
+        inputs = [*head, a["link1"], a["link2"], a["mu"], a["first"], a["slot_pair"], b["count"], b["position"], b["frame"], b["dist"]]
+        inputs += [b["J_L"], W_v_WL, b["W_a_L"], self.count]
+        return [
+            collisions.contact_launch(a, W_H_L, b, N),
+            Launch(self.jacobians, (N, plan.nL), [plan.model, self.link_targets, W_H_L, inertial, inertial], [b["J_L"]]),
+            Launch(kernel, N, inputs, [b["J_t"], b["Jdotnu_t"], b["depth"], *(b[name] for name in self.law_outputs)]),
+        ]
 
     def scratch(self, empty, m: int, width: int) -> list:
-        """The QP's float64 scratch: Q, H, LH (m x m); q, x, rd, dx, y, w (width); s, z, rp, rc, ds, dz, ds_aff, dz_aff
-        (5 P)."""
-        rows, f64 = PYRAMID_ROWS * self.count, wp.float64
-        return [empty((m, m), f64) for _ in range(3)] + [empty((width,), f64) for _ in range(6)] + [empty((rows,), f64) for _ in range(8)]
+        """The QP's float64 scratch for m rows (m / 3 points): Q, H, LH (m x m); q, x, rd, dx, y, w (width); s, z, rp,
+        rc, ds, dz, ds_aff, dz_aff (5 m / 3); mu (m / 3)."""
+        rows, f64 = PYRAMID_ROWS * (m // 3), wp.float64
+        vectors = [empty((width,), f64) for _ in range(6)] + [empty((rows,), f64) for _ in range(8)]
+        return [empty((m, m), f64) for _ in range(3)] + vectors + [empty((m // 3,), f64)]
 
     def launches(self, plan, ev, x, f_ext, tau, N: int) -> list:
         """At x: the link velocities and bias terms, the points' Jacobians and J̇ν, the mass matrix, ABA's
         accelerations a_free at tau and f_ext (their own ABA: explicit, MuJoCo's implicit damping aside), the points'
-        forces ev.W_f_C and ev.W_f_L = f_ext (None: 0) + each link's."""
+        forces ev.W_f_C and ev.W_f_L = each link's contact wrench, plus f_ext (None: 0) in a step's evaluation
+        (ev.all_link_forces)."""
         self.refuse_gradients(ev)
         s, b = plan.scalar, ev.contact
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
@@ -407,7 +422,8 @@ class RigidContactStage(ContactStage):
         launches += self.law_launches(plan, ev, N)
         order = int(arrays.env_fastest(plan.device))
         links = plan.nL if contacts_per_environment(plan.device, ev.grad) else 1
-        launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, [self.bundle, ev.W_f_C, f_in, order, links], [ev.W_f_L]))
+        base = f_in if ev.all_link_forces else plan.zeros((plan.nL, 6), N)  # f_ext acts on a_free in both
+        launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, [self.bundle, ev.W_f_C, base, order, links], [ev.W_f_L]))
         if self.slots:
             a = self.pair_arrays
             args = [a["link1"], a["link2"], a["slot_pair"], b["position"], b["frame"], b["force"], self.count]
@@ -425,24 +441,27 @@ class RigidContactStage(ContactStage):
 
     def after_step(self, plan, ev, Y, N: int) -> list:
         """JaxSim's impact at the step's new state Y: its velocities replaced in place (kernels/rigid_impact.py), from
-        the poses, Jacobians and mass matrix at Y in the impact's own buffers; its adjoint registered by hand where
-        ev.grad."""
+        the poses, the points' and the geom pairs' slots' depths and rows and the mass matrix at Y, in the impact's own
+        buffers (ev.contact["after"]); its adjoint registered by hand where ev.grad."""
         b, K = ev.contact, impact_kernels(plan.scalar)
+        at = b["after"]
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
         scratch = b["scratch"]
-        args = [plan.model, self.bundle, self.law, plan.terrain, b["W_H_L_next"], b["W_v_WL_next"], b["J_t_next"], b["M_next"], b["active"], b["J"], b["MinvJT"]]
+        args = [plan.model, at["depth"], at["J_t"], at["M"], b["active"], b["J"], b["MinvJT"]]
         args += [b["M64"], b["Lm"], scratch[0], scratch[2], *scratch[5:9], b["nu_before"]]
         adjoint = no_adjoint
         if ev.grad:
             fields = (Y.base_position, Y.base_quaternion, Y.joint_positions, Y.base_velocity, Y.joint_velocities)
             adj_state = state_bundle(plan.scalar, [a.grad for a in fields] + [None, None])
-            grads = [adj_state, b["J_t_next"].grad, b["M_next"].grad]
+            grads = [adj_state, at["J_t"].grad, at["M"].grad]
             adjoint = functools.partial(launch, K.impact_adjoint, N, [*args, Y, scratch[3], scratch[4], *grads], [], device=plan.device, record_tape=False)
         return [
-            Launch(self.fk, N, [plan.model, Y], [b["parent_H_link_next"], b["W_H_L_next"]]),
-            Launch(self.bias.link_bias_recursion, N, [plan.model, b["W_H_L_next"], Y], [b["W_v_WL_next"], b["W_a_L_next"]]),
-            Launch(self.jacobians, (N, self.count), [plan.model, self.targets, b["W_H_L_next"], inertial, mixed], [b["J_t_next"]]),
-            Launch(self.crba, N, [plan.model, Y, inertial, b["crba_scratch_next"]], [b["M_next"]]),
+            Launch(self.fk, N, [plan.model, Y], [at["parent_H_link"], at["W_H_L"]]),
+            Launch(self.bias.link_bias_recursion, N, [plan.model, at["W_H_L"], Y], [at["W_v_WL"], at["W_a_L"]]),
+            Launch(self.jacobians, (N, self.count), [plan.model, self.targets, at["W_H_L"], inertial, mixed], [at["J_t"]]),
+            Launch(self.kernels.rigid_rows, N, [self.bundle, plan.terrain, at["W_H_L"], at["W_v_WL"]], [at["depth"], at["beta"], at["friction"]]),
+            *self.slot_launches(plan, at, at["W_H_L"], at["W_v_WL"], N),
+            Launch(self.crba, N, [plan.model, Y, inertial, at["crba_scratch"]], [at["M"]]),
             Launch(K.impact_velocities, N, args, [Y], adjoint=adjoint),
         ]
 
@@ -450,14 +469,11 @@ class RigidContactStage(ContactStage):
 class RelaxedRigidContactStage(RigidContactStage):
     """JaxSim's relaxed-rigid contacts (kernels/relaxed_rigid.py's `relaxed_rigid_rows`, `relaxed_rigid_solve`,
     `point_wrenches`): a linear solve, no impact; differentiable (the solve's adjoint registered by hand). mu:
-    shared (1,) or per environment (N,); the impedance's parameters: one number each. With model.geom_contacts the
-    pairs' contact slots are the solve's points count + slot (`slot_launches`; their mu the pair's), their wrenches
-    added to both links after the points' (kernels/rigid_contacts.py's `slot_wrenches`); the solve holds
-    `max_active` penetrating contacts (RelaxedRigidContacts.max_active_contacts; None: all)."""
+    shared (1,) or per environment (N,); the impedance's parameters: one number each. The geom pairs' contacts as
+    the rigid stage's, their slots' a_ref and R from the pair's mu and the bodies' reduced mass."""
 
     has_state = False
     impact = False
-    body_contacts = True
 
     law_outputs = ("a_ref", "R")
 
@@ -466,19 +482,9 @@ class RelaxedRigidContactStage(RigidContactStage):
         vec3 = wp.types.vector(3, plan.scalar)
         return {"depth": empty((P,)), **{name: empty((P,), vec3, True) for name in ("a_ref", "R", "force")}}
 
-    def slot_launches(self, plan, ev, N: int) -> list:
-        """The pairs' contacts at ev's link poses, the links' Inertial Jacobians, and the slots' rows, a_ref and R
-        (kernels/relaxed_rigid.py's `relaxed_slot_rows`)."""
-        if not self.slots:
-            return []
-        a, b, inertial = self.pair_arrays, ev.contact, int(VelRepr.Inertial)
-        inputs = [plan.model, self.law, a["link1"], a["link2"], a["mu"], a["first"], a["slot_pair"], b["count"], b["position"], b["frame"], b["dist"]]
-        inputs += [b["J_L"], ev.W_v_WL, b["W_a_L"], self.count]
-        return [
-            collisions.contact_launch(a, ev.W_H_L, b, N),
-            Launch(self.jacobians, (N, plan.nL), [plan.model, self.link_targets, ev.W_H_L, inertial, inertial], [b["J_L"]]),
-            Launch(relaxed_kernels(plan.scalar).relaxed_slot_rows, N, inputs, [b["J_t"], b["Jdotnu_t"], b["depth"], b["a_ref"], b["R"]]),
-        ]
+    def slot_kernel(self, plan) -> tuple:
+        """kernels/relaxed_rigid.py's `relaxed_slot_rows` (the slots' a_ref and R)."""
+        return relaxed_kernels(plan.scalar).relaxed_slot_rows, [plan.model, self.law]
 
     def law_kernels(self, plan):
         K = relaxed_kernels(plan.scalar)

@@ -137,11 +137,16 @@ class SoftContacts(ContactModel):
 
 class _SolvedContacts(ContactModel):
     """A model whose forces are solved together (JaxSim's rigid and relaxed-rigid): its solver options, a dict
-    of known names (`_OPTIONS`: name -> (default, check)), part of its equality and hash."""
+    of known names (`_OPTIONS`: name -> (default, check)), and max_active_contacts (warpdyn's; None: every collidable
+    point and geom pair contact slot), the most penetrating contacts an environment's solve holds, which sizes its
+    dense float64 scratch (two or three (3 n)^2 matrices per environment for n of them: the LEAP scene's 280 points and
+    2600 slots would take 1.2 GB per environment, 48 contacts 0.33 MB), as MuJoCo's nconmax; an environment with more is
+    flagged (`data.healthy`), the others go on. Both are part of its equality and hash."""
 
     _OPTIONS: dict = {}
 
-    def __init__(self, solver_options: dict | None = None):
+    def __init__(self, solver_options: dict | None = None, max_active_contacts: int | None = None):
+        self.max_active_contacts = None if max_active_contacts is None else _count(f"{type(self).__name__}.max_active_contacts", max_active_contacts)
         given = dict(solver_options or {})
         unknown = sorted(set(given) - set(self._OPTIONS))
         if unknown:
@@ -163,7 +168,7 @@ class _SolvedContacts(ContactModel):
         return hash((type(self).__name__, self._key()))
 
     def _key(self) -> tuple:
-        return tuple(sorted(self._options.items()))
+        return (*sorted(self._options.items()), self.max_active_contacts)
 
     @staticmethod
     def update_contact_state(old_contact_state: dict) -> dict:
@@ -171,7 +176,7 @@ class _SolvedContacts(ContactModel):
         return {}
 
     def __repr__(self) -> str:
-        return f"{type(self).__name__}(solver_options={self._options})"
+        return f"{type(self).__name__}(solver_options={self._options}, max_active_contacts={self.max_active_contacts})"
 
 
 def _positive(name: str, value) -> float:
@@ -191,12 +196,7 @@ class RelaxedRigidContacts(_SolvedContacts):
     Delassus matrix, a_ref a MuJoCo-like reference acceleration, R a regularisation (kernels/rigid_contacts.py).
     Parameters: `RelaxedRigidContactsParams`; no state. JaxSim minimises the same quadratic by L-BFGS (its
     solver_options tol, maxiter, memory_size, scale_init_precond); warpdyn factorises it: its exact minimiser, so
-    it takes those options (for JaxSim's code) and reads none of them.
-
-    max_active_contacts (warpdyn's; None: every collidable point and geom pair contact slot): the most penetrating
-    contacts an environment's solve holds, which sizes its dense float64 scratch (two (3 n)^2 matrices per environment
-    for n of them: the LEAP scene's 280 points and 2600 slots would take 1.2 GB per environment, 48 contacts 0.33
-    MB), as MuJoCo's nconmax; an environment with more is flagged (its forces NaN: `data.healthy`), the others go on."""
+    it takes those options (for JaxSim's code) and reads none of them. max_active_contacts: `_SolvedContacts`'."""
 
     parameters_class = RelaxedRigidContactsParams
     _OPTIONS = {
@@ -207,14 +207,7 @@ class RelaxedRigidContacts(_SolvedContacts):
     }
 
     def __init__(self, solver_options: dict | None = None, max_active_contacts: int | None = None):
-        super().__init__(solver_options)
-        self.max_active_contacts = None if max_active_contacts is None else _count("RelaxedRigidContacts.max_active_contacts", max_active_contacts)
-
-    def _key(self) -> tuple:
-        return (*super()._key(), self.max_active_contacts)
-
-    def __repr__(self) -> str:
-        return f"RelaxedRigidContacts(solver_options={self._options}, max_active_contacts={self.max_active_contacts})"
+        super().__init__(solver_options, max_active_contacts)
 
     @classmethod
     def build(cls, solver_options: dict | None = None, **kwargs) -> RelaxedRigidContacts:
@@ -232,13 +225,15 @@ class RigidContacts(_SolvedContacts):
     Parameters: `RigidContactsParams`; no state. regularization_delassus: eps [m/s^2/N] (JaxSim's 1e-6);
     solver_options: "solver_tol", the interior point's tolerance on its residuals and complementarity (relative
     to 1 + max |a - beta|: JaxSim's qpax default is 1e-3, warpdyn's 1e-10, to which it converges in a few more of
-    its at most "max_iterations" (50) iterations, in float64 whatever the model's dtype)."""
+    its at most "max_iterations" (50) iterations, in float64 whatever the model's dtype); max_active_contacts:
+    `_SolvedContacts`'. With model.geom_contacts the geom pairs' contacts join the QP and the impact (each stops the
+    bodies' relative motion at its point), their mu the pair's."""
 
     parameters_class = RigidContactsParams
     _OPTIONS = {"solver_tol": (1e-10, _positive), "max_iterations": (50, _count)}
 
-    def __init__(self, regularization_delassus: float = 1e-6, solver_options: dict | None = None):
-        super().__init__(solver_options)
+    def __init__(self, regularization_delassus: float = 1e-6, solver_options: dict | None = None, max_active_contacts: int | None = None):
+        super().__init__(solver_options, max_active_contacts)
         self.regularization_delassus = _positive("RigidContacts.regularization_delassus", regularization_delassus)
 
     @classmethod
@@ -272,7 +267,8 @@ class RigidContacts(_SolvedContacts):
         return _IMPACTS[RigidContacts](model, data)
 
     def __repr__(self) -> str:
-        return f"RigidContacts(regularization_delassus={self.regularization_delassus}, solver_options={self._options})"
+        return (f"RigidContacts(regularization_delassus={self.regularization_delassus}, solver_options={self._options}, "
+                f"max_active_contacts={self.max_active_contacts})")
 
 
 def _points(value, name: str) -> np.ndarray:
