@@ -1,6 +1,7 @@
 """Speed against accuracy of contacts between bodies (issue 37: the speed/accuracy table's stacking and grasping
-cases), for each time step, dtype and treatment of the contacts (explicit, or linearly implicit:
-model.implicit_contacts), the soft law with its defaults (model.geom_contacts, semi-implicit Euler):
+cases), for each contact law (`--laws`: JaxSim's soft law, relaxed-rigid and rigid laws, each with its defaults), time
+step, dtype and, for the soft law, treatment of the contacts (explicit, or linearly implicit: model.implicit_contacts)
+(model.geom_contacts, semi-implicit Euler):
 
 - stacking: tests/test_body_contacts.py's stack of three boxes dropped a few millimetres, 1.5 s: whether it stays
   healthy, the largest distance of a box's resting position from the float64 reference at dt = 1/16 ms and from
@@ -12,6 +13,8 @@ model.implicit_contacts), the soft law with its defaults (model.geom_contacts, s
   constraints slip: its figure is printed beside).
 
     python benchmarks/body_contacts_accuracy.py --device cpu --num-envs 256 > benchmarks/results/body_contacts_accuracy_cpu.md
+
+Each law's stack is measured against its own float64 reference at 1/16 ms.
 """
 
 from __future__ import annotations
@@ -35,20 +38,25 @@ STACK = SCENES["a stack of boxes"]
 BOXES = ("bottom", "middle", "top")
 LIFT_BEGINS, LIFT_SPEED, LIFT_TOP = 0.5, 0.3, 0.15  # s, m/s, m: the pinch's carrier
 SQUEEZE = 0.04  # m: the fingers' target, past the cube's faces
+LAWS = {"soft": "SoftContacts", "relaxed": "RelaxedRigidContacts", "rigid": "RigidContacts"}  # --laws: the contact models
 
 
-def build(xml: str, dt: float, dtype, device, implicit: bool) -> wd.model.Model:
+def build(xml: str, dt: float, dtype, device, implicit: bool, law: str = "soft") -> wd.model.Model:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        warnings.simplefilter("ignore", UserWarning)  # the rigid law's float32 warning: the table shows what it warns of
         model = wd.model.Model.build_from_model_description(xml.replace('timestep="0.001"', f'timestep="{dt!r}"'), dtype=dtype, device=device)
     model.geom_contacts = True
     model.implicit_contacts = implicit
+    if law != "soft":
+        model.contact_model = getattr(wd.rbda.contacts, LAWS[law])()
+        model.contact_params = getattr(wd.rbda.contacts, LAWS[law] + "Params")()
     return model
 
 
-def stack_rest(dt: float, dtype, device, implicit: bool) -> tuple[np.ndarray, bool]:
+def stack_rest(dt: float, dtype, device, implicit: bool, law: str = "soft") -> tuple[np.ndarray, bool]:
     """The boxes' positions (3, 3) after 1.5 s, and whether the environment stayed healthy."""
-    model = build(STACK, dt, dtype, device, implicit)
+    model = build(STACK, dt, dtype, device, implicit, law)
     data = wd.data.Data.build(model)
     for _ in range(int(round(1.5 / dt))):
         data = wd.model.step(model, data)
@@ -70,9 +78,9 @@ def pinch_controls(t: float) -> np.ndarray:
     return np.array([lift, squeeze, squeeze])
 
 
-def pinch(dt: float, dtype, device, implicit: bool) -> tuple[float, float, bool]:
+def pinch(dt: float, dtype, device, implicit: bool, law: str = "soft") -> tuple[float, float, bool]:
     """(the cube's height [m] 1.6 s in, its slip down the fingers from 1.1 s to 1.6 s [m/s], healthy)."""
-    model = build(PINCH, dt, dtype, device, implicit)
+    model = build(PINCH, dt, dtype, device, implicit, law)
     data = wd.data.Data.build(model)
     cube, finger = model.link_names().index("cube"), model.link_names().index("left")
     gaps = {}
@@ -98,9 +106,9 @@ def mujoco_pinch() -> tuple[float, float]:
     return gaps[1599][1], (gaps[1599][0] - gaps[1100][0]) / (499 * dt)
 
 
-def throughput(dt: float, dtype, device, implicit: bool, N: int, steps: int, repeats: int) -> float:
+def throughput(dt: float, dtype, device, implicit: bool, N: int, steps: int, repeats: int, law: str = "soft") -> float:
     """Environment-steps per second of N copies of the stack (median of `repeats` rollouts of `steps`)."""
-    model = build(STACK, dt, dtype, device, implicit)
+    model = build(STACK, dt, dtype, device, implicit, law)
     data = wd.data.Data.build(model, num_envs=N)
     wd.simulation.rollout(model, data, steps=steps)  # compile and warm up
     times = []
@@ -120,40 +128,49 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200, help="steps of each timed rollout (default 200)")
     parser.add_argument("--repeats", type=int, default=5, help="timed rollouts, median (default 5)")
     parser.add_argument("--time-steps", default="0.002,0.001,0.0005,0.00025", help="dt [s], comma-separated")
-    parser.add_argument("--contacts", default="explicit,implicit", help="explicit, implicit (model.implicit_contacts), comma-separated")
+    parser.add_argument("--contacts", default="explicit,implicit", help="the soft law's: explicit, implicit (model.implicit_contacts), comma-separated")
+    parser.add_argument("--laws", default="soft", help="soft, relaxed, rigid (JaxSim's contact models), comma-separated (default soft)")
     parser.add_argument("--throughput-only", action="store_true",
                         help="print only the stack's throughput per dtype and dt (to compare versions: PYTHONPATH=<a checkout's package>)")
     args = parser.parse_args()
     treatments = [{"explicit": False, "implicit": True}[name] for name in args.contacts.split(",")]
+    laws = args.laws.split(",")
+    unknown = sorted(set(laws) - set(LAWS))
+    if unknown:
+        parser.error(f"--laws takes {', '.join(LAWS)}; got {', '.join(unknown)}")
+
+    def cases():  # (law, implicit): the solved laws have no implicit treatment
+        return [(law, implicit) for law in laws for implicit in (treatments if law == "soft" else [False])]
+
     wp.config.quiet = True
     device = wp.get_device(args.device)
     if args.throughput_only:
         print(f"warpdyn from {pathlib.Path(wd.__file__).parent}; device {device}; N = {args.num_envs}, {args.steps} steps, median of {args.repeats}")
         for dtype in (np.float32, np.float64):
             for dt in (float(v) for v in args.time_steps.split(",")):
-                for implicit in treatments:
-                    rate = throughput(dt, dtype, device, implicit, args.num_envs, args.steps, args.repeats)
-                    print(f"| {np.dtype(dtype).name} | {1e3 * dt:g} | {'implicit' if implicit else 'explicit'} | {rate:.4g} |", flush=True)
+                for law, implicit in cases():
+                    rate = throughput(dt, dtype, device, implicit, args.num_envs, args.steps, args.repeats, law)
+                    print(f"| {law} | {np.dtype(dtype).name} | {1e3 * dt:g} | {'implicit' if implicit else 'explicit'} | {rate:.4g} |", flush=True)
         return
-    reference, _ = stack_rest(1.0 / 16000.0, np.float64, device, False)
+    references = {law: stack_rest(1.0 / 16000.0, np.float64, device, False, law)[0] for law in laws}
     theirs = mujoco_stack()
     z_mj, slip_mj = mujoco_pinch()
     print(f"device: {device.name} ({device}); warp {wp.config.version}, mujoco {mujoco.__version__}; the stack's reference: float64 at 1/16 ms;"
           f" MuJoCo's stack and pinch at 1 ms (its defaults); throughput: N = {args.num_envs}, {args.steps} steps, median of {args.repeats}\n")
-    print("| dtype | dt [ms] | contacts | stack healthy | stack: from the reference [mm] | stack: from MuJoCo [mm] | stack throughput [env-steps/s] "
-          "| pinch healthy | pinch: cube height [m] | pinch: slip [mm/s] |")
-    print("| --- | ---: | --- | --- | ---: | ---: | ---: | --- | ---: | ---: |")
+    print("| law | dtype | dt [ms] | contacts | stack healthy | stack: from the reference [mm] | stack: from MuJoCo [mm] "
+          "| stack throughput [env-steps/s] | pinch healthy | pinch: cube height [m] | pinch: slip [mm/s] |")
+    print("| --- | --- | ---: | --- | --- | ---: | ---: | ---: | --- | ---: | ---: |")
     for dtype in (np.float32, np.float64):
         for dt in (float(v) for v in args.time_steps.split(",")):
-            for implicit in treatments:
-                rest, healthy = stack_rest(dt, dtype, device, implicit)
-                far_ref = 1e3 * np.linalg.norm(rest - reference, axis=1).max()
+            for law, implicit in cases():
+                rest, healthy = stack_rest(dt, dtype, device, implicit, law)
+                far_ref = 1e3 * np.linalg.norm(rest - references[law], axis=1).max()
                 far_mj = 1e3 * np.linalg.norm(rest - theirs, axis=1).max()
-                rate = throughput(dt, dtype, device, implicit, args.num_envs, args.steps, args.repeats)
-                z, slip, held = pinch(dt, dtype, device, implicit)
+                rate = throughput(dt, dtype, device, implicit, args.num_envs, args.steps, args.repeats, law)
+                z, slip, held = pinch(dt, dtype, device, implicit, law)
                 stack = f"yes | {far_ref:.3f} | {far_mj:.3f}" if healthy else "flagged | - | -"  # a flagged environment is frozen
                 grasp = f"yes | {z:.4f} | {1e3 * slip:.3g}" if held else "flagged | - | -"
-                row = f"| {np.dtype(dtype).name} | {1e3 * dt:g} | {'implicit' if implicit else 'explicit'} | {stack} | {rate:.3g} | {grasp} |"
+                row = f"| {law} | {np.dtype(dtype).name} | {1e3 * dt:g} | {'implicit' if implicit else 'explicit'} | {stack} | {rate:.3g} | {grasp} |"
                 print(row, flush=True)
     print(f"\nMuJoCo's pinch: the cube at {z_mj:.4f} m, slipping {1e3 * slip_mj:.2f} mm/s.")
 

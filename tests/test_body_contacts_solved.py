@@ -174,7 +174,7 @@ CASES = [("RelaxedRigidContacts", np.float64), ("RelaxedRigidContacts", np.float
 def test_scenes_come_to_rest_where_mujocos_do(scene, law, dtype):
     """After 1.5 s (1 ms steps) under the relaxed-rigid or rigid law (JaxSim's defaults: the rigid law without
     Baumgarte's terms) on the pairs' contacts and on the floor's points, each body's position is MuJoCo's within
-    REST_TOL (measured at most 0.8 mm for the relaxed law in float64 and float32, 0.81 mm for the rigid) and it has stopped (ROLLING's
+    REST_TOL (measured at most 0.81 mm for each, the crossed cylinders) and it has stopped (ROLLING's
     bounds). The rigid law in float32 warns (tests/test_contact_models.py) and is not held to MuJoCo's rest."""
     xml = SCENES[scene]
     model = _solved(xml, law, dtype)
