@@ -125,15 +125,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         for slot in range(slot_pair.shape[0]):
             i = slot_pair[slot]
             c = points + slot
-            delta = zero
-            if slot - first[i] < count[env, i]:
-                delta = wp.max(zero, -dist[env, slot])
+            delta, frictionless = RC.slot_penetration(first, count, dist, mu, env, i, slot)
             reference = sp.vec3(zero, zero, zero)
             regularisation = sp.vec3(zero, zero, zero)
             if delta > zero:
-                frictionless = int(0)
-                if mu[i] == zero:
-                    frictionless = 1
                 v = RC.slot_point(J_L, W_v_WL, W_a_L, link1[i], link2[i], position, frame, env, slot, c, frictionless, J_t, Jdotnu_t)
                 mass = scalar(1.0) / (RC.inverse_mass(model, env, link1[i]) + RC.inverse_mass(model, env, link2[i]))
                 a0, R0 = relaxed_axis(law, mu[i], mass, delta, zero, v[0])

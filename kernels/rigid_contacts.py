@@ -287,6 +287,21 @@ def kernels(scalar) -> types.SimpleNamespace:
         return sp.vec3(wp.dot(t1, v), wp.dot(t2, v), wp.dot(n, v))
 
     @wp.func
+    def slot_penetration(
+        first: wp.array(dtype=int), count: wp.array2d(dtype=int), dist: wp.array2d(dtype=scalar), mu: wp.array(dtype=scalar), env: int,
+        i: int, slot: int,
+    ):  # fmt: skip
+        """(delta, frictionless) of contact slot `slot` of pair i: its penetration depth -dist [m] where the slot holds a
+        contact (the pair's first count[env, i] slots) at dist < 0, else 0; 1 where the pair's mu is 0 (condim 1)."""
+        delta = scalar(0.0)
+        if slot - first[i] < count[env, i]:
+            delta = wp.max(scalar(0.0), -dist[env, slot])
+        frictionless = int(0)
+        if mu[i] == scalar(0.0):
+            frictionless = 1
+        return delta, frictionless
+
+    @wp.func
     def inverse_mass(model: B.Model, env: int, L: int):
         """1 / link L's mass [1/kg]; 0 for the world (L = -1) and a fixed base (link 0 of a fixed-base model)."""
         inverse = scalar(0.0)
@@ -482,14 +497,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         for slot in range(slot_pair.shape[0]):
             i = slot_pair[slot]
             c = points + slot
-            delta = zero
-            if slot - first[i] < count[env, i]:
-                delta = wp.max(zero, -dist[env, slot])
+            delta, frictionless = slot_penetration(first, count, dist, mu, env, i, slot)
             term = sp.vec3(zero, zero, zero)
             if delta > zero:
-                frictionless = int(0)
-                if mu[i] == zero:
-                    frictionless = 1
                 v = slot_point(J_L, W_v_WL, W_a_L, link1[i], link2[i], position, frame, env, slot, c, frictionless, J_t, Jdotnu_t)
                 term = sp.vec3(zero, zero, K * delta - D * v[2])
             depth[env, c] = delta
@@ -744,6 +754,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         point_wrenches=point_wrenches,
         point_motion=point_motion,
         slot_point=slot_point,
+        slot_penetration=slot_penetration,
         inverse_mass=inverse_mass,
         slot_wrenches=slot_wrenches,
         rigid_rows=rigid_rows,
