@@ -44,7 +44,6 @@ LAWS = {"soft": "SoftContacts", "relaxed": "RelaxedRigidContacts", "rigid": "Rig
 def build(xml: str, dt: float, dtype, device, implicit: bool, law: str = "soft") -> wd.model.Model:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)
-        warnings.simplefilter("ignore", UserWarning)  # the rigid law's float32 warning: the table shows what it warns of
         model = wd.model.Model.build_from_model_description(xml.replace('timestep="0.001"', f'timestep="{dt!r}"'), dtype=dtype, device=device)
     model.geom_contacts = True
     model.implicit_contacts = implicit

@@ -3,14 +3,17 @@ once, with contacts between bodies (`model.geom_contacts`), against MuJoCo.
 
     python examples/body_contacts.py                                   # 64 environments on the CPU, 4096 on a GPU
     python examples/body_contacts.py --num-envs 1 --dtype float64      # one environment, double precision
+    python examples/body_contacts.py --contact-model rigid --dtype float64 --num-envs 16   # JaxSim's rigid law
 
 The scene is the MJCF string SCENE: a table of the world body (its top and legs are geoms that do not move), three
 boxes stacked on its top, turned about the vertical, a ball and a capsule lying on it. Each environment but the first
 starts with every object moved by up to 1 cm and turned by up to 10 degrees about the vertical (the first starts as
-the file places them). One `wd.simulation.Rollout` of `--seconds` (1 ms steps, semi-implicit Euler, the soft law on
+the file places them). One `wd.simulation.Rollout` of `--seconds` (1 ms steps, semi-implicit Euler, the contact law on
 the objects' contacts with each other and with the table, the terrain under the table) runs every environment; then
 the example prints each object's resting height (the first environment's beside MuJoCo's for the same file, and the
-spread over the others) and the simulation's rate.
+spread over the others) and the simulation's rate. `--contact-model` picks JaxSim's law: soft (the default: a law at
+each contact, the fastest), relaxed (relaxed-rigid) or rigid, whose forces an environment's contacts solve together
+(dense float64 linear algebra per environment: slower, and the rigid law warns in float32).
 
 `run(...)` returns what it prints; tests/test_examples.py runs it small.
 """
@@ -42,14 +45,18 @@ SCENE = """<mujoco model="table_and_objects"><option timestep="0.001"/>
   </worldbody>
 </mujoco>"""
 OBJECTS = ("bottom", "middle", "top_box", "ball", "capsule")
+CONTACT_MODELS = {"soft": "SoftContacts", "relaxed": "RelaxedRigidContacts", "rigid": "RigidContacts"}  # --contact-model
 
 
-def build(dtype=np.float32, device=None) -> wd.model.Model:
-    """SCENE's model, its body contacts on."""
+def build(dtype=np.float32, device=None, contact_model: str = "soft") -> wd.model.Model:
+    """SCENE's model, its body contacts on, under JaxSim's `contact_model` (CONTACT_MODELS' keys) with its defaults."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wd.model.NotModelledWarning)  # it names the body contacts, off until set here
         model = wd.model.Model.build_from_model_description(SCENE, dtype=dtype, device=device)
     model.geom_contacts = True
+    kind = CONTACT_MODELS[contact_model]
+    model.contact_model = getattr(wd.rbda.contacts, kind)()
+    model.contact_params = getattr(wd.rbda.contacts, kind + "Params")()
     return model
 
 
@@ -84,10 +91,10 @@ def mujoco_rest(seconds: float) -> dict:
     return {name: np.array(d.xpos[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)]) for name in OBJECTS}
 
 
-def run(num_envs: int, dtype=np.float32, device=None, seconds: float = 1.5, seed: int = 0) -> dict:
+def run(num_envs: int, dtype=np.float32, device=None, seconds: float = 1.5, seed: int = 0, contact_model: str = "soft") -> dict:
     """{"positions": {object: (N, 3)}, "healthy": (N,) bool, "seconds": the rollout's wall time (compiled kernels),
     "steps": its steps}."""
-    model = build(dtype, device)
+    model = build(dtype, device, contact_model)
     data = wd.data.Data.build(model, num_envs=num_envs, joint_positions=initial_positions(model, num_envs, seed))
     steps = int(round(seconds / model.time_step))
     rollout = wd.simulation.Rollout(model, steps=steps, record=())
@@ -109,13 +116,14 @@ def main() -> None:
     parser.add_argument("--dtype", choices=("float32", "float64"), default="float32")
     parser.add_argument("--device", default=None, help="Warp device (default: a GPU if there is one)")
     parser.add_argument("--seconds", type=float, default=1.5)
+    parser.add_argument("--contact-model", choices=tuple(CONTACT_MODELS), default="soft", help="JaxSim's contact law (default soft)")
     args = parser.parse_args()
     wp.config.quiet = True
     device = wp.get_device(args.device)
     N = args.num_envs or (4096 if device.is_cuda else 64)
-    result = run(N, {"float32": np.float32, "float64": np.float64}[args.dtype], device, args.seconds)
+    result = run(N, {"float32": np.float32, "float64": np.float64}[args.dtype], device, args.seconds, contact_model=args.contact_model)
     theirs = mujoco_rest(args.seconds)
-    print(f"{N} environments on {device.name}, {args.dtype}, {args.seconds:g} s of 1 ms steps: "
+    print(f"{N} environments on {device.name}, {args.dtype}, {args.contact_model} contacts, {args.seconds:g} s of 1 ms steps: "
           f"{int(result['healthy'].sum())} healthy, {result['seconds']:.2f} s, "
           f"{N * result['steps'] / result['seconds'] / 1e6:.2f} M env-steps/s")  # fmt: skip
     print("| object | resting height, environment 0 [m] | MuJoCo [m] | heights over the environments [m] |")
