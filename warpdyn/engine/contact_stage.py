@@ -332,7 +332,7 @@ class RigidContactStage(ContactStage):
             after = {"W_H_L": empty((nL,), transform, True), "parent_H_link": empty((nL,), transform, True), "W_v_WL": empty((nL,), vec6, True)}
             after.update(W_a_L=empty((nL,), vec6, True), J_t=empty((P, 6, K), differentiable=True), M=empty((K, K), differentiable=True))
             after["crba_scratch"] = empty((max(nL, plan.n + 1), CRBA_RECORD), differentiable=True)
-            after.update(self.law_buffers(plan, empty, P))
+            after.update({name: array for name, array in self.law_buffers(plan, empty, P).items() if name != "force"})  # the rows', not the forces
             if self.slots:
                 after.update(collisions.contact_buffers(self.pair_arrays, N, grad))
                 after.update(J_L=empty((nL, 6, K), differentiable=True), Jdotnu_t=empty((P, 6), differentiable=True))
