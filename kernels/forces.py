@@ -35,6 +35,19 @@ def kernels(scalar):
         W_f_L[env, L, r] = keep
 
     @wp.kernel(module="unique")
+    def difference(
+        # inputs
+        total: wp.array3d(dtype=scalar),
+        part: wp.array3d(dtype=scalar),
+        # outputs
+        rest: wp.array3d(dtype=scalar),
+    ):
+        """rest = total - part, (N, nL, 6) each (a link's contact wrench out of its total force); launched over
+        (N, nL, 6)."""
+        env, L, r = wp.tid()
+        rest[env, L, r] = total[env, L, r] - part[env, L, r]
+
+    @wp.kernel(module="unique")
     def add_target_forces(
         targets: B.Targets,
         # the links' poses, and the forces on the targets
@@ -119,6 +132,7 @@ def kernels(scalar):
         passive_link_wrench=passive_link_wrench,
         passive_link_forces=passive_link_forces,
         kept_forces=kept_forces,
+        difference=difference,
         add_target_forces=add_target_forces,
         convert_link_forces=convert_link_forces,
     )

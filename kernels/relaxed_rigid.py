@@ -11,7 +11,7 @@ L-BFGS; here A is factorised: its exact minimiser.
 Three launches: `relaxed_rigid_rows` (each point's depth, a_ref and R), `relaxed_rigid_solve` (the forces) and
 kernels/rigid_contacts.py's `point_wrenches`; with geom contacts, `relaxed_slot_rows` makes each contact slot a further
 point (its rows in the contact's axes, its mu the pair's, its mass the bodies' reduced mass) and
-kernels/rigid_contacts.py's `slot_wrenches` applies their forces to both bodies. Gradients: Warp differentiates the rows and the wrenches (a thread per environment: each
+kernels/contact_slots.py's `slot_wrenches` applies their forces to both bodies. Gradients: Warp differentiates the rows and the wrenches (a thread per environment: each
 adjoint of a link's pose or a shared parameter from one thread, in order); the solve has a hand-written adjoint,
 `relaxed_rigid_solve_adjoint` (the implicit function theorem at the forward pass's penetrating points), which the
 engine registers on the tape (warpdyn.engine.launch's Launch.adjoint).
@@ -23,6 +23,7 @@ import warp as wp
 
 from .bundles import bundles
 from .cholesky import kernels as cholesky_kernels
+from .contact_slots import kernels as slot_kernels
 from .factory import factory
 from .rigid_contacts import kernels as rigid_kernels
 from .spatial import spatial
@@ -38,6 +39,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     f64 = wp.float64
     C = cholesky_kernels(f64)
     RC = rigid_kernels(scalar)
+    S = slot_kernels(scalar)
     RigidLaw = RC.RigidLaw
 
     @wp.func
@@ -114,7 +116,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     ):  # fmt: skip
         """The geom pairs' contact slots (C; kernels/collisions.py's `geom_contacts` at the same state) as the points
         points + slot of the relaxed-rigid solve: a slot holding a contact at dist < 0 penetrates by delta = -dist; its
-        rows (kernels/rigid_contacts.py's `slot_point`: the velocity of geom2's point relative to geom1's in the contact's
+        rows (kernels/contact_slots.py's `slot_point`: the velocity of geom2's point relative to geom1's in the contact's
         axes t1, t2, n) and its a_ref and R per axis (`relaxed_axis` with n = (0, 0, 1), the pair's mu, and the pair's
         reduced mass 1 / (1 / m_a + 1 / m_b), the world's mass infinite: JaxSim's link mass on the terrain). A
         frictionless pair (mu 0: condim 1) has tangential rows of zeros with a_ref 0 and R 1, so their forces are 0.
@@ -125,12 +127,12 @@ def kernels(scalar) -> types.SimpleNamespace:
         for slot in range(slot_pair.shape[0]):
             i = slot_pair[slot]
             c = points + slot
-            delta, frictionless = RC.slot_penetration(first, count, dist, mu, env, i, slot)
+            delta, frictionless = S.slot_penetration(first, count, dist, mu, env, i, slot)
             reference = sp.vec3(zero, zero, zero)
             regularisation = sp.vec3(zero, zero, zero)
             if delta > zero:
-                v = RC.slot_point(J_L, W_v_WL, W_a_L, link1[i], link2[i], position, frame, env, slot, c, frictionless, J_t, Jdotnu_t)
-                mass = scalar(1.0) / (RC.inverse_mass(model, env, link1[i]) + RC.inverse_mass(model, env, link2[i]))
+                v = S.slot_point(J_L, W_v_WL, W_a_L, link1[i], link2[i], position, frame, env, slot, c, frictionless, J_t, Jdotnu_t)
+                mass = scalar(1.0) / (S.inverse_mass(model, env, link1[i]) + S.inverse_mass(model, env, link2[i]))
                 a0, R0 = relaxed_axis(law, mu[i], mass, delta, zero, v[0])
                 a1, R1 = relaxed_axis(law, mu[i], mass, delta, zero, v[1])
                 a2, R2 = relaxed_axis(law, mu[i], mass, delta, scalar(1.0), v[2])

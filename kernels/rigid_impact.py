@@ -12,8 +12,9 @@ the points' velocity.
 
 Its adjoint (`impact_adjoint`, registered by hand: the state's velocities are replaced in place) holds the
 penetrating points: with W = M^-1 nu+bar, rho = A^-1 J W, xi = nu - nu+ and eta = M^-1 J^T rho, nubar = nu+bar -
-J^T rho, adj M = sym((W - eta) xi^T), adj J = -lambda (W - eta)^T - rho nu+^T (delta, a constant, adds no term),
-and the Mixed conversions add their terms in p.
+J^T rho, adj M = sym((W - eta) xi^T), adj J = -lambda (W - eta)^T - rho nu+^T (delta's own dependence on J and M
+through G's largest diagonal entry is left out: a term of 1e-14 relative), and the Mixed conversions add their terms
+in p.
 """
 
 import types
@@ -87,8 +88,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         depth: wp.array2d(dtype=scalar),
         J_t: wp.array4d(dtype=scalar),
         M: wp.array3d(dtype=scalar),
-        # float64 scratch: active (N, P) int; J and MinvJT (N, 3P, K); M64 and Lm (N, K, K); G and LG (N, 3P, 3P);
-        # c, lam, y, w (N, max(3P, K)); nu (N, K): the velocity before the impact (Inertial), kept for the adjoint
+        # float64 scratch for m rows (m / 3 <= P penetrating points): active (N, P) int; J and MinvJT (N, m, K); M64 and
+        # Lm (N, K, K); G and LG (N, m, m); c, lam, y, w (N, max(m, K)); nu (N, K): the velocity before the impact
+        # (Inertial), kept for the adjoint
         active: wp.array2d(dtype=wp.int32),
         J: wp.array3d(dtype=f64),
         MinvJT: wp.array3d(dtype=f64),
@@ -107,7 +109,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         """The state's velocities after JaxSim's impact (the module docstring) at the points' depths (N, P) and
         Jacobians J_t (N, P, 6, K) (Mixed, ν Inertial; a geom pair's slot P + slot: its rows in the contact's axes) and
         M (N, K, K) (Inertial base) at the state; a fixed base's velocity is left as it is. An environment where more
-        points penetrate than the scratch holds is flagged (state.valid = 0) and its velocities left as they are."""
+        points penetrate than the scratch holds is flagged (state.valid = 0) and its velocities left as they are, or,
+        where the state has no health flags (a 0-length valid), its velocities made NaN."""
         env = wp.tid()
         K = M.shape[1]
         W_H_B = B.base_pose(state, env)
@@ -118,8 +121,13 @@ def kernels(scalar) -> types.SimpleNamespace:
             else:
                 nu[env, i] = f64(state.joint_velocities[env, i - 6])
         m = impact_rows(model, depth, J_t, M, env, nu, active, J, MinvJT, M64, Lm, G, LG, c, lam, y, w)
-        if m < 0:
+        if m < 0 and state.valid.shape[0] > 0:
             state.valid[env] = 0
+        elif m < 0:  # data without health flags (update_velocity_after_impact's): its velocities say it
+            for i in range(6, K):
+                state.joint_velocities[env, i - 6] = scalar(wp.nan)
+            for r in range(6):
+                state.base_velocity[env, r] = scalar(wp.nan)
         if m > 0:
             for i in range(6, K):
                 state.joint_velocities[env, i - 6] = scalar(nu[env, i] - w[env, i])
@@ -151,7 +159,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         w: wp.array2d(dtype=f64),
         nu: wp.array2d(dtype=f64),
         state: B.State,
-        # two more float64 vectors (N, max(3P, K)) of scratch
+        # two more float64 vectors (N, max(m, K)) of scratch
         nu_bar: wp.array2d(dtype=f64),
         W: wp.array2d(dtype=f64),
         # the adjoints: the state's velocities' replaced (nu+bar in, nubar out), the rest added into

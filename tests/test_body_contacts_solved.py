@@ -1,6 +1,6 @@
 """JaxSim's relaxed-rigid and rigid laws on the contacts between bodies (model.geom_contacts with RelaxedRigidContacts
 or RigidContacts): each geom pair's contact slot joins the points' solve (kernels/relaxed_rigid.py's
-`relaxed_slot_rows`, kernels/rigid_contacts.py's `rigid_slot_rows`, `slot_point` and `slot_wrenches`) and, under the
+`relaxed_slot_rows`, kernels/contact_slots.py's `rigid_slot_rows`, `slot_point` and `slot_wrenches`) and, under the
 rigid law, the impact after each step (kernels/rigid_impact.py, at the contacts of the step's new state). Checked
 against each law assembled in NumPy from the façade's Jacobians, mass matrix and bias accelerations (the rigid QP
 solved at its active set), by scenes of free objects coming to rest where MuJoCo's do, by momentum in free flight,
@@ -254,8 +254,9 @@ def test_condim_1_is_frictionless(law):
 @pytest.mark.parametrize("law", LAWS)
 def test_link_contact_forces_are_the_contacts_alone(law):
     """JaxSim's link_contact_forces with link_forces: those act on the solve's free accelerations, and the result is the
-    contacts' wrenches alone: zero for the spheres apart; touching, with b pushed into a, a force on each, equal and
-    opposite (their sum 0, where the push's 31.6 N would show)."""
+    contacts' wrenches alone: zero for the spheres apart (where wd.ode.system_acceleration accelerates b by the push);
+    touching, with b pushed into a, a force on each, equal and opposite (their sum 0, where the push's 31.6 N would
+    show)."""
     qpos = np.array([0, 0, 1, 1, 0, 0, 0, 0.15, 0.05, 1.02, 1, 0, 0, 0], dtype=np.float64)
     model = _solved(TWO_SPHERES, law, **({"K": 1e4, "D": 100.0} if law == "RigidContacts" else {}))
     push = np.zeros((model.number_of_links(), 6))
@@ -263,10 +264,13 @@ def test_link_contact_forces_are_the_contacts_alone(law):
     apart = qpos.copy()
     apart[7] += 1.0
     for q, touching in ((apart, False), (qpos, True)):
-        data = wd.data.Data.build(model, joint_positions=q)
+        data = wd.data.Data.build(model, joint_positions=q, velocity_representation=wd.VelRepr.Inertial)
         f = wd.contact.link_contact_forces(model, data, link_forces=push)[0].numpy()[:, :3]
         assert (np.abs(f).max() > 1.0) == touching, f
         np.testing.assert_allclose(f.sum(axis=0), 0.0, atol=1e-9 * max(1.0, np.abs(f).max()))
+        if not touching:  # and the dynamics read the push: b (0.5 kg, its base the world) accelerates at push / m
+            accelerations = wd.ode.system_acceleration(model, data, link_forces=push)[1].numpy().reshape(-1)
+            np.testing.assert_allclose(accelerations[6:9], (-20.0, 60.0, 0.0), atol=1e-9)
 
 
 def _mixed(law):
@@ -330,3 +334,21 @@ def test_more_penetrating_contacts_than_max_active_contacts_flag_that_environmen
     np.testing.assert_array_equal(states[3][1][1], states[None][1][1])
     with pytest.raises(ValueError, match=rf"{law}.max_active_contacts must be an integer >= 1, got 0"):
         kind(max_active_contacts=0)
+
+
+def test_an_impact_beyond_max_active_contacts_on_data_without_health_flags_says_so():
+    """RigidContacts.update_velocity_after_impact on data without health flags (valid_state None) where more contacts
+    penetrate than max_active_contacts: no write out of bounds (the flag has nowhere to go), the velocities made NaN;
+    with the flags, the environment flagged and its velocities left as they were."""
+    import dataclasses
+
+    model = _solved(SCENES["a stack of boxes"], "RigidContacts")
+    resting = wd.data.Data.build(model)
+    for _ in range(50):
+        resting = wd.model.step(model, resting)
+    limited = model.replace(contact_model=wd.rbda.contacts.RigidContacts(max_active_contacts=2))
+    flagged = limited.contact_model.update_velocity_after_impact(limited, resting)
+    assert not bool(flagged.healthy.numpy().all())
+    np.testing.assert_array_equal(flagged.generalized_velocity.numpy(), resting.generalized_velocity.numpy())
+    unflagged = limited.contact_model.update_velocity_after_impact(limited, dataclasses.replace(resting, valid_state=None))
+    assert np.isnan(unflagged.generalized_velocity.numpy()).all()

@@ -13,6 +13,7 @@ import warp as wp
 from .. import arrays
 from ..kernels.contact_points import kernels as point_kernels
 from ..kernels.contact_wrenches import kernels as wrench_kernels
+from ..kernels.forces import kernels as force_kernels
 from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts, register_forces, register_impact
 from ..types.enums import VelRepr
 from . import collisions
@@ -84,8 +85,12 @@ def link_wrenches_and_rates(model, data, out_repr: int, W_f_ext=None, tau=None) 
     (W_f_ext, tau: `other_forces`)."""
     current, ev = contact_evaluation(model, data, W_f_ext, tau)
     N, nL = data.batch_size, model.number_of_links()
-    if ev is not None and current.contact_stage.pairs:  # the soft stage's W_f_L: its points' and geom pairs' wrenches
-        return forces_in(model, data, ev.W_f_L, out_repr), deformation_rates(current, ev, N)
+    if ev is not None and current.contact_stage.pairs:  # the stage's W_f_L: its points' and geom pairs' wrenches (+ W_f_ext)
+        W_f_L = ev.W_f_L
+        if W_f_ext is not None:  # a solved law's W_f_L holds the link forces acting on its free accelerations too
+            W_f_L = arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
+            launch(force_kernels(model.scalar).difference, dim=(N, nL, 6), inputs=[ev.W_f_L, W_f_ext], outputs=[W_f_L], device=model.device)
+        return forces_in(model, data, W_f_L, out_repr), deformation_rates(current, ev, N)
     out = arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
     if ev is None:
         out.zero_()

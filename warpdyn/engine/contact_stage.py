@@ -49,6 +49,7 @@ from ..kernels.rigid_contacts import kernels as rigid_kernels
 from ..kernels.rigid_impact import kernels as impact_kernels
 from ..kernels.scratch import TRANSFORM
 from ..kernels.contact_points import kernels as point_kernels
+from ..kernels.contact_slots import kernels as slot_kernels
 from ..kernels.soft_contacts import kernels as contact_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts
@@ -215,7 +216,7 @@ class RigidContactStage(ContactStage):
     differentiable (the solve's and the impact's adjoints registered by hand). mu, K, D: shared (1,) or per
     environment (N,). With model.geom_contacts the pairs' contact slots are the solve's points count + slot
     (`slot_launches`; their mu the pair's), at the evaluation's state and, for the impact, at the step's new state;
-    their wrenches are added to both links after the points' (kernels/rigid_contacts.py's `slot_wrenches`); the solve
+    their wrenches are added to both links after the points' (kernels/contact_slots.py's `slot_wrenches`); the solve
     holds `max_active` penetrating contacts (max_active_contacts; None: all)."""
 
     has_state = False
@@ -375,9 +376,9 @@ class RigidContactStage(ContactStage):
         ]
 
     def slot_kernel(self, plan) -> tuple:
-        """The kernel of the slots' rows and its inputs before the pairs' arrays (kernels/rigid_contacts.py's
+        """The kernel of the slots' rows and its inputs before the pairs' arrays (kernels/contact_slots.py's
         `rigid_slot_rows`: Baumgarte's terms and the pair's mu)."""
-        return self.kernels.rigid_slot_rows, [self.bundle]
+        return slot_kernels(plan.scalar).rigid_slot_rows, [self.bundle]
 
     def slot_launches(self, plan, b: dict, W_H_L, W_v_WL, N: int) -> list:
         """The geom pairs' contacts at the link poses W_H_L (N, nL) into b's count, position, frame and dist, the links'
@@ -405,8 +406,8 @@ class RigidContactStage(ContactStage):
     def launches(self, plan, ev, x, f_ext, tau, N: int) -> list:
         """At x: the link velocities and bias terms, the points' Jacobians and J̇ν, the mass matrix, ABA's
         accelerations a_free at tau and f_ext (their own ABA: explicit, MuJoCo's implicit damping aside), the points'
-        forces ev.W_f_C and ev.W_f_L = each link's contact wrench, plus f_ext (None: 0) in a step's evaluation
-        (ev.all_link_forces)."""
+        forces ev.W_f_C and ev.W_f_L = f_ext (None: 0) + each link's contact wrench (what ABA reads; a contact query takes
+        f_ext back out: warpdyn.engine.contact's `link_wrenches_and_rates`)."""
         self.refuse_gradients(ev)
         s, b = plan.scalar, ev.contact
         inertial, mixed = int(VelRepr.Inertial), int(VelRepr.Mixed)
@@ -422,12 +423,11 @@ class RigidContactStage(ContactStage):
         launches += self.law_launches(plan, ev, N)
         order = int(arrays.env_fastest(plan.device))
         links = plan.nL if contacts_per_environment(plan.device, ev.grad) else 1
-        base = f_in if ev.all_link_forces else plan.zeros((plan.nL, 6), N)  # f_ext acts on a_free in both
-        launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, [self.bundle, ev.W_f_C, base, order, links], [ev.W_f_L]))
+        launches.append(Launch(contact_kernels(s).link_contact_forces, N * plan.nL // links, [self.bundle, ev.W_f_C, f_in, order, links], [ev.W_f_L]))
         if self.slots:
             a = self.pair_arrays
             args = [a["link1"], a["link2"], a["slot_pair"], b["position"], b["frame"], b["force"], self.count]
-            launches.append(Launch(self.kernels.slot_wrenches, N, args, [ev.W_f_L]))
+            launches.append(Launch(slot_kernels(s).slot_wrenches, N, args, [ev.W_f_L]))
         return launches
 
     def refuse_gradients(self, ev) -> None:

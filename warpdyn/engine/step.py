@@ -290,7 +290,6 @@ class Evaluation:
         nL, n = plan.nL, plan.n
         self.grad = grad
         self.checks = aba  # a step's evaluation: its stability checks flag environments (a contact query's does not)
-        self.all_link_forces = aba  # whether W_f_L holds every link force, as a step's ABA reads it (a contact query's: the contacts' alone)
         self.implicit = None
 
         def out(shape, dtype=s):

@@ -139,8 +139,9 @@ class _SolvedContacts(ContactModel):
     """A model whose forces are solved together (JaxSim's rigid and relaxed-rigid): its solver options, a dict
     of known names (`_OPTIONS`: name -> (default, check)), and max_active_contacts (warpdyn's; None: every collidable
     point and geom pair contact slot), the most penetrating contacts an environment's solve holds, which sizes its
-    dense float64 scratch (two or three (3 n)^2 matrices per environment for n of them: the LEAP scene's 280 points and
-    2600 slots would take 1.2 GB per environment, 48 contacts 0.33 MB), as MuJoCo's nconmax; an environment with more is
+    dense float64 scratch ((3 n)^2 matrices per environment for n of them, two for the relaxed-rigid solve, three for the
+    rigid QP: the LEAP scene's 280 points and 2600 slots would take 1.2 or 1.8 GB per environment, 48 contacts 0.33 or
+    0.5 MB), as MuJoCo's nconmax; an environment with more is
     flagged (`data.healthy`), the others go on. Both are part of its equality and hash."""
 
     _OPTIONS: dict = {}
@@ -263,7 +264,10 @@ class RigidContacts(_SolvedContacts):
 
     def update_velocity_after_impact(self, model, data):
         """A copy of the data whose velocities jumped to the nearest (in the mass matrix's metric) at which every
-        point below the terrain is still (JaxSim's; `step` applies it after each step)."""
+        point below the terrain is still, and with model.geom_contacts every geom pair contact that penetrates moves
+        its two bodies together (JaxSim's; `step` applies it after each step). With more penetrating contacts than
+        max_active_contacts an environment is flagged (data.valid_state 0; its velocities NaN where the data has no
+        health flags) and its velocities are not projected."""
         return _IMPACTS[RigidContacts](model, data)
 
     def __repr__(self) -> str:

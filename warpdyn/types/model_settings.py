@@ -177,7 +177,8 @@ class ModelSettings:
         "with wd.contact.with_self_collision) act in a step: with SoftContacts the soft law (SoftContactsParams' K, D, p, q) "
         "at each contact, the pair's sliding friction as mu (0 for condim 1), each contact slot's tangential deformation a "
         "row of the contact state (build the data after setting it); with RelaxedRigidContacts each penetrating contact "
-        "solved with the collidable points (the pair's mu, the bodies' reduced mass); RigidContacts refuses them. False by "
+        "solved with the collidable points (the pair's mu, the bodies' reduced mass); with RigidContacts each one in the QP "
+        "(the pair's mu) and stopped by the impact where it penetrates after the step. False by "
         "default: robots' self-collision pairs cost a step its fused kernel and are off in most locomotion training; True "
         "for scenes whose bodies touch each other.",
     )
