@@ -43,7 +43,10 @@ class Launch(NamedTuple):
     """One kernel launch: `kernel` over `dim` with `inputs` then `outputs` (and CUDA's `block_dim`). `adjoint`:
     None (a tape records the launch, Warp differentiates it) or a function of no arguments that adds the launch's
     adjoint into its inputs' gradients from its outputs' (a kernel whose adjoint is written by hand: under a tape
-    `run` launches it unrecorded and registers that function; a no-op where nothing it reads requires gradients)."""
+    `run` launches it unrecorded and registers that function; a no-op where nothing it reads requires gradients).
+    `after_adjoint`: None or a function of no arguments that a tape's backward pass calls once Warp's adjoint of
+    this (recorded) launch has run: that adjoint replays the kernel's forward, rewriting its outputs, and where a
+    later launch replaced them in place (the rigid impact's velocities) the function puts its values back."""
 
     kernel: object
     dim: object
@@ -51,6 +54,7 @@ class Launch(NamedTuple):
     outputs: list
     block_dim: int | None = None
     adjoint: object = None
+    after_adjoint: object = None
 
 
 def no_adjoint() -> None:
@@ -59,10 +63,12 @@ def no_adjoint() -> None:
 
 def run(launches, device) -> None:
     """Launch each of `launches` (Launch tuples) in order, through `launch` (a tape records them, or, for a
-    Launch with a hand-written `adjoint`, that adjoint)."""
-    taping = warp_private.recording_tape() is not None
+    Launch with a hand-written `adjoint`, that adjoint; and a Launch's `after_adjoint` before it)."""
+    recording = warp_private.recording_tape()
     for item in launches:
-        if item.adjoint is not None and taping:
+        if item.after_adjoint is not None and recording is not None:
+            recording.record_func(backward=item.after_adjoint, arrays=[])  # recorded first: its backward runs after the launch's
+        if item.adjoint is not None and recording is not None:
             with suspended() as recording:
                 launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
             arrays = [a for a in (*item.inputs, *item.outputs) if isinstance(a, wp.array) and a.grad is not None]

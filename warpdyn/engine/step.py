@@ -65,6 +65,8 @@ from ..kernels.implicit_contacts import IMPLICIT
 from ..kernels.integrators import kernels as integrator_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.parameter_checks import kernels as parameter_check_kernels
+from ..kernels.rollout import int_kernels as rollout_int_kernels
+from ..kernels.rollout import kernels as rollout_kernels
 from ..kernels.scratch import TRANSFORM
 from ..types.enums import IntegratorType, VelRepr
 from ..types.data_checks import check_contact_state, check_data, passes_like
@@ -73,7 +75,7 @@ from ..types.terrain import FlatTerrain, HeightfieldTerrain
 from . import fused_layout, tape
 from .bundles import controls_bundle, empty_like_input, model_bundle, per_env, state_bundle
 from .kinematics import state_arrays, targets
-from .launch import Launch, Recorded, per_thread, run
+from .launch import Launch, Recorded, launch, no_adjoint, per_thread, run
 from .loading import block_size
 from .contact_stage import stage_for
 from .equality import check_steppable, equality_plan
@@ -342,6 +344,7 @@ class Workspace:
         s, d = plan.scalar, plan.device
         n, nL = plan.n, plan.nL
         self.N, self.grad, self.forces = N, grad, forces
+        self.kept_after_step = None  # Y's velocities and flags after the rigid impact, under a tape (`kept_after_step`)
         self.tau = arrays.output((n,), N, s, d, grad)
         if plan.stage_forces:
             self.tau_held = arrays.output((n,), N, s, d, grad)  # JaxSim's part, held over the RK4 stages
@@ -530,9 +533,10 @@ def step_launches(
         if plan.state_rows:  # the contact state, a thread per row (its rows may be thousands: geom pairs' slots)
             args = [plan.dt, X, ev.m_dot, int(arrays.env_fastest(plan.device))]
             launches.append(Launch(K.contact_state_euler, N * plan.state_rows, args, [ws.contact_flags, Y]))
-        launches.append(Launch(euler, N, [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, ws.nu_dot, ws.contact_flags], [Y]))
-        if plan.contacts:
-            launches += plan.contact_stage.after_step(plan, ev, Y, N)
+        after = plan.contact_stage.after_step(plan, ev, Y, N) if plan.contacts else []
+        keep, restore = kept_after_step(plan, ws, Y, after)
+        args = [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, ws.nu_dot, ws.contact_flags]
+        launches += [Launch(euler, N, args, [Y], after_adjoint=restore), *after, *keep]
         if plan.equality is not None:
             launches += plan.equality.after_step(plan, ev, Y, N)
         launches.append(parameter_check(plan, X, Y, N))
@@ -553,13 +557,36 @@ def step_launches(
         if c is not None:
             stage = state_bundle(s, [*ws.stages[i], x[6]])
             launches.append(Launch(K.rk4_stage, N, [plan.model, s(c * float(plan.dt)), X, ws.slopes[i]], [stage]))
-    launches.append(Launch(K.rk4_combine, N, [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, *ws.slopes], [Y]))
-    if plan.contacts:
-        launches += plan.contact_stage.after_step(plan, first, Y, N)
+    after = plan.contact_stage.after_step(plan, first, Y, N) if plan.contacts else []
+    keep, restore = kept_after_step(plan, ws, Y, after)
+    args = [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, *ws.slopes]
+    launches += [Launch(K.rk4_combine, N, args, [Y], after_adjoint=restore), *after, *keep]
     if plan.equality is not None:
         launches += plan.equality.after_step(plan, first, Y, N)
     launches.append(parameter_check(plan, X, Y, N))
     return launches
+
+
+def kept_after_step(plan: Plan, ws: Workspace, Y, after: list) -> tuple[list, object]:
+    """Under a tape, where launches end the step after the integrator (`after`: the rigid impact, which replaces Y's
+    velocities and may clear its health flags in place): (the launches copying Y's velocities and flags into the
+    workspace once `after` has run, the integrator launch's `after_adjoint` copying them back). Warp's adjoint of the
+    integrator replays its forward and rewrites some of them with their values before the impact, which the stepped
+    data would keep and a second backward pass would read. ([], None) otherwise."""
+    if not after or not tape.taping():
+        return [], None
+    fields = [a for a in (Y.base_velocity, Y.joint_velocities, Y.valid) if a.size > 0]
+    if ws.kept_after_step is None:
+        ws.kept_after_step = [wp.empty_like(a, requires_grad=False) for a in fields]
+    copies = rollout_kernels(plan.scalar).copy
+    kernels = [rollout_int_kernels().copy_flags if a.dtype == wp.int32 else copies[a.ndim] for a in fields]
+    keep = [Launch(k, a.shape, [a], [kept], adjoint=no_adjoint) for k, a, kept in zip(kernels, fields, ws.kept_after_step)]
+
+    def restore() -> None:
+        for k, a, kept in zip(kernels, fields, ws.kept_after_step):
+            launch(k, a.shape, [kept], [a], device=plan.device, record_tape=False)
+
+    return keep, restore
 
 
 def inputs_require_grad(*values) -> bool:
