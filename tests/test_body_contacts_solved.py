@@ -8,9 +8,12 @@ by a frictionless pair, by the impact stopping each penetrating contact, and by 
 differences.
 """
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
+import warp as wp
 from test_body_contacts import MIXED, REST_TOL, ROLLING, SCENES, TWO_SPHERES, _model, _positions
 
 import warpdyn as wd
@@ -283,6 +286,48 @@ def _mixed(law):
     test_body_contacts says why): (model, data)."""
     model = _solved(MIXED, law, **({"K": 1e4, "D": 100.0} if law == "RigidContacts" else {}))
     return model, wd.data.Data.build(model, joint_velocities=np.random.default_rng(0).normal(size=model.dofs()) * 0.3)
+
+
+PARAMETER_CASES = {"RelaxedRigidContacts": ("link_mass", 1e-6), "RigidContacts": ("K", 1e-4)}
+"""law: (the parameter varied, the bound relative to the central difference at h = 1e-4 of it). Measured on MIXED
+(CPU): the relaxed law's ball mass 1.5e-9, the rigid law's K 2.9e-6 (the QP's tolerance over h)."""
+
+
+@pytest.mark.parametrize("law", LAWS)
+def test_link_contact_forces_differentiate_in_the_models_parameters(law):
+    """With only a model parameter requiring gradients (the data not), link_contact_forces' wrenches carry the tape's
+    gradients, also with link_forces given and in Body representation (before, their arrays were made with the data's
+    requires_grad: no gradient flowed): d(w . f)/d(p) equals central differences (PARAMETER_CASES)."""
+    name, bound = PARAMETER_CASES[law]
+    model, data = _mixed(law)
+    data = wd.data.Data.build(model, joint_positions=data.joint_positions.numpy(), joint_velocities=data.joint_velocities.numpy())
+    push = np.full((model.number_of_links(), 6), 0.3)
+    weights = np.random.default_rng(5).normal(size=(model.number_of_links(), 6))
+    link = model.link_names().index("ball")
+
+    def loss(varied) -> float:
+        return float(np.sum(weights * wd.contact.link_contact_forces(varied, data, link_forces=push, output_vel_repr=wd.VelRepr.Body)[0].numpy()))
+
+    def with_value(dv):
+        varied = model.copy()
+        if name == "K":
+            varied.contact_params = dataclasses.replace(varied.contact_params, K=value + dv)
+        else:
+            varied.set_link_parameters(mass=masses + dv * (np.arange(masses.size) == link))
+        return varied
+
+    masses = model.link_mass.numpy().copy()
+    value = float(model.contact_params.K) if name == "K" else masses[link]
+    h = 1e-4 * value
+    central = (loss(with_value(h)) - loss(with_value(-h))) / (2.0 * h)
+    marked = wd.model.parameters_requiring_grad(model, names=(name,))
+    tape = wp.Tape()
+    with tape:
+        f = wd.contact.link_contact_forces(model, data, link_forces=push, output_vel_repr=wd.VelRepr.Body)[0]
+    f.grad.assign(wp.array(weights, dtype=model.scalar, device=model.device))
+    tape.backward()
+    taped = marked[name].grad.numpy().reshape(-1)[0 if name == "K" else link]
+    assert abs(central) > 1e-3 and abs(taped - central) <= bound * abs(central), (taped, central)
 
 
 JACOBIAN_CASES = {"relaxed": ("RelaxedRigidContacts", 1e-7, 5e-7), "rigid": ("RigidContacts", 1e-5, 2e-7)}

@@ -85,13 +85,14 @@ def link_wrenches_and_rates(model, data, out_repr: int, W_f_ext=None, tau=None) 
     (W_f_ext, tau: `other_forces`)."""
     current, ev = contact_evaluation(model, data, W_f_ext, tau)
     N, nL = data.batch_size, model.number_of_links()
+    grad = data.requires_grad if ev is None else ev.grad  # the evaluation's: the data, the forces given or the model's parameters
     if ev is not None and current.contact_stage.pairs:  # the stage's W_f_L: its points' and geom pairs' wrenches (+ W_f_ext)
         W_f_L = ev.W_f_L
         if W_f_ext is not None:  # a solved law's W_f_L holds the link forces acting on its free accelerations too
-            W_f_L = arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
+            W_f_L = arrays.output((nL, 6), N, model.scalar, model.device, grad)
             launch(force_kernels(model.scalar).difference, dim=(N, nL, 6), inputs=[ev.W_f_L, W_f_ext], outputs=[W_f_L], device=model.device)
         return forces_in(model, data, W_f_L, out_repr), deformation_rates(current, ev, N)
-    out = arrays.output((nL, 6), N, model.scalar, model.device, data.requires_grad)
+    out = arrays.output((nL, 6), N, model.scalar, model.device, grad)
     if ev is None:
         out.zero_()
     else:
@@ -155,7 +156,7 @@ register_impact(RigidContacts, rigid_impact)
 
 def _point_wrenches(model, data, out_repr: int, current, ev) -> wp.array:
     N = data.batch_size
-    out = arrays.output((current.count, 6), N, model.scalar, model.device, data.requires_grad)
+    out = arrays.output((current.count, 6), N, model.scalar, model.device, data.requires_grad if ev is None else ev.grad)
     if ev is not None:
         launch(
             wrench_kernels(model.scalar).point_wrenches,

@@ -26,7 +26,7 @@ def forces_inertial(model, data, f_L: wp.array, repr: int) -> wp.array:
 
 def _converted(model, data, f: wp.array, repr: int, to_inertial: int) -> wp.array:
     _, W_H_L = link_poses(model, data)
-    out = arrays.output(f.shape[1:], f.shape[0], f.dtype, f.device, data.requires_grad)
+    out = arrays.output(f.shape[1:], f.shape[0], f.dtype, f.device, data.requires_grad or f.requires_grad)
     launch(force_kernels(f.dtype).convert_link_forces, dim=(f.shape[0], f.shape[1]), inputs=[W_H_L, f, int(repr), to_inertial], outputs=[out], device=f.device)
     return out
 
