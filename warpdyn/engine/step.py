@@ -344,7 +344,7 @@ class Workspace:
         s, d = plan.scalar, plan.device
         n, nL = plan.n, plan.nL
         self.N, self.grad, self.forces = N, grad, forces
-        self.kept_after_step = None  # Y's velocities and flags after the rigid impact, under a tape (`kept_after_step`)
+        self.kept_after_step = None  # the step's new state at its end, under a tape with the rigid impact (`kept_after_step`)
         self.tau = arrays.output((n,), N, s, d, grad)
         if plan.stage_forces:
             self.tau_held = arrays.output((n,), N, s, d, grad)  # JaxSim's part, held over the RK4 stages
@@ -536,11 +536,10 @@ def step_launches(
         after = plan.contact_stage.after_step(plan, ev, Y, N) if plan.contacts else []
         keep, restore = kept_after_step(plan, ws, Y, after)
         args = [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, ws.nu_dot, ws.contact_flags]
-        launches += [Launch(euler, N, args, [Y], after_adjoint=restore), *after, *keep]
+        launches += [Launch(euler, N, args, [Y], after_adjoint=restore), *after]
         if plan.equality is not None:
             launches += plan.equality.after_step(plan, ev, Y, N)
-        launches.append(parameter_check(plan, X, Y, N))
-        return launches
+        return [*launches, parameter_check(plan, X, Y, N), *keep]
     stage = X
     first = ws.evals[0]
     fast = plan.integrator == IntegratorType.RungeKutta4Fast  # the first stage's contacts held over the others
@@ -560,22 +559,22 @@ def step_launches(
     after = plan.contact_stage.after_step(plan, first, Y, N) if plan.contacts else []
     keep, restore = kept_after_step(plan, ws, Y, after)
     args = [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, *ws.slopes]
-    launches += [Launch(K.rk4_combine, N, args, [Y], after_adjoint=restore), *after, *keep]
+    launches += [Launch(K.rk4_combine, N, args, [Y], after_adjoint=restore), *after]
     if plan.equality is not None:
         launches += plan.equality.after_step(plan, first, Y, N)
-    launches.append(parameter_check(plan, X, Y, N))
-    return launches
+    return [*launches, parameter_check(plan, X, Y, N), *keep]
 
 
 def kept_after_step(plan: Plan, ws: Workspace, Y, after: list) -> tuple[list, object]:
     """Under a tape, where launches end the step after the integrator (`after`: the rigid impact, which replaces Y's
-    velocities and may clear its health flags in place): (the launches copying Y's velocities and flags into the
-    workspace once `after` has run, the integrator launch's `after_adjoint` copying them back). Warp's adjoint of the
-    integrator replays its forward and rewrites some of them with their values before the impact, which the stepped
-    data would keep and a second backward pass would read. ([], None) otherwise."""
+    velocities and may clear its health flags in place): (the launches copying Y into the workspace at the step's
+    end, the integrator launch's `after_adjoint` copying it back). Warp's adjoint of the integrator replays its
+    forward and rewrites some of Y with its values before the impact (and before the parameter check, which keeps a
+    flagged environment's state), which the stepped data would keep and a second backward pass would read.
+    ([], None) otherwise."""
     if not after or not tape.taping():
         return [], None
-    fields = [a for a in (Y.base_velocity, Y.joint_velocities, Y.valid) if a.size > 0]
+    fields = [a for a in (Y.base_position, Y.base_quaternion, Y.joint_positions, Y.base_velocity, Y.joint_velocities, Y.tangential_deformation, Y.valid) if a.size > 0]
     if ws.kept_after_step is None:
         ws.kept_after_step = [wp.empty_like(a, requires_grad=False) for a in fields]
     copies = rollout_kernels(plan.scalar).copy
