@@ -127,7 +127,7 @@ def _pyramids(slots) -> np.ndarray:
 def _rigid_link_forces(model, data) -> np.ndarray:
     """(nL, 6) the rigid law's wrenches: f minimises 1/2 f^T Q f + q^T f over the slots' friction pyramids G f <= 0,
     Q = J M^-1 J^T + eps I, q = J a_free + J̇ν - beta, beta = (0, 0, K depth - D v_n) in the contact's axes. Solved
-    exactly (to rounding) in its dual, max over z >= 0 of -1/2 (q + G^T z)^T Q^-1 (q + G^T z): with Q = L L^T a
+    exactly (but for rounding, which Q's condition amplifies) in its dual, max over z >= 0 of -1/2 (q + G^T z)^T Q^-1 (q + G^T z): with Q = L L^T a
     non-negative least-squares problem min |L^-1 G^T z + L^-1 q| (Lawson and Hanson's finite active-set method), then
     f = -Q^-1 (q + G^T z). The NNLS optimality conditions are the QP's: G f <= 0, and G f = 0 where z > 0; both are
     checked (to 1e-8 of max |f|, Q's condition ~3e7 times float64's rounding)."""

@@ -146,6 +146,9 @@ def rigid_impact(model, data):
     out = data.copy()
     if current.contacts:
         grad = data.requires_grad or model.parameters_require_grad()
+        if grad:  # the impact's adjoint reads the copy's gradients (the model's parameters may be all that requires them)
+            for a in state_arrays(out)[:5]:
+                a.requires_grad = True
         ev = Evaluation(current, N, grad, False, None, aba=False)
         run(current.contact_stage.after_step(current, ev, state_bundle(current.scalar, state_arrays(out)), N), current.device)
     return out

@@ -44,9 +44,10 @@ class Launch(NamedTuple):
     None (a tape records the launch, Warp differentiates it) or a function of no arguments that adds the launch's
     adjoint into its inputs' gradients from its outputs' (a kernel whose adjoint is written by hand: under a tape
     `run` launches it unrecorded and registers that function; a no-op where nothing it reads requires gradients).
-    `after_adjoint`: None or a function of no arguments that a tape's backward pass calls once Warp's adjoint of
-    this (recorded) launch has run: that adjoint replays the kernel's forward, rewriting its outputs, and where a
-    later launch replaced them in place (the rigid impact's velocities) the function puts its values back."""
+    `after_adjoint`: None or a function of no arguments that a tape's backward pass calls once this launch's adjoint
+    has run (Warp's adjoint replays the kernel's forward, rewriting its outputs: where a later launch replaced them in
+    place, the rigid impact's velocities, the function puts its values back). Both only under a tape: a recorded
+    replay (`Recorded`) or a captured graph launches the kernels alone."""
 
     kernel: object
     dim: object
@@ -69,7 +70,7 @@ def run(launches, device) -> None:
         if item.after_adjoint is not None and recording is not None:
             recording.record_func(backward=item.after_adjoint, arrays=[])  # recorded first: its backward runs after the launch's
         if item.adjoint is not None and recording is not None:
-            with suspended() as recording:
+            with suspended():
                 launch(item.kernel, item.dim, item.inputs, item.outputs, device=device, block_dim=item.block_dim)
             arrays = [a for a in (*item.inputs, *item.outputs) if isinstance(a, wp.array) and a.grad is not None]
             recording.record_func(backward=item.adjoint, arrays=arrays)

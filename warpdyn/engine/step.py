@@ -344,7 +344,8 @@ class Workspace:
         s, d = plan.scalar, plan.device
         n, nL = plan.n, plan.nL
         self.N, self.grad, self.forces = N, grad, forces
-        self.kept_after_step = None  # the step's new state at its end, under a tape with the rigid impact (`kept_after_step`)
+        # the step's new state at its end, kept under a tape where the rigid impact ends the step (`kept_after_step`)
+        self.kept_after_step = state_buffers(plan, N, False) if grad and plan.contacts and plan.contact_stage.impact else None
         self.tau = arrays.output((n,), N, s, d, grad)
         if plan.stage_forces:
             self.tau_held = arrays.output((n,), N, s, d, grad)  # JaxSim's part, held over the RK4 stages
@@ -574,15 +575,16 @@ def kept_after_step(plan: Plan, ws: Workspace, Y, after: list) -> tuple[list, ob
     ([], None) otherwise."""
     if not after or not tape.taping():
         return [], None
-    fields = [a for a in (Y.base_position, Y.base_quaternion, Y.joint_positions, Y.base_velocity, Y.joint_velocities, Y.tangential_deformation, Y.valid) if a.size > 0]
-    if ws.kept_after_step is None:
-        ws.kept_after_step = [wp.empty_like(a, requires_grad=False) for a in fields]
+    if ws.kept_after_step is None:  # a workspace without gradients, under a tape all the same
+        ws.kept_after_step = state_buffers(plan, ws.N, False)
+    fields = (Y.base_position, Y.base_quaternion, Y.joint_positions, Y.base_velocity, Y.joint_velocities, Y.tangential_deformation, Y.valid)
+    pairs = [(a, kept) for a, kept in zip(fields, ws.kept_after_step) if a.size > 0]
     copies = rollout_kernels(plan.scalar).copy
-    kernels = [rollout_int_kernels().copy_flags if a.dtype == wp.int32 else copies[a.ndim] for a in fields]
-    keep = [Launch(k, a.shape, [a], [kept], adjoint=no_adjoint) for k, a, kept in zip(kernels, fields, ws.kept_after_step)]
+    kernels = [rollout_int_kernels().copy_flags if a.dtype == wp.int32 else copies[a.ndim] for a, _ in pairs]
+    keep = [Launch(k, a.shape, [a], [kept], adjoint=no_adjoint) for k, (a, kept) in zip(kernels, pairs)]
 
     def restore() -> None:
-        for k, a, kept in zip(kernels, fields, ws.kept_after_step):
+        for k, (a, kept) in zip(kernels, pairs):
             launch(k, a.shape, [kept], [a], device=plan.device, record_tape=False)
 
     return keep, restore
