@@ -6,6 +6,7 @@
   trees whose movable joints' URDF origins are moved and turned.
 - Gradients of a rollout's loss (the legs landing on soft ground) with respect to the origins' positions and
   rotations equal central differences (float64).
+- Kinematic queries carry the origins' gradients when the data requires none.
 - Bad input raises naming the argument and the joint.
 """
 
@@ -133,6 +134,38 @@ def test_gradients_reach_the_origins_through_a_rollout():
         fd = (height(*args(plus)) - height(*args(minus))) / (2 * h)
         assert abs(grad.grad.numpy()[index] - fd) <= 1e-6 * abs(fd) + 1e-9, (index, grad.grad.numpy()[index], fd)
         assert abs(fd) > 1e-6  # the origin moves the result: a zero gradient would pass the first check
+
+
+QUERIES = {
+    "forward_kinematics": lambda model, data: wd.model.forward_kinematics(model, data),
+    "generalized_free_floating_jacobian": lambda model, data: wd.model.generalized_free_floating_jacobian(model, data),
+    "collidable_point_positions": lambda model, data: wd.contact.collidable_point_positions(model, data),
+}
+
+
+@pytest.mark.parametrize("query", QUERIES)
+def test_queries_carry_the_origins_gradients_when_the_data_does_not(query):
+    """With the origins alone requiring gradients (the data not), a kinematic query's output carries them: the
+    gradient of a weighted sum of it with respect to the knee's origin equals central differences (h = 1e-6:
+    1e-7 relative). Before, the output was made with the data's requires_grad and no gradient flowed."""
+    model = legs()
+    positions, _ = wd.model.joint_origins(model)
+    data = wd.data.Data.build(model, joint_positions=np.random.default_rng(4).uniform(-0.5, 0.5, model.dofs()))
+    P = wp.array(positions, dtype=wp.float64, requires_grad=True)
+    with wp.Tape() as tape:
+        out = QUERIES[query](wd.model.with_joint_origins(model, positions=P), data)
+    weights = np.random.default_rng(5).normal(size=out.shape)
+    out.grad.assign(wp.array(weights, dtype=wp.float64))
+    tape.backward()
+    knee, h = (model.joint_names().index("l_knee"), 2), 1e-6
+
+    def loss(shift: float) -> float:
+        moved = positions.copy()
+        moved[knee] += shift
+        return float(np.sum(weights * QUERIES[query](wd.model.with_joint_origins(model, positions=moved), data).numpy()))
+
+    fd = (loss(h) - loss(-h)) / (2 * h)
+    assert abs(fd) > 1e-3 and abs(P.grad.numpy()[knee] - fd) <= 1e-7 * abs(fd), (P.grad.numpy()[knee], fd)
 
 
 def test_bad_origins_raise_naming_the_joint():

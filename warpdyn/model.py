@@ -401,7 +401,7 @@ def relative_link_transforms(model: Model, data) -> wp.array:
         return wp.empty(shape, dtype=model.scalar, device=model.device)
     parent_H_link, _ = kinematics.link_poses(model, data)
     joints = model.cached("joint targets", lambda: kinematics.targets(model, model.all_links[1:], model.identity_offsets[1:]))
-    H = kinematics.homogeneous(model, parent_H_link, joints, data.requires_grad)
+    H = kinematics.homogeneous(model, parent_H_link, joints, kinematics.outputs_require_grad(model, data))
     return arrays.squeeze_env(H, data.num_envs)
 
 

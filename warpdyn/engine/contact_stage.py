@@ -94,6 +94,7 @@ class ContactStage:
 
     point_law = None
     has_state = True
+    impact = False  # whether `after_step` replaces the step's new velocities in place (the rigid law's impact)
     reads_other_forces = False  # whether its forces depend on the joint and link forces acting besides them
     checked_on_device = False  # whether the step's device check (kernels/parameter_checks.py) reads its K, D and mu
 

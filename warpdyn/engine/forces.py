@@ -26,7 +26,7 @@ def forces_inertial(model, data, f_L: wp.array, repr: int) -> wp.array:
 
 def _converted(model, data, f: wp.array, repr: int, to_inertial: int) -> wp.array:
     _, W_H_L = link_poses(model, data)
-    out = arrays.output(f.shape[1:], f.shape[0], f.dtype, f.device, data.requires_grad or f.requires_grad)
+    out = arrays.output(f.shape[1:], f.shape[0], f.dtype, f.device, data.requires_grad or f.requires_grad or W_H_L.requires_grad)
     launch(force_kernels(f.dtype).convert_link_forces, dim=(f.shape[0], f.shape[1]), inputs=[W_H_L, f, int(repr), to_inertial], outputs=[out], device=f.device)
     return out
 
@@ -38,7 +38,7 @@ def with_target_forces(model, data, W_f_L: wp.array, links: np.ndarray, link_H_t
     N, T = W_f_L.shape[0], len(links)
     target = targets(model, wp.array(np.asarray(links, dtype=np.int32), dtype=int, device=model.device), link_H_target)
     _, W_H_L = link_poses(model, data)
-    grad = data.requires_grad or values.requires_grad or W_f_L.requires_grad
+    grad = data.requires_grad or values.requires_grad or W_f_L.requires_grad or W_H_L.requires_grad
     out = arrays.empty(W_f_L.shape[1:], N, model.scalar, model.device, grad)
     replaced = np.zeros(model.number_of_links(), dtype=np.int32)
     if not additive:

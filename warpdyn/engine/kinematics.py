@@ -56,13 +56,19 @@ def link_targets(model):
     return model.cached("link targets", lambda: targets(model, model.all_links, model.identity_offsets))
 
 
+def outputs_require_grad(model, data) -> bool:
+    """Whether a query's outputs carry gradients: the data's state or one of the model's parameters (masses, joint
+    origins, contact parameters, ...) requires them."""
+    return data.requires_grad or model.parameters_require_grad()
+
+
 def link_poses(model, data) -> tuple[wp.array, wp.array]:
     """(parent_H_link, W_H_L), each (N, nL) Warp transforms: one launch of forward kinematics."""
     check_data(model, data)
     N, nL = data.batch_size, model.number_of_links()
     transform = wp.types.transformation(model.scalar)
-    parent_H_link = arrays.empty((nL,), N, transform, model.device, data.requires_grad)
-    W_H_L = arrays.empty((nL,), N, transform, model.device, data.requires_grad)
+    parent_H_link = arrays.empty((nL,), N, transform, model.device, outputs_require_grad(model, data))
+    W_H_L = arrays.empty((nL,), N, transform, model.device, outputs_require_grad(model, data))
     launch(
         kinematics_kernels(model.scalar, model.multi_dof()).forward_kinematics,
         dim=N,
@@ -92,7 +98,7 @@ def inverse_adjoints(model, poses: wp.array, requires_grad=False) -> wp.array:
 def poses(model, data, target) -> wp.array:
     """(N, T, 4, 4): the targets' poses in the world, W_H_T, by forward kinematics."""
     _, W_H_L = link_poses(model, data)
-    return homogeneous(model, W_H_L, target, data.requires_grad)
+    return homogeneous(model, W_H_L, target, outputs_require_grad(model, data))
 
 
 def jacobians(model, data, target, output_vel_repr) -> wp.array:
@@ -101,7 +107,7 @@ def jacobians(model, data, target, output_vel_repr) -> wp.array:
     output_vel_repr = output_repr(data, output_vel_repr)
     _, W_H_L = link_poses(model, data)
     N, T = data.batch_size, target.link.shape[0]
-    J = arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, data.requires_grad)
+    J = arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, outputs_require_grad(model, data))
     launch(
         jacobian_kernels(model.scalar, model.multi_dof()).jacobians,
         dim=(N, T),
@@ -117,8 +123,8 @@ def velocities(model, data, target, output_vel_repr) -> wp.array:
     output_vel_repr = output_repr(data, output_vel_repr)
     _, W_H_L = link_poses(model, data)
     N, T = data.batch_size, target.link.shape[0]
-    W_v_WL = arrays.empty((model.number_of_links(),), N, wp.types.vector(6, model.scalar), model.device, data.requires_grad)
-    v = arrays.output((T, 6), N, model.scalar, model.device, data.requires_grad)
+    W_v_WL = arrays.empty((model.number_of_links(),), N, wp.types.vector(6, model.scalar), model.device, outputs_require_grad(model, data))
+    v = arrays.output((T, 6), N, model.scalar, model.device, outputs_require_grad(model, data))
     launch(
         velocity_kernels(model.scalar, model.multi_dof()).link_velocities,
         dim=N,
