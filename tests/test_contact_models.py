@@ -336,7 +336,8 @@ def test_a_taped_rigid_steps_state_survives_its_backward_pass(integrator):
     def state(data) -> list:
         return [getattr(data, name).numpy().copy() for name in names]
 
-    def backward_twice(tape, seeds, x) -> list:
+    def backward_twice(tape, seeds, x):
+        """Two backward passes from `seeds` (gradients 1); yields the list of x's gradients after each."""
         passes = []
         for _ in range(2):
             tape.zero()
