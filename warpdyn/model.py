@@ -30,6 +30,7 @@ from .engine import fast_step as stepping
 from .description import NotModelledWarning, UnphysicalInertiaWarning
 from .description.model import ActuatorDescription
 from .description.tree import JOINT_FREE
+from .engine.bundles import requires_grad
 from .engine.kinematics import link_targets
 from .data import Data
 from .math import Quaternion
@@ -401,7 +402,7 @@ def relative_link_transforms(model: Model, data) -> wp.array:
         return wp.empty(shape, dtype=model.scalar, device=model.device)
     parent_H_link, _ = kinematics.link_poses(model, data)
     joints = model.cached("joint targets", lambda: kinematics.targets(model, model.all_links[1:], model.identity_offsets[1:]))
-    H = kinematics.homogeneous(model, parent_H_link, joints, kinematics.outputs_require_grad(model, data))
+    H = kinematics.homogeneous(model, parent_H_link, joints, requires_grad(model, data))
     return arrays.squeeze_env(H, data.num_envs)
 
 

@@ -85,6 +85,23 @@ def model_bundle_and_grad(model) -> tuple:
     return model.cached(("model bundle", grads), lambda: (_build_model_bundle(model), any(grads[k] is not None for k in _DYNAMICS)))
 
 
+def requires_grad(model, data, *inputs) -> bool:
+    """Whether the data's state, an input or a link, joint or world parameter of the model (joint origins included:
+    wd.model.with_joint_origins) requires gradients: then outputs and scratch get gradient arrays, so that the
+    adjoint reaches them."""
+    return requires_grad_with(model_bundle_and_grad(model)[1], data, inputs)
+
+
+def requires_grad_with(parameters: bool, data, inputs) -> bool:
+    """`requires_grad` with the parameters' part given (model_bundle_and_grad's)."""
+    if parameters or data.requires_grad:
+        return True
+    for x in inputs:
+        if isinstance(x, wp.array) and x.requires_grad:
+            return True
+    return False
+
+
 def state_bundle(scalar, state: list):
     """A `bundles(scalar).State` of the state arrays (p, Q, s, v, sdot, m, valid) (see warpdyn.data); an
     absent contact state or health flag becomes an empty array."""

@@ -23,7 +23,7 @@ from ..kernels.centroidal import kernels as centroidal_kernels
 from ..types.enums import VelRepr
 from ..types.data_checks import check_data
 from .bundles import model_bundle
-from .dynamics import requires_grad
+from .bundles import requires_grad
 from .kinematics import link_poses, state_of
 from .launch import launch
 

@@ -17,11 +17,11 @@ from ..kernels.forces import kernels as force_kernels
 from ..types.contact_models import RelaxedRigidContacts, RigidContacts, SoftContacts, register_forces, register_impact
 from ..types.enums import VelRepr
 from . import collisions
-from .bundles import state_bundle
+from .bundles import requires_grad, state_bundle
 from .contact_stage import point_frames
 from .evaluations import contact_evaluation, deformation_rates
 from .forces import forces_in, forces_inertial
-from .kinematics import link_poses, outputs_require_grad, state_arrays, targets, velocities
+from .kinematics import link_poses, state_arrays, targets, velocities
 from .launch import launch, run
 from .step import Evaluation, link_force_input, plan, prepare, torque_reference_input
 
@@ -45,7 +45,7 @@ def positions(model, data, W_H_L: wp.array | None = None) -> wp.array:
     if W_H_L is None:
         _, W_H_L = link_poses(model, data)
     N, nc = data.batch_size, target.link.shape[0]
-    W_p_C = arrays.output((nc, 3), N, model.scalar, model.device, outputs_require_grad(model, data))
+    W_p_C = arrays.output((nc, 3), N, model.scalar, model.device, requires_grad(model, data))
     launch(point_kernels(model.scalar).point_positions, dim=(N, nc), inputs=[target, W_H_L], outputs=[W_p_C], device=model.device)
     return W_p_C
 
@@ -55,7 +55,7 @@ def point_velocities(model, data) -> wp.array:
     Mixed velocity), whatever the data's representation."""
     v = velocities(model, data, point_targets(model), VelRepr.Mixed)
     N, nc = v.shape[0], v.shape[1]
-    W_pdot_C = arrays.output((nc, 3), N, model.scalar, model.device, outputs_require_grad(model, data))
+    W_pdot_C = arrays.output((nc, 3), N, model.scalar, model.device, requires_grad(model, data))
     launch(point_kernels(model.scalar).linear_part, dim=(N, nc), inputs=[v], outputs=[W_pdot_C], device=model.device)
     return W_pdot_C
 
@@ -145,7 +145,7 @@ def rigid_impact(model, data):
     current, N = prepare(model, data, parameters=False)
     out = data.copy()
     if current.contacts:
-        grad = outputs_require_grad(model, data)
+        grad = data.requires_grad or model.parameters_require_grad()
         if grad:  # the impact's adjoint reads the copy's gradients (the model's parameters may be all that requires them)
             for a in state_arrays(out)[:5]:
                 a.requires_grad = True

@@ -25,7 +25,7 @@ from .. import arrays
 from ..kernels.coriolis import kernels as coriolis_kernels
 from ..types.data_checks import check_data
 from .bundles import model_bundle
-from .dynamics import requires_grad
+from .bundles import requires_grad
 from .kinematics import state_of
 from .launch import launch
 

@@ -13,8 +13,8 @@ import warp as wp
 from .. import arrays
 from ..kernels.jacobian_derivatives import kernels as derivative_kernels
 from ..types.enums import output_repr
-from .bundles import model_bundle
-from .kinematics import link_poses, outputs_require_grad, state_of
+from .bundles import model_bundle, requires_grad
+from .kinematics import link_poses, state_of
 from .launch import launch
 
 __all__ = ["link_kinematics", "jacobian_derivatives", "bias_accelerations"]
@@ -26,8 +26,8 @@ def link_kinematics(model, data) -> tuple[wp.array, wp.array, wp.array]:
     _, W_H_L = link_poses(model, data)
     N, nL = data.batch_size, model.number_of_links()
     vec6 = wp.types.vector(6, model.scalar)
-    W_v_WL = arrays.empty((nL,), N, vec6, model.device, outputs_require_grad(model, data))
-    W_a_L = arrays.empty((nL,), N, vec6, model.device, outputs_require_grad(model, data))
+    W_v_WL = arrays.empty((nL,), N, vec6, model.device, requires_grad(model, data))
+    W_a_L = arrays.empty((nL,), N, vec6, model.device, requires_grad(model, data))
     launch(
         derivative_kernels(model.scalar, model.multi_dof()).link_bias_recursion,
         dim=N,
@@ -45,7 +45,7 @@ def jacobian_derivatives(model, data, target, output_vel_repr=None) -> wp.array:
     output_vel_repr = output_repr(data, output_vel_repr)
     W_H_L, W_v_WL, _ = link_kinematics(model, data)
     N, T = data.batch_size, target.link.shape[0]
-    Jdot = arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, outputs_require_grad(model, data))
+    Jdot = arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, requires_grad(model, data))
     launch(
         derivative_kernels(model.scalar, model.multi_dof()).jacobian_derivatives,
         dim=(N, T),
@@ -63,7 +63,7 @@ def bias_accelerations(model, data, target, output_vel_repr=None) -> wp.array:
     output_vel_repr = output_repr(data, output_vel_repr)
     W_H_L, W_v_WL, W_a_L = link_kinematics(model, data)
     N, T = data.batch_size, target.link.shape[0]
-    a = arrays.output((T, 6), N, model.scalar, model.device, outputs_require_grad(model, data))
+    a = arrays.output((T, 6), N, model.scalar, model.device, requires_grad(model, data))
     launch(
         derivative_kernels(model.scalar, model.multi_dof()).bias_accelerations,
         dim=(N, T),

@@ -42,7 +42,7 @@ from ..kernels.state import kernels as state_kernels
 from ..types.data_checks import check_data
 from . import pool, tape, warp_private
 from .input_buffers import InputBuffers
-from .bundles import controls_bundle, empty_like_input, model_bundle, model_bundle_and_grad
+from .bundles import controls_bundle, empty_like_input, model_bundle, model_bundle_and_grad, requires_grad, requires_grad_with
 from .kinematics import link_poses, state_of
 from .launch import Launch, Recorded, launch, per_thread
 
@@ -201,23 +201,6 @@ def env_axis_descriptor(array: wp.array):
     return warp_private.array_descriptor(array, (1, *array.shape), (array.capacity or 0, *array.strides))
 
 
-def requires_grad(model, data, *inputs) -> bool:
-    """Whether the data's state, an input or a link or joint parameter of the model (armature and damping enter
-    the dynamics) requires gradients: then outputs and scratch get gradient arrays, so that the adjoint
-    reaches them."""
-    return _requires_grad(model_bundle_and_grad(model)[1], data, inputs)
-
-
-def _requires_grad(parameters: bool, data, inputs) -> bool:
-    """`requires_grad` with the parameters' part given (model_bundle_and_grad's)."""
-    if parameters or data.requires_grad:
-        return True
-    for x in inputs:
-        if isinstance(x, wp.array) and x.requires_grad:
-            return True
-    return False
-
-
 def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with_velocity: bool, split: bool, with_gravity: bool = True):
     """RNEA (kernels/rnea.py) on user inputs (None: zero): (f_B, tau) when `split`, else Q = [f_B; tau]."""
     checked = check_data(model, data, parameters=True)
@@ -230,7 +213,7 @@ def _rnea(model, data, base_acceleration, joint_accelerations, link_forces, with
     s_dd = _input(model, data, joint_accelerations, "joint_accelerations", (n,), taping, ws)
     f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping, ws)
     bundle, parameters_grad = model_bundle_and_grad(model)
-    grad = _requires_grad(parameters_grad, data, (a_B, s_dd, f_L))
+    grad = requires_grad_with(parameters_grad, data, (a_B, s_dd, f_L))
     if split:
         out = _Outputs(model, data, [(6,), (n,)], grad, taping, ws)
         f_B, tau = out.args
@@ -281,7 +264,7 @@ def mass_matrix(model, data) -> wp.array:
     taping, ws = tape.taping(), _workspace(model, data)
     n = model.dofs()
     bundle, parameters_grad = model_bundle_and_grad(model)
-    grad = _requires_grad(parameters_grad, data, ())
+    grad = requires_grad_with(parameters_grad, data, ())
     out = _Outputs(model, data, [(6 + n, 6 + n)], grad, taping, ws)
     inputs = [bundle, state_of(model, data, checked), int(data.velocity_representation)]
     _launch(model, "crba", data.batch_size, CRBA_RECORD, inputs, out.args, grad, taping, ws)
@@ -296,7 +279,7 @@ def forward_dynamics_aba(model, data, joint_forces=None, link_forces=None):
     tau = _input(model, data, joint_forces, "joint_forces", (n,), taping, ws)
     f_L = _input(model, data, link_forces, "link_forces", (nL, 6), taping, ws)
     bundle, parameters_grad = model_bundle_and_grad(model)
-    grad = _requires_grad(parameters_grad, data, (tau, f_L))
+    grad = requires_grad_with(parameters_grad, data, (tau, f_L))
     out = _Outputs(model, data, [(6,), (n,)], grad, taping, ws)
     inputs = [
         bundle,

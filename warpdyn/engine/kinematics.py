@@ -19,7 +19,7 @@ from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.velocities import kernels as velocity_kernels
 from ..types.enums import output_repr
 from ..types.data_checks import check_data, state_arrays
-from .bundles import model_bundle, state_bundle
+from .bundles import model_bundle, requires_grad, state_bundle
 from .launch import launch
 
 __all__ = ["state_arrays", "state_of", "targets", "link_targets", "link_poses", "homogeneous", "inverse_adjoints", "poses", "jacobians", "velocities"]
@@ -56,19 +56,13 @@ def link_targets(model):
     return model.cached("link targets", lambda: targets(model, model.all_links, model.identity_offsets))
 
 
-def outputs_require_grad(model, data) -> bool:
-    """Whether a query's outputs carry gradients: the data's state or one of the model's parameters (masses, joint
-    origins, contact parameters, ...) requires them."""
-    return data.requires_grad or model.parameters_require_grad()
-
-
 def link_poses(model, data) -> tuple[wp.array, wp.array]:
     """(parent_H_link, W_H_L), each (N, nL) Warp transforms: one launch of forward kinematics."""
     check_data(model, data)
     N, nL = data.batch_size, model.number_of_links()
     transform = wp.types.transformation(model.scalar)
-    parent_H_link = arrays.empty((nL,), N, transform, model.device, outputs_require_grad(model, data))
-    W_H_L = arrays.empty((nL,), N, transform, model.device, outputs_require_grad(model, data))
+    parent_H_link = arrays.empty((nL,), N, transform, model.device, requires_grad(model, data))
+    W_H_L = arrays.empty((nL,), N, transform, model.device, requires_grad(model, data))
     launch(
         kinematics_kernels(model.scalar, model.multi_dof()).forward_kinematics,
         dim=N,
@@ -98,7 +92,7 @@ def inverse_adjoints(model, poses: wp.array, requires_grad=False) -> wp.array:
 def poses(model, data, target) -> wp.array:
     """(N, T, 4, 4): the targets' poses in the world, W_H_T, by forward kinematics."""
     _, W_H_L = link_poses(model, data)
-    return homogeneous(model, W_H_L, target, outputs_require_grad(model, data))
+    return homogeneous(model, W_H_L, target, requires_grad(model, data))
 
 
 def jacobians(model, data, target, output_vel_repr) -> wp.array:
@@ -107,7 +101,7 @@ def jacobians(model, data, target, output_vel_repr) -> wp.array:
     output_vel_repr = output_repr(data, output_vel_repr)
     _, W_H_L = link_poses(model, data)
     N, T = data.batch_size, target.link.shape[0]
-    J = arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, outputs_require_grad(model, data))
+    J = arrays.output((T, 6, 6 + model.dofs()), N, model.scalar, model.device, requires_grad(model, data))
     launch(
         jacobian_kernels(model.scalar, model.multi_dof()).jacobians,
         dim=(N, T),
@@ -123,8 +117,8 @@ def velocities(model, data, target, output_vel_repr) -> wp.array:
     output_vel_repr = output_repr(data, output_vel_repr)
     _, W_H_L = link_poses(model, data)
     N, T = data.batch_size, target.link.shape[0]
-    W_v_WL = arrays.empty((model.number_of_links(),), N, wp.types.vector(6, model.scalar), model.device, outputs_require_grad(model, data))
-    v = arrays.output((T, 6), N, model.scalar, model.device, outputs_require_grad(model, data))
+    W_v_WL = arrays.empty((model.number_of_links(),), N, wp.types.vector(6, model.scalar), model.device, requires_grad(model, data))
+    v = arrays.output((T, 6), N, model.scalar, model.device, requires_grad(model, data))
     launch(
         velocity_kernels(model.scalar, model.multi_dof()).link_velocities,
         dim=N,

@@ -12,7 +12,7 @@ from ..kernels.velocities import kernels as velocity_kernels
 from ..types.data_checks import check_data
 from ..types.enums import VelRepr
 from .bundles import model_bundle
-from .kinematics import outputs_require_grad, state_of, targets
+from .kinematics import state_of, targets
 from .launch import launch
 from .step import plan
 
@@ -27,7 +27,7 @@ def height_scan(model, data, pattern: wp.array, out: wp.array | None = None) -> 
     N, P = data.batch_size, pattern.shape[0]
     current.check_envs(N)
     if out is None:
-        out = arrays.output((P,), N, model.scalar, model.device, outputs_require_grad(model, data))
+        out = arrays.output((P,), N, model.scalar, model.device, data.requires_grad or model.parameters_require_grad(("terrain",)))
     launch(
         scan_kernels(model.scalar).height_scan,
         dim=(N, P),
