@@ -10,8 +10,7 @@ import numpy as np
 import warp as wp
 
 from .. import arrays
-from .launch import run
-from .rollout import copy_launch
+from .launch import copy_launch, run
 
 __all__ = ["InputBuffers"]
 

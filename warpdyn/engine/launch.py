@@ -20,6 +20,8 @@ from typing import NamedTuple
 import warp as wp
 
 from ..arrays import capture_lock, note_thread, other_threads
+from ..kernels.rollout import int_kernels as rollout_int_kernels
+from ..kernels.rollout import kernels as rollout_kernels
 from . import determinism, warp_private
 from .loading import block_size, ensure_loaded, for_launch, preload
 from .tape import check_thread, suspended
@@ -56,6 +58,16 @@ class Launch(NamedTuple):
     block_dim: int | None = None
     adjoint: object = None
     after_adjoint: object = None
+
+
+def copy_launch(scalar, src: wp.array, dst: wp.array):
+    """The launch copying src into dst (same logical shape; src may broadcast with zero strides)."""
+    if dst.size == 0:
+        return None
+    if dst.dtype == wp.int32:
+        kernels = rollout_int_kernels()
+        return Launch(kernels.copy_flags if dst.ndim == 1 else kernels.copy_flags_2d, dst.shape, [src], [dst])
+    return Launch(rollout_kernels(scalar).copy[dst.ndim], dst.shape, [src], [dst])
 
 
 def no_adjoint() -> None:

@@ -12,14 +12,13 @@ import warp as wp
 
 from .. import arrays, config
 from ..kernels.contact_wrenches import kernels as wrench_kernels
-from ..kernels.rollout import int_kernels as rollout_int_kernels
 from ..kernels.rollout import kernels as rollout_kernels
 from ..kernels.state import kernels as state_kernels
 from ..types.enums import VelRepr
 from .tape import suspended
 from .tape import taping as tape_records
 from .kinematics import state_arrays
-from .launch import Launch, Program, graphs_allowed, launch
+from .launch import Launch, Program, copy_launch, graphs_allowed, launch
 from .launch import run as run_launches
 from . import rollout_memory as memory
 from .rollout_memory import GRAPH_BYTES_PER_LAUNCH, STATE_INDEX, check_available, control_shapes, counts, memory_error, nbytes
@@ -27,7 +26,7 @@ from .rollout_memory import plan_memory, plan_rows, reads_evaluation, record_is_
 from .step import Workspace, broadcast_envs, prepare, state_buffers, step_launches, with_state
 from .step import plan as step_plan
 
-__all__ = ["Rollout", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "CONTROLS", "copy_launch"]
+__all__ = ["Rollout", "STATE_RECORDS", "STEP_RECORDS", "DEFAULT_RECORD", "CONTROLS"]
 
 STATE_RECORDS = (
     "base_position",
@@ -69,16 +68,6 @@ def _at(array: wp.array, t: int) -> wp.array:
     if array.size == 0:
         return wp.empty(tuple(array.shape[1:]), dtype=array.dtype, device=array.device)
     return array[t]
-
-
-def copy_launch(scalar, src: wp.array, dst: wp.array):
-    """The launch copying src into dst (same logical shape; src may broadcast with zero strides)."""
-    if dst.size == 0:
-        return None
-    if dst.dtype == wp.int32:
-        kernels = rollout_int_kernels()
-        return Launch(kernels.copy_flags if dst.ndim == 1 else kernels.copy_flags_2d, dst.shape, [src], [dst])
-    return Launch(rollout_kernels(scalar).copy[dst.ndim], dst.shape, [src], [dst])
 
 
 @dataclasses.dataclass(frozen=True)

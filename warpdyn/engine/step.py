@@ -65,8 +65,6 @@ from ..kernels.implicit_contacts import IMPLICIT
 from ..kernels.integrators import kernels as integrator_kernels
 from ..kernels.kinematics import kernels as kinematics_kernels
 from ..kernels.parameter_checks import kernels as parameter_check_kernels
-from ..kernels.rollout import int_kernels as rollout_int_kernels
-from ..kernels.rollout import kernels as rollout_kernels
 from ..kernels.scratch import TRANSFORM
 from ..types.enums import IntegratorType, VelRepr
 from ..types.data_checks import check_contact_state, check_data, passes_like
@@ -75,7 +73,7 @@ from ..types.terrain import FlatTerrain, HeightfieldTerrain
 from . import fused_layout, tape
 from .bundles import controls_bundle, empty_like_input, model_bundle, per_env, state_bundle
 from .kinematics import state_arrays, targets
-from .launch import Launch, Recorded, launch, no_adjoint, per_thread, run
+from .launch import Launch, Recorded, copy_launch, no_adjoint, per_thread, run
 from .loading import block_size
 from .contact_stage import stage_for
 from .equality import check_steppable, equality_plan
@@ -535,7 +533,7 @@ def step_launches(
             args = [plan.dt, X, ev.m_dot, int(arrays.env_fastest(plan.device))]
             launches.append(Launch(K.contact_state_euler, N * plan.state_rows, args, [ws.contact_flags, Y]))
         after = plan.contact_stage.after_step(plan, ev, Y, N) if plan.contacts else []
-        keep, restore = kept_after_step(plan, ws, Y, after)
+        keep, restore = kept_after_step(plan, ws, Y)
         args = [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, ws.nu_dot, ws.contact_flags]
         launches += [Launch(euler, N, args, [Y], after_adjoint=restore), *after]
         if plan.equality is not None:
@@ -558,7 +556,7 @@ def step_launches(
             stage = state_bundle(s, [*ws.stages[i], x[6]])
             launches.append(Launch(K.rk4_stage, N, [plan.model, s(c * float(plan.dt)), X, ws.slopes[i]], [stage]))
     after = plan.contact_stage.after_step(plan, first, Y, N) if plan.contacts else []
-    keep, restore = kept_after_step(plan, ws, Y, after)
+    keep, restore = kept_after_step(plan, ws, Y)
     args = [plan.model, plan.dt, plan.quaternion_tolerance, plan.divergence_speed, X, *ws.slopes]
     launches += [Launch(K.rk4_combine, N, args, [Y], after_adjoint=restore), *after]
     if plan.equality is not None:
@@ -566,28 +564,25 @@ def step_launches(
     return [*launches, parameter_check(plan, X, Y, N), *keep]
 
 
-def kept_after_step(plan: Plan, ws: Workspace, Y, after: list) -> tuple[list, object]:
-    """Under a tape, where launches end the step after the integrator (`after`: the rigid impact, which replaces Y's
-    velocities and may clear its health flags in place): (the launches copying Y into the workspace at the step's
-    end, the integrator launch's `after_adjoint` copying it back). Warp's adjoint of the integrator replays its
-    forward and rewrites some of Y with its values before the impact (and before the parameter check, which keeps a
-    flagged environment's state), which the stepped data would keep and a second backward pass would read.
-    ([], None) otherwise."""
-    if not after or not tape.taping():
+def kept_after_step(plan: Plan, ws: Workspace, Y) -> tuple[list, object]:
+    """Under a tape, where the rigid impact ends the step (`after_step`: it replaces Y's velocities and may clear its
+    health flags in place): (the launches copying Y into the workspace at the step's end, the integrator launch's
+    `after_adjoint` copying it back). Warp's adjoint of the integrator replays its forward and rewrites some of Y
+    with its values before the impact (and before the parameter check, which keeps a flagged environment's state),
+    which the stepped data would keep and a second backward pass would read. ([], None) otherwise."""
+    if not (plan.contacts and plan.contact_stage.impact and tape.taping()):
         return [], None
     if ws.kept_after_step is None:  # a workspace without gradients, under a tape all the same
         ws.kept_after_step = state_buffers(plan, ws.N, False)
     fields = (Y.base_position, Y.base_quaternion, Y.joint_positions, Y.base_velocity, Y.joint_velocities, Y.tangential_deformation, Y.valid)
-    pairs = [(a, kept) for a, kept in zip(fields, ws.kept_after_step) if a.size > 0]
-    copies = rollout_kernels(plan.scalar).copy
-    kernels = [rollout_int_kernels().copy_flags if a.dtype == wp.int32 else copies[a.ndim] for a, _ in pairs]
-    keep = [Launch(k, a.shape, [a], [kept], adjoint=no_adjoint) for k, (a, kept) in zip(kernels, pairs)]
+    keep = [copy_launch(plan.scalar, a, kept) for a, kept in zip(fields, ws.kept_after_step)]
+    back = [copy_launch(plan.scalar, kept, a) for a, kept in zip(fields, ws.kept_after_step)]
 
     def restore() -> None:
-        for k, (a, kept) in zip(kernels, pairs):
-            launch(k, a.shape, [kept], [a], device=plan.device, record_tape=False)
+        with tape.suspended():
+            run([k for k in back if k is not None], plan.device)
 
-    return keep, restore
+    return [k._replace(adjoint=no_adjoint) for k in keep if k is not None], restore  # unrecorded: kept has no gradient
 
 
 def inputs_require_grad(*values) -> bool:

@@ -24,9 +24,8 @@ from ..types.enums import VelRepr
 from . import tape
 from .kinematics import state_arrays
 from .bundles import state_bundle
-from .launch import Launch, Program, launch
+from .launch import Launch, Program, copy_launch, launch
 from .launch import run as run_launches
-from .rollout import copy_launch
 from .step import Workspace, prepare, state_buffers, step_launches, with_state
 from .step import plan as step_plan
 
