@@ -1,9 +1,10 @@
 """The pairs MuJoCo collides with its general convex solver (mjc_Convex: its native GJK and EPA): here capsule-cylinder,
 cylinder-cylinder, cylinder-box, an ellipsoid with a sphere, capsule, ellipsoid, cylinder, box or mesh, and a convex
-mesh with a sphere, capsule, cylinder, box or mesh, one contact a pair (MuJoCo's multiCCD skips ellipsoids),
-as MuJoCo gives with mjDSBL_MULTICCD (MuJoCo 4's multiCCD, on by default, adds polygon contacts where the geoms'
-features meet face to face or edge to face; not here). GJK and EPA run in float64 whatever the kernels' scalar: their
-results are held (below), and float32's rounding stalled GJK between curved surfaces millimetres short.
+mesh with a sphere, capsule, cylinder, box or mesh. GJK and EPA give one contact; where the model keeps MuJoCo's
+multiCCD (on by default in MuJoCo 4) and the pair's geoms meet face to face or edge to face (a cylinder standing on a
+box, a mesh lying on a face), `contacts` gives kernels/collision_polygons.py's contacts instead (up to 4). GJK and EPA
+run in float64 whatever the kernels' scalar: their results are held (below), and float32's rounding stalled GJK
+between curved surfaces millimetres short.
 
 The geoms are taken as cores inflated by a radius (a sphere: its centre and radius; a capsule: its segment and
 radius; an ellipsoid, a cylinder, a box or a mesh: itself and 0; a mesh as its convex hull, the support of its
@@ -29,7 +30,7 @@ from typing import Any
 
 import warp as wp
 
-from . import collision_primitives
+from . import collision_polygons, collision_primitives
 from .factory import factory
 from .geom_types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 from .spatial import spatial
@@ -48,9 +49,11 @@ EPA refines a curved surface (its gap about halves a step)."""
 
 @factory
 def kernels(scalar) -> types.SimpleNamespace:
-    """`convex` (the module docstring) and its batch kernel `collide` in `scalar` (wp.float32 or wp.float64)."""
+    """`convex` and `contacts` (the module docstring) and their batch kernel `collide` in `scalar` (wp.float32 or
+    wp.float64)."""
     sp = spatial(scalar)
     prim = collision_primitives.kernels(scalar)
+    poly = collision_polygons.kernels(scalar)
     vec3, mat33 = sp.vec3, sp.mat33
     # GJK and EPA in float64 whatever `scalar` (their results are held, not differentiated): float32's rounding stalls
     # GJK between two curved surfaces millimetres short of the distance
@@ -501,25 +504,51 @@ def kernels(scalar) -> types.SimpleNamespace:
             count = 1
         return count, scalar(0.5) * (a + b), n, dist
 
+    @wp.func
+    def contacts(
+        t1: int, p1: vec3, R1: mat33, s1: vec3, t2: int, p2: vec3, R2: mat33, s2: vec3, verts: wp.array(dtype=vec3), vr1: wp.vec2i, vr2: wp.vec2i,
+        margin: scalar, multiccd: bool, polygons: poly.Polygons, pr1: wp.vec2i, pr2: wp.vec2i,
+    ):  # fmt: skip
+        """(count, positions (CONTACTS, 3) [m, world], normals (CONTACTS, 3) (geom1 to geom2), dists (CONTACTS,) [m]):
+        the pair's contact (`convex`), or where multiccd and it penetrates, kernels/collision_polygons.py's
+        multi-contact if it has one (the meshes' polygons: their (first, count) pr1, pr2 in `polygons`)."""
+        P = poly.Quad()
+        N = poly.Quad()
+        D = poly.Dists()
+        count, p, normal, d = convex(t1, p1, R1, s1, t2, p2, R2, s2, verts, vr1, vr2, margin)
+        if count == 0:
+            return 0, P, N, D
+        if multiccd and d < scalar(0.0):
+            m, Pm, Nm, Dm = poly.multicontact(t1, p1, R1, s1, t2, p2, R2, s2, verts, polygons, pr1, pr2, normal)
+            if m > 0:
+                return m, Pm, Nm, Dm
+        P[0] = p
+        N[0] = normal
+        D[0] = d
+        return 1, P, N, D
+
     @wp.kernel(module="unique")
     def collide(
         type1: int, type2: int, pos1: wp.array(dtype=vec3), R1: wp.array(dtype=mat33), size1: wp.array(dtype=vec3),
         pos2: wp.array(dtype=vec3), R2: wp.array(dtype=mat33), size2: wp.array(dtype=vec3), margin: wp.array(dtype=scalar),
-        verts: wp.array(dtype=vec3), vr1: wp.array(dtype=wp.vec2i), vr2: wp.array(dtype=wp.vec2i),
+        verts: wp.array(dtype=vec3), vr1: wp.array(dtype=wp.vec2i), vr2: wp.array(dtype=wp.vec2i), multiccd: int, polygons: poly.Polygons,
+        pr1: wp.array(dtype=wp.vec2i), pr2: wp.array(dtype=wp.vec2i),
         # outputs
         count: wp.array(dtype=int), position: wp.array2d(dtype=vec3), frame: wp.array2d(dtype=mat33), dist: wp.array2d(dtype=scalar),
     ):  # fmt: skip
-        """One pair per thread i, as collision_primitives' `collide` writes a pair (its outputs' second axis of any size):
-        count[i] (0 or 1; 0 where MuJoCo's bounding-sphere filter drops the pair), the contact's position, frame and
-        distance."""
+        """One pair per thread i, as collision_primitives' `collide` writes a pair (its outputs' second axis: 1, or
+        CONTACTS where multiccd != 0): count[i] (0 where MuJoCo's bounding-sphere filter drops the pair), the
+        contacts' positions, frames and distances (`contacts`)."""
         i = wp.tid()
-        n, p, normal, d = convex(type1, pos1[i], R1[i], size1[i], type2, pos2[i], R2[i], size2[i], verts, vr1[i], vr2[i], margin[i])
+        n, P, N, D = contacts(type1, pos1[i], R1[i], size1[i], type2, pos2[i], R2[i], size2[i], verts, vr1[i], vr2[i], margin[i], multiccd != 0,
+                              polygons, pr1[i], pr2[i])  # fmt: skip
         if not prim.may_touch(type1, pos1[i], R1[i], size1[i], type2, pos2[i], size2[i], margin[i]):
             n = 0
-        if n > 0:
-            position[i, 0] = p
-            frame[i, 0] = prim.contact_frame(normal, vec3(scalar(0.0)))
-            dist[i, 0] = d
+        for k in range(wp.static(collision_polygons.CONTACTS)):
+            if k < n:
+                position[i, k] = vec3(P[k, 0], P[k, 1], P[k, 2])
+                frame[i, k] = prim.contact_frame(vec3(N[k, 0], N[k, 1], N[k, 2]), vec3(scalar(0.0)))
+                dist[i, k] = D[k]
         count[i] = n
 
-    return types.SimpleNamespace(scalar=scalar, vec3=vec3, mat33=mat33, convex=convex, collide=collide)
+    return types.SimpleNamespace(scalar=scalar, vec3=vec3, mat33=mat33, Polygons=poly.Polygons, convex=convex, contacts=contacts, collide=collide)

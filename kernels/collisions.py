@@ -11,7 +11,7 @@ import types
 
 import warp as wp
 
-from . import collision_box, collision_convex, collision_primitives, implicit_contacts, soft_contacts
+from . import collision_box, collision_convex, collision_polygons, collision_primitives, implicit_contacts, soft_contacts
 from .bundles import bundles
 from .factory import factory
 from .geom_types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
@@ -46,6 +46,7 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
         size1: wp.array(dtype=vec3), size2: wp.array(dtype=vec3), margin: wp.array(dtype=scalar),
         first: wp.array(dtype=int), slots: wp.array(dtype=int),
         vertices: wp.array(dtype=vec3), vertices1: wp.array(dtype=wp.vec2i), vertices2: wp.array(dtype=wp.vec2i),
+        polygons: gjk.Polygons, polygons1: wp.array(dtype=wp.vec2i), polygons2: wp.array(dtype=wp.vec2i),
         W_H_L: wp.array2d(dtype=sp.transform), env_fastest: int,
         # outputs
         count: wp.array2d(dtype=int), position: wp.array3d(dtype=scalar), frame: wp.array4d(dtype=scalar), dist: wp.array2d(dtype=scalar),
@@ -55,7 +56,9 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
         neighbouring numbers): pair i's contacts in environment env (the module docstring), count (N, nP),
         position (N, C, 3), frame (N, C, 3, 3), dist (N, C); margin: the pair's margin + gap [m]; a link -1 is the
         world (its geom's pose given in it); vertices (V,) [m]: the meshes', each in its geom's frame, a pair's geoms'
-        (first, count) in vertices1, vertices2 (nP,)."""
+        (first, count) in vertices1, vertices2 (nP,), their hulls' polygons' in polygons1, polygons2 (nP,); first, slots
+        (nP,): the pair's first slot and its slots (a pair of kernels/collision_convex.py with more than one takes
+        multiCCD's contacts: kernels/collision_polygons.py)."""
         env, i = B.env_and_item(wp.tid(), W_H_L.shape[0], link1.shape[0], env_fastest)
         X1 = link_H_geom1[i]
         if link1[i] >= 0:
@@ -106,10 +109,12 @@ def narrow_phase(scalar, convex: bool) -> types.SimpleNamespace:
                     put(env, base + k, P8[k], prim.contact_frame(N8[k], zero), D8[k], position, frame, dist)
                 n = m8
             elif wp.static(convex):  # capsule-cylinder, cylinder-cylinder, cylinder-box, the ellipsoids' and the meshes' pairs
-                m1, p, normal, d = gjk.convex(t1, p1, R1, s1, t2, p2, R2, s2, vertices, vertices1[i], vertices2[i], e)
-                if m1 > 0:
-                    put(env, base, p, prim.contact_frame(normal, zero), d, position, frame, dist)
-                n = m1
+                m4, P4, N4, D4 = gjk.contacts(t1, p1, R1, s1, t2, p2, R2, s2, vertices, vertices1[i], vertices2[i], e, slots[i] > 1,
+                                              polygons, polygons1[i], polygons2[i])  # fmt: skip
+                for k in range(wp.static(collision_polygons.CONTACTS)):
+                    if k < m4:
+                        put(env, base + k, P4[k], prim.contact_frame(N4[k], zero), D4[k], position, frame, dist)
+                n = m4
         count[env, i] = n
         for k in range(n, slots[i]):
             put(env, base + k, zero, mat33(scalar(0.0)), scalar(wp.inf), position, frame, dist)

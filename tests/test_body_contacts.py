@@ -58,6 +58,13 @@ SCENES = {
       <body name="box" pos="0 0 0.052"><freejoint/><geom type="box" size=".2 .2 .05" mass="2"/></body>
       <body name="egg" pos="0.02 0.01 0.1335" euler="0 0 20"><freejoint/><geom type="ellipsoid" size=".06 .04 .03" mass="0.3"/></body>
     </worldbody></mujoco>""",
+    "a can and a mesh cube on a box": """<mujoco><option timestep="0.001"/>
+      <asset><mesh name="cube" vertex="-.04 -.04 -.04 .04 -.04 -.04 -.04 .04 -.04 .04 .04 -.04 -.04 -.04 .04 .04 -.04 .04 -.04 .04 .04 .04 .04 .04"/></asset>
+      <worldbody><geom type="plane" size="5 5 .1"/>
+        <body name="box" pos="0 0 0.052"><freejoint/><geom type="box" size=".25 .25 .05" mass="2"/></body>
+        <body name="can" pos="-0.1 0.05 0.1555" euler="0 0 20"><freejoint/><geom type="cylinder" size=".04 .05" mass="0.4"/></body>
+        <body name="cube" pos="0.1 -0.05 0.1455" euler="0 0 35"><freejoint/><geom type="mesh" mesh="cube" mass="0.4"/></body>
+      </worldbody></mujoco>""",
     "a ball between a mesh ramp and a wall": """<mujoco><option timestep="0.001"/>
       <asset><mesh name="ramp" vertex="0 -.2 0  .4 -.2 0  0 -.2 .2  0 .2 0  .4 .2 0  0 .2 .2"/></asset>
       <worldbody><geom type="plane" size="5 5 .1"/>
@@ -71,7 +78,8 @@ cube on a table (a box of the world body) and a capsule on a shelf (a body welde
 floating base) on a step of static scenery (dropped as a body, its box the world's); a ball on a box; a
 capsule across the two capsule rails of a rack; a cylinder and a capsule across two cylinder rails (GJK and EPA, one
 contact at each crossing, as MuJoCo's multiCCD too gives where two round sides cross); an ellipsoid lying on a box
-(GJK and EPA, its witness its support point); a ball rolled down a mesh ramp
+(GJK and EPA, its witness its support point); a can standing and a mesh cube on a box (MuJoCo's multiCCD: 4 contacts
+each, kernels/collision_polygons.py); a ball rolled down a mesh ramp
 (a world geom: sphere-mesh, GJK and EPA, one contact as in MuJoCo) against a wall. (Dropped from higher, light bodies on several contacts need a smaller
 time step: the soft law's damping is explicit, D (delta + eps)^q per contact on the body's mass.)"""
 

@@ -28,6 +28,7 @@ import scipy.optimize
 import warp as wp
 
 from warpdyn.kernels import collision_convex as cc
+from warpdyn.kernels import collision_polygons as cpoly
 from warpdyn.kernels import collision_primitives as cp
 from collision_reference import posed_contacts
 from gradcheck import contact_gradient_check
@@ -161,8 +162,29 @@ def _reference(pair, margin):
     return xpos, xmat, (sizes, tuple(meshes)), contacts
 
 
-def _collide(pair, xpos, xmat, shapes, margin, dtype, requires_grad=False):
-    """The kernel's inputs (p1, R1, p2, R2) and outputs count (n,), pos (n, 1), frame (n, 1), dist (n, 1)."""
+def polygons_struct(K, polygons, meshes):
+    """The kernels' Polygons of `polygons` (per geom: None, or its mesh's (normals (q, 3), vertex index lists (q,)) in
+    MuJoCo's mesh_poly order), and each geom's (first, count) of them, their vertices indexed as `_collide` stacks
+    `meshes`."""
+    normals, ranges, vertex, per_geom, offset = [], [], [], [], 0
+    for geom, mesh in zip(polygons, meshes):
+        per_geom.append((len(normals), 0 if geom is None else len(geom[0])))
+        if geom is not None:
+            for normal, indices in zip(*geom):
+                normals.append(normal)
+                ranges.append((len(vertex), len(indices)))
+                vertex.extend(offset + np.asarray(indices))
+        offset += 0 if mesh is None else len(mesh)
+    P = K.Polygons()
+    P.normal = wp.array(np.array(normals, dtype=np.float64).reshape(-1, 3), dtype=K.vec3)
+    P.vertices = wp.array(np.array(ranges, dtype=np.int32).reshape(-1, 2), dtype=wp.vec2i)
+    P.vertex = wp.array(np.array(vertex, dtype=np.int32), dtype=int)
+    return P, per_geom
+
+
+def _collide(pair, xpos, xmat, shapes, margin, dtype, requires_grad=False, polygons=None):
+    """The kernel's inputs (p1, R1, p2, R2) and outputs count (n,), pos (n, k), frame (n, k), dist (n, k): k = 1, or
+    CONTACTS with multiCCD's contacts (polygons: each geom's mesh's hull polygons, `polygons_struct`)."""
     K = cc.kernels(wp.float64 if dtype == np.float64 else wp.float32)
     n = len(xpos)
     sizes, meshes = shapes
@@ -176,12 +198,16 @@ def _collide(pair, xpos, xmat, shapes, margin, dtype, requires_grad=False):
         start += len(v) if v is not None else 0
     vr = [wp.array(np.broadcast_to(r, (n, 2)).astype(np.int32), dtype=wp.vec2i) for r in ranges]
     count = wp.full(n, -2, dtype=int)
-    pos, frame = (wp.zeros((n, 1), dtype=t, requires_grad=requires_grad) for t in (K.vec3, K.mat33))
-    dist = wp.array(np.full((n, 1), np.nan, dtype=dtype), dtype=K.scalar, requires_grad=requires_grad)  # unwritten without a contact
+    multiccd = polygons is not None
+    P, per_geom = polygons_struct(K, polygons if multiccd else (None, None), meshes)
+    k = cpoly.CONTACTS if multiccd else 1
+    pos, frame = (wp.zeros((n, k), dtype=t, requires_grad=requires_grad) for t in (K.vec3, K.mat33))
+    dist = wp.array(np.full((n, k), np.nan, dtype=dtype), dtype=K.scalar, requires_grad=requires_grad)  # unwritten without a contact
     wp.launch(
         K.collide, n,
         inputs=[TYPES[pair[0]], TYPES[pair[1]], inputs[0], inputs[1], size[0], inputs[2], inputs[3], size[1], wp.full(n, margin, dtype=K.scalar),
-                wp.array(flat.astype(dtype), dtype=K.vec3), vr[0], vr[1]],
+                wp.array(flat.astype(dtype), dtype=K.vec3), vr[0], vr[1], int(multiccd), P,
+                *(wp.array(np.broadcast_to(r, (n, 2)).astype(np.int32), dtype=wp.vec2i) for r in per_geom)],
         outputs=[count, pos, frame, dist],
     )  # fmt: skip
     return inputs, count, pos, frame, dist

@@ -19,7 +19,7 @@ import torch
 import mjcf_compare
 import warpdyn as wd
 import warpdyn.envs as envs
-from warpdyn.description.mjcf import BODY_CONTACTS, JOINT_LIMITS, MULTICCD, TORSION
+from warpdyn.description.mjcf import BODY_CONTACTS, JOINT_LIMITS, TORSION
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -112,7 +112,7 @@ def test_mujoco_compiles_the_shipped_anymal_c_alone_and_warpdyn_names_what_it_do
     assert m.key("standing").qpos[2] == 0.56 and m.body_subtreemass[1] == pytest.approx(44.96518)
     model, listed = _one_warning(wd.assets.anymal_c_mjcf())
     torsion = ["142 geom pairs (e.g. geom19/geom0, condim 6)"]  # the feet's condim 6
-    assert listed == f"{JOINT_LIMITS}: {list(ANYMAL_C_JOINTS)}; {BODY_CONTACTS}: ['592 geom pairs']; {MULTICCD}: ['414 geom pairs (e.g. geom16/geom0)']; {TORSION}: {torsion}"
+    assert listed == f"{JOINT_LIMITS}: {list(ANYMAL_C_JOINTS)}; {BODY_CONTACTS}: ['592 geom pairs']; {TORSION}: {torsion}"
     assert model.floating_base() and model.number_of_links() == 13 and set(model.joint_names()) == set(ANYMAL_C_JOINTS)
     spheres = {model.link_names()[link] for link, shapes in enumerate(model.tree.collisions) for s in shapes if s.kind == "sphere"}
     assert spheres == set(wd.assets.ANYMAL_C_FEET)
@@ -169,7 +169,7 @@ def test_mujoco_compiles_the_shipped_go2_alone_and_warpdyn_names_what_it_does_no
     assert m.key("home").qpos[2] == 0.27 and m.body_subtreemass[1] == pytest.approx(15.206408)
     model, listed = _one_warning(wd.assets.go2_mjcf())
     torsion = ["70 geom pairs (e.g. FL/geom0, condim 6)"]  # the feet's condim 6
-    assert listed == f"{JOINT_LIMITS}: {list(GO2_JOINTS)}; {BODY_CONTACTS}: ['210 geom pairs']; {MULTICCD}: ['118 geom pairs (e.g. geom1/geom4)']; {TORSION}: {torsion}"
+    assert listed == f"{JOINT_LIMITS}: {list(GO2_JOINTS)}; {BODY_CONTACTS}: ['210 geom pairs']; {TORSION}: {torsion}"
     assert model.floating_base() and model.number_of_links() == 13 and set(model.joint_names()) == set(GO2_JOINTS)
     spheres = {model.link_names()[link] for link, shapes in enumerate(model.tree.collisions) for s in shapes if s.kind == "sphere"}
     assert spheres == {"base", *wd.assets.GO2_FEET}

@@ -27,7 +27,7 @@ import warpdyn as wd
 from mjcf_compare import mujoco_to_warpdyn_state
 from mjcf_models import random_state
 from warpdyn.description import mjcf
-from warpdyn.description.collision_pairs import COLLIDED_TYPES, CONVEX_TYPES
+from warpdyn.description.collision_pairs import COLLIDED_TYPES, CONVEX_TYPES, MULTICCD_TYPES
 
 MENAGERIE = pathlib.Path(__file__).parent / "models" / "menagerie"
 
@@ -191,12 +191,12 @@ in MuJoCo's order: geom1's type <= geom2's, else geom1 on the body of lower id."
 
 def test_the_scenes_filters_and_parameters():
     """SCENE's pairs one by one (its docstring), with MuJoCo's parameters: margin and gap the sums (the <pair>'s own),
-    friction by priority or maximum, condim the maximum; the convex solver's pairs' multiCCD named in the loader's
-    warning."""
+    friction by priority or maximum, condim the maximum; the convex solver's pairs with faces (a cylinder's, a box's)
+    have multiCCD's four slots (kernels/collision_polygons.py), the others one."""
     with pytest.warns(wd.model.NotModelledWarning, match=r"\['38 geom pairs'\]") as caught:
         model = wd.model.Model.build_from_model_description(SCENE, dtype=np.float64)
     message = " ".join(str(w.message) for w in caught)
-    assert "multiCCD" in message and "'9 geom pairs (e.g. crate_cylinder/shelf_box)'" in message
+    assert "multiCCD" not in message
     assert "'7 geom pairs (e.g. arm_sphere/forearm_capsule, condim 6)'" in message  # torsion and rolling: named (not the plate's: priority)
     pairs = wd.contact.geom_pairs(model)
     assert pairs.names == SCENE_PAIRS
@@ -218,14 +218,15 @@ def test_the_scenes_filters_and_parameters():
     moving = {links[k] for k in np.concatenate([pairs.link1, pairs.link2]) if k >= 0}
     assert moving == {"arm", "forearm", "hand", "crate", "ball", "pin"}
     assert list(pairs.first) == list(np.concatenate([[0], np.cumsum(pairs.slots)[:-1]])) and pairs.contacts == int(pairs.slots.sum())
+    faces = [(int(a), int(b)) in MULTICCD_TYPES for a, b in zip(pairs.type1, pairs.type2)]
+    assert sum(faces) == 9 and pairs.slots[row[("crate_cylinder", "shelf_box")]] == 4
+    assert all(pairs.slots[k] == 4 for k in np.nonzero(faces)[0]) and all(pairs.slots[k] == 1 for k in range(len(pairs)) if (int(pairs.type1[k]), int(pairs.type2[k])) in CONVEX_TYPES and not faces[k])
 
 
 def _compare(model, m, qpos, tol: float) -> int:
-    """Our contacts at MuJoCo's qpos against d.contact (with mjDSBL_MULTICCD: one contact for the pairs of its convex
-    solver, whose count alone is compared here: their geometry, to MuJoCo's EPA's precision, is
-    tests/test_collision_convex.py's); the number of contacts compared."""
-    m = copy.deepcopy(m)
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
+    """Our contacts at MuJoCo's qpos against d.contact (multiCCD on: several contacts for the pairs of its convex
+    solver that meet face to face, whose count alone is compared here: their geometry, to MuJoCo's EPA's precision, is
+    tests/test_collision_convex.py's and test_collision_polygons.py's); the number of contacts compared."""
     d = mujoco.MjData(m)
     d.qpos[:] = qpos
     mujoco.mj_forward(m, d)

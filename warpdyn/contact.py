@@ -24,6 +24,7 @@ from .data import Data
 from .description import NotModelledWarning
 from .description.collidable import CollidablePointsOptions, NoCollidablePointsWarning, UnresolvedMeshWarning, resolve_mesh_uri
 from .description.collision_pairs import MULTICCD_TYPES
+from .kernels.geom_types import MESH
 from .engine import collisions, contact, derivatives, kinematics
 from .types import names
 from .types.enums import VelRepr, output_repr
@@ -238,25 +239,27 @@ def with_self_collision(model, *, exclude=(), options: CollidablePointsOptions |
     parent (unless the parent is a fixed base) and the link-name pairs in `exclude`; `geom_pairs` lists them. They act
     in a step where model.geom_contacts is set. Meshes collide as their files' vertices' convex hulls (found as
     collidable points find them: `options`' package_dirs and mesh_dirs, the description's directory); pairs of a mesh
-    whose file was not found or read are counted in a NotModelledWarning, and so are the pairs with a cylinder or a
-    mesh, which get one contact where MuJoCo's multiCCD may add more. An MJCF model's pairs are MuJoCo's: a ValueError."""
+    whose file was not found or read are counted in a NotModelledWarning, and so are the pairs with a mesh, which get
+    one contact where MuJoCo's multiCCD may give up to 4 (a file's mesh comes without its hull's polygons; the
+    cylinders' pairs get multiCCD's). An MJCF model's pairs are MuJoCo's: a ValueError."""
     new, uncollided = geom_types.self_collision(model, exclude, options)
     if uncollided:
         counts = ", ".join(f"{n} {kinds}" for kinds, n in sorted(uncollided.items()))
         warnings.warn(f"model '{model.name()}': shape pairs that warpdyn's narrow phase does not collide (meshes whose files were not found or read: "
                       f"CollidablePointsOptions' package_dirs and mesh_dirs say where to look): {counts}", NotModelledWarning, stacklevel=2)  # fmt: skip
     pairs = geom_types.geom_pairs(new)
-    polygons = int(sum((int(a), int(b)) in MULTICCD_TYPES for a, b in zip(pairs.type1, pairs.type2)))
-    if polygons:
-        warnings.warn(f"model '{model.name()}': {polygons} shape pairs with a cylinder or a mesh get one contact (GJK and EPA); MuJoCo's multiCCD, on by "
-                      "default, adds polygon contacts where they meet face to face or edge to face", NotModelledWarning, stacklevel=2)  # fmt: skip
+    faceless = int(sum((int(a), int(b)) in MULTICCD_TYPES and MESH in (a, b) for a, b in zip(pairs.type1, pairs.type2)))
+    if faceless:
+        warnings.warn(f"model '{model.name()}': {faceless} shape pairs with a mesh get one contact (GJK and EPA): a mesh file's hull polygons are not "
+                      "known here, from which MuJoCo's multiCCD gives up to 4 where they meet face to face", NotModelledWarning, stacklevel=2)  # fmt: skip
     return new
 
 
 def geom_contacts(model, data) -> GeomContacts:
     """The contacts between the model's geom pairs at the data's state, as MuJoCo's narrow phase finds them
     (`GeomContacts`): sphere, capsule, ellipsoid, box, cylinder and convex mesh pairs (the cylinder's but sphere-cylinder,
-    the ellipsoid's and the mesh's by GJK and EPA, one contact: kernels/collision_convex.py; a pair of other types is not in `geom_pairs`;
+    the ellipsoid's and the mesh's by GJK and EPA, one contact: kernels/collision_convex.py, or up to 4 by MuJoCo's
+    multiCCD where their faces meet: kernels/collision_polygons.py; a pair of other types is not in `geom_pairs`;
     the loader names it in a NotModelledWarning). A contact is reported where the surfaces are
     nearer than the pair's margin + gap, as MuJoCo reports it. They act in a step where model.geom_contacts is set
     (the soft law at each contact that penetrates)."""

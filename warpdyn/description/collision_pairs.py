@@ -32,9 +32,9 @@ CONVEX_TYPES = frozenset({(CAPSULE, CYLINDER), (CYLINDER, CYLINDER), (CYLINDER, 
 """The pairs that MuJoCo and warpdyn collide with a general convex solver (GJK and EPA; a mesh as its convex hull), one
 contact a pair."""
 MULTICCD_TYPES = CONVEX_TYPES - {(SPHERE, MESH)} - _ELLIPSOID_PAIRS
-"""Those to which MuJoCo 4's multiCCD, on by default, adds polygon contacts where the two geoms meet face to face or
-edge to face (a cylinder standing on a box: 4), which warpdyn does not (the loader says so); a sphere and an ellipsoid
-have no face (MuJoCo skips them)."""
+"""Those to which MuJoCo 4's multiCCD, on by default, gives several contacts where the two geoms meet face to face or
+edge to face (a cylinder standing on a box: 4; kernels/collision_polygons.py); a sphere and an ellipsoid have no face
+(MuJoCo skips them)."""
 COLLIDED_TYPES = frozenset(
     {(SPHERE, SPHERE), (SPHERE, CAPSULE), (SPHERE, CYLINDER), (SPHERE, BOX), (CAPSULE, CAPSULE), (CAPSULE, BOX), (BOX, BOX)}
 ) | CONVEX_TYPES

@@ -36,6 +36,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from ..kernels.collision_polygons import MAX_FACE
 from .collision_pairs import MULTICCD_TYPES, mujoco_geom_pairs, multiccd
 from .model import (
     ActuatorDescription,
@@ -98,8 +99,8 @@ BODY_CONTACTS = (
 )
 TORSION = "torsional and rolling friction of geom pairs with condim 4 or 6 (their sliding friction acts)"
 MULTICCD = (
-    "MuJoCo's multiCCD polygon contacts where a pair with a cylinder or a mesh meets face to face or edge to face (warpdyn's "
-    "GJK and EPA give such a pair one contact, as MuJoCo does with mjDSBL_MULTICCD)"
+    f"MuJoCo's multiCCD contacts on a mesh's hull faces of more than {MAX_FACE} vertices (a pair meeting on such a face keeps "
+    "GJK and EPA's one contact)"
 )
 MOCAP = "mocap bodies (kept welded at their initial pose)"
 FLEX = "flexes"
@@ -211,10 +212,12 @@ def load_mjcf(root: ET.Element, path: str | None, where: str) -> ModelDescriptio
         note(TORSION, f"{len(rolling)} geom pairs (e.g. {example}, condim {rolling[0].condim})")
     for kinds, names in sorted(uncollided.items()):
         note(UNCOLLIDED_PAIRS, f"{len(names)} {kinds} (e.g. {names[0]})")
-    polygons = [p for p in description.geom_pairs if (int(m.geom_type[p.geom1]), int(m.geom_type[p.geom2])) in MULTICCD_TYPES]
-    if polygons and multiccd(m, mujoco):
-        example = f"{name_of(mujoco.mjtObj.mjOBJ_GEOM, polygons[0].geom1, 'geom')}/{name_of(mujoco.mjtObj.mjOBJ_GEOM, polygons[0].geom2, 'geom')}"
-        note(MULTICCD, f"{len(polygons)} geom pairs (e.g. {example})")
+    description.multiccd = multiccd(m, mujoco)
+    if description.multiccd:
+        large = sorted({name_of(mujoco.mjtObj.mjOBJ_GEOM, g, "geom") for p in description.geom_pairs for g in (p.geom1, p.geom2)
+                        if (int(m.geom_type[p.geom1]), int(m.geom_type[p.geom2])) in MULTICCD_TYPES and _large_faces(m, g, mujoco)})  # fmt: skip
+        if large:
+            note(MULTICCD, f"{len(large)} mesh geoms (e.g. {large[0]})")
     description.gravity = gravity
     description.time_step = time_step
     description.integrator = integrator
@@ -586,6 +589,26 @@ def _ground(m, mujoco, note, name_of, d) -> tuple[np.ndarray, np.ndarray] | None
     return None
 
 
+def _large_faces(m, g: int, mujoco) -> bool:
+    """Whether geom g is a mesh with a hull polygon of more than MAX_FACE vertices."""
+    if int(m.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_MESH) or not hasattr(m, "mesh_polynum"):
+        return False
+    mesh = int(m.geom_dataid[g])
+    first, count = int(m.mesh_polyadr[mesh]), int(m.mesh_polynum[mesh])
+    return count > 0 and int(np.max(m.mesh_polyvertnum[first : first + count])) > MAX_FACE
+
+
+def _mesh_polygons(m, mesh: int) -> tuple | None:
+    """Mesh `mesh`'s hull polygons as MuJoCo compiled them (`CollisionShape.polygons`); None where it has none (an
+    older MuJoCo without mesh_polynum)."""
+    if not hasattr(m, "mesh_polynum") or int(m.mesh_polynum[mesh]) == 0:
+        return None
+    first, count = int(m.mesh_polyadr[mesh]), int(m.mesh_polynum[mesh])
+    normals = np.array(m.mesh_polynormal[first : first + count], dtype=np.float64).reshape(count, 3)
+    indices = tuple(np.array(m.mesh_polyvert[m.mesh_polyvertadr[q] : m.mesh_polyvertadr[q] + m.mesh_polyvertnum[q]], dtype=np.int64) for q in range(first, first + count))
+    return normals, indices
+
+
 def _shape(m, g: int, H: np.ndarray, mujoco, name_of) -> CollisionShape | None:
     """Geom g as a CollisionShape at the pose H (its body's frame, or the world's), with MuJoCo's collision
     attributes; None for a kind warpdyn does not represent (plane, heightfield, sdf)."""
@@ -609,5 +632,5 @@ def _shape(m, g: int, H: np.ndarray, mujoco, name_of) -> CollisionShape | None:
         mesh = int(m.geom_dataid[g])
         start, count = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
         vertices = np.array(m.mesh_vert[start : start + count], dtype=np.float64)
-        return CollisionShape("mesh", H, vertices=vertices, scale=np.ones(3), **geom)
+        return CollisionShape("mesh", H, vertices=vertices, scale=np.ones(3), polygons=_mesh_polygons(m, mesh), **geom)
     return None

@@ -117,7 +117,9 @@ class CollisionShape:
     link_H_shape: (4, 4) pose of the shape in its link frame.
     MJCF geoms also carry what MuJoCo's collision filter and contact parameters read (`GeomPair`): geom (the
     geom's id in MuJoCo's compiled model; -1 for URDF and SDF shapes), name (an unnamed geom g's "geom{g}"), contype and conaffinity (bit masks),
-    margin and gap [m], friction (sliding, torsional, rolling), condim, priority.
+    margin and gap [m], friction (sliding, torsional, rolling), condim, priority. polygons: an MJCF mesh's convex
+    hull's faces as MuJoCo compiled them (mesh_polynormal, mesh_polyvert): (normals (q, 3), unit and outward in the
+    shape's frame; vertex index arrays (q,) into `vertices`, counterclockwise about their normal); None elsewhere.
     """
 
     kind: str
@@ -137,6 +139,7 @@ class CollisionShape:
     friction: tuple = (1.0, 0.005, 0.0001)
     condim: int = 3
     priority: int = 0
+    polygons: tuple | None = None
 
 
 @dataclass
@@ -389,7 +392,9 @@ class ModelDescription:
     colliding geoms that do not move (on the world body or on bodies welded to it; planes and heightfields aside: the
     terrain), their `link_H_shape` their pose in the world, as MuJoCo places them. ground: the MJCF world body's
     one colliding plane, (unit normal (3,), point (3,)) [world, m] as MuJoCo places it, which a model takes as its terrain;
-    None without one (then, and for URDF and SDF, the terrain is the plane z = 0).
+    None without one (then, and for URDF and SDF, the terrain is the plane z = 0). multiccd: whether MuJoCo's multiCCD
+    acts (several contacts where geoms of GJK and EPA's pairs meet face to face: kernels/collision_polygons.py), as the
+    MJCF's flags say; on for URDF and SDF, MuJoCo 4's default.
     """
 
     name: str
@@ -416,6 +421,7 @@ class ModelDescription:
     world_geoms: list[CollisionShape] = field(default_factory=list)
     excludes: list[tuple[str, str]] = field(default_factory=list)
     ground: tuple[np.ndarray, np.ndarray] | None = None
+    multiccd: bool = True
 
     def link(self, name: str) -> LinkDescription:
         for link in self.links:

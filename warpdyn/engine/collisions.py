@@ -13,6 +13,7 @@ import warp as wp
 from .. import arrays
 from ..description.collision_pairs import CONVEX_TYPES
 from ..description.tree import JOINT_FREE
+from ..kernels import collision_polygons
 from ..kernels.collisions import kernels as collision_kernels
 from ..kernels.collisions import narrow_phase
 from ..types.geoms import geom_pairs
@@ -50,6 +51,9 @@ def pair_arrays(model) -> dict:
             vertices=wp.array(pairs.vertices if len(pairs.vertices) else np.zeros((1, 3)), dtype=vec3, device=d),
             vertices1=wp.array(pairs.vertices1, dtype=wp.vec2i, device=d),
             vertices2=wp.array(pairs.vertices2, dtype=wp.vec2i, device=d),
+            polygons=_polygons(pairs, s, d),
+            polygons1=wp.array(pairs.polygons1, dtype=wp.vec2i, device=d),
+            polygons2=wp.array(pairs.polygons2, dtype=wp.vec2i, device=d),
             slot_pair=wp.array(slot_pair, dtype=int, device=d),
             link_pair_start=wp.array(link_pair_start, dtype=int, device=d),
             link_pairs=wp.array(link_pairs, dtype=int, device=d),
@@ -97,9 +101,19 @@ def contact_buffers(a: dict, N: int, grad: bool = False) -> dict:
     )
 
 
+def _polygons(pairs, s, d):
+    """The meshes' hull polygons as kernels/collision_polygons.py's Polygons (a row of zeros where there are none)."""
+    P = collision_polygons.kernels(s).Polygons()
+    P.normal = wp.array(pairs.polygon_normals if len(pairs.polygon_normals) else np.zeros((1, 3)), dtype=wp.types.vector(3, s), device=d)
+    P.vertices = wp.array(pairs.polygon_vertices if len(pairs.polygon_vertices) else np.zeros((1, 2), dtype=np.int32), dtype=wp.vec2i, device=d)
+    P.vertex = wp.array(pairs.polygon_vertex if len(pairs.polygon_vertex) else np.zeros(1, dtype=np.int32), dtype=int, device=d)
+    return P
+
+
 def contact_launch(a: dict, W_H_L: wp.array, b: dict, N: int) -> Launch:
     """The launch of the pairs' contacts at the link poses W_H_L (N, nL) into the buffers b (`contact_buffers`)."""
-    inputs = [a[k] for k in ("link1", "link2", "type1", "type2", "link_H_geom1", "link_H_geom2", "size1", "size2", "margin", "first", "slots", "vertices", "vertices1", "vertices2")]
+    inputs = [a[k] for k in ("link1", "link2", "type1", "type2", "link_H_geom1", "link_H_geom2", "size1", "size2", "margin", "first", "slots", "vertices", "vertices1", "vertices2",
+                             "polygons", "polygons1", "polygons2")]  # fmt: skip
     outputs = [b[k] for k in ("count", "position", "frame", "dist")]
     order = int(arrays.env_fastest(a["device"]))
     return Launch(narrow_phase(a["scalar"], a["convex"]).geom_contacts, N * a["pairs"], [*inputs, W_H_L, order], outputs)

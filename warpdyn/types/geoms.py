@@ -2,9 +2,10 @@
 tree's links, with what the narrow phase reads (kernels/collisions.py), fixed when the model is built so that a
 step's collision work has one size.
 
-Each pair has slots for the most contacts its types give (1 with a sphere, an ellipsoid, a cylinder or a mesh, 2 for capsule-capsule and
-capsule-box, 8 for box-box: kernels/collision_primitives.py, kernels/collision_box.py, kernels/collision_convex.py),
-consecutive, pair after pair.
+Each pair has slots for the most contacts its types give (1 with a sphere or an ellipsoid, 2 for capsule-capsule and
+capsule-box, 8 for box-box, 4 for the other pairs with a cylinder or a mesh where MuJoCo's multiCCD acts and their
+meshes' hull polygons are known, else 1: kernels/collision_primitives.py, kernels/collision_box.py,
+kernels/collision_convex.py, kernels/collision_polygons.py), consecutive, pair after pair.
 """
 
 from __future__ import annotations
@@ -16,8 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..description.collidable import CollidablePointsOptions, mesh_file_vertices
-from ..description.collision_pairs import COLLIDED_TYPES, CONVEX_TYPES
+from ..description.collision_pairs import COLLIDED_TYPES, CONVEX_TYPES, MULTICCD_TYPES
 from ..description.model import GeomPair
+from ..kernels.collision_polygons import CONTACTS
 from ..kernels.geom_types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
 
 __all__ = ["GeomPairs", "geom_pairs", "self_collision", "MUJOCO_TYPES", "SLOTS"]
@@ -26,7 +28,7 @@ MUJOCO_TYPES = {"sphere": SPHERE, "capsule": CAPSULE, "ellipsoid": ELLIPSOID, "c
 """A collision shape's kind -> MuJoCo's mjtGeom value (the narrow phase's type)."""
 
 SLOTS = {(SPHERE, SPHERE): 1, (SPHERE, CAPSULE): 1, (SPHERE, CYLINDER): 1, (SPHERE, BOX): 1, (CAPSULE, CAPSULE): 2, (CAPSULE, BOX): 2, (BOX, BOX): 8, **dict.fromkeys(CONVEX_TYPES, 1)}
-"""(type1, type2) -> the most contacts of such a pair (GJK and EPA's pairs: one)."""
+"""(type1, type2) -> the most contacts of such a pair without multiCCD (GJK and EPA's pairs: one)."""
 
 
 @dataclass(frozen=True)
@@ -40,7 +42,11 @@ class GeomPairs:
     length; an ellipsoid's radii; a box's half sizes; a mesh's bounding radius, MuJoCo's geom_rbound, then 0, 0); margin, gap (nP,) [m];
     friction (nP, 5); condim (nP,) int; first (nP,) int: each pair's first slot; slots (nP,) int: its number of slots;
     contacts: the slots of all pairs; vertices (V, 3) [m]: the meshes' vertices, each in its geom's frame, mesh after
-    mesh; vertices1, vertices2 (nP, 2) int: a pair's geom's (first, count) in them ((0, 0) but for a mesh).
+    mesh; vertices1, vertices2 (nP, 2) int: a pair's geom's (first, count) in them ((0, 0) but for a mesh);
+    polygon_normals (Q, 3): the meshes' hull polygons' unit outward normals, each in its geom's frame, mesh after mesh;
+    polygon_vertices (Q, 2) int: a polygon's (first, count) in polygon_vertex (W,) int, its vertices' rows in `vertices`
+    (counterclockwise about its normal); polygons1, polygons2 (nP, 2) int: a pair's geom's (first, count) of polygons
+    ((0, 0) but for a mesh whose polygons are known: an MJCF's).
     """
 
     names: tuple
@@ -61,6 +67,11 @@ class GeomPairs:
     vertices: np.ndarray
     vertices1: np.ndarray
     vertices2: np.ndarray
+    polygon_normals: np.ndarray
+    polygon_vertices: np.ndarray
+    polygon_vertex: np.ndarray
+    polygons1: np.ndarray
+    polygons2: np.ndarray
 
     @property
     def contacts(self) -> int:
@@ -94,10 +105,16 @@ def _mujoco_size(shape) -> np.ndarray:
 def geom_pairs(model) -> GeomPairs:
     """The model's geom pairs (cached per model version). A pair whose two geoms a reduced model lumps into one link
     is dropped (MuJoCo does not collide geoms welded together)."""
-    return model.cached("geom pairs", lambda: _build(model.tree, model.description.geom_pairs, model.description.world_geoms))
+    description = model.description
+    return model.cached("geom pairs", lambda: _build(model.tree, description.geom_pairs, description.world_geoms, description.multiccd))
 
 
-def _build(tree, pairs, world_geoms) -> GeomPairs:
+def _polygons_known(shape) -> bool:
+    """Whether the narrow phase has the shape's faces: a mesh's where its hull's polygons are known."""
+    return shape.kind != "mesh" or shape.polygons is not None
+
+
+def _build(tree, pairs, world_geoms, multiccd: bool) -> GeomPairs:
     where = {shape.geom: (link, shape) for link, shapes in enumerate(tree.collisions) for shape in shapes if shape.geom >= 0}
     where.update({shape.geom: (-1, shape) for shape in world_geoms})  # they do not move, whichever link carries them
     rows = []
@@ -107,7 +124,8 @@ def _build(tree, pairs, world_geoms) -> GeomPairs:
             rows.append((pair, l1, s1, l2, s2))
     t1 = np.array([MUJOCO_TYPES[s1.kind] for _, _, s1, _, _ in rows], dtype=np.int32)
     t2 = np.array([MUJOCO_TYPES[s2.kind] for _, _, _, _, s2 in rows], dtype=np.int32)
-    slots = np.array([SLOTS[(a, b)] for a, b in zip(t1, t2)], dtype=np.int32)
+    multi = [multiccd and (a, b) in MULTICCD_TYPES and _polygons_known(r[2]) and _polygons_known(r[4]) for a, b, r in zip(t1, t2, rows)]
+    slots = np.array([CONTACTS if m else SLOTS[(a, b)] for a, b, m in zip(t1, t2, multi)], dtype=np.int32)
     first = np.concatenate([[0], np.cumsum(slots)[:-1]]).astype(np.int32) if len(rows) else np.zeros(0, dtype=np.int32)
 
     def stack(values, shape):
@@ -122,6 +140,19 @@ def _build(tree, pairs, world_geoms) -> GeomPairs:
 
     def vertex_range(shape):
         return (meshes[id(shape)][0], len(meshes[id(shape)][1])) if shape.kind == "mesh" else (0, 0)
+
+    normals, ranges, polygon_vertex, polygons = [], [], [], {}  # each mesh's polygons once, their vertices' rows
+    for shape_id, (first_row, _) in meshes.items():
+        shape = next(s for r in rows for s in (r[2], r[4]) if id(s) == shape_id)
+        if shape.polygons is not None:
+            polygons[shape_id] = (len(normals), len(shape.polygons[0]))
+            for normal, indices in zip(*shape.polygons):
+                normals.append(normal)
+                ranges.append((len(polygon_vertex), len(indices)))
+                polygon_vertex.extend(first_row + np.asarray(indices))
+
+    def polygon_range(shape):
+        return polygons.get(id(shape), (0, 0))
 
     return GeomPairs(
         names=tuple((s1.name, s2.name) for _, _, s1, _, s2 in rows),
@@ -142,6 +173,11 @@ def _build(tree, pairs, world_geoms) -> GeomPairs:
         vertices=np.concatenate([v for _, v in meshes.values()]) if meshes else np.zeros((0, 3)),
         vertices1=np.array([vertex_range(r[2]) for r in rows], dtype=np.int32).reshape(len(rows), 2),
         vertices2=np.array([vertex_range(r[4]) for r in rows], dtype=np.int32).reshape(len(rows), 2),
+        polygon_normals=np.array(normals, dtype=np.float64).reshape(-1, 3),
+        polygon_vertices=np.array(ranges, dtype=np.int32).reshape(-1, 2),
+        polygon_vertex=np.array(polygon_vertex, dtype=np.int32),
+        polygons1=np.array([polygon_range(r[2]) for r in rows], dtype=np.int32).reshape(len(rows), 2),
+        polygons2=np.array([polygon_range(r[4]) for r in rows], dtype=np.int32).reshape(len(rows), 2),
     )
 
 

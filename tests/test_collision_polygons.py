@@ -1,0 +1,142 @@
+"""kernels/collision_polygons.py (MuJoCo's multiCCD: several contacts where two geoms of GJK and EPA's pairs meet face
+to face or edge to face) against MuJoCo 4's mj_collision with multiCCD on (its default) and ccd_tolerance 1e-12.
+
+Poses: geom2 resting on geom1's face (a box's top, a mesh's polygon, a cylinder's cap or side) or lying along it (a
+capsule, a cylinder's side, a box's edge), at a random offset, turn about the face's normal and depth, tilted by up to
+TILT. What is checked:
+- the count equals MuJoCo's at every pose;
+- flat (no tilt) and where the features' clipped polygon has at most four vertices, the contacts are MuJoCo's: the
+  same positions (as sets) and dists, to 1e-12 m;
+- tilted, MuJoCo 4.0 places them differently from MuJoCo 3's multicontact, which warpdyn follows (witnessOnFace: the
+  clipped vertex and its drop onto the face): within TILTED_TOL;
+- more than four vertices (a cylinder's cap on a face: its rim's 16 points; two turned squares: an octagon): four of
+  them, as MuJoCo keeps four, at the clipped polygon's vertices (each on both features) and spread as MuJoCo's
+  (the quadrilateral's area at least AREA_SHARE of MuJoCo's);
+- float32 against float64, and the tape's gradient of the dists against central differences.
+"""
+
+import mujoco
+import numpy as np
+import pytest
+import warp as wp
+
+from warpdyn.kernels import collision_convex as cc
+from warpdyn.kernels import collision_polygons as cpoly
+from warpdyn.kernels import collision_primitives as cp
+from collision_reference import posed_contacts
+from gradcheck import contact_gradient_check
+from test_collision_convex import _collide
+
+CUBE = np.array([(x, y, z) for z in (-0.1, 0.1) for y in (-0.1, 0.1) for x in (-0.1, 0.1)])
+HEXAGON = np.array([(0.1 * np.cos(a), 0.1 * np.sin(a), z) for z in (-0.05, 0.05) for a in np.arange(6) * np.pi / 3])
+TILT = 3e-3
+"""[rad] The largest tilt of the poses: a resting geom's (its face's contacts sink unevenly by under a millimetre)."""
+TILTED_TOL = 5e-6
+"""[m] MuJoCo 4.0's tilted contacts against MuJoCo 3's placement, which warpdyn follows (3.9e-6 at most here)."""
+FLAT_TOL = 1e-9
+"""[m] Flat: machine precision (1e-15), but along a cylinder's side (MuJoCo's from its EPA's witness: 6e-10)."""
+NORMAL_TOL = 1e-9
+AREA_SHARE = 0.85
+
+LYING = ' quat="0.7071067811865476 0 0.7071067811865476 0"'  # geom1 turned to lie along x (a cylinder's or capsule's side up)
+EDGE_UP = ' quat="0.9238795325112867 0.3826834323650898 0 0"'  # a box turned 45 degrees about x: an edge up
+# name: (geom1 XML, geom2 XML, geom2's resting height above geom1's centre, the offsets' range [m])
+CASES = {
+    "box-cube": ('<geom type="box" size="0.3 0.3 0.1"/>', '<geom type="mesh" mesh="cube"/>', 0.2, 0.1),
+    "box-hexagon": ('<geom type="box" size="0.3 0.3 0.1"/>', '<geom type="mesh" mesh="hexagon"/>', 0.15, 0.1),
+    "box-edge-cube": (f'<geom type="box" size="0.3 0.05 0.05"{EDGE_UP}/>', '<geom type="mesh" mesh="cube"/>', 0.1 + 0.05 * 2**0.5, 0.05),
+    "cube-cube": ('<geom type="mesh" mesh="cube"/>', '<geom type="mesh" mesh="cube"/>', 0.2, 0.1),
+    "cylinder-box": ('<geom type="cylinder" size="0.2 0.15"/>', '<geom type="box" size="0.3 0.3 0.1"/>', 0.25, 0.1),
+    "cylinder-cylinder": ('<geom type="cylinder" size="0.2 0.15"/>', '<geom type="cylinder" size="0.15 0.1"/>', 0.25, 0.1),
+    "cylinder-side-box": (f'<geom type="cylinder" size="0.05 0.3"{LYING}/>', '<geom type="box" size="0.2 0.2 0.1"/>', 0.15, 0.1),
+    "cylinder-cube": ('<geom type="cylinder" size="0.05 0.2"/>', '<geom type="mesh" mesh="cube"/>', 0.3, 0.03),
+    "capsule-cylinder": (f'<geom type="capsule" size="0.05 0.3"{LYING}/>', '<geom type="cylinder" size="0.1 0.2"/>', 0.25, 0.05),
+    "capsule-cube": (f'<geom type="capsule" size="0.03 0.3"{LYING}/>', '<geom type="mesh" mesh="cube"/>', 0.13, 0.05),
+}
+ASSETS = "".join(f'<mesh name="{name}" vertex="{" ".join(map(str, v.ravel()))}"/>' for name, v in (("cube", CUBE), ("hexagon", HEXAGON)))
+N_POSES = 24
+
+
+def _model(case) -> mujoco.MjModel:
+    g1, g2, _, _ = CASES[case]
+    xml = f"""<mujoco><option gravity="0 0 0" ccd_tolerance="1e-12" ccd_iterations="200"/><asset>{ASSETS}</asset><worldbody>
+      <body mocap="true">{g1}</body><body><freejoint/>{g2}</body></worldbody></mujoco>"""
+    return mujoco.MjModel.from_xml_string(xml)
+
+
+def _shapes(m):
+    """The kernel's (types (2,), sizes (2, 3), meshes' vertices (2,), meshes' polygons (2,)) of MuJoCo's two geoms."""
+    types, sizes, meshes, polygons = [], np.zeros((2, 3)), [None, None], [None, None]
+    for g in range(2):
+        types.append(int(m.geom_type[g]))
+        sizes[g] = m.geom_size[g]
+        k = int(m.geom_dataid[g])
+        if types[g] == cp.MESH:
+            sizes[g] = (m.geom_rbound[g], 0.0, 0.0)
+            meshes[g] = np.array(m.mesh_vert[m.mesh_vertadr[k] : m.mesh_vertadr[k] + m.mesh_vertnum[k]], dtype=np.float64)
+            first, count = int(m.mesh_polyadr[k]), int(m.mesh_polynum[k])
+            normals = np.array(m.mesh_polynormal[first : first + count], dtype=np.float64)
+            indices = [m.mesh_polyvert[m.mesh_polyvertadr[q] : m.mesh_polyvertadr[q] + m.mesh_polyvertnum[q]] for q in range(first, first + count)]
+            polygons[g] = (normals, indices)
+    return types, sizes, meshes, polygons
+
+
+def _poses(case, tilt, seed=0):
+    """geom2's poses relative to geom1's body (module docstring): resting, offset up to the case's reach, turned, sunk
+    0.05 to 1 mm."""
+    rng = np.random.default_rng(seed)
+    _, _, height, reach = CASES[case]
+    poses = []
+    for _ in range(N_POSES):
+        yaw, axis = rng.uniform(0, 2 * np.pi), np.append(rng.normal(size=2), 0.0)
+        t = rng.uniform(0, tilt)
+        q = np.zeros(4)
+        mujoco.mju_mulQuat(q, np.array([np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]), np.append(np.cos(t / 2), np.sin(t / 2) * axis / np.linalg.norm(axis)))
+        poses.append(((*rng.uniform(-reach, reach, 2), height - rng.uniform(5e-5, 1e-3)), q))
+    return poses
+
+
+def _run(case, tilt, dtype=np.float64, seed=0, requires_grad=False, xpos=None, xmat=None):
+    m = _model(case)
+    types, sizes, meshes, polygons = _shapes(m)
+    contacts = None
+    if xpos is None:
+        xpos, xmat, contacts = posed_contacts(m, np.random.default_rng(seed), _poses(case, tilt, seed))
+    names = [{v: k for k, v in {"box": cp.BOX, "cylinder": cp.CYLINDER, "capsule": cp.CAPSULE, "mesh": cp.MESH}.items()}[t] for t in types]
+    out = _collide(tuple(names), xpos, xmat, (sizes, tuple(meshes)), 0.0, dtype, requires_grad=requires_grad, polygons=tuple(polygons))
+    return xpos, xmat, contacts, out
+
+
+def _area(points):
+    """The area of the quadrilateral of four points, ordered about their centroid in their plane [m^2]."""
+    c = points.mean(0)
+    normal = np.linalg.svd(points - c)[2][2]
+    u = np.linalg.svd(points - c)[2][0]
+    v = np.cross(normal, u)
+    xy = np.stack([(points - c) @ u, (points - c) @ v], 1)
+    xy = xy[np.argsort(np.arctan2(xy[:, 1], xy[:, 0]))]
+    return 0.5 * abs(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
+
+
+@pytest.mark.parametrize("tilt", [0.0, TILT], ids=["flat", "tilted"])
+@pytest.mark.parametrize("case", list(CASES))
+def test_contacts_equal_mujocos(case, tilt):
+    """The module docstring's checks against MuJoCo."""
+    _, _, contacts, (_, count, pos, frame, dist) = _run(case, tilt)
+    count, pos, normal, dist = count.numpy(), pos.numpy(), frame.numpy()[..., 0, :], dist.numpy()
+    near = FLAT_TOL if tilt == 0 else TILTED_TOL
+    matched, worst_gap, worst_dist = 0, 0.0, 0.0
+    for i, (mj_pos, mj_frame, mj_dist) in enumerate(contacts):
+        assert count[i] == len(mj_dist), (i, count[i], len(mj_dist))
+        ours = pos[i, : count[i]]
+        gap = np.array([np.linalg.norm(ours - p, axis=1).min() for p in mj_pos])
+        np.testing.assert_allclose(normal[i, : count[i]], np.broadcast_to(mj_frame[0, 0], (count[i], 3)), atol=NORMAL_TOL)
+        if gap.max() <= near:
+            matched += 1
+            order = [int(np.linalg.norm(ours - p, axis=1).argmin()) for p in mj_pos]
+            worst_gap, worst_dist = max(worst_gap, gap.max()), max(worst_dist, np.abs(dist[i, order] - mj_dist).max())
+            assert np.abs(dist[i, order] - mj_dist).max() <= near, i
+        else:  # a polygon of more than four vertices: MuJoCo keeps another quadrilateral of it
+            assert count[i] == 4, (i, gap)
+            assert _area(ours) >= AREA_SHARE * _area(mj_pos), (i, _area(ours), _area(mj_pos))
+    print(case, f"tilt {tilt}: {count.sum()} contacts, {matched} of {len(contacts)} poses MuJoCo's (to {worst_gap:.1e} m, dists {worst_dist:.1e} m)")
