@@ -37,6 +37,8 @@ FLAT_TOL = 1e-9
 """[m] Flat: machine precision (1e-15), but along a cylinder's side (MuJoCo's from its EPA's witness: 6e-10)."""
 NORMAL_TOL = 1e-9
 AREA_SHARE = 0.85
+TIED_AREA = 1e-4
+"""Relative: QUAD_TIE (1e-5) and float32's rounding of the areas."""
 F32_TOL = 2e-5
 """[m] float32's rounding of the poses and of the clipping (about 1e-7 of the poses' metres)."""
 ROUND_EDGES = ("cylinder-side-box", "capsule-cylinder", "capsule-cube")
@@ -152,7 +154,9 @@ def test_contacts_equal_mujocos(case, tilt):
 @pytest.mark.parametrize("case", list(CASES))
 def test_float32_equals_float64(case):
     """float32 (the clipping in float32; GJK and EPA in float64 in both): the same counts, positions and dists to
-    F32_TOL."""
+    F32_TOL; or, where the clipped polygon has more than four vertices and two quadrilaterals are tied but for
+    rounding (kernels/collision_polygons.py's QUAD_TIE; a CUDA build's fused multiply-adds round otherwise than the
+    CPU's), another quadrilateral of the same area to TIED_AREA."""
     xpos, xmat, _, out64 = _run(case, TILT)
     out32 = _run(case, TILT, dtype=np.float32, xpos=xpos, xmat=xmat)[3]
     (count64, pos64, _, dist64), (count32, pos32, _, dist32) = ([a.numpy() for a in out[1:]] for out in (out64, out32))
@@ -160,7 +164,9 @@ def test_float32_equals_float64(case):
     for i in range(len(xpos)):
         k = count64[i]
         gap = np.array([np.linalg.norm(pos64[i, :k] - p, axis=1).min() for p in pos32[i, :k]])
-        assert gap.max() <= F32_TOL, (i, gap)
+        if gap.max() > F32_TOL:
+            assert k == 4 and abs(_area(pos32[i, :4]) - _area(pos64[i, :4])) <= TIED_AREA * _area(pos64[i, :4]), (i, gap)
+            continue
         order = [int(np.linalg.norm(pos64[i, :k] - p, axis=1).argmin()) for p in pos32[i, :k]]
         assert np.abs(dist32[i, :k] - dist64[i, order]).max() <= F32_TOL, i
 
