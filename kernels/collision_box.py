@@ -346,4 +346,4 @@ def kernels(scalar) -> types.SimpleNamespace:
                 dist[i, k] = D[k]
         count[i] = n
 
-    return types.SimpleNamespace(scalar=scalar, vec3=vec3, mat33=mat33, box_box=box_box, collide=collide)
+    return types.SimpleNamespace(scalar=scalar, vec3=vec3, mat33=mat33, cyclic=cyclic, box_box=box_box, collide=collide)

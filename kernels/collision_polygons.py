@@ -36,6 +36,7 @@ import types
 
 import warp as wp
 
+from . import collision_box
 from .factory import factory
 from .geom_types import BOX, CAPSULE, CYLINDER, MESH
 
@@ -71,8 +72,8 @@ FACE_FACE, EDGE_FACE, FACE_EDGE = 1, 2, 3
 @factory
 def kernels(scalar) -> types.SimpleNamespace:
     """`Polygons` (the meshes' hull polygons), `held` and `multicontact` (the module docstring) in `scalar`."""
-    vec3 = wp.types.vector(3, scalar)
-    mat33 = wp.types.matrix((3, 3), scalar)
+    box = collision_box.kernels(scalar)
+    vec3, mat33 = box.vec3, box.mat33
     Poly = wp.types.matrix(shape=(CLIP, 3), dtype=scalar)
     Held = wp.types.matrix(shape=(4 * CONTACTS + 8, 3), dtype=scalar)
     Codes = wp.types.vector(CLIP, int)
@@ -89,15 +90,6 @@ def kernels(scalar) -> types.SimpleNamespace:
         normal: wp.array(dtype=vec3)
         vertices: wp.array(dtype=wp.vec2i)
         vertex: wp.array(dtype=int)
-
-    @wp.func
-    def cyclic(a: int, x: scalar, y: scalar, z: scalar):
-        """The vector whose component a is x, a + 1 is y and a + 2 is z (mod 3)."""
-        v = vec3(zero)
-        v[a] = x
-        v[(a + 1) % 3] = y
-        v[(a + 2) % 3] = z
-        return v
 
     @wp.func
     def sign(x: scalar):
@@ -119,9 +111,9 @@ def kernels(scalar) -> types.SimpleNamespace:
             sg = sign(ul[a])
             b, c = (a + 1) % 3, (a + 2) % 3
             for k in range(4):  # clockwise about the outward normal: the edges' planes face inward
-                corner = cyclic(a, sg * s[a], wp.where(k < 2, s[b], -s[b]), wp.where(k == 0 or k == 3, s[c], -s[c]))
+                corner = box.cyclic(a, sg * s[a], wp.where(k < 2, s[b], -s[b]), wp.where(k == 0 or k == 3, s[c], -s[c]))
                 F[wp.where(sg > zero, k, 3 - k)] = p + R * corner
-            return FACE, F, 4, R * cyclic(a, sg, zero, zero)
+            return FACE, F, 4, R * box.cyclic(a, sg, zero, zero)
         if wp.abs(ul[e]) < scalar(EDGE_TOL):
             corner = vec3(sign(ul[0]) * s[0], sign(ul[1]) * s[1], sign(ul[2]) * s[2])
             corner[e] = -s[e]

@@ -191,3 +191,23 @@ def test_tape_gradient_equals_finite_differences(case):
     smooth = c["steps_keep_count"] & (c["count"] > 1) & (np.abs(c["fd1"] - c["fd2"]) < 1e-6)
     assert smooth.sum() >= (len(xpos) // 2 if round_edge else 3 * len(xpos) // 4), smooth.sum()
     np.testing.assert_allclose(c["along"][smooth], c["fd1"][smooth], atol=GRAD_TOL, rtol=ROUND_RTOL if round_edge else 0.0)
+
+
+def test_the_loader_names_mesh_faces_too_large_for_the_clipping():
+    """A mesh whose hull has a face of more than MAX_FACE vertices (a 40-sided prism's caps) is named in the loader's
+    NotModelledWarning (such a face keeps GJK and EPA's one contact); a hexagonal prism's is not."""
+    import warpdyn as wd
+    from warpdyn.description.mjcf import MULTICCD
+
+    def prism(sides):
+        ring = [(0.1 * np.cos(a), 0.1 * np.sin(a), z) for z in (-0.05, 0.05) for a in np.arange(sides) * 2 * np.pi / sides]
+        return f"""<mujoco><asset><mesh name="prism" vertex="{" ".join(map(str, np.ravel(ring)))}"/></asset><worldbody>
+          <geom name="table" type="box" size="0.3 0.3 0.1"/><body pos="0 0 0.2"><freejoint/><geom name="puck" type="mesh" mesh="prism"/></body>
+          </worldbody></mujoco>"""
+
+    with pytest.warns(wd.model.NotModelledWarning) as caught:
+        wd.model.Model.build_from_model_description(prism(40), dtype=np.float64)
+    assert f"{MULTICCD}: ['1 mesh geoms (e.g. puck)']" in " ".join(str(w.message) for w in caught)
+    with pytest.warns(wd.model.NotModelledWarning) as caught:
+        wd.model.Model.build_from_model_description(prism(6), dtype=np.float64)
+    assert MULTICCD not in " ".join(str(w.message) for w in caught)

@@ -591,11 +591,8 @@ def _ground(m, mujoco, note, name_of, d) -> tuple[np.ndarray, np.ndarray] | None
 
 def _large_faces(m, g: int, mujoco) -> bool:
     """Whether geom g is a mesh with a hull polygon of more than MAX_FACE vertices."""
-    if int(m.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_MESH) or not hasattr(m, "mesh_polynum"):
-        return False
-    mesh = int(m.geom_dataid[g])
-    first, count = int(m.mesh_polyadr[mesh]), int(m.mesh_polynum[mesh])
-    return count > 0 and int(np.max(m.mesh_polyvertnum[first : first + count])) > MAX_FACE
+    polygons = _mesh_polygons(m, int(m.geom_dataid[g])) if int(m.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_MESH) else None
+    return polygons is not None and max(len(indices) for indices in polygons[1]) > MAX_FACE
 
 
 def _mesh_polygons(m, mesh: int) -> tuple | None:
