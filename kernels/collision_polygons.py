@@ -17,7 +17,7 @@ A geom's feature along its outward direction u (n for geom1, -n for geom2), [m, 
   side's segment under u where the axis is within EDGE_TOL of perpendicular to u;
 - capsule: its surface's segment under u where the axis is within EDGE_TOL of perpendicular to u;
 - mesh: the polygon of its hull (MuJoCo's mesh_polyvert, at most MAX_FACE vertices) whose normal is within FACE_TOL
-  of u; a mesh's edges are not features here (MuJoCo's are: an edge of a mesh on a face keeps one contact).
+  of u, else the hull's edge at its vertex farthest along u whose direction is within EDGE_TOL of perpendicular to u.
 MuJoCo finds the features from its EPA's last face's supports; warpdyn from the contact's normal: the same features
 where the normal lies within the tolerances. MuJoCo 4.0 places tilted faces' contacts slightly differently (within
 5e-6 m at 3 mrad) and may keep another quadrilateral of a polygon of more than four vertices (a cylinder's cap:
@@ -149,7 +149,10 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.func
     def mesh_feature(p: vec3, R: mat33, verts: wp.array(dtype=vec3), polygons: Polygons, range_: wp.vec2i, u: vec3):
-        """A mesh's face along u (its polygons range_ = (first, count) of `polygons`), as `box_feature`."""
+        """A mesh's feature along u (its polygons range_ = (first, count) of `polygons`), as `box_feature`: the face
+        whose normal is within FACE_TOL of u, else the edge from the hull's vertex farthest along u (the support) to
+        a neighbour (the previous vertex of each polygon holding it: every edge at the vertex, as MuJoCo's
+        meshEdgeNormals takes them) whose direction is the most nearly perpendicular to u, within EDGE_TOL."""
         F = Poly()
         best = scalar(FACE_TOL)
         found = int(-1)
@@ -160,7 +163,31 @@ def kernels(scalar) -> types.SimpleNamespace:
                     best = d
                     found = q
         if found < 0:
-            return NONE, F, 0, vec3(zero)
+            support = int(-1)
+            height = scalar(0.0)
+            for q in range(range_[0], range_[0] + range_[1]):
+                for k in range(polygons.vertices[q][1]):
+                    v = polygons.vertex[polygons.vertices[q][0] + k]
+                    h = wp.dot(R * verts[v], u)
+                    if support < 0 or h > height:
+                        support = v
+                        height = h
+            across = scalar(EDGE_TOL)
+            neighbour = int(-1)
+            for q in range(range_[0], range_[0] + range_[1]):
+                first, count = polygons.vertices[q][0], polygons.vertices[q][1]
+                for k in range(count):
+                    if polygons.vertex[first + k] == support:
+                        v = polygons.vertex[first + (k + count - 1) % count]
+                        c = wp.abs(wp.dot(wp.normalize(R * (verts[v] - verts[support])), u))
+                        if c < across:
+                            across = c
+                            neighbour = v
+            if neighbour < 0:
+                return NONE, F, 0, vec3(zero)
+            F[0] = p + R * verts[wp.min(support, neighbour)]  # in the order of their indices: which end is the
+            F[1] = p + R * verts[wp.max(support, neighbour)]  # support flips where the edge lies flat
+            return EDGE, F, 2, vec3(zero)
         first, count = polygons.vertices[found][0], polygons.vertices[found][1]
         for k in range(count):  # reversed: clockwise about the outward normal (MuJoCo's meshFace)
             F[k] = p + R * verts[polygons.vertex[first + count - 1 - k]]

@@ -2,7 +2,7 @@
 to face or edge to face) against MuJoCo 4's mj_collision with multiCCD on (its default) and ccd_tolerance 1e-12.
 
 Poses: geom2 resting on geom1's face (a box's top, a mesh's polygon, a cylinder's cap or side) or lying along it (a
-capsule, a cylinder's side, a box's edge), at a random offset, turn about the face's normal and depth, tilted by up to
+capsule, a cylinder's side, a box's edge, a mesh cube on its edge: "-on-edge"), at a random offset, turn about the face's normal and depth, tilted by up to
 TILT. What is checked:
 - the count equals MuJoCo's at every pose;
 - flat (no tilt) and where the features' clipped polygon has at most four vertices, the contacts are MuJoCo's: the
@@ -48,13 +48,15 @@ GRAD_TOL = 1e-6
 """Central differences at 1e-6 of a smooth function: their truncation and rounding (about 1e-8 here)."""
 
 LYING = ' quat="0.7071067811865476 0 0.7071067811865476 0"'  # geom1 turned to lie along x (a cylinder's or capsule's side up)
-EDGE_UP = ' quat="0.9238795325112867 0.3826834323650898 0 0"'  # a box turned 45 degrees about x: an edge up
+EDGE_UP = ' quat="0.9238795325112867 0.3826834323650898 0 0"'  # a box or mesh cube turned 45 degrees about x: an edge up, one down
 # name: (geom1 XML, geom2 XML, geom2's resting height above geom1's centre, the offsets' range [m])
 CASES = {
     "box-cube": ('<geom type="box" size="0.3 0.3 0.1"/>', '<geom type="mesh" mesh="cube"/>', 0.2, 0.1),
     "box-hexagon": ('<geom type="box" size="0.3 0.3 0.1"/>', '<geom type="mesh" mesh="hexagon"/>', 0.15, 0.1),
     "box-edge-cube": (f'<geom type="box" size="0.3 0.05 0.05"{EDGE_UP}/>', '<geom type="mesh" mesh="cube"/>', 0.1 + 0.05 * 2**0.5, 0.05),
     "cube-cube": ('<geom type="mesh" mesh="cube"/>', '<geom type="mesh" mesh="cube"/>', 0.2, 0.1),
+    "box-cube-on-edge": ('<geom type="box" size="0.3 0.3 0.1"/>', f'<geom type="mesh" mesh="cube"{EDGE_UP}/>', 0.1 + 0.1 * 2**0.5, 0.1),
+    "cube-cube-on-edge": ('<geom type="mesh" mesh="cube"/>', f'<geom type="mesh" mesh="cube"{EDGE_UP}/>', 0.1 + 0.1 * 2**0.5, 0.1),
     "cylinder-box": ('<geom type="cylinder" size="0.2 0.15"/>', '<geom type="box" size="0.3 0.3 0.1"/>', 0.25, 0.1),
     "cylinder-cylinder": ('<geom type="cylinder" size="0.2 0.15"/>', '<geom type="cylinder" size="0.15 0.1"/>', 0.25, 0.1),
     "cylinder-side-box": (f'<geom type="cylinder" size="0.05 0.3"{LYING}/>', '<geom type="box" size="0.2 0.2 0.1"/>', 0.15, 0.1),
@@ -62,12 +64,17 @@ CASES = {
     "capsule-cylinder": (f'<geom type="capsule" size="0.05 0.3"{LYING}/>', '<geom type="cylinder" size="0.1 0.2"/>', 0.25, 0.05),
     "capsule-cube": (f'<geom type="capsule" size="0.03 0.3"{LYING}/>', '<geom type="mesh" mesh="cube"/>', 0.13, 0.05),
 }
+CAP_EDGES = {
+    "cylinder-box-on-edge": ('<geom type="cylinder" size="0.2 0.15"/>', f'<geom type="box" size="0.1 0.1 0.1"{EDGE_UP}/>', 0.15 + 0.1 * 2**0.5, 0.05),
+    "cylinder-cube-on-edge": ('<geom type="cylinder" size="0.2 0.15"/>', f'<geom type="mesh" mesh="cube"{EDGE_UP}/>', 0.15 + 0.1 * 2**0.5, 0.05),
+}
+"""A box's or a mesh cube's edge on a cylinder's cap: test_an_edge_on_a_cylinders_cap."""
 ASSETS = "".join(f'<mesh name="{name}" vertex="{" ".join(map(str, v.ravel()))}"/>' for name, v in (("cube", CUBE), ("hexagon", HEXAGON)))
 N_POSES = 24
 
 
 def _model(case) -> mujoco.MjModel:
-    g1, g2, _, _ = CASES[case]
+    g1, g2, _, _ = (CASES | CAP_EDGES)[case]
     xml = f"""<mujoco><option gravity="0 0 0" ccd_tolerance="1e-12" ccd_iterations="200"/><asset>{ASSETS}</asset><worldbody>
       <body mocap="true">{g1}</body><body><freejoint/>{g2}</body></worldbody></mujoco>"""
     return mujoco.MjModel.from_xml_string(xml)
@@ -94,7 +101,7 @@ def _poses(case, tilt, seed=0):
     """geom2's poses relative to geom1's body (module docstring): resting, offset up to the case's reach, turned, sunk
     0.05 to 1 mm."""
     rng = np.random.default_rng(seed)
-    _, _, height, reach = CASES[case]
+    _, _, height, reach = (CASES | CAP_EDGES)[case]
     poses = []
     for _ in range(N_POSES):
         yaw, axis = rng.uniform(0, 2 * np.pi), np.append(rng.normal(size=2), 0.0)
@@ -149,6 +156,35 @@ def test_contacts_equal_mujocos(case, tilt):
             assert count[i] == 4, (i, gap, ours, mj_pos)
             assert _area(ours) >= AREA_SHARE * _area(mj_pos), (i, _area(ours), _area(mj_pos))
     print(case, f"tilt {tilt}: {count.sum()} contacts, {matched} of {len(contacts)} poses MuJoCo's (to {worst_gap:.1e} m, dists {worst_dist:.1e} m)")
+
+
+@pytest.mark.parametrize("case", list(CAP_EDGES))
+def test_an_edge_on_a_cylinders_cap(case):
+    """An edge on a cylinder's cap keeps its two ends (those at or below the cap) wherever it lies within EDGE_TOL of
+    the cap, as an edge on a box's or a mesh's face does and a capsule on a cap does in MuJoCo: flat, the contacts
+    are MuJoCo's; tilted, MuJoCo 4.0 gives one contact (its EPA's: only an exactly flat edge gets two there, one
+    already at a tilt of 1e-9 rad), which is warpdyn's deepest, and warpdyn keeps the other end too where it is below
+    the cap."""
+    _, _, contacts, (_, count, pos, _, dist) = _run(case, 0.0)
+    count, pos, dist = count.numpy(), pos.numpy(), dist.numpy()
+    for i, (mj_pos, _, mj_dist) in enumerate(contacts):
+        assert count[i] == len(mj_dist) == 2, (i, count[i], len(mj_dist))
+        order = [int(np.linalg.norm(pos[i, :2] - p, axis=1).argmin()) for p in mj_pos]
+        np.testing.assert_allclose(pos[i, order], mj_pos, atol=FLAT_TOL)
+        np.testing.assert_allclose(dist[i, order], mj_dist, atol=FLAT_TOL)
+    xpos, xmat, contacts, (_, count, pos, _, dist) = _run(case, TILT)
+    count, pos, dist = count.numpy(), pos.numpy(), dist.numpy()
+    corners = CUBE.astype(np.float32).astype(np.float64) if "cube" in case else CUBE  # MuJoCo's mesh_vert: float32
+    for i, (mj_pos, _, mj_dist) in enumerate(contacts):
+        assert len(mj_dist) == 1, (i, len(mj_dist))
+        deepest = int(dist[i, : count[i]].argmin())
+        np.testing.assert_allclose(pos[i, deepest], mj_pos[0], atol=FLAT_TOL)
+        np.testing.assert_allclose(dist[i, deepest], mj_dist[0], atol=FLAT_TOL)
+        heights = (xpos[i, 1] + (corners @ xmat[i, 1].T) - xpos[i, 0]) @ xmat[i, 0][:, 2] - 0.15  # the corners' above the cap
+        below = np.sort(heights)[:2]  # the edge's two ends
+        below = below[below <= 0.0]
+        np.testing.assert_allclose(np.sort(dist[i, : count[i]]), below, atol=FLAT_TOL)
+    assert (count == 2).sum() >= len(count) // 2, count
 
 
 @pytest.mark.parametrize("case", list(CASES))
