@@ -179,9 +179,10 @@ def kernels(scalar) -> types.SimpleNamespace:
                 for k in range(count):
                     if polygons.vertex[first + k] == support:
                         v = polygons.vertex[first + (k + count - 1) % count]
-                        c = wp.abs(wp.dot(wp.normalize(R * (verts[v] - verts[support])), u))
-                        if c < across:
-                            across = c
+                        edge = R * (verts[v] - verts[support])
+                        length = wp.length(edge)
+                        if length > scalar(MINVAL) and wp.abs(wp.dot(edge, u)) < across * length:
+                            across = wp.abs(wp.dot(edge, u)) / length
                             neighbour = v
             if neighbour < 0:
                 return NONE, F, 0, vec3(zero)
