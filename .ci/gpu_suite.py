@@ -15,7 +15,7 @@ calls of a limited length). Each process has WARPDYN_TEST_DEVICE set (tests/conf
 cache (WARP_CACHE_PATH): with --cache, one folder for all, which Warp shares safely (each build is made in a
 folder of its process and thread, then renamed into place) and which, kept between calls, spares the
 compilations made before; otherwise one new folder each. Each writes its log into --log-dir; a process still
-running at --timeout seconds is stopped and its log kept. Prints each process's files, pytest's summary line
+running at --timeout seconds (from the start, the collection of the split files included) is stopped and its log kept. Prints each process's files, pytest's summary line
 and the FAILED and ERROR lines of its short summary, then the totals; exits 1 when a test failed or a process
 did not finish.
 """
@@ -47,24 +47,27 @@ def shares(units: list[tuple[str, float]], count: int) -> list[list[tuple[str, f
     return groups
 
 
-def collected(path: pathlib.Path) -> list[str]:
-    """The node ids of the tests in one file, as `pytest --collect-only -q` lists them."""
-    run = subprocess.run([sys.executable, "-P", "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider", str(path.relative_to(ROOT))],
+def collected(paths: list[pathlib.Path]) -> dict[pathlib.Path, list[str]]:
+    """The node ids of the tests in each of `paths`, as one `pytest --collect-only -q` lists them."""
+    if not paths:
+        return {}
+    run = subprocess.run([sys.executable, "-P", "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider", *[str(p.relative_to(ROOT)) for p in paths]],
                          cwd=ROOT, capture_output=True, text=True)
-    ids = [line for line in run.stdout.splitlines() if "::" in line]
-    if not ids:
-        raise SystemExit(f"gpu_suite: pytest collected no tests from {path} to split:\n{run.stdout[-2000:]}{run.stderr[-2000:]}")
+    ids = {path: [line for line in run.stdout.splitlines() if line.startswith(str(path.relative_to(ROOT)) + "::")] for path in paths}
+    empty = [str(path) for path, found in ids.items() if not found]
+    if empty:
+        raise SystemExit(f"gpu_suite: pytest collected no tests from {', '.join(empty)} to split:\n{run.stdout[-2000:]}{run.stderr[-2000:]}")
     return ids
 
 
 def units(files: list[pathlib.Path], split: set[pathlib.Path]) -> list[tuple[str, float]]:
     """Each file as one unit weighing its size, but the files in `split`: each of their tests a unit."""
+    ids = collected([path for path in files if path in split])
     out = []
     for path in files:
         size = float(path.stat().st_size)
-        if path in split:
-            ids = collected(path)
-            out += [(node, size / len(ids)) for node in ids]
+        if path in ids:
+            out += [(node, size / len(ids[path])) for node in ids[path]]
         else:
             out.append((str(path.relative_to(ROOT)), size))
     return out
@@ -113,12 +116,12 @@ def main() -> int:
     ignored = {(ROOT / path).resolve() for path in args.ignore}
     given = [(ROOT / path).resolve() for path in args.files] or sorted((ROOT / "tests").glob("test_*.py"))
     files = [p for p in given if p.resolve() not in ignored]
+    start = time.monotonic()  # --timeout bounds the whole run, the collection of the split files included
     deal = shares(units(files, {(ROOT / path).resolve() for path in args.split}), parts)[part - 1]
     log_dir = pathlib.Path(args.log_dir)
     log_dir.mkdir(parents=True, exist_ok=True)
     caches = pathlib.Path(tempfile.mkdtemp(prefix="warpdyn-gpu-suite-"))
     runs = []
-    start = time.monotonic()
     for k, group in enumerate(shares(deal, args.processes)):
         cache = args.cache or str(caches / str(k))
         env = dict(os.environ, WARPDYN_TEST_DEVICE=args.device, WARP_CACHE_PATH=cache)
