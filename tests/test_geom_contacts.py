@@ -348,24 +348,29 @@ def _mujoco_urdf_pairs(m) -> set:
 
 def _urdf_contacts(m, model, rng, states: int):
     """At `states` random states where MuJoCo's model m of a URDF folds onto itself: each of the model's pairs' count
-    asserted MuJoCo's, then for each contact (the pair's index, MuJoCo's contact, warpdyn's position, normal (in MuJoCo's
-    order of the geoms) and distance)."""
-    names, pairs = _urdf_names(m), wd.contact.geom_pairs(model)
+    asserted MuJoCo's, then for each contact (the pair's index, MuJoCo's contact, warpdyn's nearest contact's position,
+    normal (in MuJoCo's order of the geoms) and distance)."""
     for qpos in _touching(m, rng, states):
-        d = mujoco.MjData(m)
-        d.qpos[:] = qpos
-        mujoco.mj_forward(m, d)
-        expected = {}
-        for c in d.contact[: d.ncon]:
-            expected.setdefault(frozenset((names[int(c.geom[0])], names[int(c.geom[1])])), []).append(c)
-        count, position, frame, dist = (a.numpy() for a in wd.contact.geom_contacts(model, wd.data.Data.build(model, joint_positions=qpos)))
-        for k, pair in enumerate(pairs.names):
-            cs = expected.get(frozenset(pair), [])
-            assert count[k] == len(cs), pair
-            for j, c in enumerate(cs):
-                s = pairs.first[k] + j
-                sign = 1.0 if names[int(c.geom[0])] == pair[0] else -1.0  # MuJoCo's order of the pair's geoms
-                yield k, c, position[s], sign * frame[s][0], dist[s]
+        yield from _urdf_contacts_at(m, model, qpos)
+
+
+def _urdf_contacts_at(m, model, qpos):
+    """`_urdf_contacts` at the state qpos."""
+    names, pairs = _urdf_names(m), wd.contact.geom_pairs(model)
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_forward(m, d)
+    expected = {}
+    for c in d.contact[: d.ncon]:
+        expected.setdefault(frozenset((names[int(c.geom[0])], names[int(c.geom[1])])), []).append(c)
+    count, position, frame, dist = (a.numpy() for a in wd.contact.geom_contacts(model, wd.data.Data.build(model, joint_positions=qpos)))
+    for k, pair in enumerate(pairs.names):
+        cs = expected.get(frozenset(pair), [])
+        assert count[k] == len(cs), pair
+        for c in cs:  # warpdyn's nearest of the pair's contacts (multiCCD's polygons may start elsewhere)
+            s = pairs.first[k] + int(np.linalg.norm(position[pairs.first[k] : pairs.first[k] + count[k]] - c.pos, axis=1).argmin())
+            sign = 1.0 if names[int(c.geom[0])] == pair[0] else -1.0  # MuJoCo's order of the pair's geoms
+            yield k, c, position[s], sign * frame[s][0], dist[s]
 
 
 def _rock_obj(path: pathlib.Path, seed: int, radii) -> None:
@@ -383,8 +388,9 @@ def _rock_obj(path: pathlib.Path, seed: int, radii) -> None:
 def test_urdf_meshes_self_collide_as_in_mujoco(tmp_path):
     """The arm with its upper arm's box and its finger's sphere replaced by convex meshes (OBJ files beside the URDF,
     one scaled, one at a turned origin): with_self_collision reads their files, and its pairs are MuJoCo's on the same
-    URDF; at states where the arm folds onto itself each pair's count is MuJoCo's with multiCCD off (one contact a
-    convex pair), its distance within 1e-5 m of MuJoCo's (its EPA's tolerance) and its normal within 2e-3. A mesh
+    URDF; at states where the arm folds onto itself each pair's count is MuJoCo's (multiCCD on: the hulls' polygons
+    compiled by MuJoCo from the same vertices), each contact's distance within 1e-5 m of MuJoCo's (its EPA's tolerance)
+    and its normal within 2e-3. A mesh
     whose file is missing is named in a NotModelledWarning and collides with nothing."""
     _rock_obj(tmp_path / "arm_rock.obj", 1, (0.03, 0.03, 0.15))
     _rock_obj(tmp_path / "finger_rock.obj", 2, (0.04, 0.05, 0.03))
@@ -401,7 +407,6 @@ def test_urdf_meshes_self_collide_as_in_mujoco(tmp_path):
     m = mujoco.MjModel.from_xml_path(str(urdf))
     assert {frozenset(p) for p in pairs.names} == _mujoco_urdf_pairs(m) and len(pairs) == 7
     assert sum(7 in (a, b) for a, b in zip(pairs.type1, pairs.type2)) == 4  # base-upper, base-finger, upper-finger, upper's sphere-finger
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
     compared = 0
     for k, c, _, normal, dist in _urdf_contacts(m, model, np.random.default_rng(4), 6):
         assert abs(dist - c.dist) < 1e-5, pairs.names[k]
@@ -412,6 +417,60 @@ def test_urdf_meshes_self_collide_as_in_mujoco(tmp_path):
     with pytest.warns(wd.model.NotModelledWarning, match=r"meshes whose files were not found or read.*: 1 box-mesh, 1 mesh-mesh, 1 sphere-mesh"):
         fewer = wd.contact.with_self_collision(_model(urdf))
     assert len(wd.contact.geom_pairs(fewer)) == 4  # the finger's three pairs dropped
+
+
+def _box_obj(path: pathlib.Path, low, high) -> None:
+    """An OBJ of the box from corner `low` to `high`: its 8 corners and 12 triangles, facing out."""
+    corners = np.array([[(low, high)[(k >> i) & 1][i] for i in range(3)] for k in range(8)], dtype=float)
+    quads = ((0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5))  # outward: right-handed
+    faces = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
+    path.write_text("".join(f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in corners) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+
+
+_INERTIAL = '<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
+STACK_URDF = f"""<robot name="stack">
+  <link name="base">{_INERTIAL}<collision><geometry><mesh filename="slab.obj"/></geometry></collision></link>
+  <link name="lift">{_INERTIAL}</link><link name="turn">{_INERTIAL}</link>
+  <link name="tip">{_INERTIAL}<collision><geometry><mesh filename="cube.obj"/></geometry></collision>
+    <collision><origin xyz="0.25 0 {0.0625 * (2**0.5 - 1)!r}" rpy="{np.pi / 4!r} 0 0"/><geometry><mesh filename="cube.obj"/></geometry></collision></link>
+  <joint name="lift" type="prismatic"><parent link="base"/><child link="lift"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="turn" type="revolute"><parent link="lift"/><child link="turn"/><axis xyz="0 0 1"/><limit lower="-4" upper="4" effort="1" velocity="1"/></joint>
+  <joint name="tilt" type="revolute"><parent link="turn"/><child link="tip"/><axis xyz="0.6 0.8 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>"""
+"""A mesh slab (the fixed base) under two mesh cubes on one link: one on its face, one turned 45 degrees about x onto
+its edge (its lowest edge level with the other's bottom face); the link lifts, turns about z and tilts. Their sizes
+are binary fractions: MuJoCo keeps a mesh's vertices in float32, warpdyn a file's as read (float64)."""
+
+
+@pytest.mark.parametrize("tilt", [0.0, 3e-3], ids=["flat", "tilted"])
+def test_urdf_mesh_faces_give_mujocos_multiccd_contacts(tmp_path, tilt):
+    """with_self_collision on a URDF of mesh files: MuJoCo compiles the hulls' polygons from the same vertices
+    (description.mjcf.hull_polygons), so that a mesh cube on a mesh slab gets multiCCD's four contacts and one on its
+    edge two, MuJoCo's on the same URDF: the counts equal at every state; the contacts MuJoCo's to 1e-9 m flat and
+    within 5e-6 m tilted by up to `tilt` (tests/test_collision_polygons.py: MuJoCo 4.0 places tilted contacts
+    slightly otherwise)."""
+    _box_obj(tmp_path / "slab.obj", (-0.5, -0.5, -0.0625), (0.5, 0.5, 0.0))
+    _box_obj(tmp_path / "cube.obj", (-0.0625, -0.0625, -0.0625), (0.0625, 0.0625, 0.0625))
+    urdf = tmp_path / "stack.urdf"
+    urdf.write_text(STACK_URDF)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", wd.model.NotModelledWarning)  # no pair left with one contact for want of faces
+        model = wd.contact.with_self_collision(_model(urdf))
+    pairs = wd.contact.geom_pairs(model)
+    assert list(pairs.slots) == [4, 4]
+    m = mujoco.MjModel.from_xml_path(str(urdf))
+    rng = np.random.default_rng(5)
+    tol = 1e-9 if tilt == 0.0 else 5e-6
+    counts = []
+    for _ in range(12):
+        qpos = np.array([0.0625 - rng.uniform(5e-5, 1e-3), rng.uniform(-np.pi, np.pi), rng.uniform(-tilt, tilt)])
+        for _, c, position, normal, dist in _urdf_contacts_at(m, model, qpos):
+            np.testing.assert_allclose(position, c.pos, atol=tol)
+            np.testing.assert_allclose(normal, c.frame[:3], atol=1e-9)
+            assert abs(dist - c.dist) <= tol
+        counts.append(wd.contact.geom_contacts(model, wd.data.Data.build(model, joint_positions=qpos)).count.numpy())
+    counts = np.array(counts)
+    assert (counts[:, 0] == 4).sum() >= 6 and (counts[:, 1] == 2).sum() >= 6, counts
 
 
 def test_urdf_self_collision_is_mujocos():

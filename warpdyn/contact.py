@@ -239,19 +239,20 @@ def with_self_collision(model, *, exclude=(), options: CollidablePointsOptions |
     parent (unless the parent is a fixed base) and the link-name pairs in `exclude`; `geom_pairs` lists them. They act
     in a step where model.geom_contacts is set. Meshes collide as their files' vertices' convex hulls (found as
     collidable points find them: `options`' package_dirs and mesh_dirs, the description's directory); pairs of a mesh
-    whose file was not found or read are counted in a NotModelledWarning, and so are the pairs with a mesh, which get
-    one contact where MuJoCo's multiCCD may give up to 4 (a file's mesh comes without its hull's polygons; the
-    cylinders' pairs get multiCCD's). An MJCF model's pairs are MuJoCo's: a ValueError."""
+    whose file was not found or read are counted in a NotModelledWarning. Their hulls' polygons, MuJoCo's multiCCD's
+    faces, are those MuJoCo compiles from the same vertices (up to 4 contacts where faces meet: kernels/collision_polygons.py);
+    without MuJoCo installed a mesh has none and its pairs get one contact, counted in a NotModelledWarning. An MJCF
+    model's pairs are MuJoCo's: a ValueError."""
     new, uncollided = geom_types.self_collision(model, exclude, options)
     if uncollided:
         counts = ", ".join(f"{n} {kinds}" for kinds, n in sorted(uncollided.items()))
         warnings.warn(f"model '{model.name()}': shape pairs that warpdyn's narrow phase does not collide (meshes whose files were not found or read: "
                       f"CollidablePointsOptions' package_dirs and mesh_dirs say where to look): {counts}", NotModelledWarning, stacklevel=2)  # fmt: skip
     pairs = geom_types.geom_pairs(new)
-    faceless = int(sum((int(a), int(b)) in MULTICCD_TYPES and MESH in (a, b) for a, b in zip(pairs.type1, pairs.type2)))
+    faceless = int(sum((int(a), int(b)) in MULTICCD_TYPES and MESH in (a, b) and n == 1 for a, b, n in zip(pairs.type1, pairs.type2, pairs.slots)))
     if faceless:
-        warnings.warn(f"model '{model.name()}': {faceless} shape pairs with a mesh get one contact (GJK and EPA): a mesh file's hull polygons are not "
-                      "known here, from which MuJoCo's multiCCD gives up to 4 where they meet face to face", NotModelledWarning, stacklevel=2)  # fmt: skip
+        warnings.warn(f"model '{model.name()}': {faceless} shape pairs with a mesh get one contact (GJK and EPA): its hull's polygons, from which "
+                      "MuJoCo's multiCCD gives up to 4 where faces meet, are compiled by MuJoCo (pip install mujoco)", NotModelledWarning, stacklevel=2)  # fmt: skip
     return new
 
 

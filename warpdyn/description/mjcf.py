@@ -606,6 +606,37 @@ def _mesh_polygons(m, mesh: int) -> tuple | None:
     return normals, indices
 
 
+def hull_polygons(vertices: np.ndarray) -> tuple | None:
+    """The hull polygons MuJoCo compiles for a mesh of `vertices` (k, 3) [m] (a URDF's or SDF's mesh file, scaled), as
+    `CollisionShape.polygons` in the frame of `vertices` (normals (q, 3); indices: rows of `vertices`); None where
+    MuJoCo is not installed or does not compile the mesh (fewer than four points off one plane). MuJoCo takes the
+    mesh to its inertial frame: its vertices are brought back (mesh_pos, mesh_quat) and matched to `vertices`."""
+    try:
+        import mujoco
+    except ImportError:
+        return None
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    text = " ".join(repr(float(x)) for x in vertices.ravel())
+    try:
+        m = mujoco.MjModel.from_xml_string(f'<mujoco><asset><mesh name="hull" vertex="{text}"/></asset><worldbody><geom type="mesh" mesh="hull"/></worldbody></mujoco>')
+    except ValueError:
+        return None
+    polygons = _mesh_polygons(m, 0)
+    if polygons is None:
+        return None
+    R = np.empty(9)
+    mujoco.mju_quat2Mat(R, m.mesh_quat[0])
+    R = R.reshape(3, 3)
+    theirs = np.asarray(m.mesh_vert, dtype=np.float64) @ R.T + m.mesh_pos[0]
+    used = np.unique(np.concatenate(polygons[1]))
+    rows = np.array([int(np.argmin(np.linalg.norm(vertices - theirs[i], axis=1))) for i in used])
+    scale = max(float(np.ptp(vertices, axis=0).max()), 1e-12)
+    if np.linalg.norm(vertices[rows] - theirs[used], axis=1).max() > 1e-6 * scale:  # float32 vertices: 1e-7 relative
+        return None
+    row_of = dict(zip(used.tolist(), rows.tolist()))
+    return polygons[0] @ R.T, tuple(np.array([row_of[int(i)] for i in indices], dtype=np.int64) for indices in polygons[1])
+
+
 def _shape(m, g: int, H: np.ndarray, mujoco, name_of) -> CollisionShape | None:
     """Geom g as a CollisionShape at the pose H (its body's frame, or the world's), with MuJoCo's collision
     attributes; None for a kind warpdyn does not represent (plane, heightfield, sdf)."""

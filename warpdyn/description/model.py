@@ -117,9 +117,10 @@ class CollisionShape:
     link_H_shape: (4, 4) pose of the shape in its link frame.
     MJCF geoms also carry what MuJoCo's collision filter and contact parameters read (`GeomPair`): geom (the
     geom's id in MuJoCo's compiled model; -1 for URDF and SDF shapes), name (an unnamed geom g's "geom{g}"), contype and conaffinity (bit masks),
-    margin and gap [m], friction (sliding, torsional, rolling), condim, priority. polygons: an MJCF mesh's convex
-    hull's faces as MuJoCo compiled them (mesh_polynormal, mesh_polyvert): (normals (q, 3), unit and outward in the
-    shape's frame; vertex index arrays (q,) into `vertices`, counterclockwise about their normal); None elsewhere.
+    margin and gap [m], friction (sliding, torsional, rolling), condim, priority. polygons: a mesh's convex
+    hull's faces as MuJoCo compiled them (mesh_polynormal, mesh_polyvert; an MJCF's, or a URDF's or SDF's mesh file's
+    in `with_self_collision`): (normals (q, 3), unit and outward in the shape's frame; vertex index arrays (q,) into
+    `vertices`, counterclockwise about their normal); None elsewhere.
     """
 
     kind: str

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..description.collidable import CollidablePointsOptions, mesh_file_vertices
 from ..description.collision_pairs import COLLIDED_TYPES, CONVEX_TYPES, MULTICCD_TYPES
+from ..description.mjcf import hull_polygons
 from ..description.model import GeomPair
 from ..kernels.collision_polygons import CONTACTS
 from ..kernels.geom_types import BOX, CAPSULE, CYLINDER, ELLIPSOID, MESH, SPHERE
@@ -46,7 +47,7 @@ class GeomPairs:
     polygon_normals (Q, 3): the meshes' hull polygons' unit outward normals, each in its geom's frame, mesh after mesh;
     polygon_vertices (Q, 2) int: a polygon's (first, count) in polygon_vertex (W,) int, its vertices' rows in `vertices`
     (counterclockwise about its normal); polygons1, polygons2 (nP, 2) int: a pair's geom's (first, count) of polygons
-    ((0, 0) but for a mesh whose polygons are known: an MJCF's).
+    ((0, 0) but for a mesh whose polygons are known: an MJCF's, or a URDF's or SDF's compiled by MuJoCo).
     """
 
     names: tuple
@@ -189,7 +190,8 @@ def self_collision(model, exclude=(), options=None) -> tuple:
     margin. Its shapes are numbered (`CollisionShape.geom`, link after link) and named "{link}/{k}" where unnamed; its
     meshes carry their files' vertices (convex meshes to the narrow phase, as MuJoCo takes a URDF's meshes), found as
     collidable points find them (`options`: a CollidablePointsOptions' package_dirs and mesh_dirs; the description's
-    directory). uncollided: {"type1-type2": count} of the pairs whose types the narrow phase does not collide (a mesh
+    directory), and their hulls' polygons as MuJoCo compiles them (multiCCD's faces; none without MuJoCo installed:
+    description.mjcf.hull_polygons). uncollided: {"type1-type2": count} of the pairs whose types the narrow phase does not collide (a mesh
     whose file was not found or read)."""
     if model.description.source == "mjcf":
         raise ValueError(f"model '{model.name()}' is MJCF: its geom pairs are MuJoCo's (edit contype, conaffinity, <exclude> and <pair> in the file)")
@@ -212,7 +214,9 @@ def self_collision(model, exclude=(), options=None) -> tuple:
             shape = dataclasses.replace(shape, geom=len(shapes), name=shape.name or f"{names[link]}/{k}")
             if shape.kind == "mesh" and shape.vertices is None:
                 vertices = mesh_file_vertices(shape, options, base_dir)[0]
-                shape = shape if vertices is None else dataclasses.replace(shape, vertices=np.unique(vertices, axis=0))
+                if vertices is not None:
+                    shape = dataclasses.replace(shape, vertices=np.unique(vertices, axis=0))
+                    shape = dataclasses.replace(shape, polygons=hull_polygons(mesh_vertices(shape)))
             row.append(shape)
             shapes.append((link, shape))
         numbered.append(row)
