@@ -473,6 +473,18 @@ def test_urdf_mesh_faces_give_mujocos_multiccd_contacts(tmp_path, tilt):
     assert (counts[:, 0] == 4).sum() >= 6 and (counts[:, 1] == 2).sum() >= 6, counts
 
 
+def test_urdf_meshes_without_mujocos_polygons_are_named(tmp_path, monkeypatch):
+    """Without MuJoCo to compile a mesh file's hull polygons (hull_polygons None), with_self_collision names the pairs
+    with a mesh that keep one contact, and gives them one slot."""
+    _box_obj(tmp_path / "slab.obj", (-0.5, -0.5, -0.0625), (0.5, 0.5, 0.0))
+    _box_obj(tmp_path / "cube.obj", (-0.0625, -0.0625, -0.0625), (0.0625, 0.0625, 0.0625))
+    (tmp_path / "stack.urdf").write_text(STACK_URDF)
+    monkeypatch.setattr(wd.types.geoms, "hull_polygons", lambda vertices: None)
+    with pytest.warns(wd.model.NotModelledWarning, match=r"2 shape pairs with a mesh get one contact.*pip install mujoco"):
+        model = wd.contact.with_self_collision(_model(tmp_path / "stack.urdf"))
+    assert list(wd.contact.geom_pairs(model).slots) == [1, 1]
+
+
 def test_urdf_self_collision_is_mujocos():
     """wd.contact.with_self_collision on a URDF: its pairs are those MuJoCo collides on the same URDF (every geom made a
     sphere, margins 100 m: the base collides with its child, a fixed base being welded to the world; a link never with
