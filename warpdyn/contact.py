@@ -241,8 +241,8 @@ def with_self_collision(model, *, exclude=(), options: CollidablePointsOptions |
     collidable points find them: `options`' package_dirs and mesh_dirs, the description's directory); pairs of a mesh
     whose file was not found or read are counted in a NotModelledWarning. Their hulls' polygons, MuJoCo's multiCCD's
     faces, are those MuJoCo compiles from the same vertices (up to 4 contacts where faces meet: kernels/collision_polygons.py);
-    without MuJoCo installed a mesh has none and its pairs get one contact, counted in a NotModelledWarning. An MJCF
-    model's pairs are MuJoCo's: a ValueError."""
+    without MuJoCo installed (or for a flat mesh) a mesh has none and its pairs get one contact, counted in a
+    NotModelledWarning. An MJCF model's pairs are MuJoCo's: a ValueError."""
     new, uncollided = geom_types.self_collision(model, exclude, options)
     if uncollided:
         counts = ", ".join(f"{n} {kinds}" for kinds, n in sorted(uncollided.items()))
@@ -251,8 +251,9 @@ def with_self_collision(model, *, exclude=(), options: CollidablePointsOptions |
     pairs = geom_types.geom_pairs(new)
     faceless = int(sum((int(a), int(b)) in MULTICCD_TYPES and MESH in (a, b) and n == 1 for a, b, n in zip(pairs.type1, pairs.type2, pairs.slots)))
     if faceless:
-        warnings.warn(f"model '{model.name()}': {faceless} shape pairs with a mesh get one contact (GJK and EPA): its hull's polygons, from which "
-                      "MuJoCo's multiCCD gives up to 4 where faces meet, are compiled by MuJoCo (pip install mujoco)", NotModelledWarning, stacklevel=2)  # fmt: skip
+        warnings.warn(f"model '{model.name()}': {faceless} shape pairs with a mesh get one contact (GJK and EPA): the hull's polygons, on which "
+                      "MuJoCo's multiCCD gives up to 4, are compiled by MuJoCo, which is not installed (pip install mujoco) or did not compile "
+                      "the mesh (a flat one)", NotModelledWarning, stacklevel=2)  # fmt: skip
     return new
 
 
