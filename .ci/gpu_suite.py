@@ -15,9 +15,9 @@ calls of a limited length). Each process has WARPDYN_TEST_DEVICE set (tests/conf
 cache (WARP_CACHE_PATH): with --cache, one folder for all, which Warp shares safely (each build is made in a
 folder of its process and thread, then renamed into place) and which, kept between calls, spares the
 compilations made before; otherwise one new folder each. Each writes its log into --log-dir; a process still
-running at --timeout seconds (from the start, the collection of the split files included) is stopped and its log kept. Prints each process's files, pytest's summary line
-and the FAILED and ERROR lines of its short summary, then the totals; exits 1 when a test failed or a process
-did not finish.
+running at --timeout seconds (from the start, the collection of the split files included) is stopped and its log
+kept. Prints each process's files, pytest's summary line and the FAILED and ERROR lines of its short summary as
+the process ends, then the totals; exits 1 when a test failed or a process did not finish.
 """
 
 from __future__ import annotations
@@ -129,24 +129,28 @@ def main() -> int:
         command = [sys.executable, "-P", "-m", "pytest", "-q", "-p", "no:cacheprovider", *extra, *[node for node, _ in group]]
         handle = log.open("w")
         runs.append((group, log, handle, subprocess.Popen(command, cwd=ROOT, env=env, stdout=handle, stderr=subprocess.STDOUT)))
-    for _, _, handle, process in runs:
-        try:
-            process.wait(timeout=max(1.0, args.timeout - (time.monotonic() - start)))
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-        handle.close()
     totals: dict = {}
     complete = True
-    for k, (group, log, _, process) in enumerate(runs):
-        counts = summary(log.read_text(errors="replace"))
-        complete &= bool(counts) and process.returncode in (0, 1)
-        for kind, n in counts.items():
-            totals[kind] = totals.get(kind, 0) + n
-        result = ", ".join(f"{n} {kind}" for kind, n in counts.items()) or f"no summary (return code {process.returncode})"
-        print(f"process {k}: {result} [{names(group)}]")
-        for line in failures(log.read_text(errors="replace")):
-            print(f"  {line}")
+    waiting = dict(enumerate(runs))
+    while waiting:  # each process's result printed as it ends (a call cut from outside keeps those printed)
+        time.sleep(1.0)
+        late = time.monotonic() - start > args.timeout
+        for k, (group, log, handle, process) in list(waiting.items()):
+            if process.poll() is None and not late:
+                continue
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+            handle.close()
+            del waiting[k]
+            counts = summary(log.read_text(errors="replace"))
+            complete &= bool(counts) and process.returncode in (0, 1)
+            for kind, n in counts.items():
+                totals[kind] = totals.get(kind, 0) + n
+            result = ", ".join(f"{n} {kind}" for kind, n in counts.items()) or f"no summary (return code {process.returncode})"
+            print(f"process {k}: {result} [{names(group)}] at {time.monotonic() - start:.0f} s", flush=True)
+            for line in failures(log.read_text(errors="replace")):
+                print(f"  {line}", flush=True)
     print(f"device {args.device}, {len(runs)} processes, {time.monotonic() - start:.0f} s: " + ", ".join(f"{n} {kind}" for kind, n in totals.items()))
     return 0 if complete and not totals.get("failed") and not totals.get("error") else 1
 
