@@ -70,7 +70,8 @@ def test_actions_add_to_the_targets_within_their_ranges():
 def test_rewards_equal_playgrounds_terms_recomputed():
     """After a step, each term recomputed from the state with NumPy as Playground writes it (the orientation error
     2 asin |vec(q goal^-1)|, dm_control's linear tolerance, the palm's grasp site from MuJoCo, the actuators' forces
-    from MuJoCo's qfrc_actuator at the same state and targets), and the reward their scaled sum times policy_dt."""
+    from MuJoCo's actuator_force at the same state and targets, as Playground reads them: not clamped by the joints'
+    actuatorfrcrange), and the reward their scaled sum times policy_dt."""
     env = _env(noise={"joint_pos": 0.0, "cube_pos": 0.0, "cube_ori": 0.0})
     env.reset(seed=2)
     actions = torch.linspace(-1.0, 1.0, 16 * N, device=env.device).reshape(N, 16)
@@ -103,7 +104,7 @@ def test_rewards_equal_playgrounds_terms_recomputed():
             "hand_pose": float(np.sum((q[e, hand_q] - home) ** 2)),
             "action_rate": float(np.sum((a[e] - a1[e]) ** 2) + np.sum((a[e] - 2 * a1[e]) ** 2)),
             "joint_velocity": float(np.sum((u[e, hand_v] / 4.0) ** 2)),
-            "energy": float(np.sum(np.abs(u[e, hand_v]) * np.abs(d.qfrc_actuator[:16]))),
+            "energy": float(np.sum(np.abs(u[e, hand_v]) * np.abs(d.actuator_force))),  # Playground's: unclamped by actuatorfrcrange
         }
         for name, value in terms.items():
             logged[name] += value / N

@@ -58,7 +58,8 @@ class CubeReorientConfig:
     (orientation: dm_control's linear tolerance of the orientation error, 1 within 0.2 rad, 0.1 at 0.2 + pi rad (a
     margin of pi); position: the same of the cube's distance from the palm's grasp site, 1 within 2 cm, margin 5 cm;
     termination: 1 where the cube fell; hand_pose: the squared distance of the joints from the keyframe's;
-    action_rate: |a - a_prev|^2 + |a - 2 a_prev + a_prev2|^2; joint_velocity: |sdot / 4|^2; energy: sum |sdot| |tau|);
+    action_rate: |a - a_prev|^2 + |a - 2 a_prev + a_prev2|^2; joint_velocity: |sdot / 4|^2; energy: sum |sdot| |servo force|, the
+    servos' force before the joints' actuatorfrcrange clamps it, as Playground's reads MuJoCo's actuator_force);
     the reward is their scaled sum times policy_dt, plus `success_reward` at each success. An episode ends where
     the cube falls below z = -0.05 m or the state stops being finite."""
 
@@ -149,8 +150,6 @@ class CubeReorientEnv(DeviceVectorEnv):
         self._low, self._high = ranges[:, 0], ranges[:, 1]
         gain, bias = model.actuator_gain.numpy(), model.actuator_bias.numpy()
         self._kp, self._kv = torch.tensor(gain[:, 0], **kw), torch.tensor(-bias[:, 2], **kw)
-        force_range = torch.tensor(model.joint_actuator_force_range.numpy(), **kw)[hand]
-        self._tau_low, self._tau_high = force_range[:, 0], force_range[:, 1]
         self._views = {id(d): {n: wp.to_torch(getattr(d, f"{n}_state")) for n in ("joint_positions", "joint_velocities", "valid")} for d in (*self.stepper.buffers, self._reset_data)}
         self._home = self._views[id(self._reset_data)]["joint_positions"][0].clone()
         self._home_hand = self._home[self._q].clone()
@@ -214,7 +213,7 @@ class CubeReorientEnv(DeviceVectorEnv):
         s, sdot, cube, quaternion, _ = state
         angle, _ = self._orientation_error(quaternion)
         a, a1, a2 = self._actions
-        tau = (self._kp * (self._ctrl - s) - self._kv * sdot).clamp(self._tau_low, self._tau_high)
+        servo = self._kp * (self._ctrl - s) - self._kv * sdot  # MuJoCo's actuator_force: the joint's actuatorfrcrange clamps only qfrc_actuator
         return {
             "orientation": _tolerance(angle, 0.2, math.pi),
             "position": _tolerance((self._palm - cube).norm(dim=1), 0.02, 0.05),
@@ -222,7 +221,7 @@ class CubeReorientEnv(DeviceVectorEnv):
             "hand_pose": ((s - self._home_hand) ** 2).sum(dim=1),
             "action_rate": ((a - a1) ** 2).sum(dim=1).to(angle.dtype) + ((a - 2.0 * a1 + a2) ** 2).sum(dim=1).to(angle.dtype),
             "joint_velocity": ((sdot / 4.0) ** 2).sum(dim=1),
-            "energy": (sdot.abs() * tau.abs()).sum(dim=1),
+            "energy": (sdot.abs() * servo.abs()).sum(dim=1),
         }, angle
 
     def _advance(self) -> tuple:
