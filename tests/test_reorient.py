@@ -258,7 +258,8 @@ def test_the_example_steps_at_another_time_step(tmp_path, capsys, monkeypatch):
 
 def test_the_mujoco_comparison_runs_both_simulators_from_the_same_resets():
     """benchmarks/reorient_vs_mujoco.py (run as a script) on 2 hands for 0.25 s: both simulators' lines printed, their
-    six statistics finite, the dropped fraction in [0, 1] and the cube's mean height within 0.3 m of the palm's."""
+    eight statistics finite, the dropped fraction and the fraction of joints past their ranges in [0, 1], the largest
+    excess at least 0 and the cube's mean height within 0.3 m of the palm's."""
     import re
     import subprocess
 
@@ -269,6 +270,7 @@ def test_the_mujoco_comparison_runs_both_simulators_from_the_same_resets():
     lines = [line for line in run.stdout.splitlines() if line.startswith(("warpdyn", "MuJoCo"))]
     assert len(lines) == 2, run.stdout
     for line in lines:
-        numbers = [float(x) for x in re.findall(r"-?\d+\.\d+", line.split(":", 1)[1])]
-        assert len(numbers) == 6 and all(np.isfinite(numbers)), line
+        numbers = [float(x) for x in re.findall(r"-?\d+\.\d+", line.split(":", 1)[1].replace("> 0.01 rad", ""))]
+        assert len(numbers) == 8 and all(np.isfinite(numbers)), line
         assert 0.0 <= numbers[3] <= 1.0 and -0.3 < numbers[4] < 0.3, line  # dropped fraction, mean height [m]
+        assert 0.0 <= numbers[6] <= 1.0 and numbers[7] >= 0.0, line  # joints past their ranges: fraction, largest [rad]
