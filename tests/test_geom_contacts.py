@@ -473,6 +473,33 @@ def test_urdf_mesh_faces_give_mujocos_multiccd_contacts(tmp_path, tilt):
     assert (counts[:, 0] == 4).sum() >= 6 and (counts[:, 1] == 2).sum() >= 6, counts
 
 
+def test_hull_polygons_are_those_mujoco_compiles_from_the_file(tmp_path):
+    """description.mjcf.hull_polygons on a rock's vertices as warpdyn reads its OBJ file (an uneven hull, which MuJoCo
+    turns to its inertial frame) gives the polygons MuJoCo compiles loading that file: each the same vertices, in the
+    file's frame, about the same outward normal, counterclockwise."""
+    from warpdyn.description.mjcf import hull_polygons
+
+    _rock_obj(tmp_path / "rock.obj", 3, (0.05, 0.02, 0.08))
+    vertices = np.array([[float(x) for x in line.split()[1:]] for line in (tmp_path / "rock.obj").read_text().splitlines() if line.startswith("v ")])
+    normals, indices = hull_polygons(vertices)
+    m = mujoco.MjModel.from_xml_string(f'<mujoco><compiler meshdir="{tmp_path}"/><asset><mesh file="rock.obj"/></asset><worldbody><geom type="mesh" mesh="rock"/></worldbody></mujoco>')
+    R = np.empty(9)
+    mujoco.mju_quat2Mat(R, m.mesh_quat[0])
+    R = R.reshape(3, 3)
+    assert abs(np.trace(R) - 3.0) > 0.1  # the inertial frame is turned: the mapping back is exercised
+    theirs_vertices = np.asarray(m.mesh_vert, dtype=np.float64) @ R.T + m.mesh_pos[0]
+    theirs = [(R @ m.mesh_polynormal[q], theirs_vertices[m.mesh_polyvert[m.mesh_polyvertadr[q] : m.mesh_polyvertadr[q] + m.mesh_polyvertnum[q]]]) for q in range(m.mesh_polynum[0])]
+    assert len(indices) == len(theirs) >= 8
+    for normal, rows in zip(normals, indices):
+        match = [k for k, (n, _) in enumerate(theirs) if n @ normal > 1.0 - 1e-9]
+        assert len(match) == 1, normal
+        mine, other = vertices[rows], theirs[match[0]][1]
+        assert len(mine) == len(other)
+        assert all(np.linalg.norm(other - v, axis=1).min() < 1e-6 for v in mine)  # float32 vertices in MuJoCo
+        assert np.cross(mine[1] - mine[0], mine[2] - mine[1]) @ normal > 0.0  # (MuJoCo merges triangles whose
+        # normals fall within 0.01 rad of each other: its polygons may be slightly off one plane)
+
+
 def test_urdf_meshes_without_mujocos_polygons_are_named(tmp_path, monkeypatch):
     """Without MuJoCo to compile a mesh file's hull polygons (hull_polygons None), with_self_collision names the pairs
     with a mesh that keep one contact, and gives them one slot."""
