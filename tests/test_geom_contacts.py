@@ -390,8 +390,8 @@ def test_urdf_meshes_self_collide_as_in_mujoco(tmp_path):
     one scaled, one at a turned origin): with_self_collision reads their files, and its pairs are MuJoCo's on the same
     URDF; at states where the arm folds onto itself each pair's count is MuJoCo's (multiCCD on: the hulls' polygons
     compiled by MuJoCo from the same vertices), each contact's distance within 1e-5 m of MuJoCo's (its EPA's tolerance)
-    and its normal within 2e-3. A mesh
-    whose file is missing is named in a NotModelledWarning and collides with nothing."""
+    and its normal within 2e-3. A mesh whose file is missing is named in a NotModelledWarning and collides with
+    nothing."""
     _rock_obj(tmp_path / "arm_rock.obj", 1, (0.03, 0.03, 0.15))
     _rock_obj(tmp_path / "finger_rock.obj", 2, (0.04, 0.05, 0.03))
     text = ARM_URDF.read_text()
