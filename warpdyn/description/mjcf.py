@@ -609,8 +609,9 @@ def _mesh_polygons(m, mesh: int) -> tuple | None:
 def hull_polygons(vertices: np.ndarray) -> tuple | None:
     """The hull polygons MuJoCo compiles for a mesh of `vertices` (k, 3) [m] (a URDF's or SDF's mesh file, scaled), as
     `CollisionShape.polygons` in the frame of `vertices` (normals (q, 3); indices: rows of `vertices`); None where
-    MuJoCo is not installed or does not compile the mesh (fewer than four points off one plane). MuJoCo takes the
-    mesh to its inertial frame: its vertices are brought back (mesh_pos, mesh_quat) and matched to `vertices`."""
+    MuJoCo is not installed or does not compile the mesh (fewer than four points off one plane). MuJoCo keeps the
+    vertices' order, but in the mesh's inertial frame (mesh_pos, mesh_quat): the normals are turned back, and the
+    vertices checked to come back to `vertices` (to their float32 rounding)."""
     try:
         import mujoco
     except ImportError:
@@ -622,19 +623,14 @@ def hull_polygons(vertices: np.ndarray) -> tuple | None:
     except ValueError:
         return None
     polygons = _mesh_polygons(m, 0)
-    if polygons is None:
-        return None
     R = np.empty(9)
     mujoco.mju_quat2Mat(R, m.mesh_quat[0])
     R = R.reshape(3, 3)
     theirs = np.asarray(m.mesh_vert, dtype=np.float64) @ R.T + m.mesh_pos[0]
-    used = np.unique(np.concatenate(polygons[1]))
-    rows = np.array([int(np.argmin(np.linalg.norm(vertices - theirs[i], axis=1))) for i in used])
-    scale = max(float(np.ptp(vertices, axis=0).max()), 1e-12)
-    if np.linalg.norm(vertices[rows] - theirs[used], axis=1).max() > 1e-6 * scale:  # float32 vertices: 1e-7 relative
+    size = max(float(np.ptp(vertices, axis=0).max()), 1e-12)
+    if polygons is None or theirs.shape != vertices.shape or np.abs(theirs - vertices).max() > 1e-6 * size:
         return None
-    row_of = dict(zip(used.tolist(), rows.tolist()))
-    return polygons[0] @ R.T, tuple(np.array([row_of[int(i)] for i in indices], dtype=np.int64) for indices in polygons[1])
+    return polygons[0] @ R.T, polygons[1]
 
 
 def _shape(m, g: int, H: np.ndarray, mujoco, name_of) -> CollisionShape | None:
