@@ -108,11 +108,12 @@ def main() -> int:
     parser.add_argument("--split", action="append", default=[], help="a test file dealt out test by test (repeatable)")
     parser.add_argument("--part", default="1/1", help="K/M: run the K-th of M parts of the deal")
     parser.add_argument("--cache", help="one Warp kernel cache folder for every process (default: one new folder each)")
-    args, extra = parser.parse_known_args()
+    argv = sys.argv[1:]
+    extra = argv[argv.index("--") + 1 :] if "--" in argv else []  # pytest's own arguments, after "--"
+    args = parser.parse_args(argv[: argv.index("--")] if "--" in argv else argv)
     part, parts = (int(n) for n in args.part.split("/"))
     if not 1 <= part <= parts:
         parser.error(f"--part {args.part}: K must be within 1..M")
-    extra = [a for a in extra if a != "--"]
     ignored = {(ROOT / path).resolve() for path in args.ignore}
     given = [(ROOT / path).resolve() for path in args.files] or sorted((ROOT / "tests").glob("test_*.py"))
     files = [p for p in given if p.resolve() not in ignored]
@@ -120,7 +121,7 @@ def main() -> int:
     deal = shares(units(files, {(ROOT / path).resolve() for path in args.split}), parts)[part - 1]
     log_dir = pathlib.Path(args.log_dir)
     log_dir.mkdir(parents=True, exist_ok=True)
-    caches = pathlib.Path(tempfile.mkdtemp(prefix="warpdyn-gpu-suite-"))
+    caches = None if args.cache else pathlib.Path(tempfile.mkdtemp(prefix="warpdyn-gpu-suite-"))
     runs = []
     for k, group in enumerate(shares(deal, args.processes)):
         cache = args.cache or str(caches / str(k))
