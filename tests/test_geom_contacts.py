@@ -442,6 +442,14 @@ its edge (its lowest edge level with the other's bottom face); the link lifts, t
 are binary fractions: MuJoCo keeps a mesh's vertices in float32, warpdyn a file's as read (float64)."""
 
 
+def _stack_urdf(folder: pathlib.Path) -> pathlib.Path:
+    """STACK_URDF written into `folder` with its slab's and cube's OBJ files; its path."""
+    _box_obj(folder / "slab.obj", (-0.5, -0.5, -0.0625), (0.5, 0.5, 0.0))
+    _box_obj(folder / "cube.obj", (-0.0625, -0.0625, -0.0625), (0.0625, 0.0625, 0.0625))
+    (folder / "stack.urdf").write_text(STACK_URDF)
+    return folder / "stack.urdf"
+
+
 @pytest.mark.parametrize("tilt", [0.0, 3e-3], ids=["flat", "tilted"])
 def test_urdf_mesh_faces_give_mujocos_multiccd_contacts(tmp_path, tilt):
     """with_self_collision on a URDF of mesh files: MuJoCo compiles the hulls' polygons from the same vertices
@@ -449,10 +457,7 @@ def test_urdf_mesh_faces_give_mujocos_multiccd_contacts(tmp_path, tilt):
     edge two, MuJoCo's on the same URDF: the counts equal at every state; the contacts MuJoCo's to 1e-9 m flat and
     within 5e-6 m tilted by up to `tilt` (tests/test_collision_polygons.py: MuJoCo 4.0 places tilted contacts
     slightly otherwise)."""
-    _box_obj(tmp_path / "slab.obj", (-0.5, -0.5, -0.0625), (0.5, 0.5, 0.0))
-    _box_obj(tmp_path / "cube.obj", (-0.0625, -0.0625, -0.0625), (0.0625, 0.0625, 0.0625))
-    urdf = tmp_path / "stack.urdf"
-    urdf.write_text(STACK_URDF)
+    urdf = _stack_urdf(tmp_path)
     with warnings.catch_warnings():
         warnings.simplefilter("error", wd.model.NotModelledWarning)  # no pair left with one contact for want of faces
         model = wd.contact.with_self_collision(_model(urdf))
@@ -503,12 +508,10 @@ def test_hull_polygons_are_those_mujoco_compiles_from_the_file(tmp_path):
 def test_urdf_meshes_without_mujocos_polygons_are_named(tmp_path, monkeypatch):
     """Without MuJoCo to compile a mesh file's hull polygons (hull_polygons None), with_self_collision names the pairs
     with a mesh that keep one contact, and gives them one slot."""
-    _box_obj(tmp_path / "slab.obj", (-0.5, -0.5, -0.0625), (0.5, 0.5, 0.0))
-    _box_obj(tmp_path / "cube.obj", (-0.0625, -0.0625, -0.0625), (0.0625, 0.0625, 0.0625))
-    (tmp_path / "stack.urdf").write_text(STACK_URDF)
+    urdf = _stack_urdf(tmp_path)
     monkeypatch.setattr(wd.types.geoms, "hull_polygons", lambda vertices: None)
     with pytest.warns(wd.model.NotModelledWarning, match=r"2 shape pairs with a mesh get one contact.*pip install mujoco"):
-        model = wd.contact.with_self_collision(_model(tmp_path / "stack.urdf"))
+        model = wd.contact.with_self_collision(_model(urdf))
     assert list(wd.contact.geom_pairs(model).slots) == [1, 1]
 
 
