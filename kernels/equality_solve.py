@@ -4,10 +4,12 @@ equality constraints), in three launches, one thread per environment:
 - `equality_rows` (differentiable: a tape records it): each constraint's rows J (m, K), reference accelerations
   aref = -b J nu - k imp r - J̇ν and regularisation R (m,) (a frame weld's: aref = -(K_P r + K_D J nu), R its own);
 - `equality_solve`: f = (J M^-1 J^T + diag(R))^-1 (aref - J a0) and nu_dot = a0 + M^-1 J^T f, or with MuJoCo's
-  implicit joint damping the explicit a0 = a0' + dt M^-1 D a0' and nu_dot = a0' + (M + dt D)^-1 J^T f;
+  implicit joint damping the explicit a0 = a0' + dt M^-1 D a0' and nu_dot = a0' + (M + dt D)^-1 J^T f; with joint
+  limits, over the rows an active set keeps (`active_set`: the limits that push, f > 0; the others' f = 0);
 - `equality_solve_adjoint`: its adjoint, written by hand (the implicit function theorem; with implicit damping, but
   not with respect to the damping, whose gradients the engine refuses under a tape), registered on the tape by the
-  engine (warpdyn.engine.launch's Launch.adjoint). Without damping: with
+  engine (warpdyn.engine.launch's Launch.adjoint), on the rows the active set kept (the set is locally constant: the
+  rows left out carry no force and no adjoint). Without damping: with
   w = M^-1 nudot_bar, fbar = J w, bbar = A^-1 fbar, u = M^-1 J^T f and v = M^-1 J^T bbar (the solved block),
   adj a0 = nudot_bar - J^T bbar, adj aref = bbar, adj R = -bbar f, adj J = f (w - v)^T - bbar (a0 + u)^T,
   adj M = sym((v - w) u^T); `equality_solve_adjoint` gives the damped terms.
@@ -19,7 +21,7 @@ import warp as wp
 
 from .bundles import bundles
 from .cholesky import kernels as cholesky_kernels
-from .equality import FRAME_WELD, MIN_VALUE
+from .equality import FRAME_WELD, LIMIT, MIN_VALUE
 from .equality import kernels as equality_kernels
 from .factory import factory
 from .spatial import MIXED, spatial
@@ -56,7 +58,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         for e in range(eq.kind.shape[0]):
             row = eq.row[e]
             residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 1)
-            if eq.kind[e] == FRAME_WELD:  # JaxSim's Baumgarte gains and regularisation
+            if eq.kind[e] == LIMIT and residual[0] >= scalar(0.0):  # a limit within its range: no force (f = 0)
+                aref[env, row] = scalar(0.0)
+                R[env, row] = scalar(1.0)
+            elif eq.kind[e] == FRAME_WELD:  # JaxSim's Baumgarte gains and regularisation
                 for a in range(rows):
                     aref[env, row + a] = -eq.baumgarte[e, 1] * E.row_velocity(J, env, row + a, v_B, x) - eq.baumgarte[e, 0] * residual[a]
                     R[env, row + a] = eq.regularization[e]
@@ -71,16 +76,81 @@ def kernels(scalar) -> types.SimpleNamespace:
                     R[env, row + a] = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * invweight / imp)
 
     @wp.func
+    def masked_solve(A: wp.array3d(dtype=scalar), active: wp.array2d(dtype=scalar), y: wp.array2d(dtype=scalar), env: int, m: int,
+                     LA: wp.array3d(dtype=scalar), rhs: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar)):
+        """w[0:m] = the rows' forces with the rows whose `active` is 0 left out (their f 0): A's active block
+        factorised into LA (its other rows and columns the identity's), rhs = y on the active rows (0 elsewhere)."""
+        for r in range(m):
+            for c in range(r + 1):
+                value = A[env, r, c]
+                if active[env, r] == scalar(0.0) or active[env, c] == scalar(0.0):
+                    value = scalar(0.0)
+                    if r == c:
+                        value = scalar(1.0)
+                LA[env, r, c] = value
+            rhs[env, r] = y[env, r] * active[env, r]
+        C.factor(LA, env, 0, m, scalar(-1.0), LA)  # in place: factor reads the lower triangle before it writes it
+        C.substitute(LA, env, m, rhs, w, 0)
+
+    @wp.func
+    def active_set(
+        eq: Equalities, x: B.State, A: wp.array3d(dtype=scalar), env: int, m: int, LA: wp.array3d(dtype=scalar), y: wp.array2d(dtype=scalar),
+        rhs: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar), active: wp.array2d(dtype=scalar),
+    ):
+        """The forces w[0:m] of A f = rhs (A = J M^-1 J^T + diag(R)) with the limits' rows unilateral, as MuJoCo's
+        solvers reach them: a limit past its bound (margin included) pushes (f > 0) while its row's acceleration
+        would otherwise fall short of aref (J a - aref < 0), and is free (f = 0) once J a - aref >= 0. Active set:
+        from every row of a limit past its bound, a pass drops the rows whose f < 0 and takes back those whose
+        J a - aref < 0 (J a - aref = (A f)_r - rhs_r for a row left out), until none changes (at most one pass more
+        than the limits). Equality rows always act. `active` (m): 1 on the rows solved, 0 on those left out; y: rhs
+        kept; LA: the last active block's factor (`masked_solve`)."""
+        limits = int(0)
+        changed = int(0)
+        for r in range(m):
+            y[env, r] = rhs[env, r]
+            active[env, r] = scalar(1.0)
+        for e in range(eq.kind.shape[0]):
+            if eq.kind[e] == LIMIT:
+                limits = limits + 1
+                gap, side = E.limit_gap(eq, x, env, e)
+                if gap >= scalar(0.0):
+                    active[env, eq.row[e]] = scalar(0.0)
+        for it in range(limits + 1):
+            masked_solve(A, active, y, env, m, LA, rhs, w)
+            changed = int(0)
+            for e in range(eq.kind.shape[0]):
+                r = eq.row[e]
+                if eq.kind[e] == LIMIT:
+                    gap, side = E.limit_gap(eq, x, env, e)
+                    if gap < scalar(0.0):
+                        if active[env, r] != scalar(0.0):
+                            if w[env, r] < scalar(0.0):
+                                active[env, r] = scalar(0.0)
+                                changed = int(1)
+                        else:
+                            jar = -y[env, r]
+                            for q in range(m):
+                                jar = jar + A[env, r, q] * w[env, q]
+                            if jar < scalar(0.0):
+                                active[env, r] = scalar(1.0)
+                                changed = int(1)
+            if changed == 0:
+                break
+        if limits > 0 and changed != 0:  # the last pass changed the set: solve on it
+            masked_solve(A, active, y, env, m, LA, rhs, w)
+
+    @wp.func
     def free_accelerations(
         model: B.Model, eq: Equalities, x: B.State, J: wp.array3d(dtype=scalar), aref: wp.array2d(dtype=scalar), R: wp.array2d(dtype=scalar),
         M: wp.array3d(dtype=scalar), a_free: wp.array2d(dtype=scalar), implicit_dt: scalar, env: int, off: int, L: wp.array3d(dtype=scalar),
-        MinvJT: wp.array3d(dtype=scalar), A: wp.array3d(dtype=scalar), LA: wp.array3d(dtype=scalar), rhs: wp.array2d(dtype=scalar),
-        w: wp.array2d(dtype=scalar), nu_dot: wp.array2d(dtype=scalar),
+        MinvJT: wp.array3d(dtype=scalar), A: wp.array3d(dtype=scalar), LA: wp.array3d(dtype=scalar), y: wp.array2d(dtype=scalar),
+        rhs: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar), active: wp.array2d(dtype=scalar), nu_dot: wp.array2d(dtype=scalar),
     ):
         """M^-1 J^T (rows of MinvJT, M factorised into L), nu_dot = a0 (with implicit damping the explicit a0 =
         a0' + dt M^-1 D a0': a floating base's damper d acts on MuJoCo's free-joint coordinates T nu, D's base block
-        d T^T T, its force d T^T (T a0' + T_dot nu), T_dot nu = [w x p_dot; 0]), A = J M^-1 J^T + diag(R) factorised
-        into LA and rhs = aref - J a0; returns (T's damper block for the final solve, the number of rows m)."""
+        d T^T T, its force d T^T (T a0' + T_dot nu), T_dot nu = [w x p_dot; 0]), A = J M^-1 J^T + diag(R), rhs = aref -
+        J a0 and the forces f in w[0:m] (`active_set`: LA the factor of the rows solved, `active` which); returns (T's
+        damper block for the final solve, the number of rows m)."""
         K = M.shape[1]
         m = J.shape[1]
         parent = eq.dof_parent
@@ -116,7 +186,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 s = s - J[env, r, c] * nu_dot[env, c]
             rhs[env, r] = s
             A[env, r, r] = A[env, r, r] + R[env, r]
-        C.factor(A, env, 0, m, scalar(-1.0), LA)
+        active_set(eq, x, A, env, m, LA, y, rhs, w, active)
         return base_damper, m
 
     @wp.kernel(module="unique", enable_backward=False)
@@ -130,7 +200,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         M: wp.array3d(dtype=scalar),
         a_free: wp.array2d(dtype=scalar),
         implicit_dt: scalar,
-        # scratch: L (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w (N, max(m, K))
+        # scratch: L (N, K, K), MinvJT (N, m, K), A and LA (N, m, m), y, rhs, w, active (N, max(m, K))
         L: wp.array3d(dtype=scalar),
         MinvJT: wp.array3d(dtype=scalar),
         A: wp.array3d(dtype=scalar),
@@ -138,6 +208,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         y: wp.array2d(dtype=scalar),
         rhs: wp.array2d(dtype=scalar),
         w: wp.array2d(dtype=scalar),
+        active: wp.array2d(dtype=scalar),
         # output
         nu_dot: wp.array2d(dtype=scalar),
     ):
@@ -149,8 +220,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         off = 6
         if model.floating_base != 0:
             off = 0
-        base_damper, m = free_accelerations(model, eq, x, J, aref, R, M, a_free, implicit_dt, env, off, L, MinvJT, A, LA, rhs, w, nu_dot)
-        C.substitute(LA, env, m, rhs, w, 0)  # f in w[0:m]
+        base_damper, m = free_accelerations(model, eq, x, J, aref, R, M, a_free, implicit_dt, env, off, L, MinvJT, A, LA, y, rhs, w, active, nu_dot)
         if implicit_dt > scalar(0.0):  # nu_dot = a0' + (M + dt D)^-1 J^T f
             for i in range(off, K):
                 s = scalar(0.0)
@@ -220,6 +290,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         y: wp.array2d(dtype=scalar),
         rhs: wp.array2d(dtype=scalar),
         w: wp.array2d(dtype=scalar),
+        active: wp.array2d(dtype=scalar),
         u: wp.array2d(dtype=scalar),
         v: wp.array2d(dtype=scalar),
         a0: wp.array2d(dtype=scalar),
@@ -248,8 +319,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         if model.floating_base != 0:
             off = 0
         parent = eq.dof_parent
-        base_damper, m = free_accelerations(model, eq, x, J, aref, R, M, a_free, implicit_dt, env, off, L, MinvJT, A, LA, rhs, w, a0)
-        C.substitute(LA, env, m, rhs, w, 0)  # w: f
+        base_damper, m = free_accelerations(model, eq, x, J, aref, R, M, a_free, implicit_dt, env, off, L, MinvJT, A, LA, y, rhs, w, active, a0)  # w: f
         for i in range(K):  # u: nudot_bar on the solved block (the rest passes to a0'), t: J^T f
             g = adj_nu_dot[env, i]
             adj_a_free[env, i] = adj_a_free[env, i] + g
@@ -266,11 +336,11 @@ def kernels(scalar) -> types.SimpleNamespace:
             E.tree_factor(model, M, env, off, parent, implicit_dt, base_damper, L)  # L: M + h D
         E.tree_solve(L, env, off, parent, u)  # u: g
         E.tree_solve(L, env, off, parent, t)  # t: y_h
-        for r in range(m):  # rhs: fbar = J g
+        for r in range(m):  # rhs: fbar = J g on the rows solved (bbar 0 on those left out)
             s = scalar(0.0)
             for i in range(off, K):
                 s = s + J[env, r, i] * u[env, i]
-            rhs[env, r] = s
+            rhs[env, r] = s * active[env, r]
         C.substitute(LA, env, m, rhs, y, 0)  # y: bbar
         for i in range(K):  # v: M^-1 J^T bbar, rhs: M^-1 J^T f (the solved block; 0 elsewhere)
             s_v = scalar(0.0)

@@ -185,6 +185,18 @@ class LinkDescription:
 
 
 @dataclass
+class LimitConstraint:
+    """MuJoCo's limit constraint of a hinge or slide joint's range [lower, upper] (an MJCF's limited joint): its
+    solref (2), solimp (5), margin [rad or m] (the row acts from that far inside the range) and invweight
+    (MuJoCo's dof_invweight0, the scale of the row's regularisation R)."""
+
+    solref: np.ndarray
+    solimp: np.ndarray
+    margin: float
+    invweight: float
+
+
+@dataclass
 class JointDescription:
     """A joint between two links (see the module docstring for the convention).
 
@@ -193,8 +205,9 @@ class JointDescription:
     `finish_tree`): a "free" joint is a free body of a scene with several trees (its parent the world).
     origin: (4, 4) joint frame in the parent link at q = 0. axis: (3,) unit vector in the child frame.
     pivot: (3,) point of the rotation axis in the child frame [m].
-    lower, upper: position limits [rad or m] (+-inf: none). MuJoCo treats them as constraints; warpdyn
-    has only its limit springs (see NotModelledWarning). effort, velocity: URDF `<limit>` [N m or N, rad/s
+    lower, upper: position limits [rad or m] (+-inf: none). MuJoCo treats them as constraints: an MJCF's
+    limited hinge or slide joint carries its `limit_constraint`, which a step solves as MuJoCo does where
+    `model.limit_constraints` is set; otherwise warpdyn has only JaxSim's limit springs (see NotModelledWarning). effort, velocity: URDF `<limit>` [N m or N, rad/s
     or m/s] (MJCF: inf).
 
     Dynamics parameters ([.] for a revolute / prismatic joint). Two different dampings:
@@ -240,6 +253,7 @@ class JointDescription:
     actuator_force_range: np.ndarray = field(default_factory=lambda: np.array([-np.inf, np.inf]))
     actuator_gravcomp: bool = False
     initial_position: np.ndarray | None = None
+    limit_constraint: LimitConstraint | None = None
 
     @property
     def coordinates(self) -> int:

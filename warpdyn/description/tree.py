@@ -96,6 +96,9 @@ class TreeEquality:
     invweight: float = 0.0
     baumgarte: np.ndarray = field(default_factory=lambda: np.zeros(2))
     regularization: float = 0.0
+    lower: float = 0.0
+    upper: float = 0.0
+    margin: float = 0.0
     source: int = -1  # its index in the description's equalities (-1: none, a frame weld)
 
 
@@ -137,7 +140,8 @@ class KinematicTree:
       link frame; 0 where gravcomp_mass is 0). Exact: parallel forces sum to one force at that point.
       It vanishes when "gravity" is disabled, or both "spring" and "damper" are.
     actuators: the description's actuators on kept joints (`TreeActuator`), in the description's order.
-    equalities: the description's equality constraints (`TreeEquality`) whose joints the tree keeps.
+    equalities: the description's equality constraints (`TreeEquality`) whose joints the tree keeps; limits: the MJCF's
+    limit constraints of the joints it keeps (kind "limit"; a step solves them where `model.limit_constraints` is set).
     """
 
     link_names: list[str]
@@ -177,6 +181,7 @@ class KinematicTree:
     base_damping: float = 0.0  # its damper [N s/m or N m s/rad]
     base_stiffness: float = 0.0  # its spring towards the description's base pose [N/m or N m/rad]
     equalities: list[TreeEquality] = field(default_factory=list)
+    limits: list[TreeEquality] = field(default_factory=list)  # an MJCF's limit constraints (kind "limit"), one per limited hinge or slide joint
 
     def __post_init__(self):
         nj, nL = len(self.joint_names), len(self.link_names)
@@ -526,8 +531,19 @@ def build_tree(
         v_start=v_start,
         qpos0=qpos0,
         equalities=_equalities(description, kept_of, kept_H_link, index, joint_index, qpos0, q_start),
+        limits=[_limit(j, i) for i, j in enumerate(movable_joints) if j.limit_constraint is not None],
         **_base_joint_parameters(description),
     )
+
+
+def _limit(joint, index: int) -> TreeEquality:
+    """Tree joint `index`'s MuJoCo limit constraint (its `limit_constraint`), a row of kind "limit" on it. MuJoCo gives
+    a joint a row per bound within the margin; warpdyn one, at the nearer bound (`model.limit_constraints` refuses a
+    range narrower than twice the margin)."""
+    limit = joint.limit_constraint
+    return TreeEquality(name=joint.name, kind="limit", terms1=[(index, 1.0)], solref=np.array(limit.solref, dtype=np.float64),
+                        solimp=np.array(limit.solimp, dtype=np.float64), invweight=float(limit.invweight), lower=float(joint.lower),
+                        upper=float(joint.upper), margin=float(limit.margin))  # fmt: skip
 
 
 def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict, index: dict, joint_index: dict, qpos0, q_start) -> list[TreeEquality]:

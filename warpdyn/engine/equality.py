@@ -1,6 +1,6 @@
 """Equality constraints in a step: MJCF connects, welds, and joint and fixed-tendon couplings (warpdyn.description.tree's
-TreeEquality), solved as MuJoCo solves them, and JaxSim's kinematic constraints (the model's ConstraintMap: frame
-welds), solved as JaxSim solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
+TreeEquality), and with `model.limit_constraints` an MJCF's joint limits, solved as MuJoCo solves them, and JaxSim's
+kinematic constraints (the model's ConstraintMap: frame welds), solved as JaxSim solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
 Inertial base) at a state x, with the link poses of its FK, the launches compute the mass matrix (Inertial base),
 for connects and welds the links' velocities and bias terms and their anchors' Jacobians and J̇ν (Mixed, ν
 Inertial), and the constrained accelerations into the evaluation's nu_dot. With the model setting
@@ -19,7 +19,7 @@ import warp as wp
 from .. import arrays
 from ..kernels.crba import CRBA_RECORD
 from ..kernels.crba import kernels as crba_kernels
-from ..kernels.equality import CONNECT, COUPLING, FRAME_WELD, ROWS, WELD
+from ..kernels.equality import CONNECT, COUPLING, FRAME_WELD, LIMIT, ROWS, WELD
 from ..kernels.equality import kernels as equality_kernels
 from ..kernels.equality import projection_kernels
 from ..kernels.equality_solve import kernels as solve_kernels
@@ -62,7 +62,7 @@ class EqualityPlan:
         self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
         # what the solve's adjoint leaves out with MuJoCo's implicit damping: gradients of the damping (`check_steppable`)
         self.dampings = (model.parameter("damping"), model.parameter("base_damping"))
-        kinds = [{"connect": CONNECT, "weld": WELD, "frame_weld": FRAME_WELD, "joint": COUPLING, "tendon": COUPLING}[e.kind] for e in E]
+        kinds = [{"connect": CONNECT, "weld": WELD, "frame_weld": FRAME_WELD, "joint": COUPLING, "tendon": COUPLING, "limit": LIMIT}[e.kind] for e in E]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
         anchored = [e for e in E if e.kind in ("connect", "weld", "frame_weld")]  # two anchors each
@@ -119,6 +119,9 @@ class EqualityPlan:
         eq.invweight = floats([e.invweight for e in E])
         eq.baumgarte = floats([e.baumgarte for e in E], 2)
         eq.regularization = floats([e.regularization for e in E])
+        eq.lower = floats([e.lower for e in E])
+        eq.upper = floats([e.upper for e in E])
+        eq.margin = floats([e.margin for e in E])
         multi = model.multi_dof()
         self.solve, self.projection_kernel = solve_kernels(s), projection_kernels(s, multi).equality_projection
         self.fk = kinematics_kernels(s, multi).forward_kinematics
@@ -144,8 +147,8 @@ class EqualityPlan:
                 ("M", (K, K), s), ("crba_scratch", (max(nL, plan.n + 1), CRBA_RECORD), s), ("J", (m, K), s), ("aref", (m,), s), ("R", (m,), s),
             )
         }
-        # the solve's scratch: L (K, K), MinvJT (m, K), A and LA (m, m), y, rhs, w, u, v, a0, t (width)
-        out["scratch"] = [empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m))] + [empty((width,)) for _ in range(7)]
+        # the solve's scratch: L (K, K), MinvJT (m, K), A and LA (m, m), y, rhs, w, active, u, v, a0, t (width)
+        out["scratch"] = [empty((K, K)), empty((m, K)), empty((m, m)), empty((m, m))] + [empty((width,)) for _ in range(8)]
         if self.projection_passes:
             out["parent_H_link_next"], out["W_H_L_next"] = (empty((nL,), wp.types.transformation(s)) for _ in range(2))
         return out
@@ -165,13 +168,13 @@ class EqualityPlan:
         rows = [self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], plan.dt, self.refsafe]
         launches.append(Launch(self.solve.equality_rows, N, rows, [b["J"], b["aref"], b["R"]]))
         scratch = b["scratch"]
-        args = [plan.model, self.bundle, x, b["J"], b["aref"], b["R"], b["M"], b["nu_free"], plan.implicit_dt, *scratch[:7]]
+        args = [plan.model, self.bundle, x, b["J"], b["aref"], b["R"], b["M"], b["nu_free"], plan.implicit_dt, *scratch[:8]]
         adjoint = no_adjoint
         if ev.grad:
             fields = (x.base_position, x.base_quaternion, x.joint_positions, x.base_velocity, x.joint_velocities)
             adj_x = state_bundle(plan.scalar, [a.grad if a.grad is not None else wp.zeros_like(a) for a in fields] + [None, None])
             grads = [ev.nu_dot.grad, adj_x, b["J"].grad, b["aref"].grad, b["R"].grad, b["M"].grad, b["nu_free"].grad]
-            adjoint = functools.partial(launch, self.solve.equality_solve_adjoint, N, [*args, *scratch[7:11], *grads], [], device=plan.device, record_tape=False)
+            adjoint = functools.partial(launch, self.solve.equality_solve_adjoint, N, [*args, *scratch[8:12], *grads], [], device=plan.device, record_tape=False)
         launches.append(Launch(self.solve.equality_solve, N, args, [ev.nu_dot], adjoint=adjoint))
         return launches
 
@@ -211,14 +214,16 @@ def dof_parents(tree, floating: bool) -> np.ndarray:
 
 
 def equalities(model) -> list:
-    """The constraints a step enforces (TreeEquality): the description's (MJCF equality constraints), then the
-    model's JaxSim kinematic constraints (`model.constraints`, a ConstraintMap) as frame welds."""
-    return list(model.tree.equalities) + model.constraints.tree_equalities(model)
+    """The constraints a step enforces (TreeEquality): the description's (MJCF equality constraints), the model's
+    JaxSim kinematic constraints (`model.constraints`, a ConstraintMap) as frame welds, then with
+    `model.limit_constraints` the MJCF's joint limits (unilateral rows)."""
+    limits = list(model.tree.limits) if model.limit_constraints else []
+    return list(model.tree.equalities) + model.constraints.tree_equalities(model) + limits
 
 
 def equality_plan(model) -> EqualityPlan | None:
-    """The model's EqualityPlan, None without equality constraints."""
-    if not model.tree.equalities and not len(model.constraints):
+    """The model's EqualityPlan, None without equality constraints or limits to solve."""
+    if not equalities(model):
         return None
     return EqualityPlan(model)
 

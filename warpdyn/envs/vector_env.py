@@ -98,13 +98,14 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
 
     def _with_body_contacts(self, model):
         """A copy of `model` with its geom pairs' contacts acting and the config's `time_step`, `implicit_contacts`,
-        soft law (`contact_stiffness` K, `contact_damping` D, `friction` mu) and `divergence_speed`: a manipulation
+        `limit_constraints`, soft law (`contact_stiffness` K, `contact_damping` D, `friction` mu) and `divergence_speed`: a manipulation
         environment's `_simulated` after its checks of the scene."""
         cfg = self.cfg
         model = model.copy()
         model.divergence_speed = self._divergence_speed = cfg.divergence_speed
         model.geom_contacts = True
         model.implicit_contacts = cfg.implicit_contacts
+        model.limit_constraints = cfg.limit_constraints
         model.time_step = cfg.time_step
         model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=cfg.contact_damping, mu=cfg.friction)
         return model

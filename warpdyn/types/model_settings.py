@@ -99,6 +99,7 @@ REPLACEABLE = (
     "geom_contacts",
     "implicit_contacts",
     "equality_projection",
+    "limit_constraints",
     "constraints",
     "parametrized_links",
     "kin_dyn_parameters",
@@ -213,6 +214,38 @@ class ModelSettings:
         "within 2 s at 1 ms and gained 0.5 % a second at 0.25 ms); after RK4 it loses a little (tested: the four-bar "
         "under 0.5 % over 9 s, the ball under 2 % a second).",
     )
+
+    _limit_constraints = False
+
+    @property
+    def limit_constraints(self) -> bool:
+        """Whether a step solves an MJCF's joint limits as MuJoCo does (MuJoCo's limit constraints: the description's
+        limited hinge and slide joints, `model.tree.limits`): a joint past its range (less its margin) gets a soft
+        unilateral row, its solref, solimp and MuJoCo's dof_invweight0, solved with the equality constraints after the
+        contacts (kernels/equality_solve.py: pushing only, by an active set, as MuJoCo's solvers reach it). False by
+        default: the solve costs a step its fused kernel, and most locomotion never reaches its limits; a loaded MJCF
+        names its limits in a NotModelledWarning. True where the joints meet their stops (a hand's fingers, a falling
+        robot). A URDF's or SDF's limits are JaxSim's limit springs (`actuation_params`)."""
+        return self._limit_constraints
+
+    @limit_constraints.setter
+    def limit_constraints(self, value) -> None:
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"limit_constraints must be a bool, got {value!r}")
+        if value:
+            if not self.tree.limits:
+                raise ValueError(
+                    f"model.limit_constraints on '{self.name()}': it has no MuJoCo limit constraints (an MJCF's limited hinge or slide "
+                    "joints); a URDF's or SDF's joint limits are JaxSim's limit springs (actuation_params)"
+                )
+            narrow = [f"'{e.name}' [{e.lower}, {e.upper}], margin {e.margin}" for e in self.tree.limits if e.upper - e.lower < 2.0 * e.margin]
+            if narrow:
+                raise NotImplementedError(
+                    f"model.limit_constraints on '{self.name()}': joints {narrow} have a range narrower than twice their margin, which "
+                    "MuJoCo holds by both bounds' rows at once; warpdyn solves one row per joint (lower the margin)"
+                )
+        self._limit_constraints = bool(value)
+        self.notify_model_changed()
 
     _constraints = ConstraintMap()
 

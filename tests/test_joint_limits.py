@@ -1,0 +1,180 @@
+"""MuJoCo's joint limits (`model.limit_constraints`): an MJCF's limited hinge and slide joints held by soft
+unilateral rows, solved with the equality constraints (kernels/equality_solve.py's active set), against MuJoCo 4's
+mj_step with its limit rows active.
+
+Reference: MuJoCo's Euler step, contacts and frictionloss disabled, its Newton solver run to a tolerance of 1e-15:
+its constraint forces minimise a convex piecewise quadratic whose minimiser the active set reaches exactly, so
+both compute the same equations in float64: 1e-12 of the velocities' size."""
+
+import re
+import warnings
+
+import mujoco
+import numpy as np
+import pytest
+
+import mjcf_compare
+import mjcf_models as mm
+import robots
+import warpdyn as wd
+from warpdyn.description.mjcf import BALL_LIMITS, JOINT_LIMITS
+
+# A three-link arm: a damped shoulder, an elbow with its own margin, solref and solimp (MuJoCo's limit defaults
+# otherwise), a slider at its tip.
+ARM = """
+<mujoco model="limited arm">
+  <compiler angle="radian"/>
+  <option timestep="0.002" gravity="0 0 -9.81"/>
+  <default><geom contype="0" conaffinity="0" type="capsule" size="0.02"/><joint limited="true"/></default>
+  <worldbody>
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0" range="-0.5 0.8" damping="0.05"/>
+      <geom fromto="0 0 0 0.3 0 0" mass="0.6"/>
+      <body name="fore" pos="0.3 0 0">
+        <joint name="elbow" axis="0 1 0" range="-1.2 0.1" margin="0.02" solreflimit="0.01 0.8" solimplimit="0.8 0.99 0.01 0.4 3"/>
+        <geom fromto="0 0 0 0.25 0 0" mass="0.4"/>
+        <body name="slider" pos="0.25 0 0">
+          <joint name="slide" type="slide" axis="1 0 0" range="-0.05 0.05"/>
+          <geom type="box" size="0.03 0.03 0.03" mass="0.3"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+UNMODELLED = int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)
+
+
+def _load(xml: str = ARM, dtype=np.float64, limits: bool = True) -> wd.model.Model:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        warnings.simplefilter("ignore", wd.contact.NoCollidablePointsWarning)
+        model = wd.model.Model.build_from_model_description(xml, dtype=dtype)
+    model.limit_constraints = limits
+    return model
+
+
+def _mujoco_step(mj, qpos, qvel, implicit: bool, steps: int = 1) -> mujoco.MjData:
+    """MuJoCo's Euler steps with its limit rows, its Newton solver run to convergence."""
+    mc = mm.reference_model(mj, constraints=True, eulerdamp=implicit, integrator=mujoco.mjtIntegrator.mjINT_EULER, extra_disable=UNMODELLED)
+    mc.opt.tolerance, mc.opt.ls_tolerance, mc.opt.iterations = 1e-15, 1e-15, 200
+    d = mm.make_data(mc, qpos, qvel)
+    for _ in range(steps):
+        mujoco.mj_step(mc, d)
+    return d
+
+
+def _states(count: int, seed: int = 0) -> list:
+    """(qpos, qvel) pairs of the arm, each joint drawn up to 0.2 rad (2 cm) past either bound, velocities N(0, 2^2)."""
+    rng = np.random.default_rng(seed)
+    return [(np.array([rng.uniform(-0.7, 1.0), rng.uniform(-1.4, 0.3), rng.uniform(-0.07, 0.07)]), rng.normal(0.0, 2.0, 3)) for _ in range(count)]
+
+
+def _data(model, mj, qpos, qvel):
+    return wd.data.Data.build(model, **mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs)
+
+
+@pytest.mark.parametrize("implicit", [True, False], ids=["implicit damping", "explicit damping"])
+def test_a_step_at_the_limits_equals_mujocos(implicit):
+    """One Euler step from states past, at and within the bounds equals mj_step's with its limit rows: rows that push
+    (the step differs from the free one by far more than the tolerance), rows past a bound that MuJoCo's solver
+    leaves at zero force (the joint leaves its bound fast enough: the active set drops them), margins, per-joint
+    solref and solimp, MuJoCo's implicit joint damping or not."""
+    mj, model = mujoco.MjModel.from_xml_string(ARM), _load()
+    model.implicit_damping = implicit
+    pushing = released = 0
+    for qpos, qvel in _states(24):
+        d = _mujoco_step(mj, qpos, qvel, implicit)
+        stepped = wd.model.step(model, _data(model, mj, qpos, qvel))
+        scale = max(1.0, float(np.abs(d.qvel).max()))
+        np.testing.assert_allclose(stepped.joint_velocities.numpy(), d.qvel, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(stepped.joint_positions.numpy(), d.qpos, rtol=0, atol=1e-12)
+        effect = np.abs(mm.euler_step(mj, qpos, qvel, eulerdamp=implicit).qvel - d.qvel).max()
+        pushing += effect > 1e-2
+        released += d.nefc > 0 and np.all(d.efc_force == 0.0)
+    assert pushing >= 8 and released >= 2, (pushing, released)
+
+
+def test_a_second_of_motion_follows_mujoco():
+    """The arm thrown against its stops for 0.5 s (250 steps, the limits engaged and released again and again)
+    stays on MuJoCo's trajectory within 1e-8 rad."""
+    mj, model = mujoco.MjModel.from_xml_string(ARM), _load()
+    qpos, qvel = np.array([0.7, 0.0, 0.04]), np.array([3.0, -6.0, 1.0])
+    data = _data(model, mj, qpos, qvel)
+    mc = mm.reference_model(mj, constraints=True, eulerdamp=True, integrator=mujoco.mjtIntegrator.mjINT_EULER, extra_disable=UNMODELLED)
+    mc.opt.tolerance, mc.opt.ls_tolerance, mc.opt.iterations = 1e-15, 1e-15, 200
+    d = mm.make_data(mc, qpos, qvel)
+    engaged = set()
+    for _ in range(250):
+        mujoco.mj_step(mc, d)
+        engaged |= {int(j) for j in d.efc_id[: d.nefc]}
+        data = wd.model.step(model, data)
+    assert engaged == {0, 1, 2}, engaged
+    np.testing.assert_allclose(data.joint_positions.numpy(), d.qpos, rtol=0, atol=1e-8)
+    low, high = mj.jnt_range[:, 0], mj.jnt_range[:, 1]
+    assert np.all(d.qpos > low - 0.05) and np.all(d.qpos < high + 0.05)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_environments_each_hold_their_own_limits(dtype):
+    """Sixteen environments in one step, each past other bounds, each equal to its own MuJoCo step (float32 to its
+    rounding: 1e-4 of the velocities' size)."""
+    mj, model = mujoco.MjModel.from_xml_string(ARM), _load(dtype=dtype)
+    states = _states(16, seed=1)
+    kwargs = [mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs for qpos, qvel in states]
+    data = wd.data.Data.build(model, num_envs=16, **{key: np.stack([k[key] for k in kwargs]) for key in ("joint_positions", "joint_velocities")})
+    stepped = wd.model.step(model, data).joint_velocities.numpy()
+    tolerance = 1e-12 if dtype == np.float64 else 1e-4
+    for k, (qpos, qvel) in enumerate(states):
+        expected = _mujoco_step(mj, qpos, qvel, True).qvel
+        np.testing.assert_allclose(stepped[k], expected, rtol=0, atol=tolerance * max(1.0, np.abs(expected).max()))
+
+
+def test_steps_against_the_limits_differentiate():
+    """A and B of one step and of ten with two limits pushing (kernels/equality_solve.py: the solve's adjoint on the
+    rows the active set keeps) equal central differences, 2e-6 of the largest entry."""
+    mj, model = mujoco.MjModel.from_xml_string(ARM), _load()
+    qpos, qvel = np.array([0.85, -1.25, 0.02]), np.array([1.0, -0.5, 0.3])
+    assert _mujoco_step(mj, qpos, qvel, True).nefc == 2
+    data = _data(model, mj, qpos, qvel)
+    for steps in (1, 10):
+        exact = wd.autodiff.transition_matrices(model, data, steps=steps)
+        central = wd.autodiff.transition_matrices(model, data, steps=steps, method="central", h=3e-7)
+        for key in ("A", "B"):
+            A, fd = exact[key].numpy(), central[key].numpy()
+            assert np.abs(A - fd).max() <= 2e-6 * np.abs(A).max(), (key, steps)
+    free = wd.autodiff.transition_matrices(_load(limits=False), data)["A"].numpy()
+    assert np.abs(free - wd.autodiff.transition_matrices(model, data)["A"].numpy()).max() > 1e-2, "the limits act on A"
+
+
+def test_the_setting_and_what_is_named():
+    """Off by default (a step is the free one; the loader names the limits it leaves out, and a ball joint's, which
+    warpdyn does not model); refused where there is nothing to solve (a URDF's limits are JaxSim's springs), for a
+    range narrower than twice its margin, and for a value that is not a bool; carried by a reduction that keeps a
+    limited joint; the post-stabilisation leaves the limits to the solve."""
+    mj = mujoco.MjModel.from_xml_string(ARM)
+    with pytest.warns(wd.model.NotModelledWarning, match=re.escape(f"{JOINT_LIMITS}: ['shoulder', 'elbow', 'slide']")):
+        model = wd.model.Model.build_from_model_description(ARM, dtype=np.float64)
+    assert model.limit_constraints is False and [e.name for e in model.tree.limits] == ["shoulder", "elbow", "slide"]
+    qpos, qvel = np.array([0.9, -1.3, 0.06]), np.array([1.0, -1.0, 0.5])
+    free = wd.model.step(model, _data(model, mj, qpos, qvel)).joint_velocities.numpy()
+    np.testing.assert_allclose(free, mm.euler_step(mj, qpos, qvel).qvel, rtol=0, atol=1e-12)
+    with pytest.raises(TypeError, match="limit_constraints must be a bool, got 1"):
+        model.limit_constraints = 1
+    urdf = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(2))
+    with pytest.raises(ValueError, match=rf"model.limit_constraints on '{urdf.name()}': it has no MuJoCo limit constraints"):
+        urdf.limit_constraints = True
+    narrow = ARM.replace('margin="0.02"', 'margin="0.7"')
+    with pytest.raises(NotImplementedError, match=r"joints \[\"'elbow' \[-1.2, 0.1\], margin 0.7\"\] have a range narrower than twice their margin"):
+        _load(narrow)
+    model.limit_constraints = True
+    reduced = wd.model.reduce(model, ["elbow", "slide"])
+    assert reduced.limit_constraints and [e.name for e in reduced.tree.limits] == ["elbow", "slide"]
+    projected = _load()
+    projected.equality_projection = 2
+    a = wd.model.step(projected, _data(projected, mj, qpos, qvel))
+    b = wd.model.step(model, _data(model, mj, qpos, qvel))
+    np.testing.assert_array_equal(a.joint_positions.numpy(), b.joint_positions.numpy())
+    ball = """<mujoco><worldbody><body><joint name="wrist" type="ball" range="0 60"/><geom size="0.1" mass="1"/></body></worldbody></mujoco>"""
+    with pytest.warns(wd.model.NotModelledWarning, match=re.escape(f"{BALL_LIMITS}: ['wrist']")):
+        wd.model.Model.build_from_model_description(ball)
