@@ -5,12 +5,12 @@ step of the same rollout replayed from its graph.
 
     python benchmarks/rollout_kernels.py [--device cuda:0] [--contact rigid] [--dtype float32] [--num-envs 4096]
                                          [--steps 50] [--top 8] [--block-dim 64] [--profile-steps S]
-                                         [--scene legs|pick|reorient] [--explicit]
+                                         [--scene legs|pick|reorient] [--explicit] [--limits on|off]
 
 --scene pick or reorient times instead the manipulation environments' scenes as they step them (envs.PickCubeEnv's
 Panda and cube, envs.CubeReorientEnv's LEAP hand and cube: geom contacts, their configs' time step and implicit
-contacts, or with --explicit their contacts explicit at the same time step; --contact does not apply), from their
-first reset, the actuators' controls 0.
+contacts, or with --explicit their contacts explicit at the same time step; their configs' limit_constraints, or
+--limits on|off; --contact does not apply), from their first reset, the actuators' controls 0.
 
 --contact: soft (JaxSim's K = 1e6), relaxed or rigid. The rollout first runs once (compilation, capture) and once
 more (the state moves on: a later segment of the same landing is timed). GPU only (the kernel timing is CUDA's).
@@ -46,7 +46,7 @@ def scene(args, device) -> tuple:
         model = sa.scene_model(base, sa.SIE, 1e-3, sa.contact_settings([args.contact], [1e6])[0])
         return model, sa.batch_data(model, init, args.num_envs)
     make, config = (envs.PickCubeEnv, envs.PickCubeConfig) if args.scene == "pick" else (envs.CubeReorientEnv, envs.CubeReorientConfig)
-    env = make(args.num_envs, config(implicit_contacts=not args.explicit), device=str(device), dtype=dtype, seed=0)
+    env = make(args.num_envs, config(implicit_contacts=not args.explicit, limit_constraints=args.limits), device=str(device), dtype=dtype, seed=0)
     env.reset(seed=0)
     return env.model, env.stepper.data
 
@@ -63,7 +63,10 @@ def main() -> None:
     parser.add_argument("--profile-steps", type=int, default=None, help="only one eager rollout of this many steps (for Nsight Compute)")
     parser.add_argument("--scene", default="legs", choices=("legs", "pick", "reorient"))
     parser.add_argument("--explicit", action="store_true", help="pick, reorient: explicit contacts (model.implicit_contacts off)")
+    parser.add_argument("--limits", choices=("on", "off"), default=None, help="pick, reorient: MuJoCo's joint limits (model.limit_constraints; default: the config's)")
     args = parser.parse_args()
+    config = envs.PickCubeConfig if args.scene == "pick" else envs.CubeReorientConfig
+    args.limits = config.limit_constraints if args.limits is None else args.limits == "on"
     wp.config.quiet = True
     if args.block_dim is not None:
         wd.config.cuda_block_dim = args.block_dim

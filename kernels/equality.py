@@ -277,16 +277,24 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.func
     def inverse_mass_rows(
         model: B.Model, M: wp.array3d(dtype=scalar), env: int, off: int, parent: wp.array(dtype=wp.int32), J: wp.array3d(dtype=scalar),
-        L: wp.array3d(dtype=scalar), w: wp.array2d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar),
+        L: wp.array3d(dtype=scalar), w: wp.array2d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar), used: wp.array2d(dtype=scalar),
     ):
         """MinvJT[env, r] = M^-1 J[env, r] for every row r of J (DoFs off to K - 1), M factorised into L along the tree
-        (`tree_factor`, no damper); w: scratch (K)."""
+        (`tree_factor`, no damper); an empty row's (a limit within its range) 0 without a solve, used[env, r] 0 for it
+        (1 otherwise: `delassus_rows` skips the empty rows); w: scratch (K)."""
         K = M.shape[1]
         tree_factor(model, M, env, off, parent, scalar(0.0), sp.mat66(scalar(0.0)), L)
         for r in range(J.shape[1]):
+            empty = int(1)
             for i in range(off, K):
                 w[env, i] = J[env, r, i]
-            tree_solve(L, env, off, parent, w)
+                if J[env, r, i] != scalar(0.0):
+                    empty = int(0)
+            used[env, r] = scalar(1.0)
+            if empty == 0:
+                tree_solve(L, env, off, parent, w)
+            else:
+                used[env, r] = scalar(0.0)
             for i in range(off, K):
                 MinvJT[env, r, i] = w[env, i]
 
@@ -301,13 +309,15 @@ def kernels(scalar) -> types.SimpleNamespace:
         return total
 
     @wp.func
-    def delassus_rows(J: wp.array3d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar), env: int, off: int, A: wp.array3d(dtype=scalar)):
-        """A[env] = J M^-1 J^T over the rows of J (DoFs off to K - 1; MinvJT: `inverse_mass_rows`)."""
+    def delassus_rows(J: wp.array3d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar), env: int, off: int, used: wp.array2d(dtype=scalar), A: wp.array3d(dtype=scalar)):
+        """A[env] = J M^-1 J^T over the rows of J (DoFs off to K - 1; MinvJT and used: `inverse_mass_rows`; an empty
+        row's entries 0 without a sum)."""
         for r in range(J.shape[1]):
             for q in range(r + 1):
                 total = scalar(0.0)
-                for c in range(off, J.shape[2]):
-                    total = total + J[env, r, c] * MinvJT[env, q, c]
+                if used[env, r] != scalar(0.0) and used[env, q] != scalar(0.0):
+                    for c in range(off, J.shape[2]):
+                        total = total + J[env, r, c] * MinvJT[env, q, c]
                 A[env, r, q] = total
                 A[env, q, r] = total
 
@@ -519,8 +529,8 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             if velocity_pass == 0:  # the position pass's right-hand side (the velocity pass writes J nu there)
                 for a in range(rows):
                     rhs[env, eq.row[e] + a] = residual[a]
-        E.inverse_mass_rows(model, M, env, off, eq.dof_parent, J, L, w, MinvJT)
-        E.delassus_rows(J, MinvJT, env, off, A)
+        E.inverse_mass_rows(model, M, env, off, eq.dof_parent, J, L, w, MinvJT, y)  # y: the rows used (free until the corrections)
+        E.delassus_rows(J, MinvJT, env, off, y, A)
         largest = scalar(0.0)
         for r in range(m):
             largest = wp.max(largest, A[env, r, r])

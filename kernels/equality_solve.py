@@ -161,7 +161,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             d_base = B.joint_parameter(model.base_damping, env, 0)
             T = E.base_coordinates(x, env)
             base_damper = d_base * (wp.transpose(T) * T)
-        E.inverse_mass_rows(model, M, env, off, parent, J, L, w, MinvJT)
+        E.inverse_mass_rows(model, M, env, off, parent, J, L, w, MinvJT, active)  # active: the rows used, until `active_set`
         for i in range(K):
             nu_dot[env, i] = a_free[env, i]
         if implicit_dt > scalar(0.0):
@@ -179,7 +179,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             E.tree_solve(L, env, off, parent, w)
             for i in range(off, K):
                 nu_dot[env, i] = a_free[env, i] + implicit_dt * w[env, i]
-        E.delassus_rows(J, MinvJT, env, off, A)
+        E.delassus_rows(J, MinvJT, env, off, active, A)
         for r in range(m):
             s = aref[env, r]
             for c in range(off, K):
