@@ -6,6 +6,7 @@ Reference: MuJoCo's Euler step, contacts and frictionloss disabled, its Newton s
 its constraint forces minimise a convex piecewise quadratic whose minimiser the active set reaches exactly, so
 both compute the same equations in float64: 1e-12 of the velocities' size."""
 
+import pathlib
 import re
 import warnings
 
@@ -178,3 +179,39 @@ def test_the_setting_and_what_is_named():
     ball = """<mujoco><worldbody><body><joint name="wrist" type="ball" range="0 60"/><geom size="0.1" mass="1"/></body></worldbody></mujoco>"""
     with pytest.warns(wd.model.NotModelledWarning, match=re.escape(f"{BALL_LIMITS}: ['wrist']")):
         wd.model.Model.build_from_model_description(ball)
+
+
+MENAGERIE = pathlib.Path(__file__).parent / "models" / "menagerie"
+
+
+@pytest.mark.parametrize("name", ["cassie.xml", "rby1a_1.2.xml"])
+def test_limits_beside_equality_constraints_on_a_floating_robot(name):
+    """Menagerie's Cassie (16 limited hinges, 4 connects) and RB-Y1 (26 limited hinges and slides, 2 joint couplings,
+    a free-joint damper), floating, with half their limited joints put up to 0.1 past a bound: a step with the
+    limits and the equality rows solved together equals mj_step's (implicit damping as the files ask), 1e-10 of the
+    velocities' size; the limits change it by far more."""
+    path = MENAGERIE / name
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wd.model.NotModelledWarning)
+        model = robots.contact_free(wd.model.Model.build_from_model_description(str(path), dtype=np.float64))
+    without = model.copy()
+    model.limit_constraints = True
+    rng = np.random.default_rng(2)
+    for _ in range(2):
+        qpos, qvel = mm.random_state(mj, rng, 0.5)
+        for j in np.flatnonzero(mj.jnt_limited):
+            if rng.uniform() < 0.5:
+                side = int(rng.integers(2))
+                qpos[mj.jnt_qposadr[j]] = mj.jnt_range[j, side] + (2 * side - 1) * rng.uniform(0.0, 0.1)
+        start = mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs
+        d = _mujoco_step(mj, qpos, qvel, model.implicit_damping)
+        expected = mjcf_compare.mujoco_to_warpdyn_state(model, mj, d.qpos, d.qvel).data_kwargs
+        stepped = wd.model.step(model, wd.data.Data.build(model, **start))
+        free = wd.model.step(without, wd.data.Data.build(without, **start)).joint_velocities.numpy()
+        scale = max(1.0, float(np.abs(expected["joint_velocities"]).max()))
+        assert np.abs(free - expected["joint_velocities"]).max() > 1e-4 * scale, "the limits act (1e6 times the tolerance)"
+        np.testing.assert_allclose(stepped.joint_velocities.numpy(), expected["joint_velocities"], rtol=0, atol=1e-10 * scale)
+        v = stepped.base_velocity.numpy()
+        np.testing.assert_allclose(v[:3], expected["base_linear_velocity"], rtol=0, atol=1e-10 * scale)
+        np.testing.assert_allclose(v[3:], expected["base_angular_velocity"], rtol=0, atol=1e-10 * scale)
