@@ -12,8 +12,9 @@ steps per policy step), a hand whose cube falls below z = -0.05 m restarting fro
 cube's angle turned per policy step (median, mean, 90th percentile [rad]), the fraction of hands that dropped it, its
 mean height [m] and its mean horizontal distance from its start after --seconds [m]; and of the hand's 16 joints at
 the policy steps, the fraction past their ranges by more than 0.01 rad and the largest excess [rad] (MuJoCo's limit
-constraints act in both; --no-limits: warpdyn's off, model.limit_constraints). A statistic, not a trajectory: contacts
-make the two diverge within steps.
+constraints act in both; --no-limits: warpdyn's off, model.limit_constraints; the joints' frictionloss MuJoCo's
+friction constraints in both, --static-friction: warpdyn's JaxSim's static friction instead). A statistic, not a
+trajectory: contacts make the two diverge within steps.
 """
 
 from __future__ import annotations
@@ -93,9 +94,10 @@ def main(argv=None) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--no-limits", action="store_true", help="warpdyn without MuJoCo's limit constraints")
+    parser.add_argument("--static-friction", action="store_true", help="warpdyn's frictionloss as JaxSim's static friction")
     args = parser.parse_args(argv)
     wp.config.quiet = True
-    cfg = envs.CubeReorientConfig(limit_constraints=not args.no_limits)
+    cfg = envs.CubeReorientConfig(limit_constraints=not args.no_limits, frictionloss_constraints=not args.static_friction)
     env = envs.CubeReorientEnv(args.envs, cfg=cfg, device=args.device, seed=args.seed)
     env.reset(seed=args.seed)
     actions = smooth_actions(int(round(args.seconds / env.cfg.policy_dt)), args.envs, args.seed)
@@ -118,7 +120,8 @@ def main(argv=None) -> None:
     theirs = mujoco_run(m, q0, ctrl0, actions, int(m.joint("cube_freejoint").qposadr[0]), np.array([m.jnt_qposadr[j] for j in fingers]))
     print(f"{args.envs} hands, {args.seconds:g} s of smooth random actions (seed {args.seed})")
     limits = "limits on" if env.model.limit_constraints else "limits off"
-    print(f"warpdyn ({env.cfg.time_step * 1e3:g} ms, soft law, {limits}): {summary(*ours, ranges)}")
+    friction = "friction rows" if env.model.frictionloss_constraints else "static friction"
+    print(f"warpdyn ({env.cfg.time_step * 1e3:g} ms, soft law, {limits}, {friction}): {summary(*ours, ranges)}")
     print(f"MuJoCo  (10 ms, Playground's):      {summary(*theirs, ranges)}")
 
 

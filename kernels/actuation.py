@@ -160,18 +160,21 @@ def mujoco_terms(scalar, with_passive: bool, per_joint: int, multi_dof: bool):
 
 
 @factory
-def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0, multi_dof: bool = False):
+def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0, multi_dof: bool = False,
+                static_friction: bool = True):
     """The wp.func giving the step's force on DoF d of joint j [N m or N] at (s, sdot) (s: the joint's first
     position, positions (N, nq): the state's) from its reference tau_ref_d and the actuators' controls ctrl
     (N, na) (the module docstring's tau); per_joint: the most actuators on one joint (0: no actuator code). The
     actuation kernel and the fused step (kernels/fused_step.py: for each DoF d of link i's joint, j = i - 1) call
-    it; multi_dof: a model with ball or free joints (kernels/joints.py)."""
+    it; multi_dof: a model with ball or free joints (kernels/joints.py); static_friction False: friction without its
+    static term kc sign(sdot) (MuJoCo's friction constraints stand for it: `model.frictionloss_constraints`)."""
     B = bundles(scalar)
     clip, _ = functions(scalar, max(per_joint, 1))
     torque_limit = torque_speed_curve(scalar).torque_limit
     mujoco_joint_force = mujoco_terms(scalar, with_passive, per_joint, multi_dof)
     LIMITS = wp.constant(with_limits)
     FRICTION = wp.constant(with_friction)
+    STATIC = wp.constant(static_friction)
     MUJOCO = wp.constant(with_passive or per_joint > 0)
 
     @wp.func
@@ -182,10 +185,11 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
         total = tau_ref_d
         if FRICTION:
             sign = scalar(0.0)
-            if sd > scalar(0.0):
-                sign = scalar(1.0)
-            elif sd < scalar(0.0):
-                sign = scalar(-1.0)
+            if STATIC:
+                if sd > scalar(0.0):
+                    sign = scalar(1.0)
+                elif sd < scalar(0.0):
+                    sign = scalar(-1.0)
             total = total - (B.joint_parameter(model.friction_static, env, d) * sign + B.joint_parameter(model.friction_viscous, env, d) * sd)
         if LIMITS:
             if wp.static(not multi_dof) or model.joint_type[j + 1] <= PRISMATIC:
@@ -204,11 +208,12 @@ def joint_force(scalar, with_limits: bool, with_friction: bool, with_passive: bo
 
 
 @factory
-def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0, multi_dof: bool = False):
+def kernel(scalar, with_limits: bool, with_friction: bool, with_passive: bool = False, per_joint: int = 0, multi_dof: bool = False,
+           static_friction: bool = True):
     """The step's joint forces (`joint_force`) as a kernel over (N, nv)."""
     B = bundles(scalar)
     jm = joints(scalar, multi_dof)
-    resultant_torque = joint_force(scalar, with_limits, with_friction, with_passive, per_joint, multi_dof)
+    resultant_torque = joint_force(scalar, with_limits, with_friction, with_passive, per_joint, multi_dof, static_friction)
 
     @wp.kernel(module="unique")
     def resultant_torques(

@@ -13,9 +13,12 @@ weld: the anchors' bias accelerations; 0 for a coupling, as in MuJoCo):
 - coupling: r = L1 - L1_0 - sum_k c_k (L2 - L2_0)^k, J = dL1 - (sum_k k c_k (L2 - L2_0)^(k-1)) dL2, L a joint's
   position or a fixed tendon's length sum_j coef_j q_j (dL its coefficients on the DoFs);
 - limit (MuJoCo's limit of a hinge or slide joint, `model.limit_constraints`; docs/mujoco_semantics.md): at the
-  nearer bound, dist = q - lower (J = +1 at the joint's DoF) or upper - q (J = -1), r = dist - margin; while r >= 0
+  nearer bound of the joint's position_limits, dist = q - lower (J = +1 at the joint's DoF) or upper - q (J = -1), r = dist - margin; while r >= 0
   the row is empty (J = 0, aref = 0, R = 1: no force), and where r < 0 it is unilateral: kernels/equality_solve.py's
   active set keeps its force f >= 0;
+- friction (MuJoCo's friction constraint, `model.frictionloss_constraints`): J = 1 at the joint's DoF, r = 0 (so
+  aref = -b J nu and imp = solimp[0]), its force bounded by the joint's frictionloss, |f| <= friction_static
+  (kernels/equality_solve.py's active set: within the bound, or saturated at it);
 - frame weld (JaxSim's kinematic constraint, jaxsim.rbda.kinematic_constraints): two frames F1, F2 held together,
   J = J_F1 - J_F2 (their Mixed Jacobians: the origins' linear velocities and the angular ones, world axes),
   r = [p_F1 - p_F2; R_F2 log(R_F2^T R_F1)], J̇ν = 0 (JaxSim leaves it out), aref = -(K_P r + K_D J nu) and
@@ -68,7 +71,8 @@ COUPLING = wp.constant(1)  # a joint or fixed-tendon coupling
 WELD = wp.constant(2)
 FRAME_WELD = wp.constant(3)  # JaxSim's weld between two frames (its ConstraintMap's ConstraintType.Weld)
 LIMIT = wp.constant(4)  # MuJoCo's limit of a hinge or slide joint (mjCNSTR_LIMIT_JOINT): unilateral
-ROWS = {0: 3, 1: 1, 2: 6, 3: 6, 4: 1}
+FRICTION = wp.constant(5)  # MuJoCo's friction constraint of a hinge or slide joint (mjCNSTR_FRICTION_DOF): bounded
+ROWS = {0: 3, 1: 1, 2: 6, 3: 6, 4: 1, 5: 1}
 """The rows of each kind."""
 
 MIN_VALUE = 1.0e-15
@@ -94,8 +98,9 @@ def kernels(scalar) -> types.SimpleNamespace:
         address, DoF, coefficient), side 1 its first1 and count1 terms, side 2 its first2 and count2 (0: none),
         their values at qpos0 ref1, ref2, polycoef (E, 5);
         solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows); a frame
-        weld's gains baumgarte (E, 2) (K_P [1/s^2], K_D [1/s]) and regularization (E,) (its R); a limit's joint as a
-        coupling's side 1 (one term, coefficient 1), its range lower, upper (E,) [rad or m] and margin (E,); dof_parent
+        weld's gains baumgarte (E, 2) (K_P [1/s^2], K_D [1/s]) and regularization (E,) (its R); a limit's or friction
+        row's joint (E,) (-1 for the others; also as a coupling's side 1: one term, coefficient 1) and a limit's margin
+        (E,) [rad or m] (its range: the model's position_limits; a friction row's bound its friction_static); dof_parent
         (K = 6 + nv,): each DoF's parent DoF in the tree (the base's six a chain; -1 at a root), for `tree_factor`."""
 
         kind: wp.array(dtype=wp.int32)
@@ -124,8 +129,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         invweight_rotation: wp.array(dtype=scalar)
         baumgarte: wp.array2d(dtype=scalar)
         regularization: wp.array(dtype=scalar)
-        lower: wp.array(dtype=scalar)
-        upper: wp.array(dtype=scalar)
+        joint: wp.array(dtype=wp.int32)
         margin: wp.array(dtype=scalar)
         dof_parent: wp.array(dtype=wp.int32)
 
@@ -351,20 +355,22 @@ def kernels(scalar) -> types.SimpleNamespace:
         return bias
 
     @wp.func
-    def limit_gap(eq: Equalities, x: B.State, env: int, e: int):
-        """Limit e at the state x: (dist - margin, side), its nearer bound's distance dist (negative: past it) and the
-        row's sign side (+1 at the lower bound, -1 at the upper: MuJoCo's Jacobian -side of its own sign). The row
-        acts where dist - margin < 0 (one row: a range narrower than twice the margin is refused on the host)."""
+    def limit_gap(model: B.Model, eq: Equalities, x: B.State, env: int, e: int):
+        """Limit e at the state x: (dist - margin, side), its nearer bound's distance dist (negative: past it; the
+        bounds the joint's position_limits in environment env) and the row's sign side (+1 at the lower bound, -1 at
+        the upper: MuJoCo's Jacobian -side of its own sign). The row acts where dist - margin < 0 (one row: a range
+        narrower than twice the margin is refused on the host)."""
         q = x.joint_positions[env, eq.term_q[eq.first1[e]]]
-        below = q - eq.lower[e]
-        above = eq.upper[e] - q
+        limits = B.position_limits_of(model, env, eq.joint[e])
+        below = q - limits[0]
+        above = limits[1] - q
         if below <= above:
             return below - eq.margin[e], scalar(1.0)
         return above - eq.margin[e], scalar(-1.0)
 
     @wp.func
     def constraint_rows(
-        eq: Equalities, x: B.State, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), J_t: wp.array4d(dtype=scalar),
+        model: B.Model, eq: Equalities, x: B.State, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), J_t: wp.array4d(dtype=scalar),
         Jdotnu_t: wp.array3d(dtype=scalar), env: int, e: int, J: wp.array3d(dtype=scalar), with_rates: int,
     ):
         """Constraint e's rows (the module docstring) written into J[env, row:row + rows] (K columns, each entry once: a
@@ -375,8 +381,15 @@ def kernels(scalar) -> types.SimpleNamespace:
         residual = sp.vec6(scalar(0.0))
         bias = sp.vec6(scalar(0.0))
         rows = 1
-        if eq.kind[e] == LIMIT:  # J = side at the joint's DoF while it acts (0 otherwise), r = dist - margin
-            gap, side = limit_gap(eq, x, env, e)
+        if eq.kind[e] == FRICTION:  # J = 1 at the joint's DoF, r = 0
+            dof = 6 + eq.term_dof[eq.first1[e]]
+            for c in range(K):
+                value = scalar(0.0)
+                if c == dof:
+                    value = scalar(1.0)
+                J[env, row, c] = value
+        elif eq.kind[e] == LIMIT:  # J = side at the joint's DoF while it acts (0 otherwise), r = dist - margin
+            gap, side = limit_gap(model, eq, x, env, e)
             dof = 6 + eq.term_dof[eq.first1[e]]
             for c in range(K):
                 value = scalar(0.0)
@@ -521,8 +534,8 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             for c in range(K):
                 J[env, r, c] = scalar(0.0)
         for e in range(eq.kind.shape[0]):
-            residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 0)
-            if eq.kind[e] == LIMIT:  # unilateral: the step's solve holds it, the projection leaves it out
+            residual, bias, rows, distance = E.constraint_rows(model, eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 0)
+            if eq.kind[e] == LIMIT or eq.kind[e] == FRICTION:  # inequalities: the step's solve holds them, the projection leaves them out
                 for c in range(K):
                     J[env, eq.row[e], c] = scalar(0.0)
                 residual = sp.vec6(scalar(0.0))

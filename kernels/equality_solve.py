@@ -21,7 +21,7 @@ import warp as wp
 
 from .bundles import bundles
 from .cholesky import kernels as cholesky_kernels
-from .equality import FRAME_WELD, LIMIT, MIN_VALUE
+from .equality import FRAME_WELD, FRICTION, LIMIT, MIN_VALUE
 from .equality import kernels as equality_kernels
 from .factory import factory
 from .spatial import MIXED, spatial
@@ -36,6 +36,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def equality_rows(
+        model: B.Model,
         eq: Equalities,
         x: B.State,
         W_H_L: wp.array2d(dtype=sp.transform),
@@ -57,7 +58,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         v_B = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env))
         for e in range(eq.kind.shape[0]):
             row = eq.row[e]
-            residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 1)
+            residual, bias, rows, distance = E.constraint_rows(model, eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 1)
             if eq.kind[e] == LIMIT and residual[0] >= scalar(0.0):  # a limit within its range: no force (f = 0)
                 aref[env, row] = scalar(0.0)
                 R[env, row] = scalar(1.0)
@@ -76,68 +77,111 @@ def kernels(scalar) -> types.SimpleNamespace:
                     R[env, row + a] = wp.max(scalar(MIN_VALUE), (scalar(1.0) - imp) * invweight / imp)
 
     @wp.func
-    def masked_solve(A: wp.array3d(dtype=scalar), active: wp.array2d(dtype=scalar), y: wp.array2d(dtype=scalar), env: int, m: int,
-                     LA: wp.array3d(dtype=scalar), rhs: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar)):
-        """w[0:m] = the rows' forces with the rows whose `active` is 0 left out (their f 0): A's active block
-        factorised into LA (its other rows and columns the identity's), rhs = y on the active rows (0 elsewhere)."""
+    def solved(active: wp.array2d(dtype=scalar), env: int, r: int):
+        """1 where row r is solved for (`active_set`'s state 1), else 0 (a free or a saturated row)."""
+        if active[env, r] == scalar(1.0):
+            return scalar(1.0)
+        return scalar(0.0)
+
+    @wp.func
+    def friction_bound(model: B.Model, eq: Equalities, env: int, e: int):
+        """Friction constraint e's bound on its force: its joint's frictionloss, friction_static [N m or N]."""
+        return B.joint_parameter(model.friction_static, env, eq.term_dof[eq.first1[e]])
+
+    @wp.func
+    def masked_solve(model: B.Model, eq: Equalities, A: wp.array3d(dtype=scalar), active: wp.array2d(dtype=scalar), y: wp.array2d(dtype=scalar),
+                     env: int, m: int, LA: wp.array3d(dtype=scalar), rhs: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar)):
+        """The rows' forces w[0:m] in `active`'s states (`active_set`): the solved rows' from their block of A (factorised
+        into LA, its other rows and columns the identity's) and y less the saturated rows' share, A_rs f_s; a
+        saturated friction row's f = +-its bound; a free row's 0."""
         for r in range(m):
             for c in range(r + 1):
                 value = A[env, r, c]
-                if active[env, r] == scalar(0.0) or active[env, c] == scalar(0.0):
+                if solved(active, env, r) == scalar(0.0) or solved(active, env, c) == scalar(0.0):
                     value = scalar(0.0)
                     if r == c:
                         value = scalar(1.0)
                 LA[env, r, c] = value
-            rhs[env, r] = y[env, r] * active[env, r]
+            rhs[env, r] = y[env, r] * solved(active, env, r)
+        for e in range(eq.kind.shape[0]):
+            s = eq.row[e]
+            if eq.kind[e] == FRICTION and wp.abs(active[env, s]) == scalar(2.0):
+                f = wp.sign(active[env, s]) * friction_bound(model, eq, env, e)
+                for r in range(m):
+                    rhs[env, r] = rhs[env, r] - solved(active, env, r) * A[env, r, s] * f
         C.factor(LA, env, 0, m, scalar(-1.0), LA)  # in place: factor reads the lower triangle before it writes it
         C.substitute(LA, env, m, rhs, w, 0)
+        for e in range(eq.kind.shape[0]):
+            s = eq.row[e]
+            if eq.kind[e] == FRICTION and wp.abs(active[env, s]) == scalar(2.0):
+                w[env, s] = wp.sign(active[env, s]) * friction_bound(model, eq, env, e)
 
     @wp.func
     def active_set(
-        eq: Equalities, x: B.State, A: wp.array3d(dtype=scalar), env: int, m: int, LA: wp.array3d(dtype=scalar), y: wp.array2d(dtype=scalar),
-        rhs: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar), active: wp.array2d(dtype=scalar),
+        model: B.Model, eq: Equalities, x: B.State, A: wp.array3d(dtype=scalar), R: wp.array2d(dtype=scalar), env: int, m: int,
+        LA: wp.array3d(dtype=scalar), y: wp.array2d(dtype=scalar), rhs: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar),
+        active: wp.array2d(dtype=scalar),
     ):
-        """The forces w[0:m] of A f = rhs (A = J M^-1 J^T + diag(R)) with the limits' rows unilateral, as MuJoCo's
-        solvers reach them: a limit past its bound (margin included) pushes (f > 0) while its row's acceleration
-        would otherwise fall short of aref (J a - aref < 0), and is free (f = 0) once J a - aref >= 0. Active set:
-        from every row of a limit past its bound, a pass drops the rows whose f < 0 and takes back those whose
-        J a - aref < 0 (J a - aref = (A f)_r - rhs_r for a row left out), until none changes (at most one pass more
-        than the limits). Equality rows always act. `active` (m): 1 on the rows solved, 0 on those left out; y: rhs
-        kept; LA: the last active block's factor (`masked_solve`)."""
-        limits = int(0)
+        """The forces w[0:m] of A f = rhs (A = J M^-1 J^T + diag(R)) with the limits' rows unilateral and the friction
+        rows bounded, as MuJoCo's solvers reach them: the force of a row with jar = J a - aref is f = -jar / R where
+        that obeys the row's bound, else the bound: a limit past its bound (margin included) pushes, f > 0, or is free,
+        f = 0 where jar >= 0; a friction row's |f| <= its joint's frictionloss b, f = b where jar <= -R b, -b where
+        jar >= R b. Active set, `active` (m) each row's state: 1 solved for (every equality row; a limit past its bound
+        and a friction row at first), 0 free (f = 0), +-2 a friction row saturated at +-b. A pass solves
+        (`masked_solve`), then moves a limit whose f < 0 to free and a free limit past its bound whose jar < 0 back, a
+        friction row whose |f| > b to saturated and a saturated one whose jar leaves its side back; until none
+        changes (at most 2 passes per such row, and one more). y: rhs kept; LA: the last solved block's factor;
+        jar = (A f)_r - R_r f_r - y_r."""
+        rows = int(0)
         changed = int(0)
         for r in range(m):
             y[env, r] = rhs[env, r]
             active[env, r] = scalar(1.0)
         for e in range(eq.kind.shape[0]):
             if eq.kind[e] == LIMIT:
-                limits = limits + 1
-                gap, side = E.limit_gap(eq, x, env, e)
+                rows = rows + 1
+                gap, side = E.limit_gap(model, eq, x, env, e)
                 if gap >= scalar(0.0):
                     active[env, eq.row[e]] = scalar(0.0)
-        for it in range(limits + 1):
-            masked_solve(A, active, y, env, m, LA, rhs, w)
+            elif eq.kind[e] == FRICTION:
+                rows = rows + 1
+                if friction_bound(model, eq, env, e) <= scalar(0.0):
+                    active[env, eq.row[e]] = scalar(0.0)
+        for it in range(2 * rows + 1):
+            masked_solve(model, eq, A, active, y, env, m, LA, rhs, w)
             changed = int(0)
             for e in range(eq.kind.shape[0]):
                 r = eq.row[e]
-                if eq.kind[e] == LIMIT:
-                    gap, side = E.limit_gap(eq, x, env, e)
-                    if gap < scalar(0.0):
-                        if active[env, r] != scalar(0.0):
-                            if w[env, r] < scalar(0.0):
+                state = active[env, r]
+                if eq.kind[e] == LIMIT or (eq.kind[e] == FRICTION and state != scalar(0.0)):
+                    jar = -y[env, r] - R[env, r] * w[env, r]
+                    for q in range(m):
+                        jar = jar + A[env, r, q] * w[env, q]
+                    if eq.kind[e] == LIMIT:
+                        gap, side = E.limit_gap(model, eq, x, env, e)
+                        if gap < scalar(0.0):
+                            if state == scalar(1.0) and w[env, r] < scalar(0.0):
                                 active[env, r] = scalar(0.0)
                                 changed = int(1)
-                        else:
-                            jar = -y[env, r]
-                            for q in range(m):
-                                jar = jar + A[env, r, q] * w[env, q]
-                            if jar < scalar(0.0):
+                            elif state == scalar(0.0) and jar < scalar(0.0):
                                 active[env, r] = scalar(1.0)
                                 changed = int(1)
+                    else:
+                        bound = friction_bound(model, eq, env, e)
+                        if state == scalar(1.0):
+                            if w[env, r] > bound:
+                                active[env, r] = scalar(2.0)
+                                changed = int(1)
+                            elif w[env, r] < -bound:
+                                active[env, r] = scalar(-2.0)
+                                changed = int(1)
+                        elif (state == scalar(2.0) and jar > -R[env, r] * bound) or (state == scalar(-2.0) and jar < R[env, r] * bound):
+                            active[env, r] = scalar(1.0)
+                            changed = int(1)
             if changed == 0:
                 break
-        if limits > 0 and changed != 0:  # the last pass changed the set: solve on it
-            masked_solve(A, active, y, env, m, LA, rhs, w)
+        if rows > 0 and changed != 0:  # the last pass changed the set: solve on it
+            masked_solve(model, eq, A, active, y, env, m, LA, rhs, w)
 
     @wp.func
     def free_accelerations(
@@ -186,7 +230,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                 s = s - J[env, r, c] * nu_dot[env, c]
             rhs[env, r] = s
             A[env, r, r] = A[env, r, r] + R[env, r]
-        active_set(eq, x, A, env, m, LA, y, rhs, w, active)
+        active_set(model, eq, x, A, R, env, m, LA, y, rhs, w, active)
         return base_damper, m
 
     @wp.kernel(module="unique", enable_backward=False)
@@ -340,7 +384,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             s = scalar(0.0)
             for i in range(off, K):
                 s = s + J[env, r, i] * u[env, i]
-            rhs[env, r] = s * active[env, r]
+            rhs[env, r] = s * solved(active, env, r)
         C.substitute(LA, env, m, rhs, y, 0)  # y: bbar
         for i in range(K):  # v: M^-1 J^T bbar, rhs: M^-1 J^T f (the solved block; 0 elsewhere)
             s_v = scalar(0.0)

@@ -13,6 +13,7 @@ import warnings
 import mujoco
 import numpy as np
 import pytest
+import warp as wp
 
 import mjcf_compare
 import mjcf_models as mm
@@ -55,9 +56,11 @@ def _load(xml: str = ARM, dtype=np.float64, limits: bool = True) -> wd.model.Mod
     return model
 
 
-def _mujoco_step(mj, qpos, qvel, implicit: bool, steps: int = 1) -> mujoco.MjData:
-    """MuJoCo's Euler steps with its limit rows, its Newton solver run to convergence."""
-    mc = mm.reference_model(mj, constraints=True, eulerdamp=implicit, integrator=mujoco.mjtIntegrator.mjINT_EULER, extra_disable=UNMODELLED)
+def _mujoco_step(mj, qpos, qvel, implicit: bool, steps: int = 1, friction: bool = False) -> mujoco.MjData:
+    """MuJoCo's Euler steps with its limit rows (and its friction rows where `friction`), its Newton solver run to
+    convergence."""
+    disable = int(mujoco.mjtDisableBit.mjDSBL_CONTACT) if friction else UNMODELLED
+    mc = mm.reference_model(mj, constraints=True, eulerdamp=implicit, integrator=mujoco.mjtIntegrator.mjINT_EULER, extra_disable=disable)
     mc.opt.tolerance, mc.opt.ls_tolerance, mc.opt.iterations = 1e-15, 1e-15, 200
     d = mm.make_data(mc, qpos, qvel)
     for _ in range(steps):
@@ -131,6 +134,27 @@ def test_environments_each_hold_their_own_limits(dtype):
         np.testing.assert_allclose(stepped[k], expected, rtol=0, atol=tolerance * max(1.0, np.abs(expected).max()))
 
 
+def test_the_ranges_are_the_models_position_limits_per_environment():
+    """The rows' bounds are the model's position_limits (JaxSim's parameter, per environment where set so): two
+    environments from one state, the second's elbow range narrowed to [-0.6, -0.2], each equal to MuJoCo's step with
+    that range."""
+    mj, model = mujoco.MjModel.from_xml_string(ARM), _load()
+    limits = np.array(mj.jnt_range, dtype=np.float64)
+    narrowed = limits.copy()
+    narrowed[1] = (-0.6, -0.2)
+    model.set_joint_parameters(position_limits=np.stack([limits, narrowed]))
+    qpos, qvel = np.array([0.3, -0.1, 0.0]), np.array([0.5, 1.0, 0.0])
+    start = mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs
+    data = wd.data.Data.build(model, num_envs=2, **{k: np.stack([v, v]) for k, v in start.items() if k in ("joint_positions", "joint_velocities")})
+    stepped = wd.model.step(model, data).joint_velocities.numpy()
+    for k, ranges in enumerate((limits, narrowed)):
+        mk = mujoco.MjModel.from_xml_string(ARM)
+        mk.jnt_range[:] = ranges
+        expected = _mujoco_step(mk, qpos, qvel, True)
+        assert (expected.nefc > 0) == (k == 1)
+        np.testing.assert_allclose(stepped[k], expected.qvel, rtol=0, atol=1e-12 * max(1.0, np.abs(expected.qvel).max()))
+
+
 def test_steps_against_the_limits_differentiate():
     """A and B of one step and of ten with two limits pushing (kernels/equality_solve.py: the solve's adjoint on the
     rows the active set keeps) equal central differences, 2e-6 of the largest entry."""
@@ -165,9 +189,9 @@ def test_the_setting_and_what_is_named():
     urdf = wd.model.Model.build_from_model_description(robots.pendulum_chain_urdf(2))
     with pytest.raises(ValueError, match=rf"model.limit_constraints on '{urdf.name()}': it has no MuJoCo limit constraints"):
         urdf.limit_constraints = True
-    narrow = ARM.replace('margin="0.02"', 'margin="0.7"')
-    with pytest.raises(NotImplementedError, match=r"joints \[\"'elbow' \[-1.2, 0.1\], margin 0.7\"\] have a range narrower than twice their margin"):
-        _load(narrow)
+    narrow = _load(ARM.replace('margin="0.02"', 'margin="0.7"'))
+    with pytest.raises(NotImplementedError, match=r"joints \[\"'elbow' \(range 1.3, margin 0.7\)\"\] have a range narrower than twice their margin"):
+        wd.model.step(narrow, wd.data.Data.build(narrow))
     model.limit_constraints = True
     reduced = wd.model.reduce(model, ["elbow", "slide"])
     assert reduced.limit_constraints and [e.name for e in reduced.tree.limits] == ["elbow", "slide"]
@@ -215,3 +239,96 @@ def test_limits_beside_equality_constraints_on_a_floating_robot(name):
         v = stepped.base_velocity.numpy()
         np.testing.assert_allclose(v[:3], expected["base_linear_velocity"], rtol=0, atol=1e-10 * scale)
         np.testing.assert_allclose(v[3:], expected["base_angular_velocity"], rtol=0, atol=1e-10 * scale)
+
+
+# The arm with frictionloss on its joints (the elbow's with its own solreffriction and solimpfriction): MuJoCo's
+# friction constraints, beside the limits.
+FRICTION_ARM = (
+    ARM.replace('range="-0.5 0.8" damping="0.05"', 'range="-0.5 0.8" damping="0.05" frictionloss="0.4"')
+    .replace('margin="0.02"', 'margin="0.02" frictionloss="0.15" solreffriction="0.01 0.7" solimpfriction="0.8 0.9 0.001 0.5 2"')
+    .replace('range="-0.05 0.05"/>', 'range="-0.05 0.05" frictionloss="1.5"/>')
+)
+
+
+def _friction_model(dtype=np.float64) -> wd.model.Model:
+    model = _load(FRICTION_ARM, dtype=dtype)
+    model.frictionloss_constraints = True
+    return model
+
+
+@pytest.mark.parametrize("implicit", [True, False], ids=["implicit damping", "explicit damping"])
+def test_frictionloss_as_mujocos_friction_constraints(implicit):
+    """One Euler step with frictionloss solved as MuJoCo's friction constraints (and the limits) equals mj_step's
+    with its friction and limit rows: states where a joint sticks (its row's force within its bound) and where it
+    slides (the force at its bound), per-joint solreffriction and solimpfriction; JaxSim's static friction is left
+    out (the step differs from one with it where a joint sticks; where all slide the two agree)."""
+    mj, model = mujoco.MjModel.from_xml_string(FRICTION_ARM), _friction_model()
+    model.implicit_damping = implicit
+    jaxsim = _load(FRICTION_ARM)
+    jaxsim.implicit_damping = implicit
+    sticking = sliding = differing = 0
+    rng = np.random.default_rng(3)
+    for qpos, qvel in _states(24, seed=3):
+        qvel = qvel * rng.choice([0.0, 0.01, 1.0], size=3)  # some joints at rest, some creeping, some moving
+        d = _mujoco_step(mj, qpos, qvel, implicit, friction=True)
+        start = _data(model, mj, qpos, qvel)
+        stepped = wd.model.step(model, start)
+        scale = max(1.0, float(np.abs(d.qvel).max()))
+        np.testing.assert_allclose(stepped.joint_velocities.numpy(), d.qvel, rtol=0, atol=1e-12 * scale)
+        friction = d.efc_type[: d.nefc] == mujoco.mjtConstraint.mjCNSTR_FRICTION_DOF
+        bound = mj.dof_frictionloss[d.efc_id[: d.nefc][friction]]
+        force = np.abs(d.efc_force[: d.nefc][friction])
+        sticking += int(np.sum(force < bound * (1 - 1e-9)))
+        sliding += int(np.sum(force >= bound * (1 - 1e-9)))
+        static = wd.model.step(jaxsim, _data(jaxsim, mj, qpos, qvel)).joint_velocities.numpy()
+        differing += not np.allclose(static, d.qvel, rtol=0, atol=1e-6)  # alike where every joint slides
+    assert sticking >= 10 and sliding >= 10 and differing >= 10, (sticking, sliding, differing)
+
+
+def test_friction_per_environment_and_over_time():
+    """friction_static is each friction row's bound, per environment where set so: two environments of the arm
+    released at rest, one with frictionlosses above what gravity asks of the joints and one with a tenth of them,
+    0.5 s each equal to MuJoCo's with those frictionlosses within 1e-8 rad; the first holds its shoulder (it creeps,
+    as MuJoCo's soft rows let it), the second's falls."""
+    mj, model = mujoco.MjModel.from_xml_string(FRICTION_ARM), _friction_model()
+    base = np.array([6.0, 2.0, 3.0])  # above the joints' gravity torques and force at rest (about 4.2 N m, 1.2 N m, 1 N)
+    model.set_joint_parameters(friction_static=np.stack([base, 0.1 * base]))
+    qpos, qvel = np.array([0.2, -0.6, 0.0]), np.zeros(3)
+    start = mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs
+    data = wd.data.Data.build(model, num_envs=2, **{k: np.stack([v, v]) for k, v in start.items() if k in ("joint_positions", "joint_velocities")})
+    for _ in range(250):
+        data = wd.model.step(model, data)
+    moved = []
+    for k, scale in enumerate((1.0, 0.1)):
+        mk = mujoco.MjModel.from_xml_string(FRICTION_ARM)
+        mk.dof_frictionloss[:] = scale * base
+        d = _mujoco_step(mk, qpos, qvel, True, steps=250, friction=True)
+        np.testing.assert_allclose(data.joint_positions.numpy()[k], d.qpos, rtol=0, atol=1e-8)
+        moved.append(abs(d.qpos[0] - qpos[0]))
+    assert moved[0] < 0.2 * moved[1], moved  # measured 0.065 and 0.60 rad
+
+
+def test_steps_with_friction_rows_differentiate():
+    """A and B through sticking and sliding friction rows equal central differences (2e-6 of the largest entry);
+    gradients of friction_static itself, which a saturated row's force is, are refused under a tape, as is a
+    friction_static on a joint without a row (the step drops JaxSim's static friction there)."""
+    mj, model = mujoco.MjModel.from_xml_string(FRICTION_ARM), _friction_model()
+    qpos, qvel = np.array([0.2, -0.6, 0.01]), np.array([0.0, 1.5, 0.0])
+    data = _data(model, mj, qpos, qvel)
+    exact = wd.autodiff.transition_matrices(model, data)
+    central = wd.autodiff.transition_matrices(model, data, method="central", h=3e-7)
+    for key in ("A", "B"):
+        A, fd = exact[key].numpy(), central[key].numpy()
+        assert np.abs(A - fd).max() <= 2e-6 * np.abs(A).max(), key
+    marked = model.copy()
+    wd.model.parameters_requiring_grad(marked, names=("friction_static",))
+    with wp.Tape(), pytest.raises(NotImplementedError, match=r"'limited arm' \(MuJoCo's friction constraints, with gradients of friction_static\)"):
+        wd.model.step(marked, data)
+    plain = _load(ARM)
+    with pytest.raises(ValueError, match=r"model.frictionloss_constraints on 'limited arm': it has no MuJoCo friction constraints"):
+        plain.frictionloss_constraints = True
+    partial = _load(FRICTION_ARM.replace('frictionloss="1.5"', ""))
+    partial.frictionloss_constraints = True
+    partial.set_joint_parameters(friction_static=np.array([0.4, 0.15, 0.2]))
+    with pytest.raises(NotImplementedError, match=r"joints \['slide'\] have a friction_static but no MuJoCo friction row"):
+        wd.model.step(partial, _data(partial, mj, qpos, qvel))

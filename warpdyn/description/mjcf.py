@@ -42,6 +42,7 @@ from .model import (
     ActuatorDescription,
     CollisionShape,
     EqualityDescription,
+    FrictionConstraint,
     JointDescription,
     Keyframe,
     LimitConstraint,
@@ -69,7 +70,8 @@ _INTEGRATORS = {
 FLUID = "fluid forces (opt density/viscosity > 0, or geoms with fluidshape)"
 JOINT_LIMITS = "joint limits (MuJoCo's limit constraints: solved as MuJoCo does where model.limit_constraints is set, off by default)"
 BALL_LIMITS = "ball joints' limits (MuJoCo: a limit on the rotation angle; not modelled)"
-FRICTIONLOSS = "frictionloss (MuJoCo: a friction constraint; warpdyn applies it as JaxSim's static friction)"
+FRICTIONLOSS = ("frictionloss (MuJoCo: a friction constraint; warpdyn applies it as JaxSim's static friction, or a hinge's or "
+                "slide's as MuJoCo's friction constraint where model.frictionloss_constraints is set)")
 POLYNOMIAL = "polynomial joint stiffness/damping (only the linear coefficient is kept)"
 SPRING_YIELD = "joint spring yield (plasticity)"
 FREE_JOINT_PARAMETERS = "frictionloss of a floating base's free joint (a floating base has no static friction)"
@@ -346,6 +348,9 @@ def _joint(m, j, jname, parent, child, origin, note, mujoco) -> JointDescription
     joint.damping = 0.0  # JaxSim's viscous friction: MuJoCo's damping is passive_damping
     joint.friction = float(m.dof_frictionloss[dof])
     if joint.friction != 0.0:
+        if kind in ("revolute", "prismatic"):
+            joint.friction_constraint = FrictionConstraint(solref=np.array(m.dof_solref[dof], dtype=np.float64),
+                                                           solimp=np.array(m.dof_solimp[dof], dtype=np.float64), invweight=float(m.dof_invweight0[dof]))  # fmt: skip
         note(FRICTIONLOSS, jname)
     joint.armature = float(m.dof_armature[dof]) + _actuator_share(m, "actuator_armature", j, mujoco)
     joint.passive_damping = float(m.dof_damping[dof]) + _actuator_share(m, "actuator_damping", j, mujoco)

@@ -197,6 +197,16 @@ class LimitConstraint:
 
 
 @dataclass
+class FrictionConstraint:
+    """MuJoCo's friction constraint of a hinge or slide joint with frictionloss (an MJCF's dof_frictionloss, the
+    joint's `friction`): its solref (2), solimp (5) and invweight (MuJoCo's dof_invweight0)."""
+
+    solref: np.ndarray
+    solimp: np.ndarray
+    invweight: float
+
+
+@dataclass
 class JointDescription:
     """A joint between two links (see the module docstring for the convention).
 
@@ -217,7 +227,8 @@ class JointDescription:
       MuJoCo's Euler (see docs/mujoco_semantics.md): MJCF `dof_damping` plus gear^2 * `damping` of the
       actuators with a joint transmission on this joint (MuJoCo >= 3.7, mj_actuatorDamping); URDF 0.
     friction: static friction [N m or N] as JaxSim applies it: URDF `<dynamics friction>`, MJCF
-      `frictionloss` (a friction constraint in MuJoCo: see NotModelledWarning).
+      `frictionloss` (a friction constraint in MuJoCo: an MJCF's hinge or slide joint carries its
+      `friction_constraint`, which a step solves as MuJoCo does where `model.frictionloss_constraints` is set).
     armature: added to the diagonal of the mass matrix [kg m^2 or kg]: MJCF `dof_armature` (defaults
       included) plus gear^2 * `armature` of the actuators on this joint (mj_actuatorArmature); URDF 0.
     stiffness, springref: MuJoCo's joint spring tau = -stiffness * (q - springref) [N m/rad or N/m; rad or
@@ -254,6 +265,7 @@ class JointDescription:
     actuator_gravcomp: bool = False
     initial_position: np.ndarray | None = None
     limit_constraint: LimitConstraint | None = None
+    friction_constraint: FrictionConstraint | None = None
 
     @property
     def coordinates(self) -> int:

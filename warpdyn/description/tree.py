@@ -74,7 +74,9 @@ class TreeEquality:
     at qpos0 ref1, ref2; kind, polycoef, solref, solimp, torquescale, invweight and invweight_rotation as the
     description's. kind "frame_weld": JaxSim's weld of two frames (warpdyn.types.constraints' ConstraintMap; the
     frames' origins p1, p2 and orientations Q1, Q2 in their links), with baumgarte (K_P [1/s^2], K_D [1/s]) and
-    regularization (the rows' R) instead of solref, solimp and invweight."""
+    regularization (the rows' R) instead of solref, solimp and invweight. kind "limit" or "friction": MuJoCo's limit
+    or friction constraint of the joint terms1's [(j, 1)] (its solref, solimp, invweight; a limit's margin [rad or m];
+    the bounds the model's position_limits or friction_static)."""
 
     name: str
     kind: str
@@ -96,8 +98,6 @@ class TreeEquality:
     invweight: float = 0.0
     baumgarte: np.ndarray = field(default_factory=lambda: np.zeros(2))
     regularization: float = 0.0
-    lower: float = 0.0
-    upper: float = 0.0
     margin: float = 0.0
     source: int = -1  # its index in the description's equalities (-1: none, a frame weld)
 
@@ -141,7 +141,8 @@ class KinematicTree:
       It vanishes when "gravity" is disabled, or both "spring" and "damper" are.
     actuators: the description's actuators on kept joints (`TreeActuator`), in the description's order.
     equalities: the description's equality constraints (`TreeEquality`) whose joints the tree keeps; limits: the MJCF's
-    limit constraints of the joints it keeps (kind "limit"; a step solves them where `model.limit_constraints` is set).
+    limit constraints of the joints it keeps (kind "limit"; a step solves them where `model.limit_constraints` is set);
+    friction_rows: its friction constraints (kind "friction"; where `model.frictionloss_constraints` is set).
     """
 
     link_names: list[str]
@@ -182,6 +183,7 @@ class KinematicTree:
     base_stiffness: float = 0.0  # its spring towards the description's base pose [N/m or N m/rad]
     equalities: list[TreeEquality] = field(default_factory=list)
     limits: list[TreeEquality] = field(default_factory=list)  # an MJCF's limit constraints (kind "limit"), one per limited hinge or slide joint
+    friction_rows: list[TreeEquality] = field(default_factory=list)  # its friction constraints (kind "friction"), one per hinge or slide with frictionloss
 
     def __post_init__(self):
         nj, nL = len(self.joint_names), len(self.link_names)
@@ -532,18 +534,26 @@ def build_tree(
         qpos0=qpos0,
         equalities=_equalities(description, kept_of, kept_H_link, index, joint_index, qpos0, q_start),
         limits=[_limit(j, i) for i, j in enumerate(movable_joints) if j.limit_constraint is not None],
+        friction_rows=[_friction_row(j, i) for i, j in enumerate(movable_joints) if j.friction_constraint is not None],
         **_base_joint_parameters(description),
     )
 
 
 def _limit(joint, index: int) -> TreeEquality:
     """Tree joint `index`'s MuJoCo limit constraint (its `limit_constraint`), a row of kind "limit" on it. MuJoCo gives
-    a joint a row per bound within the margin; warpdyn one, at the nearer bound (`model.limit_constraints` refuses a
-    range narrower than twice the margin)."""
+    a joint a row per bound within the margin; warpdyn one, at the nearer bound of the joint's position_limits (a step
+    refuses a range narrower than twice the margin)."""
     limit = joint.limit_constraint
     return TreeEquality(name=joint.name, kind="limit", terms1=[(index, 1.0)], solref=np.array(limit.solref, dtype=np.float64),
-                        solimp=np.array(limit.solimp, dtype=np.float64), invweight=float(limit.invweight), lower=float(joint.lower),
-                        upper=float(joint.upper), margin=float(limit.margin))  # fmt: skip
+                        solimp=np.array(limit.solimp, dtype=np.float64), invweight=float(limit.invweight), margin=float(limit.margin))  # fmt: skip
+
+
+def _friction_row(joint, index: int) -> TreeEquality:
+    """Tree joint `index`'s MuJoCo friction constraint (its `friction_constraint`), a row of kind "friction" on it
+    (the bound of its force, frictionloss, is the model's friction_static parameter)."""
+    friction = joint.friction_constraint
+    return TreeEquality(name=joint.name, kind="friction", terms1=[(index, 1.0)], solref=np.array(friction.solref, dtype=np.float64),
+                        solimp=np.array(friction.solimp, dtype=np.float64), invweight=float(friction.invweight))  # fmt: skip
 
 
 def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict, index: dict, joint_index: dict, qpos0, q_start) -> list[TreeEquality]:

@@ -1,5 +1,6 @@
 """Equality constraints in a step: MJCF connects, welds, and joint and fixed-tendon couplings (warpdyn.description.tree's
-TreeEquality), and with `model.limit_constraints` an MJCF's joint limits, solved as MuJoCo solves them, and JaxSim's
+TreeEquality), and with `model.limit_constraints` and `model.frictionloss_constraints` an MJCF's joint limits and
+friction constraints, solved as MuJoCo solves them, and JaxSim's
 kinematic constraints (the model's ConstraintMap: frame welds), solved as JaxSim solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
 Inertial base) at a state x, with the link poses of its FK, the launches compute the mass matrix (Inertial base),
 for connects and welds the links' velocities and bias terms and their anchors' Jacobians and J̇ν (Mixed, ν
@@ -19,7 +20,7 @@ import warp as wp
 from .. import arrays
 from ..kernels.crba import CRBA_RECORD
 from ..kernels.crba import kernels as crba_kernels
-from ..kernels.equality import CONNECT, COUPLING, FRAME_WELD, LIMIT, ROWS, WELD
+from ..kernels.equality import CONNECT, COUPLING, FRAME_WELD, FRICTION, LIMIT, ROWS, WELD
 from ..kernels.equality import kernels as equality_kernels
 from ..kernels.equality import projection_kernels
 from ..kernels.equality_solve import kernels as solve_kernels
@@ -62,7 +63,12 @@ class EqualityPlan:
         self.refsafe = int("refsafe" not in model.description.disabled)  # MuJoCo's timeconst >= 2 dt unless disabled
         # what the solve's adjoint leaves out with MuJoCo's implicit damping: gradients of the damping (`check_steppable`)
         self.dampings = (model.parameter("damping"), model.parameter("base_damping"))
-        kinds = [{"connect": CONNECT, "weld": WELD, "frame_weld": FRAME_WELD, "joint": COUPLING, "tendon": COUPLING, "limit": LIMIT}[e.kind] for e in E]
+        # and with friction rows those of their bounds, the joints' friction_static (a saturated row's force)
+        self.friction_bounds = model.parameter("friction_static") if any(e.kind == "friction" for e in E) else None
+        if self.friction_bounds is not None:
+            _check_friction_rows(model, E)
+        _check_limit_ranges(model, E)
+        kinds = [{"connect": CONNECT, "weld": WELD, "frame_weld": FRAME_WELD, "joint": COUPLING, "tendon": COUPLING, "limit": LIMIT, "friction": FRICTION}[e.kind] for e in E]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
         anchored = [e for e in E if e.kind in ("connect", "weld", "frame_weld")]  # two anchors each
@@ -119,8 +125,7 @@ class EqualityPlan:
         eq.invweight = floats([e.invweight for e in E])
         eq.baumgarte = floats([e.baumgarte for e in E], 2)
         eq.regularization = floats([e.regularization for e in E])
-        eq.lower = floats([e.lower for e in E])
-        eq.upper = floats([e.upper for e in E])
+        eq.joint = ints([e.terms1[0][0] if e.kind in ("limit", "friction") else -1 for e in E])
         eq.margin = floats([e.margin for e in E])
         multi = model.multi_dof()
         self.solve, self.projection_kernel = solve_kernels(s), projection_kernels(s, multi).equality_projection
@@ -165,7 +170,7 @@ class EqualityPlan:
             launches.append(Launch(self.jacobians, (N, self.T), [plan.model, self.targets, ev.W_H_L, inertial, mixed], [b["J_t"]]))
         if self.rates:
             launches.append(Launch(self.bias.bias_accelerations, (N, self.T), [self.targets, ev.W_H_L, b["W_v_WL"], b["W_a_L"], inertial, mixed], [b["Jdotnu_t"]]))
-        rows = [self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], plan.dt, self.refsafe]
+        rows = [plan.model, self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], plan.dt, self.refsafe]
         launches.append(Launch(self.solve.equality_rows, N, rows, [b["J"], b["aref"], b["R"]]))
         scratch = b["scratch"]
         args = [plan.model, self.bundle, x, b["J"], b["aref"], b["R"], b["M"], b["nu_free"], plan.implicit_dt, *scratch[:8]]
@@ -197,6 +202,38 @@ class EqualityPlan:
         return launches
 
 
+def _check_limit_ranges(model, E: list) -> None:
+    """Refuse a limit whose range (the model's position_limits, in any environment) is narrower than twice its margin:
+    MuJoCo gives such a joint both bounds' rows at once, warpdyn one row per joint."""
+    if not any(e.kind == "limit" for e in E):
+        return
+    limits = np.asarray(model.parameter_host("position_limits"), dtype=np.float64).reshape(-1, model.tree.number_of_joints, 2)
+    width = (limits[..., 1] - limits[..., 0]).min(axis=0)
+    narrow = [f"'{e.name}' (range {float(width[e.terms1[0][0]]):.6g}, margin {e.margin:g})" for e in E if e.kind == "limit" and width[e.terms1[0][0]] < 2.0 * e.margin]
+    if narrow:
+        raise NotImplementedError(
+            f"model.limit_constraints on '{model.name()}': joints {narrow} have a range narrower than twice their margin, which MuJoCo "
+            "holds by both bounds' rows at once; warpdyn solves one row per joint (lower the margin or widen position_limits)"
+        )
+
+
+def _check_friction_rows(model, E: list) -> None:
+    """With MuJoCo's friction rows the step drops JaxSim's static friction: refuse a friction_static on a DoF that
+    has no row (a ball joint's, or one set after loading where the description had no frictionloss)."""
+    tree = model.tree
+    rows = {int(tree.v_start[j + 1]) for e in E if e.kind == "friction" for j, _ in e.terms1}
+    static = np.asarray(model.parameter_host("friction_static"), dtype=np.float64).reshape(-1, int(tree.v_start[-1]))
+    names = model.joint_names()
+    joint_of = tree.dof_joint()
+    left = sorted({names[int(joint_of[d])] for d in np.flatnonzero(np.any(static != 0.0, axis=0)) if int(d) not in rows})
+    if left:
+        raise NotImplementedError(
+            f"model.frictionloss_constraints on '{model.name()}': joints {left} have a friction_static but no MuJoCo friction row "
+            "(a ball joint, or friction set where the description has no frictionloss), and the step drops JaxSim's static friction "
+            "for the rows; set their friction_static to 0 or model.frictionloss_constraints = False"
+        )
+
+
 def dof_parents(tree, floating: bool) -> np.ndarray:
     """(6 + nv,) int32: each DoF's parent DoF (the generalized velocity's order, base first): a base DoF the one
     before it (-1 for the first, and for all six of a fixed base), a joint's first DoF the last DoF of its
@@ -216,9 +253,11 @@ def dof_parents(tree, floating: bool) -> np.ndarray:
 def equalities(model) -> list:
     """The constraints a step enforces (TreeEquality): the description's (MJCF equality constraints), the model's
     JaxSim kinematic constraints (`model.constraints`, a ConstraintMap) as frame welds, then with
-    `model.limit_constraints` the MJCF's joint limits (unilateral rows)."""
+    `model.limit_constraints` the MJCF's joint limits (unilateral rows) and with `model.frictionloss_constraints` its
+    friction constraints (rows bounded by the joints' friction_static)."""
     limits = list(model.tree.limits) if model.limit_constraints else []
-    return list(model.tree.equalities) + model.constraints.tree_equalities(model) + limits
+    friction = list(model.tree.friction_rows) if model.frictionloss_constraints else []
+    return list(model.tree.equalities) + model.constraints.tree_equalities(model) + limits + friction
 
 
 def equality_plan(model) -> EqualityPlan | None:
@@ -230,8 +269,8 @@ def equality_plan(model) -> EqualityPlan | None:
 
 def check_steppable(plan, recorded: bool) -> None:
     """Refuse a recorded step of a constrained model where the solve's adjoint leaves something out: gradients of
-    the damping with MuJoCo's implicit damping; the post-stabilisation (`equality_projection`). Queries that do not
-    step pass."""
+    the damping with MuJoCo's implicit damping; the friction rows' bounds; the post-stabilisation (`equality_projection`).
+    Queries that do not step pass."""
     if plan.equality is None or not recorded:
         return
     eq = plan.equality
@@ -240,6 +279,11 @@ def check_steppable(plan, recorded: bool) -> None:
             f"a step of '{eq.model_name}' (equality constraints, MuJoCo's implicit damping with gradients of the damping) under a "
             "wp.Tape: that solve's adjoint leaves them out; use an explicit integrator (JaxSim's SemiImplicitEuler or RungeKutta4, "
             "or model.implicit_damping = False) or step it outside the tape"
+        )
+    if eq.friction_bounds is not None and eq.friction_bounds.requires_grad:
+        raise NotImplementedError(
+            f"a step of '{eq.model_name}' (MuJoCo's friction constraints, with gradients of friction_static) under a wp.Tape: the "
+            "solve's adjoint leaves out a saturated friction row's bound; differentiate without model.frictionloss_constraints"
         )
     if eq.projection_passes:
         raise NotImplementedError(

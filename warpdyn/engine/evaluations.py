@@ -47,7 +47,7 @@ def resultant_torques(model, data, joint_force_references, ctrl=None, jaxsim_onl
     tau = arrays.output((current.n,), N, current.scalar, current.device, grad)
     X = state_bundle(current.scalar, state_arrays(data))
     if jaxsim_only:
-        kernel = actuation_kernel(current.scalar, current.with_limits, current.with_friction, multi_dof=current.multi_dof)
+        kernel = actuation_kernel(current.scalar, current.with_limits, current.with_friction, multi_dof=current.multi_dof, static_friction=current.static_friction)
         run([Launch(kernel, (N, current.n), [current.model, *current.torque_curve, X, tau_ref, u], [tau])], current.device)
         return tau
     held = arrays.output((current.n,), N, current.scalar, current.device, grad) if current.stage_forces else None

@@ -169,17 +169,21 @@ class Plan:
 
         self.na = model.number_of_actuators()
         self.with_limits = nonzero("joint_limit_spring") or limits_grad
-        self.with_friction = bool(a.enable_friction) and (nonzero("friction_static", "friction_viscous") or friction_grad)
+        # with MuJoCo's friction constraints (model.frictionloss_constraints) the solve stands for the static term
+        self.static_friction = not model.frictionloss_constraints
+        frictions = ("friction_static", "friction_viscous") if self.static_friction else ("friction_viscous",)
+        self.with_friction = bool(a.enable_friction) and (nonzero(*frictions) or friction_grad)
         self.with_passive = nonzero("stiffness", "damping") or passive_grad
         per_joint = model.actuators_per_joint
         self.euler = self.integrator not in (IntegratorType.RungeKutta4, IntegratorType.RungeKutta4Fast)
         # RK4 evaluates MuJoCo's state-dependent joint forces at each stage, on JaxSim's part held from the start
         self.stage_forces = not self.euler and self.n > 0 and (self.with_passive or per_joint > 0)
         if self.stage_forces:
-            self.actuation = actuation_kernel(s, self.with_limits, self.with_friction, multi_dof=self.multi_dof)
+            self.actuation = actuation_kernel(s, self.with_limits, self.with_friction, multi_dof=self.multi_dof, static_friction=self.static_friction)
             self.stage_actuation = mujoco_kernel(s, self.with_passive, per_joint, self.multi_dof)
         else:
-            self.actuation = actuation_kernel(s, self.with_limits, self.with_friction, self.with_passive, per_joint, self.multi_dof) if self.n > 0 else None
+            self.actuation = (actuation_kernel(s, self.with_limits, self.with_friction, self.with_passive, per_joint, self.multi_dof, self.static_friction)
+                              if self.n > 0 else None)
         self.torque_curve = [s(a.torque_max), s(a.omega_th), s(a.omega_max)]
         # MuJoCo's joint forces alone (on given torques: warpdyn.engine.evaluations.integrate)
         self.mujoco_part = mujoco_kernel(s, self.with_passive, per_joint, self.multi_dof) if self.n > 0 and (self.with_passive or per_joint > 0) else None

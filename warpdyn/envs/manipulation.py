@@ -37,8 +37,8 @@ class PickCubeConfig:
     118 mm at 1 ms explicit and 2.4 mm at 0.5 ms explicit with D = 500 (MuJoCo 1.0 mm), and with D = 2000 0.8 mm at
     2 ms implicit, 148 mm at 1 ms explicit (MuJoCo 0.9 mm over that run's touched cubes): benchmarks/cube_clipping.py;
     tests/test_manipulation.py's pad-on-the-edge test; explicit contacts need D = 500 and 0.5 ms), `limit_constraints`
-    (model.limit_constraints: the arm's and fingers' joint limits as MuJoCo's limit constraints; off by default: the
-    trained figures of benchmarks/RESULTS.md were measured without them), `policy_dt` [s] per action
+    and `frictionloss_constraints` (model's: the joints' limits and frictionloss as MuJoCo's constraints; off by
+    default: the trained figures of benchmarks/RESULTS.md were measured without them), `policy_dt` [s] per action
     (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5] and `contact_damping` D [N s/m^1.5]
     (D = 2000: at 2 ms the tangential deformation needs dt K / D < 2; explicit contacts would want D = 500 at 1 ms),
     `friction` the terrain's (the floor's) Coulomb coefficient (MuJoCo's cube-floor friction, 1), `divergence_speed`
@@ -62,6 +62,7 @@ class PickCubeConfig:
     contact_damping: float = 2000.0
     implicit_contacts: bool = True
     limit_constraints: bool = False
+    frictionloss_constraints: bool = False
     friction: float = 1.0
     keyframe: str = "home"
     cube_range: float = 0.2
@@ -84,8 +85,9 @@ class PickCubeConfig:
                 raise ValueError(f"PickCubeConfig.{name} must be a finite number >= 0, got {value!r}")
         if not isinstance(self.implicit_contacts, bool):
             raise ValueError(f"PickCubeConfig.implicit_contacts must be True or False, got {self.implicit_contacts!r}")
-        if not isinstance(self.limit_constraints, bool):
-            raise ValueError(f"PickCubeConfig.limit_constraints must be True or False, got {self.limit_constraints!r}")
+        for name in ("limit_constraints", "frictionloss_constraints"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"PickCubeConfig.{name} must be True or False, got {getattr(self, name)!r}")
         check_divergence_speed("PickCubeConfig", self.divergence_speed)
         low, high = np.asarray(self.target_low, dtype=float), np.asarray(self.target_high, dtype=float)
         if low.shape != (3,) or high.shape != (3,) or not (np.all(np.isfinite(low)) and np.all(low <= high)):

@@ -40,7 +40,9 @@ class CubeReorientConfig:
     cube on the fingers' boxes needs 0.5 ms, as PickCubeConfig's cube; implicit at 2 ms, 128 hands under smooth random
     actions for 10 s: none flagged, the cube at 1.2 m/s at most, as at 1 ms with D = 500: benchmarks/reorient_stability.py),
     `limit_constraints` (model.limit_constraints: the fingers' joint limits as MuJoCo's limit constraints, as Playground's
-    hand has them; without them the fingers pass their ranges: benchmarks/reorient_vs_mujoco.py), `policy_dt` [s] per
+    hand has them; without them the fingers pass their ranges: benchmarks/reorient_vs_mujoco.py),
+    `frictionloss_constraints` (model.frictionloss_constraints: the joints' frictionloss as MuJoCo's friction
+    constraints, as Playground's; without them JaxSim's static friction, none on a joint at rest), `policy_dt` [s] per
     action (Playground's ctrl_dt), the soft law's `contact_stiffness` K [N/m^1.5], `contact_damping`
     D [N s/m^1.5] (2000: at 2 ms the tangential deformation needs dt K / D < 2; a cube put 2 mm or more into the hand by
     Playground's reset draws leaves at a median 0.84 m/s, 1.8 m/s at 1 ms with D = 500), the floor's `friction` and
@@ -68,6 +70,7 @@ class CubeReorientConfig:
     time_step: float = 0.002
     implicit_contacts: bool = True
     limit_constraints: bool = True
+    frictionloss_constraints: bool = True
     policy_dt: float = 0.05
     episode_seconds: float = 50.0
     action_scale: float = 0.5
@@ -94,8 +97,9 @@ class CubeReorientConfig:
                 raise ValueError(f"CubeReorientConfig.{name} must be a positive finite number, got {value!r}")
         if not isinstance(self.implicit_contacts, bool):
             raise ValueError(f"CubeReorientConfig.implicit_contacts must be True or False, got {self.implicit_contacts!r}")
-        if not isinstance(self.limit_constraints, bool):
-            raise ValueError(f"CubeReorientConfig.limit_constraints must be True or False, got {self.limit_constraints!r}")
+        for name in ("limit_constraints", "frictionloss_constraints"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"CubeReorientConfig.{name} must be True or False, got {getattr(self, name)!r}")
         check_divergence_speed("CubeReorientConfig", self.divergence_speed)
         if isinstance(self.reset_bank, bool) or not isinstance(self.reset_bank, int) or self.reset_bank < 1:
             raise ValueError(f"CubeReorientConfig.reset_bank must be a positive integer, got {self.reset_bank!r}")

@@ -98,7 +98,7 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
 
     def _with_body_contacts(self, model):
         """A copy of `model` with its geom pairs' contacts acting and the config's `time_step`, `implicit_contacts`,
-        `limit_constraints`, soft law (`contact_stiffness` K, `contact_damping` D, `friction` mu) and `divergence_speed`: a manipulation
+        `limit_constraints`, `frictionloss_constraints`, soft law (`contact_stiffness` K, `contact_damping` D, `friction` mu) and `divergence_speed`: a manipulation
         environment's `_simulated` after its checks of the scene."""
         cfg = self.cfg
         model = model.copy()
@@ -106,6 +106,7 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
         model.geom_contacts = True
         model.implicit_contacts = cfg.implicit_contacts
         model.limit_constraints = cfg.limit_constraints
+        model.frictionloss_constraints = cfg.frictionloss_constraints
         model.time_step = cfg.time_step
         model.contact_params = wd.model.SoftContactsParams(K=cfg.contact_stiffness, D=cfg.contact_damping, mu=cfg.friction)
         return model

@@ -100,6 +100,7 @@ REPLACEABLE = (
     "implicit_contacts",
     "equality_projection",
     "limit_constraints",
+    "frictionloss_constraints",
     "constraints",
     "parametrized_links",
     "kin_dyn_parameters",
@@ -220,8 +221,9 @@ class ModelSettings:
     @property
     def limit_constraints(self) -> bool:
         """Whether a step solves an MJCF's joint limits as MuJoCo does (MuJoCo's limit constraints: the description's
-        limited hinge and slide joints, `model.tree.limits`): a joint past its range (less its margin) gets a soft
-        unilateral row, its solref, solimp and MuJoCo's dof_invweight0, solved with the equality constraints after the
+        limited hinge and slide joints, `model.tree.limits`): a joint past its range (its `position_limits`, per
+        environment where set so, less its margin) gets a soft unilateral row, its solref, solimp and MuJoCo's
+        dof_invweight0, solved with the equality constraints after the
         contacts (kernels/equality_solve.py: pushing only, by an active set, as MuJoCo's solvers reach it). False by
         default: the solve costs a step its fused kernel, and most locomotion never reaches its limits; a loaded MJCF
         names its limits in a NotModelledWarning. True where the joints meet their stops (a hand's fingers, a falling
@@ -232,19 +234,37 @@ class ModelSettings:
     def limit_constraints(self, value) -> None:
         if not isinstance(value, (bool, np.bool_)):
             raise TypeError(f"limit_constraints must be a bool, got {value!r}")
-        if value:
-            if not self.tree.limits:
-                raise ValueError(
-                    f"model.limit_constraints on '{self.name()}': it has no MuJoCo limit constraints (an MJCF's limited hinge or slide "
-                    "joints); a URDF's or SDF's joint limits are JaxSim's limit springs (actuation_params)"
-                )
-            narrow = [f"'{e.name}' [{e.lower}, {e.upper}], margin {e.margin}" for e in self.tree.limits if e.upper - e.lower < 2.0 * e.margin]
-            if narrow:
-                raise NotImplementedError(
-                    f"model.limit_constraints on '{self.name()}': joints {narrow} have a range narrower than twice their margin, which "
-                    "MuJoCo holds by both bounds' rows at once; warpdyn solves one row per joint (lower the margin)"
-                )
+        if value and not self.tree.limits:
+            raise ValueError(
+                f"model.limit_constraints on '{self.name()}': it has no MuJoCo limit constraints (an MJCF's limited hinge or slide "
+                "joints); a URDF's or SDF's joint limits are JaxSim's limit springs (actuation_params)"
+            )
         self._limit_constraints = bool(value)
+        self.notify_model_changed()
+
+    _frictionloss_constraints = False
+
+    @property
+    def frictionloss_constraints(self) -> bool:
+        """Whether a step solves an MJCF's frictionloss as MuJoCo does (its friction constraints: the hinge and slide
+        joints with frictionloss, `model.tree.friction_rows`): each a soft row on the joint's velocity whose force is
+        bounded by the joint's `friction_static` (the frictionloss, per environment where set so), its dof_solref,
+        dof_solimp and dof_invweight0, solved with the equality constraints and limits (kernels/equality_solve.py's
+        active set: a row within its bound or saturated at it), in place of JaxSim's static friction on those joints.
+        False by default (JaxSim's static friction -friction_static sign(sdot) then stands for it, as the loader's
+        NotModelledWarning says): the solve costs a step its fused kernel."""
+        return self._frictionloss_constraints
+
+    @frictionloss_constraints.setter
+    def frictionloss_constraints(self, value) -> None:
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"frictionloss_constraints must be a bool, got {value!r}")
+        if value and not self.tree.friction_rows:
+            raise ValueError(
+                f"model.frictionloss_constraints on '{self.name()}': it has no MuJoCo friction constraints (an MJCF's hinge or slide "
+                "joints with frictionloss); a URDF's or SDF's joint friction is JaxSim's static friction (friction_static)"
+            )
+        self._frictionloss_constraints = bool(value)
         self.notify_model_changed()
 
     _constraints = ConstraintMap()
