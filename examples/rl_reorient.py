@@ -7,7 +7,8 @@ rsl-rl's PPO on warpdyn.envs.CubeReorientEnv, the contacts between the hand's an
     torchrun --standalone --nproc_per_node 2 examples/rl_reorient.py --max-minutes 30 --out runs/reorient2  # 2 GPUs, 8192 each
 
 Environment (`warpdyn.envs.CubeReorientEnv`, its defaults: CubeReorientConfig): the shipped scene
-`wd.assets.leap_hand_cube_mjcf()` at 2 ms steps (implicit contacts), the policy at 20 Hz adding 0.5 x its actions to the 16 position
+`wd.assets.leap_hand_cube_mjcf()` at 2 ms steps (implicit contacts; the fingers' joint limits and frictionloss as MuJoCo's
+constraints), the policy at 20 Hz adding 0.5 x its actions to the 16 position
 targets, episodes of 50 s; each reset draws a goal orientation and takes the hand's joints and the cube's pose from a
 bank of Playground's reset draws that do not interpenetrate; Playground's noisy observations for the actor and
 privileged ones for the critic, its rewards (orientation, cube in the palm, a fall, hand pose, action rate,

@@ -217,8 +217,8 @@ class JointDescription:
     pivot: (3,) point of the rotation axis in the child frame [m].
     lower, upper: position limits [rad or m] (+-inf: none). MuJoCo treats them as constraints: an MJCF's
     limited hinge or slide joint carries its `limit_constraint`, which a step solves as MuJoCo does where
-    `model.limit_constraints` is set; otherwise warpdyn has only JaxSim's limit springs (see NotModelledWarning). effort, velocity: URDF `<limit>` [N m or N, rad/s
-    or m/s] (MJCF: inf).
+    `model.limit_constraints` is set; otherwise warpdyn has only JaxSim's limit springs (see NotModelledWarning).
+    effort, velocity: URDF `<limit>` [N m or N, rad/s or m/s] (MJCF: inf).
 
     Dynamics parameters ([.] for a revolute / prismatic joint). Two different dampings:
     - damping: JaxSim's viscous friction, tau = -damping * qdot [N m s/rad or N s/m]: URDF `<dynamics

@@ -1,7 +1,7 @@
 """Equality constraints in a step: MJCF connects, welds, and joint and fixed-tendon couplings (warpdyn.description.tree's
 TreeEquality), and with `model.limit_constraints` and `model.frictionloss_constraints` an MJCF's joint limits and
-friction constraints, solved as MuJoCo solves them, and JaxSim's
-kinematic constraints (the model's ConstraintMap: frame welds), solved as JaxSim solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
+friction constraints, solved as MuJoCo solves them, and JaxSim's kinematic constraints (the model's ConstraintMap:
+frame welds), solved as JaxSim solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
 Inertial base) at a state x, with the link poses of its FK, the launches compute the mass matrix (Inertial base),
 for connects and welds the links' velocities and bias terms and their anchors' Jacobians and J̇ν (Mixed, ν
 Inertial), and the constrained accelerations into the evaluation's nu_dot. With the model setting

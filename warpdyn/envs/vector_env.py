@@ -98,8 +98,8 @@ class DeviceVectorEnv(gym.vector.VectorEnv):
 
     def _with_body_contacts(self, model):
         """A copy of `model` with its geom pairs' contacts acting and the config's `time_step`, `implicit_contacts`,
-        `limit_constraints`, `frictionloss_constraints`, soft law (`contact_stiffness` K, `contact_damping` D, `friction` mu) and `divergence_speed`: a manipulation
-        environment's `_simulated` after its checks of the scene."""
+        `limit_constraints`, `frictionloss_constraints`, soft law (`contact_stiffness` K, `contact_damping` D,
+        `friction` mu) and `divergence_speed`: a manipulation environment's `_simulated` after its checks of the scene."""
         cfg = self.cfg
         model = model.copy()
         model.divergence_speed = self._divergence_speed = cfg.divergence_speed

@@ -85,7 +85,8 @@ class Model(ModelSettings, ModelQueries):
     the world's gravity `world_gravity` [m/s^2, world frame] (`set_gravity`), (1, 3) shared or (N, 1, 3).
     Settings (warpdyn.types.model_settings, each checked when assigned): `terrain`, `contact_model`,
     `contact_params`, `actuation_params`, `integrator`, `time_step` [s], `gravity` (JaxSim's: the z
-    component of `world_gravity` [m/s^2], -9.81 by default), `quaternion_tolerance`, `divergence_speed`, `implicit_damping`, `geom_contacts`, `implicit_contacts`, `equality_projection`, `limit_constraints`, `frictionloss_constraints`;
+    component of `world_gravity` [m/s^2], -9.81 by default), `quaternion_tolerance`, `divergence_speed`, `implicit_damping`, `geom_contacts`, `implicit_contacts`, `equality_projection`,
+    `limit_constraints`, `frictionloss_constraints`;
     JaxSim's `replace`, `editable`, `mutable_context`, `built_from` (what the model was built from), equality
     and hashing.
     """
