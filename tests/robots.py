@@ -375,6 +375,17 @@ def contact_free(model) -> wd.model.Model:
     return wd.contact.with_collidable_points(model, enabled=[False] * nc) if nc else model
 
 
+def assert_transitions_equal_central(model, data, steps=(1,), h: float = 3e-7, rtol: float = 2e-6) -> None:
+    """A and B of `steps` steps from `data` (wd.autodiff.transition_matrices, reverse mode) equal central differences
+    of step h to rtol of their largest entry."""
+    for count in steps:
+        exact = wd.autodiff.transition_matrices(model, data, steps=count)
+        central = wd.autodiff.transition_matrices(model, data, steps=count, method="central", h=h)
+        for key in ("A", "B"):
+            A, fd = exact[key].numpy(), central[key].numpy()
+            assert np.abs(A - fd).max() <= rtol * np.abs(A).max(), (key, count)
+
+
 def rollout(model, data, steps, record=None, **step_kwargs):
     """`steps` steps; returns (data, [record(data) after each step])."""
     out = []

@@ -590,12 +590,7 @@ def test_constrained_steps_differentiate(name):
     model = _load(globals()[name]).replace(integrator=wd.model.IntegratorType.RungeKutta4)
     velocities = np.random.default_rng(0).normal(0.0, 0.5, model.dofs())
     data = wd.data.Data.build(model, joint_velocities=velocities)
-    for steps in (1, 10):
-        exact = wd.autodiff.transition_matrices(model, data, steps=steps)
-        central = wd.autodiff.transition_matrices(model, data, steps=steps, method="central", h=3e-7)
-        for key in ("A", "B"):
-            A, fd = exact[key].numpy(), central[key].numpy()
-            assert np.abs(A - fd).max() <= 2e-6 * np.abs(A).max(), (key, steps)
+    robots.assert_transitions_equal_central(model, data, steps=(1, 10))
 
 
 def test_implicit_damping_differentiates_and_what_has_no_adjoint_is_refused():

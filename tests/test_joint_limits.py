@@ -162,12 +162,7 @@ def test_steps_against_the_limits_differentiate():
     qpos, qvel = np.array([0.85, -1.25, 0.02]), np.array([1.0, -0.5, 0.3])
     assert _mujoco_step(mj, qpos, qvel, True).nefc == 2
     data = _data(model, mj, qpos, qvel)
-    for steps in (1, 10):
-        exact = wd.autodiff.transition_matrices(model, data, steps=steps)
-        central = wd.autodiff.transition_matrices(model, data, steps=steps, method="central", h=3e-7)
-        for key in ("A", "B"):
-            A, fd = exact[key].numpy(), central[key].numpy()
-            assert np.abs(A - fd).max() <= 2e-6 * np.abs(A).max(), (key, steps)
+    robots.assert_transitions_equal_central(model, data, steps=(1, 10))
     free = wd.autodiff.transition_matrices(_load(limits=False), data)["A"].numpy()
     assert np.abs(free - wd.autodiff.transition_matrices(model, data)["A"].numpy()).max() > 1e-2, "the limits act on A"
 
@@ -315,11 +310,7 @@ def test_steps_with_friction_rows_differentiate():
     mj, model = mujoco.MjModel.from_xml_string(FRICTION_ARM), _friction_model()
     qpos, qvel = np.array([0.2, -0.6, 0.01]), np.array([0.0, 1.5, 0.0])
     data = _data(model, mj, qpos, qvel)
-    exact = wd.autodiff.transition_matrices(model, data)
-    central = wd.autodiff.transition_matrices(model, data, method="central", h=3e-7)
-    for key in ("A", "B"):
-        A, fd = exact[key].numpy(), central[key].numpy()
-        assert np.abs(A - fd).max() <= 2e-6 * np.abs(A).max(), key
+    robots.assert_transitions_equal_central(model, data)
     marked = model.copy()
     wd.model.parameters_requiring_grad(marked, names=("friction_static",))
     with wp.Tape(), pytest.raises(NotImplementedError, match=r"'limited arm' \(MuJoCo's friction constraints, with gradients of friction_static\)"):

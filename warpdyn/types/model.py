@@ -83,13 +83,11 @@ class Model(ModelSettings, ModelQueries):
     `friction_static`, `friction_viscous` (`set_joint_parameters`), each shared by all environments or
     given per environment (domain randomisation; then the model serves data of those N environments only);
     the world's gravity `world_gravity` [m/s^2, world frame] (`set_gravity`), (1, 3) shared or (N, 1, 3).
-    Settings (warpdyn.types.model_settings, each checked when assigned): `terrain`, `contact_model`,
-    `contact_params`, `actuation_params`, `integrator`, `time_step` [s], `gravity` (JaxSim's: the z
-    component of `world_gravity` [m/s^2], -9.81 by default), `quaternion_tolerance`, `divergence_speed`, `implicit_damping`, `geom_contacts`, `implicit_contacts`, `equality_projection`,
-    `limit_constraints`, `frictionloss_constraints`;
-    JaxSim's `replace`, `editable`, `mutable_context`, `built_from` (what the model was built from), equality
-    and hashing.
-    """
+    Settings (warpdyn.types.model_settings, each checked when assigned): `terrain`, `contact_model`, `contact_params`,
+    `actuation_params`, `integrator`, `time_step` [s], `gravity` (JaxSim's: the z component of `world_gravity` [m/s^2],
+    -9.81 by default), `quaternion_tolerance`, `divergence_speed`, `implicit_damping`, `geom_contacts`, `implicit_contacts`,
+    `equality_projection`, `limit_constraints`, `frictionloss_constraints`; JaxSim's `replace`, `editable`,
+    `mutable_context`, `built_from` (what the model was built from), equality and hashing."""
 
     def __init__(
         self,
@@ -693,10 +691,7 @@ class Model(ModelSettings, ModelQueries):
         carried = ("terrain", "contact_model", "contact_params", "actuation_params", "integrator", "quaternion_tolerance", "divergence_speed", "implicit_damping", "geom_contacts", "implicit_contacts", "equality_projection", "constraints")
         kept = None if self.parametrized_links is None else tuple(n for n in self.parametrized_links if n in reduced.link_names())
         reduced.apply_settings(**{name: getattr(self, name) for name in carried}, parametrized_links=kept, built_from=self.built_from)
-        if self.limit_constraints and reduced.tree.limits:  # kept where the reduced model keeps a limited joint
-            reduced.limit_constraints = True
-        if self.frictionloss_constraints and reduced.tree.friction_rows:  # and a joint with frictionloss
-            reduced.frictionloss_constraints = True
+        self._carry_row_settings(reduced)
         return reduced
 
 

@@ -37,6 +37,25 @@ def _setting(name: str, check, doc: str) -> property:
     return property(get, put, doc=doc)
 
 
+def _rows_setting(name: str, rows: str, missing: str, doc: str) -> property:
+    """A setting that has a step solve MuJoCo constraint rows the model's tree carries (`model.tree.<rows>`): a bool,
+    False by default, True refused (a ValueError naming the model and `missing`) where the tree has none."""
+    attribute = f"_{name}"
+
+    def get(model):
+        return getattr(model, attribute, False)
+
+    def put(model, value):
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"{name} must be a bool, got {value!r}")
+        if value and not getattr(model.tree, rows):
+            raise ValueError(f"model.{name} on '{model.name()}': it has no MuJoCo {missing}")
+        setattr(model, attribute, bool(value))
+        model.notify_model_changed()
+
+    return property(get, put, doc=doc)
+
+
 def _number(name: str, value, positive: bool, inf: bool = False) -> float:
     """value as a float: finite (or +inf where `inf`: no bound), positive where `positive`; else a TypeError or
     ValueError naming `name`."""
@@ -216,56 +235,39 @@ class ModelSettings:
         "under 0.5 % over 9 s, the ball under 2 % a second).",
     )
 
-    _limit_constraints = False
-
-    @property
-    def limit_constraints(self) -> bool:
+    limit_constraints = _rows_setting(
+        "limit_constraints",
+        "limits",
+        "limit constraints (an MJCF's limited hinge or slide joints); a URDF's or SDF's joint limits are JaxSim's limit "
+        "springs (actuation_params)",
         """Whether a step solves an MJCF's joint limits as MuJoCo does (MuJoCo's limit constraints: the description's
         limited hinge and slide joints, `model.tree.limits`): a joint past its range (its `position_limits`, per
         environment where set so, less its margin) gets a soft unilateral row, its solref, solimp and MuJoCo's
-        dof_invweight0, solved with the equality constraints after the
-        contacts (kernels/equality_solve.py: pushing only, by an active set, as MuJoCo's solvers reach it). False by
-        default: the solve costs a step its fused kernel, and most locomotion never reaches its limits; a loaded MJCF
+        dof_invweight0, solved with the equality constraints after the contacts (kernels/equality_solve.py: pushing
+        only, by an active set, as MuJoCo's solvers reach it). False by default: the solve costs a step its fused kernel, and most locomotion never reaches its limits; a loaded MJCF
         names its limits in a NotModelledWarning. True where the joints meet their stops (a hand's fingers, a falling
-        robot). A URDF's or SDF's limits are JaxSim's limit springs (`actuation_params`)."""
-        return self._limit_constraints
-
-    @limit_constraints.setter
-    def limit_constraints(self, value) -> None:
-        if not isinstance(value, (bool, np.bool_)):
-            raise TypeError(f"limit_constraints must be a bool, got {value!r}")
-        if value and not self.tree.limits:
-            raise ValueError(
-                f"model.limit_constraints on '{self.name()}': it has no MuJoCo limit constraints (an MJCF's limited hinge or slide "
-                "joints); a URDF's or SDF's joint limits are JaxSim's limit springs (actuation_params)"
-            )
-        self._limit_constraints = bool(value)
-        self.notify_model_changed()
-
-    _frictionloss_constraints = False
-
-    @property
-    def frictionloss_constraints(self) -> bool:
+        robot). A URDF's or SDF's limits are JaxSim's limit springs (`actuation_params`).""",
+    )
+    frictionloss_constraints = _rows_setting(
+        "frictionloss_constraints",
+        "friction_rows",
+        "friction constraints (an MJCF's hinge or slide joints with frictionloss); a URDF's or SDF's joint friction is "
+        "JaxSim's static friction (friction_static)",
         """Whether a step solves an MJCF's frictionloss as MuJoCo does (its friction constraints: the hinge and slide
         joints with frictionloss, `model.tree.friction_rows`): each a soft row on the joint's velocity whose force is
         bounded by the joint's `friction_static` (the frictionloss, per environment where set so), its dof_solref,
         dof_solimp and dof_invweight0, solved with the equality constraints and limits (kernels/equality_solve.py's
         active set: a row within its bound or saturated at it), in place of JaxSim's static friction on those joints.
         False by default (JaxSim's static friction -friction_static sign(sdot) then stands for it, as the loader's
-        NotModelledWarning says): the solve costs a step its fused kernel."""
-        return self._frictionloss_constraints
+        NotModelledWarning says): the solve costs a step its fused kernel.""",
+    )
 
-    @frictionloss_constraints.setter
-    def frictionloss_constraints(self, value) -> None:
-        if not isinstance(value, (bool, np.bool_)):
-            raise TypeError(f"frictionloss_constraints must be a bool, got {value!r}")
-        if value and not self.tree.friction_rows:
-            raise ValueError(
-                f"model.frictionloss_constraints on '{self.name()}': it has no MuJoCo friction constraints (an MJCF's hinge or slide "
-                "joints with frictionloss); a URDF's or SDF's joint friction is JaxSim's static friction (friction_static)"
-            )
-        self._frictionloss_constraints = bool(value)
-        self.notify_model_changed()
+    def _carry_row_settings(self, reduced) -> None:
+        """Set `limit_constraints` and `frictionloss_constraints` on `reduced` (a reduction of this model) where they
+        are set here and it keeps rows of their kind."""
+        for name, rows in (("limit_constraints", "limits"), ("frictionloss_constraints", "friction_rows")):
+            if getattr(self, name) and getattr(reduced.tree, rows):
+                setattr(reduced, name, True)
 
     _constraints = ConstraintMap()
 
