@@ -1,8 +1,8 @@
-"""Equality constraints, and joint limits, solved as MuJoCo solves them (its soft constraints: equality rows and
-limit rows): one thread per environment.
+"""Equality constraints, joint limits and joint friction solved as MuJoCo solves them (its soft constraints: equality,
+limit and friction rows): one thread per environment.
 
 MuJoCo >= 3.10's semantics (its Jdot v correction of connects and welds: older versions leave it out). Each
-constraint e contributes rows (a connect 3, a weld 6, a joint or fixed-tendon coupling 1) with a position residual
+constraint e contributes rows (a connect 3, a weld 6, a joint or fixed-tendon coupling, a limit, a friction row 1) with a position residual
 r, a Jacobian J (rows of the generalized velocity nu, Inertial base) and J̇ν (MuJoCo's Jdot v of a connect or
 weld: the anchors' bias accelerations; 0 for a coupling, as in MuJoCo):
 - connect: r = p1 - p2, the anchors in world axes; J = J_p1 - J_p2 (their Mixed linear Jacobians);
@@ -13,9 +13,9 @@ weld: the anchors' bias accelerations; 0 for a coupling, as in MuJoCo):
 - coupling: r = L1 - L1_0 - sum_k c_k (L2 - L2_0)^k, J = dL1 - (sum_k k c_k (L2 - L2_0)^(k-1)) dL2, L a joint's
   position or a fixed tendon's length sum_j coef_j q_j (dL its coefficients on the DoFs);
 - limit (MuJoCo's limit of a hinge or slide joint, `model.limit_constraints`; docs/mujoco_semantics.md): at the
-  nearer bound of the joint's position_limits, dist = q - lower (J = +1 at the joint's DoF) or upper - q (J = -1), r = dist - margin; while r >= 0
-  the row is empty (J = 0, aref = 0, R = 1: no force), and where r < 0 it is unilateral: kernels/equality_solve.py's
-  active set keeps its force f >= 0;
+  nearer bound of the joint's position_limits, dist = q - lower (J = +1 at the joint's DoF) or upper - q (J = -1),
+  r = dist - margin; while r >= 0 the row is empty (J = 0, aref = 0, R = 1: no force), and where r < 0 it is
+  unilateral: kernels/equality_solve.py's active set keeps its force f >= 0;
 - friction (MuJoCo's friction constraint, `model.frictionloss_constraints`): J = 1 at the joint's DoF, r = 0 (so
   aref = -b J nu and imp = solimp[0]), its force bounded by the joint's frictionloss, |f| <= friction_static
   (kernels/equality_solve.py's active set: within the bound, or saturated at it);

@@ -5,11 +5,12 @@ equality constraints), in three launches, one thread per environment:
   aref = -b J nu - k imp r - J̇ν and regularisation R (m,) (a frame weld's: aref = -(K_P r + K_D J nu), R its own);
 - `equality_solve`: f = (J M^-1 J^T + diag(R))^-1 (aref - J a0) and nu_dot = a0 + M^-1 J^T f, or with MuJoCo's
   implicit joint damping the explicit a0 = a0' + dt M^-1 D a0' and nu_dot = a0' + (M + dt D)^-1 J^T f; with joint
-  limits, over the rows an active set keeps (`active_set`: the limits that push, f > 0; the others' f = 0);
+  limits and friction rows, over the rows an active set solves for (`active_set`: the limits that push, f > 0, and
+  the friction rows within their bounds; the others' f 0 or, saturated, their bound);
 - `equality_solve_adjoint`: its adjoint, written by hand (the implicit function theorem; with implicit damping, but
   not with respect to the damping, whose gradients the engine refuses under a tape), registered on the tape by the
-  engine (warpdyn.engine.launch's Launch.adjoint), on the rows the active set kept (the set is locally constant: the
-  rows left out carry no force and no adjoint). Without damping: with
+  engine (warpdyn.engine.launch's Launch.adjoint), on the rows the active set solved for (the set is locally
+  constant: the rows left free or saturated carry no adjoint; a saturated row's force enters as a constant). Without damping: with
   w = M^-1 nudot_bar, fbar = J w, bbar = A^-1 fbar, u = M^-1 J^T f and v = M^-1 J^T bbar (the solved block),
   adj a0 = nudot_bar - J^T bbar, adj aref = bbar, adj R = -bbar f, adj J = f (w - v)^T - bbar (a0 + u)^T,
   adj M = sym((v - w) u^T); `equality_solve_adjoint` gives the damped terms.
