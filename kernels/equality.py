@@ -100,7 +100,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows); a frame
         weld's gains baumgarte (E, 2) (K_P [1/s^2], K_D [1/s]) and regularization (E,) (its R); a limit's or friction
         row's joint (E,) (-1 for the others; also as a coupling's side 1: one term, coefficient 1) and a limit's margin
-        (E,) [rad or m] (its range: the model's position_limits; a friction row's bound its friction_static); dof_parent
+        (E,) [rad or m], its range the model's position_limits (P, nj) (a friction row's bound its friction_static); dof_parent
         (K = 6 + nv,): each DoF's parent DoF in the tree (the base's six a chain; -1 at a root), for `tree_factor`."""
 
         kind: wp.array(dtype=wp.int32)
@@ -131,6 +131,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         regularization: wp.array(dtype=scalar)
         joint: wp.array(dtype=wp.int32)
         margin: wp.array(dtype=scalar)
+        position_limits: wp.array2d(dtype=wp.types.vector(2, scalar))
         dof_parent: wp.array(dtype=wp.int32)
 
     @wp.func
@@ -355,13 +356,13 @@ def kernels(scalar) -> types.SimpleNamespace:
         return bias
 
     @wp.func
-    def limit_gap(model: B.Model, eq: Equalities, x: B.State, env: int, e: int):
+    def limit_gap(eq: Equalities, x: B.State, env: int, e: int):
         """Limit e at the state x: (dist - margin, side), its nearer bound's distance dist (negative: past it; the
         bounds the joint's position_limits in environment env) and the row's sign side (+1 at the lower bound, -1 at
         the upper: MuJoCo's Jacobian -side of its own sign). The row acts where dist - margin < 0 (one row: a range
         narrower than twice the margin is refused on the host)."""
         q = x.joint_positions[env, eq.term_q[eq.first1[e]]]
-        limits = B.position_limits_of(model, env, eq.joint[e])
+        limits = B.pair_parameter(eq.position_limits, env, eq.joint[e])
         below = q - limits[0]
         above = limits[1] - q
         if below <= above:
@@ -370,7 +371,7 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.func
     def constraint_rows(
-        model: B.Model, eq: Equalities, x: B.State, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), J_t: wp.array4d(dtype=scalar),
+        eq: Equalities, x: B.State, W_H_L: wp.array2d(dtype=sp.transform), W_v_WL: wp.array2d(dtype=sp.vec6), J_t: wp.array4d(dtype=scalar),
         Jdotnu_t: wp.array3d(dtype=scalar), env: int, e: int, J: wp.array3d(dtype=scalar), with_rates: int,
     ):
         """Constraint e's rows (the module docstring) written into J[env, row:row + rows] (K columns, each entry once: a
@@ -389,7 +390,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                     value = scalar(1.0)
                 J[env, row, c] = value
         elif eq.kind[e] == LIMIT:  # J = side at the joint's DoF while it acts (0 otherwise), r = dist - margin
-            gap, side = limit_gap(model, eq, x, env, e)
+            gap, side = limit_gap(eq, x, env, e)
             dof = 6 + eq.term_dof[eq.first1[e]]
             for c in range(K):
                 value = scalar(0.0)
@@ -534,7 +535,7 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             for c in range(K):
                 J[env, r, c] = scalar(0.0)
         for e in range(eq.kind.shape[0]):
-            residual, bias, rows, distance = E.constraint_rows(model, eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 0)
+            residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 0)
             if eq.kind[e] == LIMIT or eq.kind[e] == FRICTION:  # inequalities: the step's solve holds them, the projection leaves them out
                 for c in range(K):
                     J[env, eq.row[e], c] = scalar(0.0)

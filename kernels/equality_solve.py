@@ -37,7 +37,6 @@ def kernels(scalar) -> types.SimpleNamespace:
 
     @wp.kernel(module="unique")
     def equality_rows(
-        model: B.Model,
         eq: Equalities,
         x: B.State,
         W_H_L: wp.array2d(dtype=sp.transform),
@@ -59,7 +58,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         v_B = sp.repr_to_inertial(MIXED, W_H_B, B.base_velocity_mixed(x, env))
         for e in range(eq.kind.shape[0]):
             row = eq.row[e]
-            residual, bias, rows, distance = E.constraint_rows(model, eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 1)
+            residual, bias, rows, distance = E.constraint_rows(eq, x, W_H_L, W_v_WL, J_t, Jdotnu_t, env, e, J, 1)
             if eq.kind[e] == LIMIT and residual[0] >= scalar(0.0):  # a limit within its range: no force (f = 0)
                 aref[env, row] = scalar(0.0)
                 R[env, row] = scalar(1.0)
@@ -141,7 +140,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         for e in range(eq.kind.shape[0]):
             if eq.kind[e] == LIMIT:
                 rows = rows + 1
-                gap, side = E.limit_gap(model, eq, x, env, e)
+                gap, side = E.limit_gap(eq, x, env, e)
                 if gap >= scalar(0.0):
                     active[env, eq.row[e]] = scalar(0.0)
             elif eq.kind[e] == FRICTION:
@@ -159,7 +158,7 @@ def kernels(scalar) -> types.SimpleNamespace:
                     for q in range(m):
                         jar = jar + A[env, r, q] * w[env, q]
                     if eq.kind[e] == LIMIT:
-                        gap, side = E.limit_gap(model, eq, x, env, e)
+                        gap, side = E.limit_gap(eq, x, env, e)
                         if gap < scalar(0.0):
                             if state == scalar(1.0) and w[env, r] < scalar(0.0):
                                 active[env, r] = scalar(0.0)

@@ -30,7 +30,7 @@ from ..kernels.kinematics import kernels as kinematics_kernels
 from ..types.contact_models import SoftContacts
 from ..types.enums import VelRepr
 from ..types.model_constants import transforms
-from .bundles import state_bundle
+from .bundles import model_bundle, state_bundle
 from .kinematics import targets
 from .launch import Launch, launch, no_adjoint
 
@@ -127,6 +127,7 @@ class EqualityPlan:
         eq.regularization = floats([e.regularization for e in E])
         eq.joint = ints([e.terms1[0][0] if e.kind in ("limit", "friction") else -1 for e in E])
         eq.margin = floats([e.margin for e in E])
+        eq.position_limits = model_bundle(model).position_limits  # the limits' ranges: the model's parameter (P, nj)
         multi = model.multi_dof()
         self.solve, self.projection_kernel = solve_kernels(s), projection_kernels(s, multi).equality_projection
         self.fk = kinematics_kernels(s, multi).forward_kinematics
@@ -170,7 +171,7 @@ class EqualityPlan:
             launches.append(Launch(self.jacobians, (N, self.T), [plan.model, self.targets, ev.W_H_L, inertial, mixed], [b["J_t"]]))
         if self.rates:
             launches.append(Launch(self.bias.bias_accelerations, (N, self.T), [self.targets, ev.W_H_L, b["W_v_WL"], b["W_a_L"], inertial, mixed], [b["Jdotnu_t"]]))
-        rows = [plan.model, self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], plan.dt, self.refsafe]
+        rows = [self.bundle, x, ev.W_H_L, b["W_v_WL"], b["J_t"], b["Jdotnu_t"], plan.dt, self.refsafe]
         launches.append(Launch(self.solve.equality_rows, N, rows, [b["J"], b["aref"], b["R"]]))
         scratch = b["scratch"]
         args = [plan.model, self.bundle, x, b["J"], b["aref"], b["R"], b["M"], b["nu_free"], plan.implicit_dt, *scratch[:8]]
