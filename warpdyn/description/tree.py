@@ -533,27 +533,21 @@ def build_tree(
         v_start=v_start,
         qpos0=qpos0,
         equalities=_equalities(description, kept_of, kept_H_link, index, joint_index, qpos0, q_start),
-        limits=[_limit(j, i) for i, j in enumerate(movable_joints) if j.limit_constraint is not None],
-        friction_rows=[_friction_row(j, i) for i, j in enumerate(movable_joints) if j.friction_constraint is not None],
+        limits=[_joint_row(j, i, "limit") for i, j in enumerate(movable_joints) if j.limit_constraint is not None],
+        friction_rows=[_joint_row(j, i, "friction") for i, j in enumerate(movable_joints) if j.friction_constraint is not None],
         **_base_joint_parameters(description),
     )
 
 
-def _limit(joint, index: int) -> TreeEquality:
-    """Tree joint `index`'s MuJoCo limit constraint (its `limit_constraint`), a row of kind "limit" on it. MuJoCo gives
-    a joint a row per bound within the margin; warpdyn one, at the nearer bound of the joint's position_limits (a step
-    refuses a range narrower than twice the margin)."""
-    limit = joint.limit_constraint
-    return TreeEquality(name=joint.name, kind="limit", terms1=[(index, 1.0)], solref=np.array(limit.solref, dtype=np.float64),
-                        solimp=np.array(limit.solimp, dtype=np.float64), invweight=float(limit.invweight), margin=float(limit.margin))  # fmt: skip
-
-
-def _friction_row(joint, index: int) -> TreeEquality:
-    """Tree joint `index`'s MuJoCo friction constraint (its `friction_constraint`), a row of kind "friction" on it
-    (the bound of its force, frictionloss, is the model's friction_static parameter)."""
-    friction = joint.friction_constraint
-    return TreeEquality(name=joint.name, kind="friction", terms1=[(index, 1.0)], solref=np.array(friction.solref, dtype=np.float64),
-                        solimp=np.array(friction.solimp, dtype=np.float64), invweight=float(friction.invweight))  # fmt: skip
+def _joint_row(joint, index: int, kind: str) -> TreeEquality:
+    """Tree joint `index`'s MuJoCo limit ("limit": its `limit_constraint`) or friction ("friction": its
+    `friction_constraint`) constraint, a row of that kind on it. Its bounds are the model's: a limit's the joint's
+    position_limits (MuJoCo gives a joint a row per bound within the margin, warpdyn one at the nearer bound: a step
+    refuses a range narrower than twice the margin), a friction row's its friction_static."""
+    data = joint.limit_constraint if kind == "limit" else joint.friction_constraint
+    return TreeEquality(name=joint.name, kind=kind, terms1=[(index, 1.0)], solref=np.array(data.solref, dtype=np.float64),
+                        solimp=np.array(data.solimp, dtype=np.float64), invweight=float(data.invweight),
+                        margin=float(getattr(data, "margin", 0.0)))  # fmt: skip
 
 
 def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict, index: dict, joint_index: dict, qpos0, q_start) -> list[TreeEquality]:
