@@ -6,11 +6,13 @@ step of the same rollout replayed from its graph.
     python benchmarks/rollout_kernels.py [--device cuda:0] [--contact rigid] [--dtype float32] [--num-envs 4096]
                                          [--steps 50] [--top 8] [--block-dim 64] [--profile-steps S]
                                          [--scene legs|pick|reorient] [--explicit] [--limits on|off]
+                                         [--frictionloss on|off]
 
 --scene pick or reorient times instead the manipulation environments' scenes as they step them (envs.PickCubeEnv's
 Panda and cube, envs.CubeReorientEnv's LEAP hand and cube: geom contacts, their configs' time step and implicit
-contacts, or with --explicit their contacts explicit at the same time step; their configs' limit_constraints, or
---limits on|off; --contact does not apply), from their first reset, the actuators' controls 0.
+contacts, or with --explicit their contacts explicit at the same time step; their configs' limit_constraints and
+frictionloss_constraints, or --limits on|off and --frictionloss on|off (off: JaxSim's static friction); --contact
+does not apply), from their first reset, the actuators' controls 0.
 
 --contact: soft (JaxSim's K = 1e6), relaxed or rigid. The rollout first runs once (compilation, capture) and once
 more (the state moves on: a later segment of the same landing is timed). GPU only (the kernel timing is CUDA's).
@@ -46,7 +48,8 @@ def scene(args, device) -> tuple:
         model = sa.scene_model(base, sa.SIE, 1e-3, sa.contact_settings([args.contact], [1e6])[0])
         return model, sa.batch_data(model, init, args.num_envs)
     make, config = (envs.PickCubeEnv, envs.PickCubeConfig) if args.scene == "pick" else (envs.CubeReorientEnv, envs.CubeReorientConfig)
-    env = make(args.num_envs, config(implicit_contacts=not args.explicit, limit_constraints=args.limits), device=str(device), dtype=dtype, seed=0)
+    env = make(args.num_envs, config(implicit_contacts=not args.explicit, limit_constraints=args.limits,
+                                    frictionloss_constraints=args.frictionloss), device=str(device), dtype=dtype, seed=0)
     env.reset(seed=0)
     return env.model, env.stepper.data
 
@@ -64,9 +67,12 @@ def main() -> None:
     parser.add_argument("--scene", default="legs", choices=("legs", "pick", "reorient"))
     parser.add_argument("--explicit", action="store_true", help="pick, reorient: explicit contacts (model.implicit_contacts off)")
     parser.add_argument("--limits", choices=("on", "off"), default=None, help="pick, reorient: MuJoCo's joint limits (model.limit_constraints; default: the config's)")
+    parser.add_argument("--frictionloss", choices=("on", "off"), default=None,
+                        help="pick, reorient: MuJoCo's frictionloss rows (model.frictionloss_constraints; default: the config's)")
     args = parser.parse_args()
     config = envs.PickCubeConfig if args.scene == "pick" else envs.CubeReorientConfig
     args.limits = config.limit_constraints if args.limits is None else args.limits == "on"
+    args.frictionloss = config.frictionloss_constraints if args.frictionloss is None else args.frictionloss == "on"
     wp.config.quiet = True
     if args.block_dim is not None:
         wd.config.cuda_block_dim = args.block_dim
@@ -95,7 +101,8 @@ def main() -> None:
         per_step[result.name] += result.elapsed / args.steps
         count[result.name] += 1
     block = f" --block-dim {args.block_dim}" if args.block_dim is not None else ""
-    what = f"--scene {args.scene}{' --explicit' * args.explicit}" if args.scene != "legs" else f"--contact {args.contact}"
+    rows = f" --limits {'on' if args.limits else 'off'} --frictionloss {'on' if args.frictionloss else 'off'}"
+    what = f"--scene {args.scene}{' --explicit' * args.explicit}{rows}" if args.scene != "legs" else f"--contact {args.contact}"
     print(f"`python benchmarks/rollout_kernels.py {what} --dtype {args.dtype} --num-envs {args.num_envs}{block}`; {header(device)}.")
     print(f"Graph-replayed rollout: {wall * 1e3:.3f} ms per step (wall); kernels of the recorded replay: {sum(per_step.values()):.3f} ms per step.")
     print()

@@ -100,8 +100,10 @@ def kernels(scalar) -> types.SimpleNamespace:
         solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows); a frame
         weld's gains baumgarte (E, 2) (K_P [1/s^2], K_D [1/s]) and regularization (E,) (its R); a limit's or friction
         row's joint (E,) (-1 for the others; also as a coupling's side 1: one term, coefficient 1) and a limit's margin
-        (E,) [rad or m], its range the model's position_limits (P, nj) (a friction row's bound its friction_static); dof_parent
-        (K = 6 + nv,): each DoF's parent DoF in the tree (the base's six a chain; -1 at a root), for `tree_factor`."""
+        (E,) [rad or m], its range the model's position_limits (P, nj) (a friction row's bound its friction_static);
+        row_column (m,): the one column of J that a row can fill (a limit's and a friction row's: 6 + its DoF), -1 for
+        the rows that fill several; dof_parent (K = 6 + nv,): each DoF's parent DoF in the tree (the base's six a
+        chain; -1 at a root), for `tree_factor`."""
 
         kind: wp.array(dtype=wp.int32)
         row: wp.array(dtype=wp.int32)
@@ -131,6 +133,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         regularization: wp.array(dtype=scalar)
         joint: wp.array(dtype=wp.int32)
         margin: wp.array(dtype=scalar)
+        row_column: wp.array(dtype=wp.int32)
         position_limits: wp.array2d(dtype=wp.types.vector(2, scalar))
         dof_parent: wp.array(dtype=wp.int32)
 
@@ -282,19 +285,29 @@ def kernels(scalar) -> types.SimpleNamespace:
     @wp.func
     def inverse_mass_rows(
         model: B.Model, M: wp.array3d(dtype=scalar), env: int, off: int, parent: wp.array(dtype=wp.int32), J: wp.array3d(dtype=scalar),
-        L: wp.array3d(dtype=scalar), w: wp.array2d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar), used: wp.array2d(dtype=scalar),
+        column: wp.array(dtype=wp.int32), L: wp.array3d(dtype=scalar), w: wp.array2d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar),
+        used: wp.array2d(dtype=scalar),
     ):
         """MinvJT[env, r] = M^-1 J[env, r] for every row r of J (DoFs off to K - 1), M factorised into L along the tree
         (`tree_factor`, no damper); an empty row's (a limit within its range) 0 without a solve, used[env, r] 0 for it
-        (1 otherwise: `delassus_rows` skips the empty rows); w: scratch (K)."""
+        (1 otherwise: `delassus_rows` skips the empty rows); column (m,): Equalities.row_column (a row's only column,
+        or -1); w: scratch (K)."""
         K = M.shape[1]
         tree_factor(model, M, env, off, parent, scalar(0.0), sp.mat66(scalar(0.0)), L)
         for r in range(J.shape[1]):
             empty = int(1)
-            for i in range(off, K):
-                w[env, i] = J[env, r, i]
-                if J[env, r, i] != scalar(0.0):
+            if column[r] >= 0:
+                for i in range(off, K):
+                    w[env, i] = scalar(0.0)
+                value = J[env, r, column[r]]
+                w[env, column[r]] = value
+                if value != scalar(0.0):
                     empty = int(0)
+            else:
+                for i in range(off, K):
+                    w[env, i] = J[env, r, i]
+                    if J[env, r, i] != scalar(0.0):
+                        empty = int(0)
             used[env, r] = scalar(1.0)
             if empty == 0:
                 tree_solve(L, env, off, parent, w)
@@ -314,15 +327,21 @@ def kernels(scalar) -> types.SimpleNamespace:
         return total
 
     @wp.func
-    def delassus_rows(J: wp.array3d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar), env: int, off: int, used: wp.array2d(dtype=scalar), A: wp.array3d(dtype=scalar)):
+    def delassus_rows(J: wp.array3d(dtype=scalar), MinvJT: wp.array3d(dtype=scalar), env: int, off: int, column: wp.array(dtype=wp.int32),
+                      used: wp.array2d(dtype=scalar), A: wp.array3d(dtype=scalar)):
         """A[env] = J M^-1 J^T over the rows of J (DoFs off to K - 1; MinvJT and used: `inverse_mass_rows`; an empty
-        row's entries 0 without a sum)."""
+        row's entries 0 without a sum; a pair with a one-column row (column: Equalities.row_column) one product)."""
         for r in range(J.shape[1]):
             for q in range(r + 1):
                 total = scalar(0.0)
                 if used[env, r] != scalar(0.0) and used[env, q] != scalar(0.0):
-                    for c in range(off, J.shape[2]):
-                        total = total + J[env, r, c] * MinvJT[env, q, c]
+                    if column[r] >= 0:
+                        total = J[env, r, column[r]] * MinvJT[env, q, column[r]]
+                    elif column[q] >= 0:
+                        total = J[env, q, column[q]] * MinvJT[env, r, column[q]]
+                    else:
+                        for c in range(off, J.shape[2]):
+                            total = total + J[env, r, c] * MinvJT[env, q, c]
                 A[env, r, q] = total
                 A[env, q, r] = total
 
@@ -543,8 +562,8 @@ def projection_kernels(scalar, multi_dof: bool) -> types.SimpleNamespace:
             if velocity_pass == 0:  # the position pass's right-hand side (the velocity pass writes J nu there)
                 for a in range(rows):
                     rhs[env, eq.row[e] + a] = residual[a]
-        E.inverse_mass_rows(model, M, env, off, eq.dof_parent, J, L, w, MinvJT, y)  # y: the rows used (free until the corrections)
-        E.delassus_rows(J, MinvJT, env, off, y, A)
+        E.inverse_mass_rows(model, M, env, off, eq.dof_parent, J, eq.row_column, L, w, MinvJT, y)  # y: the rows used (free until the corrections)
+        E.delassus_rows(J, MinvJT, env, off, eq.row_column, y, A)
         largest = scalar(0.0)
         for r in range(m):
             largest = wp.max(largest, A[env, r, r])

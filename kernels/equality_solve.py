@@ -89,32 +89,79 @@ def kernels(scalar) -> types.SimpleNamespace:
         return B.joint_parameter(model.friction_static, env, eq.term_dof[eq.first1[e]])
 
     @wp.func
+    def gather_solved(active: wp.array2d(dtype=scalar), env: int, m: int, v: wp.array2d(dtype=scalar)):
+        """Moves the entries of v[env, 0:m] of the rows solved for (`active`'s 1) to its front, in order; returns
+        their number."""
+        n = int(0)
+        for r in range(m):
+            if solved(active, env, r) != scalar(0.0):
+                v[env, n] = v[env, r]
+                n = n + 1
+        return n
+
+    @wp.func
+    def scatter_solved(active: wp.array2d(dtype=scalar), env: int, m: int, n: int, v: wp.array2d(dtype=scalar)):
+        """The inverse of `gather_solved`: v[env, 0:n] back to the rows solved for, 0 at the others."""
+        j = n
+        for k in range(m):
+            r = m - 1 - k
+            value = scalar(0.0)
+            if solved(active, env, r) != scalar(0.0):
+                j = j - 1
+                value = v[env, j]
+            v[env, r] = value
+
+    @wp.func
+    def saturated_force(model: B.Model, eq: Equalities, active: wp.array2d(dtype=scalar), env: int, e: int):
+        """Constraint e's force where it is a friction row saturated at its bound (`active`'s +-2: +-the bound),
+        else 0."""
+        state = active[env, eq.row[e]]
+        if eq.kind[e] == FRICTION and wp.abs(state) == scalar(2.0):
+            return wp.sign(state) * friction_bound(model, eq, env, e)
+        return scalar(0.0)
+
+    @wp.func
     def masked_solve(model: B.Model, eq: Equalities, A: wp.array3d(dtype=scalar), active: wp.array2d(dtype=scalar), y: wp.array2d(dtype=scalar),
                      env: int, m: int, LA: wp.array3d(dtype=scalar), rhs: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar)):
-        """The rows' forces w[0:m] in `active`'s states (`active_set`): the solved rows' from their block of A (factorised
-        into LA, its other rows and columns the identity's) and y less the saturated rows' share, A_rs f_s; a
-        saturated friction row's f = +-its bound; a free row's 0."""
+        """The rows' forces w[0:m] in `active`'s states (`active_set`): the solved rows' from their block of A
+        (gathered and factorised into LA[0:n, 0:n], n their number; returned) and y less the saturated rows' share,
+        A_rs f_s; a saturated friction row's f = +-its bound (`saturated_force`); a free row's 0."""
         for r in range(m):
-            for c in range(r + 1):
-                value = A[env, r, c]
-                if solved(active, env, r) == scalar(0.0) or solved(active, env, c) == scalar(0.0):
-                    value = scalar(0.0)
-                    if r == c:
-                        value = scalar(1.0)
-                LA[env, r, c] = value
-            rhs[env, r] = y[env, r] * solved(active, env, r)
+            rhs[env, r] = y[env, r]
         for e in range(eq.kind.shape[0]):
-            s = eq.row[e]
-            if eq.kind[e] == FRICTION and wp.abs(active[env, s]) == scalar(2.0):
-                f = wp.sign(active[env, s]) * friction_bound(model, eq, env, e)
+            f = saturated_force(model, eq, active, env, e)
+            if f != scalar(0.0):
+                s = eq.row[e]
                 for r in range(m):
-                    rhs[env, r] = rhs[env, r] - solved(active, env, r) * A[env, r, s] * f
-        C.factor(LA, env, 0, m, scalar(-1.0), LA)  # in place: factor reads the lower triangle before it writes it
-        C.substitute(LA, env, m, rhs, w, 0)
+                    rhs[env, r] = rhs[env, r] - A[env, r, s] * f
+        n = gather_solved(active, env, m, rhs)
+        i = int(0)
+        for r in range(m):
+            if solved(active, env, r) != scalar(0.0):
+                j = int(0)
+                for c in range(r + 1):
+                    if solved(active, env, c) != scalar(0.0):
+                        LA[env, i, j] = A[env, r, c]
+                        j = j + 1
+                i = i + 1
+        C.factor(LA, env, 0, n, scalar(-1.0), LA)  # in place: factor reads the lower triangle before it writes it
+        C.substitute(LA, env, n, rhs, w, 0)
+        scatter_solved(active, env, m, n, w)
         for e in range(eq.kind.shape[0]):
-            s = eq.row[e]
-            if eq.kind[e] == FRICTION and wp.abs(active[env, s]) == scalar(2.0):
-                w[env, s] = wp.sign(active[env, s]) * friction_bound(model, eq, env, e)
+            f = saturated_force(model, eq, active, env, e)
+            if f != scalar(0.0):
+                w[env, eq.row[e]] = f
+        return n
+
+    @wp.func
+    def row_jar(A: wp.array3d(dtype=scalar), R: wp.array2d(dtype=scalar), y: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar), env: int,
+                m: int, r: int):
+        """Row r's jar = J a - aref = (A f)_r - R_r f_r - y_r at the forces f = w[0:m] (`active_set`)."""
+        jar = -y[env, r] - R[env, r] * w[env, r]
+        for q in range(m):
+            if w[env, q] != scalar(0.0):
+                jar = jar + A[env, r, q] * w[env, q]
+        return jar
 
     @wp.func
     def active_set(
@@ -130,8 +177,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         and a friction row at first), 0 free (f = 0), +-2 a friction row saturated at +-b. A pass solves
         (`masked_solve`), then moves a limit whose f < 0 to free and a free limit past its bound whose jar < 0 back, a
         friction row whose |f| > b to saturated and a saturated one whose jar leaves its side back; until none
-        changes (at most 2 passes per such row, and one more). y: rhs kept; LA: the last solved block's factor;
-        jar = (A f)_r - R_r f_r - y_r."""
+        changes (at most 2 passes per such row, and one more). y: rhs kept; LA: the factor of the last solved block
+        (gathered: `masked_solve`); jar: `row_jar`."""
         rows = int(0)
         changed = int(0)
         for r in range(m):
@@ -153,29 +200,27 @@ def kernels(scalar) -> types.SimpleNamespace:
             for e in range(eq.kind.shape[0]):
                 r = eq.row[e]
                 state = active[env, r]
-                if eq.kind[e] == LIMIT or (eq.kind[e] == FRICTION and state != scalar(0.0)):
-                    jar = -y[env, r] - R[env, r] * w[env, r]
-                    for q in range(m):
-                        jar = jar + A[env, r, q] * w[env, q]
-                    if eq.kind[e] == LIMIT:
-                        gap, side = E.limit_gap(eq, x, env, e)
-                        if gap < scalar(0.0):
-                            if state == scalar(1.0) and w[env, r] < scalar(0.0):
-                                active[env, r] = scalar(0.0)
-                                changed = int(1)
-                            elif state == scalar(0.0) and jar < scalar(0.0):
-                                active[env, r] = scalar(1.0)
-                                changed = int(1)
+                if eq.kind[e] == LIMIT:
+                    gap, side = E.limit_gap(eq, x, env, e)
+                    if gap < scalar(0.0):
+                        if state == scalar(1.0) and w[env, r] < scalar(0.0):
+                            active[env, r] = scalar(0.0)
+                            changed = int(1)
+                        elif state == scalar(0.0) and row_jar(A, R, y, w, env, m, r) < scalar(0.0):
+                            active[env, r] = scalar(1.0)
+                            changed = int(1)
+                elif eq.kind[e] == FRICTION and state != scalar(0.0):
+                    bound = friction_bound(model, eq, env, e)
+                    if state == scalar(1.0):
+                        if w[env, r] > bound:
+                            active[env, r] = scalar(2.0)
+                            changed = int(1)
+                        elif w[env, r] < -bound:
+                            active[env, r] = scalar(-2.0)
+                            changed = int(1)
                     else:
-                        bound = friction_bound(model, eq, env, e)
-                        if state == scalar(1.0):
-                            if w[env, r] > bound:
-                                active[env, r] = scalar(2.0)
-                                changed = int(1)
-                            elif w[env, r] < -bound:
-                                active[env, r] = scalar(-2.0)
-                                changed = int(1)
-                        elif (state == scalar(2.0) and jar > -R[env, r] * bound) or (state == scalar(-2.0) and jar < R[env, r] * bound):
+                        jar = row_jar(A, R, y, w, env, m, r)
+                        if (state == scalar(2.0) and jar > -R[env, r] * bound) or (state == scalar(-2.0) and jar < R[env, r] * bound):
                             active[env, r] = scalar(1.0)
                             changed = int(1)
             if changed == 0:
@@ -205,7 +250,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             d_base = B.joint_parameter(model.base_damping, env, 0)
             T = E.base_coordinates(x, env)
             base_damper = d_base * (wp.transpose(T) * T)
-        E.inverse_mass_rows(model, M, env, off, parent, J, L, w, MinvJT, active)  # active: the rows used, until `active_set`
+        E.inverse_mass_rows(model, M, env, off, parent, J, eq.row_column, L, w, MinvJT, active)  # active: the rows used, until `active_set`
         for i in range(K):
             nu_dot[env, i] = a_free[env, i]
         if implicit_dt > scalar(0.0):
@@ -223,7 +268,7 @@ def kernels(scalar) -> types.SimpleNamespace:
             E.tree_solve(L, env, off, parent, w)
             for i in range(off, K):
                 nu_dot[env, i] = a_free[env, i] + implicit_dt * w[env, i]
-        E.delassus_rows(J, MinvJT, env, off, active, A)
+        E.delassus_rows(J, MinvJT, env, off, eq.row_column, active, A)
         for r in range(m):
             s = aref[env, r]
             for c in range(off, K):
@@ -384,8 +429,10 @@ def kernels(scalar) -> types.SimpleNamespace:
             s = scalar(0.0)
             for i in range(off, K):
                 s = s + J[env, r, i] * u[env, i]
-            rhs[env, r] = s * solved(active, env, r)
-        C.substitute(LA, env, m, rhs, y, 0)  # y: bbar
+            rhs[env, r] = s
+        n = gather_solved(active, env, m, rhs)
+        C.substitute(LA, env, n, rhs, y, 0)
+        scatter_solved(active, env, m, n, y)  # y: bbar
         for i in range(K):  # v: M^-1 J^T bbar, rhs: M^-1 J^T f (the solved block; 0 elsewhere)
             s_v = scalar(0.0)
             s_f = scalar(0.0)

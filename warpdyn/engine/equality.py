@@ -127,6 +127,8 @@ class EqualityPlan:
         eq.regularization = floats([e.regularization for e in E])
         eq.joint = ints([e.terms1[0][0] if e.kind in ("limit", "friction") else -1 for e in E])
         eq.margin = floats([e.margin for e in E])
+        # each row's one column where J has no other (a limit's or friction row's: 6 + its DoF), else -1
+        eq.row_column = ints([6 + terms[first1[i]][1] if kinds[i] in (LIMIT, FRICTION) else -1 for i in range(self.count) for _ in range(ROWS[int(kinds[i])])])
         eq.position_limits = model_bundle(model).position_limits  # the limits' ranges: the model's parameter (P, nj)
         multi = model.multi_dof()
         self.solve, self.projection_kernel = solve_kernels(s), projection_kernels(s, multi).equality_projection
