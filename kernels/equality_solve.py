@@ -124,7 +124,7 @@ def kernels(scalar) -> types.SimpleNamespace:
     def masked_solve(model: B.Model, eq: Equalities, A: wp.array3d(dtype=scalar), active: wp.array2d(dtype=scalar), y: wp.array2d(dtype=scalar),
                      env: int, m: int, LA: wp.array3d(dtype=scalar), rhs: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar)):
         """The rows' forces w[0:m] in `active`'s states (`active_set`): the solved rows' from their block of A
-        (gathered and factorised into LA[0:n, 0:n], n their number; returned) and y less the saturated rows' share,
+        (gathered and factorised into LA[0:n, 0:n], n their number) and y less the saturated rows' share,
         A_rs f_s; a saturated friction row's f = +-its bound (`saturated_force`); a free row's 0."""
         for r in range(m):
             rhs[env, r] = y[env, r]
@@ -151,7 +151,6 @@ def kernels(scalar) -> types.SimpleNamespace:
             f = saturated_force(model, eq, active, env, e)
             if f != scalar(0.0):
                 w[env, eq.row[e]] = f
-        return n
 
     @wp.func
     def row_jar(A: wp.array3d(dtype=scalar), R: wp.array2d(dtype=scalar), y: wp.array2d(dtype=scalar), w: wp.array2d(dtype=scalar), env: int,
