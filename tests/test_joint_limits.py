@@ -169,7 +169,7 @@ def test_steps_against_the_limits_differentiate():
 
 def test_the_setting_and_what_is_named():
     """Off by default (a step is the free one; the loader names the limits it leaves out, and a ball joint's, which
-    warpdyn does not model); refused where there is nothing to solve (a URDF's limits are JaxSim's springs), for a
+    warpdyn does not model); refused where there is nothing to solve (a URDF of continuous joints), for a
     range narrower than twice its margin, and for a value that is not a bool; carried by a reduction that keeps a
     limited joint; the post-stabilisation leaves the limits to the solve."""
     mj = mujoco.MjModel.from_xml_string(ARM)

@@ -172,7 +172,7 @@ def build(source, **kwargs) -> wd.model.Model:
 
 
 def assert_same_robot(sdf, urdf, rng, *, frames_subset=False, num_envs=3, tol=1e-12):
-    """The same names (joints, links; frames, or a subset of the URDF's), constants, M, h, ABA, link and frame
+    """The same names (joints, links; frames, or a subset of the URDF's), constants, limit and friction rows, M, h, ABA, link and frame
     poses at random states, joints mapped by name."""
     assert sorted(sdf.link_names()) == sorted(urdf.link_names())
     assert sorted(sdf.joint_names()) == sorted(urdf.joint_names())
@@ -187,6 +187,11 @@ def assert_same_robot(sdf, urdf, rng, *, frames_subset=False, num_envs=3, tol=1e
     assert_close(sdf.description.world_H_base, urdf.description.world_H_base, tol, "world_H_base")
     for name in ("position_limits", "effort_limits", "velocity_limits", "damping", "friction", "stiffness"):
         np.testing.assert_allclose(getattr(ts, name), getattr(tu, name)[joints], rtol=tol, atol=tol, err_msg=name)
+    for rows in ("limits", "friction_rows"):  # MuJoCo's limit and friction rows, their invweights the trees' M^-1 diagonals
+        in_sdf, in_urdf = ({row.name: row for row in getattr(t, rows)} for t in (ts, tu))
+        assert sorted(in_sdf) == sorted(in_urdf), rows
+        for name, row in in_sdf.items():
+            np.testing.assert_allclose(row.invweight, in_urdf[name].invweight, rtol=tol, atol=0, err_msg=f"{rows}: {name}")
     kw = robots.random_state_kwargs(urdf, rng, num_envs=num_envs)
     data_u = wd.data.Data.build(urdf, num_envs=num_envs, **kw)
     data_s = wd.data.Data.build(sdf, num_envs=num_envs, **{**kw, "joint_positions": kw["joint_positions"][:, joints],

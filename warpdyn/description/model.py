@@ -184,26 +184,35 @@ class LinkDescription:
     inertial_rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
 
 
+MUJOCO_SOLREF = (0.02, 1.0)
+"""MuJoCo's default solref of a joint's limit and friction rows (jnt_solref, dof_solref where none is given)."""
+
+MUJOCO_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
+"""MuJoCo's default solimp of a joint's limit and friction rows (jnt_solimp, dof_solimp where none is given)."""
+
+
 @dataclass
 class LimitConstraint:
-    """MuJoCo's limit constraint of a hinge or slide joint's range [lower, upper] (an MJCF's limited joint): its
-    solref (2), solimp (5), margin [rad or m] (the row acts from that far inside the range) and invweight
-    (MuJoCo's dof_invweight0, the scale of the row's regularisation R)."""
+    """MuJoCo's limit constraint of a hinge or slide joint's range [lower, upper] (an MJCF's limited joint; a URDF's or
+    SDF's joint with both bounds, with MuJoCo's defaults): its solref (2), solimp (5), margin [rad or m] (the row acts
+    from that far inside the range) and invweight (MuJoCo's dof_invweight0, the scale of the row's regularisation R;
+    None: the lumped tree's, warpdyn.description.invweight)."""
 
     solref: np.ndarray
     solimp: np.ndarray
     margin: float
-    invweight: float
+    invweight: float | None
 
 
 @dataclass
 class FrictionConstraint:
-    """MuJoCo's friction constraint of a hinge or slide joint with frictionloss (an MJCF's dof_frictionloss, the
-    joint's `friction`): its solref (2), solimp (5) and invweight (MuJoCo's dof_invweight0)."""
+    """MuJoCo's friction constraint of a hinge or slide joint with frictionloss (an MJCF's dof_frictionloss; a URDF's
+    or SDF's joint friction, with MuJoCo's defaults; the joint's `friction`): its solref (2), solimp (5) and invweight
+    (MuJoCo's dof_invweight0; None: the lumped tree's)."""
 
     solref: np.ndarray
     solimp: np.ndarray
-    invweight: float
+    invweight: float | None
 
 
 @dataclass
@@ -215,9 +224,10 @@ class JointDescription:
     `finish_tree`): a "free" joint is a free body of a scene with several trees (its parent the world).
     origin: (4, 4) joint frame in the parent link at q = 0. axis: (3,) unit vector in the child frame.
     pivot: (3,) point of the rotation axis in the child frame [m].
-    lower, upper: position limits [rad or m] (+-inf: none). MuJoCo treats them as constraints: an MJCF's
-    limited hinge or slide joint carries its `limit_constraint`, which a step solves as MuJoCo does where
-    `model.limit_constraints` is set; otherwise warpdyn has only JaxSim's limit springs (see NotModelledWarning).
+    lower, upper: position limits [rad or m] (+-inf: none). MuJoCo treats them as constraints: a limited hinge or
+    slide joint (an MJCF's; a URDF's or SDF's with both bounds) carries its `limit_constraint`, which a step solves as
+    MuJoCo does where `model.limit_constraints` is set; otherwise warpdyn has JaxSim's limit springs (an MJCF's
+    NotModelledWarning says so).
     effort, velocity: URDF `<limit>` [N m or N, rad/s or m/s] (MJCF: inf).
 
     Dynamics parameters ([.] for a revolute / prismatic joint). Two different dampings:
@@ -227,7 +237,7 @@ class JointDescription:
       MuJoCo's Euler (see docs/mujoco_semantics.md): MJCF `dof_damping` plus gear^2 * `damping` of the
       actuators with a joint transmission on this joint (MuJoCo >= 3.7, mj_actuatorDamping); URDF 0.
     friction: static friction [N m or N] as JaxSim applies it: URDF `<dynamics friction>`, MJCF
-      `frictionloss` (a friction constraint in MuJoCo: an MJCF's hinge or slide joint carries its
+      `frictionloss` (a friction constraint in MuJoCo: a hinge or slide joint with friction carries its
       `friction_constraint`, which a step solves as MuJoCo does where `model.frictionloss_constraints` is set).
     armature: added to the diagonal of the mass matrix [kg m^2 or kg]: MJCF `dof_armature` (defaults
       included) plus gear^2 * `armature` of the actuators on this joint (mj_actuatorArmature); URDF 0.
@@ -554,7 +564,21 @@ def finish_tree(name, links, joints, source, where) -> ModelDescription:
                 f"{where}: joint '{joint.name}' has type '{joint.type}', which warpdyn does not support inside the tree "
                 "(supported: revolute, continuous, prismatic, ball, free, fixed)"
             )
+        if source != "mjcf":
+            _mujoco_rows(joint)
     return ModelDescription(name, links, joints, base, fixed_base, world_H_base, source)
+
+
+def _mujoco_rows(joint: JointDescription) -> None:
+    """A URDF's or SDF's hinge or slide joint's limit and friction constraints as MuJoCo makes them from the same joint
+    (its URDF import: a range with both bounds is limited, `friction` its frictionloss), MuJoCo's default solref,
+    solimp and margin 0, their invweight the tree's (None here)."""
+    if joint.type not in ("revolute", "prismatic"):
+        return
+    if np.isfinite(joint.lower) and np.isfinite(joint.upper) and joint.lower <= joint.upper:
+        joint.limit_constraint = LimitConstraint(solref=np.array(MUJOCO_SOLREF), solimp=np.array(MUJOCO_SOLIMP), margin=0.0, invweight=None)
+    if joint.friction > 0.0:
+        joint.friction_constraint = FrictionConstraint(solref=np.array(MUJOCO_SOLREF), solimp=np.array(MUJOCO_SOLIMP), invweight=None)
 
 
 def _free_inside(joint: JointDescription) -> JointDescription:

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..arrays import names_argument
+from .invweight import dof_invweight0
 from .model import (
     CollisionShape,
     ModelDescription,
@@ -497,6 +498,10 @@ def build_tree(
     joint_type = np.array([0] + [JOINT_KINDS[j.type] for j in movable_joints], dtype=np.int32)
     axis = np.array([[0.0, 0.0, 1.0]] + [j.axis for j in movable_joints]).reshape(nL, 3)
     pivot = np.array([[0.0, 0.0, 0.0]] + [j.pivot for j in movable_joints]).reshape(nL, 3)
+    invweight0 = None  # MuJoCo's dof_invweight0 where a row has none from MuJoCo (a URDF's or SDF's)
+    if any(row is not None and row.invweight is None for j in movable_joints for row in (j.limit_constraint, j.friction_constraint)):
+        invweight0 = dof_invweight0(parents, [None] + [j.type for j in movable_joints], np.array(parent_H_joint).reshape(nL, 4, 4), axis, pivot,
+                                    mass, com, inertia, v_start, per_dof([j.armature for j in movable_joints]), not description.fixed_base)  # fmt: skip
 
     return KinematicTree(
         link_names=link_names,
@@ -533,20 +538,22 @@ def build_tree(
         v_start=v_start,
         qpos0=qpos0,
         equalities=_equalities(description, kept_of, kept_H_link, index, joint_index, qpos0, q_start),
-        limits=[_joint_row(j, i, "limit") for i, j in enumerate(movable_joints) if j.limit_constraint is not None],
-        friction_rows=[_joint_row(j, i, "friction") for i, j in enumerate(movable_joints) if j.friction_constraint is not None],
+        limits=[_joint_row(j, i, "limit", invweight0, v_start) for i, j in enumerate(movable_joints) if j.limit_constraint is not None],
+        friction_rows=[_joint_row(j, i, "friction", invweight0, v_start) for i, j in enumerate(movable_joints) if j.friction_constraint is not None],
         **_base_joint_parameters(description),
     )
 
 
-def _joint_row(joint, index: int, kind: str) -> TreeEquality:
+def _joint_row(joint, index: int, kind: str, invweight0, v_start) -> TreeEquality:
     """Tree joint `index`'s MuJoCo limit ("limit": its `limit_constraint`) or friction ("friction": its
-    `friction_constraint`) constraint, a row of that kind on it. Its bounds are the model's: a limit's the joint's
-    position_limits (MuJoCo gives a joint a row per bound within the margin, warpdyn one at the nearer bound: a step
-    refuses a range narrower than twice the margin), a friction row's its friction_static."""
+    `friction_constraint`) constraint, a row of that kind on it; its invweight the constraint's, or where it has none
+    its DoF's entry of invweight0 (nv,) (`dof_invweight0`: MuJoCo's of this tree; the DoF v_start[index + 1]). Its bounds are the model's: a limit's
+    the joint's position_limits (MuJoCo gives a joint a row per bound within the margin, warpdyn one at the nearer bound:
+    a step refuses a range narrower than twice the margin), a friction row's its friction_static."""
     data = joint.limit_constraint if kind == "limit" else joint.friction_constraint
+    invweight = data.invweight if data.invweight is not None else invweight0[v_start[index + 1]]
     return TreeEquality(name=joint.name, kind=kind, terms1=[(index, 1.0)], solref=np.array(data.solref, dtype=np.float64),
-                        solimp=np.array(data.solimp, dtype=np.float64), invweight=float(data.invweight),
+                        solimp=np.array(data.solimp, dtype=np.float64), invweight=float(invweight),
                         margin=float(getattr(data, "margin", 0.0)))  # fmt: skip
 
 

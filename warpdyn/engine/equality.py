@@ -1,10 +1,10 @@
 """Equality constraints in a step: MJCF connects, welds, and joint and fixed-tendon couplings (warpdyn.description.tree's
-TreeEquality), and with `model.limit_constraints` and `model.frictionloss_constraints` an MJCF's joint limits and
-friction constraints, solved as MuJoCo solves them, and JaxSim's kinematic constraints (the model's ConstraintMap:
-frame welds), solved as JaxSim solves them (kernels/equality.py). After an evaluation's ABA (its accelerations a0',
-Inertial base) at a state x, with the link poses of its FK, the launches compute the mass matrix (Inertial base),
-for connects and welds the links' velocities and bias terms and their anchors' Jacobians and J̇ν (Mixed, ν
-Inertial), and the constrained accelerations into the evaluation's nu_dot. With the model setting
+TreeEquality), and with `model.limit_constraints` and `model.frictionloss_constraints` the joints' limits and friction
+constraints (an MJCF's, a URDF's or an SDF's), solved as MuJoCo solves them, and JaxSim's kinematic constraints (the
+model's ConstraintMap: frame welds), solved as JaxSim solves them (kernels/equality.py). After an evaluation's ABA
+(its accelerations a0', Inertial base) at a state x, with the link poses of its FK, the launches compute the mass
+matrix (Inertial base), for connects and welds the links' velocities and bias terms and their anchors' Jacobians and
+J̇ν (Mixed, ν Inertial), and the constrained accelerations into the evaluation's nu_dot. With the model setting
 `equality_projection`, `after_step` ends the step with the post-stabilisation (kernels/equality.py's
 `equality_projection`; SoftContacts only). Differentiable (kernels/equality_solve.py: the rows recorded, the
 solve's adjoint registered by hand) but for what `check_steppable` refuses under a tape.
@@ -256,7 +256,7 @@ def dof_parents(tree, floating: bool) -> np.ndarray:
 def equalities(model) -> list:
     """The constraints a step enforces (TreeEquality): the description's (MJCF equality constraints), the model's
     JaxSim kinematic constraints (`model.constraints`, a ConstraintMap) as frame welds, then with
-    `model.limit_constraints` the MJCF's joint limits (unilateral rows) and with `model.frictionloss_constraints` its
+    `model.limit_constraints` the joints' limits (unilateral rows) and with `model.frictionloss_constraints` their
     friction constraints (rows bounded by the joints' friction_static)."""
     limits = list(model.tree.limits) if model.limit_constraints else []
     friction = list(model.tree.friction_rows) if model.frictionloss_constraints else []

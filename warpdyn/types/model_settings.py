@@ -238,27 +238,28 @@ class ModelSettings:
     limit_constraints = _rows_setting(
         "limit_constraints",
         "limits",
-        "limit constraints (an MJCF's limited hinge or slide joints); a URDF's or SDF's joint limits are JaxSim's limit "
-        "springs (actuation_params)",
-        """Whether a step solves an MJCF's joint limits as MuJoCo does (MuJoCo's limit constraints: the description's
-        limited hinge and slide joints, `model.tree.limits`): a joint past its range (its `position_limits`, per
-        environment where set so, less its margin) gets a soft unilateral row, its solref, solimp and MuJoCo's
-        dof_invweight0, solved with the equality constraints after the contacts (kernels/equality_solve.py: pushing
-        only, by an active set, as MuJoCo's solvers reach it). False by default: the solve costs a step its fused kernel, and most locomotion never reaches its limits; a loaded MJCF
-        names its limits in a NotModelledWarning. True where the joints meet their stops (a hand's fingers, a falling
-        robot). A URDF's or SDF's limits are JaxSim's limit springs (`actuation_params`).""",
+        "limit constraints (no hinge or slide joint with both bounds)",
+        """Whether a step solves the joint limits as MuJoCo does (MuJoCo's limit constraints: the description's limited
+        hinge and slide joints, an MJCF's or a URDF's or SDF's with both bounds, `model.tree.limits`): a joint past its
+        range (its `position_limits`, per environment where set so, less its margin) gets a soft unilateral row, its
+        solref, solimp and dof_invweight0 (an MJCF's from MuJoCo's compile; a URDF's or SDF's MuJoCo's defaults and
+        the tree's M^-1 diagonal at the zero positions, warpdyn.description.invweight), solved with the equality
+        constraints after the contacts (kernels/equality_solve.py: pushing only, by an active set, as MuJoCo's solvers
+        reach it). False by default: the solve costs a step its fused kernel, and most locomotion never reaches its
+        limits; then the limits are JaxSim's limit springs (`actuation_params`), and a loaded MJCF names its limits in
+        a NotModelledWarning. True where the joints meet their stops (a hand's fingers, a falling robot).""",
     )
     frictionloss_constraints = _rows_setting(
         "frictionloss_constraints",
         "friction_rows",
-        "friction constraints (an MJCF's hinge or slide joints with frictionloss); a URDF's or SDF's joint friction is "
-        "JaxSim's static friction (friction_static)",
-        """Whether a step solves an MJCF's frictionloss as MuJoCo does (its friction constraints: the hinge and slide
-        joints with frictionloss, `model.tree.friction_rows`): each a soft row on the joint's velocity whose force is
-        bounded by the joint's `friction_static` (the frictionloss, per environment where set so), its dof_solref,
-        dof_solimp and dof_invweight0, solved with the equality constraints and limits (kernels/equality_solve.py's
-        active set: a row within its bound or saturated at it), in place of JaxSim's static friction on those joints.
-        False by default (JaxSim's static friction -friction_static sign(sdot) then stands for it, as the loader's
+        "friction constraints (no hinge or slide joint with friction)",
+        """Whether a step solves the joints' friction as MuJoCo solves frictionloss (its friction constraints: the hinge
+        and slide joints with friction, an MJCF's frictionloss or a URDF's or SDF's <dynamics friction>,
+        `model.tree.friction_rows`): each a soft row on the joint's velocity whose force is bounded by the joint's
+        `friction_static` (per environment where set so), its dof_solref, dof_solimp and dof_invweight0 (as
+        `limit_constraints`'), solved with the equality constraints and limits (kernels/equality_solve.py's active
+        set: a row within its bound or saturated at it), in place of JaxSim's static friction on those joints. False
+        by default (JaxSim's static friction -friction_static sign(sdot) then stands for it, as an MJCF's
         NotModelledWarning says): the solve costs a step its fused kernel.""",
     )
 
