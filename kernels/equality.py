@@ -100,8 +100,8 @@ def kernels(scalar) -> types.SimpleNamespace:
         solref (E, 2), solimp (E, 5), invweight (E,), invweight_rotation (E,) (a weld's rotation rows); a frame
         weld's gains baumgarte (E, 2) (K_P [1/s^2], K_D [1/s]) and regularization (E,) (its R); a limit's or friction
         row's joint (E,) (-1 for the others; also as a coupling's side 1: one term, coefficient 1) and a limit's margin
-        (E,) [rad or m], its range the model's position_limits (P, nj) (a friction row's bound its friction_static);
-        row_column (m,): the one column of J that a row can fill (a limit's and a friction row's: 6 + its DoF), -1 for
+        (E,) [rad or m], its range the model's position_limits (P, nj) (a friction row's bound its friction_static), a
+        ball joint's limit its bound on the rotation angle ball_angle (E,) [rad] (-1 for the others); row_column (m,): the one column of J that a row can fill (a limit's and a friction row's: 6 + its DoF), -1 for
         the rows that fill several; dof_parent (K = 6 + nv,): each DoF's parent DoF in the tree (the base's six a
         chain; -1 at a root), for `tree_factor`."""
 
@@ -133,6 +133,7 @@ def kernels(scalar) -> types.SimpleNamespace:
         regularization: wp.array(dtype=scalar)
         joint: wp.array(dtype=wp.int32)
         margin: wp.array(dtype=scalar)
+        ball_angle: wp.array(dtype=scalar)
         row_column: wp.array(dtype=wp.int32)
         position_limits: wp.array2d(dtype=wp.types.vector(2, scalar))
         dof_parent: wp.array(dtype=wp.int32)
@@ -375,11 +376,35 @@ def kernels(scalar) -> types.SimpleNamespace:
         return bias
 
     @wp.func
+    def ball_rotation(eq: Equalities, x: B.State, env: int, e: int):
+        """Ball joint e's rotation at the state x as MuJoCo's mju_quat2Vel reads its quaternion (w, x, y, z): (its
+        angle theta in [0, pi] [rad], the unit axis u of the rotation vector theta u, (1, 0, 0) at the identity). MuJoCo
+        takes 2 atan2(|v|, w) less 2 pi where that passes pi, the axis then -v/|v|: 2 atan2(|v|, -w) for w < 0."""
+        a = eq.term_q[eq.first1[e]]
+        v = sp.vec3(x.joint_positions[env, a + 1], x.joint_positions[env, a + 2], x.joint_positions[env, a + 3])
+        w = x.joint_positions[env, a]
+        square = wp.dot(v, v)
+        axis = sp.vec3(scalar(1.0), scalar(0.0), scalar(0.0))
+        angle = scalar(0.0)
+        if square > scalar(0.0):
+            s = wp.sqrt(square)
+            axis = v / s
+            if w < scalar(0.0):
+                axis = -axis
+                w = -w
+            angle = scalar(2.0) * wp.atan2(s, w)
+        return angle, axis
+
+    @wp.func
     def limit_gap(eq: Equalities, x: B.State, env: int, e: int):
         """Limit e at the state x: (dist - margin, side), its nearer bound's distance dist (negative: past it; the
         bounds the joint's position_limits in environment env) and the row's sign side (+1 at the lower bound, -1 at
         the upper: MuJoCo's Jacobian -side of its own sign). The row acts where dist - margin < 0 (one row: a range
-        narrower than twice the margin is refused on the host)."""
+        narrower than twice the margin is refused on the host). A ball joint's: dist = ball_angle - its rotation's
+        angle (`ball_rotation`), side 1."""
+        if eq.ball_angle[e] >= scalar(0.0):
+            angle, axis = ball_rotation(eq, x, env, e)
+            return eq.ball_angle[e] - angle - eq.margin[e], scalar(1.0)
         q = x.joint_positions[env, eq.term_q[eq.first1[e]]]
         limits = B.pair_parameter(eq.position_limits, env, eq.joint[e])
         below = q - limits[0]
@@ -411,10 +436,18 @@ def kernels(scalar) -> types.SimpleNamespace:
         elif eq.kind[e] == LIMIT:  # J = side at the joint's DoF while it acts (0 otherwise), r = dist - margin
             gap, side = limit_gap(eq, x, env, e)
             dof = 6 + eq.term_dof[eq.first1[e]]
+            axis = sp.vec3(scalar(0.0))  # a ball's: J = -u on its three DoFs (d theta / dt = u . omega)
+            if eq.ball_angle[e] >= scalar(0.0):
+                angle, u = ball_rotation(eq, x, env, e)
+                axis = -u
             for c in range(K):
                 value = scalar(0.0)
-                if c == dof and gap < scalar(0.0):
-                    value = side
+                if gap < scalar(0.0):
+                    if eq.ball_angle[e] >= scalar(0.0):
+                        if c >= dof and c < dof + 3:
+                            value = axis[c - dof]
+                    elif c == dof:
+                        value = side
                 J[env, row, c] = value
             residual = sp.vec6(gap, scalar(0.0), scalar(0.0), scalar(0.0), scalar(0.0), scalar(0.0))
         elif eq.kind[e] == COUPLING:

@@ -175,7 +175,7 @@ def test_a_reduction_recomputes_the_rows_and_continuous_joints_have_none():
         np.testing.assert_allclose(row.invweight, mj.dof_invweight0[mj.jnt_dofadr[mj.joint(row.name).id]], rtol=1e-12)
     continuous = _load(ARM_URDF.replace('type="revolute"', 'type="continuous"').replace('type="prismatic"', 'type="continuous"')
                        .replace('<dynamics friction="0.4"/>', "").replace('<dynamics friction="0.2"/>', ""))  # fmt: skip
-    with pytest.raises(ValueError, match=r"'urdf arm': it has no MuJoCo limit constraints \(no hinge or slide joint with both bounds\)"):
+    with pytest.raises(ValueError, match=r"'urdf arm': it has no MuJoCo limit constraints \(no limited hinge, slide or ball joint\)"):
         continuous.limit_constraints = True
     with pytest.raises(ValueError, match=r"'urdf arm': it has no MuJoCo friction constraints \(no hinge or slide joint with friction\)"):
         continuous.frictionloss_constraints = True

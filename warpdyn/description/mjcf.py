@@ -69,7 +69,6 @@ _INTEGRATORS = {
 # The kinds of the NotModelledWarning, in the order the message lists them.
 FLUID = "fluid forces (opt density/viscosity > 0, or geoms with fluidshape)"
 JOINT_LIMITS = "joint limits (MuJoCo's limit constraints: solved as MuJoCo does where model.limit_constraints is set, off by default)"
-BALL_LIMITS = "ball joints' limits (MuJoCo: a limit on the rotation angle; not modelled)"
 FRICTIONLOSS = ("frictionloss (MuJoCo: a friction constraint; warpdyn applies it as JaxSim's static friction, or a hinge's or "
                 "slide's as MuJoCo's friction constraint where model.frictionloss_constraints is set)")
 POLYNOMIAL = "polynomial joint stiffness/damping (only the linear coefficient is kept)"
@@ -248,7 +247,6 @@ _JOINT_TYPES = {0: "free", 1: "ball", 2: "slide", 3: "hinge"}
 _KIND_ORDER = (
     FLUID,
     JOINT_LIMITS,
-    BALL_LIMITS,
     FRICTIONLOSS,
     POLYNOMIAL,
     SPRING_YIELD,
@@ -343,8 +341,10 @@ def _joint(m, j, jname, parent, child, origin, note, mujoco) -> JointDescription
                                                      margin=float(m.jnt_margin[j]), invweight=float(m.dof_invweight0[dof]))  # fmt: skip
             note(JOINT_LIMITS, jname)
         joint.springref = float(m.qpos_spring[qposadr])
-    elif m.jnt_limited[j]:
-        note(BALL_LIMITS, jname)
+    elif kind == "ball" and m.jnt_limited[j]:  # a limit on the rotation angle: MuJoCo's bound is the range's larger end
+        joint.limit_constraint = LimitConstraint(solref=np.array(m.jnt_solref[j], dtype=np.float64), solimp=np.array(m.jnt_solimp[j], dtype=np.float64),
+                                                 margin=float(m.jnt_margin[j]), invweight=float(m.dof_invweight0[dof]), angle=float(max(m.jnt_range[j])))  # fmt: skip
+        note(JOINT_LIMITS, jname)
     joint.damping = 0.0  # JaxSim's viscous friction: MuJoCo's damping is passive_damping
     joint.friction = float(m.dof_frictionloss[dof])
     if joint.friction != 0.0:

@@ -194,14 +194,16 @@ MUJOCO_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 @dataclass
 class LimitConstraint:
     """MuJoCo's limit constraint of a hinge or slide joint's range [lower, upper] (an MJCF's limited joint; a URDF's or
-    SDF's joint with both bounds, with MuJoCo's defaults): its solref (2), solimp (5), margin [rad or m] (the row acts
-    from that far inside the range) and invweight (MuJoCo's dof_invweight0, the scale of the row's regularisation R;
-    None: the lumped tree's, warpdyn.description.invweight)."""
+    SDF's joint with both bounds, with MuJoCo's defaults), or of a ball joint's rotation angle (an MJCF's limited ball):
+    its solref (2), solimp (5), margin [rad or m] (the row acts from that far inside the range) and invweight (MuJoCo's
+    dof_invweight0, the scale of the row's regularisation R; None: the lumped tree's, warpdyn.description.invweight);
+    angle: a ball joint's bound on its rotation angle [rad] (MuJoCo's max of its range), None for a hinge or slide."""
 
     solref: np.ndarray
     solimp: np.ndarray
     margin: float
     invweight: float | None
+    angle: float | None = None
 
 
 @dataclass

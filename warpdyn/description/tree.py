@@ -77,7 +77,8 @@ class TreeEquality:
     frames' origins p1, p2 and orientations Q1, Q2 in their links), with baumgarte (K_P [1/s^2], K_D [1/s]) and
     regularization (the rows' R) instead of solref, solimp and invweight. kind "limit" or "friction": MuJoCo's limit
     or friction constraint of the joint terms1's [(j, 1)] (its solref, solimp, invweight; a limit's margin [rad or m];
-    the bounds the model's position_limits or friction_static)."""
+    the bounds the model's position_limits or friction_static; a ball joint's limit its bound on the rotation angle,
+    angle [rad], None for the others)."""
 
     name: str
     kind: str
@@ -100,6 +101,7 @@ class TreeEquality:
     baumgarte: np.ndarray = field(default_factory=lambda: np.zeros(2))
     regularization: float = 0.0
     margin: float = 0.0
+    angle: float | None = None
     source: int = -1  # its index in the description's equalities (-1: none, a frame weld)
 
 
@@ -554,7 +556,7 @@ def _joint_row(joint, index: int, kind: str, invweight0, v_start) -> TreeEqualit
     invweight = data.invweight if data.invweight is not None else invweight0[v_start[index + 1]]
     return TreeEquality(name=joint.name, kind=kind, terms1=[(index, 1.0)], solref=np.array(data.solref, dtype=np.float64),
                         solimp=np.array(data.solimp, dtype=np.float64), invweight=float(invweight),
-                        margin=float(getattr(data, "margin", 0.0)))  # fmt: skip
+                        margin=float(getattr(data, "margin", 0.0)), angle=getattr(data, "angle", None))  # fmt: skip
 
 
 def _equalities(description: ModelDescription, kept_of: dict, kept_H_link: dict, index: dict, joint_index: dict, qpos0, q_start) -> list[TreeEquality]:

@@ -127,8 +127,10 @@ class EqualityPlan:
         eq.regularization = floats([e.regularization for e in E])
         eq.joint = ints([e.terms1[0][0] if e.kind in ("limit", "friction") else -1 for e in E])
         eq.margin = floats([e.margin for e in E])
-        # each row's one column where J has no other (a limit's or friction row's: 6 + its DoF), else -1
-        eq.row_column = ints([6 + terms[first1[i]][1] if kinds[i] in (LIMIT, FRICTION) else -1 for i in range(self.count) for _ in range(ROWS[int(kinds[i])])])
+        eq.ball_angle = floats([-1.0 if e.angle is None else e.angle for e in E])
+        # each row's one column where J has no other (a hinge's or slide's limit or friction row: 6 + its DoF), else -1
+        one_column = [kinds[i] in (LIMIT, FRICTION) and E[i].angle is None for i in range(self.count)]
+        eq.row_column = ints([6 + terms[first1[i]][1] if one_column[i] else -1 for i in range(self.count) for _ in range(ROWS[int(kinds[i])])])
         eq.position_limits = model_bundle(model).position_limits  # the limits' ranges: the model's parameter (P, nj)
         multi = model.multi_dof()
         self.solve, self.projection_kernel = solve_kernels(s), projection_kernels(s, multi).equality_projection
@@ -206,13 +208,15 @@ class EqualityPlan:
 
 
 def _check_limit_ranges(model, E: list) -> None:
-    """Refuse a limit whose range (the model's position_limits, in any environment) is narrower than twice its margin:
-    MuJoCo gives such a joint both bounds' rows at once, warpdyn one row per joint."""
+    """Refuse a hinge's or slide's limit whose range (the model's position_limits, in any environment) is narrower than
+    twice its margin: MuJoCo gives such a joint both bounds' rows at once, warpdyn one row per joint (a ball's limit
+    has one bound)."""
     if not any(e.kind == "limit" for e in E):
         return
     limits = np.asarray(model.parameter_host("position_limits"), dtype=np.float64).reshape(-1, model.tree.number_of_joints, 2)
     width = (limits[..., 1] - limits[..., 0]).min(axis=0)
-    narrow = [f"'{e.name}' (range {float(width[e.terms1[0][0]]):.6g}, margin {e.margin:g})" for e in E if e.kind == "limit" and width[e.terms1[0][0]] < 2.0 * e.margin]
+    narrow = [f"'{e.name}' (range {float(width[e.terms1[0][0]]):.6g}, margin {e.margin:g})" for e in E
+              if e.kind == "limit" and e.angle is None and width[e.terms1[0][0]] < 2.0 * e.margin]  # fmt: skip
     if narrow:
         raise NotImplementedError(
             f"model.limit_constraints on '{model.name()}': joints {narrow} have a range narrower than twice their margin, which MuJoCo "
