@@ -68,6 +68,20 @@ def _mujoco_step(mj, qpos, qvel, implicit: bool, steps: int = 1, friction: bool 
     return d
 
 
+def _follow(mj, model, data, qpos, qvel, steps: int) -> tuple:
+    """`steps` of MuJoCo's Euler with its limit rows (Newton run to convergence, implicit damping) from (qpos, qvel) and
+    of warpdyn's from `data`: (MuJoCo's MjData, warpdyn's Data, the MuJoCo joints whose limits engaged)."""
+    mc = mm.reference_model(mj, constraints=True, eulerdamp=True, integrator=mujoco.mjtIntegrator.mjINT_EULER, extra_disable=UNMODELLED)
+    mc.opt.tolerance, mc.opt.ls_tolerance, mc.opt.iterations = 1e-15, 1e-15, 200
+    d = mm.make_data(mc, qpos, qvel)
+    engaged = set()
+    for _ in range(steps):
+        mujoco.mj_step(mc, d)
+        engaged |= {int(j) for j in d.efc_id[: d.nefc]}
+        data = wd.model.step(model, data)
+    return d, data, engaged
+
+
 def _states(count: int, seed: int = 0) -> list:
     """(qpos, qvel) pairs of the arm, each joint drawn up to 0.2 rad (2 cm) past either bound, velocities N(0, 2^2)."""
     rng = np.random.default_rng(seed)
@@ -104,15 +118,7 @@ def test_a_second_of_motion_follows_mujoco():
     stays on MuJoCo's trajectory within 1e-8 rad."""
     mj, model = mujoco.MjModel.from_xml_string(ARM), _load()
     qpos, qvel = np.array([0.7, 0.0, 0.04]), np.array([3.0, -6.0, 1.0])
-    data = _data(model, mj, qpos, qvel)
-    mc = mm.reference_model(mj, constraints=True, eulerdamp=True, integrator=mujoco.mjtIntegrator.mjINT_EULER, extra_disable=UNMODELLED)
-    mc.opt.tolerance, mc.opt.ls_tolerance, mc.opt.iterations = 1e-15, 1e-15, 200
-    d = mm.make_data(mc, qpos, qvel)
-    engaged = set()
-    for _ in range(250):
-        mujoco.mj_step(mc, d)
-        engaged |= {int(j) for j in d.efc_id[: d.nefc]}
-        data = wd.model.step(model, data)
+    d, data, engaged = _follow(mj, model, _data(model, mj, qpos, qvel), qpos, qvel, 250)
     assert engaged == {0, 1, 2}, engaged
     np.testing.assert_allclose(data.joint_positions.numpy(), d.qpos, rtol=0, atol=1e-8)
     low, high = mj.jnt_range[:, 0], mj.jnt_range[:, 1]
@@ -394,14 +400,7 @@ def test_ball_joint_limits_equal_mujocos():
     qvel[mj.jnt_dofadr[mj.joint("shoulder").id] : mj.jnt_dofadr[mj.joint("shoulder").id] + 3] = [3.0, -2.0, 4.0]
     data = wd.data.Data.build(model, **mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs)
     robots.assert_transitions_equal_central(model, data)
-    mc = mm.reference_model(mj, constraints=True, eulerdamp=True, integrator=mujoco.mjtIntegrator.mjINT_EULER, extra_disable=UNMODELLED)
-    mc.opt.tolerance, mc.opt.ls_tolerance, mc.opt.iterations = 1e-15, 1e-15, 200
-    d = mm.make_data(mc, qpos, qvel)
-    engaged = set()
-    for _ in range(100):
-        mujoco.mj_step(mc, d)
-        engaged |= {int(j) for j in d.efc_id[: d.nefc]}
-        data = wd.model.step(model, data)
+    d, data, engaged = _follow(mj, model, data, qpos, qvel, 100)
     assert mj.joint("shoulder").id in engaged, engaged
     expected = mjcf_compare.mujoco_to_warpdyn_state(model, mj, d.qpos, d.qvel).data_kwargs
     np.testing.assert_allclose(data.joint_positions.numpy(), expected["joint_positions"], rtol=0, atol=1e-8)
