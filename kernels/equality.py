@@ -12,9 +12,10 @@ weld: the anchors' bias accelerations; 0 for a coupling, as in MuJoCo):
   qdot = 1/2 w q, s the torquescale;
 - coupling: r = L1 - L1_0 - sum_k c_k (L2 - L2_0)^k, J = dL1 - (sum_k k c_k (L2 - L2_0)^(k-1)) dL2, L a joint's
   position or a fixed tendon's length sum_j coef_j q_j (dL its coefficients on the DoFs);
-- limit (MuJoCo's limit of a hinge or slide joint, `model.limit_constraints`; docs/mujoco_semantics.md): at the
+- limit (MuJoCo's limit of a hinge, slide or ball joint, `model.limit_constraints`; docs/mujoco_semantics.md): at the
   nearer bound of the joint's position_limits, dist = q - lower (J = +1 at the joint's DoF) or upper - q (J = -1),
-  r = dist - margin; while r >= 0 the row is empty (J = 0, aref = 0, R = 1: no force), and where r < 0 it is
+  r = dist - margin; a ball joint's: dist = ball_angle - theta, J = -u on its three DoFs (theta u its rotation vector,
+  `ball_rotation`); while r >= 0 the row is empty (J = 0, aref = 0, R = 1: no force), and where r < 0 it is
   unilateral: kernels/equality_solve.py's active set keeps its force f >= 0;
 - friction (MuJoCo's friction constraint, `model.frictionloss_constraints`): J = 1 at the joint's DoF, r = 0 (so
   aref = -b J nu and imp = solimp[0]), its force bounded by the joint's frictionloss, |f| <= friction_static
@@ -70,7 +71,7 @@ CONNECT = wp.constant(0)
 COUPLING = wp.constant(1)  # a joint or fixed-tendon coupling
 WELD = wp.constant(2)
 FRAME_WELD = wp.constant(3)  # JaxSim's weld between two frames (its ConstraintMap's ConstraintType.Weld)
-LIMIT = wp.constant(4)  # MuJoCo's limit of a hinge or slide joint (mjCNSTR_LIMIT_JOINT): unilateral
+LIMIT = wp.constant(4)  # MuJoCo's limit of a hinge, slide or ball joint (mjCNSTR_LIMIT_JOINT): unilateral
 FRICTION = wp.constant(5)  # MuJoCo's friction constraint of a hinge or slide joint (mjCNSTR_FRICTION_DOF): bounded
 ROWS = {0: 3, 1: 1, 2: 6, 3: 6, 4: 1, 5: 1}
 """The rows of each kind."""

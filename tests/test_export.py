@@ -117,7 +117,7 @@ def mjcf_source(which: str):
 @pytest.mark.parametrize("which", ["random tree", "ball", "free trees", "panda", "scaled leg"])
 def test_the_mjcf_export_round_trips_and_mujoco_reads_it(which):
     """export_updated_model(format="mjcf") loads back to the same model (links, joints, frames, link and joint
-    parameters, actuators, joint origins, mass matrix, bias forces, collidable points as sets; the
+    parameters, actuators, joint origins, limit rows, mass matrix, bias forces, collidable points as sets; the
     viscous friction comes back as MuJoCo's damper, the same torque), and MuJoCo's own M and bias forces of the text
     equal warpdyn's at random states (float64, 1e-12 of the largest entry)."""
     model = mjcf_source(which)
@@ -132,6 +132,11 @@ def test_the_mjcf_export_round_trips_and_mujoco_reads_it(which):
     for name in ("actuator_gear", "actuator_gain", "actuator_bias", "actuator_ctrl_range", "actuator_force_range") if model.actuator_names() else ():
         np.testing.assert_allclose(back.parameter(name).numpy(), model.parameter(name).numpy(), rtol=1e-15, atol=0, err_msg=name)
     np.testing.assert_allclose(wd.model.joint_origins(back)[0], wd.model.joint_origins(model)[0], rtol=0, atol=1e-15)
+    assert [row.name for row in back.tree.limits] == [row.name for row in model.tree.limits]
+    for ours, theirs in zip(model.tree.limits, back.tree.limits):  # MuJoCo's limit rows: a URDF's defaults, a ball's angle
+        assert (theirs.margin, theirs.angle) == (ours.margin, ours.angle), ours.name  # (invweights: the scaled links' own)
+        np.testing.assert_array_equal(theirs.solref, ours.solref)
+        np.testing.assert_array_equal(theirs.solimp, ours.solimp)
     data = wd.data.random_model_data(model, key=4, num_envs=3)
     for quantity in (wd.model.free_floating_mass_matrix, wd.model.free_floating_bias_forces):
         ours, theirs = quantity(model, data).numpy(), quantity(back, data).numpy()

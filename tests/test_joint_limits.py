@@ -376,12 +376,15 @@ def test_ball_joint_limits_equal_mujocos():
     1e-12 of the velocities' size, the rows changing it by far more; 100 steps of the shoulder thrown against its cone
     stay within 1e-8 of MuJoCo's (measured 1e-10: the swinging chain held by stiff rows amplifies rounding about 1000
     times per 50 steps, to 1e-2 by 250, where without the rows 250 steps stay within 1e-14); A and B equal central
-    differences through a pushing ball limit."""
+    differences through a pushing ball limit; the MJCF export writes the rows back."""
     mj = mujoco.MjModel.from_xml_string(BALLS)
     model = _load(BALLS)
     without = _load(BALLS, limits=False)
     acted = 0
-    for qpos, qvel in _ball_states(mj, 16, seed=4):
+    states = _ball_states(mj, 16, seed=4)
+    shoulder = mj.jnt_qposadr[mj.joint("shoulder").id]
+    assert any(qpos[shoulder] < 0.0 for qpos, _ in states), "a quaternion past pi (w < 0): MuJoCo's shorter way round"
+    for qpos, qvel in states:
         start = mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs
         d = _mujoco_step(mj, qpos, qvel, implicit=True)
         expected = mjcf_compare.mujoco_to_warpdyn_state(model, mj, d.qpos, d.qvel).data_kwargs
@@ -396,6 +399,7 @@ def test_ball_joint_limits_equal_mujocos():
         acted += np.abs(free - expected["joint_velocities"]).max() > 1e-3 * scale
     assert acted >= 8, acted
     qpos, qvel = _ball_states(mj, 1, seed=5)[0]
+    assert 2.0 * np.arccos(abs(qpos[shoulder])) > 0.6 - 0.03, "the shoulder's row acts where A and B are checked"
     qvel[:] = 0.0
     qvel[mj.jnt_dofadr[mj.joint("shoulder").id] : mj.jnt_dofadr[mj.joint("shoulder").id] + 3] = [3.0, -2.0, 4.0]
     data = wd.data.Data.build(model, **mjcf_compare.mujoco_to_warpdyn_state(model, mj, qpos, qvel).data_kwargs)
@@ -404,3 +408,6 @@ def test_ball_joint_limits_equal_mujocos():
     assert mj.joint("shoulder").id in engaged, engaged
     expected = mjcf_compare.mujoco_to_warpdyn_state(model, mj, d.qpos, d.qvel).data_kwargs
     np.testing.assert_allclose(data.joint_positions.numpy(), expected["joint_positions"], rtol=0, atol=1e-8)
+    back = _load(model.export_updated_model(format="mjcf"))  # the export writes the rows back: a ball's range its angle
+    assert [(e.name, e.angle, e.margin) for e in back.tree.limits] == [(e.name, e.angle, e.margin) for e in model.tree.limits]
+    np.testing.assert_allclose([e.invweight for e in back.tree.limits], [e.invweight for e in model.tree.limits], rtol=1e-12)

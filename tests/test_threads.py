@@ -310,7 +310,8 @@ def test_first_compilation_from_several_threads(tmp_path):
 
 
 def test_kernel_factories_make_each_result_once_one_thread_at_a_time():
-    """kernels/factory.py: eight threads asking a factory for the same result at once get one object, made once;
+    """kernels/factory.py: eight threads asking a factory for the same result at once get one object, made once (and
+    the same object for the same arguments passed another way);
     two results are never made at the same time (Warp parses sources with ast when it makes kernels, which
     CPython 3.11 cannot do in two threads at once: test_first_compilation_from_several_threads failed 4 of 20
     runs on a 2-core CPU when the factories were functools.cache)."""
@@ -333,3 +334,6 @@ def test_kernel_factories_make_each_result_once_one_thread_at_a_time():
     assert max(overlaps) == 1
     for i, (plain, flagged) in enumerate(results):
         assert plain is build(i % 2) and flagged is build(i % 2, flag=True) and plain is not flagged
+    # one result per argument values, however they are passed: by position, by keyword or left to the default
+    assert build(0) is build(0, False) is build(key=0) is build(0, flag=False) is build(key=0, flag=False)
+    assert build(1, True) is build(key=1, flag=True) and len(calls) == 4

@@ -14,6 +14,7 @@ import mjcf_compare
 import mjcf_models as mm
 import warpdyn as wd
 from warpdyn.description.invweight import dof_invweight0
+from warpdyn.description.tree import JOINT_KINDS
 
 INERTIA = '<inertia ixx="{0}" iyy="{1}" izz="{2}" ixy="0.0003" ixz="-0.0002" iyz="0.0001"/>'
 
@@ -37,6 +38,17 @@ ARM_URDF = f"""<robot name="urdf arm">
 FLOATING_URDF = ARM_URDF.replace('<link name="world"/>', "").replace(
     '<joint name="weld" type="fixed"><parent link="world"/><child link="base"/><origin xyz="0 0 1"/></joint>', ""
 )
+
+# Two hinges on one axis with a massless link between them: their DoFs move the tip alike, M is singular
+MASSLESS_CHAIN = f"""<robot name="massless chain">
+  <link name="world"/><link name="base"/><link name="between"/>
+  <link name="tip"><inertial><origin xyz="0.2 0 0"/><mass value="1.0"/>{INERTIA.format(0.01, 0.01, 0.01)}</inertial></link>
+  <joint name="weld" type="fixed"><parent link="world"/><child link="base"/></joint>
+  <joint name="inner" type="revolute"><parent link="base"/><child link="between"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="outer" type="revolute"><parent link="between"/><child link="tip"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>"""
 
 BALL_MJCF = """<mujoco><worldbody>
   <body name="a" pos="0 0 1"><freejoint name="a"/><geom type="box" size="0.1 0.2 0.05" mass="2"/>
@@ -68,7 +80,8 @@ def _mujoco(text: str, floating: bool) -> mujoco.MjModel:
 
 def _tree_invweight(model) -> np.ndarray:
     t = model.tree
-    kinds = [None] + [{1: "revolute", 2: "prismatic", 3: "ball", 4: "free"}[int(k)] for k in t.joint_type[1:]]
+    names = {code: name for name, code in JOINT_KINDS.items()}
+    kinds = [None] + [names[int(k)] for k in t.joint_type[1:]]
     return dof_invweight0(t.parent, kinds, t.parent_H_joint, t.joint_axis, t.joint_pivot, t.link_mass, t.link_com, t.link_inertia,
                           t.v_start, t.armature, model.floating_base())  # fmt: skip
 
@@ -161,16 +174,19 @@ def test_a_urdf_step_at_its_limits_equals_mujocos(floating):
     assert acted >= 8, acted
 
 
-def test_a_reduction_recomputes_the_rows_and_continuous_joints_have_none():
+def test_a_reduction_recomputes_the_rows_and_joints_without_them():
     """A reduction that locks the elbow has the rows of the URDF whose elbow is fixed, as MuJoCo compiles it (its
-    invweights 1e-12 relative; the settings carried); a URDF of continuous joints has no row to solve (the settings
-    refused, naming why). tests/test_sdf.py's twins hold an SDF's rows to the URDF's."""
+    invweights 1e-12 relative; the settings carried); a joint whose bounds are equal has no limit row (MuJoCo ignores
+    them); a URDF of continuous joints has no row to solve (the settings refused, naming why); a massless chain, whose
+    mass matrix is singular, loads, and its rows are refused when a step would solve them. tests/test_sdf.py's twins
+    hold an SDF's rows to the URDF's."""
     urdf = _load(ARM_URDF)
     urdf.limit_constraints = urdf.frictionloss_constraints = True
     reduced = wd.model.reduce(urdf, ["shoulder", "slide"])
     assert reduced.limit_constraints and reduced.frictionloss_constraints
     mj = _mujoco(ARM_URDF.replace('type="revolute"><parent link="upper"/>', 'type="fixed"><parent link="upper"/>'), False)
     assert [e.name for e in reduced.tree.limits] == ["shoulder", "slide"]
+    assert [e.name for e in reduced.tree.friction_rows] == ["shoulder", "slide"]
     for row in reduced.tree.limits + reduced.tree.friction_rows:
         np.testing.assert_allclose(row.invweight, mj.dof_invweight0[mj.jnt_dofadr[mj.joint(row.name).id]], rtol=1e-12)
     continuous = _load(ARM_URDF.replace('type="revolute"', 'type="continuous"').replace('type="prismatic"', 'type="continuous"')
@@ -179,3 +195,12 @@ def test_a_reduction_recomputes_the_rows_and_continuous_joints_have_none():
         continuous.limit_constraints = True
     with pytest.raises(ValueError, match=r"'urdf arm': it has no MuJoCo friction constraints \(no hinge or slide joint with friction\)"):
         continuous.frictionloss_constraints = True
+
+    equal = ARM_URDF.replace('lower="-1.2" upper="0.1"', 'lower="0.1" upper="0.1"')
+    assert [e.name for e in _load(equal).tree.limits] == ["shoulder", "slide"]
+    assert not mujoco.MjModel.from_xml_string(equal).jnt_limited[_mujoco(equal, False).joint("elbow").id]
+    chain = _load(MASSLESS_CHAIN)
+    assert np.isnan([row.invweight for row in chain.tree.limits]).all()
+    chain.limit_constraints = True
+    with pytest.raises(ValueError, match=r"'massless chain': joints \['inner', 'outer'\] have no dof_invweight0"):
+        wd.model.step(chain, wd.data.Data.build(chain))

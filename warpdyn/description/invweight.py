@@ -3,17 +3,20 @@
 R (`LimitConstraint`, `FrictionConstraint`) where no MuJoCo model gives it (an MJCF's comes from MuJoCo's compile).
 
 MuJoCo's mj_setConst takes M^-1's diagonal at qpos0, armature included, a ball joint's three entries averaged and a free
-joint's translational and rotational three each. The rows warpdyn builds from it are on hinge and slide joints, whose
-entry (M^-1)_ii = 1 / (the Schur complement of the other DoFs' block) depends only on the spans of the other joints'
-motions: any basis of a ball's, a free joint's or the floating base's motions gives it. So M is summed here link by
-link, M = sum_k J_k^T I_k J_k (J_k: link k's twist Jacobian at the world origin, [v; w]; I_k its spatial inertia
-there), with world unit twists for a floating base and a free joint; computed once per model build on the host in
-float64 (a model's kernels compute M for steps; this is a constant of the description, like MuJoCo's).
+joint's translational and rotational three each. M is summed here link by link, M = sum_k J_k^T I_k J_k (J_k: link k's
+twist Jacobian at the world origin, [v; w]; I_k its spatial inertia there), each DoF's column MuJoCo's motion: a free
+joint's translation along the world's axes and rotation about its body's axes through its origin (a floating base's
+six DoFs as world unit twists: its entries are not returned, and a joint's entry (M^-1)_ii = 1 / (the Schur complement
+of the other DoFs' block) depends only on the span of the others' motions). Computed once per model build on the host
+in float64 (a model's kernels compute M for steps; this is a constant of the description, like MuJoCo's).
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+SINGULAR = 1e14
+"""The condition number of M from which it counts as singular (float64 keeps no digit of its inverse beyond it)."""
 
 
 def _cross(v: np.ndarray) -> np.ndarray:
@@ -35,7 +38,7 @@ def dof_invweight0(parent, joint_kind, parent_H_joint, joint_axis, joint_pivot, 
     the link's frame, mass (nL,), com (nL, 3), inertia (nL, 3, 3), v_start (nL + 1,), armature (nv,)), floating: a
     floating base (its six DoFs in M, not in the result); joint_kind (nL,): each link's joint's description type
     ("revolute", "prismatic", "ball" or "free"; the base's ignored). A ball's or free joint's entries averaged as
-    MuJoCo's."""
+    MuJoCo's; NaN where M is singular (a massless chain) or an entry is not positive."""
     nL, nv = len(parent), int(v_start[-1])
     base = 6 if floating else 0
     world_H = [np.eye(4)] * nL
@@ -55,8 +58,11 @@ def dof_invweight0(parent, joint_kind, parent_H_joint, joint_axis, joint_pivot, 
             for k in range(3):
                 w = R[:, k]
                 S[i, :, first + k] = np.concatenate([np.cross(pivot, w), w])
-        elif joint_kind[i] == "free":
-            S[i, :, first : first + 6] = np.eye(6)
+        elif joint_kind[i] == "free":  # MuJoCo's: the origin's velocity in world axes, then the body's angular velocity
+            S[i, :3, first : first + 3] = np.eye(3)
+            for k in range(3):
+                w = R[:, k]
+                S[i, :, first + 3 + k] = np.concatenate([np.cross(world_H[i][:3, 3], w), w])
     J = S.copy()  # link k's twist Jacobian: its own columns and its ancestors'
     for i in range(1, nL):
         J[i] += J[parent[i]]
@@ -66,7 +72,10 @@ def dof_invweight0(parent, joint_kind, parent_H_joint, joint_axis, joint_pivot, 
         I = _spatial_inertia(mass[i], world_H[i][:3, :3] @ com[i] + world_H[i][:3, 3], R @ inertia[i] @ R.T)
         M += J[i].T @ I @ J[i]
     M[base:, base:] += np.diag(np.asarray(armature, dtype=np.float64).reshape(nv))
+    if not np.linalg.cond(M) < SINGULAR:  # a massless chain: no inverse weight (a step refuses the rows, naming them)
+        return np.full(nv, np.nan)
     diagonal = np.diag(np.linalg.inv(M))[base:].copy()
+    diagonal[~(diagonal > 0.0)] = np.nan
     for i in range(1, nL):
         first = int(v_start[i])
         if joint_kind[i] == "ball":

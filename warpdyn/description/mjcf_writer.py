@@ -118,6 +118,7 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
     world = ET.SubElement(mujoco, "worldbody")
     bodies: dict[str, ET.Element] = {}
     v_start, kinds = np.asarray(tree.v_start), np.asarray(tree.joint_type)
+    limits, friction_rows = {row.name: row for row in tree.limits}, {row.name: row for row in tree.friction_rows}
     for i, link_name in enumerate(tree.link_names):
         kind = int(kinds[i])
         if i == 0 and link_name == "world" and world_H_base is not None:  # an MJCF's world: its children are the worldbody's
@@ -173,6 +174,17 @@ def write_mjcf(tree: KinematicTree, description: ModelDescription, parameters: d
             q0 = float(tree.qpos0[int(tree.q_start[i])])
             if q0 != 0.0:
                 joint.set("ref", f"{q0:.17g}")
+        limit = limits.get(tree.joint_names[j])
+        if limit is not None:  # MuJoCo's limit row's parameters (a URDF's: MuJoCo's defaults); a ball's range is its angle
+            if kind == JOINT_BALL:
+                joint.set("range", numbers([0.0, limit.angle]))
+            joint.set("margin", f"{limit.margin:.17g}")
+            joint.set("solreflimit", numbers(limit.solref))
+            joint.set("solimplimit", numbers(limit.solimp))
+        friction = friction_rows.get(tree.joint_names[j])
+        if friction is not None:  # its friction row's (the frictionloss is friction_static's, below)
+            joint.set("solreffriction", numbers(friction.solref))
+            joint.set("solimpfriction", numbers(friction.solimp))
         joint.set("stiffness", f"{float(parameters['stiffness'][j]):.17g}")
         if kind != JOINT_FREE:  # (MuJoCo's free joints may have it; warpdyn's loader does not read it on them)
             joint.set("frictionloss", f"{float(parameters['friction_static'][d]):.17g}")

@@ -577,7 +577,7 @@ def _mujoco_rows(joint: JointDescription) -> None:
     solimp and margin 0, their invweight the tree's (None here)."""
     if joint.type not in ("revolute", "prismatic"):
         return
-    if np.isfinite(joint.lower) and np.isfinite(joint.upper) and joint.lower <= joint.upper:
+    if np.isfinite(joint.lower) and np.isfinite(joint.upper) and joint.lower < joint.upper:  # equal bounds: MuJoCo ignores them
         joint.limit_constraint = LimitConstraint(solref=np.array(MUJOCO_SOLREF), solimp=np.array(MUJOCO_SOLIMP), margin=0.0, invweight=None)
     if joint.friction > 0.0:
         joint.friction_constraint = FrictionConstraint(solref=np.array(MUJOCO_SOLREF), solimp=np.array(MUJOCO_SOLIMP), invweight=None)

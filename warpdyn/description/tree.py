@@ -143,8 +143,9 @@ class KinematicTree:
       link frame; 0 where gravcomp_mass is 0). Exact: parallel forces sum to one force at that point.
       It vanishes when "gravity" is disabled, or both "spring" and "damper" are.
     actuators: the description's actuators on kept joints (`TreeActuator`), in the description's order.
-    equalities: the description's equality constraints (`TreeEquality`) whose joints the tree keeps; limits: the MJCF's
-    limit constraints of the joints it keeps (kind "limit"; a step solves them where `model.limit_constraints` is set);
+    equalities: the description's equality constraints (`TreeEquality`) whose joints the tree keeps; limits: MuJoCo's
+    limit constraints of the joints it keeps (kind "limit": an MJCF's, a URDF's or an SDF's; a step solves them where
+    `model.limit_constraints` is set);
     friction_rows: its friction constraints (kind "friction"; where `model.frictionloss_constraints` is set).
     """
 
@@ -185,8 +186,8 @@ class KinematicTree:
     base_damping: float = 0.0  # its damper [N s/m or N m s/rad]
     base_stiffness: float = 0.0  # its spring towards the description's base pose [N/m or N m/rad]
     equalities: list[TreeEquality] = field(default_factory=list)
-    limits: list[TreeEquality] = field(default_factory=list)  # an MJCF's limit constraints (kind "limit"), one per limited hinge or slide joint
-    friction_rows: list[TreeEquality] = field(default_factory=list)  # its friction constraints (kind "friction"), one per hinge or slide with frictionloss
+    limits: list[TreeEquality] = field(default_factory=list)  # MuJoCo's limit constraints (kind "limit"), one per limited hinge, slide or ball joint
+    friction_rows: list[TreeEquality] = field(default_factory=list)  # its friction constraints (kind "friction"), one per hinge or slide with friction
 
     def __post_init__(self):
         nj, nL = len(self.joint_names), len(self.link_names)

@@ -68,6 +68,7 @@ class EqualityPlan:
         if self.friction_bounds is not None:
             _check_friction_rows(model, E)
         _check_limit_ranges(model, E)
+        _check_invweights(model, E)
         kinds = [{"connect": CONNECT, "weld": WELD, "frame_weld": FRAME_WELD, "joint": COUPLING, "tendon": COUPLING, "limit": LIMIT, "friction": FRICTION}[e.kind] for e in E]
         rows = np.cumsum([0] + [ROWS[int(k)] for k in kinds])
         self.rows = int(rows[-1])
@@ -221,6 +222,18 @@ def _check_limit_ranges(model, E: list) -> None:
         raise NotImplementedError(
             f"model.limit_constraints on '{model.name()}': joints {narrow} have a range narrower than twice their margin, which MuJoCo "
             "holds by both bounds' rows at once; warpdyn solves one row per joint (lower the margin or widen position_limits)"
+        )
+
+
+def _check_invweights(model, E: list) -> None:
+    """Refuse limit and friction rows without an inverse weight (NaN: a URDF's or SDF's tree whose mass matrix at the
+    zero positions is singular, warpdyn.description.invweight), which MuJoCo would refuse to compile."""
+    missing = sorted({e.name for e in E if e.kind in ("limit", "friction") and not np.isfinite(e.invweight)})
+    if missing:
+        raise ValueError(
+            f"model.limit_constraints or model.frictionloss_constraints on '{model.name()}': joints {missing} have no "
+            "dof_invweight0 (the mass matrix at the zero positions is singular: a chain of massless links), which their rows' "
+            "regularisation needs; give those links mass or turn the setting off"
         )
 
 

@@ -242,7 +242,8 @@ class ModelSettings:
         """Whether a step solves the joint limits as MuJoCo does (MuJoCo's limit constraints: the description's limited
         hinge and slide joints, an MJCF's or a URDF's or SDF's with both bounds, and an MJCF's limited ball joints,
         `model.tree.limits`): a joint past its range (its `position_limits`, per environment where set so, less its
-        margin; a ball's rotation angle past the larger end of its MJCF range) gets a soft unilateral row, its
+        margin; a ball's rotation angle past the larger end of its MJCF range, a constant of the description that
+        position_limits do not hold) gets a soft unilateral row, its
         solref, solimp and dof_invweight0 (an MJCF's from MuJoCo's compile; a URDF's or SDF's MuJoCo's defaults and
         the tree's M^-1 diagonal at the zero positions, warpdyn.description.invweight), solved with the equality
         constraints after the contacts (kernels/equality_solve.py: pushing only, by an active set, as MuJoCo's solvers
