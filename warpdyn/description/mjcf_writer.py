@@ -3,8 +3,9 @@ parameters for MuJoCo (or warpdyn) to load.
 
 Each link is a body at its joint's frame in its parent (`pos`, `quat`), with an `inertial` (its current mass, centre
 of mass and full inertia about it, link axes: `inertiafromgeom="false"`, so geoms add nothing) and its joint: a hinge
-or slide through the joint's pivot along its axis, with its position limits (`range`), static friction
-(`frictionloss`), the clamp of its actuators' force (`actuatorfrcrange`), armature, MuJoCo's damper plus the description's viscous friction (`damping`: the same torque
+or slide through the joint's pivot along its axis, with its position limits (`range`; its MuJoCo limit row's
+`margin`, `solreflimit`, `solimplimit`, and a ball's range its angle), static friction (`frictionloss`; its friction
+row's `solreffriction`, `solimpfriction`), the clamp of its actuators' force (`actuatorfrcrange`), armature, MuJoCo's damper plus the description's viscous friction (`damping`: the same torque
 -b qdot, which warpdyn reads back as MuJoCo's damper), spring (`stiffness`, `springref`), its start `ref` (qpos0; the body
 written where the joint is at it); a ball joint at its pivot;
 a floating base's free joint (its armature, damper, spring). The terrain's plane (a flat terrain's, a tilted plane's) is a plane geom, the static
