@@ -243,11 +243,10 @@ class ModelSettings:
         hinge and slide joints, an MJCF's or a URDF's or SDF's with both bounds, and an MJCF's limited ball joints,
         `model.tree.limits`): a joint past its range (its `position_limits`, per environment where set so, less its
         margin; a ball's rotation angle past the larger end of its MJCF range, a constant of the description that
-        position_limits do not hold) gets a soft unilateral row, its
-        solref, solimp and dof_invweight0 (an MJCF's from MuJoCo's compile; a URDF's or SDF's MuJoCo's defaults and
-        the tree's M^-1 diagonal at the zero positions, warpdyn.description.invweight), solved with the equality
-        constraints after the contacts (kernels/equality_solve.py: pushing only, by an active set, as MuJoCo's solvers
-        reach it). False by default: the solve costs a step its fused kernel, and most locomotion never reaches its
+        position_limits do not hold) gets a soft unilateral row, its solref, solimp and dof_invweight0 (an MJCF's from
+        MuJoCo's compile; a URDF's or SDF's MuJoCo's defaults and the tree's M^-1 diagonal at the zero positions,
+        warpdyn.description.invweight), solved with the equality constraints after the contacts
+        (kernels/equality_solve.py: pushing only, by an active set, as MuJoCo's solvers reach it). False by default: the solve costs a step its fused kernel, and most locomotion never reaches its
         limits; then the limits are JaxSim's limit springs (`actuation_params`), and a loaded MJCF names its limits in
         a NotModelledWarning. True where the joints meet their stops (a hand's fingers, a falling robot).""",
     )
