@@ -16,24 +16,14 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
 
 import numpy as np
 import warp as wp
 
 import warpdyn as wd
-from common import header, seed_model
+from common import header, median_time, seed_model
 
 INTEGRATORS = {"semi-implicit Euler": wd.model.IntegratorType.SemiImplicitEuler, "RK4": wd.model.IntegratorType.RungeKutta4}
-
-
-def timed(fn, device) -> float:
-    """Wall time [s] of one call of fn, synchronised."""
-    wp.synchronize_device(device)
-    start = time.perf_counter()
-    fn()
-    wp.synchronize_device(device)
-    return time.perf_counter() - start
 
 
 def stepper_times(model, data, substeps: int, use_graph, steps: int, device) -> tuple[float, float]:
@@ -41,9 +31,8 @@ def stepper_times(model, data, substeps: int, use_graph, steps: int, device) -> 
     firsts = []
     for _ in range(3):
         stepper = wd.simulation.Stepper(model, data, substeps=substeps, use_graph=use_graph)
-        firsts.append(timed(stepper.step, device))
-    later = [timed(stepper.step, device) for _ in range(max(5, steps // substeps))]
-    return statistics.median(firsts), statistics.median(later) / substeps
+        firsts.append(median_time(stepper.step, device, 1, 0.0))  # one call
+    return statistics.median(firsts), median_time(stepper.step, device, max(5, steps // substeps), 0.0) / substeps
 
 
 def main() -> None:
@@ -73,7 +62,7 @@ def main() -> None:
             print(f"| {name} | {substeps} | {first_graph:.3f} | {first_recorded:.3f} | {later_graph * 1e6:.1f} | {later_recorded * 1e6:.1f} | {repay} |", flush=True)
     model.integrator = INTEGRATORS["semi-implicit Euler"]
     rollout = wd.simulation.Rollout(model, steps=1000, record=())
-    runs = [timed(lambda: rollout.run(data), device) for _ in range(2)]
+    runs = [median_time(lambda: rollout.run(data), device, 1, 0.0) for _ in range(2)]
     print(f"\n`Rollout` of 1000 steps, semi-implicit Euler: first run {runs[0]:.3f} s, second {runs[1]:.3f} s")
 
 
