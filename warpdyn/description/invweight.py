@@ -23,6 +23,11 @@ def _cross(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
+def inertia_in_frame(mass, com, inertia, H):
+    """Mass, CoM and inertia about the CoM of a body, expressed in the frame where it sits at H."""
+    return mass, H[:3, :3] @ com + H[:3, 3], H[:3, :3] @ inertia @ H[:3, :3].T
+
+
 def _spatial_inertia(mass: float, com: np.ndarray, inertia: np.ndarray) -> np.ndarray:
     """(6, 6) a body's inertia for twists [v; w] at the world origin: com (3,) its world CoM [m], inertia (3, 3) about
     the CoM in world axes [kg m^2]: [[m 1, -m [c]x], [m [c]x, I - m [c]x [c]x]] (kinetic energy m |v + w x c|^2 / 2 +
@@ -68,8 +73,7 @@ def dof_invweight0(parent, joint_kind, parent_H_joint, joint_axis, joint_pivot, 
         J[i] += J[parent[i]]
     M = np.zeros((base + nv, base + nv))
     for i in range(nL):
-        R = world_H[i][:3, :3]
-        I = _spatial_inertia(mass[i], world_H[i][:3, :3] @ com[i] + world_H[i][:3, 3], R @ inertia[i] @ R.T)
+        I = _spatial_inertia(*inertia_in_frame(mass[i], com[i], inertia[i], world_H[i]))
         M += J[i].T @ I @ J[i]
     M[base:, base:] += np.diag(np.asarray(armature, dtype=np.float64).reshape(nv))
     if not np.linalg.cond(M) < SINGULAR:  # a massless chain: no inverse weight (a step refuses the rows, naming them)

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..arrays import names_argument
-from .invweight import dof_invweight0
+from .invweight import dof_invweight0, inertia_in_frame
 from .model import (
     CollisionShape,
     ModelDescription,
@@ -263,11 +263,6 @@ class KinematicTree:
         return support
 
 
-def _spatial_inertia_about(mass, com, inertia, H):
-    """Mass, CoM and inertia about the CoM of a body, expressed in the frame where it sits at H."""
-    return mass, H[:3, :3] @ com + H[:3, 3], H[:3, :3] @ inertia @ H[:3, :3].T
-
-
 def _combine(bodies):
     """Mass, CoM and inertia about the CoM of rigidly joined bodies given in one frame."""
     total = sum(m for m, _, _ in bodies)
@@ -440,7 +435,7 @@ def build_tree(
         owner = kept_of[link.name]
         H = kept_H_link[link.name]
         if link.mass > 0.0 or np.any(link.inertia != 0.0):  # a massless link's inertia is kept too, as described
-            members[owner].append(_spatial_inertia_about(link.mass, link.com, link.inertia, H))
+            members[owner].append(inertia_in_frame(link.mass, link.com, link.inertia, H))
         if link.gravcomp != 0.0 and link.mass != 0.0:
             compensated[owner].append((link.name, link.gravcomp * link.mass, H[:3, :3] @ link.com + H[:3, 3]))
         for shape in link.collisions:
